@@ -1,0 +1,27 @@
+"""Exceptions raised by flextop.
+
+Every error names its culprit: the scene entry (``joints[1] (elbow)``), the design
+variable (``x[12] (link1/bar12)``), the setting (``h``) or the time of a failed step.
+"""
+
+
+class FlextopError(Exception):
+    """Base class of flextop's errors."""
+
+
+class SceneError(FlextopError, ValueError):
+    """A scene that cannot be built: unknown key, non-physical or non-finite value,
+    missing or duplicate node, degenerate geometry, over- or under-constrained mechanism."""
+
+
+class DesignError(FlextopError, ValueError):
+    """A design vector of the wrong length, non-finite, or outside ``[x_min, 1]``."""
+
+
+class SettingsError(FlextopError, ValueError):
+    """Run settings out of range or missing (step size, spectral radius, responses, ...)."""
+
+
+class SimulationError(FlextopError, RuntimeError):
+    """A solve that failed: Newton did not converge (time, residual and iterations are in
+    the message), a singular iteration matrix, or rigid kinematics that cannot be solved."""

@@ -1,0 +1,26 @@
+"""Sequential convex programming optimizers: CONLIN, MMA and GCMMA.
+
+Solve  minimize f0(x)  s.t.  g_j(x) <= 0 (j = 1..m),  lower <= x <= upper
+for many design variables and few constraints::
+
+    from flextop.optimize import FunctionProblem, optimize
+    result = optimize(problem, x0, method="mma")   # or "gcmma", "conlin"
+
+Modules: :mod:`.problem` (problem interface), :mod:`.conlin` and :mod:`.mma`
+(the approximations), :mod:`.dual` (the dual subproblem solver they share),
+:mod:`.driver` (outer loop, stopping rules, failure recovery) and
+:mod:`.state` (resumable state).
+"""
+
+from .conlin import Conlin
+from .driver import OptimizeResult, Status, kkt_residual, optimize
+from .method import Method
+from .mma import GCMMA, MMA
+from .problem import Evaluation, EvaluationError, FunctionProblem, Problem
+from .state import IterationRecord, OptimizerState
+
+__all__ = [
+    "Conlin", "Evaluation", "EvaluationError", "FunctionProblem", "GCMMA", "IterationRecord",
+    "MMA", "Method", "OptimizeResult", "OptimizerState", "Problem", "Status", "kkt_residual",
+    "optimize",
+]

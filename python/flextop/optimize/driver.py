@@ -1,0 +1,299 @@
+"""The outer loop shared by all methods: :func:`optimize`.
+
+Each iteration asks the method for one step (approximate, solve the convex
+subproblem, evaluate the new design), records it, and checks the stopping
+rules. If the problem cannot be evaluated at a proposed design
+(:class:`EvaluationError`), the loop stays at the last good design, halves
+the move limit and tries again, up to ``max_retries`` consecutive times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from enum import IntEnum
+from time import perf_counter
+
+import numpy as np
+
+from .conlin import Conlin
+from .method import Method
+from .mma import GCMMA, MMA
+from .problem import Evaluation, EvaluationError, Problem
+from .state import Design, IterationRecord, OptimizerState
+
+METHODS: dict[str, type[Method]] = {"mma": MMA, "gcmma": GCMMA, "conlin": Conlin}
+
+
+class Status(IntEnum):
+    """Why :func:`optimize` stopped."""
+
+    KKT = 0                #: KKT residual below kkt_tol
+    XTOL = 1               #: design change below xtol
+    FTOL = 2               #: relative objective change below ftol
+    MAX_ITER = 3           #: iteration budget used up
+    CALLBACK = 4           #: the callback returned True
+    EVALUATION_FAILED = 5  #: evaluation failed more than max_retries times in a row
+
+
+CONVERGED = (Status.KKT, Status.XTOL, Status.FTOL)
+
+
+@dataclass
+class OptimizeResult:
+    """Outcome of :func:`optimize` (fields named as in scipy where they exist).
+
+    ``x``, ``fun``, ``constr``, ``kkt``, ``multipliers``: the returned design,
+    its objective, constraint values, KKT residual and multipliers; ``nit``:
+    iterations; ``nfev``: calls of ``evaluate``; ``success``: converged to a
+    feasible design; ``history``: one :class:`IterationRecord` per iteration;
+    ``state``: final state, to resume with ``optimize(..., state=result.state)``.
+    """
+
+    x: np.ndarray
+    fun: float
+    constr: np.ndarray
+    kkt: float
+    multipliers: np.ndarray
+    nit: int
+    nfev: int
+    status: Status
+    message: str
+    success: bool
+    history: list[IterationRecord] = field(repr=False)
+    state: OptimizerState | None = field(repr=False)
+
+
+def kkt_residual(x: np.ndarray, evaluation: Evaluation, multipliers: np.ndarray,
+                 lower: np.ndarray, upper: np.ndarray) -> float:
+    """Euclidean norm of the natural KKT residual of the original problem,
+
+        r_x   = x - clip(x - grad_x l, lower, upper),   grad_x l = grad f0 + sum_i lam_i grad g_i
+        r_lam = lam - max(0, lam + g),
+
+    which is zero exactly when x is stationary up to bound multipliers, g <= 0,
+    lam >= 0 and lam_i g_i = 0.
+    """
+    gradient = evaluation.df0 + multipliers @ evaluation.dg
+    r_x = x - np.clip(x - gradient, lower, upper)
+    r_lam = multipliers - np.maximum(0.0, multipliers + evaluation.g)
+    return float(np.sqrt(r_x @ r_x + r_lam @ r_lam))
+
+
+class _CountingEvaluator:
+    """problem.evaluate with call count, accumulated wall time and checks.
+
+    A result with NaN or infinite entries is turned into an EvaluationError,
+    wrongly shaped results into a ValueError.
+    """
+
+    def __init__(self, problem: Problem, calls: int):
+        self.problem = problem
+        self.calls = calls
+        self.time = 0.0
+
+    def __call__(self, x: np.ndarray) -> Evaluation:
+        self.calls += 1
+        start = perf_counter()
+        try:
+            evaluation = self.problem.evaluate(x.copy())
+        finally:
+            self.time += perf_counter() - start
+        if evaluation.g.shape != (self.problem.m,) or evaluation.df0.shape != (self.problem.n,):
+            raise ValueError(f"evaluate returned g of shape {evaluation.g.shape} and df0 of shape "
+                             f"{evaluation.df0.shape}; expected ({self.problem.m},) and ({self.problem.n},)")
+        if not evaluation.is_finite():
+            raise EvaluationError("evaluation returned non-finite values", x)
+        return evaluation
+
+
+def _resolve_method(method: str | Method) -> Method:
+    if isinstance(method, Method):
+        return method
+    try:
+        return METHODS[method.lower()]()
+    except KeyError:
+        raise ValueError(f"unknown method {method!r}; choose from {sorted(METHODS)}") from None
+
+
+def _is_feasible(g: np.ndarray, feas_tol: float) -> bool:
+    return bool(np.max(g, initial=-np.inf) <= feas_tol)
+
+
+def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) -> Design | None:
+    """The better of ``best`` and the current design of ``state`` (feasible ones only)."""
+    evaluation = state.evaluation
+    if not _is_feasible(evaluation.g, feas_tol) or (best is not None and best.f0 <= evaluation.f0):
+        return best
+    return Design(state.x, evaluation.f0, evaluation.g, state.kkt, state.multipliers, state.iteration)
+
+
+def _initial_state(problem: Problem, x0, method: Method, move: float,
+                   evaluate: _CountingEvaluator, feas_tol: float) -> OptimizerState:
+    """Evaluate the (bound-clipped) start design; multipliers start at zero."""
+    x = np.clip(np.asarray(x0, dtype=float), problem.lower, problem.upper)
+    if x.shape != (problem.n,):
+        raise ValueError(f"x0 has shape {x.shape}, expected ({problem.n},)")
+    evaluation = evaluate(x)
+    multipliers = np.zeros(problem.m)
+    kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
+    state = OptimizerState(method.name, 0, x, evaluation, multipliers, kkt, move, nfev=evaluate.calls)
+    return replace(state, best=_best_design(None, state, feas_tol))
+
+
+def _iterate(problem: Problem, method: Method, state: OptimizerState,
+             evaluate: _CountingEvaluator, max_retries: int,
+             feas_tol: float) -> tuple[OptimizerState, bool]:
+    """One outer iteration; returns the new state and whether it succeeded.
+
+    On EvaluationError: keep x, halve the move limit, retry; give up (return
+    False) after more than ``max_retries`` consecutive failures.
+    """
+    calls, eval_time, start = evaluate.calls, evaluate.time, perf_counter()
+    while True:
+        try:
+            step = method.step(problem, state, state.move, evaluate)
+            break
+        except EvaluationError as error:
+            state = replace(state, move=0.5 * state.move, nfev=evaluate.calls,
+                            failures=state.failures + 1,
+                            consecutive_failures=state.consecutive_failures + 1,
+                            last_error=str(error))
+            if state.consecutive_failures > max_retries:
+                return state, False
+    eval_time = evaluate.time - eval_time
+    solve_time = perf_counter() - start - eval_time
+    kkt = kkt_residual(step.x, step.evaluation, step.multipliers, problem.lower, problem.upper)
+    record = IterationRecord(
+        iteration=state.iteration + 1, f0=step.evaluation.f0, g=step.evaluation.g,
+        change=float(np.max(np.abs(step.x - state.x) / (problem.upper - problem.lower))),
+        kkt=kkt, move=state.move, evaluations=evaluate.calls - calls,
+        eval_time=eval_time, solve_time=solve_time)
+    state = replace(
+        state, iteration=record.iteration, x=step.x, evaluation=step.evaluation,
+        multipliers=step.multipliers, kkt=kkt, x_prev1=state.x, x_prev2=state.x_prev1,
+        method_data=step.method_data,
+        nfev=evaluate.calls, consecutive_failures=0, history=state.history + (record,))
+    return replace(state, best=_best_design(state.best, state, feas_tol)), True
+
+
+def _converged(state: OptimizerState, kkt_tol: float, xtol: float,
+               ftol: float | None) -> Status | None:
+    """Convergence test on the last iteration: KKT residual, design change, objective change."""
+    record = state.history[-1]
+    if record.kkt < kkt_tol:
+        return Status.KKT
+    if record.change < xtol:
+        return Status.XTOL
+    if ftol is not None and len(state.history) > 1:
+        previous = state.history[-2].f0
+        if abs(record.f0 - previous) <= ftol * max(1.0, abs(record.f0)):
+            return Status.FTOL
+    return None
+
+
+def _stop_message(state: OptimizerState, status: Status, max_iter: int, max_retries: int,
+                  tolerances: dict[str, float | None]) -> str:
+    """Human-readable reason for stopping (without the remarks added by _result)."""
+    if status is Status.EVALUATION_FAILED:
+        return (f"evaluation failed {state.consecutive_failures} consecutive times "
+                f"(max_retries={max_retries}), last error: {state.last_error}")
+    if status is Status.MAX_ITER:
+        return f"maximum number of iterations ({max_iter}) reached"
+    if status is Status.CALLBACK:
+        return "stopped by callback"
+    record = state.history[-1]
+    if status is Status.KKT:
+        return f"converged: KKT residual {record.kkt:.3g} below kkt_tol = {tolerances['kkt_tol']:g}"
+    if status is Status.XTOL:
+        return f"converged: max design change {record.change:.3g} below xtol = {tolerances['xtol']:g}"
+    return f"converged: relative objective change below ftol = {tolerances['ftol']:g}"
+
+
+def _result(state: OptimizerState, status: Status, message: str, feas_tol: float) -> OptimizeResult:
+    """Assemble the result; after evaluation failures return the best feasible design."""
+    x, f0, g, kkt, lam = (state.x, state.evaluation.f0, state.evaluation.g,
+                          state.kkt, state.multipliers)
+    if status is Status.EVALUATION_FAILED:
+        if state.best is not None:
+            best = state.best
+            x, f0, g, kkt, lam = best.x, best.f0, best.g, best.kkt, best.multipliers
+            message += f"; returning the best feasible design (iteration {best.iteration})"
+        else:
+            message += ("; no feasible design was found, returning the last successfully "
+                        f"evaluated design (iteration {state.iteration})")
+    elif state.failures:
+        message += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
+                    f"limit, now {state.move:g}; last error: {state.last_error})")
+    feasible = _is_feasible(g, feas_tol)
+    if not feasible:
+        message += f"; the design is infeasible (max g = {np.max(g):.3g})"
+    return OptimizeResult(x=x, fun=f0, constr=g, kkt=kkt, multipliers=lam, nit=state.iteration,
+                          nfev=state.nfev, status=status, message=message,
+                          success=status in CONVERGED and feasible,
+                          history=list(state.history), state=state)
+
+
+def _failed_start(problem: Problem, x0, error: EvaluationError, nfev: int) -> OptimizeResult:
+    """Result when not even the start design could be evaluated."""
+    return OptimizeResult(
+        x=np.asarray(x0, dtype=float), fun=float("nan"), constr=np.full(problem.m, np.nan),
+        kkt=float("nan"), multipliers=np.zeros(problem.m), nit=0, nfev=nfev,
+        status=Status.EVALUATION_FAILED, success=False, history=[], state=None,
+        message=f"evaluation of the start design failed: {error}")
+
+
+def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
+             max_iter: int = 100, move: float = 0.2, kkt_tol: float = 1e-6,
+             xtol: float = 1e-4, ftol: float | None = None, feas_tol: float = 1e-6,
+             max_retries: int = 3, callback: Callable[[IterationRecord], bool | None] | None = None,
+             state: OptimizerState | None = None) -> OptimizeResult:
+    """Minimize f0(x) s.t. g(x) <= 0, lower <= x <= upper by sequential convex programming.
+
+    Parameters
+    ----------
+    problem : Problem
+        Gives n, m, bounds and ``evaluate(x) -> Evaluation``.
+    x0 : array (n,)
+        Start design (clipped to the bounds); ignored when resuming.
+    method : "mma", "gcmma", "conlin" or a configured :class:`Method`
+        (e.g. ``MMA(asyincr=1.1)``).
+    max_iter : total number of outer iterations, including those done before a resume.
+    move : largest step per iteration as a fraction of upper - lower.
+    kkt_tol : stop when the KKT residual (:func:`kkt_residual`) falls below it.
+    xtol : stop when max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below it.
+    ftol : if given, stop when |f0^k - f0^{k-1}| <= ftol max(1, |f0^k|).
+    feas_tol : a design is feasible when max(g) <= feas_tol.
+    max_retries : consecutive evaluation failures tolerated; each one halves the move limit.
+    callback : called after every iteration with its :class:`IterationRecord`, whose
+        ``state`` attribute is a checkpoint (``record.state.to_dict()``); return True to stop.
+    state : an :class:`OptimizerState` to resume from (then the state's move limit is used).
+    """
+    method = _resolve_method(method)
+    method.check(problem)
+    evaluate = _CountingEvaluator(problem, calls=0 if state is None else state.nfev)
+    if state is None:
+        if x0 is None:
+            raise ValueError("x0 is required unless a state is given")
+        try:
+            state = _initial_state(problem, x0, method, move, evaluate, feas_tol)
+        except EvaluationError as error:
+            return _failed_start(problem, x0, error, evaluate.calls)
+    elif state.method != method.name or state.x.shape != (problem.n,):
+        raise ValueError(f"state of a {state.method} run with n = {state.x.size} does not fit "
+                         f"method {method.name} with n = {problem.n}")
+    tolerances = {"kkt_tol": kkt_tol, "xtol": xtol, "ftol": ftol}
+    status = None
+    while status is None:
+        if state.iteration >= max_iter:
+            status = Status.MAX_ITER
+            break
+        state, succeeded = _iterate(problem, method, state, evaluate, max_retries, feas_tol)
+        if not succeeded:
+            status = Status.EVALUATION_FAILED
+            break
+        status = _converged(state, kkt_tol, xtol, ftol)
+        if callback is not None and callback(replace(state.history[-1], state=state)) and status is None:
+            status = Status.CALLBACK
+    message = _stop_message(state, status, max_iter, max_retries, tolerances)
+    return _result(state, status, message, feas_tol)

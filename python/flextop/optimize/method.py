@@ -1,0 +1,70 @@
+"""What every sequential convex programming method provides: one outer step.
+
+An outer step k builds a convex approximation of the problem at the current
+design x^k (from values and gradients only), solves it inside a move-limited
+box, and evaluates the problem at the solution x^{k+1}.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from .problem import Evaluation, Problem
+from .state import OptimizerState
+
+Evaluator = Callable[[np.ndarray], Evaluation]
+
+
+@dataclass(frozen=True)
+class Step:
+    """Outcome of one outer step: the new design, its evaluation, the
+    subproblem multipliers and the arrays the method needs at the next step
+    (stored as ``OptimizerState.method_data``)."""
+
+    x: np.ndarray
+    evaluation: Evaluation
+    multipliers: np.ndarray
+    method_data: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+class Method(ABC):
+    """A sequential convex programming method (CONLIN, MMA, GCMMA)."""
+
+    name: ClassVar[str]
+
+    def check(self, problem: Problem) -> None:
+        """Raise ValueError if the method cannot handle ``problem``."""
+
+    @abstractmethod
+    def step(self, problem: Problem, state: OptimizerState, move: float,
+             evaluate: Evaluator) -> Step:
+        """Approximate at ``state.x``, solve the subproblem with move limit ``move``
+        (a fraction of upper - lower) and evaluate the new design with ``evaluate``
+        (which may raise EvaluationError)."""
+
+
+def move_limits(x: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                move: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Box of the subproblem around x, with s = move (upper - lower):
+
+        max(lower, x - s) <= x_new <= min(upper, x + s).
+    """
+    step = move * (upper - lower)
+    return np.maximum(lower, x - step), np.minimum(upper, x + step)
+
+
+def trend_factor(x: np.ndarray, x_prev1: np.ndarray, x_prev2: np.ndarray,
+                 increase: float, decrease: float) -> np.ndarray:
+    """Per-variable factor for adapting a step bound (MMA asymptotes, CONLIN move limits):
+
+        gamma_j = increase  if (x_j - x_prev1_j)(x_prev1_j - x_prev2_j) > 0  (steady direction)
+                  decrease  if it is < 0                                    (oscillation)
+                  1         otherwise.
+    """
+    trend = (x - x_prev1) * (x_prev1 - x_prev2)
+    return np.where(trend > 0.0, increase, np.where(trend < 0.0, decrease, 1.0))

@@ -1,0 +1,197 @@
+"""MMA, the method of moving asymptotes (Svanberg 1987), and its globally
+convergent variant GCMMA (Svanberg 2002), in the form of Svanberg's note
+"MMA and GCMMA - two methods for nonlinear optimization" (2007).
+
+Approximation at x^k, with asymptotes L_j < x^k_j < U_j and
+df_ij = df_i/dx_j(x^k), (.)^+ / (.)^- the positive / negative parts:
+
+    f~_i(x) = f_i(x^k) + sum_j [ p_ij (1/(U_j - x_j) - 1/(U_j - x^k_j))
+                               + q_ij (1/(x_j - L_j) - 1/(x^k_j - L_j)) ]
+    p_ij = (U_j - x^k_j)^2 (1.001 df_ij^+ + 0.001 df_ij^- + rho_i / (xmax_j - xmin_j))
+    q_ij = (x^k_j - L_j)^2 (0.001 df_ij^+ + 1.001 df_ij^- + rho_i / (xmax_j - xmin_j))
+
+MMA uses rho_i = 1e-5; the small extra terms make every f~_i strictly convex.
+The subproblem is solved on alpha <= x <= beta,
+
+    alpha_j = max(xmin_j, L_j + 0.1 (x^k_j - L_j), x^k_j - move (xmax_j - xmin_j))
+    beta_j  = min(xmax_j, U_j - 0.1 (U_j - x^k_j), x^k_j + move (xmax_j - xmin_j)),
+
+with Svanberg's artificial variables a_0 = 1, a_i = 0 (so z = 0), c_i large
+and d_i = 1: the elastic form (P) of :mod:`.dual`. For dual weights
+w = (1, lam), P_j = w p_j and Q_j = w q_j, the per-variable minimizer is
+
+    x_j(lam) = (sqrt(P_j) L_j + sqrt(Q_j) U_j) / (sqrt(P_j) + sqrt(Q_j))   clipped to [alpha_j, beta_j].
+
+Asymptotes: in the first two iterations L = x - asyinit (xmax - xmin),
+U = x + asyinit (xmax - xmin); afterwards, with
+s_j = (x^k_j - x^{k-1}_j)(x^{k-1}_j - x^{k-2}_j) and gamma_j = asyincr
+(s_j > 0), asydecr (s_j < 0) or 1 (s_j = 0),
+
+    L_j = x^k_j - gamma_j (x^{k-1}_j - L^{k-1}_j),   U_j = x^k_j + gamma_j (U^{k-1}_j - x^{k-1}_j),
+
+kept within 0.01 .. 10 times (xmax_j - xmin_j) of x^k_j.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from .dual import DualSolution, SeparableApproximation, solve_dual
+from .method import Evaluator, Method, Step, move_limits, trend_factor
+from .problem import Evaluation, Problem
+from .state import OptimizerState
+
+
+def update_asymptotes(x: np.ndarray, x_prev1: np.ndarray | None, x_prev2: np.ndarray | None,
+                      lower_prev: np.ndarray | None, upper_prev: np.ndarray | None,
+                      span: np.ndarray, asyinit: float, asyincr: float,
+                      asydecr: float) -> tuple[np.ndarray, np.ndarray]:
+    """Asymptotes (L, U) for the subproblem at x (see module doc).
+
+    Widened (asyincr) where the design keeps moving in the same direction,
+    narrowed (asydecr) where it oscillates.
+    """
+    if x_prev2 is None:
+        return x - asyinit * span, x + asyinit * span
+    gamma = trend_factor(x, x_prev1, x_prev2, asyincr, asydecr)
+    lower = x - gamma * (x_prev1 - lower_prev)
+    upper = x + gamma * (upper_prev - x_prev1)
+    return (np.clip(lower, x - 10.0 * span, x - 0.01 * span),
+            np.clip(upper, x + 0.01 * span, x + 10.0 * span))
+
+
+class MMAApproximation(SeparableApproximation):
+    """The MMA approximations f~_0..f~_m at x^k (see module doc)."""
+
+    def __init__(self, xk: np.ndarray, evaluation: Evaluation, lower: np.ndarray,
+                 upper: np.ndarray, alpha: np.ndarray, beta: np.ndarray,
+                 span: np.ndarray, rho: np.ndarray):
+        super().__init__(alpha, beta)
+        df = np.vstack([evaluation.df0, evaluation.dg])
+        plus, minus = np.maximum(df, 0.0), np.maximum(-df, 0.0)
+        regularization = rho[:, None] / span
+        self.xk, self.L, self.U, self.span = xk, lower, upper, span
+        self.f = np.concatenate(([evaluation.f0], evaluation.g))
+        self.p = (upper - xk) ** 2 * (1.001 * plus + 0.001 * minus + regularization)
+        self.q = (xk - lower) ** 2 * (0.001 * plus + 1.001 * minus + regularization)
+
+    def minimizer(self, weights: np.ndarray) -> np.ndarray:
+        sqrt_p, sqrt_q = np.sqrt(weights @ self.p), np.sqrt(weights @ self.q)
+        x = (sqrt_p * self.L + sqrt_q * self.U) / (sqrt_p + sqrt_q)
+        return np.clip(x, self.alpha, self.beta)
+
+    def values(self, x: np.ndarray) -> np.ndarray:
+        xk, L, U = self.xk, self.L, self.U
+        return (self.f + self.p @ ((x - xk) / ((U - x) * (U - xk)))
+                + self.q @ ((xk - x) / ((x - L) * (xk - L))))
+
+    def gradients(self, x: np.ndarray) -> np.ndarray:
+        return self.p / (self.U - x) ** 2 - self.q / (x - self.L) ** 2
+
+    def curvature(self, x: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        return 2.0 * ((weights @ self.p) / (self.U - x) ** 3 + (weights @ self.q) / (x - self.L) ** 3)
+
+    def asymptotes(self) -> dict[str, np.ndarray]:
+        """L and U, to be carried to the next iteration."""
+        return {"lower_asymptote": self.L, "upper_asymptote": self.U}
+
+    def rho_sensitivity(self, x: np.ndarray) -> float:
+        """d f~_i(x) / d rho_i, the same for every i (GCMMA's d(x)):
+
+            sum_j (U_j - L_j)(x_j - x^k_j)^2 / ((U_j - x_j)(x_j - L_j)(xmax_j - xmin_j))
+        """
+        L, U = self.L, self.U
+        return float(np.sum((U - L) * (x - self.xk) ** 2 / ((U - x) * (x - L) * self.span)))
+
+
+@dataclass(frozen=True)
+class MMA(Method):
+    """The method of moving asymptotes.
+
+    ``asyinit``, ``asyincr``, ``asydecr``: asymptote rules (module doc);
+    ``c``, ``d``: cost of the elastic variables (c should be large compared
+    with the expected multipliers, so scale f0 to order 1..100);
+    ``rho``: the regularization rho_i of p_ij and q_ij.
+
+    Plain MMA is not globally convergent. In particular, a variable whose
+    optimum is interior and set by the objective alone (no active constraint
+    balancing it) is always stepped close to one asymptote, so once the
+    asymptotes reach their minimum distance 0.01 (xmax - xmin) it can cycle
+    with an amplitude of about 0.9 % of its range. GCMMA does not have this
+    problem.
+    """
+
+    asyinit: float = 0.5
+    asyincr: float = 1.2
+    asydecr: float = 0.7
+    c: float = 1000.0
+    d: float = 1.0
+    rho: float = 1e-5
+    name: ClassVar[str] = "mma"
+
+    def approximation(self, problem: Problem, state: OptimizerState, move: float,
+                      rho: np.ndarray) -> MMAApproximation:
+        """Asymptotes, subproblem box and approximation at ``state.x``."""
+        x, span = state.x, problem.upper - problem.lower
+        lower, upper = update_asymptotes(x, state.x_prev1, state.x_prev2,
+                                         state.method_data.get("lower_asymptote"),
+                                         state.method_data.get("upper_asymptote"),
+                                         span, self.asyinit, self.asyincr, self.asydecr)
+        alpha, beta = move_limits(x, problem.lower, problem.upper, move)
+        alpha = np.maximum(alpha, lower + 0.1 * (x - lower))
+        beta = np.minimum(beta, upper - 0.1 * (upper - x))
+        return MMAApproximation(x, state.evaluation, lower, upper, alpha, beta, span, rho)
+
+    def solve(self, approx: MMAApproximation, lam0: np.ndarray) -> DualSolution:
+        """Solve the subproblem through its dual (see :mod:`.dual`)."""
+        m = lam0.size
+        return solve_dual(approx, np.full(m, self.c), np.full(m, self.d), lam0)
+
+    def step(self, problem: Problem, state: OptimizerState, move: float,
+             evaluate: Evaluator) -> Step:
+        approx = self.approximation(problem, state, move, np.full(problem.m + 1, self.rho))
+        solution = self.solve(approx, state.multipliers)
+        return Step(solution.x, evaluate(solution.x), solution.lam, approx.asymptotes())
+
+
+@dataclass(frozen=True)
+class GCMMA(MMA):
+    """Globally convergent MMA: inner iterations make the approximation conservative.
+
+    At outer iteration k, start from
+        rho_i = max(rho_min, 0.1/n sum_j |df_ij| (xmax_j - xmin_j)),
+    solve the subproblem for x^, evaluate f(x^) and accept x^ if every
+    approximation is conservative there, f~_i(x^) >= f_i(x^). Otherwise raise
+    the rho_i of the violated ones,
+        delta_i = (f_i(x^) - f~_i(x^)) / d(x^),   rho_i <- min(1.1 (rho_i + delta_i), 10 rho_i),
+    (adding delta_i makes f~_i exact at x^, since f~_i grows by d(x) per unit
+    rho_i) and solve again, at most ``max_inner`` times.
+    """
+
+    rho_min: float = 1e-6
+    max_inner: int = 15
+    name: ClassVar[str] = "gcmma"
+
+    def initial_rho(self, evaluation: Evaluation, span: np.ndarray) -> np.ndarray:
+        """rho_i^(k,0) = max(rho_min, 0.1/n sum_j |df_ij| (xmax_j - xmin_j))."""
+        df = np.vstack([evaluation.df0, evaluation.dg])
+        return np.maximum(self.rho_min, 0.1 * np.abs(df) @ span / span.size)
+
+    def step(self, problem: Problem, state: OptimizerState, move: float,
+             evaluate: Evaluator) -> Step:
+        rho = self.initial_rho(state.evaluation, problem.upper - problem.lower)
+        lam = state.multipliers
+        for inner in range(self.max_inner + 1):
+            approx = self.approximation(problem, state, move, rho)
+            solution = self.solve(approx, lam)
+            lam = solution.lam
+            evaluation = evaluate(solution.x)
+            exact = np.concatenate(([evaluation.f0], evaluation.g))
+            shortfall = exact - approx.values(solution.x)
+            if (shortfall <= 1e-10 * (1.0 + np.abs(exact))).all() or inner == self.max_inner:
+                return Step(solution.x, evaluation, lam, approx.asymptotes())
+            delta = shortfall / max(approx.rho_sensitivity(solution.x), np.finfo(float).tiny)
+            rho = np.where(delta > 0.0, np.minimum(1.1 * (rho + delta), 10.0 * rho), rho)

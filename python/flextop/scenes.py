@@ -1,0 +1,63 @@
+"""The paper's two examples with the fixed dimensions of the project's reference scenes
+(shared/scenes/reference-scenes.md), every number a parameter. The same scenes ship as
+``examples/robot_arm.toml`` and ``examples/static_truss.toml``."""
+
+from __future__ import annotations
+
+import math
+
+from .scene import Scene, trapezoidal
+
+#: Aluminium (Pa, -, kg/m³) and the solid circular section diameter (m).
+ALUMINIUM = {"E": 70e9, "nu": 0.32, "rho": 2700.0}
+DIAMETER = 0.02
+
+
+def _linkage_section(scene: Scene, E: float, nu: float, rho: float, diameter: float) -> str:
+    return scene.section("aluminium", E=E, nu=nu, rho=rho, diameter=diameter)
+
+
+def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 0.1, split: int = 1,
+              tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
+              acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
+              rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, p: float = 3.0, x_min: float = 0.01,
+              t_end: float = 1.3, h: float = 0.02, rho_inf: float = 0.8) -> Scene:
+    """Two-link robot arm of paper Section 4, moving in a horizontal plane (no gravity).
+
+    Link 1 is a ground structure at the origin along ``theta_start``; link 2 starts at link
+    1's node (L, 0) along ``2 theta_start``. The shoulder pins link 1's middle base node and
+    drives θ1, the elbow hinges the two coincident nodes and drives θ2; both follow the same
+    trapezoidal law. A ``tip_mass`` sits on link 2's node (L, 0), the ``tip``.
+    """
+    scene = Scene("robot_arm")
+    scene.tip = f"link2[{nx - 1},{ny // 2}]"
+    section = _linkage_section(scene, E, nu, rho, diameter)
+    link1 = scene.ground_structure("link1", nx=nx, ny=ny, length=length, height=height, origin=(0.0, 0.0),
+                                   angle=theta_start, section=section, split=split)
+    link2 = scene.ground_structure("link2", nx=nx, ny=ny, length=length, height=height,
+                                   origin=link1.node(nx - 1, ny // 2), angle=2 * theta_start, section=section,
+                                   split=split)
+    scene.point_mass(link2.node(nx - 1, ny // 2), tip_mass)
+    motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
+    scene.pin("shoulder", link1.node(0, ny // 2), drive=motion)
+    scene.hinge("elbow", link1.node(nx - 1, ny // 2), link2.node(0, ny // 2), drive=dict(motion))
+    scene.design(interpolation="simp", p=p, x_min=x_min)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf)
+    return scene
+
+
+def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 0.1, split: int = 1,
+                 force: tuple[float, float] = (0.0, -100.0), E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
+                 rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, p: float = 3.0,
+                 x_min: float = 0.01) -> Scene:
+    """Static truss of paper Section 3.1 (Fig. 4): one linkage, base column's middle node
+    clamped, ``force`` (N) on the tip column's middle node."""
+    scene = Scene("static_truss", analysis="static")
+    section = _linkage_section(scene, E, nu, rho, diameter)
+    truss = scene.ground_structure("truss", nx=nx, ny=ny, length=length, height=height, origin=(0.0, 0.0),
+                                   angle=0.0, section=section, split=split)
+    scene.clamp("base", truss.node(0, ny // 2))
+    scene.load(truss.node(nx - 1, ny // 2), force=force)
+    scene.design(interpolation="simp", p=p, x_min=x_min)
+    scene.simulation(load_steps=1)
+    return scene

@@ -1,0 +1,289 @@
+//! Assembly of the global residual and iteration matrix on a fixed sparsity pattern.
+//!
+//! The iteration matrix of the generalized-α Newton step (paper §2.3) is
+//!
+//! ```text
+//! S_t = [ β'M + K_t    s Φ_qᵀ ]
+//!       [ s Φ_q        0      ]
+//! ```
+//!
+//! (no damping term: the elements are elastic and the 2D mass is constant). The factor `s`
+//! scales the constraint rows and multipliers (`λ = s μ`) so that all blocks have the
+//! magnitude of `β'M + K_t`, keeping the matrix well conditioned as `h → 0` (Bottasso,
+//! Bauchau & Cardona 2007).
+//!
+//! Every system `S_t [Δq; Δμ] = [b; c]` is solved in its augmented-Lagrangian form: the row
+//! operation `E = [[I, Φ_qᵀ], [0, I]]` adds `Φ_qᵀ` times the constraint rows to the dynamic
+//! rows, giving `[β'M + K_t + s Φ_qᵀΦ_q, s Φ_qᵀ; s Φ_q, 0] [Δq; Δμ] = [b + Φ_qᵀ c; c]`. The
+//! solution is unchanged, the matrix stays symmetric, and its DOF block becomes positive
+//! definite for any properly constrained mechanism — statics included — which is what the
+//! pivot-free `LDLᵀ` of [`crate::linsolve`] needs.
+//!
+//! The pattern — element blocks, point-mass diagonals, constraint entries and their
+//! `Φ_qᵀΦ_q` couplings — is built once in [`Pattern`], with a *slot map* from each element's
+//! local `(i, j)` to the position of that entry in the CSC value array, so every later
+//! assembly only zeroes and accumulates values.
+
+use crate::element::MassKind;
+use crate::model::{Densities, Model};
+
+/// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
+#[derive(Debug, Clone)]
+pub struct Pattern {
+    /// Number of nodal DOFs.
+    pub n_q: usize,
+    /// Matrix size `n_q + n_c`.
+    pub n: usize,
+    /// CSC column pointers.
+    pub col_ptr: Vec<usize>,
+    /// CSC row indices.
+    pub row_idx: Vec<usize>,
+    /// Slot of element entry `(i, j)` at index `6 j + i`.
+    element_slots: Vec<[usize; 36]>,
+    /// Diagonal slots of each node's three DOFs.
+    node_slots: Vec<[usize; 3]>,
+    /// For constraint row `k`, term `t`: slots of `(n_q + k, dof)` and `(dof, n_q + k)`.
+    row_slots: Vec<[[usize; 2]; 2]>,
+    /// For constraint row `k`: slots of `(dofᵢ, dofⱼ)` for its terms `i, j` (`Φ_qᵀΦ_q`).
+    gram_slots: Vec<[[usize; 2]; 2]>,
+}
+
+impl Pattern {
+    /// The pattern of `model`'s iteration matrix.
+    pub fn new(model: &Model) -> Self {
+        let n_q = model.n_dofs();
+        let n = n_q + model.n_constraints();
+        let mut pairs: Vec<(usize, usize)> = Vec::new();
+        for e in &model.elements {
+            let d = e.dofs();
+            pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
+        }
+        pairs.extend((0..n_q).map(|i| (i, i)));
+        for (k, row) in model.rows.iter().enumerate() {
+            let dofs: Vec<usize> = row.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect();
+            for &d in &dofs {
+                pairs.push((d, n_q + k));
+                pairs.push((n_q + k, d));
+                pairs.extend(dofs.iter().map(|&e| (d, e)));
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut col_ptr = vec![0; n + 1];
+        for &(c, _) in &pairs {
+            col_ptr[c + 1] += 1;
+        }
+        for c in 0..n {
+            col_ptr[c + 1] += col_ptr[c];
+        }
+        let row_idx = pairs.iter().map(|&(_, r)| r).collect();
+        let mut p = Self { n_q, n, col_ptr, row_idx, element_slots: vec![], node_slots: vec![], row_slots: vec![], gram_slots: vec![] };
+        p.element_slots = model
+            .elements
+            .iter()
+            .map(|e| {
+                let d = e.dofs();
+                std::array::from_fn(|k| p.slot(d[k % 6], d[k / 6]))
+            })
+            .collect();
+        p.node_slots = (0..model.nodes.len()).map(|i| std::array::from_fn(|k| p.slot(3 * i + k, 3 * i + k))).collect();
+        p.row_slots = model
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(k, row)| {
+                std::array::from_fn(|t| {
+                    let (d, c) = row.terms[t];
+                    if c == 0.0 { [usize::MAX; 2] } else { [p.slot(n_q + k, d), p.slot(d, n_q + k)] }
+                })
+            })
+            .collect();
+        p.gram_slots = model
+            .rows
+            .iter()
+            .map(|row| std::array::from_fn(|i| std::array::from_fn(|j| if row.terms[i].1 * row.terms[j].1 == 0.0 { usize::MAX } else { p.slot(row.terms[i].0, row.terms[j].0) })))
+            .collect();
+        p
+    }
+
+    /// For each constraint row, the DOFs it acts on.
+    pub fn multiplier_dofs(model: &Model) -> Vec<Vec<usize>> {
+        model.rows.iter().map(|r| r.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect()).collect()
+    }
+
+    /// Position of entry `(row, col)` in the CSC value array.
+    fn slot(&self, row: usize, col: usize) -> usize {
+        let range = self.col_ptr[col]..self.col_ptr[col + 1];
+        range.start + self.row_idx[range].binary_search(&row).expect("entry in pattern")
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+}
+
+/// Everything a run needs to evaluate forces and matrices of one design.
+pub struct Assembler<'m> {
+    /// The mechanism.
+    pub model: &'m Model,
+    /// Iteration-matrix pattern.
+    pub pattern: Pattern,
+    /// Element scalings of the design.
+    pub densities: Densities,
+    /// Inertia discretization.
+    pub mass_kind: MassKind,
+    /// Values of `M` on the pattern (zero outside the `n_q` block).
+    mass: Vec<f64>,
+    /// Gravity as a DOF-wise acceleration `ĝ = [g_x, g_y, 0, …]`.
+    pub gravity: Vec<f64>,
+}
+
+impl<'m> Assembler<'m> {
+    /// Assembler of `model` for a design's `densities`.
+    pub fn new(model: &'m Model, densities: Densities, mass_kind: MassKind) -> Self {
+        let pattern = Pattern::new(model);
+        let mut mass = vec![0.0; pattern.nnz()];
+        for (e, el) in model.elements.iter().enumerate() {
+            let m = el.beam.mass_matrix(mass_kind) * densities.mass[e];
+            for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
+                mass[slot] += m[(k % 6, k / 6)];
+            }
+        }
+        for pm in &model.point_masses {
+            let s = pattern.node_slots[pm.node];
+            mass[s[0]] += pm.mass;
+            mass[s[1]] += pm.mass;
+            mass[s[2]] += pm.inertia;
+        }
+        let g = model.gravity;
+        let gravity = (0..model.n_dofs()).map(|d| [g.x, g.y, 0.0][d % 3]).collect();
+        Self { model, pattern, densities, mass_kind, mass, gravity }
+    }
+
+    /// `out = M a` (mass matrix times a nodal vector).
+    pub fn mass_times(&self, a: &[f64], out: &mut [f64]) {
+        let p = &self.pattern;
+        out[..p.n_q].fill(0.0);
+        for (j, &aj) in a.iter().enumerate().take(p.n_q) {
+            for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
+                let i = p.row_idx[idx];
+                if i < p.n_q {
+                    out[i] += self.mass[idx] * aj;
+                }
+            }
+        }
+    }
+
+    /// Mean diagonal of `M` over the nodal DOFs, a scale for the constraint rows.
+    pub fn mean_mass_diagonal(&self) -> f64 {
+        (0..self.pattern.n_q).map(|i| self.mass[self.pattern.node_slots[i / 3][i % 3]]).sum::<f64>() / self.pattern.n_q as f64
+    }
+
+    /// Internal forces `f = Σ s(x_e) f_e(q)`; with `tangent`, also adds `Σ s(x_e) K_e(q)` to
+    /// the matrix values.
+    pub fn internal_forces(&self, q: &[f64], f: &mut [f64], mut tangent: Option<&mut [f64]>) {
+        f.fill(0.0);
+        for (e, el) in self.model.elements.iter().enumerate() {
+            let u = el.gather(q);
+            let s = self.densities.stiffness[e];
+            let dofs = el.dofs();
+            match tangent.as_deref_mut() {
+                Some(values) => {
+                    let (fe, ke) = el.beam.internal_force_and_tangent(&u);
+                    for (k, &slot) in self.pattern.element_slots[e].iter().enumerate() {
+                        values[slot] += s * ke[(k % 6, k / 6)];
+                    }
+                    dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
+                }
+                None => {
+                    let fe = el.beam.internal_force(&u);
+                    dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
+                }
+            }
+        }
+    }
+
+    /// Applied nodal loads at time `t`, scaled by `factor`.
+    pub fn external_forces(&self, t: f64, factor: f64, f: &mut [f64]) {
+        f.fill(0.0);
+        for load in &self.model.loads {
+            let g = factor * load.time.at(t);
+            for k in 0..3 {
+                f[3 * load.node + k] += g * load.value[k];
+            }
+        }
+    }
+
+    /// Constraint values `Φ_k = Σ c q − factor · g_k(t)`.
+    pub fn constraints(&self, q: &[f64], t: f64, factor: f64, phi: &mut [f64]) {
+        for (k, row) in self.model.rows.iter().enumerate() {
+            phi[k] = row.apply(q) - factor * self.model.joints[row.joint].prescribed(row, t)[0];
+        }
+    }
+
+    /// Prescribed constraint accelerations `g̈_k(t)` (`Φ_q q̈ = g̈`).
+    pub fn constraint_accelerations(&self, t: f64, out: &mut [f64]) {
+        for (k, row) in self.model.rows.iter().enumerate() {
+            out[k] = self.model.joints[row.joint].prescribed(row, t)[2];
+        }
+    }
+
+    /// `out += Φ_qᵀ λ`.
+    pub fn add_constraint_forces(&self, lambda: &[f64], out: &mut [f64]) {
+        for (row, &l) in self.model.rows.iter().zip(lambda) {
+            row.terms.iter().for_each(|&(d, c)| out[d] += c * l);
+        }
+    }
+
+    /// `out_k = (Φ_q v)_k`.
+    pub fn constraint_rates(&self, v: &[f64], out: &mut [f64]) {
+        for (row, o) in self.model.rows.iter().zip(out.iter_mut()) {
+            *o = row.apply(v);
+        }
+    }
+
+    /// Starts an augmented iteration matrix: `values = mass_coefficient · M + s Φ_qᵀΦ_q` plus
+    /// the constraint blocks `s Φ_q`, `s Φ_qᵀ`; [`Assembler::internal_forces`] then adds `K_t`.
+    pub fn start_iteration_matrix(&self, mass_coefficient: f64, constraint_scale: f64, values: &mut [f64]) {
+        values.iter_mut().zip(&self.mass).for_each(|(v, m)| *v = mass_coefficient * m);
+        let p = &self.pattern;
+        for ((row, slots), gram) in self.model.rows.iter().zip(&p.row_slots).zip(&p.gram_slots) {
+            for (i, (&(_, c), s)) in row.terms.iter().zip(slots).enumerate() {
+                if c != 0.0 {
+                    values[s[0]] += constraint_scale * c;
+                    values[s[1]] += constraint_scale * c;
+                    for (j, &(_, cj)) in row.terms.iter().enumerate().filter(|(_, t)| t.1 != 0.0) {
+                        values[gram[i][j]] += constraint_scale * c * cj;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Applies the augmentation `E` to a right-hand side `[b; c]`: `b += Φ_qᵀ c`.
+    pub fn augment_rhs(&self, rhs: &mut [f64]) {
+        let n_q = self.pattern.n_q;
+        for (k, row) in self.model.rows.iter().enumerate() {
+            let c = rhs[n_q + k];
+            row.terms.iter().for_each(|&(d, coeff)| rhs[d] += coeff * c);
+        }
+    }
+
+    /// Mean diagonal of `K_t` at `q` over the nodal DOFs.
+    pub fn mean_stiffness_diagonal(&self, q: &[f64]) -> f64 {
+        let mut values = vec![0.0; self.pattern.nnz()];
+        let mut f = vec![0.0; self.pattern.n_q];
+        self.internal_forces(q, &mut f, Some(&mut values));
+        (0..self.pattern.n_q).map(|i| values[self.pattern.node_slots[i / 3][i % 3]].abs()).sum::<f64>() / self.pattern.n_q as f64
+    }
+
+    /// Strain energy of each component `Σ_e s(x_e) U_e(q)` (J).
+    pub fn strain_energies(&self, q: &[f64]) -> Vec<f64> {
+        let mut u = vec![0.0; self.model.components.len()];
+        for (e, el) in self.model.elements.iter().enumerate() {
+            u[self.model.bars[el.bar].component] += self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q));
+        }
+        u
+    }
+}

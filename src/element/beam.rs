@@ -1,0 +1,271 @@
+//! Co-rotational planar beam with the exact Timoshenko local stiffness.
+//!
+//! Each element carries a local frame that follows its chord (Crisfield, *Non-linear
+//! finite element analysis of solids and structures*, vol. 1, §7.4). Large rigid motions
+//! are handled exactly by the frame; the deformation measured in it — the stretch of the
+//! chord and the two end rotations relative to the chord — is small and resisted by the
+//! **exact** stiffness of a linear Timoshenko beam. That stiffness solves the beam
+//! equations for end loads exactly, so a bar loaded at its ends (every bar of a ground
+//! structure) is exact in the linear range with one element, shear included; a linear
+//! two-node Simo–Reissner element with one-point integration is about ten times too stiff
+//! in double curvature. Splitting a bar into `m` elements refines the nonlinear and
+//! inertial behaviour.
+//!
+//! Element DOFs `u = [u₁, v₁, φ₁, u₂, v₂, φ₂]` are nodal displacements and rotations from
+//! the reference configuration, in the global frame. With chord `d = d₀ + (u₂ − u₁, v₂ − v₁)`,
+//! `l = |d|`, chord rotation `α = ∠(d₀, d)`:
+//!
+//! * stretch `e = l − L₀`, local end rotations `θᵢ = φᵢ − α` (wrapped to `(−π, π]`);
+//! * local forces `N = (EA/L₀) e`, `[M₁, M₂] = k_b [θ₁, θ₂]` with
+//!   `k_b = EI/(L₀(1+Φ)) [[4+Φ, 2−Φ], [2−Φ, 4+Φ]]`, `Φ = 12 EI/(κGA L₀²)`;
+//! * internal force `f = Bᵀ [N, M₁, M₂]` with `B = ∂(e, θ₁, θ₂)/∂u`;
+//! * tangent `K = Bᵀ D B + N t tᵀ/l + (M₁ + M₂)(r tᵀ + t rᵀ)/l²`, where
+//!   `r = ∂l/∂u = [−c, −s, 0, c, s, 0]`, `t = l ∂α/∂u = [s, −c, 0, −s, c, 0]`;
+//! * strain energy `U = ½ (EA/L₀) e² + ½ θᵀ k_b θ`.
+//!
+//! Inertia uses linear interpolation of the absolute displacement and rotation fields,
+//! which gives a constant mass matrix in these coordinates (no gyroscopic term in 2D):
+//! `ρA L₀/6 [[2, 1], [1, 2]]` per translation, `ρI L₀/6 [[2, 1], [1, 2]]` for rotation;
+//! or its row-sum lumped form.
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
+
+use crate::section::Section;
+
+/// Six element DOFs.
+pub type Vector6 = SVector<f64, 6>;
+/// A 6×6 element matrix.
+pub type Matrix6 = SMatrix<f64, 6, 6>;
+
+/// How the element's inertia is discretized.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MassKind {
+    /// Consistent with linear interpolation of displacements and rotation.
+    Consistent,
+    /// Row-sum lumped: half of the element's mass and rotary inertia on each node.
+    Lumped,
+}
+
+/// A co-rotational Timoshenko beam between two nodes, at full density.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Beam {
+    /// Reference chord `d₀ = X₂ − X₁` (m).
+    pub chord: Vector2<f64>,
+    /// Reference length `L₀ = |d₀|` (m).
+    pub length: f64,
+    /// Section at full density.
+    pub section: Section,
+}
+
+/// Chord geometry and local deformation of a deformed beam.
+#[derive(Debug, Clone, Copy)]
+struct Deformation {
+    /// Current chord length.
+    l: f64,
+    /// `∂l/∂u`.
+    r: Vector6,
+    /// `l ∂α/∂u`.
+    t: Vector6,
+    /// Local deformation `[e, θ₁, θ₂]`.
+    local: Vector3<f64>,
+}
+
+impl Beam {
+    /// A beam with reference end positions `x1`, `x2`.
+    pub fn new(x1: Vector2<f64>, x2: Vector2<f64>, section: Section) -> Self {
+        let chord = x2 - x1;
+        Self { chord, length: chord.norm(), section }
+    }
+
+    /// Local stiffness `D = diag(EA/L₀, k_b)` of the exact Timoshenko beam.
+    pub fn local_stiffness(&self) -> Matrix3<f64> {
+        let (l0, s) = (self.length, &self.section);
+        let phi = 12.0 * s.ei / (s.gak * l0 * l0);
+        let k = s.ei / (l0 * (1.0 + phi));
+        let (a, b) = (k * (4.0 + phi), k * (2.0 - phi));
+        Matrix3::new(s.ea / l0, 0.0, 0.0, 0.0, a, b, 0.0, b, a)
+    }
+
+    fn deformation(&self, u: &Vector6) -> Deformation {
+        let du = Vector2::new(u[3] - u[0], u[4] - u[1]);
+        let d = self.chord + du;
+        let l = d.norm();
+        let (c, s) = (d.x / l, d.y / l);
+        // l − L₀ without cancellation: (l² − L₀²)/(l + L₀), l² − L₀² = 2 d₀·Δu + |Δu|².
+        let stretch = (2.0 * self.chord.dot(&du) + du.norm_squared()) / (l + self.length);
+        let alpha = (self.chord.x * d.y - self.chord.y * d.x).atan2(self.chord.dot(&d));
+        let local = Vector3::new(stretch, wrap_angle(u[2] - alpha), wrap_angle(u[5] - alpha));
+        Deformation {
+            l,
+            r: Vector6::from([-c, -s, 0.0, c, s, 0.0]),
+            t: Vector6::from([s, -c, 0.0, -s, c, 0.0]),
+            local,
+        }
+    }
+
+    /// `B = ∂(e, θ₁, θ₂)/∂u`, one row per local deformation.
+    fn strain_matrix(g: &Deformation) -> SMatrix<f64, 3, 6> {
+        let mut b = SMatrix::<f64, 3, 6>::zeros();
+        b.set_row(0, &g.r.transpose());
+        let dalpha = g.t / g.l;
+        b.set_row(1, &(-dalpha).transpose());
+        b.set_row(2, &(-dalpha).transpose());
+        b[(1, 2)] += 1.0;
+        b[(2, 5)] += 1.0;
+        b
+    }
+
+    /// Internal force `f(u)` at full density.
+    pub fn internal_force(&self, u: &Vector6) -> Vector6 {
+        let g = self.deformation(u);
+        Self::strain_matrix(&g).transpose() * (self.local_stiffness() * g.local)
+    }
+
+    /// Internal force `f(u)` and its exact tangent `K = ∂f/∂u` at full density.
+    pub fn internal_force_and_tangent(&self, u: &Vector6) -> (Vector6, Matrix6) {
+        let g = self.deformation(u);
+        let b = Self::strain_matrix(&g);
+        let d = self.local_stiffness();
+        let s = d * g.local;
+        let (n, m_sum) = (s[0], s[1] + s[2]);
+        let k = b.transpose() * d * b
+            + g.t * g.t.transpose() * (n / g.l)
+            + (g.r * g.t.transpose() + g.t * g.r.transpose()) * (m_sum / (g.l * g.l));
+        (b.transpose() * s, k)
+    }
+
+    /// Strain energy `U(u)` at full density (J), paper Eq. 37.
+    pub fn strain_energy(&self, u: &Vector6) -> f64 {
+        let g = self.deformation(u);
+        0.5 * g.local.dot(&(self.local_stiffness() * g.local))
+    }
+
+    /// Constant mass matrix at full density.
+    pub fn mass_matrix(&self, kind: MassKind) -> Matrix6 {
+        let (ma, mi) = (self.section.rho_a * self.length, self.section.rho_i * self.length);
+        let mut m = Matrix6::zeros();
+        for (k, total) in [(0, ma), (1, ma), (2, mi)] {
+            let (diag, off) = match kind {
+                MassKind::Consistent => (total / 3.0, total / 6.0),
+                MassKind::Lumped => (total / 2.0, 0.0),
+            };
+            m[(k, k)] = diag;
+            m[(k + 3, k + 3)] = diag;
+            m[(k, k + 3)] = off;
+            m[(k + 3, k)] = off;
+        }
+        m
+    }
+}
+
+/// `a` wrapped to `(−π, π]`.
+fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    a - TAU * ((a + PI) / TAU).ceil() + TAU
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn section() -> Section {
+        let (a, i, kappa) = Section::solid_circle(0.02, 0.32);
+        Section::new(70e9, 70e9 / 2.64, a, i, kappa, 2700.0)
+    }
+
+    fn beam() -> Beam {
+        Beam::new(Vector2::new(0.1, -0.2), Vector2::new(0.4, 0.2), section())
+    }
+
+    /// A rigid motion (translation + rotation about node 1) of amplitude `angle`.
+    fn rigid(b: &Beam, angle: f64) -> Vector6 {
+        let (c, s) = (angle.cos(), angle.sin());
+        let d = b.chord;
+        let rotated = Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y);
+        let (t1, t2) = (0.3, -0.7);
+        Vector6::from([t1, t2, angle, t1 + rotated.x - d.x, t2 + rotated.y - d.y, angle])
+    }
+
+    #[test]
+    fn rigid_motions_are_stress_free() {
+        let b = beam();
+        for angle in [0.3, 2.5, -3.0, 7.0] {
+            let u = rigid(&b, angle);
+            let f = b.internal_force(&u);
+            assert!(f.amax() < 1e-6 * b.section.ea, "f = {f}");
+            assert!(b.strain_energy(&u).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn tangent_matches_central_differences_of_the_force() {
+        let b = beam();
+        let u0 = rigid(&b, 1.2) + Vector6::from([1e-3, -2e-3, 0.05, 3e-3, 1e-3, -0.08]);
+        let (_, k) = b.internal_force_and_tangent(&u0);
+        let eps = 1e-7;
+        for j in 0..6 {
+            let mut up = u0;
+            let mut um = u0;
+            up[j] += eps;
+            um[j] -= eps;
+            let fd = (b.internal_force(&up) - b.internal_force(&um)) / (2.0 * eps);
+            for i in 0..6 {
+                let err = (fd[i] - k[(i, j)]).abs();
+                assert!(err < 1e-6 * k.amax(), "K[{i},{j}] = {} vs {}", k[(i, j)], fd[i]);
+            }
+        }
+        assert!((k - k.transpose()).amax() < 1e-9 * k.amax(), "tangent of a conservative force is symmetric");
+    }
+
+    #[test]
+    fn force_is_the_gradient_of_the_strain_energy() {
+        let b = beam();
+        let u0 = rigid(&b, -0.4) + Vector6::from([2e-3, 1e-3, -0.03, -1e-3, 2e-3, 0.06]);
+        let f = b.internal_force(&u0);
+        let eps = 1e-7;
+        for j in 0..6 {
+            let mut up = u0;
+            let mut um = u0;
+            up[j] += eps;
+            um[j] -= eps;
+            let fd = (b.strain_energy(&up) - b.strain_energy(&um)) / (2.0 * eps);
+            assert!((fd - f[j]).abs() < 1e-6 * f.amax(), "f[{j}] = {} vs {fd}", f[j]);
+        }
+    }
+
+    #[test]
+    fn cantilever_tip_load_is_exact_timoshenko() {
+        // Horizontal beam, node 1 clamped, tip load P: v = PL³/(3EI) + PL/(κGA), φ = PL²/(2EI).
+        let b = Beam::new(Vector2::zeros(), Vector2::new(0.7, 0.0), section());
+        let k = b.internal_force_and_tangent(&Vector6::zeros()).1;
+        let kff = k.fixed_view::<3, 3>(3, 3).into_owned();
+        let p = 1.0;
+        let u = kff.lu().solve(&Vector3::new(0.0, p, 0.0)).unwrap();
+        let (l, s) = (b.length, b.section);
+        let v = p * l.powi(3) / (3.0 * s.ei) + p * l / s.gak;
+        let phi = p * l * l / (2.0 * s.ei);
+        assert!((u[1] / v - 1.0).abs() < 1e-12, "{} vs {v}", u[1]);
+        assert!((u[2] / phi - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mass_matrices_carry_the_element_mass() {
+        let b = beam();
+        let total = b.section.rho_a * b.length;
+        for kind in [MassKind::Consistent, MassKind::Lumped] {
+            let m = b.mass_matrix(kind);
+            // A unit translation in x has kinetic energy ½ m_total.
+            let ux = Vector6::from([1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+            assert!((ux.dot(&(m * ux)) - total).abs() < 1e-12 * total);
+        }
+    }
+
+    #[test]
+    fn wrap_angle_maps_to_half_open_interval() {
+        use std::f64::consts::PI;
+        assert!((wrap_angle(2.0 * PI + 0.1) - 0.1).abs() < 1e-12);
+        assert!((wrap_angle(-0.1) + 0.1).abs() < 1e-15);
+        assert!((wrap_angle(PI) - PI).abs() < 1e-15);
+        assert!((wrap_angle(-PI) - PI).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,8 @@
+//! Finite elements of the flexible bodies.
+//!
+//! The only structural element is the co-rotational Timoshenko [`beam`]; point masses are
+//! attached to nodes by the [`crate::model::Model`].
+
+pub mod beam;
+
+pub use beam::{Beam, MassKind, Matrix6, Vector6};

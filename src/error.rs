@@ -1,0 +1,121 @@
+//! Error types of the engine, one enum per layer.
+//!
+//! Library code returns these instead of panicking on user data; the Python
+//! bindings map each to its own exception class (`SceneError`, `DesignError`,
+//! `SettingsError`, `SimulationError`).
+
+use thiserror::Error;
+
+/// A scene that cannot be built: unknown key, non-physical or non-finite value,
+/// missing node, degenerate geometry, over- or under-constrained mechanism.
+#[derive(Debug, Clone, Error, PartialEq)]
+#[error("{path}: {message}")]
+pub struct SceneError {
+    /// Where in the scene the problem is, e.g. `sections.al20.E` or `joints[1] (elbow)`.
+    pub path: String,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl SceneError {
+    /// A scene error at `path`.
+    pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
+        Self { path: path.into(), message: message.into() }
+    }
+}
+
+/// A design vector that does not fit the scene's design variables.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum DesignError {
+    /// `x` has the wrong number of entries.
+    #[error("design vector has {got} entries, the scene has {expected} design variables")]
+    Length {
+        /// Number of design variables of the scene.
+        expected: usize,
+        /// Length of the vector given.
+        got: usize,
+    },
+    /// An entry is non-finite or outside `[x_min, 1]`.
+    #[error("x[{index}] ({name}) = {value} is outside [{lower}, 1]")]
+    OutOfBounds {
+        /// Index of the design variable.
+        index: usize,
+        /// Its name, e.g. `link1/bar12 (3-7)`.
+        name: String,
+        /// The value given.
+        value: f64,
+        /// The lower bound `x_min`.
+        lower: f64,
+    },
+}
+
+/// Run settings that make no sense (step size, spectral radius, tolerances, responses).
+#[derive(Debug, Clone, Error, PartialEq)]
+#[error("{name}: {message}")]
+pub struct SettingsError {
+    /// The setting, e.g. `h` or `responses[2]`.
+    pub name: String,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl SettingsError {
+    /// A settings error for `name`.
+    pub fn new(name: impl Into<String>, message: impl Into<String>) -> Self {
+        Self { name: name.into(), message: message.into() }
+    }
+}
+
+/// A solve that failed: Newton did not converge, the iteration matrix is singular,
+/// or the state became non-finite.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum SolveError {
+    /// Newton's method reached its iteration limit.
+    #[error(
+        "Newton did not converge at t = {time:.6} s: residual {residual:.3e} \
+         (tolerance {tolerance:.1e}) after {iterations} iterations"
+    )]
+    NewtonFailed {
+        /// Time (dynamics) or load factor (statics) of the failed step.
+        time: f64,
+        /// Iterations done.
+        iterations: usize,
+        /// Relative residual reached.
+        residual: f64,
+        /// Relative residual required.
+        tolerance: f64,
+    },
+    /// The LU factorization met a zero pivot or produced non-finite values.
+    #[error("singular iteration matrix at t = {time:.6} s ({detail})")]
+    Singular {
+        /// Time (or load factor) of the failure.
+        time: f64,
+        /// What the solver reported.
+        detail: String,
+    },
+    /// The rigid kinematics of the driven mechanism cannot be solved.
+    #[error("rigid kinematics failed at t = {time:.6} s: {detail}")]
+    Kinematics {
+        /// Time of the failure.
+        time: f64,
+        /// Why.
+        detail: String,
+    },
+}
+
+/// Any error of the engine.
+#[derive(Debug, Clone, Error, PartialEq)]
+pub enum Error {
+    /// See [`SceneError`].
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// See [`DesignError`].
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    /// See [`SettingsError`].
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// See [`SolveError`].
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}

@@ -1,0 +1,232 @@
+//! A built, validated mechanism: nodes, beam elements, point masses, joints, loads, design
+//! variables and components. Produced by [`crate::scene`]; read by the solvers.
+//!
+//! Generalized coordinates: three per node, `q = [u, v, φ]`, the displacement and rotation
+//! of the node from its reference position `X` in the inertial frame (absolute nodal
+//! coordinates `x = X + u`; storing the displacement keeps round-off proportional to the
+//! motion rather than to the position). Constraint multipliers follow the `n_q` DOFs.
+
+use nalgebra::Vector2;
+
+use crate::constraint::{ConstraintRow, Joint};
+use crate::element::{Beam, MassKind, Vector6};
+use crate::error::DesignError;
+use crate::interpolation::Interpolation;
+use crate::load::NodalLoad;
+
+/// A node of the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Name, e.g. `link1[4,1]`.
+    pub name: String,
+    /// Reference position `X` (m).
+    pub position: Vector2<f64>,
+}
+
+/// A beam element placed in the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Element {
+    /// The element kernel at full density.
+    pub beam: Beam,
+    /// End nodes.
+    pub nodes: [usize; 2],
+    /// The bar it belongs to.
+    pub bar: usize,
+}
+
+impl Element {
+    /// The six global DOFs `[3a, 3a+1, 3a+2, 3b, 3b+1, 3b+2]`.
+    pub fn dofs(&self) -> [usize; 6] {
+        let [a, b] = self.nodes;
+        [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2]
+    }
+
+    /// The element's slice of a global vector.
+    pub fn gather(&self, q: &[f64]) -> Vector6 {
+        Vector6::from_iterator(self.dofs().iter().map(|&d| q[d]))
+    }
+}
+
+/// A straight structural member between two nodes, made of `m` collinear elements, with one
+/// density (its own design variable, a shared group variable, or fixed at 1).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bar {
+    /// Name, e.g. `link1/bar12`.
+    pub name: String,
+    /// Component (linkage) it belongs to.
+    pub component: usize,
+    /// Design variable, `None` for a bar of fixed full density.
+    pub variable: Option<usize>,
+    /// Its elements.
+    pub elements: std::ops::Range<usize>,
+    /// Full-density volume `A L` (m³).
+    pub volume: f64,
+}
+
+/// A non-design point mass on a node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointMass {
+    /// Node.
+    pub node: usize,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Rotary inertia (kg m²).
+    pub inertia: f64,
+}
+
+/// Static (load-stepped equilibrium) or dynamic (time integration) analysis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Analysis {
+    /// Time integration with generalized-α.
+    Dynamic,
+    /// Static equilibrium at the end of the load history.
+    Static,
+}
+
+/// The scene's design parametrization (paper Eq. 1, 33, 34).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Design {
+    /// Stiffness interpolation.
+    pub interpolation: Interpolation,
+    /// Lower bound on densities.
+    pub x_min: f64,
+    /// Name of each design variable.
+    pub variables: Vec<String>,
+}
+
+/// Scene-level defaults of the run settings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunDefaults {
+    /// End time (s).
+    pub t_end: Option<f64>,
+    /// Step size (s).
+    pub h: Option<f64>,
+    /// Spectral radius at infinite frequency.
+    pub rho_inf: Option<f64>,
+    /// Inertia discretization.
+    pub mass: Option<MassKind>,
+    /// Load steps of a static analysis.
+    pub load_steps: Option<usize>,
+}
+
+/// A built mechanism.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    /// Scene name.
+    pub name: String,
+    /// Kind of analysis the scene asks for.
+    pub analysis: Analysis,
+    /// Nodes.
+    pub nodes: Vec<Node>,
+    /// Beam elements.
+    pub elements: Vec<Element>,
+    /// Bars (groups of elements carrying one density).
+    pub bars: Vec<Bar>,
+    /// Component names (linkages), for per-component responses.
+    pub components: Vec<String>,
+    /// Point masses.
+    pub point_masses: Vec<PointMass>,
+    /// Joints.
+    pub joints: Vec<Joint>,
+    /// Their constraint rows, in joint order.
+    pub rows: Vec<ConstraintRow>,
+    /// Applied loads.
+    pub loads: Vec<NodalLoad>,
+    /// Gravity acceleration (m/s²), zero by default.
+    pub gravity: Vector2<f64>,
+    /// Design parametrization.
+    pub design: Design,
+    /// Default node for the tip-deflection response.
+    pub tip: Option<usize>,
+    /// Default run settings.
+    pub defaults: RunDefaults,
+}
+
+/// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Densities {
+    /// Mass factor `x_e`.
+    pub mass: Vec<f64>,
+    /// Stiffness factor `s(x_e)`.
+    pub stiffness: Vec<f64>,
+    /// `ds/dx` at `x_e`.
+    pub stiffness_rate: Vec<f64>,
+}
+
+impl Model {
+    /// Number of nodal DOFs `n_q`.
+    pub fn n_dofs(&self) -> usize {
+        3 * self.nodes.len()
+    }
+
+    /// Number of constraint rows `n_c`.
+    pub fn n_constraints(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Number of design variables.
+    pub fn n_variables(&self) -> usize {
+        self.design.variables.len()
+    }
+
+    /// Design variable of element `e`, if any.
+    pub fn variable_of(&self, e: usize) -> Option<usize> {
+        self.bars[self.elements[e].bar].variable
+    }
+
+    /// Index of the node called `name`.
+    pub fn node_index(&self, name: &str) -> Option<usize> {
+        self.nodes.iter().position(|n| n.name == name)
+    }
+
+    /// Checks `x` (length, finiteness, bounds) and returns the element scalings.
+    /// `None` means every bar at full density.
+    pub fn densities(&self, x: Option<&[f64]>) -> Result<Densities, DesignError> {
+        let n = self.n_variables();
+        if let Some(x) = x {
+            if x.len() != n {
+                return Err(DesignError::Length { expected: n, got: x.len() });
+            }
+            let lower = self.design.x_min;
+            if let Some(i) = x.iter().position(|&v| !(v.is_finite() && v >= lower && v <= 1.0)) {
+                let name = self.design.variables[i].clone();
+                return Err(DesignError::OutOfBounds { index: i, name, value: x[i], lower });
+            }
+        }
+        let law = self.design.interpolation;
+        let value = |e: usize| match (self.variable_of(e), x) {
+            (Some(i), Some(x)) => x[i],
+            _ => 1.0,
+        };
+        let xe: Vec<f64> = (0..self.elements.len()).map(value).collect();
+        Ok(Densities {
+            stiffness: xe.iter().map(|&v| law.stiffness(v)).collect(),
+            stiffness_rate: xe.iter().map(|&v| law.stiffness_derivative(v)).collect(),
+            mass: xe,
+        })
+    }
+
+    /// Reference positions, flattened `[X₀, Y₀, X₁, …]`.
+    pub fn reference_positions(&self) -> Vec<f64> {
+        self.nodes.iter().flat_map(|n| [n.position.x, n.position.y]).collect()
+    }
+
+    /// Size of the model: the diagonal of its bounding box (m), a length scale for tolerances.
+    pub fn size(&self) -> f64 {
+        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(f64::NEG_INFINITY));
+        for n in &self.nodes {
+            lo = lo.inf(&n.position);
+            hi = hi.sup(&n.position);
+        }
+        (hi - lo).norm().max(f64::MIN_POSITIVE)
+    }
+
+    /// Full-density volume of each component (m³).
+    pub fn component_volumes(&self) -> Vec<f64> {
+        let mut v = vec![0.0; self.components.len()];
+        for bar in &self.bars {
+            v[bar.component] += bar.volume;
+        }
+        v
+    }
+}

@@ -1,0 +1,249 @@
+//! Newton's method with the exact iteration matrix, shared by the generalized-α step, the
+//! consistent initial accelerations and the static solver.
+//!
+//! One [`Newton`] owns the assembler of a design, the sparse LU analysed once for its
+//! pattern, the matrix values and the work vectors: nothing is allocated per iteration.
+//! Convergence is relative: `‖r‖∞ ≤ tol · F_ref` with `F_ref` the largest magnitude among
+//! the inertia, internal, external and joint forces, and `‖Φ‖∞ ≤ tol · L_ref` with `L_ref`
+//! the model's size; an increment at round-off level also ends the iteration, since the
+//! residual of stiff elements cannot drop below their round-off.
+
+use crate::assembly::Assembler;
+use crate::element::MassKind;
+use crate::error::SolveError;
+use crate::assembly::Pattern;
+use crate::linsolve::{LuError, SparseLdlt};
+use crate::model::{Densities, Model};
+
+/// Newton statistics of a solve.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct NewtonReport {
+    /// Iterations (solves of the iteration matrix).
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+}
+
+/// Residual norms of a Newton iterate.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Residual {
+    /// `‖r‖∞ / F_ref`, with `F_ref` the largest of the force terms.
+    pub force: f64,
+    /// `‖Φ‖∞ / L_ref`.
+    pub constraint: f64,
+}
+
+impl Residual {
+    pub fn value(&self) -> f64 {
+        self.force.max(self.constraint)
+    }
+}
+
+/// Newton's method on one nonlinear system, shared by the dynamic step, the initial
+/// accelerations and the static solver: a residual, an iteration matrix and a sparse LU
+/// analysed once.
+pub struct Newton<'m> {
+    /// Forces and matrices of the design.
+    pub asm: Assembler<'m>,
+    /// `LDLᵀ` of the (augmented) iteration matrix.
+    pub lu: SparseLdlt,
+    /// Values of the last assembled iteration matrix.
+    pub matrix: Vec<f64>,
+    /// Right-hand side / solution `E[−r; −sΦ]` → `[Δq; Δμ]`.
+    pub rhs: Vec<f64>,
+    /// Constraint scaling `s` (`λ = s μ`).
+    pub scale: f64,
+    /// Relative tolerance.
+    pub tol: f64,
+    /// Iteration limit.
+    pub max_iter: usize,
+    /// Length scale of the model (m).
+    pub length: f64,
+    inertia: Vec<f64>,
+    internal: Vec<f64>,
+    external: Vec<f64>,
+    joint: Vec<f64>,
+    phi: Vec<f64>,
+}
+
+impl<'m> Newton<'m> {
+    /// Sets up the pattern, the symbolic LU and the work vectors of `model`'s design.
+    pub fn new(model: &'m Model, densities: Densities, mass: MassKind, tol: f64, max_iter: usize) -> Self {
+        let asm = Assembler::new(model, densities, mass);
+        let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
+        let lu = SparseLdlt::analyze(n, asm.pattern.col_ptr.clone(), asm.pattern.row_idx.clone(), n_q, &Pattern::multiplier_dofs(model));
+        let matrix = vec![0.0; asm.pattern.nnz()];
+        Self {
+            asm,
+            lu,
+            matrix,
+            rhs: vec![0.0; n],
+            scale: 1.0,
+            tol,
+            max_iter,
+            length: model.size(),
+            inertia: vec![0.0; n_q],
+            internal: vec![0.0; n_q],
+            external: vec![0.0; n_q],
+            joint: vec![0.0; n_q],
+            phi: vec![0.0; n_c],
+        }
+    }
+
+    /// Assembles `rhs = −E[r; sΦ]` and the augmented iteration matrix `mass_coefficient M + K_t`
+    /// at `(q, q̈, λ)`, time `t`; `load` scales external forces and prescribed motions
+    /// (statics), `acc = None` drops inertia (statics).
+    pub(crate) fn assemble(&mut self, q: &[f64], acc: Option<&[f64]>, lambda: &[f64], t: f64, load: f64, mass_coefficient: f64) -> Residual {
+        let n_q = q.len();
+        let asm = &self.asm;
+        match acc {
+            Some(acc) => {
+                self.joint.iter_mut().zip(acc.iter().zip(&asm.gravity)).for_each(|(w, (a, g))| *w = a - g);
+                asm.mass_times(&self.joint, &mut self.inertia);
+            }
+            None => self.inertia.fill(0.0),
+        }
+        asm.start_iteration_matrix(mass_coefficient, self.scale, &mut self.matrix);
+        asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
+        asm.external_forces(t, load, &mut self.external);
+        if acc.is_none() {
+            // Gravity as a static load: −M(−ĝ)·load.
+            asm.mass_times(&asm.gravity, &mut self.joint);
+            self.external.iter_mut().zip(&self.joint).for_each(|(f, g)| *f += load * g);
+        }
+        self.joint.fill(0.0);
+        asm.add_constraint_forces(lambda, &mut self.joint);
+        asm.constraints(q, t, load, &mut self.phi);
+        let mut f_ref = f64::MIN_POSITIVE;
+        let mut r_max: f64 = 0.0;
+        for i in 0..n_q {
+            let r = self.inertia[i] + self.internal[i] - self.external[i] + self.joint[i];
+            self.rhs[i] = -r;
+            r_max = r_max.max(r.abs());
+            f_ref = f_ref.max(self.inertia[i].abs()).max(self.internal[i].abs()).max(self.external[i].abs()).max(self.joint[i].abs());
+        }
+        let mut phi_max: f64 = 0.0;
+        for (k, &p) in self.phi.iter().enumerate() {
+            self.rhs[n_q + k] = -self.scale * p;
+            phi_max = phi_max.max(p.abs());
+        }
+        asm.augment_rhs(&mut self.rhs);
+        Residual { force: r_max / f_ref, constraint: phi_max / self.length }
+    }
+
+    /// Factorizes the assembled matrix and solves for `[Δq; Δμ]` in `rhs`.
+    pub(crate) fn solve(&mut self, t: f64) -> Result<(), SolveError> {
+        let singular = |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
+        self.lu.factorize(&self.matrix).map_err(singular)?;
+        self.lu.solve_in_place(&mut self.rhs).map_err(singular)
+    }
+
+    /// Whether an increment is at round-off level: Newton cannot improve further.
+    fn stagnated(&self, q: &[f64]) -> bool {
+        let q_max = q.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let dq_max = self.rhs[..q.len()].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        dq_max <= 64.0 * f64::EPSILON * (self.length + q_max)
+    }
+
+    fn failure(&self, t: f64, iterations: usize, residual: f64) -> SolveError {
+        SolveError::NewtonFailed { time: t, iterations, residual, tolerance: self.tol }
+    }
+}
+
+
+/// Where a Newton solve happens: time, load factor and how accelerations and velocities
+/// follow the positions (`q̈ += β'Δq`, `q̇ += γ'Δq`; `β' = 0` for statics).
+#[derive(Debug, Clone, Copy)]
+pub struct Point {
+    /// Time (s).
+    pub t: f64,
+    /// Factor on external loads and prescribed motions (1 in dynamics).
+    pub load: f64,
+    /// `β'`, the coefficient of `M` in the iteration matrix.
+    pub mass_coefficient: f64,
+    /// `γ'`.
+    pub gamma_prime: f64,
+}
+
+impl<'m> Newton<'m> {
+    /// Newton iterations at `point` from the given iterate, updated in place: `(q, λ)`, and
+    /// `(q̇, q̈)` for dynamics.
+    ///
+    /// # Errors
+    /// [`SolveError::NewtonFailed`] after `max_iter` iterations or on a non-finite residual;
+    /// [`SolveError::Singular`] for a singular iteration matrix.
+    pub fn solve_point(&mut self, point: Point, q: &mut [f64], lambda: &mut [f64], mut rates: Option<(&mut [f64], &mut [f64])>) -> Result<NewtonReport, SolveError> {
+        let n_q = q.len();
+        let mut iterations = 0;
+        loop {
+            let acc = rates.as_ref().map(|(_, acc)| &acc[..]);
+            let res = self.assemble(q, acc, lambda, point.t, point.load, point.mass_coefficient);
+            let report = NewtonReport { iterations, residual: res.value() };
+            if res.force <= self.tol && res.constraint <= self.tol {
+                return Ok(report);
+            }
+            if iterations == self.max_iter || !res.value().is_finite() {
+                return Err(self.failure(point.t, iterations, res.value()));
+            }
+            self.solve(point.t)?;
+            iterations += 1;
+            let (dq, dmu) = self.rhs.split_at(n_q);
+            q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
+            lambda.iter_mut().zip(dmu).for_each(|(l, d)| *l += self.scale * d);
+            if let Some((v, acc)) = rates.as_mut() {
+                for i in 0..n_q {
+                    v[i] += point.gamma_prime * dq[i];
+                    acc[i] += point.mass_coefficient * dq[i];
+                }
+            }
+            if self.stagnated(q) {
+                return Ok(NewtonReport { iterations, residual: report.residual });
+            }
+        }
+    }
+
+    /// Assembles and factorizes the augmented iteration matrix
+    /// `mass_coefficient M + K_t(q) + s Φ` (without `K_t` when `q` is `None`) with
+    /// constraint scaling `scale`, for the linear solves of the sensitivity analysis.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] for a singular matrix.
+    pub fn factorize_at(&mut self, q: Option<&[f64]>, mass_coefficient: f64, scale: f64, t: f64) -> Result<(), SolveError> {
+        self.asm.start_iteration_matrix(mass_coefficient, scale, &mut self.matrix);
+        if let Some(q) = q {
+            self.asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
+        }
+        self.lu.factorize(&self.matrix).map_err(|LuError::Singular(detail)| SolveError::Singular { time: t, detail })
+    }
+
+    /// Constraint scaling of the initial-acceleration system (`s` of a mass-only matrix).
+    pub fn initial_scale(&self) -> f64 {
+        self.asm.mean_mass_diagonal()
+    }
+
+    /// Consistent accelerations and multipliers at `(q, t = 0)` from
+    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`; `acc`, `lambda` are
+    /// work arrays of the right sizes.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
+    pub fn initial_accelerations(&mut self, q: &[f64], acc: &[f64], lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+        let (n_q, n_c) = (q.len(), lambda.len());
+        let saved = self.scale;
+        self.scale = self.initial_scale();
+        // With q̈ = 0 and λ = 0 the right-hand side is −r = M ĝ + f_ext − f_int.
+        self.assemble(q, Some(acc), lambda, 0.0, 1.0, 1.0);
+        self.asm.start_iteration_matrix(1.0, self.scale, &mut self.matrix);
+        let mut g = vec![0.0; n_c];
+        self.asm.constraint_accelerations(0.0, &mut g);
+        // assemble() augmented −sΦ(q₀) = 0 into the DOF rows; set the constraint rows to s g̈.
+        for k in 0..n_c {
+            self.rhs[n_q + k] = self.scale * g[k];
+        }
+        self.asm.augment_rhs(&mut self.rhs);
+        let solved = self.solve(0.0);
+        let out = (self.rhs[..n_q].to_vec(), self.rhs[n_q..].iter().map(|m| m * self.scale).collect());
+        self.scale = saved;
+        solved.map(|_| out)
+    }
+}

@@ -1,0 +1,308 @@
+//! Python bindings: the `flextop._core` extension module (thin wrappers only).
+//!
+//! Scenes arrive as Python dicts (converted with `pythonize`, unknown keys rejected with
+//! their path) or TOML text; results leave as dicts of numpy arrays. Long computations
+//! release the GIL. Engine errors are raised as the classes of `flextop.errors`.
+
+use std::sync::Arc;
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::element::MassKind;
+use crate::error::{Error, SceneError, SettingsError};
+use crate::model::{Analysis, Model};
+use crate::options::RunOptions;
+use crate::rigid::Clusters;
+use crate::scene::{self, SceneSpec};
+use crate::simulation::simulate;
+use crate::statics::solve_static;
+
+impl From<Error> for PyErr {
+    /// The matching class of `flextop.errors`, so Python code can catch `SceneError`,
+    /// `DesignError`, `SettingsError` (all `ValueError`) or `SimulationError` (`RuntimeError`).
+    fn from(e: Error) -> PyErr {
+        let class = match e {
+            Error::Scene(_) => "SceneError",
+            Error::Design(_) => "DesignError",
+            Error::Settings(_) => "SettingsError",
+            Error::Solve(_) => "SimulationError",
+        };
+        let msg = e.to_string();
+        Python::attach(|py| match py.import("flextop.errors").and_then(|m| m.getattr(class)).and_then(|c| c.call1((msg.clone(),))) {
+            Ok(instance) => PyErr::from_value(instance),
+            Err(_) => pyo3::exceptions::PyRuntimeError::new_err(msg),
+        })
+    }
+}
+
+fn scene_error(path: String, message: String) -> PyErr {
+    Error::Scene(SceneError::new(if path == "." { "scene".into() } else { path }, message)).into()
+}
+
+/// A built and validated mechanism.
+#[pyclass(name = "Model", module = "flextop._core", frozen)]
+struct PyModel {
+    model: Arc<Model>,
+}
+
+fn parse_mass(mass: Option<&str>) -> PyResult<Option<MassKind>> {
+    match mass {
+        None => Ok(None),
+        Some("consistent") => Ok(Some(MassKind::Consistent)),
+        Some("lumped") => Ok(Some(MassKind::Lumped)),
+        Some(other) => Err(Error::Settings(SettingsError::new("mass", format!("must be 'consistent' or 'lumped', got '{other}'"))).into()),
+    }
+}
+
+fn design_vector(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
+    x.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
+}
+
+/// A row-major `(rows, cols)` numpy array from a flat vector.
+fn matrix<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
+    let rows = if cols == 0 { 0 } else { data.len() / cols };
+    Ok(PyArray1::from_vec(py, data).reshape([rows, cols])?.into_any())
+}
+
+#[pymethods]
+impl PyModel {
+    /// Builds a model from a scene dict.
+    #[staticmethod]
+    fn from_dict(spec: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let mut de = pythonize::Depythonizer::from_object(spec);
+        let spec: SceneSpec = serde_path_to_error::deserialize(&mut de).map_err(|e| scene_error(e.path().to_string(), e.into_inner().to_string()))?;
+        Ok(Self { model: Arc::new(scene::build(&spec).map_err(Error::from)?) })
+    }
+
+    /// Builds a model from TOML text.
+    #[staticmethod]
+    fn from_toml(text: &str) -> PyResult<Self> {
+        let spec = scene::parse_toml(text).map_err(Error::from)?;
+        Ok(Self { model: Arc::new(scene::build(&spec).map_err(Error::from)?) })
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name.clone()
+    }
+
+    #[getter]
+    fn analysis(&self) -> &'static str {
+        match self.model.analysis {
+            Analysis::Dynamic => "dynamic",
+            Analysis::Static => "static",
+        }
+    }
+
+    #[getter]
+    fn n_dofs(&self) -> usize {
+        self.model.n_dofs()
+    }
+
+    #[getter]
+    fn n_constraints(&self) -> usize {
+        self.model.n_constraints()
+    }
+
+    #[getter]
+    fn n_variables(&self) -> usize {
+        self.model.n_variables()
+    }
+
+    #[getter]
+    fn x_min(&self) -> f64 {
+        self.model.design.x_min
+    }
+
+    #[getter]
+    fn tip(&self) -> Option<usize> {
+        self.model.tip
+    }
+
+    #[getter]
+    fn node_names(&self) -> Vec<String> {
+        self.model.nodes.iter().map(|n| n.name.clone()).collect()
+    }
+
+    #[getter]
+    fn variable_names(&self) -> Vec<String> {
+        self.model.design.variables.clone()
+    }
+
+    #[getter]
+    fn components(&self) -> Vec<String> {
+        self.model.components.clone()
+    }
+
+    /// Reference positions, shape `(n_nodes, 2)`.
+    #[getter]
+    fn reference_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        matrix(py, self.model.reference_positions(), 2)
+    }
+
+    /// Bars as a dict of arrays: end `nodes` (n, 2), `variable` (−1 if fixed), `component`,
+    /// full-density `volume` (m³), `name`.
+    fn bars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let d = PyDict::new(py);
+        let ends: Vec<f64> = m.bars.iter().flat_map(|b| [m.elements[b.elements.start].nodes[0] as f64, m.elements[b.elements.end - 1].nodes[1] as f64]).collect();
+        d.set_item("nodes", matrix(py, ends, 2)?)?;
+        d.set_item("variable", m.bars.iter().map(|b| b.variable.map_or(-1, |v| v as i64)).collect::<Vec<_>>())?;
+        d.set_item("component", m.bars.iter().map(|b| b.component).collect::<Vec<_>>())?;
+        d.set_item("volume", PyArray1::from_vec(py, m.bars.iter().map(|b| b.volume).collect()))?;
+        d.set_item("name", m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>())?;
+        Ok(d)
+    }
+
+    /// Elements as end-node pairs, shape `(n_elements, 2)`, and the bar of each.
+    fn elements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let d = PyDict::new(py);
+        d.set_item("nodes", matrix(py, m.elements.iter().flat_map(|e| [e.nodes[0] as f64, e.nodes[1] as f64]).collect(), 2)?)?;
+        d.set_item("bar", m.elements.iter().map(|e| e.bar).collect::<Vec<_>>())?;
+        Ok(d)
+    }
+
+    /// Joints: list of `(name, kind, node indices, first row, row count, driven)`.
+    fn joints(&self) -> Vec<(String, &'static str, Vec<usize>, usize, usize, bool)> {
+        let m = &self.model;
+        m.joints
+            .iter()
+            .enumerate()
+            .map(|(j, joint)| {
+                let first = m.rows.iter().position(|r| r.joint == j).unwrap_or(m.rows.len());
+                let count = m.rows.iter().filter(|r| r.joint == j).count();
+                let kind = match joint.kind {
+                    crate::constraint::JointKind::Clamp { .. } => "clamp",
+                    crate::constraint::JointKind::Pin { .. } => "pin",
+                    crate::constraint::JointKind::Hinge { .. } => "hinge",
+                };
+                (joint.name.clone(), kind, joint.nodes(), first, count, joint.drive.is_some())
+            })
+            .collect()
+    }
+
+    /// Time integration (dynamic scenes). Returns a dict of numpy arrays.
+    #[pyo3(signature = (x=None, *, t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        t_end: Option<f64>,
+        h: Option<f64>,
+        rho_inf: Option<f64>,
+        tol: Option<f64>,
+        max_iter: Option<usize>,
+        mass: Option<&str>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let options = RunOptions { t_end, h, rho_inf, tol, max_iter, mass: parse_mass(mass)?, load_steps: None };
+        let settings = options.dynamic(&self.model.defaults).map_err(Error::from)?;
+        let x = design_vector(x)?;
+        let model = Arc::clone(&self.model);
+        let traj = py.detach(move || simulate(&model, x.as_deref(), &settings))?;
+        let d = PyDict::new(py);
+        let (n_q, n_c) = (traj.n_q, traj.n_c);
+        d.set_item("time", PyArray1::from_vec(py, traj.time))?;
+        d.set_item("u", matrix(py, traj.q, n_q)?)?;
+        d.set_item("v", matrix(py, traj.v, n_q)?)?;
+        d.set_item("a", matrix(py, traj.acc, n_q)?)?;
+        d.set_item("lambda", matrix(py, traj.lambda, n_c)?)?;
+        d.set_item("iterations", traj.iterations)?;
+        d.set_item("kinetic", PyArray1::from_vec(py, traj.kinetic))?;
+        d.set_item("strain", PyArray1::from_vec(py, traj.strain))?;
+        d.set_item("drive_work", PyArray1::from_vec(py, traj.drive_work))?;
+        d.set_item("external_work", PyArray1::from_vec(py, traj.external_work))?;
+        d.set_item("h", settings.h)?;
+        d.set_item("rho_inf", settings.rho_inf)?;
+        Ok(d)
+    }
+
+    /// Static equilibrium (any scene). Returns a dict with `u`, `lambda`, Newton statistics.
+    #[pyo3(signature = (x=None, *, t_end=None, tol=None, max_iter=None, load_steps=None))]
+    fn solve_static<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        t_end: Option<f64>,
+        tol: Option<f64>,
+        max_iter: Option<usize>,
+        load_steps: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let options = RunOptions { t_end, tol, max_iter, load_steps, ..Default::default() };
+        let settings = options.statics(&self.model.defaults).map_err(Error::from)?;
+        let x = design_vector(x)?;
+        let model = Arc::clone(&self.model);
+        let sol = py.detach(move || -> Result<_, Error> {
+            let densities = model.densities(x.as_deref())?;
+            Ok(solve_static(&model, densities, &settings)?)
+        })?;
+        let d = PyDict::new(py);
+        d.set_item("u", PyArray1::from_vec(py, sol.q))?;
+        d.set_item("lambda", PyArray1::from_vec(py, sol.lambda))?;
+        d.set_item("iterations", sol.iterations)?;
+        d.set_item("load_steps", sol.load_steps)?;
+        Ok(d)
+    }
+
+    /// Mass `M`, tangent stiffness `K_t(u)` and constraint Jacobian `Φ_q` as CSC triplets
+    /// `(data, indices, indptr, shape)` for `scipy.sparse.csc_matrix`.
+    #[pyo3(signature = (x=None, u=None, *, mass=None))]
+    fn linearize<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: Option<PyReadonlyArray1<'py, f64>>, mass: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let densities = m.densities(design_vector(x)?.as_deref()).map_err(Error::from)?;
+        let n = m.n_dofs();
+        let u = match u {
+            Some(u) => u.as_slice()?.to_vec(),
+            None => vec![0.0; n],
+        };
+        if u.len() != n {
+            return Err(Error::Settings(SettingsError::new("u", format!("has {} entries, the model has {n} DOFs", u.len()))).into());
+        }
+        let asm = crate::assembly::Assembler::new(m, densities, parse_mass(mass)?.unwrap_or(MassKind::Consistent));
+        let mut values = vec![0.0; asm.pattern.nnz()];
+        let block = |values: &[f64], rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| {
+            let p = &asm.pattern;
+            let (mut data, mut indices, mut indptr) = (Vec::new(), Vec::new(), vec![0usize]);
+            for j in cols {
+                for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
+                    let i = p.row_idx[idx];
+                    if rows.contains(&i) && values[idx] != 0.0 {
+                        data.push(values[idx]);
+                        indices.push(i - rows.start);
+                    }
+                }
+                indptr.push(data.len());
+            }
+            (data, indices, indptr)
+        };
+        let d = PyDict::new(py);
+        asm.start_iteration_matrix(1.0, 0.0, &mut values);
+        d.set_item("M", (block(&values, 0..n, 0..n), (n, n)))?;
+        asm.start_iteration_matrix(0.0, 0.0, &mut values);
+        asm.internal_forces(&u, &mut vec![0.0; n], Some(&mut values));
+        d.set_item("K", (block(&values, 0..n, 0..n), (n, n)))?;
+        let n_c = m.n_constraints();
+        asm.start_iteration_matrix(0.0, 1.0, &mut values);
+        d.set_item("G", (block(&values, n..n + n_c, 0..n), (n_c, n)))?;
+        Ok(d)
+    }
+
+    /// Position of `node` at `times` when every frame is rigid, shape `(len, 2)`.
+    fn rigid_trajectory<'py>(&self, py: Python<'py>, node: usize, times: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+        if node >= self.model.nodes.len() {
+            return Err(Error::Settings(SettingsError::new("node", format!("index {node} out of range"))).into());
+        }
+        let model = Arc::clone(&self.model);
+        let path = py.detach(move || Clusters::of(&model).rigid_trajectory(&model, node, &times)).map_err(Error::from)?;
+        matrix(py, path.into_iter().flatten().collect(), 2)
+    }
+}
+
+/// The extension module.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyModel>()
+}

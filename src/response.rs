@@ -1,0 +1,225 @@
+//! Responses of the form of paper Eq. 8 and their partial derivatives.
+//!
+//! A response is `f(x) = Σₙ wₙ G(qₙ, x)` over the recorded states: the time integral of
+//! paper Eq. 8 by the trapezoidal rule (`w₀ = w_N = h/2`, `wₙ = h`, divided by `t_f` for the
+//! means of Eq. 39–40), a final-time term (`w_N = 1`), or an explicit function of `x`
+//! (volumes). The rule is second order and is the one differentiated, so gradients are
+//! exact for the discrete scheme. A static scene has a single state.
+//!
+//! Each response gives its integrand `G` and the partials `G_q`, `G_x` at a state.
+
+use crate::element::{MassKind, Vector6};
+use crate::error::SettingsError;
+use crate::model::{Analysis, Densities, Model};
+
+/// What a response measures.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Response {
+    /// Mean compliance over the motion, `(1/t_f) ∫ U dt` with `U` the strain energy of one
+    /// component or all (paper Eq. 37, 39); for a static scene the compliance `Fᵀu`.
+    Compliance {
+        /// Component, or `None` for the sum over all.
+        component: Option<usize>,
+    },
+    /// Mean squared deflection `(1/t_f) ∫ |r − r_rigid|² dt` of a node from its rigid
+    /// trajectory (paper Eq. 40).
+    TipDeflection {
+        /// The node.
+        node: usize,
+    },
+    /// Material volume `Σ x_e V_e` of one component or all (paper Eq. 38, 41), m³.
+    Volume {
+        /// Component, or `None` for all.
+        component: Option<usize>,
+    },
+    /// Displacement of a node along a unit direction at the final time (m).
+    FinalDisplacement {
+        /// The node.
+        node: usize,
+        /// Unit direction.
+        direction: [f64; 2],
+    },
+    /// Time integral of a node's displacement along a unit direction (m s).
+    IntegratedDisplacement {
+        /// The node.
+        node: usize,
+        /// Unit direction.
+        direction: [f64; 2],
+    },
+}
+
+/// How a response weights the recorded states.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Weighting {
+    /// Trapezoidal rule divided by the duration.
+    Mean,
+    /// Trapezoidal rule.
+    Integral,
+    /// The final state only.
+    Final,
+    /// No state: an explicit function of the design.
+    Explicit,
+}
+
+impl Response {
+    /// Parses `name[:argument]`: `compliance[:COMPONENT]`, `tip_deflection[:NODE]`,
+    /// `volume[:COMPONENT]`, `displacement:NODE:DX,DY`, `integrated_displacement:NODE:DX,DY`
+    /// (direction normalized).
+    ///
+    /// # Errors
+    /// A [`SettingsError`] naming the response if it is unknown or its argument is.
+    pub fn parse(text: &str, model: &Model) -> Result<Self, SettingsError> {
+        let err = |m: String| SettingsError::new(format!("response '{text}'"), m);
+        let (name, rest) = text.split_once(':').map_or((text, None), |(a, b)| (a, Some(b)));
+        let component = |arg: Option<&str>| match arg {
+            None => Ok(None),
+            Some(c) => model.components.iter().position(|x| x == c).map(Some).ok_or_else(|| err(format!("unknown component '{c}' (components: {})", model.components.join(", ")))),
+        };
+        let node = |n: &str| model.node_index(n).ok_or_else(|| err(format!("unknown node '{n}'")));
+        let node_and_direction = |arg: Option<&str>| -> Result<(usize, [f64; 2]), SettingsError> {
+            let arg = arg.ok_or_else(|| err("needs NODE:DX,DY".into()))?;
+            let (n, d) = arg.rsplit_once(':').ok_or_else(|| err("needs NODE:DX,DY".into()))?;
+            let v: Vec<f64> = d.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| err(format!("direction: {e}")))?;
+            let norm = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if v.len() != 2 || !(norm.is_finite() && norm > 0.0) {
+                return Err(err("direction must be two finite numbers, not both zero".into()));
+            }
+            Ok((node(n)?, [v[0] / norm, v[1] / norm]))
+        };
+        match name {
+            "compliance" if model.analysis == Analysis::Static && rest.is_some() => Err(err("static compliance Fᵀu is global; drop the component".into())),
+            "compliance" => Ok(Self::Compliance { component: component(rest)? }),
+            "volume" => Ok(Self::Volume { component: component(rest)? }),
+            "tip_deflection" => {
+                if model.analysis == Analysis::Static {
+                    return Err(err("a static scene has no motion to deflect from".into()));
+                }
+                let n = match rest {
+                    Some(n) => node(n)?,
+                    None => model.tip.ok_or_else(|| err("the scene has no `tip`; write tip_deflection:NODE".into()))?,
+                };
+                Ok(Self::TipDeflection { node: n })
+            }
+            "displacement" => node_and_direction(rest).map(|(node, direction)| Self::FinalDisplacement { node, direction }),
+            "integrated_displacement" => node_and_direction(rest).map(|(node, direction)| Self::IntegratedDisplacement { node, direction }),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement or integrated_displacement".into())),
+        }
+    }
+
+    fn weighting(&self, analysis: Analysis) -> Weighting {
+        match (self, analysis) {
+            (Self::Volume { .. }, _) => Weighting::Explicit,
+            (_, Analysis::Static) | (Self::FinalDisplacement { .. }, _) => Weighting::Final,
+            (Self::IntegratedDisplacement { .. }, _) => Weighting::Integral,
+            _ => Weighting::Mean,
+        }
+    }
+
+    /// Weight `wₙ` of state `n` of `0..=last` with step `h` (`last = 0`: a static state).
+    pub fn weight(&self, analysis: Analysis, n: usize, last: usize, h: f64) -> f64 {
+        let trapezoid = if n == 0 || n == last { 0.5 * h } else { h };
+        match self.weighting(analysis) {
+            Weighting::Mean => trapezoid / (h * last as f64),
+            Weighting::Integral => trapezoid,
+            Weighting::Final => f64::from(u8::from(n == last)),
+            Weighting::Explicit => 0.0,
+        }
+    }
+
+    /// Whether the response depends on the states at all.
+    pub fn depends_on_states(&self) -> bool {
+        !matches!(self, Self::Volume { .. })
+    }
+}
+
+/// What a response needs besides the state: the model, its densities and, for a static
+/// scene, the load vector `F` (applied loads and gravity `M ĝ`) of the compliance `Fᵀu`.
+pub struct Context<'a> {
+    /// The mechanism.
+    pub model: &'a Model,
+    /// Element scalings of the design.
+    pub densities: &'a Densities,
+    /// Load vector of a static scene, empty for dynamics.
+    pub static_load: &'a [f64],
+    /// Inertia discretization (the gravity part of `F` depends on the densities through `M`).
+    pub mass_kind: MassKind,
+}
+
+impl Response {
+    /// Integrand `G(qₙ, x)` at state `n`, with `rigid` the rigid position of a tip node at
+    /// that state; for [`Response::Volume`], the volume.
+    pub fn integrand(&self, ctx: &Context, q: &[f64], rigid: Option<[f64; 2]>) -> f64 {
+        let m = ctx.model;
+        match *self {
+            Self::Compliance { .. } if m.analysis == Analysis::Static => ctx.static_load.iter().zip(q).map(|(f, u)| f * u).sum(),
+            Self::Compliance { component } => elements_of(m, component).map(|e| ctx.densities.stiffness[e] * m.elements[e].beam.strain_energy(&m.elements[e].gather(q))).sum(),
+            Self::TipDeflection { node } => {
+                let r = rigid.expect("rigid trajectory of the tip");
+                let p = m.nodes[node].position;
+                (p.x + q[3 * node] - r[0]).powi(2) + (p.y + q[3 * node + 1] - r[1]).powi(2)
+            }
+            Self::Volume { component } => m.bars.iter().filter(|b| component.is_none_or(|c| b.component == c)).map(|b| ctx.densities.mass[b.elements.start] * b.volume).sum(),
+            Self::FinalDisplacement { node, direction } | Self::IntegratedDisplacement { node, direction } => direction[0] * q[3 * node] + direction[1] * q[3 * node + 1],
+        }
+    }
+
+    /// Adds `scale · G_q` to `g_q` and `scale · G_x` to `g_x` (per design variable).
+    pub fn add_partials(&self, ctx: &Context, q: &[f64], rigid: Option<[f64; 2]>, scale: f64, g_q: &mut [f64], g_x: &mut [f64]) {
+        let m = ctx.model;
+        match *self {
+            Self::Compliance { .. } if m.analysis == Analysis::Static => {
+                g_q.iter_mut().zip(ctx.static_load).for_each(|(g, f)| *g += scale * f);
+                // ∂F/∂x_e = M_e ĝ (gravity on the element's mass).
+                let g = m.gravity;
+                let gravity = Vector6::from([g.x, g.y, 0.0, g.x, g.y, 0.0]);
+                for (e, el) in m.elements.iter().enumerate() {
+                    if let (Some(v), true) = (m.variable_of(e), g.norm() > 0.0) {
+                        let rate = el.beam.mass_matrix(ctx.mass_kind) * gravity;
+                        g_x[v] += scale * rate.dot(&el.gather(q));
+                    }
+                }
+            }
+            Self::Compliance { component } => {
+                for e in elements_of(m, component) {
+                    let el = &m.elements[e];
+                    let u = el.gather(q);
+                    let (s, rate) = (ctx.densities.stiffness[e], ctx.densities.stiffness_rate[e]);
+                    let f = el.beam.internal_force(&u);
+                    el.dofs().iter().zip(f.iter()).for_each(|(&d, fi)| g_q[d] += scale * s * fi);
+                    if let Some(v) = m.variable_of(e) {
+                        g_x[v] += scale * rate * el.beam.strain_energy(&u);
+                    }
+                }
+            }
+            Self::TipDeflection { node } => {
+                let r = rigid.expect("rigid trajectory of the tip");
+                let p = m.nodes[node].position;
+                g_q[3 * node] += scale * 2.0 * (p.x + q[3 * node] - r[0]);
+                g_q[3 * node + 1] += scale * 2.0 * (p.y + q[3 * node + 1] - r[1]);
+            }
+            Self::Volume { component } => {
+                for b in m.bars.iter().filter(|b| component.is_none_or(|c| b.component == c)) {
+                    if let Some(v) = b.variable {
+                        g_x[v] += scale * b.volume;
+                    }
+                }
+            }
+            Self::FinalDisplacement { node, direction } | Self::IntegratedDisplacement { node, direction } => {
+                g_q[3 * node] += scale * direction[0];
+                g_q[3 * node + 1] += scale * direction[1];
+            }
+        }
+    }
+
+    /// The node whose rigid trajectory the response needs.
+    pub fn rigid_node(&self) -> Option<usize> {
+        match *self {
+            Self::TipDeflection { node } => Some(node),
+            _ => None,
+        }
+    }
+}
+
+fn elements_of(m: &Model, component: Option<usize>) -> impl Iterator<Item = usize> + '_ {
+    (0..m.elements.len()).filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
+}

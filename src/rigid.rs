@@ -1,0 +1,212 @@
+//! Rigid clusters of a mechanism and their kinematics.
+//!
+//! Beams meeting at a node are rigidly joined, so the nodes connected through elements form
+//! a *cluster* that moves, when rigid, with three coordinates `ρ = (c_x, c_y, ψ)`:
+//! `x_i = X_i + c + (R(ψ) − I)(X_i − X_k)` about the cluster's first node `k`, `φ_i = ψ`.
+//!
+//! Uses:
+//! * at assembly, the mechanism checks: every cluster must reach the ground through joints,
+//!   and a static scene must have no rigid-body mode left (mobility `3 n_clusters − rank`);
+//! * the rigid trajectory `r_rigid(t)` of the tip-deflection response (paper Eq. 40):
+//!   the joints' constraints written on the cluster coordinates, solved by Newton at each
+//!   time; the mechanism must be fully driven (mobility zero).
+//!
+//! The matrices here are `n_rows × 3 n_clusters`: a handful of bodies, not the FE mesh.
+
+use nalgebra::{DMatrix, DVector, Vector2};
+
+use crate::constraint::ConstraintRow;
+use crate::error::SolveError;
+use crate::model::Model;
+
+/// Partition of the nodes into rigid clusters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clusters {
+    /// Cluster of each node.
+    pub of_node: Vec<usize>,
+    /// The reference node of each cluster (its first node).
+    pub anchor: Vec<usize>,
+}
+
+impl Clusters {
+    /// Connected components of the element graph (union–find).
+    pub fn of(model: &Model) -> Self {
+        let n = model.nodes.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for e in &model.elements {
+            let (a, b) = (root(&mut parent, e.nodes[0]), root(&mut parent, e.nodes[1]));
+            parent[a.max(b)] = a.min(b);
+        }
+        let mut of_node = vec![usize::MAX; n];
+        let mut anchor = Vec::new();
+        for i in 0..n {
+            let r = root(&mut parent, i);
+            if of_node[r] == usize::MAX {
+                of_node[r] = anchor.len();
+                anchor.push(r);
+            }
+            of_node[i] = of_node[r];
+        }
+        Self { of_node, anchor }
+    }
+
+    /// Number of clusters.
+    pub fn len(&self) -> usize {
+        self.anchor.len()
+    }
+
+    /// Whether there is no cluster.
+    pub fn is_empty(&self) -> bool {
+        self.anchor.is_empty()
+    }
+
+    /// Node DOF value and its gradient with respect to the cluster coordinates `ρ`.
+    fn dof_map(&self, model: &Model, rho: &DVector<f64>, dof: usize) -> (f64, [(usize, f64); 3]) {
+        let (node, k) = (dof / 3, dof % 3);
+        let c = self.of_node[node];
+        let arm = model.nodes[node].position - model.nodes[self.anchor[c]].position;
+        let (cx, cy, psi) = (rho[3 * c], rho[3 * c + 1], rho[3 * c + 2]);
+        let (cs, sn) = (psi.cos(), psi.sin());
+        let rotated = Vector2::new(cs * arm.x - sn * arm.y, sn * arm.x + cs * arm.y);
+        let d_rot = Vector2::new(-rotated.y, rotated.x);
+        match k {
+            0 => (cx + rotated.x - arm.x, [(3 * c, 1.0), (3 * c + 2, d_rot.x), (0, 0.0)]),
+            1 => (cy + rotated.y - arm.y, [(3 * c + 1, 1.0), (3 * c + 2, d_rot.y), (0, 0.0)]),
+            _ => (psi, [(3 * c + 2, 1.0), (0, 0.0), (0, 0.0)]),
+        }
+    }
+
+    /// Constraint values `Φ(ρ, t)` on the cluster coordinates and their Jacobian.
+    fn constraints(&self, model: &Model, rho: &DVector<f64>, t: f64) -> (DVector<f64>, DMatrix<f64>) {
+        let rows = &model.rows;
+        let mut phi = DVector::zeros(rows.len());
+        let mut jac = DMatrix::zeros(rows.len(), 3 * self.len());
+        for (i, row) in rows.iter().enumerate() {
+            phi[i] = -model.joints[row.joint].prescribed(row, t)[0];
+            for &(dof, coeff) in row.terms.iter().filter(|(_, c)| *c != 0.0) {
+                let (value, grad) = self.dof_map(model, rho, dof);
+                phi[i] += coeff * value;
+                for (j, g) in grad {
+                    jac[(i, j)] += coeff * g;
+                }
+            }
+        }
+        (phi, jac)
+    }
+
+    /// Rigid-body modes the joints leave free: `3 n_clusters − rank(Φ_ρ)` at the reference.
+    pub fn mobility(&self, model: &Model) -> usize {
+        let (_, jac) = self.constraints(model, &DVector::zeros(3 * self.len()), 0.0);
+        3 * self.len() - rank(&jac)
+    }
+
+    /// Clusters not connected to the ground through any chain of joints.
+    pub fn floating(&self, model: &Model) -> Vec<usize> {
+        let mut grounded = vec![false; self.len()];
+        let mut changed = true;
+        while changed {
+            changed = false;
+            for j in &model.joints {
+                let cs: Vec<usize> = j.nodes().iter().map(|&n| self.of_node[n]).collect();
+                let any = j.is_grounded() || cs.iter().any(|&c| grounded[c]);
+                for c in cs {
+                    if any && !grounded[c] {
+                        grounded[c] = true;
+                        changed = true;
+                    }
+                }
+            }
+        }
+        (0..self.len()).filter(|&c| !grounded[c]).collect()
+    }
+
+    /// Positions of `node` when every cluster is rigid, at each time of `times`.
+    ///
+    /// # Errors
+    /// [`SolveError::Kinematics`] when the mechanism is not fully driven or Newton fails.
+    pub fn rigid_trajectory(&self, model: &Model, node: usize, times: &[f64]) -> Result<Vec<[f64; 2]>, SolveError> {
+        let n = 3 * self.len();
+        let mut rho = DVector::zeros(n);
+        let mut out = Vec::with_capacity(times.len());
+        let scale = model.size();
+        for &t in times {
+            let fail = |detail: String| SolveError::Kinematics { time: t, detail };
+            for iter in 0.. {
+                let (phi, jac) = self.constraints(model, &rho, t);
+                if phi.amax() <= 1e-13 * scale {
+                    break;
+                }
+                if iter == 50 {
+                    return Err(fail(format!("Newton stalled at |Φ| = {:.3e}", phi.amax())));
+                }
+                let svd = jac.svd(true, true);
+                let r = rank_of(&svd.singular_values);
+                if r < n {
+                    return Err(fail(format!(
+                        "the mechanism is not fully driven ({} free rigid-body modes): \
+                         the rigid trajectory is undefined",
+                        n - r
+                    )));
+                }
+                let step = svd.solve(&phi, 1e-12).map_err(|e| fail(e.to_string()))?;
+                rho -= step;
+            }
+            let (x, _) = self.dof_map(model, &rho, 3 * node);
+            let (y, _) = self.dof_map(model, &rho, 3 * node + 1);
+            let p = model.nodes[node].position;
+            out.push([p.x + x, p.y + y]);
+        }
+        Ok(out)
+    }
+}
+
+/// Numerical rank by singular values relative to the largest.
+fn rank(m: &DMatrix<f64>) -> usize {
+    if m.is_empty() {
+        return 0;
+    }
+    rank_of(&m.clone().svd(false, false).singular_values)
+}
+
+fn rank_of(s: &DVector<f64>) -> usize {
+    let tol = 1e-10 * s.max().max(f64::MIN_POSITIVE);
+    s.iter().filter(|&&v| v > tol).count()
+}
+
+/// Rows of `Φ_q` that depend linearly on earlier ones (an over-constrained mechanism),
+/// found by modified Gram–Schmidt on the sparse rows.
+pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
+    use std::collections::BTreeMap;
+    type Sparse = BTreeMap<usize, f64>;
+    let dot = |a: &Sparse, b: &Sparse| a.iter().map(|(k, v)| v * b.get(k).unwrap_or(&0.0)).sum::<f64>();
+    let mut basis: Vec<Sparse> = Vec::new();
+    let mut redundant = Vec::new();
+    for (i, row) in rows.iter().enumerate() {
+        let mut v = Sparse::new();
+        for &(d, c) in &row.terms {
+            *v.entry(d).or_insert(0.0) += c;
+        }
+        let norm0 = dot(&v, &v).sqrt();
+        for b in &basis {
+            let proj = dot(&v, b);
+            for (k, bk) in b {
+                *v.entry(*k).or_insert(0.0) -= proj * bk;
+            }
+        }
+        let norm = dot(&v, &v).sqrt();
+        if norm <= 1e-10 * norm0 {
+            redundant.push(i);
+        } else {
+            v.values_mut().for_each(|x| *x /= norm);
+            basis.push(v);
+        }
+    }
+    redundant
+}

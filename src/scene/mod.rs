@@ -1,0 +1,29 @@
+//! Scenes: the description of a mechanism (TOML file or Python builder) and its validated
+//! build into a [`crate::model::Model`].
+//!
+//! A scene file is TOML; see `examples/*.toml` and the README for the keys. Parsing rejects
+//! unknown keys with their path; [`build`] checks every value and the mechanism.
+
+pub mod build;
+pub mod ground_structure;
+pub mod spec;
+
+pub use build::build;
+pub use spec::SceneSpec;
+
+use crate::error::SceneError;
+
+/// Parses a TOML scene.
+///
+/// # Errors
+/// A [`SceneError`] with the path of the offending key (syntax, unknown key, wrong type).
+pub fn parse_toml(text: &str) -> Result<SceneSpec, SceneError> {
+    let de = toml::de::Deserializer::parse(text).map_err(|e| SceneError::new("scene file", e.to_string().trim().to_string()))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        SceneError::new(if path == "." { "scene".into() } else { path }, e.into_inner().to_string().trim().to_string())
+    })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,39 @@
+//! Beam cross-section: the per-length properties of a planar Timoshenko beam.
+//!
+//! Units are SI throughout the crate: metres, kilograms, seconds, newtons, pascals,
+//! radians. A section at full density (`x = 1`) has axial stiffness `EA`, shear
+//! stiffness `κGA`, bending stiffness `EI`, mass per length `ρA` and rotary inertia per
+//! length `ρI`.
+
+/// Per-length stiffness and inertia of a beam section at full density.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Section {
+    /// Area `A` (m²), for volumes.
+    pub area: f64,
+    /// Axial stiffness `EA` (N).
+    pub ea: f64,
+    /// Shear stiffness `κGA` (N).
+    pub gak: f64,
+    /// Bending stiffness `EI` (N m²).
+    pub ei: f64,
+    /// Mass per length `ρA` (kg/m).
+    pub rho_a: f64,
+    /// Rotary inertia per length `ρI` (kg m).
+    pub rho_i: f64,
+}
+
+impl Section {
+    /// Section from material moduli and geometric properties.
+    pub fn new(e: f64, g: f64, area: f64, inertia: f64, kappa: f64, rho: f64) -> Self {
+        Self { area, ea: e * area, gak: kappa * g * area, ei: e * inertia, rho_a: rho * area, rho_i: rho * inertia }
+    }
+
+    /// Geometry of a solid circle of diameter `d`: area `πd²/4`, second moment `πd⁴/64`
+    /// and Cowper's shear coefficient `κ = 6(1+ν)/(7+6ν)`.
+    pub fn solid_circle(d: f64, nu: f64) -> (f64, f64, f64) {
+        let area = std::f64::consts::PI * d * d / 4.0;
+        let inertia = std::f64::consts::PI * d.powi(4) / 64.0;
+        let kappa = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);
+        (area, inertia, kappa)
+    }
+}

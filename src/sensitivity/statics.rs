@@ -1,0 +1,63 @@
+//! Sensitivities of a static equilibrium `r(u, x) = f_int − F + Φ_qᵀλ = 0`:
+//! `K_t u' = −∂r/∂x` (direct, one column per design variable) or `K_t μ = G_q`,
+//! `f' = G_x − (∂r/∂x)ᵀ μ` (adjoint, one column per response), with `K_t` the augmented
+//! stiffness at the equilibrium.
+
+use super::{Method, Objectives, PseudoLoads, Sensitivities};
+use crate::element::MassKind;
+use crate::error::{Error, SolveError};
+use crate::linsolve::LuError;
+use crate::model::Model;
+use crate::response::{Context, Response};
+use crate::statics::{equilibrium, static_newton, StaticSettings};
+
+pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
+    let mut newton = static_newton(model, model.densities(Some(x))?, settings);
+    let sol = equilibrium(&mut newton, settings)?;
+    let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
+    let n = n_q + model.n_constraints();
+    newton.factorize_at(Some(&sol.q), 0.0, newton.scale, settings.time)?;
+    let singular = |LuError::Singular(detail)| SolveError::Singular { time: settings.time, detail };
+    let asm = &newton.asm;
+    // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
+    let (mut load, mut gravity) = (vec![0.0; n_q], vec![0.0; n_q]);
+    asm.external_forces(settings.time, 1.0, &mut load);
+    asm.mass_times(&asm.gravity, &mut gravity);
+    load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
+    let ctx = Context { model, densities: &asm.densities, static_load: &load, mass_kind: MassKind::Consistent };
+    let objectives = Objectives::new(model, responses, 0, 0.0)?;
+    let pseudo = PseudoLoads::new(model, MassKind::Consistent);
+    let mut values = vec![0.0; n_r];
+    objectives.add_values(&ctx, 0, &sol.q, &mut values);
+    let (mut g_q, mut g_x) = (vec![0.0; n_q * n_r], vec![0.0; n_x * n_r]);
+    for k in 0..n_r {
+        objectives.add_partials(&ctx, k, 0, &sol.q, &mut g_q[k * n_q..(k + 1) * n_q], &mut g_x[k * n_x..(k + 1) * n_x]);
+    }
+    match method {
+        Method::Direct => {
+            let mut rhs = vec![0.0; n * n_x];
+            pseudo.subtract_columns(asm, &sol.q, None, &mut rhs, n, 0..n_x);
+            let mut scratch = newton.lu.scratch_for(n_x.max(1));
+            newton.lu.solve_block(&mut rhs, n_x, &mut scratch).map_err(singular)?;
+            for k in 0..n_r {
+                for j in 0..n_x {
+                    let du = &rhs[j * n..j * n + n_q];
+                    g_x[k * n_x + j] += g_q[k * n_q..(k + 1) * n_q].iter().zip(du).map(|(a, b)| a * b).sum::<f64>();
+                }
+            }
+            Ok(Sensitivities { values, gradients: g_x, method })
+        }
+        _ => {
+            let mut rhs = vec![0.0; n * n_r];
+            for k in 0..n_r {
+                rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
+            }
+            let mut scratch = newton.lu.scratch_for(n_r);
+            newton.lu.solve_block(&mut rhs, n_r, &mut scratch).map_err(singular)?;
+            for k in 0..n_r {
+                pseudo.subtract_transposed(asm, &sol.q, None, &rhs[k * n..k * n + n_q], &mut g_x[k * n_x..(k + 1) * n_x]);
+            }
+            Ok(Sensitivities { values, gradients: g_x, method: Method::Adjoint })
+        }
+    }
+}

@@ -1,0 +1,120 @@
+//! A dynamic run from `t = 0` to `t_end`: the time loop of Algorithm 1 with the recorded
+//! trajectory, energies and Newton statistics.
+//!
+//! Energies: kinetic `T = ½ q̇ᵀ M q̇`, strain `U = Σ s(x_e) U_e`, the work of the drives
+//! `W_d = ∫ −λ_dᵀ (Φ_q q̇)_d dt` (motor torque times joint rate) and of applied loads and
+//! gravity `W_e = ∫ (f_ext + M ĝ)ᵀ q̇ dt`, both by the trapezoidal rule. For an exact solution
+//! `T + U − W_d − W_e` is constant.
+
+use crate::error::Error;
+use crate::integrator::{Integrator, Settings, State};
+use crate::model::Model;
+
+/// Time histories of a dynamic run, each matrix row-major with one row per time.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Trajectory {
+    /// Nodal DOFs per row.
+    pub n_q: usize,
+    /// Multipliers per row.
+    pub n_c: usize,
+    /// Times `t_n` (s).
+    pub time: Vec<f64>,
+    /// `q_n`.
+    pub q: Vec<f64>,
+    /// `q̇_n`.
+    pub v: Vec<f64>,
+    /// `q̈_n`.
+    pub acc: Vec<f64>,
+    /// `λ_n`.
+    pub lambda: Vec<f64>,
+    /// Newton iterations of each step (0 for `t = 0`).
+    pub iterations: Vec<usize>,
+    /// Kinetic energy (J).
+    pub kinetic: Vec<f64>,
+    /// Strain energy (J).
+    pub strain: Vec<f64>,
+    /// Work done by the drives since `t = 0` (J).
+    pub drive_work: Vec<f64>,
+    /// Work done by loads and gravity since `t = 0` (J).
+    pub external_work: Vec<f64>,
+}
+
+/// Power of the drives and of the external forces at a state.
+struct Powers {
+    drives: f64,
+    external: f64,
+}
+
+impl Trajectory {
+    fn record(&mut self, s: &State, iterations: usize) {
+        self.time.push(s.t);
+        self.q.extend_from_slice(&s.q);
+        self.v.extend_from_slice(&s.v);
+        self.acc.extend_from_slice(&s.acc);
+        self.lambda.extend_from_slice(&s.lambda);
+        self.iterations.push(iterations);
+    }
+}
+
+/// Runs `model` with element scalings from design `x` (`None`: all bars at full density).
+///
+/// # Errors
+/// Design, settings and solve errors ([`Error`]); a failed Newton step reports its time.
+pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result<Trajectory, Error> {
+    settings.validate()?;
+    let densities = model.densities(x)?;
+    let mut integrator = Integrator::new(model, densities, settings);
+    let mut state = integrator.initial_state()?;
+    let mut traj = Trajectory { n_q: model.n_dofs(), n_c: model.n_constraints(), ..Default::default() };
+    let mut scratch = EnergyScratch::new(model);
+    traj.record(&state, 0);
+    let mut last = scratch.powers(&integrator, &state);
+    traj.kinetic.push(scratch.kinetic(&integrator, &state));
+    traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+    traj.drive_work.push(0.0);
+    traj.external_work.push(0.0);
+    for _ in 0..settings.steps() {
+        let report = integrator.alpha_step(&mut state)?;
+        traj.record(&state, report.iterations);
+        let now = scratch.powers(&integrator, &state);
+        let half_h = 0.5 * integrator.h;
+        traj.drive_work.push(traj.drive_work.last().unwrap() + half_h * (last.drives + now.drives));
+        traj.external_work.push(traj.external_work.last().unwrap() + half_h * (last.external + now.external));
+        traj.kinetic.push(scratch.kinetic(&integrator, &state));
+        traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+        last = now;
+    }
+    Ok(traj)
+}
+
+/// Work vectors for the energy bookkeeping.
+struct EnergyScratch {
+    force: Vec<f64>,
+    mv: Vec<f64>,
+    rates: Vec<f64>,
+}
+
+impl EnergyScratch {
+    fn new(model: &Model) -> Self {
+        Self { force: vec![0.0; model.n_dofs()], mv: vec![0.0; model.n_dofs()], rates: vec![0.0; model.n_constraints()] }
+    }
+
+    fn kinetic(&mut self, it: &Integrator, s: &State) -> f64 {
+        it.newton.asm.mass_times(&s.v, &mut self.mv);
+        0.5 * dot(&s.v, &self.mv)
+    }
+
+    fn powers(&mut self, it: &Integrator, s: &State) -> Powers {
+        let asm = &it.newton.asm;
+        asm.constraint_rates(&s.v, &mut self.rates);
+        let drives = asm.model.rows.iter().zip(&self.rates).zip(&s.lambda).filter(|((row, _), _)| row.driven).map(|((_, rate), l)| -l * rate).sum();
+        asm.mass_times(&asm.gravity, &mut self.mv);
+        asm.external_forces(s.t, 1.0, &mut self.force);
+        self.force.iter_mut().zip(&self.mv).for_each(|(f, g)| *f += g);
+        Powers { drives, external: dot(&self.force, &s.v) }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}

@@ -1,0 +1,8 @@
+//! Physics and numerics of the engine, checked against analytic solutions, convergence
+//! orders and conservation laws.
+
+mod common;
+mod dynamics;
+mod sensitivity;
+mod statics;
+mod tangent;

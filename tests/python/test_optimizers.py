@@ -1,0 +1,257 @@
+"""Tests of flextop.optimize (CONLIN, MMA, GCMMA) on problems with known optima."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+try:
+    import flextop.optimize  # noqa: F401
+except ImportError:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
+
+from flextop.optimize import (
+    EvaluationError,
+    FunctionProblem,
+    OptimizerState,
+    Status,
+    optimize,
+)
+
+METHODS = ["mma", "gcmma", "conlin"]
+
+
+def reference_optimum(problem, x0):
+    """Independent optimum by scipy's SLSQP, to tight tolerance."""
+    result = minimize(
+        lambda x: problem.evaluate(x).f0, x0,
+        jac=lambda x: problem.evaluate(x).df0,
+        constraints=[{"type": "ineq",
+                      "fun": lambda x: -problem.evaluate(x).g,
+                      "jac": lambda x: -problem.evaluate(x).dg}],
+        bounds=list(zip(problem.lower, problem.upper)),
+        method="SLSQP", options={"ftol": 1e-14, "maxiter": 500})
+    assert result.success, result.message
+    return result.x, result.fun
+
+
+# -- Svanberg's five-segment cantilever beam ----------------------------------------------
+
+CANTILEVER_C = np.array([61.0, 37.0, 19.0, 7.0, 1.0])
+
+
+def cantilever():
+    """minimize 0.0624 sum x  s.t.  sum c_i / x_i^3 <= 1,  1 <= x <= 10."""
+    def objective(x):
+        return 0.0624 * x.sum(), np.full(5, 0.0624)
+
+    def constraint(x):
+        return [np.sum(CANTILEVER_C / x**3) - 1.0], [-3.0 * CANTILEVER_C / x**4]
+
+    return FunctionProblem(objective, constraint, np.ones(5), np.full(5, 10.0), m=1)
+
+
+@pytest.fixture(scope="module")
+def cantilever_optimum():
+    x, f = reference_optimum(cantilever(), np.full(5, 5.0))
+    # the optimum published by Svanberg (1987)
+    assert f == pytest.approx(1.33996, abs=1e-5)
+    assert x == pytest.approx([6.016, 5.309, 4.494, 3.502, 2.153], abs=1e-3)
+    return x, f
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_cantilever(method, cantilever_optimum):
+    x_star, f_star = cantilever_optimum
+    result = optimize(cantilever(), np.full(5, 5.0), method)
+    assert result.success, result.message
+    assert result.fun == pytest.approx(f_star, rel=1e-4)
+    assert result.x == pytest.approx(x_star, rel=1e-3)
+    assert result.constr[0] <= 1e-6
+    print(f"{method}: f = {result.fun:.7f} (f* = {f_star:.7f}), {result.nit} iterations, "
+          f"{result.nfev} evaluations, KKT {result.kkt:.2e}")
+
+
+# -- Svanberg's two-bar truss ---------------------------------------------------------------
+
+def two_bar_truss():
+    """Svanberg (1987): x1 = bar cross-section area, x2 = half span (scaled).
+
+    minimize    c1 x1 sqrt(1 + x2^2)
+    subject to  c2 sqrt(1 + x2^2) (8/x1 +- 1/(x1 x2)) <= 1   (stresses in the two bars)
+                0.2 <= x1 <= 4,  0.1 <= x2 <= 1.6
+    """
+    c1, c2 = 1.0, 0.124
+
+    def objective(x):
+        s = np.sqrt(1.0 + x[1] ** 2)
+        return c1 * x[0] * s, [c1 * s, c1 * x[0] * x[1] / s]
+
+    def constraints(x):
+        x1, x2 = x
+        s = np.sqrt(1.0 + x2**2)
+        g, dg = [], []
+        for sign in (1.0, -1.0):
+            h = 8.0 / x1 + sign / (x1 * x2)
+            g.append(c2 * s * h - 1.0)
+            dg.append([c2 * s * (-h / x1),
+                       c2 * (x2 / s * h - s * sign / (x1 * x2**2))])
+        return g, dg
+
+    return FunctionProblem(objective, constraints, [0.2, 0.1], [4.0, 1.6], m=2)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_two_bar_truss(method):
+    problem, x0 = two_bar_truss(), np.array([1.5, 0.5])
+    x_star, f_star = reference_optimum(problem, x0)
+    assert x_star == pytest.approx([1.41, 0.38], abs=0.01)  # published optimum
+    assert f_star == pytest.approx(1.51, abs=0.01)
+    result = optimize(problem, x0, method)
+    assert result.success, result.message
+    assert result.fun == pytest.approx(f_star, rel=1e-4)
+    assert result.x == pytest.approx(x_star, rel=1e-3)
+    print(f"{method}: f = {result.fun:.7f} (f* = {f_star:.7f}), {result.nit} iterations")
+
+
+# -- several active constraints: KKT residual -----------------------------------------------
+
+def quadratic_with_constraints(n=20):
+    """Weighted least squares toward a target, pulled into a box, a volume and a
+    compliance-like constraint, with a third (linear) constraint on the first half:
+
+        minimize    sum w_i (x_i - a_i)^2
+        subject to  sum x_i / n - 0.5 <= 0
+                    sum b_i / x_i / n - 1.65 <= 0
+                    sum_{i < n/2} x_i / n - 0.2 <= 0
+                    0.1 <= x <= 1
+    """
+    t = np.linspace(0.0, 1.0, n)
+    w, a, b = 1.0 + t, 0.9 - 0.3 * t, 0.5 + t**2
+    first = (np.arange(n) < n // 2).astype(float)
+
+    def objective(x):
+        return np.sum(w * (x - a) ** 2), 2.0 * w * (x - a)
+
+    def constraints(x):
+        g = [x.mean() - 0.5, np.sum(b / x) / n - 1.65, first @ x / n - 0.2]
+        dg = [np.full(n, 1.0 / n), -b / x**2 / n, first / n]
+        return g, dg
+
+    return FunctionProblem(objective, constraints, np.full(n, 0.1), np.ones(n), m=3)
+
+
+@pytest.fixture(scope="module")
+def quadratic_optimum():
+    return reference_optimum(quadratic_with_constraints(), np.full(20, 0.5))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_several_constraints_kkt(method, quadratic_optimum):
+    problem, x0 = quadratic_with_constraints(), np.full(20, 0.5)
+    x_star, f_star = quadratic_optimum
+    result = optimize(problem, x0, method, max_iter=300, xtol=0.0)
+    assert result.status == Status.KKT, result.message
+    assert result.kkt < 1e-5
+    assert (result.multipliers > 1.0).all()  # all three constraints active
+    assert result.fun == pytest.approx(f_star, rel=1e-6)
+    assert result.x == pytest.approx(x_star, abs=1e-4)
+    print(f"{method}: KKT {result.kkt:.2e} after {result.nit} iterations, "
+          f"multipliers {result.multipliers}")
+
+
+# -- failure recovery -----------------------------------------------------------------------
+
+class SimulationCrashed(EvaluationError):
+    """Stands in for a simulation error wrapped by the engine."""
+
+
+def test_failure_region_is_avoided():
+    """The analysis crashes for x1 > 5.5 (the optimum has x1 = 6.02): the
+    optimizer steps back, halves its move limit and ends near the crash border."""
+    inner = cantilever()
+
+    def objective(x):
+        if x[0] > 5.5:
+            raise SimulationCrashed(f"solver diverged at x1 = {x[0]:.3f}", x)
+        return inner.objective(x)
+
+    problem = FunctionProblem(objective, inner.constraints, inner.lower, inner.upper, m=1)
+    x0 = np.full(5, 5.0)
+    result = optimize(problem, x0, "mma")
+    assert "solver diverged" in result.message
+    assert result.state.failures >= 1
+    assert result.x[0] <= 5.5
+    assert result.constr[0] <= 1e-6
+    assert result.fun <= problem.evaluate(x0).f0
+    print(result.message, result.fun)
+
+
+def test_persistent_failure_returns_best_feasible():
+    """The analysis stops working for good after 6 evaluations."""
+    inner = cantilever()
+    calls = []
+
+    def objective(x):
+        calls.append(x.copy())
+        if len(calls) > 6:
+            raise SimulationCrashed("license server unreachable", x)
+        return inner.objective(x)
+
+    problem = FunctionProblem(objective, inner.constraints, inner.lower, inner.upper, m=1)
+    result = optimize(problem, np.full(5, 5.0), "gcmma")
+    assert result.status == Status.EVALUATION_FAILED and not result.success
+    assert "license server unreachable" in result.message
+    assert "best feasible" in result.message
+    assert result.state.consecutive_failures == 4  # max_retries = 3 retries after the first
+    assert len(calls) == 6 + 4
+    feasible = [x for x in calls[:6] if inner.evaluate(x).g[0] <= 1e-6]
+    best = min(feasible, key=lambda x: inner.evaluate(x).f0)
+    assert result.x == pytest.approx(best, abs=0.0)
+    assert result.constr[0] <= 1e-6
+    assert result.fun <= inner.evaluate(np.full(5, 5.0)).f0
+
+
+def test_failing_start_returns_result():
+    def objective(x):
+        raise SimulationCrashed("mesh is inverted", x)
+
+    problem = FunctionProblem(objective, None, [1.0], [2.0], m=0)
+    result = optimize(problem, [1.5])
+    assert result.status == Status.EVALUATION_FAILED and not result.success
+    assert "mesh is inverted" in result.message
+    assert result.nfev == 1 and np.isnan(result.fun)
+
+
+# -- resume from a checkpoint ---------------------------------------------------------------
+
+@pytest.mark.parametrize("method", METHODS)
+def test_resume_from_checkpoint_is_exact(method):
+    problem, x0 = quadratic_with_constraints(), np.full(20, 0.5)
+    options = {"max_iter": 25, "kkt_tol": 0.0, "xtol": 0.0}
+    full = optimize(problem, x0, method, **options)
+    assert full.nit == 25
+
+    checkpoints = {}
+
+    def checkpoint(record):
+        checkpoints[record.iteration] = json.dumps(record.state.to_dict())
+
+    first = optimize(problem, x0, method, callback=checkpoint, **{**options, "max_iter": 10})
+    assert first.nit == 10 and first.status == Status.MAX_ITER
+    state = OptimizerState.from_dict(json.loads(checkpoints[10]))
+    resumed = optimize(problem, None, method, state=state, **options)
+    assert resumed.nit == 25
+    np.testing.assert_allclose(resumed.x, full.x, rtol=0.0, atol=1e-12)
+    assert [r.f0 for r in resumed.history] == [r.f0 for r in full.history]
+    assert resumed.nfev == full.nfev
+
+
+def test_callback_can_stop():
+    result = optimize(cantilever(), np.full(5, 5.0), "mma", callback=lambda record: record.iteration == 3)
+    assert result.status == Status.CALLBACK and result.nit == 3
+    record = result.history[-1]
+    assert record.eval_time >= 0.0 and record.solve_time > 0.0

@@ -1,0 +1,154 @@
+"""Scene building: reference scenes, builder/TOML equivalence, and every kind of bad input
+raising its documented exception with the culprit named."""
+
+import math
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import DesignError, SceneError, SettingsError, SimulationError
+
+from conftest import EXAMPLES, cantilever
+
+
+def summary(sim: flextop.Simulation) -> dict:
+    bars = sim.bars
+    return {
+        "positions": np.asarray(sim.model.reference_positions),
+        "bar_nodes": np.asarray(bars["nodes"]),
+        "bar_variable": list(bars["variable"]),
+        "bar_component": list(bars["component"]),
+        "bar_volume": np.asarray(bars["volume"]),
+        "joints": sim.model.joints(),
+        "names": sim.node_names,
+        "analysis": sim.analysis,
+        "tip": sim.tip,
+    }
+
+
+@pytest.mark.parametrize("name", ["robot_arm", "static_truss"])
+def test_builders_and_example_files_give_the_same_model(name):
+    built = summary(flextop.Simulation(getattr(flextop.scenes, name)()))
+    loaded = summary(flextop.Simulation(EXAMPLES / f"{name}.toml"))
+    for key, value in built.items():
+        if isinstance(value, np.ndarray):
+            np.testing.assert_array_equal(value, loaded[key], err_msg=key)
+        else:
+            assert value == loaded[key], key
+
+
+def test_reference_robot_arm_dimensions():
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    assert sim.n_design == 148 and sim.components == ["link1", "link2"]
+    pos = np.asarray(sim.model.reference_positions)
+    tip = pos[sim.tip]
+    # Link 2's node (L, 0): L(cos θ1, sin θ1) + L(cos 2θ1, sin 2θ1) at θ1 = π/3.
+    np.testing.assert_allclose(tip, [math.cos(math.pi / 3) + math.cos(2 * math.pi / 3), math.sin(math.pi / 3) + math.sin(2 * math.pi / 3)], atol=1e-15)
+    volume = np.asarray(sim.bars["volume"])
+    assert volume.sum() / 2 == pytest.approx(math.pi * 0.01**2 * sum_of_bar_lengths(5, 3, 1.0, 0.1))
+
+
+def sum_of_bar_lengths(nx, ny, length, height):
+    pts = [(length * i / (nx - 1), height * (j / (ny - 1) - 0.5)) for i in range(nx) for j in range(ny)]
+    total = 0.0
+    for a in range(len(pts)):
+        for b in range(a + 1, len(pts)):
+            di, dj = abs(a // ny - b // ny), abs(a % ny - b % ny)
+            if math.gcd(di, dj) == 1:
+                total += math.dist(pts[a], pts[b])
+    return total
+
+
+def bad(mutate):
+    spec = flextop.scenes.robot_arm().to_dict()
+    mutate(spec)
+    return spec
+
+
+@pytest.mark.parametrize(
+    "mutate, culprit",
+    [
+        (lambda s: s["sections"]["aluminium"].update(modulus=1.0), "modulus"),
+        (lambda s: s["joints"][0]["drive"].update(sped=0.5), "sped"),
+        (lambda s: s["sections"]["aluminium"].update(E=-70e9), "sections.aluminium.E"),
+        (lambda s: s["sections"]["aluminium"].update(E=0.0), "sections.aluminium.E"),
+        (lambda s: s["sections"]["aluminium"].update(rho=float("nan")), "sections.aluminium.rho"),
+        (lambda s: s["point_masses"][0].update(mass=float("inf")), "point_masses[0].mass"),
+        (lambda s: s["joints"][0]["drive"].update(speed=-1.0), "joints[0].drive.speed"),
+        (lambda s: s["ground_structures"][0].update(height=0.0), "height"),
+        (lambda s: s["ground_structures"][1].update(name="link1"), "duplicate node name 'link1[0,0]'"),
+        (lambda s: s["point_masses"][0].update(node="link3[4,1]"), "unknown node 'link3[4,1]'"),
+        (lambda s: s["ground_structures"][1].update(origin=[0.5, 0.9]), "must coincide"),
+        (lambda s: s["joints"].append({"kind": "pin", "name": "again", "node": "link1[0,1]"}), "over-constrained"),
+        (lambda s: s["joints"].pop(1), "unconstrained"),
+        (lambda s: s["design"].update(x_min=0.0), "design.x_min"),
+        (lambda s: s["design"].update(p=float("nan")), "design.p"),
+        (lambda s: s["simulation"].update(rho_inf=1.5), "simulation.rho_inf"),
+    ],
+)
+def test_bad_scenes_raise_scene_error_naming_the_culprit(mutate, culprit):
+    with pytest.raises(SceneError, match=None) as info:
+        flextop.Simulation(bad(mutate))
+    assert culprit in str(info.value)
+    assert isinstance(info.value, ValueError)
+
+
+def test_zero_length_bar_is_rejected():
+    scene = flextop.Scene()
+    scene.section("s", E=1e9, nu=0.3, rho=1000.0, diameter=0.01)
+    scene.node("a", 1.0, 2.0)
+    scene.node("b", 1.0, 2.0)
+    scene.beam("a", "b", section="s")
+    scene.clamp("c", "a")
+    with pytest.raises(SceneError, match="zero-length bar: nodes 'a' and 'b' coincide"):
+        flextop.Simulation(scene)
+
+
+def test_static_mechanism_is_unconstrained():
+    spec = flextop.scenes.static_truss().to_dict()
+    spec["joints"][0]["kind"] = "pin"
+    with pytest.raises(SceneError, match="mechanism with 1 free rigid-body mode"):
+        flextop.Simulation(spec)
+
+
+def test_toml_syntax_and_unknown_table_errors(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text((EXAMPLES / "robot_arm.toml").read_text().replace("[design]", "[desing]"))
+    with pytest.raises(SceneError, match="desing"):
+        flextop.Simulation(path)
+
+
+@pytest.mark.parametrize(
+    "x, match",
+    [
+        (np.full(147, 0.4), "147 entries"),
+        (np.r_[np.full(147, 0.4), 1.5], r"x\[147\] \(link2/bar73\) = 1.5 is outside \[0.01, 1\]"),
+        (np.r_[0.005, np.full(147, 0.4)], r"x\[0\] \(link1/bar0\)"),
+        (np.r_[np.nan, np.full(147, 0.4)], r"x\[0\]"),
+    ],
+)
+def test_designs_outside_bounds_raise_design_error(arm, x, match):
+    with pytest.raises(DesignError, match=match):
+        arm.run(x)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"h": 0.0}, "h: step size must be positive"), ({"h": float("nan")}, "h:"), ({"rho_inf": -0.1}, "rho_inf"),
+     ({"t_end": -1.0}, "t_end"), ({"tol": 2.0}, "tol"), ({"mass": "diagonal"}, "mass")],
+)
+def test_bad_settings_raise_settings_error(arm, kwargs, match):
+    with pytest.raises(SettingsError, match=match):
+        arm.run(0.4, **kwargs)
+
+
+def test_missing_step_size_is_named():
+    sim = flextop.Simulation(cantilever())
+    with pytest.raises(SettingsError, match="t_end: not given"):
+        sim.run()
+
+
+def test_failed_newton_reports_time_residual_and_iterations(arm):
+    with pytest.raises(SimulationError, match=r"Newton did not converge at t = 0\.020000 s: residual .* after 1 iterations"):
+        arm.run(0.4, max_iter=1)

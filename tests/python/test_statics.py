@@ -1,0 +1,82 @@
+"""Statics against an independent exact linear Timoshenko frame solution."""
+
+import numpy as np
+import pytest
+
+import flextop
+
+from conftest import cantilever
+
+
+def timoshenko_frame_element(p1, p2, E, G, A, I, kappa):
+    """Global 6×6 stiffness of the exact (interdependent interpolation) Timoshenko frame
+    element: axial EA/L, bending with Φ = 12EI/(κGAL²) (Przemieniecki)."""
+    d = np.subtract(p2, p1)
+    L = np.hypot(*d)
+    c, s = d / L
+    phi = 12 * E * I / (kappa * G * A * L**2)
+    k = E * I / ((1 + phi) * L**3)
+    a = E * A / L
+    local = np.array([
+        [a, 0, 0, -a, 0, 0],
+        [0, 12 * k, 6 * L * k, 0, -12 * k, 6 * L * k],
+        [0, 6 * L * k, (4 + phi) * L**2 * k, 0, -6 * L * k, (2 - phi) * L**2 * k],
+        [-a, 0, 0, a, 0, 0],
+        [0, -12 * k, -6 * L * k, 0, 12 * k, -6 * L * k],
+        [0, 6 * L * k, (2 - phi) * L**2 * k, 0, -6 * L * k, (4 + phi) * L**2 * k],
+    ])
+    r = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    t = np.kron(np.eye(2), r)
+    return t.T @ local @ t
+
+
+def linear_frame_tip_deflection(sim, x, p, force, clamp, load_node):
+    """Direct stiffness method on the bars of ``sim`` (one element each), SIMP-scaled."""
+    E, nu, d = 70e9, 0.32, 0.02
+    G, A, I = E / (2 * (1 + nu)), np.pi * d**2 / 4, np.pi * d**4 / 64
+    kappa = 6 * (1 + nu) / (7 + 6 * nu)
+    pos = np.asarray(sim.model.reference_positions)
+    n = 3 * len(pos)
+    K = np.zeros((n, n))
+    bars = sim.bars
+    for (a, b), v in zip(np.asarray(bars["nodes"], dtype=int), bars["variable"]):
+        dofs = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2]
+        K[np.ix_(dofs, dofs)] += x[v] ** p * timoshenko_frame_element(pos[a], pos[b], E, G, A, I, kappa)
+    f = np.zeros(n)
+    f[3 * load_node:3 * load_node + 2] = force
+    free = np.setdiff1d(np.arange(n), [3 * clamp, 3 * clamp + 1, 3 * clamp + 2])
+    u = np.zeros(n)
+    u[free] = np.linalg.solve(K[np.ix_(free, free)], f[free])
+    return u[3 * load_node:3 * load_node + 3]
+
+
+def test_static_truss_one_element_per_bar_is_converged_and_exact():
+    x = np.random.default_rng(7).uniform(0.2, 1.0, 74)
+    force = (0.0, -1.0)  # small load: the linear regime
+    tips = {}
+    for split in (1, 16):
+        sim = flextop.Simulation(flextop.scenes.static_truss(split=split, force=force))
+        tips[split] = sim.run(x).displacement("truss[4,1]")
+    sim1 = flextop.Simulation(flextop.scenes.static_truss(force=force))
+    exact = linear_frame_tip_deflection(sim1, x, 3.0, force, sim1.node("truss[0,1]"), sim1.node("truss[4,1]"))
+    assert abs(tips[1][1] / tips[16][1] - 1) < 0.02, "m = 1 within 2 % of the refined deflection"
+    assert abs(tips[16][1] / exact[1] - 1) < 1e-3, (tips[16], exact)
+    assert abs(tips[1][2] / exact[2] - 1) < 1e-3, "rotation too"
+
+
+def test_reference_truss_deflection_at_uniform_density():
+    sim = flextop.Simulation(flextop.scenes.static_truss())
+    tip = sim.run(0.4).displacement("truss[4,1]")
+    exact = linear_frame_tip_deflection(sim, np.full(sim.n_design, 0.4), 3.0, (0.0, -100.0), sim.node("truss[0,1]"), sim.node("truss[4,1]"))
+    assert tip[1] == pytest.approx(exact[1], rel=1e-3)
+    assert tip[1] < 0
+
+
+def test_load_stepping_reaches_large_rotations():
+    scene = cantilever(1.0, 16, analysis="static")
+    ei = 70e9 * np.pi * 0.02**4 / 64
+    scene.load("tip", moment=np.pi * ei)  # half circle
+    sim = flextop.Simulation(scene)
+    res = sim.run(load_steps=8)
+    assert res.displacement("tip")[2] == pytest.approx(np.pi, rel=1e-9)
+    assert res.positions[sim.node("tip")] == pytest.approx([0.0, 2 / np.pi], abs=2e-3)
