@@ -16,6 +16,7 @@ use crate::model::{Analysis, Model};
 use crate::options::RunOptions;
 use crate::rigid::Clusters;
 use crate::scene::{self, SceneSpec};
+use crate::sensitivity::{self, parse_responses, Method};
 use crate::simulation::simulate;
 use crate::statics::solve_static;
 
@@ -247,6 +248,60 @@ impl PyModel {
         Ok(d)
     }
 
+    /// Responses and their gradients: `(values (n_r,), gradients (n_r, n_x), method)`.
+    #[pyo3(signature = (x, responses, *, method="auto", t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None, load_steps=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn run_with_sensitivities<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray1<'py, f64>,
+        responses: Vec<String>,
+        method: &str,
+        t_end: Option<f64>,
+        h: Option<f64>,
+        rho_inf: Option<f64>,
+        tol: Option<f64>,
+        max_iter: Option<usize>,
+        mass: Option<&str>,
+        load_steps: Option<usize>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str)> {
+        let method = match method {
+            "auto" => Method::Auto,
+            "direct" => Method::Direct,
+            "adjoint" => Method::Adjoint,
+            other => return Err(Error::Settings(SettingsError::new("method", format!("must be 'auto', 'direct' or 'adjoint', got '{other}'"))).into()),
+        };
+        let model = Arc::clone(&self.model);
+        let parsed = parse_responses(&model, &responses).map_err(Error::from)?;
+        let options = RunOptions { t_end, h, rho_inf, tol, max_iter, mass: parse_mass(mass)?, load_steps };
+        let x = x.as_slice()?.to_vec();
+        let result = match model.analysis {
+            Analysis::Dynamic => {
+                let settings = options.dynamic(&model.defaults).map_err(Error::from)?;
+                py.detach(move || sensitivity::dynamic(&model, &x, &settings, &parsed, method))?
+            }
+            Analysis::Static => {
+                let settings = options.statics(&model.defaults).map_err(Error::from)?;
+                py.detach(move || sensitivity::equilibrium(&model, &x, &settings, &parsed, method))?
+            }
+        };
+        let n_x = self.model.n_variables();
+        let used = if result.method == Method::Direct { "direct" } else { "adjoint" };
+        Ok((PyArray1::from_vec(py, result.values).into_any(), matrix(py, result.gradients, n_x)?, used))
+    }
+
+    /// Values of `responses` on recorded coordinates `u` (shape `(n_states, n_dofs)`, steps
+    /// of `h`) for design `x`.
+    #[pyo3(signature = (x, u, h, responses))]
+    fn evaluate_responses<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: numpy::PyReadonlyArray2<'py, f64>, h: f64, responses: Vec<String>) -> PyResult<Bound<'py, PyAny>> {
+        let parsed = parse_responses(&self.model, &responses).map_err(Error::from)?;
+        let u = u.as_slice()?.to_vec();
+        let x = design_vector(x)?;
+        let model = Arc::clone(&self.model);
+        let values = py.detach(move || sensitivity::evaluate(&model, x.as_deref(), &u, h, &parsed))?;
+        Ok(PyArray1::from_vec(py, values).into_any())
+    }
+
     /// Mass `M`, tangent stiffness `K_t(u)` and constraint Jacobian `Φ_q` as CSC triplets
     /// `(data, indices, indptr, shape)` for `scipy.sparse.csc_matrix`.
     #[pyo3(signature = (x=None, u=None, *, mass=None))]
@@ -288,6 +343,20 @@ impl PyModel {
         asm.start_iteration_matrix(0.0, 1.0, &mut values);
         d.set_item("G", (block(&values, n..n + n_c, 0..n), (n_c, n)))?;
         Ok(d)
+    }
+
+    /// Positions of every node at `times` when every frame is rigid, shape
+    /// `(len, n_nodes, 2)`.
+    fn rigid_positions<'py>(&self, py: Python<'py>, times: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+        let model = Arc::clone(&self.model);
+        let (len, n) = (times.len(), model.nodes.len());
+        let flat = py
+            .detach(move || -> Result<Vec<f64>, Error> {
+                let clusters = Clusters::of(&model);
+                let motion = clusters.rigid_motion(&model, &times)?;
+                Ok(motion.iter().flat_map(|rho| (0..model.nodes.len()).flat_map(|k| clusters.position(&model, rho, k)).collect::<Vec<_>>()).collect())
+            })?;
+        Ok(PyArray1::from_vec(py, flat).reshape([len, n, 2])?.into_any())
     }
 
     /// Position of `node` at `times` when every frame is rigid, shape `(len, 2)`.

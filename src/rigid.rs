@@ -127,11 +127,12 @@ impl Clusters {
         (0..self.len()).filter(|&c| !grounded[c]).collect()
     }
 
-    /// Positions of `node` when every cluster is rigid, at each time of `times`.
+    /// Cluster coordinates `ρ(t)` when every cluster is rigid and the drives follow their
+    /// laws, at each time of `times` (Newton from the previous time's solution).
     ///
     /// # Errors
     /// [`SolveError::Kinematics`] when the mechanism is not fully driven or Newton fails.
-    pub fn rigid_trajectory(&self, model: &Model, node: usize, times: &[f64]) -> Result<Vec<[f64; 2]>, SolveError> {
+    pub fn rigid_motion(&self, model: &Model, times: &[f64]) -> Result<Vec<DVector<f64>>, SolveError> {
         let n = 3 * self.len();
         let mut rho = DVector::zeros(n);
         let mut out = Vec::with_capacity(times.len());
@@ -155,15 +156,25 @@ impl Clusters {
                         n - r
                     )));
                 }
-                let step = svd.solve(&phi, 1e-12).map_err(|e| fail(e.to_string()))?;
-                rho -= step;
+                rho -= svd.solve(&phi, 1e-12).map_err(|e| fail(e.to_string()))?;
             }
-            let (x, _) = self.dof_map(model, &rho, 3 * node);
-            let (y, _) = self.dof_map(model, &rho, 3 * node + 1);
-            let p = model.nodes[node].position;
-            out.push([p.x + x, p.y + y]);
+            out.push(rho.clone());
         }
         Ok(out)
+    }
+
+    /// Position of `node` for cluster coordinates `rho`.
+    pub fn position(&self, model: &Model, rho: &DVector<f64>, node: usize) -> [f64; 2] {
+        let p = model.nodes[node].position;
+        [p.x + self.dof_map(model, rho, 3 * node).0, p.y + self.dof_map(model, rho, 3 * node + 1).0]
+    }
+
+    /// Positions of `node` when every cluster is rigid, at each time of `times`.
+    ///
+    /// # Errors
+    /// As [`Clusters::rigid_motion`].
+    pub fn rigid_trajectory(&self, model: &Model, node: usize, times: &[f64]) -> Result<Vec<[f64; 2]>, SolveError> {
+        Ok(self.rigid_motion(model, times)?.iter().map(|rho| self.position(model, rho, node)).collect())
     }
 }
 

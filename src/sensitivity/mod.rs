@@ -157,6 +157,9 @@ pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>,
 /// Design, settings and solve errors.
 pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
     settings.validate()?;
+    if let Some(explicit) = explicit_only(model, x, responses)? {
+        return Ok(explicit);
+    }
     match resolve(method, responses, model) {
         Method::Direct => direct::run(model, x, settings, responses),
         _ => adjoint::run(model, x, settings, responses),
@@ -169,7 +172,59 @@ pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Respo
 /// Design, settings and solve errors.
 pub fn equilibrium(model: &Model, x: &[f64], settings: &StaticSettings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
     settings.validate()?;
+    if let Some(explicit) = explicit_only(model, x, responses)? {
+        return Ok(explicit);
+    }
     statics::run(model, x, settings, responses, resolve(method, responses, model))
+}
+
+/// Values of `responses` on recorded states `u` (row-major, one row of `n_q` per state, at
+/// steps of `h`; one row for a static scene) for design `x` (`None`: full density).
+///
+/// # Errors
+/// Design errors; kinematics errors of the rigid trajectory.
+pub fn evaluate(model: &Model, x: Option<&[f64]>, u: &[f64], h: f64, responses: &[Response]) -> Result<Vec<f64>, Error> {
+    let n_q = model.n_dofs();
+    let states = u.len() / n_q;
+    if states == 0 || states * n_q != u.len() {
+        return Err(SettingsError::new("u", format!("needs rows of {n_q} coordinates, got {} values", u.len())).into());
+    }
+    let densities = model.densities(x)?;
+    let mut load = vec![0.0; n_q];
+    if model.analysis == Analysis::Static {
+        let asm = Assembler::new(model, densities.clone(), MassKind::Consistent);
+        let mut gravity = vec![0.0; n_q];
+        asm.external_forces(model.defaults.t_end.unwrap_or(0.0), 1.0, &mut load);
+        asm.mass_times(&asm.gravity, &mut gravity);
+        load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
+    }
+    let ctx = Context { model, densities: &densities, static_load: &load, mass_kind: MassKind::Consistent };
+    let objectives = Objectives::new(model, responses, states - 1, h)?;
+    let mut values = vec![0.0; responses.len()];
+    for (n, q) in u.chunks(n_q).enumerate() {
+        objectives.add_values(&ctx, n, q, &mut values);
+    }
+    Ok(values)
+}
+
+/// Responses that are explicit in `x` (volumes) need no simulation.
+fn explicit_only(model: &Model, x: &[f64], responses: &[Response]) -> Result<Option<Sensitivities>, Error> {
+    if responses.iter().any(Response::depends_on_states) {
+        return Ok(None);
+    }
+    let densities = model.densities(Some(x))?;
+    let ctx = Context { model, densities: &densities, static_load: &[], mass_kind: MassKind::Consistent };
+    let objectives = Objectives::new(model, responses, 0, 0.0)?;
+    let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+    let q = vec![0.0; n_q];
+    let mut values = vec![0.0; responses.len()];
+    objectives.add_values(&ctx, 0, &q, &mut values);
+    let mut gradients = vec![0.0; responses.len() * n_x];
+    let mut g_q = vec![0.0; n_q];
+    for (k, row) in gradients.chunks_mut(n_x).enumerate() {
+        objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
+    }
+    Ok(Some(Sensitivities { values, gradients, method: Method::Direct }))
 }
 
 fn resolve(method: Method, responses: &[Response], model: &Model) -> Method {

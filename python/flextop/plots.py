@@ -1,0 +1,264 @@
+"""Figures of topology optimization: density maps, convergence histories, tip errors and
+animations of the moving mechanism.
+
+Every function builds its own :class:`matplotlib.figure.Figure` (no pyplot state, so it
+is safe headless and from threads), returns it, and writes a PNG at 150 dpi when given a
+``path``. Bars are always drawn as the straight segment between their end nodes, whatever
+their ``split``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any, Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib.animation import PillowWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Colormap, Normalize
+from matplotlib.figure import Figure
+
+from .simulation import Results, Simulation
+
+__all__ = ["animate", "bar_densities", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
+
+#: Colormap of the density maps: light for x_min, dark for full density.
+DEFAULT_CMAP = "viridis_r"
+#: Line widths (points) of a bar at density x_min and at full density.
+WIDTHS = (0.3, 3.5)
+#: Opacity of bars drawn below ``min_density``.
+FAINT_ALPHA = 0.15
+DPI = 150
+
+
+def bar_densities(sim: Simulation, x: Any = None) -> np.ndarray:
+    """Density of every bar for design ``x`` (one value per design variable, a scalar, or
+    ``None`` for full density); fixed bars (variable −1) are at density 1."""
+    variable = np.asarray(sim.bars["variable"], dtype=int)
+    if x is None:
+        return np.ones(variable.size)
+    xv = np.asarray(x, dtype=float)
+    if xv.ndim == 0:
+        xv = np.full(sim.n_design, float(xv))
+    if xv.shape != (sim.n_design,):
+        raise ValueError(f"design has shape {xv.shape}; expected ({sim.n_design},)")
+    return np.where(variable >= 0, xv[np.maximum(variable, 0)], 1.0)
+
+
+def _bar_style(sim: Simulation, x: Any, cmap: str | Colormap, min_density: float | None,
+               widths: tuple[float, float] = WIDTHS) -> tuple[np.ndarray, np.ndarray, ScalarMappable]:
+    """Line widths (linear in density from ``widths[0]`` at x_min to ``widths[1]`` at 1)
+    and RGBA colours (``cmap`` over [x_min, 1], faint below ``min_density``) of every bar,
+    and the mappable for a colorbar."""
+    rho = bar_densities(sim, x)
+    colormap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+    mappable = ScalarMappable(Normalize(vmin=sim.x_min, vmax=1.0), colormap)
+    t = np.clip(mappable.norm(rho), 0.0, 1.0)
+    lw = widths[0] + (widths[1] - widths[0]) * t
+    colors = mappable.to_rgba(rho)
+    if min_density is not None:
+        colors[rho < min_density, 3] = FAINT_ALPHA
+    return lw, colors, mappable
+
+
+def _segments(sim: Simulation, positions: np.ndarray) -> np.ndarray:
+    """Bar segments ``(n_bars, 2, 2)``: the positions of each bar's two end nodes."""
+    return np.asarray(positions)[np.asarray(sim.bars["nodes"], dtype=int)]
+
+
+def _save(fig: Figure, path: str | os.PathLike | None) -> Figure:
+    if path is not None:
+        fig.savefig(path, dpi=DPI)
+    return fig
+
+
+def _new_figure(**kwargs: Any) -> Figure:
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _design_layout(positions: np.ndarray) -> tuple[tuple[float, float], str]:
+    """Figure size (in) fitting the structure's bounding box, and where the colorbar goes:
+    below a wide structure, right of a tall one."""
+    width, height = np.ptp(positions, axis=0) + 1e-12
+    aspect = float(np.clip(height / width, 0.1, 4.0))
+    if aspect <= 0.5:
+        return (8.0, 6.5 * aspect + 1.8), "bottom"
+    if aspect <= 1.0:
+        return (8.0, 6.5 * aspect + 1.2), "right"
+    return (6.0 / aspect + 2.0, 7.0), "right"
+
+
+def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None, ax: Any = None,
+                title: str | None = None, path: str | os.PathLike | None = None,
+                min_density: float | None = None, cmap: str | Colormap = DEFAULT_CMAP) -> Figure:
+    """Density map of design ``x`` (paper Figs. 4, 7, 8).
+
+    Each bar is a straight line between its end nodes, at ``positions`` (``(n_nodes, 2)``,
+    the reference configuration by default), whose width grows linearly with its density
+    and whose colour follows ``cmap`` from ``sim.x_min`` to 1; a colorbar labelled
+    "Density" gives the scale. Fixed bars are drawn at density 1; bars below
+    ``min_density`` (if given) are drawn faint. Equal aspect, axes in metres. Draws into
+    ``ax`` if given, else into a new figure.
+    """
+    positions = sim.model.reference_positions if positions is None else np.asarray(positions)
+    figsize, location = _design_layout(positions)
+    if ax is None:
+        fig = _new_figure(figsize=figsize, layout="constrained")
+        ax = fig.add_subplot()
+    else:
+        fig = ax.figure
+    lw, colors, mappable = _bar_style(sim, x, cmap, min_density)
+    ax.add_collection(LineCollection(_segments(sim, positions), linewidths=lw, colors=colors, capstyle="round"))
+    ax.margins(0.05)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    if title is not None:
+        ax.set_title(title)
+    fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8,
+                 aspect=30 if location == "bottom" else 20)
+    return _save(fig, path)
+
+
+def _field(record: Any, name: str) -> Any:
+    return record[name] if isinstance(record, Mapping) else getattr(record, name)
+
+
+def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = None, objective_label: str = "objective",
+                 constraint_labels: Sequence[str] | None = None) -> Figure:
+    """Convergence history of an optimization.
+
+    ``history`` holds one record per iteration (objects or dicts with ``iteration``,
+    ``f0``, ``g`` and ``change``). Top panel: the objective against the iteration. Bottom
+    panel: every constraint value (feasible when ≤ 0, the dotted zero line) and, on a log
+    twin axis, the maximum design change.
+    """
+    if len(history) == 0:
+        raise ValueError("empty history")
+    it = np.array([_field(r, "iteration") for r in history], dtype=float)
+    f0 = np.array([_field(r, "f0") for r in history], dtype=float)
+    g = np.array([np.atleast_1d(np.asarray(_field(r, "g"), dtype=float)) for r in history])
+    change = np.array([_field(r, "change") for r in history], dtype=float)
+    labels = list(constraint_labels) if constraint_labels is not None else [f"g{j + 1}" for j in range(g.shape[1])]
+    if len(labels) != g.shape[1]:
+        raise ValueError(f"{len(labels)} constraint labels for {g.shape[1]} constraints")
+
+    fig = _new_figure(figsize=(7.0, 6.0), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    top.plot(it, f0, "o-", color="C0", label=objective_label)
+    top.set_ylabel(objective_label)
+    top.grid(True, alpha=0.3)
+
+    for j, label in enumerate(labels):
+        bottom.plot(it, g[:, j], "o-", color=f"C{j + 1}", label=label)
+    bottom.axhline(0.0, color="k", lw=0.8, ls=":")
+    bottom.set_ylabel("constraints (feasible ≤ 0)")
+    bottom.set_xlabel("iteration")
+    bottom.grid(True, alpha=0.3)
+    twin = bottom.twinx()
+    twin.plot(it, change, "s--", color="0.4", ms=3, label="design change")
+    twin.set_yscale("log", nonpositive="mask")
+    twin.set_ylabel("max design change")
+    handles = bottom.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
+    bottom.legend(handles=handles, loc="best", fontsize="small")
+    return _save(fig, path)
+
+
+def plot_tip_error(before: Results, after: Results | None = None, *, node: int | str | None = None,
+                   path: str | os.PathLike | None = None,
+                   labels: Sequence[str] = ("before optimization", "after optimization")) -> Figure:
+    """Tip error against time (paper Fig. 9).
+
+    For ``before`` (and ``after``, in a second panel side by side with a shared y axis):
+    error-x and error-y (m) of ``node`` (the scene's tip by default) from its rigid
+    trajectory; each title gives the mean squared tip deflection.
+    """
+    runs = [before] if after is None else [before, after]
+    fig = _new_figure(figsize=(5.0 * len(runs), 4.0), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(runs), sharey=True))
+    for ax, res, label in zip(axes, runs, labels):
+        error = res.tip_error(node)
+        ax.plot(res.time, error[:, 0], label="error-x")
+        ax.plot(res.time, error[:, 1], label="error-y")
+        ax.set_title(f"{label}\nd = {res.tip_deflection(node):.3g} m²")
+        ax.set_xlabel("time (s)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize="small")
+    axes[0].set_ylabel("deflection (m)")
+    return _save(fig, path)
+
+
+def magnified_positions(results: Results, magnify: float) -> np.ndarray:
+    """Drawn node positions ``rigid + magnify × (actual − rigid)``, shape
+    ``(n_times, n_nodes, 2)``, where ``rigid`` are the positions of the rigid mechanism
+    following the same drives at the same times."""
+    rigid = results.simulation.rigid_positions(results.time)
+    return rigid + magnify * (results.positions - rigid)
+
+
+def _frame_indices(n_times: int, every: int) -> np.ndarray:
+    """Every ``every``-th step, always ending on the last one."""
+    if every < 1:
+        raise ValueError("every must be >= 1")
+    indices = np.arange(0, n_times, every)
+    return indices if indices[-1] == n_times - 1 else np.append(indices, n_times - 1)
+
+
+def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0, fps: float = 20, x: Any = None,
+            every: int = 1) -> str | os.PathLike:
+    """Writes an animated GIF of the moving mechanism and returns ``path``.
+
+    One frame per ``every``-th time step (and the last): the bars between the
+    :func:`magnified_positions` of their end nodes (elastic deflection × ``magnify``),
+    coloured and sized by density ``x`` if given (with a colorbar), the scene's tip and a
+    faint trace of its rigid path, and the time. 5 × 5 in at 80 dpi.
+    """
+    if not isinstance(results, Results):
+        raise TypeError("animate needs the Results of a dynamic run")
+    sim = results.simulation
+    drawn = magnified_positions(results, magnify)
+    frames = _frame_indices(len(results.time), every)
+
+    fig = _new_figure(figsize=(5.0, 5.0), dpi=80, layout="constrained")
+    ax = fig.add_subplot()
+    if x is None:
+        lines = LineCollection(_segments(sim, drawn[0]), linewidths=1.5, colors="0.2", capstyle="round")
+    else:
+        lw, colors, mappable = _bar_style(sim, x, DEFAULT_CMAP, None, widths=(0.4, 4.0))
+        lines = LineCollection(_segments(sim, drawn[0]), linewidths=lw, colors=colors, capstyle="round")
+        fig.colorbar(mappable, ax=ax, label="Density", shrink=0.7)
+    ax.add_collection(lines)
+    points = [drawn[frames].reshape(-1, 2)]
+    tip = None
+    if sim.tip is not None:
+        rigid_tip = sim.rigid_trajectory(sim.tip, results.time)
+        ax.plot(rigid_tip[:, 0], rigid_tip[:, 1], color="0.6", lw=1.0, alpha=0.5)
+        (tip,) = ax.plot(*drawn[0, sim.tip], "o", color="C3", ms=4)
+        points.append(rigid_tip)
+    lo, hi = np.min(np.vstack(points), axis=0), np.max(np.vstack(points), axis=0)
+    pad = 0.05 * np.max(hi - lo)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"deflection × {magnify:g}")
+    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top")
+
+    fig.canvas.draw()
+    fig.set_layout_engine("none")  # the layout does not change between frames
+    writer = PillowWriter(fps=fps)
+    with writer.saving(fig, path, dpi=80):
+        for k in frames:
+            lines.set_segments(_segments(sim, drawn[k]))
+            if tip is not None:
+                tip.set_data([drawn[k, sim.tip, 0]], [drawn[k, sim.tip, 1]])
+            label.set_text(f"t = {results.time[k]:.3f} s")
+            writer.grab_frame()
+    return path

@@ -1,0 +1,184 @@
+"""Figures: density maps encode density in line width and colour, histories and tip errors
+plot exactly the data given, animations have the right frames and magnification."""
+
+from types import SimpleNamespace
+
+import matplotlib
+import numpy as np
+import pytest
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from PIL import Image
+
+import flextop
+from flextop import plots
+
+
+@pytest.fixture(scope="module")
+def short_runs(arm):
+    """Full-density and x = 0.4 runs of the robot arm over 0.5 s (11 steps)."""
+    return arm.run(1.0, h=0.05, t_end=0.5), arm.run(0.4, h=0.05, t_end=0.5)
+
+
+def two_bar_sim() -> flextop.Simulation:
+    """A fixed bar split in 3 elements (interior nodes 3, 4) and one design bar."""
+    scene = flextop.Scene("two_bars", analysis="static")
+    scene.section("al", E=70e9, nu=0.32, rho=2700.0, diameter=0.02)
+    scene.node("a", 0.0, 0.0)
+    scene.node("b", 1.0, 0.0)
+    scene.node("c", 1.0, 1.0)
+    scene.beam("a", "b", section="al", split=3, fixed=True, name="fixed")
+    scene.beam("b", "c", section="al", name="free")
+    scene.clamp("base", "a")
+    return flextop.Simulation(scene)
+
+
+# -- plot_design --------------------------------------------------------------------------
+
+
+def test_design_width_and_colour_follow_density(arm):
+    x = np.random.default_rng(1).permutation(np.linspace(arm.x_min, 1.0, arm.n_design))
+    fig = plots.plot_design(arm, x)
+    lines = fig.axes[0].collections[0]
+    rho = x[np.asarray(arm.bars["variable"])]
+    widths = np.asarray(lines.get_linewidths())
+    assert widths.shape == rho.shape
+    order = np.argsort(rho)
+    assert np.all(np.diff(widths[order]) > 0), "a denser bar must be drawn wider"
+    assert widths[order[-1]] / widths[order[0]] > 5
+
+    cmap, norm = matplotlib.colormaps[plots.DEFAULT_CMAP], Normalize(arm.x_min, 1.0)
+    colors = lines.get_colors()
+    np.testing.assert_allclose(colors[order[0]], cmap(0.0))   # x_min: the colormap's low end
+    np.testing.assert_allclose(colors[order[-1]], cmap(1.0))  # full density: its high end
+    np.testing.assert_allclose(colors, cmap(norm(rho)))
+    colorbar = fig.axes[1]
+    assert colorbar.get_ylabel() == "Density"
+    np.testing.assert_allclose(colorbar.get_ylim(), (arm.x_min, 1.0))
+    assert fig.axes[0].get_aspect() == 1.0
+
+
+def test_design_draws_bars_between_end_nodes_fixed_at_full_density():
+    sim = two_bar_sim()
+    fig = plots.plot_design(sim, [sim.x_min], min_density=0.5)
+    lines = fig.axes[0].collections[0]
+    ref = sim.model.reference_positions
+    # one straight segment per bar (the split bar's interior nodes are skipped)
+    np.testing.assert_allclose(lines.get_segments(), [ref[[0, 1]], ref[[1, 2]]])
+    widths, colors = np.asarray(lines.get_linewidths()), lines.get_colors()
+    cmap = matplotlib.colormaps[plots.DEFAULT_CMAP]
+    assert widths[0] == pytest.approx(plots.WIDTHS[1]) and widths[1] == pytest.approx(plots.WIDTHS[0])
+    np.testing.assert_allclose(colors[0], cmap(1.0))  # fixed bar: density 1, opaque
+    assert colors[1][3] == pytest.approx(plots.FAINT_ALPHA)  # below min_density: faint
+    with pytest.raises(ValueError, match="shape"):
+        plots.plot_design(sim, [0.5, 0.5])
+
+
+def test_design_png_written_at_150_dpi(arm, tmp_path):
+    path = tmp_path / "design.png"
+    fig = plots.plot_design(arm, 0.5, path=path, title="x = 0.5")
+    with Image.open(path) as image:
+        assert image.format == "PNG"
+        assert image.size == tuple(np.round(fig.get_size_inches() * 150).astype(int))
+        image.verify()
+
+    own = Figure(figsize=(4, 3))
+    ax = own.add_subplot()
+    assert plots.plot_design(arm, 0.5, ax=ax, path=tmp_path / "own.png") is own
+    assert ax.get_title() == ""
+    with Image.open(tmp_path / "own.png") as image:
+        assert image.size == (600, 450)
+
+
+# -- plot_history -------------------------------------------------------------------------
+
+
+def history_dicts(n: int = 7) -> list[dict]:
+    return [{"iteration": k + 1, "f0": 2.0 / (k + 1), "g": [0.3 - 0.1 * k, -0.2], "change": 0.5 ** k}
+            for k in range(n)]
+
+
+@pytest.mark.parametrize("kind", ["records", "dicts"])
+def test_history_plots_one_point_per_iteration(kind):
+    history = history_dicts()
+    if kind == "records":
+        history = [SimpleNamespace(**h, kkt=0.0) for h in history]
+    fig = plots.plot_history(history, objective_label="tip deflection", constraint_labels=["V1", "V2"])
+    top, bottom, twin = fig.axes
+    (objective,) = top.get_lines()
+    np.testing.assert_array_equal(objective.get_xdata(), np.arange(1, 8))
+    np.testing.assert_allclose(objective.get_ydata(), [2.0 / (k + 1) for k in range(7)])
+    assert top.get_ylabel() == "tip deflection"
+    constraints = {line.get_label(): line for line in bottom.get_lines() if line.get_label() in ("V1", "V2")}
+    assert len(constraints["V1"].get_xdata()) == len(history) == len(constraints["V2"].get_xdata())
+    np.testing.assert_allclose(constraints["V1"].get_ydata(), [0.3 - 0.1 * k for k in range(7)])
+    np.testing.assert_allclose(constraints["V2"].get_ydata(), -0.2)
+    (change,) = twin.get_lines()
+    np.testing.assert_allclose(change.get_ydata(), [0.5 ** k for k in range(7)])
+    assert twin.get_yscale() == "log"
+
+
+def test_history_rejects_bad_input():
+    with pytest.raises(ValueError, match="empty"):
+        plots.plot_history([])
+    with pytest.raises(ValueError, match="labels"):
+        plots.plot_history(history_dicts(), constraint_labels=["only one"])
+
+
+# -- plot_tip_error -----------------------------------------------------------------------
+
+
+def test_tip_error_plots_both_components(short_runs, tmp_path):
+    before, after = short_runs
+    fig = plots.plot_tip_error(before, after, path=tmp_path / "tip.png")
+    assert (tmp_path / "tip.png").stat().st_size > 0
+    assert len(fig.axes) == 2
+    assert fig.axes[0].get_shared_y_axes().joined(fig.axes[0], fig.axes[1])
+    for ax, res in zip(fig.axes, short_runs):
+        ex, ey = ax.get_lines()
+        assert (ex.get_label(), ey.get_label()) == ("error-x", "error-y")
+        np.testing.assert_array_equal(ex.get_xdata(), res.time)
+        np.testing.assert_array_equal(ex.get_ydata(), res.tip_error()[:, 0])
+        np.testing.assert_array_equal(ey.get_ydata(), res.tip_error()[:, 1])
+    assert fig.axes[0].get_title().startswith("before optimization")
+    assert np.abs(after.tip_error()).max() > np.abs(before.tip_error()).max()  # the two panels differ
+
+    (single,) = plots.plot_tip_error(before, labels=("full density",)).axes
+    assert single.get_title().startswith("full density")
+
+
+# -- animate ------------------------------------------------------------------------------
+
+
+def test_magnified_positions_scale_the_deflection(arm, short_runs):
+    res = short_runs[1]
+    rigid = arm.rigid_positions(res.time)
+    drawn = plots.magnified_positions(res, 10.0)
+    np.testing.assert_array_equal(drawn, rigid + 10.0 * (res.positions - rigid))
+    np.testing.assert_allclose(plots.magnified_positions(res, 1.0), res.positions, atol=1e-12)
+    np.testing.assert_allclose(plots.magnified_positions(res, 0.0), rigid, atol=0)
+    # the tip, through the independent tip_error path
+    tip_rigid = arm.rigid_trajectory(arm.tip, res.time)
+    np.testing.assert_allclose(drawn[:, arm.tip], tip_rigid + 10.0 * res.tip_error(), atol=1e-12)
+    assert np.abs(res.tip_error()).max() > 1e-4  # the arm really deflects
+
+
+def test_animate_writes_one_frame_per_step(arm, short_runs, tmp_path):
+    res = short_runs[1]
+    n = len(res.time)
+    assert n == 11
+    path = tmp_path / "arm.gif"
+    assert plots.animate(res, path, x=np.full(arm.n_design, 0.4), every=3) == path
+    with Image.open(path) as gif:
+        assert gif.format == "GIF"
+        assert gif.n_frames == 5  # steps 0, 3, 6, 9 and the last one, 10
+        assert gif.size == (400, 400)
+    plots.animate(res, tmp_path / "all.gif", magnify=50.0)
+    with Image.open(tmp_path / "all.gif") as gif:
+        assert gif.n_frames == n
+
+
+def test_animate_needs_a_dynamic_run(tmp_path):
+    static = flextop.Simulation(flextop.scenes.static_truss()).run(0.5)
+    with pytest.raises(TypeError, match="dynamic"):
+        plots.animate(static, tmp_path / "static.gif")
