@@ -248,7 +248,8 @@ impl PyModel {
         Ok(d)
     }
 
-    /// Responses and their gradients: `(values (n_r,), gradients (n_r, n_x), method)`.
+    /// Responses and their gradients: `(values (n_r,), gradients (n_r, n_x), method,
+    /// (simulation seconds, gradient seconds))`.
     #[pyo3(signature = (x, responses, *, method="auto", t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None, load_steps=None))]
     #[allow(clippy::too_many_arguments)]
     fn run_with_sensitivities<'py>(
@@ -264,7 +265,7 @@ impl PyModel {
         max_iter: Option<usize>,
         mass: Option<&str>,
         load_steps: Option<usize>,
-    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str)> {
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str, (f64, f64))> {
         let method = match method {
             "auto" => Method::Auto,
             "direct" => Method::Direct,
@@ -287,7 +288,8 @@ impl PyModel {
         };
         let n_x = self.model.n_variables();
         let used = if result.method == Method::Direct { "direct" } else { "adjoint" };
-        Ok((PyArray1::from_vec(py, result.values).into_any(), matrix(py, result.gradients, n_x)?, used))
+        let timings = (result.timings.simulation, result.timings.gradients);
+        Ok((PyArray1::from_vec(py, result.values).into_any(), matrix(py, result.gradients, n_x)?, used, timings))
     }
 
     /// Values of `responses` on recorded coordinates `u` (shape `(n_states, n_dofs)`, steps

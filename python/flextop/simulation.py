@@ -132,14 +132,17 @@ class Simulation:
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),
         ``"adjoint"`` (cost independent of it) or ``"auto"`` (adjoint when there are fewer
-        responses than variables). ``settings`` are those of :meth:`run`.
+        responses than variables). ``settings`` are those of :meth:`run`. Afterwards
+        ``last_method`` tells the method used and ``last_timings`` the seconds spent in the
+        simulation and in the sensitivity analysis.
         """
         names = [responses] if isinstance(responses, str) else list(responses)
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        f, dfdx, used = self.model.run_with_sensitivities(xv, names, method=method, **settings)
+        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method=method, **settings)
         self.last_method = used
+        self.last_timings = {"simulation": seconds[0], "gradients": seconds[1]}
         return f, dfdx
 
     def _design(self, x: Any) -> np.ndarray | None:

@@ -18,7 +18,9 @@
 
 use faer::dyn_stack::MemBuffer;
 
-use super::{Method, Objectives, PseudoLoads, Sensitivities};
+use std::time::Instant;
+
+use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{AlphaParameters, Integrator, Settings};
 use crate::linsolve::LuError;
@@ -36,6 +38,7 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let pseudo = PseudoLoads::new(model, settings.mass);
 
     // Forward sweep: values, and the states the backward sweep needs.
+    let clock = Instant::now();
     let mut state = it.initial_state()?;
     let mut values = vec![0.0; n_r];
     let (mut qs, mut accs) = (Vec::with_capacity(n_q * (last + 1)), Vec::with_capacity(n_q * (last + 1)));
@@ -53,6 +56,8 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
         accs.extend_from_slice(&state.acc);
     }
     let at = |v: &[f64], k: usize| v[k * n_q..(k + 1) * n_q].to_vec();
+    let simulation = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
 
     // Backward sweep, one column per response.
     let AlphaParameters { alpha_m, alpha_f, beta, gamma } = it.params;
@@ -121,5 +126,5 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     for k in 0..n_r {
         pseudo.subtract_transposed(&it.newton.asm, &q0, Some(&acc0), &rhs[k * n..k * n + n_q], &mut xb[k * n_x..(k + 1) * n_x]);
     }
-    Ok(Sensitivities { values, gradients: xb, method: Method::Adjoint })
+    Ok(Sensitivities { values, gradients: xb, method: Method::Adjoint, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
 }

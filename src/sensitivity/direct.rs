@@ -17,7 +17,9 @@
 use faer::dyn_stack::MemBuffer;
 use rayon::prelude::*;
 
-use super::{Method, Objectives, PseudoLoads, Sensitivities};
+use std::time::Instant;
+
+use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{AlphaParameters, Integrator, Settings};
 use crate::linsolve::LuError;
@@ -46,7 +48,11 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     // Sensitivity states, column-major n_q × n_x: q', q̇', q̈', a'.
     let (mut dq, mut dv, mut dacc, mut da) = (vec![0.0; n_q * n_x], vec![0.0; n_q * n_x], vec![0.0; n_q * n_x], vec![0.0; n_q * n_x]);
     let mut rhs = vec![0.0; n * n_x];
+    let mut timings = Timings::default();
+    let clock = Instant::now();
     let mut state = it.initial_state()?;
+    timings.simulation += clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     let singular = |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
 
     // t = 0: [M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0].
@@ -75,9 +81,13 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
         }
     };
     accumulate(&it, 0, &state.q, &dq);
+    timings.gradients += clock.elapsed().as_secs_f64();
 
     for step in 1..=last {
+        let clock = Instant::now();
         it.alpha_step(&mut state)?;
+        timings.simulation += clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
         it.newton.factorize_at(Some(&state.q), bp, it.newton.scale, state.t)?;
         let (asm, lu) = (&it.newton.asm, &it.newton.lu);
         let (q, acc) = (&state.q, &state.acc);
@@ -124,8 +134,9 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
             })
             .map_err(singular(state.t))?;
         accumulate(&it, step, &state.q, &dq);
+        timings.gradients += clock.elapsed().as_secs_f64();
     }
-    Ok(Sensitivities { values, gradients, method: Method::Direct })
+    Ok(Sensitivities { values, gradients, method: Method::Direct, timings })
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {

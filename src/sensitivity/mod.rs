@@ -47,6 +47,17 @@ pub struct Sensitivities {
     pub gradients: Vec<f64>,
     /// The method actually used.
     pub method: Method,
+    /// Wall time (s) of the simulation and of the sensitivity analysis.
+    pub timings: Timings,
+}
+
+/// Where the time of a run with gradients went.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Timings {
+    /// The simulation itself (forward sweep), s.
+    pub simulation: f64,
+    /// The sensitivity analysis (linear solves, pseudo-loads, backward sweep), s.
+    pub gradients: f64,
 }
 
 /// Responses with their weights and the rigid trajectories they need.
@@ -224,7 +235,7 @@ fn explicit_only(model: &Model, x: &[f64], responses: &[Response]) -> Result<Opt
     for (k, row) in gradients.chunks_mut(n_x).enumerate() {
         objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
     }
-    Ok(Some(Sensitivities { values, gradients, method: Method::Direct }))
+    Ok(Some(Sensitivities { values, gradients, method: Method::Direct, timings: Timings::default() }))
 }
 
 fn resolve(method: Method, responses: &[Response], model: &Model) -> Method {

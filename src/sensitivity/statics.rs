@@ -3,7 +3,9 @@
 //! `f' = G_x − (∂r/∂x)ᵀ μ` (adjoint, one column per response), with `K_t` the augmented
 //! stiffness at the equilibrium.
 
-use super::{Method, Objectives, PseudoLoads, Sensitivities};
+use std::time::Instant;
+
+use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::element::MassKind;
 use crate::error::{Error, SolveError};
 use crate::linsolve::LuError;
@@ -12,8 +14,11 @@ use crate::response::{Context, Response};
 use crate::statics::{equilibrium, static_newton, StaticSettings};
 
 pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
+    let clock = Instant::now();
     let mut newton = static_newton(model, model.densities(Some(x))?, settings);
     let sol = equilibrium(&mut newton, settings)?;
+    let simulation = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
     let n = n_q + model.n_constraints();
     newton.factorize_at(Some(&sol.q), 0.0, newton.scale, settings.time)?;
@@ -45,7 +50,7 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses
                     g_x[k * n_x + j] += g_q[k * n_q..(k + 1) * n_q].iter().zip(du).map(|(a, b)| a * b).sum::<f64>();
                 }
             }
-            Ok(Sensitivities { values, gradients: g_x, method })
+            Ok(Sensitivities { values, gradients: g_x, method, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
         }
         _ => {
             let mut rhs = vec![0.0; n * n_r];
@@ -57,7 +62,7 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses
             for k in 0..n_r {
                 pseudo.subtract_transposed(asm, &sol.q, None, &rhs[k * n..k * n + n_q], &mut g_x[k * n_x..(k + 1) * n_x]);
             }
-            Ok(Sensitivities { values, gradients: g_x, method: Method::Adjoint })
+            Ok(Sensitivities { values, gradients: g_x, method: Method::Adjoint, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
         }
     }
 }

@@ -1,19 +1,12 @@
-"""Tests of flextop.optimize (CONLIN, MMA, GCMMA) on problems with known optima."""
+"""Tests of flextop.optimizers (CONLIN, MMA, GCMMA) on problems with known optima."""
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-try:
-    import flextop.optimize  # noqa: F401
-except ImportError:
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
-
-from flextop.optimize import (
+from flextop.optimizers import (
     EvaluationError,
     FunctionProblem,
     OptimizerState,

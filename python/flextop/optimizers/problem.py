@@ -1,6 +1,6 @@
 """The optimization problem seen by the optimizers.
 
-All methods in :mod:`flextop.optimize` solve
+All methods in :mod:`flextop.optimizers` solve
 
     minimize    f0(x)
     subject to  g_j(x) <= 0,          j = 1..m

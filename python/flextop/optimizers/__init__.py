@@ -3,7 +3,7 @@
 Solve  minimize f0(x)  s.t.  g_j(x) <= 0 (j = 1..m),  lower <= x <= upper
 for many design variables and few constraints::
 
-    from flextop.optimize import FunctionProblem, optimize
+    from flextop.optimizers import FunctionProblem, optimize
     result = optimize(problem, x0, method="mma")   # or "gcmma", "conlin"
 
 Modules: :mod:`.problem` (problem interface), :mod:`.conlin` and :mod:`.mma`

@@ -1,0 +1,104 @@
+"""Topology optimization problems on a scene (paper Sections 3.1, 3.2 and 4).
+
+A :class:`TopologyProblem` minimizes one response of the scene's motion (or equilibrium)
+over the bar densities, subject to upper bounds on other responses, with ``x_min ≤ x ≤ 1``:
+
+    minimize f(x)   s.t.   r_j(x) ≤ b_j,
+
+seen by the optimizers as ``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1 ≤ 0``, so every
+function is of order one. Responses are those of
+:meth:`flextop.Simulation.run_with_sensitivities`; each evaluation is one simulation with
+exact gradients. A simulation that fails becomes an
+:class:`~flextop.optimizers.EvaluationError`, which the optimizer recovers from.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import scenes
+from .errors import SimulationError
+from .optimizers import Evaluation, EvaluationError, Problem
+from .simulation import Simulation
+
+
+class TopologyProblem(Problem):
+    """Minimize ``objective`` subject to ``constraints`` (response name → upper bound).
+
+    ``settings`` are run settings (``h``, ``rho_inf``, ...); ``method`` is the sensitivity
+    method; ``objective_scale`` is ``f_ref`` (default: the objective at the first design
+    evaluated). ``timings`` accumulates the seconds spent in simulations and gradients.
+    """
+
+    def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
+                 *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None) -> None:
+        self.simulation = simulation
+        self.objective = objective
+        self.constraints = list(constraints.items()) if isinstance(constraints, Mapping) else [tuple(c) for c in constraints]
+        for name, bound in self.constraints:
+            if not (np.isfinite(bound) and bound > 0):
+                raise ValueError(f"constraint {name!r}: the upper bound must be positive and finite, got {bound}")
+        self.settings = dict(settings or {})
+        self.method = method
+        self.objective_scale = objective_scale
+        self.timings = {"simulation": 0.0, "gradients": 0.0}
+        n = simulation.n_design
+        super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
+
+    @property
+    def responses(self) -> list[str]:
+        return [self.objective, *(name for name, _ in self.constraints)]
+
+    def evaluate(self, x: np.ndarray) -> Evaluation:
+        """Objective and constraints with their gradients: one run with sensitivities."""
+        try:
+            f, dfdx = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **self.settings)
+        except SimulationError as error:
+            raise EvaluationError(str(error), x) from error
+        for key, seconds in self.simulation.last_timings.items():
+            self.timings[key] += seconds
+        if self.objective_scale is None:
+            self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
+        bounds = np.array([b for _, b in self.constraints])
+        return Evaluation(f[0] / self.objective_scale, f[1:] / bounds - 1.0, dfdx[0] / self.objective_scale, dfdx[1:] / bounds[:, None])
+
+    def to_dict(self) -> dict:
+        """What rebuilds this problem on the same scene (for checkpoints)."""
+        return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,
+                "method": self.method, "objective_scale": self.objective_scale}
+
+    @classmethod
+    def from_dict(cls, simulation: Simulation, data: Mapping[str, Any]) -> TopologyProblem:
+        return cls(simulation, data["objective"], [tuple(c) for c in data["constraints"]], settings=data["settings"],
+                   method=data["method"], objective_scale=data["objective_scale"])
+
+
+def volume_constraints(simulation: Simulation, fraction: float, *, per_component: bool = True) -> list[tuple[str, float]]:
+    """Upper bounds ``V ≤ fraction · V_full`` (paper Eq. 38), one per component (Eq. 41)
+    or on the whole structure."""
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"volume fraction must lie in (0, 1], got {fraction}")
+    volume = np.asarray(simulation.bars["volume"])
+    fixed = np.asarray(simulation.bars["variable"]) < 0
+    component = np.asarray(simulation.bars["component"])
+    if not per_component:
+        return [("volume", fraction * volume[~fixed].sum() + volume[fixed].sum())]
+    return [(f"volume:{name}", fraction * volume[(component == k) & ~fixed].sum() + volume[(component == k) & fixed].sum())
+            for k, name in enumerate(simulation.components)]
+
+
+def static_truss_problem(objective: str = "compliance", volume_fraction: float = 0.4, **scene: Any) -> TopologyProblem:
+    """Paper Section 3.1: the truss of Fig. 4, compliance under the tip load, V ≤ 0.4 V_full."""
+    sim = Simulation(scenes.static_truss(**scene))
+    return TopologyProblem(sim, objective, volume_constraints(sim, volume_fraction, per_component=False))
+
+
+def robot_arm_problem(objective: str = "tip_deflection", volume_fraction: float = 0.4, *, settings: Mapping[str, Any] | None = None,
+                      **scene: Any) -> TopologyProblem:
+    """Paper Section 4: the two-link robot arm, mean squared tip deflection (Eq. 40) or mean
+    compliance (Eq. 39) over the motion, V_i ≤ 0.4 V_full,i for each link (Eq. 41)."""
+    sim = Simulation(scenes.robot_arm(**scene))
+    return TopologyProblem(sim, objective, volume_constraints(sim, volume_fraction), settings=settings)

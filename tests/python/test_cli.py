@@ -1,0 +1,73 @@
+"""The command line, end to end in subprocesses."""
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import flextop
+
+from conftest import EXAMPLES
+
+
+def flextop_cli(*args, check=True):
+    run = subprocess.run([sys.executable, "-m", "flextop.cli", *map(str, args)], capture_output=True, text=True, timeout=300)
+    if check:
+        assert run.returncode == 0, run.stderr
+    return run
+
+
+def test_console_script_is_installed():
+    exe = shutil.which("flextop")
+    assert exe is not None
+    run = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and "optimize" in run.stdout
+
+
+def test_demo_prints_tip_error_and_d_and_writes_a_plot(tmp_path):
+    run = flextop_cli("demo", "--out", tmp_path)
+    d = float(re.search(r"mean squared tip deflection d = ([0-9.e+-]+)", run.stdout).group(1))
+    assert d == pytest.approx(flextop.Simulation(flextop.scenes.robot_arm()).run(0.4).tip_deflection(), rel=1e-6)
+    assert "max |r - r_rigid|" in run.stdout
+    assert (tmp_path / "tip_error.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_simulate_a_scene_file_and_save_results(tmp_path):
+    run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--h", "0.01", "--out", tmp_path)
+    assert "130 steps of h = 0.01 s" in run.stdout
+    saved = np.load(tmp_path / "results.npz")
+    assert saved["u"].shape == (131, 90)
+
+
+def test_bad_input_exits_with_a_named_error():
+    run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "2", check=False)
+    assert run.returncode == 2 and "x[0] (link1/bar0) = 2 is outside [0.01, 1]" in run.stderr
+
+
+def history(path):
+    return json.loads((path / "history.json").read_text())["history"]
+
+
+def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 8, "--out", straight, "--no-plots")
+    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 4, "--out", split, "--no-plots")
+    checkpoint = json.loads((split / "checkpoint.json").read_text())
+    assert checkpoint["state"]["iteration"] == 4 and len(history(split)) == 4
+    run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots")
+    assert "resuming" in run.stdout
+    assert [h["iteration"] for h in history(split)] == list(range(1, 9))
+    np.testing.assert_allclose(np.load(split / "design.npy"), np.load(straight / "design.npy"), rtol=0, atol=1e-12)
+    assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
+
+
+def test_optimize_robot_arm_writes_the_pictures(tmp_path):
+    run = flextop_cli("optimize", "robot_arm", "--max-iter", 3, "--out", tmp_path, "--animate")
+    for name in ("design_initial.png", "design.png", "history.png", "tip_error.png", "motion.gif"):
+        assert (tmp_path / name).stat().st_size > 1000, name
+    assert re.search(r"tip_deflection: 0\.00229569 at the start → [0-9.e-]+ \(-\d+\.\d %\)", run.stdout)
+    assert "subproblem" in run.stdout and "simulation" in run.stdout

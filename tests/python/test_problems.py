@@ -1,0 +1,114 @@
+"""Topology optimization end to end: the paper's static truss and robot arm."""
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop.optimizers import Status
+
+CONVERGED = (Status.KKT, Status.XTOL, Status.FTOL)
+
+
+def optimality_criteria(problem, x0, iterations=400, move=0.1, damping=0.5):
+    """Independent reference: the classic optimality-criteria update for minimum compliance
+    under one volume constraint, x ← clip(x (−∂c/∂x / (λ ∂V/∂x))^η), with λ found by
+    bisection so that the volume bound holds exactly."""
+    x = x0.copy()
+    lower, upper = problem.lower, problem.upper
+    for _ in range(iterations):
+        e = problem.evaluate(x)
+        sensitivity = np.maximum(-e.df0, 1e-30) / e.dg[0]
+        lo, hi = 1e-12, 1e12
+        while hi / lo > 1 + 1e-12:
+            lam = np.sqrt(lo * hi)
+            trial = np.clip(x * (sensitivity / lam) ** damping, np.maximum(lower, x - move), np.minimum(upper, x + move))
+            lo, hi = (lam, hi) if problem.evaluate_volume(trial) > 0 else (lo, lam)
+        x = trial
+    return x, problem.evaluate(x).f0
+
+
+class TrussProblem(flextop.TopologyProblem):
+    """The static truss problem with a cheap volume check for the bisection."""
+
+    def evaluate_volume(self, x):
+        volume = np.asarray(self.simulation.bars["volume"])
+        return volume @ x / self.constraints[0][1] - 1.0
+
+
+def truss(p):
+    sim = flextop.Simulation(flextop.scenes.static_truss(p=p))
+    return TrussProblem(sim, "compliance", flextop.volume_constraints(sim, 0.4, per_component=False))
+
+
+@pytest.mark.parametrize("method", ["mma", "conlin"])
+def test_static_truss_with_p1_reaches_the_convex_optimum(method):
+    x0 = np.full(74, 0.4)
+    reference_problem = truss(1.0)
+    x_oc, c_oc = optimality_criteria(reference_problem, x0)
+    problem = truss(1.0)
+    problem.objective_scale = reference_problem.objective_scale
+    result = flextop.optimize(problem, x0, method=method, max_iter=200, kkt_tol=1e-8, xtol=1e-6)
+    assert result.success, result.message
+    assert result.fun == pytest.approx(c_oc, rel=5e-3), f"{method}: {result.fun} vs OC {c_oc}"
+    assert result.fun <= c_oc * (1 + 5e-3)
+
+
+def test_static_truss_with_p3_is_nearly_black_and_white():
+    problem = truss(3.0)
+    result = flextop.optimize(problem, np.full(74, 0.4), method="mma", max_iter=100)
+    assert result.success, result.message
+    x = result.x
+    void, solid = x <= 2 * problem.lower, x >= 0.5
+    assert np.mean(void | solid) >= 0.9, np.sort(x)
+    assert 0.25 < np.mean(solid) < 0.75
+    c0 = problem.simulation.run(0.4).response("compliance")
+    assert result.fun * problem.objective_scale < 0.2 * c0
+
+
+@pytest.fixture(scope="module")
+def arm_optimum():
+    problem = flextop.robot_arm_problem("tip_deflection")
+    return problem, flextop.optimize(problem, np.full(problem.n, 0.4), method="mma", max_iter=30)
+
+
+def test_robot_arm_tip_deflection_falls_and_links_differ(arm_optimum):
+    problem, result = arm_optimum
+    sim = problem.simulation
+    d0 = sim.run(0.4).tip_deflection()
+    d = sim.run(result.x).tip_deflection()
+    assert d == pytest.approx(result.fun * problem.objective_scale, rel=1e-10)
+    assert d < d0 / 10, (d0, d)
+    assert np.all(result.constr <= 1e-6), "per-link volume constraints hold"
+    history = [h.f0 for h in result.history]
+    assert history[19] < 0.05 * history[0], "most of the reduction within 20 iterations"
+    link1, link2 = result.x[:74], result.x[74:]
+    assert np.mean(np.abs(link1 - link2) > 0.2) > 0.2, "the two links end with different designs"
+    assert link2.mean() < link1.mean(), "material moves away from the fast-moving outer link"
+
+
+def test_robot_arm_mean_compliance_converges_or_stops_with_a_diagnosis():
+    problem = flextop.robot_arm_problem("compliance")
+    result = flextop.optimize(problem, np.full(problem.n, 0.4), method="mma", max_iter=25)
+    assert result.status in (*CONVERGED, Status.MAX_ITER, Status.EVALUATION_FAILED)
+    assert result.message
+    assert np.all(result.constr <= 1e-6) and np.all((result.x >= 0.01) & (result.x <= 1.0))
+    c0 = problem.simulation.run(0.4).response("compliance")
+    assert result.fun * problem.objective_scale < c0, "the returned design is better than the start"
+
+
+def test_failed_simulations_are_recovered_from(monkeypatch):
+    problem = flextop.robot_arm_problem("tip_deflection")
+    calls = {"n": 0}
+    original = problem.simulation.run_with_sensitivities
+
+    def flaky(x, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] in (3, 4):
+            return original(x, *args, **{**kwargs, "max_iter": 1})  # Newton cannot converge
+        return original(x, *args, **kwargs)
+
+    monkeypatch.setattr(problem.simulation, "run_with_sensitivities", flaky)
+    result = flextop.optimize(problem, np.full(problem.n, 0.4), method="mma", max_iter=6)
+    assert result.status is Status.MAX_ITER and "2 evaluation failure(s) recovered" in result.message
+    assert "Newton did not converge" in result.message
+    assert result.state.move == pytest.approx(0.05)

@@ -1,0 +1,74 @@
+"""Sensitivities through the Python seam ``Simulation.run_with_sensitivities``."""
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import SettingsError
+
+
+def fd4(f, x, j, eps=5e-4):
+    """Fourth-order central difference of f along x_j."""
+    e = np.zeros_like(x)
+    e[j] = eps
+    return (8 * (f(x + e) - f(x - e)) - (f(x + 2 * e) - f(x - 2 * e))) / (12 * eps)
+
+
+@pytest.mark.parametrize("scene, responses", [
+    (flextop.scenes.robot_arm(), ["tip_deflection", "compliance"]),
+    (flextop.scenes.static_truss(), ["compliance"]),
+])
+def test_gradients_match_finite_differences_for_both_methods(scene, responses):
+    sim = flextop.Simulation(scene)
+    x = np.random.default_rng(1).uniform(0.1, 0.95, sim.n_design)
+    f_adj, g_adj = sim.run_with_sensitivities(x, responses, method="adjoint", tol=1e-12)
+    f_dir, g_dir = sim.run_with_sensitivities(x, responses, method="direct", tol=1e-12)
+    np.testing.assert_array_equal(f_adj, f_dir)
+    np.testing.assert_allclose(g_dir, g_adj, rtol=0, atol=1e-9 * np.abs(g_adj).max())
+    value = lambda xx: sim.run_with_sensitivities(xx, responses, method="adjoint", tol=1e-12)[0]
+    for j in (3, sim.n_design - 5):
+        fd = fd4(value, x, j)
+        for k in range(len(responses)):
+            assert abs(fd[k] - g_adj[k, j]) <= 1e-6 * max(abs(g_adj[k, j]), 1e-3 * np.abs(g_adj[k]).max()), (responses[k], j)
+
+
+def test_values_equal_the_responses_of_a_plain_run(arm):
+    x = np.full(arm.n_design, 0.4)
+    f, _ = arm.run_with_sensitivities(x, ["tip_deflection", "compliance:link1", "volume"])
+    res = arm.run(x)
+    assert f[0] == pytest.approx(res.tip_deflection(), rel=1e-12)
+    assert f[1] == pytest.approx(res.response("compliance:link1"), rel=1e-12)
+    volume = 0.4 * np.sum(arm.bars["volume"])
+    assert f[2] == pytest.approx(volume, rel=1e-12)
+
+
+def test_auto_picks_the_adjoint_for_few_responses(arm):
+    x = np.full(arm.n_design, 0.5)
+    arm.run_with_sensitivities(x, "tip_deflection")
+    assert arm.last_method == "adjoint"
+    small = flextop.Simulation(flextop.scenes.static_truss(nx=2, ny=2))
+    small.run_with_sensitivities(np.full(small.n_design, 0.5), ["compliance", "volume", "displacement:truss[1,0]:0,1",
+                                                                "displacement:truss[1,1]:1,0", "displacement:truss[1,1]:0,1",
+                                                                "displacement:truss[1,0]:1,0", "displacement:truss[1,0]:1,1"])
+    assert small.n_design == 6 and small.last_method == "direct"
+
+
+def test_volume_gradient_is_the_bar_volumes(arm):
+    f, g = arm.run_with_sensitivities(np.full(arm.n_design, 0.3), ["volume:link2"])
+    volumes = np.asarray(arm.bars["volume"])
+    link2 = np.asarray(arm.bars["component"]) == 1
+    np.testing.assert_allclose(g[0], np.where(link2, volumes, 0.0))
+    assert f[0] == pytest.approx(0.3 * volumes[link2].sum())
+
+
+@pytest.mark.parametrize("name, match", [("stiffness", "unknown response"), ("compliance:link3", "unknown component 'link3'"),
+                                         ("tip_deflection:nowhere", "unknown node"), ("displacement:link2[4,1]:0,0", "direction")])
+def test_bad_responses_are_named(arm, name, match):
+    with pytest.raises(SettingsError, match=match):
+        arm.run_with_sensitivities(np.full(arm.n_design, 0.4), [name])
+
+
+def test_static_scene_has_no_tip_deflection():
+    sim = flextop.Simulation(flextop.scenes.static_truss())
+    with pytest.raises(SettingsError, match="static scene has no motion"):
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.4), ["tip_deflection:truss[4,1]"])
