@@ -9,7 +9,7 @@ mod common;
 use std::time::Instant;
 
 use common::{median, robot_arm, settings};
-use flextop::sensitivity::{dynamic, parse_responses, Method};
+use flextop::sensitivity::{dynamic, parse_responses, Memory, Method};
 use flextop::simulation::simulate;
 
 fn time<F: FnMut()>(repeats: usize, mut f: F) -> f64 {
@@ -38,8 +38,8 @@ fn main() {
         let responses = parse_responses(&arm, &names).unwrap();
         let repeats = if arm.n_variables() < 1000 { 5 } else { 2 };
         let plain = time(repeats, || drop(simulate(&arm, Some(&x), &s).unwrap()));
-        let adjoint = time(repeats, || drop(dynamic(&arm, &x, &s, &responses, Method::Adjoint).unwrap()));
-        let direct = time(1, || drop(dynamic(&arm, &x, &s, &responses, Method::Direct).unwrap()));
+        let adjoint = time(repeats, || drop(dynamic(&arm, &x, &s, &responses, Method::Adjoint, Memory::StoreAll).unwrap()));
+        let direct = time(1, || drop(dynamic(&arm, &x, &s, &responses, Method::Direct, Memory::StoreAll).unwrap()));
         println!(
             "| {nx} × {ny} | {} | {} | {:.1} | {:.1} | {:.2} | {:.0} | {:.1} |",
             arm.n_variables(),

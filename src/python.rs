@@ -16,7 +16,7 @@ use crate::model::{Analysis, Model};
 use crate::options::RunOptions;
 use crate::rigid::Clusters;
 use crate::scene::{self, SceneSpec};
-use crate::sensitivity::{self, parse_responses, Method};
+use crate::sensitivity::{self, parse_responses, Memory, Method};
 use crate::simulation::simulate;
 use crate::statics::solve_static;
 
@@ -250,7 +250,7 @@ impl PyModel {
 
     /// Responses and their gradients: `(values (n_r,), gradients (n_r, n_x), method,
     /// (simulation seconds, gradient seconds))`.
-    #[pyo3(signature = (x, responses, *, method="auto", t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None, load_steps=None))]
+    #[pyo3(signature = (x, responses, *, method="auto", memory="auto", t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None, load_steps=None))]
     #[allow(clippy::too_many_arguments)]
     fn run_with_sensitivities<'py>(
         &self,
@@ -258,6 +258,7 @@ impl PyModel {
         x: PyReadonlyArray1<'py, f64>,
         responses: Vec<String>,
         method: &str,
+        memory: &str,
         t_end: Option<f64>,
         h: Option<f64>,
         rho_inf: Option<f64>,
@@ -272,6 +273,12 @@ impl PyModel {
             "adjoint" => Method::Adjoint,
             other => return Err(Error::Settings(SettingsError::new("method", format!("must be 'auto', 'direct' or 'adjoint', got '{other}'"))).into()),
         };
+        let memory = match memory {
+            "auto" => Memory::default(),
+            "store" => Memory::StoreAll,
+            "checkpoints" => Memory::Checkpoints,
+            other => return Err(Error::Settings(SettingsError::new("memory", format!("must be 'auto', 'store' or 'checkpoints', got '{other}'"))).into()),
+        };
         let model = Arc::clone(&self.model);
         let parsed = parse_responses(&model, &responses).map_err(Error::from)?;
         let options = RunOptions { t_end, h, rho_inf, tol, max_iter, mass: parse_mass(mass)?, load_steps };
@@ -279,7 +286,7 @@ impl PyModel {
         let result = match model.analysis {
             Analysis::Dynamic => {
                 let settings = options.dynamic(&model.defaults).map_err(Error::from)?;
-                py.detach(move || sensitivity::dynamic(&model, &x, &settings, &parsed, method))?
+                py.detach(move || sensitivity::dynamic(&model, &x, &settings, &parsed, method, memory))?
             }
             Analysis::Static => {
                 let settings = options.statics(&model.defaults).map_err(Error::from)?;

@@ -149,10 +149,17 @@ impl Clusters {
                 }
                 let svd = jac.svd(true, true);
                 let r = rank_of(&svd.singular_values);
-                if r < n {
+                if r < n && out.is_empty() {
                     return Err(fail(format!(
                         "the mechanism is not fully driven ({} free rigid-body modes): \
                          the rigid trajectory is undefined",
+                        n - r
+                    )));
+                }
+                if r < n {
+                    return Err(fail(format!(
+                        "kinematic singularity: the joints' Jacobian loses rank {} here, \
+                         so the rigid mechanism cannot follow its drives through this configuration",
                         n - r
                     )));
                 }

@@ -65,7 +65,7 @@ def demo(args: argparse.Namespace) -> int:
 
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
-    sim = Simulation(args.scene)
+    sim = Simulation(args.scene, accuracy=args.accuracy)
     settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass}.items() if v is not None}
     if sim.analysis == "static":
         settings = {k: v for k, v in settings.items() if k == "t_end"}
@@ -107,7 +107,7 @@ def optimize_command(args: argparse.Namespace) -> int:
             raise FileNotFoundError(f"no checkpoint to resume in {out}")
         saved = json.loads(checkpoint.read_text())
         scene = Scene.from_dict(saved["scene"])
-        sim = Simulation(scene)
+        sim = Simulation(scene, accuracy=saved.get("accuracy"))
         problem = TopologyProblem.from_dict(sim, saved["problem"])
         options = {**saved["optimizer"], "max_iter": args.max_iter or saved["optimizer"]["max_iter"]}
         x0 = np.array(saved["x0"])
@@ -115,7 +115,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         print(f"resuming {checkpoint} at iteration {state.iteration}")
     else:
         scene = _scene(args.scene)
-        sim = Simulation(scene)
+        sim = Simulation(scene, accuracy=args.accuracy)
         constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
         problem = TopologyProblem(sim, args.objective, constraints, settings=_settings(args))
         options = {"method": args.method, "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol, "xtol": args.xtol}
@@ -128,7 +128,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     bar = tqdm(total=options["max_iter"], initial=0 if state is None else state.iteration, unit="it", desc="optimize", file=sys.stderr)
 
     def on_iteration(record) -> None:
-        _write_json(checkpoint, {"scene": scene.to_dict(), "problem": problem.to_dict(), "optimizer": options,
+        _write_json(checkpoint, {"scene": scene.to_dict(), "accuracy": sim.accuracy, "problem": problem.to_dict(), "optimizer": options,
                                  "x0": x0.tolist(), "state": record.state.to_dict()})
         bar.update(1)
         bar.set_postfix(f=f"{record.f0 * problem.objective_scale:.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
@@ -206,6 +206,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--h", type=float)
     s.add_argument("--rho-inf", type=float)
     s.add_argument("--mass", choices=["consistent", "lumped"])
+    s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
     s.add_argument("--out", help="folder for results.npz")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
@@ -222,6 +223,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--h", type=float)
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=float)
+    o.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     o.add_argument("--no-plots", action="store_true")

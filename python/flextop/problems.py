@@ -90,15 +90,16 @@ def volume_constraints(simulation: Simulation, fraction: float, *, per_component
             for k, name in enumerate(simulation.components)]
 
 
-def static_truss_problem(objective: str = "compliance", volume_fraction: float = 0.4, **scene: Any) -> TopologyProblem:
+def static_truss_problem(objective: str = "compliance", volume_fraction: float = 0.4, *, accuracy: str | None = None,
+                         **scene: Any) -> TopologyProblem:
     """Paper Section 3.1: the truss of Fig. 4, compliance under the tip load, V ≤ 0.4 V_full."""
-    sim = Simulation(scenes.static_truss(**scene))
+    sim = Simulation(scenes.static_truss(**scene), accuracy=accuracy)
     return TopologyProblem(sim, objective, volume_constraints(sim, volume_fraction, per_component=False))
 
 
 def robot_arm_problem(objective: str = "tip_deflection", volume_fraction: float = 0.4, *, settings: Mapping[str, Any] | None = None,
-                      **scene: Any) -> TopologyProblem:
+                      accuracy: str | None = None, **scene: Any) -> TopologyProblem:
     """Paper Section 4: the two-link robot arm, mean squared tip deflection (Eq. 40) or mean
     compliance (Eq. 39) over the motion, V_i ≤ 0.4 V_full,i for each link (Eq. 41)."""
-    sim = Simulation(scenes.robot_arm(**scene))
+    sim = Simulation(scenes.robot_arm(**scene), accuracy=accuracy)
     return TopologyProblem(sim, objective, volume_constraints(sim, volume_fraction), settings=settings)

@@ -17,15 +17,16 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _core
+from .accuracy import preset, refine
 from .scene import Scene
 
 
-def _as_model(scene: Scene | dict | str | os.PathLike) -> _core.Model:
+def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     if isinstance(scene, Scene):
-        return _core.Model.from_dict(scene.to_dict())
+        return scene.to_dict()
     if isinstance(scene, dict):
-        return _core.Model.from_dict(scene)
-    return _core.Model.from_dict(Scene.from_toml(Path(scene)).to_dict())
+        return scene
+    return Scene.from_toml(Path(scene)).to_dict()
 
 
 class Simulation:
@@ -35,6 +36,10 @@ class Simulation:
     ----------
     scene:
         A :class:`Scene`, a scene dict, or the path of a TOML scene file.
+    accuracy:
+        ``"fast"``, ``"balanced"`` or ``"accurate"``: a preset of :mod:`flextop.accuracy`
+        refining the scene (elements per bar, step size) and the Newton tolerance; settings
+        passed to :meth:`run` still win.
 
     Raises
     ------
@@ -42,8 +47,15 @@ class Simulation:
         If the scene cannot be built; the message names the entry.
     """
 
-    def __init__(self, scene: Scene | dict | str | os.PathLike) -> None:
-        self.model = _as_model(scene)
+    def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None) -> None:
+        spec = _as_spec(scene)
+        self.accuracy = accuracy
+        self._defaults: dict[str, Any] = {}
+        if accuracy is not None:
+            chosen = preset(accuracy)
+            spec = refine(spec, chosen)
+            self._defaults["tol"] = chosen.tol
+        self.model = _core.Model.from_dict(spec)
         self._bars = self.model.bars()
         self._joints = self.model.joints()
 
@@ -111,6 +123,7 @@ class Simulation:
         residual and iteration count of a failed Newton step).
         """
         xv = self._design(x)
+        tol = self._defaults.get("tol") if tol is None else tol
         if self.analysis == "static":
             raw = self.model.solve_static(xv, t_end=t_end, tol=tol, max_iter=max_iter, load_steps=load_steps)
             return StaticResults(self, raw, xv)
@@ -118,7 +131,7 @@ class Simulation:
         return Results(self, raw, xv)
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
-                               method: str = "auto", **settings: Any) -> tuple[np.ndarray, np.ndarray]:
+                               method: str = "auto", memory: str = "auto", **settings: Any) -> tuple[np.ndarray, np.ndarray]:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``.
 
@@ -132,7 +145,10 @@ class Simulation:
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),
         ``"adjoint"`` (cost independent of it) or ``"auto"`` (adjoint when there are fewer
-        responses than variables). ``settings`` are those of :meth:`run`. Afterwards
+        responses than variables). ``memory`` (adjoint): ``"store"`` keeps every step's
+        state, ``"checkpoints"`` keeps full states every ⌈√N⌉ steps and replays segments
+        backwards (memory O(√N), one more forward sweep), ``"auto"`` checkpoints past 512 MiB.
+        ``settings`` are those of :meth:`run`. Afterwards
         ``last_method`` tells the method used and ``last_timings`` the seconds spent in the
         simulation and in the sensitivity analysis.
         """
@@ -140,7 +156,8 @@ class Simulation:
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method=method, **settings)
+        settings = {**self._defaults, **settings}
+        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method=method, memory=memory, **settings)
         self.last_method = used
         self.last_timings = {"simulation": seconds[0], "gradients": seconds[1]}
         return f, dfdx

@@ -38,6 +38,27 @@ pub enum Method {
     Auto,
 }
 
+/// What the adjoint keeps of the forward sweep.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Memory {
+    /// Every step's positions and accelerations.
+    StoreAll,
+    /// Full states every `⌈√N⌉` steps, segments replayed backwards (one more forward sweep).
+    Checkpoints,
+    /// Checkpoints when storing everything would exceed `budget_bytes`.
+    Auto {
+        /// Memory allowed for the stored states, in bytes.
+        budget_bytes: usize,
+    },
+}
+
+impl Default for Memory {
+    /// Checkpoints past 512 MiB of stored states.
+    fn default() -> Self {
+        Self::Auto { budget_bytes: 512 << 20 }
+    }
+}
+
 /// Responses and their gradients.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sensitivities {
@@ -166,14 +187,14 @@ pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>,
 ///
 /// # Errors
 /// Design, settings and solve errors.
-pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
+pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Response], method: Method, memory: Memory) -> Result<Sensitivities, Error> {
     settings.validate()?;
     if let Some(explicit) = explicit_only(model, x, responses)? {
         return Ok(explicit);
     }
     match resolve(method, responses, model) {
         Method::Direct => direct::run(model, x, settings, responses),
-        _ => adjoint::run(model, x, settings, responses),
+        _ => adjoint::run(model, x, settings, responses, memory),
     }
 }
 

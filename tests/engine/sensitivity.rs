@@ -5,7 +5,7 @@ use flextop::error::Error;
 use flextop::integrator::Settings;
 use flextop::model::Model;
 use flextop::response::Response;
-use flextop::sensitivity::{dynamic, equilibrium, parse_responses, Method, Sensitivities};
+use flextop::sensitivity::{dynamic, equilibrium, parse_responses, Memory, Method, Sensitivities};
 use flextop::statics::StaticSettings;
 
 use crate::common::*;
@@ -70,7 +70,7 @@ fn dynamic_case(split: usize, settings: Settings, design: &str) {
     let arm = model(&text);
     let rs = responses(&arm, &DYNAMIC);
     let x = random_design(&arm, 11);
-    let eval = |x: &[f64], m: Method| dynamic(&arm, x, &settings, &rs, m);
+    let eval = |x: &[f64], m: Method| dynamic(&arm, x, &settings, &rs, m, Memory::default());
     check(&arm, &eval, &x, &[0, 37, 74, 147], rs.len());
 }
 
@@ -104,7 +104,7 @@ fn taylor_remainder_falls_as_epsilon_squared() {
     let rs = responses(&arm, &["tip_deflection"]);
     let s = Settings { tol: 1e-12, ..settings(1.3, 0.02, 0.8) };
     let x = random_design(&arm, 5);
-    let base = dynamic(&arm, &x, &s, &rs, Method::Adjoint).unwrap();
+    let base = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::default()).unwrap();
     let mut seed = 99u64;
     let v: Vec<f64> = (0..x.len())
         .map(|_| {
@@ -118,10 +118,28 @@ fn taylor_remainder_falls_as_epsilon_squared() {
         .iter()
         .map(|&e| {
             let xe: Vec<f64> = x.iter().zip(&v).map(|(xi, vi)| xi + e * vi).collect();
-            let f = dynamic(&arm, &xe, &s, &rs, Method::Adjoint).unwrap().values[0];
+            let f = dynamic(&arm, &xe, &s, &rs, Method::Adjoint, Memory::default()).unwrap().values[0];
             (f - base.values[0] - e * slope).abs()
         })
         .collect();
     let order = log_slope(&epsilons, &remainders);
     assert!((order - 2.0).abs() < 0.1, "remainder order {order:.3}: {remainders:?}");
+}
+
+#[test]
+fn checkpointed_adjoint_is_bitwise_the_stored_one() {
+    let arm = robot_arm(1, 70e9);
+    let rs = responses(&arm, &["tip_deflection", "compliance:link1"]);
+    let x = random_design(&arm, 8);
+    // 65 steps: checkpoints every 9 steps, segments replayed backwards.
+    let s = settings(1.3, 0.02, 0.8);
+    let stored = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::StoreAll).unwrap();
+    let replayed = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::Checkpoints).unwrap();
+    assert_eq!(stored.values, replayed.values);
+    assert_eq!(stored.gradients, replayed.gradients);
+    // A step count that is a perfect square, so segment ends meet the final step exactly.
+    let s = settings(0.98, 0.02, 0.8);
+    let stored = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::StoreAll).unwrap();
+    let replayed = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::Auto { budget_bytes: 1 }).unwrap();
+    assert_eq!(stored.gradients, replayed.gradients);
 }
