@@ -9,10 +9,11 @@
 use nalgebra::Vector2;
 
 use crate::constraint::{ConstraintRow, Joint};
-use crate::element::{Beam, MassKind, Vector6};
+use crate::element::{Beam, Vector6};
 use crate::error::DesignError;
 use crate::interpolation::Interpolation;
 use crate::load::NodalLoad;
+use crate::options::RunOptions;
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -94,21 +95,6 @@ pub struct Design {
     pub variables: Vec<String>,
 }
 
-/// Scene-level defaults of the run settings.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct RunDefaults {
-    /// End time (s).
-    pub t_end: Option<f64>,
-    /// Step size (s).
-    pub h: Option<f64>,
-    /// Spectral radius at infinite frequency.
-    pub rho_inf: Option<f64>,
-    /// Inertia discretization.
-    pub mass: Option<MassKind>,
-    /// Load steps of a static analysis.
-    pub load_steps: Option<usize>,
-}
-
 /// A built mechanism.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -138,8 +124,8 @@ pub struct Model {
     pub design: Design,
     /// Default node for the tip-deflection response.
     pub tip: Option<usize>,
-    /// Default run settings.
-    pub defaults: RunDefaults,
+    /// Default run settings of the scene.
+    pub defaults: RunOptions,
 }
 
 /// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34).

@@ -48,13 +48,14 @@ struct PyModel {
     model: Arc<Model>,
 }
 
-fn parse_mass(mass: Option<&str>) -> PyResult<Option<MassKind>> {
-    match mass {
-        None => Ok(None),
-        Some("consistent") => Ok(Some(MassKind::Consistent)),
-        Some("lumped") => Ok(Some(MassKind::Lumped)),
-        Some(other) => Err(Error::Settings(SettingsError::new("mass", format!("must be 'consistent' or 'lumped', got '{other}'"))).into()),
-    }
+/// Run options from a settings dict; unknown keys and wrong values name the setting.
+fn run_options(settings: Option<&Bound<'_, PyAny>>) -> PyResult<RunOptions> {
+    let Some(settings) = settings else { return Ok(RunOptions::default()) };
+    let mut de = pythonize::Depythonizer::from_object(settings);
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        Error::Settings(SettingsError::new(if path == "." { "settings".into() } else { path }, e.into_inner().to_string())).into()
+    })
 }
 
 fn design_vector(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
@@ -185,22 +186,11 @@ impl PyModel {
             .collect()
     }
 
-    /// Time integration (dynamic scenes). Returns a dict of numpy arrays.
-    #[pyo3(signature = (x=None, *, t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn simulate<'py>(
-        &self,
-        py: Python<'py>,
-        x: Option<PyReadonlyArray1<'py, f64>>,
-        t_end: Option<f64>,
-        h: Option<f64>,
-        rho_inf: Option<f64>,
-        tol: Option<f64>,
-        max_iter: Option<usize>,
-        mass: Option<&str>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let options = RunOptions { t_end, h, rho_inf, tol, max_iter, mass: parse_mass(mass)?, load_steps: None };
-        let settings = options.dynamic(&self.model.defaults).map_err(Error::from)?;
+    /// Time integration (dynamic scenes) with run `settings` (dict: `t_end`, `h`,
+    /// `rho_inf`, `tol`, `max_iter`, `mass`). Returns a dict of numpy arrays.
+    #[pyo3(signature = (x=None, settings=None))]
+    fn simulate<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let settings = run_options(settings)?.dynamic(&self.model.defaults).map_err(Error::from)?;
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
         let traj = py.detach(move || simulate(&model, x.as_deref(), &settings))?;
@@ -221,19 +211,11 @@ impl PyModel {
         Ok(d)
     }
 
-    /// Static equilibrium (any scene). Returns a dict with `u`, `lambda`, Newton statistics.
-    #[pyo3(signature = (x=None, *, t_end=None, tol=None, max_iter=None, load_steps=None))]
-    fn solve_static<'py>(
-        &self,
-        py: Python<'py>,
-        x: Option<PyReadonlyArray1<'py, f64>>,
-        t_end: Option<f64>,
-        tol: Option<f64>,
-        max_iter: Option<usize>,
-        load_steps: Option<usize>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let options = RunOptions { t_end, tol, max_iter, load_steps, ..Default::default() };
-        let settings = options.statics(&self.model.defaults).map_err(Error::from)?;
+    /// Static equilibrium (any scene) with run `settings` (dict: `t_end`, `tol`,
+    /// `max_iter`, `load_steps`). Returns a dict with `u`, `lambda`, Newton statistics.
+    #[pyo3(signature = (x=None, settings=None))]
+    fn solve_static<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let settings = run_options(settings)?.statics(&self.model.defaults).map_err(Error::from)?;
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
         let sol = py.detach(move || -> Result<_, Error> {
@@ -248,10 +230,10 @@ impl PyModel {
         Ok(d)
     }
 
-    /// Responses and their gradients: `(values (n_r,), gradients (n_r, n_x), method,
+    /// Responses and their gradients for run `settings` (dict, as [`PyModel::simulate`] or
+    /// [`PyModel::solve_static`]): `(values (n_r,), gradients (n_r, n_x), method,
     /// (simulation seconds, gradient seconds))`.
-    #[pyo3(signature = (x, responses, *, method="auto", memory="auto", t_end=None, h=None, rho_inf=None, tol=None, max_iter=None, mass=None, load_steps=None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (x, responses, method="auto", memory="auto", settings=None))]
     fn run_with_sensitivities<'py>(
         &self,
         py: Python<'py>,
@@ -259,13 +241,7 @@ impl PyModel {
         responses: Vec<String>,
         method: &str,
         memory: &str,
-        t_end: Option<f64>,
-        h: Option<f64>,
-        rho_inf: Option<f64>,
-        tol: Option<f64>,
-        max_iter: Option<usize>,
-        mass: Option<&str>,
-        load_steps: Option<usize>,
+        settings: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str, (f64, f64))> {
         let method = match method {
             "auto" => Method::Auto,
@@ -281,7 +257,7 @@ impl PyModel {
         };
         let model = Arc::clone(&self.model);
         let parsed = parse_responses(&model, &responses).map_err(Error::from)?;
-        let options = RunOptions { t_end, h, rho_inf, tol, max_iter, mass: parse_mass(mass)?, load_steps };
+        let options = run_options(settings)?;
         let x = x.as_slice()?.to_vec();
         let result = match model.analysis {
             Analysis::Dynamic => {
@@ -313,8 +289,9 @@ impl PyModel {
 
     /// Mass `M`, tangent stiffness `K_t(u)` and constraint Jacobian `Φ_q` as CSC triplets
     /// `(data, indices, indptr, shape)` for `scipy.sparse.csc_matrix`.
-    #[pyo3(signature = (x=None, u=None, *, mass=None))]
-    fn linearize<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: Option<PyReadonlyArray1<'py, f64>>, mass: Option<&str>) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (x=None, u=None, settings=None))]
+    fn linearize<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+        let mass = run_options(settings)?.mass.unwrap_or(MassKind::Consistent);
         let m = &self.model;
         let densities = m.densities(design_vector(x)?.as_deref()).map_err(Error::from)?;
         let n = m.n_dofs();
@@ -325,7 +302,7 @@ impl PyModel {
         if u.len() != n {
             return Err(Error::Settings(SettingsError::new("u", format!("has {} entries, the model has {n} DOFs", u.len()))).into());
         }
-        let asm = crate::assembly::Assembler::new(m, densities, parse_mass(mass)?.unwrap_or(MassKind::Consistent));
+        let asm = crate::assembly::Assembler::new(m, densities, mass);
         let mut values = vec![0.0; asm.pattern.nnz()];
         let block = |values: &[f64], rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| {
             let p = &asm.pattern;

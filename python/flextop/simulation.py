@@ -123,12 +123,15 @@ class Simulation:
         residual and iteration count of a failed Newton step).
         """
         xv = self._design(x)
-        tol = self._defaults.get("tol") if tol is None else tol
         if self.analysis == "static":
-            raw = self.model.solve_static(xv, t_end=t_end, tol=tol, max_iter=max_iter, load_steps=load_steps)
-            return StaticResults(self, raw, xv)
-        raw = self.model.simulate(xv, t_end=t_end, h=h, rho_inf=rho_inf, tol=tol, max_iter=max_iter, mass=mass)
-        return Results(self, raw, xv)
+            settings = self._settings(t_end=t_end, tol=tol, max_iter=max_iter, load_steps=load_steps)
+            return StaticResults(self, self.model.solve_static(xv, settings), xv)
+        settings = self._settings(t_end=t_end, h=h, rho_inf=rho_inf, tol=tol, max_iter=max_iter, mass=mass)
+        return Results(self, self.model.simulate(xv, settings), xv)
+
+    def _settings(self, **given: Any) -> dict[str, Any]:
+        """Run settings given explicitly, over the accuracy preset's defaults."""
+        return {**self._defaults, **{k: v for k, v in given.items() if v is not None}}
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", **settings: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -156,8 +159,7 @@ class Simulation:
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        settings = {**self._defaults, **settings}
-        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method=method, memory=memory, **settings)
+        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method, memory, self._settings(**settings))
         self.last_method = used
         self.last_timings = {"simulation": seconds[0], "gradients": seconds[1]}
         return f, dfdx
@@ -174,7 +176,7 @@ class Simulation:
         """Mass ``M``, tangent stiffness ``K_t(u)`` (at the reference state by default) and
         constraint Jacobian ``G = Φ_q`` as scipy sparse matrices."""
         uv = None if u is None else np.ascontiguousarray(u, dtype=float)
-        raw = self.model.linearize(self._design(x), uv, mass=mass)
+        raw = self.model.linearize(self._design(x), uv, self._settings(mass=mass))
         return tuple(sp.csc_matrix(tuple(map(np.asarray, raw[k][0])), shape=raw[k][1]) for k in ("M", "K", "G"))
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, mass: str | None = None) -> np.ndarray:
@@ -213,24 +215,43 @@ def _joint_forces(sim: Simulation, lam: np.ndarray) -> tuple[dict[str, np.ndarra
 
 
 @dataclass
-class Results:
-    """Time histories of a dynamic run (one row per time ``t_n``).
-
-    ``u`` holds the solved coordinates — displacements and rotations from the reference
-    configuration, three per node — and ``q`` the absolute nodal coordinates ``(x, y, φ)``.
-    """
+class _Run:
+    """What dynamic and static results share: the run's data and its joint loads."""
 
     simulation: Simulation = field(repr=False)
     raw: dict = field(repr=False)
     x: np.ndarray | None = None
 
     @property
-    def time(self) -> np.ndarray:
-        return self.raw["time"]
+    def u(self) -> np.ndarray:
+        """Solved coordinates: displacements and rotations from the reference, three per node."""
+        return self.raw["u"]
 
     @property
-    def u(self) -> np.ndarray:
-        return self.raw["u"]
+    def lam(self) -> np.ndarray:
+        """Lagrange multipliers, one per constraint row."""
+        return self.raw["lambda"]
+
+    @cached_property
+    def reactions(self) -> dict[str, np.ndarray]:
+        """Per joint, the force (and, for drive rows, torque) it applies on the structure."""
+        return _joint_forces(self.simulation, self.lam)[0]
+
+    def _evaluate(self, name: str, u: np.ndarray, h: float) -> float:
+        return float(self.simulation.model.evaluate_responses(self.x, u, h, [name])[0])
+
+
+@dataclass
+class Results(_Run):
+    """Time histories of a dynamic run (one row per time ``t_n``).
+
+    ``u`` holds the solved coordinates — displacements and rotations from the reference
+    configuration, three per node — and ``q`` the absolute nodal coordinates ``(x, y, φ)``.
+    """
+
+    @property
+    def time(self) -> np.ndarray:
+        return self.raw["time"]
 
     @property
     def q(self) -> np.ndarray:
@@ -247,11 +268,6 @@ class Results:
     def qddot(self) -> np.ndarray:
         return self.raw["a"]
 
-    @property
-    def lam(self) -> np.ndarray:
-        """Lagrange multipliers, one column per constraint row."""
-        return self.raw["lambda"]
-
     @cached_property
     def positions(self) -> np.ndarray:
         """Node positions, shape ``(n_times, n_nodes, 2)``."""
@@ -261,11 +277,6 @@ class Results:
     def rotations(self) -> np.ndarray:
         """Node rotations from the reference, shape ``(n_times, n_nodes)``."""
         return self.u.reshape(len(self.time), -1, 3)[:, :, 2]
-
-    @cached_property
-    def reactions(self) -> dict[str, np.ndarray]:
-        """Per joint, the force (and, for drive rows, torque) it applies on the structure."""
-        return _joint_forces(self.simulation, self.lam)[0]
 
     @cached_property
     def motor_torques(self) -> dict[str, np.ndarray]:
@@ -291,7 +302,7 @@ class Results:
     def response(self, name: str) -> float:
         """Value of a response of :meth:`Simulation.run_with_sensitivities` (e.g.
         ``"compliance"``) on this run — the same discrete value the gradients refer to."""
-        return float(self.simulation.model.evaluate_responses(self.x, self.u, self.raw["h"], [name])[0])
+        return self._evaluate(name, self.u, self.raw["h"])
 
     def tip_deflection(self, node: int | str | None = None) -> float:
         """Mean squared tip deflection ``d = (1/t_f) ∫ |e|² dt`` (paper Eq. 40, m²), by the
@@ -310,34 +321,17 @@ class Results:
 
 
 @dataclass
-class StaticResults:
+class StaticResults(_Run):
     """A static equilibrium."""
-
-    simulation: Simulation = field(repr=False)
-    raw: dict = field(repr=False)
-    x: np.ndarray | None = None
 
     def response(self, name: str) -> float:
         """Value of a response (``"compliance"`` is ``Fᵀu``) at this equilibrium."""
-        return float(self.simulation.model.evaluate_responses(self.x, self.u[None, :], 0.0, [name])[0])
-
-    @property
-    def u(self) -> np.ndarray:
-        """Displacements and rotations, three per node."""
-        return self.raw["u"]
-
-    @property
-    def lam(self) -> np.ndarray:
-        return self.raw["lambda"]
+        return self._evaluate(name, self.u[None, :], 0.0)
 
     @property
     def positions(self) -> np.ndarray:
         """Node positions, shape ``(n_nodes, 2)``."""
         return self.simulation.model.reference_positions + self.u.reshape(-1, 3)[:, :2]
-
-    @cached_property
-    def reactions(self) -> dict[str, np.ndarray]:
-        return _joint_forces(self.simulation, self.lam)[0]
 
     @property
     def newton(self) -> dict[str, Any]:

@@ -38,7 +38,8 @@ pub type Vector6 = SVector<f64, 6>;
 pub type Matrix6 = SMatrix<f64, 6, 6>;
 
 /// How the element's inertia is discretized.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum MassKind {
     /// Consistent with linear interpolation of displacements and rotation.
     Consistent,
@@ -197,18 +198,22 @@ mod tests {
         }
     }
 
+    /// Central difference of `f` at `u0` along DOF `j`.
+    fn central<T: std::ops::Sub<Output = T> + std::ops::Div<f64, Output = T>>(f: impl Fn(&Vector6) -> T, u0: &Vector6, j: usize) -> T {
+        let eps = 1e-7;
+        let (mut up, mut um) = (*u0, *u0);
+        up[j] += eps;
+        um[j] -= eps;
+        (f(&up) - f(&um)) / (2.0 * eps)
+    }
+
     #[test]
     fn tangent_matches_central_differences_of_the_force() {
         let b = beam();
         let u0 = rigid(&b, 1.2) + Vector6::from([1e-3, -2e-3, 0.05, 3e-3, 1e-3, -0.08]);
         let (_, k) = b.internal_force_and_tangent(&u0);
-        let eps = 1e-7;
         for j in 0..6 {
-            let mut up = u0;
-            let mut um = u0;
-            up[j] += eps;
-            um[j] -= eps;
-            let fd = (b.internal_force(&up) - b.internal_force(&um)) / (2.0 * eps);
+            let fd = central(|u| b.internal_force(u), &u0, j);
             for i in 0..6 {
                 let err = (fd[i] - k[(i, j)]).abs();
                 assert!(err < 1e-6 * k.amax(), "K[{i},{j}] = {} vs {}", k[(i, j)], fd[i]);
@@ -222,13 +227,8 @@ mod tests {
         let b = beam();
         let u0 = rigid(&b, -0.4) + Vector6::from([2e-3, 1e-3, -0.03, -1e-3, 2e-3, 0.06]);
         let f = b.internal_force(&u0);
-        let eps = 1e-7;
         for j in 0..6 {
-            let mut up = u0;
-            let mut um = u0;
-            up[j] += eps;
-            um[j] -= eps;
-            let fd = (b.strain_energy(&up) - b.strain_energy(&um)) / (2.0 * eps);
+            let fd = central(|u| b.strain_energy(u), &u0, j);
             assert!((fd - f[j]).abs() < 1e-6 * f.amax(), "f[{j}] = {} vs {fd}", f[j]);
         }
     }

@@ -13,11 +13,12 @@ use nalgebra::Vector2;
 use super::ground_structure;
 use super::spec::*;
 use crate::constraint::{Joint, JointKind};
-use crate::element::{Beam, MassKind};
+use crate::element::Beam;
 use crate::error::SceneError;
 use crate::interpolation::Interpolation;
 use crate::load::{NodalLoad, TimeFunction};
-use crate::model::{Analysis, Bar, Design, Element, Model, Node, PointMass, RunDefaults};
+use crate::model::{Analysis, Bar, Design, Element, Model, Node, PointMass};
+use crate::options::RunOptions;
 use crate::motion::{Motion, Table, Trapezoidal};
 use crate::rigid::{redundant_rows, Clusters};
 use crate::section::Section;
@@ -268,26 +269,24 @@ fn design(d: &DesignSpec) -> Result<(Interpolation, f64)> {
     Ok((law, x_min))
 }
 
-fn defaults(s: &SimulationSpec) -> Result<RunDefaults> {
-    let opt = |name: &str, v: Option<f64>| v.map(|v| positive(&format!("simulation.{name}"), v)).transpose();
+/// The scene's default run settings, checked like the scene's other values.
+fn defaults(s: &RunOptions) -> Result<RunOptions> {
+    for (name, value) in [("t_end", s.t_end), ("h", s.h), ("tol", s.tol)] {
+        if let Some(v) = value {
+            positive(&format!("simulation.{name}"), v)?;
+        }
+    }
     if let Some(r) = s.rho_inf {
         if !(0.0..=1.0).contains(&r) {
             return Err(SceneError::new("simulation.rho_inf", format!("must lie in [0, 1], got {r}")));
         }
     }
-    if s.load_steps == Some(0) {
-        return Err(SceneError::new("simulation.load_steps", "must be at least 1"));
+    for (name, value) in [("load_steps", s.load_steps), ("max_iter", s.max_iter)] {
+        if value == Some(0) {
+            return Err(SceneError::new(format!("simulation.{name}"), "must be at least 1"));
+        }
     }
-    Ok(RunDefaults {
-        t_end: opt("t_end", s.t_end)?,
-        h: opt("h", s.h)?,
-        rho_inf: s.rho_inf,
-        mass: s.mass.map(|m| match m {
-            MassSpec::Consistent => MassKind::Consistent,
-            MassSpec::Lumped => MassKind::Lumped,
-        }),
-        load_steps: s.load_steps,
-    })
+    Ok(*s)
 }
 
 /// Builds and validates the model of `spec`.

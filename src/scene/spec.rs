@@ -5,10 +5,12 @@
 
 use std::collections::BTreeMap;
 
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
+
+use crate::options::RunOptions;
 
 /// A whole scene.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
     /// Name of the scene.
@@ -47,13 +49,14 @@ pub struct SceneSpec {
     /// Default node of the tip-deflection response.
     #[serde(default)]
     pub tip: Option<String>,
-    /// Default run settings.
+    /// Default run settings (`t_end`, `h`, `rho_inf`, `tol`, `max_iter`, `mass`,
+    /// `load_steps`); a run may override each.
     #[serde(default)]
-    pub simulation: SimulationSpec,
+    pub simulation: RunOptions,
 }
 
 /// Kind of analysis.
-#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum AnalysisSpec {
     /// Time integration.
@@ -65,7 +68,7 @@ pub enum AnalysisSpec {
 
 /// A beam section: material plus either a solid-circle `diameter` or `A`, `I`, `kappa`.
 /// Give exactly one of `G` and `nu`.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct SectionSpec {
@@ -88,7 +91,7 @@ pub struct SectionSpec {
 }
 
 /// A named node.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct NodeSpec {
     /// Name.
@@ -100,7 +103,7 @@ pub struct NodeSpec {
 }
 
 /// A point given by coordinates or by the name of an existing node.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(untagged)]
 pub enum PointSpec {
     /// `[x, y]` (m).
@@ -118,7 +121,7 @@ impl Default for PointSpec {
 /// A ground structure: an `nx × ny` grid over `length × height` in a local frame at `origin`
 /// rotated by `angle`, with bars between every pair of nodes whose segment holds no third
 /// node. Nodes are named `NAME[i,j]` (column `i`, row `j` from the bottom).
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct GroundStructureSpec {
     /// Name (also the component's name).
@@ -148,7 +151,7 @@ pub struct GroundStructureSpec {
 }
 
 /// A beam between two named nodes.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct BeamSpec {
     /// Name (default `beams[k]`).
@@ -170,7 +173,7 @@ pub struct BeamSpec {
 }
 
 /// A point mass.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PointMassSpec {
     /// Node.
@@ -183,7 +186,7 @@ pub struct PointMassSpec {
 }
 
 /// A force and moment on a node, optionally scaled in time by a piecewise-linear table.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     /// Node.
@@ -199,7 +202,7 @@ pub struct LoadSpec {
 }
 
 /// Samples `(t, scale)` of a load's time history.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct LoadTableSpec {
     /// Times (s), strictly increasing.
@@ -209,7 +212,7 @@ pub struct LoadTableSpec {
 }
 
 /// A joint.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum JointSpec {
     /// Fixes a node's position and rotation.
@@ -240,7 +243,7 @@ pub enum JointSpec {
 }
 
 /// A motion law `θ(t)`; the joint follows `θ(t) − θ(0)`.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MotionSpec {
     /// Trapezoidal velocity profile from `start` to `end` (rad).
@@ -273,7 +276,7 @@ pub enum MotionSpec {
 }
 
 /// Design parametrization: SIMP exponent `p` or RAMP parameter `q`, lower bound `x_min`.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DesignSpec {
     /// `"simp"` (default) or `"ramp"`.
@@ -295,7 +298,7 @@ impl Default for DesignSpec {
 }
 
 /// Stiffness interpolation law.
-#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum InterpolationSpec {
     /// `xᵖ`.
@@ -303,32 +306,6 @@ pub enum InterpolationSpec {
     Simp,
     /// `x / (1 + q(1 − x))`.
     Ramp,
-}
-
-/// Default run settings; a run may override each.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SimulationSpec {
-    /// End time (s).
-    pub t_end: Option<f64>,
-    /// Step size (s).
-    pub h: Option<f64>,
-    /// Spectral radius at infinite frequency, in `[0, 1]`.
-    pub rho_inf: Option<f64>,
-    /// `"consistent"` or `"lumped"` inertia.
-    pub mass: Option<MassSpec>,
-    /// Load steps of a static analysis.
-    pub load_steps: Option<usize>,
-}
-
-/// Inertia discretization.
-#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum MassSpec {
-    /// Consistent mass matrix.
-    Consistent,
-    /// Lumped mass matrix.
-    Lumped,
 }
 
 fn one() -> usize {
