@@ -1,0 +1,64 @@
+//! The hot path allocates nothing: after the first step (which sizes faer's buffers), a
+//! generalized-α step — residual and iteration-matrix assembly, numeric LDLᵀ
+//! refactorization and solve, every Newton iteration — makes no heap allocation.
+//! Counted with a global allocator wrapper (this test binary only), per thread, so the
+//! test harness's own threads do not count.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use flextop::element::MassKind;
+use flextop::integrator::{Integrator, Settings};
+use flextop::scene;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+fn record() {
+    ALLOCATIONS.with(|c| c.set(c.get() + 1));
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        record();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        record();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn alpha_steps_do_not_allocate() {
+    for split in [1, 3] {
+        let text = include_str!("../examples/robot_arm.toml").replace("split = 1", &format!("split = {split}"));
+        let model = scene::build(&scene::parse_toml(&text).unwrap()).unwrap();
+        let x = vec![0.4; model.n_variables()];
+        let settings = Settings { t_end: 1.3, h: 0.02, rho_inf: 0.8, tol: 1e-10, max_iter: 20, mass: MassKind::Consistent };
+        let mut integrator = Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings);
+        let mut state = integrator.initial_state().unwrap();
+        integrator.alpha_step(&mut state).unwrap();
+        let before = count();
+        let mut iterations = 0;
+        for _ in 0..30 {
+            iterations += integrator.alpha_step(&mut state).unwrap().iterations;
+        }
+        let allocations = count() - before;
+        assert!(iterations >= 60, "the steps did Newton work ({iterations} iterations)");
+        assert_eq!(allocations, 0, "split = {split}: {allocations} allocations in 30 steps");
+    }
+}
