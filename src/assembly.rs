@@ -236,13 +236,6 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// `out_k = (Φ_q v)_k`.
-    pub fn constraint_rates(&self, v: &[f64], out: &mut [f64]) {
-        for (row, o) in self.model.rows.iter().zip(out.iter_mut()) {
-            *o = row.apply(v);
-        }
-    }
-
     /// Starts an augmented iteration matrix: `values = mass_coefficient · M + s Φ_qᵀΦ_q` plus
     /// the constraint blocks `s Φ_q`, `s Φ_qᵀ`; [`Assembler::internal_forces`] then adds `K_t`.
     pub fn start_iteration_matrix(&self, mass_coefficient: f64, constraint_scale: f64, values: &mut [f64]) {

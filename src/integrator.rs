@@ -56,6 +56,9 @@ impl AlphaParameters {
     }
 }
 
+/// Most steps a run may take.
+pub const MAX_STEPS: usize = 100_000_000;
+
 /// Settings of a time integration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -98,12 +101,23 @@ impl Settings {
         if self.max_iter == 0 {
             return bad("max_iter", "must be at least 1".into());
         }
+        if self.t_end / self.h > MAX_STEPS as f64 {
+            return bad("h", format!("t_end / h = {:.3e} steps; at most {MAX_STEPS:.0e} are allowed", self.t_end / self.h));
+        }
         Ok(())
     }
 
     /// Number of steps: `t_end / h` rounded to the nearest integer (at least one).
     pub fn steps(&self) -> usize {
         ((self.t_end / self.h).round() as usize).max(1)
+    }
+
+    /// The same settings with `h` shortened, if needed, so that a whole number of steps ends
+    /// exactly at `t_end` (a ratio within 1e-9 of an integer counts as that integer).
+    pub fn ending_at_t_end(self) -> Self {
+        let ratio = self.t_end / self.h;
+        let steps = if (ratio - ratio.round()).abs() <= 1e-9 * ratio.max(1.0) { ratio.round() } else { ratio.ceil() };
+        Self { h: self.t_end / steps.max(1.0), ..self }
     }
 }
 

@@ -40,7 +40,8 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
-    /// Settings of a dynamic run.
+    /// Settings of a dynamic run; `h` is shortened, if needed, so that a whole number of
+    /// steps ends exactly at `t_end`.
     ///
     /// # Errors
     /// A [`SettingsError`] if `t_end` or `h` is given nowhere, or a value is out of range.
@@ -55,7 +56,7 @@ impl RunOptions {
             mass: self.mass.or(d.mass).unwrap_or(MassKind::Consistent),
         };
         s.validate()?;
-        Ok(s)
+        Ok(s.ending_at_t_end())
     }
 
     /// Settings of a static solve.

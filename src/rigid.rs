@@ -141,26 +141,30 @@ impl Clusters {
             let fail = |detail: String| SolveError::Kinematics { time: t, detail };
             for iter in 0.. {
                 let (phi, jac) = self.constraints(model, &rho, t);
+                let svd = jac.svd(true, true);
+                let sigma = &svd.singular_values;
+                let condition = sigma.min() / sigma.max().max(f64::MIN_POSITIVE);
+                if sigma.len() < n || condition < SINGULAR {
+                    let free = n - rank_of(sigma).min(n);
+                    return Err(fail(if out.is_empty() {
+                        format!("the mechanism is not fully driven ({} free rigid-body modes): the rigid trajectory is undefined", free.max(1))
+                    } else {
+                        format!(
+                            "kinematic singularity: the joints' Jacobian is (nearly) rank-deficient here \
+                             (smallest/largest singular value {condition:.1e}), so the rigid mechanism cannot \
+                             follow its drives through this configuration"
+                        )
+                    }));
+                }
                 if phi.amax() <= 1e-13 * scale {
                     break;
                 }
                 if iter == 50 {
-                    return Err(fail(format!("Newton stalled at |Φ| = {:.3e}", phi.amax())));
-                }
-                let svd = jac.svd(true, true);
-                let r = rank_of(&svd.singular_values);
-                if r < n && out.is_empty() {
                     return Err(fail(format!(
-                        "the mechanism is not fully driven ({} free rigid-body modes): \
-                         the rigid trajectory is undefined",
-                        n - r
-                    )));
-                }
-                if r < n {
-                    return Err(fail(format!(
-                        "kinematic singularity: the joints' Jacobian loses rank {} here, \
-                         so the rigid mechanism cannot follow its drives through this configuration",
-                        n - r
+                        "no rigid configuration satisfies the joints here (Newton stalled at |Φ| = {:.3e}): \
+                         the drives ask for a position the rigid mechanism cannot reach — it went through a \
+                         kinematic singularity (a toggle or dead-centre position) or its drives contradict each other",
+                        phi.amax()
                     )));
                 }
                 rho -= svd.solve(&phi, 1e-12).map_err(|e| fail(e.to_string()))?;
@@ -184,6 +188,12 @@ impl Clusters {
         Ok(self.rigid_motion(model, times)?.iter().map(|rho| self.position(model, rho, node)).collect())
     }
 }
+
+/// Smallest over largest singular value of the joints' Jacobian below which the rigid
+/// mechanism is taken as singular. Newton converging onto an exact singularity stops
+/// about `√tol` away from it, where this ratio is of that order (1e-7); a configuration
+/// 1e-6 rad from a toggle still has a ratio near 1e-3.
+const SINGULAR: f64 = 1e-6;
 
 /// Numerical rank by singular values relative to the largest.
 fn rank(m: &DMatrix<f64>) -> usize {

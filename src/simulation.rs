@@ -2,11 +2,18 @@
 //! trajectory, energies and Newton statistics.
 //!
 //! Energies: kinetic `T = ½ q̇ᵀ M q̇`, strain `U = Σ s(x_e) U_e`, the work of the drives
-//! `W_d = ∫ −λ_dᵀ (Φ_q q̇)_d dt` (motor torque times joint rate) and of applied loads and
-//! gravity `W_e = ∫ (f_ext + M ĝ)ᵀ q̇ dt`, both by the trapezoidal rule. For an exact solution
-//! `T + U − W_d − W_e` is constant.
+//! (motor torque times joint rotation) `W_d = Σₙ −½(λₙ + λₙ₊₁)_d (gₙ₊₁ − gₙ)_d` over the
+//! prescribed angles `g = θ(t) − θ(0)`, and of applied loads and gravity
+//! `W_e = ∫ (f_ext + M ĝ)ᵀ q̇ dt` by the trapezoidal rule. For an exact solution
+//! `T + U − W_d − W_e` is constant. The drive work uses the prescribed angle increments —
+//! which the index-3 constraints enforce exactly — rather than discrete velocities: those
+//! are not constrained, and with ρ∞ = 1 their error at a held joint never decays, which
+//! would show as work done by a motor that does not move.
 
-use crate::error::Error;
+use crate::error::{Error, SettingsError};
+
+/// Largest trajectory a run records (bytes).
+pub const MAX_TRAJECTORY_BYTES: f64 = 8.0 * (1u64 << 30) as f64;
 use crate::integrator::{Integrator, Settings, State};
 use crate::model::Model;
 
@@ -39,11 +46,6 @@ pub struct Trajectory {
     pub external_work: Vec<f64>,
 }
 
-/// Power of the drives and of the external forces at a state.
-struct Powers {
-    drives: f64,
-    external: f64,
-}
 
 impl Trajectory {
     fn record(&mut self, s: &State, iterations: usize) {
@@ -59,27 +61,39 @@ impl Trajectory {
 /// Runs `model` with element scalings from design `x` (`None`: all bars at full density).
 ///
 /// # Errors
-/// Design, settings and solve errors ([`Error`]); a failed Newton step reports its time.
+/// Design, settings and solve errors ([`Error`]); a failed Newton step reports its time; a
+/// trajectory larger than [`MAX_TRAJECTORY_BYTES`] is refused before the run.
 pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result<Trajectory, Error> {
     settings.validate()?;
+    let bytes = (settings.steps() + 1) as f64 * (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0;
+    if bytes > MAX_TRAJECTORY_BYTES {
+        return Err(SettingsError::new(
+            "h",
+            format!("{} steps of {} coordinates would record {:.1} GiB of trajectory (at most {:.0} GiB); increase h or shorten t_end", settings.steps(), model.n_dofs(), bytes / (1u64 << 30) as f64, MAX_TRAJECTORY_BYTES / (1u64 << 30) as f64),
+        )
+        .into());
+    }
     let densities = model.densities(x)?;
     let mut integrator = Integrator::new(model, densities, settings);
     let mut state = integrator.initial_state()?;
     let mut traj = Trajectory { n_q: model.n_dofs(), n_c: model.n_constraints(), ..Default::default() };
     let mut scratch = EnergyScratch::new(model);
     traj.record(&state, 0);
-    let mut last = scratch.powers(&integrator, &state);
+    let mut last = scratch.external_power(&integrator, &state);
+    let driven: Vec<usize> = (0..model.n_constraints()).filter(|&k| model.rows[k].driven).collect();
+    let angle = |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
     traj.kinetic.push(scratch.kinetic(&integrator, &state));
     traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
     traj.drive_work.push(0.0);
     traj.external_work.push(0.0);
     for _ in 0..settings.steps() {
+        let (t0, lambda0) = (state.t, state.lambda.clone());
         let report = integrator.alpha_step(&mut state)?;
         traj.record(&state, report.iterations);
-        let now = scratch.powers(&integrator, &state);
-        let half_h = 0.5 * integrator.h;
-        traj.drive_work.push(traj.drive_work.last().unwrap() + half_h * (last.drives + now.drives));
-        traj.external_work.push(traj.external_work.last().unwrap() + half_h * (last.external + now.external));
+        let now = scratch.external_power(&integrator, &state);
+        let drives: f64 = driven.iter().map(|&k| -0.5 * (lambda0[k] + state.lambda[k]) * (angle(k, state.t) - angle(k, t0))).sum();
+        traj.drive_work.push(traj.drive_work.last().unwrap() + drives);
+        traj.external_work.push(traj.external_work.last().unwrap() + 0.5 * integrator.h * (last + now));
         traj.kinetic.push(scratch.kinetic(&integrator, &state));
         traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
         last = now;
@@ -91,12 +105,11 @@ pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result
 struct EnergyScratch {
     force: Vec<f64>,
     mv: Vec<f64>,
-    rates: Vec<f64>,
 }
 
 impl EnergyScratch {
     fn new(model: &Model) -> Self {
-        Self { force: vec![0.0; model.n_dofs()], mv: vec![0.0; model.n_dofs()], rates: vec![0.0; model.n_constraints()] }
+        Self { force: vec![0.0; model.n_dofs()], mv: vec![0.0; model.n_dofs()] }
     }
 
     fn kinetic(&mut self, it: &Integrator, s: &State) -> f64 {
@@ -104,14 +117,13 @@ impl EnergyScratch {
         0.5 * dot(&s.v, &self.mv)
     }
 
-    fn powers(&mut self, it: &Integrator, s: &State) -> Powers {
+    /// Power `(f_ext + M ĝ)ᵀ q̇` of loads and gravity.
+    fn external_power(&mut self, it: &Integrator, s: &State) -> f64 {
         let asm = &it.newton.asm;
-        asm.constraint_rates(&s.v, &mut self.rates);
-        let drives = asm.model.rows.iter().zip(&self.rates).zip(&s.lambda).filter(|((row, _), _)| row.driven).map(|((_, rate), l)| -l * rate).sum();
         asm.mass_times(&asm.gravity, &mut self.mv);
         asm.external_forces(s.t, 1.0, &mut self.force);
         self.force.iter_mut().zip(&self.mv).for_each(|(f, g)| *f += g);
-        Powers { drives, external: dot(&self.force, &s.v) }
+        dot(&self.force, &s.v)
     }
 }
 

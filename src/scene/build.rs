@@ -103,6 +103,8 @@ struct Mesh {
     index: HashMap<String, usize>,
     elements: Vec<Element>,
     bars: Vec<Bar>,
+    /// Scene path of each bar, for messages.
+    bar_paths: Vec<String>,
     components: Vec<String>,
     variables: Vec<String>,
     groups: HashMap<String, usize>,
@@ -147,15 +149,12 @@ impl Mesh {
         self.variables.len() - 1
     }
 
-    /// A straight bar split into `split` elements, interior nodes named `NAME:k`.
+    /// A straight bar split into `split` elements, interior nodes named `NAME:k` (its length
+    /// is checked by [`Mesh::check_lengths`] once the whole mesh is known).
     fn add_bar(&mut self, b: BarSpec) -> Result<()> {
         let [a, z] = b.ends;
         let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
         let length = (xz - xa).norm();
-        if !(length > 1e-12 * (xa.norm() + xz.norm())) {
-            let (na, nz) = (&self.nodes[a].name, &self.nodes[z].name);
-            return Err(SceneError::new(&b.path, format!("zero-length bar: nodes '{na}' and '{nz}' coincide")));
-        }
         if b.split == 0 {
             return Err(SceneError::new(format!("{}.split", b.path), "must be at least 1"));
         }
@@ -173,6 +172,35 @@ impl Mesh {
         }
         let volume = b.section.area * length;
         self.bars.push(Bar { name: b.name, component: b.component, variable: b.variable, elements: first..self.elements.len(), volume });
+        self.bar_paths.push(b.path);
+        Ok(())
+    }
+
+    /// Diagonal of the bounding box of the nodes (m).
+    fn size(&self) -> f64 {
+        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(f64::NEG_INFINITY));
+        for n in &self.nodes {
+            lo = lo.inf(&n.position);
+            hi = hi.sup(&n.position);
+        }
+        (hi - lo).norm()
+    }
+
+    /// Every bar has a finite length above 1e-9 of the model's size and above the round-off
+    /// of its end coordinates (1e-12 of their magnitude).
+    fn check_lengths(&self, size: f64) -> Result<()> {
+        if !size.is_finite() {
+            return Err(SceneError::new("nodes", format!("the scene spans {size} m: coordinates too large to compute with")));
+        }
+        for (bar, path) in self.bars.iter().zip(&self.bar_paths) {
+            let (a, z) = (self.elements[bar.elements.start].nodes[0], self.elements[bar.elements.end - 1].nodes[1]);
+            let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
+            let length = (xz - xa).norm();
+            if !(length > (1e-9 * size).max(1e-12 * (xa.norm() + xz.norm()))) {
+                let (na, nz) = (&self.nodes[a].name, &self.nodes[z].name);
+                return Err(SceneError::new(path, format!("zero-length bar: nodes '{na}' and '{nz}' coincide ({length:.1e} m apart in a scene of {size:.3} m)")));
+            }
+        }
         Ok(())
     }
 
@@ -308,14 +336,8 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     if mesh.elements.is_empty() {
         return Err(SceneError::new("scene", "has no beams"));
     }
-    let size = {
-        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(f64::NEG_INFINITY));
-        mesh.nodes.iter().for_each(|n| {
-            lo = lo.inf(&n.position);
-            hi = hi.sup(&n.position);
-        });
-        (hi - lo).norm()
-    };
+    let size = mesh.size();
+    mesh.check_lengths(size)?;
     let joints = spec.joints.iter().enumerate().map(|(k, j)| joint(&format!("joints[{k}]"), j, &mesh, size)).collect::<Result<Vec<_>>>()?;
     let rows = joints.iter().enumerate().flat_map(|(k, j)| j.rows(k)).collect::<Vec<_>>();
     let point_masses = spec
