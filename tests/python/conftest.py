@@ -1,13 +1,35 @@
 """Shared fixtures: paths, and small scenes used across the tests."""
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import flextop
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
+
+
+def trapezoid(start, end, acceleration, speed):
+    """θ(t) − θ(0) of a trapezoidal law (triangular when ``speed`` is not reached) and its
+    duration ``T``."""
+    distance, sign = abs(end - start), math.copysign(1.0, end - start)
+    ta = speed / acceleration
+    if distance < acceleration * ta**2:
+        ta = math.sqrt(distance / acceleration)
+        speed = acceleration * ta
+    T = distance / speed + ta
+
+    def theta(t):
+        t = np.asarray(t, dtype=float)
+        rise = 0.5 * acceleration * t**2
+        cruise = 0.5 * acceleration * ta**2 + speed * (t - ta)
+        fall = distance - 0.5 * acceleration * (T - t) ** 2
+        return sign * np.where(t < ta, rise, np.where(t < T - ta, cruise, np.where(t < T, fall, distance)))
+
+    return theta, T
 
 
 def cantilever(length: float = 1.0, split: int = 8, *, analysis: str = "dynamic") -> flextop.Scene:

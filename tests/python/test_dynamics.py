@@ -6,7 +6,7 @@ from scipy.optimize import brentq
 
 import flextop
 
-from conftest import cantilever
+from conftest import cantilever, trapezoid
 
 E, NU, RHO, D = 70e9, 0.32, 2700.0, 0.02
 G = E / (2 * (1 + NU))
@@ -74,7 +74,7 @@ def test_results_carry_the_run(arm):
     # Constraints hold: the shoulder stays put, the drives follow θ(t) − θ(0).
     shoulder = arm.node("link1[0,1]")
     assert np.abs(res.positions[:, shoulder]).max() < 1e-12
-    theta = np.array([flextop_angle(t) for t in res.time]) - np.pi / 3
+    theta = reference_angle(res.time) - np.pi / 3
     np.testing.assert_allclose(res.rotations[:, shoulder], theta, atol=1e-12)
     elbow = arm.node("link1[4,1]"), arm.node("link2[0,1]")
     np.testing.assert_allclose(res.rotations[:, elbow[1]] - res.rotations[:, elbow[0]], theta, atol=1e-12)
@@ -90,21 +90,14 @@ def test_results_carry_the_run(arm):
     assert work == pytest.approx(e["drive_work"][-1], rel=0.05)
 
 
-def flextop_angle(t):
+def reference_angle(t):
     """θ(t) of the reference trapezoidal law (π/3 → π/2, 2 rad/s², 0.5 rad/s)."""
-    T = (np.pi / 6) / 0.5 + 0.25
-    if t < 0.25:
-        return np.pi / 3 + t**2
-    if t < T - 0.25:
-        return np.pi / 3 + 0.0625 + 0.5 * (t - 0.25)
-    if t < T:
-        return np.pi / 2 - (T - t) ** 2
-    return np.pi / 2
+    return np.pi / 3 + trapezoid(np.pi / 3, np.pi / 2, 2.0, 0.5)[0](t)
 
 
 def test_rigid_trajectory_matches_the_arm_kinematics(arm):
     t = np.linspace(0, 1.3, 27)
-    th = np.array([flextop_angle(s) for s in t])
+    th = reference_angle(t)
     exact = np.c_[np.cos(th) + np.cos(2 * th), np.sin(th) + np.sin(2 * th)]
     np.testing.assert_allclose(arm.rigid_trajectory(arm.tip, t), exact, atol=1e-12)
 

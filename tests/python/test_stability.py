@@ -12,35 +12,13 @@ import pytest
 import flextop
 from flextop import DesignError, SceneError, SettingsError, SimulationError
 
-from conftest import ROOT
+from conftest import ROOT, trapezoid
 
 NAN, INF = float("nan"), float("inf")
+ARM_THETA, ARM_T = trapezoid(math.pi / 3, math.pi / 2, 2.0, 0.5)  # T = π/6 / 0.5 + 0.25 ≈ 1.297 s
 
 
 # -- helpers ----------------------------------------------------------------------------
-
-
-def trapezoid(start, end, acceleration, speed):
-    """θ(t) − θ(0) of a trapezoidal law (triangular when ``speed`` is not reached) and its
-    duration ``T``."""
-    distance, sign = abs(end - start), math.copysign(1.0, end - start)
-    ta = speed / acceleration
-    if distance < acceleration * ta**2:
-        ta = math.sqrt(distance / acceleration)
-        speed = acceleration * ta
-    T = distance / speed + ta
-
-    def theta(t):
-        t = np.asarray(t, dtype=float)
-        rise = 0.5 * acceleration * t**2
-        cruise = 0.5 * acceleration * ta**2 + speed * (t - ta)
-        fall = distance - 0.5 * acceleration * (T - t) ** 2
-        return sign * np.where(t < ta, rise, np.where(t < T - ta, cruise, np.where(t < T, fall, distance)))
-
-    return theta, T
-
-
-ARM_THETA, ARM_T = trapezoid(math.pi / 3, math.pi / 2, 2.0, 0.5)  # T = π/6 / 0.5 + 0.25 ≈ 1.297 s
 
 
 def vibration(res):
