@@ -237,9 +237,7 @@ impl<'m> Newton<'m> {
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
         // assemble() augmented −sΦ(q₀) = 0 into the DOF rows; set the constraint rows to s g̈.
-        for k in 0..n_c {
-            self.rhs[n_q + k] = self.scale * g[k];
-        }
+        self.rhs[n_q..].iter_mut().zip(&g).for_each(|(r, gk)| *r = self.scale * gk);
         self.asm.augment_rhs(&mut self.rhs);
         let solved = self.solve(0.0);
         let out = (self.rhs[..n_q].to_vec(), self.rhs[n_q..].iter().map(|m| m * self.scale).collect());

@@ -42,6 +42,12 @@ fn scene_error(path: String, message: String) -> PyErr {
     Error::Scene(SceneError::new(if path == "." { "scene".into() } else { path }, message)).into()
 }
 
+/// A joint as Python sees it: `(name, kind, node indices, first row, row count, driven)`.
+type JointInfo = (String, &'static str, Vec<usize>, usize, usize, bool);
+
+/// `(values, gradients, method used, (simulation seconds, gradient seconds))`.
+type SensitivityOutput<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str, (f64, f64));
+
 /// A built and validated mechanism.
 #[pyclass(name = "Model", module = "flextop._core", frozen)]
 struct PyModel {
@@ -64,7 +70,7 @@ fn design_vector(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f6
 
 /// A row-major `(rows, cols)` numpy array from a flat vector.
 fn matrix<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
-    let rows = if cols == 0 { 0 } else { data.len() / cols };
+    let rows = data.len().checked_div(cols).unwrap_or(0);
     Ok(PyArray1::from_vec(py, data).reshape([rows, cols])?.into_any())
 }
 
@@ -168,7 +174,7 @@ impl PyModel {
     }
 
     /// Joints: list of `(name, kind, node indices, first row, row count, driven)`.
-    fn joints(&self) -> Vec<(String, &'static str, Vec<usize>, usize, usize, bool)> {
+    fn joints(&self) -> Vec<JointInfo> {
         let m = &self.model;
         m.joints
             .iter()
@@ -242,7 +248,7 @@ impl PyModel {
         method: &str,
         memory: &str,
         settings: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str, (f64, f64))> {
+    ) -> PyResult<SensitivityOutput<'py>> {
         let method = match method {
             "auto" => Method::Auto,
             "direct" => Method::Direct,

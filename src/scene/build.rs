@@ -196,7 +196,8 @@ impl Mesh {
             let (a, z) = (self.elements[bar.elements.start].nodes[0], self.elements[bar.elements.end - 1].nodes[1]);
             let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
             let length = (xz - xa).norm();
-            if !(length > (1e-9 * size).max(1e-12 * (xa.norm() + xz.norm()))) {
+            let too_short = length.partial_cmp(&(1e-9 * size).max(1e-12 * (xa.norm() + xz.norm()))) != Some(std::cmp::Ordering::Greater);
+            if too_short {
                 let (na, nz) = (&self.nodes[a].name, &self.nodes[z].name);
                 return Err(SceneError::new(path, format!("zero-length bar: nodes '{na}' and '{nz}' coincide ({length:.1e} m apart in a scene of {size:.3} m)")));
             }

@@ -47,7 +47,7 @@ impl StateStore {
                 acc.extend_from_slice(&s.acc);
             }
             Self::Checkpoints { interval, states, .. } => {
-                if n % *interval == 0 {
+                if n.is_multiple_of(*interval) {
                     states.push(s.clone());
                 }
             }

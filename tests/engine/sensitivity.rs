@@ -41,7 +41,10 @@ fn finite_differences(eval: &dyn Fn(&[f64]) -> Result<Sensitivities, Error>, x: 
         .collect()
 }
 
-fn check(model: &Model, eval: &dyn Fn(&[f64], Method) -> Result<Sensitivities, Error>, x: &[f64], js: &[usize], n_r: usize) {
+/// A run with gradients of a design by a method.
+type Evaluate<'a> = &'a dyn Fn(&[f64], Method) -> Result<Sensitivities, Error>;
+
+fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r: usize) {
     let n_x = model.n_variables();
     let direct = eval(x, Method::Direct).unwrap();
     let adjoint = eval(x, Method::Adjoint).unwrap();
