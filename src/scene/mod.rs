@@ -2,7 +2,7 @@
 //! build into a [`crate::model::Model`].
 //!
 //! A scene file is TOML; see `examples/*.toml` and the README for the keys. Parsing rejects
-//! unknown keys with their path; [`build`] checks every value and the mechanism.
+//! unknown keys with their path; [`build()`] checks every value and the mechanism.
 
 pub mod build;
 pub mod ground_structure;

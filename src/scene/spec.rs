@@ -1,7 +1,7 @@
 //! The scene description as data: what a TOML scene file or the Python builder holds.
 //!
 //! Every table rejects unknown keys. Values are checked when the scene is built
-//! ([`crate::scene::build`]), where each error names its entry. Units: SI.
+//! ([`crate::scene::build()`]), where each error names its entry. Units: SI.
 
 use std::collections::BTreeMap;
 
