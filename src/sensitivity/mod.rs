@@ -192,11 +192,29 @@ pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Respo
     if let Some(explicit) = explicit_only(model, x, responses)? {
         return Ok(explicit);
     }
+    let (n_q, n, n_x) = (model.n_dofs(), model.n_dofs() + model.n_constraints(), model.n_variables());
+    let gib = |doubles: f64| doubles * 8.0 / (1u64 << 30) as f64;
     match resolve(method, responses, model) {
-        Method::Direct => direct::run(model, x, settings, responses),
-        _ => adjoint::run(model, x, settings, responses, memory),
+        Method::Direct => {
+            // q', q̇', q̈', a' and the right-hand sides, each a column per design variable.
+            let need = gib((4 * n_q + n) as f64 * n_x as f64);
+            if need > MAX_GIB {
+                return Err(SettingsError::new("method", format!("the direct method would hold {need:.1} GiB of sensitivities (at most {MAX_GIB} GiB); use method='adjoint'")).into());
+            }
+            direct::run(model, x, settings, responses)
+        }
+        _ => {
+            let need = gib(2.0 * n_q as f64 * (settings.steps() + 1) as f64);
+            if memory == Memory::StoreAll && need > MAX_GIB {
+                return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
+            }
+            adjoint::run(model, x, settings, responses, memory)
+        }
     }
 }
+
+/// Memory a sensitivity analysis may hold in its largest arrays (GiB).
+const MAX_GIB: f64 = 8.0;
 
 /// Responses and gradients of a static equilibrium.
 ///

@@ -72,3 +72,9 @@ def test_static_scene_has_no_tip_deflection():
     sim = flextop.Simulation(flextop.scenes.static_truss())
     with pytest.raises(SettingsError, match="static scene has no motion"):
         sim.run_with_sensitivities(np.full(sim.n_design, 0.4), ["tip_deflection:truss[4,1]"])
+
+
+def test_a_direct_analysis_too_large_for_memory_is_refused_up_front():
+    sim = flextop.Simulation(flextop.scenes.robot_arm(nx=21, ny=5, split=4))
+    with pytest.raises(SettingsError, match=r"direct method would hold 15\.0 GiB .* use method='adjoint'"):
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.4), ["tip_deflection"], method="direct")
