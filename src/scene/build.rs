@@ -275,6 +275,9 @@ fn joint(path: &str, j: &JointSpec, mesh: &Mesh, size: f64) -> Result<Joint> {
         }
     };
     let drive = drive.map(|d| motion(&format!("{path}.drive"), d)).transpose()?;
+    if let Some(rate) = drive.as_ref().map(|m| m.at(0.0).velocity).filter(|v| v.abs() > 0.0) {
+        return Err(SceneError::new(format!("{path}.drive"), format!("moves at t = 0 (θ̇ = {rate} rad/s), but scenes start at rest: start the motion from rest")));
+    }
     Ok(Joint { name: name.clone(), kind, drive })
 }
 

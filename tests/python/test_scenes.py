@@ -94,6 +94,13 @@ def test_bad_scenes_raise_scene_error_naming_the_culprit(mutate, culprit):
     assert isinstance(info.value, ValueError)
 
 
+def test_drives_must_start_at_rest():
+    spec = flextop.scenes.robot_arm().to_dict()
+    spec["joints"][0]["drive"] = flextop.motion_table([0.0, 1.0], [1.0, 1.5], start_velocity=0.3)
+    with pytest.raises(SceneError, match=r"joints\[0\]\.drive: moves at t = 0 .* scenes start at rest"):
+        flextop.Simulation(spec)
+
+
 def test_zero_length_bar_is_rejected():
     scene = flextop.Scene()
     scene.section("s", E=1e9, nu=0.3, rho=1000.0, diameter=0.01)
