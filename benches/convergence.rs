@@ -26,7 +26,12 @@ fn main() {
         let arm = robot_arm(5, 3, m);
         let (d, t) = tip_deflection(&arm, 0.4, &settings(0.02), if m <= 4 { 7 } else { 3 });
         let dofs = arm.n_dofs() + arm.n_constraints();
-        println!("| {m} | {dofs} | {:.1} | {:.3} | {d:.6e} | {:+.3} % |", 1e3 * t, 1e6 * t / (dofs as f64 * 65.0), 100.0 * (d / reference - 1.0));
+        println!(
+            "| {m} | {dofs} | {:.1} | {:.3} | {d:.6e} | {:+.3} % |",
+            1e3 * t,
+            1e6 * t / (dofs as f64 * 65.0),
+            100.0 * (d / reference - 1.0)
+        );
     }
 
     println!("\n### Step size h at m = 1\n");
@@ -37,6 +42,12 @@ fn main() {
     for h in [0.04, 0.02, 0.01, 0.005, 0.0025] {
         let (d, t) = tip_deflection(&arm, 0.4, &settings(h), 7);
         let steps = (1.3 / h).round();
-        println!("| {h} | {steps} | {:.1} | {:.1} | {d:.6e} | {:+.3} % | {:+.4} % |", 1e3 * t, 1e6 * t / steps, 100.0 * (d / reference - 1.0), 100.0 * (d / d_h0 - 1.0));
+        println!(
+            "| {h} | {steps} | {:.1} | {:.1} | {d:.6e} | {:+.3} % | {:+.4} % |",
+            1e3 * t,
+            1e6 * t / steps,
+            100.0 * (d / reference - 1.0),
+            100.0 * (d / d_h0 - 1.0)
+        );
     }
 }

@@ -19,7 +19,11 @@ fn alpha_step(c: &mut Criterion) {
         integrator.alpha_step(&mut state).unwrap();
     }
     c.bench_function("alpha_step (robot arm, 96 unknowns, t = 0.6 s)", |b| {
-        b.iter_batched_ref(|| state.clone(), |s| integrator.alpha_step(s).unwrap(), BatchSize::SmallInput)
+        b.iter_batched_ref(
+            || state.clone(),
+            |s| integrator.alpha_step(s).unwrap(),
+            BatchSize::SmallInput,
+        )
     });
 }
 
@@ -27,7 +31,9 @@ fn robot_arm_run(c: &mut Criterion) {
     let arm = common::robot_arm(5, 3, 1);
     let settings = common::settings(0.02);
     let x = vec![0.4; arm.n_variables()];
-    c.bench_function("robot arm run (m = 1, h = 0.02 s, 65 steps)", |b| b.iter(|| simulate(&arm, Some(&x), &settings).unwrap()));
+    c.bench_function("robot arm run (m = 1, h = 0.02 s, 65 steps)", |b| {
+        b.iter(|| simulate(&arm, Some(&x), &settings).unwrap())
+    });
 }
 
 criterion_group! {

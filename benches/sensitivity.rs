@@ -38,8 +38,12 @@ fn main() {
         let responses = parse_responses(&arm, &names).unwrap();
         let repeats = if arm.n_variables() < 1000 { 5 } else { 2 };
         let plain = time(repeats, || drop(simulate(&arm, Some(&x), &s).unwrap()));
-        let adjoint = time(repeats, || drop(dynamic(&arm, &x, &s, &responses, Method::Adjoint, Memory::StoreAll).unwrap()));
-        let direct = time(1, || drop(dynamic(&arm, &x, &s, &responses, Method::Direct, Memory::StoreAll).unwrap()));
+        let adjoint = time(repeats, || {
+            drop(dynamic(&arm, &x, &s, &responses, Method::Adjoint, Memory::StoreAll).unwrap())
+        });
+        let direct = time(1, || {
+            drop(dynamic(&arm, &x, &s, &responses, Method::Direct, Memory::StoreAll).unwrap())
+        });
         println!(
             "| {nx} × {ny} | {} | {} | {:.1} | {:.1} | {:.2} | {:.0} | {:.1} |",
             arm.n_variables(),

@@ -60,7 +60,12 @@ impl Pattern {
         }
         pairs.extend((0..n_q).map(|i| (i, i)));
         for (k, row) in model.rows.iter().enumerate() {
-            let dofs: Vec<usize> = row.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect();
+            let dofs: Vec<usize> = row
+                .terms
+                .iter()
+                .filter(|t| t.1 != 0.0)
+                .map(|t| t.0)
+                .collect();
             for &d in &dofs {
                 pairs.push((d, n_q + k));
                 pairs.push((n_q + k, d));
@@ -77,7 +82,16 @@ impl Pattern {
             col_ptr[c + 1] += col_ptr[c];
         }
         let row_idx = pairs.iter().map(|&(_, r)| r).collect();
-        let mut p = Self { n_q, n, col_ptr, row_idx, element_slots: vec![], node_slots: vec![], row_slots: vec![], gram_slots: vec![] };
+        let mut p = Self {
+            n_q,
+            n,
+            col_ptr,
+            row_idx,
+            element_slots: vec![],
+            node_slots: vec![],
+            row_slots: vec![],
+            gram_slots: vec![],
+        };
         p.element_slots = model
             .elements
             .iter()
@@ -86,7 +100,9 @@ impl Pattern {
                 std::array::from_fn(|k| p.slot(d[k % 6], d[k / 6]))
             })
             .collect();
-        p.node_slots = (0..model.nodes.len()).map(|i| std::array::from_fn(|k| p.slot(3 * i + k, 3 * i + k))).collect();
+        p.node_slots = (0..model.nodes.len())
+            .map(|i| std::array::from_fn(|k| p.slot(3 * i + k, 3 * i + k)))
+            .collect();
         p.row_slots = model
             .rows
             .iter()
@@ -94,27 +110,48 @@ impl Pattern {
             .map(|(k, row)| {
                 std::array::from_fn(|t| {
                     let (d, c) = row.terms[t];
-                    if c == 0.0 { [usize::MAX; 2] } else { [p.slot(n_q + k, d), p.slot(d, n_q + k)] }
+                    if c == 0.0 {
+                        [usize::MAX; 2]
+                    } else {
+                        [p.slot(n_q + k, d), p.slot(d, n_q + k)]
+                    }
                 })
             })
             .collect();
         p.gram_slots = model
             .rows
             .iter()
-            .map(|row| std::array::from_fn(|i| std::array::from_fn(|j| if row.terms[i].1 * row.terms[j].1 == 0.0 { usize::MAX } else { p.slot(row.terms[i].0, row.terms[j].0) })))
+            .map(|row| {
+                std::array::from_fn(|i| {
+                    std::array::from_fn(|j| {
+                        if row.terms[i].1 * row.terms[j].1 == 0.0 {
+                            usize::MAX
+                        } else {
+                            p.slot(row.terms[i].0, row.terms[j].0)
+                        }
+                    })
+                })
+            })
             .collect();
         p
     }
 
     /// For each constraint row, the DOFs it acts on.
     pub fn multiplier_dofs(model: &Model) -> Vec<Vec<usize>> {
-        model.rows.iter().map(|r| r.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect()).collect()
+        model
+            .rows
+            .iter()
+            .map(|r| r.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect())
+            .collect()
     }
 
     /// Position of entry `(row, col)` in the CSC value array.
     fn slot(&self, row: usize, col: usize) -> usize {
         let range = self.col_ptr[col]..self.col_ptr[col + 1];
-        range.start + self.row_idx[range].binary_search(&row).expect("entry in pattern")
+        range.start
+            + self.row_idx[range]
+                .binary_search(&row)
+                .expect("entry in pattern")
     }
 
     /// Number of stored entries.
@@ -157,8 +194,17 @@ impl<'m> Assembler<'m> {
             mass[s[2]] += pm.inertia;
         }
         let g = model.gravity;
-        let gravity = (0..model.n_dofs()).map(|d| [g.x, g.y, 0.0][d % 3]).collect();
-        Self { model, pattern, densities, mass_kind, mass, gravity }
+        let gravity = (0..model.n_dofs())
+            .map(|d| [g.x, g.y, 0.0][d % 3])
+            .collect();
+        Self {
+            model,
+            pattern,
+            densities,
+            mass_kind,
+            mass,
+            gravity,
+        }
     }
 
     /// `out = M a` (mass matrix times a nodal vector).
@@ -177,7 +223,10 @@ impl<'m> Assembler<'m> {
 
     /// Mean diagonal of `M` over the nodal DOFs, a scale for the constraint rows.
     pub fn mean_mass_diagonal(&self) -> f64 {
-        (0..self.pattern.n_q).map(|i| self.mass[self.pattern.node_slots[i / 3][i % 3]]).sum::<f64>() / self.pattern.n_q as f64
+        (0..self.pattern.n_q)
+            .map(|i| self.mass[self.pattern.node_slots[i / 3][i % 3]])
+            .sum::<f64>()
+            / self.pattern.n_q as f64
     }
 
     /// Internal forces `f = Σ s(x_e) f_e(q)`; with `tangent`, also adds `Σ s(x_e) K_e(q)` to
@@ -238,8 +287,16 @@ impl<'m> Assembler<'m> {
 
     /// Starts an augmented iteration matrix: `values = mass_coefficient · M + s Φ_qᵀΦ_q` plus
     /// the constraint blocks `s Φ_q`, `s Φ_qᵀ`; [`Assembler::internal_forces`] then adds `K_t`.
-    pub fn start_iteration_matrix(&self, mass_coefficient: f64, constraint_scale: f64, values: &mut [f64]) {
-        values.iter_mut().zip(&self.mass).for_each(|(v, m)| *v = mass_coefficient * m);
+    pub fn start_iteration_matrix(
+        &self,
+        mass_coefficient: f64,
+        constraint_scale: f64,
+        values: &mut [f64],
+    ) {
+        values
+            .iter_mut()
+            .zip(&self.mass)
+            .for_each(|(v, m)| *v = mass_coefficient * m);
         let p = &self.pattern;
         for ((row, slots), gram) in self.model.rows.iter().zip(&p.row_slots).zip(&p.gram_slots) {
             for (i, (&(_, c), s)) in row.terms.iter().zip(slots).enumerate() {
@@ -268,14 +325,18 @@ impl<'m> Assembler<'m> {
         let mut values = vec![0.0; self.pattern.nnz()];
         let mut f = vec![0.0; self.pattern.n_q];
         self.internal_forces(q, &mut f, Some(&mut values));
-        (0..self.pattern.n_q).map(|i| values[self.pattern.node_slots[i / 3][i % 3]].abs()).sum::<f64>() / self.pattern.n_q as f64
+        (0..self.pattern.n_q)
+            .map(|i| values[self.pattern.node_slots[i / 3][i % 3]].abs())
+            .sum::<f64>()
+            / self.pattern.n_q as f64
     }
 
     /// Strain energy of each component `Σ_e s(x_e) U_e(q)` (J).
     pub fn strain_energies(&self, q: &[f64]) -> Vec<f64> {
         let mut u = vec![0.0; self.model.components.len()];
         for (e, el) in self.model.elements.iter().enumerate() {
-            u[self.model.bars[el.bar].component] += self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q));
+            u[self.model.bars[el.bar].component] +=
+                self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q));
         }
         u
     }

@@ -63,8 +63,16 @@ pub const fn dof(node: usize, k: usize) -> usize {
 impl Joint {
     /// The joint's constraint rows, the drive row last.
     pub fn rows(&self, joint: usize) -> Vec<ConstraintRow> {
-        let single = |d: usize, driven| ConstraintRow { terms: [(d, 1.0), (d, 0.0)], joint, driven };
-        let pair = |a: usize, b: usize, driven| ConstraintRow { terms: [(a, 1.0), (b, -1.0)], joint, driven };
+        let single = |d: usize, driven| ConstraintRow {
+            terms: [(d, 1.0), (d, 0.0)],
+            joint,
+            driven,
+        };
+        let pair = |a: usize, b: usize, driven| ConstraintRow {
+            terms: [(a, 1.0), (b, -1.0)],
+            joint,
+            driven,
+        };
         let driven = self.drive.is_some();
         match self.kind {
             JointKind::Clamp { node } => (0..3).map(|k| single(dof(node, k), false)).collect(),
@@ -76,7 +84,10 @@ impl Joint {
                 rows
             }
             JointKind::Hinge { nodes: [a, b] } => {
-                let mut rows = vec![pair(dof(a, 0), dof(b, 0), false), pair(dof(a, 1), dof(b, 1), false)];
+                let mut rows = vec![
+                    pair(dof(a, 0), dof(b, 0), false),
+                    pair(dof(a, 1), dof(b, 1), false),
+                ];
                 if driven {
                     rows.push(pair(dof(b, 2), dof(a, 2), true));
                 }
@@ -125,7 +136,11 @@ mod tests {
     #[test]
     fn driven_hinge_prescribes_relative_rotation_from_its_start() {
         let drive = Motion::Trapezoidal(Trapezoidal::new(1.0, 2.0, 2.0, 0.5, 0.0));
-        let j = Joint { name: "elbow".into(), kind: JointKind::Hinge { nodes: [3, 7] }, drive: Some(drive.clone()) };
+        let j = Joint {
+            name: "elbow".into(),
+            kind: JointKind::Hinge { nodes: [3, 7] },
+            drive: Some(drive.clone()),
+        };
         let rows = j.rows(0);
         assert_eq!(rows.len(), 3);
         let mut q = vec![0.0; 24];

@@ -42,7 +42,12 @@ impl AlphaParameters {
         let alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);
         let alpha_f = rho_inf / (rho_inf + 1.0);
         let gamma = 0.5 + alpha_f - alpha_m;
-        Self { alpha_m, alpha_f, beta: 0.25 * (gamma + 0.5).powi(2), gamma }
+        Self {
+            alpha_m,
+            alpha_f,
+            beta: 0.25 * (gamma + 0.5).powi(2),
+            gamma,
+        }
     }
 
     /// `β' = (1 − α_m)/(h² β (1 − α_f))`, the derivative `∂q̈_{n+1}/∂q_{n+1}`.
@@ -84,16 +89,28 @@ impl Settings {
     pub fn validate(&self) -> Result<(), SettingsError> {
         let bad = |n: &str, m: String| Err(SettingsError::new(n, m));
         if !(self.h.is_finite() && self.h > 0.0) {
-            return bad("h", format!("step size must be positive and finite, got {}", self.h));
+            return bad(
+                "h",
+                format!("step size must be positive and finite, got {}", self.h),
+            );
         }
         if !(self.t_end.is_finite() && self.t_end > 0.0) {
-            return bad("t_end", format!("must be positive and finite, got {}", self.t_end));
+            return bad(
+                "t_end",
+                format!("must be positive and finite, got {}", self.t_end),
+            );
         }
         if self.h > self.t_end {
-            return bad("h", format!("step size {} exceeds t_end {}", self.h, self.t_end));
+            return bad(
+                "h",
+                format!("step size {} exceeds t_end {}", self.h, self.t_end),
+            );
         }
         if !(0.0..=1.0).contains(&self.rho_inf) {
-            return bad("rho_inf", format!("must lie in [0, 1], got {}", self.rho_inf));
+            return bad(
+                "rho_inf",
+                format!("must lie in [0, 1], got {}", self.rho_inf),
+            );
         }
         if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
             return bad("tol", format!("must lie in (0, 1), got {}", self.tol));
@@ -102,7 +119,13 @@ impl Settings {
             return bad("max_iter", "must be at least 1".into());
         }
         if self.t_end / self.h > MAX_STEPS as f64 {
-            return bad("h", format!("t_end / h = {:.3e} steps; at most {MAX_STEPS:.0e} are allowed", self.t_end / self.h));
+            return bad(
+                "h",
+                format!(
+                    "t_end / h = {:.3e} steps; at most {MAX_STEPS:.0e} are allowed",
+                    self.t_end / self.h
+                ),
+            );
         }
         Ok(())
     }
@@ -116,8 +139,15 @@ impl Settings {
     /// exactly at `t_end` (a ratio within 1e-9 of an integer counts as that integer).
     pub fn ending_at_t_end(self) -> Self {
         let ratio = self.t_end / self.h;
-        let steps = if (ratio - ratio.round()).abs() <= 1e-9 * ratio.max(1.0) { ratio.round() } else { ratio.ceil() };
-        Self { h: self.t_end / steps.max(1.0), ..self }
+        let steps = if (ratio - ratio.round()).abs() <= 1e-9 * ratio.max(1.0) {
+            ratio.round()
+        } else {
+            ratio.ceil()
+        };
+        Self {
+            h: self.t_end / steps.max(1.0),
+            ..self
+        }
     }
 }
 
@@ -151,11 +181,22 @@ pub struct Integrator<'m> {
 impl<'m> Integrator<'m> {
     /// Integrator of `model` with element scalings `densities`.
     pub fn new(model: &'m Model, densities: Densities, settings: &Settings) -> Self {
-        let mut newton = Newton::new(model, densities, settings.mass, settings.tol, settings.max_iter);
+        let mut newton = Newton::new(
+            model,
+            densities,
+            settings.mass,
+            settings.tol,
+            settings.max_iter,
+        );
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
         let q0 = vec![0.0; model.n_dofs()];
-        newton.scale = params.beta_prime(settings.h) * newton.asm.mean_mass_diagonal() + newton.asm.mean_stiffness_diagonal(&q0);
-        Self { newton, params, h: settings.h }
+        newton.scale = params.beta_prime(settings.h) * newton.asm.mean_mass_diagonal()
+            + newton.asm.mean_stiffness_diagonal(&q0);
+        Self {
+            newton,
+            params,
+            h: settings.h,
+        }
     }
 
     /// State at `t = 0`: undeformed, at rest, with consistent accelerations and multipliers
@@ -170,7 +211,14 @@ impl<'m> Integrator<'m> {
         let acc = vec![0.0; n_q];
         let lambda = vec![0.0; n_c];
         let (acc, lambda) = self.newton.initial_accelerations(&q, &acc, &lambda)?;
-        Ok(State { t: 0.0, q, v: vec![0.0; n_q], a: acc.clone(), acc, lambda })
+        Ok(State {
+            t: 0.0,
+            q,
+            v: vec![0.0; n_q],
+            a: acc.clone(),
+            acc,
+            lambda,
+        })
     }
 
     /// One step of Algorithm 1 from `s` (time `t_n`) to `t_{n+1} = t_n + h`, in place.
@@ -179,7 +227,12 @@ impl<'m> Integrator<'m> {
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
     /// converge; [`SolveError::Singular`] for a singular iteration matrix.
     pub fn alpha_step(&mut self, s: &mut State) -> Result<NewtonReport, SolveError> {
-        let AlphaParameters { alpha_m, alpha_f, beta, gamma } = self.params;
+        let AlphaParameters {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = self.params;
         let h = self.h;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
         for i in 0..s.q.len() {
@@ -191,11 +244,23 @@ impl<'m> Integrator<'m> {
         }
         s.lambda.fill(0.0);
         s.t += h;
-        let point = Point { t: s.t, load: 1.0, mass_coefficient: bp, gamma_prime: gp };
-        let report = self.newton.solve_point(point, &mut s.q, &mut s.lambda, Some((&mut s.v, &mut s.acc)))?;
+        let point = Point {
+            t: s.t,
+            load: 1.0,
+            mass_coefficient: bp,
+            gamma_prime: gp,
+        };
+        let report = self.newton.solve_point(
+            point,
+            &mut s.q,
+            &mut s.lambda,
+            Some((&mut s.v, &mut s.acc)),
+        )?;
         // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
         let w = (1.0 - alpha_f) / (1.0 - alpha_m);
-        s.a.iter_mut().zip(&s.acc).for_each(|(a, acc)| *a += w * acc);
+        s.a.iter_mut()
+            .zip(&s.acc)
+            .for_each(|(a, acc)| *a += w * acc);
         Ok(report)
     }
 }

@@ -42,7 +42,10 @@ mod tests {
 
     #[test]
     fn derivatives_match_central_differences() {
-        for law in [Interpolation::Simp { p: 3.0 }, Interpolation::Ramp { q: 8.0 }] {
+        for law in [
+            Interpolation::Simp { p: 3.0 },
+            Interpolation::Ramp { q: 8.0 },
+        ] {
             for x in [0.01, 0.3, 0.9] {
                 let eps = 1e-6;
                 let fd = (law.stiffness(x + eps) - law.stiffness(x - eps)) / (2.0 * eps);

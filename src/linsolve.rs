@@ -20,7 +20,10 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::{LdltParams, LdltRegularization};
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side, Spec};
 
@@ -48,13 +51,25 @@ impl SparseLdlt {
     ///
     /// # Panics
     /// If the pattern is not a valid sorted CSC structure (a bug of the caller).
-    pub fn analyze(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>, n_q: usize, multiplier_dofs: &[Vec<usize>]) -> Self {
+    pub fn analyze(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        n_q: usize,
+        multiplier_dofs: &[Vec<usize>],
+    ) -> Self {
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs);
         let perm = PermRef::new_checked(&fwd, &inv, n);
-        let symbolic = factorize_symbolic_cholesky(pattern.as_ref(), Side::Lower, SymmetricOrdering::Custom(perm), CholeskySymbolicParams::default())
-            .expect("symbolic Cholesky of a valid pattern");
-        let factor_req = symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
+        let symbolic = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Custom(perm),
+            CholeskySymbolicParams::default(),
+        )
+        .expect("symbolic Cholesky of a valid pattern");
+        let factor_req = symbolic
+            .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
         Self {
             factors: vec![0.0; symbolic.len_val()],
@@ -75,16 +90,18 @@ impl SparseLdlt {
     pub fn factorize(&mut self, values: &[f64]) -> Result<(), LuError> {
         self.factorized = false;
         let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);
-        let result = self.symbolic.factorize_numeric_ldlt(
-            &mut self.factors,
-            matrix,
-            Side::Lower,
-            LdltRegularization::default(),
-            Par::Seq,
-            MemStack::new(&mut self.factor_scratch),
-            Spec::<LdltParams, f64>::default(),
-        )
-        .map(|_| ());
+        let result = self
+            .symbolic
+            .factorize_numeric_ldlt(
+                &mut self.factors,
+                matrix,
+                Side::Lower,
+                LdltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut self.factor_scratch),
+                Spec::<LdltParams, f64>::default(),
+            )
+            .map(|_| ());
         match result {
             Ok(_) if self.factors.iter().all(|v| v.is_finite()) => {
                 self.factorized = true;
@@ -105,22 +122,37 @@ impl SparseLdlt {
         assert!(self.factorized, "solve before a successful factorization");
         let ldlt = LdltRef::new(&self.symbolic, &self.factors);
         let n = b.len();
-        ldlt.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(b, n, 1), Par::Seq, MemStack::new(&mut self.solve_scratch));
+        ldlt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(b, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.solve_scratch),
+        );
         finite(b)
     }
 
     /// Solves `A X = B` for a column-major block `b` of `nrhs` columns, with caller scratch
     /// from [`SparseLdlt::scratch_for`]; usable from several threads at once.
-    pub fn solve_block(&self, b: &mut [f64], nrhs: usize, scratch: &mut MemBuffer) -> Result<(), LuError> {
+    pub fn solve_block(
+        &self,
+        b: &mut [f64],
+        nrhs: usize,
+        scratch: &mut MemBuffer,
+    ) -> Result<(), LuError> {
         let n = self.pattern.nrows();
         let block = MatMut::from_column_major_slice_mut(b, n, nrhs);
-        self.factors().solve_in_place_with_conj(Conj::No, block, Par::Seq, MemStack::new(scratch));
+        self.factors()
+            .solve_in_place_with_conj(Conj::No, block, Par::Seq, MemStack::new(scratch));
         finite(b)
     }
 }
 
 /// AMD order of the DOF block, each multiplier inserted right after the last of its DOFs.
-fn saddle_point_ordering(pattern: &SymbolicSparseColMat<usize>, n_q: usize, multiplier_dofs: &[Vec<usize>]) -> (Vec<usize>, Vec<usize>) {
+fn saddle_point_ordering(
+    pattern: &SymbolicSparseColMat<usize>,
+    n_q: usize,
+    multiplier_dofs: &[Vec<usize>],
+) -> (Vec<usize>, Vec<usize>) {
     let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
     let mut block_ptr = vec![0usize; n_q + 1];
     let mut block_idx = Vec::new();
@@ -131,21 +163,39 @@ fn saddle_point_ordering(pattern: &SymbolicSparseColMat<usize>, n_q: usize, mult
     let block = SymbolicSparseColMat::new_checked(n_q, n_q, block_ptr, None, block_idx);
     let (mut dof_fwd, mut dof_inv) = (vec![0usize; n_q], vec![0usize; n_q]);
     let mut mem = MemBuffer::new(amd::order_scratch::<usize>(n_q, block.compute_nnz()));
-    amd::order(&mut dof_fwd, &mut dof_inv, block.as_ref(), amd::Control::default(), MemStack::new(&mut mem)).expect("AMD ordering");
+    amd::order(
+        &mut dof_fwd,
+        &mut dof_inv,
+        block.as_ref(),
+        amd::Control::default(),
+        MemStack::new(&mut mem),
+    )
+    .expect("AMD ordering");
     // For each DOF, the multipliers whose last DOF (in elimination order) it is.
     let mut after: Vec<Vec<usize>> = vec![Vec::new(); n_q];
     for (k, dofs) in multiplier_dofs.iter().enumerate() {
-        let last = dofs.iter().copied().max_by_key(|&d| dof_inv[d]).expect("a constraint acts on at least one DOF");
+        let last = dofs
+            .iter()
+            .copied()
+            .max_by_key(|&d| dof_inv[d])
+            .expect("a constraint acts on at least one DOF");
         after[last].push(n_q + k);
     }
-    let fwd: Vec<usize> = dof_fwd.iter().flat_map(|&d| std::iter::once(d).chain(after[d].iter().copied())).collect();
+    let fwd: Vec<usize> = dof_fwd
+        .iter()
+        .flat_map(|&d| std::iter::once(d).chain(after[d].iter().copied()))
+        .collect();
     let mut inv = vec![0usize; fwd.len()];
     fwd.iter().enumerate().for_each(|(pos, &i)| inv[i] = pos);
     (fwd, inv)
 }
 
 fn finite(x: &[f64]) -> Result<(), LuError> {
-    if x.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(LuError::Singular("non-finite solution".into())) }
+    if x.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(LuError::Singular("non-finite solution".into()))
+    }
 }
 
 #[cfg(test)]
@@ -154,7 +204,11 @@ mod tests {
 
     /// [[2, 1, 1], [1, 3, 0], [1, 0, 0]] in CSC: DOFs 0, 1; multiplier 2 acts on DOF 0.
     fn saddle() -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-        (vec![0, 3, 5, 6], vec![0, 1, 2, 0, 1, 0], vec![2.0, 1.0, 1.0, 1.0, 3.0, 1.0])
+        (
+            vec![0, 3, 5, 6],
+            vec![0, 1, 2, 0, 1, 0],
+            vec![2.0, 1.0, 1.0, 1.0, 3.0, 1.0],
+        )
     }
 
     #[test]
@@ -170,7 +224,10 @@ mod tests {
         let mut block = vec![8.0, 8.0, 2.0, 4.0, 4.0, 1.0];
         let mut scratch = ldlt.scratch_for(2);
         ldlt.solve_block(&mut block, 2, &mut scratch).unwrap();
-        assert!((block[0] - 1.0).abs() < 1e-14 && (block[5] - 0.5).abs() < 1e-14, "{block:?}");
+        assert!(
+            (block[0] - 1.0).abs() < 1e-14 && (block[5] - 0.5).abs() < 1e-14,
+            "{block:?}"
+        );
     }
 
     #[test]
@@ -188,7 +245,9 @@ mod tests {
         v[2] = 0.0;
         v[5] = 0.0; // the multiplier row vanishes
         let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]);
-        let res = ldlt.factorize(&v).and_then(|_| ldlt.solve_in_place(&mut [1.0, 1.0, 1.0]));
+        let res = ldlt
+            .factorize(&v)
+            .and_then(|_| ldlt.solve_in_place(&mut [1.0, 1.0, 1.0]));
         assert!(matches!(res, Err(LuError::Singular(_))), "{res:?}");
     }
 }

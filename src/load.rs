@@ -52,7 +52,10 @@ mod tests {
 
     #[test]
     fn table_interpolates_linearly_and_holds_outside() {
-        let g = TimeFunction::Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, -2.0] };
+        let g = TimeFunction::Table {
+            t: vec![0.0, 1.0, 3.0],
+            value: vec![0.0, 2.0, -2.0],
+        };
         assert_eq!(g.at(-1.0), 0.0);
         assert!((g.at(0.25) - 0.5).abs() < 1e-15);
         assert!((g.at(2.0) - 0.0).abs() < 1e-15);

@@ -171,12 +171,23 @@ impl Model {
         let n = self.n_variables();
         if let Some(x) = x {
             if x.len() != n {
-                return Err(DesignError::Length { expected: n, got: x.len() });
+                return Err(DesignError::Length {
+                    expected: n,
+                    got: x.len(),
+                });
             }
             let lower = self.design.x_min;
-            if let Some(i) = x.iter().position(|&v| !(v.is_finite() && v >= lower && v <= 1.0)) {
+            if let Some(i) = x
+                .iter()
+                .position(|&v| !(v.is_finite() && v >= lower && v <= 1.0))
+            {
                 let name = self.design.variables[i].clone();
-                return Err(DesignError::OutOfBounds { index: i, name, value: x[i], lower });
+                return Err(DesignError::OutOfBounds {
+                    index: i,
+                    name,
+                    value: x[i],
+                    lower,
+                });
             }
         }
         let law = self.design.interpolation;
@@ -194,12 +205,18 @@ impl Model {
 
     /// Reference positions, flattened `[X₀, Y₀, X₁, …]`.
     pub fn reference_positions(&self) -> Vec<f64> {
-        self.nodes.iter().flat_map(|n| [n.position.x, n.position.y]).collect()
+        self.nodes
+            .iter()
+            .flat_map(|n| [n.position.x, n.position.y])
+            .collect()
     }
 
     /// Size of the model: the diagonal of its bounding box (m), a length scale for tolerances.
     pub fn size(&self) -> f64 {
-        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(f64::NEG_INFINITY));
+        let (mut lo, mut hi) = (
+            Vector2::repeat(f64::INFINITY),
+            Vector2::repeat(f64::NEG_INFINITY),
+        );
         for n in &self.nodes {
             lo = lo.inf(&n.position);
             hi = hi.sup(&n.position);

@@ -62,13 +62,25 @@ impl Trapezoidal {
     pub fn new(start: f64, end: f64, acceleration: f64, speed: f64, t0: f64) -> Self {
         let distance = (end - start).abs();
         let (peak, t_acc, duration) = if distance * acceleration >= speed * speed {
-            (speed, speed / acceleration, distance / speed + speed / acceleration)
+            (
+                speed,
+                speed / acceleration,
+                distance / speed + speed / acceleration,
+            )
         } else {
             let t_acc = (distance / acceleration).sqrt();
             (acceleration * t_acc, t_acc, 2.0 * t_acc)
         };
         let direction = if end >= start { 1.0 } else { -1.0 };
-        Self { start, direction, acceleration, peak, t0, t_acc, duration }
+        Self {
+            start,
+            direction,
+            acceleration,
+            peak,
+            t0,
+            t_acc,
+            duration,
+        }
     }
 
     /// Duration of the motion (s).
@@ -92,7 +104,11 @@ impl Trapezoidal {
             (full - 0.5 * a * rest * rest, a * rest, decel)
         };
         let k = self.direction;
-        MotionState { angle: self.start + k * s, velocity: k * sd, acceleration: k * sdd }
+        MotionState {
+            angle: self.start + k * s,
+            velocity: k * sd,
+            acceleration: k * sdd,
+        }
     }
 }
 
@@ -111,14 +127,27 @@ impl Table {
     /// (validated by the caller).
     pub fn new(t: Vec<f64>, theta: Vec<f64>, end_velocities: [f64; 2]) -> Self {
         let curvature = clamped_spline_curvatures(&t, &theta, end_velocities);
-        Self { t, theta, curvature, end_velocities }
+        Self {
+            t,
+            theta,
+            curvature,
+            end_velocities,
+        }
     }
 
     fn at(&self, t: f64) -> MotionState {
         let n = self.t.len();
         if t <= self.t[0] || t >= self.t[n - 1] {
-            let (i, v) = if t <= self.t[0] { (0, self.end_velocities[0]) } else { (n - 1, self.end_velocities[1]) };
-            return MotionState { angle: self.theta[i] + v * (t - self.t[i]), velocity: v, acceleration: 0.0 };
+            let (i, v) = if t <= self.t[0] {
+                (0, self.end_velocities[0])
+            } else {
+                (n - 1, self.end_velocities[1])
+            };
+            return MotionState {
+                angle: self.theta[i] + v * (t - self.t[i]),
+                velocity: v,
+                acceleration: 0.0,
+            };
         }
         let k = self.t.partition_point(|&tk| tk <= t) - 1;
         let h = self.t[k + 1] - self.t[k];
@@ -127,7 +156,8 @@ impl Table {
         let (y0, y1) = (self.theta[k], self.theta[k + 1]);
         MotionState {
             angle: a * y0 + b * y1 + ((a.powi(3) - a) * m0 + (b.powi(3) - b) * m1) * h * h / 6.0,
-            velocity: (y1 - y0) / h - (3.0 * a * a - 1.0) * h * m0 / 6.0 + (3.0 * b * b - 1.0) * h * m1 / 6.0,
+            velocity: (y1 - y0) / h - (3.0 * a * a - 1.0) * h * m0 / 6.0
+                + (3.0 * b * b - 1.0) * h * m1 / 6.0,
             acceleration: a * m0 + b * m1,
         }
     }
@@ -140,7 +170,8 @@ fn clamped_spline_curvatures(t: &[f64], y: &[f64], v: [f64; 2]) -> Vec<f64> {
     let n = t.len();
     let h: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     let slope: Vec<f64> = (0..n - 1).map(|i| (y[i + 1] - y[i]) / h[i]).collect();
-    let (mut sub, mut diag, mut sup, mut rhs) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut sub, mut diag, mut sup, mut rhs) =
+        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     diag[0] = 2.0 * h[0];
     sup[0] = h[0];
     rhs[0] = 6.0 * (slope[0] - v[0]);
@@ -178,8 +209,16 @@ mod tests {
             let (p, c, q) = (m.at(t + eps), m.at(t), m.at(t - eps));
             let v = (p.angle - q.angle) / (2.0 * eps);
             let a = (p.velocity - q.velocity) / (2.0 * eps);
-            assert!((v - c.velocity).abs() < 1e-7, "t = {t}: velocity {} vs {v}", c.velocity);
-            assert!((a - c.acceleration).abs() < 1e-6, "t = {t}: acceleration {} vs {a}", c.acceleration);
+            assert!(
+                (v - c.velocity).abs() < 1e-7,
+                "t = {t}: velocity {} vs {v}",
+                c.velocity
+            );
+            assert!(
+                (a - c.acceleration).abs() < 1e-6,
+                "t = {t}: acceleration {} vs {a}",
+                c.acceleration
+            );
         }
     }
 
@@ -230,7 +269,9 @@ mod tests {
     fn table_reproduces_a_cubic_exactly() {
         let f = |t: f64| 0.5 + t - 2.0 * t * t + 0.7 * t.powi(3);
         let df = |t: f64| 1.0 - 4.0 * t + 2.1 * t * t;
-        let t: Vec<f64> = (0..6).map(|i| 0.2 * i as f64 + 0.03 * (i * i) as f64).collect();
+        let t: Vec<f64> = (0..6)
+            .map(|i| 0.2 * i as f64 + 0.03 * (i * i) as f64)
+            .collect();
         let y = t.iter().map(|&ti| f(ti)).collect();
         let m = Motion::Table(Table::new(t.clone(), y, [df(t[0]), df(t[5])]));
         for s in [0.05, 0.33, 0.61, 0.99, 1.4] {

@@ -9,9 +9,9 @@
 //! residual of stiff elements cannot drop below their round-off.
 
 use crate::assembly::Assembler;
+use crate::assembly::Pattern;
 use crate::element::MassKind;
 use crate::error::SolveError;
-use crate::assembly::Pattern;
 use crate::linsolve::{LuError, SparseLdlt};
 use crate::model::{Densities, Model};
 
@@ -68,10 +68,22 @@ pub struct Newton<'m> {
 
 impl<'m> Newton<'m> {
     /// Sets up the pattern, the symbolic LU and the work vectors of `model`'s design.
-    pub fn new(model: &'m Model, densities: Densities, mass: MassKind, tol: f64, max_iter: usize) -> Self {
+    pub fn new(
+        model: &'m Model,
+        densities: Densities,
+        mass: MassKind,
+        tol: f64,
+        max_iter: usize,
+    ) -> Self {
         let asm = Assembler::new(model, densities, mass);
         let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
-        let lu = SparseLdlt::analyze(n, asm.pattern.col_ptr.clone(), asm.pattern.row_idx.clone(), n_q, &Pattern::multiplier_dofs(model));
+        let lu = SparseLdlt::analyze(
+            n,
+            asm.pattern.col_ptr.clone(),
+            asm.pattern.row_idx.clone(),
+            n_q,
+            &Pattern::multiplier_dofs(model),
+        );
         let matrix = vec![0.0; asm.pattern.nnz()];
         Self {
             asm,
@@ -93,12 +105,23 @@ impl<'m> Newton<'m> {
     /// Assembles `rhs = −E[r; sΦ]` and the augmented iteration matrix `mass_coefficient M + K_t`
     /// at `(q, q̈, λ)`, time `t`; `load` scales external forces and prescribed motions
     /// (statics), `acc = None` drops inertia (statics).
-    pub(crate) fn assemble(&mut self, q: &[f64], acc: Option<&[f64]>, lambda: &[f64], t: f64, load: f64, mass_coefficient: f64) -> Residual {
+    pub(crate) fn assemble(
+        &mut self,
+        q: &[f64],
+        acc: Option<&[f64]>,
+        lambda: &[f64],
+        t: f64,
+        load: f64,
+        mass_coefficient: f64,
+    ) -> Residual {
         let n_q = q.len();
         let asm = &self.asm;
         match acc {
             Some(acc) => {
-                self.joint.iter_mut().zip(acc.iter().zip(&asm.gravity)).for_each(|(w, (a, g))| *w = a - g);
+                self.joint
+                    .iter_mut()
+                    .zip(acc.iter().zip(&asm.gravity))
+                    .for_each(|(w, (a, g))| *w = a - g);
                 asm.mass_times(&self.joint, &mut self.inertia);
             }
             None => self.inertia.fill(0.0),
@@ -109,7 +132,10 @@ impl<'m> Newton<'m> {
         if acc.is_none() {
             // Gravity as a static load: −M(−ĝ)·load.
             asm.mass_times(&asm.gravity, &mut self.joint);
-            self.external.iter_mut().zip(&self.joint).for_each(|(f, g)| *f += load * g);
+            self.external
+                .iter_mut()
+                .zip(&self.joint)
+                .for_each(|(f, g)| *f += load * g);
         }
         self.joint.fill(0.0);
         asm.add_constraint_forces(lambda, &mut self.joint);
@@ -120,7 +146,11 @@ impl<'m> Newton<'m> {
             let r = self.inertia[i] + self.internal[i] - self.external[i] + self.joint[i];
             self.rhs[i] = -r;
             r_max = r_max.max(r.abs());
-            f_ref = f_ref.max(self.inertia[i].abs()).max(self.internal[i].abs()).max(self.external[i].abs()).max(self.joint[i].abs());
+            f_ref = f_ref
+                .max(self.inertia[i].abs())
+                .max(self.internal[i].abs())
+                .max(self.external[i].abs())
+                .max(self.joint[i].abs());
         }
         let mut phi_max: f64 = 0.0;
         for (k, &p) in self.phi.iter().enumerate() {
@@ -128,7 +158,10 @@ impl<'m> Newton<'m> {
             phi_max = phi_max.max(p.abs());
         }
         asm.augment_rhs(&mut self.rhs);
-        Residual { force: r_max / f_ref, constraint: phi_max / self.length }
+        Residual {
+            force: r_max / f_ref,
+            constraint: phi_max / self.length,
+        }
     }
 
     /// Factorizes the assembled matrix and solves for `[Δq; Δμ]` in `rhs`.
@@ -141,15 +174,21 @@ impl<'m> Newton<'m> {
     /// Whether an increment is at round-off level: Newton cannot improve further.
     fn stagnated(&self, q: &[f64]) -> bool {
         let q_max = q.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let dq_max = self.rhs[..q.len()].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let dq_max = self.rhs[..q.len()]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         dq_max <= 64.0 * f64::EPSILON * (self.length + q_max)
     }
 
     fn failure(&self, t: f64, iterations: usize, residual: f64) -> SolveError {
-        SolveError::NewtonFailed { time: t, iterations, residual, tolerance: self.tol }
+        SolveError::NewtonFailed {
+            time: t,
+            iterations,
+            residual,
+            tolerance: self.tol,
+        }
     }
 }
-
 
 /// Where a Newton solve happens: time, load factor and how accelerations and velocities
 /// follow the positions (`q̈ += β'Δq`, `q̇ += γ'Δq`; `β' = 0` for statics).
@@ -172,13 +211,22 @@ impl<'m> Newton<'m> {
     /// # Errors
     /// [`SolveError::NewtonFailed`] after `max_iter` iterations or on a non-finite residual;
     /// [`SolveError::Singular`] for a singular iteration matrix.
-    pub fn solve_point(&mut self, point: Point, q: &mut [f64], lambda: &mut [f64], mut rates: Option<(&mut [f64], &mut [f64])>) -> Result<NewtonReport, SolveError> {
+    pub fn solve_point(
+        &mut self,
+        point: Point,
+        q: &mut [f64],
+        lambda: &mut [f64],
+        mut rates: Option<(&mut [f64], &mut [f64])>,
+    ) -> Result<NewtonReport, SolveError> {
         let n_q = q.len();
         let mut iterations = 0;
         loop {
             let acc = rates.as_ref().map(|(_, acc)| &acc[..]);
             let res = self.assemble(q, acc, lambda, point.t, point.load, point.mass_coefficient);
-            let report = NewtonReport { iterations, residual: res.value() };
+            let report = NewtonReport {
+                iterations,
+                residual: res.value(),
+            };
             if res.force <= self.tol && res.constraint <= self.tol {
                 return Ok(report);
             }
@@ -189,7 +237,10 @@ impl<'m> Newton<'m> {
             iterations += 1;
             let (dq, dmu) = self.rhs.split_at(n_q);
             q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
-            lambda.iter_mut().zip(dmu).for_each(|(l, d)| *l += self.scale * d);
+            lambda
+                .iter_mut()
+                .zip(dmu)
+                .for_each(|(l, d)| *l += self.scale * d);
             if let Some((v, acc)) = rates.as_mut() {
                 for i in 0..n_q {
                     v[i] += point.gamma_prime * dq[i];
@@ -197,7 +248,10 @@ impl<'m> Newton<'m> {
                 }
             }
             if self.stagnated(q) {
-                return Ok(NewtonReport { iterations, residual: report.residual });
+                return Ok(NewtonReport {
+                    iterations,
+                    residual: report.residual,
+                });
             }
         }
     }
@@ -208,12 +262,22 @@ impl<'m> Newton<'m> {
     ///
     /// # Errors
     /// [`SolveError::Singular`] for a singular matrix.
-    pub fn factorize_at(&mut self, q: Option<&[f64]>, mass_coefficient: f64, scale: f64, t: f64) -> Result<(), SolveError> {
-        self.asm.start_iteration_matrix(mass_coefficient, scale, &mut self.matrix);
+    pub fn factorize_at(
+        &mut self,
+        q: Option<&[f64]>,
+        mass_coefficient: f64,
+        scale: f64,
+        t: f64,
+    ) -> Result<(), SolveError> {
+        self.asm
+            .start_iteration_matrix(mass_coefficient, scale, &mut self.matrix);
         if let Some(q) = q {
-            self.asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
+            self.asm
+                .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
         }
-        self.lu.factorize(&self.matrix).map_err(|LuError::Singular(detail)| SolveError::Singular { time: t, detail })
+        self.lu
+            .factorize(&self.matrix)
+            .map_err(|LuError::Singular(detail)| SolveError::Singular { time: t, detail })
     }
 
     /// Constraint scaling of the initial-acceleration system (`s` of a mass-only matrix).
@@ -227,20 +291,32 @@ impl<'m> Newton<'m> {
     ///
     /// # Errors
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
-    pub fn initial_accelerations(&mut self, q: &[f64], acc: &[f64], lambda: &[f64]) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+    pub fn initial_accelerations(
+        &mut self,
+        q: &[f64],
+        acc: &[f64],
+        lambda: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
         let (n_q, n_c) = (q.len(), lambda.len());
         let saved = self.scale;
         self.scale = self.initial_scale();
         // With q̈ = 0 and λ = 0 the right-hand side is −r = M ĝ + f_ext − f_int.
         self.assemble(q, Some(acc), lambda, 0.0, 1.0, 1.0);
-        self.asm.start_iteration_matrix(1.0, self.scale, &mut self.matrix);
+        self.asm
+            .start_iteration_matrix(1.0, self.scale, &mut self.matrix);
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
         // assemble() augmented −sΦ(q₀) = 0 into the DOF rows; set the constraint rows to s g̈.
-        self.rhs[n_q..].iter_mut().zip(&g).for_each(|(r, gk)| *r = self.scale * gk);
+        self.rhs[n_q..]
+            .iter_mut()
+            .zip(&g)
+            .for_each(|(r, gk)| *r = self.scale * gk);
         self.asm.augment_rhs(&mut self.rhs);
         let solved = self.solve(0.0);
-        let out = (self.rhs[..n_q].to_vec(), self.rhs[n_q..].iter().map(|m| m * self.scale).collect());
+        let out = (
+            self.rhs[..n_q].to_vec(),
+            self.rhs[n_q..].iter().map(|m| m * self.scale).collect(),
+        );
         self.scale = saved;
         solved.map(|_| out)
     }

@@ -46,7 +46,12 @@ impl RunOptions {
     /// # Errors
     /// A [`SettingsError`] if `t_end` or `h` is given nowhere, or a value is out of range.
     pub fn dynamic(&self, d: &RunOptions) -> Result<Settings, SettingsError> {
-        let missing = |n: &str| SettingsError::new(n, "not given, and the scene's [simulation] table has no default");
+        let missing = |n: &str| {
+            SettingsError::new(
+                n,
+                "not given, and the scene's [simulation] table has no default",
+            )
+        };
         let s = Settings {
             t_end: self.t_end.or(d.t_end).ok_or_else(|| missing("t_end"))?,
             h: self.h.or(d.h).ok_or_else(|| missing("h"))?,

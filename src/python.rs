@@ -31,22 +31,37 @@ impl From<Error> for PyErr {
             Error::Solve(_) => "SimulationError",
         };
         let msg = e.to_string();
-        Python::attach(|py| match py.import("flextop.errors").and_then(|m| m.getattr(class)).and_then(|c| c.call1((msg.clone(),))) {
-            Ok(instance) => PyErr::from_value(instance),
-            Err(_) => pyo3::exceptions::PyRuntimeError::new_err(msg),
+        Python::attach(|py| {
+            match py
+                .import("flextop.errors")
+                .and_then(|m| m.getattr(class))
+                .and_then(|c| c.call1((msg.clone(),)))
+            {
+                Ok(instance) => PyErr::from_value(instance),
+                Err(_) => pyo3::exceptions::PyRuntimeError::new_err(msg),
+            }
         })
     }
 }
 
 fn scene_error(path: String, message: String) -> PyErr {
-    Error::Scene(SceneError::new(if path == "." { "scene".into() } else { path }, message)).into()
+    Error::Scene(SceneError::new(
+        if path == "." { "scene".into() } else { path },
+        message,
+    ))
+    .into()
 }
 
 /// A joint as Python sees it: `(name, kind, node indices, first row, row count, driven)`.
 type JointInfo = (String, &'static str, Vec<usize>, usize, usize, bool);
 
 /// `(values, gradients, method used, (simulation seconds, gradient seconds))`.
-type SensitivityOutput<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>, &'static str, (f64, f64));
+type SensitivityOutput<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    &'static str,
+    (f64, f64),
+);
 
 /// A built and validated mechanism.
 #[pyclass(name = "Model", module = "flextop._core", frozen)]
@@ -56,11 +71,17 @@ struct PyModel {
 
 /// Run options from a settings dict; unknown keys and wrong values name the setting.
 fn run_options(settings: Option<&Bound<'_, PyAny>>) -> PyResult<RunOptions> {
-    let Some(settings) = settings else { return Ok(RunOptions::default()) };
+    let Some(settings) = settings else {
+        return Ok(RunOptions::default());
+    };
     let mut de = pythonize::Depythonizer::from_object(settings);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
-        Error::Settings(SettingsError::new(if path == "." { "settings".into() } else { path }, e.into_inner().to_string())).into()
+        Error::Settings(SettingsError::new(
+            if path == "." { "settings".into() } else { path },
+            e.into_inner().to_string(),
+        ))
+        .into()
     })
 }
 
@@ -71,7 +92,9 @@ fn design_vector(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f6
 /// A row-major `(rows, cols)` numpy array from a flat vector.
 fn matrix<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
     let rows = data.len().checked_div(cols).unwrap_or(0);
-    Ok(PyArray1::from_vec(py, data).reshape([rows, cols])?.into_any())
+    Ok(PyArray1::from_vec(py, data)
+        .reshape([rows, cols])?
+        .into_any())
 }
 
 #[pymethods]
@@ -80,15 +103,20 @@ impl PyModel {
     #[staticmethod]
     fn from_dict(spec: &Bound<'_, PyAny>) -> PyResult<Self> {
         let mut de = pythonize::Depythonizer::from_object(spec);
-        let spec: SceneSpec = serde_path_to_error::deserialize(&mut de).map_err(|e| scene_error(e.path().to_string(), e.into_inner().to_string()))?;
-        Ok(Self { model: Arc::new(scene::build(&spec).map_err(Error::from)?) })
+        let spec: SceneSpec = serde_path_to_error::deserialize(&mut de)
+            .map_err(|e| scene_error(e.path().to_string(), e.into_inner().to_string()))?;
+        Ok(Self {
+            model: Arc::new(scene::build(&spec).map_err(Error::from)?),
+        })
     }
 
     /// Builds a model from TOML text.
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
         let spec = scene::parse_toml(text).map_err(Error::from)?;
-        Ok(Self { model: Arc::new(scene::build(&spec).map_err(Error::from)?) })
+        Ok(Self {
+            model: Arc::new(scene::build(&spec).map_err(Error::from)?),
+        })
     }
 
     #[getter]
@@ -155,12 +183,36 @@ impl PyModel {
     fn bars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
         let d = PyDict::new(py);
-        let ends: Vec<f64> = m.bars.iter().flat_map(|b| [m.elements[b.elements.start].nodes[0] as f64, m.elements[b.elements.end - 1].nodes[1] as f64]).collect();
+        let ends: Vec<f64> = m
+            .bars
+            .iter()
+            .flat_map(|b| {
+                [
+                    m.elements[b.elements.start].nodes[0] as f64,
+                    m.elements[b.elements.end - 1].nodes[1] as f64,
+                ]
+            })
+            .collect();
         d.set_item("nodes", matrix(py, ends, 2)?)?;
-        d.set_item("variable", m.bars.iter().map(|b| b.variable.map_or(-1, |v| v as i64)).collect::<Vec<_>>())?;
-        d.set_item("component", m.bars.iter().map(|b| b.component).collect::<Vec<_>>())?;
-        d.set_item("volume", PyArray1::from_vec(py, m.bars.iter().map(|b| b.volume).collect()))?;
-        d.set_item("name", m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>())?;
+        d.set_item(
+            "variable",
+            m.bars
+                .iter()
+                .map(|b| b.variable.map_or(-1, |v| v as i64))
+                .collect::<Vec<_>>(),
+        )?;
+        d.set_item(
+            "component",
+            m.bars.iter().map(|b| b.component).collect::<Vec<_>>(),
+        )?;
+        d.set_item(
+            "volume",
+            PyArray1::from_vec(py, m.bars.iter().map(|b| b.volume).collect()),
+        )?;
+        d.set_item(
+            "name",
+            m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>(),
+        )?;
         Ok(d)
     }
 
@@ -168,7 +220,17 @@ impl PyModel {
     fn elements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
         let d = PyDict::new(py);
-        d.set_item("nodes", matrix(py, m.elements.iter().flat_map(|e| [e.nodes[0] as f64, e.nodes[1] as f64]).collect(), 2)?)?;
+        d.set_item(
+            "nodes",
+            matrix(
+                py,
+                m.elements
+                    .iter()
+                    .flat_map(|e| [e.nodes[0] as f64, e.nodes[1] as f64])
+                    .collect(),
+                2,
+            )?,
+        )?;
         d.set_item("bar", m.elements.iter().map(|e| e.bar).collect::<Vec<_>>())?;
         Ok(d)
     }
@@ -180,14 +242,25 @@ impl PyModel {
             .iter()
             .enumerate()
             .map(|(j, joint)| {
-                let first = m.rows.iter().position(|r| r.joint == j).unwrap_or(m.rows.len());
+                let first = m
+                    .rows
+                    .iter()
+                    .position(|r| r.joint == j)
+                    .unwrap_or(m.rows.len());
                 let count = m.rows.iter().filter(|r| r.joint == j).count();
                 let kind = match joint.kind {
                     crate::constraint::JointKind::Clamp { .. } => "clamp",
                     crate::constraint::JointKind::Pin { .. } => "pin",
                     crate::constraint::JointKind::Hinge { .. } => "hinge",
                 };
-                (joint.name.clone(), kind, joint.nodes(), first, count, joint.drive.is_some())
+                (
+                    joint.name.clone(),
+                    kind,
+                    joint.nodes(),
+                    first,
+                    count,
+                    joint.drive.is_some(),
+                )
             })
             .collect()
     }
@@ -195,8 +268,15 @@ impl PyModel {
     /// Time integration (dynamic scenes) with run `settings` (dict: `t_end`, `h`,
     /// `rho_inf`, `tol`, `max_iter`, `mass`). Returns a dict of numpy arrays.
     #[pyo3(signature = (x=None, settings=None))]
-    fn simulate<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
-        let settings = run_options(settings)?.dynamic(&self.model.defaults).map_err(Error::from)?;
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        settings: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let settings = run_options(settings)?
+            .dynamic(&self.model.defaults)
+            .map_err(Error::from)?;
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
         let traj = py.detach(move || simulate(&model, x.as_deref(), &settings))?;
@@ -220,8 +300,15 @@ impl PyModel {
     /// Static equilibrium (any scene) with run `settings` (dict: `t_end`, `tol`,
     /// `max_iter`, `load_steps`). Returns a dict with `u`, `lambda`, Newton statistics.
     #[pyo3(signature = (x=None, settings=None))]
-    fn solve_static<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
-        let settings = run_options(settings)?.statics(&self.model.defaults).map_err(Error::from)?;
+    fn solve_static<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        settings: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let settings = run_options(settings)?
+            .statics(&self.model.defaults)
+            .map_err(Error::from)?;
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
         let sol = py.detach(move || -> Result<_, Error> {
@@ -253,13 +340,25 @@ impl PyModel {
             "auto" => Method::Auto,
             "direct" => Method::Direct,
             "adjoint" => Method::Adjoint,
-            other => return Err(Error::Settings(SettingsError::new("method", format!("must be 'auto', 'direct' or 'adjoint', got '{other}'"))).into()),
+            other => {
+                return Err(Error::Settings(SettingsError::new(
+                    "method",
+                    format!("must be 'auto', 'direct' or 'adjoint', got '{other}'"),
+                ))
+                .into())
+            }
         };
         let memory = match memory {
             "auto" => Memory::default(),
             "store" => Memory::StoreAll,
             "checkpoints" => Memory::Checkpoints,
-            other => return Err(Error::Settings(SettingsError::new("memory", format!("must be 'auto', 'store' or 'checkpoints', got '{other}'"))).into()),
+            other => {
+                return Err(Error::Settings(SettingsError::new(
+                    "memory",
+                    format!("must be 'auto', 'store' or 'checkpoints', got '{other}'"),
+                ))
+                .into())
+            }
         };
         let model = Arc::clone(&self.model);
         let parsed = parse_responses(&model, &responses).map_err(Error::from)?;
@@ -268,7 +367,9 @@ impl PyModel {
         let result = match model.analysis {
             Analysis::Dynamic => {
                 let settings = options.dynamic(&model.defaults).map_err(Error::from)?;
-                py.detach(move || sensitivity::dynamic(&model, &x, &settings, &parsed, method, memory))?
+                py.detach(move || {
+                    sensitivity::dynamic(&model, &x, &settings, &parsed, method, memory)
+                })?
             }
             Analysis::Static => {
                 let settings = options.statics(&model.defaults).map_err(Error::from)?;
@@ -276,37 +377,66 @@ impl PyModel {
             }
         };
         let n_x = self.model.n_variables();
-        let used = if result.method == Method::Direct { "direct" } else { "adjoint" };
+        let used = if result.method == Method::Direct {
+            "direct"
+        } else {
+            "adjoint"
+        };
         let timings = (result.timings.simulation, result.timings.gradients);
-        Ok((PyArray1::from_vec(py, result.values).into_any(), matrix(py, result.gradients, n_x)?, used, timings))
+        Ok((
+            PyArray1::from_vec(py, result.values).into_any(),
+            matrix(py, result.gradients, n_x)?,
+            used,
+            timings,
+        ))
     }
 
     /// Values of `responses` on recorded coordinates `u` (shape `(n_states, n_dofs)`, steps
     /// of `h`) for design `x`.
     #[pyo3(signature = (x, u, h, responses))]
-    fn evaluate_responses<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: numpy::PyReadonlyArray2<'py, f64>, h: f64, responses: Vec<String>) -> PyResult<Bound<'py, PyAny>> {
+    fn evaluate_responses<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        u: numpy::PyReadonlyArray2<'py, f64>,
+        h: f64,
+        responses: Vec<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let parsed = parse_responses(&self.model, &responses).map_err(Error::from)?;
         let u = u.as_slice()?.to_vec();
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
-        let values = py.detach(move || sensitivity::evaluate(&model, x.as_deref(), &u, h, &parsed))?;
+        let values =
+            py.detach(move || sensitivity::evaluate(&model, x.as_deref(), &u, h, &parsed))?;
         Ok(PyArray1::from_vec(py, values).into_any())
     }
 
     /// Mass `M`, tangent stiffness `K_t(u)` and constraint Jacobian `Φ_q` as CSC triplets
     /// `(data, indices, indptr, shape)` for `scipy.sparse.csc_matrix`.
     #[pyo3(signature = (x=None, u=None, settings=None))]
-    fn linearize<'py>(&self, py: Python<'py>, x: Option<PyReadonlyArray1<'py, f64>>, u: Option<PyReadonlyArray1<'py, f64>>, settings: Option<&Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+        u: Option<PyReadonlyArray1<'py, f64>>,
+        settings: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let mass = run_options(settings)?.mass.unwrap_or(MassKind::Consistent);
         let m = &self.model;
-        let densities = m.densities(design_vector(x)?.as_deref()).map_err(Error::from)?;
+        let densities = m
+            .densities(design_vector(x)?.as_deref())
+            .map_err(Error::from)?;
         let n = m.n_dofs();
         let u = match u {
             Some(u) => u.as_slice()?.to_vec(),
             None => vec![0.0; n],
         };
         if u.len() != n {
-            return Err(Error::Settings(SettingsError::new("u", format!("has {} entries, the model has {n} DOFs", u.len()))).into());
+            return Err(Error::Settings(SettingsError::new(
+                "u",
+                format!("has {} entries, the model has {n} DOFs", u.len()),
+            ))
+            .into());
         }
         let asm = crate::assembly::Assembler::new(m, densities, mass);
         let mut values = vec![0.0; asm.pattern.nnz()];
@@ -339,25 +469,48 @@ impl PyModel {
 
     /// Positions of every node at `times` when every frame is rigid, shape
     /// `(len, n_nodes, 2)`.
-    fn rigid_positions<'py>(&self, py: Python<'py>, times: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+    fn rigid_positions<'py>(
+        &self,
+        py: Python<'py>,
+        times: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let model = Arc::clone(&self.model);
         let (len, n) = (times.len(), model.nodes.len());
-        let flat = py
-            .detach(move || -> Result<Vec<f64>, Error> {
-                let clusters = Clusters::of(&model);
-                let motion = clusters.rigid_motion(&model, &times)?;
-                Ok(motion.iter().flat_map(|rho| (0..model.nodes.len()).flat_map(|k| clusters.position(&model, rho, k)).collect::<Vec<_>>()).collect())
-            })?;
-        Ok(PyArray1::from_vec(py, flat).reshape([len, n, 2])?.into_any())
+        let flat = py.detach(move || -> Result<Vec<f64>, Error> {
+            let clusters = Clusters::of(&model);
+            let motion = clusters.rigid_motion(&model, &times)?;
+            Ok(motion
+                .iter()
+                .flat_map(|rho| {
+                    (0..model.nodes.len())
+                        .flat_map(|k| clusters.position(&model, rho, k))
+                        .collect::<Vec<_>>()
+                })
+                .collect())
+        })?;
+        Ok(PyArray1::from_vec(py, flat)
+            .reshape([len, n, 2])?
+            .into_any())
     }
 
     /// Position of `node` at `times` when every frame is rigid, shape `(len, 2)`.
-    fn rigid_trajectory<'py>(&self, py: Python<'py>, node: usize, times: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
+    fn rigid_trajectory<'py>(
+        &self,
+        py: Python<'py>,
+        node: usize,
+        times: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         if node >= self.model.nodes.len() {
-            return Err(Error::Settings(SettingsError::new("node", format!("index {node} out of range"))).into());
+            return Err(Error::Settings(SettingsError::new(
+                "node",
+                format!("index {node} out of range"),
+            ))
+            .into());
         }
         let model = Arc::clone(&self.model);
-        let path = py.detach(move || Clusters::of(&model).rigid_trajectory(&model, node, &times)).map_err(Error::from)?;
+        let path = py
+            .detach(move || Clusters::of(&model).rigid_trajectory(&model, node, &times))
+            .map_err(Error::from)?;
         matrix(py, path.into_iter().flatten().collect(), 2)
     }
 }

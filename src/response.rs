@@ -70,19 +70,43 @@ impl Response {
     /// A [`SettingsError`] naming the response if it is unknown or its argument is.
     pub fn parse(text: &str, model: &Model) -> Result<Self, SettingsError> {
         let err = |m: String| SettingsError::new(format!("response '{text}'"), m);
-        let (name, rest) = text.split_once(':').map_or((text, None), |(a, b)| (a, Some(b)));
+        let (name, rest) = text
+            .split_once(':')
+            .map_or((text, None), |(a, b)| (a, Some(b)));
         let component = |arg: Option<&str>| match arg {
             None => Ok(None),
-            Some(c) => model.components.iter().position(|x| x == c).map(Some).ok_or_else(|| err(format!("unknown component '{c}' (components: {})", model.components.join(", ")))),
+            Some(c) => model
+                .components
+                .iter()
+                .position(|x| x == c)
+                .map(Some)
+                .ok_or_else(|| {
+                    err(format!(
+                        "unknown component '{c}' (components: {})",
+                        model.components.join(", ")
+                    ))
+                }),
         };
-        let node = |n: &str| model.node_index(n).ok_or_else(|| err(format!("unknown node '{n}'")));
+        let node = |n: &str| {
+            model
+                .node_index(n)
+                .ok_or_else(|| err(format!("unknown node '{n}'")))
+        };
         let node_and_direction = |arg: Option<&str>| -> Result<(usize, [f64; 2]), SettingsError> {
             let arg = arg.ok_or_else(|| err("needs NODE:DX,DY".into()))?;
-            let (n, d) = arg.rsplit_once(':').ok_or_else(|| err("needs NODE:DX,DY".into()))?;
-            let v: Vec<f64> = d.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| err(format!("direction: {e}")))?;
+            let (n, d) = arg
+                .rsplit_once(':')
+                .ok_or_else(|| err("needs NODE:DX,DY".into()))?;
+            let v: Vec<f64> = d
+                .split(',')
+                .map(|s| s.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| err(format!("direction: {e}")))?;
             let norm = v.iter().map(|c| c * c).sum::<f64>().sqrt();
             if v.len() != 2 || !(norm.is_finite() && norm > 0.0) {
-                return Err(err("direction must be two finite numbers, not both zero".into()));
+                return Err(err(
+                    "direction must be two finite numbers, not both zero".into()
+                ));
             }
             Ok((node(n)?, [v[0] / norm, v[1] / norm]))
         };
@@ -151,24 +175,49 @@ impl Response {
     pub fn integrand(&self, ctx: &Context, q: &[f64], rigid: Option<[f64; 2]>) -> f64 {
         let m = ctx.model;
         match *self {
-            Self::Compliance { .. } if m.analysis == Analysis::Static => ctx.static_load.iter().zip(q).map(|(f, u)| f * u).sum(),
-            Self::Compliance { component } => elements_of(m, component).map(|e| ctx.densities.stiffness[e] * m.elements[e].beam.strain_energy(&m.elements[e].gather(q))).sum(),
+            Self::Compliance { .. } if m.analysis == Analysis::Static => {
+                ctx.static_load.iter().zip(q).map(|(f, u)| f * u).sum()
+            }
+            Self::Compliance { component } => elements_of(m, component)
+                .map(|e| {
+                    ctx.densities.stiffness[e]
+                        * m.elements[e].beam.strain_energy(&m.elements[e].gather(q))
+                })
+                .sum(),
             Self::TipDeflection { node } => {
                 let r = rigid.expect("rigid trajectory of the tip");
                 let p = m.nodes[node].position;
                 (p.x + q[3 * node] - r[0]).powi(2) + (p.y + q[3 * node + 1] - r[1]).powi(2)
             }
-            Self::Volume { component } => m.bars.iter().filter(|b| component.is_none_or(|c| b.component == c)).map(|b| ctx.densities.mass[b.elements.start] * b.volume).sum(),
-            Self::FinalDisplacement { node, direction } | Self::IntegratedDisplacement { node, direction } => direction[0] * q[3 * node] + direction[1] * q[3 * node + 1],
+            Self::Volume { component } => m
+                .bars
+                .iter()
+                .filter(|b| component.is_none_or(|c| b.component == c))
+                .map(|b| ctx.densities.mass[b.elements.start] * b.volume)
+                .sum(),
+            Self::FinalDisplacement { node, direction }
+            | Self::IntegratedDisplacement { node, direction } => {
+                direction[0] * q[3 * node] + direction[1] * q[3 * node + 1]
+            }
         }
     }
 
     /// Adds `scale · G_q` to `g_q` and `scale · G_x` to `g_x` (per design variable).
-    pub fn add_partials(&self, ctx: &Context, q: &[f64], rigid: Option<[f64; 2]>, scale: f64, g_q: &mut [f64], g_x: &mut [f64]) {
+    pub fn add_partials(
+        &self,
+        ctx: &Context,
+        q: &[f64],
+        rigid: Option<[f64; 2]>,
+        scale: f64,
+        g_q: &mut [f64],
+        g_x: &mut [f64],
+    ) {
         let m = ctx.model;
         match *self {
             Self::Compliance { .. } if m.analysis == Analysis::Static => {
-                g_q.iter_mut().zip(ctx.static_load).for_each(|(g, f)| *g += scale * f);
+                g_q.iter_mut()
+                    .zip(ctx.static_load)
+                    .for_each(|(g, f)| *g += scale * f);
                 // ∂F/∂x_e = M_e ĝ (gravity on the element's mass).
                 let g = m.gravity;
                 let gravity = Vector6::from([g.x, g.y, 0.0, g.x, g.y, 0.0]);
@@ -185,7 +234,10 @@ impl Response {
                     let u = el.gather(q);
                     let (s, rate) = (ctx.densities.stiffness[e], ctx.densities.stiffness_rate[e]);
                     let f = el.beam.internal_force(&u);
-                    el.dofs().iter().zip(f.iter()).for_each(|(&d, fi)| g_q[d] += scale * s * fi);
+                    el.dofs()
+                        .iter()
+                        .zip(f.iter())
+                        .for_each(|(&d, fi)| g_q[d] += scale * s * fi);
                     if let Some(v) = m.variable_of(e) {
                         g_x[v] += scale * rate * el.beam.strain_energy(&u);
                     }
@@ -198,13 +250,18 @@ impl Response {
                 g_q[3 * node + 1] += scale * 2.0 * (p.y + q[3 * node + 1] - r[1]);
             }
             Self::Volume { component } => {
-                for b in m.bars.iter().filter(|b| component.is_none_or(|c| b.component == c)) {
+                for b in m
+                    .bars
+                    .iter()
+                    .filter(|b| component.is_none_or(|c| b.component == c))
+                {
                     if let Some(v) = b.variable {
                         g_x[v] += scale * b.volume;
                     }
                 }
             }
-            Self::FinalDisplacement { node, direction } | Self::IntegratedDisplacement { node, direction } => {
+            Self::FinalDisplacement { node, direction }
+            | Self::IntegratedDisplacement { node, direction } => {
                 g_q[3 * node] += scale * direction[0];
                 g_q[3 * node + 1] += scale * direction[1];
             }
@@ -221,5 +278,6 @@ impl Response {
 }
 
 fn elements_of(m: &Model, component: Option<usize>) -> impl Iterator<Item = usize> + '_ {
-    (0..m.elements.len()).filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
+    (0..m.elements.len())
+        .filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
 }

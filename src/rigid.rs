@@ -77,14 +77,25 @@ impl Clusters {
         let rotated = Vector2::new(cs * arm.x - sn * arm.y, sn * arm.x + cs * arm.y);
         let d_rot = Vector2::new(-rotated.y, rotated.x);
         match k {
-            0 => (cx + rotated.x - arm.x, [(3 * c, 1.0), (3 * c + 2, d_rot.x), (0, 0.0)]),
-            1 => (cy + rotated.y - arm.y, [(3 * c + 1, 1.0), (3 * c + 2, d_rot.y), (0, 0.0)]),
+            0 => (
+                cx + rotated.x - arm.x,
+                [(3 * c, 1.0), (3 * c + 2, d_rot.x), (0, 0.0)],
+            ),
+            1 => (
+                cy + rotated.y - arm.y,
+                [(3 * c + 1, 1.0), (3 * c + 2, d_rot.y), (0, 0.0)],
+            ),
             _ => (psi, [(3 * c + 2, 1.0), (0, 0.0), (0, 0.0)]),
         }
     }
 
     /// Constraint values `Φ(ρ, t)` on the cluster coordinates and their Jacobian.
-    fn constraints(&self, model: &Model, rho: &DVector<f64>, t: f64) -> (DVector<f64>, DMatrix<f64>) {
+    fn constraints(
+        &self,
+        model: &Model,
+        rho: &DVector<f64>,
+        t: f64,
+    ) -> (DVector<f64>, DMatrix<f64>) {
         let rows = &model.rows;
         let mut phi = DVector::zeros(rows.len());
         let mut jac = DMatrix::zeros(rows.len(), 3 * self.len());
@@ -132,7 +143,11 @@ impl Clusters {
     ///
     /// # Errors
     /// [`SolveError::Kinematics`] when the mechanism is not fully driven or Newton fails.
-    pub fn rigid_motion(&self, model: &Model, times: &[f64]) -> Result<Vec<DVector<f64>>, SolveError> {
+    pub fn rigid_motion(
+        &self,
+        model: &Model,
+        times: &[f64],
+    ) -> Result<Vec<DVector<f64>>, SolveError> {
         let n = 3 * self.len();
         let mut rho = DVector::zeros(n);
         let mut out = Vec::with_capacity(times.len());
@@ -177,15 +192,27 @@ impl Clusters {
     /// Position of `node` for cluster coordinates `rho`.
     pub fn position(&self, model: &Model, rho: &DVector<f64>, node: usize) -> [f64; 2] {
         let p = model.nodes[node].position;
-        [p.x + self.dof_map(model, rho, 3 * node).0, p.y + self.dof_map(model, rho, 3 * node + 1).0]
+        [
+            p.x + self.dof_map(model, rho, 3 * node).0,
+            p.y + self.dof_map(model, rho, 3 * node + 1).0,
+        ]
     }
 
     /// Positions of `node` when every cluster is rigid, at each time of `times`.
     ///
     /// # Errors
     /// As [`Clusters::rigid_motion`].
-    pub fn rigid_trajectory(&self, model: &Model, node: usize, times: &[f64]) -> Result<Vec<[f64; 2]>, SolveError> {
-        Ok(self.rigid_motion(model, times)?.iter().map(|rho| self.position(model, rho, node)).collect())
+    pub fn rigid_trajectory(
+        &self,
+        model: &Model,
+        node: usize,
+        times: &[f64],
+    ) -> Result<Vec<[f64; 2]>, SolveError> {
+        Ok(self
+            .rigid_motion(model, times)?
+            .iter()
+            .map(|rho| self.position(model, rho, node))
+            .collect())
     }
 }
 
@@ -213,7 +240,11 @@ fn rank_of(s: &DVector<f64>) -> usize {
 pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
     use std::collections::BTreeMap;
     type Sparse = BTreeMap<usize, f64>;
-    let dot = |a: &Sparse, b: &Sparse| a.iter().map(|(k, v)| v * b.get(k).unwrap_or(&0.0)).sum::<f64>();
+    let dot = |a: &Sparse, b: &Sparse| {
+        a.iter()
+            .map(|(k, v)| v * b.get(k).unwrap_or(&0.0))
+            .sum::<f64>()
+    };
     let mut basis: Vec<Sparse> = Vec::new();
     let mut redundant = Vec::new();
     for (i, row) in rows.iter().enumerate() {

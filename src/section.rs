@@ -25,7 +25,14 @@ pub struct Section {
 impl Section {
     /// Section from material moduli and geometric properties.
     pub fn new(e: f64, g: f64, area: f64, inertia: f64, kappa: f64, rho: f64) -> Self {
-        Self { area, ea: e * area, gak: kappa * g * area, ei: e * inertia, rho_a: rho * area, rho_i: rho * inertia }
+        Self {
+            area,
+            ea: e * area,
+            gak: kappa * g * area,
+            ei: e * inertia,
+            rho_a: rho * area,
+            rho_i: rho * inertia,
+        }
     }
 
     /// Geometry of a solid circle of diameter `d`: area `πd²/4`, second moment `πd⁴/64`

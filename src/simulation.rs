@@ -46,7 +46,6 @@ pub struct Trajectory {
     pub external_work: Vec<f64>,
 }
 
-
 impl Trajectory {
     fn record(&mut self, s: &State, iterations: usize) {
         self.time.push(s.t);
@@ -63,9 +62,15 @@ impl Trajectory {
 /// # Errors
 /// Design, settings and solve errors ([`Error`]); a failed Newton step reports its time; a
 /// trajectory larger than [`MAX_TRAJECTORY_BYTES`] is refused before the run.
-pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result<Trajectory, Error> {
+pub fn simulate(
+    model: &Model,
+    x: Option<&[f64]>,
+    settings: &Settings,
+) -> Result<Trajectory, Error> {
     settings.validate()?;
-    let bytes = (settings.steps() + 1) as f64 * (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0;
+    let bytes = (settings.steps() + 1) as f64
+        * (3 * model.n_dofs() + model.n_constraints() + 6) as f64
+        * 8.0;
     if bytes > MAX_TRAJECTORY_BYTES {
         return Err(SettingsError::new(
             "h",
@@ -76,14 +81,22 @@ pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result
     let densities = model.densities(x)?;
     let mut integrator = Integrator::new(model, densities, settings);
     let mut state = integrator.initial_state()?;
-    let mut traj = Trajectory { n_q: model.n_dofs(), n_c: model.n_constraints(), ..Default::default() };
+    let mut traj = Trajectory {
+        n_q: model.n_dofs(),
+        n_c: model.n_constraints(),
+        ..Default::default()
+    };
     let mut scratch = EnergyScratch::new(model);
     traj.record(&state, 0);
     let mut last = scratch.external_power(&integrator, &state);
-    let driven: Vec<usize> = (0..model.n_constraints()).filter(|&k| model.rows[k].driven).collect();
-    let angle = |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
+    let driven: Vec<usize> = (0..model.n_constraints())
+        .filter(|&k| model.rows[k].driven)
+        .collect();
+    let angle =
+        |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
     traj.kinetic.push(scratch.kinetic(&integrator, &state));
-    traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+    traj.strain
+        .push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
     traj.drive_work.push(0.0);
     traj.external_work.push(0.0);
     for _ in 0..settings.steps() {
@@ -91,11 +104,17 @@ pub fn simulate(model: &Model, x: Option<&[f64]>, settings: &Settings) -> Result
         let report = integrator.alpha_step(&mut state)?;
         traj.record(&state, report.iterations);
         let now = scratch.external_power(&integrator, &state);
-        let drives: f64 = driven.iter().map(|&k| -0.5 * (lambda0[k] + state.lambda[k]) * (angle(k, state.t) - angle(k, t0))).sum();
-        traj.drive_work.push(traj.drive_work.last().unwrap() + drives);
-        traj.external_work.push(traj.external_work.last().unwrap() + 0.5 * integrator.h * (last + now));
+        let drives: f64 = driven
+            .iter()
+            .map(|&k| -0.5 * (lambda0[k] + state.lambda[k]) * (angle(k, state.t) - angle(k, t0)))
+            .sum();
+        traj.drive_work
+            .push(traj.drive_work.last().unwrap() + drives);
+        traj.external_work
+            .push(traj.external_work.last().unwrap() + 0.5 * integrator.h * (last + now));
         traj.kinetic.push(scratch.kinetic(&integrator, &state));
-        traj.strain.push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+        traj.strain
+            .push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
         last = now;
     }
     Ok(traj)
@@ -109,7 +128,10 @@ struct EnergyScratch {
 
 impl EnergyScratch {
     fn new(model: &Model) -> Self {
-        Self { force: vec![0.0; model.n_dofs()], mv: vec![0.0; model.n_dofs()] }
+        Self {
+            force: vec![0.0; model.n_dofs()],
+            mv: vec![0.0; model.n_dofs()],
+        }
     }
 
     fn kinetic(&mut self, it: &Integrator, s: &State) -> f64 {
@@ -122,7 +144,10 @@ impl EnergyScratch {
         let asm = &it.newton.asm;
         asm.mass_times(&asm.gravity, &mut self.mv);
         asm.external_forces(s.t, 1.0, &mut self.force);
-        self.force.iter_mut().zip(&self.mv).for_each(|(f, g)| *f += g);
+        self.force
+            .iter_mut()
+            .zip(&self.mv)
+            .for_each(|(f, g)| *f += g);
         dot(&self.force, &s.v)
     }
 }

@@ -33,7 +33,10 @@ impl StaticSettings {
             return Err(SettingsError::new("load_steps", "must be at least 1"));
         }
         if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
-            return Err(SettingsError::new("tol", format!("must lie in (0, 1), got {}", self.tol)));
+            return Err(SettingsError::new(
+                "tol",
+                format!("must lie in (0, 1), got {}", self.tol),
+            ));
         }
         if !self.time.is_finite() {
             return Err(SettingsError::new("t_end", "must be finite"));
@@ -56,9 +59,21 @@ pub struct StaticSolution {
 }
 
 /// The Newton machinery of a static solve: stiffness-scaled constraint rows.
-pub fn static_newton<'m>(model: &'m Model, densities: Densities, settings: &StaticSettings) -> Newton<'m> {
-    let mut newton = Newton::new(model, densities, MassKind::Consistent, settings.tol, settings.max_iter);
-    newton.scale = newton.asm.mean_stiffness_diagonal(&vec![0.0; model.n_dofs()]);
+pub fn static_newton<'m>(
+    model: &'m Model,
+    densities: Densities,
+    settings: &StaticSettings,
+) -> Newton<'m> {
+    let mut newton = Newton::new(
+        model,
+        densities,
+        MassKind::Consistent,
+        settings.tol,
+        settings.max_iter,
+    );
+    newton.scale = newton
+        .asm
+        .mean_stiffness_diagonal(&vec![0.0; model.n_dofs()]);
     newton
 }
 
@@ -66,7 +81,11 @@ pub fn static_newton<'m>(model: &'m Model, densities: Densities, settings: &Stat
 ///
 /// # Errors
 /// The last [`SolveError`] once a load step has been halved `max_cuts` times in a row.
-pub fn solve_static(model: &Model, densities: Densities, settings: &StaticSettings) -> Result<StaticSolution, SolveError> {
+pub fn solve_static(
+    model: &Model,
+    densities: Densities,
+    settings: &StaticSettings,
+) -> Result<StaticSolution, SolveError> {
     equilibrium(&mut static_newton(model, densities, settings), settings)
 }
 
@@ -74,7 +93,10 @@ pub fn solve_static(model: &Model, densities: Densities, settings: &StaticSettin
 ///
 /// # Errors
 /// As [`solve_static`].
-pub fn equilibrium(newton: &mut Newton, settings: &StaticSettings) -> Result<StaticSolution, SolveError> {
+pub fn equilibrium(
+    newton: &mut Newton,
+    settings: &StaticSettings,
+) -> Result<StaticSolution, SolveError> {
     let model = newton.asm.model;
     let mut q = vec![0.0; model.n_dofs()];
     let mut lambda = vec![0.0; model.n_constraints()];
@@ -83,7 +105,12 @@ pub fn equilibrium(newton: &mut Newton, settings: &StaticSettings) -> Result<Sta
     while load < 1.0 {
         let target = (load + step).min(1.0);
         let (q_prev, l_prev) = (q.clone(), lambda.clone());
-        let point = Point { t: settings.time, load: target, mass_coefficient: 0.0, gamma_prime: 0.0 };
+        let point = Point {
+            t: settings.time,
+            load: target,
+            mass_coefficient: 0.0,
+            gamma_prime: 0.0,
+        };
         match newton.solve_point(point, &mut q, &mut lambda, None) {
             Ok(report) => {
                 iterations += report.iterations;
@@ -102,5 +129,10 @@ pub fn equilibrium(newton: &mut Newton, settings: &StaticSettings) -> Result<Sta
             }
         }
     }
-    Ok(StaticSolution { q, lambda, iterations, load_steps: steps })
+    Ok(StaticSolution {
+        q,
+        lambda,
+        iterations,
+        load_steps: steps,
+    })
 }

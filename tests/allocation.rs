@@ -45,10 +45,18 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn alpha_steps_do_not_allocate() {
     for split in [1, 3] {
-        let text = include_str!("../examples/robot_arm.toml").replace("split = 1", &format!("split = {split}"));
+        let text = include_str!("../examples/robot_arm.toml")
+            .replace("split = 1", &format!("split = {split}"));
         let model = scene::build(&scene::parse_toml(&text).unwrap()).unwrap();
         let x = vec![0.4; model.n_variables()];
-        let settings = Settings { t_end: 1.3, h: 0.02, rho_inf: 0.8, tol: 1e-10, max_iter: 20, mass: MassKind::Consistent };
+        let settings = Settings {
+            t_end: 1.3,
+            h: 0.02,
+            rho_inf: 0.8,
+            tol: 1e-10,
+            max_iter: 20,
+            mass: MassKind::Consistent,
+        };
         let mut integrator = Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings);
         let mut state = integrator.initial_state().unwrap();
         integrator.alpha_step(&mut state).unwrap();
@@ -58,7 +66,13 @@ fn alpha_steps_do_not_allocate() {
             iterations += integrator.alpha_step(&mut state).unwrap().iterations;
         }
         let allocations = count() - before;
-        assert!(iterations >= 60, "the steps did Newton work ({iterations} iterations)");
-        assert_eq!(allocations, 0, "split = {split}: {allocations} allocations in 30 steps");
+        assert!(
+            iterations >= 60,
+            "the steps did Newton work ({iterations} iterations)"
+        );
+        assert_eq!(
+            allocations, 0,
+            "split = {split}: {allocations} allocations in 30 steps"
+        );
     }
 }

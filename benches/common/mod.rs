@@ -26,7 +26,14 @@ pub fn robot_arm(nx: usize, ny: usize, split: usize) -> Model {
 
 /// Reference settings: t ∈ [0, 1.3] s, ρ∞ = 0.8, Newton tolerance 1e-10.
 pub fn settings(h: f64) -> Settings {
-    Settings { t_end: 1.3, h, rho_inf: 0.8, tol: 1e-10, max_iter: 30, mass: flextop::element::MassKind::Consistent }
+    Settings {
+        t_end: 1.3,
+        h,
+        rho_inf: 0.8,
+        tol: 1e-10,
+        max_iter: 30,
+        mass: flextop::element::MassKind::Consistent,
+    }
 }
 
 /// Mean squared tip deflection d of a run of `model` at uniform density `x`, and the

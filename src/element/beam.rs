@@ -75,7 +75,11 @@ impl Beam {
     /// A beam with reference end positions `x1`, `x2`.
     pub fn new(x1: Vector2<f64>, x2: Vector2<f64>, section: Section) -> Self {
         let chord = x2 - x1;
-        Self { chord, length: chord.norm(), section }
+        Self {
+            chord,
+            length: chord.norm(),
+            section,
+        }
     }
 
     /// Local stiffness `D = diag(EA/L₀, k_b)` of the exact Timoshenko beam.
@@ -143,7 +147,10 @@ impl Beam {
 
     /// Constant mass matrix at full density.
     pub fn mass_matrix(&self, kind: MassKind) -> Matrix6 {
-        let (ma, mi) = (self.section.rho_a * self.length, self.section.rho_i * self.length);
+        let (ma, mi) = (
+            self.section.rho_a * self.length,
+            self.section.rho_i * self.length,
+        );
         let mut m = Matrix6::zeros();
         for (k, total) in [(0, ma), (1, ma), (2, mi)] {
             let (diag, off) = match kind {
@@ -184,7 +191,14 @@ mod tests {
         let d = b.chord;
         let rotated = Vector2::new(c * d.x - s * d.y, s * d.x + c * d.y);
         let (t1, t2) = (0.3, -0.7);
-        Vector6::from([t1, t2, angle, t1 + rotated.x - d.x, t2 + rotated.y - d.y, angle])
+        Vector6::from([
+            t1,
+            t2,
+            angle,
+            t1 + rotated.x - d.x,
+            t2 + rotated.y - d.y,
+            angle,
+        ])
     }
 
     #[test]
@@ -199,7 +213,11 @@ mod tests {
     }
 
     /// Central difference of `f` at `u0` along DOF `j`.
-    fn central<T: std::ops::Sub<Output = T> + std::ops::Div<f64, Output = T>>(f: impl Fn(&Vector6) -> T, u0: &Vector6, j: usize) -> T {
+    fn central<T: std::ops::Sub<Output = T> + std::ops::Div<f64, Output = T>>(
+        f: impl Fn(&Vector6) -> T,
+        u0: &Vector6,
+        j: usize,
+    ) -> T {
         let eps = 1e-7;
         let (mut up, mut um) = (*u0, *u0);
         up[j] += eps;
@@ -216,10 +234,18 @@ mod tests {
             let fd = central(|u| b.internal_force(u), &u0, j);
             for i in 0..6 {
                 let err = (fd[i] - k[(i, j)]).abs();
-                assert!(err < 1e-6 * k.amax(), "K[{i},{j}] = {} vs {}", k[(i, j)], fd[i]);
+                assert!(
+                    err < 1e-6 * k.amax(),
+                    "K[{i},{j}] = {} vs {}",
+                    k[(i, j)],
+                    fd[i]
+                );
             }
         }
-        assert!((k - k.transpose()).amax() < 1e-9 * k.amax(), "tangent of a conservative force is symmetric");
+        assert!(
+            (k - k.transpose()).amax() < 1e-9 * k.amax(),
+            "tangent of a conservative force is symmetric"
+        );
     }
 
     #[test]
@@ -229,7 +255,11 @@ mod tests {
         let f = b.internal_force(&u0);
         for j in 0..6 {
             let fd = central(|u| b.strain_energy(u), &u0, j);
-            assert!((fd - f[j]).abs() < 1e-6 * f.amax(), "f[{j}] = {} vs {fd}", f[j]);
+            assert!(
+                (fd - f[j]).abs() < 1e-6 * f.amax(),
+                "f[{j}] = {} vs {fd}",
+                f[j]
+            );
         }
     }
 

@@ -18,36 +18,64 @@ use crate::error::SceneError;
 use crate::interpolation::Interpolation;
 use crate::load::{NodalLoad, TimeFunction};
 use crate::model::{Analysis, Bar, Design, Element, Model, Node, PointMass};
-use crate::options::RunOptions;
 use crate::motion::{Motion, Table, Trapezoidal};
+use crate::options::RunOptions;
 use crate::rigid::{redundant_rows, Clusters};
 use crate::section::Section;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 fn finite(path: &str, v: f64) -> Result<f64> {
-    if v.is_finite() { Ok(v) } else { Err(SceneError::new(path, format!("must be finite, got {v}"))) }
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(SceneError::new(path, format!("must be finite, got {v}")))
+    }
 }
 
 fn positive(path: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 { Ok(v) } else { Err(SceneError::new(path, format!("must be positive and finite, got {v}"))) }
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be positive and finite, got {v}"),
+        ))
+    }
 }
 
 fn non_negative(path: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 { Ok(v) } else { Err(SceneError::new(path, format!("must be non-negative and finite, got {v}"))) }
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be non-negative and finite, got {v}"),
+        ))
+    }
 }
 
 /// Strictly increasing finite samples, at least two.
 fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {
     if t.len() < 2 || t.len() != values.len() {
-        return Err(SceneError::new(path, format!("needs at least two samples and as many {what} as times ({} vs {})", values.len(), t.len())));
+        return Err(SceneError::new(
+            path,
+            format!(
+                "needs at least two samples and as many {what} as times ({} vs {})",
+                values.len(),
+                t.len()
+            ),
+        ));
     }
     for (k, (&ti, &vi)) in t.iter().zip(values).enumerate() {
         finite(&format!("{path}.t[{k}]"), ti)?;
         finite(&format!("{path}.{what}[{k}]"), vi)?;
     }
     if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(SceneError::new(format!("{path}.t[{}]", k + 1), "times must be strictly increasing"));
+        return Err(SceneError::new(
+            format!("{path}.t[{}]", k + 1),
+            "times must be strictly increasing",
+        ));
     }
     Ok(())
 }
@@ -64,30 +92,51 @@ fn section(path: &str, s: &SectionSpec) -> Result<Section> {
         _ => return Err(SceneError::new(path, "give exactly one of G and nu")),
     };
     if !(nu > -1.0 && nu <= 0.5) {
-        return Err(SceneError::new(path, format!("Poisson's ratio must lie in (-1, 0.5], got {nu}")));
+        return Err(SceneError::new(
+            path,
+            format!("Poisson's ratio must lie in (-1, 0.5], got {nu}"),
+        ));
     }
     let (area, inertia, kappa) = match (s.diameter, s.A, s.I, s.kappa) {
-        (Some(d), None, None, None) => Section::solid_circle(positive(&format!("{path}.diameter"), d)?, nu),
+        (Some(d), None, None, None) => {
+            Section::solid_circle(positive(&format!("{path}.diameter"), d)?, nu)
+        }
         (None, Some(a), Some(i), Some(k)) => (
             positive(&format!("{path}.A"), a)?,
             positive(&format!("{path}.I"), i)?,
             positive(&format!("{path}.kappa"), k)?,
         ),
-        _ => return Err(SceneError::new(path, "give either `diameter` (solid circle) or all of `A`, `I`, `kappa`")),
+        _ => {
+            return Err(SceneError::new(
+                path,
+                "give either `diameter` (solid circle) or all of `A`, `I`, `kappa`",
+            ))
+        }
     };
     Ok(Section::new(e, g, area, inertia, kappa, rho))
 }
 
 fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
     Ok(match m {
-        MotionSpec::Trapezoidal { start, end, acceleration, speed, t_start } => Motion::Trapezoidal(Trapezoidal::new(
+        MotionSpec::Trapezoidal {
+            start,
+            end,
+            acceleration,
+            speed,
+            t_start,
+        } => Motion::Trapezoidal(Trapezoidal::new(
             finite(&format!("{path}.start"), *start)?,
             finite(&format!("{path}.end"), *end)?,
             positive(&format!("{path}.acceleration"), *acceleration)?,
             positive(&format!("{path}.speed"), *speed)?,
             non_negative(&format!("{path}.t_start"), *t_start)?,
         )),
-        MotionSpec::Table { t, theta, start_velocity, end_velocity } => {
+        MotionSpec::Table {
+            t,
+            theta,
+            start_velocity,
+            end_velocity,
+        } => {
             samples(path, t, theta, "theta")?;
             let v0 = finite(&format!("{path}.start_velocity"), *start_velocity)?;
             let v1 = finite(&format!("{path}.end_velocity"), *end_velocity)?;
@@ -126,22 +175,34 @@ impl Mesh {
         finite(&format!("{path}.x"), x)?;
         finite(&format!("{path}.y"), y)?;
         if self.index.contains_key(name) {
-            return Err(SceneError::new(path, format!("duplicate node name '{name}'")));
+            return Err(SceneError::new(
+                path,
+                format!("duplicate node name '{name}'"),
+            ));
         }
         self.index.insert(name.to_string(), self.nodes.len());
-        self.nodes.push(Node { name: name.to_string(), position: Vector2::new(x, y) });
+        self.nodes.push(Node {
+            name: name.to_string(),
+            position: Vector2::new(x, y),
+        });
         Ok(self.nodes.len() - 1)
     }
 
     fn node(&self, path: &str, name: &str) -> Result<usize> {
-        self.index.get(name).copied().ok_or_else(|| SceneError::new(path, format!("unknown node '{name}'")))
+        self.index
+            .get(name)
+            .copied()
+            .ok_or_else(|| SceneError::new(path, format!("unknown node '{name}'")))
     }
 
     fn component(&mut self, name: &str) -> usize {
-        self.components.iter().position(|c| c == name).unwrap_or_else(|| {
-            self.components.push(name.to_string());
-            self.components.len() - 1
-        })
+        self.components
+            .iter()
+            .position(|c| c == name)
+            .unwrap_or_else(|| {
+                self.components.push(name.to_string());
+                self.components.len() - 1
+            })
     }
 
     fn variable(&mut self, name: &str) -> usize {
@@ -156,7 +217,10 @@ impl Mesh {
         let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
         let length = (xz - xa).norm();
         if b.split == 0 {
-            return Err(SceneError::new(format!("{}.split", b.path), "must be at least 1"));
+            return Err(SceneError::new(
+                format!("{}.split", b.path),
+                "must be at least 1",
+            ));
         }
         let mut chain = vec![a];
         for k in 1..b.split {
@@ -167,18 +231,35 @@ impl Mesh {
         let first = self.elements.len();
         let bar = self.bars.len();
         for w in chain.windows(2) {
-            let beam = Beam::new(self.nodes[w[0]].position, self.nodes[w[1]].position, *b.section);
-            self.elements.push(Element { beam, nodes: [w[0], w[1]], bar });
+            let beam = Beam::new(
+                self.nodes[w[0]].position,
+                self.nodes[w[1]].position,
+                *b.section,
+            );
+            self.elements.push(Element {
+                beam,
+                nodes: [w[0], w[1]],
+                bar,
+            });
         }
         let volume = b.section.area * length;
-        self.bars.push(Bar { name: b.name, component: b.component, variable: b.variable, elements: first..self.elements.len(), volume });
+        self.bars.push(Bar {
+            name: b.name,
+            component: b.component,
+            variable: b.variable,
+            elements: first..self.elements.len(),
+            volume,
+        });
         self.bar_paths.push(b.path);
         Ok(())
     }
 
     /// Diagonal of the bounding box of the nodes (m).
     fn size(&self) -> f64 {
-        let (mut lo, mut hi) = (Vector2::repeat(f64::INFINITY), Vector2::repeat(f64::NEG_INFINITY));
+        let (mut lo, mut hi) = (
+            Vector2::repeat(f64::INFINITY),
+            Vector2::repeat(f64::NEG_INFINITY),
+        );
         for n in &self.nodes {
             lo = lo.inf(&n.position);
             hi = hi.sup(&n.position);
@@ -190,13 +271,20 @@ impl Mesh {
     /// of its end coordinates (1e-12 of their magnitude).
     fn check_lengths(&self, size: f64) -> Result<()> {
         if !size.is_finite() {
-            return Err(SceneError::new("nodes", format!("the scene spans {size} m: coordinates too large to compute with")));
+            return Err(SceneError::new(
+                "nodes",
+                format!("the scene spans {size} m: coordinates too large to compute with"),
+            ));
         }
         for (bar, path) in self.bars.iter().zip(&self.bar_paths) {
-            let (a, z) = (self.elements[bar.elements.start].nodes[0], self.elements[bar.elements.end - 1].nodes[1]);
+            let (a, z) = (
+                self.elements[bar.elements.start].nodes[0],
+                self.elements[bar.elements.end - 1].nodes[1],
+            );
             let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
             let length = (xz - xa).norm();
-            let too_short = length.partial_cmp(&(1e-9 * size).max(1e-12 * (xa.norm() + xz.norm()))) != Some(std::cmp::Ordering::Greater);
+            let too_short = length.partial_cmp(&(1e-9 * size).max(1e-12 * (xa.norm() + xz.norm())))
+                != Some(std::cmp::Ordering::Greater);
             if too_short {
                 let (na, nz) = (&self.nodes[a].name, &self.nodes[z].name);
                 return Err(SceneError::new(path, format!("zero-length bar: nodes '{na}' and '{nz}' coincide ({length:.1e} m apart in a scene of {size:.3} m)")));
@@ -205,18 +293,38 @@ impl Mesh {
         Ok(())
     }
 
-    fn ground_structure(&mut self, path: &str, g: &GroundStructureSpec, sections: &BTreeMap<String, Section>) -> Result<()> {
+    fn ground_structure(
+        &mut self,
+        path: &str,
+        g: &GroundStructureSpec,
+        sections: &BTreeMap<String, Section>,
+    ) -> Result<()> {
         if g.nx < 2 || g.ny < 1 {
-            return Err(SceneError::new(path, format!("needs nx >= 2 and ny >= 1, got {} × {}", g.nx, g.ny)));
+            return Err(SceneError::new(
+                path,
+                format!("needs nx >= 2 and ny >= 1, got {} × {}", g.nx, g.ny),
+            ));
         }
         let length = positive(&format!("{path}.length"), g.length)?;
-        let height = if g.ny > 1 { positive(&format!("{path}.height"), g.height)? } else { non_negative(&format!("{path}.height"), g.height)? };
+        let height = if g.ny > 1 {
+            positive(&format!("{path}.height"), g.height)?
+        } else {
+            non_negative(&format!("{path}.height"), g.height)?
+        };
         let angle = finite(&format!("{path}.angle"), g.angle)?;
         let origin = match &g.origin {
-            PointSpec::Coordinates([x, y]) => Vector2::new(finite(&format!("{path}.origin[0]"), *x)?, finite(&format!("{path}.origin[1]"), *y)?),
+            PointSpec::Coordinates([x, y]) => Vector2::new(
+                finite(&format!("{path}.origin[0]"), *x)?,
+                finite(&format!("{path}.origin[1]"), *y)?,
+            ),
             PointSpec::Node(n) => self.nodes[self.node(&format!("{path}.origin"), n)?].position,
         };
-        let section = sections.get(&g.section).ok_or_else(|| SceneError::new(format!("{path}.section"), format!("unknown section '{}'", g.section)))?;
+        let section = sections.get(&g.section).ok_or_else(|| {
+            SceneError::new(
+                format!("{path}.section"),
+                format!("unknown section '{}'", g.section),
+            )
+        })?;
         let (c, s) = (angle.cos(), angle.sin());
         let first = self.nodes.len();
         for k in 0..g.nx * g.ny {
@@ -230,18 +338,45 @@ impl Mesh {
             let name = format!("{}/bar{k}", g.name);
             let variable = (!g.fixed).then(|| self.variable(&name));
             let ends = [first + i, first + j];
-            self.add_bar(BarSpec { path: format!("{path}/bar{k}"), name, ends, section, split: g.split, component, variable })?;
+            self.add_bar(BarSpec {
+                path: format!("{path}/bar{k}"),
+                name,
+                ends,
+                section,
+                split: g.split,
+                component,
+                variable,
+            })?;
         }
         Ok(())
     }
 
-    fn beam(&mut self, path: &str, k: usize, b: &BeamSpec, sections: &BTreeMap<String, Section>) -> Result<()> {
+    fn beam(
+        &mut self,
+        path: &str,
+        k: usize,
+        b: &BeamSpec,
+        sections: &BTreeMap<String, Section>,
+    ) -> Result<()> {
         let name = b.name.clone().unwrap_or_else(|| format!("beams[{k}]"));
-        let ends = [self.node(&format!("{path}.nodes[0]"), &b.nodes[0])?, self.node(&format!("{path}.nodes[1]"), &b.nodes[1])?];
-        let section = sections.get(&b.section).ok_or_else(|| SceneError::new(format!("{path}.section"), format!("unknown section '{}'", b.section)))?;
+        let ends = [
+            self.node(&format!("{path}.nodes[0]"), &b.nodes[0])?,
+            self.node(&format!("{path}.nodes[1]"), &b.nodes[1])?,
+        ];
+        let section = sections.get(&b.section).ok_or_else(|| {
+            SceneError::new(
+                format!("{path}.section"),
+                format!("unknown section '{}'", b.section),
+            )
+        })?;
         let component = self.component(b.component.as_deref().unwrap_or("frame"));
         let variable = match (&b.group, b.fixed) {
-            (Some(_), true) => return Err(SceneError::new(path, "a fixed beam cannot belong to a design group")),
+            (Some(_), true) => {
+                return Err(SceneError::new(
+                    path,
+                    "a fixed beam cannot belong to a design group",
+                ))
+            }
             (_, true) => None,
             (Some(g), false) => Some(match self.groups.get(g) {
                 Some(&v) => v,
@@ -253,50 +388,107 @@ impl Mesh {
             }),
             (None, false) => Some(self.variable(&name)),
         };
-        self.add_bar(BarSpec { path: path.to_string(), name, ends, section, split: b.split, component, variable })
+        self.add_bar(BarSpec {
+            path: path.to_string(),
+            name,
+            ends,
+            section,
+            split: b.split,
+            component,
+            variable,
+        })
     }
 }
 
 fn joint(path: &str, j: &JointSpec, mesh: &Mesh, size: f64) -> Result<Joint> {
     let (name, kind, drive) = match j {
-        JointSpec::Clamp { name, node } => (name, JointKind::Clamp { node: mesh.node(&format!("{path}.node"), node)? }, None),
-        JointSpec::Pin { name, node, drive } => (name, JointKind::Pin { node: mesh.node(&format!("{path}.node"), node)? }, drive.as_ref()),
+        JointSpec::Clamp { name, node } => (
+            name,
+            JointKind::Clamp {
+                node: mesh.node(&format!("{path}.node"), node)?,
+            },
+            None,
+        ),
+        JointSpec::Pin { name, node, drive } => (
+            name,
+            JointKind::Pin {
+                node: mesh.node(&format!("{path}.node"), node)?,
+            },
+            drive.as_ref(),
+        ),
         JointSpec::Hinge { name, nodes, drive } => {
             let a = mesh.node(&format!("{path}.nodes[0]"), &nodes[0])?;
             let b = mesh.node(&format!("{path}.nodes[1]"), &nodes[1])?;
             let gap = (mesh.nodes[a].position - mesh.nodes[b].position).norm();
             if a == b {
-                return Err(SceneError::new(format!("{path} ({name})"), "a hinge needs two distinct nodes"));
+                return Err(SceneError::new(
+                    format!("{path} ({name})"),
+                    "a hinge needs two distinct nodes",
+                ));
             }
             if gap > 1e-9 * size {
-                return Err(SceneError::new(format!("{path} ({name})"), format!("hinge nodes '{}' and '{}' are {gap:.3e} m apart; they must coincide", nodes[0], nodes[1])));
+                return Err(SceneError::new(
+                    format!("{path} ({name})"),
+                    format!(
+                        "hinge nodes '{}' and '{}' are {gap:.3e} m apart; they must coincide",
+                        nodes[0], nodes[1]
+                    ),
+                ));
             }
             (name, JointKind::Hinge { nodes: [a, b] }, drive.as_ref())
         }
     };
-    let drive = drive.map(|d| motion(&format!("{path}.drive"), d)).transpose()?;
-    if let Some(rate) = drive.as_ref().map(|m| m.at(0.0).velocity).filter(|v| v.abs() > 0.0) {
+    let drive = drive
+        .map(|d| motion(&format!("{path}.drive"), d))
+        .transpose()?;
+    if let Some(rate) = drive
+        .as_ref()
+        .map(|m| m.at(0.0).velocity)
+        .filter(|v| v.abs() > 0.0)
+    {
         return Err(SceneError::new(format!("{path}.drive"), format!("moves at t = 0 (θ̇ = {rate} rad/s), but scenes start at rest: start the motion from rest")));
     }
-    Ok(Joint { name: name.clone(), kind, drive })
+    Ok(Joint {
+        name: name.clone(),
+        kind,
+        drive,
+    })
 }
 
 fn design(d: &DesignSpec) -> Result<(Interpolation, f64)> {
     let x_min = d.x_min;
     if !(x_min > 0.0 && x_min < 1.0) {
-        return Err(SceneError::new("design.x_min", format!("must lie in (0, 1), got {x_min}")));
+        return Err(SceneError::new(
+            "design.x_min",
+            format!("must lie in (0, 1), got {x_min}"),
+        ));
     }
     let law = match (d.interpolation, d.p, d.q) {
         (InterpolationSpec::Simp, p, None) => {
             let p = p.unwrap_or(3.0);
             if !(p.is_finite() && p >= 1.0) {
-                return Err(SceneError::new("design.p", format!("SIMP exponent must be finite and >= 1, got {p}")));
+                return Err(SceneError::new(
+                    "design.p",
+                    format!("SIMP exponent must be finite and >= 1, got {p}"),
+                ));
             }
             Interpolation::Simp { p }
         }
-        (InterpolationSpec::Ramp, None, q) => Interpolation::Ramp { q: non_negative("design.q", q.unwrap_or(8.0))? },
-        (InterpolationSpec::Simp, _, Some(_)) => return Err(SceneError::new("design.q", "`q` is the RAMP parameter; SIMP takes `p`")),
-        (InterpolationSpec::Ramp, Some(_), _) => return Err(SceneError::new("design.p", "`p` is the SIMP exponent; RAMP takes `q`")),
+        (InterpolationSpec::Ramp, None, q) => Interpolation::Ramp {
+            q: non_negative("design.q", q.unwrap_or(8.0))?,
+        },
+        (InterpolationSpec::Simp, _, Some(_)) => {
+            return Err(SceneError::new(
+                "design.q",
+                "`q` is the RAMP parameter; SIMP takes `p`",
+            ))
+        }
+        (InterpolationSpec::Ramp, Some(_), _) => {
+            return Err(SceneError::new(
+                "design.p",
+                "`p` is the SIMP exponent; RAMP takes `q`",
+            ))
+        }
     };
     Ok((law, x_min))
 }
@@ -310,12 +502,18 @@ fn defaults(s: &RunOptions) -> Result<RunOptions> {
     }
     if let Some(r) = s.rho_inf {
         if !(0.0..=1.0).contains(&r) {
-            return Err(SceneError::new("simulation.rho_inf", format!("must lie in [0, 1], got {r}")));
+            return Err(SceneError::new(
+                "simulation.rho_inf",
+                format!("must lie in [0, 1], got {r}"),
+            ));
         }
     }
     for (name, value) in [("load_steps", s.load_steps), ("max_iter", s.max_iter)] {
         if value == Some(0) {
-            return Err(SceneError::new(format!("simulation.{name}"), "must be at least 1"));
+            return Err(SceneError::new(
+                format!("simulation.{name}"),
+                "must be at least 1",
+            ));
         }
     }
     Ok(*s)
@@ -326,13 +524,21 @@ fn defaults(s: &RunOptions) -> Result<RunOptions> {
 /// # Errors
 /// A [`SceneError`] naming the first entry at fault.
 pub fn build(spec: &SceneSpec) -> Result<Model> {
-    let sections = spec.sections.iter().map(|(k, s)| Ok((k.clone(), section(&format!("sections.{k}"), s)?))).collect::<Result<BTreeMap<_, _>>>()?;
+    let sections = spec
+        .sections
+        .iter()
+        .map(|(k, s)| Ok((k.clone(), section(&format!("sections.{k}"), s)?)))
+        .collect::<Result<BTreeMap<_, _>>>()?;
     let mut mesh = Mesh::default();
     for (k, n) in spec.nodes.iter().enumerate() {
         mesh.add_node(&format!("nodes[{k}] ({})", n.name), &n.name, n.x, n.y)?;
     }
     for (k, g) in spec.ground_structures.iter().enumerate() {
-        mesh.ground_structure(&format!("ground_structures[{k}] ({})", g.name), g, &sections)?;
+        mesh.ground_structure(
+            &format!("ground_structures[{k}] ({})", g.name),
+            g,
+            &sections,
+        )?;
     }
     for (k, b) in spec.beams.iter().enumerate() {
         mesh.beam(&format!("beams[{k}]"), k, b, &sections)?;
@@ -342,8 +548,17 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     }
     let size = mesh.size();
     mesh.check_lengths(size)?;
-    let joints = spec.joints.iter().enumerate().map(|(k, j)| joint(&format!("joints[{k}]"), j, &mesh, size)).collect::<Result<Vec<_>>>()?;
-    let rows = joints.iter().enumerate().flat_map(|(k, j)| j.rows(k)).collect::<Vec<_>>();
+    let joints = spec
+        .joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| joint(&format!("joints[{k}]"), j, &mesh, size))
+        .collect::<Result<Vec<_>>>()?;
+    let rows = joints
+        .iter()
+        .enumerate()
+        .flat_map(|(k, j)| j.rows(k))
+        .collect::<Vec<_>>();
     let point_masses = spec
         .point_masses
         .iter()
@@ -372,10 +587,17 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
                 None => TimeFunction::Constant,
                 Some(t) => {
                     samples(&format!("{path}.table"), &t.t, &t.scale, "scale")?;
-                    TimeFunction::Table { t: t.t.clone(), value: t.scale.clone() }
+                    TimeFunction::Table {
+                        t: t.t.clone(),
+                        value: t.scale.clone(),
+                    }
                 }
             };
-            Ok(NodalLoad { node: mesh.node(&format!("{path}.node"), &l.node)?, value, time })
+            Ok(NodalLoad {
+                node: mesh.node(&format!("{path}.node"), &l.node)?,
+                value,
+                time,
+            })
         })
         .collect::<Result<Vec<_>>>()?;
     let gravity = match spec.gravity {
@@ -399,7 +621,11 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         rows,
         loads,
         gravity,
-        design: Design { interpolation, x_min, variables: mesh.variables },
+        design: Design {
+            interpolation,
+            x_min,
+            variables: mesh.variables,
+        },
         tip,
         defaults: defaults(&spec.simulation)?,
     };
@@ -410,9 +636,16 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
 /// Every node on a beam; no redundant joint; every frame grounded; statics without free modes.
 fn check_mechanism(model: &Model) -> Result<()> {
     let mut attached = vec![false; model.nodes.len()];
-    model.elements.iter().flat_map(|e| e.nodes).for_each(|n| attached[n] = true);
+    model
+        .elements
+        .iter()
+        .flat_map(|e| e.nodes)
+        .for_each(|n| attached[n] = true);
     if let Some(n) = attached.iter().position(|a| !a) {
-        return Err(SceneError::new(format!("node '{}'", model.nodes[n].name), "is not attached to any beam"));
+        return Err(SceneError::new(
+            format!("node '{}'", model.nodes[n].name),
+            "is not attached to any beam",
+        ));
     }
     if let Some(&r) = redundant_rows(&model.rows).first() {
         let j = model.rows[r].joint;

@@ -12,9 +12,25 @@ pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {
 }
 
 /// Local coordinates of grid node `(column, row)`: `x ∈ [0, L]`, `y ∈ [−H/2, H/2]`.
-pub fn local_coordinates(column: usize, row: usize, nx: usize, ny: usize, length: f64, height: f64) -> [f64; 2] {
-    let fraction = |i: usize, n: usize| if n > 1 { i as f64 / (n - 1) as f64 } else { 0.5 };
-    [length * fraction(column, nx), height * (fraction(row, ny) - 0.5)]
+pub fn local_coordinates(
+    column: usize,
+    row: usize,
+    nx: usize,
+    ny: usize,
+    length: f64,
+    height: f64,
+) -> [f64; 2] {
+    let fraction = |i: usize, n: usize| {
+        if n > 1 {
+            i as f64 / (n - 1) as f64
+        } else {
+            0.5
+        }
+    };
+    [
+        length * fraction(column, nx),
+        height * (fraction(row, ny) - 0.5),
+    ]
 }
 
 /// The bars `(i, j)`, `i < j`, of an `nx × ny` ground structure in lexicographic order.
@@ -33,7 +49,11 @@ pub fn bars(nx: usize, ny: usize) -> Vec<(usize, usize)> {
 }
 
 fn gcd(a: usize, b: usize) -> usize {
-    if b == 0 { a } else { gcd(b, a % b) }
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
 }
 
 #[cfg(test)]

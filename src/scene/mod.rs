@@ -18,10 +18,14 @@ use crate::error::SceneError;
 /// # Errors
 /// A [`SceneError`] with the path of the offending key (syntax, unknown key, wrong type).
 pub fn parse_toml(text: &str) -> Result<SceneSpec, SceneError> {
-    let de = toml::de::Deserializer::parse(text).map_err(|e| SceneError::new("scene file", e.to_string().trim().to_string()))?;
+    let de = toml::de::Deserializer::parse(text)
+        .map_err(|e| SceneError::new("scene file", e.to_string().trim().to_string()))?;
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
-        SceneError::new(if path == "." { "scene".into() } else { path }, e.into_inner().to_string().trim().to_string())
+        SceneError::new(
+            if path == "." { "scene".into() } else { path },
+            e.into_inner().to_string().trim().to_string(),
+        )
     })
 }
 

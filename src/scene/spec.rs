@@ -293,7 +293,12 @@ pub struct DesignSpec {
 
 impl Default for DesignSpec {
     fn default() -> Self {
-        Self { interpolation: InterpolationSpec::Simp, p: None, q: None, x_min: default_x_min() }
+        Self {
+            interpolation: InterpolationSpec::Simp,
+            p: None,
+            q: None,
+            x_min: default_x_min(),
+        }
     }
 }
 

@@ -20,12 +20,18 @@ fn reference_scenes_build_only_what_they_need() {
     assert_eq!(arm.n_constraints(), 6);
     assert_eq!(arm.components, ["link1", "link2"]);
     assert_eq!(arm.nodes[arm.tip.unwrap()].name, "link2[4,1]");
-    let (a, b) = (arm.node_index("link1[4,1]").unwrap(), arm.node_index("link2[0,1]").unwrap());
+    let (a, b) = (
+        arm.node_index("link1[4,1]").unwrap(),
+        arm.node_index("link2[0,1]").unwrap(),
+    );
     let elbow = (arm.nodes[a].position - arm.nodes[b].position).norm();
     assert!(elbow < 1e-15, "link 2 starts at link 1's node (L, 0)");
     let truss = build(&parse_toml(TRUSS).unwrap()).unwrap();
     assert_eq!(truss.analysis, Analysis::Static);
-    assert_eq!((truss.nodes.len(), truss.n_constraints(), truss.loads.len()), (15, 3, 1));
+    assert_eq!(
+        (truss.nodes.len(), truss.n_constraints(), truss.loads.len()),
+        (15, 3, 1)
+    );
 }
 
 #[test]
@@ -43,7 +49,10 @@ fn unknown_keys_are_named_with_their_path() {
     assert!(e.path.starts_with("joints[0]"), "{e}");
     assert!(e.message.contains("sped"), "{e}");
     let e = error_of(&ARM.replace("nx = 5", "nx = 5\ncolumns = 5"));
-    assert!(e.path.starts_with("ground_structures[0]") && e.message.contains("columns"), "{e}");
+    assert!(
+        e.path.starts_with("ground_structures[0]") && e.message.contains("columns"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -61,9 +70,15 @@ fn non_physical_values_are_named() {
 #[test]
 fn missing_and_duplicate_nodes_are_named() {
     let e = error_of(&ARM.replace("node = \"link2[4,1]\"", "node = \"link3[4,1]\""));
-    assert!(e.path.contains("point_masses[0].node") && e.message.contains("link3[4,1]"), "{e}");
+    assert!(
+        e.path.contains("point_masses[0].node") && e.message.contains("link3[4,1]"),
+        "{e}"
+    );
     let e = error_of(&ARM.replace("name = \"link2\"", "name = \"link1\""));
-    assert!(e.message.contains("duplicate node name 'link1[0,0]'"), "{e}");
+    assert!(
+        e.message.contains("duplicate node name 'link1[0,0]'"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -76,20 +91,42 @@ fn degenerate_geometry_is_rejected() {
     let e = error_of(text);
     assert!(e.message.contains("zero-length bar"), "{e}");
     let e = error_of(&ARM.replace("origin = \"link1[4,1]\"", "origin = [0.5, 0.9]"));
-    assert!(e.path.contains("elbow") && e.message.contains("must coincide"), "{e}");
+    assert!(
+        e.path.contains("elbow") && e.message.contains("must coincide"),
+        "{e}"
+    );
 }
 
 #[test]
 fn over_and_under_constrained_mechanisms_are_rejected() {
-    let twice = ARM.replace("[design]", "[[joints]]\nkind = \"pin\"\nname = \"again\"\nnode = \"link1[0,1]\"\n\n[design]");
+    let twice = ARM.replace(
+        "[design]",
+        "[[joints]]\nkind = \"pin\"\nname = \"again\"\nnode = \"link1[0,1]\"\n\n[design]",
+    );
     let e = error_of(&twice);
-    assert!(e.path.contains("again") && e.message.contains("over-constrained"), "{e}");
-    let floating = ARM.replace("kind = \"hinge\"", "kind = \"hinge\"\n").replace("nodes = [\"link1[4,1]\", \"link2[0,1]\"]", "nodes = [\"link2[0,1]\", \"link2[0,1]\"]");
+    assert!(
+        e.path.contains("again") && e.message.contains("over-constrained"),
+        "{e}"
+    );
+    let floating = ARM
+        .replace("kind = \"hinge\"", "kind = \"hinge\"\n")
+        .replace(
+            "nodes = [\"link1[4,1]\", \"link2[0,1]\"]",
+            "nodes = [\"link2[0,1]\", \"link2[0,1]\"]",
+        );
     let e = error_of(&floating);
     assert!(e.message.contains("two distinct nodes"), "{e}");
-    let unhinged = ARM.split("[[joints]]                # elbow").next().unwrap().to_string() + "[design]\np = 3.0\n";
+    let unhinged = ARM
+        .split("[[joints]]                # elbow")
+        .next()
+        .unwrap()
+        .to_string()
+        + "[design]\np = 3.0\n";
     let e = error_of(&unhinged);
-    assert!(e.message.contains("unconstrained") && e.message.contains("link2"), "{e}");
+    assert!(
+        e.message.contains("unconstrained") && e.message.contains("link2"),
+        "{e}"
+    );
     let e = error_of(&TRUSS.replace("kind = \"clamp\"", "kind = \"pin\""));
     assert!(e.message.contains("mechanism with 1 free"), "{e}");
 }

@@ -35,7 +35,13 @@ enum StateStore {
     /// Every step stored: row `n` of each.
     All { q: Vec<f64>, acc: Vec<f64> },
     /// Full states every `interval` steps; the segment last replayed, from step `first`.
-    Checkpoints { interval: usize, states: Vec<State>, first: usize, q: Vec<f64>, acc: Vec<f64> },
+    Checkpoints {
+        interval: usize,
+        states: Vec<State>,
+        first: usize,
+        q: Vec<f64>,
+        acc: Vec<f64>,
+    },
 }
 
 impl StateStore {
@@ -46,7 +52,9 @@ impl StateStore {
                 q.extend_from_slice(&s.q);
                 acc.extend_from_slice(&s.acc);
             }
-            Self::Checkpoints { interval, states, .. } => {
+            Self::Checkpoints {
+                interval, states, ..
+            } => {
                 if n.is_multiple_of(*interval) {
                     states.push(s.clone());
                 }
@@ -56,16 +64,32 @@ impl StateStore {
 
     /// `(qₙ, q̈ₙ)`, replaying the segment holding step `n` if needed (`prefer_below`: of two
     /// segments holding `n`, the one below, as the sweep from `n` to `n − 1` needs).
-    fn get(&mut self, it: &mut Integrator, n: usize, last: usize, prefer_below: bool) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    fn get(
+        &mut self,
+        it: &mut Integrator,
+        n: usize,
+        last: usize,
+        prefer_below: bool,
+    ) -> Result<(Vec<f64>, Vec<f64>), Error> {
         let n_q = it.newton.asm.model.n_dofs();
         let row = |v: &[f64], k: usize| v[k * n_q..(k + 1) * n_q].to_vec();
         match self {
             Self::All { q, acc } => Ok((row(q, n), row(acc, n))),
-            Self::Checkpoints { interval, states, first, q, acc } => {
+            Self::Checkpoints {
+                interval,
+                states,
+                first,
+                q,
+                acc,
+            } => {
                 let k = *interval;
                 let held = n >= *first && n <= (*first + k).min(last) && !q.is_empty();
                 if !held || (prefer_below && n == *first && n > 0) {
-                    let segment = if prefer_below && n > 0 { (n - 1) / k } else { n / k };
+                    let segment = if prefer_below && n > 0 {
+                        (n - 1) / k
+                    } else {
+                        n / k
+                    };
                     let mut state = states[segment].clone();
                     *first = segment * k;
                     q.clear();
@@ -89,13 +113,21 @@ impl StateStore {
         match memory {
             Memory::StoreAll => None,
             Memory::Checkpoints => Some(interval.max(1)),
-            Memory::Auto { budget_bytes } => (2 * n_q * (steps + 1) * 8 > budget_bytes).then_some(interval.max(1)),
+            Memory::Auto { budget_bytes } => {
+                (2 * n_q * (steps + 1) * 8 > budget_bytes).then_some(interval.max(1))
+            }
         }
     }
 }
 
 /// Runs the simulation, keeping what the backward sweep needs, then the adjoint sweep.
-pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Response], memory: Memory) -> Result<Sensitivities, Error> {
+pub(crate) fn run(
+    model: &Model,
+    x: &[f64],
+    settings: &Settings,
+    responses: &[Response],
+    memory: Memory,
+) -> Result<Sensitivities, Error> {
     let densities = model.densities(Some(x))?;
     let mut it = Integrator::new(model, densities, settings);
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
@@ -104,8 +136,17 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let objectives = Objectives::new(model, responses, last, settings.h)?;
     let pseudo = PseudoLoads::new(model, settings.mass);
     let mut store = match StateStore::checkpoint_interval(memory, n_q, last) {
-        None => StateStore::All { q: Vec::with_capacity(n_q * (last + 1)), acc: Vec::with_capacity(n_q * (last + 1)) },
-        Some(interval) => StateStore::Checkpoints { interval, states: Vec::new(), first: 0, q: Vec::new(), acc: Vec::new() },
+        None => StateStore::All {
+            q: Vec::with_capacity(n_q * (last + 1)),
+            acc: Vec::with_capacity(n_q * (last + 1)),
+        },
+        Some(interval) => StateStore::Checkpoints {
+            interval,
+            states: Vec::new(),
+            first: 0,
+            q: Vec::new(),
+            acc: Vec::new(),
+        },
     };
 
     // Forward sweep: the values, and the states (or checkpoints) of the backward sweep.
@@ -116,7 +157,12 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
         if step > 0 {
             it.alpha_step(&mut state)?;
         }
-        let ctx = Context { model, densities: &it.newton.asm.densities, static_load: &[], mass_kind: settings.mass };
+        let ctx = Context {
+            model,
+            densities: &it.newton.asm.densities,
+            static_load: &[],
+            mass_kind: settings.mass,
+        };
         objectives.add_values(&ctx, step, &state.q, &mut values);
         store.record(step, &state);
     }
@@ -124,19 +170,42 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let clock = Instant::now();
 
     // Backward sweep, one column per response.
-    let AlphaParameters { alpha_m, alpha_f, beta, gamma } = it.params;
+    let AlphaParameters {
+        alpha_m,
+        alpha_f,
+        beta,
+        gamma,
+    } = it.params;
     let h = it.h;
     let bp = it.params.beta_prime(h);
-    let (mut qb, mut vb, mut ab, mut acc_b) = (vec![0.0; n_q * n_r], vec![0.0; n_q * n_r], vec![0.0; n_q * n_r], vec![0.0; n_q * n_r]);
+    let (mut qb, mut vb, mut ab, mut acc_b) = (
+        vec![0.0; n_q * n_r],
+        vec![0.0; n_q * n_r],
+        vec![0.0; n_q * n_r],
+        vec![0.0; n_q * n_r],
+    );
     let mut xb = vec![0.0; n_x * n_r];
     let mut rhs = vec![0.0; n * n_r];
     let mut c = vec![0.0; n_q];
     let mut scratch: MemBuffer = it.newton.lu.scratch_for(n_r);
-    let singular = |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
+    let singular =
+        |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
     let add_local = |it: &Integrator, step: usize, q: &[f64], qb: &mut [f64], xb: &mut [f64]| {
-        let ctx = Context { model, densities: &it.newton.asm.densities, static_load: &[], mass_kind: settings.mass };
+        let ctx = Context {
+            model,
+            densities: &it.newton.asm.densities,
+            static_load: &[],
+            mass_kind: settings.mass,
+        };
         for k in 0..n_r {
-            objectives.add_partials(&ctx, k, step, q, &mut qb[k * n_q..(k + 1) * n_q], &mut xb[k * n_x..(k + 1) * n_x]);
+            objectives.add_partials(
+                &ctx,
+                k,
+                step,
+                q,
+                &mut qb[k * n_q..(k + 1) * n_q],
+                &mut xb[k * n_x..(k + 1) * n_x],
+            );
         }
     };
     let (q_last, _) = store.get(&mut it, last, last, true)?;
@@ -155,7 +224,10 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
             out[n_q..].fill(0.0);
         }
         it.newton.factorize_at(Some(&q1), bp, it.newton.scale, t1)?;
-        it.newton.lu.solve_block(&mut rhs, n_r, &mut scratch).map_err(singular(t1))?;
+        it.newton
+            .lu
+            .solve_block(&mut rhs, n_r, &mut scratch)
+            .map_err(singular(t1))?;
         let asm = &it.newton.asm;
         for k in 0..n_r {
             let r = k * n_q..(k + 1) * n_q;
@@ -169,7 +241,9 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
                 let vbar = vb[j];
                 qb[j] = pbar;
                 vb[j] = vbar + h * pbar;
-                ab[j] = h * (1.0 - gamma) * vbar + alpha_m * cbar / (1.0 - alpha_f) + h * h * (0.5 - beta) * pbar;
+                ab[j] = h * (1.0 - gamma) * vbar
+                    + alpha_m * cbar / (1.0 - alpha_f)
+                    + h * h * (0.5 - beta) * pbar;
                 acc_b[j] = -alpha_f * cbar / (1.0 - alpha_f);
             }
         }
@@ -187,9 +261,26 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let (q0, acc0) = store.get(&mut it, 0, last, false)?;
     let s0 = it.newton.initial_scale();
     it.newton.factorize_at(None, 1.0, s0, 0.0)?;
-    it.newton.lu.solve_block(&mut rhs, n_r, &mut scratch).map_err(singular(0.0))?;
+    it.newton
+        .lu
+        .solve_block(&mut rhs, n_r, &mut scratch)
+        .map_err(singular(0.0))?;
     for k in 0..n_r {
-        pseudo.subtract_transposed(&it.newton.asm, &q0, Some(&acc0), &rhs[k * n..k * n + n_q], &mut xb[k * n_x..(k + 1) * n_x]);
+        pseudo.subtract_transposed(
+            &it.newton.asm,
+            &q0,
+            Some(&acc0),
+            &rhs[k * n..k * n + n_q],
+            &mut xb[k * n_x..(k + 1) * n_x],
+        );
     }
-    Ok(Sensitivities { values, gradients: xb, method: Method::Adjoint, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
+    Ok(Sensitivities {
+        values,
+        gradients: xb,
+        method: Method::Adjoint,
+        timings: Timings {
+            simulation,
+            gradients: clock.elapsed().as_secs_f64(),
+        },
+    })
 }

@@ -32,7 +32,12 @@ fn block_width(n_x: usize) -> usize {
 }
 
 /// Runs the simulation and its direct sensitivity analysis.
-pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Response]) -> Result<Sensitivities, Error> {
+pub(crate) fn run(
+    model: &Model,
+    x: &[f64],
+    settings: &Settings,
+    responses: &[Response],
+) -> Result<Sensitivities, Error> {
     let densities = model.densities(Some(x))?;
     let mut it = Integrator::new(model, densities, settings);
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
@@ -40,27 +45,50 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let last = settings.steps();
     let objectives = Objectives::new(model, responses, last, settings.h)?;
     let pseudo = PseudoLoads::new(model, settings.mass);
-    let AlphaParameters { alpha_m, alpha_f, beta, gamma } = it.params;
+    let AlphaParameters {
+        alpha_m,
+        alpha_f,
+        beta,
+        gamma,
+    } = it.params;
     let h = it.h;
     let (bp, gp) = (it.params.beta_prime(h), it.params.gamma_prime(h));
     let width = block_width(n_x);
-    let mut scratch: Vec<MemBuffer> = (0..n_x.div_ceil(width)).map(|_| it.newton.lu.scratch_for(width)).collect();
+    let mut scratch: Vec<MemBuffer> = (0..n_x.div_ceil(width))
+        .map(|_| it.newton.lu.scratch_for(width))
+        .collect();
     // Sensitivity states, column-major n_q × n_x: q', q̇', q̈', a'.
-    let (mut dq, mut dv, mut dacc, mut da) = (vec![0.0; n_q * n_x], vec![0.0; n_q * n_x], vec![0.0; n_q * n_x], vec![0.0; n_q * n_x]);
+    let (mut dq, mut dv, mut dacc, mut da) = (
+        vec![0.0; n_q * n_x],
+        vec![0.0; n_q * n_x],
+        vec![0.0; n_q * n_x],
+        vec![0.0; n_q * n_x],
+    );
     let mut rhs = vec![0.0; n * n_x];
     let mut timings = Timings::default();
     let clock = Instant::now();
     let mut state = it.initial_state()?;
     timings.simulation += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let singular = |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
+    let singular =
+        |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
 
     // t = 0: [M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0].
     let s0 = it.newton.initial_scale();
     it.newton.factorize_at(None, 1.0, s0, 0.0)?;
-    pseudo.subtract_columns(&it.newton.asm, &state.q, Some(&state.acc), &mut rhs, n, 0..n_x);
+    pseudo.subtract_columns(
+        &it.newton.asm,
+        &state.q,
+        Some(&state.acc),
+        &mut rhs,
+        n,
+        0..n_x,
+    );
     let lu = &it.newton.lu;
-    rhs.par_chunks_mut(n * width).zip(scratch.par_iter_mut()).try_for_each(|(block, buf)| lu.solve_block(block, block.len() / n, buf)).map_err(singular(0.0))?;
+    rhs.par_chunks_mut(n * width)
+        .zip(scratch.par_iter_mut())
+        .try_for_each(|(block, buf)| lu.solve_block(block, block.len() / n, buf))
+        .map_err(singular(0.0))?;
     for j in 0..n_x {
         dacc[j * n_q..(j + 1) * n_q].copy_from_slice(&rhs[j * n..j * n + n_q]);
     }
@@ -69,7 +97,12 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
     let mut values = vec![0.0; responses.len()];
     let mut gradients = vec![0.0; responses.len() * n_x];
     let mut accumulate = |it: &Integrator, step: usize, q: &[f64], dq: &[f64]| {
-        let ctx = Context { model, densities: &it.newton.asm.densities, static_load: &[], mass_kind: settings.mass };
+        let ctx = Context {
+            model,
+            densities: &it.newton.asm.densities,
+            static_load: &[],
+            mass_kind: settings.mass,
+        };
         objectives.add_values(&ctx, step, q, &mut values);
         let (mut g_q, mut g_x) = (vec![0.0; n_q], vec![0.0; n_x]);
         for k in 0..responses.len() {
@@ -77,7 +110,9 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
             g_x.fill(0.0);
             objectives.add_partials(&ctx, k, step, q, &mut g_q, &mut g_x);
             let row = &mut gradients[k * n_x..(k + 1) * n_x];
-            row.par_iter_mut().enumerate().for_each(|(j, g)| *g += g_x[j] + dot(&g_q, &dq[j * n_q..(j + 1) * n_q]));
+            row.par_iter_mut()
+                .enumerate()
+                .for_each(|(j, g)| *g += g_x[j] + dot(&g_q, &dq[j * n_q..(j + 1) * n_q]));
         }
     };
     accumulate(&it, 0, &state.q, &dq);
@@ -88,7 +123,8 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
         it.alpha_step(&mut state)?;
         timings.simulation += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
-        it.newton.factorize_at(Some(&state.q), bp, it.newton.scale, state.t)?;
+        it.newton
+            .factorize_at(Some(&state.q), bp, it.newton.scale, state.t)?;
         let (asm, lu) = (&it.newton.asm, &it.newton.lu);
         let (q, acc) = (&state.q, &state.acc);
         rhs.par_chunks_mut(n * width)
@@ -103,7 +139,12 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
                 let mut c = vec![0.0; n_q];
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
-                    let (dq, dv, dacc, da) = (&dq[r.clone()], &mut dv[r.clone()], &mut dacc[r.clone()], &mut da[r]);
+                    let (dq, dv, dacc, da) = (
+                        &dq[r.clone()],
+                        &mut dv[r.clone()],
+                        &mut dacc[r.clone()],
+                        &mut da[r],
+                    );
                     for i in 0..n_q {
                         let p = dq[i] + h * dv[i] + h * h * (0.5 - beta) * da[i];
                         c[i] = -bp * p + (alpha_m * da[i] - alpha_f * dacc[i]) / (1.0 - alpha_f);
@@ -136,7 +177,12 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &Settings, responses: &[Re
         accumulate(&it, step, &state.q, &dq);
         timings.gradients += clock.elapsed().as_secs_f64();
     }
-    Ok(Sensitivities { values, gradients, method: Method::Direct, timings })
+    Ok(Sensitivities {
+        values,
+        gradients,
+        method: Method::Direct,
+        timings,
+    })
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {

@@ -55,7 +55,9 @@ pub enum Memory {
 impl Default for Memory {
     /// Checkpoints past 512 MiB of stored states.
     fn default() -> Self {
-        Self::Auto { budget_bytes: 512 << 20 }
+        Self::Auto {
+            budget_bytes: 512 << 20,
+        }
     }
 }
 
@@ -95,8 +97,21 @@ impl<'a> Objectives<'a> {
     fn new(model: &Model, responses: &'a [Response], last: usize, h: f64) -> Result<Self, Error> {
         let times: Vec<f64> = (0..=last).map(|n| n as f64 * h).collect();
         let clusters = Clusters::of(model);
-        let rigid = responses.iter().map(|r| r.rigid_node().map(|node| clusters.rigid_trajectory(model, node, &times)).transpose()).collect::<Result<_, _>>()?;
-        Ok(Self { responses, rigid, analysis: model.analysis, last, h })
+        let rigid = responses
+            .iter()
+            .map(|r| {
+                r.rigid_node()
+                    .map(|node| clusters.rigid_trajectory(model, node, &times))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self {
+            responses,
+            rigid,
+            analysis: model.analysis,
+            last,
+            h,
+        })
     }
 
     fn rigid_at(&self, k: usize, n: usize) -> Option<[f64; 2]> {
@@ -121,9 +136,21 @@ impl<'a> Objectives<'a> {
 
     /// Adds `wₙ G_q` of response `k` at state `n` to `g_q` and `wₙ G_x` to `g_x` (explicit
     /// responses contribute their gradient at `n = 0`).
-    fn add_partials(&self, ctx: &Context, k: usize, n: usize, q: &[f64], g_q: &mut [f64], g_x: &mut [f64]) {
+    fn add_partials(
+        &self,
+        ctx: &Context,
+        k: usize,
+        n: usize,
+        q: &[f64],
+        g_q: &mut [f64],
+        g_x: &mut [f64],
+    ) {
         let r = &self.responses[k];
-        let w = if r.depends_on_states() { r.weight(self.analysis, n, self.last, self.h) } else { f64::from(u8::from(n == 0)) };
+        let w = if r.depends_on_states() {
+            r.weight(self.analysis, n, self.last, self.h)
+        } else {
+            f64::from(u8::from(n == 0))
+        };
         if w != 0.0 {
             r.add_partials(ctx, q, self.rigid_at(k, n), w, g_q, g_x);
         }
@@ -138,35 +165,67 @@ pub(crate) struct PseudoLoads {
 
 impl PseudoLoads {
     fn new(model: &Model, kind: MassKind) -> Self {
-        Self { masses: model.elements.iter().map(|e| e.beam.mass_matrix(kind)).collect() }
+        Self {
+            masses: model
+                .elements
+                .iter()
+                .map(|e| e.beam.mass_matrix(kind))
+                .collect(),
+        }
     }
 
     /// `M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
     fn element(&self, asm: &Assembler, e: usize, q: &[f64], acc: Option<&[f64]>) -> Vector6 {
         let el = &asm.model.elements[e];
         let dofs = el.dofs();
-        let inertia = Vector6::from_fn(|i, _| acc.map_or(0.0, |a| a[dofs[i]]) - asm.gravity[dofs[i]]);
-        self.masses[e] * inertia + el.beam.internal_force(&el.gather(q)) * asm.densities.stiffness_rate[e]
+        let inertia =
+            Vector6::from_fn(|i, _| acc.map_or(0.0, |a| a[dofs[i]]) - asm.gravity[dofs[i]]);
+        self.masses[e] * inertia
+            + el.beam.internal_force(&el.gather(q)) * asm.densities.stiffness_rate[e]
     }
 
     /// Subtracts column `j` of `∂r/∂x` from column `j` of the column-major block `rhs`
     /// (leading dimension `ld`) for `j` in `columns` (the block holds those columns only).
-    fn subtract_columns(&self, asm: &Assembler, q: &[f64], acc: Option<&[f64]>, rhs: &mut [f64], ld: usize, columns: std::ops::Range<usize>) {
+    fn subtract_columns(
+        &self,
+        asm: &Assembler,
+        q: &[f64],
+        acc: Option<&[f64]>,
+        rhs: &mut [f64],
+        ld: usize,
+        columns: std::ops::Range<usize>,
+    ) {
         for e in 0..self.masses.len() {
             if let Some(j) = asm.model.variable_of(e).filter(|j| columns.contains(j)) {
                 let p = self.element(asm, e, q, acc);
                 let col = &mut rhs[(j - columns.start) * ld..];
-                asm.model.elements[e].dofs().iter().zip(p.iter()).for_each(|(&d, v)| col[d] -= v);
+                asm.model.elements[e]
+                    .dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .for_each(|(&d, v)| col[d] -= v);
             }
         }
     }
 
     /// `x̄_j −= Σ_{e ∈ j} p_eᵀ μ_e`, i.e. `x̄ −= (∂r/∂x)ᵀ μ`.
-    fn subtract_transposed(&self, asm: &Assembler, q: &[f64], acc: Option<&[f64]>, mu: &[f64], xbar: &mut [f64]) {
+    fn subtract_transposed(
+        &self,
+        asm: &Assembler,
+        q: &[f64],
+        acc: Option<&[f64]>,
+        mu: &[f64],
+        xbar: &mut [f64],
+    ) {
         for e in 0..self.masses.len() {
             if let Some(j) = asm.model.variable_of(e) {
                 let p = self.element(asm, e, q, acc);
-                xbar[j] -= asm.model.elements[e].dofs().iter().zip(p.iter()).map(|(&d, v)| v * mu[d]).sum::<f64>();
+                xbar[j] -= asm.model.elements[e]
+                    .dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .map(|(&d, v)| v * mu[d])
+                    .sum::<f64>();
             }
         }
     }
@@ -178,7 +237,10 @@ impl PseudoLoads {
 /// A [`SettingsError`] naming the response.
 pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>, SettingsError> {
     if names.is_empty() {
-        return Err(SettingsError::new("responses", "give at least one response"));
+        return Err(SettingsError::new(
+            "responses",
+            "give at least one response",
+        ));
     }
     names.iter().map(|n| Response::parse(n, model)).collect()
 }
@@ -187,12 +249,23 @@ pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>,
 ///
 /// # Errors
 /// Design, settings and solve errors.
-pub fn dynamic(model: &Model, x: &[f64], settings: &Settings, responses: &[Response], method: Method, memory: Memory) -> Result<Sensitivities, Error> {
+pub fn dynamic(
+    model: &Model,
+    x: &[f64],
+    settings: &Settings,
+    responses: &[Response],
+    method: Method,
+    memory: Memory,
+) -> Result<Sensitivities, Error> {
     settings.validate()?;
     if let Some(explicit) = explicit_only(model, x, responses)? {
         return Ok(explicit);
     }
-    let (n_q, n, n_x) = (model.n_dofs(), model.n_dofs() + model.n_constraints(), model.n_variables());
+    let (n_q, n, n_x) = (
+        model.n_dofs(),
+        model.n_dofs() + model.n_constraints(),
+        model.n_variables(),
+    );
     let gib = |doubles: f64| doubles * 8.0 / (1u64 << 30) as f64;
     match resolve(method, responses, model) {
         Method::Direct => {
@@ -220,12 +293,24 @@ const MAX_GIB: f64 = 8.0;
 ///
 /// # Errors
 /// Design, settings and solve errors.
-pub fn equilibrium(model: &Model, x: &[f64], settings: &StaticSettings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
+pub fn equilibrium(
+    model: &Model,
+    x: &[f64],
+    settings: &StaticSettings,
+    responses: &[Response],
+    method: Method,
+) -> Result<Sensitivities, Error> {
     settings.validate()?;
     if let Some(explicit) = explicit_only(model, x, responses)? {
         return Ok(explicit);
     }
-    statics::run(model, x, settings, responses, resolve(method, responses, model))
+    statics::run(
+        model,
+        x,
+        settings,
+        responses,
+        resolve(method, responses, model),
+    )
 }
 
 /// Values of `responses` on recorded states `u` (row-major, one row of `n_q` per state, at
@@ -233,11 +318,21 @@ pub fn equilibrium(model: &Model, x: &[f64], settings: &StaticSettings, response
 ///
 /// # Errors
 /// Design errors; kinematics errors of the rigid trajectory.
-pub fn evaluate(model: &Model, x: Option<&[f64]>, u: &[f64], h: f64, responses: &[Response]) -> Result<Vec<f64>, Error> {
+pub fn evaluate(
+    model: &Model,
+    x: Option<&[f64]>,
+    u: &[f64],
+    h: f64,
+    responses: &[Response],
+) -> Result<Vec<f64>, Error> {
     let n_q = model.n_dofs();
     let states = u.len() / n_q;
     if states == 0 || states * n_q != u.len() {
-        return Err(SettingsError::new("u", format!("needs rows of {n_q} coordinates, got {} values", u.len())).into());
+        return Err(SettingsError::new(
+            "u",
+            format!("needs rows of {n_q} coordinates, got {} values", u.len()),
+        )
+        .into());
     }
     let densities = model.densities(x)?;
     let mut load = vec![0.0; n_q];
@@ -248,7 +343,12 @@ pub fn evaluate(model: &Model, x: Option<&[f64]>, u: &[f64], h: f64, responses: 
         asm.mass_times(&asm.gravity, &mut gravity);
         load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
     }
-    let ctx = Context { model, densities: &densities, static_load: &load, mass_kind: MassKind::Consistent };
+    let ctx = Context {
+        model,
+        densities: &densities,
+        static_load: &load,
+        mass_kind: MassKind::Consistent,
+    };
     let objectives = Objectives::new(model, responses, states - 1, h)?;
     let mut values = vec![0.0; responses.len()];
     for (n, q) in u.chunks(n_q).enumerate() {
@@ -258,12 +358,21 @@ pub fn evaluate(model: &Model, x: Option<&[f64]>, u: &[f64], h: f64, responses: 
 }
 
 /// Responses that are explicit in `x` (volumes) need no simulation.
-fn explicit_only(model: &Model, x: &[f64], responses: &[Response]) -> Result<Option<Sensitivities>, Error> {
+fn explicit_only(
+    model: &Model,
+    x: &[f64],
+    responses: &[Response],
+) -> Result<Option<Sensitivities>, Error> {
     if responses.iter().any(Response::depends_on_states) {
         return Ok(None);
     }
     let densities = model.densities(Some(x))?;
-    let ctx = Context { model, densities: &densities, static_load: &[], mass_kind: MassKind::Consistent };
+    let ctx = Context {
+        model,
+        densities: &densities,
+        static_load: &[],
+        mass_kind: MassKind::Consistent,
+    };
     let objectives = Objectives::new(model, responses, 0, 0.0)?;
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
     let q = vec![0.0; n_q];
@@ -274,12 +383,21 @@ fn explicit_only(model: &Model, x: &[f64], responses: &[Response]) -> Result<Opt
     for (k, row) in gradients.chunks_mut(n_x).enumerate() {
         objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
     }
-    Ok(Some(Sensitivities { values, gradients, method: Method::Direct, timings: Timings::default() }))
+    Ok(Some(Sensitivities {
+        values,
+        gradients,
+        method: Method::Direct,
+        timings: Timings::default(),
+    }))
 }
 
 fn resolve(method: Method, responses: &[Response], model: &Model) -> Method {
     match method {
-        Method::Auto if responses.iter().filter(|r| r.depends_on_states()).count() < model.n_variables() => Method::Adjoint,
+        Method::Auto
+            if responses.iter().filter(|r| r.depends_on_states()).count() < model.n_variables() =>
+        {
+            Method::Adjoint
+        }
         Method::Auto => Method::Direct,
         m => m,
     }

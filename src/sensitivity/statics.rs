@@ -13,7 +13,13 @@ use crate::model::Model;
 use crate::response::{Context, Response};
 use crate::statics::{equilibrium, static_newton, StaticSettings};
 
-pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses: &[Response], method: Method) -> Result<Sensitivities, Error> {
+pub(crate) fn run(
+    model: &Model,
+    x: &[f64],
+    settings: &StaticSettings,
+    responses: &[Response],
+    method: Method,
+) -> Result<Sensitivities, Error> {
     let clock = Instant::now();
     let mut newton = static_newton(model, model.densities(Some(x))?, settings);
     let sol = equilibrium(&mut newton, settings)?;
@@ -22,35 +28,65 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
     let n = n_q + model.n_constraints();
     newton.factorize_at(Some(&sol.q), 0.0, newton.scale, settings.time)?;
-    let singular = |LuError::Singular(detail)| SolveError::Singular { time: settings.time, detail };
+    let singular = |LuError::Singular(detail)| SolveError::Singular {
+        time: settings.time,
+        detail,
+    };
     let asm = &newton.asm;
     // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
     let (mut load, mut gravity) = (vec![0.0; n_q], vec![0.0; n_q]);
     asm.external_forces(settings.time, 1.0, &mut load);
     asm.mass_times(&asm.gravity, &mut gravity);
     load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
-    let ctx = Context { model, densities: &asm.densities, static_load: &load, mass_kind: MassKind::Consistent };
+    let ctx = Context {
+        model,
+        densities: &asm.densities,
+        static_load: &load,
+        mass_kind: MassKind::Consistent,
+    };
     let objectives = Objectives::new(model, responses, 0, 0.0)?;
     let pseudo = PseudoLoads::new(model, MassKind::Consistent);
     let mut values = vec![0.0; n_r];
     objectives.add_values(&ctx, 0, &sol.q, &mut values);
     let (mut g_q, mut g_x) = (vec![0.0; n_q * n_r], vec![0.0; n_x * n_r]);
     for k in 0..n_r {
-        objectives.add_partials(&ctx, k, 0, &sol.q, &mut g_q[k * n_q..(k + 1) * n_q], &mut g_x[k * n_x..(k + 1) * n_x]);
+        objectives.add_partials(
+            &ctx,
+            k,
+            0,
+            &sol.q,
+            &mut g_q[k * n_q..(k + 1) * n_q],
+            &mut g_x[k * n_x..(k + 1) * n_x],
+        );
     }
     match method {
         Method::Direct => {
             let mut rhs = vec![0.0; n * n_x];
             pseudo.subtract_columns(asm, &sol.q, None, &mut rhs, n, 0..n_x);
             let mut scratch = newton.lu.scratch_for(n_x.max(1));
-            newton.lu.solve_block(&mut rhs, n_x, &mut scratch).map_err(singular)?;
+            newton
+                .lu
+                .solve_block(&mut rhs, n_x, &mut scratch)
+                .map_err(singular)?;
             for k in 0..n_r {
                 for j in 0..n_x {
                     let du = &rhs[j * n..j * n + n_q];
-                    g_x[k * n_x + j] += g_q[k * n_q..(k + 1) * n_q].iter().zip(du).map(|(a, b)| a * b).sum::<f64>();
+                    g_x[k * n_x + j] += g_q[k * n_q..(k + 1) * n_q]
+                        .iter()
+                        .zip(du)
+                        .map(|(a, b)| a * b)
+                        .sum::<f64>();
                 }
             }
-            Ok(Sensitivities { values, gradients: g_x, method, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
+            Ok(Sensitivities {
+                values,
+                gradients: g_x,
+                method,
+                timings: Timings {
+                    simulation,
+                    gradients: clock.elapsed().as_secs_f64(),
+                },
+            })
         }
         _ => {
             let mut rhs = vec![0.0; n * n_r];
@@ -58,11 +94,28 @@ pub(crate) fn run(model: &Model, x: &[f64], settings: &StaticSettings, responses
                 rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
             }
             let mut scratch = newton.lu.scratch_for(n_r);
-            newton.lu.solve_block(&mut rhs, n_r, &mut scratch).map_err(singular)?;
+            newton
+                .lu
+                .solve_block(&mut rhs, n_r, &mut scratch)
+                .map_err(singular)?;
             for k in 0..n_r {
-                pseudo.subtract_transposed(asm, &sol.q, None, &rhs[k * n..k * n + n_q], &mut g_x[k * n_x..(k + 1) * n_x]);
+                pseudo.subtract_transposed(
+                    asm,
+                    &sol.q,
+                    None,
+                    &rhs[k * n..k * n + n_q],
+                    &mut g_x[k * n_x..(k + 1) * n_x],
+                );
             }
-            Ok(Sensitivities { values, gradients: g_x, method: Method::Adjoint, timings: Timings { simulation, gradients: clock.elapsed().as_secs_f64() } })
+            Ok(Sensitivities {
+                values,
+                gradients: g_x,
+                method: Method::Adjoint,
+                timings: Timings {
+                    simulation,
+                    gradients: clock.elapsed().as_secs_f64(),
+                },
+            })
         }
     }
 }

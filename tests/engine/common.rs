@@ -31,7 +31,9 @@ pub fn static_scene(text: &str) -> String {
 
 /// The robot arm of examples/robot_arm.toml with `split` elements per bar and Young's modulus `e`.
 pub fn robot_arm(split: usize, e: f64) -> Model {
-    let text = include_str!("../../examples/robot_arm.toml").replace("split = 1", &format!("split = {split}")).replace("E = 70e9", &format!("E = {e:e}"));
+    let text = include_str!("../../examples/robot_arm.toml")
+        .replace("split = 1", &format!("split = {split}"))
+        .replace("E = 70e9", &format!("E = {e:e}"));
     model(&text)
 }
 
@@ -43,12 +45,25 @@ pub fn aluminium() -> (f64, f64, f64) {
 
 /// Dynamic settings with consistent mass and a tight Newton tolerance.
 pub fn settings(t_end: f64, h: f64, rho_inf: f64) -> Settings {
-    Settings { t_end, h, rho_inf, tol: 1e-10, max_iter: 30, mass: MassKind::Consistent }
+    Settings {
+        t_end,
+        h,
+        rho_inf,
+        tol: 1e-10,
+        max_iter: 30,
+        mass: MassKind::Consistent,
+    }
 }
 
 /// Static settings.
 pub fn static_settings(load_steps: usize) -> StaticSettings {
-    StaticSettings { load_steps, time: 0.0, tol: 1e-10, max_iter: 30, max_cuts: 8 }
+    StaticSettings {
+        load_steps,
+        time: 0.0,
+        tol: 1e-10,
+        max_iter: 30,
+        max_cuts: 8,
+    }
 }
 
 /// Current position of `node` at record `k` of a trajectory.

@@ -14,7 +14,10 @@ fn tip_gap(model: &Model, coarse: &Trajectory, fine: &Trajectory) -> f64 {
     let ratio = (fine.time.len() - 1) / (coarse.time.len() - 1);
     (0..coarse.time.len())
         .map(|k| {
-            let (a, b) = (position(model, coarse, tip, k), position(model, fine, tip, k * ratio));
+            let (a, b) = (
+                position(model, coarse, tip, k),
+                position(model, fine, tip, k * ratio),
+            );
             ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
         })
         .fold(0.0, f64::max)
@@ -27,9 +30,15 @@ fn robot_arm_positions_converge_at_second_order_in_time() {
     let run = |h: f64| simulate(&arm, Some(&x), &settings(1.3, h, 0.8)).unwrap();
     let reference = run(0.3125e-3);
     let hs = [0.02, 0.01, 0.005, 0.0025];
-    let errors: Vec<f64> = hs.iter().map(|&h| tip_gap(&arm, &run(h), &reference)).collect();
+    let errors: Vec<f64> = hs
+        .iter()
+        .map(|&h| tip_gap(&arm, &run(h), &reference))
+        .collect();
     let order = log_slope(&hs, &errors);
-    assert!(order > 1.85 && order < 2.3, "order {order:.2}, errors {errors:?}");
+    assert!(
+        order > 1.85 && order < 2.3,
+        "order {order:.2}, errors {errors:?}"
+    );
 }
 
 #[test]
@@ -45,7 +54,10 @@ fn drive_work_balances_the_mechanical_energy() {
             (t.kinetic[n] + t.strain[n] - t.drive_work[n]).abs()
         })
         .collect();
-    assert!(gaps[0] / gaps[1] > 3.0 && gaps[1] / gaps[2] > 3.0, "{gaps:?}");
+    assert!(
+        gaps[0] / gaps[1] > 3.0 && gaps[1] / gaps[2] > 3.0,
+        "{gaps:?}"
+    );
 }
 
 #[test]
@@ -57,7 +69,10 @@ fn a_very_stiff_arm_follows_the_rigid_kinematics() {
             let traj = simulate(&arm, None, &settings(1.3, 0.02, 0.8)).unwrap();
             (0..traj.time.len())
                 .map(|n| {
-                    let (r, rr) = (position(&arm, &traj, arm.tip.unwrap(), n), rigid_tip(traj.time[n]));
+                    let (r, rr) = (
+                        position(&arm, &traj, arm.tip.unwrap(), n),
+                        rigid_tip(traj.time[n]),
+                    );
                     ((r[0] - rr[0]).powi(2) + (r[1] - rr[1]).powi(2)).sqrt()
                 })
                 .fold(0.0, f64::max)
@@ -92,11 +107,16 @@ fn rho_inf_one_conserves_the_energy_of_a_free_mechanism() {
     let traj = simulate(&model, None, &settings(1.02, h, 1.0)).unwrap();
     assert_eq!(traj.time.len(), 1021);
     let start = (0.02 / h) as usize; // the pulse is over: free motion from here on
-    let energy: Vec<f64> = (start..traj.time.len()).map(|k| traj.kinetic[k] + traj.strain[k]).collect();
+    let energy: Vec<f64> = (start..traj.time.len())
+        .map(|k| traj.kinetic[k] + traj.strain[k])
+        .collect();
     let e0 = energy[0];
     let drift = energy.iter().map(|e| (e - e0).abs()).fold(0.0, f64::max) / e0;
     assert!(e0 > 1.0, "the kick puts energy in: {e0}");
-    assert!(drift < 2e-3, "relative energy drift over 1000 steps: {drift:.2e}");
+    assert!(
+        drift < 2e-3,
+        "relative energy drift over 1000 steps: {drift:.2e}"
+    );
     // The pendulum really moves: a large rigid rotation happens during the run.
     let tip = model.node_index("t").unwrap();
     let travel = (position(&model, &traj, tip, traj.time.len() - 1)[1] - 0.3).abs();
@@ -108,7 +128,11 @@ fn numerical_dissipation_acts_on_high_frequencies_only() {
     // A small-amplitude cantilever: modes from its linearized M and K (clamped DOFs removed).
     let text = cantilever(1.0, 8, "[[loads]]\nnode = \"b\"\nforce = [300.0, 5.0]\nmoment = 1.0\ntable = { t = [0.0, 0.002, 0.004], scale = [0.0, 1.0, 0.0] }\n");
     let model = model(&text);
-    let asm = flextop::assembly::Assembler::new(&model, model.densities(None).unwrap(), MassKind::Consistent);
+    let asm = flextop::assembly::Assembler::new(
+        &model,
+        model.densities(None).unwrap(),
+        MassKind::Consistent,
+    );
     let n = model.n_dofs();
     let dense = |values: &[f64]| {
         let p = &asm.pattern;
@@ -136,40 +160,82 @@ fn numerical_dissipation_acts_on_high_frequencies_only() {
         o
     };
     let modes = l_inv.transpose() * eig.eigenvectors.select_columns(&order);
-    let omega = DVector::from_iterator(order.len(), order.iter().map(|&i| eig.eigenvalues[i].sqrt()));
+    let omega = DVector::from_iterator(
+        order.len(),
+        order.iter().map(|&i| eig.eigenvalues[i].sqrt()),
+    );
     let h = 2e-3;
     let (lowest, highest) = (0, order.len() - 1);
     let period = 2.0 * std::f64::consts::PI / omega[lowest];
-    assert!(omega[lowest] * h < 0.2 && omega[highest] * h > 50.0, "ωh spans {:.2}..{:.0}", omega[lowest] * h, omega[highest] * h);
+    assert!(
+        omega[lowest] * h < 0.2 && omega[highest] * h > 50.0,
+        "ωh spans {:.2}..{:.0}",
+        omega[lowest] * h,
+        omega[highest] * h
+    );
     // Modal amplitudes after an impulse (the load acts at step 1 only). The lowest mode
     // is tracked by its displacement over eight periods; the highest (ωh ≈ 280) by its
     // velocity, since at ωh ≫ 1 a stiff mode's displacement is slaved to the current load.
     let amplitudes = |rho: f64| {
         let steps = (8.0 * period / h).round() as usize + 2;
-        let traj = simulate(&model, None, &Settings { t_end: steps as f64 * h, h, rho_inf: rho, tol: 1e-12, max_iter: 30, mass: MassKind::Consistent }).unwrap();
+        let traj = simulate(
+            &model,
+            None,
+            &Settings {
+                t_end: steps as f64 * h,
+                h,
+                rho_inf: rho,
+                tol: 1e-12,
+                max_iter: 30,
+                mass: MassKind::Consistent,
+            },
+        )
+        .unwrap();
         let modal = |data: &[f64], mode: usize, k: usize| {
             let y = DVector::from_column_slice(&data[k * n + 3..(k + 1) * n]);
             (modes.column(mode).transpose() * &mass * y)[0].abs()
         };
-        let window = |data: &[f64], mode: usize, from: usize, to: usize| (from..to).map(|k| modal(data, mode, k)).fold(0.0, f64::max);
+        let window = |data: &[f64], mode: usize, from: usize, to: usize| {
+            (from..to).map(|k| modal(data, mode, k)).fold(0.0, f64::max)
+        };
         let per = (period / h).ceil() as usize;
-        let low = window(&traj.q, lowest, steps + 1 - per, steps + 1) / window(&traj.q, lowest, 2, 2 + per);
+        let low = window(&traj.q, lowest, steps + 1 - per, steps + 1)
+            / window(&traj.q, lowest, 2, 2 + per);
         let start = window(&traj.v, highest, 2, 6);
-        (low, window(&traj.v, highest, 8, 12) / start, window(&traj.v, highest, 100, 104) / start)
+        (
+            low,
+            window(&traj.v, highest, 8, 12) / start,
+            window(&traj.v, highest, 100, 104) / start,
+        )
     };
     let (low1, _, _) = amplitudes(1.0);
-    assert!((low1 - 1.0).abs() < 2e-3, "ρ∞ = 1 keeps the lowest mode: {low1}");
+    assert!(
+        (low1 - 1.0).abs() < 2e-3,
+        "ρ∞ = 1 keeps the lowest mode: {low1}"
+    );
     let mut previous_early = f64::INFINITY;
     for rho in [0.8, 0.5, 0.0] {
         let (low, early, late) = amplitudes(rho);
         // The highest mode dies out, the faster the smaller ρ∞ (ρ∞ = 0 annihilates it in
         // a few steps); after 100 steps it is gone for every ρ∞ < 1.
-        assert!(early < previous_early, "ρ∞ = {rho}: smaller ρ∞ damps faster ({early:.2e} after 6 steps)");
-        assert!(late < 1e-3, "ρ∞ = {rho}: highest mode kept {late:.2e} after 100 steps");
+        assert!(
+            early < previous_early,
+            "ρ∞ = {rho}: smaller ρ∞ damps faster ({early:.2e} after 6 steps)"
+        );
+        assert!(
+            late < 1e-3,
+            "ρ∞ = {rho}: highest mode kept {late:.2e} after 100 steps"
+        );
         previous_early = early;
         // The lowest mode (ωh = 0.18) loses little over eight periods: < 1 % for ρ∞ ≥ 0.5.
         let allowed = if rho >= 0.5 { 0.01 } else { 0.15 };
-        assert!(1.0 - low < allowed, "ρ∞ = {rho}: lowest mode kept {low:.4} over eight periods");
+        assert!(
+            1.0 - low < allowed,
+            "ρ∞ = {rho}: lowest mode kept {low:.4} over eight periods"
+        );
     }
-    assert!(previous_early < 1e-6, "ρ∞ = 0 annihilates the highest mode: {previous_early:.2e}");
+    assert!(
+        previous_early < 1e-6,
+        "ρ∞ = 0 annihilates the highest mode: {previous_early:.2e}"
+    );
 }

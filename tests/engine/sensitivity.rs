@@ -14,20 +14,31 @@ fn random_design(model: &Model, seed: u64) -> Vec<f64> {
     let mut s = seed;
     (0..model.n_variables())
         .map(|_| {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             0.1 + 0.85 * ((s >> 11) as f64 / (1u64 << 53) as f64)
         })
         .collect()
 }
 
 fn responses(model: &Model, names: &[&str]) -> Vec<Response> {
-    parse_responses(model, &names.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap()
+    parse_responses(
+        model,
+        &names.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+    )
+    .unwrap()
 }
 
 /// Fourth-order central differences of every response for variables `js`:
 /// `(8(f(x+ε) − f(x−ε)) − (f(x+2ε) − f(x−2ε))) / 12ε`, whose O(ε⁴) truncation allows a step
 /// large enough to keep the solver's round-off out of the difference.
-fn finite_differences(eval: &dyn Fn(&[f64]) -> Result<Sensitivities, Error>, x: &[f64], js: &[usize], eps: f64) -> Vec<Vec<f64>> {
+fn finite_differences(
+    eval: &dyn Fn(&[f64]) -> Result<Sensitivities, Error>,
+    x: &[f64],
+    js: &[usize],
+    eps: f64,
+) -> Vec<Vec<f64>> {
     let at = |j: usize, step: f64| {
         let mut xs = x.to_vec();
         xs[j] += step;
@@ -36,7 +47,9 @@ fn finite_differences(eval: &dyn Fn(&[f64]) -> Result<Sensitivities, Error>, x: 
     js.iter()
         .map(|&j| {
             let (p1, m1, p2, m2) = (at(j, eps), at(j, -eps), at(j, 2.0 * eps), at(j, -2.0 * eps));
-            (0..p1.len()).map(|k| (8.0 * (p1[k] - m1[k]) - (p2[k] - m2[k])) / (12.0 * eps)).collect()
+            (0..p1.len())
+                .map(|k| (8.0 * (p1[k] - m1[k]) - (p2[k] - m2[k])) / (12.0 * eps))
+                .collect()
         })
         .collect()
 }
@@ -54,22 +67,41 @@ fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r: usize) {
         let (gd, ga) = (row(&direct), row(&adjoint));
         let scale = gd.iter().fold(0.0f64, |m, g| m.max(g.abs()));
         for j in 0..n_x {
-            assert!((gd[j] - ga[j]).abs() <= 1e-9 * scale, "response {k}, x[{j}]: direct {} vs adjoint {}", gd[j], ga[j]);
+            assert!(
+                (gd[j] - ga[j]).abs() <= 1e-9 * scale,
+                "response {k}, x[{j}]: direct {} vs adjoint {}",
+                gd[j],
+                ga[j]
+            );
         }
         let fd = finite_differences(&|x| eval(x, Method::Adjoint), x, js, 5e-4);
         for (i, &j) in js.iter().enumerate() {
             // Well-scaled components: relative error; tiny ones: against the row's scale.
             let err = (fd[i][k] - ga[j]).abs() / ga[j].abs().max(1e-3 * scale);
-            assert!(err < 1e-6, "response {k}, x[{j}]: adjoint {} vs finite difference {} (error {err:.1e})", ga[j], fd[i][k]);
+            assert!(
+                err < 1e-6,
+                "response {k}, x[{j}]: adjoint {} vs finite difference {} (error {err:.1e})",
+                ga[j],
+                fd[i][k]
+            );
         }
     }
 }
 
-const DYNAMIC: [&str; 6] = ["tip_deflection", "compliance", "compliance:link2", "volume:link1", "displacement:link2[4,2]:0,1", "integrated_displacement:link1[2,0]:1,1"];
+const DYNAMIC: [&str; 6] = [
+    "tip_deflection",
+    "compliance",
+    "compliance:link2",
+    "volume:link1",
+    "displacement:link2[4,2]:0,1",
+    "integrated_displacement:link1[2,0]:1,1",
+];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and `[design]` body `design`.
 fn dynamic_case(split: usize, settings: Settings, design: &str) {
-    let text = include_str!("../../examples/robot_arm.toml").replace("split = 1", &format!("split = {split}")).replace("interpolation = \"simp\"\np = 3.0\nx_min = 0.01", design);
+    let text = include_str!("../../examples/robot_arm.toml")
+        .replace("split = 1", &format!("split = {split}"))
+        .replace("interpolation = \"simp\"\np = 3.0\nx_min = 0.01", design);
     let arm = model(&text);
     let rs = responses(&arm, &DYNAMIC);
     let x = random_design(&arm, 11);
@@ -79,33 +111,69 @@ fn dynamic_case(split: usize, settings: Settings, design: &str) {
 
 #[test]
 fn robot_arm_gradients_match_finite_differences() {
-    dynamic_case(1, Settings { tol: 1e-12, ..settings(1.3, 0.02, 0.8) }, "p = 3.0\nx_min = 0.01");
+    dynamic_case(
+        1,
+        Settings {
+            tol: 1e-12,
+            ..settings(1.3, 0.02, 0.8)
+        },
+        "p = 3.0\nx_min = 0.01",
+    );
 }
 
 #[test]
 fn agreement_holds_for_other_p_h_rho_and_split() {
-    let short = |h: f64, rho: f64| Settings { tol: 1e-12, ..settings(0.6, h, rho) };
+    let short = |h: f64, rho: f64| Settings {
+        tol: 1e-12,
+        ..settings(0.6, h, rho)
+    };
     dynamic_case(1, short(0.01, 0.5), "p = 1.0\nx_min = 0.01");
     dynamic_case(2, short(0.03, 1.0), "p = 4.0\nx_min = 0.001");
     dynamic_case(1, short(0.02, 0.0), "p = 3.0\nx_min = 0.05");
-    dynamic_case(1, Settings { mass: flextop::element::MassKind::Lumped, ..short(0.02, 0.8) }, "interpolation = \"ramp\"\nq = 5.0\nx_min = 0.01");
+    dynamic_case(
+        1,
+        Settings {
+            mass: flextop::element::MassKind::Lumped,
+            ..short(0.02, 0.8)
+        },
+        "interpolation = \"ramp\"\nq = 5.0\nx_min = 0.01",
+    );
 }
 
 #[test]
 fn static_compliance_gradients_match_finite_differences() {
-    let text = include_str!("../../examples/static_truss.toml").replacen("name = \"static_truss\"", "name = \"static_truss\"\ngravity = [0.0, -9.81]", 1);
+    let text = include_str!("../../examples/static_truss.toml").replacen(
+        "name = \"static_truss\"",
+        "name = \"static_truss\"\ngravity = [0.0, -9.81]",
+        1,
+    );
     let truss = model(&text);
-    let rs = responses(&truss, &["compliance", "volume", "displacement:truss[4,1]:0,-1"]);
-    let settings = StaticSettings { tol: 1e-13, ..static_settings(1) };
+    let rs = responses(
+        &truss,
+        &["compliance", "volume", "displacement:truss[4,1]:0,-1"],
+    );
+    let settings = StaticSettings {
+        tol: 1e-13,
+        ..static_settings(1)
+    };
     let eval = |x: &[f64], m: Method| equilibrium(&truss, x, &settings, &rs, m);
-    check(&truss, &eval, &random_design(&truss, 3), &[0, 20, 45, 73], rs.len());
+    check(
+        &truss,
+        &eval,
+        &random_design(&truss, 3),
+        &[0, 20, 45, 73],
+        rs.len(),
+    );
 }
 
 #[test]
 fn taylor_remainder_falls_as_epsilon_squared() {
     let arm = robot_arm(1, 70e9);
     let rs = responses(&arm, &["tip_deflection"]);
-    let s = Settings { tol: 1e-12, ..settings(1.3, 0.02, 0.8) };
+    let s = Settings {
+        tol: 1e-12,
+        ..settings(1.3, 0.02, 0.8)
+    };
     let x = random_design(&arm, 5);
     let base = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::default()).unwrap();
     let mut seed = 99u64;
@@ -121,12 +189,17 @@ fn taylor_remainder_falls_as_epsilon_squared() {
         .iter()
         .map(|&e| {
             let xe: Vec<f64> = x.iter().zip(&v).map(|(xi, vi)| xi + e * vi).collect();
-            let f = dynamic(&arm, &xe, &s, &rs, Method::Adjoint, Memory::default()).unwrap().values[0];
+            let f = dynamic(&arm, &xe, &s, &rs, Method::Adjoint, Memory::default())
+                .unwrap()
+                .values[0];
             (f - base.values[0] - e * slope).abs()
         })
         .collect();
     let order = log_slope(&epsilons, &remainders);
-    assert!((order - 2.0).abs() < 0.1, "remainder order {order:.3}: {remainders:?}");
+    assert!(
+        (order - 2.0).abs() < 0.1,
+        "remainder order {order:.3}: {remainders:?}"
+    );
 }
 
 #[test]
@@ -143,6 +216,14 @@ fn checkpointed_adjoint_is_bitwise_the_stored_one() {
     // A step count that is a perfect square, so segment ends meet the final step exactly.
     let s = settings(0.98, 0.02, 0.8);
     let stored = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::StoreAll).unwrap();
-    let replayed = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::Auto { budget_bytes: 1 }).unwrap();
+    let replayed = dynamic(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        Method::Adjoint,
+        Memory::Auto { budget_bytes: 1 },
+    )
+    .unwrap();
     assert_eq!(stored.gradients, replayed.gradients);
 }

@@ -12,11 +12,19 @@ fn small_tip_load_matches_timoshenko_theory() {
     let (l, p): (f64, f64) = (0.8, 1.0);
     let exact = p * l.powi(3) / (3.0 * ei) + p * l / gak;
     for m in [1, 4] {
-        let model = model(&static_scene(&cantilever(l, m, "[[loads]]\nnode = \"b\"\nforce = [0.0, -1.0]\n")));
-        let sol = solve_static(&model, model.densities(None).unwrap(), &static_settings(1)).unwrap();
+        let model = model(&static_scene(&cantilever(
+            l,
+            m,
+            "[[loads]]\nnode = \"b\"\nforce = [0.0, -1.0]\n",
+        )));
+        let sol =
+            solve_static(&model, model.densities(None).unwrap(), &static_settings(1)).unwrap();
         let tip = model.node_index("b").unwrap();
         let v = -sol.q[3 * tip + 1];
-        assert!((v / exact - 1.0).abs() < 1e-3, "m = {m}: {v:.6e} vs Timoshenko {exact:.6e}");
+        assert!(
+            (v / exact - 1.0).abs() < 1e-3,
+            "m = {m}: {v:.6e} vs Timoshenko {exact:.6e}"
+        );
     }
 }
 
@@ -25,10 +33,24 @@ fn roll_up(m: usize, fraction: f64) -> (f64, f64) {
     let (_, _, ei) = aluminium();
     let l = 1.0;
     let moment = fraction * 2.0 * PI * ei / l;
-    let model = model(&static_scene(&cantilever(l, m, &format!("[[loads]]\nnode = \"b\"\nmoment = {moment:e}\n"))));
-    let sol = solve_static(&model, model.densities(None).unwrap(), &static_settings(4 * m)).unwrap();
+    let model = model(&static_scene(&cantilever(
+        l,
+        m,
+        &format!("[[loads]]\nnode = \"b\"\nmoment = {moment:e}\n"),
+    )));
+    let sol = solve_static(
+        &model,
+        model.densities(None).unwrap(),
+        &static_settings(4 * m),
+    )
+    .unwrap();
     let radius = l / (2.0 * PI * fraction);
-    let exact = |s: f64| [radius * (s / radius).sin(), radius * (1.0 - (s / radius).cos())];
+    let exact = |s: f64| {
+        [
+            radius * (s / radius).sin(),
+            radius * (1.0 - (s / radius).cos()),
+        ]
+    };
     let error_at = |node: usize| {
         let p = model.nodes[node].position;
         let e = exact(p.x);
@@ -50,8 +72,14 @@ fn end_moment_rolls_a_cantilever_into_a_circle() {
         assert!(w[1] < w[0], "error must fall with refinement: {worst:?}");
     }
     let order = -log_slope(&ms.map(|m| m as f64), &worst);
-    assert!((order - 2.0).abs() < 0.15, "order {order:.2}, errors {worst:?}");
+    assert!(
+        (order - 2.0).abs() < 0.15,
+        "order {order:.2}, errors {worst:?}"
+    );
     // So does the tip of a half circle.
     let half: Vec<f64> = ms.iter().map(|&m| roll_up(m, 0.5).0).collect();
-    assert!(half.windows(2).all(|w| w[1] < w[0]) && half[2] < 1e-2, "{half:?}");
+    assert!(
+        half.windows(2).all(|w| w[1] < w[0]) && half[2] < 1e-2,
+        "{half:?}"
+    );
 }
