@@ -192,7 +192,8 @@ def main() -> None:
     for case in cases:
         rows = study(case, args.quick)
         slug = "robot_arm" if "robot" in case.name else "spun_beam"
-        plot(case, rows, ROOT / "docs" / f"work_precision_{slug}.png")
+        if not args.quick:  # a quick run only prints
+            plot(case, rows, ROOT / "docs" / f"work_precision_{slug}.png")
         lines += table(case, rows)
     text = "\n".join(lines)
     print(text)

@@ -174,6 +174,8 @@ pub struct Assembler<'m> {
     mass: Vec<f64>,
     /// Gravity as a DOF-wise acceleration `ĝ = [g_x, g_y, 0, …]`.
     pub gravity: Vec<f64>,
+    /// The gravity load `M ĝ` (zero without gravity).
+    gravity_load: Vec<f64>,
 }
 
 impl<'m> Assembler<'m> {
@@ -194,17 +196,22 @@ impl<'m> Assembler<'m> {
             mass[s[2]] += pm.inertia;
         }
         let g = model.gravity;
-        let gravity = (0..model.n_dofs())
+        let gravity: Vec<f64> = (0..model.n_dofs())
             .map(|d| [g.x, g.y, 0.0][d % 3])
             .collect();
-        Self {
+        let mut asm = Self {
             model,
             pattern,
             densities,
             mass_kind,
             mass,
+            gravity_load: vec![0.0; gravity.len()],
             gravity,
-        }
+        };
+        let mut load = vec![0.0; asm.gravity.len()];
+        asm.mass_times(&asm.gravity, &mut load);
+        asm.gravity_load = load;
+        asm
     }
 
     /// `out = M a` (mass matrix times a nodal vector).
@@ -262,6 +269,15 @@ impl<'m> Assembler<'m> {
                 f[3 * load.node + k] += g * load.value[k];
             }
         }
+    }
+
+    /// Applied loads and gravity `factor · (f_ext(t) + M ĝ)`: the load of a static scene,
+    /// whose power `(f_ext + M ĝ)ᵀ q̇` is the external power of a dynamic one.
+    pub fn applied_loads(&self, t: f64, factor: f64, f: &mut [f64]) {
+        self.external_forces(t, factor, f);
+        f.iter_mut()
+            .zip(&self.gravity_load)
+            .for_each(|(fi, g)| *fi += factor * g);
     }
 
     /// Constraint values `Φ_k = Σ c q − factor · g_k(t)`.
@@ -331,13 +347,13 @@ impl<'m> Assembler<'m> {
             / self.pattern.n_q as f64
     }
 
-    /// Strain energy of each component `Σ_e s(x_e) U_e(q)` (J).
-    pub fn strain_energies(&self, q: &[f64]) -> Vec<f64> {
-        let mut u = vec![0.0; self.model.components.len()];
-        for (e, el) in self.model.elements.iter().enumerate() {
-            u[self.model.bars[el.bar].component] +=
-                self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q));
-        }
-        u
+    /// Strain energy `Σ_e s(x_e) U_e(q)` (J).
+    pub fn strain_energy(&self, q: &[f64]) -> f64 {
+        self.model
+            .elements
+            .iter()
+            .enumerate()
+            .map(|(e, el)| self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q)))
+            .sum()
     }
 }

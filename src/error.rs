@@ -91,7 +91,7 @@ pub enum SolveError {
         /// Relative residual required.
         tolerance: f64,
     },
-    /// The LU factorization met a zero pivot or produced non-finite values.
+    /// The LDLᵀ factorization met a zero pivot or produced non-finite values.
     #[error("singular iteration matrix at t = {time:.6} s ({detail})")]
     Singular {
         /// Time (or load factor) of the failure.

@@ -130,24 +130,22 @@ impl Settings {
         Ok(())
     }
 
-    /// Number of steps: `t_end / h` rounded to the nearest integer (at least one).
+    /// Number of steps to `t_end`: `t_end / h`, rounded up unless it is within 1e-9 of an
+    /// integer (at least one).
     pub fn steps(&self) -> usize {
-        ((self.t_end / self.h).round() as usize).max(1)
-    }
-
-    /// The same settings with `h` shortened, if needed, so that a whole number of steps ends
-    /// exactly at `t_end` (a ratio within 1e-9 of an integer counts as that integer).
-    pub fn ending_at_t_end(self) -> Self {
         let ratio = self.t_end / self.h;
         let steps = if (ratio - ratio.round()).abs() <= 1e-9 * ratio.max(1.0) {
             ratio.round()
         } else {
             ratio.ceil()
         };
-        Self {
-            h: self.t_end / steps.max(1.0),
-            ..self
-        }
+        (steps as usize).max(1)
+    }
+
+    /// The step size used: `h`, shortened if needed so that [`Settings::steps`] steps end
+    /// exactly at `t_end`.
+    pub fn step(&self) -> f64 {
+        self.t_end / self.steps() as f64
     }
 }
 
@@ -174,7 +172,7 @@ pub struct Integrator<'m> {
     pub newton: Newton<'m>,
     /// Algorithmic parameters.
     pub params: AlphaParameters,
-    /// Step size.
+    /// Step size ([`Settings::step`]).
     pub h: f64,
 }
 
@@ -190,13 +188,10 @@ impl<'m> Integrator<'m> {
         );
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
         let q0 = vec![0.0; model.n_dofs()];
-        newton.scale = params.beta_prime(settings.h) * newton.asm.mean_mass_diagonal()
+        let h = settings.step();
+        newton.scale = params.beta_prime(h) * newton.asm.mean_mass_diagonal()
             + newton.asm.mean_stiffness_diagonal(&q0);
-        Self {
-            newton,
-            params,
-            h: settings.h,
-        }
+        Self { newton, params, h }
     }
 
     /// State at `t = 0`: undeformed, at rest, with consistent accelerations and multipliers
@@ -208,9 +203,7 @@ impl<'m> Integrator<'m> {
         let model = self.newton.asm.model;
         let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
         let q = vec![0.0; n_q];
-        let acc = vec![0.0; n_q];
-        let lambda = vec![0.0; n_c];
-        let (acc, lambda) = self.newton.initial_accelerations(&q, &acc, &lambda)?;
+        let (acc, lambda) = self.newton.initial_accelerations(&q, n_c)?;
         Ok(State {
             t: 0.0,
             q,

@@ -14,7 +14,7 @@
 //! Symbolic analysis happens once per simulation ([`SparseLdlt::analyze`]); each Newton
 //! iteration refactors numerically into buffers kept from the previous call, so the loop
 //! does not allocate. A zero pivot, or non-finite factors or solutions, are reported as
-//! [`LuError::Singular`].
+//! [`FactorError::Singular`].
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::{LdltParams, LdltRegularization};
@@ -29,7 +29,7 @@ use faer::{Conj, MatMut, Par, Side, Spec};
 
 /// Why a factorization or solve failed.
 #[derive(Debug, Clone, PartialEq)]
-pub enum LuError {
+pub enum FactorError {
     /// Zero pivot or non-finite factors/solution.
     Singular(String),
 }
@@ -87,7 +87,7 @@ impl SparseLdlt {
     }
 
     /// Numeric factorization of the matrix with CSC `values` on the analyzed pattern.
-    pub fn factorize(&mut self, values: &[f64]) -> Result<(), LuError> {
+    pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
         self.factorized = false;
         let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);
         let result = self
@@ -107,8 +107,8 @@ impl SparseLdlt {
                 self.factorized = true;
                 Ok(())
             }
-            Ok(_) => Err(LuError::Singular("non-finite factors".into())),
-            Err(e) => Err(LuError::Singular(format!("{e:?}"))),
+            Ok(_) => Err(FactorError::Singular("non-finite factors".into())),
+            Err(e) => Err(FactorError::Singular(format!("{e:?}"))),
         }
     }
 
@@ -118,7 +118,7 @@ impl SparseLdlt {
     }
 
     /// Solves `A x = b` in place (`b` overwritten by `x`).
-    pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), LuError> {
+    pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), FactorError> {
         assert!(self.factorized, "solve before a successful factorization");
         let ldlt = LdltRef::new(&self.symbolic, &self.factors);
         let n = b.len();
@@ -138,7 +138,7 @@ impl SparseLdlt {
         b: &mut [f64],
         nrhs: usize,
         scratch: &mut MemBuffer,
-    ) -> Result<(), LuError> {
+    ) -> Result<(), FactorError> {
         let n = self.pattern.nrows();
         let block = MatMut::from_column_major_slice_mut(b, n, nrhs);
         self.factors()
@@ -190,11 +190,11 @@ fn saddle_point_ordering(
     (fwd, inv)
 }
 
-fn finite(x: &[f64]) -> Result<(), LuError> {
+fn finite(x: &[f64]) -> Result<(), FactorError> {
     if x.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
-        Err(LuError::Singular("non-finite solution".into()))
+        Err(FactorError::Singular("non-finite solution".into()))
     }
 }
 
@@ -248,6 +248,6 @@ mod tests {
         let res = ldlt
             .factorize(&v)
             .and_then(|_| ldlt.solve_in_place(&mut [1.0, 1.0, 1.0]));
-        assert!(matches!(res, Err(LuError::Singular(_))), "{res:?}");
+        assert!(matches!(res, Err(FactorError::Singular(_))), "{res:?}");
     }
 }

@@ -1,7 +1,7 @@
 //! Newton's method with the exact iteration matrix, shared by the generalized-α step, the
 //! consistent initial accelerations and the static solver.
 //!
-//! One [`Newton`] owns the assembler of a design, the sparse LU analysed once for its
+//! One [`Newton`] owns the assembler of a design, the sparse `LDLᵀ` analysed once for its
 //! pattern, the matrix values and the work vectors: nothing is allocated per iteration.
 //! Convergence is relative: `‖r‖∞ ≤ tol · F_ref` with `F_ref` the largest magnitude among
 //! the inertia, internal, external and joint forces, and `‖Φ‖∞ ≤ tol · L_ref` with `L_ref`
@@ -12,7 +12,7 @@ use crate::assembly::Assembler;
 use crate::assembly::Pattern;
 use crate::element::MassKind;
 use crate::error::SolveError;
-use crate::linsolve::{LuError, SparseLdlt};
+use crate::linsolve::{FactorError, SparseLdlt};
 use crate::model::{Densities, Model};
 
 /// Newton statistics of a solve.
@@ -40,13 +40,13 @@ impl Residual {
 }
 
 /// Newton's method on one nonlinear system, shared by the dynamic step, the initial
-/// accelerations and the static solver: a residual, an iteration matrix and a sparse LU
-/// analysed once.
+/// accelerations and the static solver: a residual, an iteration matrix and a sparse
+/// `LDLᵀ` analysed once.
 pub struct Newton<'m> {
     /// Forces and matrices of the design.
     pub asm: Assembler<'m>,
     /// `LDLᵀ` of the (augmented) iteration matrix.
-    pub lu: SparseLdlt,
+    pub ldlt: SparseLdlt,
     /// Values of the last assembled iteration matrix.
     pub matrix: Vec<f64>,
     /// Right-hand side / solution `E[−r; −sΦ]` → `[Δq; Δμ]`.
@@ -67,7 +67,7 @@ pub struct Newton<'m> {
 }
 
 impl<'m> Newton<'m> {
-    /// Sets up the pattern, the symbolic LU and the work vectors of `model`'s design.
+    /// Sets up the pattern, the symbolic `LDLᵀ` and the work vectors of `model`'s design.
     pub fn new(
         model: &'m Model,
         densities: Densities,
@@ -77,7 +77,7 @@ impl<'m> Newton<'m> {
     ) -> Self {
         let asm = Assembler::new(model, densities, mass);
         let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
-        let lu = SparseLdlt::analyze(
+        let ldlt = SparseLdlt::analyze(
             n,
             asm.pattern.col_ptr.clone(),
             asm.pattern.row_idx.clone(),
@@ -87,7 +87,7 @@ impl<'m> Newton<'m> {
         let matrix = vec![0.0; asm.pattern.nnz()];
         Self {
             asm,
-            lu,
+            ldlt,
             matrix,
             rhs: vec![0.0; n],
             scale: 1.0,
@@ -128,14 +128,10 @@ impl<'m> Newton<'m> {
         }
         asm.start_iteration_matrix(mass_coefficient, self.scale, &mut self.matrix);
         asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
-        asm.external_forces(t, load, &mut self.external);
-        if acc.is_none() {
-            // Gravity as a static load: −M(−ĝ)·load.
-            asm.mass_times(&asm.gravity, &mut self.joint);
-            self.external
-                .iter_mut()
-                .zip(&self.joint)
-                .for_each(|(f, g)| *f += load * g);
+        match acc {
+            // Dynamics: gravity is in the inertia term M(q̈ − ĝ).
+            Some(_) => asm.external_forces(t, load, &mut self.external),
+            None => asm.applied_loads(t, load, &mut self.external),
         }
         self.joint.fill(0.0);
         asm.add_constraint_forces(lambda, &mut self.joint);
@@ -166,9 +162,9 @@ impl<'m> Newton<'m> {
 
     /// Factorizes the assembled matrix and solves for `[Δq; Δμ]` in `rhs`.
     pub(crate) fn solve(&mut self, t: f64) -> Result<(), SolveError> {
-        let singular = |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
-        self.lu.factorize(&self.matrix).map_err(singular)?;
-        self.lu.solve_in_place(&mut self.rhs).map_err(singular)
+        let singular = |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
+        self.ldlt.factorize(&self.matrix).map_err(singular)?;
+        self.ldlt.solve_in_place(&mut self.rhs).map_err(singular)
     }
 
     /// Whether an increment is at round-off level: Newton cannot improve further.
@@ -275,9 +271,9 @@ impl<'m> Newton<'m> {
             self.asm
                 .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
         }
-        self.lu
+        self.ldlt
             .factorize(&self.matrix)
-            .map_err(|LuError::Singular(detail)| SolveError::Singular { time: t, detail })
+            .map_err(|FactorError::Singular(detail)| SolveError::Singular { time: t, detail })
     }
 
     /// Constraint scaling of the initial-acceleration system (`s` of a mass-only matrix).
@@ -285,39 +281,36 @@ impl<'m> Newton<'m> {
         self.asm.mean_mass_diagonal()
     }
 
-    /// Consistent accelerations and multipliers at `(q, t = 0)` from
-    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`; `acc`, `lambda` are
-    /// work arrays of the right sizes.
+    /// Consistent accelerations and multipliers at `(q, t = 0)` for `n_c` constraints, from
+    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`, scaled by
+    /// [`Newton::initial_scale`].
     ///
     /// # Errors
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
     pub fn initial_accelerations(
         &mut self,
         q: &[f64],
-        acc: &[f64],
-        lambda: &[f64],
+        n_c: usize,
     ) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
-        let (n_q, n_c) = (q.len(), lambda.len());
-        let saved = self.scale;
-        self.scale = self.initial_scale();
-        // With q̈ = 0 and λ = 0 the right-hand side is −r = M ĝ + f_ext − f_int.
-        self.assemble(q, Some(acc), lambda, 0.0, 1.0, 1.0);
-        self.asm
-            .start_iteration_matrix(1.0, self.scale, &mut self.matrix);
+        let n_q = q.len();
+        // At q̈ = 0, λ = 0 the DOF rows of −E r are M ĝ + f_ext − f_int(q); Φ(q, 0) = 0 adds
+        // nothing to them.
+        self.assemble(q, Some(&vec![0.0; n_q]), &vec![0.0; n_c], 0.0, 1.0, 1.0);
+        let scale = self.initial_scale();
+        self.factorize_at(None, 1.0, scale, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
-        // assemble() augmented −sΦ(q₀) = 0 into the DOF rows; set the constraint rows to s g̈.
         self.rhs[n_q..]
             .iter_mut()
             .zip(&g)
-            .for_each(|(r, gk)| *r = self.scale * gk);
+            .for_each(|(r, gk)| *r = scale * gk);
         self.asm.augment_rhs(&mut self.rhs);
-        let solved = self.solve(0.0);
-        let out = (
+        self.ldlt
+            .solve_in_place(&mut self.rhs)
+            .map_err(|FactorError::Singular(detail)| SolveError::Singular { time: 0.0, detail })?;
+        Ok((
             self.rhs[..n_q].to_vec(),
-            self.rhs[n_q..].iter().map(|m| m * self.scale).collect(),
-        );
-        self.scale = saved;
-        solved.map(|_| out)
+            self.rhs[n_q..].iter().map(|m| m * scale).collect(),
+        ))
     }
 }

@@ -40,8 +40,7 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
-    /// Settings of a dynamic run; `h` is shortened, if needed, so that a whole number of
-    /// steps ends exactly at `t_end`.
+    /// Settings of a dynamic run (whose step is [`Settings::step`]).
     ///
     /// # Errors
     /// A [`SettingsError`] if `t_end` or `h` is given nowhere, or a value is out of range.
@@ -61,7 +60,7 @@ impl RunOptions {
             mass: self.mass.or(d.mass).unwrap_or(MassKind::Consistent),
         };
         s.validate()?;
-        Ok(s.ending_at_t_end())
+        Ok(s)
     }
 
     /// Settings of a static solve.

@@ -292,7 +292,7 @@ impl PyModel {
         d.set_item("strain", PyArray1::from_vec(py, traj.strain))?;
         d.set_item("drive_work", PyArray1::from_vec(py, traj.drive_work))?;
         d.set_item("external_work", PyArray1::from_vec(py, traj.external_work))?;
-        d.set_item("h", settings.h)?;
+        d.set_item("h", settings.step())?;
         d.set_item("rho_inf", settings.rho_inf)?;
         Ok(d)
     }
@@ -320,6 +320,7 @@ impl PyModel {
         d.set_item("lambda", PyArray1::from_vec(py, sol.lambda))?;
         d.set_item("iterations", sol.iterations)?;
         d.set_item("load_steps", sol.load_steps)?;
+        d.set_item("time", settings.time)?;
         Ok(d)
     }
 
@@ -392,22 +393,24 @@ impl PyModel {
     }
 
     /// Values of `responses` on recorded coordinates `u` (shape `(n_states, n_dofs)`, steps
-    /// of `h`) for design `x`.
-    #[pyo3(signature = (x, u, h, responses))]
+    /// of `h`; a static state's loads act at `load_time`) for design `x`.
+    #[pyo3(signature = (x, u, h, load_time, responses))]
     fn evaluate_responses<'py>(
         &self,
         py: Python<'py>,
         x: Option<PyReadonlyArray1<'py, f64>>,
         u: numpy::PyReadonlyArray2<'py, f64>,
         h: f64,
+        load_time: f64,
         responses: Vec<String>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let parsed = parse_responses(&self.model, &responses).map_err(Error::from)?;
         let u = u.as_slice()?.to_vec();
         let x = design_vector(x)?;
         let model = Arc::clone(&self.model);
-        let values =
-            py.detach(move || sensitivity::evaluate(&model, x.as_deref(), &u, h, &parsed))?;
+        let values = py.detach(move || {
+            sensitivity::evaluate(&model, x.as_deref(), &u, h, load_time, &parsed)
+        })?;
         Ok(PyArray1::from_vec(py, values).into_any())
     }
 
@@ -491,27 +494,6 @@ impl PyModel {
         Ok(PyArray1::from_vec(py, flat)
             .reshape([len, n, 2])?
             .into_any())
-    }
-
-    /// Position of `node` at `times` when every frame is rigid, shape `(len, 2)`.
-    fn rigid_trajectory<'py>(
-        &self,
-        py: Python<'py>,
-        node: usize,
-        times: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        if node >= self.model.nodes.len() {
-            return Err(Error::Settings(SettingsError::new(
-                "node",
-                format!("index {node} out of range"),
-            ))
-            .into());
-        }
-        let model = Arc::clone(&self.model);
-        let path = py
-            .detach(move || Clusters::of(&model).rigid_trajectory(&model, node, &times))
-            .map_err(Error::from)?;
-        matrix(py, path.into_iter().flatten().collect(), 2)
     }
 }
 

@@ -169,6 +169,18 @@ pub struct Context<'a> {
     pub mass_kind: MassKind,
 }
 
+impl<'a> Context<'a> {
+    /// The context of a dynamic run: no static load.
+    pub fn dynamic(model: &'a Model, densities: &'a Densities, mass_kind: MassKind) -> Self {
+        Self {
+            model,
+            densities,
+            static_load: &[],
+            mass_kind,
+        }
+    }
+}
+
 impl Response {
     /// Integrand `G(qₙ, x)` at state `n`, with `rigid` the rigid position of a tip node at
     /// that state; for [`Response::Volume`], the volume.

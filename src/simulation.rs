@@ -96,11 +96,13 @@ pub fn simulate(
         |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
     traj.kinetic.push(scratch.kinetic(&integrator, &state));
     traj.strain
-        .push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+        .push(integrator.newton.asm.strain_energy(&state.q));
     traj.drive_work.push(0.0);
     traj.external_work.push(0.0);
+    let mut lambda0 = state.lambda.clone();
     for _ in 0..settings.steps() {
-        let (t0, lambda0) = (state.t, state.lambda.clone());
+        let t0 = state.t;
+        lambda0.copy_from_slice(&state.lambda);
         let report = integrator.alpha_step(&mut state)?;
         traj.record(&state, report.iterations);
         let now = scratch.external_power(&integrator, &state);
@@ -114,7 +116,7 @@ pub fn simulate(
             .push(traj.external_work.last().unwrap() + 0.5 * integrator.h * (last + now));
         traj.kinetic.push(scratch.kinetic(&integrator, &state));
         traj.strain
-            .push(integrator.newton.asm.strain_energies(&state.q).iter().sum());
+            .push(integrator.newton.asm.strain_energy(&state.q));
         last = now;
     }
     Ok(traj)
@@ -141,13 +143,7 @@ impl EnergyScratch {
 
     /// Power `(f_ext + M ĝ)ᵀ q̇` of loads and gravity.
     fn external_power(&mut self, it: &Integrator, s: &State) -> f64 {
-        let asm = &it.newton.asm;
-        asm.mass_times(&asm.gravity, &mut self.mv);
-        asm.external_forces(s.t, 1.0, &mut self.force);
-        self.force
-            .iter_mut()
-            .zip(&self.mv)
-            .for_each(|(f, g)| *f += g);
+        it.newton.asm.applied_loads(s.t, 1.0, &mut self.force);
         dot(&self.force, &s.v)
     }
 }

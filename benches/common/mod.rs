@@ -47,7 +47,15 @@ pub fn tip_deflection(model: &Model, x: f64, settings: &Settings, repeats: usize
         let start = Instant::now();
         let traj = simulate(model, Some(&design), settings).unwrap();
         times.push(start.elapsed().as_secs_f64());
-        d = evaluate(model, Some(&design), &traj.q, settings.h, &responses).unwrap()[0];
+        d = evaluate(
+            model,
+            Some(&design),
+            &traj.q,
+            settings.step(),
+            0.0,
+            &responses,
+        )
+        .unwrap()[0];
     }
     (d, median(&mut times))
 }

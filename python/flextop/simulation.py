@@ -201,19 +201,9 @@ class Simulation:
         """Position (m) of ``node`` at ``times`` when every frame is rigid and the joints
         follow their drives: the ``r_rigid`` of paper Eq. 40."""
         index = self.node(node) if isinstance(node, str) else int(node)
-        return self.model.rigid_trajectory(index, [float(t) for t in np.atleast_1d(times)])
-
-
-def _joint_forces(sim: Simulation, lam: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Reactions (force the joint applies on the structure, ``−λ``) per joint, and motor
-    torques (the drive rows) per driven joint."""
-    reactions, torques = {}, {}
-    for name, _kind, _nodes, first, count, driven in sim._joints:
-        rows = -lam[..., first:first + count]
-        reactions[name] = rows
-        if driven:
-            torques[name] = rows[..., -1]
-    return reactions, torques
+        if not 0 <= index < len(self.node_names):
+            raise IndexError(f"node index {index} out of range")
+        return self.rigid_positions(times)[:, index]
 
 
 @dataclass
@@ -236,11 +226,12 @@ class _Run:
 
     @cached_property
     def reactions(self) -> dict[str, np.ndarray]:
-        """Per joint, the force (and, for drive rows, torque) it applies on the structure."""
-        return _joint_forces(self.simulation, self.lam)[0]
+        """Per joint, the force (and, for a drive row, torque) it applies on the structure:
+        ``−λ`` of its constraint rows."""
+        return {name: -self.lam[..., first:first + count] for name, _kind, _nodes, first, count, _driven in self.simulation._joints}
 
-    def _evaluate(self, name: str, u: np.ndarray, h: float) -> float:
-        return float(self.simulation.model.evaluate_responses(self.x, u, h, [name])[0])
+    def _evaluate(self, name: str, u: np.ndarray, h: float, load_time: float = 0.0) -> float:
+        return float(self.simulation.model.evaluate_responses(self.x, u, h, load_time, [name])[0])
 
 
 @dataclass
@@ -282,8 +273,9 @@ class Results(_Run):
 
     @cached_property
     def motor_torques(self) -> dict[str, np.ndarray]:
-        """Per driven joint, the motor torque applied on the driven node (N m)."""
-        return _joint_forces(self.simulation, self.lam)[1]
+        """Per driven joint, the motor torque applied on the driven node (N m): its drive row,
+        the last of its reactions."""
+        return {name: self.reactions[name][..., -1] for name, _kind, _nodes, _first, _count, driven in self.simulation._joints if driven}
 
     @property
     def energies(self) -> dict[str, np.ndarray]:
@@ -328,7 +320,7 @@ class StaticResults(_Run):
 
     def response(self, name: str) -> float:
         """Value of a response (``"compliance"`` is ``Fᵀu``) at this equilibrium."""
-        return self._evaluate(name, self.u[None, :], 0.0)
+        return self._evaluate(name, self.u[None, :], 0.0, self.raw["time"])
 
     @property
     def positions(self) -> np.ndarray:

@@ -26,7 +26,7 @@ use faer::dyn_stack::MemBuffer;
 use super::{Memory, Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{AlphaParameters, Integrator, Settings, State};
-use crate::linsolve::LuError;
+use crate::linsolve::FactorError;
 use crate::model::Model;
 use crate::response::{Context, Response};
 
@@ -70,11 +70,11 @@ impl StateStore {
         n: usize,
         last: usize,
         prefer_below: bool,
-    ) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    ) -> Result<(&[f64], &[f64]), Error> {
         let n_q = it.newton.asm.model.n_dofs();
-        let row = |v: &[f64], k: usize| v[k * n_q..(k + 1) * n_q].to_vec();
+        let rows = |k: usize| k * n_q..(k + 1) * n_q;
         match self {
-            Self::All { q, acc } => Ok((row(q, n), row(acc, n))),
+            Self::All { q, acc } => Ok((&q[rows(n)], &acc[rows(n)])),
             Self::Checkpoints {
                 interval,
                 states,
@@ -102,7 +102,8 @@ impl StateStore {
                         acc.extend_from_slice(&state.acc);
                     }
                 }
-                Ok((row(q, n - *first), row(acc, n - *first)))
+                let r = rows(n - *first);
+                Ok((&q[r.clone()], &acc[r]))
             }
         }
     }
@@ -133,7 +134,7 @@ pub(crate) fn run(
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
     let n = n_q + model.n_constraints();
     let last = settings.steps();
-    let objectives = Objectives::new(model, responses, last, settings.h)?;
+    let objectives = Objectives::new(model, responses, last, settings.step())?;
     let pseudo = PseudoLoads::new(model, settings.mass);
     let mut store = match StateStore::checkpoint_interval(memory, n_q, last) {
         None => StateStore::All {
@@ -157,12 +158,7 @@ pub(crate) fn run(
         if step > 0 {
             it.alpha_step(&mut state)?;
         }
-        let ctx = Context {
-            model,
-            densities: &it.newton.asm.densities,
-            static_load: &[],
-            mass_kind: settings.mass,
-        };
+        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
         objectives.add_values(&ctx, step, &state.q, &mut values);
         store.record(step, &state);
     }
@@ -187,16 +183,11 @@ pub(crate) fn run(
     let mut xb = vec![0.0; n_x * n_r];
     let mut rhs = vec![0.0; n * n_r];
     let mut c = vec![0.0; n_q];
-    let mut scratch: MemBuffer = it.newton.lu.scratch_for(n_r);
+    let mut scratch: MemBuffer = it.newton.ldlt.scratch_for(n_r);
     let singular =
-        |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
+        |t: f64| move |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
     let add_local = |it: &Integrator, step: usize, q: &[f64], qb: &mut [f64], xb: &mut [f64]| {
-        let ctx = Context {
-            model,
-            densities: &it.newton.asm.densities,
-            static_load: &[],
-            mass_kind: settings.mass,
-        };
+        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
         for k in 0..n_r {
             objectives.add_partials(
                 &ctx,
@@ -209,7 +200,7 @@ pub(crate) fn run(
         }
     };
     let (q_last, _) = store.get(&mut it, last, last, true)?;
-    add_local(&it, last, &q_last, &mut qb, &mut xb);
+    add_local(&it, last, q_last, &mut qb, &mut xb);
     for step in (0..last).rev() {
         let (q1, acc1) = store.get(&mut it, step + 1, last, true)?;
         let t1 = (step + 1) as f64 * h;
@@ -223,16 +214,16 @@ pub(crate) fn run(
             }
             out[n_q..].fill(0.0);
         }
-        it.newton.factorize_at(Some(&q1), bp, it.newton.scale, t1)?;
+        it.newton.factorize_at(Some(q1), bp, it.newton.scale, t1)?;
         it.newton
-            .lu
+            .ldlt
             .solve_block(&mut rhs, n_r, &mut scratch)
             .map_err(singular(t1))?;
         let asm = &it.newton.asm;
         for k in 0..n_r {
             let r = k * n_q..(k + 1) * n_q;
             let mu = &rhs[k * n..k * n + n_q];
-            pseudo.subtract_transposed(asm, &q1, Some(&acc1), mu, &mut xb[k * n_x..(k + 1) * n_x]);
+            pseudo.subtract_transposed(asm, q1, Some(acc1), mu, &mut xb[k * n_x..(k + 1) * n_x]);
             asm.mass_times(mu, &mut c);
             for i in 0..n_q {
                 let j = r.start + i;
@@ -248,7 +239,7 @@ pub(crate) fn run(
             }
         }
         let (q0, _) = store.get(&mut it, step, last, false)?;
-        add_local(&it, step, &q0, &mut qb, &mut xb);
+        add_local(&it, step, q0, &mut qb, &mut xb);
     }
     // t = 0: q̈'₀ from [M, Φ_qᵀ; Φ_q, 0]; a'₀ = q̈'₀.
     for k in 0..n_r {
@@ -262,14 +253,14 @@ pub(crate) fn run(
     let s0 = it.newton.initial_scale();
     it.newton.factorize_at(None, 1.0, s0, 0.0)?;
     it.newton
-        .lu
+        .ldlt
         .solve_block(&mut rhs, n_r, &mut scratch)
         .map_err(singular(0.0))?;
     for k in 0..n_r {
         pseudo.subtract_transposed(
             &it.newton.asm,
-            &q0,
-            Some(&acc0),
+            q0,
+            Some(acc0),
             &rhs[k * n..k * n + n_q],
             &mut xb[k * n_x..(k + 1) * n_x],
         );

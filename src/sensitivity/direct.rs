@@ -22,7 +22,7 @@ use std::time::Instant;
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{AlphaParameters, Integrator, Settings};
-use crate::linsolve::LuError;
+use crate::linsolve::FactorError;
 use crate::model::Model;
 use crate::response::{Context, Response};
 
@@ -43,7 +43,7 @@ pub(crate) fn run(
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
     let n = n_q + model.n_constraints();
     let last = settings.steps();
-    let objectives = Objectives::new(model, responses, last, settings.h)?;
+    let objectives = Objectives::new(model, responses, last, settings.step())?;
     let pseudo = PseudoLoads::new(model, settings.mass);
     let AlphaParameters {
         alpha_m,
@@ -55,7 +55,7 @@ pub(crate) fn run(
     let (bp, gp) = (it.params.beta_prime(h), it.params.gamma_prime(h));
     let width = block_width(n_x);
     let mut scratch: Vec<MemBuffer> = (0..n_x.div_ceil(width))
-        .map(|_| it.newton.lu.scratch_for(width))
+        .map(|_| it.newton.ldlt.scratch_for(width))
         .collect();
     // Sensitivity states, column-major n_q × n_x: q', q̇', q̈', a'.
     let (mut dq, mut dv, mut dacc, mut da) = (
@@ -71,7 +71,7 @@ pub(crate) fn run(
     timings.simulation += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let singular =
-        |t: f64| move |LuError::Singular(detail)| SolveError::Singular { time: t, detail };
+        |t: f64| move |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
 
     // t = 0: [M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0].
     let s0 = it.newton.initial_scale();
@@ -84,10 +84,10 @@ pub(crate) fn run(
         n,
         0..n_x,
     );
-    let lu = &it.newton.lu;
+    let ldlt = &it.newton.ldlt;
     rhs.par_chunks_mut(n * width)
         .zip(scratch.par_iter_mut())
-        .try_for_each(|(block, buf)| lu.solve_block(block, block.len() / n, buf))
+        .try_for_each(|(block, buf)| ldlt.solve_block(block, block.len() / n, buf))
         .map_err(singular(0.0))?;
     for j in 0..n_x {
         dacc[j * n_q..(j + 1) * n_q].copy_from_slice(&rhs[j * n..j * n + n_q]);
@@ -96,15 +96,10 @@ pub(crate) fn run(
 
     let mut values = vec![0.0; responses.len()];
     let mut gradients = vec![0.0; responses.len() * n_x];
+    let (mut g_q, mut g_x) = (vec![0.0; n_q], vec![0.0; n_x]);
     let mut accumulate = |it: &Integrator, step: usize, q: &[f64], dq: &[f64]| {
-        let ctx = Context {
-            model,
-            densities: &it.newton.asm.densities,
-            static_load: &[],
-            mass_kind: settings.mass,
-        };
+        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
         objectives.add_values(&ctx, step, q, &mut values);
-        let (mut g_q, mut g_x) = (vec![0.0; n_q], vec![0.0; n_x]);
         for k in 0..responses.len() {
             g_q.fill(0.0);
             g_x.fill(0.0);
@@ -125,7 +120,7 @@ pub(crate) fn run(
         let clock = Instant::now();
         it.newton
             .factorize_at(Some(&state.q), bp, it.newton.scale, state.t)?;
-        let (asm, lu) = (&it.newton.asm, &it.newton.lu);
+        let (asm, ldlt) = (&it.newton.asm, &it.newton.ldlt);
         let (q, acc) = (&state.q, &state.acc);
         rhs.par_chunks_mut(n * width)
             .zip(dq.par_chunks_mut(n_q * width))
@@ -136,7 +131,6 @@ pub(crate) fn run(
             .enumerate()
             .try_for_each(|(block, (((((rhs, dq), dv), dacc), da), buf))| {
                 let cols = rhs.len() / n;
-                let mut c = vec![0.0; n_q];
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
                     let (dq, dv, dacc, da) = (
@@ -145,22 +139,21 @@ pub(crate) fn run(
                         &mut dacc[r.clone()],
                         &mut da[r],
                     );
+                    // The parts of the update that do not depend on q'ₙ₊₁; q̈' holds cₙ.
                     for i in 0..n_q {
                         let p = dq[i] + h * dv[i] + h * h * (0.5 - beta) * da[i];
-                        c[i] = -bp * p + (alpha_m * da[i] - alpha_f * dacc[i]) / (1.0 - alpha_f);
-                        // Parts of the update that do not depend on q'ₙ₊₁.
+                        dacc[i] = -bp * p + (alpha_m * da[i] - alpha_f * dacc[i]) / (1.0 - alpha_f);
                         dv[i] += h * (1.0 - gamma) * da[i] - gp * p;
                         da[i] = -p / (h * h * beta);
-                        dacc[i] = c[i];
                     }
                     let out = &mut rhs[col * n..(col + 1) * n];
-                    asm.mass_times(&c, out);
+                    asm.mass_times(dacc, out);
                     out[..n_q].iter_mut().for_each(|v| *v = -*v);
                     out[n_q..].fill(0.0);
                 }
                 let first = block * width;
                 pseudo.subtract_columns(asm, q, Some(acc), rhs, n, first..first + cols);
-                lu.solve_block(rhs, cols, buf)?;
+                ldlt.solve_block(rhs, cols, buf)?;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
                     let new = &rhs[col * n..col * n + n_q];

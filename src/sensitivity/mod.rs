@@ -314,7 +314,8 @@ pub fn equilibrium(
 }
 
 /// Values of `responses` on recorded states `u` (row-major, one row of `n_q` per state, at
-/// steps of `h`; one row for a static scene) for design `x` (`None`: full density).
+/// steps of `h`; one row for a static scene, whose loads act at `load_time`) for design `x`
+/// (`None`: full density).
 ///
 /// # Errors
 /// Design errors; kinematics errors of the rigid trajectory.
@@ -323,6 +324,7 @@ pub fn evaluate(
     x: Option<&[f64]>,
     u: &[f64],
     h: f64,
+    load_time: f64,
     responses: &[Response],
 ) -> Result<Vec<f64>, Error> {
     let n_q = model.n_dofs();
@@ -337,11 +339,8 @@ pub fn evaluate(
     let densities = model.densities(x)?;
     let mut load = vec![0.0; n_q];
     if model.analysis == Analysis::Static {
-        let asm = Assembler::new(model, densities.clone(), MassKind::Consistent);
-        let mut gravity = vec![0.0; n_q];
-        asm.external_forces(model.defaults.t_end.unwrap_or(0.0), 1.0, &mut load);
-        asm.mass_times(&asm.gravity, &mut gravity);
-        load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
+        Assembler::new(model, densities.clone(), MassKind::Consistent)
+            .applied_loads(load_time, 1.0, &mut load);
     }
     let ctx = Context {
         model,
@@ -367,12 +366,7 @@ fn explicit_only(
         return Ok(None);
     }
     let densities = model.densities(Some(x))?;
-    let ctx = Context {
-        model,
-        densities: &densities,
-        static_load: &[],
-        mass_kind: MassKind::Consistent,
-    };
+    let ctx = Context::dynamic(model, &densities, MassKind::Consistent);
     let objectives = Objectives::new(model, responses, 0, 0.0)?;
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
     let q = vec![0.0; n_q];

@@ -8,7 +8,7 @@ use std::time::Instant;
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::element::MassKind;
 use crate::error::{Error, SolveError};
-use crate::linsolve::LuError;
+use crate::linsolve::FactorError;
 use crate::model::Model;
 use crate::response::{Context, Response};
 use crate::statics::{equilibrium, static_newton, StaticSettings};
@@ -28,16 +28,14 @@ pub(crate) fn run(
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
     let n = n_q + model.n_constraints();
     newton.factorize_at(Some(&sol.q), 0.0, newton.scale, settings.time)?;
-    let singular = |LuError::Singular(detail)| SolveError::Singular {
+    let singular = |FactorError::Singular(detail)| SolveError::Singular {
         time: settings.time,
         detail,
     };
     let asm = &newton.asm;
     // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
-    let (mut load, mut gravity) = (vec![0.0; n_q], vec![0.0; n_q]);
-    asm.external_forces(settings.time, 1.0, &mut load);
-    asm.mass_times(&asm.gravity, &mut gravity);
-    load.iter_mut().zip(&gravity).for_each(|(f, g)| *f += g);
+    let mut load = vec![0.0; n_q];
+    asm.applied_loads(settings.time, 1.0, &mut load);
     let ctx = Context {
         model,
         densities: &asm.densities,
@@ -63,9 +61,9 @@ pub(crate) fn run(
         Method::Direct => {
             let mut rhs = vec![0.0; n * n_x];
             pseudo.subtract_columns(asm, &sol.q, None, &mut rhs, n, 0..n_x);
-            let mut scratch = newton.lu.scratch_for(n_x.max(1));
+            let mut scratch = newton.ldlt.scratch_for(n_x.max(1));
             newton
-                .lu
+                .ldlt
                 .solve_block(&mut rhs, n_x, &mut scratch)
                 .map_err(singular)?;
             for k in 0..n_r {
@@ -93,9 +91,9 @@ pub(crate) fn run(
             for k in 0..n_r {
                 rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
             }
-            let mut scratch = newton.lu.scratch_for(n_r);
+            let mut scratch = newton.ldlt.scratch_for(n_r);
             newton
-                .lu
+                .ldlt
                 .solve_block(&mut rhs, n_r, &mut scratch)
                 .map_err(singular)?;
             for k in 0..n_r {

@@ -82,7 +82,7 @@ def test_results_carry_the_run(arm):
     omega = np.gradient(theta, res.time)
     assert set(res.motor_torques) == {"shoulder", "elbow"}
     assert res.reactions["elbow"].shape == (n, 3)
-    assert res.newton["mean"] >= 1 and res.newton["max"] <= 20
+    assert res.newton["mean"] >= 1 and res.newton["max"] <= 5  # 4 observed; max_iter is 20
     e = res.energies
     balance = e["kinetic"] + e["strain"] - e["drive_work"]
     assert np.abs(balance).max() < 0.05 * e["drive_work"].max()

@@ -55,8 +55,12 @@ def test_load_table_scales_the_force_in_time():
     scene = cantilever(1.0, split=4, analysis="static")
     scene.load("tip", force=(0.0, -1.0), table=([0.0, 1.0, 2.0], [0.0, 1.0, 1.0]))
     sim = flextop.Simulation(scene)
-    full, half = sim.run(t_end=1.5).displacement("tip")[1], sim.run(t_end=0.5).displacement("tip")[1]
+    at_full, at_half = sim.run(t_end=1.5), sim.run(t_end=0.5)
+    full, half = at_full.displacement("tip")[1], at_half.displacement("tip")[1]
     assert half == pytest.approx(0.5 * full, rel=1e-6)
+    # The compliance Fᵀu takes the load at the run's own time: a quarter at half the load.
+    assert at_half.response("compliance") == pytest.approx(0.25 * at_full.response("compliance"), rel=1e-6)
+    assert at_full.response("compliance") == pytest.approx(-full, rel=1e-12)
     assert full == pytest.approx(-(1.0 / (3 * E * I) + 1.0 / KGA), rel=1e-6)
 
 
