@@ -213,15 +213,7 @@ impl Model {
 
     /// Size of the model: the diagonal of its bounding box (m), a length scale for tolerances.
     pub fn size(&self) -> f64 {
-        let (mut lo, mut hi) = (
-            Vector2::repeat(f64::INFINITY),
-            Vector2::repeat(f64::NEG_INFINITY),
-        );
-        for n in &self.nodes {
-            lo = lo.inf(&n.position);
-            hi = hi.sup(&n.position);
-        }
-        (hi - lo).norm().max(f64::MIN_POSITIVE)
+        size_of(&self.nodes)
     }
 
     /// Full-density volume of each component (m³).
@@ -232,4 +224,18 @@ impl Model {
         }
         v
     }
+}
+
+/// Diagonal of the bounding box of `nodes` (m), at least the smallest positive number;
+/// infinite if the coordinates are too large to subtract.
+pub fn size_of(nodes: &[Node]) -> f64 {
+    let (mut lo, mut hi) = (
+        Vector2::repeat(f64::INFINITY),
+        Vector2::repeat(f64::NEG_INFINITY),
+    );
+    for n in nodes {
+        lo = lo.inf(&n.position);
+        hi = hi.sup(&n.position);
+    }
+    (hi - lo).norm().max(f64::MIN_POSITIVE)
 }

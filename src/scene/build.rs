@@ -17,7 +17,7 @@ use crate::element::Beam;
 use crate::error::SceneError;
 use crate::interpolation::Interpolation;
 use crate::load::{NodalLoad, TimeFunction};
-use crate::model::{Analysis, Bar, Design, Element, Model, Node, PointMass};
+use crate::model::{size_of, Analysis, Bar, Design, Element, Model, Node, PointMass};
 use crate::motion::{Motion, Table, Trapezoidal};
 use crate::options::RunOptions;
 use crate::rigid::{redundant_rows, Clusters};
@@ -252,19 +252,6 @@ impl Mesh {
         });
         self.bar_paths.push(b.path);
         Ok(())
-    }
-
-    /// Diagonal of the bounding box of the nodes (m).
-    fn size(&self) -> f64 {
-        let (mut lo, mut hi) = (
-            Vector2::repeat(f64::INFINITY),
-            Vector2::repeat(f64::NEG_INFINITY),
-        );
-        for n in &self.nodes {
-            lo = lo.inf(&n.position);
-            hi = hi.sup(&n.position);
-        }
-        (hi - lo).norm()
     }
 
     /// Every bar has a finite length above 1e-9 of the model's size and above the round-off
@@ -546,7 +533,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     if mesh.elements.is_empty() {
         return Err(SceneError::new("scene", "has no beams"));
     }
-    let size = mesh.size();
+    let size = size_of(&mesh.nodes);
     mesh.check_lengths(size)?;
     let joints = spec
         .joints
