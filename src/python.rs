@@ -55,14 +55,6 @@ fn scene_error(path: String, message: String) -> PyErr {
 /// A joint as Python sees it: `(name, kind, node indices, first row, row count, driven)`.
 type JointInfo = (String, &'static str, Vec<usize>, usize, usize, bool);
 
-/// `(values, gradients, method used, (simulation seconds, gradient seconds))`.
-type SensitivityOutput<'py> = (
-    Bound<'py, PyAny>,
-    Bound<'py, PyAny>,
-    &'static str,
-    (f64, f64),
-);
-
 /// A built and validated mechanism.
 #[pyclass(name = "Model", module = "flextop._core", frozen)]
 struct PyModel {
@@ -283,10 +275,10 @@ impl PyModel {
         let d = PyDict::new(py);
         let (n_q, n_c) = (traj.n_q, traj.n_c);
         d.set_item("time", PyArray1::from_vec(py, traj.time))?;
-        d.set_item("u", matrix(py, traj.q, n_q)?)?;
-        d.set_item("v", matrix(py, traj.v, n_q)?)?;
-        d.set_item("a", matrix(py, traj.acc, n_q)?)?;
-        d.set_item("lambda", matrix(py, traj.lambda, n_c)?)?;
+        d.set_item("q", matrix(py, traj.q, n_q)?)?;
+        d.set_item("qdot", matrix(py, traj.v, n_q)?)?;
+        d.set_item("qddot", matrix(py, traj.acc, n_q)?)?;
+        d.set_item("lam", matrix(py, traj.lambda, n_c)?)?;
         d.set_item("iterations", traj.iterations)?;
         d.set_item("kinetic", PyArray1::from_vec(py, traj.kinetic))?;
         d.set_item("strain", PyArray1::from_vec(py, traj.strain))?;
@@ -316,8 +308,8 @@ impl PyModel {
             Ok(solve_static(&model, densities, &settings)?)
         })?;
         let d = PyDict::new(py);
-        d.set_item("u", PyArray1::from_vec(py, sol.q))?;
-        d.set_item("lambda", PyArray1::from_vec(py, sol.lambda))?;
+        d.set_item("q", PyArray1::from_vec(py, sol.q))?;
+        d.set_item("lam", PyArray1::from_vec(py, sol.lambda))?;
         d.set_item("iterations", sol.iterations)?;
         d.set_item("load_steps", sol.load_steps)?;
         d.set_item("time", settings.time)?;
@@ -325,8 +317,8 @@ impl PyModel {
     }
 
     /// Responses and their gradients for run `settings` (dict, as [`PyModel::simulate`] or
-    /// [`PyModel::solve_static`]): `(values (n_r,), gradients (n_r, n_x), method,
-    /// (simulation seconds, gradient seconds))`.
+    /// [`PyModel::solve_static`]): a dict of `values` (n_r,), `gradients` (n_r, n_x), the
+    /// `method` used, `simulation_seconds` and `gradient_seconds`.
     #[pyo3(signature = (x, responses, method="auto", memory="auto", settings=None))]
     fn run_with_sensitivities<'py>(
         &self,
@@ -336,7 +328,7 @@ impl PyModel {
         method: &str,
         memory: &str,
         settings: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<SensitivityOutput<'py>> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let method = match method {
             "auto" => Method::Auto,
             "direct" => Method::Direct,
@@ -383,13 +375,13 @@ impl PyModel {
         } else {
             "adjoint"
         };
-        let timings = (result.timings.simulation, result.timings.gradients);
-        Ok((
-            PyArray1::from_vec(py, result.values).into_any(),
-            matrix(py, result.gradients, n_x)?,
-            used,
-            timings,
-        ))
+        let d = PyDict::new(py);
+        d.set_item("values", PyArray1::from_vec(py, result.values))?;
+        d.set_item("gradients", matrix(py, result.gradients, n_x)?)?;
+        d.set_item("method", used)?;
+        d.set_item("simulation_seconds", result.timings.simulation)?;
+        d.set_item("gradient_seconds", result.timings.gradients)?;
+        Ok(d)
     }
 
     /// Values of `responses` on recorded coordinates `u` (shape `(n_states, n_dofs)`, steps

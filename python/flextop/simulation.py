@@ -161,10 +161,10 @@ class Simulation:
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        f, dfdx, used, seconds = self.model.run_with_sensitivities(xv, names, method, memory, self._settings(**settings))
-        self.last_method = used
-        self.last_timings = {"simulation": seconds[0], "gradients": seconds[1]}
-        return f, dfdx
+        out = self.model.run_with_sensitivities(xv, names, method, memory, self._settings(**settings))
+        self.last_method = out["method"]
+        self.last_timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
+        return out["values"], out["gradients"]
 
     def _design(self, x: Any) -> np.ndarray | None:
         if x is None:
@@ -217,12 +217,12 @@ class _Run:
     @property
     def u(self) -> np.ndarray:
         """Solved coordinates: displacements and rotations from the reference, three per node."""
-        return self.raw["u"]
+        return self.raw["q"]
 
     @property
     def lam(self) -> np.ndarray:
         """Lagrange multipliers, one per constraint row."""
-        return self.raw["lambda"]
+        return self.raw["lam"]
 
     @cached_property
     def reactions(self) -> dict[str, np.ndarray]:
@@ -255,11 +255,11 @@ class Results(_Run):
 
     @property
     def qdot(self) -> np.ndarray:
-        return self.raw["v"]
+        return self.raw["qdot"]
 
     @property
     def qddot(self) -> np.ndarray:
-        return self.raw["a"]
+        return self.raw["qddot"]
 
     @cached_property
     def positions(self) -> np.ndarray:

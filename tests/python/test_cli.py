@@ -40,7 +40,7 @@ def test_simulate_a_scene_file_and_save_results(tmp_path):
     run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--h", "0.01", "--out", tmp_path)
     assert "130 steps of h = 0.01 s" in run.stdout
     saved = np.load(tmp_path / "results.npz")
-    assert saved["u"].shape == (131, 90)
+    assert saved["q"].shape == (131, 90)
 
 
 def test_bad_input_exits_with_a_named_error():
