@@ -33,8 +33,7 @@ def child(memory: str | None, split: int, h: float) -> None:
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     start = time.perf_counter()
     if memory is None:
-        raw = sim.model.simulate(x, {"h": h})
-        value = float(sim.model.evaluate_responses(x, raw["q"], h, 0.0, ["tip_deflection"])[0])
+        value = sim.run(x, h=h).tip_deflection()
     else:
         f, g = sim.run_with_sensitivities(x, ["tip_deflection"], method="adjoint", memory=memory, h=h)
         value = float(f[0])

@@ -60,6 +60,17 @@ pub const fn dof(node: usize, k: usize) -> usize {
     3 * node + k
 }
 
+impl JointKind {
+    /// The kind's name in a scene: `clamp`, `pin` or `hinge`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Clamp { .. } => "clamp",
+            Self::Pin { .. } => "pin",
+            Self::Hinge { .. } => "hinge",
+        }
+    }
+}
+
 impl Joint {
     /// The joint's constraint rows, the drive row last.
     pub fn rows(&self, joint: usize) -> Vec<ConstraintRow> {

@@ -15,10 +15,10 @@
 //! (Chung & Hulbert 1993). Gravity `ĝ` enters as a DOF-wise acceleration, so `M ĝ` is
 //! the consistent gravity load.
 
-use crate::element::MassKind;
-use crate::error::{SettingsError, SolveError};
+use crate::error::SolveError;
 use crate::model::{Densities, Model};
 use crate::newton::{Newton, NewtonReport, Point};
+use crate::settings::DynamicSettings;
 
 /// Algorithmic parameters `α_m, α_f, β, γ`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,94 +61,6 @@ impl AlphaParameters {
     }
 }
 
-/// Most steps a run may take.
-pub const MAX_STEPS: usize = 100_000_000;
-
-/// Settings of a time integration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    /// End time (s).
-    pub t_end: f64,
-    /// Step size (s).
-    pub h: f64,
-    /// Spectral radius at infinite frequency.
-    pub rho_inf: f64,
-    /// Relative Newton tolerance on the residual (forces) and the constraints (lengths).
-    pub tol: f64,
-    /// Newton iterations allowed per step.
-    pub max_iter: usize,
-    /// Inertia discretization.
-    pub mass: MassKind,
-}
-
-impl Settings {
-    /// Checks ranges.
-    ///
-    /// # Errors
-    /// A [`SettingsError`] naming the setting.
-    pub fn validate(&self) -> Result<(), SettingsError> {
-        let bad = |n: &str, m: String| Err(SettingsError::new(n, m));
-        if !(self.h.is_finite() && self.h > 0.0) {
-            return bad(
-                "h",
-                format!("step size must be positive and finite, got {}", self.h),
-            );
-        }
-        if !(self.t_end.is_finite() && self.t_end > 0.0) {
-            return bad(
-                "t_end",
-                format!("must be positive and finite, got {}", self.t_end),
-            );
-        }
-        if self.h > self.t_end {
-            return bad(
-                "h",
-                format!("step size {} exceeds t_end {}", self.h, self.t_end),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.rho_inf) {
-            return bad(
-                "rho_inf",
-                format!("must lie in [0, 1], got {}", self.rho_inf),
-            );
-        }
-        if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
-            return bad("tol", format!("must lie in (0, 1), got {}", self.tol));
-        }
-        if self.max_iter == 0 {
-            return bad("max_iter", "must be at least 1".into());
-        }
-        if self.t_end / self.h > MAX_STEPS as f64 {
-            return bad(
-                "h",
-                format!(
-                    "t_end / h = {:.3e} steps; at most {MAX_STEPS:.0e} are allowed",
-                    self.t_end / self.h
-                ),
-            );
-        }
-        Ok(())
-    }
-
-    /// Number of steps to `t_end`: `t_end / h`, rounded up unless it is within 1e-9 of an
-    /// integer (at least one).
-    pub fn steps(&self) -> usize {
-        let ratio = self.t_end / self.h;
-        let steps = if (ratio - ratio.round()).abs() <= 1e-9 * ratio.max(1.0) {
-            ratio.round()
-        } else {
-            ratio.ceil()
-        };
-        (steps as usize).max(1)
-    }
-
-    /// The step size used: `h`, shortened if needed so that [`Settings::steps`] steps end
-    /// exactly at `t_end`.
-    pub fn step(&self) -> f64 {
-        self.t_end / self.steps() as f64
-    }
-}
-
 /// Dynamic state at one time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct State {
@@ -157,29 +69,28 @@ pub struct State {
     /// Nodal coordinates `q` (displacements and rotations).
     pub q: Vec<f64>,
     /// Velocities `q̇`.
-    pub v: Vec<f64>,
+    pub qdot: Vec<f64>,
     /// Accelerations `q̈`.
-    pub acc: Vec<f64>,
+    pub qddot: Vec<f64>,
     /// Pseudo-accelerations `a` (Eq. 9).
     pub a: Vec<f64>,
     /// Lagrange multipliers `λ`.
-    pub lambda: Vec<f64>,
+    pub lam: Vec<f64>,
 }
 
-/// The generalized-α integrator of one design.
+/// The generalized-α integrator of one design. The step size is an argument of each step,
+/// so a run may follow any [`crate::time_grid::TimeGrid`].
 pub struct Integrator<'m> {
     /// Newton machinery.
-    pub newton: Newton<'m>,
+    pub(crate) newton: Newton<'m>,
     /// Algorithmic parameters.
     pub params: AlphaParameters,
-    /// Step size ([`Settings::step`]).
-    pub h: f64,
 }
 
 impl<'m> Integrator<'m> {
     /// Integrator of `model` with element scalings `densities`.
-    pub fn new(model: &'m Model, densities: Densities, settings: &Settings) -> Self {
-        let mut newton = Newton::new(
+    pub fn new(model: &'m Model, densities: Densities, settings: &DynamicSettings) -> Self {
+        let newton = Newton::new(
             model,
             densities,
             settings.mass,
@@ -187,11 +98,12 @@ impl<'m> Integrator<'m> {
             settings.max_iter,
         );
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
-        let q0 = vec![0.0; model.n_dofs()];
-        let h = settings.step();
-        newton.scale = params.beta_prime(h) * newton.asm.mean_mass_diagonal()
-            + newton.asm.mean_stiffness_diagonal(&q0);
-        Self { newton, params, h }
+        Self { newton, params }
+    }
+
+    /// The assembler of the design: forces, matrices, the model and its densities.
+    pub fn assembler(&self) -> &crate::assembly::Assembler<'m> {
+        self.newton.assembler()
     }
 
     /// State at `t = 0`: undeformed, at rest, with consistent accelerations and multipliers
@@ -200,42 +112,41 @@ impl<'m> Integrator<'m> {
     /// # Errors
     /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
     pub fn initial_state(&mut self) -> Result<State, SolveError> {
-        let model = self.newton.asm.model;
-        let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
+        let n_q = self.newton.assembler().model.n_dofs();
         let q = vec![0.0; n_q];
-        let (acc, lambda) = self.newton.initial_accelerations(&q, n_c)?;
+        let (qddot, lam) = self.newton.initial_accelerations(&q)?;
         Ok(State {
             t: 0.0,
             q,
-            v: vec![0.0; n_q],
-            a: acc.clone(),
-            acc,
-            lambda,
+            qdot: vec![0.0; n_q],
+            a: qddot.clone(),
+            qddot,
+            lam,
         })
     }
 
     /// One step of Algorithm 1 from `s` (time `t_n`) to `t_{n+1} = t_n + h`, in place.
+    /// `β'` and `γ'`, and with them the constraint scaling, follow `h`.
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
     /// converge; [`SolveError::Singular`] for a singular iteration matrix.
-    pub fn alpha_step(&mut self, s: &mut State) -> Result<NewtonReport, SolveError> {
+    pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
         let AlphaParameters {
             alpha_m,
             alpha_f,
             beta,
             gamma,
         } = self.params;
-        let h = self.h;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
         for i in 0..s.q.len() {
-            let a_next = (alpha_f * s.acc[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
-            s.q[i] += h * s.v[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_next);
-            s.v[i] += h * ((1.0 - gamma) * s.a[i] + gamma * a_next);
+            let a_next = (alpha_f * s.qddot[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
+            s.q[i] += h * s.qdot[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_next);
+            s.qdot[i] += h * ((1.0 - gamma) * s.a[i] + gamma * a_next);
             s.a[i] = a_next;
-            s.acc[i] = 0.0;
+            s.qddot[i] = 0.0;
         }
-        s.lambda.fill(0.0);
+        s.lam.fill(0.0);
         s.t += h;
         let point = Point {
             t: s.t,
@@ -243,16 +154,16 @@ impl<'m> Integrator<'m> {
             mass_coefficient: bp,
             gamma_prime: gp,
         };
-        let report = self.newton.solve_point(
+        let report = self.newton.solve(
             point,
             &mut s.q,
-            &mut s.lambda,
-            Some((&mut s.v, &mut s.acc)),
+            &mut s.lam,
+            Some((&mut s.qdot, &mut s.qddot)),
         )?;
         // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
         let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         s.a.iter_mut()
-            .zip(&s.acc)
+            .zip(&s.qddot)
             .for_each(|(a, acc)| *a += w * acc);
         Ok(report)
     }

@@ -7,38 +7,63 @@
 //! * [`scene`] — the scene as data (TOML or Python dict), validated into a [`model::Model`]:
 //!   nodes with absolute coordinates, co-rotational Timoshenko [`element::beam`]s grouped in
 //!   bars with one density each ([`interpolation`]: SIMP or RAMP), point masses, [`load`]s,
-//!   and joints as algebraic [`constraint`]s driven by [`motion`] laws; [`rigid`] checks the
+//!   and joints as algebraic [`constraint`]s driven by [`motion`] laws; `rigid` checks the
 //!   mechanism and gives its rigid trajectory.
-//! * [`assembly`] and [`linsolve`] — the residual and the iteration matrix on a fixed sparse
+//! * `assembly` and `linsolve` — the residual and the iteration matrix on a fixed sparse
 //!   pattern, factorized by a symbolic-once, numeric-per-iteration `LDLᵀ`.
-//! * [`newton`], [`integrator`] (generalized-α, Algorithm 1), [`statics`] and
-//!   [`simulation`] — the solves, with run settings from [`options`].
-//! * [`response`] and [`sensitivity`] — responses of paper Eq. 8 and their exact gradients,
-//!   by direct differentiation (Algorithm 2) or the discrete adjoint.
+//! * `newton`, [`Integrator`] (generalized-α, Algorithm 1, on any [`TimeGrid`]),
+//!   [`solve_static`] and [`simulate`] — the solves, with run settings validated in one
+//!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
+//! * [`Response`] and [`of_motion`] / [`of_equilibrium`] — responses of paper Eq. 8 and
+//!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint.
+//!
+//! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
+//! [`load`], [`section`], [`interpolation`]) are public modules; the solvers are private
+//! modules behind the re-exports below. Assembly, Newton and the sparse solver are
+//! internals.
 //!
 //! SI units throughout: m, kg, s, N, Pa, rad. Errors are values ([`error`]), never panics on
 //! user data. The Python bindings live behind the `python` feature.
 #![warn(missing_docs)]
 
-pub mod assembly;
 pub mod constraint;
 pub mod element;
 pub mod error;
-pub mod integrator;
 pub mod interpolation;
-pub mod linsolve;
 pub mod load;
 pub mod model;
 pub mod motion;
-pub mod newton;
-pub mod options;
-pub mod response;
-pub mod rigid;
 pub mod scene;
 pub mod section;
-pub mod sensitivity;
-pub mod simulation;
-pub mod statics;
+
+mod assembly;
+mod integrator;
+mod linsolve;
+mod newton;
+mod response;
+mod rigid;
+mod sensitivity;
+mod settings;
+mod simulation;
+mod statics;
+mod time_grid;
 
 #[cfg(feature = "python")]
 mod python;
+
+pub use assembly::{linearize, Csc, Linearization};
+pub use element::MassKind;
+pub use error::{DesignError, Error, SceneError, SettingsError, SolveError};
+pub use integrator::{AlphaParameters, Integrator, State};
+pub use model::{Densities, Model};
+pub use response::Response;
+pub use rigid::rigid_positions;
+pub use sensitivity::{
+    evaluate, of_equilibrium, of_motion, parse_responses, Sensitivities, Timings,
+};
+pub use settings::{
+    DynamicSettings, Memory, Method, RunOptions, SensitivitySettings, StaticSettings, MAX_STEPS,
+};
+pub use simulation::{simulate, Trajectory, MAX_TRAJECTORY_BYTES};
+pub use statics::{solve_static, StaticSolution};
+pub use time_grid::TimeGrid;

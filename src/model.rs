@@ -13,7 +13,7 @@ use crate::element::{Beam, Vector6};
 use crate::error::DesignError;
 use crate::interpolation::Interpolation;
 use crate::load::NodalLoad;
-use crate::options::RunOptions;
+use crate::settings::RunOptions;
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -158,6 +158,22 @@ impl Model {
     /// Design variable of element `e`, if any.
     pub fn variable_of(&self, e: usize) -> Option<usize> {
         self.bars[self.elements[e].bar].variable
+    }
+
+    /// The constraint rows of joint `j`, the drive row last (an empty range at the end for
+    /// a joint without rows).
+    pub fn joint_rows(&self, j: usize) -> std::ops::Range<usize> {
+        let first = self
+            .rows
+            .iter()
+            .position(|r| r.joint == j)
+            .unwrap_or(self.rows.len());
+        first
+            ..first
+                + self.rows[first..]
+                    .iter()
+                    .take_while(|r| r.joint == j)
+                    .count()
     }
 
     /// Index of the node called `name`.

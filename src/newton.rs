@@ -1,15 +1,21 @@
 //! Newton's method with the exact iteration matrix, shared by the generalized-α step, the
-//! consistent initial accelerations and the static solver.
+//! consistent initial accelerations and the static solver; and the small interface the
+//! sensitivity analyses use: factorize the iteration matrix at a point, solve a block of
+//! right-hand sides, read the assembler.
 //!
 //! One [`Newton`] owns the assembler of a design, the sparse `LDLᵀ` analysed once for its
 //! pattern, the matrix values and the work vectors: nothing is allocated per iteration.
+//! Constraint rows and multipliers are scaled by `s = c·mean(M) + mean(K)` (`c` the mass
+//! coefficient of the matrix, `β'` in dynamics, so that `s` follows the step size), which
+//! keeps the augmented matrix balanced; `λ = s μ`.
 //! Convergence is relative: `‖r‖∞ ≤ tol · F_ref` with `F_ref` the largest magnitude among
 //! the inertia, internal, external and joint forces, and `‖Φ‖∞ ≤ tol · L_ref` with `L_ref`
 //! the model's size; an increment at round-off level also ends the iteration, since the
 //! residual of stiff elements cannot drop below their round-off.
 
-use crate::assembly::Assembler;
-use crate::assembly::Pattern;
+use faer::dyn_stack::MemBuffer;
+
+use crate::assembly::{Assembler, Pattern};
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
@@ -44,21 +50,26 @@ impl Residual {
 /// `LDLᵀ` analysed once.
 pub struct Newton<'m> {
     /// Forces and matrices of the design.
-    pub asm: Assembler<'m>,
+    asm: Assembler<'m>,
     /// `LDLᵀ` of the (augmented) iteration matrix.
-    pub ldlt: SparseLdlt,
+    ldlt: SparseLdlt,
     /// Values of the last assembled iteration matrix.
-    pub matrix: Vec<f64>,
+    matrix: Vec<f64>,
     /// Right-hand side / solution `E[−r; −sΦ]` → `[Δq; Δμ]`.
-    pub rhs: Vec<f64>,
-    /// Constraint scaling `s` (`λ = s μ`).
-    pub scale: f64,
+    rhs: Vec<f64>,
+    /// Constraint scaling `s` of the current matrix (`λ = s μ`).
+    scale: f64,
+    /// `mean(M)` and `mean(K)` at the reference state, the parts of `s`.
+    mean_mass: f64,
+    mean_stiffness: f64,
+    /// Time (or load factor) of the current factorization, for error reports.
+    factored_at: f64,
     /// Relative tolerance.
-    pub tol: f64,
+    tol: f64,
     /// Iteration limit.
-    pub max_iter: usize,
+    max_iter: usize,
     /// Length scale of the model (m).
-    pub length: f64,
+    length: f64,
     inertia: Vec<f64>,
     internal: Vec<f64>,
     external: Vec<f64>,
@@ -85,12 +96,19 @@ impl<'m> Newton<'m> {
             &Pattern::multiplier_dofs(model),
         );
         let matrix = vec![0.0; asm.pattern.nnz()];
+        let (mean_mass, mean_stiffness) = (
+            asm.mean_mass_diagonal(),
+            asm.mean_stiffness_diagonal(&vec![0.0; n_q]),
+        );
         Self {
             asm,
             ldlt,
             matrix,
             rhs: vec![0.0; n],
             scale: 1.0,
+            mean_mass,
+            mean_stiffness,
+            factored_at: 0.0,
             tol,
             max_iter,
             length: model.size(),
@@ -100,6 +118,23 @@ impl<'m> Newton<'m> {
             joint: vec![0.0; n_q],
             phi: vec![0.0; n_c],
         }
+    }
+
+    /// The assembler of the design: forces, matrices, the model and its densities.
+    pub fn assembler(&self) -> &Assembler<'m> {
+        &self.asm
+    }
+
+    /// Constraint scaling `s = c·mean(M) + mean(K)` of a matrix with mass coefficient `c`
+    /// (without `mean(K)` for a matrix without stiffness).
+    fn scaling(&self, mass_coefficient: f64, stiffness: bool) -> f64 {
+        mass_coefficient * self.mean_mass + if stiffness { self.mean_stiffness } else { 0.0 }
+    }
+
+    /// The solver's error, reported at the time of the current factorization.
+    fn singular(&self) -> impl Fn(FactorError) -> SolveError {
+        let time = self.factored_at;
+        move |FactorError::Singular(detail)| SolveError::Singular { time, detail }
     }
 
     /// Assembles `rhs = −E[r; sΦ]` and the augmented iteration matrix `mass_coefficient M + K_t`
@@ -161,10 +196,12 @@ impl<'m> Newton<'m> {
     }
 
     /// Factorizes the assembled matrix and solves for `[Δq; Δμ]` in `rhs`.
-    pub(crate) fn solve(&mut self, t: f64) -> Result<(), SolveError> {
-        let singular = |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
-        self.ldlt.factorize(&self.matrix).map_err(singular)?;
-        self.ldlt.solve_in_place(&mut self.rhs).map_err(singular)
+    fn solve_increment(&mut self, t: f64) -> Result<(), SolveError> {
+        self.factored_at = t;
+        self.ldlt.factorize(&self.matrix).map_err(self.singular())?;
+        self.ldlt
+            .solve_in_place(&mut self.rhs)
+            .map_err(self.singular())
     }
 
     /// Whether an increment is at round-off level: Newton cannot improve further.
@@ -207,7 +244,7 @@ impl<'m> Newton<'m> {
     /// # Errors
     /// [`SolveError::NewtonFailed`] after `max_iter` iterations or on a non-finite residual;
     /// [`SolveError::Singular`] for a singular iteration matrix.
-    pub fn solve_point(
+    pub fn solve(
         &mut self,
         point: Point,
         q: &mut [f64],
@@ -216,6 +253,7 @@ impl<'m> Newton<'m> {
     ) -> Result<NewtonReport, SolveError> {
         let n_q = q.len();
         let mut iterations = 0;
+        self.scale = self.scaling(point.mass_coefficient, true);
         loop {
             let acc = rates.as_ref().map(|(_, acc)| &acc[..]);
             let res = self.assemble(q, acc, lambda, point.t, point.load, point.mass_coefficient);
@@ -229,7 +267,7 @@ impl<'m> Newton<'m> {
             if iterations == self.max_iter || !res.value().is_finite() {
                 return Err(self.failure(point.t, iterations, res.value()));
             }
-            self.solve(point.t)?;
+            self.solve_increment(point.t)?;
             iterations += 1;
             let (dq, dmu) = self.rhs.split_at(n_q);
             q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
@@ -252,54 +290,64 @@ impl<'m> Newton<'m> {
         }
     }
 
-    /// Assembles and factorizes the augmented iteration matrix
-    /// `mass_coefficient M + K_t(q) + s Φ` (without `K_t` when `q` is `None`) with
-    /// constraint scaling `scale`, for the linear solves of the sensitivity analysis.
+    /// Assembles and factorizes the augmented iteration matrix `c M + K_t(q) + s Φ` at
+    /// time `t` (without `K_t` when `q` is `None`), for the linear solves of the
+    /// sensitivity analysis, with the scaling `s` of a Newton solve of the same `c`.
     ///
     /// # Errors
     /// [`SolveError::Singular`] for a singular matrix.
-    pub fn factorize_at(
+    pub fn factorize(
         &mut self,
         q: Option<&[f64]>,
         mass_coefficient: f64,
-        scale: f64,
         t: f64,
     ) -> Result<(), SolveError> {
+        self.scale = self.scaling(mass_coefficient, q.is_some());
+        self.factored_at = t;
         self.asm
-            .start_iteration_matrix(mass_coefficient, scale, &mut self.matrix);
+            .start_iteration_matrix(mass_coefficient, self.scale, &mut self.matrix);
         if let Some(q) = q {
             self.asm
                 .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
         }
+        self.ldlt.factorize(&self.matrix).map_err(self.singular())
+    }
+
+    /// Work space for solving `cols` right-hand sides at once with [`Newton::solve_block`].
+    pub fn scratch(&self, cols: usize) -> MemBuffer {
+        self.ldlt.scratch_for(cols)
+    }
+
+    /// Solves the factorized system for the `cols` right-hand sides of the column-major
+    /// block `rhs` (`[Δq; Δμ]` each), in place.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if the solve produces non-finite values.
+    pub fn solve_block(
+        &self,
+        rhs: &mut [f64],
+        cols: usize,
+        scratch: &mut MemBuffer,
+    ) -> Result<(), SolveError> {
         self.ldlt
-            .factorize(&self.matrix)
-            .map_err(|FactorError::Singular(detail)| SolveError::Singular { time: t, detail })
+            .solve_block(rhs, cols, scratch)
+            .map_err(self.singular())
     }
 
-    /// Constraint scaling of the initial-acceleration system (`s` of a mass-only matrix).
-    pub fn initial_scale(&self) -> f64 {
-        self.asm.mean_mass_diagonal()
-    }
-
-    /// Consistent accelerations and multipliers at `(q, t = 0)` for `n_c` constraints, from
-    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`, scaled by
-    /// [`Newton::initial_scale`].
+    /// Consistent accelerations and multipliers at `(q, t = 0)`, from
+    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`.
     ///
     /// # Errors
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
-    pub fn initial_accelerations(
-        &mut self,
-        q: &[f64],
-        n_c: usize,
-    ) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
-        let n_q = q.len();
+    pub fn initial_accelerations(&mut self, q: &[f64]) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+        let (n_q, n_c) = (q.len(), self.phi.len());
         // At q̈ = 0, λ = 0 the DOF rows of −E r are M ĝ + f_ext − f_int(q); Φ(q, 0) = 0 adds
         // nothing to them.
         self.assemble(q, Some(&vec![0.0; n_q]), &vec![0.0; n_c], 0.0, 1.0, 1.0);
-        let scale = self.initial_scale();
-        self.factorize_at(None, 1.0, scale, 0.0)?;
+        self.factorize(None, 1.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
+        let scale = self.scale;
         self.rhs[n_q..]
             .iter_mut()
             .zip(&g)
@@ -307,7 +355,7 @@ impl<'m> Newton<'m> {
         self.asm.augment_rhs(&mut self.rhs);
         self.ldlt
             .solve_in_place(&mut self.rhs)
-            .map_err(|FactorError::Singular(detail)| SolveError::Singular { time: 0.0, detail })?;
+            .map_err(self.singular())?;
         Ok((
             self.rhs[..n_q].to_vec(),
             self.rhs[n_q..].iter().map(|m| m * scale).collect(),

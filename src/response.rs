@@ -11,6 +11,7 @@
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
+use crate::time_grid::TimeGrid;
 
 /// What a response measures.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,13 +140,13 @@ impl Response {
         }
     }
 
-    /// Weight `wₙ` of state `n` of `0..=last` with step `h` (`last = 0`: a static state).
-    pub fn weight(&self, analysis: Analysis, n: usize, last: usize, h: f64) -> f64 {
-        let trapezoid = if n == 0 || n == last { 0.5 * h } else { h };
+    /// Weight `wₙ` of state `n` of `grid` (a grid without steps: a static state): the
+    /// trapezoidal rule on the step times, divided by the duration for a mean.
+    pub fn weight(&self, analysis: Analysis, n: usize, grid: &TimeGrid) -> f64 {
         match self.weighting(analysis) {
-            Weighting::Mean => trapezoid / (h * last as f64),
-            Weighting::Integral => trapezoid,
-            Weighting::Final => f64::from(u8::from(n == last)),
+            Weighting::Mean => grid.trapezoid(n) / grid.duration(),
+            Weighting::Integral => grid.trapezoid(n),
+            Weighting::Final => f64::from(u8::from(n == grid.len())),
             Weighting::Explicit => 0.0,
         }
     }

@@ -62,11 +62,6 @@ impl Clusters {
         self.anchor.len()
     }
 
-    /// Whether there is no cluster.
-    pub fn is_empty(&self) -> bool {
-        self.anchor.is_empty()
-    }
-
     /// Node DOF value and its gradient with respect to the cluster coordinates `ρ`.
     fn dof_map(&self, model: &Model, rho: &DVector<f64>, dof: usize) -> (f64, [(usize, f64); 3]) {
         let (node, k) = (dof / 3, dof % 3);
@@ -214,6 +209,20 @@ impl Clusters {
             .map(|rho| self.position(model, rho, node))
             .collect())
     }
+}
+
+/// Positions of every node of `model` at `times` when every frame is rigid and the joints
+/// follow their drives, flattened `[x, y]` per node per time (m).
+///
+/// # Errors
+/// A [`SolveError::Kinematics`] where the rigid kinematics cannot be solved.
+pub fn rigid_positions(model: &Model, times: &[f64]) -> Result<Vec<f64>, SolveError> {
+    let clusters = Clusters::of(model);
+    Ok(clusters
+        .rigid_motion(model, times)?
+        .iter()
+        .flat_map(|rho| (0..model.nodes.len()).flat_map(|k| clusters.position(model, rho, k)))
+        .collect())
 }
 
 /// Smallest over largest singular value of the joints' Jacobian below which the rigid

@@ -11,11 +11,13 @@
 //! would show as work done by a motor that does not move.
 
 use crate::error::{Error, SettingsError};
+use crate::integrator::{Integrator, State};
+use crate::model::Model;
+use crate::settings::DynamicSettings;
+use crate::time_grid::TimeGrid;
 
 /// Largest trajectory a run records (bytes).
 pub const MAX_TRAJECTORY_BYTES: f64 = 8.0 * (1u64 << 30) as f64;
-use crate::integrator::{Integrator, Settings, State};
-use crate::model::Model;
 
 /// Time histories of a dynamic run, each matrix row-major with one row per time.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -29,11 +31,11 @@ pub struct Trajectory {
     /// `q_n`.
     pub q: Vec<f64>,
     /// `q̇_n`.
-    pub v: Vec<f64>,
+    pub qdot: Vec<f64>,
     /// `q̈_n`.
-    pub acc: Vec<f64>,
+    pub qddot: Vec<f64>,
     /// `λ_n`.
-    pub lambda: Vec<f64>,
+    pub lam: Vec<f64>,
     /// Newton iterations of each step (0 for `t = 0`).
     pub iterations: Vec<usize>,
     /// Kinetic energy (J).
@@ -50,14 +52,15 @@ impl Trajectory {
     fn record(&mut self, s: &State, iterations: usize) {
         self.time.push(s.t);
         self.q.extend_from_slice(&s.q);
-        self.v.extend_from_slice(&s.v);
-        self.acc.extend_from_slice(&s.acc);
-        self.lambda.extend_from_slice(&s.lambda);
+        self.qdot.extend_from_slice(&s.qdot);
+        self.qddot.extend_from_slice(&s.qddot);
+        self.lam.extend_from_slice(&s.lam);
         self.iterations.push(iterations);
     }
 }
 
-/// Runs `model` with element scalings from design `x` (`None`: all bars at full density).
+/// Runs `model` with element scalings from design `x` (`None`: all bars at full density)
+/// on the fixed-step grid of `settings`.
 ///
 /// # Errors
 /// Design, settings and solve errors ([`Error`]); a failed Newton step reports its time; a
@@ -65,86 +68,116 @@ impl Trajectory {
 pub fn simulate(
     model: &Model,
     x: Option<&[f64]>,
-    settings: &Settings,
+    settings: &DynamicSettings,
 ) -> Result<Trajectory, Error> {
     settings.validate()?;
-    let bytes = (settings.steps() + 1) as f64
-        * (3 * model.n_dofs() + model.n_constraints() + 6) as f64
-        * 8.0;
-    if bytes > MAX_TRAJECTORY_BYTES {
-        return Err(SettingsError::new(
-            "h",
-            format!("{} steps of {} coordinates would record {:.1} GiB of trajectory (at most {:.0} GiB); increase h or shorten t_end", settings.steps(), model.n_dofs(), bytes / (1u64 << 30) as f64, MAX_TRAJECTORY_BYTES / (1u64 << 30) as f64),
-        )
-        .into());
-    }
-    let densities = model.densities(x)?;
-    let mut integrator = Integrator::new(model, densities, settings);
+    let grid = settings.grid();
+    check_size(model, &grid)?;
+    let mut integrator = Integrator::new(model, model.densities(x)?, settings);
     let mut state = integrator.initial_state()?;
     let mut traj = Trajectory {
         n_q: model.n_dofs(),
         n_c: model.n_constraints(),
         ..Default::default()
     };
-    let mut scratch = EnergyScratch::new(model);
+    let mut energy = EnergyBook::new(model, &integrator, &state);
     traj.record(&state, 0);
-    let mut last = scratch.external_power(&integrator, &state);
-    let driven: Vec<usize> = (0..model.n_constraints())
-        .filter(|&k| model.rows[k].driven)
-        .collect();
-    let angle =
-        |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
-    traj.kinetic.push(scratch.kinetic(&integrator, &state));
-    traj.strain
-        .push(integrator.newton.asm.strain_energy(&state.q));
-    traj.drive_work.push(0.0);
-    traj.external_work.push(0.0);
-    let mut lambda0 = state.lambda.clone();
-    for _ in 0..settings.steps() {
-        let t0 = state.t;
-        lambda0.copy_from_slice(&state.lambda);
-        let report = integrator.alpha_step(&mut state)?;
+    energy.record(&integrator, &state, &mut traj);
+    for &h in grid.steps() {
+        energy.start_step(&state, h);
+        let report = integrator.alpha_step(&mut state, h)?;
         traj.record(&state, report.iterations);
-        let now = scratch.external_power(&integrator, &state);
-        let drives: f64 = driven
-            .iter()
-            .map(|&k| -0.5 * (lambda0[k] + state.lambda[k]) * (angle(k, state.t) - angle(k, t0)))
-            .sum();
-        traj.drive_work
-            .push(traj.drive_work.last().unwrap() + drives);
-        traj.external_work
-            .push(traj.external_work.last().unwrap() + 0.5 * integrator.h * (last + now));
-        traj.kinetic.push(scratch.kinetic(&integrator, &state));
-        traj.strain
-            .push(integrator.newton.asm.strain_energy(&state.q));
-        last = now;
+        energy.record(&integrator, &state, &mut traj);
     }
     Ok(traj)
 }
 
-/// Work vectors for the energy bookkeeping.
-struct EnergyScratch {
+/// Refuses a run whose trajectory would exceed [`MAX_TRAJECTORY_BYTES`].
+fn check_size(model: &Model, grid: &TimeGrid) -> Result<(), SettingsError> {
+    let bytes =
+        (grid.len() + 1) as f64 * (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0;
+    if bytes > MAX_TRAJECTORY_BYTES {
+        return Err(SettingsError::new(
+            "h",
+            format!("{} steps of {} coordinates would record {:.1} GiB of trajectory (at most {:.0} GiB); increase h or shorten t_end", grid.len(), model.n_dofs(), bytes / (1u64 << 30) as f64, MAX_TRAJECTORY_BYTES / (1u64 << 30) as f64),
+        ));
+    }
+    Ok(())
+}
+
+/// The energy bookkeeping of a run: kinetic and strain energy at each state, the work of
+/// the drives and of the loads accumulated step by step.
+struct EnergyBook {
+    /// Driven constraint rows.
+    driven: Vec<usize>,
+    /// `λₙ`, `tₙ` and `hₙ` of the current step.
+    lambda0: Vec<f64>,
+    t0: f64,
+    h: f64,
+    /// External power at the start of the current step.
+    power0: f64,
     force: Vec<f64>,
     mv: Vec<f64>,
 }
 
-impl EnergyScratch {
-    fn new(model: &Model) -> Self {
-        Self {
+impl EnergyBook {
+    fn new(model: &Model, it: &Integrator, s: &State) -> Self {
+        let mut book = Self {
+            driven: (0..model.n_constraints())
+                .filter(|&k| model.rows[k].driven)
+                .collect(),
+            lambda0: s.lam.clone(),
+            t0: s.t,
+            h: 0.0,
+            power0: 0.0,
             force: vec![0.0; model.n_dofs()],
             mv: vec![0.0; model.n_dofs()],
-        }
+        };
+        book.power0 = book.external_power(it, s);
+        book
+    }
+
+    /// Remembers the state at the start of a step of size `h`.
+    fn start_step(&mut self, s: &State, h: f64) {
+        self.lambda0.copy_from_slice(&s.lam);
+        self.t0 = s.t;
+        self.h = h;
+    }
+
+    /// Records the energies of state `s`, with the work done since the step started.
+    fn record(&mut self, it: &Integrator, s: &State, traj: &mut Trajectory) {
+        traj.kinetic.push(self.kinetic(it, s));
+        traj.strain.push(it.assembler().strain_energy(&s.q));
+        let Some(&drive_work) = traj.drive_work.last() else {
+            traj.drive_work.push(0.0);
+            traj.external_work.push(0.0);
+            return;
+        };
+        let model = it.assembler().model;
+        let angle =
+            |k: usize, t: f64| model.joints[model.rows[k].joint].prescribed(&model.rows[k], t)[0];
+        let drives: f64 = self
+            .driven
+            .iter()
+            .map(|&k| -0.5 * (self.lambda0[k] + s.lam[k]) * (angle(k, s.t) - angle(k, self.t0)))
+            .sum();
+        traj.drive_work.push(drive_work + drives);
+        let power = self.external_power(it, s);
+        let external = traj.external_work.last().copied().unwrap_or(0.0);
+        traj.external_work
+            .push(external + 0.5 * self.h * (self.power0 + power));
+        self.power0 = power;
     }
 
     fn kinetic(&mut self, it: &Integrator, s: &State) -> f64 {
-        it.newton.asm.mass_times(&s.v, &mut self.mv);
-        0.5 * dot(&s.v, &self.mv)
+        it.assembler().mass_times(&s.qdot, &mut self.mv);
+        0.5 * dot(&s.qdot, &self.mv)
     }
 
     /// Power `(f_ext + M ĝ)ᵀ q̇` of loads and gravity.
     fn external_power(&mut self, it: &Integrator, s: &State) -> f64 {
-        it.newton.asm.applied_loads(s.t, 1.0, &mut self.force);
-        dot(&self.force, &s.v)
+        it.assembler().applied_loads(s.t, 1.0, &mut self.force);
+        dot(&self.force, &s.qdot)
     }
 }
 

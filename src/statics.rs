@@ -4,46 +4,10 @@
 //! up to `max_cuts` times in a row.
 
 use crate::element::MassKind;
-use crate::error::{SettingsError, SolveError};
+use crate::error::SolveError;
 use crate::model::{Densities, Model};
 use crate::newton::{Newton, Point};
-
-/// Settings of a static solve.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StaticSettings {
-    /// Initial number of equal load steps.
-    pub load_steps: usize,
-    /// Time at which loads and prescribed motions are evaluated (s).
-    pub time: f64,
-    /// Relative Newton tolerance.
-    pub tol: f64,
-    /// Newton iterations per load step.
-    pub max_iter: usize,
-    /// Consecutive step halvings allowed.
-    pub max_cuts: usize,
-}
-
-impl StaticSettings {
-    /// Checks ranges.
-    ///
-    /// # Errors
-    /// A [`SettingsError`] naming the setting.
-    pub fn validate(&self) -> Result<(), SettingsError> {
-        if self.load_steps == 0 {
-            return Err(SettingsError::new("load_steps", "must be at least 1"));
-        }
-        if !(self.tol.is_finite() && self.tol > 0.0 && self.tol < 1.0) {
-            return Err(SettingsError::new(
-                "tol",
-                format!("must lie in (0, 1), got {}", self.tol),
-            ));
-        }
-        if !self.time.is_finite() {
-            return Err(SettingsError::new("t_end", "must be finite"));
-        }
-        Ok(())
-    }
-}
+use crate::settings::StaticSettings;
 
 /// A static equilibrium.
 #[derive(Debug, Clone, PartialEq)]
@@ -58,23 +22,19 @@ pub struct StaticSolution {
     pub load_steps: usize,
 }
 
-/// The Newton machinery of a static solve: stiffness-scaled constraint rows.
-pub fn static_newton<'m>(
+/// The Newton machinery of a static solve (no inertia: stiffness-scaled constraint rows).
+pub(crate) fn static_newton<'m>(
     model: &'m Model,
     densities: Densities,
     settings: &StaticSettings,
 ) -> Newton<'m> {
-    let mut newton = Newton::new(
+    Newton::new(
         model,
         densities,
         MassKind::Consistent,
         settings.tol,
         settings.max_iter,
-    );
-    newton.scale = newton
-        .asm
-        .mean_stiffness_diagonal(&vec![0.0; model.n_dofs()]);
-    newton
+    )
 }
 
 /// Solves for the equilibrium of `model` with element scalings `densities`.
@@ -86,18 +46,18 @@ pub fn solve_static(
     densities: Densities,
     settings: &StaticSettings,
 ) -> Result<StaticSolution, SolveError> {
-    equilibrium(&mut static_newton(model, densities, settings), settings)
+    load_stepping(&mut static_newton(model, densities, settings), settings)
 }
 
 /// Load-stepped Newton solve with the machinery of [`static_newton`].
 ///
 /// # Errors
 /// As [`solve_static`].
-pub fn equilibrium(
+pub(crate) fn load_stepping(
     newton: &mut Newton,
     settings: &StaticSettings,
 ) -> Result<StaticSolution, SolveError> {
-    let model = newton.asm.model;
+    let model = newton.assembler().model;
     let mut q = vec![0.0; model.n_dofs()];
     let mut lambda = vec![0.0; model.n_constraints()];
     let (mut load, mut step, mut cuts) = (0.0, 1.0 / settings.load_steps as f64, 0);
@@ -111,7 +71,7 @@ pub fn equilibrium(
             mass_coefficient: 0.0,
             gamma_prime: 0.0,
         };
-        match newton.solve_point(point, &mut q, &mut lambda, None) {
+        match newton.solve(point, &mut q, &mut lambda, None) {
             Ok(report) => {
                 iterations += report.iterations;
                 steps += 1;

@@ -7,9 +7,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use flextop::element::MassKind;
-use flextop::integrator::{Integrator, Settings};
 use flextop::scene;
+use flextop::{DynamicSettings, Integrator, MassKind};
 
 struct Counting;
 
@@ -49,7 +48,7 @@ fn alpha_steps_do_not_allocate() {
             .replace("split = 1", &format!("split = {split}"));
         let model = scene::build(&scene::parse_toml(&text).unwrap()).unwrap();
         let x = vec![0.4; model.n_variables()];
-        let settings = Settings {
+        let settings = DynamicSettings {
             t_end: 1.3,
             h: 0.02,
             rho_inf: 0.8,
@@ -59,11 +58,14 @@ fn alpha_steps_do_not_allocate() {
         };
         let mut integrator = Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings);
         let mut state = integrator.initial_state().unwrap();
-        integrator.alpha_step(&mut state).unwrap();
+        integrator.alpha_step(&mut state, settings.h).unwrap();
         let before = count();
         let mut iterations = 0;
         for _ in 0..30 {
-            iterations += integrator.alpha_step(&mut state).unwrap().iterations;
+            iterations += integrator
+                .alpha_step(&mut state, settings.h)
+                .unwrap()
+                .iterations;
         }
         let allocations = count() - before;
         assert!(

@@ -11,11 +11,11 @@ from .errors import DesignError, FlextopError, SceneError, SettingsError, Simula
 from .optimizers import OptimizeResult, optimize
 from .problems import TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
 from .scene import GroundStructure, Scene, motion_table, trapezoidal
-from .simulation import Results, Simulation, StaticResults
+from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticResults
 
 __all__ = [
-    "DesignError", "FlextopError", "GroundStructure", "OptimizeResult", "Results", "Scene", "SceneError", "SettingsError",
-    "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
+    "Bars", "DesignError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "Results", "Scene", "SceneError", "SettingsError",
+    "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
     "scenes", "static_truss_problem", "trapezoidal", "volume_constraints",
 ]
 __version__ = "0.1.0"

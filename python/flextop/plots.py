@@ -38,7 +38,7 @@ DPI = 150
 def bar_densities(sim: Simulation, x: Any = None) -> np.ndarray:
     """Density of every bar for design ``x`` (one value per design variable, a scalar, or
     ``None`` for full density); fixed bars (variable −1) are at density 1."""
-    variable = np.asarray(sim.bars["variable"], dtype=int)
+    variable = np.asarray(sim.bars.variable, dtype=int)
     if x is None:
         return np.ones(variable.size)
     xv = np.asarray(x, dtype=float)
@@ -67,7 +67,7 @@ def _bar_style(sim: Simulation, x: Any, cmap: str | Colormap, min_density: float
 
 def _segments(sim: Simulation, positions: np.ndarray) -> np.ndarray:
     """Bar segments ``(n_bars, 2, 2)``: the positions of each bar's two end nodes."""
-    return np.asarray(positions)[np.asarray(sim.bars["nodes"], dtype=int)]
+    return np.asarray(positions)[np.asarray(sim.bars.nodes, dtype=int)]
 
 
 def _save(fig: Figure, path: str | os.PathLike | None) -> Figure:

@@ -55,10 +55,11 @@ class TopologyProblem(Problem):
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective and constraints with their gradients: one run with sensitivities."""
         try:
-            f, dfdx = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **self.settings)
+            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **self.settings)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
-        for key, seconds in self.simulation.last_timings.items():
+        f, dfdx = out
+        for key, seconds in out.timings.items():
             self.timings[key] += seconds
         if self.objective_scale is None:
             self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
@@ -81,9 +82,9 @@ def volume_constraints(simulation: Simulation, fraction: float, *, per_component
     or on the whole structure."""
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"volume fraction must lie in (0, 1], got {fraction}")
-    volume = np.asarray(simulation.bars["volume"])
-    fixed = np.asarray(simulation.bars["variable"]) < 0
-    component = np.asarray(simulation.bars["component"])
+    volume = np.asarray(simulation.bars.volume)
+    fixed = np.asarray(simulation.bars.variable) < 0
+    component = np.asarray(simulation.bars.component)
     if not per_component:
         return [("volume", fraction * volume[~fixed].sum() + volume[fixed].sum())]
     return [(f"volume:{name}", fraction * volume[(component == k) & ~fixed].sum() + volume[(component == k) & fixed].sum())

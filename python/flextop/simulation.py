@@ -11,7 +11,7 @@ import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -27,6 +27,65 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     if isinstance(scene, dict):
         return scene
     return Scene.from_toml(Path(scene)).to_dict()
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``), node
+    indices, the ``range`` of its constraint rows in ``lam`` (the drive row last) and
+    whether a motion law drives it."""
+
+    name: str
+    kind: str
+    nodes: tuple[int, ...]
+    rows: range
+    driven: bool
+
+
+@dataclass(frozen=True, eq=False)
+class Bars:
+    """The scene's bars, one entry per bar in each array: ``name``, end ``nodes``
+    ``(n_bars, 2)``, design ``variable`` (−1 for a bar of fixed full density), ``component``
+    index into :attr:`Simulation.components`, full-density ``volume`` (m³)."""
+
+    name: tuple[str, ...]
+    nodes: np.ndarray
+    variable: np.ndarray
+    component: np.ndarray
+    volume: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.name)
+
+
+@dataclass(frozen=True, eq=False)
+class Sensitivities:
+    """Responses and their exact gradients from :meth:`Simulation.run_with_sensitivities`.
+
+    Unpacks as ``f, dfdx = ...``. ``values`` has shape ``(n_r,)``, ``gradients``
+    ``(n_r, n_design)``, in the order of ``names``; ``method`` is the method used
+    (``"direct"`` or ``"adjoint"``) and ``timings`` the seconds spent in the simulation and
+    in the sensitivity analysis.
+    """
+
+    names: tuple[str, ...]
+    values: np.ndarray
+    gradients: np.ndarray
+    method: str
+    timings: dict[str, float]
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        return iter((self.values, self.gradients))
+
+    def __getitem__(self, index: int) -> np.ndarray:
+        return (self.values, self.gradients)[index]
+
+    def __len__(self) -> int:
+        return 2
+
+    def __repr__(self) -> str:
+        pairs = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.values))
+        return f"Sensitivities({pairs}; method={self.method!r})"
 
 
 class Simulation:
@@ -56,8 +115,10 @@ class Simulation:
             spec = refine(spec, chosen)
             self._defaults["tol"] = chosen.tol
         self.model = _core.Model.from_dict(spec)
-        self._bars = self.model.bars()
-        self._joints = self.model.joints()
+        raw = self.model.bars()
+        self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
+                         np.asarray(raw["component"], dtype=int), np.asarray(raw["volume"]))
+        self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
 
     # -- description --------------------------------------------------------------------
 
@@ -69,7 +130,7 @@ class Simulation:
     @property
     def n_design(self) -> int:
         """Number of design variables."""
-        return self.model.n_variables
+        return self.model.n_design
 
     @property
     def x_min(self) -> float:
@@ -87,12 +148,6 @@ class Simulation:
     @property
     def components(self) -> list[str]:
         return self.model.components
-
-    @property
-    def bars(self) -> dict[str, Any]:
-        """Bars: end ``nodes``, design ``variable`` (−1 if fixed), ``component``, full
-        ``volume`` (m³), ``name``."""
-        return self._bars
 
     @property
     def tip(self) -> int | None:
@@ -127,18 +182,19 @@ class Simulation:
         xv = self._design(x)
         if self.analysis == "static":
             settings = self._settings(t_end=t_end, tol=tol, max_iter=max_iter, load_steps=load_steps)
-            return StaticResults(self, self.model.solve_static(xv, settings), xv)
+            return StaticResults(self, _core.solve_static(self.model, xv, settings), xv)
         settings = self._settings(t_end=t_end, h=h, rho_inf=rho_inf, tol=tol, max_iter=max_iter, mass=mass)
-        return Results(self, self.model.simulate(xv, settings), xv)
+        return Results(self, _core.simulate(self.model, xv, settings), xv)
 
     def _settings(self, **given: Any) -> dict[str, Any]:
         """Run settings given explicitly, over the accuracy preset's defaults."""
         return {**self._defaults, **{k: v for k, v in given.items() if v is not None}}
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
-                               method: str = "auto", memory: str = "auto", **settings: Any) -> tuple[np.ndarray, np.ndarray]:
+                               method: str = "auto", memory: str = "auto", **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
-        (``(n_r, n_design)``) for design ``x``.
+        (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
+        ``f, dfdx``.
 
         Responses, by name: ``"compliance"`` (mean compliance over the motion, paper Eq. 39,
         or ``Fᵀu`` for a static scene), ``"compliance:COMPONENT"``, ``"tip_deflection"``
@@ -153,18 +209,16 @@ class Simulation:
         responses than variables). ``memory`` (adjoint): ``"store"`` keeps every step's
         state, ``"checkpoints"`` keeps full states every ⌈√N⌉ steps and replays segments
         backwards (memory O(√N), one more forward sweep), ``"auto"`` checkpoints past 512 MiB.
-        ``settings`` are those of :meth:`run`. Afterwards
-        ``last_method`` tells the method used and ``last_timings`` the seconds spent in the
-        simulation and in the sensitivity analysis.
+        ``settings`` are those of :meth:`run`. The result tells the method used and the
+        seconds spent in the simulation and in the sensitivity analysis.
         """
         names = [responses] if isinstance(responses, str) else list(responses)
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        out = self.model.run_with_sensitivities(xv, names, method, memory, self._settings(**settings))
-        self.last_method = out["method"]
-        self.last_timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
-        return out["values"], out["gradients"]
+        out = _core.run_with_sensitivities(self.model, xv, names, self._settings(method=method, memory=memory, **settings))
+        timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
+        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings)
 
     def _design(self, x: Any) -> np.ndarray | None:
         if x is None:
@@ -174,12 +228,12 @@ class Simulation:
             return np.full(self.n_design, float(xv))
         return np.ascontiguousarray(xv)
 
-    def linearize(self, x: Any = None, u: Any = None, *, mass: str | None = None) -> tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]:
-        """Mass ``M``, tangent stiffness ``K_t(u)`` (at the reference state by default) and
+    def linearize(self, x: Any = None, q: Any = None, *, mass: str | None = None) -> tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]:
+        """Mass ``M``, tangent stiffness ``K_t(q)`` (at the reference state by default) and
         constraint Jacobian ``G = Φ_q`` as scipy sparse matrices."""
-        uv = None if u is None else np.ascontiguousarray(u, dtype=float)
-        raw = self.model.linearize(self._design(x), uv, self._settings(mass=mass))
-        return tuple(sp.csc_matrix(tuple(map(np.asarray, raw[k][0])), shape=raw[k][1]) for k in ("M", "K", "G"))
+        qv = None if q is None else np.ascontiguousarray(q, dtype=float)
+        raw = _core.linearize(self.model, self._design(x), qv, self._settings(mass=mass))
+        return tuple(sp.csc_matrix((m["data"], m["indices"], m["indptr"]), shape=m["shape"]) for m in (raw[k] for k in ("M", "K", "G")))
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, mass: str | None = None) -> np.ndarray:
         """The ``n`` lowest natural frequencies (Hz) of the structure linearized at rest, on
@@ -195,7 +249,7 @@ class Simulation:
     def rigid_positions(self, times: Any) -> np.ndarray:
         """Positions (m) of every node at ``times`` when every frame is rigid and the joints
         follow their drives, shape ``(len(times), n_nodes, 2)``."""
-        return self.model.rigid_positions([float(t) for t in np.atleast_1d(times)])
+        return _core.rigid_positions(self.model, [float(t) for t in np.atleast_1d(times)])
 
     def rigid_trajectory(self, node: int | str, times: Any) -> np.ndarray:
         """Position (m) of ``node`` at ``times`` when every frame is rigid and the joints
@@ -215,31 +269,34 @@ class _Run:
     x: np.ndarray | None = None
 
     @property
-    def u(self) -> np.ndarray:
-        """Solved coordinates: displacements and rotations from the reference, three per node."""
+    def q(self) -> np.ndarray:
+        """Solved coordinates ``q``: displacements and rotations from the reference
+        configuration, three per node (``(u, v, φ)``)."""
         return self.raw["q"]
 
     @property
     def lam(self) -> np.ndarray:
-        """Lagrange multipliers, one per constraint row."""
+        """Lagrange multipliers ``λ``, one per constraint row."""
         return self.raw["lam"]
 
     @cached_property
     def reactions(self) -> dict[str, np.ndarray]:
         """Per joint, the force (and, for a drive row, torque) it applies on the structure:
         ``−λ`` of its constraint rows."""
-        return {name: -self.lam[..., first:first + count] for name, _kind, _nodes, first, count, _driven in self.simulation._joints}
+        return {j.name: -self.lam[..., j.rows.start:j.rows.stop] for j in self.simulation.joints}
 
-    def _evaluate(self, name: str, u: np.ndarray, h: float, load_time: float = 0.0) -> float:
-        return float(self.simulation.model.evaluate_responses(self.x, u, h, load_time, [name])[0])
+    def _evaluate(self, name: str, q: np.ndarray, times: np.ndarray, load_time: float = 0.0) -> float:
+        return float(_core.evaluate_responses(self.simulation.model, self.x, q, list(map(float, times)), load_time, [name])[0])
 
 
 @dataclass
 class Results(_Run):
-    """Time histories of a dynamic run (one row per time ``t_n``).
+    """Time histories of a dynamic run (one row per time ``t_n``): ``q``, ``qdot``,
+    ``qddot``, ``lam``, as the engine and saved files name them.
 
-    ``u`` holds the solved coordinates — displacements and rotations from the reference
-    configuration, three per node — and ``q`` the absolute nodal coordinates ``(x, y, φ)``.
+    ``q`` holds the solved coordinates — displacements and rotations from the reference
+    configuration, three per node; :attr:`coordinates` the absolute nodal coordinates
+    ``(x, y, φ)`` of the paper.
     """
 
     @property
@@ -247,35 +304,37 @@ class Results(_Run):
         return self.raw["time"]
 
     @property
-    def q(self) -> np.ndarray:
-        """Absolute nodal coordinates ``(x, y, φ)`` per node."""
-        ref = np.zeros(self.u.shape[1])
+    def coordinates(self) -> np.ndarray:
+        """Absolute nodal coordinates ``(x, y, φ)`` per node: ``q`` plus the reference."""
+        ref = np.zeros(self.q.shape[1])
         ref.reshape(-1, 3)[:, :2] = self.simulation.model.reference_positions
-        return self.u + ref
+        return self.q + ref
 
     @property
     def qdot(self) -> np.ndarray:
+        """Velocities ``q̇``."""
         return self.raw["qdot"]
 
     @property
     def qddot(self) -> np.ndarray:
+        """Accelerations ``q̈``."""
         return self.raw["qddot"]
 
     @cached_property
     def positions(self) -> np.ndarray:
         """Node positions, shape ``(n_times, n_nodes, 2)``."""
-        return self.q.reshape(len(self.time), -1, 3)[:, :, :2]
+        return self.coordinates.reshape(len(self.time), -1, 3)[:, :, :2]
 
     @cached_property
     def rotations(self) -> np.ndarray:
         """Node rotations from the reference, shape ``(n_times, n_nodes)``."""
-        return self.u.reshape(len(self.time), -1, 3)[:, :, 2]
+        return self.q.reshape(len(self.time), -1, 3)[:, :, 2]
 
     @cached_property
     def motor_torques(self) -> dict[str, np.ndarray]:
         """Per driven joint, the motor torque applied on the driven node (N m): its drive row,
         the last of its reactions."""
-        return {name: self.reactions[name][..., -1] for name, _kind, _nodes, _first, _count, driven in self.simulation._joints if driven}
+        return {j.name: self.reactions[j.name][..., -1] for j in self.simulation.joints if j.driven}
 
     @property
     def energies(self) -> dict[str, np.ndarray]:
@@ -296,7 +355,7 @@ class Results(_Run):
     def response(self, name: str) -> float:
         """Value of a response of :meth:`Simulation.run_with_sensitivities` (e.g.
         ``"compliance"``) on this run — the same discrete value the gradients refer to."""
-        return self._evaluate(name, self.u, self.raw["h"])
+        return self._evaluate(name, self.q, self.time)
 
     def tip_deflection(self, node: int | str | None = None) -> float:
         """Mean squared tip deflection ``d = (1/t_f) ∫ |e|² dt`` (paper Eq. 40, m²), by the
@@ -320,12 +379,12 @@ class StaticResults(_Run):
 
     def response(self, name: str) -> float:
         """Value of a response (``"compliance"`` is ``Fᵀu``) at this equilibrium."""
-        return self._evaluate(name, self.u[None, :], 0.0, self.raw["time"])
+        return self._evaluate(name, self.q[None, :], np.zeros(1), self.raw["time"])
 
     @property
     def positions(self) -> np.ndarray:
         """Node positions, shape ``(n_nodes, 2)``."""
-        return self.simulation.model.reference_positions + self.u.reshape(-1, 3)[:, :2]
+        return self.simulation.model.reference_positions + self.q.reshape(-1, 3)[:, :2]
 
     @property
     def newton(self) -> dict[str, Any]:
@@ -334,4 +393,4 @@ class StaticResults(_Run):
     def displacement(self, node: int | str) -> np.ndarray:
         """Displacement ``(u, v, φ)`` of ``node``."""
         index = self.simulation.node(node) if isinstance(node, str) else int(node)
-        return self.u[3 * index:3 * index + 3]
+        return self.q[3 * index:3 * index + 3]

@@ -19,9 +19,9 @@ use crate::interpolation::Interpolation;
 use crate::load::{NodalLoad, TimeFunction};
 use crate::model::{size_of, Analysis, Bar, Design, Element, Model, Node, PointMass};
 use crate::motion::{Motion, Table, Trapezoidal};
-use crate::options::RunOptions;
 use crate::rigid::{redundant_rows, Clusters};
 use crate::section::Section;
+use crate::settings::RunOptions;
 
 type Result<T> = std::result::Result<T, SceneError>;
 

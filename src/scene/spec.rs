@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
-use crate::options::RunOptions;
+use crate::settings::RunOptions;
 
 /// A whole scene.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]

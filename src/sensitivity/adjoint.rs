@@ -23,12 +23,13 @@ use std::time::Instant;
 
 use faer::dyn_stack::MemBuffer;
 
-use super::{Memory, Method, Objectives, PseudoLoads, Sensitivities, Timings};
+use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
-use crate::integrator::{AlphaParameters, Integrator, Settings, State};
-use crate::linsolve::FactorError;
-use crate::model::Model;
+use crate::integrator::{AlphaParameters, Integrator, State};
+use crate::model::{Densities, Model};
 use crate::response::{Context, Response};
+use crate::settings::{DynamicSettings, Memory};
+use crate::time_grid::TimeGrid;
 
 /// The `(qₙ, q̈ₙ)` of a run, for the backward sweep.
 enum StateStore {
@@ -50,7 +51,7 @@ impl StateStore {
         match self {
             Self::All { q, acc } => {
                 q.extend_from_slice(&s.q);
-                acc.extend_from_slice(&s.acc);
+                acc.extend_from_slice(&s.qddot);
             }
             Self::Checkpoints {
                 interval, states, ..
@@ -67,11 +68,12 @@ impl StateStore {
     fn get(
         &mut self,
         it: &mut Integrator,
+        grid: &TimeGrid,
         n: usize,
-        last: usize,
         prefer_below: bool,
     ) -> Result<(&[f64], &[f64]), Error> {
-        let n_q = it.newton.asm.model.n_dofs();
+        let last = grid.len();
+        let n_q = it.assembler().model.n_dofs();
         let rows = |k: usize| k * n_q..(k + 1) * n_q;
         match self {
             Self::All { q, acc } => Ok((&q[rows(n)], &acc[rows(n)])),
@@ -95,11 +97,11 @@ impl StateStore {
                     q.clear();
                     acc.clear();
                     q.extend_from_slice(&state.q);
-                    acc.extend_from_slice(&state.acc);
-                    for _ in *first + 1..=(*first + k).min(last) {
-                        it.alpha_step(&mut state)?;
+                    acc.extend_from_slice(&state.qddot);
+                    for step in *first..(*first + k).min(last) {
+                        it.alpha_step(&mut state, grid.step(step))?;
                         q.extend_from_slice(&state.q);
-                        acc.extend_from_slice(&state.acc);
+                        acc.extend_from_slice(&state.qddot);
                     }
                 }
                 let r = rows(n - *first);
@@ -108,170 +110,239 @@ impl StateStore {
         }
     }
 
-    /// The checkpoint interval `memory` asks for with `n_q` DOFs over `steps` steps, if any.
-    fn checkpoint_interval(memory: Memory, n_q: usize, steps: usize) -> Option<usize> {
-        let interval = (steps as f64).sqrt().ceil() as usize;
-        match memory {
-            Memory::StoreAll => None,
-            Memory::Checkpoints => Some(interval.max(1)),
-            Memory::Auto { budget_bytes } => {
-                (2 * n_q * (steps + 1) * 8 > budget_bytes).then_some(interval.max(1))
+    /// What `memory` asks for with `n_q` DOFs over `steps` steps: every state, or full
+    /// states every `⌈√steps⌉` steps.
+    fn new(memory: Memory, n_q: usize, steps: usize) -> Self {
+        let interval = ((steps as f64).sqrt().ceil() as usize).max(1);
+        let checkpoints = match memory {
+            Memory::StoreAll => false,
+            Memory::Checkpoints => true,
+            Memory::Auto { budget_bytes } => 2 * n_q * (steps + 1) * 8 > budget_bytes,
+        };
+        if checkpoints {
+            Self::Checkpoints {
+                interval,
+                states: Vec::new(),
+                first: 0,
+                q: Vec::new(),
+                acc: Vec::new(),
+            }
+        } else {
+            Self::All {
+                q: Vec::with_capacity(n_q * (steps + 1)),
+                acc: Vec::with_capacity(n_q * (steps + 1)),
             }
         }
     }
 }
 
-/// Runs the simulation, keeping what the backward sweep needs, then the adjoint sweep.
+/// Runs the simulation on `grid`, keeping what the backward sweep needs, then the adjoint
+/// sweep.
 pub(crate) fn run(
     model: &Model,
-    x: &[f64],
-    settings: &Settings,
+    densities: Densities,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
     responses: &[Response],
     memory: Memory,
 ) -> Result<Sensitivities, Error> {
-    let densities = model.densities(Some(x))?;
     let mut it = Integrator::new(model, densities, settings);
-    let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
-    let n = n_q + model.n_constraints();
-    let last = settings.steps();
-    let objectives = Objectives::new(model, responses, last, settings.step())?;
-    let pseudo = PseudoLoads::new(model, settings.mass);
-    let mut store = match StateStore::checkpoint_interval(memory, n_q, last) {
-        None => StateStore::All {
-            q: Vec::with_capacity(n_q * (last + 1)),
-            acc: Vec::with_capacity(n_q * (last + 1)),
-        },
-        Some(interval) => StateStore::Checkpoints {
-            interval,
-            states: Vec::new(),
-            first: 0,
-            q: Vec::new(),
-            acc: Vec::new(),
-        },
-    };
-
-    // Forward sweep: the values, and the states (or checkpoints) of the backward sweep.
+    let objectives = Objectives::new(model, responses, grid)?;
+    let mut store = StateStore::new(memory, model.n_dofs(), grid.len());
     let clock = Instant::now();
-    let mut state = it.initial_state()?;
-    let mut values = vec![0.0; n_r];
-    for step in 0..=last {
-        if step > 0 {
-            it.alpha_step(&mut state)?;
-        }
-        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
-        objectives.add_values(&ctx, step, &state.q, &mut values);
-        store.record(step, &state);
-    }
+    let values = forward(&mut it, grid, &objectives, settings, &mut store)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-
-    // Backward sweep, one column per response.
-    let AlphaParameters {
-        alpha_m,
-        alpha_f,
-        beta,
-        gamma,
-    } = it.params;
-    let h = it.h;
-    let bp = it.params.beta_prime(h);
-    let (mut qb, mut vb, mut ab, mut acc_b) = (
-        vec![0.0; n_q * n_r],
-        vec![0.0; n_q * n_r],
-        vec![0.0; n_q * n_r],
-        vec![0.0; n_q * n_r],
-    );
-    let mut xb = vec![0.0; n_x * n_r];
-    let mut rhs = vec![0.0; n * n_r];
-    let mut c = vec![0.0; n_q];
-    let mut scratch: MemBuffer = it.newton.ldlt.scratch_for(n_r);
-    let singular =
-        |t: f64| move |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
-    let add_local = |it: &Integrator, step: usize, q: &[f64], qb: &mut [f64], xb: &mut [f64]| {
-        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
-        for k in 0..n_r {
-            objectives.add_partials(
-                &ctx,
-                k,
-                step,
-                q,
-                &mut qb[k * n_q..(k + 1) * n_q],
-                &mut xb[k * n_x..(k + 1) * n_x],
-            );
-        }
-    };
-    let (q_last, _) = store.get(&mut it, last, last, true)?;
-    add_local(&it, last, q_last, &mut qb, &mut xb);
-    for step in (0..last).rev() {
-        let (q1, acc1) = store.get(&mut it, step + 1, last, true)?;
-        let t1 = (step + 1) as f64 * h;
-        for k in 0..n_r {
-            let r = k * n_q..(k + 1) * n_q;
-            let out = &mut rhs[k * n..(k + 1) * n];
-            for i in 0..n_q {
-                let a_total = ab[r.start + i] + h * gamma * vb[r.start + i];
-                out[i] = qb[r.start + i] + bp * acc_b[r.start + i] + a_total / (h * h * beta);
-                ab[r.start + i] = a_total; // kept for P̄ below
-            }
-            out[n_q..].fill(0.0);
-        }
-        it.newton.factorize_at(Some(q1), bp, it.newton.scale, t1)?;
-        it.newton
-            .ldlt
-            .solve_block(&mut rhs, n_r, &mut scratch)
-            .map_err(singular(t1))?;
-        let asm = &it.newton.asm;
-        for k in 0..n_r {
-            let r = k * n_q..(k + 1) * n_q;
-            let mu = &rhs[k * n..k * n + n_q];
-            pseudo.subtract_transposed(asm, q1, Some(acc1), mu, &mut xb[k * n_x..(k + 1) * n_x]);
-            asm.mass_times(mu, &mut c);
-            for i in 0..n_q {
-                let j = r.start + i;
-                let cbar = acc_b[j] - c[i];
-                let pbar = -ab[j] / (h * h * beta) - bp * cbar;
-                let vbar = vb[j];
-                qb[j] = pbar;
-                vb[j] = vbar + h * pbar;
-                ab[j] = h * (1.0 - gamma) * vbar
-                    + alpha_m * cbar / (1.0 - alpha_f)
-                    + h * h * (0.5 - beta) * pbar;
-                acc_b[j] = -alpha_f * cbar / (1.0 - alpha_f);
-            }
-        }
-        let (q0, _) = store.get(&mut it, step, last, false)?;
-        add_local(&it, step, q0, &mut qb, &mut xb);
+    let mut sweep = Sweep::new(model, &it, settings, responses.len());
+    let last = grid.len();
+    let (q_last, _) = store.get(&mut it, grid, last, true)?;
+    sweep.add_local(&it, &objectives, last, q_last);
+    for n in (0..last).rev() {
+        let (q1, acc1) = store.get(&mut it, grid, n + 1, true)?;
+        sweep.step(&mut it, q1, acc1, grid.times()[n + 1], grid.step(n))?;
+        let (q0, _) = store.get(&mut it, grid, n, false)?;
+        sweep.add_local(&it, &objectives, n, q0);
     }
-    // t = 0: q̈'₀ from [M, Φ_qᵀ; Φ_q, 0]; a'₀ = q̈'₀.
-    for k in 0..n_r {
-        let out = &mut rhs[k * n..(k + 1) * n];
-        for i in 0..n_q {
-            out[i] = acc_b[k * n_q + i] + ab[k * n_q + i];
-        }
-        out[n_q..].fill(0.0);
-    }
-    let (q0, acc0) = store.get(&mut it, 0, last, false)?;
-    let s0 = it.newton.initial_scale();
-    it.newton.factorize_at(None, 1.0, s0, 0.0)?;
-    it.newton
-        .ldlt
-        .solve_block(&mut rhs, n_r, &mut scratch)
-        .map_err(singular(0.0))?;
-    for k in 0..n_r {
-        pseudo.subtract_transposed(
-            &it.newton.asm,
-            q0,
-            Some(acc0),
-            &rhs[k * n..k * n + n_q],
-            &mut xb[k * n_x..(k + 1) * n_x],
-        );
-    }
+    let (q0, acc0) = store.get(&mut it, grid, 0, false)?;
+    sweep.initial(&mut it, q0, acc0)?;
     Ok(Sensitivities {
         values,
-        gradients: xb,
+        gradients: sweep.xb,
         method: Method::Adjoint,
         timings: Timings {
             simulation,
             gradients: clock.elapsed().as_secs_f64(),
         },
     })
+}
+
+/// Forward sweep: the response values, and the states (or checkpoints) of the backward
+/// sweep.
+fn forward(
+    it: &mut Integrator,
+    grid: &TimeGrid,
+    objectives: &Objectives,
+    settings: &DynamicSettings,
+    store: &mut StateStore,
+) -> Result<Vec<f64>, Error> {
+    let model = it.assembler().model;
+    let mut state = it.initial_state()?;
+    let mut values = vec![0.0; objectives.responses.len()];
+    for n in 0..=grid.len() {
+        if n > 0 {
+            it.alpha_step(&mut state, grid.step(n - 1))?;
+        }
+        let ctx = Context::dynamic(model, &it.assembler().densities, settings.mass);
+        objectives.add_values(&ctx, n, &state.q, &mut values);
+        store.record(n, &state);
+    }
+    Ok(values)
+}
+
+/// The adjoint variables of every response (column-major, one column each) and the
+/// gradients accumulated so far.
+struct Sweep<'a> {
+    model: &'a Model,
+    pseudo: PseudoLoads,
+    mass: crate::element::MassKind,
+    n_q: usize,
+    n: usize,
+    n_x: usize,
+    n_r: usize,
+    /// `q̄`, `q̄̇`, `ā`, `Ā`, each `n_q × n_r`.
+    qb: Vec<f64>,
+    vb: Vec<f64>,
+    ab: Vec<f64>,
+    acc_b: Vec<f64>,
+    /// `x̄`, row-major `n_r × n_x`: the gradients.
+    xb: Vec<f64>,
+    rhs: Vec<f64>,
+    c: Vec<f64>,
+    scratch: MemBuffer,
+}
+
+impl<'a> Sweep<'a> {
+    fn new(model: &'a Model, it: &Integrator, settings: &DynamicSettings, n_r: usize) -> Self {
+        let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+        let n = n_q + model.n_constraints();
+        Self {
+            model,
+            pseudo: PseudoLoads::new(model, settings.mass),
+            mass: settings.mass,
+            n_q,
+            n,
+            n_x,
+            n_r,
+            qb: vec![0.0; n_q * n_r],
+            vb: vec![0.0; n_q * n_r],
+            ab: vec![0.0; n_q * n_r],
+            acc_b: vec![0.0; n_q * n_r],
+            xb: vec![0.0; n_x * n_r],
+            rhs: vec![0.0; n * n_r],
+            c: vec![0.0; n_q],
+            scratch: it.newton.scratch(n_r),
+        }
+    }
+
+    /// Adds `wₙ G_q` of state `n` to `q̄` and `wₙ G_x` to `x̄`.
+    fn add_local(&mut self, it: &Integrator, objectives: &Objectives, n: usize, q: &[f64]) {
+        let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
+        let (n_q, n_x) = (self.n_q, self.n_x);
+        for k in 0..self.n_r {
+            objectives.add_partials(
+                &ctx,
+                k,
+                n,
+                q,
+                &mut self.qb[k * n_q..(k + 1) * n_q],
+                &mut self.xb[k * n_x..(k + 1) * n_x],
+            );
+        }
+    }
+
+    /// The transposed step from `n + 1` (state `q1`, `acc1` at `t1`) back to `n`, for a step
+    /// of size `h`.
+    fn step(
+        &mut self,
+        it: &mut Integrator,
+        q1: &[f64],
+        acc1: &[f64],
+        t1: f64,
+        h: f64,
+    ) -> Result<(), SolveError> {
+        let AlphaParameters {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = it.params;
+        let bp = it.params.beta_prime(h);
+        let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
+        for k in 0..self.n_r {
+            let r = k * n_q..(k + 1) * n_q;
+            let out = &mut self.rhs[k * n..(k + 1) * n];
+            for i in 0..n_q {
+                let j = r.start + i;
+                let a_total = self.ab[j] + h * gamma * self.vb[j];
+                out[i] = self.qb[j] + bp * self.acc_b[j] + a_total / (h * h * beta);
+                self.ab[j] = a_total; // kept for P̄ below
+            }
+            out[n_q..].fill(0.0);
+        }
+        it.newton.factorize(Some(q1), bp, t1)?;
+        it.newton
+            .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
+        let asm = it.assembler();
+        for k in 0..self.n_r {
+            let r = k * n_q..(k + 1) * n_q;
+            let mu = &self.rhs[k * n..k * n + n_q];
+            self.pseudo.subtract_transposed(
+                asm,
+                q1,
+                Some(acc1),
+                mu,
+                &mut self.xb[k * n_x..(k + 1) * n_x],
+            );
+            asm.mass_times(mu, &mut self.c);
+            for i in 0..n_q {
+                let j = r.start + i;
+                let cbar = self.acc_b[j] - self.c[i];
+                let pbar = -self.ab[j] / (h * h * beta) - bp * cbar;
+                let vbar = self.vb[j];
+                self.qb[j] = pbar;
+                self.vb[j] = vbar + h * pbar;
+                self.ab[j] = h * (1.0 - gamma) * vbar
+                    + alpha_m * cbar / (1.0 - alpha_f)
+                    + h * h * (0.5 - beta) * pbar;
+                self.acc_b[j] = -alpha_f * cbar / (1.0 - alpha_f);
+            }
+        }
+        Ok(())
+    }
+
+    /// `t = 0`: `q̈'₀` from `[M, Φ_qᵀ; Φ_q, 0]`, `a'₀ = q̈'₀`, so the initial-acceleration
+    /// system takes `Ā₀ + ā₀`.
+    fn initial(&mut self, it: &mut Integrator, q0: &[f64], acc0: &[f64]) -> Result<(), SolveError> {
+        let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
+        for k in 0..self.n_r {
+            let out = &mut self.rhs[k * n..(k + 1) * n];
+            for i in 0..n_q {
+                out[i] = self.acc_b[k * n_q + i] + self.ab[k * n_q + i];
+            }
+            out[n_q..].fill(0.0);
+        }
+        it.newton.factorize(None, 1.0, 0.0)?;
+        it.newton
+            .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
+        for k in 0..self.n_r {
+            self.pseudo.subtract_transposed(
+                it.assembler(),
+                q0,
+                Some(acc0),
+                &self.rhs[k * n..k * n + n_q],
+                &mut self.xb[k * n_x..(k + 1) * n_x],
+            );
+        }
+        Ok(())
+    }
 }

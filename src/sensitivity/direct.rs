@@ -1,7 +1,7 @@
 //! Direct differentiation of the generalized-α scheme (paper Algorithm 2, Eq. 20–24).
 //!
 //! For each design variable `j` the sensitivities `(q', q̇', q̈', a')` follow the linear
-//! step (primes are `∂/∂x_j`):
+//! step (primes are `∂/∂x_j`; `h`, `β'`, `γ'` of the step taken):
 //!
 //! ```text
 //! Pₙ  = q'ₙ + h q̇'ₙ + h²(½ − β) a'ₙ
@@ -14,168 +14,255 @@
 //! from the initial-acceleration system. The factorization of `S_t` is shared by all
 //! columns, which are solved in blocks in parallel (rayon).
 
+use std::time::Instant;
+
 use faer::dyn_stack::MemBuffer;
 use rayon::prelude::*;
 
-use std::time::Instant;
-
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
+use crate::element::MassKind;
 use crate::error::{Error, SolveError};
-use crate::integrator::{AlphaParameters, Integrator, Settings};
-use crate::linsolve::FactorError;
-use crate::model::Model;
+use crate::integrator::{AlphaParameters, Integrator, State};
+use crate::model::{Densities, Model};
 use crate::response::{Context, Response};
+use crate::settings::DynamicSettings;
+use crate::time_grid::TimeGrid;
 
 /// Columns per parallel block.
 fn block_width(n_x: usize) -> usize {
     n_x.div_ceil(4 * rayon::current_num_threads()).clamp(1, 64)
 }
 
-/// Runs the simulation and its direct sensitivity analysis.
+/// Runs the simulation on `grid` and its direct sensitivity analysis.
 pub(crate) fn run(
     model: &Model,
-    x: &[f64],
-    settings: &Settings,
+    densities: Densities,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
     responses: &[Response],
 ) -> Result<Sensitivities, Error> {
-    let densities = model.densities(Some(x))?;
     let mut it = Integrator::new(model, densities, settings);
-    let (n_q, n_x) = (model.n_dofs(), model.n_variables());
-    let n = n_q + model.n_constraints();
-    let last = settings.steps();
-    let objectives = Objectives::new(model, responses, last, settings.step())?;
-    let pseudo = PseudoLoads::new(model, settings.mass);
-    let AlphaParameters {
-        alpha_m,
-        alpha_f,
-        beta,
-        gamma,
-    } = it.params;
-    let h = it.h;
-    let (bp, gp) = (it.params.beta_prime(h), it.params.gamma_prime(h));
-    let width = block_width(n_x);
-    let mut scratch: Vec<MemBuffer> = (0..n_x.div_ceil(width))
-        .map(|_| it.newton.ldlt.scratch_for(width))
-        .collect();
-    // Sensitivity states, column-major n_q × n_x: q', q̇', q̈', a'.
-    let (mut dq, mut dv, mut dacc, mut da) = (
-        vec![0.0; n_q * n_x],
-        vec![0.0; n_q * n_x],
-        vec![0.0; n_q * n_x],
-        vec![0.0; n_q * n_x],
-    );
-    let mut rhs = vec![0.0; n * n_x];
+    let objectives = Objectives::new(model, responses, grid)?;
+    let mut sweep = Sweep::new(model, &it, settings, responses.len());
     let mut timings = Timings::default();
     let clock = Instant::now();
     let mut state = it.initial_state()?;
     timings.simulation += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let singular =
-        |t: f64| move |FactorError::Singular(detail)| SolveError::Singular { time: t, detail };
-
-    // t = 0: [M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0].
-    let s0 = it.newton.initial_scale();
-    it.newton.factorize_at(None, 1.0, s0, 0.0)?;
-    pseudo.subtract_columns(
-        &it.newton.asm,
-        &state.q,
-        Some(&state.acc),
-        &mut rhs,
-        n,
-        0..n_x,
-    );
-    let ldlt = &it.newton.ldlt;
-    rhs.par_chunks_mut(n * width)
-        .zip(scratch.par_iter_mut())
-        .try_for_each(|(block, buf)| ldlt.solve_block(block, block.len() / n, buf))
-        .map_err(singular(0.0))?;
-    for j in 0..n_x {
-        dacc[j * n_q..(j + 1) * n_q].copy_from_slice(&rhs[j * n..j * n + n_q]);
-    }
-    da.copy_from_slice(&dacc);
-
-    let mut values = vec![0.0; responses.len()];
-    let mut gradients = vec![0.0; responses.len() * n_x];
-    let (mut g_q, mut g_x) = (vec![0.0; n_q], vec![0.0; n_x]);
-    let mut accumulate = |it: &Integrator, step: usize, q: &[f64], dq: &[f64]| {
-        let ctx = Context::dynamic(model, &it.newton.asm.densities, settings.mass);
-        objectives.add_values(&ctx, step, q, &mut values);
-        for k in 0..responses.len() {
-            g_q.fill(0.0);
-            g_x.fill(0.0);
-            objectives.add_partials(&ctx, k, step, q, &mut g_q, &mut g_x);
-            let row = &mut gradients[k * n_x..(k + 1) * n_x];
-            row.par_iter_mut()
-                .enumerate()
-                .for_each(|(j, g)| *g += g_x[j] + dot(&g_q, &dq[j * n_q..(j + 1) * n_q]));
-        }
-    };
-    accumulate(&it, 0, &state.q, &dq);
+    sweep.initial(&mut it, &state)?;
+    sweep.accumulate(&it, &objectives, 0, &state.q);
     timings.gradients += clock.elapsed().as_secs_f64();
-
-    for step in 1..=last {
+    for (n, &h) in grid.steps().iter().enumerate() {
         let clock = Instant::now();
-        it.alpha_step(&mut state)?;
+        it.alpha_step(&mut state, h)?;
         timings.simulation += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
-        it.newton
-            .factorize_at(Some(&state.q), bp, it.newton.scale, state.t)?;
-        let (asm, ldlt) = (&it.newton.asm, &it.newton.ldlt);
-        let (q, acc) = (&state.q, &state.acc);
-        rhs.par_chunks_mut(n * width)
-            .zip(dq.par_chunks_mut(n_q * width))
-            .zip(dv.par_chunks_mut(n_q * width))
-            .zip(dacc.par_chunks_mut(n_q * width))
-            .zip(da.par_chunks_mut(n_q * width))
-            .zip(scratch.par_iter_mut())
+        sweep.step(&mut it, &state, h)?;
+        sweep.accumulate(&it, &objectives, n + 1, &state.q);
+        timings.gradients += clock.elapsed().as_secs_f64();
+    }
+    Ok(Sensitivities {
+        values: sweep.values,
+        gradients: sweep.gradients,
+        method: Method::Direct,
+        timings,
+    })
+}
+
+/// The sensitivity states of every design variable and the responses accumulated so far.
+struct Sweep<'a> {
+    pseudo: PseudoLoads,
+    mass: MassKind,
+    /// `n_q`, `n_q + n_c`, design variables, columns per parallel block.
+    n_q: usize,
+    n: usize,
+    n_x: usize,
+    width: usize,
+    /// Column-major `n_q × n_x`: `q'`, `q̇'`, `q̈'`, `a'`.
+    dq: Vec<f64>,
+    dv: Vec<f64>,
+    dacc: Vec<f64>,
+    da: Vec<f64>,
+    /// Right-hand sides / solutions, column-major `n × n_x`.
+    rhs: Vec<f64>,
+    scratch: Vec<MemBuffer>,
+    values: Vec<f64>,
+    /// Row-major `n_responses × n_x`.
+    gradients: Vec<f64>,
+    g_q: Vec<f64>,
+    g_x: Vec<f64>,
+    model: &'a Model,
+}
+
+impl<'a> Sweep<'a> {
+    fn new(model: &'a Model, it: &Integrator, settings: &DynamicSettings, n_r: usize) -> Self {
+        let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+        let n = n_q + model.n_constraints();
+        let width = block_width(n_x);
+        Self {
+            pseudo: PseudoLoads::new(model, settings.mass),
+            mass: settings.mass,
+            n_q,
+            n,
+            n_x,
+            width,
+            dq: vec![0.0; n_q * n_x],
+            dv: vec![0.0; n_q * n_x],
+            dacc: vec![0.0; n_q * n_x],
+            da: vec![0.0; n_q * n_x],
+            rhs: vec![0.0; n * n_x],
+            scratch: (0..n_x.div_ceil(width))
+                .map(|_| it.newton.scratch(width))
+                .collect(),
+            values: vec![0.0; n_r],
+            gradients: vec![0.0; n_r * n_x],
+            g_q: vec![0.0; n_q],
+            g_x: vec![0.0; n_x],
+            model,
+        }
+    }
+
+    /// `t = 0`: `[M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0]`, `a'₀ = q̈'₀`.
+    fn initial(&mut self, it: &mut Integrator, s: &State) -> Result<(), SolveError> {
+        let (n, n_q, n_x, width) = (self.n, self.n_q, self.n_x, self.width);
+        it.newton.factorize(None, 1.0, 0.0)?;
+        let newton = &it.newton;
+        self.pseudo.subtract_columns(
+            newton.assembler(),
+            &s.q,
+            Some(&s.qddot),
+            &mut self.rhs,
+            n,
+            0..n_x,
+        );
+        self.rhs
+            .par_chunks_mut(n * width)
+            .zip(self.scratch.par_iter_mut())
+            .try_for_each(|(block, buf)| newton.solve_block(block, block.len() / n, buf))?;
+        for j in 0..n_x {
+            self.dacc[j * n_q..(j + 1) * n_q].copy_from_slice(&self.rhs[j * n..j * n + n_q]);
+        }
+        self.da.copy_from_slice(&self.dacc);
+        Ok(())
+    }
+
+    /// The linear sensitivity step to the converged state `s`, taken with step size `h`:
+    /// predict the parts independent of `q'ₙ₊₁`, solve for it, correct.
+    fn step(&mut self, it: &mut Integrator, s: &State, h: f64) -> Result<(), SolveError> {
+        let p = it.params;
+        let bp = p.beta_prime(h);
+        it.newton.factorize(Some(&s.q), bp, s.t)?;
+        let newton = &it.newton;
+        let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
+        self.rhs
+            .par_chunks_mut(n * width)
+            .zip(self.dq.par_chunks_mut(n_q * width))
+            .zip(self.dv.par_chunks_mut(n_q * width))
+            .zip(self.dacc.par_chunks_mut(n_q * width))
+            .zip(self.da.par_chunks_mut(n_q * width))
+            .zip(self.scratch.par_iter_mut())
             .enumerate()
             .try_for_each(|(block, (((((rhs, dq), dv), dacc), da), buf))| {
                 let cols = rhs.len() / n;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
-                    let (dq, dv, dacc, da) = (
+                    predict(
+                        &p,
+                        h,
                         &dq[r.clone()],
                         &mut dv[r.clone()],
                         &mut dacc[r.clone()],
                         &mut da[r],
                     );
-                    // The parts of the update that do not depend on q'ₙ₊₁; q̈' holds cₙ.
-                    for i in 0..n_q {
-                        let p = dq[i] + h * dv[i] + h * h * (0.5 - beta) * da[i];
-                        dacc[i] = -bp * p + (alpha_m * da[i] - alpha_f * dacc[i]) / (1.0 - alpha_f);
-                        dv[i] += h * (1.0 - gamma) * da[i] - gp * p;
-                        da[i] = -p / (h * h * beta);
-                    }
                     let out = &mut rhs[col * n..(col + 1) * n];
-                    asm.mass_times(dacc, out);
+                    newton
+                        .assembler()
+                        .mass_times(&dacc[col * n_q..(col + 1) * n_q], out);
                     out[..n_q].iter_mut().for_each(|v| *v = -*v);
                     out[n_q..].fill(0.0);
                 }
                 let first = block * width;
-                pseudo.subtract_columns(asm, q, Some(acc), rhs, n, first..first + cols);
-                ldlt.solve_block(rhs, cols, buf)?;
+                let asm = newton.assembler();
+                pseudo.subtract_columns(asm, &s.q, Some(&s.qddot), rhs, n, first..first + cols);
+                newton.solve_block(rhs, cols, buf)?;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
                     let new = &rhs[col * n..col * n + n_q];
-                    dq[r.clone()].copy_from_slice(new);
-                    for (i, &d) in new.iter().enumerate() {
-                        dv[r.start + i] += gp * d;
-                        da[r.start + i] += d / (h * h * beta);
-                        dacc[r.start + i] += bp * d;
-                    }
+                    correct(
+                        &p,
+                        h,
+                        new,
+                        &mut dq[r.clone()],
+                        &mut dv[r.clone()],
+                        &mut dacc[r.clone()],
+                        &mut da[r],
+                    );
                 }
                 Ok(())
             })
-            .map_err(singular(state.t))?;
-        accumulate(&it, step, &state.q, &dq);
-        timings.gradients += clock.elapsed().as_secs_f64();
     }
-    Ok(Sensitivities {
-        values,
-        gradients,
-        method: Method::Direct,
-        timings,
-    })
+
+    /// Adds state `n`'s share of the responses and of their gradients
+    /// `G_x + G_q q'`.
+    fn accumulate(&mut self, it: &Integrator, objectives: &Objectives, n: usize, q: &[f64]) {
+        let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
+        objectives.add_values(&ctx, n, q, &mut self.values);
+        let (n_q, n_x) = (self.n_q, self.n_x);
+        for (k, row) in self.gradients.chunks_mut(n_x).enumerate() {
+            self.g_q.fill(0.0);
+            self.g_x.fill(0.0);
+            objectives.add_partials(&ctx, k, n, q, &mut self.g_q, &mut self.g_x);
+            let (g_q, g_x, dq) = (&self.g_q, &self.g_x, &self.dq);
+            row.par_iter_mut()
+                .enumerate()
+                .for_each(|(j, g)| *g += g_x[j] + dot(g_q, &dq[j * n_q..(j + 1) * n_q]));
+        }
+    }
+}
+
+/// The parts of the sensitivity update that do not depend on `q'ₙ₊₁`: with
+/// `Pₙ = q'ₙ + h q̇'ₙ + h²(½ − β) a'ₙ`, `q̈'` becomes `cₙ`, `q̇'` and `a'` their predictors.
+fn predict(
+    p: &AlphaParameters,
+    h: f64,
+    dq: &[f64],
+    dv: &mut [f64],
+    dacc: &mut [f64],
+    da: &mut [f64],
+) {
+    let AlphaParameters {
+        alpha_m,
+        alpha_f,
+        beta,
+        gamma,
+    } = *p;
+    let (bp, gp) = (p.beta_prime(h), p.gamma_prime(h));
+    for i in 0..dq.len() {
+        let pn = dq[i] + h * dv[i] + h * h * (0.5 - beta) * da[i];
+        dacc[i] = -bp * pn + (alpha_m * da[i] - alpha_f * dacc[i]) / (1.0 - alpha_f);
+        dv[i] += h * (1.0 - gamma) * da[i] - gp * pn;
+        da[i] = -pn / (h * h * beta);
+    }
+}
+
+/// Completes the update with the solved `q'ₙ₊₁`: `q̇' += γ' q'ₙ₊₁`,
+/// `a' += q'ₙ₊₁/(h²β)`, `q̈' += β' q'ₙ₊₁`.
+fn correct(
+    p: &AlphaParameters,
+    h: f64,
+    new: &[f64],
+    dq: &mut [f64],
+    dv: &mut [f64],
+    dacc: &mut [f64],
+    da: &mut [f64],
+) {
+    let (bp, gp) = (p.beta_prime(h), p.gamma_prime(h));
+    dq.copy_from_slice(new);
+    for (i, &d) in new.iter().enumerate() {
+        dv[i] += gp * d;
+        da[i] += d / (h * h * p.beta);
+        dacc[i] += bp * d;
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {

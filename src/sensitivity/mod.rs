@@ -21,45 +21,11 @@ pub mod statics;
 use crate::assembly::Assembler;
 use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::{Error, SettingsError};
-use crate::integrator::Settings;
-use crate::model::{Analysis, Model};
+use crate::model::{Analysis, Densities, Model};
 use crate::response::{Context, Response};
 use crate::rigid::Clusters;
-use crate::statics::StaticSettings;
-
-/// How to compute gradients.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Method {
-    /// Direct differentiation (Algorithm 2).
-    Direct,
-    /// Discrete adjoint.
-    Adjoint,
-    /// Adjoint when there are fewer state-dependent responses than design variables.
-    Auto,
-}
-
-/// What the adjoint keeps of the forward sweep.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Memory {
-    /// Every step's positions and accelerations.
-    StoreAll,
-    /// Full states every `⌈√N⌉` steps, segments replayed backwards (one more forward sweep).
-    Checkpoints,
-    /// Checkpoints when storing everything would exceed `budget_bytes`.
-    Auto {
-        /// Memory allowed for the stored states, in bytes.
-        budget_bytes: usize,
-    },
-}
-
-impl Default for Memory {
-    /// Checkpoints past 512 MiB of stored states.
-    fn default() -> Self {
-        Self::Auto {
-            budget_bytes: 512 << 20,
-        }
-    }
-}
+use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
+use crate::time_grid::TimeGrid;
 
 /// Responses and their gradients.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,25 +49,23 @@ pub struct Timings {
     pub gradients: f64,
 }
 
-/// Responses with their weights and the rigid trajectories they need.
+/// Responses with their weights on a time grid and the rigid trajectories they need.
 pub(crate) struct Objectives<'a> {
     responses: &'a [Response],
     rigid: Vec<Option<Vec<[f64; 2]>>>,
     analysis: Analysis,
-    last: usize,
-    h: f64,
+    grid: &'a TimeGrid,
 }
 
 impl<'a> Objectives<'a> {
-    /// Objectives over states `0..=last` at step `h` (`last = 0` for statics).
-    fn new(model: &Model, responses: &'a [Response], last: usize, h: f64) -> Result<Self, Error> {
-        let times: Vec<f64> = (0..=last).map(|n| n as f64 * h).collect();
+    /// Objectives over the states of `grid` (a grid without steps for statics).
+    fn new(model: &Model, responses: &'a [Response], grid: &'a TimeGrid) -> Result<Self, Error> {
         let clusters = Clusters::of(model);
         let rigid = responses
             .iter()
             .map(|r| {
                 r.rigid_node()
-                    .map(|node| clusters.rigid_trajectory(model, node, &times))
+                    .map(|node| clusters.rigid_trajectory(model, node, grid.times()))
                     .transpose()
             })
             .collect::<Result<_, _>>()?;
@@ -109,8 +73,7 @@ impl<'a> Objectives<'a> {
             responses,
             rigid,
             analysis: model.analysis,
-            last,
-            h,
+            grid,
         })
     }
 
@@ -127,7 +90,7 @@ impl<'a> Objectives<'a> {
                 }
                 continue;
             }
-            let w = r.weight(self.analysis, n, self.last, self.h);
+            let w = r.weight(self.analysis, n, self.grid);
             if w != 0.0 {
                 values[k] += w * r.integrand(ctx, q, self.rigid_at(k, n));
             }
@@ -147,7 +110,7 @@ impl<'a> Objectives<'a> {
     ) {
         let r = &self.responses[k];
         let w = if r.depends_on_states() {
-            r.weight(self.analysis, n, self.last, self.h)
+            r.weight(self.analysis, n, self.grid)
         } else {
             f64::from(u8::from(n == 0))
         };
@@ -245,43 +208,44 @@ pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>,
     names.iter().map(|n| Response::parse(n, model)).collect()
 }
 
-/// Responses and gradients of a dynamic run.
+/// Responses and gradients of a dynamic run on the fixed-step grid of `settings`.
 ///
 /// # Errors
 /// Design, settings and solve errors.
-pub fn dynamic(
+pub fn of_motion(
     model: &Model,
     x: &[f64],
-    settings: &Settings,
+    settings: &DynamicSettings,
     responses: &[Response],
-    method: Method,
-    memory: Memory,
+    how: SensitivitySettings,
 ) -> Result<Sensitivities, Error> {
     settings.validate()?;
-    if let Some(explicit) = explicit_only(model, x, responses)? {
-        return Ok(explicit);
+    let densities = model.densities(Some(x))?;
+    if !responses.iter().any(Response::depends_on_states) {
+        return explicit(model, &densities, responses);
     }
+    let grid = settings.grid();
     let (n_q, n, n_x) = (
         model.n_dofs(),
         model.n_dofs() + model.n_constraints(),
         model.n_variables(),
     );
     let gib = |doubles: f64| doubles * 8.0 / (1u64 << 30) as f64;
-    match resolve(method, responses, model) {
+    match resolve(how.method, responses, model) {
         Method::Direct => {
             // q', q̇', q̈', a' and the right-hand sides, each a column per design variable.
             let need = gib((4 * n_q + n) as f64 * n_x as f64);
             if need > MAX_GIB {
                 return Err(SettingsError::new("method", format!("the direct method would hold {need:.1} GiB of sensitivities (at most {MAX_GIB} GiB); use method='adjoint'")).into());
             }
-            direct::run(model, x, settings, responses)
+            direct::run(model, densities, settings, &grid, responses)
         }
         _ => {
-            let need = gib(2.0 * n_q as f64 * (settings.steps() + 1) as f64);
-            if memory == Memory::StoreAll && need > MAX_GIB {
+            let need = gib(2.0 * n_q as f64 * (grid.len() + 1) as f64);
+            if how.memory == Memory::StoreAll && need > MAX_GIB {
                 return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
             }
-            adjoint::run(model, x, settings, responses, memory)
+            adjoint::run(model, densities, settings, &grid, responses, how.memory)
         }
     }
 }
@@ -293,7 +257,7 @@ const MAX_GIB: f64 = 8.0;
 ///
 /// # Errors
 /// Design, settings and solve errors.
-pub fn equilibrium(
+pub fn of_equilibrium(
     model: &Model,
     x: &[f64],
     settings: &StaticSettings,
@@ -301,41 +265,51 @@ pub fn equilibrium(
     method: Method,
 ) -> Result<Sensitivities, Error> {
     settings.validate()?;
-    if let Some(explicit) = explicit_only(model, x, responses)? {
-        return Ok(explicit);
+    let densities = model.densities(Some(x))?;
+    if !responses.iter().any(Response::depends_on_states) {
+        return explicit(model, &densities, responses);
     }
     statics::run(
         model,
-        x,
+        densities,
         settings,
         responses,
         resolve(method, responses, model),
     )
 }
 
-/// Values of `responses` on recorded states `u` (row-major, one row of `n_q` per state, at
-/// steps of `h`; one row for a static scene, whose loads act at `load_time`) for design `x`
+/// Values of `responses` on recorded states `q` (row-major, one row of `n_q` per state, at
+/// `times`; one row for a static scene, whose loads act at `load_time`) for design `x`
 /// (`None`: full density).
 ///
 /// # Errors
-/// Design errors; kinematics errors of the rigid trajectory.
+/// Settings errors for states and times that do not match; design errors; kinematics
+/// errors of the rigid trajectory.
 pub fn evaluate(
     model: &Model,
     x: Option<&[f64]>,
-    u: &[f64],
-    h: f64,
+    q: &[f64],
+    times: &[f64],
     load_time: f64,
     responses: &[Response],
 ) -> Result<Vec<f64>, Error> {
     let n_q = model.n_dofs();
-    let states = u.len() / n_q;
-    if states == 0 || states * n_q != u.len() {
+    let states = q.len() / n_q;
+    if states == 0 || states * n_q != q.len() {
         return Err(SettingsError::new(
-            "u",
-            format!("needs rows of {n_q} coordinates, got {} values", u.len()),
+            "q",
+            format!("needs rows of {n_q} coordinates, got {} values", q.len()),
         )
         .into());
     }
+    if times.len() != states {
+        return Err(SettingsError::new(
+            "times",
+            format!("has {} entries for {states} states", times.len()),
+        )
+        .into());
+    }
+    let grid = TimeGrid::from_steps(times.windows(2).map(|w| w[1] - w[0]).collect());
     let densities = model.densities(x)?;
     let mut load = vec![0.0; n_q];
     if model.analysis == Analysis::Static {
@@ -348,26 +322,23 @@ pub fn evaluate(
         static_load: &load,
         mass_kind: MassKind::Consistent,
     };
-    let objectives = Objectives::new(model, responses, states - 1, h)?;
+    let objectives = Objectives::new(model, responses, &grid)?;
     let mut values = vec![0.0; responses.len()];
-    for (n, q) in u.chunks(n_q).enumerate() {
+    for (n, q) in q.chunks(n_q).enumerate() {
         objectives.add_values(&ctx, n, q, &mut values);
     }
     Ok(values)
 }
 
 /// Responses that are explicit in `x` (volumes) need no simulation.
-fn explicit_only(
+fn explicit(
     model: &Model,
-    x: &[f64],
+    densities: &Densities,
     responses: &[Response],
-) -> Result<Option<Sensitivities>, Error> {
-    if responses.iter().any(Response::depends_on_states) {
-        return Ok(None);
-    }
-    let densities = model.densities(Some(x))?;
-    let ctx = Context::dynamic(model, &densities, MassKind::Consistent);
-    let objectives = Objectives::new(model, responses, 0, 0.0)?;
+) -> Result<Sensitivities, Error> {
+    let ctx = Context::dynamic(model, densities, MassKind::Consistent);
+    let grid = TimeGrid::single();
+    let objectives = Objectives::new(model, responses, &grid)?;
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
     let q = vec![0.0; n_q];
     let mut values = vec![0.0; responses.len()];
@@ -377,12 +348,12 @@ fn explicit_only(
     for (k, row) in gradients.chunks_mut(n_x).enumerate() {
         objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
     }
-    Ok(Some(Sensitivities {
+    Ok(Sensitivities {
         values,
         gradients,
         method: Method::Direct,
         timings: Timings::default(),
-    }))
+    })
 }
 
 fn resolve(method: Method, responses: &[Response], model: &Model) -> Method {

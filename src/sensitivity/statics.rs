@@ -7,32 +7,30 @@ use std::time::Instant;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::element::MassKind;
-use crate::error::{Error, SolveError};
-use crate::linsolve::FactorError;
-use crate::model::Model;
+use crate::error::Error;
+use crate::model::{Densities, Model};
 use crate::response::{Context, Response};
-use crate::statics::{equilibrium, static_newton, StaticSettings};
+use crate::settings::StaticSettings;
+use crate::statics::{load_stepping, static_newton};
+use crate::time_grid::TimeGrid;
 
+/// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint).
 pub(crate) fn run(
     model: &Model,
-    x: &[f64],
+    densities: Densities,
     settings: &StaticSettings,
     responses: &[Response],
     method: Method,
 ) -> Result<Sensitivities, Error> {
     let clock = Instant::now();
-    let mut newton = static_newton(model, model.densities(Some(x))?, settings);
-    let sol = equilibrium(&mut newton, settings)?;
+    let mut newton = static_newton(model, densities, settings);
+    let sol = load_stepping(&mut newton, settings)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
     let n = n_q + model.n_constraints();
-    newton.factorize_at(Some(&sol.q), 0.0, newton.scale, settings.time)?;
-    let singular = |FactorError::Singular(detail)| SolveError::Singular {
-        time: settings.time,
-        detail,
-    };
-    let asm = &newton.asm;
+    newton.factorize(Some(&sol.q), 0.0, settings.time)?;
+    let asm = newton.assembler();
     // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
     let mut load = vec![0.0; n_q];
     asm.applied_loads(settings.time, 1.0, &mut load);
@@ -42,7 +40,8 @@ pub(crate) fn run(
         static_load: &load,
         mass_kind: MassKind::Consistent,
     };
-    let objectives = Objectives::new(model, responses, 0, 0.0)?;
+    let grid = TimeGrid::single();
+    let objectives = Objectives::new(model, responses, &grid)?;
     let pseudo = PseudoLoads::new(model, MassKind::Consistent);
     let mut values = vec![0.0; n_r];
     objectives.add_values(&ctx, 0, &sol.q, &mut values);
@@ -61,11 +60,8 @@ pub(crate) fn run(
         Method::Direct => {
             let mut rhs = vec![0.0; n * n_x];
             pseudo.subtract_columns(asm, &sol.q, None, &mut rhs, n, 0..n_x);
-            let mut scratch = newton.ldlt.scratch_for(n_x.max(1));
-            newton
-                .ldlt
-                .solve_block(&mut rhs, n_x, &mut scratch)
-                .map_err(singular)?;
+            let mut scratch = newton.scratch(n_x.max(1));
+            newton.solve_block(&mut rhs, n_x, &mut scratch)?;
             for k in 0..n_r {
                 for j in 0..n_x {
                     let du = &rhs[j * n..j * n + n_q];
@@ -91,11 +87,8 @@ pub(crate) fn run(
             for k in 0..n_r {
                 rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
             }
-            let mut scratch = newton.ldlt.scratch_for(n_r);
-            newton
-                .ldlt
-                .solve_block(&mut rhs, n_r, &mut scratch)
-                .map_err(singular)?;
+            let mut scratch = newton.scratch(n_r);
+            newton.solve_block(&mut rhs, n_r, &mut scratch)?;
             for k in 0..n_r {
                 pseudo.subtract_transposed(
                     asm,

@@ -1,11 +1,7 @@
 //! Scenes and helpers shared by the engine tests.
 
-use flextop::element::MassKind;
-use flextop::integrator::Settings;
-use flextop::model::Model;
 use flextop::scene;
-use flextop::simulation::Trajectory;
-use flextop::statics::StaticSettings;
+use flextop::{DynamicSettings, MassKind, Model, StaticSettings, Trajectory};
 
 /// Aluminium, solid circle d = 20 mm (reference-scenes.md).
 pub const ALUMINIUM: &str = "[sections.al]\nE = 70e9\nnu = 0.32\nrho = 2700.0\ndiameter = 0.02\n";
@@ -44,8 +40,8 @@ pub fn aluminium() -> (f64, f64, f64) {
 }
 
 /// Dynamic settings with consistent mass and a tight Newton tolerance.
-pub fn settings(t_end: f64, h: f64, rho_inf: f64) -> Settings {
-    Settings {
+pub fn settings(t_end: f64, h: f64, rho_inf: f64) -> DynamicSettings {
+    DynamicSettings {
         t_end,
         h,
         rho_inf,

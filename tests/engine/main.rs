@@ -5,4 +5,3 @@ mod common;
 mod dynamics;
 mod sensitivity;
 mod statics;
-mod tangent;

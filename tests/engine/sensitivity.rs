@@ -1,12 +1,14 @@
 //! Design sensitivities: direct and adjoint against central finite differences of the same
 //! discrete simulation, and against each other.
 
-use flextop::error::Error;
-use flextop::integrator::Settings;
-use flextop::model::Model;
-use flextop::response::Response;
-use flextop::sensitivity::{dynamic, equilibrium, parse_responses, Memory, Method, Sensitivities};
-use flextop::statics::StaticSettings;
+use flextop::{
+    of_equilibrium, of_motion, parse_responses, DynamicSettings, Error, Memory, Method, Model,
+    Response, Sensitivities, SensitivitySettings, StaticSettings,
+};
+
+fn how(method: Method, memory: Memory) -> SensitivitySettings {
+    SensitivitySettings { method, memory }
+}
 
 use crate::common::*;
 
@@ -98,14 +100,14 @@ const DYNAMIC: [&str; 6] = [
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and `[design]` body `design`.
-fn dynamic_case(split: usize, settings: Settings, design: &str) {
+fn dynamic_case(split: usize, settings: DynamicSettings, design: &str) {
     let text = include_str!("../../examples/robot_arm.toml")
         .replace("split = 1", &format!("split = {split}"))
         .replace("interpolation = \"simp\"\np = 3.0\nx_min = 0.01", design);
     let arm = model(&text);
     let rs = responses(&arm, &DYNAMIC);
     let x = random_design(&arm, 11);
-    let eval = |x: &[f64], m: Method| dynamic(&arm, x, &settings, &rs, m, Memory::default());
+    let eval = |x: &[f64], m: Method| of_motion(&arm, x, &settings, &rs, how(m, Memory::default()));
     check(&arm, &eval, &x, &[0, 37, 74, 147], rs.len());
 }
 
@@ -113,7 +115,7 @@ fn dynamic_case(split: usize, settings: Settings, design: &str) {
 fn robot_arm_gradients_match_finite_differences() {
     dynamic_case(
         1,
-        Settings {
+        DynamicSettings {
             tol: 1e-12,
             ..settings(1.3, 0.02, 0.8)
         },
@@ -123,7 +125,7 @@ fn robot_arm_gradients_match_finite_differences() {
 
 #[test]
 fn agreement_holds_for_other_p_h_rho_and_split() {
-    let short = |h: f64, rho: f64| Settings {
+    let short = |h: f64, rho: f64| DynamicSettings {
         tol: 1e-12,
         ..settings(0.6, h, rho)
     };
@@ -132,8 +134,8 @@ fn agreement_holds_for_other_p_h_rho_and_split() {
     dynamic_case(1, short(0.02, 0.0), "p = 3.0\nx_min = 0.05");
     dynamic_case(
         1,
-        Settings {
-            mass: flextop::element::MassKind::Lumped,
+        DynamicSettings {
+            mass: flextop::MassKind::Lumped,
             ..short(0.02, 0.8)
         },
         "interpolation = \"ramp\"\nq = 5.0\nx_min = 0.01",
@@ -156,7 +158,7 @@ fn static_compliance_gradients_match_finite_differences() {
         tol: 1e-13,
         ..static_settings(1)
     };
-    let eval = |x: &[f64], m: Method| equilibrium(&truss, x, &settings, &rs, m);
+    let eval = |x: &[f64], m: Method| of_equilibrium(&truss, x, &settings, &rs, m);
     check(
         &truss,
         &eval,
@@ -170,12 +172,12 @@ fn static_compliance_gradients_match_finite_differences() {
 fn taylor_remainder_falls_as_epsilon_squared() {
     let arm = robot_arm(1, 70e9);
     let rs = responses(&arm, &["tip_deflection"]);
-    let s = Settings {
+    let s = DynamicSettings {
         tol: 1e-12,
         ..settings(1.3, 0.02, 0.8)
     };
     let x = random_design(&arm, 5);
-    let base = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::default()).unwrap();
+    let base = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::default())).unwrap();
     let mut seed = 99u64;
     let v: Vec<f64> = (0..x.len())
         .map(|_| {
@@ -189,7 +191,7 @@ fn taylor_remainder_falls_as_epsilon_squared() {
         .iter()
         .map(|&e| {
             let xe: Vec<f64> = x.iter().zip(&v).map(|(xi, vi)| xi + e * vi).collect();
-            let f = dynamic(&arm, &xe, &s, &rs, Method::Adjoint, Memory::default())
+            let f = of_motion(&arm, &xe, &s, &rs, how(Method::Adjoint, Memory::default()))
                 .unwrap()
                 .values[0];
             (f - base.values[0] - e * slope).abs()
@@ -209,20 +211,19 @@ fn checkpointed_adjoint_is_bitwise_the_stored_one() {
     let x = random_design(&arm, 8);
     // 65 steps: checkpoints every 9 steps, segments replayed backwards.
     let s = settings(1.3, 0.02, 0.8);
-    let stored = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::StoreAll).unwrap();
-    let replayed = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::Checkpoints).unwrap();
+    let stored = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::StoreAll)).unwrap();
+    let replayed = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::Checkpoints)).unwrap();
     assert_eq!(stored.values, replayed.values);
     assert_eq!(stored.gradients, replayed.gradients);
     // A step count that is a perfect square, so segment ends meet the final step exactly.
     let s = settings(0.98, 0.02, 0.8);
-    let stored = dynamic(&arm, &x, &s, &rs, Method::Adjoint, Memory::StoreAll).unwrap();
-    let replayed = dynamic(
+    let stored = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::StoreAll)).unwrap();
+    let replayed = of_motion(
         &arm,
         &x,
         &s,
         &rs,
-        Method::Adjoint,
-        Memory::Auto { budget_bytes: 1 },
+        how(Method::Adjoint, Memory::Auto { budget_bytes: 1 }),
     )
     .unwrap();
     assert_eq!(stored.gradients, replayed.gradients);

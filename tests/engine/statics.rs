@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use flextop::statics::solve_static;
+use flextop::solve_static;
 
 use crate::common::*;
 

@@ -40,7 +40,7 @@ def test_design_width_and_colour_follow_density(arm):
     x = np.random.default_rng(1).permutation(np.linspace(arm.x_min, 1.0, arm.n_design))
     fig = plots.plot_design(arm, x)
     lines = fig.axes[0].collections[0]
-    rho = x[np.asarray(arm.bars["variable"])]
+    rho = x[np.asarray(arm.bars.variable)]
     widths = np.asarray(lines.get_linewidths())
     assert widths.shape == rho.shape
     order = np.argsort(rho)

@@ -31,7 +31,7 @@ class TrussProblem(flextop.TopologyProblem):
     """The static truss problem with a cheap volume check for the bisection."""
 
     def evaluate_volume(self, x):
-        volume = np.asarray(self.simulation.bars["volume"])
+        volume = np.asarray(self.simulation.bars.volume)
         return volume @ x / self.constraints[0][1] - 1.0
 
 

@@ -16,10 +16,10 @@ def summary(sim: flextop.Simulation) -> dict:
     bars = sim.bars
     return {
         "positions": np.asarray(sim.model.reference_positions),
-        "bar_nodes": np.asarray(bars["nodes"]),
-        "bar_variable": list(bars["variable"]),
-        "bar_component": list(bars["component"]),
-        "bar_volume": np.asarray(bars["volume"]),
+        "bar_nodes": np.asarray(bars.nodes),
+        "bar_variable": list(bars.variable),
+        "bar_component": list(bars.component),
+        "bar_volume": np.asarray(bars.volume),
         "joints": sim.model.joints(),
         "names": sim.node_names,
         "analysis": sim.analysis,
@@ -45,7 +45,7 @@ def test_reference_robot_arm_dimensions():
     tip = pos[sim.tip]
     # Link 2's node (L, 0): L(cos θ1, sin θ1) + L(cos 2θ1, sin 2θ1) at θ1 = π/3.
     np.testing.assert_allclose(tip, [math.cos(math.pi / 3) + math.cos(2 * math.pi / 3), math.sin(math.pi / 3) + math.sin(2 * math.pi / 3)], atol=1e-15)
-    volume = np.asarray(sim.bars["volume"])
+    volume = np.asarray(sim.bars.volume)
     assert volume.sum() / 2 == pytest.approx(math.pi * 0.01**2 * sum_of_bar_lengths(5, 3, 1.0, 0.1))
 
 

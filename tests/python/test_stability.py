@@ -33,7 +33,7 @@ def balance(res):
 
 
 def finite(res):
-    return all(np.isfinite(a).all() for a in (res.u, res.qdot, res.qddot, res.lam, vibration(res)))
+    return all(np.isfinite(a).all() for a in (res.q, res.qdot, res.qddot, res.lam, vibration(res)))
 
 
 def arm_constraint_drift(sim, res, theta):

@@ -39,7 +39,7 @@ def linear_frame_tip_deflection(sim, x, p, force, clamp, load_node):
     n = 3 * len(pos)
     K = np.zeros((n, n))
     bars = sim.bars
-    for (a, b), v in zip(np.asarray(bars["nodes"], dtype=int), bars["variable"]):
+    for (a, b), v in zip(np.asarray(bars.nodes, dtype=int), bars.variable):
         dofs = [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2]
         K[np.ix_(dofs, dofs)] += x[v] ** p * timoshenko_frame_element(pos[a], pos[b], E, G, A, I, kappa)
     f = np.zeros(n)

@@ -1,0 +1,72 @@
+//! Python values into engine inputs, engine outputs into numpy arrays.
+//!
+//! Dicts are read with `pythonize` through serde, unknown keys and wrong values rejected with
+//! their path, so a scene dict and a settings dict get the same checks as a TOML file.
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde::de::DeserializeOwned;
+
+use crate::assembly::Csc;
+use crate::error::{Error, SceneError, SettingsError};
+use crate::scene::SceneSpec;
+use crate::settings::RunOptions;
+
+/// Deserializes `value`, reporting a failure at its path (`whole` for the value itself).
+fn from_python<T: DeserializeOwned>(
+    value: &Bound<'_, PyAny>,
+    whole: &str,
+) -> Result<T, (String, String)> {
+    let mut de = pythonize::Depythonizer::from_object(value);
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { whole.into() } else { path };
+        (path, e.into_inner().to_string())
+    })
+}
+
+/// A scene from a dict; a wrong entry is a `SceneError` naming it.
+pub fn scene_spec(spec: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
+    from_python(spec, "scene")
+        .map_err(|(path, msg)| Error::Scene(SceneError::new(path, msg)).into())
+}
+
+/// Run options from a settings dict (`None`: none given); a wrong entry is a
+/// `SettingsError` naming it.
+pub fn run_options(settings: Option<&Bound<'_, PyAny>>) -> PyResult<RunOptions> {
+    let Some(settings) = settings else {
+        return Ok(RunOptions::default());
+    };
+    from_python(settings, "settings")
+        .map_err(|(path, msg)| Error::Settings(SettingsError::new(path, msg)).into())
+}
+
+/// An optional design vector, copied out of numpy.
+pub fn design(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>> {
+    x.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
+}
+
+/// A row-major `(rows, cols)` numpy array from a flat vector.
+pub fn matrix<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
+    let rows = data.len().checked_div(cols).unwrap_or(0);
+    Ok(PyArray1::from_vec(py, data)
+        .reshape([rows, cols])?
+        .into_any())
+}
+
+/// A 1-D numpy array.
+pub fn vector<'py>(py: Python<'py>, data: Vec<f64>) -> Bound<'py, PyAny> {
+    PyArray1::from_vec(py, data).into_any()
+}
+
+/// A sparse matrix as the dict `data`, `indices`, `indptr`, `shape` of
+/// `scipy.sparse.csc_matrix`.
+pub fn csc<'py>(py: Python<'py>, m: Csc) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("data", vector(py, m.data))?;
+    d.set_item("indices", m.indices)?;
+    d.set_item("indptr", m.indptr)?;
+    d.set_item("shape", m.shape)?;
+    Ok(d)
+}

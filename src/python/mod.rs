@@ -1,0 +1,26 @@
+//! Python bindings: the `flextop._core` extension module, registration only.
+//!
+//! One file per concept: [`errors`] maps engine errors to the classes of `flextop.errors`,
+//! [`convert`] turns Python values into engine inputs and engine outputs into numpy arrays,
+//! [`model`] is the built mechanism and its description, [`runs`] the computations on it
+//! (each releases the GIL). The logic lives in the engine; these files only translate.
+
+mod convert;
+mod errors;
+mod model;
+mod runs;
+
+use pyo3::prelude::*;
+
+/// The extension module.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<model::PyModel>()?;
+    m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::solve_static, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::run_with_sensitivities, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::evaluate_responses, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::linearize, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,166 @@
+//! The built mechanism as Python sees it: construction from a dict or TOML text, and its
+//! description (sizes, names, bars, elements, joints).
+
+use std::sync::Arc;
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::convert::{matrix, scene_spec, vector};
+use crate::error::Error;
+use crate::model::{Analysis, Model};
+use crate::scene;
+
+/// A built and validated mechanism.
+#[pyclass(name = "Model", module = "flextop._core", frozen)]
+pub struct PyModel {
+    pub(super) model: Arc<Model>,
+}
+
+impl PyModel {
+    fn built(spec: &scene::SceneSpec) -> PyResult<Self> {
+        Ok(Self {
+            model: Arc::new(scene::build(spec).map_err(Error::from)?),
+        })
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// Builds a model from a scene dict.
+    #[staticmethod]
+    fn from_dict(spec: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Self::built(&scene_spec(spec)?)
+    }
+
+    /// Builds a model from TOML text.
+    #[staticmethod]
+    fn from_toml(text: &str) -> PyResult<Self> {
+        Self::built(&scene::parse_toml(text).map_err(Error::from)?)
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.model.name.clone()
+    }
+
+    #[getter]
+    fn analysis(&self) -> &'static str {
+        match self.model.analysis {
+            Analysis::Dynamic => "dynamic",
+            Analysis::Static => "static",
+        }
+    }
+
+    #[getter]
+    fn n_dofs(&self) -> usize {
+        self.model.n_dofs()
+    }
+
+    #[getter]
+    fn n_constraints(&self) -> usize {
+        self.model.n_constraints()
+    }
+
+    #[getter]
+    fn n_design(&self) -> usize {
+        self.model.n_variables()
+    }
+
+    #[getter]
+    fn x_min(&self) -> f64 {
+        self.model.design.x_min
+    }
+
+    #[getter]
+    fn tip(&self) -> Option<usize> {
+        self.model.tip
+    }
+
+    #[getter]
+    fn node_names(&self) -> Vec<String> {
+        self.model.nodes.iter().map(|n| n.name.clone()).collect()
+    }
+
+    #[getter]
+    fn variable_names(&self) -> Vec<String> {
+        self.model.design.variables.clone()
+    }
+
+    #[getter]
+    fn components(&self) -> Vec<String> {
+        self.model.components.clone()
+    }
+
+    /// Reference positions, shape `(n_nodes, 2)`.
+    #[getter]
+    fn reference_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        matrix(py, self.model.reference_positions(), 2)
+    }
+
+    /// Bars as a dict of arrays: `name`, end `nodes` (n, 2), design `variable` (−1 if
+    /// fixed), `component` index, full-density `volume` (m³).
+    fn bars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let d = PyDict::new(py);
+        let end = |b: &crate::model::Bar, k: usize| {
+            let e = if k == 0 {
+                b.elements.start
+            } else {
+                b.elements.end - 1
+            };
+            m.elements[e].nodes[k] as f64
+        };
+        let ends = m.bars.iter().flat_map(|b| [end(b, 0), end(b, 1)]).collect();
+        d.set_item(
+            "name",
+            m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>(),
+        )?;
+        d.set_item("nodes", matrix(py, ends, 2)?)?;
+        let variable = |b: &crate::model::Bar| b.variable.map_or(-1, |v| v as i64);
+        d.set_item("variable", m.bars.iter().map(variable).collect::<Vec<_>>())?;
+        d.set_item(
+            "component",
+            m.bars.iter().map(|b| b.component).collect::<Vec<_>>(),
+        )?;
+        d.set_item(
+            "volume",
+            vector(py, m.bars.iter().map(|b| b.volume).collect()),
+        )?;
+        Ok(d)
+    }
+
+    /// Elements as end-node pairs `nodes` (n_elements, 2) and the `bar` of each.
+    fn elements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let d = PyDict::new(py);
+        let ends = m
+            .elements
+            .iter()
+            .flat_map(|e| e.nodes.map(|n| n as f64))
+            .collect();
+        d.set_item("nodes", matrix(py, ends, 2)?)?;
+        d.set_item("bar", m.elements.iter().map(|e| e.bar).collect::<Vec<_>>())?;
+        Ok(d)
+    }
+
+    /// Joints, each a dict: `name`, `kind`, node indices `nodes`, constraint `rows` as
+    /// `(first, end)` (the drive row last) and `driven`.
+    fn joints<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let m = &self.model;
+        m.joints
+            .iter()
+            .enumerate()
+            .map(|(j, joint)| {
+                let d = PyDict::new(py);
+                let rows = m.joint_rows(j);
+                d.set_item("name", &joint.name)?;
+                d.set_item("kind", joint.kind.name())?;
+                d.set_item("nodes", joint.nodes())?;
+                d.set_item("rows", (rows.start, rows.end))?;
+                d.set_item("driven", joint.drive.is_some())?;
+                Ok(d)
+            })
+            .collect()
+    }
+}

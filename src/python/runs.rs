@@ -1,0 +1,191 @@
+//! Computations on a model: time integration, static equilibrium, responses with their
+//! gradients, response values on recorded states, linearization, rigid kinematics. Each
+//! takes run settings as a dict (the keys of [`crate::settings::RunOptions`]), releases the
+//! GIL while the engine works, and returns numpy arrays in a dict.
+
+use std::sync::Arc;
+
+use numpy::{PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::convert::{csc, design, matrix, run_options, vector};
+use super::model::PyModel;
+use crate::element::MassKind;
+use crate::error::{Error, SettingsError};
+use crate::model::Analysis;
+use crate::rigid::rigid_positions as rigid;
+use crate::sensitivity::{self, parse_responses};
+use crate::simulation::simulate as integrate;
+use crate::statics::solve_static as equilibrium;
+
+/// Time integration of a dynamic scene: `time`, `q`, `qdot`, `qddot`, `lam`, Newton
+/// `iterations` per step, the energies, and the step `h` and `rho_inf` used.
+#[pyfunction]
+#[pyo3(signature = (model, x=None, settings=None))]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = Arc::clone(&model.model);
+    let settings = run_options(settings)?
+        .dynamic(&m.defaults)
+        .map_err(Error::from)?;
+    let x = design(x)?;
+    let traj = py.detach(move || integrate(&m, x.as_deref(), &settings))?;
+    let d = PyDict::new(py);
+    let (n_q, n_c) = (traj.n_q, traj.n_c);
+    d.set_item("time", vector(py, traj.time))?;
+    d.set_item("q", matrix(py, traj.q, n_q)?)?;
+    d.set_item("qdot", matrix(py, traj.qdot, n_q)?)?;
+    d.set_item("qddot", matrix(py, traj.qddot, n_q)?)?;
+    d.set_item("lam", matrix(py, traj.lam, n_c)?)?;
+    d.set_item("iterations", traj.iterations)?;
+    d.set_item("kinetic", vector(py, traj.kinetic))?;
+    d.set_item("strain", vector(py, traj.strain))?;
+    d.set_item("drive_work", vector(py, traj.drive_work))?;
+    d.set_item("external_work", vector(py, traj.external_work))?;
+    d.set_item("h", settings.step())?;
+    d.set_item("rho_inf", settings.rho_inf)?;
+    Ok(d)
+}
+
+/// Static equilibrium of any scene: `q`, `lam`, Newton `iterations`, `load_steps` taken and
+/// the load `time`.
+#[pyfunction]
+#[pyo3(signature = (model, x=None, settings=None))]
+pub fn solve_static<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = Arc::clone(&model.model);
+    let settings = run_options(settings)?
+        .statics(&m.defaults)
+        .map_err(Error::from)?;
+    let x = design(x)?;
+    let sol = py.detach(move || -> Result<_, Error> {
+        Ok(equilibrium(&m, m.densities(x.as_deref())?, &settings)?)
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("q", vector(py, sol.q))?;
+    d.set_item("lam", vector(py, sol.lambda))?;
+    d.set_item("iterations", sol.iterations)?;
+    d.set_item("load_steps", sol.load_steps)?;
+    d.set_item("time", settings.time)?;
+    Ok(d)
+}
+
+/// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x), the `method`
+/// used, `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
+/// and `memory`.
+#[pyfunction]
+#[pyo3(signature = (model, x, responses, settings=None))]
+pub fn run_with_sensitivities<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: PyReadonlyArray1<'py, f64>,
+    responses: Vec<String>,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = Arc::clone(&model.model);
+    let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
+    let options = run_options(settings)?;
+    let how = options.sensitivity(&m.defaults);
+    let x = x.as_slice()?.to_vec();
+    let result = match m.analysis {
+        Analysis::Dynamic => {
+            let settings = options.dynamic(&m.defaults).map_err(Error::from)?;
+            py.detach(move || sensitivity::of_motion(&m, &x, &settings, &parsed, how))?
+        }
+        Analysis::Static => {
+            let settings = options.statics(&m.defaults).map_err(Error::from)?;
+            py.detach(move || sensitivity::of_equilibrium(&m, &x, &settings, &parsed, how.method))?
+        }
+    };
+    let d = PyDict::new(py);
+    d.set_item("values", vector(py, result.values))?;
+    d.set_item(
+        "gradients",
+        matrix(py, result.gradients, model.model.n_variables())?,
+    )?;
+    d.set_item("method", result.method.name())?;
+    d.set_item("simulation_seconds", result.timings.simulation)?;
+    d.set_item("gradient_seconds", result.timings.gradients)?;
+    Ok(d)
+}
+
+/// Values of `responses` on recorded coordinates `q` (shape `(n_states, n_dofs)`) at
+/// `times`, for design `x`; a static state's loads act at `load_time`.
+#[pyfunction]
+#[pyo3(signature = (model, x, q, times, load_time, responses))]
+pub fn evaluate_responses<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: PyReadonlyArray2<'py, f64>,
+    times: Vec<f64>,
+    load_time: f64,
+    responses: Vec<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = Arc::clone(&model.model);
+    let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
+    let q = q.as_slice()?.to_vec();
+    let x = design(x)?;
+    let values =
+        py.detach(move || sensitivity::evaluate(&m, x.as_deref(), &q, &times, load_time, &parsed))?;
+    Ok(vector(py, values))
+}
+
+/// Mass `M`, tangent stiffness `K_t(q)` (at the reference state by default) and constraint
+/// Jacobian `G = Φ_q`, each as the dict of a `scipy.sparse.csc_matrix`.
+#[pyfunction]
+#[pyo3(signature = (model, x=None, q=None, settings=None))]
+pub fn linearize<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: Option<PyReadonlyArray1<'py, f64>>,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = &model.model;
+    let options = run_options(settings)?;
+    options.validate().map_err(Error::from)?;
+    let mass = options.mass.unwrap_or(MassKind::Consistent);
+    let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
+    let n = m.n_dofs();
+    let q = design(q)?.unwrap_or_else(|| vec![0.0; n]);
+    if q.len() != n {
+        let msg = format!("has {} entries, the model has {n} DOFs", q.len());
+        return Err(Error::Settings(SettingsError::new("q", msg)).into());
+    }
+    let lin = crate::assembly::linearize(m, densities, mass, &q);
+    let d = PyDict::new(py);
+    d.set_item("M", csc(py, lin.mass)?)?;
+    d.set_item("K", csc(py, lin.stiffness)?)?;
+    d.set_item("G", csc(py, lin.jacobian)?)?;
+    Ok(d)
+}
+
+/// Positions of every node at `times` when every frame is rigid and the joints follow
+/// their drives, shape `(len, n_nodes, 2)`.
+#[pyfunction]
+pub fn rigid_positions<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    times: Vec<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = Arc::clone(&model.model);
+    let (len, n) = (times.len(), m.nodes.len());
+    let flat = py.detach(move || {
+        Clusters::of(&m)
+            .node_positions(&m, &times)
+            .map_err(Error::from)
+    })?;
+    Ok(numpy::PyArray1::from_vec(py, flat)
+        .reshape([len, n, 2])?
+        .into_any())
+}
