@@ -6,8 +6,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use flextop::integrator::Integrator;
-use flextop::simulation::simulate;
+use flextop::{simulate, Integrator};
 
 fn alpha_step(c: &mut Criterion) {
     let arm = common::robot_arm(5, 3, 1);
@@ -16,12 +15,12 @@ fn alpha_step(c: &mut Criterion) {
     let mut integrator = Integrator::new(&arm, arm.densities(Some(&x)).unwrap(), &settings);
     let mut state = integrator.initial_state().unwrap();
     for _ in 0..30 {
-        integrator.alpha_step(&mut state).unwrap();
+        integrator.alpha_step(&mut state, settings.h).unwrap();
     }
     c.bench_function("alpha_step (robot arm, 96 unknowns, t = 0.6 s)", |b| {
         b.iter_batched_ref(
             || state.clone(),
-            |s| integrator.alpha_step(s).unwrap(),
+            |s| integrator.alpha_step(s, settings.h).unwrap(),
             BatchSize::SmallInput,
         )
     });

@@ -9,8 +9,7 @@ mod common;
 use std::time::Instant;
 
 use common::{median, robot_arm, settings};
-use flextop::sensitivity::{dynamic, parse_responses, Memory, Method};
-use flextop::simulation::simulate;
+use flextop::{of_motion, parse_responses, simulate, Memory, Method, SensitivitySettings};
 
 fn time<F: FnMut()>(repeats: usize, mut f: F) -> f64 {
     let mut t: Vec<f64> = (0..repeats)
@@ -39,10 +38,18 @@ fn main() {
         let repeats = if arm.n_variables() < 1000 { 5 } else { 2 };
         let plain = time(repeats, || drop(simulate(&arm, Some(&x), &s).unwrap()));
         let adjoint = time(repeats, || {
-            drop(dynamic(&arm, &x, &s, &responses, Method::Adjoint, Memory::StoreAll).unwrap())
+            let how = SensitivitySettings {
+                method: Method::Adjoint,
+                memory: Memory::StoreAll,
+            };
+            drop(of_motion(&arm, &x, &s, &responses, how).unwrap())
         });
         let direct = time(1, || {
-            drop(dynamic(&arm, &x, &s, &responses, Method::Direct, Memory::StoreAll).unwrap())
+            let how = SensitivitySettings {
+                method: Method::Direct,
+                memory: Memory::StoreAll,
+            };
+            drop(of_motion(&arm, &x, &s, &responses, how).unwrap())
         });
         println!(
             "| {nx} × {ny} | {} | {} | {:.1} | {:.1} | {:.2} | {:.0} | {:.1} |",

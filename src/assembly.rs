@@ -415,10 +415,10 @@ impl Pattern {
         let shape = (rows.len(), cols.len());
         let (mut data, mut indices, mut indptr) = (Vec::new(), Vec::new(), vec![0]);
         for j in cols {
-            for idx in self.col_ptr[j]..self.col_ptr[j + 1] {
-                let i = self.row_idx[idx];
-                if rows.contains(&i) && values[idx] != 0.0 {
-                    data.push(values[idx]);
+            let column = self.col_ptr[j]..self.col_ptr[j + 1];
+            for (&i, &v) in self.row_idx[column.clone()].iter().zip(&values[column]) {
+                if rows.contains(&i) && v != 0.0 {
+                    data.push(v);
                     indices.push(i - rows.start);
                 }
             }

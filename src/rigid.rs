@@ -5,8 +5,10 @@
 //! `x_i = X_i + c + (R(ψ) − I)(X_i − X_k)` about the cluster's first node `k`, `φ_i = ψ`.
 //!
 //! Uses:
-//! * at assembly, the mechanism checks: every cluster must reach the ground through joints,
-//!   and a static scene must have no rigid-body mode left (mobility `3 n_clusters − rank`);
+//! * when a scene is built, the mechanism checks: every node on a beam, no joint repeating
+//!   a constraint of earlier ones ([`redundant_rows`]), every cluster reaching the ground
+//!   through joints, and a static scene with no rigid-body mode left (mobility
+//!   `3 n_clusters − rank`);
 //! * the rigid trajectory `r_rigid(t)` of the tip-deflection response (paper Eq. 40):
 //!   the joints' constraints written on the cluster coordinates, solved by Newton at each
 //!   time; the mechanism must be fully driven (mobility zero).
@@ -16,8 +18,8 @@
 use nalgebra::{DMatrix, DVector, Vector2};
 
 use crate::constraint::ConstraintRow;
-use crate::error::SolveError;
-use crate::model::Model;
+use crate::error::{SceneError, SolveError};
+use crate::model::{Analysis, Model};
 
 /// Partition of the nodes into rigid clusters.
 #[derive(Debug, Clone, PartialEq)]
@@ -277,4 +279,70 @@ pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
         }
     }
     redundant
+}
+
+/// The mechanism checks of a built scene, in order: every node on a beam, no redundant
+/// joint, every cluster grounded, and for a static scene mobility zero.
+///
+/// # Errors
+/// A [`SceneError`] naming the first node or joint at fault.
+pub(crate) fn check_mechanism(model: &Model) -> Result<(), SceneError> {
+    check_attached(model)?;
+    check_redundancy(model)?;
+    let clusters = Clusters::of(model);
+    check_grounding(model, &clusters)?;
+    if model.analysis == Analysis::Static {
+        check_mobility(model, &clusters)?;
+    }
+    Ok(())
+}
+
+/// Every node is an end of some element.
+fn check_attached(model: &Model) -> Result<(), SceneError> {
+    let mut attached = vec![false; model.nodes.len()];
+    model
+        .elements
+        .iter()
+        .flat_map(|e| e.nodes)
+        .for_each(|n| attached[n] = true);
+    match attached.iter().position(|a| !a) {
+        Some(n) => Err(SceneError::new(
+            format!("node '{}'", model.nodes[n].name),
+            "is not attached to any beam",
+        )),
+        None => Ok(()),
+    }
+}
+
+/// No row of `Φ_q` depends on earlier ones: the first redundant row names its joint.
+fn check_redundancy(model: &Model) -> Result<(), SceneError> {
+    match redundant_rows(&model.rows).first() {
+        Some(&r) => {
+            let j = model.rows[r].joint;
+            Err(SceneError::new(
+                format!("joints[{j}] ({})", model.joints[j].name),
+                "over-constrained: this joint repeats a constraint already imposed by earlier joints",
+            ))
+        }
+        None => Ok(()),
+    }
+}
+
+/// Every cluster reaches the ground through a chain of joints.
+fn check_grounding(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
+    match clusters.floating(model).first() {
+        Some(&c) => {
+            let node = &model.nodes[clusters.anchor[c]].name;
+            Err(SceneError::new("joints", format!("unconstrained: the frame containing node '{node}' is not connected to the ground by any joint")))
+        }
+        None => Ok(()),
+    }
+}
+
+/// The joints leave no rigid-body mode free (a static scene cannot be a mechanism).
+fn check_mobility(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
+    match clusters.mobility(model) {
+        0 => Ok(()),
+        free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints"))),
+    }
 }

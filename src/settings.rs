@@ -29,13 +29,14 @@ pub const MAX_STEPS: usize = 100_000_000;
 pub const STORE_BUDGET_BYTES: usize = 512 << 20;
 
 /// How to compute gradients.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
     /// Direct differentiation (Algorithm 2).
     Direct,
     /// Discrete adjoint.
     Adjoint,
     /// Adjoint when there are fewer state-dependent responses than design variables.
+    #[default]
     Auto,
 }
 
@@ -193,12 +194,6 @@ pub struct SensitivitySettings {
     pub method: Method,
     /// What the adjoint stores.
     pub memory: Memory,
-}
-
-impl Default for Method {
-    fn default() -> Self {
-        Self::Auto
-    }
 }
 
 impl Default for Memory {

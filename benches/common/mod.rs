@@ -3,11 +3,8 @@
 
 use std::time::Instant;
 
-use flextop::integrator::Settings;
-use flextop::model::Model;
 use flextop::scene;
-use flextop::sensitivity::{evaluate, parse_responses};
-use flextop::simulation::simulate;
+use flextop::{evaluate, parse_responses, simulate, DynamicSettings, MassKind, Model};
 
 /// The reference robot arm (examples/robot_arm.toml) with an `nx × ny` grid per link and
 /// `split` elements per bar; the joints and tip move to the middle row.
@@ -25,20 +22,25 @@ pub fn robot_arm(nx: usize, ny: usize, split: usize) -> Model {
 }
 
 /// Reference settings: t ∈ [0, 1.3] s, ρ∞ = 0.8, Newton tolerance 1e-10.
-pub fn settings(h: f64) -> Settings {
-    Settings {
+pub fn settings(h: f64) -> DynamicSettings {
+    DynamicSettings {
         t_end: 1.3,
         h,
         rho_inf: 0.8,
         tol: 1e-10,
         max_iter: 30,
-        mass: flextop::element::MassKind::Consistent,
+        mass: MassKind::Consistent,
     }
 }
 
 /// Mean squared tip deflection d of a run of `model` at uniform density `x`, and the
 /// median wall time (s) of `repeats` runs.
-pub fn tip_deflection(model: &Model, x: f64, settings: &Settings, repeats: usize) -> (f64, f64) {
+pub fn tip_deflection(
+    model: &Model,
+    x: f64,
+    settings: &DynamicSettings,
+    repeats: usize,
+) -> (f64, f64) {
     let design = vec![x; model.n_variables()];
     let responses = parse_responses(model, &["tip_deflection".to_string()]).unwrap();
     let mut times = Vec::new();
@@ -47,15 +49,7 @@ pub fn tip_deflection(model: &Model, x: f64, settings: &Settings, repeats: usize
         let start = Instant::now();
         let traj = simulate(model, Some(&design), settings).unwrap();
         times.push(start.elapsed().as_secs_f64());
-        d = evaluate(
-            model,
-            Some(&design),
-            &traj.q,
-            settings.step(),
-            0.0,
-            &responses,
-        )
-        .unwrap()[0];
+        d = evaluate(model, Some(&design), &traj.q, &traj.time, 0.0, &responses).unwrap()[0];
     }
     (d, median(&mut times))
 }

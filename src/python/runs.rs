@@ -180,11 +180,7 @@ pub fn rigid_positions<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Arc::clone(&model.model);
     let (len, n) = (times.len(), m.nodes.len());
-    let flat = py.detach(move || {
-        Clusters::of(&m)
-            .node_positions(&m, &times)
-            .map_err(Error::from)
-    })?;
+    let flat = py.detach(move || rigid(&m, &times).map_err(Error::from))?;
     Ok(numpy::PyArray1::from_vec(py, flat)
         .reshape([len, n, 2])?
         .into_any())

@@ -5,6 +5,18 @@
 //! i.e. when `gcd(|Δcolumn|, |Δrow|) = 1`; overlapping collinear bars are dropped and bars
 //! that cross are not connected where they cross. Bars are ordered by `(i, j)`
 //! lexicographically (shared/scenes/reference-scenes.md).
+//!
+//! In a scene, a ground structure lies in a local frame at `origin` rotated by `angle`; its
+//! nodes are named `NAME[i,j]`, its bars `NAME/bar{k}` form the component `NAME`, and each
+//! bar has a design variable of its own unless the structure is `fixed`.
+
+use nalgebra::Vector2;
+
+use super::mesh::{BarSpec, Mesh};
+use super::section::{self, Sections};
+use super::spec::{GroundStructureSpec, PointSpec};
+use super::validate::{finite, non_negative, positive, Result};
+use crate::error::SceneError;
 
 /// Grid node `k` as `(column, row)`.
 pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {
@@ -53,6 +65,105 @@ fn gcd(a: usize, b: usize) -> usize {
         a
     } else {
         gcd(b, a % b)
+    }
+}
+
+/// Adds the scene's ground structures to `mesh`.
+pub(super) fn add_all(
+    mesh: &mut Mesh,
+    specs: &[GroundStructureSpec],
+    sections: &Sections,
+) -> Result<()> {
+    for (k, g) in specs.iter().enumerate() {
+        add(
+            mesh,
+            &format!("ground_structures[{k}] ({})", g.name),
+            g,
+            sections,
+        )?;
+    }
+    Ok(())
+}
+
+/// The ground structure `g` at `path`: its grid nodes, then its bars.
+fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections) -> Result<()> {
+    let grid = Grid::of(mesh, path, g)?;
+    let section = section::find(sections, path, &g.section)?;
+    let first = mesh.nodes.len();
+    for k in 0..g.nx * g.ny {
+        let (i, j) = grid_position(k, g.ny);
+        let p = grid.position(i, j);
+        mesh.add_node(path, &format!("{}[{i},{j}]", g.name), p.x, p.y)?;
+    }
+    let component = mesh.component(&g.name);
+    for (k, (i, j)) in bars(g.nx, g.ny).into_iter().enumerate() {
+        let name = format!("{}/bar{k}", g.name);
+        let variable = (!g.fixed).then(|| mesh.variables.add(&name));
+        mesh.add_bar(BarSpec {
+            path: format!("{path}/bar{k}"),
+            name,
+            ends: [first + i, first + j],
+            section,
+            split: g.split,
+            component,
+            variable,
+        })?;
+    }
+    Ok(())
+}
+
+/// The grid of a ground structure, placed in the scene.
+struct Grid {
+    nx: usize,
+    ny: usize,
+    length: f64,
+    height: f64,
+    origin: Vector2<f64>,
+    /// `(cos, sin)` of the frame's angle.
+    rotation: (f64, f64),
+}
+
+impl Grid {
+    /// The grid of `g` at `path`: at least `2 × 1` nodes over `length > 0` and
+    /// `height ≥ 0` (`> 0` with more than one row), its `origin` given by coordinates or by
+    /// a node of `mesh`.
+    fn of(mesh: &Mesh, path: &str, g: &GroundStructureSpec) -> Result<Self> {
+        if g.nx < 2 || g.ny < 1 {
+            return Err(SceneError::new(
+                path,
+                format!("needs nx >= 2 and ny >= 1, got {} × {}", g.nx, g.ny),
+            ));
+        }
+        let length = positive(&format!("{path}.length"), g.length)?;
+        let height = if g.ny > 1 {
+            positive(&format!("{path}.height"), g.height)?
+        } else {
+            non_negative(&format!("{path}.height"), g.height)?
+        };
+        let angle = finite(&format!("{path}.angle"), g.angle)?;
+        let origin = match &g.origin {
+            PointSpec::Coordinates([x, y]) => Vector2::new(
+                finite(&format!("{path}.origin[0]"), *x)?,
+                finite(&format!("{path}.origin[1]"), *y)?,
+            ),
+            PointSpec::Node(n) => mesh.nodes[mesh.node(&format!("{path}.origin"), n)?].position,
+        };
+        Ok(Self {
+            nx: g.nx,
+            ny: g.ny,
+            length,
+            height,
+            origin,
+            rotation: (angle.cos(), angle.sin()),
+        })
+    }
+
+    /// Scene position of grid node `(column, row)`: its [`local_coordinates`] rotated and
+    /// moved to the origin.
+    fn position(&self, column: usize, row: usize) -> Vector2<f64> {
+        let (c, s) = self.rotation;
+        let [lx, ly] = local_coordinates(column, row, self.nx, self.ny, self.length, self.height);
+        self.origin + Vector2::new(c * lx - s * ly, s * lx + c * ly)
     }
 }
 

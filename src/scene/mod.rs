@@ -5,8 +5,15 @@
 //! unknown keys with their path; [`build()`] checks every value and the mechanism.
 
 pub mod build;
+mod design;
 pub mod ground_structure;
+mod joint;
+mod load;
+mod mesh;
+mod section;
+mod simulation;
 pub mod spec;
+mod validate;
 
 pub use build::build;
 pub use spec::SceneSpec;

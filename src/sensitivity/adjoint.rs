@@ -281,10 +281,10 @@ impl<'a> Sweep<'a> {
         for k in 0..self.n_r {
             let r = k * n_q..(k + 1) * n_q;
             let out = &mut self.rhs[k * n..(k + 1) * n];
-            for i in 0..n_q {
+            for (i, o) in out[..n_q].iter_mut().enumerate() {
                 let j = r.start + i;
                 let a_total = self.ab[j] + h * gamma * self.vb[j];
-                out[i] = self.qb[j] + bp * self.acc_b[j] + a_total / (h * h * beta);
+                *o = self.qb[j] + bp * self.acc_b[j] + a_total / (h * h * beta);
                 self.ab[j] = a_total; // kept for P̄ below
             }
             out[n_q..].fill(0.0);
@@ -326,8 +326,13 @@ impl<'a> Sweep<'a> {
         let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
         for k in 0..self.n_r {
             let out = &mut self.rhs[k * n..(k + 1) * n];
-            for i in 0..n_q {
-                out[i] = self.acc_b[k * n_q + i] + self.ab[k * n_q + i];
+            let r = k * n_q..(k + 1) * n_q;
+            for ((o, acc_b), ab) in out[..n_q]
+                .iter_mut()
+                .zip(&self.acc_b[r.clone()])
+                .zip(&self.ab[r])
+            {
+                *o = acc_b + ab;
             }
             out[n_q..].fill(0.0);
         }

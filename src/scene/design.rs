@@ -1,0 +1,100 @@
+//! The design: one density per free bar or per group of beams, bounded below by `x_min`,
+//! with the stiffness interpolated by SIMP or RAMP (paper Eq. 1, 33, 34).
+//!
+//! Each bar of a ground structure has a variable of its own unless the structure is
+//! `fixed`; a beam has its own variable, shares that of its `group`, or has none when
+//! `fixed` (full density). Variables are numbered in the order the bars claim them.
+
+use std::collections::HashMap;
+
+use super::spec::{BeamSpec, DesignSpec, InterpolationSpec};
+use super::validate::{non_negative, Result};
+use crate::error::SceneError;
+use crate::interpolation::Interpolation;
+
+/// Design variables under construction.
+#[derive(Default)]
+pub(super) struct Variables {
+    /// Name of each variable: that of its bar, or of its group.
+    pub(super) names: Vec<String>,
+    /// Variable of each group.
+    groups: HashMap<String, usize>,
+}
+
+impl Variables {
+    /// A new variable called `name`.
+    pub(super) fn add(&mut self, name: &str) -> usize {
+        self.names.push(name.to_string());
+        self.names.len() - 1
+    }
+
+    /// The variable of the beam `b` at `path`, called `name` when it has one of its own.
+    pub(super) fn of_beam(
+        &mut self,
+        path: &str,
+        name: &str,
+        b: &BeamSpec,
+    ) -> Result<Option<usize>> {
+        match (&b.group, b.fixed) {
+            (Some(_), true) => Err(SceneError::new(
+                path,
+                "a fixed beam cannot belong to a design group",
+            )),
+            (_, true) => Ok(None),
+            (Some(g), false) => Ok(Some(self.group(g))),
+            (None, false) => Ok(Some(self.add(name))),
+        }
+    }
+
+    /// The variable shared by the beams of group `g`, added by its first beam.
+    fn group(&mut self, g: &str) -> usize {
+        match self.groups.get(g) {
+            Some(&v) => v,
+            None => {
+                let v = self.add(g);
+                self.groups.insert(g.to_string(), v);
+                v
+            }
+        }
+    }
+}
+
+/// The interpolation law and the lower bound `x_min ∈ (0, 1)` of the densities.
+pub(super) fn law(d: &DesignSpec) -> Result<(Interpolation, f64)> {
+    let x_min = d.x_min;
+    if !(x_min > 0.0 && x_min < 1.0) {
+        return Err(SceneError::new(
+            "design.x_min",
+            format!("must lie in (0, 1), got {x_min}"),
+        ));
+    }
+    Ok((interpolation(d)?, x_min))
+}
+
+/// SIMP with exponent `p ≥ 1` (default 3) or RAMP with parameter `q ≥ 0` (default 8);
+/// each law takes only its own parameter.
+fn interpolation(d: &DesignSpec) -> Result<Interpolation> {
+    match (d.interpolation, d.p, d.q) {
+        (InterpolationSpec::Simp, p, None) => {
+            let p = p.unwrap_or(3.0);
+            if !(p.is_finite() && p >= 1.0) {
+                return Err(SceneError::new(
+                    "design.p",
+                    format!("SIMP exponent must be finite and >= 1, got {p}"),
+                ));
+            }
+            Ok(Interpolation::Simp { p })
+        }
+        (InterpolationSpec::Ramp, None, q) => Ok(Interpolation::Ramp {
+            q: non_negative("design.q", q.unwrap_or(8.0))?,
+        }),
+        (InterpolationSpec::Simp, _, Some(_)) => Err(SceneError::new(
+            "design.q",
+            "`q` is the RAMP parameter; SIMP takes `p`",
+        )),
+        (InterpolationSpec::Ramp, Some(_), _) => Err(SceneError::new(
+            "design.p",
+            "`p` is the SIMP exponent; RAMP takes `q`",
+        )),
+    }
+}

@@ -1,0 +1,221 @@
+//! The mesh: named nodes, and straight bars between them, each split into co-rotational
+//! beam elements ([`crate::element::beam`]).
+//!
+//! Bars come from the scene's beams and from its ground structures
+//! ([`super::ground_structure`]). A bar of `split` elements gets `split − 1` interior nodes
+//! of its own, evenly spaced and named `NAME:k`. Once every bar is known, each must be
+//! longer than the round-off of the scene's coordinates.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector2;
+
+use super::design::Variables;
+use super::section::{self, Sections};
+use super::spec::{BeamSpec, NodeSpec};
+use super::validate::{finite, unknown, Result};
+use crate::element::Beam;
+use crate::error::SceneError;
+use crate::model::{size_of, Bar, Element, Node};
+use crate::section::Section;
+
+/// Mesh under construction.
+#[derive(Default)]
+pub(super) struct Mesh {
+    /// Nodes, named ones first.
+    pub(super) nodes: Vec<Node>,
+    /// Node of each name.
+    index: HashMap<String, usize>,
+    /// Elements, bar by bar.
+    pub(super) elements: Vec<Element>,
+    /// Bars.
+    pub(super) bars: Vec<Bar>,
+    /// Scene path of each bar, for messages.
+    bar_paths: Vec<String>,
+    /// Name of each component.
+    pub(super) components: Vec<String>,
+    /// Design variables of the bars.
+    pub(super) variables: Variables,
+}
+
+/// What a new bar is made of and where it belongs.
+pub(super) struct BarSpec<'a> {
+    /// Scene path, for messages.
+    pub(super) path: String,
+    /// Name, and prefix of its interior nodes' names.
+    pub(super) name: String,
+    /// End nodes.
+    pub(super) ends: [usize; 2],
+    /// Section of its elements.
+    pub(super) section: &'a Section,
+    /// Number of elements.
+    pub(super) split: usize,
+    /// Component.
+    pub(super) component: usize,
+    /// Design variable, none for a bar at full density.
+    pub(super) variable: Option<usize>,
+}
+
+impl Mesh {
+    /// The scene's named nodes.
+    pub(super) fn add_nodes(&mut self, nodes: &[NodeSpec]) -> Result<()> {
+        for (k, n) in nodes.iter().enumerate() {
+            self.add_node(&format!("nodes[{k}] ({})", n.name), &n.name, n.x, n.y)?;
+        }
+        Ok(())
+    }
+
+    /// A node at `(x, y)` called `name`, which no other node may have.
+    pub(super) fn add_node(&mut self, path: &str, name: &str, x: f64, y: f64) -> Result<usize> {
+        finite(&format!("{path}.x"), x)?;
+        finite(&format!("{path}.y"), y)?;
+        if self.index.contains_key(name) {
+            return Err(SceneError::new(
+                path,
+                format!("duplicate node name '{name}'"),
+            ));
+        }
+        self.index.insert(name.to_string(), self.nodes.len());
+        self.nodes.push(Node {
+            name: name.to_string(),
+            position: Vector2::new(x, y),
+        });
+        Ok(self.nodes.len() - 1)
+    }
+
+    /// The node called `name` at `path`.
+    pub(super) fn node(&self, path: &str, name: &str) -> Result<usize> {
+        self.index
+            .get(name)
+            .copied()
+            .ok_or_else(|| unknown(path, "node", name))
+    }
+
+    /// The component called `name`, added on first use.
+    pub(super) fn component(&mut self, name: &str) -> usize {
+        self.components
+            .iter()
+            .position(|c| c == name)
+            .unwrap_or_else(|| {
+                self.components.push(name.to_string());
+                self.components.len() - 1
+            })
+    }
+
+    /// The scene's beams, each a bar between two named nodes (default name `beams[k]`,
+    /// default component `frame`).
+    pub(super) fn add_beams(&mut self, beams: &[BeamSpec], sections: &Sections) -> Result<()> {
+        for (k, b) in beams.iter().enumerate() {
+            self.add_beam(&format!("beams[{k}]"), k, b, sections)?;
+        }
+        Ok(())
+    }
+
+    /// The beam `b`, the `k`-th of the scene, at `path`.
+    fn add_beam(&mut self, path: &str, k: usize, b: &BeamSpec, sections: &Sections) -> Result<()> {
+        let name = b.name.clone().unwrap_or_else(|| format!("beams[{k}]"));
+        let ends = [
+            self.node(&format!("{path}.nodes[0]"), &b.nodes[0])?,
+            self.node(&format!("{path}.nodes[1]"), &b.nodes[1])?,
+        ];
+        let section = section::find(sections, path, &b.section)?;
+        let component = self.component(b.component.as_deref().unwrap_or("frame"));
+        let variable = self.variables.of_beam(path, &name, b)?;
+        self.add_bar(BarSpec {
+            path: path.to_string(),
+            name,
+            ends,
+            section,
+            split: b.split,
+            component,
+            variable,
+        })
+    }
+
+    /// A straight bar split into `split` elements, interior nodes named `NAME:k` (its length
+    /// is checked by [`Mesh::size`] once the whole mesh is known).
+    pub(super) fn add_bar(&mut self, b: BarSpec) -> Result<()> {
+        let [a, z] = b.ends;
+        let length = (self.nodes[z].position - self.nodes[a].position).norm();
+        let chain = self.chain(&b)?;
+        let first = self.elements.len();
+        let bar = self.bars.len();
+        for w in chain.windows(2) {
+            let beam = Beam::new(
+                self.nodes[w[0]].position,
+                self.nodes[w[1]].position,
+                *b.section,
+            );
+            self.elements.push(Element {
+                beam,
+                nodes: [w[0], w[1]],
+                bar,
+            });
+        }
+        self.bars.push(Bar {
+            name: b.name,
+            component: b.component,
+            variable: b.variable,
+            elements: first..self.elements.len(),
+            volume: b.section.area * length,
+        });
+        self.bar_paths.push(b.path);
+        Ok(())
+    }
+
+    /// The nodes along bar `b`, end to end: its ends and `split − 1` new interior nodes.
+    fn chain(&mut self, b: &BarSpec) -> Result<Vec<usize>> {
+        let [a, z] = b.ends;
+        let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
+        if b.split == 0 {
+            return Err(SceneError::new(
+                format!("{}.split", b.path),
+                "must be at least 1",
+            ));
+        }
+        let mut chain = vec![a];
+        for k in 1..b.split {
+            let p = xa + (xz - xa) * (k as f64 / b.split as f64);
+            chain.push(self.add_node(&b.path, &format!("{}:{k}", b.name), p.x, p.y)?);
+        }
+        chain.push(z);
+        Ok(chain)
+    }
+
+    /// The scene's size, the diagonal of its bounding box ([`size_of`]), once the mesh is
+    /// known to have beams, none of them of zero length.
+    pub(super) fn size(&self) -> Result<f64> {
+        if self.elements.is_empty() {
+            return Err(SceneError::new("scene", "has no beams"));
+        }
+        let size = size_of(&self.nodes);
+        self.check_lengths(size)?;
+        Ok(size)
+    }
+
+    /// Every bar has a finite length above 1e-9 of the model's size and above the round-off
+    /// of its end coordinates (1e-12 of their magnitude).
+    fn check_lengths(&self, size: f64) -> Result<()> {
+        if !size.is_finite() {
+            return Err(SceneError::new(
+                "nodes",
+                format!("the scene spans {size} m: coordinates too large to compute with"),
+            ));
+        }
+        for (bar, path) in self.bars.iter().zip(&self.bar_paths) {
+            let (a, z) = (
+                self.elements[bar.elements.start].nodes[0],
+                self.elements[bar.elements.end - 1].nodes[1],
+            );
+            let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
+            let length = (xz - xa).norm();
+            let too_short = length.partial_cmp(&(1e-9 * size).max(1e-12 * (xa.norm() + xz.norm())))
+                != Some(std::cmp::Ordering::Greater);
+            if too_short {
+                let (na, nz) = (&self.nodes[a].name, &self.nodes[z].name);
+                return Err(SceneError::new(path, format!("zero-length bar: nodes '{na}' and '{nz}' coincide ({length:.1e} m apart in a scene of {size:.3} m)")));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,74 @@
+//! The checks every scene value goes through, and the errors they raise.
+//!
+//! A value is accepted only when it is finite, and where the physics asks for it, positive
+//! or non-negative; sampled time histories must have strictly increasing times. Every
+//! error carries the path of the entry at fault (`sections.al.E`, `loads[0].table.t[2]`).
+
+use crate::error::SceneError;
+
+/// The scene build's result: a value, or the error of the first entry at fault.
+pub(super) type Result<T> = std::result::Result<T, SceneError>;
+
+/// `v` when it is finite.
+pub(super) fn finite(path: &str, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(SceneError::new(path, format!("must be finite, got {v}")))
+    }
+}
+
+/// `v` when it is finite and `v > 0`.
+pub(super) fn positive(path: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be positive and finite, got {v}"),
+        ))
+    }
+}
+
+/// `v` when it is finite and `v ≥ 0`.
+pub(super) fn non_negative(path: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be non-negative and finite, got {v}"),
+        ))
+    }
+}
+
+/// Samples `(t_k, v_k)` of a time history: at least two, as many `what` as times, all
+/// finite, times strictly increasing.
+pub(super) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {
+    if t.len() < 2 || t.len() != values.len() {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "needs at least two samples and as many {what} as times ({} vs {})",
+                values.len(),
+                t.len()
+            ),
+        ));
+    }
+    for (k, (&ti, &vi)) in t.iter().zip(values).enumerate() {
+        finite(&format!("{path}.t[{k}]"), ti)?;
+        finite(&format!("{path}.{what}[{k}]"), vi)?;
+    }
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(SceneError::new(
+            format!("{path}.t[{}]", k + 1),
+            "times must be strictly increasing",
+        ));
+    }
+    Ok(())
+}
+
+/// The error of a name that refers to no `what` (`node`, `section`) of the scene.
+pub(super) fn unknown(path: impl Into<String>, what: &str, name: &str) -> SceneError {
+    SceneError::new(path, format!("unknown {what} '{name}'"))
+}
