@@ -9,12 +9,13 @@ use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::element::MassKind;
 use crate::error::Error;
 use crate::model::{Densities, Model};
+use crate::newton::Newton;
 use crate::response::{Context, Response};
 use crate::settings::StaticSettings;
 use crate::statics::{load_stepping, static_newton};
 use crate::time_grid::TimeGrid;
 
-/// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint).
+/// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint, resolved).
 pub(crate) fn run(
     model: &Model,
     densities: Densities,
@@ -27,86 +28,119 @@ pub(crate) fn run(
     let sol = load_stepping(&mut newton, settings)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
-    let n = n_q + model.n_constraints();
     newton.factorize(Some(&sol.q), 0.0, settings.time)?;
-    let asm = newton.assembler();
-    // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
-    let mut load = vec![0.0; n_q];
-    asm.applied_loads(settings.time, 1.0, &mut load);
-    let ctx = Context {
-        model,
-        densities: &asm.densities,
-        static_load: &load,
-        mass_kind: MassKind::Consistent,
+    let local = Local::at(&newton, settings.time, responses, &sol.q)?;
+    let (values, gradients) = match method {
+        Method::Direct => direct(&newton, &sol.q, local)?,
+        _ => adjoint(&newton, &sol.q, local)?,
     };
-    let grid = TimeGrid::single();
-    let objectives = Objectives::new(model, responses, &grid)?;
-    let pseudo = PseudoLoads::new(model, MassKind::Consistent);
-    let mut values = vec![0.0; n_r];
-    objectives.add_values(&ctx, 0, &sol.q, &mut values);
-    let (mut g_q, mut g_x) = (vec![0.0; n_q * n_r], vec![0.0; n_x * n_r]);
+    Ok(Sensitivities {
+        values,
+        gradients,
+        method,
+        timings: Timings {
+            simulation,
+            gradients: clock.elapsed().as_secs_f64(),
+        },
+    })
+}
+
+/// The responses at the equilibrium and their partial derivatives: `G_q` (row-major
+/// `n_r × n_q`) and `G_x` (`n_r × n_x`).
+struct Local {
+    values: Vec<f64>,
+    g_q: Vec<f64>,
+    g_x: Vec<f64>,
+}
+
+impl Local {
+    fn at(newton: &Newton, time: f64, responses: &[Response], q: &[f64]) -> Result<Self, Error> {
+        let asm = newton.assembler();
+        let model = asm.model;
+        let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
+        // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
+        let mut load = vec![0.0; n_q];
+        asm.applied_loads(time, 1.0, &mut load);
+        let ctx = Context {
+            model,
+            densities: &asm.densities,
+            static_load: &load,
+            mass_kind: MassKind::Consistent,
+        };
+        let grid = TimeGrid::single();
+        let objectives = Objectives::new(model, responses, &grid)?;
+        let mut local = Self {
+            values: vec![0.0; n_r],
+            g_q: vec![0.0; n_q * n_r],
+            g_x: vec![0.0; n_x * n_r],
+        };
+        objectives.add_values(&ctx, 0, q, &mut local.values);
+        for k in 0..n_r {
+            objectives.add_partials(
+                &ctx,
+                k,
+                0,
+                q,
+                &mut local.g_q[k * n_q..(k + 1) * n_q],
+                &mut local.g_x[k * n_x..(k + 1) * n_x],
+            );
+        }
+        Ok(local)
+    }
+}
+
+/// Direct: `K_t u'_j = −∂r/∂x_j` for every design variable, then `f' = G_x + G_q u'`.
+fn direct(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    let asm = newton.assembler();
+    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let n = n_q + asm.model.n_constraints();
+    let Local {
+        values,
+        g_q,
+        mut g_x,
+    } = local;
+    let mut rhs = vec![0.0; n * n_x];
+    PseudoLoads::new(asm.model, MassKind::Consistent).subtract_columns(
+        asm,
+        q,
+        None,
+        &mut rhs,
+        n,
+        0..n_x,
+    );
+    newton.solve_block(&mut rhs, n_x, &mut newton.scratch(n_x.max(1)))?;
+    for (g_x, g_q) in g_x.chunks_mut(n_x).zip(g_q.chunks(n_q)) {
+        for (j, g) in g_x.iter_mut().enumerate() {
+            *g += g_q
+                .iter()
+                .zip(&rhs[j * n..j * n + n_q])
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+        }
+    }
+    Ok((values, g_x))
+}
+
+/// Adjoint: `K_t μ_k = G_q,k` for every response, then `f' = G_x − (∂r/∂x)ᵀ μ`.
+fn adjoint(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    let asm = newton.assembler();
+    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let n = n_q + asm.model.n_constraints();
+    let n_r = local.values.len();
+    let Local {
+        values,
+        g_q,
+        mut g_x,
+    } = local;
+    let mut rhs = vec![0.0; n * n_r];
     for k in 0..n_r {
-        objectives.add_partials(
-            &ctx,
-            k,
-            0,
-            &sol.q,
-            &mut g_q[k * n_q..(k + 1) * n_q],
-            &mut g_x[k * n_x..(k + 1) * n_x],
-        );
+        rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
     }
-    match method {
-        Method::Direct => {
-            let mut rhs = vec![0.0; n * n_x];
-            pseudo.subtract_columns(asm, &sol.q, None, &mut rhs, n, 0..n_x);
-            let mut scratch = newton.scratch(n_x.max(1));
-            newton.solve_block(&mut rhs, n_x, &mut scratch)?;
-            for k in 0..n_r {
-                for j in 0..n_x {
-                    let du = &rhs[j * n..j * n + n_q];
-                    g_x[k * n_x + j] += g_q[k * n_q..(k + 1) * n_q]
-                        .iter()
-                        .zip(du)
-                        .map(|(a, b)| a * b)
-                        .sum::<f64>();
-                }
-            }
-            Ok(Sensitivities {
-                values,
-                gradients: g_x,
-                method,
-                timings: Timings {
-                    simulation,
-                    gradients: clock.elapsed().as_secs_f64(),
-                },
-            })
-        }
-        _ => {
-            let mut rhs = vec![0.0; n * n_r];
-            for k in 0..n_r {
-                rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
-            }
-            let mut scratch = newton.scratch(n_r);
-            newton.solve_block(&mut rhs, n_r, &mut scratch)?;
-            for k in 0..n_r {
-                pseudo.subtract_transposed(
-                    asm,
-                    &sol.q,
-                    None,
-                    &rhs[k * n..k * n + n_q],
-                    &mut g_x[k * n_x..(k + 1) * n_x],
-                );
-            }
-            Ok(Sensitivities {
-                values,
-                gradients: g_x,
-                method: Method::Adjoint,
-                timings: Timings {
-                    simulation,
-                    gradients: clock.elapsed().as_secs_f64(),
-                },
-            })
-        }
+    newton.solve_block(&mut rhs, n_r, &mut newton.scratch(n_r))?;
+    let pseudo = PseudoLoads::new(asm.model, MassKind::Consistent);
+    for k in 0..n_r {
+        let mu = &rhs[k * n..k * n + n_q];
+        pseudo.subtract_transposed(asm, q, None, mu, &mut g_x[k * n_x..(k + 1) * n_x]);
     }
+    Ok((values, g_x))
 }
