@@ -11,7 +11,7 @@ use nalgebra::Vector2;
 use crate::constraint::{ConstraintRow, Joint};
 use crate::element::{Beam, Vector6};
 use crate::error::DesignError;
-use crate::interpolation::Interpolation;
+use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
 use crate::settings::RunOptions;
 
@@ -89,6 +89,8 @@ pub enum Analysis {
 pub struct Design {
     /// Stiffness interpolation.
     pub interpolation: Interpolation,
+    /// Inertia interpolation.
+    pub mass: MassLaw,
     /// Lower bound on densities.
     pub x_min: f64,
     /// Name of each design variable.
@@ -131,8 +133,12 @@ pub struct Model {
 /// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Densities {
-    /// Mass factor `x_e`.
+    /// Density `x_e` (1 for a fixed bar): the volume fraction.
+    pub density: Vec<f64>,
+    /// Mass factor `m(x_e)`.
     pub mass: Vec<f64>,
+    /// `dm/dx` at `x_e`.
+    pub mass_rate: Vec<f64>,
     /// Stiffness factor `s(x_e)`.
     pub stiffness: Vec<f64>,
     /// `ds/dx` at `x_e`.
@@ -206,7 +212,7 @@ impl Model {
                 });
             }
         }
-        let law = self.design.interpolation;
+        let (law, mass) = (self.design.interpolation, self.design.mass);
         let value = |e: usize| match (self.variable_of(e), x) {
             (Some(i), Some(x)) => x[i],
             _ => 1.0,
@@ -215,7 +221,9 @@ impl Model {
         Ok(Densities {
             stiffness: xe.iter().map(|&v| law.stiffness(v)).collect(),
             stiffness_rate: xe.iter().map(|&v| law.stiffness_derivative(v)).collect(),
-            mass: xe,
+            mass: xe.iter().map(|&v| mass.mass(v)).collect(),
+            mass_rate: xe.iter().map(|&v| mass.mass_derivative(v)).collect(),
+            density: xe,
         })
     }
 

@@ -206,7 +206,7 @@ impl Response {
                 .bars
                 .iter()
                 .filter(|b| component.is_none_or(|c| b.component == c))
-                .map(|b| ctx.densities.mass[b.elements.start] * b.volume)
+                .map(|b| ctx.densities.density[b.elements.start] * b.volume)
                 .sum(),
             Self::FinalDisplacement { node, direction }
             | Self::IntegratedDisplacement { node, direction } => {
@@ -236,7 +236,9 @@ impl Response {
                 let gravity = Vector6::from([g.x, g.y, 0.0, g.x, g.y, 0.0]);
                 for (e, el) in m.elements.iter().enumerate() {
                     if let (Some(v), true) = (m.variable_of(e), g.norm() > 0.0) {
-                        let rate = el.beam.mass_matrix(ctx.mass_kind) * gravity;
+                        let rate = el.beam.mass_matrix(ctx.mass_kind)
+                            * gravity
+                            * ctx.densities.mass_rate[e];
                         g_x[v] += scale * rate.dot(&el.gather(q));
                     }
                 }

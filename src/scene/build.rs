@@ -34,6 +34,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let loads = load::loads(&spec.loads, &mesh)?;
     let gravity = load::gravity(spec.gravity)?;
     let (interpolation, x_min) = design::law(&spec.design)?;
+    let mass = design::mass_law(&spec.design, spec.analysis)?;
     let tip = spec.tip.as_ref().map(|t| mesh.node("tip", t)).transpose()?;
     let model = Model {
         name: spec.name.clone(),
@@ -52,6 +53,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         gravity,
         design: Design {
             interpolation,
+            mass,
             x_min,
             variables: mesh.variables.names,
         },

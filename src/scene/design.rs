@@ -7,10 +7,10 @@
 
 use std::collections::HashMap;
 
-use super::spec::{BeamSpec, DesignSpec, InterpolationSpec};
+use super::spec::{AnalysisSpec, BeamSpec, DesignSpec, InterpolationSpec, MassSpec};
 use super::validate::{non_negative, Result};
 use crate::error::SceneError;
-use crate::interpolation::Interpolation;
+use crate::interpolation::{Interpolation, MassLaw};
 
 /// Design variables under construction.
 #[derive(Default)]
@@ -55,6 +55,32 @@ impl Variables {
                 self.groups.insert(g.to_string(), v);
                 v
             }
+        }
+    }
+}
+
+/// The inertia law: Du–Olhoff by default for dynamic scenes, where thin bars vibrate;
+/// linear (the paper's) by default for static ones, where mass is only weight.
+pub(super) fn mass_law(d: &DesignSpec, analysis: AnalysisSpec) -> Result<MassLaw> {
+    let default = match analysis {
+        AnalysisSpec::Dynamic => MassSpec::DuOlhoff,
+        AnalysisSpec::Static => MassSpec::Linear,
+    };
+    match (d.mass.unwrap_or(default), d.mass_threshold) {
+        (MassSpec::Linear, None) => Ok(MassLaw::Linear),
+        (MassSpec::Linear, Some(_)) => Err(SceneError::new(
+            "design.mass_threshold",
+            "applies to mass = \"du_olhoff\" only",
+        )),
+        (MassSpec::DuOlhoff, t) => {
+            let threshold = t.unwrap_or(0.1);
+            if !(threshold > 0.0 && threshold <= 1.0) {
+                return Err(SceneError::new(
+                    "design.mass_threshold",
+                    format!("must lie in (0, 1], got {threshold}"),
+                ));
+            }
+            Ok(MassLaw::DuOlhoff { threshold })
         }
     }
 }

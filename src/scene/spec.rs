@@ -289,6 +289,11 @@ pub struct DesignSpec {
     /// Lower bound on densities (default 0.01).
     #[serde(default = "default_x_min")]
     pub x_min: f64,
+    /// Inertia law: `"du_olhoff"` (default of dynamic scenes) or `"linear"` (the paper's
+    /// law; default of static scenes).
+    pub mass: Option<MassSpec>,
+    /// Density below which the Du–Olhoff mass falls like `x⁶` (default 0.1).
+    pub mass_threshold: Option<f64>,
 }
 
 impl Default for DesignSpec {
@@ -298,6 +303,8 @@ impl Default for DesignSpec {
             p: None,
             q: None,
             x_min: default_x_min(),
+            mass: None,
+            mass_threshold: None,
         }
     }
 }
@@ -311,6 +318,16 @@ pub enum InterpolationSpec {
     Simp,
     /// `x / (1 + q(1 − x))`.
     Ramp,
+}
+
+/// Inertia interpolation law.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MassSpec {
+    /// `m = x` (the paper's law).
+    Linear,
+    /// `m = x` above the threshold, `x r⁵(6 − 5r)` below.
+    DuOlhoff,
 }
 
 fn one() -> usize {

@@ -10,8 +10,9 @@
 //!   of `n`.
 //!
 //! Both use the pseudo-loads of Eq. 35–36: the residual depends on an element's density
-//! through its inertia (linear, Eq. 33) and its stiffness (`s(x)`, Eq. 34), so
-//! `∂r/∂x_e = M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` with full-density element quantities.
+//! through its inertia (`m(x)`, linear in the paper's Eq. 33) and its stiffness (`s(x)`,
+//! Eq. 34), so `∂r/∂x_e = m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` with full-density
+//! element quantities.
 //! Static scenes use the same pieces on the equilibrium `K_t u' = −r_x` ([`statics`]).
 
 pub mod adjoint;
@@ -137,13 +138,13 @@ impl PseudoLoads {
         }
     }
 
-    /// `M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
+    /// `m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
     fn element(&self, asm: &Assembler, e: usize, q: &[f64], acc: Option<&[f64]>) -> Vector6 {
         let el = &asm.model.elements[e];
         let dofs = el.dofs();
         let inertia =
             Vector6::from_fn(|i, _| acc.map_or(0.0, |a| a[dofs[i]]) - asm.gravity[dofs[i]]);
-        self.masses[e] * inertia
+        self.masses[e] * inertia * asm.densities.mass_rate[e]
             + el.beam.internal_force(&el.gather(q)) * asm.densities.stiffness_rate[e]
     }
 
