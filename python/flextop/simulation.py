@@ -7,6 +7,7 @@ variable, ``None`` for full density). The engine releases the GIL while it runs.
 
 from __future__ import annotations
 
+import copy
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -18,6 +19,7 @@ import scipy.sparse as sp
 
 from . import _core
 from .accuracy import preset, refine
+from .errors import DesignError
 from .scene import Scene
 
 
@@ -108,6 +110,7 @@ class Simulation:
 
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None) -> None:
         spec = _as_spec(scene)
+        self.spec = copy.deepcopy(spec)
         self.accuracy = accuracy
         self._defaults: dict[str, Any] = {}
         if accuracy is not None:
@@ -219,6 +222,31 @@ class Simulation:
         out = _core.run_with_sensitivities(self.model, xv, names, self._settings(method=method, memory=memory, **settings))
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
         return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings)
+
+    def as_built(self, x: Any, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:
+        """The design ``x`` as it would be built: its void bars removed.
+
+        Bars of ground structures whose density is at most ``threshold`` (default: at
+        ``x_min``) are left out of the scene, with the grid nodes only they touched; the
+        rest keep their names, densities and the scene's material law. Returns the new
+        :class:`Simulation` (same accuracy preset) and its design vector, so that a final
+        design can be judged without void bars, e.g. on a refined discretization. Raises
+        ``SceneError`` if what remains is not a mechanism (a joint's node was removed, a
+        frame falls apart).
+        """
+        xv = self._design(x)
+        if xv is None or xv.shape != (self.n_design,):
+            raise DesignError(f"as_built needs a design vector of {self.n_design} densities")
+        limit = self.x_min * (1.0 + 1e-9) if threshold is None else float(threshold)
+        void = {name for name, v in zip(self.bars.name, self.bars.variable) if v >= 0 and xv[v] <= limit}
+        spec = copy.deepcopy(self.spec)
+        for g in spec.get("ground_structures", []):
+            prefix = f"{g['name']}/bar"
+            omit = set(g.get("omit", [])) | {int(n[len(prefix):]) for n in void if n.startswith(prefix) and n[len(prefix):].isdigit()}
+            g["omit"] = sorted(omit)
+        built = Simulation(spec, accuracy=self.accuracy)
+        index = {name: k for k, name in enumerate(self.variable_names)}
+        return built, np.array([xv[index[name]] for name in built.variable_names])
 
     def _design(self, x: Any) -> np.ndarray | None:
         if x is None:

@@ -8,7 +8,8 @@
 //!
 //! In a scene, a ground structure lies in a local frame at `origin` rotated by `angle`; its
 //! nodes are named `NAME[i,j]`, its bars `NAME/bar{k}` form the component `NAME`, and each
-//! bar has a design variable of its own unless the structure is `fixed`.
+//! bar has a design variable of its own unless the structure is `fixed`. Bars listed in
+//! `omit` are left out with the grid nodes only they touched; the others keep their names.
 
 use nalgebra::Vector2;
 
@@ -89,20 +90,27 @@ pub(super) fn add_all(
 fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections) -> Result<()> {
     let grid = Grid::of(mesh, path, g)?;
     let section = section::find(sections, path, &g.section)?;
-    let first = mesh.nodes.len();
-    for k in 0..g.nx * g.ny {
+    let kept = kept_bars(path, g)?;
+    let mut touched = vec![false; g.nx * g.ny];
+    for &(_, (i, j)) in &kept {
+        touched[i] = true;
+        touched[j] = true;
+    }
+    // Mesh index of each grid node a kept bar touches.
+    let mut node = vec![usize::MAX; g.nx * g.ny];
+    for k in (0..g.nx * g.ny).filter(|&k| touched[k]) {
         let (i, j) = grid_position(k, g.ny);
         let p = grid.position(i, j);
-        mesh.add_node(path, &format!("{}[{i},{j}]", g.name), p.x, p.y)?;
+        node[k] = mesh.add_node(path, &format!("{}[{i},{j}]", g.name), p.x, p.y)?;
     }
     let component = mesh.component(&g.name);
-    for (k, (i, j)) in bars(g.nx, g.ny).into_iter().enumerate() {
+    for (k, (i, j)) in kept {
         let name = format!("{}/bar{k}", g.name);
         let variable = (!g.fixed).then(|| mesh.variables.add(&name));
         mesh.add_bar(BarSpec {
             path: format!("{path}/bar{k}"),
             name,
-            ends: [first + i, first + j],
+            ends: [node[i], node[j]],
             section,
             split: g.split,
             component,
@@ -110,6 +118,29 @@ fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections
         })?;
     }
     Ok(())
+}
+
+/// The bars of `g` not in its `omit` list, with their numbers `k`; each listed number must
+/// name a bar, once.
+fn kept_bars(path: &str, g: &GroundStructureSpec) -> Result<Vec<(usize, (usize, usize))>> {
+    let all = bars(g.nx, g.ny);
+    let mut omitted = vec![false; all.len()];
+    for (n, &k) in g.omit.iter().enumerate() {
+        let at = format!("{path}.omit[{n}]");
+        match omitted.get_mut(k) {
+            None => {
+                let msg = format!("bar {k} does not exist (bars 0..{})", all.len());
+                return Err(SceneError::new(at, msg));
+            }
+            Some(true) => return Err(SceneError::new(at, format!("bar {k} is listed twice"))),
+            Some(o) => *o = true,
+        }
+    }
+    Ok(all
+        .into_iter()
+        .enumerate()
+        .filter(|(k, _)| !omitted[*k])
+        .collect())
 }
 
 /// The grid of a ground structure, placed in the scene.

@@ -148,6 +148,10 @@ pub struct GroundStructureSpec {
     /// Bars at fixed full density (not design variables).
     #[serde(default)]
     pub fixed: bool,
+    /// Numbers `k` of bars `NAME/bar{k}` left out (a design as built, without its void
+    /// bars); grid nodes that no remaining bar touches are left out too.
+    #[serde(default)]
+    pub omit: Vec<usize>,
 }
 
 /// A beam between two named nodes.
