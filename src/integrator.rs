@@ -76,6 +76,8 @@ pub struct State {
     pub a: Vec<f64>,
     /// Lagrange multipliers `λ`.
     pub lam: Vec<f64>,
+    /// Size of the step that reached this state (0 at `t = 0`).
+    pub h: f64,
 }
 
 /// The generalized-α integrator of one design. The step size is an argument of each step,
@@ -122,11 +124,13 @@ impl<'m> Integrator<'m> {
             a: qddot.clone(),
             qddot,
             lam,
+            h: 0.0,
         })
     }
 
     /// One step of Algorithm 1 from `s` (time `t_n`) to `t_{n+1} = t_n + h`, in place.
-    /// `β'` and `γ'`, and with them the constraint scaling, follow `h`.
+    /// `β'` and `γ'`, and with them the constraint scaling, follow `h`; after a change of
+    /// step size `a` is first carried to the new step ([`rescale_pseudo_accelerations`]).
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
@@ -139,6 +143,10 @@ impl<'m> Integrator<'m> {
             gamma,
         } = self.params;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+        if let Some(ratio) = step_ratio(s.h, h) {
+            rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
+        }
+        s.h = h;
         for i in 0..s.q.len() {
             let a_next = (alpha_f * s.qddot[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
             s.q[i] += h * s.qdot[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_next);
@@ -167,4 +175,20 @@ impl<'m> Integrator<'m> {
             .for_each(|(a, acc)| *a += w * acc);
         Ok(report)
     }
+}
+
+/// `hₙ/hₙ₋₁` when the step size changes (`None` for the first step or an unchanged one).
+pub(crate) fn step_ratio(previous: f64, h: f64) -> Option<f64> {
+    (previous > 0.0 && h != previous).then(|| h / previous)
+}
+
+/// Carries the pseudo-accelerations to a new step size: `aₙ ← q̈ₙ + (hₙ/hₙ₋₁)(aₙ − q̈ₙ)`.
+///
+/// `aₙ` approximates `q̈(tₙ + Δ_α hₙ₋₁)`, `Δ_α = α_m − α_f`, so `aₙ − q̈ₙ ≈ Δ_α hₙ₋₁ q⃛`;
+/// the next step needs `q̈(tₙ + Δ_α hₙ)`. Without this the scheme drops to first order
+/// wherever the step size changes by a finite ratio (for `Δ_α ≠ 0`, i.e. `ρ∞ < 1`).
+pub(crate) fn rescale_pseudo_accelerations(a: &mut [f64], qddot: &[f64], ratio: f64) {
+    a.iter_mut()
+        .zip(qddot)
+        .for_each(|(a, acc)| *a = acc + ratio * (*a - acc));
 }

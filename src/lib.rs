@@ -59,11 +59,11 @@ pub use model::{Densities, Model};
 pub use response::Response;
 pub use rigid::rigid_positions;
 pub use sensitivity::{
-    evaluate, of_equilibrium, of_motion, parse_responses, Sensitivities, Timings,
+    evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Sensitivities, Timings,
 };
 pub use settings::{
     DynamicSettings, Memory, Method, RunOptions, SensitivitySettings, StaticSettings, MAX_STEPS,
 };
-pub use simulation::{simulate, Trajectory, MAX_TRAJECTORY_BYTES};
+pub use simulation::{simulate, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES};
 pub use statics::{solve_static, StaticSolution};
 pub use time_grid::TimeGrid;

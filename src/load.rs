@@ -15,6 +15,14 @@ pub enum TimeFunction {
 }
 
 impl TimeFunction {
+    /// Sample times of a table, where the load's rate jumps (none for a constant).
+    pub fn kinks(&self) -> Vec<f64> {
+        match self {
+            Self::Constant => Vec::new(),
+            Self::Table { t, .. } => t.clone(),
+        }
+    }
+
     /// `g(t)`.
     pub fn at(&self, time: f64) -> f64 {
         match self {

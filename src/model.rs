@@ -182,6 +182,24 @@ impl Model {
                     .count()
     }
 
+    /// Times in `(0, t_end)` where a drive or a load table is not smooth, sorted, without
+    /// repeats: where a variable step must end exactly.
+    pub fn kinks(&self, t_end: f64) -> Vec<f64> {
+        let drives = self
+            .joints
+            .iter()
+            .filter_map(|j| j.drive.as_ref())
+            .flat_map(|m| m.kinks());
+        let loads = self.loads.iter().flat_map(|l| l.time.kinks());
+        let mut t: Vec<f64> = drives
+            .chain(loads)
+            .filter(|&t| t > 0.0 && t < t_end)
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * t_end);
+        t
+    }
+
     /// Index of the node called `name`.
     pub fn node_index(&self, name: &str) -> Option<usize> {
         self.nodes.iter().position(|n| n.name == name)

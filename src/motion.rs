@@ -38,6 +38,18 @@ impl Motion {
             Self::Table(law) => law.at(t),
         }
     }
+
+    /// Times where the law is not smooth (its acceleration or jerk jumps), where a
+    /// variable step should end: the phase changes of a trapezoidal law, a table's knots.
+    pub fn kinks(&self) -> Vec<f64> {
+        match self {
+            Self::Trapezoidal(law) => {
+                let (t0, ta, tt) = (law.t0, law.t_acc, law.duration);
+                vec![t0, t0 + ta, t0 + tt - ta, t0 + tt]
+            }
+            Self::Table(law) => law.t.clone(),
+        }
+    }
 }
 
 /// Point-to-point motion with a trapezoidal (or triangular) velocity profile.

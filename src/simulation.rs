@@ -71,8 +71,20 @@ pub fn simulate(
     settings: &DynamicSettings,
 ) -> Result<Trajectory, Error> {
     settings.validate()?;
-    let grid = settings.grid();
-    check_size(model, &grid)?;
+    simulate_on(model, x, settings, &settings.grid())
+}
+
+/// Runs `model` for design `x` on the steps of `grid` (`settings.h` and `t_end` unused).
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_on(
+    model: &Model,
+    x: Option<&[f64]>,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+) -> Result<Trajectory, Error> {
+    check_size(model, grid)?;
     let mut integrator = Integrator::new(model, model.densities(x)?, settings);
     let mut state = integrator.initial_state()?;
     let mut traj = Trajectory {
@@ -92,10 +104,14 @@ pub fn simulate(
     Ok(traj)
 }
 
+/// Bytes recorded per state: `q`, `q̇`, `q̈`, `λ` and six scalars.
+fn bytes_per_state(model: &Model) -> f64 {
+    (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0
+}
+
 /// Refuses a run whose trajectory would exceed [`MAX_TRAJECTORY_BYTES`].
 fn check_size(model: &Model, grid: &TimeGrid) -> Result<(), SettingsError> {
-    let bytes =
-        (grid.len() + 1) as f64 * (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0;
+    let bytes = (grid.len() + 1) as f64 * bytes_per_state(model);
     if bytes > MAX_TRAJECTORY_BYTES {
         return Err(SettingsError::new(
             "h",

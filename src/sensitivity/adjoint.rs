@@ -25,7 +25,7 @@ use faer::dyn_stack::MemBuffer;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
-use crate::integrator::{AlphaParameters, Integrator, State};
+use crate::integrator::{step_ratio, AlphaParameters, Integrator, State};
 use crate::model::{Densities, Model};
 use crate::response::{Context, Response};
 use crate::settings::{DynamicSettings, Memory};
@@ -159,7 +159,15 @@ pub(crate) fn run(
     sweep.add_local(&it, &objectives, last, q_last);
     for n in (0..last).rev() {
         let (q1, acc1) = store.get(&mut it, grid, n + 1, true)?;
-        sweep.step(&mut it, q1, acc1, grid.times()[n + 1], grid.step(n))?;
+        let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
+        sweep.step(
+            &mut it,
+            q1,
+            acc1,
+            grid.times()[n + 1],
+            grid.step(n),
+            previous,
+        )?;
         let (q0, _) = store.get(&mut it, grid, n, false)?;
         sweep.add_local(&it, &objectives, n, q0);
     }
@@ -261,7 +269,8 @@ impl<'a> Sweep<'a> {
     }
 
     /// The transposed step from `n + 1` (state `q1`, `acc1` at `t1`) back to `n`, for a step
-    /// of size `h`.
+    /// of size `h` after one of size `previous`: the transposed Newmark step, then the
+    /// transposed carrying of `a` to the new step size (`ā ← ρ ā`, `Ā += (1 − ρ) ā`).
     fn step(
         &mut self,
         it: &mut Integrator,
@@ -269,6 +278,7 @@ impl<'a> Sweep<'a> {
         acc1: &[f64],
         t1: f64,
         h: f64,
+        previous: f64,
     ) -> Result<(), SolveError> {
         let AlphaParameters {
             alpha_m,
@@ -315,6 +325,12 @@ impl<'a> Sweep<'a> {
                     + alpha_m * cbar / (1.0 - alpha_f)
                     + h * h * (0.5 - beta) * pbar;
                 self.acc_b[j] = -alpha_f * cbar / (1.0 - alpha_f);
+            }
+        }
+        if let Some(ratio) = step_ratio(previous, h) {
+            for (ab, acc_b) in self.ab.iter_mut().zip(self.acc_b.iter_mut()) {
+                *acc_b += (1.0 - ratio) * *ab;
+                *ab *= ratio;
             }
         }
         Ok(())

@@ -11,7 +11,8 @@
 //! ```
 //!
 //! starting from `q'₀ = q̇'₀ = 0` (the initial state does not depend on `x`) and `q̈'₀`
-//! from the initial-acceleration system. The factorization of `S_t` is shared by all
+//! from the initial-acceleration system. Where the step size changes, `a'` is carried to
+//! the new step as `a` is: `a' ← q̈' + (hₙ/hₙ₋₁)(a' − q̈')`. The factorization of `S_t` is shared by all
 //! columns, which are solved in blocks in parallel (rayon).
 
 use std::time::Instant;
@@ -22,7 +23,9 @@ use rayon::prelude::*;
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::element::MassKind;
 use crate::error::{Error, SolveError};
-use crate::integrator::{AlphaParameters, Integrator, State};
+use crate::integrator::{
+    rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
+};
 use crate::model::{Densities, Model};
 use crate::response::{Context, Response};
 use crate::settings::DynamicSettings;
@@ -85,6 +88,8 @@ struct Sweep<'a> {
     da: Vec<f64>,
     /// Right-hand sides / solutions, column-major `n × n_x`.
     rhs: Vec<f64>,
+    /// Size of the last step (0 before the first).
+    previous: f64,
     scratch: Vec<MemBuffer>,
     values: Vec<f64>,
     /// Row-major `n_responses × n_x`.
@@ -111,6 +116,7 @@ impl<'a> Sweep<'a> {
             dacc: vec![0.0; n_q * n_x],
             da: vec![0.0; n_q * n_x],
             rhs: vec![0.0; n * n_x],
+            previous: 0.0,
             scratch: (0..n_x.div_ceil(width))
                 .map(|_| it.newton.scratch(width))
                 .collect(),
@@ -151,6 +157,8 @@ impl<'a> Sweep<'a> {
     fn step(&mut self, it: &mut Integrator, s: &State, h: f64) -> Result<(), SolveError> {
         let p = it.params;
         let bp = p.beta_prime(h);
+        let ratio = step_ratio(self.previous, h);
+        self.previous = h;
         it.newton.factorize(Some(&s.q), bp, s.t)?;
         let newton = &it.newton;
         let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
@@ -166,6 +174,9 @@ impl<'a> Sweep<'a> {
                 let cols = rhs.len() / n;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
+                    if let Some(ratio) = ratio {
+                        rescale_pseudo_accelerations(&mut da[r.clone()], &dacc[r.clone()], ratio);
+                    }
                     predict(
                         &p,
                         h,

@@ -221,11 +221,26 @@ pub fn of_motion(
     how: SensitivitySettings,
 ) -> Result<Sensitivities, Error> {
     settings.validate()?;
+    of_motion_on(model, x, settings, &settings.grid(), responses, how)
+}
+
+/// Responses and gradients of a dynamic run on the steps of `grid`, equal or not: the
+/// gradients are exact for the scheme that ran on that grid.
+///
+/// # Errors
+/// Design, settings and solve errors.
+pub fn of_motion_on(
+    model: &Model,
+    x: &[f64],
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    how: SensitivitySettings,
+) -> Result<Sensitivities, Error> {
     let densities = model.densities(Some(x))?;
     if !responses.iter().any(Response::depends_on_states) {
         return explicit(model, &densities, responses);
     }
-    let grid = settings.grid();
     let (n_q, n, n_x) = (
         model.n_dofs(),
         model.n_dofs() + model.n_constraints(),
@@ -239,14 +254,14 @@ pub fn of_motion(
             if need > MAX_GIB {
                 return Err(SettingsError::new("method", format!("the direct method would hold {need:.1} GiB of sensitivities (at most {MAX_GIB} GiB); use method='adjoint'")).into());
             }
-            direct::run(model, densities, settings, &grid, responses)
+            direct::run(model, densities, settings, grid, responses)
         }
         _ => {
             let need = gib(2.0 * n_q as f64 * (grid.len() + 1) as f64);
             if how.memory == Memory::StoreAll && need > MAX_GIB {
                 return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
             }
-            adjoint::run(model, densities, settings, &grid, responses, how.memory)
+            adjoint::run(model, densities, settings, grid, responses, how.memory)
         }
     }
 }

@@ -5,3 +5,4 @@ mod common;
 mod dynamics;
 mod sensitivity;
 mod statics;
+mod variable_steps;

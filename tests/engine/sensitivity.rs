@@ -6,13 +6,13 @@ use flextop::{
     Response, Sensitivities, SensitivitySettings, StaticSettings,
 };
 
-fn how(method: Method, memory: Memory) -> SensitivitySettings {
+pub(crate) fn how(method: Method, memory: Memory) -> SensitivitySettings {
     SensitivitySettings { method, memory }
 }
 
 use crate::common::*;
 
-fn random_design(model: &Model, seed: u64) -> Vec<f64> {
+pub(crate) fn random_design(model: &Model, seed: u64) -> Vec<f64> {
     let mut s = seed;
     (0..model.n_variables())
         .map(|_| {
@@ -24,7 +24,7 @@ fn random_design(model: &Model, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-fn responses(model: &Model, names: &[&str]) -> Vec<Response> {
+pub(crate) fn responses(model: &Model, names: &[&str]) -> Vec<Response> {
     parse_responses(
         model,
         &names.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
@@ -57,9 +57,9 @@ fn finite_differences(
 }
 
 /// A run with gradients of a design by a method.
-type Evaluate<'a> = &'a dyn Fn(&[f64], Method) -> Result<Sensitivities, Error>;
+pub(crate) type Evaluate<'a> = &'a dyn Fn(&[f64], Method) -> Result<Sensitivities, Error>;
 
-fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r: usize) {
+pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r: usize) {
     let n_x = model.n_variables();
     let direct = eval(x, Method::Direct).unwrap();
     let adjoint = eval(x, Method::Adjoint).unwrap();
@@ -90,7 +90,7 @@ fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r: usize) {
     }
 }
 
-const DYNAMIC: [&str; 6] = [
+pub(crate) const DYNAMIC: [&str; 6] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
