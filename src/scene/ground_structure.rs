@@ -4,7 +4,7 @@
 //! 1, …). A bar joins nodes `i < j` when their straight segment holds no third grid node,
 //! i.e. when `gcd(|Δcolumn|, |Δrow|) = 1`; overlapping collinear bars are dropped and bars
 //! that cross are not connected where they cross. Bars are ordered by `(i, j)`
-//! lexicographically (shared/scenes/reference-scenes.md).
+//! lexicographically ([docs/reference-scenes.md](../../docs/reference-scenes.md)).
 
 /// Grid node `k` as `(column, row)`.
 pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {
