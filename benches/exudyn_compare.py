@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""flextop vs Exudyn on the two-link robot arm (shared/scenes/reference-scenes.md).
+"""flextop vs Exudyn on the two-link robot arm (docs/reference-scenes.md).
 
     python benches/exudyn_compare.py            # full run (~2-3 min on 2 cores), writes
                                                 # benches/results/exudyn_compare.md

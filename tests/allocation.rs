@@ -10,6 +10,9 @@ use std::cell::Cell;
 use flextop::scene;
 use flextop::{DynamicSettings, Integrator, MassKind};
 
+#[path = "support/reference.rs"]
+mod reference;
+
 struct Counting;
 
 thread_local! {
@@ -44,9 +47,7 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn alpha_steps_do_not_allocate() {
     for split in [1, 3] {
-        let text = include_str!("../examples/robot_arm.toml")
-            .replace("split = 1", &format!("split = {split}"));
-        let model = scene::build(&scene::parse_toml(&text).unwrap()).unwrap();
+        let model = scene::build(&reference::robot_arm(split)).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
             t_end: 1.3,

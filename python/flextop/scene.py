@@ -19,17 +19,29 @@ Example::
 from __future__ import annotations
 
 import copy
-import tomllib
+import math
+import re
+import sys
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser, as the tomli package
+    import tomli as tomllib
 
 
 def trapezoidal(start: float, end: float, *, acceleration: float, speed: float, t_start: float = 0.0) -> dict:
     """Point-to-point motion law from ``start`` to ``end`` (rad): constant ``acceleration``
     (rad/s²) up to ``speed`` (rad/s), cruise, then deceleration to rest (triangular when
-    the move is too short to reach ``speed``), beginning at ``t_start`` (s)."""
-    return {"kind": "trapezoidal", "start": start, "end": end, "acceleration": acceleration, "speed": speed, "t_start": t_start}
+    the move is too short to reach ``speed``), beginning at ``t_start`` (s; kept in the dict
+    only when not 0, its default)."""
+    law = {"kind": "trapezoidal", "start": start, "end": end, "acceleration": acceleration, "speed": speed}
+    if t_start != 0.0:
+        law["t_start"] = t_start
+    return law
 
 
 def motion_table(t: Sequence[float], theta: Sequence[float], *, start_velocity: float = 0.0, end_velocity: float = 0.0) -> dict:
@@ -171,6 +183,98 @@ class Scene:
         with open(path, "rb") as f:
             return cls.from_dict(tomllib.load(f))
 
+    def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
+        """The scene as TOML text, which :meth:`from_toml` reads back into the same dict
+        (``None`` values are left out). ``header`` becomes the opening comment lines;
+        ``comments`` maps a table (``"sections.aluminium"``, ``"joints[1]"``) to a comment
+        on its header line."""
+        lines = [f"# {line}".rstrip() for line in header.splitlines()]
+        _toml_table(lines, [], self._spec, comments or {})
+        return "\n".join(lines).strip("\n") + "\n"
+
     def __repr__(self) -> str:
         counts = {k: len(v) for k, v in self._spec.items() if isinstance(v, (list, dict)) and k != "design"}
         return f"Scene({self._spec.get('name', '')!r}, {counts})"
+
+
+# -- TOML writing -----------------------------------------------------------------------
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+#: Column of the ``#`` of a table header's comment.
+_COMMENT_COLUMN = 26
+
+
+def _toml_table(lines: list[str], path: list[str], table: Mapping[str, Any], comments: Mapping[str, str]) -> None:
+    """Appends the contents of ``table`` at ``path``: its plain values, then its sub-tables
+    ``[a.b]`` and arrays of tables ``[[a.b]]``, whose entries hold their dicts inline."""
+    items = {k: v for k, v in table.items() if v is not None}
+    nested = {k: v for k, v in items.items() if _is_table(v) or _is_array_of_tables(v)}
+    lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in items.items() if k not in nested)
+    for key, value in nested.items():
+        name, header = ".".join([*path, key]), ".".join(_toml_key(k) for k in [*path, key])
+        if _is_table(value):
+            children = [v for v in value.values() if v is not None]
+            if not children or not all(_is_table(v) or _is_array_of_tables(v) for v in children):
+                _toml_header(lines, f"[{header}]", comments.get(name))
+            _toml_table(lines, [*path, key], value, comments)
+        else:
+            for i, entry in enumerate(value):
+                _toml_header(lines, f"[[{header}]]", comments.get(f"{name}[{i}]"))
+                lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in entry.items() if v is not None)
+
+
+def _toml_header(lines: list[str], header: str, comment: str | None) -> None:
+    lines.append("")
+    lines.append(header if comment is None else f"{header:<{_COMMENT_COLUMN - 1}} # {comment}")
+
+
+def _is_table(value: Any) -> bool:
+    return isinstance(value, Mapping)
+
+
+def _is_array_of_tables(value: Any) -> bool:
+    return isinstance(value, (list, tuple)) and len(value) > 0 and all(isinstance(v, Mapping) for v in value)
+
+
+def _toml_key(key: str) -> str:
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
+
+
+def _toml_string(text: str) -> str:
+    return '"' + "".join(_ESCAPES.get(c, f"\\u{ord(c):04X}" if ord(c) < 0x20 or ord(c) == 0x7F else c)
+                         for c in text) + '"'
+
+
+def _toml_value(value: Any) -> str:
+    if hasattr(value, "tolist"):  # numpy scalars and arrays
+        value = value.tolist()
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return _toml_float(value)
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, Mapping):
+        entries = [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items() if v is not None]
+        return "{ " + ", ".join(entries) + " }" if entries else "{}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} {value!r} as TOML")
+
+
+def _toml_float(value: float) -> str:
+    """Shortest round-trip form; large whole numbers in engineering notation (``70e9``)."""
+    if math.isnan(value):
+        return "nan"
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    if value.is_integer() and 1e6 <= abs(value) < 1e16:
+        mantissa, exponent = int(value), 0
+        while mantissa % 1000 == 0:
+            mantissa, exponent = mantissa // 1000, exponent + 3
+        if exponent:
+            return f"{mantissa}e{exponent}"
+    return repr(value)

@@ -1,6 +1,10 @@
 """The paper's two examples with the fixed dimensions of the project's reference scenes
-(shared/scenes/reference-scenes.md), every number a parameter. The same scenes ship as
-``examples/robot_arm.toml`` and ``examples/static_truss.toml``."""
+(``docs/reference-scenes.md``), every number a parameter.
+
+These builders are the one definition of the reference scenes: ``examples/robot_arm.toml``
+and ``examples/static_truss.toml`` are their output at the defaults (:func:`example_toml`),
+written by ``python scripts/write_examples.py``; a test checks the committed files are
+up to date."""
 
 from __future__ import annotations
 
@@ -61,3 +65,41 @@ def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float
     scene.design(interpolation="simp", p=p, x_min=x_min)
     scene.simulation(load_steps=1)
     return scene
+
+
+_GENERATED = "Generated from flextop.scenes.{}() by `python scripts/write_examples.py`:\nedit that, not this file."
+
+#: The example files: name → (builder, header, comments on table headers). The Rust unit
+#: tests of src/scene/tests.rs edit the robot arm's text (``E = 70e9``, ``speed = 0.5 }``,
+#: the elbow's header comment, …): a change of its layout must keep those.
+EXAMPLES = {
+    "robot_arm.toml": (
+        robot_arm,
+        "Two-link robot arm of Brüls, Lemaire, Duysinx & Eberhard, Section 4, with the fixed\n"
+        "dimensions of docs/reference-scenes.md. SI units (m, kg, s, N, Pa, rad).\n" + _GENERATED.format("robot_arm"),
+        {
+            "sections.aluminium": "solid circle d = 20 mm; G from nu, Cowper's kappa",
+            "ground_structures[0]": "link 1: local frame at the origin, axis at theta1(0) = pi/3",
+            "ground_structures[1]": "link 2: origin at link 1's node (L, 0), axis at theta1 + theta2",
+            "point_masses[0]": "5 kg at the tip, no rotary inertia",
+            "joints[0]": "shoulder: pinned to the ground, drives theta1(t) - theta1(0)",
+            "joints[1]": "elbow: two coincident nodes, drives theta2(t) - theta2(0)",
+        },
+    ),
+    "static_truss.toml": (
+        static_truss,
+        "Static truss of Brüls et al., Section 3.1 (Fig. 4), with the fixed dimensions of\n"
+        "docs/reference-scenes.md. SI units.\n" + _GENERATED.format("static_truss"),
+        {
+            "joints[0]": "base column's middle node clamped",
+            "loads[0]": "tip load F = (0, -100) N on the tip column's middle node",
+        },
+    ),
+}
+
+
+def example_toml(name: str) -> str:
+    """Text of the example file ``name`` (a key of :data:`EXAMPLES`): its builder's scene at
+    the defaults, as TOML."""
+    builder, header, comments = EXAMPLES[name]
+    return builder().to_toml(header=header, comments=comments)

@@ -4,7 +4,7 @@
 //! 1, …). A bar joins nodes `i < j` when their straight segment holds no third grid node,
 //! i.e. when `gcd(|Δcolumn|, |Δrow|) = 1`; overlapping collinear bars are dropped and bars
 //! that cross are not connected where they cross. Bars are ordered by `(i, j)`
-//! lexicographically (shared/scenes/reference-scenes.md).
+//! lexicographically ([docs/reference-scenes.md](../../docs/reference-scenes.md)).
 //!
 //! In a scene, a ground structure lies in a local frame at `origin` rotated by `angle`; its
 //! nodes are named `NAME[i,j]`, its bars `NAME/bar{k}` form the component `NAME`, and each

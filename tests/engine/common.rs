@@ -3,7 +3,10 @@
 use flextop::scene;
 use flextop::{DynamicSettings, MassKind, Model, StaticSettings, Trajectory};
 
-/// Aluminium, solid circle d = 20 mm (reference-scenes.md).
+#[path = "../support/reference.rs"]
+pub mod reference;
+
+/// Aluminium, solid circle d = 20 mm (docs/reference-scenes.md).
 pub const ALUMINIUM: &str = "[sections.al]\nE = 70e9\nnu = 0.32\nrho = 2700.0\ndiameter = 0.02\n";
 
 /// Builds a model from TOML text.
@@ -27,10 +30,11 @@ pub fn static_scene(text: &str) -> String {
 
 /// The robot arm of examples/robot_arm.toml with `split` elements per bar and Young's modulus `e`.
 pub fn robot_arm(split: usize, e: f64) -> Model {
-    let text = include_str!("../../examples/robot_arm.toml")
-        .replace("split = 1", &format!("split = {split}"))
-        .replace("E = 70e9", &format!("E = {e:e}"));
-    model(&text)
+    let mut spec = reference::robot_arm(split);
+    for section in spec.sections.values_mut() {
+        section.E = e;
+    }
+    scene::build(&spec).expect("valid scene")
 }
 
 /// Section properties of [`ALUMINIUM`]: (EA, κGA, EI).

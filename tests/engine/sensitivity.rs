@@ -1,6 +1,10 @@
 //! Design sensitivities: direct and adjoint against central finite differences of the same
 //! discrete simulation, and against each other.
 
+use flextop::scene::{
+    self,
+    spec::{DesignSpec, InterpolationSpec},
+};
 use flextop::{
     of_equilibrium, of_motion, parse_responses, DynamicSettings, Error, Memory, Method, Model,
     Response, Sensitivities, SensitivitySettings, StaticSettings,
@@ -22,6 +26,16 @@ pub(crate) fn random_design(model: &Model, seed: u64) -> Vec<f64> {
             0.1 + 0.85 * ((s >> 11) as f64 / (1u64 << 53) as f64)
         })
         .collect()
+}
+
+/// SIMP with exponent `p` and lower bound `x_min` (the scene's default mass law).
+fn simp(p: f64, x_min: f64) -> DesignSpec {
+    DesignSpec {
+        interpolation: InterpolationSpec::Simp,
+        p: Some(p),
+        x_min,
+        ..DesignSpec::default()
+    }
 }
 
 pub(crate) fn responses(model: &Model, names: &[&str]) -> Vec<Response> {
@@ -99,12 +113,11 @@ pub(crate) const DYNAMIC: [&str; 6] = [
     "integrated_displacement:link1[2,0]:1,1",
 ];
 
-/// Checks the robot arm with `split` elements per bar, run `settings` and `[design]` body `design`.
-fn dynamic_case(split: usize, settings: DynamicSettings, design: &str) {
-    let text = include_str!("../../examples/robot_arm.toml")
-        .replace("split = 1", &format!("split = {split}"))
-        .replace("interpolation = \"simp\"\np = 3.0\nx_min = 0.01", design);
-    let arm = model(&text);
+/// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.
+fn dynamic_case(split: usize, settings: DynamicSettings, design: DesignSpec) {
+    let mut spec = reference::robot_arm(split);
+    spec.design = design;
+    let arm = scene::build(&spec).expect("valid scene");
     let rs = responses(&arm, &DYNAMIC);
     let x = random_design(&arm, 11);
     let eval = |x: &[f64], m: Method| of_motion(&arm, x, &settings, &rs, how(m, Memory::default()));
@@ -119,7 +132,7 @@ fn robot_arm_gradients_match_finite_differences() {
             tol: 1e-12,
             ..settings(1.3, 0.02, 0.8)
         },
-        "p = 3.0\nx_min = 0.01",
+        simp(3.0, 0.01),
     );
 }
 
@@ -129,27 +142,29 @@ fn agreement_holds_for_other_p_h_rho_and_split() {
         tol: 1e-12,
         ..settings(0.6, h, rho)
     };
-    dynamic_case(1, short(0.01, 0.5), "p = 1.0\nx_min = 0.01");
-    dynamic_case(2, short(0.03, 1.0), "p = 4.0\nx_min = 0.001");
-    dynamic_case(1, short(0.02, 0.0), "p = 3.0\nx_min = 0.05");
+    dynamic_case(1, short(0.01, 0.5), simp(1.0, 0.01));
+    dynamic_case(2, short(0.03, 1.0), simp(4.0, 0.001));
+    dynamic_case(1, short(0.02, 0.0), simp(3.0, 0.05));
     dynamic_case(
         1,
         DynamicSettings {
             mass: flextop::MassKind::Lumped,
             ..short(0.02, 0.8)
         },
-        "interpolation = \"ramp\"\nq = 5.0\nx_min = 0.01",
+        DesignSpec {
+            interpolation: InterpolationSpec::Ramp,
+            q: Some(5.0),
+            x_min: 0.01,
+            ..DesignSpec::default()
+        },
     );
 }
 
 #[test]
 fn static_compliance_gradients_match_finite_differences() {
-    let text = include_str!("../../examples/static_truss.toml").replacen(
-        "name = \"static_truss\"",
-        "name = \"static_truss\"\ngravity = [0.0, -9.81]",
-        1,
-    );
-    let truss = model(&text);
+    let mut spec = reference::static_truss(1);
+    spec.gravity = Some([0.0, -9.81]);
+    let truss = scene::build(&spec).expect("valid scene");
     let rs = responses(
         &truss,
         &["compliance", "volume", "displacement:truss[4,1]:0,-1"],

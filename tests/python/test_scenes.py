@@ -8,6 +8,7 @@ import pytest
 
 import flextop
 from flextop import DesignError, SceneError, SettingsError, SimulationError
+from flextop.scene import tomllib
 
 from conftest import EXAMPLES, cantilever
 
@@ -36,6 +37,44 @@ def test_builders_and_example_files_give_the_same_model(name):
             np.testing.assert_array_equal(value, loaded[key], err_msg=key)
         else:
             assert value == loaded[key], key
+
+
+@pytest.mark.parametrize("name", sorted(flextop.scenes.EXAMPLES))
+def test_example_files_are_the_builders_output(name):
+    committed = (EXAMPLES / name).read_text(encoding="utf-8")
+    assert committed == flextop.scenes.example_toml(name), f"examples/{name} is stale: run python scripts/write_examples.py"
+
+
+def test_to_toml_reads_back_as_the_same_dict():
+    scene = flextop.Scene("every kind of entry", gravity=(0.0, -9.81))
+    scene.section("steel", E=210e9, G=81e9, rho=7850.0, A=1e-4, I=8.3e-10, kappa=5 / 6)
+    scene.section("odd name.with \"quotes\"", E=1.5e15, nu=0.3, rho=2.5e20, diameter=1e-3)
+    scene.node("o", 0.0, 0.0)
+    scene.node("tip\tnode", 1.0, -2.5e-7)
+    scene.beam("o", "tip\tnode", section="steel", split=3, name="b", component="c", group="g", fixed=True)
+    gs = scene.ground_structure("g1", nx=3, ny=2, length=1.0, height=0.2, section="steel", origin="o", angle=0.5)
+    scene.point_mass(gs.node(2, 1), 1.0, inertia=0.01)
+    scene.load(gs.node(2, 0), force=np.array([1.0, -2.0]), moment=np.float64(0.5), table=([0.0, 1.0], [0.0, 1.0]))
+    scene.clamp("root", "o")
+    scene.hinge("h", gs.node(0, 0), gs.node(0, 1), drive=flextop.motion_table([0.0, 1.0], [0.0, 0.2]))
+    scene.pin("p", gs.node(1, 1), drive=flextop.trapezoidal(0.0, 1.0, acceleration=2.0, speed=0.5, t_start=0.1))
+    scene.design(interpolation="ramp", q=5.0, x_min=1e-3)
+    scene.simulation(t_end=1.0, h=0.01, mass="lumped", max_iter=30)
+    scene.tip = "tip\tnode"
+    text = scene.to_toml(header="a header\n\nover lines", comments={"sections.steel": "a comment", "joints[2]": "pin"})
+    assert text.startswith("# a header\n#\n# over lines\n")
+    assert "[sections.steel]          # a comment\n" in text and "[[joints]]                # pin\n" in text
+    assert "E = 210e9\n" in text and "E = 1500e12\n" in text and "rho = 2.5e+20\n" in text
+    assert tomllib.loads(text) == json_like(scene.to_dict())
+
+
+def json_like(value):
+    """``value`` with tuples and numpy values as the lists and floats that TOML reads back."""
+    if isinstance(value, dict):
+        return {k: json_like(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [json_like(v) for v in value]
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def test_reference_robot_arm_dimensions():
