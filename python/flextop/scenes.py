@@ -69,9 +69,9 @@ def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float
 
 _GENERATED = "Generated from flextop.scenes.{}() by `python scripts/write_examples.py`:\nedit that, not this file."
 
-#: The example files: name → (builder, header, comments on table headers). The Rust unit
-#: tests of src/scene/tests.rs edit the robot arm's text (``E = 70e9``, ``speed = 0.5 }``,
-#: the elbow's header comment, …): a change of its layout must keep those.
+#: The example files: name → (builder, header, comments on table headers). Two Rust unit
+#: tests of src/scene/tests.rs add an unknown key to the robot arm's text (after
+#: ``speed = 0.5 }`` and ``nx = 5``): a change of its layout must keep those two strings.
 EXAMPLES = {
     "robot_arm.toml": (
         robot_arm,
