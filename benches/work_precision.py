@@ -65,17 +65,8 @@ class Case:
 
 
 def spun_beam(m: int) -> flextop.Scene:
-    """A 1 m aluminium beam of eight bars (eight design variables), clamped to a hub
-    pinned at the origin whose rotation follows 0 → 1 rad at 20 rad/s², 2 rad/s."""
-    scene = flextop.Scene("spun beam")
-    scene.section("al", E=70e9, nu=0.32, rho=2700.0, diameter=0.02)
-    names = [scene.node(f"n{k}", k / 8, 0.0) for k in range(9)]
-    for k in range(8):
-        scene.beam(names[k], names[k + 1], section="al", split=m, name=f"bar{k}")
-    scene.point_mass(names[-1], 0.2)
-    scene.pin("hub", names[0], drive=flextop.trapezoidal(0.0, 1.0, acceleration=20.0, speed=2.0))
-    scene.tip = names[-1]
-    return scene
+    """The second scene (:func:`flextop.scenes.spun_beam`): eight bars spun up by a hub."""
+    return flextop.scenes.spun_beam(split=m)
 
 
 def timed(fn, repeats: int = 3):

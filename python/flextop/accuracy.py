@@ -57,3 +57,12 @@ def refine(spec: dict, p: Preset) -> dict:
     if "h" in simulation:
         simulation["h"] = simulation["h"] / p.step_divisor
     return spec
+
+
+def split_by(spec: dict, factor: int) -> dict:
+    """A copy of the scene dict with ``factor`` times the elements per bar of every ground
+    structure and beam."""
+    spec = copy.deepcopy(spec)
+    for entry in spec.get("ground_structures", []) + spec.get("beams", []):
+        entry["split"] = int(entry.get("split", 1)) * factor
+    return spec

@@ -18,7 +18,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import scenes
-from .errors import FlextopError
+from .errors import FlextopError, SettingsError
 from .optimizers import OptimizerState, optimize
 from .problems import TopologyProblem, volume_constraints
 from .scene import Scene
@@ -32,6 +32,9 @@ def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray
 
 
 def _summarize(sim: Simulation, res, elapsed: float) -> None:
+    if res.discretization is not None:
+        errors = ", ".join(f"{name} {error:.2%}" for name, error in res.errors.items())
+        print(f"to rtol = {sim.rtol:g}: {res.discretization}; estimated relative error {errors}")
     if isinstance(res, Results):
         newton = res.newton
         print(f"{len(res.time) - 1} steps of h = {res.raw['h']} s to t = {res.time[-1]:.4g} s in {elapsed * 1e3:.1f} ms "
@@ -65,8 +68,10 @@ def demo(args: argparse.Namespace) -> int:
 
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
-    sim = Simulation(args.scene, accuracy=args.accuracy)
+    sim = Simulation(args.scene, accuracy=args.accuracy, rtol=args.rtol)
     settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass}.items() if v is not None}
+    if args.rtol is not None and args.h is not None:
+        raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
     if sim.analysis == "static":
         settings = {k: v for k, v in settings.items() if k == "t_end"}
     start = time.perf_counter()
@@ -117,7 +122,9 @@ def optimize_command(args: argparse.Namespace) -> int:
         scene = _scene(args.scene)
         sim = Simulation(scene, accuracy=args.accuracy)
         constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
-        problem = TopologyProblem(sim, args.objective, constraints, settings=_settings(args))
+        if args.rtol is not None and args.h is not None:
+            raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
+        problem = TopologyProblem(sim, args.objective, constraints, settings=_settings(args), rtol=args.rtol)
         options = {"method": args.method, "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol, "xtol": args.xtol}
         x0 = np.full(sim.n_design, args.x0)
         state = None
@@ -164,6 +171,9 @@ def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> N
           f"({100 * (result.fun * scale / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
     for (name, bound), g in zip(problem.constraints, result.constr):
         print(f"{name}: {(g + 1) * bound:.6g} (bound {bound:.6g})")
+    if problem.refinements:
+        at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
+        print(f"to rtol = {problem.rtol or sim.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
     shares = {"simulation": problem.timings["simulation"], "gradients": problem.timings["gradients"], "subproblem": solve}
     other = max(elapsed - sum(shares.values()), 0.0)
@@ -180,7 +190,8 @@ def _pictures(sim: Simulation, problem: TopologyProblem, result, x0: np.ndarray,
                      constraint_labels=[n for n, _ in problem.constraints])
     written = ["design_initial.png", "design.png", "history.png"]
     if sim.analysis == "dynamic" and sim.tip is not None:
-        before, after = sim.run(x0, **problem.settings), sim.run(result.x, **problem.settings)
+        tolerance = {"rtol": problem.rtol} if problem.rtol else {}
+        before, after = sim.run(x0, **tolerance, **problem.settings), sim.run(result.x, **tolerance, **problem.settings)
         plot_tip_error(before, after, path=out / "tip_error.png")
         written.append("tip_error.png")
         if animate:
@@ -207,6 +218,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--rho-inf", type=float)
     s.add_argument("--mass", choices=["consistent", "lumped"])
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
+    s.add_argument("--rtol", type=float, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--out", help="folder for results.npz")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
@@ -224,6 +236,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=float)
     o.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
+    o.add_argument("--rtol", type=float, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     o.add_argument("--no-plots", action="store_true")

@@ -25,3 +25,8 @@ class SettingsError(FlextopError, ValueError):
 class SimulationError(FlextopError, RuntimeError):
     """A solve that failed: Newton did not converge (time, residual and iterations are in
     the message), a singular iteration matrix, or rigid kinematics that cannot be solved."""
+
+
+class ToleranceError(SimulationError):
+    """A tolerance that cannot be met within the named limits on elements per bar and
+    steps: the message names the response and the error estimate reached."""

@@ -15,6 +15,7 @@ exact gradients. A simulation that fails becomes an
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import astuple
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from . import scenes
 from .errors import SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .simulation import Simulation
+from .tolerance import Discretization
 
 
 class TopologyProblem(Problem):
@@ -31,10 +33,19 @@ class TopologyProblem(Problem):
     ``settings`` are run settings (``h``, ``rho_inf``, ...); ``method`` is the sensitivity
     method; ``objective_scale`` is ``f_ref`` (default: the objective at the first design
     evaluated). ``timings`` accumulates the seconds spent in simulations and gradients.
+
+    ``rtol`` (and ``atol``) hold every evaluation to a tolerance (see
+    :meth:`Simulation.run_with_sensitivities`), the simulation's own by default. The rule:
+    each evaluation is re-adapted, starting from the discretization the previous one
+    accepted, so the grid only ever refines. An optimizer thus sees one fixed discretization
+    between the few evaluations where the design asks for a finer one, and every value it
+    sees is within ``rtol`` of the converged one. ``discretization`` is the current one and
+    ``refinements`` lists ``(evaluation, discretization)`` at each change.
     """
 
     def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
-                 *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None) -> None:
+                 *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None,
+                 rtol: float | None = None, atol: float | None = None) -> None:
         self.simulation = simulation
         self.objective = objective
         self.constraints = list(constraints.items()) if isinstance(constraints, Mapping) else [tuple(c) for c in constraints]
@@ -45,6 +56,10 @@ class TopologyProblem(Problem):
         self.method = method
         self.objective_scale = objective_scale
         self.timings = {"simulation": 0.0, "gradients": 0.0}
+        self.rtol, self.atol = rtol, atol
+        self.discretization: Discretization | None = None
+        self.refinements: list[tuple[int, Discretization]] = []
+        self.evaluations = 0
         n = simulation.n_design
         super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
 
@@ -54,10 +69,15 @@ class TopologyProblem(Problem):
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective and constraints with their gradients: one run with sensitivities."""
+        tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self.rtol or self.simulation.rtol else {}
+        self.evaluations += 1
         try:
-            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **self.settings)
+            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **tolerance, **self.settings)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
+        if out.discretization is not None and out.discretization != self.discretization:
+            self.discretization = out.discretization
+            self.refinements.append((self.evaluations, out.discretization))
         f, dfdx = out
         for key, seconds in out.timings.items():
             self.timings[key] += seconds
@@ -69,12 +89,16 @@ class TopologyProblem(Problem):
     def to_dict(self) -> dict:
         """What rebuilds this problem on the same scene (for checkpoints)."""
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,
-                "method": self.method, "objective_scale": self.objective_scale}
+                "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol, "atol": self.atol,
+                "discretization": None if self.discretization is None else list(astuple(self.discretization))}
 
     @classmethod
     def from_dict(cls, simulation: Simulation, data: Mapping[str, Any]) -> TopologyProblem:
-        return cls(simulation, data["objective"], [tuple(c) for c in data["constraints"]], settings=data["settings"],
-                   method=data["method"], objective_scale=data["objective_scale"])
+        problem = cls(simulation, data["objective"], [tuple(c) for c in data["constraints"]], settings=data["settings"],
+                      method=data["method"], objective_scale=data["objective_scale"], rtol=data.get("rtol"), atol=data.get("atol"))
+        if data.get("discretization"):
+            problem.discretization = Discretization(*data["discretization"])
+        return problem
 
 
 def volume_constraints(simulation: Simulation, fraction: float, *, per_component: bool = True) -> list[tuple[str, float]]:

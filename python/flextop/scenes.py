@@ -72,6 +72,25 @@ _GENERATED = "Generated from flextop.scenes.{}() by `python scripts/write_exampl
 #: The example files: name → (builder, header, comments on table headers). Two Rust unit
 #: tests of src/scene/tests.rs add an unknown key to the robot arm's text (after
 #: ``speed = 0.5 }`` and ``nx = 5``): a change of its layout must keep those two strings.
+def spun_beam(*, bars: int = 8, length: float = 1.0, split: int = 1, tip_mass: float = 0.2, E: float = ALUMINIUM["E"],
+              nu: float = ALUMINIUM["nu"], rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, angle: float = 1.0,
+              acceleration: float = 20.0, speed: float = 2.0, t_end: float = 0.6, h: float = 0.005, rho_inf: float = 0.8) -> Scene:
+    """A flexible beam spun up by a driven hub: ``bars`` aluminium bars in a row (one design
+    variable each) from a hub pinned at the origin to a ``tip_mass`` (kg); the hub turns
+    0 → ``angle`` rad on a trapezoidal law (rad/s², rad/s). Not from the paper: the second
+    scene of the work–precision studies, with a different spectrum from the arm's."""
+    scene = Scene("spun_beam")
+    section = _linkage_section(scene, E, nu, rho, diameter)
+    names = [scene.node(f"n{k}", k * length / bars, 0.0) for k in range(bars + 1)]
+    for k in range(bars):
+        scene.beam(names[k], names[k + 1], section=section, split=split, name=f"bar{k}")
+    scene.point_mass(names[-1], tip_mass)
+    scene.pin("hub", names[0], drive=trapezoidal(0.0, angle, acceleration=acceleration, speed=speed))
+    scene.tip = names[-1]
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf)
+    return scene
+
+
 EXAMPLES = {
     "robot_arm.toml": (
         robot_arm,

@@ -8,8 +8,9 @@ variable, ``None`` for full density). The engine releases the GIL while it runs.
 from __future__ import annotations
 
 import copy
+import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any, Iterator, Sequence
@@ -17,10 +18,11 @@ from typing import Any, Iterator, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from . import _core
-from .accuracy import preset, refine
-from .errors import DesignError
+from . import _core, tolerance
+from .accuracy import preset, refine, split_by
+from .errors import DesignError, SettingsError
 from .scene import Scene
+from .tolerance import Discretization, ErrorEstimate
 
 
 def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
@@ -67,7 +69,9 @@ class Sensitivities:
     Unpacks as ``f, dfdx = ...``. ``values`` has shape ``(n_r,)``, ``gradients``
     ``(n_r, n_design)``, in the order of ``names``; ``method`` is the method used
     (``"direct"`` or ``"adjoint"``) and ``timings`` the seconds spent in the simulation and
-    in the sensitivity analysis.
+    in the sensitivity analysis. A run made to a tolerance also carries its
+    ``discretization`` and, per name, the estimated relative ``errors`` of the values and
+    ``gradient_errors`` of the gradients (2-norm).
     """
 
     names: tuple[str, ...]
@@ -75,6 +79,9 @@ class Sensitivities:
     gradients: np.ndarray
     method: str
     timings: dict[str, float]
+    discretization: Discretization | None = None
+    errors: dict[str, float] = field(default_factory=dict)
+    gradient_errors: dict[str, float] = field(default_factory=dict)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.gradients))
@@ -101,22 +108,35 @@ class Simulation:
         ``"fast"``, ``"balanced"`` or ``"accurate"``: a preset of :mod:`flextop.accuracy`
         refining the scene (elements per bar, step size) and the Newton tolerance; settings
         passed to :meth:`run` still win.
+    rtol, atol:
+        A tolerance on the responses (relative, and absolute in their units): runs without
+        an explicit ``h`` then choose the elements per bar and the step so that the
+        estimated error of every response asked for is at most ``rtol·|f| + atol``
+        (:mod:`flextop.tolerance`). Each run may also pass its own.
 
     Raises
     ------
     SceneError
         If the scene cannot be built; the message names the entry.
+    SettingsError
+        If ``rtol`` is not in (0, 1) or ``atol`` is negative.
     """
 
-    def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None) -> None:
+    def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,
+                 atol: float = 0.0) -> None:
         spec = _as_spec(scene)
         self.spec = copy.deepcopy(spec)
         self.accuracy = accuracy
+        if rtol is not None:
+            tolerance.check_tolerance(rtol, atol)
+        self.rtol, self.atol = rtol, atol
         self._defaults: dict[str, Any] = {}
         if accuracy is not None:
             chosen = preset(accuracy)
             spec = refine(spec, chosen)
             self._defaults["tol"] = chosen.tol
+        self._built = spec
+        self._levels: dict[int, Simulation] = {1: self}
         self.model = _core.Model.from_dict(spec)
         raw = self.model.bars()
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
@@ -166,9 +186,9 @@ class Simulation:
 
     # -- runs ---------------------------------------------------------------------------
 
-    def run(self, x: Any = None, *, t_end: float | None = None, h: float | None = None, rho_inf: float | None = None,
-            tol: float | None = None, max_iter: int | None = None, mass: str | None = None,
-            load_steps: int | None = None) -> Results | StaticResults:
+    def run(self, x: Any = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
+            t_end: float | None = None, h: float | None = None, rho_inf: float | None = None, tol: float | None = None,
+            max_iter: int | None = None, mass: str | None = None, load_steps: int | None = None) -> Results | StaticResults:
         """Runs the scene for design ``x`` (``None``: every bar at full density).
 
         Dynamic scenes integrate to ``t_end`` with step ``h`` — shortened, if needed, so that
@@ -179,22 +199,37 @@ class Simulation:
         step (20), ``mass`` ``"consistent"`` or ``"lumped"``. Static scenes solve the
         equilibrium with ``load_steps`` initial load increments.
 
-        Raises ``DesignError``, ``SettingsError`` or ``SimulationError`` (with the time,
-        residual and iteration count of a failed Newton step).
+        With a tolerance (``rtol`` here or on the :class:`Simulation`) and no ``h``, the
+        elements per bar and the step are chosen so that the estimated error of
+        ``responses`` (default: ``tip_deflection`` if the scene has a tip, else
+        ``compliance``) is at most ``rtol·|f| + atol``; the results then come from the
+        refined scene and tell their ``discretization``.
+
+        Raises ``DesignError``, ``SettingsError``, ``SimulationError`` (with the time,
+        residual and iteration count of a failed Newton step) or ``ToleranceError``.
         """
         xv = self._design(x)
+        given = {"t_end": t_end, "tol": tol, "max_iter": max_iter}
+        given |= {"load_steps": load_steps} if self.analysis == "static" else {"h": h, "rho_inf": rho_inf, "mass": mass}
+        settings = self._settings(**given)
+        wanted = self._tolerance(rtol, atol, h)
+        if wanted is None:
+            return self._fixed(xv, settings)
+        names = [responses] if isinstance(responses, str) else list(responses or [self._default_response()])
+        return self._to_tolerance(xv, names, wanted, settings, None)
+
+    def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any]) -> Results | StaticResults:
         if self.analysis == "static":
-            settings = self._settings(t_end=t_end, tol=tol, max_iter=max_iter, load_steps=load_steps)
-            return StaticResults(self, _core.solve_static(self.model, xv, settings), xv)
-        settings = self._settings(t_end=t_end, h=h, rho_inf=rho_inf, tol=tol, max_iter=max_iter, mass=mass)
-        return Results(self, _core.simulate(self.model, xv, settings), xv)
+            return StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
+        return Results(self, _core.simulate(self.model, xv, settings), xv, settings)
 
     def _settings(self, **given: Any) -> dict[str, Any]:
         """Run settings given explicitly, over the accuracy preset's defaults."""
         return {**self._defaults, **{k: v for k, v in given.items() if v is not None}}
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
-                               method: str = "auto", memory: str = "auto", **settings: Any) -> Sensitivities:
+                               method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
+                               start: Discretization | None = None, **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -214,14 +249,95 @@ class Simulation:
         backwards (memory O(√N), one more forward sweep), ``"auto"`` checkpoints past 512 MiB.
         ``settings`` are those of :meth:`run`. The result tells the method used and the
         seconds spent in the simulation and in the sensitivity analysis.
+
+        With a tolerance (``rtol``, as in :meth:`run`) the discretization is chosen for
+        every response named, starting from ``start`` (default: the scene's own), and the
+        gradients are exact for the grid that ran; the result carries the
+        ``discretization`` and the estimated relative ``errors`` of the values. The gradients
+        are held to ``5·rtol`` in the relative 2-norm (``tolerance.GRADIENT_FACTOR``), and
+        their estimated errors are in ``gradient_errors``; every companion run then computes
+        gradients too.
         """
         names = [responses] if isinstance(responses, str) else list(responses)
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
-        out = _core.run_with_sensitivities(self.model, xv, names, self._settings(method=method, memory=memory, **settings))
+        gradients = {"method": method, "memory": memory}
+        wanted = self._tolerance(rtol, atol, settings.get("h"))
+        if wanted is None:
+            return self._sensitivities(xv, names, self._settings(**gradients, **settings))
+        return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start)
+
+    def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any]) -> Sensitivities:
+        out = _core.run_with_sensitivities(self.model, xv, names, settings)
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
         return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings)
+
+    # -- runs to a tolerance ------------------------------------------------------------
+
+    def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
+        """The tolerance a run is made to, or ``None`` for a fixed-step run: an explicit
+        ``h`` wins over the Simulation's tolerance, and cannot be given with a run's own."""
+        if h is not None and rtol is not None:
+            raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+        if h is not None or (rtol is None and self.rtol is None):
+            return None
+        rtol = self.rtol if rtol is None else rtol
+        atol = self.atol if atol is None else atol
+        tolerance.check_tolerance(rtol, atol)
+        return rtol, atol
+
+    def _default_response(self) -> str:
+        return "tip_deflection" if self.tip is not None and self.analysis == "dynamic" else "compliance"
+
+    def _first(self, settings: dict[str, Any]) -> Discretization:
+        """The scene's own discretization: its elements per bar and step (16 steps if the
+        scene gives none)."""
+        if self.analysis == "static":
+            return Discretization(1, 0)
+        t_end = self._t_end(settings)
+        h = self.spec.get("simulation", {}).get("h") or t_end / 16
+        return tolerance.start(math.ceil(t_end / h - 1e-9))
+
+    def _t_end(self, settings: dict[str, Any]) -> float:
+        t_end = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
+        if t_end is None:
+            raise SettingsError("t_end: give it in the scene's [simulation] table or to the run")
+        return float(t_end)
+
+    def _level(self, refinement: int) -> Simulation:
+        """This scene with ``refinement`` times its elements per bar, same run defaults."""
+        if refinement not in self._levels:
+            level = Simulation(split_by(self._built, refinement))
+            level._defaults = self._defaults
+            self._levels[refinement] = level
+        return self._levels[refinement]
+
+    def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
+                      gradients: dict[str, str] | None, first: Discretization | None = None) -> Any:
+        """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
+        results (or sensitivities) with its estimate and companions attached."""
+        t_end = None if self.analysis == "static" else self._t_end(settings)
+        runs: dict[Discretization, Any] = {}
+
+        def values(d: Discretization, candidate: bool) -> list[np.ndarray]:
+            if d not in runs:
+                level = self._level(d.refinement)
+                at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {})}
+                runs[d] = level._sensitivities(xv, names, {**at, **gradients}) if gradients else level._fixed(xv, at)
+            out = runs[d]
+            if isinstance(out, Sensitivities):
+                return [*out.values[:, None], *out.gradients]
+            return [np.array([out.response(n)]) for n in names]
+
+        d, est = tolerance.resolve(values, first or self._first(settings), tolerance.tolerance_of(names, *wanted, gradients is not None))
+        out, relative = runs[d], est.relative
+        errors = dict(zip(names, map(float, relative)))
+        if isinstance(out, Sensitivities):
+            return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
+        out.discretization, out.errors = d, errors
+        out.companions = (runs[d.half_steps], runs.get(d.quarter_steps), runs[d.split]) if d.steps else (None, None, runs[d.split])
+        return out
 
     def as_built(self, x: Any, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:
         """The design ``x`` as it would be built: its void bars removed.
@@ -244,7 +360,7 @@ class Simulation:
             prefix = f"{g['name']}/bar"
             omit = set(g.get("omit", [])) | {int(n[len(prefix):]) for n in void if n.startswith(prefix) and n[len(prefix):].isdigit()}
             g["omit"] = sorted(omit)
-        built = Simulation(spec, accuracy=self.accuracy)
+        built = Simulation(spec, accuracy=self.accuracy, rtol=self.rtol, atol=self.atol)
         index = {name: k for k, name in enumerate(self.variable_names)}
         return built, np.array([xv[index[name]] for name in built.variable_names])
 
@@ -295,6 +411,14 @@ class _Run:
     simulation: Simulation = field(repr=False)
     raw: dict = field(repr=False)
     x: np.ndarray | None = None
+    settings: dict = field(default_factory=dict, repr=False)
+    discretization: Discretization | None = None
+    """For a run made to a tolerance: the refinement of the scene and the steps that met it."""
+    errors: dict[str, float] = field(default_factory=dict)
+    """For a run made to a tolerance: the estimated relative error of each response it met."""
+    companions: tuple[_Run | None, _Run | None, _Run] | None = field(default=None, repr=False)
+    """The runs the estimate compares with: half and a quarter of the steps (``None`` for
+    statics), and twice the elements per bar at half the steps."""
 
     @property
     def q(self) -> np.ndarray:
@@ -315,6 +439,34 @@ class _Run:
 
     def _evaluate(self, name: str, q: np.ndarray, times: np.ndarray, load_time: float = 0.0) -> float:
         return float(_core.evaluate_responses(self.simulation.model, self.x, q, list(map(float, times)), load_time, [name])[0])
+
+    def response(self, name: str) -> float:
+        raise NotImplementedError
+
+    def error_estimate(self, name: str) -> float:
+        """The estimated relative error of response ``name`` (any name of
+        :meth:`Simulation.run_with_sensitivities`) against the converged discretization, by
+        step doubling in time and space (:mod:`flextop.tolerance`). A run made to a
+        tolerance has its companion runs already; for any other run they are made on the
+        first call: half and a quarter of the steps, and twice the elements per bar at half
+        the steps (a static scene: twice the elements per bar only)."""
+        half, quarter, split = self._companions()
+        value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
+        ratio = 2.0 if half is None else (len(self.time) - 1) / (len(half.time) - 1)
+        est = tolerance.estimate(value(self), value(half), value(quarter), value(split), step_ratio=ratio)
+        return float(est.relative[0])
+
+    def _companions(self) -> tuple[_Run | None, _Run | None, _Run]:
+        if self.companions is None:
+            settings, half, quarter = dict(self.settings), None, None
+            if isinstance(self, Results):
+                steps, t_end = len(self.time) - 1, float(self.time[-1])
+                if steps < 4:
+                    raise SettingsError("an error estimate needs a run of at least 4 steps")
+                half, quarter = (self.simulation._fixed(self.x, settings | {"h": t_end / (steps // k), "t_end": t_end}) for k in (2, 4))
+                settings |= {"h": t_end / (steps // 2), "t_end": t_end}
+            self.companions = (half, quarter, self.simulation._level(2)._fixed(self.x, settings))
+        return self.companions
 
 
 @dataclass

@@ -1,0 +1,181 @@
+"""Work–precision across designs: does ``rtol`` hold on every design users give?
+
+A family of designs on two scenes — the robot arm (uniform densities 0.05 to 1, seeded
+random designs, the optima of both objectives under both mass laws, a chords-only design)
+and the spun beam (uniform, random, tapered) — is run with ``run_with_sensitivities(x,
+"tip_deflection", rtol=...)`` and with the fixed-step presets, and compared with a converged
+reference (arm: 8× elements per bar, 32× the steps; spun beam: 32×, 8×; the reference's own
+uncertainty is the change from half that refinement, in the table). For each: the achieved
+error of d and ∇d (relative, 2-norm), the estimate against the true error, and the time.
+
+    python benches/tolerance.py [--quick]   # writes benches/results/tolerance.md, docs/tolerance.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+import flextop  # noqa: E402
+from flextop.accuracy import PRESETS  # noqa: E402
+from flextop.tolerance import Discretization  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+RTOLS = (1e-2, 3e-3)
+
+
+@dataclass
+class Scene:
+    name: str
+    simulation: flextop.Simulation
+    reference: Discretization
+    designs: dict[str, np.ndarray]
+
+
+def arm_designs(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
+    n = sim.n_design
+    out = {f"uniform {x:g}": np.full(n, x) for x in ((0.05, 0.4, 1.0) if quick else (0.05, 0.1, 0.2, 0.4, 0.7, 1.0))}
+    for seed in range(1 if quick else 4):
+        out[f"random #{seed}"] = np.random.default_rng(seed).uniform(sim.x_min, 1.0, n)
+    out["chords only"] = np.where(chords(sim), 1.0, sim.x_min)
+    for mass in ("du_olhoff",) if quick else ("du_olhoff", "linear"):
+        spec = sim.spec | {"design": sim.spec["design"] | {"mass": mass}}
+        law = flextop.Simulation(spec)
+        for objective in ("tip_deflection", "compliance"):
+            problem = flextop.TopologyProblem(law, objective, flextop.volume_constraints(law, 0.4))
+            out[f"{objective} optimum ({mass})"] = flextop.optimize(problem, np.full(n, 0.4), method="mma", max_iter=40).x
+    return out
+
+
+def chords(sim: flextop.Simulation) -> np.ndarray:
+    """Per design variable: is it a bar of a link's top or bottom chord? (Both ends on the
+    link's outermost row across its long axis.)"""
+    out = np.zeros(sim.n_design, bool)
+    ends = sim.model.reference_positions[sim.bars.nodes]
+    for k in np.unique(sim.bars.component):
+        mine = sim.bars.component == k
+        points = ends[mine].reshape(-1, 2)
+        across = np.linalg.svd(points - points.mean(axis=0))[2][1]
+        offset = ends[mine] @ across
+        outer = np.isclose(offset, offset.min(), atol=1e-9).all(axis=1) | np.isclose(offset, offset.max(), atol=1e-9).all(axis=1)
+        variables = sim.bars.variable[mine][outer]
+        out[variables[variables >= 0]] = True
+    return out
+
+
+def beam_designs(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
+    n = sim.n_design
+    out = {f"uniform {x:g}": np.full(n, x) for x in ((0.05, 1.0) if quick else (0.05, 0.2, 0.6, 1.0))}
+    for seed in range(1 if quick else 2):
+        out[f"random #{seed}"] = np.random.default_rng(seed).uniform(sim.x_min, 1.0, n)
+    out["tapered 1 → 0.1"] = np.linspace(1.0, 0.1, n)
+    return out
+
+
+def reference(sim: flextop.Simulation, x: np.ndarray, d: Discretization) -> tuple[float, np.ndarray, float]:
+    """d and ∇d on ``d``, and the change of d from half that refinement and steps."""
+    t_end = sim.spec["simulation"]["t_end"]
+    fine = sim._level(d.refinement).run_with_sensitivities(x, "tip_deflection", h=t_end / d.steps)
+    coarse = sim._level(d.refinement // 2).run(x, h=t_end / (d.steps // 2)).tip_deflection()
+    return float(fine.values[0]), fine.gradients[0], abs(coarse / fine.values[0] - 1.0)
+
+
+def timed(fn):
+    start = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - start, out
+
+
+def study(scene: Scene) -> list[dict]:
+    rows = []
+    for label, x in scene.designs.items():
+        d_ref, g_ref, uncertainty = reference(scene.simulation, x, scene.reference)
+        row = {"design": label, "d": d_ref, "uncertainty": uncertainty, "runs": {}}
+
+        def score(key, seconds, out, estimate=None):
+            row["runs"][key] = {"seconds": seconds, "error_d": abs(out.values[0] / d_ref - 1.0),
+                                "error_grad": float(np.linalg.norm(out.gradients[0] - g_ref) / np.linalg.norm(g_ref)),
+                                "estimate": estimate, "discretization": getattr(out, "discretization", None)}
+
+        for rtol in RTOLS:
+            seconds, out = timed(lambda: scene.simulation.run_with_sensitivities(x, "tip_deflection", rtol=rtol))
+            score(f"rtol {rtol:g}", seconds, out, out.errors["tip_deflection"])
+        for name in PRESETS:
+            preset = flextop.Simulation(scene.simulation.spec, accuracy=name)
+            seconds, out = timed(lambda: preset.run_with_sensitivities(x, "tip_deflection"))
+            score(name, seconds, out)
+        rows.append(row)
+        print(scene.name, label, {k: f"{v['error_d']:.2%}/{v['error_grad']:.2%}" for k, v in row["runs"].items()}, flush=True)
+    return rows
+
+
+def table(scene: Scene, rows: list[dict]) -> list[str]:
+    keys = list(rows[0]["runs"])
+    out = [f"### {scene.name}", "",
+           "Per run: error of d / error of ∇d / seconds (run + gradients); for rtol runs also the estimate and the "
+           "discretization (refinement × elements per bar, steps).", "",
+           "| design | d (reference) | ref. uncertainty | " + " | ".join(keys) + " |",
+           "|---|---|---|" + "---|" * len(keys)]
+    for row in rows:
+        cells = []
+        for k in keys:
+            r = row["runs"][k]
+            cell = f"{r['error_d']:.2%} / {r['error_grad']:.2%} / {r['seconds']:.3f} s"
+            if r["estimate"] is not None:
+                cell += f" (est. {r['estimate']:.2%}; {r['discretization'].refinement}×, {r['discretization'].steps})"
+            cells.append(cell)
+        out.append(f"| {row['design']} | {row['d']:.4e} | {row['uncertainty']:.2%} | " + " | ".join(cells) + " |")
+    out += ["", "| run | worst error of d | worst error of ∇d | worst under-estimate (true / est., where true > rtol/10) | total seconds |",
+            "|---|---|---|---|---|"]
+    for k in keys:
+        runs = [row["runs"][k] for row in rows]
+        under = [r["error_d"] / r["estimate"] for r in runs if r["estimate"] is not None and r["error_d"] > float(k.split()[-1]) / 10] \
+            if k.startswith("rtol") else []
+        out.append(f"| {k} | {max(r['error_d'] for r in runs):.2%} | {max(r['error_grad'] for r in runs):.2%} | "
+                   f"{max(under, default=float('nan')):.2f} | {sum(r['seconds'] for r in runs):.2f} |")
+    return out + [""]
+
+
+def plot(results: list[tuple[Scene, list[dict]]], path: Path) -> None:
+    fig, axes = plt.subplots(1, len(results), figsize=(6 * len(results), 4.5))
+    for ax, (scene, rows) in zip(np.atleast_1d(axes), results):
+        for k, marker in zip(rows[0]["runs"], "os^vD<"):
+            ax.loglog([r["runs"][k]["seconds"] for r in rows], [max(r["runs"][k]["error_d"], 1e-7) for r in rows], marker,
+                      label=k, alpha=0.7)
+        for rtol in RTOLS:
+            ax.axhline(rtol, color="grey", lw=0.8, ls=":")
+        ax.set(xlabel="run + gradients (s)", ylabel="error of d", title=scene.name)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
+    quick = parser.parse_args().quick
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    beam = flextop.Simulation(flextop.scenes.spun_beam())
+    scenes = [Scene("robot arm", arm, Discretization(8, 66 * 32), arm_designs(arm, quick)),
+              Scene("spun beam", beam, Discretization(32, 120 * 8), beam_designs(beam, quick))]
+    results = [(s, study(s)) for s in scenes]
+    lines = ["# Tolerances across designs", "", f"`python benches/tolerance.py{' --quick' if quick else ''}` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}.", ""]
+    for scene, rows in results:
+        lines += table(scene, rows)
+    (ROOT / "benches" / "results" / "tolerance.md").write_text("\n".join(lines), encoding="utf-8")
+    plot(results, ROOT / "docs" / "tolerance.png")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,265 @@
+"""Accuracy on demand: the discretization whose responses meet a stated tolerance.
+
+A discretization is a pair: a refinement ``r`` of the scene's meshing (every bar and beam
+gets ``r`` times the elements per bar the scene gives it) and a uniform number of steps
+over ``[0, t_end]`` (none for a static scene). Its error on a response ``f`` is estimated by
+step doubling in time and in space, from three companion runs:
+
+    a = |f(r, h) − f(r, 2h)|,  b = |f(r, 2h) − f(r, 4h)|,  ρ = b / a (the observed contraction)
+    e_time  = a / (clip(ρ, 1.5, 4) − 1)          Richardson with the observed order, never
+                                                 above generalized-α's second order
+    e_space = 2 |f(2r, 2h) − f(r, 2h)|           beams converge at least to first order in
+                                                 1/m (measured orders 1.1 to 2.8,
+                                                 benches/results/material_law.md)
+
+and the run passes when ``e_time + e_space ≤ rtol·|f| + atol`` for every response asked for
+(and, when gradients are asked for, ``≤ GRADIENT_FACTOR·rtol·‖∇f‖`` for each gradient, the
+same estimates taken on the vectors in the 2-norm). The observed order matters before the
+asymptotic range: on the full-density arm, 66 → 132 steps only halves the error, and the
+second-order formula would understate it 2.5×.
+
+Otherwise the steps are multiplied by the power of two that the second-order rate says
+brings ``e_time`` under half the budget, and the refinement doubles where ``e_space``
+exceeds the other half. A refined candidate's companions reuse the runs already made. The
+run that passes is an ordinary fixed-step run on one grid, so its gradients are exact for
+the scheme that ran.
+
+Step doubling is preferred here to a local error estimator of generalized-α because it
+measures what the user asks for, the error of a response, including the spatial part and
+the effect of ρ∞'s numerical damping. Its cost over the run itself: 0.75 of a run in time
+companions, and a run at twice the elements per bar and half the steps in space.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SettingsError, SimulationError, ToleranceError
+
+TIME_ORDER = 2
+"""Order of generalized-α in h (Chung & Hulbert), assumed by ``e_time``."""
+
+SPACE_ORDER = 1
+"""Order in 1/m assumed by ``e_space``: the lowest measured, so the estimate errs high."""
+
+GRADIENT_FACTOR = 5.0
+"""Gradients are held to ``GRADIENT_FACTOR · rtol`` in the relative 2-norm (and to no
+absolute tolerance): an optimizer needs their direction, not their last digit."""
+
+MAX_REFINEMENT = 16
+"""Largest factor on the scene's elements per bar."""
+
+MAX_STEPS = 1 << 20
+"""Most steps a run to a tolerance may take."""
+
+
+@dataclass(frozen=True, order=True)
+class Discretization:
+    """``refinement``: factor on the scene's elements per bar; ``steps``: uniform steps over
+    ``[0, t_end]``, 0 for a static scene."""
+
+    refinement: int
+    steps: int
+
+    @property
+    def half_steps(self) -> Discretization:
+        """The time companion: half as many steps (a static scene has none to halve)."""
+        return Discretization(self.refinement, self.steps // 2)
+
+    @property
+    def quarter_steps(self) -> Discretization:
+        """The second time companion: a quarter of the steps."""
+        return Discretization(self.refinement, self.steps // 4)
+
+    @property
+    def split(self) -> Discretization:
+        """The space companion: twice the elements per bar, with the time companion's steps."""
+        return Discretization(2 * self.refinement, self.steps // 2)
+
+    def __str__(self) -> str:
+        steps = f" and {self.steps} steps" if self.steps else ""
+        return f"{self.refinement}× the scene's elements per bar{steps}"
+
+
+def start(steps: int) -> Discretization:
+    """The first candidate of a dynamic scene whose own step gives ``steps`` steps: rounded
+    up to a multiple of 4, so that the time companions divide it exactly."""
+    return Discretization(1, 4 * max(1, math.ceil(steps / 4)))
+
+
+@dataclass(frozen=True)
+class ErrorEstimate:
+    """Estimated errors of quantities — a response (a scalar) or its gradient (a vector,
+    measured in the 2-norm) — in their own units, one entry per quantity."""
+
+    size: np.ndarray
+    time: np.ndarray
+    space: np.ndarray
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.time + self.space
+
+    @property
+    def relative(self) -> np.ndarray:
+        """``total / |q|`` (infinite where ``q`` is zero and the error is not)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.total == 0.0, 0.0, self.total / self.size)
+
+
+Quantities = list[np.ndarray]
+"""What a run is judged on: responses (arrays of one value) and gradients (vectors)."""
+
+
+def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | None, split: Quantities,
+             step_ratio: float = 2.0) -> ErrorEstimate:
+    """The error of ``fine`` from its companions' quantities (``half`` and ``quarter`` are
+    ``None`` for a static scene; ``quarter`` alone ``None``: the slowest contraction, 1.5,
+    is assumed); ``step_ratio`` is h(half) / h(fine)."""
+    norm = lambda p, q: np.array([np.linalg.norm(x - y) for x, y in zip(p, q)])  # noqa: E731
+    if half is None:
+        time = np.zeros(len(fine))
+    else:
+        a = norm(fine, half)
+        b = np.zeros_like(a) if quarter is None else norm(half, quarter)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            contraction = np.clip(np.where(a == 0.0, np.inf, b / a), 1.5, step_ratio**TIME_ORDER)
+        time = a / (contraction - 1.0)
+    space = norm(split, fine if half is None else half) / (1.0 - 2.0**-SPACE_ORDER)
+    return ErrorEstimate(np.array([np.linalg.norm(q) for q in fine]), time, space)
+
+
+Values = Callable[[Discretization, bool], Quantities]
+"""``values(d, candidate)``: the quantities of the run at ``d``; ``candidate`` is false for
+a companion."""
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Per quantity: its name, relative and absolute tolerance."""
+
+    names: Sequence[str]
+    rtol: np.ndarray
+    atol: np.ndarray
+
+    def budget(self, est: ErrorEstimate) -> np.ndarray:
+        return self.rtol * est.size + self.atol
+
+
+def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Discretization, ErrorEstimate]:
+    """The first candidate from ``first`` on whose estimate meets ``rtol·|q| + atol`` for
+    every quantity, and that estimate. A :class:`SimulationError` in a run counts as an
+    infinite error of that run. The companions run first, so a candidate whose spatial
+    error alone exceeds the budget is refined without being run.
+
+    Raises :class:`ToleranceError` when the tolerance needs more than ``MAX_REFINEMENT``
+    times the elements per bar or ``MAX_STEPS`` steps, naming the quantity and the error
+    reached.
+    """
+    d = first
+    while True:
+        verdict = _judge(values, d, tol)
+        if verdict.passed:
+            return d, verdict.estimate
+        refined = _refine(d, verdict.worst_time, verdict.worst_space)
+        if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS:
+            raise _beyond_limits(d, verdict.estimate, tol)
+        d = refined
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A candidate judged: its estimate (``None`` if a run failed), and the largest shares
+    of the budget the time error, the space error and their sum take."""
+
+    estimate: ErrorEstimate | None
+    worst_time: float
+    worst_space: float
+    worst_total: float = np.inf
+
+    @property
+    def passed(self) -> bool:
+        return self.estimate is not None and self.worst_total <= 1.0
+
+
+def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
+    """Runs ``d``'s companions, then ``d`` unless the spatial error alone is clearly over
+    budget, then the quarter-steps companion only if the estimate without it fails."""
+    dynamic = d.steps > 0
+    split = _try(values, d.split, False)
+    half = _try(values, d.half_steps, False) if dynamic else None
+    if split is not None and half is not None:
+        coarse = estimate(half, None, None, split)
+        if _ratio(coarse.space, tol.budget(coarse)) > 2.0:
+            return Verdict(coarse, 0.0, np.inf)
+    fine = _try(values, d, True)
+    if fine is None or split is None or (dynamic and half is None):  # more steps if there are steps, else more elements
+        return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
+    est = estimate(fine, half, None, split)  # the slowest contraction assumed: no quarter run yet
+    if dynamic and _ratio(est.total, tol.budget(est)) > 1.0:
+        quarter = _try(values, d.quarter_steps, False)
+        est = est if quarter is None else estimate(fine, half, quarter, split)
+    budget = tol.budget(est)
+    return Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget))
+
+
+def _beyond_limits(d: Discretization, est: ErrorEstimate | None, tol: Tolerance) -> ToleranceError:
+    limits = f"the next refinement passes the limits ({MAX_REFINEMENT}× elements per bar, {MAX_STEPS} steps)"
+    if est is None:
+        return ToleranceError(f"the tolerance cannot be met: the runs fail with {d}, and {limits}")
+    k = int(np.argmax(np.nan_to_num(est.total / np.maximum(tol.budget(est), 1e-300), nan=np.inf)))
+    return ToleranceError(f"rtol = {tol.rtol[k]:g} cannot be met for {tol.names[k]}: estimated relative error "
+                          f"{est.relative[k]:.3g} with {d}, and {limits}")
+
+
+def check_tolerance(rtol: float, atol: float) -> None:
+    """``rtol`` in (0, 1) and ``atol`` ≥ 0, both finite, or a :class:`SettingsError`."""
+    if isinstance(rtol, bool) or isinstance(atol, bool):
+        raise SettingsError("rtol and atol must be numbers")
+    if not (isinstance(rtol, (int, float)) and math.isfinite(rtol) and 0.0 < rtol < 1.0):
+        raise SettingsError(f"rtol must be a number in (0, 1), got {rtol!r}")
+    if not (isinstance(atol, (int, float)) and math.isfinite(atol) and atol >= 0.0):
+        raise SettingsError(f"atol must be a finite number ≥ 0, got {atol!r}")
+
+
+def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool) -> Tolerance:
+    """Responses ``names`` to ``rtol·|f| + atol``, then, with ``gradients``, their gradients
+    to ``GRADIENT_FACTOR·rtol`` relative."""
+    if not gradients:
+        return Tolerance(list(names), np.full(len(names), rtol), np.full(len(names), atol))
+    return Tolerance([*names, *(f"the gradient of {n}" for n in names)], np.repeat([rtol, GRADIENT_FACTOR * rtol], len(names)),
+                     np.repeat([atol, 0.0], len(names)))
+
+
+def _try(values: Values, d: Discretization, candidate: bool) -> Quantities | None:
+    try:
+        out = [np.atleast_1d(np.asarray(q, dtype=float)) for q in values(d, candidate)]
+    except SimulationError:
+        return None
+    return out if all(np.isfinite(q).all() for q in out) else None
+
+
+def _ratio(error: np.ndarray, budget: np.ndarray) -> float:
+    """The largest ``error / budget``: 0 where both vanish, infinite where the error is
+    not finite."""
+    error = np.where(np.isfinite(error), error, np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(error == 0.0, 0.0, error / budget)
+    return float(np.max(ratio, initial=0.0))
+
+
+def _refine(d: Discretization, worst_time: float, worst_space: float) -> Discretization:
+    """More steps where the time error takes more than half the budget (by the power of two
+    the rate asks for, at least one doubling), twice the elements per bar where the space
+    error does."""
+    steps, refinement = d.steps, d.refinement
+    if worst_time > 0.5 or (worst_space <= 0.5 and steps):
+        doublings = 1 if not math.isfinite(worst_time) else max(1, math.ceil(math.log2(worst_time / 0.5) / TIME_ORDER))
+        steps *= 2**doublings
+    if worst_space > 0.5 or not steps:
+        refinement *= 2
+    return Discretization(refinement, steps)

@@ -1,0 +1,175 @@
+"""Runs to a tolerance (flextop.tolerance): the estimator against known errors, the arm
+against converged references, exact gradients on the grid that ran, and clear errors."""
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import tolerance
+from flextop.errors import SettingsError, SimulationError, ToleranceError
+from flextop.tolerance import Discretization, Tolerance, estimate, resolve
+
+T_ARM = 1.3
+
+
+def model_values(c_time=0.3, c_space=0.002, exact=2.0, t_end=1.0, gradient=False):
+    """Quantities with a known error: f = exact + c_time·h² + c_space/r (what the estimator
+    assumes at its limits: second order in h, first order in 1/r)."""
+    calls = []
+
+    def values(d, candidate):
+        calls.append(d)
+        h = t_end / d.steps if d.steps else 0.0
+        f = exact + c_time * h**2 + c_space / d.refinement
+        return [np.array([f])] + ([np.array([f, -2 * f])] if gradient else [])
+
+    return values, calls
+
+
+def test_the_estimate_is_exact_on_its_model_and_the_accepted_run_meets_rtol():
+    values, calls = model_values()
+    for rtol in (1e-2, 1e-3, 1e-4):
+        d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([rtol]), np.array([0.0])))
+        f = values(d, True)[0][0]
+        true = abs(f - 2.0)
+        assert true <= rtol * abs(f)
+        assert est.total[0] == pytest.approx(true, rel=1e-9), "Richardson is exact when the error is c·h² + c'/r"
+        assert est.relative[0] == pytest.approx(true / abs(f), rel=1e-9)
+        coarser = Discretization(d.refinement, d.steps // 2), Discretization(max(1, d.refinement // 2), d.steps)
+        assert any(abs(values(c, True)[0][0] - 2.0) > rtol * 2.0 for c in coarser if c != d), "not refined beyond need"
+    assert len(set(calls)) < len(calls), "companions reuse earlier runs"
+
+
+def test_gradients_are_held_to_their_own_tolerance():
+    values, _ = model_values(c_space=0.0, gradient=True)
+    tol = tolerance.tolerance_of(["f"], 1e-3, 0.0, gradients=True)
+    assert tol.rtol.tolist() == [1e-3, tolerance.GRADIENT_FACTOR * 1e-3]
+    d, est = resolve(values, Discretization(1, 8), tol)
+    assert est.relative[1] <= tolerance.GRADIENT_FACTOR * 1e-3 and est.relative[0] <= 1e-3
+
+
+def test_the_observed_contraction_guards_the_preasymptotic_range():
+    """When halving h only halves the error (first order, as on the full-density arm at
+    h = 0.02), the second-order formula would understate it 3×; the observed contraction
+    does not."""
+    exact, fine, half, quarter = 1.0, [np.array([1.1])], [np.array([1.2])], [np.array([1.4])]
+    split = half
+    est = estimate(fine, half, quarter, split)
+    assert est.time[0] == pytest.approx(abs(fine[0][0] - exact)), "exact for a first-order error"
+    assert estimate(fine, half, [np.array([1.2 + 0.4])], split).time[0] == pytest.approx(0.1 / 3), "second order at most"
+    assert estimate(fine, half, None, split).time[0] == pytest.approx(0.2), "no quarter run: the slowest contraction, 1.5"
+
+
+def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
+    values, _ = model_values()
+
+    def failing(d, candidate):
+        if d.steps and d.steps < 64:
+            raise SimulationError("Newton did not converge")
+        return values(d, candidate)
+
+    d, _ = resolve(failing, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
+    assert d.steps // 2 >= 64, "the candidate and its half-steps companion ran (a failed quarter run is not needed)"
+    monkeypatch.setattr(tolerance, "MAX_STEPS", 256)
+    with pytest.raises(ToleranceError, match="rtol = 1e-08 cannot be met for f: estimated relative error"):
+        resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-8]), np.array([0.0])))
+
+
+def test_the_time_estimate_is_asymptotically_correct_on_the_arm():
+    """x = 0.4 and 1, one element per bar: the ratio of the estimate to the true time
+    error (against 4352 steps, Richardson-extrapolated) tends to 1 as h → 0, and it never
+    understates the error by more than 2×."""
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    for x in (0.4, 1.0):
+        d = {n: sim.run(x, h=T_ARM / n).tip_deflection() for n in (17, 34, 68, 136, 272, 544, 2176, 4352)}
+        exact = d[4352] + (d[4352] - d[2176]) / 3
+        ratios = [estimate([np.array([d[n]])], [np.array([d[n // 2]])], [np.array([d[n // 4]])], [np.array([d[n // 2]])]).time[0]
+                  / abs(d[n] - exact) for n in (68, 136, 272, 544)]
+        assert min(ratios) >= 0.5, ratios
+        assert abs(ratios[-1] - 1) < 0.25, ratios
+
+
+@pytest.fixture(scope="module")
+def arm_references():
+    """d of the arm at x = 0.4 and 1 on 4× the elements per bar and 2176 steps, with the
+    time error removed by Richardson extrapolation from 1088 steps."""
+    sim = flextop.Simulation(flextop.scenes.robot_arm(split=4))
+    out = {}
+    for x in (0.4, 1.0):
+        fine, coarse = (sim.run(x, h=T_ARM / n).tip_deflection() for n in (2176, 1088))
+        out[x] = fine + (fine - coarse) / 3
+    return out
+
+
+def test_rtol_1e2_gets_the_arm_within_1_percent(arm_references):
+    sim = flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2)
+    for x, reference in arm_references.items():
+        res = sim.run(x)
+        error = abs(res.tip_deflection() / reference - 1)
+        assert error <= 1e-2, (x, error, res.discretization)
+        assert res.errors["tip_deflection"] >= error / 2, "the estimate does not understate the error"
+        assert res.error_estimate("tip_deflection") == pytest.approx(res.errors["tip_deflection"])
+
+
+def test_a_fixed_run_tells_when_it_is_wrong(arm_references):
+    """The full-density arm at h = 0.02 s is 16 % off: its estimate says so."""
+    res = flextop.Simulation(flextop.scenes.robot_arm()).run(1.0)
+    error = abs(res.tip_deflection() / arm_references[1.0] - 1)
+    assert error > 0.1 and res.error_estimate("tip_deflection") >= error
+    assert res.discretization is None and res.errors == {}
+
+
+def test_gradients_on_the_grid_that_ran_are_exact():
+    """Spun beam at rtol = 1e-2: direct equals adjoint, and fourth-order central differences
+    on the frozen discretization agree."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam(), rtol=1e-2)
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    direct = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="direct")
+    adjoint = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="adjoint")
+    assert direct.discretization == adjoint.discretization
+    assert direct.discretization.refinement > 1 or direct.discretization.steps > 120, "the scene's own grid is not enough"
+    np.testing.assert_allclose(direct.gradients, adjoint.gradients, rtol=1e-9, atol=1e-9 * np.abs(direct.gradients).max())
+    assert max(direct.errors.values()) <= 1e-2 and max(direct.gradient_errors.values()) <= 5e-2
+    d = direct.discretization
+    frozen = sim._level(d.refinement)
+    f = lambda xx: frozen.run(xx, h=frozen.spec["simulation"]["t_end"] / d.steps).tip_deflection()  # noqa: E731
+    delta = 1e-3
+    for i in range(sim.n_design):
+        e = np.eye(sim.n_design)[i] * delta
+        fd = (8 * (f(x + e) - f(x - e)) - (f(x + 2 * e) - f(x - 2 * e))) / (12 * delta)
+        assert fd == pytest.approx(direct.gradients[0, i], rel=1e-6, abs=1e-6 * np.abs(direct.gradients[0]).max())
+
+
+def test_static_scenes_refine_elements_only():
+    sim = flextop.Simulation(flextop.scenes.static_truss(), rtol=1e-4)
+    res = sim.run(0.4)
+    reference = flextop.Simulation(flextop.scenes.static_truss(split=16)).run(0.4).response("compliance")
+    assert res.discretization.steps == 0
+    assert abs(res.response("compliance") / reference - 1) <= 1e-4
+    assert res.error_estimate("compliance") == pytest.approx(res.errors["compliance"])
+
+
+def test_topology_problem_refines_only_and_records_it():
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    problem = flextop.TopologyProblem(sim, "tip_deflection", flextop.volume_constraints(sim, 0.5), rtol=1e-2)
+    result = flextop.optimize(problem, np.full(sim.n_design, 0.5), method="mma", max_iter=4)
+    assert problem.refinements and problem.refinements[0][0] == 1
+    steps = [d for _, d in problem.refinements]
+    assert all(a.refinement <= b.refinement and a.steps <= b.steps for a, b in zip(steps, steps[1:]))
+    again = flextop.TopologyProblem.from_dict(sim, problem.to_dict())
+    assert again.discretization == problem.discretization and again.rtol == 1e-2
+    check = sim.run_with_sensitivities(result.x, "tip_deflection", rtol=1e-2)
+    assert check.values[0] == pytest.approx(result.fun * problem.objective_scale, rel=2e-2)
+
+
+def test_bad_tolerances_are_named():
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    for bad in (0.0, 1.0, -1e-3, float("nan"), True):
+        with pytest.raises(SettingsError, match="rtol"):
+            sim.run(0.4, rtol=bad)
+    with pytest.raises(SettingsError, match="atol"):
+        flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2, atol=-1.0)
+    with pytest.raises(SettingsError, match="not both"):
+        sim.run(0.4, rtol=1e-2, h=0.01)
+    assert flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2).run(0.4, h=0.02, t_end=0.1).discretization is None, \
+        "an explicit step wins over the simulation's tolerance"
