@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import _core, tolerance
-from .accuracy import preset, refine, split_by
+from .accuracy import preset, split_by
 from .errors import DesignError, SettingsError
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
@@ -105,9 +105,8 @@ class Simulation:
     scene:
         A :class:`Scene`, a scene dict, or the path of a TOML scene file.
     accuracy:
-        ``"fast"``, ``"balanced"`` or ``"accurate"``: a preset of :mod:`flextop.accuracy`
-        refining the scene (elements per bar, step size) and the Newton tolerance; settings
-        passed to :meth:`run` still win.
+        ``"fast"``, ``"balanced"`` or ``"accurate"``: a named ``rtol`` (3e-2, 1e-2, 3e-3;
+        :mod:`flextop.accuracy`).
     rtol, atol:
         A tolerance on the responses (relative, and absolute in their units): runs without
         an explicit ``h`` then choose the elements per bar and the step so that the
@@ -119,7 +118,8 @@ class Simulation:
     SceneError
         If the scene cannot be built; the message names the entry.
     SettingsError
-        If ``rtol`` is not in (0, 1) or ``atol`` is negative.
+        If ``rtol`` is not in (0, 1), ``atol`` is negative, ``accuracy`` is not a preset's
+        name, or both ``accuracy`` and ``rtol`` are given.
     """
 
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,
@@ -127,15 +127,13 @@ class Simulation:
         spec = _as_spec(scene)
         self.spec = copy.deepcopy(spec)
         self.accuracy = accuracy
+        if accuracy is not None:
+            if rtol is not None:
+                raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
+            rtol = preset(accuracy)
         if rtol is not None:
             tolerance.check_tolerance(rtol, atol)
         self.rtol, self.atol = rtol, atol
-        self._defaults: dict[str, Any] = {}
-        if accuracy is not None:
-            chosen = preset(accuracy)
-            spec = refine(spec, chosen)
-            self._defaults["tol"] = chosen.tol
-        self._built = spec
         self._levels: dict[int, Simulation] = {1: self}
         self.model = _core.Model.from_dict(spec)
         raw = self.model.bars()
@@ -224,8 +222,8 @@ class Simulation:
         return Results(self, _core.simulate(self.model, xv, settings), xv, settings)
 
     def _settings(self, **given: Any) -> dict[str, Any]:
-        """Run settings given explicitly, over the accuracy preset's defaults."""
-        return {**self._defaults, **{k: v for k, v in given.items() if v is not None}}
+        """The run settings given explicitly."""
+        return {k: v for k, v in given.items() if v is not None}
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
@@ -306,11 +304,9 @@ class Simulation:
         return float(t_end)
 
     def _level(self, refinement: int) -> Simulation:
-        """This scene with ``refinement`` times its elements per bar, same run defaults."""
+        """This scene with ``refinement`` times its elements per bar."""
         if refinement not in self._levels:
-            level = Simulation(split_by(self._built, refinement))
-            level._defaults = self._defaults
-            self._levels[refinement] = level
+            self._levels[refinement] = Simulation(split_by(self.spec, refinement))
         return self._levels[refinement]
 
     def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
@@ -345,7 +341,7 @@ class Simulation:
         Bars of ground structures whose density is at most ``threshold`` (default: at
         ``x_min``) are left out of the scene, with the grid nodes only they touched; the
         rest keep their names, densities and the scene's material law. Returns the new
-        :class:`Simulation` (same accuracy preset) and its design vector, so that a final
+        :class:`Simulation` (same tolerance) and its design vector, so that a final
         design can be judged without void bars, e.g. on a refined discretization. Raises
         ``SceneError`` if what remains is not a mechanism (a joint's node was removed, a
         frame falls apart).
@@ -360,7 +356,7 @@ class Simulation:
             prefix = f"{g['name']}/bar"
             omit = set(g.get("omit", [])) | {int(n[len(prefix):]) for n in void if n.startswith(prefix) and n[len(prefix):].isdigit()}
             g["omit"] = sorted(omit)
-        built = Simulation(spec, accuracy=self.accuracy, rtol=self.rtol, atol=self.atol)
+        built = Simulation(spec, rtol=self.rtol, atol=self.atol)
         index = {name: k for k, name in enumerate(self.variable_names)}
         return built, np.array([xv[index[name]] for name in built.variable_names])
 

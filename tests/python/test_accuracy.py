@@ -1,30 +1,28 @@
-"""Accuracy presets refine the scene and order the errors as documented."""
+"""Accuracy presets are named tolerances, and each holds on the arm."""
 
-import numpy as np
 import pytest
 
 import flextop
 from flextop.accuracy import PRESETS
+from flextop.errors import SettingsError
 
 
-def test_presets_refine_split_and_step_and_keep_explicit_settings():
-    for name, p in PRESETS.items():
-        sim = flextop.Simulation(flextop.scenes.robot_arm(split=3), accuracy=name)
-        per_bar = (sim.model.n_dofs // 3 - 30) / 148 + 1  # elements per bar from the node count
-        assert per_bar == max(3, p.split)
-        res = sim.run(0.4, t_end=0.1)
-        assert res.raw["h"] == pytest.approx(0.02 / p.step_divisor)
+def test_presets_are_named_tolerances_and_an_explicit_step_wins():
+    for name, rtol in PRESETS.items():
+        assert flextop.Simulation(flextop.scenes.robot_arm(), accuracy=name).rtol == rtol
     sim = flextop.Simulation(flextop.scenes.robot_arm(), accuracy="accurate")
-    assert sim.run(0.4, h=0.02, t_end=0.1).raw["h"] == 0.02, "an explicit setting wins over the preset"
-    with pytest.raises(ValueError, match="accuracy must be one of fast, balanced, accurate"):
+    res = sim.run(0.4, h=0.02, t_end=0.1)
+    assert res.raw["h"] == 0.02 and res.discretization is None, "an explicit step wins over the preset"
+    with pytest.raises(SettingsError, match="accuracy must be one of fast, balanced, accurate"):
         flextop.Simulation(flextop.scenes.robot_arm(), accuracy="exact")
+    with pytest.raises(SettingsError, match="not both"):
+        flextop.Simulation(flextop.scenes.robot_arm(), accuracy="fast", rtol=1e-3)
 
 
-def test_preset_errors_fall_as_documented():
-    """d of the robot arm against a refined reference (m = 8, h = 0.0025): the documented
-    errors (0.55 %, 0.23 %, 0.07 % against the converged value) with some margin."""
-    reference = flextop.Simulation(flextop.scenes.robot_arm(split=8)).run(0.4, h=0.0025).tip_deflection()
-    errors = {name: abs(flextop.Simulation(flextop.scenes.robot_arm(), accuracy=name).run(0.4).tip_deflection() / reference - 1)
-              for name in PRESETS}
-    assert errors["fast"] > errors["balanced"] > errors["accurate"]
-    assert errors["fast"] < 8e-3 and errors["balanced"] < 3.5e-3 and errors["accurate"] < 1.2e-3, errors
+def test_each_preset_holds_its_tolerance_on_the_arm(arm_references):
+    """d of the robot arm at x = 0.4 against the converged reference, for every preset."""
+    for name, rtol in PRESETS.items():
+        res = flextop.Simulation(flextop.scenes.robot_arm(), accuracy=name).run(0.4)
+        error = abs(res.tip_deflection() / arm_references[0.4] - 1)
+        assert error <= rtol, (name, error, res.discretization)
+        assert res.errors["tip_deflection"] <= rtol

@@ -89,18 +89,6 @@ def test_the_time_estimate_is_asymptotically_correct_on_the_arm():
         assert abs(ratios[-1] - 1) < 0.25, ratios
 
 
-@pytest.fixture(scope="module")
-def arm_references():
-    """d of the arm at x = 0.4 and 1 on 4× the elements per bar and 2176 steps, with the
-    time error removed by Richardson extrapolation from 1088 steps."""
-    sim = flextop.Simulation(flextop.scenes.robot_arm(split=4))
-    out = {}
-    for x in (0.4, 1.0):
-        fine, coarse = (sim.run(x, h=T_ARM / n).tip_deflection() for n in (2176, 1088))
-        out[x] = fine + (fine - coarse) / 3
-    return out
-
-
 def test_rtol_1e2_gets_the_arm_within_1_percent(arm_references):
     sim = flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2)
     for x, reference in arm_references.items():
