@@ -414,7 +414,7 @@ class _Run:
     """For a run made to a tolerance: the estimated relative error of each response it met."""
     companions: tuple[_Run | None, _Run | None, _Run] | None = field(default=None, repr=False)
     """The runs the estimate compares with: half and a quarter of the steps (``None`` for
-    statics), and twice the elements per bar at half the steps."""
+    statics), and twice the elements per bar."""
 
     @property
     def q(self) -> np.ndarray:
@@ -444,8 +444,8 @@ class _Run:
         :meth:`Simulation.run_with_sensitivities`) against the converged discretization, by
         step doubling in time and space (:mod:`flextop.tolerance`). A run made to a
         tolerance has its companion runs already; for any other run they are made on the
-        first call: half and a quarter of the steps, and twice the elements per bar at half
-        the steps (a static scene: twice the elements per bar only)."""
+        first call: half and a quarter of the steps, and twice the elements per bar (a
+        static scene: twice the elements per bar only)."""
         half, quarter, split = self._companions()
         value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
         ratio = 2.0 if half is None else (len(self.time) - 1) / (len(half.time) - 1)
@@ -460,7 +460,6 @@ class _Run:
                 if steps < 4:
                     raise SettingsError("an error estimate needs a run of at least 4 steps")
                 half, quarter = (self.simulation._fixed(self.x, settings | {"h": t_end / (steps // k), "t_end": t_end}) for k in (2, 4))
-                settings |= {"h": t_end / (steps // 2), "t_end": t_end}
             self.companions = (half, quarter, self.simulation._level(2)._fixed(self.x, settings))
         return self.companions
 
