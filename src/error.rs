@@ -99,6 +99,17 @@ pub enum SolveError {
         /// What the solver reported.
         detail: String,
     },
+    /// Local error control wanted a step below its smallest.
+    #[error(
+        "the step fell below {h_min:.3e} s at t = {time:.6} s: the local error tolerance \
+         cannot be met there (raise local_tol, or look for a singularity of the motion)"
+    )]
+    StepTooSmall {
+        /// Time of the last accepted state.
+        time: f64,
+        /// The smallest step allowed (s).
+        h_min: f64,
+    },
     /// The rigid kinematics of the driven mechanism cannot be solved.
     #[error("rigid kinematics failed at t = {time:.6} s: {detail}")]
     Kinematics {

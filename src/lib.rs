@@ -46,6 +46,7 @@ mod sensitivity;
 mod settings;
 mod simulation;
 mod statics;
+mod step_control;
 mod time_grid;
 
 #[cfg(feature = "python")]
@@ -64,6 +65,7 @@ pub use sensitivity::{
 pub use settings::{
     DynamicSettings, Memory, Method, RunOptions, SensitivitySettings, StaticSettings, MAX_STEPS,
 };
-pub use simulation::{simulate, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES};
+pub use simulation::{simulate, simulate_adaptive, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES};
 pub use statics::{solve_static, StaticSolution};
+pub use step_control::StepControl;
 pub use time_grid::TimeGrid;

@@ -10,10 +10,11 @@
 //! are not constrained, and with ρ∞ = 1 their error at a held joint never decays, which
 //! would show as work done by a motor that does not move.
 
-use crate::error::{Error, SettingsError};
+use crate::error::{Error, SettingsError, SolveError};
 use crate::integrator::{Integrator, State};
 use crate::model::Model;
 use crate::settings::DynamicSettings;
+use crate::step_control::{self, Controller, StepControl, Verdict};
 use crate::time_grid::TimeGrid;
 
 /// Largest trajectory a run records (bytes).
@@ -38,6 +39,8 @@ pub struct Trajectory {
     pub lam: Vec<f64>,
     /// Newton iterations of each step (0 for `t = 0`).
     pub iterations: Vec<usize>,
+    /// The step that reached each state (0 for `t = 0`): the grid a replay must follow.
+    pub steps: Vec<f64>,
     /// Kinetic energy (J).
     pub kinetic: Vec<f64>,
     /// Strain energy (J).
@@ -56,6 +59,12 @@ impl Trajectory {
         self.qddot.extend_from_slice(&s.qddot);
         self.lam.extend_from_slice(&s.lam);
         self.iterations.push(iterations);
+        self.steps.push(s.h);
+    }
+
+    /// The steps that ran, as a grid that replays them bitwise.
+    pub fn grid(&self) -> TimeGrid {
+        TimeGrid::from_steps(self.steps[1..].to_vec())
     }
 }
 
@@ -84,7 +93,7 @@ pub fn simulate_on(
     settings: &DynamicSettings,
     grid: &TimeGrid,
 ) -> Result<Trajectory, Error> {
-    check_size(model, grid)?;
+    check_size(model, grid.len() + 1)?;
     let mut integrator = Integrator::new(model, model.densities(x)?, settings);
     let mut state = integrator.initial_state()?;
     let mut traj = Trajectory {
@@ -104,18 +113,96 @@ pub fn simulate_on(
     Ok(traj)
 }
 
+/// Runs `model` for design `x` with step sizes chosen by local error control
+/// ([`crate::step_control`]): steps rejected and retried where the local error on the
+/// positions exceeds `control.tol`, cut to a quarter where Newton fails, ending exactly at
+/// the kinks of the motion laws and at `settings.t_end`. The recorded
+/// [`Trajectory::grid`] replays the run (for its gradients, [`crate::of_motion_on`]).
+///
+/// # Errors
+/// As [`simulate`]; [`SolveError::StepTooSmall`] when the step falls below
+/// `control.h_min`; a [`SettingsError`] when the trajectory outgrows
+/// [`MAX_TRAJECTORY_BYTES`].
+pub fn simulate_adaptive(
+    model: &Model,
+    x: Option<&[f64]>,
+    settings: &DynamicSettings,
+    control: &StepControl,
+) -> Result<Trajectory, Error> {
+    settings.validate()?;
+    control.validate()?;
+    let mut integrator = Integrator::new(model, model.densities(x)?, settings);
+    let mut state = integrator.initial_state()?;
+    let mut traj = Trajectory {
+        n_q: model.n_dofs(),
+        n_c: model.n_constraints(),
+        ..Default::default()
+    };
+    let mut energy = EnergyBook::new(model, &integrator, &state);
+    traj.record(&state, 0);
+    energy.record(&integrator, &state, &mut traj);
+    let mut stops = model.kinks(settings.t_end);
+    stops.push(settings.t_end);
+    let (scales, c) = (
+        step_control::error_scales(model),
+        step_control::local_error_constant(&integrator.params),
+    );
+    let mut controller = Controller::new(control);
+    let mut before = state.clone();
+    for stop in stops {
+        // Until the stop, less the round-off of landing on it.
+        while stop - state.t > 1e-12 * stop {
+            let h = controller.step(state.t, stop);
+            before.clone_from(&state);
+            energy.start_step(&state, h);
+            match integrator.alpha_step(&mut state, h) {
+                Ok(report) => {
+                    let error = step_control::local_error(
+                        c,
+                        h,
+                        &before.qddot,
+                        &state.qddot,
+                        &scales,
+                        control.tol,
+                    );
+                    if controller.judge(h, error) == Verdict::Reject {
+                        state.clone_from(&before);
+                    } else {
+                        traj.record(&state, report.iterations);
+                        energy.record(&integrator, &state, &mut traj);
+                        check_size(model, traj.time.len())?;
+                    }
+                }
+                Err(SolveError::NewtonFailed { .. }) => {
+                    state.clone_from(&before);
+                    controller.newton_failed(h);
+                }
+                Err(other) => return Err(other.into()),
+            }
+            if controller.too_small() {
+                return Err(SolveError::StepTooSmall {
+                    time: state.t,
+                    h_min: control.h_min,
+                }
+                .into());
+            }
+        }
+    }
+    Ok(traj)
+}
+
 /// Bytes recorded per state: `q`, `q̇`, `q̈`, `λ` and six scalars.
 fn bytes_per_state(model: &Model) -> f64 {
     (3 * model.n_dofs() + model.n_constraints() + 6) as f64 * 8.0
 }
 
-/// Refuses a run whose trajectory would exceed [`MAX_TRAJECTORY_BYTES`].
-fn check_size(model: &Model, grid: &TimeGrid) -> Result<(), SettingsError> {
-    let bytes = (grid.len() + 1) as f64 * bytes_per_state(model);
+/// Refuses a run whose trajectory of `states` would exceed [`MAX_TRAJECTORY_BYTES`].
+fn check_size(model: &Model, states: usize) -> Result<(), SettingsError> {
+    let bytes = states as f64 * bytes_per_state(model);
     if bytes > MAX_TRAJECTORY_BYTES {
         return Err(SettingsError::new(
             "h",
-            format!("{} steps of {} coordinates would record {:.1} GiB of trajectory (at most {:.0} GiB); increase h or shorten t_end", grid.len(), model.n_dofs(), bytes / (1u64 << 30) as f64, MAX_TRAJECTORY_BYTES / (1u64 << 30) as f64),
+            format!("{} steps of {} coordinates would record {:.1} GiB of trajectory (at most {:.0} GiB); increase h or shorten t_end", states - 1, model.n_dofs(), bytes / (1u64 << 30) as f64, MAX_TRAJECTORY_BYTES / (1u64 << 30) as f64),
         ));
     }
     Ok(())

@@ -37,7 +37,8 @@ def _summarize(sim: Simulation, res, elapsed: float) -> None:
         print(f"to rtol = {sim.rtol:g}: {res.discretization}; estimated relative error {errors}")
     if isinstance(res, Results):
         newton = res.newton
-        print(f"{len(res.time) - 1} steps of h = {res.raw['h']} s to t = {res.time[-1]:.4g} s in {elapsed * 1e3:.1f} ms "
+        steps = f"h = {res.raw['h']} s" if np.ptp(res.steps) == 0 else f"h = {res.steps.min():.3g} … {res.steps.max():.3g} s"
+        print(f"{len(res.time) - 1} steps of {steps} to t = {res.time[-1]:.4g} s in {elapsed * 1e3:.1f} ms "
               f"({newton['total']} Newton iterations, at most {newton['max']} per step)")
         if sim.tip is not None:
             error = np.linalg.norm(res.tip_error(), axis=1)
@@ -69,11 +70,12 @@ def demo(args: argparse.Namespace) -> int:
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
     sim = Simulation(args.scene, accuracy=args.accuracy, rtol=args.rtol)
-    settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass}.items() if v is not None}
+    settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass,
+                                  "local_tol": args.local_tol}.items() if v is not None}
     if args.rtol is not None and args.h is not None:
         raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
     if sim.analysis == "static":
-        settings = {k: v for k, v in settings.items() if k == "t_end"}
+        settings = {k: v for k, v in settings.items() if k in ("t_end", "local_tol")}
     start = time.perf_counter()
     res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
@@ -219,6 +221,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--mass", choices=["consistent", "lumped"])
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
     s.add_argument("--rtol", type=float, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
+    s.add_argument("--local-tol", type=float, help="variable steps by local error control (relative to the model's size)")
     s.add_argument("--out", help="folder for results.npz")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
@@ -252,6 +255,9 @@ def main(argv: list[str] | None = None) -> int:
     except (FlextopError, FileNotFoundError) as error:
         print(f"flextop: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader left (e.g. `| head`): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

@@ -71,7 +71,8 @@ class Sensitivities:
     (``"direct"`` or ``"adjoint"``) and ``timings`` the seconds spent in the simulation and
     in the sensitivity analysis. A run made to a tolerance also carries its
     ``discretization`` and, per name, the estimated relative ``errors`` of the values and
-    ``gradient_errors`` of the gradients (2-norm).
+    ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
+    ``steps``.
     """
 
     names: tuple[str, ...]
@@ -82,6 +83,7 @@ class Sensitivities:
     discretization: Discretization | None = None
     errors: dict[str, float] = field(default_factory=dict)
     gradient_errors: dict[str, float] = field(default_factory=dict)
+    steps: np.ndarray | None = field(default=None, repr=False)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.gradients))
@@ -185,8 +187,9 @@ class Simulation:
     # -- runs ---------------------------------------------------------------------------
 
     def run(self, x: Any = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
-            t_end: float | None = None, h: float | None = None, rho_inf: float | None = None, tol: float | None = None,
-            max_iter: int | None = None, mass: str | None = None, load_steps: int | None = None) -> Results | StaticResults:
+            local_tol: float | None = None, t_end: float | None = None, h: float | None = None, rho_inf: float | None = None,
+            tol: float | None = None, max_iter: int | None = None, mass: str | None = None,
+            load_steps: int | None = None) -> Results | StaticResults:
         """Runs the scene for design ``x`` (``None``: every bar at full density).
 
         Dynamic scenes integrate to ``t_end`` with step ``h`` — shortened, if needed, so that
@@ -203,6 +206,13 @@ class Simulation:
         ``compliance``) is at most ``rtol·|f| + atol``; the results then come from the
         refined scene and tell their ``discretization``.
 
+        With ``local_tol`` instead, the steps vary: local error control of generalized-α
+        (the position error of each step against ``local_tol`` times the model's size, and
+        ``local_tol`` rad), starting from ``h``, ending exactly at every kink of the motion
+        laws and at ``t_end``; ``results.steps`` holds them. On the reference scenes it
+        costs as many steps as uniform steps of the same error (BENCHMARKS.md); it pays
+        where the motion's difficulty varies in time.
+
         Raises ``DesignError``, ``SettingsError``, ``SimulationError`` (with the time,
         residual and iteration count of a failed Newton step) or ``ToleranceError``.
         """
@@ -210,16 +220,24 @@ class Simulation:
         given = {"t_end": t_end, "tol": tol, "max_iter": max_iter}
         given |= {"load_steps": load_steps} if self.analysis == "static" else {"h": h, "rho_inf": rho_inf, "mass": mass}
         settings = self._settings(**given)
+        if local_tol is not None:
+            if rtol is not None or self.analysis == "static":
+                raise SettingsError("local_tol applies to a dynamic run without rtol")
+            return self._fixed(xv, settings, local_tol=local_tol)
         wanted = self._tolerance(rtol, atol, h)
         if wanted is None:
             return self._fixed(xv, settings)
         names = [responses] if isinstance(responses, str) else list(responses or [self._default_response()])
         return self._to_tolerance(xv, names, wanted, settings, None)
 
-    def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any]) -> Results | StaticResults:
+    def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
+               steps: np.ndarray | None = None) -> Results | StaticResults:
+        """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
+        to ``local_tol``."""
         if self.analysis == "static":
             return StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
-        return Results(self, _core.simulate(self.model, xv, settings), xv, settings)
+        raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps])
+        return Results(self, raw, xv, settings)
 
     def _settings(self, **given: Any) -> dict[str, Any]:
         """The run settings given explicitly."""
@@ -227,7 +245,7 @@ class Simulation:
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
-                               start: Discretization | None = None, **settings: Any) -> Sensitivities:
+                               start: Discretization | None = None, local_tol: float | None = None, **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -254,22 +272,30 @@ class Simulation:
         ``discretization`` and the estimated relative ``errors`` of the values. The gradients
         are held to ``5·rtol`` in the relative 2-norm (``tolerance.GRADIENT_FACTOR``), and
         their estimated errors are in ``gradient_errors``; every companion run then computes
-        gradients too.
+        gradients too. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
+        error control, then frozen: the gradients are exact for the steps that ran, which
+        the result holds in ``steps``.
         """
         names = [responses] if isinstance(responses, str) else list(responses)
         xv = self._design(x)
         if xv is None:
             raise TypeError("run_with_sensitivities needs a design vector x")
         gradients = {"method": method, "memory": memory}
+        if local_tol is not None:
+            if rtol is not None or self.analysis == "static":
+                raise SettingsError("local_tol applies to a dynamic run without rtol")
+            steps = self._fixed(xv, self._settings(**settings), local_tol=local_tol).steps
+            return self._sensitivities(xv, names, self._settings(**gradients, **settings), steps)
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is None:
             return self._sensitivities(xv, names, self._settings(**gradients, **settings))
         return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start)
 
-    def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any]) -> Sensitivities:
-        out = _core.run_with_sensitivities(self.model, xv, names, settings)
+    def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
+        grid = None if steps is None else [float(h) for h in steps]
+        out = _core.run_with_sensitivities(self.model, xv, names, settings, grid)
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
-        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings)
+        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps)
 
     # -- runs to a tolerance ------------------------------------------------------------
 
@@ -436,32 +462,33 @@ class _Run:
     def _evaluate(self, name: str, q: np.ndarray, times: np.ndarray, load_time: float = 0.0) -> float:
         return float(_core.evaluate_responses(self.simulation.model, self.x, q, list(map(float, times)), load_time, [name])[0])
 
-    def response(self, name: str) -> float:
-        raise NotImplementedError
-
     def error_estimate(self, name: str) -> float:
         """The estimated relative error of response ``name`` (any name of
         :meth:`Simulation.run_with_sensitivities`) against the converged discretization, by
         step doubling in time and space (:mod:`flextop.tolerance`). A run made to a
         tolerance has its companion runs already; for any other run they are made on the
-        first call: half and a quarter of the steps, and twice the elements per bar (a
-        static scene: twice the elements per bar only)."""
+        first call: its steps merged in pairs and in fours, and twice the elements per bar
+        on its steps (a static scene: twice the elements per bar only)."""
         half, quarter, split = self._companions()
         value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
-        ratio = 2.0 if half is None else (len(self.time) - 1) / (len(half.time) - 1)
-        est = tolerance.estimate(value(self), value(half), value(quarter), value(split), step_ratio=ratio)
+        est = tolerance.estimate(value(self), value(half), value(quarter), value(split))
         return float(est.relative[0])
 
     def _companions(self) -> tuple[_Run | None, _Run | None, _Run]:
         if self.companions is None:
-            settings, half, quarter = dict(self.settings), None, None
+            level, steps, half, quarter = self.simulation._level(2), None, None, None
             if isinstance(self, Results):
-                steps, t_end = len(self.time) - 1, float(self.time[-1])
-                if steps < 4:
+                steps = self.steps
+                if len(steps) < 4:
                     raise SettingsError("an error estimate needs a run of at least 4 steps")
-                half, quarter = (self.simulation._fixed(self.x, settings | {"h": t_end / (steps // k), "t_end": t_end}) for k in (2, 4))
-            self.companions = (half, quarter, self.simulation._level(2)._fixed(self.x, settings))
+                half, quarter = (self.simulation._fixed(self.x, self.settings, steps=_merged(steps, k)) for k in (2, 4))
+            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=steps))
         return self.companions
+
+
+def _merged(steps: np.ndarray, k: int) -> np.ndarray:
+    """The steps summed in consecutive groups of ``k`` (the last group may be shorter)."""
+    return np.add.reduceat(steps, np.arange(0, len(steps), k))
 
 
 @dataclass
@@ -484,6 +511,11 @@ class Results(_Run):
         ref = np.zeros(self.q.shape[1])
         ref.reshape(-1, 3)[:, :2] = self.simulation.model.reference_positions
         return self.q + ref
+
+    @property
+    def steps(self) -> np.ndarray:
+        """The step sizes ``hₙ = tₙ₊₁ − tₙ`` that ran (s)."""
+        return self.raw["steps"][1:]
 
     @property
     def qdot(self) -> np.ndarray:

@@ -16,25 +16,41 @@ use crate::error::{Error, SettingsError};
 use crate::model::Analysis;
 use crate::rigid::rigid_positions as rigid;
 use crate::sensitivity::{self, parse_responses};
-use crate::simulation::simulate as integrate;
+use crate::simulation::{simulate as integrate, simulate_adaptive, simulate_on};
 use crate::statics::solve_static as equilibrium;
+use crate::step_control::StepControl;
+use crate::time_grid::TimeGrid;
 
 /// Time integration of a dynamic scene: `time`, `q`, `qdot`, `qddot`, `lam`, Newton
-/// `iterations` per step, the energies, and the step `h` and `rho_inf` used.
+/// `iterations` and the size of each step (`steps`, 0 first), the energies, and the step
+/// `h` (the first step for an adaptive run) and `rho_inf` used. The steps are uniform
+/// (`h` of the settings), the given `steps`, or chosen by local error control to
+/// `local_tol` starting from `h`.
 #[pyfunction]
-#[pyo3(signature = (model, x=None, settings=None))]
+#[pyo3(signature = (model, x=None, settings=None, local_tol=None, steps=None))]
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &PyModel,
     x: Option<PyReadonlyArray1<'py, f64>>,
     settings: Option<&Bound<'py, PyAny>>,
+    local_tol: Option<f64>,
+    steps: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let settings = run_options(settings)?
         .dynamic(&m.defaults)
         .map_err(Error::from)?;
     let x = design(x)?;
-    let traj = py.detach(move || integrate(&m, x.as_deref(), &settings))?;
+    let traj = py.detach(move || match (local_tol, steps) {
+        (Some(tol), _) => simulate_adaptive(
+            &m,
+            x.as_deref(),
+            &settings,
+            &StepControl::new(tol, settings.step()),
+        ),
+        (None, Some(steps)) => simulate_on(&m, x.as_deref(), &settings, &grid(steps)?),
+        (None, None) => integrate(&m, x.as_deref(), &settings),
+    })?;
     let d = PyDict::new(py);
     let (n_q, n_c) = (traj.n_q, traj.n_c);
     d.set_item("time", vector(py, traj.time))?;
@@ -43,6 +59,7 @@ pub fn simulate<'py>(
     d.set_item("qddot", matrix(py, traj.qddot, n_q)?)?;
     d.set_item("lam", matrix(py, traj.lam, n_c)?)?;
     d.set_item("iterations", traj.iterations)?;
+    d.set_item("steps", vector(py, traj.steps))?;
     d.set_item("kinetic", vector(py, traj.kinetic))?;
     d.set_item("strain", vector(py, traj.strain))?;
     d.set_item("drive_work", vector(py, traj.drive_work))?;
@@ -50,6 +67,19 @@ pub fn simulate<'py>(
     d.set_item("h", settings.step())?;
     d.set_item("rho_inf", settings.rho_inf)?;
     Ok(d)
+}
+
+/// The grid of the given step sizes, or a [`SettingsError`] naming `steps` if one is not
+/// positive and finite or there are none.
+fn grid(steps: Vec<f64>) -> Result<TimeGrid, Error> {
+    if steps.is_empty() || steps.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
+        return Err(SettingsError::new(
+            "steps",
+            "must be a non-empty list of positive, finite step sizes",
+        )
+        .into());
+    }
+    Ok(TimeGrid::from_steps(steps))
 }
 
 /// Static equilibrium of any scene: `q`, `lam`, Newton `iterations`, `load_steps` taken and
@@ -81,15 +111,16 @@ pub fn solve_static<'py>(
 
 /// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x), the `method`
 /// used, `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
-/// and `memory`.
+/// and `memory`; `steps`, the step sizes of a dynamic run (default: uniform steps `h`).
 #[pyfunction]
-#[pyo3(signature = (model, x, responses, settings=None))]
+#[pyo3(signature = (model, x, responses, settings=None, steps=None))]
 pub fn run_with_sensitivities<'py>(
     py: Python<'py>,
     model: &PyModel,
     x: PyReadonlyArray1<'py, f64>,
     responses: Vec<String>,
     settings: Option<&Bound<'py, PyAny>>,
+    steps: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
@@ -99,7 +130,11 @@ pub fn run_with_sensitivities<'py>(
     let result = match m.analysis {
         Analysis::Dynamic => {
             let settings = options.dynamic(&m.defaults).map_err(Error::from)?;
-            py.detach(move || sensitivity::of_motion(&m, &x, &settings, &parsed, how))?
+            let grid = steps.map(grid).transpose()?;
+            py.detach(move || match grid {
+                Some(grid) => sensitivity::of_motion_on(&m, &x, &settings, &grid, &parsed, how),
+                None => sensitivity::of_motion(&m, &x, &settings, &parsed, how),
+            })?
         }
         Analysis::Static => {
             let settings = options.statics(&m.defaults).map_err(Error::from)?;

@@ -1,6 +1,7 @@
 //! Physics and numerics of the engine, checked against analytic solutions, convergence
 //! orders and conservation laws.
 
+mod adaptive;
 mod common;
 mod dynamics;
 mod sensitivity;

@@ -58,6 +58,8 @@ def test_the_observed_contraction_guards_the_preasymptotic_range():
     assert est.time[0] == pytest.approx(abs(fine[0][0] - exact)), "exact for a first-order error"
     assert estimate(fine, half, [np.array([1.2 + 0.4])], split).time[0] == pytest.approx(0.1 / 3), "second order at most"
     assert estimate(fine, half, None, split).time[0] == pytest.approx(0.2), "no quarter run: the slowest contraction, 1.5"
+    assert estimate(fine, half, [np.array([1.2 + 2.4])], split).time[0] == pytest.approx(0.2), \
+        "a contraction of 24 means the quarter run is not asymptotic: the slowest is assumed"
 
 
 def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
@@ -161,3 +163,26 @@ def test_bad_tolerances_are_named():
         sim.run(0.4, rtol=1e-2, h=0.01)
     assert flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2).run(0.4, h=0.02, t_end=0.1).discretization is None, \
         "an explicit step wins over the simulation's tolerance"
+
+
+def test_local_error_control_from_python_with_exact_gradients_on_its_steps():
+    """Spun beam with steps chosen to local_tol: the steps vary and end at t_end, direct
+    equals adjoint, central differences on the frozen steps agree, and the run has an error
+    estimate like any other."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    res = sim.run(x, local_tol=1e-6)
+    assert res.steps.min() < 0.5 * res.steps.max() and res.time[-1] == pytest.approx(0.6, abs=1e-12)
+    direct = sim.run_with_sensitivities(x, "tip_deflection", method="direct", local_tol=1e-6)
+    adjoint = sim.run_with_sensitivities(x, "tip_deflection", method="adjoint", local_tol=1e-6)
+    np.testing.assert_array_equal(direct.steps, res.steps)
+    np.testing.assert_allclose(direct.gradients, adjoint.gradients, rtol=1e-9, atol=1e-9 * np.abs(direct.gradients).max())
+    assert direct.values[0] == pytest.approx(res.tip_deflection(), rel=1e-12)
+    f = lambda xx: sim._fixed(xx, {}, steps=res.steps).tip_deflection()  # noqa: E731
+    for i in (0, 4, 7):
+        e = np.eye(sim.n_design)[i] * 1e-4
+        fd = (f(x + e) - f(x - e)) / 2e-4
+        assert fd == pytest.approx(direct.gradients[0, i], rel=1e-5, abs=1e-6 * np.abs(direct.gradients[0]).max())
+    assert 0 < res.error_estimate("tip_deflection") < 0.05
+    with pytest.raises(SettingsError, match="local_tol"):
+        sim.run(x, local_tol=1e-6, rtol=1e-2)
