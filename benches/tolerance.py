@@ -15,6 +15,11 @@ V ≤ 0.4 V per link) at rtol = 1e-2 and 1e-3, on the scene's own grid (m = 1, h
 on a converged one (m = 4, h = 0.0025 s), each final design judged as built (bars at x_min
 removed) on 4× the elements per bar and 2176 steps, Richardson-extrapolated in time.
 Writes benches/results/tolerance_optimization.md.
+
+With ``--local``: local error control (``local_tol``) against uniform steps, time error
+only (one element per bar, reference 8704 uniform steps): the error of d against the
+number of steps and the time, for the arm at x = 0.4 and 1 and the spun beam at x = 0.6.
+Writes benches/results/local_error_control.md.
 """
 
 from __future__ import annotations
@@ -198,13 +203,37 @@ def optimization() -> None:
     print("\n".join(lines))
 
 
+def local_control() -> None:
+    cases = [("robot arm, x = 0.4", flextop.scenes.robot_arm(), 0.4), ("robot arm, x = 1", flextop.scenes.robot_arm(), 1.0),
+             ("spun beam, x = 0.6", flextop.scenes.spun_beam(), 0.6)]
+    lines = ["# Local error control against uniform steps", "", "`python benches/tolerance.py --local` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}: time error of d only (one "
+             "element per bar; reference: 8704 uniform steps), best of 3 plain runs.", "",
+             "| case | steps | error of d | ms | | local_tol | steps | error of d | ms |", "|---|---|---|---|---|---|---|---|---|"]
+    for label, scene, x in cases:
+        sim = flextop.Simulation(scene)
+        t_end = sim.spec["simulation"]["t_end"]
+        reference = sim.run(x, h=t_end / 8704).tip_deflection()
+        best = lambda fn: min((timed(fn) for _ in range(3)), key=lambda r: r[0])  # noqa: E731
+        uniform = [(n, *best(lambda: sim.run(x, h=t_end / n))) for n in (68, 136, 272, 544, 1088)]
+        local = [(tol, *best(lambda: sim.run(x, local_tol=tol))) for tol in (1e-4, 1.25e-5, 1.5625e-6, 1.953125e-7, 2.44140625e-8)]
+        for (n, tu, ru), (tol, tl, rl) in zip(uniform, local):
+            lines.append(f"| {label} | {n} | {abs(ru.tip_deflection() / reference - 1):.2e} | {tu * 1e3:.1f} | | {tol:.3g} | "
+                         f"{len(rl.steps)} | {abs(rl.tip_deflection() / reference - 1):.2e} | {tl * 1e3:.1f} |")
+            print(lines[-1], flush=True)
+    (ROOT / "benches" / "results" / "local_error_control.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--optimization", action="store_true", help="optimizations to a tolerance instead")
+    parser.add_argument("--local", action="store_true", help="local error control against uniform steps instead")
     args = parser.parse_args()
     if args.optimization:
         return optimization()
+    if args.local:
+        return local_control()
     quick = args.quick
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     beam = flextop.Simulation(flextop.scenes.spun_beam())
