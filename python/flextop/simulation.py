@@ -342,7 +342,7 @@ class Simulation:
         t_end = None if self.analysis == "static" else self._t_end(settings)
         runs: dict[Discretization, Any] = {}
 
-        def values(d: Discretization, candidate: bool) -> list[np.ndarray]:
+        def values(d: Discretization) -> list[np.ndarray]:
             if d not in runs:
                 level = self._level(d.refinement)
                 at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {})}

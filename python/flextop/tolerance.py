@@ -127,11 +127,10 @@ Quantities = list[np.ndarray]
 """What a run is judged on: responses (arrays of one value) and gradients (vectors)."""
 
 
-def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | None, split: Quantities,
-             step_ratio: float = 2.0) -> ErrorEstimate:
-    """The error of ``fine`` from its companions' quantities (``half`` and ``quarter`` are
-    ``None`` for a static scene; ``quarter`` alone ``None``: the slowest contraction, 1.5,
-    is assumed); ``step_ratio`` is h(half) / h(fine)."""
+def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | None, split: Quantities) -> ErrorEstimate:
+    """The error of ``fine`` from its companions' quantities: ``half`` and ``quarter`` on
+    its steps merged in pairs and fours (``None`` for a static scene; ``quarter`` alone
+    ``None``: the slowest contraction is assumed), ``split`` on twice the elements per bar."""
     norm = lambda p, q: np.array([np.linalg.norm(x - y) for x, y in zip(p, q)])  # noqa: E731
     if half is None:
         time = np.zeros(len(fine))
@@ -140,16 +139,15 @@ def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | No
         b = np.zeros_like(a) if quarter is None else norm(half, quarter)
         with np.errstate(divide="ignore", invalid="ignore"):
             observed = np.where(a == 0.0, np.inf, b / a)
-        ceiling = step_ratio**TIME_ORDER
+        ceiling = 2.0**TIME_ORDER
         trusted = (observed >= SLOWEST) & (observed <= 1.5 * ceiling)
         time = a / (np.where(trusted, np.minimum(observed, ceiling), SLOWEST) - 1.0)
     space = norm(split, fine) / (1.0 - 2.0**-SPACE_ORDER)
     return ErrorEstimate(np.array([np.linalg.norm(q) for q in fine]), time, space)
 
 
-Values = Callable[[Discretization, bool], Quantities]
-"""``values(d, candidate)``: the quantities of the run at ``d``; ``candidate`` is false for
-a companion."""
+Values = Callable[[Discretization], Quantities]
+"""``values(d)``: the quantities of the run at ``d``."""
 
 
 @dataclass(frozen=True)
@@ -167,8 +165,8 @@ class Tolerance:
 def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Discretization, ErrorEstimate]:
     """The first candidate from ``first`` on whose estimate meets ``rtol·|q| + atol`` for
     every quantity, and that estimate. A :class:`SimulationError` in a run counts as an
-    infinite error of that run. A candidate whose time
-    error alone exceeds the budget is refined without running the space companion.
+    infinite error of that run. A candidate whose time error alone is clearly over budget
+    is refined without running its space companion.
 
     Raises :class:`ToleranceError` when the tolerance needs more than ``MAX_REFINEMENT``
     times the elements per bar or ``MAX_STEPS`` steps, naming the quantity and the error
@@ -205,20 +203,20 @@ def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
     clearly over budget, the space companion; then the quarter-steps companion only if the
     estimate without it fails."""
     dynamic = d.steps > 0
-    fine = _try(values, d, True)
-    half = _try(values, d.half_steps, False) if dynamic else None
+    fine = _try(values, d)
+    half = _try(values, d.half_steps) if dynamic else None
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
     if dynamic:
         least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], fine)  # contraction 4: the least time error
         if _ratio(least.time, tol.budget(least)) > 2.0:
             return Verdict(least, _ratio(least.time, tol.budget(least)), 0.0)
-    split = _try(values, d.split, False)
+    split = _try(values, d.split)
     if split is None:  # the finer model failed where this one ran: more steps first
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
     est = estimate(fine, half, None, split)  # the slowest contraction assumed: no quarter run yet
     if dynamic and _ratio(est.total, tol.budget(est)) > 1.0:
-        quarter = _try(values, d.quarter_steps, False)
+        quarter = _try(values, d.quarter_steps)
         est = est if quarter is None else estimate(fine, half, quarter, split)
     budget = tol.budget(est)
     return Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget))
@@ -252,9 +250,9 @@ def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool
                      np.repeat([atol, 0.0], len(names)))
 
 
-def _try(values: Values, d: Discretization, candidate: bool) -> Quantities | None:
+def _try(values: Values, d: Discretization) -> Quantities | None:
     try:
-        out = [np.atleast_1d(np.asarray(q, dtype=float)) for q in values(d, candidate)]
+        out = [np.atleast_1d(np.asarray(q, dtype=float)) for q in values(d)]
     except SimulationError:
         return None
     return out if all(np.isfinite(q).all() for q in out) else None

@@ -17,7 +17,7 @@ def model_values(c_time=0.3, c_space=0.002, exact=2.0, t_end=1.0, gradient=False
     assumes at its limits: second order in h, first order in 1/r)."""
     calls = []
 
-    def values(d, candidate):
+    def values(d):
         calls.append(d)
         h = t_end / d.steps if d.steps else 0.0
         f = exact + c_time * h**2 + c_space / d.refinement
@@ -30,13 +30,13 @@ def test_the_estimate_is_exact_on_its_model_and_the_accepted_run_meets_rtol():
     values, calls = model_values()
     for rtol in (1e-2, 1e-3, 1e-4):
         d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([rtol]), np.array([0.0])))
-        f = values(d, True)[0][0]
+        f = values(d)[0][0]
         true = abs(f - 2.0)
         assert true <= rtol * abs(f)
         assert est.total[0] == pytest.approx(true, rel=1e-9), "Richardson is exact when the error is c·h² + c'/r"
         assert est.relative[0] == pytest.approx(true / abs(f), rel=1e-9)
         coarser = Discretization(d.refinement, d.steps // 2), Discretization(max(1, d.refinement // 2), d.steps)
-        assert any(abs(values(c, True)[0][0] - 2.0) > rtol * 2.0 for c in coarser if c != d), "not refined beyond need"
+        assert any(abs(values(c)[0][0] - 2.0) > rtol * 2.0 for c in coarser if c != d), "not refined beyond need"
     assert len(set(calls)) < len(calls), "companions reuse earlier runs"
 
 
@@ -65,10 +65,10 @@ def test_the_observed_contraction_guards_the_preasymptotic_range():
 def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
     values, _ = model_values()
 
-    def failing(d, candidate):
+    def failing(d):
         if d.steps and d.steps < 64:
             raise SimulationError("Newton did not converge")
-        return values(d, candidate)
+        return values(d)
 
     d, _ = resolve(failing, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
     assert d.steps // 2 >= 64, "the candidate and its half-steps companion ran (a failed quarter run is not needed)"
