@@ -31,7 +31,7 @@ pub enum Interpolation {
     },
 }
 
-/// Floor `c` of the Du–Olhoff mass: `m(x) ≥ c x`.
+/// Default floor `c` of the Du–Olhoff mass: `m(x) ≥ c x`.
 pub const MASS_FLOOR: f64 = 1e-3;
 
 /// How inertia is scaled with density.
@@ -40,10 +40,12 @@ pub enum MassLaw {
     /// `m(x) = x` (the paper's law, valid at one element per bar).
     Linear,
     /// `m(x) = x` for `x ≥ threshold`, `x (c + (1 − c) r⁵(6 − 5r))` with `r = x/threshold`
-    /// and `c` = [`MASS_FLOOR`] below.
+    /// and `c = floor` below.
     DuOlhoff {
         /// The density `x_t` below which the mass falls like `x⁶`.
         threshold: f64,
+        /// The floor `c` (default [`MASS_FLOOR`]).
+        floor: f64,
     },
 }
 
@@ -51,9 +53,9 @@ impl MassLaw {
     /// Mass factor `m(x)`.
     pub fn mass(self, x: f64) -> f64 {
         match self {
-            Self::DuOlhoff { threshold } if x < threshold => {
+            Self::DuOlhoff { threshold, floor } if x < threshold => {
                 let r = x / threshold;
-                x * (MASS_FLOOR + (1.0 - MASS_FLOOR) * r.powi(5) * (6.0 - 5.0 * r))
+                x * (floor + (1.0 - floor) * r.powi(5) * (6.0 - 5.0 * r))
             }
             _ => x,
         }
@@ -62,9 +64,9 @@ impl MassLaw {
     /// Derivative `dm/dx`.
     pub fn mass_derivative(self, x: f64) -> f64 {
         match self {
-            Self::DuOlhoff { threshold } if x < threshold => {
+            Self::DuOlhoff { threshold, floor } if x < threshold => {
                 let r = x / threshold;
-                MASS_FLOOR + (1.0 - MASS_FLOOR) * r.powi(5) * (36.0 - 35.0 * r)
+                floor + (1.0 - floor) * r.powi(5) * (36.0 - 35.0 * r)
             }
             _ => 1.0,
         }
@@ -110,7 +112,10 @@ mod tests {
 
     #[test]
     fn du_olhoff_mass_is_c1_at_the_threshold_and_its_derivative_exact() {
-        let law = MassLaw::DuOlhoff { threshold: 0.1 };
+        let law = MassLaw::DuOlhoff {
+            threshold: 0.1,
+            floor: MASS_FLOOR,
+        };
         let eps = 1e-7;
         for x in [0.01, 0.05, 0.0999, 0.1001, 0.5] {
             let fd = (law.mass(x + eps) - law.mass(x - eps)) / (2.0 * eps);

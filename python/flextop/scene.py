@@ -141,14 +141,16 @@ class Scene:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})
 
     def design(self, *, interpolation: str = "simp", p: float | None = None, q: float | None = None,
-               x_min: float = 0.01, mass: str | None = None, mass_threshold: float | None = None) -> None:
+               x_min: float = 0.01, mass: str | None = None, mass_threshold: float | None = None,
+               mass_floor: float | None = None) -> None:
         """Design parametrization: SIMP exponent ``p`` (default 3) or RAMP parameter ``q``
         (default 8), the lower bound ``x_min`` on densities, and the inertia law ``mass``:
         ``"du_olhoff"`` (default of dynamic scenes: below ``mass_threshold``, 0.1, the mass
-        falls like ``x⁶`` so that thin bars have no spurious low modes) or ``"linear"`` (the
-        paper's law, valid at one element per bar; default of static scenes)."""
+        falls like ``x⁶`` down to ``mass_floor · x``, 1e-3, so that thin bars have no
+        spurious low modes) or ``"linear"`` (the paper's law, valid at one element per bar;
+        default of static scenes)."""
         entry = {"interpolation": interpolation, "p": p, "q": q, "x_min": x_min, "mass": mass,
-                 "mass_threshold": mass_threshold}
+                 "mass_threshold": mass_threshold, "mass_floor": mass_floor}
         self._spec["design"] = {k: v for k, v in entry.items() if v is not None}
 
     def simulation(self, **defaults: Any) -> None:

@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use super::spec::{AnalysisSpec, BeamSpec, DesignSpec, InterpolationSpec, MassSpec};
 use super::validate::{non_negative, Result};
 use crate::error::SceneError;
-use crate::interpolation::{Interpolation, MassLaw};
+use crate::interpolation::{Interpolation, MassLaw, MASS_FLOOR};
 
 /// Design variables under construction.
 #[derive(Default)]
@@ -66,13 +66,17 @@ pub(super) fn mass_law(d: &DesignSpec, analysis: AnalysisSpec) -> Result<MassLaw
         AnalysisSpec::Dynamic => MassSpec::DuOlhoff,
         AnalysisSpec::Static => MassSpec::Linear,
     };
-    match (d.mass.unwrap_or(default), d.mass_threshold) {
-        (MassSpec::Linear, None) => Ok(MassLaw::Linear),
-        (MassSpec::Linear, Some(_)) => Err(SceneError::new(
-            "design.mass_threshold",
+    match (d.mass.unwrap_or(default), d.mass_threshold, d.mass_floor) {
+        (MassSpec::Linear, None, None) => Ok(MassLaw::Linear),
+        (MassSpec::Linear, t, _) => Err(SceneError::new(
+            if t.is_some() {
+                "design.mass_threshold"
+            } else {
+                "design.mass_floor"
+            },
             "applies to mass = \"du_olhoff\" only",
         )),
-        (MassSpec::DuOlhoff, t) => {
+        (MassSpec::DuOlhoff, t, c) => {
             let threshold = t.unwrap_or(0.1);
             if !(threshold > 0.0 && threshold <= 1.0) {
                 return Err(SceneError::new(
@@ -80,7 +84,14 @@ pub(super) fn mass_law(d: &DesignSpec, analysis: AnalysisSpec) -> Result<MassLaw
                     format!("must lie in (0, 1], got {threshold}"),
                 ));
             }
-            Ok(MassLaw::DuOlhoff { threshold })
+            let floor = c.unwrap_or(MASS_FLOOR);
+            if !(floor > 0.0 && floor <= 1.0) {
+                return Err(SceneError::new(
+                    "design.mass_floor",
+                    format!("must lie in (0, 1], got {floor}"),
+                ));
+            }
+            Ok(MassLaw::DuOlhoff { threshold, floor })
         }
     }
 }

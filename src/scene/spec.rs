@@ -298,6 +298,8 @@ pub struct DesignSpec {
     pub mass: Option<MassSpec>,
     /// Density below which the Du–Olhoff mass falls like `x⁶` (default 0.1).
     pub mass_threshold: Option<f64>,
+    /// Floor `c` of the Du–Olhoff mass, `m ≥ c x` (default 1e-3).
+    pub mass_floor: Option<f64>,
 }
 
 impl Default for DesignSpec {
@@ -309,6 +311,7 @@ impl Default for DesignSpec {
             x_min: default_x_min(),
             mass: None,
             mass_threshold: None,
+            mass_floor: None,
         }
     }
 }

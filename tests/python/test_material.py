@@ -125,3 +125,23 @@ def test_mass_threshold_belongs_to_the_du_olhoff_law():
     spec["design"].update(mass="du_olhoff", mass_threshold=0.0)
     with pytest.raises(SceneError, match=r"must lie in \(0, 1\]"):
         flextop.Simulation(spec)
+    spec["design"].update(mass="linear", mass_threshold=None, mass_floor=1e-5)
+    spec["design"] = {k: v for k, v in spec["design"].items() if v is not None}
+    with pytest.raises(SceneError, match=r"design\.mass_floor"):
+        flextop.Simulation(spec)
+    spec["design"].update(mass="du_olhoff", mass_floor=2.0)
+    with pytest.raises(SceneError, match=r"design\.mass_floor: must lie in \(0, 1\]"):
+        flextop.Simulation(spec)
+
+
+def test_the_mass_floor_sets_the_void_bars_frequency():
+    """A lower floor lifts the bars' own modes at x_min: √(s/m) of the solid bar's
+    frequency, 0.31 at the default floor 1e-3 and 1.24 at 1e-5 (x = 0.01, threshold 0.1)."""
+    f = {}
+    for floor in (1e-3, 1e-5):
+        spec = flextop.scenes.robot_arm(split=2).to_dict()
+        spec["design"]["mass_floor"] = floor
+        f[floor] = flextop.Simulation(spec).natural_frequencies(3, 0.01)[2]
+    ratio = f[1e-5] / f[1e-3]
+    expected = np.sqrt((1e-3 + 5.5e-5 * (1 - 1e-3)) / (1e-5 + 5.5e-5 * (1 - 1e-5)))
+    assert ratio == pytest.approx(expected, rel=0.02), (f, expected)
