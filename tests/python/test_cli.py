@@ -43,6 +43,18 @@ def test_simulate_a_scene_file_and_save_results(tmp_path):
     assert saved["q"].shape == (131, 90)
 
 
+def test_simulate_to_a_tolerance_or_with_local_error_control():
+    run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--rtol", "1e-2")
+    d = float(re.search(r"mean squared tip deflection d = ([0-9.e+-]+)", run.stdout).group(1))
+    res = flextop.Simulation(flextop.scenes.robot_arm(), rtol=1e-2).run(0.4)
+    assert d == pytest.approx(res.tip_deflection(), rel=1e-6)
+    assert f"to rtol = 0.01: {res.discretization}; estimated relative error tip_deflection" in run.stdout
+    run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--local-tol", "1e-5")
+    assert re.search(r"\d+ steps of h = [0-9.e-]+ … [0-9.e-]+ s to t = 1.3 s", run.stdout), run.stdout
+    both = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--rtol", "1e-2", "--h", "0.01", check=False)
+    assert both.returncode == 2 and both.stderr.strip().count("\n") == 0 and "not both" in both.stderr
+
+
 def test_bad_input_exits_with_a_named_error():
     run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "2", check=False)
     assert run.returncode == 2 and "x[0] (link1/bar0) = 2 is outside [0.01, 1]" in run.stderr
