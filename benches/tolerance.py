@@ -11,11 +11,12 @@ error of d and ∇d (relative, 2-norm), the estimate against the true error, and
     python benches/tolerance.py [--quick]   # writes benches/results/tolerance.md, docs/tolerance.png
 
 With ``--optimization``, instead: the arm's tip-deflection optimization (MMA, 40 iterations,
-V ≤ 0.4 V per link) at rtol = 1e-2 and 1e-3, on the scene's own grid (m = 1, h = 0.02 s) and
-on a converged one (m = 4, 2176 steps: the grids rtol = 3e-3 chose for the optima of the
-family) from x = 0.4 and from the first run's optimum, each final design judged as built (bars at x_min
-removed) on 4× the elements per bar and 2176 steps, Richardson-extrapolated in time.
-Writes benches/results/tolerance_optimization.md.
+V ≤ 0.4 V per link) on the scene's own grid (m = 1, h = 0.02 s), on a converged one (m = 4,
+2176 steps: the grids rtol = 3e-3 chose for the optima of the family) and at rtol = 1e-2,
+the last two each from x = 0.4 and from the first run's optimum; each final
+design judged as built (bars at x_min removed) on 4× the elements per bar and 2176 steps,
+Richardson-extrapolated in time. Writes benches/results/tolerance_optimization.md (and
+.json, whose rows a rerun keeps unless ``--fresh``: an rtol run takes half an hour).
 
 With ``--local``: local error control (``local_tol``) against uniform steps, time error
 only (one element per bar, reference 8704 uniform steps): the error of d against the
@@ -26,6 +27,7 @@ Writes benches/results/local_error_control.md.
 from __future__ import annotations
 
 import argparse
+import json
 import platform
 import time
 from dataclasses import dataclass
@@ -180,35 +182,51 @@ def true_d(sim: flextop.Simulation, x: np.ndarray) -> float:
     return fine + (fine - coarse) / 3
 
 
-def optimization() -> None:
+OPTIMIZATION_ROWS = ROOT / "benches" / "results" / "tolerance_optimization.json"
+
+
+def optimization(fresh: bool) -> None:
+    """The runs of the optimization study; rows already in OPTIMIZATION_ROWS are kept
+    unless ``fresh`` (an rtol run takes half an hour)."""
     sim = flextop.Simulation(flextop.scenes.robot_arm())
     converged = {"settings": {"h": 1.3 / 2176}}
-    runs = {"fixed m=1, h=0.02": ({}, 1, None), "converged (m=4, 2176 steps)": (converged, 4, None),
-            "converged, from the m=1 optimum": (converged, 4, 0), "rtol 1e-2": ({"rtol": 1e-2}, 1, None),
-            "rtol 1e-3": ({"rtol": 1e-3}, 1, None)}
-    rows, designs = [], []
-    for label, (options, m, start) in runs.items():
-        level = sim._level(m)
-        problem = flextop.TopologyProblem(level, "tip_deflection", flextop.volume_constraints(level, 0.4), **options)
-        x0 = np.full(sim.n_design, 0.4) if start is None else designs[start]
-        seconds, result = timed(lambda: flextop.optimize(problem, x0, method="mma", max_iter=40))
-        designs.append(result.x)
-        rows.append((label, result.fun * problem.objective_scale, seconds, true_d(sim, result.x), problem.refinements, result.nfev))
-        print(label, rows[-1][1:4], flush=True)
-        write_optimization_table(rows)
+    runs = {"fixed m=1, h=0.02": ({}, 1, False), "converged (m=4, 2176 steps)": (converged, 4, False),
+            "converged, from the m=1 optimum": (converged, 4, True), "rtol 1e-2": ({"rtol": 1e-2}, 1, False),
+            "rtol 1e-2, from the m=1 optimum": ({"rtol": 1e-2}, 1, True)}
+    done = {} if fresh or not OPTIMIZATION_ROWS.exists() else json.loads(OPTIMIZATION_ROWS.read_text())
+    first = None
+    for label, (options, m, continued) in runs.items():
+        if continued and first is None:
+            first = optimize_arm(sim, {}, 1, np.full(sim.n_design, 0.4))[1].x
+        if label not in done:
+            problem, result, seconds = optimize_arm(sim, options, m, first if continued else np.full(sim.n_design, 0.4))
+            done[label] = {"reported": result.fun * problem.objective_scale, "seconds": seconds, "true": true_d(sim, result.x),
+                           "evaluations": result.nfev, "grids": [[k, d.refinement, d.steps] for k, d in problem.refinements]}
+            OPTIMIZATION_ROWS.write_text(json.dumps(done, indent=1), encoding="utf-8")
+            print(label, done[label], flush=True)
+        write_optimization_table(done)
 
 
-def write_optimization_table(rows: list[tuple]) -> None:
+def optimize_arm(sim: flextop.Simulation, options: dict, m: int, x0: np.ndarray):
+    level = sim._level(m)
+    problem = flextop.TopologyProblem(level, "tip_deflection", flextop.volume_constraints(level, 0.4), **options)
+    seconds, result = timed(lambda: flextop.optimize(problem, x0, method="mma", max_iter=40))
+    return problem, result, seconds
+
+
+def write_optimization_table(rows: dict) -> None:
     """The table of the runs so far, judged against the best converged-grid optimum."""
-    best = min(row[3] for row in rows if row[0].startswith("converged")) if len(rows) > 1 else rows[0][3]
+    converged = [row["true"] for label, row in rows.items() if label.startswith("converged")]
+    best = min(converged, default=min(row["true"] for row in rows.values()))
     lines = ["# Optimization to a tolerance", "", "`python benches/tolerance.py --optimization` on "
              f"{platform.processor() or platform.machine()}, {platform.python_version()}: the arm's tip-deflection "
-             "optimization (MMA, 40 iterations, V ≤ 0.4 V per link, from x = 0.4).", "",
-             "| run | d it reports | true d (as built, converged) | vs converged-grid optimum | seconds | evaluations | discretizations (refinement × elements per bar / steps, from evaluation) |",
-             "|---|---|---|---|---|---|---|"]
-    for label, reported, seconds, d_true, refinements, evaluations in rows:
-        grids = "; ".join(f"{d.refinement}×/{d.steps} from {k}" for k, d in refinements) or "fixed"
-        lines.append(f"| {label} | {reported:.4e} | {d_true:.4e} | {d_true / best - 1:+.2%} | {seconds:.1f} | {evaluations} | {grids} |")
+             "optimization (MMA, 40 iterations, V ≤ 0.4 V per link, from x = 0.4 or from the first row's optimum).", "",
+             "| run | d it reports | true d (as built, converged) | vs best converged-grid optimum | seconds | evaluations | "
+             "discretizations (refinement × elements per bar / steps, from evaluation) |", "|---|---|---|---|---|---|---|"]
+    for label, row in rows.items():
+        grids = "; ".join(f"{r}×/{n} from {k}" for k, r, n in row["grids"]) or "fixed"
+        lines.append(f"| {label} | {row['reported']:.4e} | {row['true']:.4e} | {row['true'] / best - 1:+.2%} | "
+                     f"{row['seconds']:.1f} | {row['evaluations']} | {grids} |")
     (ROOT / "benches" / "results" / "tolerance_optimization.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines), flush=True)
 
@@ -239,9 +257,10 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--optimization", action="store_true", help="optimizations to a tolerance instead")
     parser.add_argument("--local", action="store_true", help="local error control against uniform steps instead")
+    parser.add_argument("--fresh", action="store_true", help="with --optimization: redo the rows already measured")
     args = parser.parse_args()
     if args.optimization:
-        return optimization()
+        return optimization(args.fresh)
     if args.local:
         return local_control()
     quick = args.quick

@@ -41,6 +41,11 @@ class TopologyProblem(Problem):
     between the few evaluations where the design asks for a finer one, and every value it
     sees is within ``rtol`` of the converged one. ``discretization`` is the current one and
     ``refinements`` lists ``(evaluation, discretization)`` at each change.
+
+    Start such a problem from a design optimized on the scene's own grid (continuation):
+    on the robot arm, MMA from x = 0.4 on any accurate discretization — a converged fixed
+    grid or ``rtol = 1e-2`` — ends in a basin whose true d is ten times that of the design
+    continuation finds (BENCHMARKS.md, "Optimization to a tolerance").
     """
 
     def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
