@@ -94,23 +94,13 @@ pub fn simulate_on(
     grid: &TimeGrid,
 ) -> Result<Trajectory, Error> {
     check_size(model, grid.len() + 1)?;
-    let mut integrator = Integrator::new(model, model.densities(x)?, settings);
-    let mut state = integrator.initial_state()?;
-    let mut traj = Trajectory {
-        n_q: model.n_dofs(),
-        n_c: model.n_constraints(),
-        ..Default::default()
-    };
-    let mut energy = EnergyBook::new(model, &integrator, &state);
-    traj.record(&state, 0);
-    energy.record(&integrator, &state, &mut traj);
+    let mut run = Run::start(model, x, settings)?;
     for &h in grid.steps() {
-        energy.start_step(&state, h);
-        let report = integrator.alpha_step(&mut state, h)?;
-        traj.record(&state, report.iterations);
-        energy.record(&integrator, &state, &mut traj);
+        run.energy.start_step(&run.state, h);
+        let report = run.integrator.alpha_step(&mut run.state, h)?;
+        run.record(report.iterations);
     }
-    Ok(traj)
+    Ok(run.traj)
 }
 
 /// Runs `model` for design `x` with step sizes chosen by local error control
@@ -131,64 +121,95 @@ pub fn simulate_adaptive(
 ) -> Result<Trajectory, Error> {
     settings.validate()?;
     control.validate()?;
-    let mut integrator = Integrator::new(model, model.densities(x)?, settings);
-    let mut state = integrator.initial_state()?;
-    let mut traj = Trajectory {
-        n_q: model.n_dofs(),
-        n_c: model.n_constraints(),
-        ..Default::default()
-    };
-    let mut energy = EnergyBook::new(model, &integrator, &state);
-    traj.record(&state, 0);
-    energy.record(&integrator, &state, &mut traj);
+    let mut run = Run::start(model, x, settings)?;
     let mut stops = model.kinks(settings.t_end);
     stops.push(settings.t_end);
     let (scales, c) = (
         step_control::error_scales(model),
-        step_control::local_error_constant(&integrator.params),
+        step_control::local_error_constant(&run.integrator.params),
     );
     let mut controller = Controller::new(control);
-    let mut before = state.clone();
+    let mut before = run.state.clone();
     for stop in stops {
         // Until the stop, less the round-off of landing on it.
-        while stop - state.t > 1e-12 * stop {
-            let h = controller.step(state.t, stop);
-            before.clone_from(&state);
-            energy.start_step(&state, h);
-            match integrator.alpha_step(&mut state, h) {
+        while stop - run.state.t > 1e-12 * stop {
+            let h = controller.step(run.state.t, stop);
+            before.clone_from(&run.state);
+            run.energy.start_step(&run.state, h);
+            match run.integrator.alpha_step(&mut run.state, h) {
                 Ok(report) => {
                     let error = step_control::local_error(
                         c,
                         h,
                         &before.qddot,
-                        &state.qddot,
+                        &run.state.qddot,
                         &scales,
                         control.tol,
                     );
                     if controller.judge(h, error) == Verdict::Reject {
-                        state.clone_from(&before);
+                        run.state.clone_from(&before);
                     } else {
-                        traj.record(&state, report.iterations);
-                        energy.record(&integrator, &state, &mut traj);
-                        check_size(model, traj.time.len())?;
+                        run.record(report.iterations);
+                        check_size(model, run.traj.time.len())?;
                     }
                 }
                 Err(SolveError::NewtonFailed { .. }) => {
-                    state.clone_from(&before);
+                    run.state.clone_from(&before);
                     controller.newton_failed(h);
                 }
                 Err(other) => return Err(other.into()),
             }
             if controller.too_small() {
                 return Err(SolveError::StepTooSmall {
-                    time: state.t,
+                    time: run.state.t,
                     h_min: control.h_min,
                 }
                 .into());
             }
         }
     }
-    Ok(traj)
+    Ok(run.traj)
+}
+
+/// A run under way: the integrator, the current state, the trajectory and energies
+/// recorded so far (the initial state already).
+struct Run<'m> {
+    integrator: Integrator<'m>,
+    state: State,
+    traj: Trajectory,
+    energy: EnergyBook,
+}
+
+impl<'m> Run<'m> {
+    fn start(
+        model: &'m Model,
+        x: Option<&[f64]>,
+        settings: &DynamicSettings,
+    ) -> Result<Self, Error> {
+        let mut integrator = Integrator::new(model, model.densities(x)?, settings);
+        let state = integrator.initial_state()?;
+        let traj = Trajectory {
+            n_q: model.n_dofs(),
+            n_c: model.n_constraints(),
+            ..Default::default()
+        };
+        let energy = EnergyBook::new(model, &integrator, &state);
+        let mut run = Self {
+            integrator,
+            state,
+            traj,
+            energy,
+        };
+        run.record(0);
+        Ok(run)
+    }
+
+    /// Records the current state, reached with `iterations` Newton iterations.
+    fn record(&mut self, iterations: usize) {
+        self.traj.record(&self.state, iterations);
+        self.energy
+            .record(&self.integrator, &self.state, &mut self.traj);
+    }
 }
 
 /// Bytes recorded per state: `q`, `q̇`, `q̈`, `λ` and six scalars.

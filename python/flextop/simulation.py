@@ -210,8 +210,8 @@ class Simulation:
         (the position error of each step against ``local_tol`` times the model's size, and
         ``local_tol`` rad), starting from ``h``, ending exactly at every kink of the motion
         laws and at ``t_end``; ``results.steps`` holds them. On the reference scenes it
-        costs as many steps as uniform steps of the same error (BENCHMARKS.md); it pays
-        where the motion's difficulty varies in time.
+        needs as many steps as uniform steps for the same error of d, or more (x = 0.4 arm;
+        BENCHMARKS.md); it is meant for motions whose difficulty varies in time.
 
         Raises ``DesignError``, ``SettingsError``, ``SimulationError`` (with the time,
         residual and iteration count of a failed Newton step) or ``ToleranceError``.
