@@ -39,7 +39,11 @@ class TopologyProblem(Problem):
     each evaluation is re-adapted, starting from the discretization the previous one
     accepted, so the grid only ever refines. An optimizer thus sees one fixed discretization
     between the few evaluations where the design asks for a finer one, and every value it
-    sees is within ``rtol`` of the converged one. ``discretization`` is the current one and
+    sees is within ``rtol`` of the converged one. The grid is chosen on the values of the
+    objective and constraints (``hold_gradients=False``): the gradients are the exact
+    derivatives of the values the optimizer sees, which is what its convergence needs,
+    and holding them to a tolerance as well drove the space companion to 16× the elements
+    per bar on optimized designs. ``discretization`` is the current one and
     ``refinements`` lists ``(evaluation, discretization)`` at each change.
 
     Start such a problem from a design optimized on the scene's own grid (continuation):
@@ -77,7 +81,8 @@ class TopologyProblem(Problem):
         tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self.rtol or self.simulation.rtol else {}
         self.evaluations += 1
         try:
-            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, **tolerance, **self.settings)
+            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False, **tolerance,
+                                                         **self.settings)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         if out.discretization is not None and out.discretization != self.discretization:

@@ -245,7 +245,8 @@ class Simulation:
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
-                               start: Discretization | None = None, local_tol: float | None = None, **settings: Any) -> Sensitivities:
+                               start: Discretization | None = None, hold_gradients: bool = True, local_tol: float | None = None,
+                               **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -272,7 +273,9 @@ class Simulation:
         ``discretization`` and the estimated relative ``errors`` of the values. The gradients
         are held to ``5·rtol`` in the relative 2-norm (``tolerance.GRADIENT_FACTOR``), and
         their estimated errors are in ``gradient_errors``; every companion run then computes
-        gradients too. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
+        gradients too. With ``hold_gradients=False`` the discretization is chosen on the
+        values alone (companions run without gradients) and the gradients are the exact
+        derivatives of those values on the grid accepted, their error not estimated. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
         error control, then frozen: the gradients are exact for the steps that ran, which
         the result holds in ``steps``.
         """
@@ -289,7 +292,7 @@ class Simulation:
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is None:
             return self._sensitivities(xv, names, self._settings(**gradients, **settings))
-        return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start)
+        return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
 
     def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
         grid = None if steps is None else [float(h) for h in steps]
@@ -336,27 +339,35 @@ class Simulation:
         return self._levels[refinement]
 
     def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
-                      gradients: dict[str, str] | None, first: Discretization | None = None) -> Any:
+                      gradients: dict[str, str] | None, first: Discretization | None = None, hold_gradients: bool = True) -> Any:
         """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
-        results (or sensitivities) with its estimate and companions attached."""
+        results (or sensitivities) with its estimate and companions attached. With
+        ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and
+        the sensitivities are computed once, on the grid accepted."""
         t_end = None if self.analysis == "static" else self._t_end(settings)
         runs: dict[Discretization, Any] = {}
+        judged = gradients if hold_gradients else None
+
+        def run(d: Discretization, gradients: dict[str, str] | None) -> Any:
+            level = self._level(d.refinement)
+            at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {})}
+            return level._sensitivities(xv, names, {**at, **gradients}) if gradients else level._fixed(xv, at)
 
         def values(d: Discretization) -> list[np.ndarray]:
             if d not in runs:
-                level = self._level(d.refinement)
-                at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {})}
-                runs[d] = level._sensitivities(xv, names, {**at, **gradients}) if gradients else level._fixed(xv, at)
+                runs[d] = run(d, judged)
             out = runs[d]
             if isinstance(out, Sensitivities):
                 return [*out.values[:, None], *out.gradients]
             return [np.array([out.response(n)]) for n in names]
 
-        d, est = tolerance.resolve(values, first or self._first(settings), tolerance.tolerance_of(names, *wanted, gradients is not None))
-        out, relative = runs[d], est.relative
+        d, est = tolerance.resolve(values, first or self._first(settings), tolerance.tolerance_of(names, *wanted, judged is not None))
+        relative = est.relative
         errors = dict(zip(names, map(float, relative)))
-        if isinstance(out, Sensitivities):
+        if gradients:
+            out = runs[d] if hold_gradients else run(d, gradients)
             return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
+        out = runs[d]
         out.discretization, out.errors = d, errors
         out.companions = (runs[d.half_steps], runs.get(d.quarter_steps), runs[d.split]) if d.steps else (None, None, runs[d.split])
         return out

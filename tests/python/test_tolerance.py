@@ -130,6 +130,21 @@ def test_gradients_on_the_grid_that_ran_are_exact():
         assert fd == pytest.approx(direct.gradients[0, i], rel=1e-6, abs=1e-6 * np.abs(direct.gradients[0]).max())
 
 
+def test_gradients_not_held_are_those_of_the_grid_chosen_on_the_values():
+    """hold_gradients=False: the grid is chosen on the values (never finer than when the
+    gradients are held too), and the gradients are exactly that grid's."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam(), rtol=1e-2)
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    held = sim.run_with_sensitivities(x, "tip_deflection")
+    free = sim.run_with_sensitivities(x, "tip_deflection", hold_gradients=False)
+    d = free.discretization
+    assert d.refinement <= held.discretization.refinement and d.steps <= held.discretization.steps
+    assert free.errors["tip_deflection"] <= 1e-2 and not free.gradient_errors
+    on_grid = sim._level(d.refinement).run_with_sensitivities(x, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
+    np.testing.assert_array_equal(free.gradients, on_grid.gradients)
+    np.testing.assert_array_equal(free.values, on_grid.values)
+
+
 def test_static_scenes_refine_elements_only():
     sim = flextop.Simulation(flextop.scenes.static_truss(), rtol=1e-4)
     res = sim.run(0.4)
