@@ -39,7 +39,7 @@ pub enum DesignError {
         got: usize,
     },
     /// An entry is non-finite or outside `[x_min, 1]`.
-    #[error("x[{index}] ({name}) = {value} is outside [{lower}, 1]")]
+    #[error("x[{index}] ({name}) = {} is outside [{}, 1]", short(*value), short(*lower))]
     OutOfBounds {
         /// Index of the design variable.
         index: usize,
@@ -50,6 +50,16 @@ pub enum DesignError {
         /// The lower bound `x_min`.
         lower: f64,
     },
+}
+
+/// `v` as a user reads it: plain decimals from 1e-3 to 1e6 (`0.01`, `2`), shortest
+/// scientific notation otherwise (`5e-324`, `1.5e12`).
+pub fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-3..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
 }
 
 /// Run settings that make no sense (step size, spectral radius, tolerances, responses).
@@ -110,6 +120,23 @@ pub enum SolveError {
         /// The smallest step allowed (s).
         h_min: f64,
     },
+    /// Load stepping could not reach the full load: the increment fell below its smallest,
+    /// or the Newton iterations over all load steps exceeded their budget.
+    #[error(
+        "static equilibrium not reached past load factor {load:.6}: {why} (the last \
+         failure: {last}); a limit point or a mechanism may lie there"
+    )]
+    LoadStepping {
+        /// The largest load factor at which equilibrium was found.
+        load: f64,
+        /// Which limit stopped it.
+        why: String,
+        /// The last Newton failure, as its message.
+        last: String,
+    },
+    /// The caller asked the work to stop ([`crate::with_checker`]).
+    #[error("interrupted")]
+    Interrupted,
     /// The rigid kinematics of the driven mechanism cannot be solved.
     #[error("rigid kinematics failed at t = {time:.6} s: {detail}")]
     Kinematics {

@@ -134,8 +134,10 @@ impl<'m> Integrator<'m> {
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
-    /// converge; [`SolveError::Singular`] for a singular iteration matrix.
+    /// converge; [`SolveError::Singular`] for a singular iteration matrix;
+    /// [`SolveError::Interrupted`] when the caller asked to stop ([`crate::interrupt`]).
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
+        crate::interrupt::poll()?;
         let AlphaParameters {
             alpha_m,
             alpha_f,

@@ -38,6 +38,8 @@ pub mod section;
 
 mod assembly;
 mod integrator;
+mod interrupt;
+mod limits;
 mod linsolve;
 mod newton;
 mod response;
@@ -56,6 +58,8 @@ pub use assembly::{linearize, Csc, Linearization};
 pub use element::MassKind;
 pub use error::{DesignError, Error, SceneError, SettingsError, SolveError};
 pub use integrator::{AlphaParameters, Integrator, State};
+pub use interrupt::{poll, with_checker};
+pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SPLIT};
 pub use model::{Densities, Model};
 pub use response::Response;
 pub use rigid::rigid_positions;

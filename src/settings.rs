@@ -13,6 +13,7 @@ use serde::Deserialize;
 
 use crate::element::MassKind;
 use crate::error::SettingsError;
+use crate::limits::MAX_LOAD_STEPS;
 use crate::time_grid::TimeGrid;
 
 /// Default spectral radius at infinite frequency.
@@ -248,6 +249,12 @@ impl RunOptions {
             if value == Some(0) {
                 return bad(name, "must be at least 1".into());
             }
+        }
+        if let Some(n) = self.load_steps.filter(|&n| n > MAX_LOAD_STEPS) {
+            return bad(
+                "load_steps",
+                format!("{n}: at most {MAX_LOAD_STEPS} are allowed"),
+            );
         }
         Ok(())
     }

@@ -1,13 +1,27 @@
 //! Static equilibrium `f_int(q) + Φ_qᵀλ = Λ f_ext`, `Φ(q) = 0` by Newton's method with load
-//! stepping: the load factor `Λ` climbs from 0 to 1 in equal steps (loads, gravity and
-//! prescribed rotations all scaled by `Λ`); a step whose Newton iteration fails is halved,
-//! up to `max_cuts` times in a row.
+//! stepping: the load factor `Λ` climbs from 0 to 1 in steps of `1/load_steps` (loads,
+//! gravity and prescribed rotations all scaled by `Λ`); a step whose Newton iteration fails
+//! is halved, up to `max_cuts` times in a row, and grows back by doubling after each
+//! success. The solve ends with [`SolveError::LoadStepping`] when the increment falls below
+//! [`MIN_LOAD_INCREMENT`] or the iterations exceed [`iteration_budget`].
 
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::model::{Densities, Model};
 use crate::newton::{Newton, Point};
 use crate::settings::StaticSettings;
+
+/// Smallest load-factor increment tried before the solve gives up.
+pub const MIN_LOAD_INCREMENT: f64 = 1e-6;
+
+/// Newton iterations allowed over all load steps: `max_iter` for each nominal step and for
+/// 64 halvings more.
+pub fn iteration_budget(settings: &StaticSettings) -> usize {
+    settings
+        .max_iter
+        .max(1)
+        .saturating_mul(settings.load_steps.saturating_add(64))
+}
 
 /// A static equilibrium.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,7 +66,7 @@ pub fn solve_static(
 /// Load-stepped Newton solve with the machinery of [`static_newton`].
 ///
 /// # Errors
-/// As [`solve_static`].
+/// As [`solve_static`]; [`SolveError::LoadStepping`] at the limits of the module's doc.
 pub(crate) fn load_stepping(
     newton: &mut Newton,
     settings: &StaticSettings,
@@ -60,11 +74,15 @@ pub(crate) fn load_stepping(
     let model = newton.assembler().model;
     let mut q = vec![0.0; model.n_dofs()];
     let mut lambda = vec![0.0; model.n_constraints()];
-    let (mut load, mut step, mut cuts) = (0.0, 1.0 / settings.load_steps as f64, 0);
-    let (mut iterations, mut steps) = (0, 0);
+    let (mut q_prev, mut l_prev) = (q.clone(), lambda.clone());
+    let nominal = 1.0 / settings.load_steps as f64;
+    let (mut load, mut step, mut cuts) = (0.0, nominal, 0);
+    let (mut iterations, mut steps, budget) = (0, 0, iteration_budget(settings));
     while load < 1.0 {
+        crate::interrupt::poll()?;
         let target = (load + step).min(1.0);
-        let (q_prev, l_prev) = (q.clone(), lambda.clone());
+        q_prev.copy_from_slice(&q);
+        l_prev.copy_from_slice(&lambda);
         let point = Point {
             t: settings.time,
             load: target,
@@ -77,13 +95,31 @@ pub(crate) fn load_stepping(
                 steps += 1;
                 load = target;
                 cuts = 0;
+                step = (2.0 * step).min(nominal);
             }
             Err(e) => {
+                iterations += settings.max_iter;
+                let stop = |why: String| SolveError::LoadStepping {
+                    load,
+                    why,
+                    last: e.to_string(),
+                };
                 if cuts == settings.max_cuts {
                     return Err(e);
                 }
-                q = q_prev;
-                lambda = l_prev;
+                if 0.5 * step < MIN_LOAD_INCREMENT {
+                    return Err(stop(format!(
+                        "the load increment fell below {MIN_LOAD_INCREMENT:e}"
+                    )));
+                }
+                if iterations > budget {
+                    return Err(stop(format!(
+                        "{iterations} Newton iterations exceeded the budget of {budget} \
+                         (max_iter × (load_steps + 64))"
+                    )));
+                }
+                q.copy_from_slice(&q_prev);
+                lambda.copy_from_slice(&l_prev);
                 step *= 0.5;
                 cuts += 1;
             }

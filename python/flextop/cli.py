@@ -3,23 +3,30 @@
 ``flextop demo``             the paper's robot arm at uniform density: tip error, d, a plot;
 ``flextop simulate SCENE``   run a scene file (TOML) and summarize it;
 ``flextop optimize SCENE``   topology optimization (see ``flextop optimize --help``).
+
+A user error (a bad argument, scene, design, setting or checkpoint) prints one line and
+exits with 2; a run that fails (Newton, a tolerance out of reach, an unwritable output)
+with 1; Ctrl-C with 130. ``flextop --debug ...`` shows the traceback instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from . import scenes
-from .errors import FlextopError, SettingsError
+from . import checkpoint, scenes
+from .errors import CheckpointError, DesignError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .optimizers import OptimizerState, optimize
+from .optimizers.driver import CONVERGED, Status
 from .problems import TopologyProblem, volume_constraints
 from .scene import Scene
 from .simulation import Results, Simulation
@@ -27,8 +34,19 @@ from .simulation import Results, Simulation
 
 def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray | None:
     if design is not None:
-        return np.load(design) if design.suffix == ".npy" else np.loadtxt(design)
+        try:
+            return np.load(design) if design.suffix == ".npy" else np.loadtxt(design, ndmin=1)
+        except (OSError, ValueError, EOFError) as error:
+            raise DesignError(f"{design}: cannot read a design vector ({error})") from None
     return None if x is None else np.full(sim.n_design, x)
+
+
+def _folder(path: Path) -> Path:
+    """The output folder ``path``, made if needed (a file of that name is a user error)."""
+    if path.exists() and not path.is_dir():
+        raise SettingsError(f"--out {path}: a file of that name exists; give a folder")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
 
 
 def _summarize(sim: Simulation, res, elapsed: float) -> None:
@@ -60,8 +78,7 @@ def demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     res = sim.run(args.x, h=args.h)
     _summarize(sim, res, time.perf_counter() - start)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _folder(Path(args.out))
     plot_tip_error(res, path=out / "tip_error.png", labels=(f"x = {args.x} on every bar",))
     print(f"wrote {out / 'tip_error.png'}")
     return 0
@@ -69,36 +86,30 @@ def demo(args: argparse.Namespace) -> int:
 
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
-    sim = Simulation(args.scene, accuracy=args.accuracy, rtol=args.rtol)
+    sim = Simulation(_scene(args.scene), accuracy=args.accuracy, rtol=args.rtol)
     settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass,
                                   "local_tol": args.local_tol}.items() if v is not None}
     if args.rtol is not None and args.h is not None:
         raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
     if sim.analysis == "static":
         settings = {k: v for k, v in settings.items() if k in ("t_end", "local_tol")}
+    out = None if args.out is None else _folder(Path(args.out))
     start = time.perf_counter()
     res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         np.savez(out / "results.npz", **{k: v for k, v in res.raw.items() if isinstance(v, np.ndarray)})
         print(f"wrote {out / 'results.npz'}")
     return 0
 
 
 def _scene(spec: str) -> Scene:
-    """A scene file, or the name of a built-in scene (``robot_arm``, ``static_truss``)."""
-    if not Path(spec).exists() and hasattr(scenes, spec):
-        return getattr(scenes, spec)()
+    """A scene file, or the name of a built-in scene (:data:`scenes.BUILT_IN`)."""
+    if not Path(spec).exists() and spec in scenes.BUILT_IN:
+        return scenes.BUILT_IN[spec]()
+    if not Path(spec).exists():
+        raise SceneFileError(f"{spec}: no such scene file, nor a built-in scene ({', '.join(scenes.BUILT_IN)})")
     return Scene.from_toml(spec)
-
-
-def _write_json(path: Path, data: dict) -> None:
-    """Writes atomically, so an interrupted run never leaves half a checkpoint."""
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data))
-    os.replace(tmp, path)
 
 
 def _settings(args: argparse.Namespace) -> dict:
@@ -108,37 +119,37 @@ def _settings(args: argparse.Namespace) -> dict:
 def optimize_command(args: argparse.Namespace) -> int:
     """Topology optimization of a scene with checkpoints, progress bar, summary and plots."""
     out = Path(args.out)
-    checkpoint = out / "checkpoint.json"
     if args.resume:
-        if not checkpoint.exists():
-            raise FileNotFoundError(f"no checkpoint to resume in {out}")
-        saved = json.loads(checkpoint.read_text())
-        scene = Scene.from_dict(saved["scene"])
-        sim = Simulation(scene, accuracy=saved.get("accuracy"))
-        problem = TopologyProblem.from_dict(sim, saved["problem"])
-        options = {**saved["optimizer"], "max_iter": args.max_iter or saved["optimizer"]["max_iter"]}
-        x0 = np.array(saved["x0"])
-        state = OptimizerState.from_dict(saved["state"])
-        print(f"resuming {checkpoint} at iteration {state.iteration}")
+        scene, sim, problem, options, x0, state, animate = _resume(args, out)
+        print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     else:
-        scene = _scene(args.scene)
-        sim = Simulation(scene, accuracy=args.accuracy)
-        constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
         if args.rtol is not None and args.h is not None:
             raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
-        problem = TopologyProblem(sim, args.objective, constraints, settings=_settings(args), rtol=args.rtol)
-        options = {"method": args.method, "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol, "xtol": args.xtol}
-        x0 = np.full(sim.n_design, args.x0)
-        state = None
-        out.mkdir(parents=True, exist_ok=True)
+        scene = _scene(args.scene)
+        sim = Simulation(scene, accuracy=args.accuracy)
+        if not sim.x_min <= args.x0 <= 1.0:
+            raise DesignError(f"--x0 {args.x0:g} is outside [{sim.x_min:g}, 1]")
+        constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
+        problem = TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
+        options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol,
+                   "xtol": args.xtol}
+        x0, state, animate = np.full(sim.n_design, args.x0), None, args.animate
+        _folder(out)
     print(f"{scene.to_dict().get('name') or 'scene'}: minimize {problem.objective} over {sim.n_design} densities "
           f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in problem.constraints) or 'bounds only'} ({options['method']})")
 
+    def save(state_dict: dict, finished: str | None = None) -> None:
+        checkpoint.save(out / "checkpoint.json", {"scene": scene.to_dict(), "accuracy": sim.accuracy, "problem": problem.to_dict(),
+                                                  "optimizer": options, "x0": x0.tolist(), "state": state_dict,
+                                                  "animate": animate, "finished": finished})
+
     bar = tqdm(total=options["max_iter"], initial=0 if state is None else state.iteration, unit="it", desc="optimize", file=sys.stderr)
 
+    latest: dict[str, dict] = {}
+
     def on_iteration(record) -> None:
-        _write_json(checkpoint, {"scene": scene.to_dict(), "accuracy": sim.accuracy, "problem": problem.to_dict(), "optimizer": options,
-                                 "x0": x0.tolist(), "state": record.state.to_dict()})
+        latest["state"] = record.state.to_dict()
+        save(latest["state"])
         bar.update(1)
         bar.set_postfix(f=f"{record.f0 * problem.objective_scale:.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
 
@@ -147,18 +158,49 @@ def optimize_command(args: argparse.Namespace) -> int:
         result = optimize(problem, x0, options["method"], max_iter=options["max_iter"], move=options["move"],
                           kkt_tol=options["kkt_tol"], xtol=options["xtol"], callback=on_iteration, state=state)
     except KeyboardInterrupt:
-        bar.close()
         print(f"interrupted; the last iteration is saved: resume with `flextop optimize --resume --out {out}`")
         return 130
-    bar.close()
+    finally:
+        bar.close()
+    if latest:  # a resume can tell a run that has stopped for good
+        save(latest["state"], finished=result.status.name)
     elapsed = time.perf_counter() - start
     _report(problem, result, elapsed, result.nit - (0 if state is None else state.iteration))
     np.save(out / "design.npy", result.x)
-    _write_json(out / "history.json", {"history": [r.to_dict() for r in result.history], "status": result.status.name,
-                                       "message": result.message, "objective_scale": problem.objective_scale})
+    checkpoint.write_atomically(out / "history.json", json.dumps({
+        "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
+        "objective_scale": problem.objective_scale}))
     if not args.no_plots:
-        _pictures(sim, problem, result, x0, out, animate=args.animate)
+        _pictures(sim, problem, result, x0, out, animate=animate)
     return 0 if result.success or result.status.name == "MAX_ITER" else 1
+
+
+def _resume(args: argparse.Namespace, out: Path):
+    """Everything a checkpointed run needs to go on, verified: the checkpoint's own
+    integrity, options that agree with it, a design inside its bounds, and a run that
+    has not stopped for good."""
+    path = out / "checkpoint.json"
+    saved = checkpoint.load(path)
+    try:
+        scene = Scene.from_dict(saved["scene"])
+        sim = Simulation(scene, accuracy=saved["accuracy"])
+        problem = TopologyProblem.from_dict(sim, saved["problem"])
+        state = OptimizerState.from_dict(saved["state"])
+        options = {**saved["optimizer"], "max_iter": args.max_iter or saved["optimizer"]["max_iter"]}
+        x0 = np.array(saved["x0"], dtype=float)
+    except (FlextopError, KeyError, TypeError, ValueError, AttributeError) as error:
+        raise CheckpointError(f"{path} does not describe a run: {error}") from None
+    for flag, given, kept in (("--method", args.method, options["method"]), ("--objective", args.objective, problem.objective)):
+        if given is not None and given != kept:
+            raise SettingsError(f"{flag} {given} differs from the checkpoint's {kept}; start a new run in another --out")
+    if not (np.all(np.isfinite(state.x)) and np.all(state.x >= problem.lower) and np.all(state.x <= problem.upper)):
+        raise CheckpointError(f"{path} holds a design outside the bounds [{problem.lower.min():g}, {problem.upper.max():g}]")
+    finished = saved.get("finished")
+    if finished in {s.name for s in CONVERGED}:
+        raise CheckpointError(f"the run in {out} has converged ({finished}); there is nothing to resume")
+    if state.iteration >= options["max_iter"]:
+        raise CheckpointError(f"the run in {out} has done its {state.iteration} iterations; give --max-iter above that to go on")
+    return scene, sim, problem, options, x0, state, args.animate or bool(saved.get("animate"))
 
 
 def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> None:
@@ -175,7 +217,7 @@ def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> N
         print(f"{name}: {(g + 1) * bound:.6g} (bound {bound:.6g})")
     if problem.refinements:
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
-        print(f"to rtol = {problem.rtol or sim.rtol:g}: discretizations {at}")
+        print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
     shares = {"simulation": problem.timings["simulation"], "gradients": problem.timings["gradients"], "subproblem": solve}
     other = max(elapsed - sum(shares.values()), 0.0)
@@ -204,42 +246,44 @@ def _pictures(sim: Simulation, problem: TopologyProblem, result, x0: np.ndarray,
 
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="flextop", description="Flexible multibody dynamics and topology optimization of moving machines.")
+    p.add_argument("--debug", action="store_true", help="show the traceback of an error instead of one line")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("demo", help="run the paper's robot arm and plot its tip error")
     d.add_argument("--x", type=float, default=0.4, help="density of every bar (default 0.4)")
-    d.add_argument("--h", type=float, default=0.02, help="step size in s (default 0.02)")
-    d.add_argument("--split", type=int, default=1, help="elements per bar (default 1)")
+    d.add_argument("--h", type=_positive(float), default=0.02, help="step size in s (default 0.02)")
+    d.add_argument("--split", type=_positive(int), default=1, help="elements per bar (default 1)")
     d.add_argument("--out", default="demo_out", help="output folder (default demo_out)")
     d.set_defaults(run=demo)
     s = sub.add_parser("simulate", help="run a scene file")
-    s.add_argument("scene", type=Path, help="TOML scene file")
+    s.add_argument("scene", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam")
     s.add_argument("--x", type=float, help="uniform density of every bar (default: full density)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
-    s.add_argument("--t-end", type=float)
-    s.add_argument("--h", type=float)
+    s.add_argument("--t-end", type=_positive(float))
+    s.add_argument("--h", type=_positive(float))
     s.add_argument("--rho-inf", type=float)
     s.add_argument("--mass", choices=["consistent", "lumped"])
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
-    s.add_argument("--rtol", type=float, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
-    s.add_argument("--local-tol", type=float, help="variable steps by local error control (relative to the model's size)")
+    s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
+    s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")
     s.add_argument("--out", help="folder for results.npz")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
-    o.add_argument("scene", nargs="?", default="robot_arm", help="TOML scene file or robot_arm / static_truss (default robot_arm)")
-    o.add_argument("--objective", default="tip_deflection", help="response to minimize (default tip_deflection; e.g. compliance)")
-    o.add_argument("--method", choices=["mma", "gcmma", "conlin"], default="mma")
-    o.add_argument("--volume-fraction", type=float, default=0.4, help="V <= fraction * V_full (default 0.4)")
+    o.add_argument("scene", nargs="?", default="robot_arm", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam "
+                   "(default robot_arm)")
+    o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene)")
+    o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
+    o.add_argument("--volume-fraction", type=_fraction, default=0.4, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--x0", type=float, default=0.4, help="initial density of every bar (default 0.4)")
-    o.add_argument("--max-iter", type=int, help="iterations in all, resumed ones included (default 30)")
-    o.add_argument("--move", type=float, default=0.2, help="move limit as a fraction of the bounds (default 0.2)")
-    o.add_argument("--kkt-tol", type=float, default=1e-6)
-    o.add_argument("--xtol", type=float, default=1e-4)
-    o.add_argument("--h", type=float)
+    o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
+    o.add_argument("--move", type=_fraction, default=0.2, help="move limit as a fraction of the bounds (default 0.2)")
+    o.add_argument("--kkt-tol", type=_positive(float), default=1e-6)
+    o.add_argument("--xtol", type=_positive(float), default=1e-4)
+    o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
-    o.add_argument("--t-end", type=float)
+    o.add_argument("--t-end", type=_positive(float))
     o.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
-    o.add_argument("--rtol", type=float, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
+    o.add_argument("--rtol", type=_fraction, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     o.add_argument("--no-plots", action="store_true")
@@ -252,12 +296,48 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.run(args)
-    except (FlextopError, FileNotFoundError) as error:
-        print(f"flextop: error: {error}", file=sys.stderr)
-        return 2
     except BrokenPipeError:  # the reader left (e.g. `| head`): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except (FlextopError, OSError, KeyboardInterrupt) as error:
+        if args.debug:
+            raise
+        return _fail(error)
+
+
+def _fail(error: BaseException) -> int:
+    """One line on stderr and the exit code: 2 for a user error, 1 for a failed run or
+    output, 130 for Ctrl-C."""
+    if isinstance(error, KeyboardInterrupt):
+        print("flextop: interrupted", file=sys.stderr)
+        return 130
+    if isinstance(error, OSError):
+        print(f"flextop: error: {error.filename or ''}: {error.strerror or error}".replace(": : ", ": "), file=sys.stderr)
+        return 1
+    print(f"flextop: error: {' '.join(str(error).split())}", file=sys.stderr)
+    return 1 if isinstance(error, SimulationError) else 2
+
+
+def _positive(kind: type) -> Any:
+    """An argparse type: a finite ``kind`` above zero."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a {kind.__name__}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"{text} must be above 0")
+        return value
+    parse.__name__ = f"positive {kind.__name__}"
+    return parse
+
+
+def _fraction(text: str) -> float:
+    """An argparse type: a number in (0, 1]."""
+    value = _positive(float)(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"{text} must be in (0, 1]")
+    return value
 
 
 if __name__ == "__main__":

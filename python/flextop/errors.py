@@ -14,8 +14,14 @@ class SceneError(FlextopError, ValueError):
     missing or duplicate node, degenerate geometry, over- or under-constrained mechanism."""
 
 
+class SceneFileError(SceneError):
+    """A scene file that cannot be read (missing, a directory, not UTF-8) or parsed as TOML:
+    the message names the file and, for a syntax error, the line and column."""
+
+
 class DesignError(FlextopError, ValueError):
-    """A design vector of the wrong length, non-finite, or outside ``[x_min, 1]``."""
+    """A design vector of the wrong shape, length or type (not real numbers), non-finite, or
+    outside ``[x_min, 1]``."""
 
 
 class SettingsError(FlextopError, ValueError):
@@ -30,3 +36,8 @@ class SimulationError(FlextopError, RuntimeError):
 class ToleranceError(SimulationError):
     """A tolerance that cannot be met within the named limits on elements per bar and
     steps: the message names the response and the error estimate reached."""
+
+
+class CheckpointError(FlextopError, ValueError):
+    """A checkpoint that cannot be resumed: unreadable, corrupt (its checksum or schema do
+    not match), holding a design outside the bounds, or of a run that has finished."""

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+from .errors import SceneError, SceneFileError
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # Python 3.10: the same parser, as the tomli package
@@ -176,14 +178,19 @@ class Scene:
     def from_dict(cls, spec: dict) -> Scene:
         """A scene from a dict (copied)."""
         scene = cls()
-        scene._spec = copy.deepcopy(dict(spec))
+        try:
+            scene._spec = copy.deepcopy(dict(spec))
+        except RecursionError:
+            raise SceneError("scene: nested too deeply to be a scene") from None
         return scene
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Scene:
-        """A scene from a TOML file."""
-        with open(path, "rb") as f:
-            return cls.from_dict(tomllib.load(f))
+        """A scene from a TOML file (UTF-8, a byte-order mark allowed).
+
+        Raises :class:`~flextop.errors.SceneFileError` naming the file when it cannot be
+        read or parsed (with the line and column of a syntax error)."""
+        return cls.from_dict(read_toml(path))
 
     def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
         """The scene as TOML text, which :meth:`from_toml` reads back into the same dict
@@ -205,6 +212,24 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 _ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
 #: Column of the ``#`` of a table header's comment.
 _COMMENT_COLUMN = 26
+
+
+def read_toml(path: str | Path) -> dict:
+    """The dict of a TOML file, or a :class:`SceneFileError` that names the file."""
+    if not str(path):
+        raise SceneFileError("no scene file given (empty path)")
+    try:
+        text = Path(path).read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise SceneFileError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    except OSError as error:
+        raise SceneFileError(f"{path}: cannot read: {error.strerror or error}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SceneFileError(f"{path}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise SceneFileError(f"{path}: nested too deeply to be a scene") from None
 
 
 def _toml_table(lines: list[str], path: list[str], table: Mapping[str, Any], comments: Mapping[str, str]) -> None:

@@ -91,6 +91,10 @@ def spun_beam(*, bars: int = 8, length: float = 1.0, split: int = 1, tip_mass: f
     return scene
 
 
+BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam}
+"""The scenes the command line knows by name."""
+
+
 EXAMPLES = {
     "robot_arm.toml": (
         robot_arm,

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 
 from . import _core, tolerance
 from .accuracy import preset, split_by
-from .errors import DesignError, SettingsError
+from .errors import DesignError, SceneError, SettingsError
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
 
@@ -127,7 +127,10 @@ class Simulation:
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,
                  atol: float = 0.0) -> None:
         spec = _as_spec(scene)
-        self.spec = copy.deepcopy(spec)
+        try:
+            self.spec = copy.deepcopy(spec)
+        except RecursionError:
+            raise SceneError("scene: nested too deeply to be a scene") from None
         self.accuracy = accuracy
         if accuracy is not None:
             if rtol is not None:
@@ -398,9 +401,16 @@ class Simulation:
         return built, np.array([xv[index[name]] for name in built.variable_names])
 
     def _design(self, x: Any) -> np.ndarray | None:
+        """``x`` as a vector of floats: a number means every variable; strings, complex
+        numbers and arrays of more than one dimension are refused with a DesignError."""
         if x is None:
             return None
-        xv = np.asarray(x, dtype=float)
+        xv = np.asarray(x)
+        if xv.dtype.kind not in "biuf":
+            raise DesignError(f"the design must be real numbers, got {type(x).__name__} of {xv.dtype}")
+        if xv.ndim > 1:
+            raise DesignError(f"the design must be one number or a vector of {self.n_design}, got an array of shape {xv.shape}")
+        xv = xv.astype(float)
         if xv.ndim == 0:
             return np.full(self.n_design, float(xv))
         return np.ascontiguousarray(xv)

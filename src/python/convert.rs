@@ -5,7 +5,7 @@
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList, PyTuple};
 use serde::de::DeserializeOwned;
 
 use crate::assembly::Csc;
@@ -13,11 +13,41 @@ use crate::error::{Error, SceneError, SettingsError};
 use crate::scene::SceneSpec;
 use crate::settings::RunOptions;
 
+/// Deepest nesting of dicts, lists and tuples read from Python: a scene has five levels;
+/// serde's recursive descent would overflow the stack some thousands deep.
+const MAX_NESTING: usize = 64;
+
+/// Whether `value` nests dicts, lists and tuples at most `limit` deep (walked without
+/// recursion).
+fn nested_within(value: &Bound<'_, PyAny>, limit: usize) -> bool {
+    let mut stack = vec![(value.clone(), 0usize)];
+    while let Some((v, depth)) = stack.pop() {
+        let items: Vec<Bound<'_, PyAny>> = if let Ok(d) = v.cast::<PyDict>() {
+            d.values().iter().collect()
+        } else if let Ok(l) = v.cast::<PyList>() {
+            l.iter().collect()
+        } else if let Ok(t) = v.cast::<PyTuple>() {
+            t.iter().collect()
+        } else {
+            continue;
+        };
+        if depth == limit && !items.is_empty() {
+            return false;
+        }
+        stack.extend(items.into_iter().map(|item| (item, depth + 1)));
+    }
+    true
+}
+
 /// Deserializes `value`, reporting a failure at its path (`whole` for the value itself).
 fn from_python<T: DeserializeOwned>(
     value: &Bound<'_, PyAny>,
     whole: &str,
 ) -> Result<T, (String, String)> {
+    if !nested_within(value, MAX_NESTING) {
+        let msg = format!("nested more than {MAX_NESTING} levels deep");
+        return Err((whole.into(), msg));
+    }
     let mut de = pythonize::Depythonizer::from_object(value);
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();

@@ -3,12 +3,14 @@
 //! One file per concept: [`errors`] maps engine errors to the classes of `flextop.errors`,
 //! [`convert`] turns Python values into engine inputs and engine outputs into numpy arrays,
 //! [`model`] is the built mechanism and its description, [`runs`] the computations on it
-//! (each releases the GIL). The logic lives in the engine; these files only translate.
+//! (each releases the GIL, and [`signals`] keeps Ctrl-C working meanwhile). The logic
+//! lives in the engine; these files only translate.
 
 mod convert;
 mod errors;
 mod model;
 mod runs;
+mod signals;
 
 use pyo3::prelude::*;
 

@@ -11,6 +11,7 @@ use pyo3::types::PyDict;
 
 use super::convert::{csc, design, matrix, run_options, vector};
 use super::model::PyModel;
+use super::signals::detached;
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError};
 use crate::model::Analysis;
@@ -41,7 +42,7 @@ pub fn simulate<'py>(
         .dynamic(&m.defaults)
         .map_err(Error::from)?;
     let x = design(x)?;
-    let traj = py.detach(move || match (local_tol, steps) {
+    let traj = detached(py, move || match (local_tol, steps) {
         (Some(tol), _) => simulate_adaptive(
             &m,
             x.as_deref(),
@@ -97,7 +98,7 @@ pub fn solve_static<'py>(
         .statics(&m.defaults)
         .map_err(Error::from)?;
     let x = design(x)?;
-    let sol = py.detach(move || -> Result<_, Error> {
+    let sol = detached(py, move || -> Result<_, Error> {
         Ok(equilibrium(&m, m.densities(x.as_deref())?, &settings)?)
     })?;
     let d = PyDict::new(py);
@@ -131,14 +132,16 @@ pub fn run_with_sensitivities<'py>(
         Analysis::Dynamic => {
             let settings = options.dynamic(&m.defaults).map_err(Error::from)?;
             let grid = steps.map(grid).transpose()?;
-            py.detach(move || match grid {
+            detached(py, move || match grid {
                 Some(grid) => sensitivity::of_motion_on(&m, &x, &settings, &grid, &parsed, how),
                 None => sensitivity::of_motion(&m, &x, &settings, &parsed, how),
             })?
         }
         Analysis::Static => {
             let settings = options.statics(&m.defaults).map_err(Error::from)?;
-            py.detach(move || sensitivity::of_equilibrium(&m, &x, &settings, &parsed, how.method))?
+            detached(py, move || {
+                sensitivity::of_equilibrium(&m, &x, &settings, &parsed, how.method)
+            })?
         }
     };
     let d = PyDict::new(py);
@@ -170,8 +173,9 @@ pub fn evaluate_responses<'py>(
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
     let q = q.as_slice()?.to_vec();
     let x = design(x)?;
-    let values =
-        py.detach(move || sensitivity::evaluate(&m, x.as_deref(), &q, &times, load_time, &parsed))?;
+    let values = detached(py, move || {
+        sensitivity::evaluate(&m, x.as_deref(), &q, &times, load_time, &parsed)
+    })?;
     Ok(vector(py, values))
 }
 
@@ -215,7 +219,7 @@ pub fn rigid_positions<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Arc::clone(&model.model);
     let (len, n) = (times.len(), m.nodes.len());
-    let flat = py.detach(move || rigid(&m, &times).map_err(Error::from))?;
+    let flat = detached(py, move || rigid(&m, &times).map_err(Error::from))?;
     Ok(numpy::PyArray1::from_vec(py, flat)
         .reshape([len, n, 2])?
         .into_any())

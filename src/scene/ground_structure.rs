@@ -18,6 +18,7 @@ use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
 use super::validate::{finite, non_negative, positive, Result};
 use crate::error::SceneError;
+use crate::limits::MAX_GRID_NODES;
 
 /// Grid node `k` as `(column, row)`.
 pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {
@@ -163,6 +164,16 @@ impl Grid {
             return Err(SceneError::new(
                 path,
                 format!("needs nx >= 2 and ny >= 1, got {} × {}", g.nx, g.ny),
+            ));
+        }
+        if g.nx.checked_mul(g.ny).is_none_or(|n| n > MAX_GRID_NODES) {
+            return Err(SceneError::new(
+                path,
+                format!(
+                    "{} × {} grid nodes: at most {MAX_GRID_NODES} per ground structure (its \
+                     bars grow as their square); use a coarser grid or several ground structures",
+                    g.nx, g.ny
+                ),
             ));
         }
         let length = positive(&format!("{path}.length"), g.length)?;

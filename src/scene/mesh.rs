@@ -16,6 +16,7 @@ use super::spec::{BeamSpec, NodeSpec};
 use super::validate::{finite, unknown, Result};
 use crate::element::Beam;
 use crate::error::SceneError;
+use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
 use crate::model::{size_of, Bar, Element, Node};
 use crate::section::Section;
 
@@ -73,6 +74,12 @@ impl Mesh {
             return Err(SceneError::new(
                 path,
                 format!("duplicate node name '{name}'"),
+            ));
+        }
+        if self.nodes.len() == MAX_NODES {
+            return Err(SceneError::new(
+                path,
+                format!("the model would have more than {MAX_NODES} nodes; split its bars less or use fewer of them"),
             ));
         }
         self.index.insert(name.to_string(), self.nodes.len());
@@ -167,10 +174,16 @@ impl Mesh {
     fn chain(&mut self, b: &BarSpec) -> Result<Vec<usize>> {
         let [a, z] = b.ends;
         let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
-        if b.split == 0 {
+        if b.split == 0 || b.split > MAX_SPLIT {
             return Err(SceneError::new(
                 format!("{}.split", b.path),
-                "must be at least 1",
+                format!("must be from 1 to {MAX_SPLIT}, got {}", b.split),
+            ));
+        }
+        if self.elements.len() + b.split > MAX_ELEMENTS {
+            return Err(SceneError::new(
+                &b.path,
+                format!("the model would have more than {MAX_ELEMENTS} elements; split its bars less or use fewer of them"),
             ));
         }
         let mut chain = vec![a];

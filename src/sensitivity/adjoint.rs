@@ -158,6 +158,7 @@ pub(crate) fn run(
     let (q_last, _) = store.get(&mut it, grid, last, true)?;
     sweep.add_local(&it, &objectives, last, q_last);
     for n in (0..last).rev() {
+        crate::interrupt::poll()?;
         let (q1, acc1) = store.get(&mut it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         sweep.step(

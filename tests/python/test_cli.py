@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import flextop
+import flextop.cli
 
 from conftest import EXAMPLES
 
@@ -68,7 +69,7 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     straight, split = tmp_path / "straight", tmp_path / "split"
     flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 8, "--out", straight, "--no-plots")
     flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 4, "--out", split, "--no-plots")
-    checkpoint = json.loads((split / "checkpoint.json").read_text())
+    checkpoint = json.loads((split / "checkpoint.json").read_text())["data"]
     assert checkpoint["state"]["iteration"] == 4 and len(history(split)) == 4
     run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots")
     assert "resuming" in run.stdout
@@ -83,3 +84,79 @@ def test_optimize_robot_arm_writes_the_pictures(tmp_path):
         assert (tmp_path / name).stat().st_size > 1000, name
     assert re.search(r"tip_deflection: 0\.00229569 at the start → [0-9.e-]+ \(-\d+\.\d %\)", run.stdout)
     assert "subproblem" in run.stdout and "simulation" in run.stdout
+
+
+USER_ERRORS = [
+    (["simulate", "{tmp}/bad.toml"], "bad.toml: not valid TOML: Illegal character '\\n' (at line 1, column 10)"),
+    (["simulate", "{tmp}/latin1.toml"], "latin1.toml: not UTF-8 text (byte 8)"),
+    (["simulate", "{tmp}"], "cannot read: Is a directory"),
+    (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam)"),
+    (["simulate", "robot_arm", "--design", "{tmp}/latin1.toml"], "cannot read a design vector"),
+    (["simulate", "robot_arm", "--out", "{tmp}/bad.toml"], "a file of that name exists"),
+    (["optimize", "static_truss", "--volume-fraction", "0"], "argument --volume-fraction: 0 must be above 0"),
+    (["optimize", "static_truss", "--max-iter", "-5"], "argument --max-iter: -5 must be above 0"),
+    (["optimize", "static_truss", "--move", "-1"], "argument --move: -1 must be above 0"),
+    (["optimize", "robot-arm"], "no such scene file, nor a built-in scene"),
+]
+
+
+def cli(argv):
+    """``flextop.cli.main(argv)`` in this process: its exit code, argparse's included."""
+    try:
+        return flextop.cli.main([str(a) for a in argv])
+    except SystemExit as stop:
+        return stop.code
+
+
+@pytest.mark.parametrize("argv, message", USER_ERRORS)
+def test_user_errors_are_one_line_and_exit_2(tmp_path, capsys, argv, message):
+    (tmp_path / "bad.toml").write_text('name = "x\n')
+    (tmp_path / "latin1.toml").write_bytes('name = "é"\n'.encode("latin-1"))
+    assert cli([a.format(tmp=tmp_path) for a in argv]) == 2
+    err = capsys.readouterr().err.strip()
+    last = err.splitlines()[-1]
+    assert message in last and "Traceback" not in err, err
+    assert err.count("\n") == 0 or err.startswith("usage:"), err  # argparse adds its usage line before
+
+
+def test_x0_outside_the_bounds_is_a_named_user_error(tmp_path, capsys):
+    assert cli(["optimize", "static_truss", "--x0", "2", "--no-plots", "--out", tmp_path]) == 2
+    assert "outside [0.01, 1]" in capsys.readouterr().err
+
+
+def test_a_scene_file_with_a_byte_order_mark_reads_like_one_without(tmp_path):
+    text = flextop.scenes.example_toml("static_truss.toml")
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert flextop.Scene.from_toml(tmp_path / "bom.toml").to_dict() == flextop.Scene.from_toml(EXAMPLES / "static_truss.toml").to_dict()
+    (tmp_path / "deep.toml").write_text("a = " + "[" * 2000 + "]" * 2000)
+    with pytest.raises(flextop.SceneFileError, match="nested too deeply"):
+        flextop.Scene.from_toml(tmp_path / "deep.toml")
+
+
+def test_resume_verifies_the_checkpoint(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert flextop.cli.main(["optimize", "static_truss", "--objective", "compliance", "--max-iter", "3", "--out", str(out), "--no-plots"]) == 0
+    sealed = json.loads((out / "checkpoint.json").read_text())
+    assert sealed["data"]["finished"] == "MAX_ITER"
+
+    def resume(data, *extra, seal=True):
+        copy = json.loads(json.dumps(sealed))
+        copy["data"] = data
+        if seal:
+            copy["sha256"] = flextop.checkpoint._digest(data)
+        (out / "checkpoint.json").write_text(json.dumps(copy))
+        code = flextop.cli.main(["optimize", "--resume", "--out", str(out), "--no-plots", *extra])
+        return code, capsys.readouterr().err.strip().splitlines()[-1]
+
+    data = sealed["data"]
+    outside = json.loads(json.dumps(data))
+    outside["state"]["x"][0] = 2.0
+    assert resume(outside, "--max-iter", "5", seal=False) == (2, f"flextop: error: {out / 'checkpoint.json'} is corrupt: its contents do not match their checksum")
+    assert "holds a design outside the bounds [0.01, 1]" in resume(outside, "--max-iter", "5")[1]
+    assert "has done its 3 iterations; give --max-iter above that" in resume(data)[1]
+    assert "--method gcmma differs from the checkpoint's mma" in resume(data, "--max-iter", "5", "--method", "gcmma")[1]
+    converged = {**data, "finished": "KKT"}
+    assert "has converged (KKT); there is nothing to resume" in resume(converged, "--max-iter", "5")[1]
+    (out / "checkpoint.json").write_text("{not json")
+    assert flextop.cli.main(["optimize", "--resume", "--out", str(out)]) == 2
+    assert "cannot be read as a checkpoint" in capsys.readouterr().err

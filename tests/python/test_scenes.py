@@ -172,6 +172,11 @@ def test_toml_syntax_and_unknown_table_errors(tmp_path):
         (np.r_[np.full(147, 0.4), 1.5], r"x\[147\] \(link2/bar73\) = 1.5 is outside \[0.01, 1\]"),
         (np.r_[0.005, np.full(147, 0.4)], r"x\[0\] \(link1/bar0\)"),
         (np.r_[np.nan, np.full(147, 0.4)], r"x\[0\]"),
+        (np.r_[5e-324, np.full(147, 0.4)], r"x\[0\] \(link1/bar0\) = 5e-324 is outside"),
+        (np.full((2, 74), 0.4), r"one number or a vector of 148, got an array of shape \(2, 74\)"),
+        ("0.4", "real numbers, got str"),
+        (np.full(148, "0.4"), "real numbers, got ndarray of <U3"),
+        (0.4 + 0j, "real numbers, got complex"),
     ],
 )
 def test_designs_outside_bounds_raise_design_error(arm, x, match):

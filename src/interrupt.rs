@@ -1,0 +1,95 @@
+//! Interrupting long work. The loops of the engine — time steps (every generalized-α step,
+//! so forward runs, sensitivity sweeps and their replays), load steps, and the adjoint's
+//! backward steps — call [`poll`]. It asks the checker the caller installed on this thread
+//! with [`with_checker`], at most once per [`INTERVAL`], and turns a request to stop into
+//! [`SolveError::Interrupted`]. Without a checker it costs a thread-local read.
+//!
+//! The Python bindings install a checker that runs Python's signal handlers, so Ctrl-C
+//! raises `KeyboardInterrupt` within an interval and a step.
+
+use std::cell::RefCell;
+use std::time::{Duration, Instant};
+
+use crate::error::SolveError;
+
+/// Least time between two calls of the checker.
+pub const INTERVAL: Duration = Duration::from_millis(50);
+
+struct Checker {
+    stop: Box<dyn FnMut() -> bool>,
+    next: Instant,
+}
+
+thread_local! {
+    static CHECKER: RefCell<Option<Checker>> = const { RefCell::new(None) };
+}
+
+/// Restores the checker a [`with_checker`] replaced, also when its body unwinds.
+struct Restore(Option<Checker>);
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        let previous = self.0.take();
+        CHECKER.with(|c| *c.borrow_mut() = previous);
+    }
+}
+
+/// Runs `body` with `stop` as this thread's checker: [`poll`] inside `body` fails once
+/// `stop` returns `true`.
+pub fn with_checker<R>(stop: impl FnMut() -> bool + 'static, body: impl FnOnce() -> R) -> R {
+    let checker = Checker {
+        stop: Box::new(stop),
+        next: Instant::now() + INTERVAL,
+    };
+    let _restore = Restore(CHECKER.with(|c| c.borrow_mut().replace(checker)));
+    body()
+}
+
+/// `Err(SolveError::Interrupted)` when this thread's checker, asked at most once per
+/// [`INTERVAL`], wants the work to stop.
+///
+/// # Errors
+/// [`SolveError::Interrupted`].
+pub fn poll() -> Result<(), SolveError> {
+    CHECKER.with(|c| match c.borrow_mut().as_mut() {
+        Some(checker) if Instant::now() >= checker.next => {
+            checker.next = Instant::now() + INTERVAL;
+            if (checker.stop)() {
+                Err(SolveError::Interrupted)
+            } else {
+                Ok(())
+            }
+        }
+        _ => Ok(()),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+    use std::rc::Rc;
+
+    #[test]
+    fn polls_at_most_once_per_interval_and_stops_when_asked() {
+        let calls = Rc::new(Cell::new(0));
+        let counted = Rc::clone(&calls);
+        let started = Instant::now();
+        let result = with_checker(
+            move || {
+                counted.set(counted.get() + 1);
+                counted.get() == 3
+            },
+            || -> Result<(), SolveError> {
+                loop {
+                    poll()?;
+                    std::hint::spin_loop();
+                }
+            },
+        );
+        assert_eq!(result, Err(SolveError::Interrupted));
+        assert_eq!(calls.get(), 3);
+        assert!(started.elapsed() >= 3 * INTERVAL);
+        assert_eq!(poll(), Ok(()), "the checker is gone after with_checker");
+    }
+}
