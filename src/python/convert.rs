@@ -52,8 +52,24 @@ fn from_python<T: DeserializeOwned>(
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { whole.into() } else { path };
-        (path, e.into_inner().to_string())
+        (path, in_users_words(&e.into_inner().to_string()))
     })
+}
+
+/// A deserialization message with serde's and Python's terms replaced by the user's.
+fn in_users_words(msg: &str) -> String {
+    if let Some(got) = msg.strip_prefix("TypeError: must be real number, not ") {
+        return format!("expected a number, got {got}");
+    }
+    if msg.starts_with("OverflowError: can't convert negative int to unsigned") {
+        return "expected a whole number ≥ 0".into();
+    }
+    if let Some(rest) = msg.strip_prefix("unexpected type: '") {
+        if let Some((got, want)) = rest.split_once("' object is not an instance of '") {
+            return format!("expected a {}, got {got}", want.trim_end_matches('\''));
+        }
+    }
+    msg.replace("unknown variant", "unknown value")
 }
 
 /// A scene from a dict; a wrong entry is a `SceneError` naming it.

@@ -4,7 +4,9 @@
 //! ([`crate::scene::build()`]), where each error names its entry. Units: SI.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use crate::settings::RunOptions;
@@ -103,13 +105,47 @@ pub struct NodeSpec {
 }
 
 /// A point given by coordinates or by the name of an existing node.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum PointSpec {
     /// `[x, y]` (m).
     Coordinates([f64; 2]),
     /// A node name.
     Node(String),
+}
+
+impl<'de> Deserialize<'de> for PointSpec {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_any(PointVisitor)
+    }
+}
+
+/// Reads a [`PointSpec`] from a string or a sequence of two numbers, and names both in its
+/// errors.
+struct PointVisitor;
+
+impl<'de> Visitor<'de> for PointVisitor {
+    type Value = PointSpec;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a node's name or coordinates [x, y] in m")
+    }
+
+    fn visit_str<E: de::Error>(self, name: &str) -> Result<PointSpec, E> {
+        Ok(PointSpec::Node(name.to_string()))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<PointSpec, A::Error> {
+        let mut xy = [0.0; 2];
+        for (k, v) in xy.iter_mut().enumerate() {
+            *v = seq
+                .next_element()?
+                .ok_or_else(|| de::Error::invalid_length(k, &self))?;
+        }
+        if seq.next_element::<de::IgnoredAny>()?.is_some() {
+            return Err(de::Error::invalid_length(3, &self));
+        }
+        Ok(PointSpec::Coordinates(xy))
+    }
 }
 
 impl Default for PointSpec {
@@ -217,7 +253,7 @@ pub struct LoadTableSpec {
 
 /// A joint.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(try_from = "JointEntry")]
 pub enum JointSpec {
     /// Fixes a node's position and rotation.
     Clamp {
@@ -246,9 +282,55 @@ pub enum JointSpec {
     },
 }
 
+/// A joint as written: every key a joint of any kind may have. Read as a plain struct, so
+/// that errors inside it keep their path (`joints[0].drive.acceleration`); [`JointSpec`]
+/// then checks the keys its kind takes.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointEntry {
+    kind: JointKind,
+    name: String,
+    node: Option<String>,
+    nodes: Option<[String; 2]>,
+    drive: Option<MotionSpec>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum JointKind {
+    Clamp,
+    Pin,
+    Hinge,
+}
+
+impl TryFrom<JointEntry> for JointSpec {
+    type Error = String;
+
+    fn try_from(e: JointEntry) -> Result<Self, String> {
+        let JointEntry {
+            kind,
+            name,
+            node,
+            nodes,
+            drive,
+        } = e;
+        match (kind, node, nodes, drive) {
+            (JointKind::Clamp, _, _, Some(_)) => {
+                Err("a clamp has no drive (a pin's drive prescribes a rotation)".into())
+            }
+            (JointKind::Clamp, Some(node), None, None) => Ok(Self::Clamp { name, node }),
+            (JointKind::Pin, Some(node), None, drive) => Ok(Self::Pin { name, node, drive }),
+            (JointKind::Hinge, None, Some(nodes), drive) => Ok(Self::Hinge { name, nodes, drive }),
+            (JointKind::Hinge, ..) => Err("a hinge takes two `nodes` [a, b], not `node`".into()),
+            (JointKind::Clamp, ..) => Err("a clamp takes one `node`, not `nodes`".into()),
+            (JointKind::Pin, ..) => Err("a pin takes one `node`, not `nodes`".into()),
+        }
+    }
+}
+
 /// A motion law `θ(t)`; the joint follows `θ(t) − θ(0)`.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+#[serde(try_from = "MotionEntry")]
 pub enum MotionSpec {
     /// Trapezoidal velocity profile from `start` to `end` (rad).
     Trapezoidal {
@@ -260,8 +342,7 @@ pub enum MotionSpec {
         acceleration: f64,
         /// Cruise speed (rad/s).
         speed: f64,
-        /// Start time (s).
-        #[serde(default)]
+        /// Start time (s), 0 if not given.
         t_start: f64,
     },
     /// Clamped cubic spline through `(t, theta)`.
@@ -270,13 +351,96 @@ pub enum MotionSpec {
         t: Vec<f64>,
         /// Angles (rad).
         theta: Vec<f64>,
-        /// Velocity before the table (rad/s).
-        #[serde(default)]
+        /// Velocity before the table (rad/s), 0 if not given.
         start_velocity: f64,
-        /// Velocity after the table (rad/s).
-        #[serde(default)]
+        /// Velocity after the table (rad/s), 0 if not given.
         end_velocity: f64,
     },
+}
+
+/// A motion law as written: every key of any kind, checked by [`MotionSpec`] (read as a
+/// plain struct for the same reason as [`JointEntry`]).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MotionEntry {
+    kind: MotionKind,
+    start: Option<f64>,
+    end: Option<f64>,
+    acceleration: Option<f64>,
+    speed: Option<f64>,
+    t_start: Option<f64>,
+    t: Option<Vec<f64>>,
+    theta: Option<Vec<f64>>,
+    start_velocity: Option<f64>,
+    end_velocity: Option<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum MotionKind {
+    Trapezoidal,
+    Table,
+}
+
+impl TryFrom<MotionEntry> for MotionSpec {
+    type Error = String;
+
+    fn try_from(e: MotionEntry) -> Result<Self, String> {
+        let given = |name: &'static str, present: bool| present.then_some(name);
+        match e.kind {
+            MotionKind::Trapezoidal => {
+                let what = "a trapezoidal law";
+                let table_keys = [
+                    given("t", e.t.is_some()),
+                    given("theta", e.theta.is_some()),
+                    given("start_velocity", e.start_velocity.is_some()),
+                    given("end_velocity", e.end_velocity.is_some()),
+                ];
+                refuse_foreign(what, &table_keys)?;
+                let need = |name, v: Option<f64>| {
+                    v.ok_or_else(|| {
+                        format!("{what} needs `{name}` (start, end, acceleration, speed)")
+                    })
+                };
+                Ok(Self::Trapezoidal {
+                    start: need("start", e.start)?,
+                    end: need("end", e.end)?,
+                    acceleration: need("acceleration", e.acceleration)?,
+                    speed: need("speed", e.speed)?,
+                    t_start: e.t_start.unwrap_or(0.0),
+                })
+            }
+            MotionKind::Table => {
+                let trapezoidal_keys = [
+                    given("start", e.start.is_some()),
+                    given("end", e.end.is_some()),
+                    given("acceleration", e.acceleration.is_some()),
+                    given("speed", e.speed.is_some()),
+                    given("t_start", e.t_start.is_some()),
+                ];
+                refuse_foreign("a table", &trapezoidal_keys)?;
+                let need = |name, v: Option<Vec<f64>>| {
+                    v.ok_or_else(|| format!("a table needs `{name}` (t and theta)"))
+                };
+                Ok(Self::Table {
+                    t: need("t", e.t)?,
+                    theta: need("theta", e.theta)?,
+                    start_velocity: e.start_velocity.unwrap_or(0.0),
+                    end_velocity: e.end_velocity.unwrap_or(0.0),
+                })
+            }
+        }
+    }
+}
+
+/// An error naming the keys given (`Some`) that `what` does not take, if any.
+fn refuse_foreign(what: &str, keys: &[Option<&str>]) -> Result<(), String> {
+    let keys: Vec<String> = keys.iter().flatten().map(|k| format!("`{k}`")).collect();
+    if keys.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{what} does not take {}", keys.join(", ")))
+    }
 }
 
 /// Design parametrization: SIMP exponent `p` or RAMP parameter `q`, lower bound `x_min`.

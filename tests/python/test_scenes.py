@@ -124,6 +124,14 @@ def bad(mutate):
         (lambda s: s["design"].update(x_min=0.0), "design.x_min"),
         (lambda s: s["design"].update(p=float("nan")), "design.p"),
         (lambda s: s["simulation"].update(rho_inf=1.5), "simulation.rho_inf"),
+        (lambda s: s["joints"][0]["drive"].pop("acceleration"), "joints[0].drive: a trapezoidal law needs `acceleration`"),
+        (lambda s: s["joints"][0]["drive"].update(acceleration="x"), "joints[0].drive.acceleration: expected a number, got str"),
+        (lambda s: s["joints"][0]["drive"].update(kind="bogus"), "joints[0].drive.kind: unknown value `bogus`"),
+        (lambda s: s["joints"][0]["drive"].update(t=[0.0, 1.0]), "joints[0].drive: a trapezoidal law does not take `t`"),
+        (lambda s: s["joints"][1].update(node="link1[4,1]"), "joints[1]: a hinge takes two `nodes` [a, b], not `node`"),
+        (lambda s: s["joints"][0].update(kind="clamp"), "joints[0]: a clamp has no drive"),
+        (lambda s: s["ground_structures"][1].update(origin=[1, 2, 3]), "origin: invalid length 3, expected a node's name or coordinates"),
+        (lambda s: s["ground_structures"][0].update(nx=-1), "ground_structures[0].nx: expected a whole number ≥ 0"),
     ],
 )
 def test_bad_scenes_raise_scene_error_naming_the_culprit(mutate, culprit):
