@@ -285,7 +285,7 @@ class Simulation:
         names = [responses] if isinstance(responses, str) else list(responses)
         xv = self._design(x)
         if xv is None:
-            raise TypeError("run_with_sensitivities needs a design vector x")
+            raise DesignError("run_with_sensitivities needs a design vector x")
         gradients = {"method": method, "memory": memory}
         if local_tol is not None:
             if rtol is not None or self.analysis == "static":
@@ -327,12 +327,16 @@ class Simulation:
             return Discretization(1, 0)
         t_end = self._t_end(settings)
         h = self.spec.get("simulation", {}).get("h") or t_end / 16
+        if not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h <= t_end):
+            raise SettingsError(f"simulation.h: must be a step in (0, t_end], got {h!r}")
         return tolerance.start(math.ceil(t_end / h - 1e-9))
 
     def _t_end(self, settings: dict[str, Any]) -> float:
         t_end = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
         if t_end is None:
             raise SettingsError("t_end: give it in the scene's [simulation] table or to the run")
+        if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
+            raise SettingsError(f"t_end: must be a positive number of seconds, got {t_end!r}")
         return float(t_end)
 
     def _level(self, refinement: int) -> Simulation:

@@ -64,6 +64,10 @@ SLOWEST = 1.5
 second-order rate (the quarter-steps run is then outside the asymptotic range: on an
 optimized design, 17 steps gave twice the d of 34 and 68, a contraction of 24)."""
 
+MIN_RTOL = 1e-6
+"""Smallest ``rtol`` accepted: step doubling cannot resolve differences near Newton's
+tolerance (1e-10 of the forces) and the round-off of long runs."""
+
 MAX_REFINEMENT = 16
 """Largest factor on the scene's elements per bar."""
 
@@ -234,11 +238,11 @@ def _beyond_limits(d: Discretization, est: ErrorEstimate | None, tol: Tolerance)
 
 
 def check_tolerance(rtol: float, atol: float) -> None:
-    """``rtol`` in (0, 1) and ``atol`` ≥ 0, both finite, or a :class:`SettingsError`."""
+    """``rtol`` in ``[MIN_RTOL, 1)`` and ``atol`` ≥ 0, both finite, or a :class:`SettingsError`."""
     if isinstance(rtol, bool) or isinstance(atol, bool):
         raise SettingsError("rtol and atol must be numbers")
-    if not (isinstance(rtol, (int, float)) and math.isfinite(rtol) and 0.0 < rtol < 1.0):
-        raise SettingsError(f"rtol must be a number in (0, 1), got {rtol!r}")
+    if not (isinstance(rtol, (int, float)) and math.isfinite(rtol) and MIN_RTOL <= rtol < 1.0):
+        raise SettingsError(f"rtol must be a number in [{MIN_RTOL:g}, 1), got {rtol!r}")
     if not (isinstance(atol, (int, float)) and math.isfinite(atol) and atol >= 0.0):
         raise SettingsError(f"atol must be a finite number ≥ 0, got {atol!r}")
 
