@@ -101,6 +101,20 @@ pub enum SolveError {
         /// Relative residual required.
         tolerance: f64,
     },
+    /// A converged step turned a node by more than π/2: the step (or load increment) is
+    /// too large for the motion, or the solve jumped to another branch.
+    #[error(
+        "the step to {at} turned node '{node}' by {rotation:.3e} rad (more than π/2 in \
+         one step); use a smaller step h (or more load steps)"
+    )]
+    Diverged {
+        /// Where the step ends: `t = … s` or `load factor …`.
+        at: String,
+        /// The rotation (rad).
+        rotation: f64,
+        /// The node it turned.
+        node: String,
+    },
     /// The LDLᵀ factorization met a zero pivot or produced non-finite values.
     #[error("singular iteration matrix at t = {time:.6} s ({detail})")]
     Singular {

@@ -87,6 +87,8 @@ pub struct Integrator<'m> {
     pub(crate) newton: Newton<'m>,
     /// Algorithmic parameters.
     pub params: AlphaParameters,
+    /// `qₙ` of the step under way, to judge its rotations.
+    start: Vec<f64>,
 }
 
 impl<'m> Integrator<'m> {
@@ -100,7 +102,11 @@ impl<'m> Integrator<'m> {
             settings.max_iter,
         );
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
-        Self { newton, params }
+        Self {
+            newton,
+            params,
+            start: vec![0.0; model.n_dofs()],
+        }
     }
 
     /// The assembler of the design: forces, matrices, the model and its densities.
@@ -134,7 +140,8 @@ impl<'m> Integrator<'m> {
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
-    /// converge; [`SolveError::Singular`] for a singular iteration matrix;
+    /// converge; [`SolveError::Diverged`] when the step turns a node by more than π/2;
+    /// [`SolveError::Singular`] for a singular iteration matrix;
     /// [`SolveError::Interrupted`] when the caller asked to stop ([`crate::interrupt`]).
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
         crate::interrupt::poll()?;
@@ -149,6 +156,7 @@ impl<'m> Integrator<'m> {
             rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
         }
         s.h = h;
+        self.start.copy_from_slice(&s.q);
         for i in 0..s.q.len() {
             let a_next = (alpha_f * s.qddot[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
             s.q[i] += h * s.qdot[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_next);
@@ -170,6 +178,8 @@ impl<'m> Integrator<'m> {
             &mut s.lam,
             Some((&mut s.qdot, &mut s.qddot)),
         )?;
+        let model = self.newton.assembler().model;
+        model.plausible_step(&self.start, &s.q, || format!("t = {:.6} s", s.t))?;
         // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
         let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         s.a.iter_mut()

@@ -13,11 +13,11 @@
 //!
 //! Symbolic analysis happens once per simulation ([`SparseLdlt::analyze`]); each Newton
 //! iteration refactors numerically into buffers kept from the previous call, so the loop
-//! does not allocate. A zero pivot, or non-finite factors or solutions, are reported as
-//! [`FactorError::Singular`].
+//! does not allocate. A zero pivot is reported with its unknown
+//! ([`FactorError::ZeroPivot`]), non-finite factors or solutions as [`FactorError::Singular`].
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::ldlt::factor::{LdltParams, LdltRegularization};
+use faer::linalg::cholesky::ldlt::factor::{LdltError, LdltParams, LdltRegularization};
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
@@ -30,7 +30,12 @@ use faer::{Conj, MatMut, Par, Side, Spec};
 /// Why a factorization or solve failed.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FactorError {
-    /// Zero pivot or non-finite factors/solution.
+    /// A zero (or non-finite) pivot at `unknown`, an index of the matrix as given.
+    ZeroPivot {
+        /// The unknown whose pivot vanished.
+        unknown: usize,
+    },
+    /// Non-finite factors or solution.
     Singular(String),
 }
 
@@ -38,6 +43,8 @@ pub enum FactorError {
 pub struct SparseLdlt {
     pattern: SymbolicSparseColMat<usize>,
     symbolic: SymbolicCholesky<usize>,
+    /// `order[k]`: the unknown eliminated `k`-th.
+    order: Vec<usize>,
     factors: Vec<f64>,
     factor_scratch: MemBuffer,
     solve_scratch: MemBuffer,
@@ -73,6 +80,7 @@ impl SparseLdlt {
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
         Self {
             factors: vec![0.0; symbolic.len_val()],
+            order: fwd,
             pattern,
             symbolic,
             factor_scratch: MemBuffer::new(factor_req),
@@ -108,7 +116,10 @@ impl SparseLdlt {
                 Ok(())
             }
             Ok(_) => Err(FactorError::Singular("non-finite factors".into())),
-            Err(e) => Err(FactorError::Singular(format!("{e:?}"))),
+            // faer counts the failed pivot from 1 (`k + 1` in its simplicial LDLᵀ).
+            Err(LdltError::ZeroPivot { index }) => Err(FactorError::ZeroPivot {
+                unknown: self.order[index.saturating_sub(1)],
+            }),
         }
     }
 
@@ -241,13 +252,14 @@ mod tests {
     #[test]
     fn singular_matrices_are_reported() {
         let (cp, ri, mut v) = saddle();
-        v[0] = 0.0; // zero DOF pivot
         v[2] = 0.0;
-        v[5] = 0.0; // the multiplier row vanishes
+        v[5] = 0.0; // the multiplier's row vanishes: its pivot is zero, the DOFs' are not
         let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]);
-        let res = ldlt
-            .factorize(&v)
-            .and_then(|_| ldlt.solve_in_place(&mut [1.0, 1.0, 1.0]));
-        assert!(matches!(res, Err(FactorError::Singular(_))), "{res:?}");
+        let res = ldlt.factorize(&v);
+        assert_eq!(res, Err(FactorError::ZeroPivot { unknown: 2 }));
+        let (_, _, mut v) = saddle();
+        v[4] = f64::NAN; // a non-finite pivot is reported as a zero one, at its unknown
+        let res = ldlt.factorize(&v);
+        assert_eq!(res, Err(FactorError::ZeroPivot { unknown: 1 }));
     }
 }

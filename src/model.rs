@@ -10,7 +10,7 @@ use nalgebra::Vector2;
 
 use crate::constraint::{ConstraintRow, Joint};
 use crate::element::{Beam, Vector6};
-use crate::error::DesignError;
+use crate::error::{DesignError, SolveError};
 use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
 use crate::settings::RunOptions;
@@ -145,10 +145,60 @@ pub struct Densities {
     pub stiffness_rate: Vec<f64>,
 }
 
+/// Largest rotation of a node in one time step or load step (rad).
+pub const MAX_ROTATION_STEP: f64 = std::f64::consts::FRAC_PI_2;
+
 impl Model {
     /// Number of nodal DOFs `n_q`.
     pub fn n_dofs(&self) -> usize {
         3 * self.nodes.len()
+    }
+
+    /// Refuses a step (or load step) from coordinates `before` to `after` that turns a
+    /// node by more than [`MAX_ROTATION_STEP`]: such a step has jumped to another
+    /// solution branch or wound a node around, and its caller cuts it or fails clearly.
+    ///
+    /// # Errors
+    /// [`SolveError::Diverged`] naming the node and `at`, where the step ends.
+    pub fn plausible_step(
+        &self,
+        before: &[f64],
+        after: &[f64],
+        at: impl Fn() -> String,
+    ) -> Result<(), SolveError> {
+        let (node, rotation) = (0..self.nodes.len())
+            .map(|k| (k, (after[3 * k + 2] - before[3 * k + 2]).abs()))
+            .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
+        if rotation > MAX_ROTATION_STEP {
+            return Err(SolveError::Diverged {
+                at: at(),
+                rotation,
+                node: self.nodes[node].name.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Unknown `i` of the iteration matrix in the user's words: a node's coordinate with a
+    /// bar that ends there (`x of node 'link1[2,0]' (bar link1/bar7)`), or a joint's
+    /// multiplier.
+    pub fn unknown_name(&self, i: usize) -> String {
+        let Some(row) = i.checked_sub(self.n_dofs()) else {
+            let (node, k) = (i / 3, i % 3);
+            let bar = self
+                .elements
+                .iter()
+                .find(|e| e.nodes.contains(&node))
+                .map_or(String::new(), |e| {
+                    format!(" (bar {})", self.bars[e.bar].name)
+                });
+            let which = ["x", "y", "the rotation"][k];
+            return format!("{which} of node '{}'{bar}", self.nodes[node].name);
+        };
+        match self.rows.get(row) {
+            Some(r) => format!("a multiplier of joint '{}'", self.joints[r.joint].name),
+            None => format!("unknown {i}"),
+        }
     }
 
     /// Number of constraint rows `n_c`.

@@ -131,10 +131,19 @@ impl<'m> Newton<'m> {
         mass_coefficient * self.mean_mass + if stiffness { self.mean_stiffness } else { 0.0 }
     }
 
-    /// The solver's error, reported at the time of the current factorization.
-    fn singular(&self) -> impl Fn(FactorError) -> SolveError {
-        let time = self.factored_at;
-        move |FactorError::Singular(detail)| SolveError::Singular { time, detail }
+    /// The solver's error, reported at the time of the current factorization and, for a
+    /// zero pivot, at the node or joint of its unknown.
+    fn singular(&self) -> impl Fn(FactorError) -> SolveError + 'm {
+        let (time, model) = (self.factored_at, self.asm.model);
+        move |e| SolveError::Singular {
+            time,
+            detail: match e {
+                FactorError::ZeroPivot { unknown } => {
+                    format!("zero pivot at {}", model.unknown_name(unknown))
+                }
+                FactorError::Singular(detail) => detail,
+            },
+        }
     }
 
     /// Assembles `rhs = −E[r; sΦ]` and the augmented iteration matrix `mass_coefficient M + K_t`

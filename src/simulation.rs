@@ -153,7 +153,7 @@ pub fn simulate_adaptive(
                         check_size(model, run.traj.time.len())?;
                     }
                 }
-                Err(SolveError::NewtonFailed { .. }) => {
+                Err(SolveError::NewtonFailed { .. } | SolveError::Diverged { .. }) => {
                     run.state.clone_from(&before);
                     controller.newton_failed(h);
                 }

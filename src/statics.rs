@@ -2,7 +2,9 @@
 //! stepping: the load factor `Λ` climbs from 0 to 1 in steps of `1/load_steps` (loads,
 //! gravity and prescribed rotations all scaled by `Λ`); a step whose Newton iteration fails
 //! is halved, up to `max_cuts` times in a row, and grows back by doubling after each
-//! success. The solve ends with [`SolveError::LoadStepping`] when the increment falls below
+//! success. A load step whose equilibrium turns a node by more than π/2 counts as failed
+//! ([`Model::plausible_step`](crate::Model::plausible_step)): it has jumped to another
+//! branch. The solve ends with [`SolveError::LoadStepping`] when the increment falls below
 //! [`MIN_LOAD_INCREMENT`] or the iterations exceed [`iteration_budget`].
 
 use crate::element::MassKind;
@@ -89,7 +91,13 @@ pub(crate) fn load_stepping(
             mass_coefficient: 0.0,
             gamma_prime: 0.0,
         };
-        match newton.solve(point, &mut q, &mut lambda, None) {
+        let solved = newton
+            .solve(point, &mut q, &mut lambda, None)
+            .and_then(|report| {
+                let at = || format!("load factor {target:.6}");
+                model.plausible_step(&q_prev, &q, at).map(|()| report)
+            });
+        match solved {
             Ok(report) => {
                 iterations += report.iterations;
                 steps += 1;

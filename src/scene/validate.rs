@@ -4,7 +4,7 @@
 //! or non-negative; sampled time histories must have strictly increasing times. Every
 //! error carries the path of the entry at fault (`sections.al.E`, `loads[0].table.t[2]`).
 
-use crate::error::SceneError;
+use crate::error::{short, SceneError};
 
 /// The scene build's result: a value, or the error of the first entry at fault.
 pub(super) type Result<T> = std::result::Result<T, SceneError>;
@@ -18,14 +18,14 @@ pub(super) fn finite(path: &str, v: f64) -> Result<f64> {
     }
 }
 
-/// `v` when it is finite and `v > 0`.
+/// `v` when it is finite and `v > 0`, and not so small that it underflows (subnormal).
 pub(super) fn positive(path: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
+    if v.is_normal() && v > 0.0 {
         Ok(v)
     } else {
         Err(SceneError::new(
             path,
-            format!("must be positive and finite, got {v}"),
+            format!("must be positive and finite, got {}", short(v)),
         ))
     }
 }
