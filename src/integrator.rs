@@ -142,7 +142,7 @@ impl<'m> Integrator<'m> {
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
     /// converge; [`SolveError::Diverged`] when the step turns a node by more than π/2;
     /// [`SolveError::Singular`] for a singular iteration matrix;
-    /// [`SolveError::Interrupted`] when the caller asked to stop ([`crate::interrupt`]).
+    /// [`SolveError::Interrupted`] when the caller asked to stop ([`crate::with_checker`]).
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
         crate::interrupt::poll()?;
         let AlphaParameters {

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+from .errors import SceneError
 from .scene import Scene, trapezoidal
 
 #: Aluminium (Pa, -, kg/m³) and the solid circular section diameter (m).
@@ -31,8 +32,11 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
     Link 1 is a ground structure at the origin along ``theta_start``; link 2 starts at link
     1's node (L, 0) along ``2 theta_start``. The shoulder pins link 1's middle base node and
     drives θ1, the elbow hinges the two coincident nodes and drives θ2; both follow the same
-    trapezoidal law. A ``tip_mass`` sits on link 2's node (L, 0), the ``tip``.
+    trapezoidal law. A ``tip_mass`` sits on link 2's node (L, 0), the ``tip``. ``ny`` must be
+    odd: the joints and the tip sit on the row of nodes along each link's axis.
     """
+    if ny % 2 == 0:
+        raise SceneError(f"robot_arm: ny must be odd, so that a row of nodes lies on each link's axis for the joints (got {ny})")
     scene = Scene("robot_arm")
     scene.tip = f"link2[{nx - 1},{ny // 2}]"
     section = _linkage_section(scene, E, nu, rho, diameter)

@@ -93,9 +93,13 @@ pub fn design(x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Option<Vec<f64>>
     x.map(|a| Ok(a.as_slice()?.to_vec())).transpose()
 }
 
-/// A row-major `(rows, cols)` numpy array from a flat vector.
-pub fn matrix<'py>(py: Python<'py>, data: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
-    let rows = data.len().checked_div(cols).unwrap_or(0);
+/// A row-major `(rows, cols)` numpy array from a flat vector of `rows · cols` entries.
+pub fn matrix<'py>(
+    py: Python<'py>,
+    data: Vec<f64>,
+    rows: usize,
+    cols: usize,
+) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_vec(py, data)
         .reshape([rows, cols])?
         .into_any())

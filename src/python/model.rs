@@ -95,7 +95,12 @@ impl PyModel {
     /// Reference positions, shape `(n_nodes, 2)`.
     #[getter]
     fn reference_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        matrix(py, self.model.reference_positions(), 2)
+        matrix(
+            py,
+            self.model.reference_positions(),
+            self.model.nodes.len(),
+            2,
+        )
     }
 
     /// Bars as a dict of arrays: `name`, end `nodes` (n, 2), design `variable` (−1 if
@@ -116,7 +121,7 @@ impl PyModel {
             "name",
             m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>(),
         )?;
-        d.set_item("nodes", matrix(py, ends, 2)?)?;
+        d.set_item("nodes", matrix(py, ends, m.bars.len(), 2)?)?;
         let variable = |b: &crate::model::Bar| b.variable.map_or(-1, |v| v as i64);
         d.set_item("variable", m.bars.iter().map(variable).collect::<Vec<_>>())?;
         d.set_item(
@@ -139,7 +144,7 @@ impl PyModel {
             .iter()
             .flat_map(|e| e.nodes.map(|n| n as f64))
             .collect();
-        d.set_item("nodes", matrix(py, ends, 2)?)?;
+        d.set_item("nodes", matrix(py, ends, m.elements.len(), 2)?)?;
         d.set_item("bar", m.elements.iter().map(|e| e.bar).collect::<Vec<_>>())?;
         Ok(d)
     }

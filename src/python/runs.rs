@@ -53,12 +53,12 @@ pub fn simulate<'py>(
         (None, None) => integrate(&m, x.as_deref(), &settings),
     })?;
     let d = PyDict::new(py);
-    let (n_q, n_c) = (traj.n_q, traj.n_c);
+    let (n_q, n_c, states) = (traj.n_q, traj.n_c, traj.time.len());
     d.set_item("time", vector(py, traj.time))?;
-    d.set_item("q", matrix(py, traj.q, n_q)?)?;
-    d.set_item("qdot", matrix(py, traj.qdot, n_q)?)?;
-    d.set_item("qddot", matrix(py, traj.qddot, n_q)?)?;
-    d.set_item("lam", matrix(py, traj.lam, n_c)?)?;
+    d.set_item("q", matrix(py, traj.q, states, n_q)?)?;
+    d.set_item("qdot", matrix(py, traj.qdot, states, n_q)?)?;
+    d.set_item("qddot", matrix(py, traj.qddot, states, n_q)?)?;
+    d.set_item("lam", matrix(py, traj.lam, states, n_c)?)?;
     d.set_item("iterations", traj.iterations)?;
     d.set_item("steps", vector(py, traj.steps))?;
     d.set_item("kinetic", vector(py, traj.kinetic))?;
@@ -148,7 +148,12 @@ pub fn run_with_sensitivities<'py>(
     d.set_item("values", vector(py, result.values))?;
     d.set_item(
         "gradients",
-        matrix(py, result.gradients, model.model.n_variables())?,
+        matrix(
+            py,
+            result.gradients,
+            responses.len(),
+            model.model.n_variables(),
+        )?,
     )?;
     d.set_item("method", result.method.name())?;
     d.set_item("simulation_seconds", result.timings.simulation)?;

@@ -219,7 +219,8 @@ impl<'a> Sweep<'a> {
         let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
         objectives.add_values(&ctx, n, q, &mut self.values);
         let (n_q, n_x) = (self.n_q, self.n_x);
-        for (k, row) in self.gradients.chunks_mut(n_x).enumerate() {
+        // `max(1)`: a model without design variables has no gradient rows to visit.
+        for (k, row) in self.gradients.chunks_mut(n_x.max(1)).enumerate() {
             self.g_q.fill(0.0);
             self.g_x.fill(0.0);
             objectives.add_partials(&ctx, k, n, q, &mut self.g_q, &mut self.g_x);

@@ -361,7 +361,7 @@ fn explicit(
     objectives.add_values(&ctx, 0, &q, &mut values);
     let mut gradients = vec![0.0; responses.len() * n_x];
     let mut g_q = vec![0.0; n_q];
-    for (k, row) in gradients.chunks_mut(n_x).enumerate() {
+    for (k, row) in gradients.chunks_mut(n_x.max(1)).enumerate() {
         objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
     }
     Ok(Sensitivities {

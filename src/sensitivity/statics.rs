@@ -109,7 +109,7 @@ fn direct(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64
         0..n_x,
     );
     newton.solve_block(&mut rhs, n_x, &mut newton.scratch(n_x.max(1)))?;
-    for (g_x, g_q) in g_x.chunks_mut(n_x).zip(g_q.chunks(n_q)) {
+    for (g_x, g_q) in g_x.chunks_mut(n_x.max(1)).zip(g_q.chunks(n_q)) {
         for (j, g) in g_x.iter_mut().enumerate() {
             *g += g_q
                 .iter()

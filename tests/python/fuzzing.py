@@ -81,7 +81,7 @@ def scenes(draw) -> dict:
         path = draw(st.sampled_from(paths))
         mode = draw(st.sampled_from(["replace", "scale", "delete", "add"]))
         if mode == "add":
-            path = path[:-1] + (draw(st.sampled_from(["extra", "split", "drive", "omit", "x_min", "mass"])),)
+            path = path[:-1] + (draw(st.sampled_from(["extra", "split", "drive", "omit", "x_min", "mass", "fixed"])),)
             parent = spec
             for key in path[:-1]:
                 parent = parent[key]
