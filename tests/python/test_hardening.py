@@ -3,6 +3,7 @@ campaign, each a clean named error, a bounded time or a plausible result. Cases 
 used to crash or hang run in a subprocess, so that a regression fails instead of taking the
 suite down."""
 
+import re
 import signal
 import subprocess
 import sys
@@ -156,3 +157,30 @@ def test_a_scene_without_design_variables_has_gradients_of_zero_columns(name, me
 def test_an_even_ny_arm_is_refused_by_its_builder():
     with pytest.raises(SceneError, match="robot_arm: ny must be odd"):
         flextop.scenes.robot_arm(ny=4)
+
+
+def lee_frame(P: float) -> flextop.Scene:
+    """Lee's frame (E = 720, A = 6, I = 2, L = 120, both supports pinned, P at 24 from the
+    corner): its limit load is 18.55 EI/L² (Schweizerhof & Wriggers; Simo & Vu-Quoc)."""
+    s = flextop.Scene("lee", analysis="static")
+    s.section("frame", E=720.0, nu=0.3, rho=1.0, A=6.0, I=2.0, kappa=5.0 / 6.0)
+    for name, x, y in [("base", 0.0, 0.0), ("corner", 0.0, 120.0), ("load", 24.0, 120.0), ("end", 120.0, 120.0)]:
+        s.node(name, x, y)
+    s.beam("base", "corner", section="frame", split=10)
+    s.beam("corner", "load", section="frame", split=2)
+    s.beam("load", "end", section="frame", split=8)
+    s.pin("support_a", "base")
+    s.pin("support_b", "end")
+    s.load("load", force=(0.0, -P))
+    s.simulation(load_steps=50)
+    return s
+
+
+def test_lee_frame_past_its_limit_load_reports_the_limit_load():
+    limit = 18.55 * 720.0 * 2.0 / 120.0**2
+    assert flextop.Simulation(lee_frame(0.9 * limit)).run().response("compliance") > 0
+    P = 2.5
+    with pytest.raises(flextop.SimulationError, match="a limit point or a mechanism may lie there") as info:
+        flextop.Simulation(lee_frame(P)).run()
+    load_factor = float(re.search(r"past load factor ([0-9.]+)", str(info.value)).group(1))
+    assert load_factor * P == pytest.approx(limit, rel=0.015)  # 1.8646 against 1.855
