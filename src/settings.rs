@@ -12,7 +12,7 @@ use std::str::FromStr;
 use serde::Deserialize;
 
 use crate::element::MassKind;
-use crate::error::SettingsError;
+use crate::error::{short, SettingsError};
 use crate::limits::MAX_LOAD_STEPS;
 use crate::time_grid::TimeGrid;
 
@@ -216,11 +216,14 @@ impl RunOptions {
         if let Some(h) = self.h.filter(|h| !(h.is_finite() && *h > 0.0)) {
             return bad(
                 "h",
-                format!("step size must be positive and finite, got {h}"),
+                format!("step size must be positive and finite, got {}", short(h)),
             );
         }
         if let Some(t) = self.t_end.filter(|t| !(t.is_finite() && *t > 0.0)) {
-            return bad("t_end", format!("must be positive and finite, got {t}"));
+            return bad(
+                "t_end",
+                format!("must be positive and finite, got {}", short(t)),
+            );
         }
         if let (Some(h), Some(t_end)) = (self.h, self.t_end) {
             if h > t_end {
@@ -237,13 +240,13 @@ impl RunOptions {
             }
         }
         if let Some(r) = self.rho_inf.filter(|r| !(0.0..=1.0).contains(r)) {
-            return bad("rho_inf", format!("must lie in [0, 1], got {r}"));
+            return bad("rho_inf", format!("must lie in [0, 1], got {}", short(r)));
         }
         if let Some(tol) = self
             .tol
             .filter(|t| !(t.is_finite() && *t > 0.0 && *t < 1.0))
         {
-            return bad("tol", format!("must lie in (0, 1), got {tol}"));
+            return bad("tol", format!("must lie in (0, 1), got {}", short(tol)));
         }
         for (name, value) in [("max_iter", self.max_iter), ("load_steps", self.load_steps)] {
             if value == Some(0) {

@@ -9,7 +9,7 @@ use std::collections::HashMap;
 
 use super::spec::{AnalysisSpec, BeamSpec, DesignSpec, InterpolationSpec, MassSpec};
 use super::validate::{non_negative, Result};
-use crate::error::SceneError;
+use crate::error::{short, SceneError};
 use crate::interpolation::{Interpolation, MassLaw, MASS_FLOOR};
 
 /// Design variables under construction.
@@ -81,14 +81,14 @@ pub(super) fn mass_law(d: &DesignSpec, analysis: AnalysisSpec) -> Result<MassLaw
             if !(threshold > 0.0 && threshold <= 1.0) {
                 return Err(SceneError::new(
                     "design.mass_threshold",
-                    format!("must lie in (0, 1], got {threshold}"),
+                    format!("must lie in (0, 1], got {}", short(threshold)),
                 ));
             }
             let floor = c.unwrap_or(MASS_FLOOR);
             if !(floor > 0.0 && floor <= 1.0) {
                 return Err(SceneError::new(
                     "design.mass_floor",
-                    format!("must lie in (0, 1], got {floor}"),
+                    format!("must lie in (0, 1], got {}", short(floor)),
                 ));
             }
             Ok(MassLaw::DuOlhoff { threshold, floor })
@@ -102,7 +102,7 @@ pub(super) fn law(d: &DesignSpec) -> Result<(Interpolation, f64)> {
     if !(x_min > 0.0 && x_min < 1.0) {
         return Err(SceneError::new(
             "design.x_min",
-            format!("must lie in (0, 1), got {x_min}"),
+            format!("must lie in (0, 1), got {}", short(x_min)),
         ));
     }
     Ok((interpolation(d)?, x_min))
@@ -117,7 +117,7 @@ fn interpolation(d: &DesignSpec) -> Result<Interpolation> {
             if !(p.is_finite() && p >= 1.0) {
                 return Err(SceneError::new(
                     "design.p",
-                    format!("SIMP exponent must be finite and >= 1, got {p}"),
+                    format!("SIMP exponent must be finite and >= 1, got {}", short(p)),
                 ));
             }
             Ok(Interpolation::Simp { p })

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use super::spec::SectionSpec;
 use super::validate::{positive, unknown, Result};
-use crate::error::SceneError;
+use crate::error::{short, SceneError};
 use crate::section::Section;
 
 /// The scene's sections by name.
@@ -49,7 +49,7 @@ fn elasticity(path: &str, s: &SectionSpec, e: f64) -> Result<(f64, f64)> {
     if !(nu > -1.0 && nu <= 0.5) {
         return Err(SceneError::new(
             path,
-            format!("Poisson's ratio must lie in (-1, 0.5], got {nu}"),
+            format!("Poisson's ratio must lie in (-1, 0.5], got {}", short(nu)),
         ));
     }
     Ok((g, nu))

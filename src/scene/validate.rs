@@ -37,7 +37,7 @@ pub(super) fn non_negative(path: &str, v: f64) -> Result<f64> {
     } else {
         Err(SceneError::new(
             path,
-            format!("must be non-negative and finite, got {v}"),
+            format!("must be non-negative and finite, got {}", short(v)),
         ))
     }
 }
