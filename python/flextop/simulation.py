@@ -195,9 +195,9 @@ class Simulation:
             load_steps: int | None = None) -> Results | StaticResults:
         """Runs the scene for design ``x`` (``None``: every bar at full density).
 
-        Dynamic scenes integrate to ``t_end`` with step ``h`` — shortened, if needed, so that
-        a whole number of steps ends exactly at ``t_end``; ``results.raw["h"]`` is the step
-        used — and spectral radius ``rho_inf`` (defaults from the scene's ``[simulation]``
+        Dynamic scenes integrate to ``t_end`` with step ``h`` — at most ``t_end``, and
+        shortened, if needed, so that a whole number of steps ends exactly at ``t_end``;
+        ``results.raw["h"]`` is the step used — and spectral radius ``rho_inf`` (defaults from the scene's ``[simulation]``
         table, ``rho_inf`` 0.8);
         ``tol`` is the relative Newton tolerance (1e-10), ``max_iter`` the iterations per
         step (20), ``mass`` ``"consistent"`` or ``"lumped"``. Static scenes solve the
