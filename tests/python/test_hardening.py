@@ -184,3 +184,12 @@ def test_lee_frame_past_its_limit_load_reports_the_limit_load():
         flextop.Simulation(lee_frame(P)).run()
     load_factor = float(re.search(r"past load factor ([0-9.]+)", str(info.value)).group(1))
     assert load_factor * P == pytest.approx(limit, rel=0.015)  # 1.8646 against 1.855
+
+
+@pytest.mark.parametrize("h", [1.0, 10.0, 100.0])
+def test_huge_steps_over_a_long_time_fail_clearly(h):
+    """t_end = 1e5 s with steps of 1 to 100 s used to fail Newton long after the arm had
+    stopped, or to return rotations of hundreds of radians."""
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    with pytest.raises(flextop.SimulationError, match=r"turned node '.*' by .* rad \(more than π/2 in one step\); use a smaller step h"):
+        arm.run(0.4, t_end=1e5, h=h)
