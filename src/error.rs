@@ -88,12 +88,12 @@ impl SettingsError {
 pub enum SolveError {
     /// Newton's method reached its iteration limit.
     #[error(
-        "Newton did not converge at t = {time:.6} s: residual {residual:.3e} \
-         (tolerance {tolerance:.1e}) after {iterations} iterations"
+        "Newton did not converge at {at}: residual {residual:.3e} (tolerance {tolerance:.1e}) \
+         after {iterations} iterations"
     )]
     NewtonFailed {
-        /// Time (dynamics) or load factor (statics) of the failed step.
-        time: f64,
+        /// Where: `t = … s` (dynamics) or `load factor …` (statics).
+        at: String,
         /// Iterations done.
         iterations: usize,
         /// Relative residual reached.

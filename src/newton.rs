@@ -222,9 +222,9 @@ impl<'m> Newton<'m> {
         dq_max <= 64.0 * f64::EPSILON * (self.length + q_max)
     }
 
-    fn failure(&self, t: f64, iterations: usize, residual: f64) -> SolveError {
+    fn failure(&self, at: String, iterations: usize, residual: f64) -> SolveError {
         SolveError::NewtonFailed {
-            time: t,
+            at,
             iterations,
             residual,
             tolerance: self.tol,
@@ -244,6 +244,17 @@ pub struct Point {
     pub mass_coefficient: f64,
     /// `γ'`.
     pub gamma_prime: f64,
+}
+
+impl Point {
+    /// Where the solve is, in words: `t = … s` in dynamics, `load factor …` in statics.
+    fn at(&self, dynamic: bool) -> String {
+        if dynamic {
+            format!("t = {:.6} s", self.t)
+        } else {
+            format!("load factor {:.6}", self.load)
+        }
+    }
 }
 
 impl<'m> Newton<'m> {
@@ -274,7 +285,7 @@ impl<'m> Newton<'m> {
                 return Ok(report);
             }
             if iterations == self.max_iter || !res.value().is_finite() {
-                return Err(self.failure(point.t, iterations, res.value()));
+                return Err(self.failure(point.at(rates.is_some()), iterations, res.value()));
             }
             self.solve_increment(point.t)?;
             iterations += 1;
