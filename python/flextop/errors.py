@@ -41,3 +41,10 @@ class ToleranceError(SimulationError):
 class CheckpointError(FlextopError, ValueError):
     """A checkpoint that cannot be resumed: unreadable, corrupt (its checksum or schema do
     not match), holding a design outside the bounds, or of a run that has finished."""
+
+
+class PlausibilityWarning(UserWarning):
+    """A result that completed but breaks a law it should obey: a run that created energy
+    (kinetic plus strain energy above the work done on the structure), or a negative
+    compliance under dead loads. The message gives the numbers; a smaller step or more load
+    steps usually cure it."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import warnings
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
@@ -20,9 +21,35 @@ import scipy.sparse as sp
 
 from . import _core, tolerance
 from .accuracy import preset, split_by
-from .errors import DesignError, SceneError, SettingsError
+from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
+
+
+ENERGY_CREATED = 0.05
+"""Share of the largest energy or work of a run that its kinetic plus strain energy may
+exceed the work done on it before :class:`PlausibilityWarning` (generalized-α only
+dissipates; the trapezoidal work differs by O(h²): 7e-4 at the arm's coarsest step)."""
+
+
+def _warn_if_energy_created(res: Results) -> None:
+    e = res.energies
+    energy, work = e["kinetic"] + e["strain"], e["drive_work"] + e["external_work"]
+    scale = max(np.abs(work).max(initial=0.0), np.abs(energy).max(initial=0.0))
+    excess = energy - work
+    k = int(np.argmax(excess)) if excess.size else 0
+    if scale > 0 and excess.size and excess[k] > ENERGY_CREATED * scale:
+        warnings.warn(PlausibilityWarning(
+            f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J, the work done "
+            f"{work[k]:.4g} J ({excess[k] / scale:.1%} of the largest); use a smaller step h"), stacklevel=3)
+
+
+def _warn_if_implausible_static(res: StaticResults) -> None:
+    compliance = res.response("compliance")
+    if compliance < 0:
+        warnings.warn(PlausibilityWarning(
+            f"negative compliance F^T u = {compliance:.4g} J under dead loads: the equilibrium found is on another branch; "
+            "use more load steps"), stacklevel=3)
 
 
 def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
@@ -238,9 +265,13 @@ class Simulation:
         """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
         to ``local_tol``."""
         if self.analysis == "static":
-            return StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
+            static = StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
+            _warn_if_implausible_static(static)
+            return static
         raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps])
-        return Results(self, raw, xv, settings)
+        res = Results(self, raw, xv, settings)
+        _warn_if_energy_created(res)
+        return res
 
     def _settings(self, **given: Any) -> dict[str, Any]:
         """The run settings given explicitly."""

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -193,3 +194,21 @@ def test_huge_steps_over_a_long_time_fail_clearly(h):
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     with pytest.raises(flextop.SimulationError, match=r"turned node '.*' by .* rad \(more than π/2 in one step\); use a smaller step h"):
         arm.run(0.4, t_end=1e5, h=h)
+
+
+def test_energy_created_or_a_negative_compliance_is_warned_about():
+    """No real run in the suite trips these guards (the arm's worst energy excess is 7e-4
+    of its work, at h = 0.2 s), so they are checked on results made implausible by hand."""
+    from flextop.simulation import _warn_if_energy_created, _warn_if_implausible_static
+
+    res = flextop.Simulation(flextop.scenes.robot_arm()).run(0.4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _warn_if_energy_created(res)
+    res.raw["strain"] = res.raw["strain"] + 0.1 * np.abs(res.raw["drive_work"]).max()
+    with pytest.warns(flextop.PlausibilityWarning, match=r"the run created energy: at t = .* \(9\.1% of the largest\); use a smaller step h"):
+        _warn_if_energy_created(res)
+    static = flextop.Simulation(flextop.scenes.static_truss()).run(0.4)
+    static.raw["q"] = -static.raw["q"]
+    with pytest.warns(flextop.PlausibilityWarning, match=r"negative compliance F\^T u = -[0-9.]+ J under dead loads"):
+        _warn_if_implausible_static(static)
