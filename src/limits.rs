@@ -2,7 +2,9 @@
 //! anything of that size is allocated. A refusal is a [`SceneError`](crate::SceneError) or
 //! a [`SettingsError`](crate::SettingsError) that names the limit and what to change.
 //!
-//! Elsewhere: [`crate::MAX_STEPS`] time steps and [`crate::MAX_TRAJECTORY_BYTES`] of
+//! The unknowns (three per node, one per constraint row) and the design variables (at most
+//! one per bar, a bar at least one element) follow from these. Elsewhere:
+//! [`crate::MAX_STEPS`] time steps and [`crate::MAX_TRAJECTORY_BYTES`] of
 //! recorded trajectory per run, 8 GiB of sensitivities (the `sensitivity` module), and
 //! for statics a smallest load increment and an iteration budget (`statics`).
 

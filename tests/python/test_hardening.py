@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import flextop
+import flextop.cli
 from flextop import SceneError, SettingsError
 
 
@@ -212,3 +213,21 @@ def test_energy_created_or_a_negative_compliance_is_warned_about():
     static.raw["q"] = -static.raw["q"]
     with pytest.warns(flextop.PlausibilityWarning, match=r"negative compliance F\^T u = -[0-9.]+ J under dead loads"):
         _warn_if_implausible_static(static)
+
+
+def test_the_remaining_reproducers_give_named_errors(tmp_path, capsys):
+    with pytest.raises(flextop.SceneFileError, match="no scene file given"):
+        flextop.Scene.from_toml("")
+    spec = flextop.scenes.static_truss().to_dict()
+    spec["design"].update(x_min=1e-6, p=5.0)
+    with pytest.raises(flextop.SimulationError, match="more than π/2 in one step"):
+        flextop.Simulation(spec).run(1e-6)  # rotations of 1e27 rad before
+    with pytest.raises(SettingsError, match="max_iter: must be at least 1"):
+        flextop.Simulation(flextop.scenes.static_truss()).run(0.4, max_iter=0)
+    with pytest.raises(SettingsError, match="step size 2 exceeds t_end 1.3"):
+        flextop.Simulation(flextop.scenes.robot_arm()).run(0.4, h=2.0)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    code = flextop.cli.main(["simulate", "static_truss", "--out", str(blocker / "sub")])  # an output folder that cannot be made
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and err.count("\n") == 0 and err.startswith("flextop: error:") and "Not a directory" in err, err
