@@ -74,6 +74,10 @@ MAX_REFINEMENT = 16
 MAX_STEPS = 1 << 20
 """Most steps a run to a tolerance may take."""
 
+MAX_FAILED_REFINEMENTS = 3
+"""Refinements in a row whose runs fail (more steps, or elements, each time) before a run
+to a tolerance gives up with the failure."""
+
 
 @dataclass(frozen=True, order=True)
 class Discretization:
@@ -176,13 +180,26 @@ def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Disc
 
     Raises :class:`ToleranceError` when the tolerance needs more than ``MAX_REFINEMENT``
     times the elements per bar or ``MAX_STEPS`` steps, naming the quantity and the error
-    reached.
+    reached, or when the runs still fail after ``MAX_FAILED_REFINEMENTS`` refinements in a
+    row, with the last failure.
     """
-    d = first
+    failures: list[SimulationError] = []
+
+    def recorded(d: Discretization) -> Quantities:
+        try:
+            return values(d)
+        except SimulationError as error:
+            failures.append(error)
+            raise
+
+    d, failed = first, 0
     while True:
-        verdict = _judge(values, d, tol)
+        verdict = _judge(recorded, d, tol)
         if verdict.passed:
             return d, verdict.estimate
+        failed = failed + 1 if verdict.failed else 0
+        if failed > MAX_FAILED_REFINEMENTS and failures:
+            raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
         refined = _refine(d, verdict.worst_time, verdict.worst_space)
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS:
             raise _beyond_limits(d, verdict.estimate, tol)
@@ -191,13 +208,16 @@ def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Disc
 
 @dataclass(frozen=True)
 class Verdict:
-    """A candidate judged: its estimate (``None`` if a run failed), and the largest shares
-    of the budget the time error, the space error and their sum take."""
+    """A candidate judged: its estimate (``None`` if a run failed), the largest shares of
+    the budget the time error, the space error and their sum take, and whether the
+    candidate's own run failed."""
 
     estimate: ErrorEstimate | None
     worst_time: float
     worst_space: float
     worst_total: float = np.inf
+    failed: bool = False
+    """Whether the candidate's own run failed (not only a companion)."""
 
     @property
     def passed(self) -> bool:
@@ -212,7 +232,7 @@ def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
     fine = _try(values, d)
     half = _try(values, d.half_steps) if dynamic else None
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
-        return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
+        return Verdict(None, np.inf, 0.0, failed=fine is None) if dynamic else Verdict(None, 0.0, np.inf, failed=True)
     if dynamic:
         least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], fine)  # contraction 4: the least time error
         if _ratio(least.time, tol.budget(least)) > 2.0:

@@ -72,6 +72,12 @@ def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
 
     d, _ = resolve(failing, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
     assert d.steps // 2 >= 64, "the candidate and its half-steps companion ran (a failed quarter run is not needed)"
+    def always_failing(d):
+        raise SimulationError("Newton did not converge at t = 0.1 s")
+
+    with pytest.raises(ToleranceError, match=r"the runs still fail after 3 refinements, at 1× the scene's elements per bar and 64 steps: "
+                                             r"Newton did not converge at t = 0.1 s"):
+        resolve(always_failing, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
     monkeypatch.setattr(tolerance, "MAX_STEPS", 256)
     with pytest.raises(ToleranceError, match="rtol = 1e-08 cannot be met for f: estimated relative error"):
         resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-8]), np.array([0.0])))
