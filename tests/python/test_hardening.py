@@ -222,6 +222,8 @@ def test_the_remaining_reproducers_give_named_errors(tmp_path, capsys):
     spec["design"].update(x_min=1e-6, p=5.0)
     with pytest.raises(flextop.SimulationError, match="more than π/2 in one step"):
         flextop.Simulation(spec).run(1e-6)  # rotations of 1e27 rad before
+    with pytest.raises(SettingsError, match="accuracy must be one of fast, balanced, accurate; got 'bogus'"):
+        flextop.Simulation(flextop.scenes.static_truss(), accuracy="bogus")
     with pytest.raises(SettingsError, match="max_iter: must be at least 1"):
         flextop.Simulation(flextop.scenes.static_truss()).run(0.4, max_iter=0)
     with pytest.raises(SettingsError, match="step size 2 exceeds t_end 1.3"):
