@@ -123,14 +123,19 @@ impl SparseLdlt {
         }
     }
 
-    fn factors(&self) -> LdltRef<'_, usize, f64> {
-        assert!(self.factorized, "solve before a successful factorization");
-        LdltRef::new(&self.symbolic, &self.factors)
+    /// The factors, or an error if the last factorization failed (or none was made).
+    fn factors(&self) -> Result<LdltRef<'_, usize, f64>, FactorError> {
+        if !self.factorized {
+            return Err(FactorError::Singular(
+                "no successful factorization to solve with".into(),
+            ));
+        }
+        Ok(LdltRef::new(&self.symbolic, &self.factors))
     }
 
     /// Solves `A x = b` in place (`b` overwritten by `x`).
     pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), FactorError> {
-        assert!(self.factorized, "solve before a successful factorization");
+        self.factors()?;
         let ldlt = LdltRef::new(&self.symbolic, &self.factors);
         let n = b.len();
         ldlt.solve_in_place_with_conj(
@@ -152,7 +157,7 @@ impl SparseLdlt {
     ) -> Result<(), FactorError> {
         let n = self.pattern.nrows();
         let block = MatMut::from_column_major_slice_mut(b, n, nrhs);
-        self.factors()
+        self.factors()?
             .solve_in_place_with_conj(Conj::No, block, Par::Seq, MemStack::new(scratch));
         finite(b)
     }

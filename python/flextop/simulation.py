@@ -36,9 +36,9 @@ def _warn_if_energy_created(res: Results) -> None:
     e = res.energies
     energy, work = e["kinetic"] + e["strain"], e["drive_work"] + e["external_work"]
     scale = max(np.abs(work).max(initial=0.0), np.abs(energy).max(initial=0.0))
-    excess = energy - work
-    k = int(np.argmax(excess)) if excess.size else 0
-    if scale > 0 and excess.size and excess[k] > ENERGY_CREATED * scale:
+    excess = energy - work  # at least the initial state: never empty
+    k = int(np.argmax(excess))
+    if excess[k] > ENERGY_CREATED * scale > 0:
         warnings.warn(PlausibilityWarning(
             f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J, the work done "
             f"{work[k]:.4g} J ({excess[k] / scale:.1%} of the largest); use a smaller step h"), stacklevel=3)
