@@ -23,12 +23,14 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from . import checkpoint, scenes
-from .errors import CheckpointError, DesignError, FlextopError, SceneFileError, SettingsError, SimulationError
+from . import checkpoint, scenarios, scenes
+from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
+from .execution import local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
 from .problems import TopologyProblem, volume_constraints
-from .scene import Scene
+from .scenarios import ScenarioProblem
+from .scene import Scene, read_toml
 from .simulation import Results, Simulation
 
 
@@ -112,34 +114,101 @@ def _scene(spec: str) -> Scene:
     return Scene.from_toml(spec)
 
 
+def _problem(args: argparse.Namespace, executor) -> tuple[Simulation, TopologyProblem | ScenarioProblem]:
+    """The problem the arguments describe: one scene, or the scenarios of ``--scenarios``,
+    with volume constraints per component (or on the whole) of the first scene."""
+    if args.scenarios is None:
+        sim = Simulation(_scene(args.scene or "robot_arm"), accuracy=args.accuracy)
+        constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
+        return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
+    if args.scene is not None:
+        raise SettingsError("give a scene or --scenarios, not both")
+    cases, aggregate = _scenario_file(args.scenarios)
+    first = Simulation(cases[0].spec(), accuracy=args.accuracy)
+    constraints = volume_constraints(first, args.volume_fraction, per_component=not args.global_volume)
+    problem = ScenarioProblem(cases, args.objective or first._default_response(), constraints, aggregate=args.aggregate or aggregate,
+                              executor=executor, settings=_settings(args), rtol=args.rtol, accuracy=args.accuracy)
+    return problem.simulations[0], problem
+
+
+def _scenario_file(spec: str) -> tuple[list[scenarios.Scenario], str]:
+    """The scenarios of a TOML file (``aggregate = "sum" | "worst"`` and ``[[scenario]]``
+    tables of ``name``, ``scene`` — a file relative to this one or a built-in scene — and
+    ``weight``), or of the built-in ``robust_robot_arm``."""
+    if not Path(spec).exists() and spec == "robust_robot_arm":
+        return scenarios.robust_robot_arm(), "worst"
+    data = read_toml(spec)
+    entries = data.get("scenario")
+    if not isinstance(entries, list) or not entries:
+        raise SceneFileError(f"{spec}: give the scenarios as [[scenario]] tables (name, scene, weight)")
+    cases = []
+    for k, entry in enumerate(entries):
+        if not isinstance(entry, dict) or set(entry) - {"name", "scene", "weight"} or "scene" not in entry:
+            raise SceneFileError(f"{spec}: scenario[{k}] needs a scene and may have a name and a weight, nothing else")
+        path = Path(spec).parent / str(entry["scene"])
+        scene = _scene(str(path) if path.exists() else str(entry["scene"]))
+        cases.append(scenarios.Scenario(str(entry.get("name", f"scenario {k}")), scene, entry.get("weight", 1.0)))
+    aggregate = data.get("aggregate", "sum")
+    if aggregate not in {a.value for a in scenarios.Aggregate}:
+        raise SceneFileError(f"{spec}: aggregate must be \"sum\" or \"worst\", got {aggregate!r}")
+    return cases, aggregate
+
+
+def _start(problem, x: np.ndarray) -> np.ndarray:
+    return problem.start(x) if isinstance(problem, ScenarioProblem) else x
+
+
+def _title(sim: Simulation, problem) -> str:
+    if isinstance(problem, ScenarioProblem):
+        return f"{len(problem.scenarios)} scenarios of {sim.spec.get('name') or 'a scene'}"
+    return sim.spec.get("name") or "scene"
+
+
+def _objective(problem) -> str:
+    if isinstance(problem, ScenarioProblem):
+        how = "the worst" if problem.aggregate is scenarios.Aggregate.WORST else "the weighted sum of"
+        return f"{how} {problem.objective} over the scenarios"
+    return problem.objective
+
+
+def _bounds(problem) -> list[tuple[str, float]]:
+    """The constraints with an upper bound, by name."""
+    if isinstance(problem, ScenarioProblem):
+        return [(name, bound) for _, _, name, bound in problem.constraints]
+    return list(problem.constraints)
+
+
 def _settings(args: argparse.Namespace) -> dict:
     return {k: v for k, v in {"h": args.h, "rho_inf": args.rho_inf, "t_end": args.t_end}.items() if v is not None}
 
 
 def optimize_command(args: argparse.Namespace) -> int:
-    """Topology optimization of a scene with checkpoints, progress bar, summary and plots."""
+    """Topology optimization of a scene, or of several scenarios, with checkpoints, progress
+    bar, summary and plots; the scenarios of an evaluation run on ``--workers`` local
+    processes or on the Dask cluster at ``--scheduler``."""
+    with local_executor(args.workers, args.scheduler) as executor:
+        return _optimize(args, executor)
+
+
+def _optimize(args: argparse.Namespace, executor) -> int:
     out = Path(args.out)
     if args.resume:
-        scene, sim, problem, options, x0, state, animate = _resume(args, out)
+        sim, problem, options, x0, state, animate = _resume(args, out, executor)
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     else:
         if args.rtol is not None and args.h is not None:
             raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
-        scene = _scene(args.scene)
-        sim = Simulation(scene, accuracy=args.accuracy)
+        sim, problem = _problem(args, executor)
         if not sim.x_min <= args.x0 <= 1.0:
             raise DesignError(f"--x0 {args.x0:g} is outside [{sim.x_min:g}, 1]")
-        constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
-        problem = TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
         options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol,
                    "xtol": args.xtol}
-        x0, state, animate = np.full(sim.n_design, args.x0), None, args.animate
+        x0, state, animate = _start(problem, np.full(sim.n_design, args.x0)), None, args.animate
         _folder(out)
-    print(f"{scene.to_dict().get('name') or 'scene'}: minimize {problem.objective} over {sim.n_design} densities "
-          f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in problem.constraints) or 'bounds only'} ({options['method']})")
-
+    print(f"{_title(sim, problem)}: minimize {_objective(problem)} over {sim.n_design} densities "
+          f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in _bounds(problem)) or 'bounds only'} ({options['method']})")
     def save(state_dict: dict, finished: str | None = None) -> None:
-        checkpoint.save(out / "checkpoint.json", {"scene": scene.to_dict(), "accuracy": sim.accuracy, "problem": problem.to_dict(),
+        checkpoint.save(out / "checkpoint.json", {"scene": sim.spec, "accuracy": sim.accuracy, "problem": problem.to_dict(),
                                                   "optimizer": options, "x0": x0.tolist(), "state": state_dict,
                                                   "animate": animate, "finished": finished})
 
@@ -166,7 +235,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         save(latest["state"], finished=result.status.name)
     elapsed = time.perf_counter() - start
     _report(problem, result, elapsed, result.nit - (0 if state is None else state.iteration))
-    np.save(out / "design.npy", result.x)
+    np.save(out / "design.npy", result.x[: sim.n_design])
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.objective_scale}))
@@ -175,35 +244,43 @@ def optimize_command(args: argparse.Namespace) -> int:
     return 0 if result.success or result.status.name == "MAX_ITER" else 1
 
 
-def _resume(args: argparse.Namespace, out: Path):
+def _resume(args: argparse.Namespace, out: Path, executor):
     """Everything a checkpointed run needs to go on, verified: the checkpoint's own
     integrity, options that agree with it, a design inside its bounds, and a run that
     has not stopped for good."""
     path = out / "checkpoint.json"
     saved = checkpoint.load(path)
+    if args.scenarios is not None or args.scene is not None:
+        raise SettingsError("--resume takes the scene or scenarios from the checkpoint; give neither")
     try:
-        scene = Scene.from_dict(saved["scene"])
-        sim = Simulation(scene, accuracy=saved["accuracy"])
-        problem = TopologyProblem.from_dict(sim, saved["problem"])
+        if "scenarios" in saved["problem"]:
+            problem = ScenarioProblem.from_dict(saved["problem"], executor)
+            sim = problem.simulations[0]
+        else:
+            sim = Simulation(Scene.from_dict(saved["scene"]), accuracy=saved["accuracy"])
+            problem = TopologyProblem.from_dict(sim, saved["problem"])
         state = OptimizerState.from_dict(saved["state"])
         options = {**saved["optimizer"], "max_iter": args.max_iter or saved["optimizer"]["max_iter"]}
         x0 = np.array(saved["x0"], dtype=float)
     except (FlextopError, KeyError, TypeError, ValueError, AttributeError) as error:
+        if isinstance(error, ExecutionError):
+            raise
         raise CheckpointError(f"{path} does not describe a run: {error}") from None
     for flag, given, kept in (("--method", args.method, options["method"]), ("--objective", args.objective, problem.objective)):
         if given is not None and given != kept:
             raise SettingsError(f"{flag} {given} differs from the checkpoint's {kept}; start a new run in another --out")
-    if not (np.all(np.isfinite(state.x)) and np.all(state.x >= problem.lower) and np.all(state.x <= problem.upper)):
+    if not (state.x.shape == problem.lower.shape and np.all(np.isfinite(state.x)) and np.all(state.x >= problem.lower)
+            and np.all(state.x <= problem.upper)):
         raise CheckpointError(f"{path} holds a design outside the bounds [{problem.lower.min():g}, {problem.upper.max():g}]")
     finished = saved.get("finished")
     if finished in {s.name for s in CONVERGED}:
         raise CheckpointError(f"the run in {out} has converged ({finished}); there is nothing to resume")
     if state.iteration >= options["max_iter"]:
         raise CheckpointError(f"the run in {out} has done its {state.iteration} iterations; give --max-iter above that to go on")
-    return scene, sim, problem, options, x0, state, args.animate or bool(saved.get("animate"))
+    return sim, problem, options, x0, state, args.animate or bool(saved.get("animate"))
 
 
-def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> None:
+def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, session: int) -> None:
     """The final summary table; `session` iterations ran in this call (the time shares)."""
     scale = problem.objective_scale
     print(f"\n{'it':>4} {problem.objective:>16} {'max g':>10} {'change':>8} {'KKT':>9}")
@@ -213,9 +290,16 @@ def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> N
     print(f"\nstatus: {result.status.name} — {result.message}")
     print(f"{problem.objective}: {initial:.6g} at the start → {result.fun * scale:.6g} "
           f"({100 * (result.fun * scale / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
-    for (name, bound), g in zip(problem.constraints, result.constr):
+    constr = result.constr
+    if isinstance(problem, ScenarioProblem):
+        for name, value in problem.objectives(result.x, constr).items():
+            print(f"{name}: {problem.objective} = {value:.6g}")
+        constr = constr[len(constr) - len(problem.constraints):]
+        for name, d in problem.discretizations.items():
+            print(f"{name}: {d}")
+    for (name, bound), g in zip(_bounds(problem), constr):
         print(f"{name}: {(g + 1) * bound:.6g} (bound {bound:.6g})")
-    if problem.refinements:
+    if getattr(problem, "refinements", None):
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
@@ -224,22 +308,24 @@ def _report(problem: TopologyProblem, result, elapsed: float, session: int) -> N
     print(f"time: {elapsed:.2f} s — " + ", ".join(f"{k} {100 * v / elapsed:.1f} %" for k, v in {**shares, "other": other}.items()))
 
 
-def _pictures(sim: Simulation, problem: TopologyProblem, result, x0: np.ndarray, out: Path, *, animate: bool) -> None:
+def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, result, x0: np.ndarray, out: Path, *, animate: bool) -> None:
+    """Designs, history and tip error (of the first scenario) of a finished run."""
     from .plots import animate as animation, plot_design, plot_history, plot_tip_error
 
+    x0, x = x0[: sim.n_design], result.x[: sim.n_design]
     plot_design(sim, x0, path=out / "design_initial.png", title="initial design")
-    plot_design(sim, result.x, path=out / "design.png", title=f"optimized: {problem.objective}")
+    plot_design(sim, x, path=out / "design.png", title=f"optimized: {_objective(problem)}")
     if result.history:
         plot_history(result.history, path=out / "history.png", objective_label=f"{problem.objective} (scaled)",
-                     constraint_labels=[n for n, _ in problem.constraints])
+                     constraint_labels=list(problem.names or []))
     written = ["design_initial.png", "design.png", "history.png"]
     if sim.analysis == "dynamic" and sim.tip is not None:
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
-        before, after = sim.run(x0, **tolerance, **problem.settings), sim.run(result.x, **tolerance, **problem.settings)
+        before, after = sim.run(x0, **tolerance, **problem.settings), sim.run(x, **tolerance, **problem.settings)
         plot_tip_error(before, after, path=out / "tip_error.png")
         written.append("tip_error.png")
         if animate:
-            animation(after, out / "motion.gif", x=result.x)
+            animation(after, out / "motion.gif", x=x)
             written.append("motion.gif")
     print(f"wrote {', '.join(str(out / w) for w in written)}")
 
@@ -268,8 +354,13 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", help="folder for results.npz")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
-    o.add_argument("scene", nargs="?", default="robot_arm", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam "
+    o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam "
                    "(default robot_arm)")
+    o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight) "
+                   "and aggregate = \"sum\" | \"worst\", or the built-in robust_robot_arm (3 motions x 3 payloads, worst case)")
+    o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")
+    o.add_argument("--workers", type=_positive(int), help="run the scenarios of an evaluation on N local processes")
+    o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
     o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene)")
     o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
     o.add_argument("--volume-fraction", type=_fraction, default=0.4, help="V <= fraction * V_full (default 0.4)")
@@ -315,7 +406,7 @@ def _fail(error: BaseException) -> int:
         print(f"flextop: error: {error.filename or ''}: {error.strerror or error}".replace(": : ", ": "), file=sys.stderr)
         return 1
     print(f"flextop: error: {' '.join(str(error).split())}", file=sys.stderr)
-    return 1 if isinstance(error, SimulationError) else 2
+    return 1 if isinstance(error, (SimulationError, ExecutionError)) else 2
 
 
 def _positive(kind: type) -> Any:

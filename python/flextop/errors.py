@@ -38,6 +38,12 @@ class ToleranceError(SimulationError):
     steps: the message names the response and the error estimate reached."""
 
 
+class ExecutionError(FlextopError, RuntimeError):
+    """A task of a batch or a scenario evaluation that did not complete on its executor: its
+    worker died, it could not be sent, or the cluster could not be reached. The message
+    names the scenario or design."""
+
+
 class CheckpointError(FlextopError, ValueError):
     """A checkpoint that cannot be resumed: unreadable, corrupt (its checksum or schema do
     not match), holding a design outside the bounds, or of a run that has finished."""

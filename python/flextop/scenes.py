@@ -32,7 +32,8 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
     Link 1 is a ground structure at the origin along ``theta_start``; link 2 starts at link
     1's node (L, 0) along ``2 theta_start``. The shoulder pins link 1's middle base node and
     drives θ1, the elbow hinges the two coincident nodes and drives θ2; both follow the same
-    trapezoidal law. A ``tip_mass`` sits on link 2's node (L, 0), the ``tip``. ``ny`` must be
+    trapezoidal law. A ``tip_mass`` (the payload, kg; 0 for none) sits on link 2's node
+    (L, 0), the ``tip``. ``ny`` must be
     odd: the joints and the tip sit on the row of nodes along each link's axis.
     """
     if ny % 2 == 0:
@@ -45,7 +46,8 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
     link2 = scene.ground_structure("link2", nx=nx, ny=ny, length=length, height=height,
                                    origin=link1.node(nx - 1, ny // 2), angle=2 * theta_start, section=section,
                                    split=split)
-    scene.point_mass(link2.node(nx - 1, ny // 2), tip_mass)
+    if tip_mass != 0.0:  # no payload: no point mass
+        scene.point_mass(link2.node(nx - 1, ny // 2), tip_mass)
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
     scene.pin("shoulder", link1.node(0, ny // 2), drive=motion)
     scene.hinge("elbow", link1.node(nx - 1, ny // 2), link2.node(0, ny // 2), drive=dict(motion))

@@ -8,18 +8,21 @@ variable, ``None`` for full density). The engine releases the GIL while it runs.
 from __future__ import annotations
 
 import copy
+import json
 import math
 import os
 import warnings
+from collections import OrderedDict
+from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 import scipy.sparse as sp
 
-from . import _core, tolerance
+from . import _core, execution, tolerance
 from .accuracy import preset, split_by
 from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError
 from .scene import Scene
@@ -104,7 +107,7 @@ class Sensitivities:
 
     names: tuple[str, ...]
     values: np.ndarray
-    gradients: np.ndarray
+    gradients: np.ndarray | None
     method: str
     timings: dict[str, float]
     discretization: Discretization | None = None
@@ -172,6 +175,12 @@ class Simulation:
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
                          np.asarray(raw["component"], dtype=int), np.asarray(raw["volume"]))
         self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
+
+    @property
+    def options(self) -> dict[str, Any]:
+        """The keyword arguments that rebuild this Simulation from its scene: ``accuracy``,
+        or ``rtol``, and ``atol``."""
+        return {"accuracy": self.accuracy, "rtol": None if self.accuracy else self.rtol, "atol": self.atol}
 
     # -- description --------------------------------------------------------------------
 
@@ -328,6 +337,28 @@ class Simulation:
             return self._sensitivities(xv, names, self._settings(**gradients, **settings))
         return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
 
+    def map(self, designs: Iterable[Any], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
+            executor: Executor | None = None, **options: Any) -> list[Sensitivities]:
+        """``responses`` (default: the tip deflection, or the compliance) at each of
+        ``designs``, in their order, for parameter studies and multi-starts: with exact
+        gradients (``options`` as in :meth:`run_with_sensitivities`) or, with
+        ``gradients=False``, values only (``options`` as in :meth:`run`; ``gradients`` of
+        each result ``None``). The runs go to ``executor`` (any
+        :class:`concurrent.futures.Executor`, a Dask client's ``get_executor()``; ``None``:
+        here, in turn), each as the scene and one design (:mod:`flextop.execution`); the
+        results are the same bits whatever the executor. A run that fails raises its error
+        with ``design K:`` in front."""
+        names = (responses,) if isinstance(responses, str) else tuple(responses or (self._default_response(),))
+        vectors = []
+        for k, x in enumerate(designs):
+            try:
+                vectors.append(self._design(x))
+            except DesignError as error:
+                raise DesignError(f"design {k}: {error}") from None
+        remember(self)
+        tasks = [(f"design {k}", Task(self.spec, x, names, gradients, options, self.options)) for k, x in enumerate(vectors)]
+        return execution.run_all(perform, tasks, executor)
+
     def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
         grid = None if steps is None else [float(h) for h in steps]
         out = _core.run_with_sensitivities(self.model, xv, names, settings, grid)
@@ -482,6 +513,59 @@ class Simulation:
         return self.rigid_positions(times)[:, index]
 
 
+CACHED_SCENES = 16
+"""Scenes whose :class:`Simulation` a process keeps for its tasks, the least recently used
+dropped first."""
+
+_simulations: OrderedDict[str, Simulation] = OrderedDict()
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run in plain data, for :func:`perform` in any process: ``responses`` of
+    ``scene`` (a scene dict) at design ``x``, with gradients (``options`` of
+    :meth:`Simulation.run_with_sensitivities`) or without (``options`` of
+    :meth:`Simulation.run`); ``simulation`` holds the Simulation's own ``accuracy``,
+    ``rtol`` and ``atol``."""
+
+    scene: dict
+    x: np.ndarray | None
+    responses: tuple[str, ...]
+    gradients: bool = True
+    options: dict[str, Any] = field(default_factory=dict)
+    simulation: dict[str, Any] = field(default_factory=dict)
+
+
+def perform(task: Task) -> Sensitivities:
+    """Runs ``task`` on this process's :class:`Simulation` of its scene, built on first use."""
+    sim = _cached(task.scene, task.simulation)
+    if task.gradients:
+        return sim.run_with_sensitivities(task.x, task.responses, **task.options)
+    res = sim.run(task.x, responses=task.responses, **task.options)
+    values = np.array([res.response(name) for name in task.responses])
+    return Sensitivities(task.responses, values, None, "none", {}, res.discretization, dict(res.errors))
+
+
+def _key(scene: dict, options: dict[str, Any]) -> str:
+    return json.dumps([scene, options], sort_keys=True, default=float)
+
+
+def _cached(scene: dict, options: dict[str, Any]) -> Simulation:
+    key = _key(scene, options)
+    if key not in _simulations:
+        _simulations[key] = Simulation(scene, **options)
+    _simulations.move_to_end(key)
+    while len(_simulations) > CACHED_SCENES:
+        _simulations.popitem(last=False)
+    return _simulations[key]
+
+
+def remember(sim: Simulation) -> None:
+    """Lets this process's tasks on ``sim``'s scene and options run on ``sim`` itself."""
+    _simulations[_key(sim.spec, sim.options)] = sim
+    _cached(sim.spec, sim.options)
+
+
 @dataclass
 class _Run:
     """What dynamic and static results share: the run's data and its joint loads."""
@@ -496,7 +580,7 @@ class _Run:
     """For a run made to a tolerance: the estimated relative error of each response it met."""
     companions: tuple[_Run | None, _Run | None, _Run] | None = field(default=None, repr=False)
     """The runs the estimate compares with: half and a quarter of the steps (``None`` for
-    statics), and twice the elements per bar."""
+    statics), and twice the elements per bar on half the steps."""
 
     @property
     def q(self) -> np.ndarray:
@@ -524,7 +608,7 @@ class _Run:
         step doubling in time and space (:mod:`flextop.tolerance`). A run made to a
         tolerance has its companion runs already; for any other run they are made on the
         first call: its steps merged in pairs and in fours, and twice the elements per bar
-        on its steps (a static scene: twice the elements per bar only)."""
+        on the steps merged in pairs (a static scene: twice the elements per bar only)."""
         half, quarter, split = self._companions()
         value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
         est = tolerance.estimate(value(self), value(half), value(quarter), value(split))
@@ -538,7 +622,8 @@ class _Run:
                 if len(steps) < 4:
                     raise SettingsError("an error estimate needs a run of at least 4 steps")
                 half, quarter = (self.simulation._fixed(self.x, self.settings, steps=_merged(steps, k)) for k in (2, 4))
-            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=steps))
+            split_steps = None if steps is None else _merged(steps, 2)
+            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=split_steps))
         return self.companions
 
 

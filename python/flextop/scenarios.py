@@ -1,0 +1,270 @@
+"""Designs for several motions, payloads or load cases at once.
+
+A :class:`Scenario` is one variant of a machine's scene (a drive law, a payload, a load
+case) with a weight. Scenarios share the design variables: their scenes differ in what
+moves and what is carried, not in the bars. A :class:`ScenarioProblem` minimizes, over
+the shared densities,
+
+    the weighted sum     F(x) = Σₛ wₛ fₛ(x)                        (``Aggregate.SUM``)
+    or the worst case    max_s wₛ fₛ(x)                            (``Aggregate.WORST``)
+
+of one response ``f`` of every scenario, subject to upper bounds on responses of each
+scenario, or of all. The worst case is the bound formulation: an extra variable ``β``
+(the last one) is minimized subject to ``wₛ fₛ(x)/f_ref ≤ β`` for every scenario, so that
+every function stays smooth and any optimizer of :mod:`flextop.optimizers` solves it (MMA
+sees what its own extra variable ``z`` would give). Values are scaled by ``f_ref``, the
+aggregate at the first design evaluated, as in :class:`~flextop.TopologyProblem`.
+
+Each evaluation runs one simulation with sensitivities per scenario on an executor
+(:mod:`flextop.execution`): the scene and the design cross to the worker, the values and
+gradients come back, and their sum is taken here, in the scenarios' order, so the result
+is the same bits on any executor. :func:`evaluate` does the same for a batch of designs.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from concurrent.futures import Executor
+from dataclasses import astuple, dataclass
+from typing import Any
+
+import numpy as np
+
+from . import execution, scenes
+from .errors import DesignError, SceneError, SimulationError
+from .optimizers import Evaluation, EvaluationError, Problem
+from .scene import Scene
+from .simulation import Sensitivities, Simulation, Task, perform, remember
+from .tolerance import Discretization
+
+WORST_CASE_CEILING = 2.0
+"""Upper bound of the worst-case variable ``β``: the worst scaled response may not grow to
+twice its value at the start design (where ``β = 1``)."""
+
+DESIGN_ONLY = ("volume",)
+"""Responses that depend on the design alone: constrained once, not per scenario."""
+
+
+class Aggregate(enum.Enum):
+    """How the scenarios' objectives combine."""
+
+    SUM = "sum"
+    """The weighted sum ``Σ wₛ fₛ``."""
+    WORST = "worst"
+    """The largest ``wₛ fₛ``, by the bound formulation."""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One variant of the machine: its ``name``, its scene (a :class:`Scene`, a scene dict
+    or a TOML path) and its ``weight`` in the objective."""
+
+    name: str
+    scene: Scene | dict | str
+    weight: float = 1.0
+
+    def spec(self) -> dict:
+        """The scene as a dict."""
+        if isinstance(self.scene, Scene):
+            return self.scene.to_dict()
+        if isinstance(self.scene, dict):
+            return self.scene
+        return Scene.from_toml(self.scene).to_dict()
+
+
+def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list[Simulation]:
+    """Each scenario's :class:`Simulation` in this process, checked to share the design."""
+    if not scenarios:
+        raise SceneError("scenarios: give at least one")
+    names = [s.name for s in scenarios]
+    if len(set(names)) != len(names):
+        raise SceneError(f"scenarios: names must differ, got {names}")
+    sims = []
+    for s in scenarios:
+        if not (isinstance(s.weight, (int, float)) and math.isfinite(s.weight) and s.weight > 0):
+            raise SceneError(f"scenario {s.name!r}: the weight must be a positive number, got {s.weight!r}")
+        try:
+            sims.append(Simulation(s.spec(), **options))
+        except SceneError as error:
+            raise type(error)(f"scenario {s.name!r}: {error}") from None
+        if sims[-1].variable_names != sims[0].variable_names:
+            raise SceneError(f"scenario {s.name!r}: its design variables differ from those of {scenarios[0].name!r}; "
+                             "scenarios share one design")
+        remember(sims[-1])
+    return sims
+
+
+class ScenarioProblem(Problem):
+    """Minimize the ``aggregate`` (``"sum"`` or ``"worst"``) of ``objective`` over
+    ``scenarios`` subject to ``constraints``: ``(response, bound)`` for every scenario
+    (once for a response of the design alone, such as ``volume:link1``) or ``(scenario,
+    response, bound)`` for one. Constraints are named ``"SCENARIO: response"``.
+
+    ``executor`` runs the scenarios of an evaluation (:mod:`flextop.execution`; ``None``:
+    here, in turn). ``settings``, ``method``, ``rtol``, ``atol`` and ``objective_scale`` are
+    those of :class:`~flextop.TopologyProblem`, with the discretization chosen per scenario
+    (``discretizations``). A failed scenario run becomes an
+    :class:`~flextop.optimizers.EvaluationError` naming it, which the optimizer recovers
+    from; a worker lost is an :class:`~flextop.errors.ExecutionError`.
+
+    With the worst case, designs have one more entry than the scenes' design variables:
+    ``β`` last; :meth:`start` appends it to a design.
+    """
+
+    def __init__(self, scenarios: Sequence[Scenario], objective: str,
+                 constraints: Iterable[tuple[str, float] | tuple[str, str, float]] = (), *, aggregate: str | Aggregate = "sum",
+                 executor: Executor | None = None, settings: Mapping[str, Any] | None = None, method: str = "auto",
+                 objective_scale: float | None = None, rtol: float | None = None, atol: float | None = None,
+                 accuracy: str | None = None) -> None:
+        self.scenarios = list(scenarios)
+        self.simulations = _simulations(self.scenarios, {"accuracy": accuracy})
+        self.objective = objective
+        self.aggregate = Aggregate(aggregate)
+        self.executor = executor
+        self.settings = dict(settings or {})
+        self.method, self.objective_scale = method, objective_scale
+        self.rtol, self.atol, self.accuracy = rtol, atol, accuracy
+        self.discretizations: dict[str, Discretization] = {}
+        self.timings = {"simulation": 0.0, "gradients": 0.0}
+        self.given = [tuple(c) for c in constraints]
+        self.constraints = self._constraints(self.given)
+        self.n_design = self.simulations[0].n_design
+        worst = self.aggregate is Aggregate.WORST
+        lower = np.append(np.full(self.n_design, self.simulations[0].x_min), [0.0] if worst else [])
+        upper = np.append(np.ones(self.n_design), [WORST_CASE_CEILING] if worst else [])
+        names = ([f"{s.name}: {objective} (worst case)" for s in self.scenarios] if worst else []) + [c[2] for c in self.constraints]
+        super().__init__(lower, upper, len(names), names)
+
+    def _constraints(self, given: Iterable[tuple]) -> list[tuple[int | None, str, str, float]]:
+        """``(scenario index or None for a design-only response, response, name, bound)``."""
+        index = {s.name: k for k, s in enumerate(self.scenarios)}
+        out: list[tuple[int | None, str, str, float]] = []
+        for entry in given:
+            *where, response, bound = entry
+            if not (isinstance(bound, (int, float)) and math.isfinite(bound) and bound > 0):
+                raise ValueError(f"constraint {response!r}: the upper bound must be positive and finite, got {bound}")
+            if where and where[0] not in index:
+                raise SceneError(f"constraint {response!r}: no scenario named {where[0]!r} ({', '.join(index)})")
+            if response.split(":")[0] in DESIGN_ONLY and not where:
+                out.append((None, response, response, float(bound)))
+                continue
+            for k in [index[where[0]]] if where else range(len(self.scenarios)):
+                out.append((k, response, f"{self.scenarios[k].name}: {response}", float(bound)))
+        return out
+
+    def start(self, x: Any) -> np.ndarray:
+        """The design ``x`` of the scenes as a design of this problem (``β = 1`` appended
+        for the worst case: the scaled worst case at the start design)."""
+        x = np.asarray(x, dtype=float)
+        return np.append(x, 1.0) if self.aggregate is Aggregate.WORST else x
+
+    def responses(self, k: int) -> list[str]:
+        """What scenario ``k`` computes: the objective, its constraints' responses, and (the
+        first scenario) the design-only ones."""
+        own = [r for j, r, _, _ in self.constraints if j == k or (j is None and k == 0)]
+        return [self.objective, *dict.fromkeys(own)]
+
+    def objectives(self, x: np.ndarray, g: np.ndarray) -> dict[str, float]:
+        """Each scenario's objective ``fₛ`` read off a worst-case design ``x`` and its
+        constraint values ``g`` (``wₛ fₛ / f_ref − β``); empty for a weighted sum."""
+        if self.aggregate is not Aggregate.WORST or self.objective_scale is None:
+            return {}
+        return {s.name: (g[k] + x[-1]) * self.objective_scale / s.weight for k, s in enumerate(self.scenarios)}
+
+    def evaluate(self, x: np.ndarray) -> Evaluation:
+        """Objective and constraints with gradients: one run with sensitivities per scenario."""
+        runs = self._run(np.asarray(x, dtype=float)[: self.n_design])
+        value = lambda k, name: runs[k].values[self.responses(k).index(name)]  # noqa: E731
+        grad = lambda k, name: runs[k].gradients[self.responses(k).index(name)]  # noqa: E731
+        w = np.array([s.weight for s in self.scenarios])
+        f = np.array([w[k] * value(k, self.objective) for k in range(len(runs))])
+        df = np.array([w[k] * grad(k, self.objective) for k in range(len(runs))])
+        worst = self.aggregate is Aggregate.WORST
+        if self.objective_scale is None:
+            total = float(np.max(f)) if worst else float(np.sum(f))
+            self.objective_scale = abs(total) if total != 0 else 1.0
+        scale = self.objective_scale
+        g, dg = [], []
+        for j, response, _, bound in self.constraints:
+            k = 0 if j is None else j
+            g.append(value(k, response) / bound - 1.0)
+            dg.append(grad(k, response) / bound)
+        g_arr, dg_arr = np.array(g).reshape(-1), np.array(dg).reshape(-1, self.n_design)
+        if not worst:
+            return Evaluation(float(np.sum(f)) / scale, g_arr, np.sum(df, axis=0) / scale, dg_arr)
+        beta = float(x[-1])
+        column = lambda rows, v: np.hstack([rows, np.full((rows.shape[0], 1), v)])  # noqa: E731
+        df0 = np.append(np.zeros(self.n_design), 1.0)
+        return Evaluation(beta, np.concatenate([f / scale - beta, g_arr]), df0,
+                          np.vstack([column(df / scale, -1.0), column(dg_arr, 0.0)]))
+
+    def _run(self, x: np.ndarray) -> list[Sensitivities]:
+        options = {"method": self.method, **self.settings}
+        if self.rtol or any(sim.rtol for sim in self.simulations):
+            options |= {"rtol": self.rtol, "atol": self.atol, "hold_gradients": False}
+        tasks = [(f"scenario {s.name!r}", Task(sim.spec, x, tuple(self.responses(k)), True,
+                                               options | ({"start": self.discretizations.get(s.name)} if "rtol" in options else {}),
+                                               sim.options))
+                 for k, (s, sim) in enumerate(zip(self.scenarios, self.simulations))]
+        try:
+            runs = execution.run_all(perform, tasks, self.executor)
+        except SimulationError as error:
+            raise EvaluationError(str(error), x) from error
+        for s, run in zip(self.scenarios, runs):
+            if run.discretization is not None:
+                self.discretizations[s.name] = run.discretization
+            for key, seconds in run.timings.items():
+                self.timings[key] += seconds
+        return runs
+
+    def to_dict(self) -> dict:
+        """What rebuilds this problem (for checkpoints): the scenarios' scenes included."""
+        return {"scenarios": [{"name": s.name, "scene": s.spec(), "weight": s.weight} for s in self.scenarios],
+                "objective": self.objective, "aggregate": self.aggregate.value,
+                "constraints": [list(c) for c in self.given],
+                "settings": self.settings, "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol,
+                "atol": self.atol, "accuracy": self.accuracy,
+                "discretizations": {name: list(astuple(d)) for name, d in self.discretizations.items()}}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], executor: Executor | None = None) -> ScenarioProblem:
+        problem = cls([Scenario(s["name"], s["scene"], s["weight"]) for s in data["scenarios"]], data["objective"],
+                      [tuple(c) for c in data["constraints"]], aggregate=data["aggregate"], executor=executor,
+                      settings=data["settings"], method=data["method"], objective_scale=data["objective_scale"],
+                      rtol=data.get("rtol"), atol=data.get("atol"), accuracy=data.get("accuracy"))
+        problem.discretizations = {name: Discretization(*d) for name, d in data.get("discretizations", {}).items()}
+        return problem
+
+
+def evaluate(scenarios: Sequence[Scenario], designs: Iterable[Any], responses: Sequence[str] | str, *, gradients: bool = True,
+             executor: Executor | None = None, **options: Any) -> list[dict[str, Sensitivities]]:
+    """``responses`` of every scenario at each of ``designs`` (Monte Carlo over payloads,
+    parameter studies over motions, multi-starts), as one dict per design from scenario
+    name to its result, in the designs' order; ``gradients`` and ``options`` as in
+    :meth:`Simulation.map`. Every run is a task of ``executor``."""
+    sims = _simulations(scenarios, {})
+    names = (responses,) if isinstance(responses, str) else tuple(responses)
+    vectors = []
+    for i, x in enumerate(designs):
+        try:
+            vectors.append(sims[0]._design(x))
+        except DesignError as error:
+            raise DesignError(f"design {i}: {error}") from None
+    tasks = [(f"scenario {s.name!r}, design {i}", Task(sim.spec, x, names, gradients, options, sim.options))
+             for i, x in enumerate(vectors) for s, sim in zip(scenarios, sims)]
+    flat = execution.run_all(perform, tasks, executor)
+    n = len(scenarios)
+    return [{s.name: flat[i * n + k] for k, s in enumerate(scenarios)} for i in range(len(vectors))]
+
+
+def robust_robot_arm(*, payloads: Sequence[float] = (0.0, 2.5, 5.0), **scene: Any) -> list[Scenario]:
+    """The paper's arm for three motions — the reference (θ from π/3 to π/2 at 0.5 rad/s,
+    2 rad/s²), the same twice as fast (1 rad/s, 8 rad/s²) and a shorter move to another end
+    pose (π/3 to 5π/12) — each with each of ``payloads`` (kg at the tip): nine scenarios,
+    named ``"reference, 5 kg"`` and so on."""
+    motions = {"reference": {}, "twice as fast": {"speed": 1.0, "acceleration": 8.0}, "to 75°": {"theta_end": 5 * math.pi / 12}}
+    return [Scenario(f"{motion}, {payload:g} kg", scenes.robot_arm(tip_mass=payload, **(changes | scene)))
+            for motion, changes in motions.items() for payload in payloads]
+

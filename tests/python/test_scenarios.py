@@ -1,0 +1,175 @@
+"""Scenario problems and batches on any executor: sums exact to round-off, the worst case
+against finite differences, resume, the same bits on every executor, failures named."""
+
+import os
+import subprocess
+import sys
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from multiprocessing import get_context
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import execution, scenes
+from flextop.errors import ExecutionError, FlextopError, SimulationError
+from flextop.optimizers import EvaluationError
+from flextop.scenarios import Scenario, ScenarioProblem, evaluate, robust_robot_arm
+
+ARM_T_END = 0.4  # a shorter motion keeps the tests quick; the physics is the arm's
+
+
+def arm(**changes):
+    spec = scenes.robot_arm(**changes).to_dict()
+    spec["simulation"]["t_end"] = ARM_T_END
+    return spec
+
+
+def two_scenarios():
+    return [Scenario("reference", arm()), Scenario("light and fast", arm(tip_mass=2.5, speed=1.0, acceleration=8.0), 2.0)]
+
+
+def design(n, seed=0):
+    return np.random.default_rng(seed).uniform(0.2, 1.0, n)
+
+
+def volumes(scenario):
+    return flextop.volume_constraints(flextop.Simulation(scenario.scene), 0.4)
+
+
+def test_a_weighted_sum_of_two_scenarios_is_the_sum_of_their_runs():
+    cases = two_scenarios()
+    problem = ScenarioProblem(cases, "tip_deflection", volumes(cases[0]) + [("compliance", 50.0)])
+    x = design(problem.n)
+    e = problem.evaluate(x)
+    alone = [flextop.Simulation(c.scene).run_with_sensitivities(x, ["tip_deflection", "compliance"]) for c in cases]
+    f = sum(c.weight * a.values[0] for c, a in zip(cases, alone))
+    df = sum(c.weight * a.gradients[0] for c, a in zip(cases, alone))
+    assert abs(e.f0 * problem.objective_scale - f) <= 1e-14 * abs(f)
+    assert np.max(np.abs(e.df0 * problem.objective_scale - df)) <= 1e-14 * np.max(np.abs(df))
+    # volumes once, compliance once per scenario, named after it
+    assert problem.names == ["volume:link1", "volume:link2", "reference: compliance", "light and fast: compliance"]
+    for k, a in enumerate(alone):
+        assert abs((e.g[2 + k] + 1.0) * 50.0 - a.values[1]) <= 1e-14 * a.values[1]
+        assert np.max(np.abs(e.dg[2 + k] * 50.0 - a.gradients[1])) <= 1e-14 * np.max(np.abs(a.gradients[1]))
+
+
+def test_the_worst_case_gradient_passes_finite_differences():
+    cases = two_scenarios()
+    problem = ScenarioProblem(cases, "tip_deflection", volumes(cases[0]), aggregate="worst")
+    x = problem.start(design(problem.n - 1, seed=3))
+    base = problem.evaluate(x)
+    assert base.f0 == 1.0 and base.g.shape == (4,) and np.max(base.g[:2]) == pytest.approx(0.0, abs=1e-15)
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        v = rng.standard_normal(problem.n)
+        v[:-1] *= 0.05
+        eps = 1e-6
+        plus, minus = problem.evaluate(x + eps * v), problem.evaluate(x - eps * v)
+        fd = (plus.g - minus.g) / (2 * eps)
+        exact = base.dg @ v
+        assert np.allclose(fd, exact, rtol=1e-5, atol=1e-8 * np.max(np.abs(exact))), (fd, exact)
+        assert (plus.f0 - minus.f0) / (2 * eps) == pytest.approx(base.df0 @ v, rel=1e-9)
+
+
+def test_scenarios_must_share_the_design_and_have_distinct_names():
+    with pytest.raises(flextop.SceneError, match="design variables differ"):
+        ScenarioProblem([Scenario("a", arm()), Scenario("b", arm(nx=4))], "tip_deflection")
+    with pytest.raises(flextop.SceneError, match="names must differ"):
+        ScenarioProblem([Scenario("a", arm()), Scenario("a", arm())], "tip_deflection")
+    with pytest.raises(flextop.SceneError, match="no scenario named 'c'"):
+        ScenarioProblem(two_scenarios(), "tip_deflection", [("c", "compliance", 1.0)])
+    with pytest.raises(flextop.SceneError, match="weight"):
+        ScenarioProblem([Scenario("a", arm(), -1.0)], "tip_deflection")
+
+
+def _same(a, b):
+    return all(np.array_equal(p.values, q.values) and np.array_equal(p.gradients, q.gradients) for p, q in zip(a, b))
+
+
+def test_every_executor_gives_the_same_bits():
+    cases = two_scenarios()
+    designs = [design(flextop.Simulation(cases[0].scene).n_design, seed=s) for s in range(3)]
+    serial = evaluate(cases, designs, ["tip_deflection", "compliance"])
+    flat = lambda runs: [r[c.name] for r in runs for c in cases]  # noqa: E731
+    with ProcessPoolExecutor(2, mp_context=get_context("spawn")) as pool:
+        assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=pool)))
+    with ThreadPoolExecutor(2) as pool:
+        assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=pool)))
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=client.get_executor())))
+
+
+def test_a_batch_keeps_the_order_of_its_designs():
+    sim = flextop.Simulation(arm())
+    designs = [np.full(sim.n_design, v) for v in (0.9, 0.3, 0.6)]
+    runs = sim.map(designs)
+    for x, run in zip(designs, runs):
+        assert np.array_equal(run.values, sim.run_with_sensitivities(x).values)
+    values = sim.map(designs, gradients=False)
+    assert np.allclose([v.values[0] for v in values], [r.values[0] for r in runs], rtol=1e-13, atol=0)
+    assert values[0].gradients is None
+    with pytest.raises(flextop.DesignError, match="design 1"):
+        sim.map([designs[0], np.full(3, 0.5)])
+
+
+def test_a_task_that_fails_in_a_worker_names_its_scenario():
+    failing = arm()
+    failing["simulation"]["max_iter"] = 1
+    cases = [Scenario("reference", arm()), Scenario("stiff servo", failing)]
+    x = design(flextop.Simulation(arm()).n_design)
+    with ProcessPoolExecutor(2, mp_context=get_context("spawn")) as pool:
+        with pytest.raises(SimulationError, match="scenario 'stiff servo', design 0: .*Newton"):
+            evaluate(cases, [x], "tip_deflection", executor=pool)
+        problem = ScenarioProblem(cases, "tip_deflection", executor=pool)
+        with pytest.raises(EvaluationError, match="scenario 'stiff servo'"):  # the optimizer steps back from it
+            problem.evaluate(x)
+
+
+def test_a_worker_that_dies_is_an_execution_error_naming_the_task():
+    with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
+        with pytest.raises(ExecutionError, match="scenario 'payload 5 kg': the task did not complete"):
+            execution.run_all(os._exit, [("scenario 'payload 5 kg'", 3)], pool)
+    assert issubclass(ExecutionError, FlextopError)
+
+
+def test_resume_reproduces_an_uninterrupted_multi_scenario_run():
+    cases = two_scenarios()
+    make = lambda: ScenarioProblem(cases, "tip_deflection", volumes(cases[0]), aggregate="worst")  # noqa: E731
+    problem = make()
+    x0 = problem.start(np.full(problem.n - 1, 0.4))
+    straight = flextop.optimize(problem, x0, "mma", max_iter=4)
+    first = make()
+    states = []
+    flextop.optimize(first, x0, "mma", max_iter=2, callback=lambda record: states.append(record.state))
+    again = ScenarioProblem.from_dict(first.to_dict())
+    resumed = flextop.optimize(again, x0, "mma", max_iter=4, state=states[-1])
+    assert np.array_equal(resumed.x, straight.x) and resumed.fun == straight.fun
+
+
+def test_the_robust_arm_has_nine_scenarios_of_one_design():
+    cases = robust_robot_arm()
+    assert len(cases) == 9 and len({c.name for c in cases}) == 9
+    assert "twice as fast, 2.5 kg" in {c.name for c in cases}
+    assert all("point_masses" not in c.scene.to_dict() for c in cases if c.name.endswith(" 0 kg"))
+
+
+def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
+    for name, changes in [("slow", {}), ("fast", {"speed": 1.0, "acceleration": 8.0})]:
+        (tmp_path / f"{name}.toml").write_text(flextop.Scene.from_dict(arm(**changes)).to_toml())
+    (tmp_path / "cases.toml").write_text('aggregate = "worst"\n[[scenario]]\nname = "slow"\nscene = "slow.toml"\n'
+                                         '[[scenario]]\nname = "fast"\nscene = "fast.toml"\nweight = 1.0\n')
+    cli = lambda *args: subprocess.run([sys.executable, "-m", "flextop.cli", "optimize", *map(str, args)],  # noqa: E731
+                                       capture_output=True, text=True, timeout=600)
+    straight = cli("--scenarios", tmp_path / "cases.toml", "--max-iter", 3, "--workers", 2, "--out", tmp_path / "a", "--no-plots")
+    assert straight.returncode == 0, straight.stderr
+    assert "2 scenarios" in straight.stdout and "slow: tip_deflection = " in straight.stdout
+    half = cli("--scenarios", tmp_path / "cases.toml", "--max-iter", 2, "--out", tmp_path / "b", "--no-plots")
+    assert half.returncode == 0, half.stderr
+    rest = cli("--resume", "--max-iter", 3, "--workers", 2, "--out", tmp_path / "b", "--no-plots")
+    assert rest.returncode == 0, rest.stderr
+    assert np.array_equal(np.load(tmp_path / "a" / "design.npy"), np.load(tmp_path / "b" / "design.npy"))
+    wrong = cli("--resume", "--scenarios", tmp_path / "cases.toml", "--out", tmp_path / "b")
+    assert wrong.returncode == 2 and "give neither" in wrong.stderr
