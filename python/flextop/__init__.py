@@ -7,15 +7,16 @@ Duysinx & Eberhard, *Optimization of multibody systems and their structural comp
 """
 
 from . import scenes
-from .errors import (CheckpointError, DesignError, FlextopError, PlausibilityWarning, SceneError, SceneFileError, SettingsError,
-                     SimulationError, ToleranceError)
+from .errors import (CheckpointError, DesignError, ExecutionError, FlextopError, PlausibilityWarning, SceneError, SceneFileError,
+                     SettingsError, SimulationError, ToleranceError)
 from .optimizers import OptimizeResult, optimize
 from .problems import TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
+from .scenarios import Scenario, ScenarioProblem
 from .scene import GroundStructure, Scene, motion_table, trapezoidal
 from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticResults
 
 __all__ = [
-    "Bars", "CheckpointError", "DesignError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scene", "SceneError", "SceneFileError", "SettingsError",
+    "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
     "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
     "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]

@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 from . import checkpoint, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
-from .execution import local_executor
+from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
 from .problems import TopologyProblem, volume_constraints
@@ -114,7 +114,7 @@ def _scene(spec: str) -> Scene:
     return Scene.from_toml(spec)
 
 
-def _problem(args: argparse.Namespace, executor) -> tuple[Simulation, TopologyProblem | ScenarioProblem]:
+def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, TopologyProblem | ScenarioProblem]:
     """The problem the arguments describe: one scene, or the scenarios of ``--scenarios``,
     with volume constraints per component (or on the whole) of the first scene."""
     if args.scenarios is None:
@@ -127,7 +127,8 @@ def _problem(args: argparse.Namespace, executor) -> tuple[Simulation, TopologyPr
     first = Simulation(cases[0].spec(), accuracy=args.accuracy)
     constraints = volume_constraints(first, args.volume_fraction, per_component=not args.global_volume)
     problem = ScenarioProblem(cases, args.objective or first._default_response(), constraints, aggregate=args.aggregate or aggregate,
-                              executor=executor, settings=_settings(args), rtol=args.rtol, accuracy=args.accuracy)
+                              executor=workers.executor, chunksize=workers.chunksize(len(cases)), settings=_settings(args),
+                              rtol=args.rtol, accuracy=args.accuracy)
     return problem.simulations[0], problem
 
 
@@ -135,8 +136,10 @@ def _scenario_file(spec: str) -> tuple[list[scenarios.Scenario], str]:
     """The scenarios of a TOML file (``aggregate = "sum" | "worst"`` and ``[[scenario]]``
     tables of ``name``, ``scene`` — a file relative to this one or a built-in scene — and
     ``weight``), or of the built-in ``robust_robot_arm``."""
-    if not Path(spec).exists() and spec == "robust_robot_arm":
-        return scenarios.robust_robot_arm(), "worst"
+    if not Path(spec).exists():
+        if spec == "robust_robot_arm":
+            return scenarios.robust_robot_arm(), "worst"
+        raise SceneFileError(f"{spec}: no such scenario file, nor a built-in set of scenarios (robust_robot_arm)")
     data = read_toml(spec)
     entries = data.get("scenario")
     if not isinstance(entries, list) or not entries:
@@ -152,6 +155,15 @@ def _scenario_file(spec: str) -> tuple[list[scenarios.Scenario], str]:
     if aggregate not in {a.value for a in scenarios.Aggregate}:
         raise SceneFileError(f"{spec}: aggregate must be \"sum\" or \"worst\", got {aggregate!r}")
     return cases, aggregate
+
+
+def _started(sim: Simulation, path: Path) -> np.ndarray:
+    """The start design of ``--start``: a design file, checked against the scene."""
+    x = _design(sim, None, path)
+    try:
+        return sim._design(x)
+    except DesignError as error:
+        raise DesignError(f"--start {path}: {error}") from None
 
 
 def _start(problem, x: np.ndarray) -> np.ndarray:
@@ -186,24 +198,25 @@ def optimize_command(args: argparse.Namespace) -> int:
     """Topology optimization of a scene, or of several scenarios, with checkpoints, progress
     bar, summary and plots; the scenarios of an evaluation run on ``--workers`` local
     processes or on the Dask cluster at ``--scheduler``."""
-    with local_executor(args.workers, args.scheduler) as executor:
-        return _optimize(args, executor)
+    with local_executor(args.workers, args.scheduler) as workers:
+        return _optimize(args, workers)
 
 
-def _optimize(args: argparse.Namespace, executor) -> int:
+def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     out = Path(args.out)
     if args.resume:
-        sim, problem, options, x0, state, animate = _resume(args, out, executor)
+        sim, problem, options, x0, state, animate = _resume(args, out, workers)
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     else:
         if args.rtol is not None and args.h is not None:
             raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
-        sim, problem = _problem(args, executor)
+        sim, problem = _problem(args, workers)
         if not sim.x_min <= args.x0 <= 1.0:
             raise DesignError(f"--x0 {args.x0:g} is outside [{sim.x_min:g}, 1]")
         options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol,
                    "xtol": args.xtol}
-        x0, state, animate = _start(problem, np.full(sim.n_design, args.x0)), None, args.animate
+        start = np.full(sim.n_design, args.x0) if args.start is None else _started(sim, args.start)
+        x0, state, animate = _start(problem, start), None, args.animate
         _folder(out)
     print(f"{_title(sim, problem)}: minimize {_objective(problem)} over {sim.n_design} densities "
           f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in _bounds(problem)) or 'bounds only'} ({options['method']})")
@@ -220,7 +233,7 @@ def _optimize(args: argparse.Namespace, executor) -> int:
         latest["state"] = record.state.to_dict()
         save(latest["state"])
         bar.update(1)
-        bar.set_postfix(f=f"{record.f0 * problem.objective_scale:.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
+        bar.set_postfix(f=f"{problem.unscaled(record.f0):.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
 
     start = time.perf_counter()
     try:
@@ -244,7 +257,7 @@ def _optimize(args: argparse.Namespace, executor) -> int:
     return 0 if result.success or result.status.name == "MAX_ITER" else 1
 
 
-def _resume(args: argparse.Namespace, out: Path, executor):
+def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     """Everything a checkpointed run needs to go on, verified: the checkpoint's own
     integrity, options that agree with it, a design inside its bounds, and a run that
     has not stopped for good."""
@@ -254,7 +267,8 @@ def _resume(args: argparse.Namespace, out: Path, executor):
         raise SettingsError("--resume takes the scene or scenarios from the checkpoint; give neither")
     try:
         if "scenarios" in saved["problem"]:
-            problem = ScenarioProblem.from_dict(saved["problem"], executor)
+            n = len(saved["problem"]["scenarios"])
+            problem = ScenarioProblem.from_dict(saved["problem"], workers.executor, workers.chunksize(n))
             sim = problem.simulations[0]
         else:
             sim = Simulation(Scene.from_dict(saved["scene"]), accuracy=saved["accuracy"])
@@ -282,14 +296,13 @@ def _resume(args: argparse.Namespace, out: Path, executor):
 
 def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, session: int) -> None:
     """The final summary table; `session` iterations ran in this call (the time shares)."""
-    scale = problem.objective_scale
     print(f"\n{'it':>4} {problem.objective:>16} {'max g':>10} {'change':>8} {'KKT':>9}")
     for r in result.history:
-        print(f"{r.iteration:>4} {r.f0 * scale:>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
-    initial = scale  # the objective is scaled by its value at the start design
+        print(f"{r.iteration:>4} {problem.unscaled(r.f0):>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
+    initial, final = problem.objective_scale, problem.unscaled(result.fun)  # scaled by its value at the start design
     print(f"\nstatus: {result.status.name} — {result.message}")
-    print(f"{problem.objective}: {initial:.6g} at the start → {result.fun * scale:.6g} "
-          f"({100 * (result.fun * scale / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
+    print(f"{problem.objective}: {initial:.6g} at the start → {final:.6g} "
+          f"({100 * (final / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
     constr = result.constr
     if isinstance(problem, ScenarioProblem):
         for name, value in problem.objectives(result.x, constr).items():
@@ -303,6 +316,10 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
+    if isinstance(problem, ScenarioProblem):  # the runs' seconds add up over the workers
+        print(f"time: {elapsed:.2f} s — the scenarios' runs took {problem.timings['simulation']:.2f} s of simulation and "
+              f"{problem.timings['gradients']:.2f} s of gradients in all, the subproblems {solve:.2f} s")
+        return
     shares = {"simulation": problem.timings["simulation"], "gradients": problem.timings["gradients"], "subproblem": solve}
     other = max(elapsed - sum(shares.values()), 0.0)
     print(f"time: {elapsed:.2f} s — " + ", ".join(f"{k} {100 * v / elapsed:.1f} %" for k, v in {**shares, "other": other}.items()))
@@ -359,13 +376,14 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight) "
                    "and aggregate = \"sum\" | \"worst\", or the built-in robust_robot_arm (3 motions x 3 payloads, worst case)")
     o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")
-    o.add_argument("--workers", type=_positive(int), help="run the scenarios of an evaluation on N local processes")
+    o.add_argument("--workers", type=_positive(int), help="run the scenarios of an evaluation on N threads")
     o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
     o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene)")
     o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
     o.add_argument("--volume-fraction", type=_fraction, default=0.4, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--x0", type=float, default=0.4, help="initial density of every bar (default 0.4)")
+    o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
     o.add_argument("--move", type=_fraction, default=0.2, help="move limit as a fraction of the bounds (default 0.2)")
     o.add_argument("--kkt-tol", type=_positive(float), default=1e-6)

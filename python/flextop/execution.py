@@ -12,10 +12,10 @@ same code from the same inputs, and any sum over them is the caller's, in that o
 Executors, all used as they come:
 
 * ``None``: one after the other, in this process (the default);
-* :class:`~concurrent.futures.ProcessPoolExecutor` (what ``--workers N`` makes, see
-  :func:`local_executor`) or :class:`~concurrent.futures.ThreadPoolExecutor` (the engine
-  releases the GIL, but two runs in one process share its memory bandwidth: processes are
-  faster, BENCHMARKS.md "Scenarios and batches");
+* :class:`~concurrent.futures.ThreadPoolExecutor` (what ``--workers N`` makes, see
+  :func:`local_executor`: the engine releases the GIL) or
+  :class:`~concurrent.futures.ProcessPoolExecutor` (with the spawn start method: a forked
+  child would inherit the engine's thread pool half-made);
 * a ``dask.distributed`` client's ``client.get_executor()`` (what ``--scheduler ADDRESS``
   uses), which retries a task whose worker died when given ``retries``;
 * ``mpi4py.futures.MPIPoolExecutor``.
@@ -29,10 +29,10 @@ evaluation never returns a partial result.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+import math
+from concurrent.futures import FIRST_EXCEPTION, Executor, Future, ThreadPoolExecutor, wait
 from contextlib import contextmanager
-from multiprocessing import get_context
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 from .errors import ExecutionError, FlextopError, SettingsError
 
@@ -40,39 +40,50 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
-def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor: Executor | None = None) -> list[R]:
+def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor: Executor | None = None, *,
+            chunksize: int = 1) -> list[R]:
     """``perform(task)`` for each ``(label, task)``, the results in the tasks' order, on
-    ``executor`` (``None``: here, one after the other). ``perform`` must be a module-level
-    function and ``task`` picklable for an executor of other processes."""
+    ``executor`` (``None``: here, one after the other), ``chunksize`` tasks to one
+    submission (fewer, larger tasks: what pays on a Dask cluster, whose scheduler spends
+    about 2 ms per task). ``perform`` must be a module-level function and ``task``
+    picklable for an executor of other processes."""
+    if not (isinstance(chunksize, int) and chunksize >= 1):
+        raise SettingsError(f"chunksize must be a whole number ≥ 1, got {chunksize!r}")
+    chunks = [list(tasks[k:k + chunksize]) for k in range(0, len(tasks), chunksize)]
     if executor is None:
-        return [_here(perform, label, task) for label, task in tasks]
+        return [r for chunk in chunks for r in perform_all(perform, chunk)]
     futures: list[Future] = []
     try:
-        for _, task in tasks:
-            futures.append(executor.submit(perform, task))
-        return [_result(label, future) for (label, _), future in zip(tasks, futures)]
+        for chunk in chunks:
+            futures.append(executor.submit(perform_all, perform, chunk))
+        wait(futures, return_when=FIRST_EXCEPTION)  # the first failure ends the wait
+        return [r for chunk, future in zip(chunks, futures) for r in _result(chunk, future)]
     except BaseException:
         for future in futures:
             future.cancel()
         raise
 
 
-def _here(perform: Callable[[T], R], label: str, task: T) -> R:
-    try:
-        return perform(task)
-    except FlextopError as error:
-        raise _named(error, label) from error
+def perform_all(perform: Callable[[T], R], chunk: Sequence[tuple[str, T]]) -> list[R]:
+    """``perform`` on each task of ``chunk`` in turn (in a worker); a failure is raised with
+    its task's label in front."""
+    out = []
+    for label, task in chunk:
+        try:
+            out.append(perform(task))
+        except FlextopError as error:
+            raise _named(error, label) from error
+    return out
 
 
-def _result(label: str, future: Future) -> Any:
+def _result(chunk: Sequence[tuple[str, Any]], future: Future) -> list:
     try:
         return future.result()
-    except FlextopError as error:
-        raise _named(error, label) from error
-    except (KeyboardInterrupt, SystemExit):
+    except (FlextopError, KeyboardInterrupt, SystemExit):
         raise
     except BaseException as error:  # a worker that died, a task that could not be sent or was lost
-        raise ExecutionError(f"{label}: the task did not complete on its worker ({type(error).__name__}: {error})") from error
+        labels = " / ".join(label for label, _ in chunk)
+        raise ExecutionError(f"{labels}: the task did not complete on its worker ({type(error).__name__}: {error})") from error
 
 
 def _named(error: FlextopError, label: str) -> FlextopError:
@@ -83,25 +94,37 @@ def _named(error: FlextopError, label: str) -> FlextopError:
         return ExecutionError(f"{label}: {type(error).__name__}: {error}")
 
 
+class Workers(NamedTuple):
+    """An executor and how many tasks it runs at once (1 for ``None``)."""
+
+    executor: Executor | None
+    slots: int
+
+    def chunksize(self, tasks: int) -> int:
+        """Tasks to a submission so that each slot gets one submission."""
+        return max(1, math.ceil(tasks / self.slots))
+
+
 @contextmanager
-def local_executor(workers: int | None = None, scheduler: str | None = None) -> Iterator[Executor | None]:
-    """The executor of the command line's ``--workers N`` (a pool of ``N`` processes;
-    ``N = 1`` or ``None``: this process) or ``--scheduler ADDRESS`` (the Dask scheduler
-    there, whose client is closed on exit), shut down when the block ends."""
+def local_executor(workers: int | None = None, scheduler: str | None = None) -> Iterator[Workers]:
+    """The executor of the command line's ``--workers N`` (``N`` threads; ``N = 1`` or
+    ``None``: this process) or ``--scheduler ADDRESS`` (the Dask scheduler there, whose
+    client is closed on exit), shut down when the block ends. Threads, because the engine
+    releases the GIL and they measured faster than processes on the arm's scenarios
+    (BENCHMARKS.md, "Scenarios and batches")."""
     if workers is not None and scheduler is not None:
         raise SettingsError("give --workers (a local pool) or --scheduler (a Dask cluster), not both")
     if scheduler is not None:
         with _dask_client(scheduler) as client:
-            yield client.get_executor()
+            yield Workers(client.get_executor(), max(1, sum(client.nthreads().values())))
         return
     if workers is None or workers == 1:
-        yield None
+        yield Workers(None, 1)
         return
     if workers < 1:
         raise SettingsError(f"--workers must be at least 1, got {workers}")
-    # spawn, not fork: a forked child would inherit the engine's thread pool half-made
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
-        yield pool
+    with ThreadPoolExecutor(workers) as pool:
+        yield Workers(pool, workers)
 
 
 @contextmanager
@@ -111,7 +134,7 @@ def _dask_client(address: str) -> Iterator[Any]:
     except ImportError:
         raise SettingsError("--scheduler needs dask.distributed: pip install 'flextop[cluster]'") from None
     try:
-        client = Client(address, timeout=30)
+        client = Client(address, timeout=10)
     except (OSError, TimeoutError, ValueError) as error:
         raise ExecutionError(f"--scheduler {address}: cannot reach the Dask scheduler ({error})") from None
     try:

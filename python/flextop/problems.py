@@ -96,6 +96,10 @@ class TopologyProblem(Problem):
         bounds = np.array([b for _, b in self.constraints])
         return Evaluation(f[0] / self.objective_scale, f[1:] / bounds - 1.0, dfdx[0] / self.objective_scale, dfdx[1:] / bounds[:, None])
 
+    def unscaled(self, f0: float) -> float:
+        """The objective in the response's units from the optimizer's ``f0 = f / f_ref``."""
+        return f0 * (1.0 if self.objective_scale is None else self.objective_scale)
+
     def to_dict(self) -> dict:
         """What rebuilds this problem on the same scene (for checkpoints)."""
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,

@@ -338,16 +338,16 @@ class Simulation:
         return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
 
     def map(self, designs: Iterable[Any], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
-            executor: Executor | None = None, **options: Any) -> list[Sensitivities]:
+            executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:
         """``responses`` (default: the tip deflection, or the compliance) at each of
         ``designs``, in their order, for parameter studies and multi-starts: with exact
         gradients (``options`` as in :meth:`run_with_sensitivities`) or, with
         ``gradients=False``, values only (``options`` as in :meth:`run`; ``gradients`` of
         each result ``None``). The runs go to ``executor`` (any
         :class:`concurrent.futures.Executor`, a Dask client's ``get_executor()``; ``None``:
-        here, in turn), each as the scene and one design (:mod:`flextop.execution`); the
-        results are the same bits whatever the executor. A run that fails raises its error
-        with ``design K:`` in front."""
+        here, in turn), each as the scene and one design (:mod:`flextop.execution`),
+        ``chunksize`` runs to a task; the results are the same bits whatever the executor.
+        A run that fails raises its error with ``design K:`` in front."""
         names = (responses,) if isinstance(responses, str) else tuple(responses or (self._default_response(),))
         vectors = []
         for k, x in enumerate(designs):
@@ -357,7 +357,7 @@ class Simulation:
                 raise DesignError(f"design {k}: {error}") from None
         remember(self)
         tasks = [(f"design {k}", Task(self.spec, x, names, gradients, options, self.options)) for k, x in enumerate(vectors)]
-        return execution.run_all(perform, tasks, executor)
+        return execution.run_all(perform, tasks, executor, chunksize=chunksize)
 
     def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
         grid = None if steps is None else [float(h) for h in steps]
@@ -468,7 +468,8 @@ class Simulation:
 
     def _design(self, x: Any) -> np.ndarray | None:
         """``x`` as a vector of floats: a number means every variable; strings, complex
-        numbers and arrays of more than one dimension are refused with a DesignError."""
+        numbers, arrays of more than one dimension and vectors of another length are refused
+        with a DesignError (values outside ``[x_min, 1]`` by the engine)."""
         if x is None:
             return None
         xv = np.asarray(x)
@@ -479,6 +480,8 @@ class Simulation:
         xv = xv.astype(float)
         if xv.ndim == 0:
             return np.full(self.n_design, float(xv))
+        if xv.shape != (self.n_design,):
+            raise DesignError(f"the design has {xv.size} entries; the scene has {self.n_design} design variables")
         return np.ascontiguousarray(xv)
 
     def linearize(self, x: Any = None, q: Any = None, *, mass: str | None = None) -> tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]:

@@ -59,7 +59,7 @@ def test_the_worst_case_gradient_passes_finite_differences():
     problem = ScenarioProblem(cases, "tip_deflection", volumes(cases[0]), aggregate="worst")
     x = problem.start(design(problem.n - 1, seed=3))
     base = problem.evaluate(x)
-    assert base.f0 == 1.0 and base.g.shape == (4,) and np.max(base.g[:2]) == pytest.approx(0.0, abs=1e-15)
+    assert base.f0 == 0.0 and base.g.shape == (4,) and np.max(base.g[:2]) == pytest.approx(0.0, abs=1e-15)
     rng = np.random.default_rng(7)
     for _ in range(3):
         v = rng.standard_normal(problem.n)
@@ -173,3 +173,8 @@ def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
     assert np.array_equal(np.load(tmp_path / "a" / "design.npy"), np.load(tmp_path / "b" / "design.npy"))
     wrong = cli("--resume", "--scenarios", tmp_path / "cases.toml", "--out", tmp_path / "b")
     assert wrong.returncode == 2 and "give neither" in wrong.stderr
+    np.save(tmp_path / "short.npy", np.full(3, 0.5))
+    short = cli("--scenarios", tmp_path / "cases.toml", "--start", tmp_path / "short.npy", "--out", tmp_path / "c")
+    assert short.returncode == 2 and "--start" in short.stderr and short.stderr.count("\n") == 1
+    unknown = cli("--scenarios", "robust_arm", "--out", tmp_path / "d")
+    assert unknown.returncode == 2 and "robust_robot_arm" in unknown.stderr
