@@ -26,7 +26,7 @@ def run(name: str, problem: flextop.TopologyProblem, iterations: int, repeats: i
         if best is None or total < best["total"]:
             sub = sum(r.solve_time for r in result.history)
             best = {"name": name, "total": total, "iterations": result.nit, "evaluations": result.nfev, "subproblem": sub,
-                    **problem.timings, "start": problem.objective_scale, "final": result.fun * problem.objective_scale,
+                    **problem.timings, "start": problem.objective_scale, "final": result.fun,
                     "status": result.status.name}
     best["other"] = best["total"] - best["simulation"] - best["gradients"] - best["subproblem"]
     return best

@@ -22,7 +22,7 @@ import flextop
 def ours(problem_factory, method: str, budget: int) -> tuple[float, int, int]:
     problem = problem_factory()
     result = flextop.optimize(problem, np.full(problem.n, 0.4), method=method, max_iter=budget)
-    return result.fun * problem.objective_scale, result.nit, result.nfev, float(np.max(result.constr))
+    return result.fun, result.nit, result.nfev, float(np.max(result.constr_scaled))
 
 
 def nlopt_mma(problem_factory, budget: int) -> tuple[float, int, int, float]:

@@ -200,7 +200,7 @@ def optimization(fresh: bool) -> None:
             first = optimize_arm(sim, {}, 1, np.full(sim.n_design, 0.4))[1].x
         if label not in done:
             problem, result, seconds = optimize_arm(sim, options, m, first if continued else np.full(sim.n_design, 0.4))
-            done[label] = {"reported": result.fun * problem.objective_scale, "seconds": seconds, "true": true_d(sim, result.x),
+            done[label] = {"reported": result.fun, "seconds": seconds, "true": true_d(sim, result.x),
                            "evaluations": result.nfev, "grids": [[k, d.refinement, d.steps] for k, d in problem.refinements],
                            "x": result.x.tolist()}
             OPTIMIZATION_ROWS.write_text(json.dumps(done, indent=1), encoding="utf-8")

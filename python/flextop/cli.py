@@ -5,8 +5,10 @@
 ``flextop optimize SCENE``   topology optimization (see ``flextop optimize --help``).
 
 A user error (a bad argument, scene, design, setting or checkpoint) prints one line and
-exits with 2; a run that fails (Newton, a tolerance out of reach, an unwritable output)
-with 1; Ctrl-C with 130. ``flextop --debug ...`` shows the traceback instead.
+exits with 2; a run that fails (Newton, a tolerance out of reach, an unwritable output, a
+lost worker) with 1; an optimization that stops without converging (the iteration limit,
+repeated evaluation failures, an infeasible design) with 3, after writing its results and
+saying why; Ctrl-C with 130. ``flextop --debug ...`` shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -32,6 +34,10 @@ from .problems import TopologyProblem, volume_constraints
 from .scenarios import ScenarioProblem
 from .scene import Scene, read_toml
 from .simulation import Results, Simulation
+
+
+NOT_CONVERGED = 3
+"""Exit code of an optimization that stopped without converging to a feasible design."""
 
 
 def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray | None:
@@ -254,7 +260,10 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         "objective_scale": problem.objective_scale}))
     if not args.no_plots:
         _pictures(sim, problem, result, x0, out, animate=animate)
-    return 0 if result.success or result.status.name == "MAX_ITER" else 1
+    if not result.success:
+        print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
+        return NOT_CONVERGED
+    return 0
 
 
 def _resume(args: argparse.Namespace, out: Path, workers: Workers):
@@ -299,19 +308,20 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
     print(f"\n{'it':>4} {problem.objective:>16} {'max g':>10} {'change':>8} {'KKT':>9}")
     for r in result.history:
         print(f"{r.iteration:>4} {problem.unscaled(r.f0):>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
-    initial, final = problem.objective_scale, problem.unscaled(result.fun)  # scaled by its value at the start design
+    initial, final = problem.objective_scale, result.fun  # scaled by its value at the start design
     print(f"\nstatus: {result.status.name} — {result.message}")
     print(f"{problem.objective}: {initial:.6g} at the start → {final:.6g} "
           f"({100 * (final / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
     constr = result.constr
     if isinstance(problem, ScenarioProblem):
-        for name, value in problem.objectives(result.x, constr).items():
-            print(f"{name}: {problem.objective} = {value:.6g}")
+        if problem.aggregate is scenarios.Aggregate.WORST:  # each scenario's w f first
+            for case, value in zip(problem.scenarios, constr):
+                print(f"{case.name}: {problem.objective} = {value / case.weight:.6g}")
         constr = constr[len(constr) - len(problem.constraints):]
         for name, d in problem.discretizations.items():
             print(f"{name}: {d}")
-    for (name, bound), g in zip(_bounds(problem), constr):
-        print(f"{name}: {(g + 1) * bound:.6g} (bound {bound:.6g})")
+    for (name, bound), value in zip(_bounds(problem), constr):
+        print(f"{name}: {value:.6g} (bound {bound:.6g})")
     if getattr(problem, "refinements", None):
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")

@@ -100,6 +100,13 @@ class TopologyProblem(Problem):
         """The objective in the response's units from the optimizer's ``f0 = f / f_ref``."""
         return f0 * (1.0 if self.objective_scale is None else self.objective_scale)
 
+    def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
+        """``f``, the constrained responses ``rⱼ`` (beside their bounds ``bⱼ``) and ``∇f``,
+        in the responses' units."""
+        bounds = np.array([b for _, b in self.constraints])
+        scale = 1.0 if self.objective_scale is None else self.objective_scale
+        return self.unscaled(evaluation.f0), (evaluation.g + 1.0) * bounds, evaluation.df0 * scale
+
     def to_dict(self) -> dict:
         """What rebuilds this problem on the same scene (for checkpoints)."""
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,

@@ -185,12 +185,21 @@ class ScenarioProblem(Problem):
         own = [r for j, r, _, _ in self.constraints if j == k or (j is None and k == 0)]
         return [self.objective, *dict.fromkeys(own)]
 
-    def objectives(self, x: np.ndarray, g: np.ndarray) -> dict[str, float]:
-        """Each scenario's objective ``fₛ`` read off a worst-case design ``x`` and its
-        constraint values ``g`` (``ln(wₛ fₛ / f_ref) − β``); empty for a weighted sum."""
-        if self.aggregate is not Aggregate.WORST or self.objective_scale is None:
-            return {}
-        return {s.name: math.exp(g[k] + x[-1]) * self.objective_scale / s.weight for k, s in enumerate(self.scenarios)}
+    def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
+        """The aggregate, the constrained quantities — with the worst case, first each
+        scenario's ``wₛfₛ``, then the bounded responses — and the aggregate's gradient (with
+        the worst case, that of the scenario at the top, and 0 for ``β``), in the
+        responses' units."""
+        scale = 1.0 if self.objective_scale is None else self.objective_scale
+        bounds = np.array([b for *_, b in self.constraints])
+        rows = len(self.scenarios) if self.aggregate is Aggregate.WORST else 0
+        bounded = (evaluation.g[rows:] + 1.0) * bounds
+        if not rows:
+            return self.unscaled(evaluation.f0), bounded, evaluation.df0 * scale
+        values = scale * np.exp(evaluation.g[:rows] + evaluation.f0)
+        top = int(np.argmax(values))
+        jac = np.append(evaluation.dg[top, :-1] * values[top], 0.0)
+        return float(values[top]), np.concatenate([values, bounded]), jac
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective and constraints with gradients: one run with sensitivities per scenario."""

@@ -15,10 +15,12 @@ import flextop.cli
 from conftest import EXAMPLES
 
 
-def flextop_cli(*args, check=True):
+def flextop_cli(*args, check=True, codes=(0,)):
+    """The command's run; with ``check``, its exit code must be one of ``codes`` (3: an
+    optimization stopped without converging, e.g. at --max-iter)."""
     run = subprocess.run([sys.executable, "-m", "flextop.cli", *map(str, args)], capture_output=True, text=True, timeout=300)
     if check:
-        assert run.returncode == 0, run.stderr
+        assert run.returncode in codes, run.stderr
     return run
 
 
@@ -27,6 +29,13 @@ def test_console_script_is_installed():
     assert exe is not None
     run = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and "optimize" in run.stdout
+
+
+def test_optimize_exits_0_only_when_the_optimizer_converged(tmp_path):
+    run = flextop_cli("optimize", "static_truss", "--xtol", "0.5", "--max-iter", 20, "--out", tmp_path, "--no-plots")
+    assert "status: XTOL" in run.stdout and run.stderr.count("did not converge") == 0
+    limited = flextop_cli("optimize", "static_truss", "--max-iter", 1, "--out", tmp_path / "b", "--no-plots", codes=(3,))
+    assert limited.stderr.strip().splitlines()[-1].startswith("flextop: the optimizer did not converge: maximum number")
 
 
 def test_demo_prints_tip_error_and_d_and_writes_a_plot(tmp_path):
@@ -67,11 +76,11 @@ def history(path):
 
 def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     straight, split = tmp_path / "straight", tmp_path / "split"
-    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 8, "--out", straight, "--no-plots")
-    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 4, "--out", split, "--no-plots")
+    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 8, "--out", straight, "--no-plots", codes=(0, 3))
+    flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 4, "--out", split, "--no-plots", codes=(0, 3))
     checkpoint = json.loads((split / "checkpoint.json").read_text())["data"]
     assert checkpoint["state"]["iteration"] == 4 and len(history(split)) == 4
-    run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots")
+    run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots", codes=(0, 3))
     assert "resuming" in run.stdout
     assert [h["iteration"] for h in history(split)] == list(range(1, 9))
     np.testing.assert_allclose(np.load(split / "design.npy"), np.load(straight / "design.npy"), rtol=0, atol=1e-12)
@@ -79,7 +88,8 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
 
 
 def test_optimize_robot_arm_writes_the_pictures(tmp_path):
-    run = flextop_cli("optimize", "robot_arm", "--max-iter", 3, "--out", tmp_path, "--animate")
+    run = flextop_cli("optimize", "robot_arm", "--max-iter", 3, "--out", tmp_path, "--animate", codes=(3,))
+    assert "did not converge: maximum number of iterations (3) reached" in run.stderr
     for name in ("design_initial.png", "design.png", "history.png", "tip_error.png", "motion.gif"):
         assert (tmp_path / name).stat().st_size > 1000, name
     assert re.search(r"tip_deflection: 0\.00229569 at the start → [0-9.e-]+ \(-\d+\.\d %\)", run.stdout)
@@ -135,7 +145,7 @@ def test_a_scene_file_with_a_byte_order_mark_reads_like_one_without(tmp_path):
 
 def test_resume_verifies_the_checkpoint(tmp_path, capsys):
     out = tmp_path / "run"
-    assert flextop.cli.main(["optimize", "static_truss", "--objective", "compliance", "--max-iter", "3", "--out", str(out), "--no-plots"]) == 0
+    assert flextop.cli.main(["optimize", "static_truss", "--objective", "compliance", "--max-iter", "3", "--out", str(out), "--no-plots"]) == 3
     sealed = json.loads((out / "checkpoint.json").read_text())
     assert sealed["data"]["finished"] == "MAX_ITER"
 

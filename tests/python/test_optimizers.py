@@ -56,6 +56,33 @@ def cantilever_optimum():
     return x, f
 
 
+# -- Rosenbrock, where plain MMA used to alternate between two points ----------------------
+
+def rosenbrock(constrained):
+    """(1 − a)² + 100 (b − a²)² on [−2, 2]², optionally with a² + b² ≤ 1.5 (which cuts
+    off the unconstrained optimum (1, 1))."""
+    def objective(x):
+        a, b = x
+        return (1 - a) ** 2 + 100 * (b - a * a) ** 2, np.array([-2 * (1 - a) - 400 * a * (b - a * a), 200 * (b - a * a)])
+
+    def circle(x):
+        return np.array([x[0] ** 2 + x[1] ** 2 - 1.5]), np.array([[2 * x[0], 2 * x[1]]])
+
+    return FunctionProblem(objective, circle if constrained else None, [-2, -2], [2, 2], 1 if constrained else 0)
+
+
+@pytest.mark.parametrize("constrained", [False, True])
+@pytest.mark.parametrize("method", ["mma", "gcmma"])
+def test_rosenbrock_converges_without_cycling(method, constrained):
+    problem = rosenbrock(constrained)
+    x_star = reference_optimum(problem, np.array([-1.2, 1.0]))[0] if constrained else np.ones(2)
+    result = optimize(problem, np.array([-1.2, 1.0]), method, max_iter=1000, xtol=0.0)
+    changes = np.array([r.change for r in result.history[-50:]])
+    assert changes.max() < 1e-5, f"still moving (a cycle?): last changes {changes[-4:]}"
+    assert np.abs(result.x - x_star).max() < 1e-4, (result.x, x_star)
+    assert np.max(result.constr_scaled, initial=-1.0) <= 1e-8
+
+
 @pytest.mark.parametrize("method", METHODS)
 def test_cantilever(method, cantilever_optimum):
     x_star, f_star = cantilever_optimum

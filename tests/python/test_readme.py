@@ -13,4 +13,4 @@ def test_readme_examples_run():
     for block in blocks:
         exec(compile(block, "README.md", "exec"), namespace)
     assert namespace["dfdx"].shape == (3, 148)
-    assert namespace["result"].fun < 0.01, "the optimization example reduces the scaled tip deflection"
+    assert namespace["result"].fun_scaled < 0.01, "the optimization example reduces the scaled tip deflection"

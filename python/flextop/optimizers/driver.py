@@ -43,16 +43,29 @@ CONVERGED = (Status.KKT, Status.XTOL, Status.FTOL)
 class OptimizeResult:
     """Outcome of :func:`optimize` (fields named as in scipy where they exist).
 
-    ``x``, ``fun``, ``constr``, ``kkt``, ``multipliers``: the returned design,
-    its objective, constraint values, KKT residual and multipliers; ``nit``:
-    iterations; ``nfev``: calls of ``evaluate``; ``success``: converged to a
-    feasible design; ``history``: one :class:`IterationRecord` per iteration;
-    ``state``: final state, to resume with ``optimize(..., state=result.state)``.
+    ``x``: the returned design. In the problem's own units (:meth:`Problem.physical`; for a
+    :class:`~flextop.TopologyProblem`, the response in its unit and the constrained
+    responses beside their bounds): ``fun``, the objective; ``constr``, the constrained
+    quantities; ``jac``, the objective's gradient. As the optimizer saw them:
+    ``fun_scaled`` (``f0``) and ``constr_scaled`` (``g``, feasible when ≤ 0). ``kkt`` and
+    ``multipliers``: the KKT residual and multipliers of the scaled problem; ``nit``:
+    iterations; ``nfev``: calls of ``evaluate``.
+
+    ``status`` says why the run stopped (:class:`Status`) and ``message`` in words, with
+    any evaluation failures recovered and whether the design is infeasible. ``success`` is
+    True only when the run converged (KKT residual, design change or objective change
+    below their tolerances) to a feasible design: False at the iteration limit, after
+    repeated evaluation failures (the best feasible design is then returned) and when the
+    callback stopped the run. ``history``: one :class:`IterationRecord` per iteration;
+    ``state``: the final state, to resume with ``optimize(..., state=result.state)``.
     """
 
     x: np.ndarray
     fun: float
     constr: np.ndarray
+    jac: np.ndarray
+    fun_scaled: float
+    constr_scaled: np.ndarray
     kkt: float
     multipliers: np.ndarray
     nit: int
@@ -125,7 +138,7 @@ def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) ->
     evaluation = state.evaluation
     if not _is_feasible(evaluation.g, feas_tol) or (best is not None and best.f0 <= evaluation.f0):
         return best
-    return Design(state.x, evaluation.f0, evaluation.g, state.kkt, state.multipliers, state.iteration)
+    return Design(state.x, evaluation, state.kkt, state.multipliers, state.iteration)
 
 
 def _initial_state(problem: Problem, x0, method: Method, move: float,
@@ -210,14 +223,13 @@ def _stop_message(state: OptimizerState, status: Status, max_iter: int, max_retr
     return f"converged: relative objective change below ftol = {tolerances['ftol']:g}"
 
 
-def _result(state: OptimizerState, status: Status, message: str, feas_tol: float) -> OptimizeResult:
+def _result(problem: Problem, state: OptimizerState, status: Status, message: str, feas_tol: float) -> OptimizeResult:
     """Assemble the result; after evaluation failures return the best feasible design."""
-    x, f0, g, kkt, lam = (state.x, state.evaluation.f0, state.evaluation.g,
-                          state.kkt, state.multipliers)
+    x, evaluation, kkt, lam = state.x, state.evaluation, state.kkt, state.multipliers
     if status is Status.EVALUATION_FAILED:
         if state.best is not None:
             best = state.best
-            x, f0, g, kkt, lam = best.x, best.f0, best.g, best.kkt, best.multipliers
+            x, evaluation, kkt, lam = best.x, best.evaluation, best.kkt, best.multipliers
             message += f"; returning the best feasible design (iteration {best.iteration})"
         else:
             message += ("; no feasible design was found, returning the last successfully "
@@ -225,10 +237,13 @@ def _result(state: OptimizerState, status: Status, message: str, feas_tol: float
     elif state.failures:
         message += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
                     f"limit, now {state.move:g}; last error: {state.last_error})")
+    g = evaluation.g
     feasible = _is_feasible(g, feas_tol)
     if not feasible:
         message += f"; the design is infeasible (max g = {np.max(g):.3g})"
-    return OptimizeResult(x=x, fun=f0, constr=g, kkt=kkt, multipliers=lam, nit=state.iteration,
+    fun, constr, jac = problem.physical(evaluation)
+    return OptimizeResult(x=x, fun=float(fun), constr=np.asarray(constr, dtype=float), jac=np.asarray(jac, dtype=float),
+                          fun_scaled=evaluation.f0, constr_scaled=g, kkt=kkt, multipliers=lam, nit=state.iteration,
                           nfev=state.nfev, status=status, message=message,
                           success=status in CONVERGED and feasible,
                           history=list(state.history), state=state)
@@ -238,6 +253,7 @@ def _failed_start(problem: Problem, x0, error: EvaluationError, nfev: int) -> Op
     """Result when not even the start design could be evaluated."""
     return OptimizeResult(
         x=np.asarray(x0, dtype=float), fun=float("nan"), constr=np.full(problem.m, np.nan),
+        jac=np.full(problem.n, np.nan), fun_scaled=float("nan"), constr_scaled=np.full(problem.m, np.nan),
         kkt=float("nan"), multipliers=np.zeros(problem.m), nit=0, nfev=nfev,
         status=Status.EVALUATION_FAILED, success=False, history=[], state=None,
         message=f"evaluation of the start design failed: {error}")
@@ -296,4 +312,4 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         if callback is not None and callback(replace(state.history[-1], state=state)) and status is None:
             status = Status.CALLBACK
     message = _stop_message(state, status, max_iter, max_retries, tolerances)
-    return _result(state, status, message, feas_tol)
+    return _result(problem, state, status, message, feas_tol)

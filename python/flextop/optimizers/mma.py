@@ -120,8 +120,16 @@ class MMA(Method):
     optimum is interior and set by the objective alone (no active constraint
     balancing it) is always stepped close to one asymptote, so once the
     asymptotes reach their minimum distance 0.01 (xmax - xmin) it can cycle
-    with an amplitude of about 0.9 % of its range. GCMMA does not have this
-    problem.
+    with an amplitude of about 0.9 % of its range: on the two-variable
+    Rosenbrock function it alternated between two points for 1,000 iterations.
+    Hence the ``safeguard``: a step whose design does not lower the merit
+    function ``f0 + c Σ max(g_i, 0)`` is redone with GCMMA's conservative inner
+    iterations (raising rho_i until every approximation bounds its function from
+    above at the new design), which makes the merit fall and breaks any cycle.
+    Steps that lower the merit — all 28 of the robot arm's tip-deflection
+    optimization — are plain MMA steps. Measured shrinking move limits and closer
+    asymptotes on oscillation instead: they end the cycle but leave MMA crawling
+    along Rosenbrock's valley (f = 0.04 after 1,000 iterations).
     """
 
     asyinit: float = 0.5
@@ -130,6 +138,7 @@ class MMA(Method):
     c: float = 1000.0
     d: float = 1.0
     rho: float = 1e-5
+    safeguard: bool = True
     name: ClassVar[str] = "mma"
 
     def approximation(self, problem: Problem, state: OptimizerState, move: float,
@@ -154,7 +163,40 @@ class MMA(Method):
              evaluate: Evaluator) -> Step:
         approx = self.approximation(problem, state, move, np.full(problem.m + 1, self.rho))
         solution = self.solve(approx, state.multipliers)
-        return Step(solution.x, evaluate(solution.x), solution.lam, approx.asymptotes())
+        evaluation = evaluate(solution.x)
+        if self.safeguard and self.merit(evaluation) > self.merit(state.evaluation):
+            return conservative_step(self, problem, state, move, evaluate, initial_rho(state.evaluation, problem.upper - problem.lower))
+        return Step(solution.x, evaluation, solution.lam, approx.asymptotes())
+
+    def merit(self, evaluation: Evaluation) -> float:
+        """``f0 + c Σ max(g_i, 0)``: the objective, and infeasibility at the elastic cost."""
+        return evaluation.f0 + self.c * float(np.sum(np.maximum(evaluation.g, 0.0)))
+
+
+def initial_rho(evaluation: Evaluation, span: np.ndarray, rho_min: float = 1e-6) -> np.ndarray:
+    """GCMMA's rho_i^(k,0) = max(rho_min, 0.1/n sum_j |df_ij| (xmax_j - xmin_j))."""
+    df = np.vstack([evaluation.df0, evaluation.dg])
+    return np.maximum(rho_min, 0.1 * np.abs(df) @ span / span.size)
+
+
+def conservative_step(method: MMA, problem: Problem, state: OptimizerState, move: float, evaluate: Evaluator,
+                      rho: np.ndarray, max_inner: int = 15) -> Step:
+    """GCMMA's inner iterations from ``rho``: solve, evaluate, and while an approximation
+    falls below its function at the new design raise its rho_i (class doc of
+    :class:`GCMMA`), at most ``max_inner`` times."""
+    lam = state.multipliers
+    for inner in range(max_inner + 1):
+        approx = method.approximation(problem, state, move, rho)
+        solution = method.solve(approx, lam)
+        lam = solution.lam
+        evaluation = evaluate(solution.x)
+        exact = np.concatenate(([evaluation.f0], evaluation.g))
+        shortfall = exact - approx.values(solution.x)
+        if (shortfall <= 1e-10 * (1.0 + np.abs(exact))).all() or inner == max_inner:
+            return Step(solution.x, evaluation, lam, approx.asymptotes())
+        delta = shortfall / max(approx.rho_sensitivity(solution.x), np.finfo(float).tiny)
+        rho = np.where(delta > 0.0, np.minimum(1.1 * (rho + delta), 10.0 * rho), rho)
+    raise AssertionError("unreachable")
 
 
 @dataclass(frozen=True)
@@ -175,23 +217,7 @@ class GCMMA(MMA):
     max_inner: int = 15
     name: ClassVar[str] = "gcmma"
 
-    def initial_rho(self, evaluation: Evaluation, span: np.ndarray) -> np.ndarray:
-        """rho_i^(k,0) = max(rho_min, 0.1/n sum_j |df_ij| (xmax_j - xmin_j))."""
-        df = np.vstack([evaluation.df0, evaluation.dg])
-        return np.maximum(self.rho_min, 0.1 * np.abs(df) @ span / span.size)
-
     def step(self, problem: Problem, state: OptimizerState, move: float,
              evaluate: Evaluator) -> Step:
-        rho = self.initial_rho(state.evaluation, problem.upper - problem.lower)
-        lam = state.multipliers
-        for inner in range(self.max_inner + 1):
-            approx = self.approximation(problem, state, move, rho)
-            solution = self.solve(approx, lam)
-            lam = solution.lam
-            evaluation = evaluate(solution.x)
-            exact = np.concatenate(([evaluation.f0], evaluation.g))
-            shortfall = exact - approx.values(solution.x)
-            if (shortfall <= 1e-10 * (1.0 + np.abs(exact))).all() or inner == self.max_inner:
-                return Step(solution.x, evaluation, lam, approx.asymptotes())
-            delta = shortfall / max(approx.rho_sensitivity(solution.x), np.finfo(float).tiny)
-            rho = np.where(delta > 0.0, np.minimum(1.1 * (rho + delta), 10.0 * rho), rho)
+        rho = initial_rho(state.evaluation, problem.upper - problem.lower, self.rho_min)
+        return conservative_step(self, problem, state, move, evaluate, rho, self.max_inner)

@@ -109,6 +109,13 @@ class Problem(ABC):
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective, constraints and their gradients at x (may raise EvaluationError)."""
 
+    def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
+        """The objective, the constrained quantities and the objective's gradient in the
+        problem's own units, from an evaluation as the optimizer sees it (scaled). Here
+        they are the same; problems that scale (such as ``f/f_ref`` and ``r/b − 1``)
+        undo it."""
+        return evaluation.f0, evaluation.g, evaluation.df0
+
 
 class FunctionProblem(Problem):
     """A :class:`Problem` built from plain callables.

@@ -65,20 +65,23 @@ class Design:
     """A feasible evaluated design remembered as the best so far."""
 
     x: np.ndarray
-    f0: float
-    g: np.ndarray
+    evaluation: Evaluation
     kkt: float
     multipliers: np.ndarray
     iteration: int
 
+    @property
+    def f0(self) -> float:
+        return self.evaluation.f0
+
     def to_dict(self) -> dict:
-        return {"x": self.x.tolist(), "f0": self.f0, "g": self.g.tolist(), "kkt": self.kkt,
+        return {"x": self.x.tolist(), "evaluation": self.evaluation.to_dict(), "kkt": self.kkt,
                 "multipliers": self.multipliers.tolist(), "iteration": self.iteration}
 
     @classmethod
     def from_dict(cls, data: dict) -> Design:
-        return cls(np.array(data["x"], dtype=float), data["f0"], np.array(data["g"], dtype=float),
-                   data["kkt"], np.array(data["multipliers"], dtype=float), data["iteration"])
+        return cls(np.array(data["x"], dtype=float), Evaluation.from_dict(data["evaluation"]), data["kkt"],
+                   np.array(data["multipliers"], dtype=float), data["iteration"])
 
 
 @dataclass(frozen=True)
