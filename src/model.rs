@@ -42,6 +42,12 @@ impl Element {
         [3 * a, 3 * a + 1, 3 * a + 2, 3 * b, 3 * b + 1, 3 * b + 2]
     }
 
+    /// Section forces `[N, M₁, M₂]` at state `q` with stiffness scaling `s(x)`.
+    pub fn section_forces(&self, stiffness: f64, q: &[f64]) -> [f64; 3] {
+        let f = self.beam.section_forces(&self.gather(q));
+        [stiffness * f[0], stiffness * f[1], stiffness * f[2]]
+    }
+
     /// The element's slice of a global vector.
     pub fn gather(&self, q: &[f64]) -> Vector6 {
         Vector6::from_iterator(self.dofs().iter().map(|&d| q[d]))

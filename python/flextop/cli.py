@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from . import checkpoint, scenarios, scenes
+from . import checkpoint, export, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
@@ -101,6 +101,8 @@ def simulate(args: argparse.Namespace) -> int:
         raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
     if sim.analysis == "static":
         settings = {k: v for k, v in settings.items() if k in ("t_end", "local_tol")}
+    if args.vtk and args.out is None:
+        raise SettingsError("--vtk writes into the --out folder; give --out")
     out = None if args.out is None else _folder(Path(args.out))
     start = time.perf_counter()
     res = sim.run(_design(sim, args.x, args.design), **settings)
@@ -108,7 +110,17 @@ def simulate(args: argparse.Namespace) -> int:
     if out is not None:
         np.savez(out / "results.npz", **{k: v for k, v in res.raw.items() if isinstance(v, np.ndarray)})
         print(f"wrote {out / 'results.npz'}")
+    if args.vtk:
+        print(f"wrote {_vtk(res, out)} (open it in ParaView)")
     return 0
+
+
+def _vtk(res, out: Path) -> Path:
+    """The result for ParaView in ``out``: ``motion.pvd`` with about 100 frames, or
+    ``state.vtu`` for a static result."""
+    if isinstance(res, Results):
+        return res.to_vtk(out / "motion.pvd", every=max(1, len(res.time) // 100))
+    return res.to_vtk(out / "state.vtu")
 
 
 def _scene(spec: str) -> Scene:
@@ -260,6 +272,11 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         "objective_scale": problem.objective_scale}))
     if not args.no_plots:
         _pictures(sim, problem, result, x0, out, animate=animate)
+    if args.vtk:
+        x = result.x[: sim.n_design]
+        tolerance = {"rtol": problem.rtol} if problem.rtol else {}
+        written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
+        print(f"wrote {', '.join(map(str, written))} (open them in ParaView)")
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
@@ -379,6 +396,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")
     s.add_argument("--out", help="folder for results.npz")
+    s.add_argument("--vtk", action="store_true", help="also write the motion for ParaView (motion.pvd and its .vtu files) in --out")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
     o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam "
@@ -407,6 +425,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     o.add_argument("--no-plots", action="store_true")
     o.add_argument("--animate", action="store_true", help="also write motion.gif of the optimized design")
+    o.add_argument("--vtk", action="store_true", help="also write the optimized design (design.vtu) and its motion (motion.pvd) "
+                   "for ParaView")
     o.set_defaults(run=optimize_command)
     return p
 

@@ -22,7 +22,7 @@ from typing import Any, Iterable, Iterator, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from . import _core, execution, tolerance
+from . import _core, execution, export, tolerance
 from .accuracy import preset, split_by
 from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError
 from .scene import Scene
@@ -597,6 +597,14 @@ class _Run:
         return self.raw["lam"]
 
     @cached_property
+    def section_forces(self) -> np.ndarray:
+        """Per state and element: the axial force ``N`` (N, tension positive) and the end
+        moments ``M₁``, ``M₂`` (N m) in the element's chord frame, with the design's
+        stiffness; shape ``(n_states, n_elements, 3)`` (one state for a static result)."""
+        q = np.ascontiguousarray(np.atleast_2d(self.q), dtype=float)
+        return _core.section_forces(self.simulation.model, self.x, q)
+
+    @cached_property
     def reactions(self) -> dict[str, np.ndarray]:
         """Per joint, the force (and, for a drive row, torque) it applies on the structure:
         ``−λ`` of its constraint rows."""
@@ -644,6 +652,11 @@ class Results(_Run):
     configuration, three per node; :attr:`coordinates` the absolute nodal coordinates
     ``(x, y, φ)`` of the paper.
     """
+
+    def to_vtk(self, path: str | os.PathLike, *, every: int = 1) -> Path:
+        """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
+        step (every ``every``-th and the last) beside it (:mod:`flextop.export`)."""
+        return export.write_motion(self, path, every=every)
 
     @property
     def time(self) -> np.ndarray:
@@ -727,6 +740,10 @@ class Results(_Run):
 @dataclass
 class StaticResults(_Run):
     """A static equilibrium."""
+
+    def to_vtk(self, path: str | os.PathLike) -> Path:
+        """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.export`)."""
+        return export.write_state(self, path)
 
     def response(self, name: str) -> float:
         """Value of a response (``"compliance"`` is ``Fᵀu``) at this equilibrium."""

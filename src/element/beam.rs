@@ -139,6 +139,12 @@ impl Beam {
         (b.transpose() * s, k)
     }
 
+    /// Section forces `[N, M₁, M₂]` at full density: the axial force (N, tension
+    /// positive) and the end moments of the chord frame (N m), `D [e, θ₁, θ₂]`.
+    pub fn section_forces(&self, u: &Vector6) -> Vector3<f64> {
+        self.local_stiffness() * self.deformation(u).local
+    }
+
     /// Strain energy `U(u)` at full density (J), paper Eq. 37.
     pub fn strain_energy(&self, u: &Vector6) -> f64 {
         let g = self.deformation(u);

@@ -24,5 +24,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::evaluate_responses, m)?)?;
     m.add_function(wrap_pyfunction!(runs::linearize, m)?)?;
     m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::section_forces, m)?)?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use numpy::{PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -227,5 +227,37 @@ pub fn rigid_positions<'py>(
     let flat = detached(py, move || rigid(&m, &times).map_err(Error::from))?;
     Ok(numpy::PyArray1::from_vec(py, flat)
         .reshape([len, n, 2])?
+        .into_any())
+}
+
+/// Section forces `[N, M₁, M₂]` (N, N m) of every element at each state of `q` (one row per
+/// state), scaled by the design's stiffness law, shape `(n_states, n_elements, 3)`.
+#[pyfunction]
+#[pyo3(signature = (model, x, q))]
+pub fn section_forces<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = &model.model;
+    let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
+    let (states, n) = (q.shape()[0], m.n_dofs());
+    if q.shape()[1] != n {
+        let msg = format!("has rows of {} entries, the model has {n} DOFs", q.shape()[1]);
+        return Err(Error::Settings(SettingsError::new("q", msg)).into());
+    }
+    let q = q.as_slice()?;
+    let flat: Vec<f64> = q
+        .chunks(n.max(1))
+        .flat_map(|row| {
+            m.elements
+                .iter()
+                .zip(&densities.stiffness)
+                .flat_map(move |(el, &s)| el.section_forces(s, row))
+        })
+        .collect();
+    Ok(numpy::PyArray1::from_vec(py, flat)
+        .reshape([states, m.elements.len(), 3])?
         .into_any())
 }

@@ -1,0 +1,132 @@
+"""ParaView output: a run's motion as a VTU time series with a PVD index, a static result or
+a design as one VTU file.
+
+Each file holds the structure as VTK cells: every element of every bar and beam as a line
+(a bar split into m elements gives m lines), and every joint and point mass as a vertex.
+
+* Point data: ``displacement`` (m, from the reference), ``rotation`` (rad, from the
+  reference) and, for a motion, ``velocity`` (m/s) and ``angular_velocity`` (rad/s).
+* Cell data of the lines: ``density`` (of the element's bar, 1 where it is not designed),
+  ``bar`` (its index in :attr:`Simulation.bars`), ``axial_force`` N (N, tension positive),
+  ``moment_1`` and ``moment_2`` (N m, the end moments in the chord frame),
+  ``axial_stress`` N/A (Pa, on the solid section's area). Vertices carry NaN there and
+  ``vertex`` = 1 (a joint) or 2 (a point mass); lines carry ``vertex`` = 0.
+
+Points are 3-D (z = 0), as VTK wants. meshio writes the VTU files; the PVD index (the
+collection ParaView opens, one dataset per time) is built with ElementTree.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .errors import SettingsError
+
+if TYPE_CHECKING:
+    from .simulation import Results, Simulation, StaticResults
+
+JOINT, POINT_MASS = 1, 2
+
+
+def write_motion(results: Results, path: str | os.PathLike, *, every: int = 1) -> Path:
+    """The motion of ``results`` as ``STEM_0000.vtu``… beside the PVD index ``path``
+    (``.pvd``), every ``every``-th step and the last. Returns the index's path."""
+    path = Path(path)
+    if path.suffix != ".pvd":
+        raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
+    if not (isinstance(every, int) and every >= 1):
+        raise SettingsError(f"every must be a whole number ≥ 1, got {every!r}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    steps = sorted(set(range(0, len(results.time), every)) | {len(results.time) - 1})
+    forces = results.section_forces
+    speeds = results.qdot.reshape(len(results.time), -1, 3)
+    collection = ET.Element("VTKFile", type="Collection", version="0.1")
+    datasets = ET.SubElement(collection, "Collection")
+    for k in steps:
+        name = f"{path.stem}_{k:05d}.vtu"
+        extra = {"velocity": _xyz(speeds[k, :, :2]), "angular_velocity": speeds[k, :, 2]}
+        _mesh(results.simulation, results.x, results.q[k], forces[k], extra).write(path.parent / name, binary=True)
+        ET.SubElement(datasets, "DataSet", timestep=repr(float(results.time[k])), part="0", file=name)
+    ET.ElementTree(collection).write(path, xml_declaration=True, encoding="utf-8")
+    return path
+
+
+def write_state(results: StaticResults, path: str | os.PathLike) -> Path:
+    """A static result as one VTU file ``path``."""
+    path = _vtu(path)
+    _mesh(results.simulation, results.x, results.q, results.section_forces[0], {}).write(path, binary=True)
+    return path
+
+
+def write_design(sim: Simulation, x: Any, path: str | os.PathLike) -> Path:
+    """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
+    path = _vtu(path)
+    q = np.zeros(3 * len(sim.node_names))
+    _mesh(sim, sim._design(x), q, np.zeros((len(sim.model.elements()["bar"]), 3)), {}).write(path, binary=True)
+    return path
+
+
+def _vtu(path: str | os.PathLike) -> Path:
+    path = Path(path)
+    if path.suffix != ".vtu":
+        raise SettingsError(f"{path}: give a path ending in .vtu")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _xyz(planar: np.ndarray) -> np.ndarray:
+    return np.column_stack([planar, np.zeros(len(planar))])
+
+
+def _mesh(sim: Simulation, x: np.ndarray | None, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
+    import meshio
+
+    q = np.asarray(q).reshape(-1, 3)
+    reference = sim.model.reference_positions
+    elements = sim.model.elements()
+    lines = np.asarray(elements["nodes"], dtype=np.int64)
+    bar = np.asarray(elements["bar"], dtype=np.int64)
+    vertices, kinds = _vertices(sim)
+    density = _densities(sim, x)[bar]
+    area = _areas(sim, lines, bar)[bar]
+    nan = np.full(len(vertices), np.nan)
+    cell_data = {
+        "density": [density, nan],
+        "bar": [bar.astype(float), np.full(len(vertices), -1.0)],
+        "axial_force": [forces[:, 0], nan],
+        "moment_1": [forces[:, 1], nan],
+        "moment_2": [forces[:, 2], nan],
+        "axial_stress": [forces[:, 0] / area, nan],
+        "vertex": [np.zeros(len(lines)), kinds.astype(float)],
+    }
+    point_data = {"displacement": _xyz(q[:, :2]), "rotation": q[:, 2], **extra}
+    return meshio.Mesh(_xyz(reference + q[:, :2]), [("line", lines), ("vertex", vertices[:, None])],
+                       point_data=point_data, cell_data=cell_data)
+
+
+def _vertices(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes of joints (kind 1) and of point masses (kind 2)."""
+    joints = [(n, JOINT) for j in sim.joints for n in j.nodes]
+    masses = [(sim.node(p["node"]), POINT_MASS) for p in sim.spec.get("point_masses", [])]
+    entries = joints + masses
+    return np.array([n for n, _ in entries], dtype=np.int64), np.array([k for _, k in entries], dtype=np.int64)
+
+
+def _densities(sim: Simulation, x: np.ndarray | None) -> np.ndarray:
+    """Per bar: its density (1 where fixed, or for ``x = None``)."""
+    variable = np.asarray(sim.bars.variable)
+    if x is None:
+        return np.ones(len(variable))
+    return np.where(variable >= 0, np.asarray(x)[np.maximum(variable, 0)], 1.0)
+
+
+def _areas(sim: Simulation, lines: np.ndarray, bar: np.ndarray) -> np.ndarray:
+    """Per bar: the solid section's area, its volume over its length."""
+    ends = sim.model.reference_positions[lines]
+    lengths = np.bincount(bar, weights=np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1), minlength=len(sim.bars))
+    return np.asarray(sim.bars.volume) / lengths
