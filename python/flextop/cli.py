@@ -19,6 +19,7 @@ import math
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +64,7 @@ def _summarize(sim: Simulation, res, elapsed: float) -> None:
         print(f"to rtol = {sim.rtol:g}: {res.discretization}; estimated relative error {errors}")
     if isinstance(res, Results):
         newton = res.newton
-        steps = f"h = {res.raw['h']} s" if np.ptp(res.steps) == 0 else f"h = {res.steps.min():.3g} … {res.steps.max():.3g} s"
+        steps = f"h = {res.raw['h']:.6g} s" if np.ptp(res.steps) == 0 else f"h = {res.steps.min():.3g} … {res.steps.max():.3g} s"
         print(f"{len(res.time) - 1} steps of {steps} to t = {res.time[-1]:.4g} s in {elapsed * 1e3:.1f} ms "
               f"({newton['total']} Newton iterations, at most {newton['max']} per step)")
         if sim.tip is not None:
@@ -137,13 +138,13 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
     with volume constraints per component (or on the whole) of the first scene."""
     if args.scenarios is None:
         sim = Simulation(_scene(args.scene or "robot_arm"), accuracy=args.accuracy)
-        constraints = volume_constraints(sim, args.volume_fraction, per_component=not args.global_volume)
+        constraints = volume_constraints(sim, args.volume_fraction or 0.4, per_component=not args.global_volume)
         return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
     cases, aggregate = _scenario_file(args.scenarios)
     first = Simulation(cases[0].spec(), accuracy=args.accuracy)
-    constraints = volume_constraints(first, args.volume_fraction, per_component=not args.global_volume)
+    constraints = volume_constraints(first, args.volume_fraction or 0.4, per_component=not args.global_volume)
     problem = ScenarioProblem(cases, args.objective or first._default_response(), constraints, aggregate=args.aggregate or aggregate,
                               executor=workers.executor, chunksize=workers.chunksize(len(cases)), settings=_settings(args),
                               rtol=args.rtol, accuracy=args.accuracy)
@@ -229,11 +230,12 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         if args.rtol is not None and args.h is not None:
             raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
         sim, problem = _problem(args, workers)
-        if not sim.x_min <= args.x0 <= 1.0:
-            raise DesignError(f"--x0 {args.x0:g} is outside [{sim.x_min:g}, 1]")
+        x0 = 0.4 if args.x0 is None else args.x0
+        if not sim.x_min <= x0 <= 1.0:
+            raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
         options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol,
                    "xtol": args.xtol}
-        start = np.full(sim.n_design, args.x0) if args.start is None else _started(sim, args.start)
+        start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
         x0, state, animate = _start(problem, start), None, args.animate
         _folder(out)
     print(f"{_title(sim, problem)}: minimize {_objective(problem)} over {sim.n_design} densities "
@@ -291,6 +293,12 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     saved = checkpoint.load(path)
     if args.scenarios is not None or args.scene is not None:
         raise SettingsError("--resume takes the scene or scenarios from the checkpoint; give neither")
+    fixed = {"--volume-fraction": args.volume_fraction, "--global-volume": args.global_volume or None, "--x0": args.x0,
+             "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
+             "--rtol": args.rtol, "--aggregate": args.aggregate}
+    given = [flag for flag, value in fixed.items() if value is not None]
+    if given:
+        raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
     try:
         if "scenarios" in saved["problem"]:
             n = len(saved["problem"]["scenarios"])
@@ -408,9 +416,9 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
     o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene)")
     o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
-    o.add_argument("--volume-fraction", type=_fraction, default=0.4, help="V <= fraction * V_full (default 0.4)")
+    o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
-    o.add_argument("--x0", type=float, default=0.4, help="initial density of every bar (default 0.4)")
+    o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
     o.add_argument("--move", type=_fraction, default=0.2, help="move limit as a fraction of the bounds (default 0.2)")
@@ -433,6 +441,7 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    warnings.formatwarning = _warning
     try:
         return args.run(args)
     except BrokenPipeError:  # the reader left (e.g. `| head`): stop quietly
@@ -442,6 +451,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.debug:
             raise
         return _fail(error)
+
+
+def _warning(message, category, *_: Any, **__: Any) -> str:
+    """A warning as one line: ``flextop: warning: ...`` (no source line)."""
+    return f"flextop: warning: {' '.join(str(message).split())}\n"
 
 
 def _fail(error: BaseException) -> int:

@@ -49,6 +49,11 @@ class CheckpointError(FlextopError, ValueError):
     not match), holding a design outside the bounds, or of a run that has finished."""
 
 
+class SettingsWarning(UserWarning):
+    """A setting the run had to change: a step ``h`` shortened by more than 1 % so that a
+    whole number of steps ends exactly at ``t_end``."""
+
+
 class PlausibilityWarning(UserWarning):
     """A result that completed but breaks a law it should obey: a run that created energy
     (kinetic plus strain energy above the work done on the structure), or a negative

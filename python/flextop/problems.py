@@ -124,7 +124,8 @@ class TopologyProblem(Problem):
 
 def volume_constraints(simulation: Simulation, fraction: float, *, per_component: bool = True) -> list[tuple[str, float]]:
     """Upper bounds ``V ≤ fraction · V_full`` (paper Eq. 38), one per component (Eq. 41)
-    or on the whole structure."""
+    that has design variables (a component of fixed bars would give a constant), or on
+    the whole structure."""
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"volume fraction must lie in (0, 1], got {fraction}")
     volume = np.asarray(simulation.bars.volume)
@@ -133,7 +134,7 @@ def volume_constraints(simulation: Simulation, fraction: float, *, per_component
     if not per_component:
         return [("volume", fraction * volume[~fixed].sum() + volume[fixed].sum())]
     return [(f"volume:{name}", fraction * volume[(component == k) & ~fixed].sum() + volume[(component == k) & fixed].sum())
-            for k, name in enumerate(simulation.components)]
+            for k, name in enumerate(simulation.components) if ((component == k) & ~fixed).any()]
 
 
 def static_truss_problem(objective: str = "compliance", volume_fraction: float = 0.4, *, accuracy: str | None = None,

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 
 from . import _core, execution, export, tolerance
 from .accuracy import preset, split_by
-from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError
+from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
 
@@ -45,6 +45,14 @@ def _warn_if_energy_created(res: Results) -> None:
         warnings.warn(PlausibilityWarning(
             f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J, the work done "
             f"{work[k]:.4g} J ({excess[k] / scale:.1%} of the largest); use a smaller step h"), stacklevel=3)
+
+
+def _warn_if_step_shortened(asked: float | None, used: float) -> None:
+    """A :class:`SettingsWarning` when the step used is more than 1 % below the one asked
+    for (shortened so that a whole number of steps ends at ``t_end``)."""
+    if asked and used < 0.99 * asked:
+        warnings.warn(f"h = {asked:g} s was shortened to {used:.6g} s so that a whole number of steps ends at t_end",
+                      SettingsWarning, stacklevel=4)
 
 
 def _warn_if_implausible_static(res: StaticResults) -> None:
@@ -280,6 +288,8 @@ class Simulation:
         raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps])
         res = Results(self, raw, xv, settings)
         _warn_if_energy_created(res)
+        if steps is None and local_tol is None:
+            _warn_if_step_shortened(settings.get("h") or self.spec.get("simulation", {}).get("h"), raw["h"])
         return res
 
     def _settings(self, **given: Any) -> dict[str, Any]:
@@ -569,7 +579,7 @@ def remember(sim: Simulation) -> None:
     _cached(sim.spec, sim.options)
 
 
-@dataclass
+@dataclass(repr=False)
 class _Run:
     """What dynamic and static results share: the run's data and its joint loads."""
 
@@ -595,6 +605,14 @@ class _Run:
     def lam(self) -> np.ndarray:
         """Lagrange multipliers ``λ``, one per constraint row."""
         return self.raw["lam"]
+
+    def __repr__(self) -> str:
+        x = "full density" if self.x is None else f"x in [{np.min(self.x):.3g}, {np.max(self.x):.3g}] ({np.size(self.x)} values)"
+        tolerance = f", {self.discretization}" if self.discretization is not None else ""
+        return f"{type(self).__name__}({self.simulation.spec.get('name') or 'scene'}: {self._summary()}; {x}{tolerance})"
+
+    def _summary(self) -> str:
+        return f"{self.raw['iterations']} Newton iterations"
 
     @cached_property
     def section_forces(self) -> np.ndarray:
@@ -643,7 +661,7 @@ def _merged(steps: np.ndarray, k: int) -> np.ndarray:
     return np.add.reduceat(steps, np.arange(0, len(steps), k))
 
 
-@dataclass
+@dataclass(repr=False)
 class Results(_Run):
     """Time histories of a dynamic run (one row per time ``t_n``): ``q``, ``qdot``,
     ``qddot``, ``lam``, as the engine and saved files name them.
@@ -652,6 +670,9 @@ class Results(_Run):
     configuration, three per node; :attr:`coordinates` the absolute nodal coordinates
     ``(x, y, φ)`` of the paper.
     """
+
+    def _summary(self) -> str:
+        return f"{len(self.time) - 1} steps to t = {self.time[-1]:.6g} s"
 
     def to_vtk(self, path: str | os.PathLike, *, every: int = 1) -> Path:
         """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
@@ -737,7 +758,7 @@ class Results(_Run):
         return self.simulation.node(node) if isinstance(node, str) else int(node)
 
 
-@dataclass
+@dataclass(repr=False)
 class StaticResults(_Run):
     """A static equilibrium."""
 

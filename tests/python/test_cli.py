@@ -170,3 +170,19 @@ def test_resume_verifies_the_checkpoint(tmp_path, capsys):
     (out / "checkpoint.json").write_text("{not json")
     assert flextop.cli.main(["optimize", "--resume", "--out", str(out)]) == 2
     assert "cannot be read as a checkpoint" in capsys.readouterr().err
+
+
+def test_resume_refuses_flags_the_checkpoint_fixes_and_a_shortened_step_is_reported(tmp_path):
+    flextop_cli("optimize", "static_truss", "--max-iter", 1, "--out", tmp_path, "--no-plots", codes=(3,))
+    run = flextop_cli("optimize", "--resume", "--max-iter", 2, "--volume-fraction", 0.3, "--h", 0.01, "--out", tmp_path, check=False)
+    assert run.returncode == 2 and "--volume-fraction, --h: the checkpoint fixes the problem" in run.stderr
+    short = flextop_cli("simulate", "robot_arm", "--x", 0.4, "--h", 0.5)
+    assert short.stderr.strip() == "flextop: warning: h = 0.5 s was shortened to 0.433333 s so that a whole number of steps ends at t_end"
+    assert "3 steps of h = 0.433333 s" in short.stdout
+
+
+def test_results_print_as_one_line(arm):
+    res = arm.run(0.4)
+    assert repr(res) == "Results(robot_arm: 65 steps to t = 1.3 s; x in [0.4, 0.4] (148 values))"
+    with pytest.warns(flextop.errors.SettingsWarning, match="shortened to 0.433333 s"):
+        arm.run(0.4, h=0.5)

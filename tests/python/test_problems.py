@@ -118,3 +118,16 @@ def test_failed_simulations_are_recovered_from(monkeypatch):
     assert result.status is Status.MAX_ITER and "2 evaluation failure(s) recovered" in result.message
     assert "Newton did not converge" in result.message
     assert result.state.move == pytest.approx(0.05)
+
+
+def test_a_component_without_design_variables_gets_no_volume_constraint():
+    scene = flextop.Scene("two parts", analysis="static")
+    scene.section("al", E=70e9, nu=0.32, rho=2700.0, diameter=0.02)
+    for name, x in (("a", 0.0), ("b", 1.0), ("c", 2.0)):
+        scene.node(name, x, 0.0)
+    scene.beam("a", "b", section="al", component="designed")
+    scene.beam("b", "c", section="al", component="support", fixed=True)
+    scene.clamp("root", "a")
+    scene.load("c", force=(0.0, -1.0))
+    sim = flextop.Simulation(scene)
+    assert [name for name, _ in flextop.volume_constraints(sim, 0.5)] == ["volume:designed"]
