@@ -13,11 +13,11 @@ from .optimizers import OptimizeResult, optimize
 from .problems import TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
 from .scenarios import Scenario, ScenarioProblem
 from .scene import GroundStructure, Scene, motion_table, trapezoidal
-from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticResults
+from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticResults, load
 
 __all__ = [
     "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
     "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
-    "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
+    "load", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]
 __version__ = "0.1.0"

@@ -109,8 +109,13 @@ def simulate(args: argparse.Namespace) -> int:
     res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
     if out is not None:
-        np.savez(out / "results.npz", **{k: v for k, v in res.raw.items() if isinstance(v, np.ndarray)})
-        print(f"wrote {out / 'results.npz'}")
+        written = [res.save(out / "results.npz")]
+        if isinstance(res, Results) and sim.tip is not None:
+            from .plots import plot_tip_error
+
+            plot_tip_error(res, path=out / "tip_error.png")
+            written.append(out / "tip_error.png")
+        print(f"wrote {', '.join(map(str, written))} (flextop.load reads results.npz back)")
     if args.vtk:
         print(f"wrote {_vtk(res, out)} (open it in ParaView)")
     return 0
@@ -403,7 +408,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
     s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")
-    s.add_argument("--out", help="folder for results.npz")
+    s.add_argument("--out", help="folder for results.npz (everything the run holds; flextop.load reads it) and tip_error.png")
     s.add_argument("--vtk", action="store_true", help="also write the motion for ParaView (motion.pvd and its .vtu files) in --out")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")

@@ -22,7 +22,7 @@ from typing import Any, Iterable, Iterator, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from . import _core, execution, export, tolerance
+from . import _core, execution, export, saved, tolerance
 from .accuracy import preset, split_by
 from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
@@ -606,6 +606,11 @@ class _Run:
         """Lagrange multipliers ``λ``, one per constraint row."""
         return self.raw["lam"]
 
+    def save(self, path: str | os.PathLike) -> Path:
+        """Everything this result holds, to ``path`` (``.npz``; :mod:`flextop.saved`), for
+        :func:`flextop.load` to give back bit for bit."""
+        return saved.write(self, path)
+
     def __repr__(self) -> str:
         x = "full density" if self.x is None else f"x in [{np.min(self.x):.3g}, {np.max(self.x):.3g}] ({np.size(self.x)} values)"
         tolerance = f", {self.discretization}" if self.discretization is not None else ""
@@ -673,6 +678,27 @@ class Results(_Run):
 
     def _summary(self) -> str:
         return f"{len(self.time) - 1} steps to t = {self.time[-1]:.6g} s"
+
+    def to_xarray(self) -> Any:
+        """The time histories as an ``xarray.Dataset``: ``q``, ``qdot``, ``qddot`` over
+        ``(time, node, coordinate)`` (coordinates ``x``, ``y``, ``phi``), ``lam`` over
+        ``(time, multiplier)`` (``JOINT:ROW``), the energies and step sizes over time; the
+        design, scene name, ``h`` and ``rho_inf`` as attributes."""
+        try:
+            import xarray as xr
+        except ImportError:
+            raise SettingsError("to_xarray needs xarray: pip install xarray") from None
+        sim, n = self.simulation, len(self.time)
+        nodal = ("time", "node", "coordinate")
+        data = {k: (nodal, np.asarray(self.raw[k]).reshape(n, -1, 3)) for k in ("q", "qdot", "qddot")}
+        data |= {"lam": (("time", "multiplier"), self.raw["lam"]), "steps": ("time", self.raw["steps"])}
+        data |= {k: ("time", v) for k, v in self.energies.items()}
+        attrs = {"scene": sim.spec.get("name") or "", "h": self.raw["h"], "rho_inf": self.raw["rho_inf"]}
+        if self.x is not None:
+            data["x"] = ("variable", self.x)
+        coords = {"time": self.time, "node": sim.node_names, "coordinate": ["x", "y", "phi"],
+                  "multiplier": saved.multiplier_names(sim), "variable": sim.variable_names}
+        return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_vtk(self, path: str | os.PathLike, *, every: int = 1) -> Path:
         """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
@@ -783,3 +809,13 @@ class StaticResults(_Run):
         """Displacement ``(u, v, φ)`` of ``node``."""
         index = self.simulation.node(node) if isinstance(node, str) else int(node)
         return self.q[3 * index:3 * index + 3]
+
+
+def load(path: str | os.PathLike) -> Results | StaticResults:
+    """The results saved at ``path`` by ``results.save(path)``, on the Simulation of their
+    saved scene and options."""
+    meta, raw, x = saved.read(path)
+    sim = Simulation(meta["scene"], **meta["simulation"])
+    kind = Results if meta["kind"] == "dynamic" else StaticResults
+    d = meta["discretization"]
+    return kind(sim, raw, x, meta["settings"], None if d is None else Discretization(*d), meta["errors"])

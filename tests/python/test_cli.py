@@ -49,8 +49,10 @@ def test_demo_prints_tip_error_and_d_and_writes_a_plot(tmp_path):
 def test_simulate_a_scene_file_and_save_results(tmp_path):
     run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--h", "0.01", "--out", tmp_path)
     assert "130 steps of h = 0.01 s" in run.stdout
-    saved = np.load(tmp_path / "results.npz")
-    assert saved["q"].shape == (131, 90)
+    saved = flextop.load(tmp_path / "results.npz")
+    assert saved.q.shape == (131, 90) and saved.raw["h"] == 0.01
+    assert saved.tip_deflection() == pytest.approx(float(re.search(r"d = ([0-9.e+-]+)", run.stdout).group(1)), rel=1e-6)
+    assert (tmp_path / "tip_error.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_simulate_to_a_tolerance_or_with_local_error_control():

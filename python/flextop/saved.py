@@ -1,0 +1,102 @@
+"""Saved results: one ``.npz`` file that gives back, bit for bit, everything a result holds.
+
+The arrays are stored under the names Python uses (``time``, ``q``, ``qdot``, ``qddot``,
+``lam``, the energies, ``steps``, Newton ``iterations``; a static result: ``q``, ``lam``)
+and the design as ``x``. Beside them, a JSON document (array ``meta``) holds what rebuilds
+the run's context: the scene, the Simulation's options and the run's settings, the step and
+spectral radius used, a tolerance's discretization and estimated errors, and for reading
+the file without flextop: node and design-variable names, the bars, and the joints with the
+names of their multipliers (``lam`` columns) and which of them is a motor torque.
+
+:func:`flextop.load` rebuilds the :class:`~flextop.Simulation` from the scene and
+returns :class:`~flextop.Results` or :class:`~flextop.StaticResults` equal to the saved
+ones (:func:`read` gives it the file's parts).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .errors import SettingsError
+
+if TYPE_CHECKING:
+    from .simulation import Simulation, _Run
+
+VERSION = 1
+"""Layout of the saved file."""
+
+ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y")}
+"""The multipliers of a joint's rows, by kind: its constraint rows, then ``drive`` when driven."""
+
+
+def multiplier_names(sim: Simulation) -> list[str]:
+    """``JOINT:ROW`` for every column of ``lam``: ``shoulder:x``, ``shoulder:y``,
+    ``shoulder:drive`` (the motor torque) and so on."""
+    names = []
+    for joint in sim.joints:
+        rows = [*ROWS.get(joint.kind, ()), *(["drive"] if joint.driven else [])]
+        if len(rows) != len(joint.rows):
+            rows = [f"row{k}" for k in range(len(joint.rows))]
+        names += [f"{joint.name}:{row}" for row in rows]
+    return names
+
+
+def write(results: _Run, path: str | os.PathLike) -> Path:
+    """Writes ``results`` to ``path`` (``.npz``)."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise SettingsError(f"{path}: results are saved as .npz; give a path ending in .npz")
+    sim = results.simulation
+    arrays = {k: np.asarray(v) for k, v in results.raw.items() if not np.isscalar(v)}
+    scalars = {k: v for k, v in results.raw.items() if np.isscalar(v)}
+    if results.x is not None:
+        arrays["x"] = np.asarray(results.x)
+    meta = {
+        "version": VERSION,
+        "kind": "dynamic" if "qdot" in results.raw else "static",
+        "scene": sim.spec, "simulation": sim.options, "settings": results.settings, "scalars": scalars,
+        "discretization": None if results.discretization is None else [results.discretization.refinement,
+                                                                         results.discretization.steps],
+        "errors": results.errors,
+        "node_names": sim.node_names, "variable_names": sim.variable_names, "components": sim.components,
+        "bars": {"name": list(sim.bars.name), "nodes": np.asarray(sim.bars.nodes).tolist(),
+                 "variable": np.asarray(sim.bars.variable).tolist(), "component": np.asarray(sim.bars.component).tolist(),
+                 "volume": np.asarray(sim.bars.volume).tolist()},
+        "joints": [{"name": j.name, "kind": j.kind, "nodes": list(j.nodes), "rows": [j.rows.start, j.rows.stop],
+                    "driven": j.driven} for j in sim.joints],
+        "multipliers": multiplier_names(sim),
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, meta=np.array(json.dumps(meta, default=_plain)), **arrays)
+    return path
+
+
+def read(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, Any], np.ndarray | None]:
+    """The saved file's description, the run's raw data (arrays and scalars) and design."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            arrays = {k: data[k] for k in data.files if k != "meta"}
+    except (OSError, ValueError, KeyError) as error:
+        raise SettingsError(f"{path}: not a file of saved flextop results ({error})") from None
+    if meta.get("version") != VERSION:
+        raise SettingsError(f"{path}: saved results of layout {meta.get('version')!r}; this flextop reads {VERSION}")
+    x = arrays.pop("x", None)
+    raw: dict[str, Any] = {**arrays, **meta["scalars"]}
+    if meta["kind"] == "dynamic":
+        raw["iterations"] = raw["iterations"].tolist()
+    return meta, raw, x
+
+
+def _plain(value: Any) -> Any:
+    """JSON for numpy scalars and arrays inside the scene or settings."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot save {type(value).__name__}")

@@ -1,0 +1,63 @@
+"""Saved results: save → load gives back every field bit for bit; the xarray view."""
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import saved
+
+
+def same(a, b):
+    assert type(a) is type(b)
+    assert a.raw.keys() == b.raw.keys()
+    for key in a.raw:
+        assert np.array_equal(np.asarray(a.raw[key]), np.asarray(b.raw[key])), key
+        assert np.asarray(a.raw[key]).dtype == np.asarray(b.raw[key]).dtype, key
+    assert (a.x is None and b.x is None) or (np.array_equal(a.x, b.x) and a.x.dtype == b.x.dtype)
+    assert a.settings == b.settings and a.discretization == b.discretization and a.errors == b.errors
+    assert a.simulation.spec == b.simulation.spec and a.simulation.options == b.simulation.options
+
+
+def test_save_and_load_give_back_every_field(tmp_path, arm):
+    runs = [arm.run(np.random.default_rng(0).uniform(0.05, 1.0, arm.n_design), h=0.01, rho_inf=0.6),
+            arm.run(0.4, rtol=1e-2),  # from the refined scene the tolerance chose, with its estimate
+            flextop.Simulation(flextop.scenes.static_truss()).run(0.3),
+            flextop.Simulation(flextop.scenes.spun_beam(), accuracy="fast").run()]
+    for k, res in enumerate(runs):
+        back = flextop.load(res.save(tmp_path / f"run{k}.npz"))
+        same(res, back)
+        if isinstance(res, flextop.Results):
+            assert back.tip_deflection() == res.tip_deflection()
+            assert np.array_equal(back.motor_torques["shoulder"], res.motor_torques["shoulder"]) if "shoulder" in res.motor_torques else True
+
+
+def test_the_file_describes_itself_without_flextop(tmp_path, arm):
+    res = arm.run(0.4)
+    with np.load(res.save(tmp_path / "arm.npz")) as data:
+        import json
+
+        meta = json.loads(str(data["meta"]))
+        assert data["q"].shape == (66, 90) and data["x"].shape == (148,)
+    assert meta["node_names"] == arm.node_names and meta["variable_names"] == arm.variable_names
+    assert meta["multipliers"] == ["shoulder:x", "shoulder:y", "shoulder:drive", "elbow:x", "elbow:y", "elbow:drive"]
+    assert [j["name"] for j in meta["joints"]] == ["shoulder", "elbow"] and len(meta["bars"]["name"]) == 148
+
+
+def test_bad_files_are_named(tmp_path):
+    with pytest.raises(flextop.SettingsError, match="not a file of saved flextop results"):
+        flextop.load(tmp_path / "missing.npz")
+    np.savez(tmp_path / "other.npz", q=np.zeros(3))
+    with pytest.raises(flextop.SettingsError, match="other.npz: not a file of saved flextop results"):
+        flextop.load(tmp_path / "other.npz")
+
+
+def test_the_xarray_view(arm):
+    xr = pytest.importorskip("xarray")
+    res = arm.run(0.4)
+    ds = res.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert ds["q"].dims == ("time", "node", "coordinate") and list(ds.coordinate.values) == ["x", "y", "phi"]
+    tip = arm.node_names[arm.tip]
+    assert np.array_equal(ds["q"].sel(node=tip).values, res.q.reshape(len(res.time), -1, 3)[:, arm.tip])
+    assert np.array_equal(ds["lam"].sel(multiplier="elbow:drive").values, res.motor_torques["elbow"] * -1)
+    assert list(ds.multiplier.values) == saved.multiplier_names(arm)
