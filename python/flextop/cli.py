@@ -125,7 +125,7 @@ def _vtk(res, out: Path) -> Path:
     """The result for ParaView in ``out``: ``motion.pvd`` with about 100 frames, or
     ``state.vtu`` for a static result."""
     if isinstance(res, Results):
-        return res.to_vtk(out / "motion.pvd", every=max(1, len(res.time) // 100))
+        return res.to_vtk(out / "motion.pvd", every=-(-len(res.time) // 100))
     return res.to_vtk(out / "state.vtu")
 
 
@@ -278,7 +278,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.objective_scale}))
     if not args.no_plots:
-        _pictures(sim, problem, result, x0, out, animate=animate)
+        _pictures(sim, problem, result, x0, out, animate=animate, every=args.every, fps=args.fps)
     if args.vtk:
         x = result.x[: sim.n_design]
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
@@ -365,7 +365,8 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
     print(f"time: {elapsed:.2f} s — " + ", ".join(f"{k} {100 * v / elapsed:.1f} %" for k, v in {**shares, "other": other}.items()))
 
 
-def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, result, x0: np.ndarray, out: Path, *, animate: bool) -> None:
+def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, result, x0: np.ndarray, out: Path, *, animate: bool,
+              every: int | None = None, fps: float = 20) -> None:
     """Designs, history and tip error (of the first scenario) of a finished run."""
     from .plots import animate as animation, plot_design, plot_history, plot_tip_error
 
@@ -373,8 +374,10 @@ def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, resul
     plot_design(sim, x0, path=out / "design_initial.png", title="initial design")
     plot_design(sim, x, path=out / "design.png", title=f"optimized: {_objective(problem)}")
     if result.history:
-        plot_history(result.history, path=out / "history.png", objective_label=f"{problem.objective} (scaled)",
-                     constraint_labels=list(problem.names or []))
+        worst = isinstance(problem, ScenarioProblem) and problem.aggregate is scenarios.Aggregate.WORST
+        plot_history(result.history, path=out / "history.png",
+                     objective_label="β = ln(worst / start)" if worst else problem.objective,
+                     objective_scale=None if worst else problem.objective_scale, constraint_labels=list(problem.names or []))
     written = ["design_initial.png", "design.png", "history.png"]
     if sim.analysis == "dynamic" and sim.tip is not None:
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
@@ -382,7 +385,7 @@ def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, resul
         plot_tip_error(before, after, path=out / "tip_error.png")
         written.append("tip_error.png")
         if animate:
-            animation(after, out / "motion.gif", x=x)
+            animation(after, out / "motion.gif", x=x, every=every, fps=fps)
             written.append("motion.gif")
     print(f"wrote {', '.join(str(out / w) for w in written)}")
 
@@ -438,6 +441,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     o.add_argument("--no-plots", action="store_true")
     o.add_argument("--animate", action="store_true", help="also write motion.gif of the optimized design")
+    o.add_argument("--every", type=_positive(int), help="with --animate: a frame every N steps (default: about 100 frames)")
+    o.add_argument("--fps", type=_positive(float), default=20.0, help="with --animate: frames per second (default 20)")
     o.add_argument("--vtk", action="store_true", help="also write the optimized design (design.vtu) and its motion (motion.pvd) "
                    "for ParaView")
     o.set_defaults(run=optimize_command)

@@ -96,16 +96,26 @@ def _design_layout(positions: np.ndarray) -> tuple[tuple[float, float], str]:
 
 def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None, ax: Any = None,
                 title: str | None = None, path: str | os.PathLike | None = None,
-                min_density: float | None = None, cmap: str | Colormap = DEFAULT_CMAP) -> Figure:
+                min_density: float | None = None, cmap: str | Colormap = DEFAULT_CMAP,
+                by_component: bool | None = None) -> Figure:
     """Density map of design ``x`` (paper Figs. 4, 7, 8).
 
-    Each bar is a straight line between its end nodes, at ``positions`` (``(n_nodes, 2)``,
-    the reference configuration by default), whose width grows linearly with its density
-    and whose colour follows ``cmap`` from ``sim.x_min`` to 1; a colorbar labelled
-    "Density" gives the scale. Fixed bars are drawn at density 1; bars below
-    ``min_density`` (if given) are drawn faint. Equal aspect, axes in metres. Draws into
-    ``ax`` if given, else into a new figure.
+    Each bar is a straight line between its end nodes, whose width grows linearly with its
+    density and whose colour follows ``cmap`` from ``sim.x_min`` to 1; a colorbar labelled
+    "Density" gives the scale. Fixed bars are drawn at density 1, and bars below
+    ``min_density`` faint (default: 1.5 ``x_min``, the voids; 0 draws every bar alike).
+    Equal aspect, axes in metres.
+
+    ``by_component`` (the default for a scene of several components, drawn into a new
+    figure at the reference configuration): one panel per component, each in its own frame
+    (its long axis horizontal, from its own origin), so that links that overlap in the
+    scene's pose are seen apart. Otherwise one panel at ``positions`` (``(n_nodes, 2)``,
+    the reference configuration by default), into ``ax`` if given.
     """
+    faint = 1.5 * sim.x_min if min_density is None else (min_density or None)
+    several = len(sim.components) > 1
+    if by_component or (by_component is None and several and positions is None and ax is None):
+        return _save(_design_by_component(sim, x, title, faint, cmap), path)
     positions = sim.model.reference_positions if positions is None else np.asarray(positions)
     figsize, location = _design_layout(positions)
     if ax is None:
@@ -113,12 +123,7 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
         ax = fig.add_subplot()
     else:
         fig = ax.figure
-    lw, colors, mappable = _bar_style(sim, x, cmap, min_density)
-    ax.add_collection(LineCollection(_segments(sim, positions), linewidths=lw, colors=colors, capstyle="round"))
-    ax.margins(0.05)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    mappable = _draw_bars(ax, sim, x, _segments(sim, positions), np.ones(len(sim.bars), bool), faint, cmap)
     if title is not None:
         ax.set_title(title)
     fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8,
@@ -126,18 +131,63 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
     return _save(fig, path)
 
 
+def _draw_bars(ax: Any, sim: Simulation, x: Any, segments: np.ndarray, shown: np.ndarray, faint: float | None,
+               cmap: str | Colormap) -> ScalarMappable:
+    lw, colors, mappable = _bar_style(sim, x, cmap, faint)
+    ax.add_collection(LineCollection(segments[shown], linewidths=lw[shown], colors=colors[shown], capstyle="round"))
+    ax.margins(0.05)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    return mappable
+
+
+def _design_by_component(sim: Simulation, x: Any, title: str | None, faint: float | None, cmap: str | Colormap) -> Figure:
+    """One panel per component, each in its own frame, stacked, with one colorbar."""
+    component = np.asarray(sim.bars.component)
+    nodes = np.asarray(sim.bars.nodes, dtype=int)
+    ends = _segments(sim, sim.model.reference_positions)
+    frames = []
+    for k in range(len(sim.components)):
+        mine = component == k
+        points = ends[mine].reshape(-1, 2)
+        centre = points.mean(axis=0)
+        axis = np.linalg.svd(points - centre)[2][0]
+        first = sim.model.reference_positions[nodes[mine].min()]  # the component's first node on the left
+        axis = axis if (first - centre) @ axis <= 0 else -axis
+        rotation = np.array([[axis[0], axis[1]], [-axis[1], axis[0]]])  # the long axis onto x
+        local = (ends - centre) @ rotation.T
+        frames.append((mine, local - local[mine].reshape(-1, 2).min(axis=0)))
+    extent = np.array([np.ptp(local[mine].reshape(-1, 2), axis=0) for mine, local in frames]) + 1e-12
+    width = float(extent[:, 0].max())
+    heights = extent[:, 1] + 0.1 * width
+    fig = _new_figure(figsize=(8.0, min(0.5 + float(np.sum(6.0 * heights / width + 0.75)), 12.0)), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(len(frames), 1, height_ratios=heights))
+    for ax, (mine, local), name in zip(axes, frames, sim.components):
+        mappable = _draw_bars(ax, sim, x, local, mine, faint, cmap)
+        ax.set_title(name, fontsize="medium")
+        ax.set_xlim(-0.03 * width, 1.03 * width)
+    if title is not None:
+        fig.suptitle(title)
+    fig.colorbar(mappable, ax=list(axes), label="Density", location="right", shrink=0.8)
+    return fig
+
+
 def _field(record: Any, name: str) -> Any:
     return record[name] if isinstance(record, Mapping) else getattr(record, name)
 
 
 def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = None, objective_label: str = "objective",
-                 constraint_labels: Sequence[str] | None = None) -> Figure:
-    """Convergence history of an optimization.
+                 objective_scale: float | None = None, constraint_labels: Sequence[str] | None = None) -> Figure:
+    """Convergence history of an optimization, from iteration 0 (the start design).
 
     ``history`` holds one record per iteration (objects or dicts with ``iteration``,
-    ``f0``, ``g`` and ``change``). Top panel: the objective against the iteration. Bottom
-    panel: every constraint value (feasible when ≤ 0, the dotted zero line) and, on a log
-    twin axis, the maximum design change.
+    ``f0``, ``g`` and ``change``), as :attr:`OptimizeResult.history`. Top panel: the
+    objective as the optimizer saw it, ``f / f_ref``, on a log axis when it stays positive
+    (one bad iteration then does not flatten the rest), with the response in its own
+    units on the right axis when ``objective_scale`` (``f_ref``) is given. Bottom panel:
+    every constraint by name (feasible when ≤ 0, the dotted zero line) and, on a log twin
+    axis, the maximum design change.
     """
     if len(history) == 0:
         raise ValueError("empty history")
@@ -151,14 +201,19 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
 
     fig = _new_figure(figsize=(7.0, 6.0), layout="constrained")
     top, bottom = fig.subplots(2, 1, sharex=True)
-    top.plot(it, f0, "o-", color="C0", label=objective_label)
-    top.set_ylabel(objective_label)
-    top.grid(True, alpha=0.3)
+    top.plot(it, f0, "o-", color="C0")
+    top.set_ylabel(f"{objective_label} / f_ref" if objective_scale is not None else objective_label)
+    if np.all(f0 > 0):
+        top.set_yscale("log")
+    if objective_scale is not None:
+        right = top.secondary_yaxis("right", functions=(lambda v: v * objective_scale, lambda v: v / objective_scale))
+        right.set_ylabel(f"{objective_label} (its units)")
+    top.grid(True, which="both", alpha=0.3)
 
     for j, label in enumerate(labels):
-        bottom.plot(it, g[:, j], "o-", color=f"C{j + 1}", label=label)
+        bottom.plot(it, g[:, j], "o-", color=f"C{(j + 1) % 10}", label=label, ms=3)
     bottom.axhline(0.0, color="k", lw=0.8, ls=":")
-    bottom.set_ylabel("constraints (feasible ≤ 0)")
+    bottom.set_ylabel("constraints g (feasible ≤ 0)")
     bottom.set_xlabel("iteration")
     bottom.grid(True, alpha=0.3)
     twin = bottom.twinx()
@@ -166,7 +221,7 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
     twin.set_yscale("log", nonpositive="mask")
     twin.set_ylabel("max design change")
     handles = bottom.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
-    bottom.legend(handles=handles, loc="best", fontsize="small")
+    bottom.legend(handles=handles, loc="best", fontsize="small", ncols=2 if len(handles) > 6 else 1)
     return _save(fig, path)
 
 
@@ -177,20 +232,20 @@ def plot_tip_error(before: Results, after: Results | None = None, *, node: int |
 
     For ``before`` (and ``after``, in a second panel side by side with a shared y axis):
     error-x and error-y (m) of ``node`` (the scene's tip by default) from its rigid
-    trajectory; each title gives the mean squared tip deflection.
+    trajectory, in millimetres; each title gives the mean squared tip deflection.
     """
     runs = [before] if after is None else [before, after]
     fig = _new_figure(figsize=(5.0 * len(runs), 4.0), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(runs), sharey=True))
     for ax, res, label in zip(axes, runs, labels):
-        error = res.tip_error(node)
+        error = 1e3 * res.tip_error(node)
         ax.plot(res.time, error[:, 0], label="error-x")
         ax.plot(res.time, error[:, 1], label="error-y")
         ax.set_title(f"{label}\nd = {res.tip_deflection(node):.3g} m²")
         ax.set_xlabel("time (s)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
-    axes[0].set_ylabel("deflection (m)")
+    axes[0].set_ylabel("deflection (mm)")
     return _save(fig, path)
 
 
@@ -210,11 +265,16 @@ def _frame_indices(n_times: int, every: int) -> np.ndarray:
     return indices if indices[-1] == n_times - 1 else np.append(indices, n_times - 1)
 
 
+FRAMES = 100
+"""Frames of an animation when ``every`` is not given."""
+
+
 def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0, fps: float = 20, x: Any = None,
-            every: int = 1) -> str | os.PathLike:
+            every: int | None = None) -> str | os.PathLike:
     """Writes an animated GIF of the moving mechanism and returns ``path``.
 
-    One frame per ``every``-th time step (and the last): the bars between the
+    One frame per ``every``-th time step (default: about :data:`FRAMES` frames), and the
+    last: the bars between the
     :func:`magnified_positions` of their end nodes (elastic deflection × ``magnify``),
     coloured and sized by density ``x`` if given (with a colorbar), the scene's tip and a
     faint trace of its rigid path, and the time. 5 × 5 in at 80 dpi.
@@ -223,7 +283,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
         raise TypeError("animate needs the Results of a dynamic run")
     sim = results.simulation
     drawn = magnified_positions(results, magnify)
-    frames = _frame_indices(len(results.time), every)
+    frames = _frame_indices(len(results.time), every or -(-len(results.time) // FRAMES))
 
     fig = _new_figure(figsize=(5.0, 5.0), dpi=80, layout="constrained")
     ax = fig.add_subplot()
@@ -248,7 +308,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"deflection × {magnify:g}")
+    ax.set_title(f"elastic deflection magnified × {magnify:g}")
     label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top")
 
     fig.canvas.draw()

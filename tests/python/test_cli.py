@@ -81,10 +81,10 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 8, "--out", straight, "--no-plots", codes=(0, 3))
     flextop_cli("optimize", "static_truss", "--objective", "compliance", "--max-iter", 4, "--out", split, "--no-plots", codes=(0, 3))
     checkpoint = json.loads((split / "checkpoint.json").read_text())["data"]
-    assert checkpoint["state"]["iteration"] == 4 and len(history(split)) == 4
+    assert checkpoint["state"]["iteration"] == 4 and len(history(split)) == 5  # iterations 0 to 4
     run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots", codes=(0, 3))
     assert "resuming" in run.stdout
-    assert [h["iteration"] for h in history(split)] == list(range(1, 9))
+    assert [h["iteration"] for h in history(split)] == list(range(0, 9))
     np.testing.assert_allclose(np.load(split / "design.npy"), np.load(straight / "design.npy"), rtol=0, atol=1e-12)
     assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
 

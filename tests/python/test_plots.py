@@ -38,7 +38,7 @@ def two_bar_sim() -> flextop.Simulation:
 
 def test_design_width_and_colour_follow_density(arm):
     x = np.random.default_rng(1).permutation(np.linspace(arm.x_min, 1.0, arm.n_design))
-    fig = plots.plot_design(arm, x)
+    fig = plots.plot_design(arm, x, by_component=False, min_density=0)
     lines = fig.axes[0].collections[0]
     rho = x[np.asarray(arm.bars.variable)]
     widths = np.asarray(lines.get_linewidths())
@@ -90,6 +90,24 @@ def test_design_png_written_at_150_dpi(arm, tmp_path):
         assert image.size == (600, 450)
 
 
+def test_design_by_component_draws_each_link_in_its_own_frame_with_faint_voids(arm):
+    x = np.where(np.arange(arm.n_design) % 3 == 0, 1.0, arm.x_min)
+    fig = plots.plot_design(arm, x)
+    panels = [ax for ax in fig.axes if ax.get_title() in arm.components]
+    assert [ax.get_title() for ax in panels] == ["link1", "link2"]
+    component = np.asarray(arm.bars.component)
+    for k, ax in enumerate(panels):
+        lines = ax.collections[0]
+        segments = np.asarray(lines.get_segments())
+        assert len(segments) == (component == k).sum()
+        # its own frame: 1 m along x from 0, 0.1 m across from 0, whatever the link's pose
+        assert np.allclose([segments[..., 0].min(), segments[..., 0].max()], [0.0, 1.0], atol=1e-12)
+        assert np.allclose([segments[..., 1].min(), segments[..., 1].max()], [0.0, 0.1], atol=1e-12)
+        rho = x[np.asarray(arm.bars.variable)[component == k]]
+        alpha = lines.get_colors()[:, 3]
+        assert np.all(alpha[rho <= arm.x_min] == plots.FAINT_ALPHA) and np.all(alpha[rho == 1.0] == 1.0)
+
+
 # -- plot_history -------------------------------------------------------------------------
 
 
@@ -138,8 +156,9 @@ def test_tip_error_plots_both_components(short_runs, tmp_path):
         ex, ey = ax.get_lines()
         assert (ex.get_label(), ey.get_label()) == ("error-x", "error-y")
         np.testing.assert_array_equal(ex.get_xdata(), res.time)
-        np.testing.assert_array_equal(ex.get_ydata(), res.tip_error()[:, 0])
-        np.testing.assert_array_equal(ey.get_ydata(), res.tip_error()[:, 1])
+        np.testing.assert_array_equal(ex.get_ydata(), 1e3 * res.tip_error()[:, 0])  # in mm
+        np.testing.assert_array_equal(ey.get_ydata(), 1e3 * res.tip_error()[:, 1])
+    assert fig.axes[0].get_ylabel() == "deflection (mm)"
     assert fig.axes[0].get_title().startswith("before optimization")
     assert np.abs(after.tip_error()).max() > np.abs(before.tip_error()).max()  # the two panels differ
 
@@ -176,6 +195,24 @@ def test_animate_writes_one_frame_per_step(arm, short_runs, tmp_path):
     plots.animate(res, tmp_path / "all.gif", magnify=50.0)
     with Image.open(tmp_path / "all.gif") as gif:
         assert gif.n_frames == n
+
+
+def test_animate_draws_about_a_hundred_frames_of_a_long_run(arm, tmp_path):
+    res = arm.run(0.4, h=0.005)  # 260 steps
+    plots.animate(res, tmp_path / "long.gif", fps=50)
+    with Image.open(tmp_path / "long.gif") as gif:
+        assert 87 <= gif.n_frames <= 101 and gif.info["duration"] == 20  # ms per frame at 50 fps
+
+
+def test_history_from_iteration_zero_on_a_log_axis_in_both_units():
+    history = [{"iteration": k, "f0": 10.0 ** -k, "g": [-0.1], "change": 0.0 if k == 0 else 0.1} for k in range(5)]
+    fig = plots.plot_history(history, objective_label="d", objective_scale=2e-3, constraint_labels=["volume:link1"])
+    top = fig.axes[0]
+    (objective,) = top.get_lines()
+    assert objective.get_xdata()[0] == 0 and top.get_yscale() == "log" and top.get_ylabel() == "d / f_ref"
+    (right,) = top.child_axes
+    assert right.get_ylabel() == "d (its units)"
+    assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["volume:link1", "design change"]
 
 
 def test_animate_needs_a_dynamic_run(tmp_path):

@@ -49,15 +49,16 @@ class OptimizeResult:
     quantities; ``jac``, the objective's gradient. As the optimizer saw them:
     ``fun_scaled`` (``f0``) and ``constr_scaled`` (``g``, feasible when ≤ 0). ``kkt`` and
     ``multipliers``: the KKT residual and multipliers of the scaled problem; ``nit``:
-    iterations; ``nfev``: calls of ``evaluate``.
+    iterations; ``nfev``: calls of ``evaluate``; ``history``: one :class:`IterationRecord`
+    per iteration, the start design's first (iteration 0).
 
     ``status`` says why the run stopped (:class:`Status`) and ``message`` in words, with
     any evaluation failures recovered and whether the design is infeasible. ``success`` is
     True only when the run converged (KKT residual, design change or objective change
     below their tolerances) to a feasible design: False at the iteration limit, after
     repeated evaluation failures (the best feasible design is then returned) and when the
-    callback stopped the run. ``history``: one :class:`IterationRecord` per iteration;
-    ``state``: the final state, to resume with ``optimize(..., state=result.state)``.
+    callback stopped the run. ``state``: the final state, to resume with
+    ``optimize(..., state=result.state)``.
     """
 
     x: np.ndarray
@@ -150,7 +151,9 @@ def _initial_state(problem: Problem, x0, method: Method, move: float,
     evaluation = evaluate(x)
     multipliers = np.zeros(problem.m)
     kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
-    state = OptimizerState(method.name, 0, x, evaluation, multipliers, kkt, move, nfev=evaluate.calls)
+    start = IterationRecord(iteration=0, f0=evaluation.f0, g=evaluation.g, change=0.0, kkt=kkt, move=move,
+                            evaluations=evaluate.calls, eval_time=evaluate.time, solve_time=0.0)
+    state = OptimizerState(method.name, 0, x, evaluation, multipliers, kkt, move, nfev=evaluate.calls, history=(start,))
     return replace(state, best=_best_design(None, state, feas_tol))
 
 

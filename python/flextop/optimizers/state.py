@@ -97,7 +97,7 @@ class OptimizerState:
     feasible design so far; ``nfev``: evaluate calls; ``failures``:
     evaluation failures in total, ``consecutive_failures`` since the last
     success, ``last_error`` the message of the last one; ``history``: one
-    record per iteration.
+    record per iteration, the start design's first (iteration 0).
     """
 
     method: str
