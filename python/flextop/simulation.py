@@ -17,9 +17,10 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, Iterable, Iterator, Sequence, Union
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 from . import _core, execution, export, saved, tolerance
@@ -28,6 +29,10 @@ from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError,
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
 
+
+DesignLike = Union[float, Sequence[float], "npt.NDArray[np.floating]", None]
+"""A design: one density for every variable, a vector of one per variable, or ``None``
+(full density). Strings and complex numbers are refused (:class:`DesignError`)."""
 
 ENERGY_CREATED = 0.05
 """Share of the largest energy or work of a run that its kinetic plus strain energy may
@@ -233,7 +238,7 @@ class Simulation:
 
     # -- runs ---------------------------------------------------------------------------
 
-    def run(self, x: Any = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
+    def run(self, x: DesignLike = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
             local_tol: float | None = None, t_end: float | None = None, h: float | None = None, rho_inf: float | None = None,
             tol: float | None = None, max_iter: int | None = None, mass: str | None = None,
             load_steps: int | None = None) -> Results | StaticResults:
@@ -277,6 +282,24 @@ class Simulation:
         names = [responses] if isinstance(responses, str) else list(responses or [self._default_response()])
         return self._to_tolerance(xv, names, wanted, settings, None)
 
+    def simulate(self, x: DesignLike = None, **options: Any) -> Results:
+        """:meth:`run` of a dynamic scene, typed as its :class:`Results` (``options`` as in
+        :meth:`run`); a static scene is a :class:`SettingsError`."""
+        if self.analysis != "dynamic":
+            raise SettingsError(f"{self.spec.get('name') or 'the scene'} is static: use equilibrium(), or run()")
+        res = self.run(x, **options)
+        assert isinstance(res, Results)
+        return res
+
+    def equilibrium(self, x: DesignLike = None, **options: Any) -> StaticResults:
+        """:meth:`run` of a static scene, typed as its :class:`StaticResults`; a dynamic
+        scene is a :class:`SettingsError`."""
+        if self.analysis != "static":
+            raise SettingsError(f"{self.spec.get('name') or 'the scene'} is dynamic: use simulate(), or run()")
+        res = self.run(x, **options)
+        assert isinstance(res, StaticResults)
+        return res
+
     def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
                steps: np.ndarray | None = None) -> Results | StaticResults:
         """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
@@ -296,7 +319,7 @@ class Simulation:
         """The run settings given explicitly."""
         return {k: v for k, v in given.items() if v is not None}
 
-    def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str = ("tip_deflection",), *,
+    def run_with_sensitivities(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
                                start: Discretization | None = None, hold_gradients: bool = True, local_tol: float | None = None,
                                **settings: Any) -> Sensitivities:
@@ -347,7 +370,7 @@ class Simulation:
             return self._sensitivities(xv, names, self._settings(**gradients, **settings))
         return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
 
-    def map(self, designs: Iterable[Any], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
+    def map(self, designs: Iterable[DesignLike], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
             executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:
         """``responses`` (default: the tip deflection, or the compliance) at each of
         ``designs``, in their order, for parameter studies and multi-starts: with exact
@@ -451,7 +474,7 @@ class Simulation:
         out.companions = (runs[d.half_steps], runs.get(d.quarter_steps), runs[d.split]) if d.steps else (None, None, runs[d.split])
         return out
 
-    def as_built(self, x: Any, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:
+    def as_built(self, x: DesignLike, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:
         """The design ``x`` as it would be built: its void bars removed.
 
         Bars of ground structures whose density is at most ``threshold`` (default: at
