@@ -84,6 +84,8 @@ def test_robot_arm_tip_deflection_falls_and_links_differ(arm_optimum):
     assert np.allclose(result.jac, physical.gradients[0], rtol=1e-9, atol=1e-12 * np.abs(physical.gradients[0]).max())
     assert result.fun_scaled == pytest.approx(result.fun / problem.objective_scale, rel=1e-12)
     assert d < d0 / 10, (d0, d)
+    assert result.status is Status.KKT and result.kkt < 1e-6, result.message  # converged, no cycle
+    assert result.nfev == result.nit + 1, "every step a plain MMA step: the safeguard never needed"
     assert np.all(result.constr_scaled <= 1e-6), "per-link volume constraints hold"
     history = [h.f0 for h in result.history]
     assert history[19] < 0.05 * history[0], "most of the reduction within 20 iterations"
