@@ -276,7 +276,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
     One frame per ``every``-th time step (default: about :data:`FRAMES` frames), and the
     last: the bars between the
     :func:`magnified_positions` of their end nodes (elastic deflection × ``magnify``),
-    coloured and sized by density ``x`` if given (with a colorbar), the scene's tip and a
+    coloured and sized by density ``x`` if given (with a colorbar; voids faint), the scene's tip and a
     faint trace of its rigid path, and the time. 5 × 5 in at 80 dpi.
     """
     if not isinstance(results, Results):
@@ -290,7 +290,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
     if x is None:
         lines = LineCollection(_segments(sim, drawn[0]), linewidths=1.5, colors="0.2", capstyle="round")
     else:
-        lw, colors, mappable = _bar_style(sim, x, DEFAULT_CMAP, None, widths=(0.4, 4.0))
+        lw, colors, mappable = _bar_style(sim, x, DEFAULT_CMAP, 1.5 * sim.x_min, widths=(0.4, 4.0))  # voids faint
         lines = LineCollection(_segments(sim, drawn[0]), linewidths=lw, colors=colors, capstyle="round")
         fig.colorbar(mappable, ax=ax, label="Density", shrink=0.7)
     ax.add_collection(lines)

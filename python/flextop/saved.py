@@ -5,8 +5,9 @@ The arrays are stored under the names Python uses (``time``, ``q``, ``qdot``, ``
 and the design as ``x``. Beside them, a JSON document (array ``meta``) holds what rebuilds
 the run's context: the scene, the Simulation's options and the run's settings, the step and
 spectral radius used, a tolerance's discretization and estimated errors, and for reading
-the file without flextop: node and design-variable names, the bars, and the joints with the
-names of their multipliers (``lam`` columns) and which of them is a motor torque.
+the file without flextop: node names and reference positions (``q`` holds displacements
+and rotations from them), design-variable names, the bars, and the joints with the names of
+their multipliers (``lam`` columns; the ``drive`` rows are the motor torques).
 
 :func:`flextop.load` rebuilds the :class:`~flextop.Simulation` from the scene and
 returns :class:`~flextop.Results` or :class:`~flextop.StaticResults` equal to the saved
@@ -63,7 +64,8 @@ def write(results: _Run, path: str | os.PathLike) -> Path:
         "discretization": None if results.discretization is None else [results.discretization.refinement,
                                                                          results.discretization.steps],
         "errors": results.errors,
-        "node_names": sim.node_names, "variable_names": sim.variable_names, "components": sim.components,
+        "node_names": sim.node_names, "reference_positions": np.asarray(sim.model.reference_positions).tolist(),
+        "variable_names": sim.variable_names, "components": sim.components,
         "bars": {"name": list(sim.bars.name), "nodes": np.asarray(sim.bars.nodes).tolist(),
                  "variable": np.asarray(sim.bars.variable).tolist(), "component": np.asarray(sim.bars.component).tolist(),
                  "volume": np.asarray(sim.bars.volume).tolist()},

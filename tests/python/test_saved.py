@@ -38,7 +38,10 @@ def test_the_file_describes_itself_without_flextop(tmp_path, arm):
 
         meta = json.loads(str(data["meta"]))
         assert data["q"].shape == (66, 90) and data["x"].shape == (148,)
+        data_q = data["q"].reshape(66, -1, 3)
     assert meta["node_names"] == arm.node_names and meta["variable_names"] == arm.variable_names
+    positions = np.asarray(meta["reference_positions"]) + data_q[:, :, :2]
+    assert np.array_equal(positions, res.positions)
     assert meta["multipliers"] == ["shoulder:x", "shoulder:y", "shoulder:drive", "elbow:x", "elbow:y", "elbow:drive"]
     assert [j["name"] for j in meta["joints"]] == ["shoulder", "elbow"] and len(meta["bars"]["name"]) == 148
 
