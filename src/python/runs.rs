@@ -244,7 +244,10 @@ pub fn section_forces<'py>(
     let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
     let (states, n) = (q.shape()[0], m.n_dofs());
     if q.shape()[1] != n {
-        let msg = format!("has rows of {} entries, the model has {n} DOFs", q.shape()[1]);
+        let msg = format!(
+            "has rows of {} entries, the model has {n} DOFs",
+            q.shape()[1]
+        );
         return Err(Error::Settings(SettingsError::new("q", msg)).into());
     }
     let q = q.as_slice()?;

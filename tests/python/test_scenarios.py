@@ -185,3 +185,31 @@ def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
     assert short.returncode == 2 and "--start" in short.stderr and short.stderr.count("\n") == 1
     unknown = cli("--scenarios", "robust_arm", "--out", tmp_path / "d")
     assert unknown.returncode == 2 and "robust_robot_arm" in unknown.stderr
+
+
+MPI_STUDY = """
+import numpy as np
+from mpi4py.futures import MPIPoolExecutor
+from flextop.scenarios import evaluate, robust_robot_arm
+if __name__ == "__main__":
+    cases = robust_robot_arm()[:4]
+    designs = [np.full(148, v) for v in (0.3, 0.6)]
+    serial = evaluate(cases, designs, "tip_deflection")
+    with MPIPoolExecutor() as pool:
+        mpi = evaluate(cases, designs, "tip_deflection", executor=pool)
+    print(all(np.array_equal(a[c.name].values, b[c.name].values) and np.array_equal(a[c.name].gradients, b[c.name].gradients)
+              for a, b in zip(serial, mpi) for c in cases))
+"""
+
+
+def test_mpi_gives_the_same_bits(tmp_path):
+    """Skipped without an MPI runtime (``pip install mpich mpi4py`` gives one)."""
+    import shutil
+
+    pytest.importorskip("mpi4py")
+    if shutil.which("mpiexec") is None:
+        pytest.skip("no mpiexec")
+    (tmp_path / "study.py").write_text(MPI_STUDY)
+    run = subprocess.run(["mpiexec", "-n", "3", sys.executable, "-m", "mpi4py.futures", str(tmp_path / "study.py")],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and run.stdout.strip().splitlines()[-1] == "True", run.stdout + run.stderr
