@@ -13,7 +13,9 @@ Each file holds the structure as VTK cells: every element of every bar and beam 
   ``vertex`` = 1 (a joint) or 2 (a point mass); lines carry ``vertex`` = 0.
 
 Points are 3-D (z = 0), as VTK wants. meshio writes the VTU files; the PVD index (the
-collection ParaView opens, one dataset per time) is built with ElementTree.
+collection ParaView opens, one dataset per time) is built with ElementTree. The functions
+take a :class:`~flextop.Simulation` and its results without importing their module, which
+calls them (``Results.to_vtk``).
 """
 
 from __future__ import annotations
@@ -21,19 +23,17 @@ from __future__ import annotations
 import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .errors import SettingsError
 
-if TYPE_CHECKING:
-    from .simulation import Results, Simulation, StaticResults
 
 JOINT, POINT_MASS = 1, 2
 
 
-def write_motion(results: Results, path: str | os.PathLike, *, every: int = 1) -> Path:
+def write_motion(results: Any, path: str | os.PathLike, *, every: int = 1) -> Path:
     """The motion of ``results`` as ``STEM_0000.vtu``… beside the PVD index ``path``
     (``.pvd``), every ``every``-th step and the last. Returns the index's path."""
     path = Path(path)
@@ -56,14 +56,14 @@ def write_motion(results: Results, path: str | os.PathLike, *, every: int = 1) -
     return path
 
 
-def write_state(results: StaticResults, path: str | os.PathLike) -> Path:
+def write_state(results: Any, path: str | os.PathLike) -> Path:
     """A static result as one VTU file ``path``."""
     path = _vtu(path)
     _mesh(results.simulation, results.x, results.q, results.section_forces[0], {}).write(path, binary=True)
     return path
 
 
-def write_design(sim: Simulation, x: Any, path: str | os.PathLike) -> Path:
+def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
     """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
     path = _vtu(path)
     q = np.zeros(3 * len(sim.node_names))
@@ -83,7 +83,7 @@ def _xyz(planar: np.ndarray) -> np.ndarray:
     return np.column_stack([planar, np.zeros(len(planar))])
 
 
-def _mesh(sim: Simulation, x: np.ndarray | None, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
+def _mesh(sim: Any, x: np.ndarray | None, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
     import meshio
 
     q = np.asarray(q).reshape(-1, 3)
@@ -109,7 +109,7 @@ def _mesh(sim: Simulation, x: np.ndarray | None, q: np.ndarray, forces: np.ndarr
                        point_data=point_data, cell_data=cell_data)
 
 
-def _vertices(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
+def _vertices(sim: Any) -> tuple[np.ndarray, np.ndarray]:
     """Nodes of joints (kind 1) and of point masses (kind 2)."""
     joints = [(n, JOINT) for j in sim.joints for n in j.nodes]
     masses = [(sim.node(p["node"]), POINT_MASS) for p in sim.spec.get("point_masses", [])]
@@ -117,7 +117,7 @@ def _vertices(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
     return np.array([n for n, _ in entries], dtype=np.int64), np.array([k for _, k in entries], dtype=np.int64)
 
 
-def _densities(sim: Simulation, x: np.ndarray | None) -> np.ndarray:
+def _densities(sim: Any, x: np.ndarray | None) -> np.ndarray:
     """Per bar: its density (1 where fixed, or for ``x = None``)."""
     variable = np.asarray(sim.bars.variable)
     if x is None:
@@ -125,7 +125,7 @@ def _densities(sim: Simulation, x: np.ndarray | None) -> np.ndarray:
     return np.where(variable >= 0, np.asarray(x)[np.maximum(variable, 0)], 1.0)
 
 
-def _areas(sim: Simulation, lines: np.ndarray, bar: np.ndarray) -> np.ndarray:
+def _areas(sim: Any, lines: np.ndarray, bar: np.ndarray) -> np.ndarray:
     """Per bar: the solid section's area, its volume over its length."""
     ends = sim.model.reference_positions[lines]
     lengths = np.bincount(bar, weights=np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1), minlength=len(sim.bars))

@@ -11,7 +11,8 @@ their multipliers (``lam`` columns; the ``drive`` rows are the motor torques).
 
 :func:`flextop.load` rebuilds the :class:`~flextop.Simulation` from the scene and
 returns :class:`~flextop.Results` or :class:`~flextop.StaticResults` equal to the saved
-ones (:func:`read` gives it the file's parts).
+ones (:func:`read` gives it the file's parts). :func:`write` takes the results without
+importing their module, which calls it (``Results.save``).
 """
 
 from __future__ import annotations
@@ -19,14 +20,12 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .errors import SettingsError
 
-if TYPE_CHECKING:
-    from .simulation import Simulation, _Run
 
 VERSION = 1
 """Layout of the saved file."""
@@ -35,7 +34,7 @@ ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y")}
 """The multipliers of a joint's rows, by kind: its constraint rows, then ``drive`` when driven."""
 
 
-def multiplier_names(sim: Simulation) -> list[str]:
+def multiplier_names(sim: Any) -> list[str]:
     """``JOINT:ROW`` for every column of ``lam``: ``shoulder:x``, ``shoulder:y``,
     ``shoulder:drive`` (the motor torque) and so on."""
     names = []
@@ -47,7 +46,7 @@ def multiplier_names(sim: Simulation) -> list[str]:
     return names
 
 
-def write(results: _Run, path: str | os.PathLike) -> Path:
+def write(results: Any, path: str | os.PathLike) -> Path:
     """Writes ``results`` to ``path`` (``.npz``)."""
     path = Path(path)
     if path.suffix != ".npz":
