@@ -445,20 +445,27 @@ class Simulation:
         """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
         results (or sensitivities) with its estimate and companions attached. With
         ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and
-        the sensitivities are computed once, on the grid accepted."""
+        the sensitivities are computed once, on the grid accepted. Companion runs stop
+        Newton at :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is
+        given), and reuse any run made at their discretization; a candidate reuses only a
+        candidate's run."""
         t_end = None if self.analysis == "static" else self._t_end(settings)
-        runs: dict[Discretization, Any] = {}
+        runs: dict[tuple[Discretization, bool], Any] = {}
         judged = gradients if hold_gradients else None
+        loose = {} if "tol" in settings else {"tol": tolerance.companion_newton_tol(wanted[0])}
 
-        def run(d: Discretization, gradients: dict[str, str] | None) -> Any:
+        def run(d: Discretization, gradients: dict[str, str] | None, companion: bool = False) -> Any:
             level = self._level(d.refinement)
-            at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {})}
+            at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {}), **(loose if companion else {})}
             return level._sensitivities(xv, names, {**at, **gradients}) if gradients else level._fixed(xv, at)
 
-        def values(d: Discretization) -> list[np.ndarray]:
-            if d not in runs:
-                runs[d] = run(d, judged)
-            out = runs[d]
+        def made(d: Discretization, companion: bool = True) -> Any:
+            return runs.get((d, False)) or (runs.get((d, True)) if companion else None)
+
+        def values(d: Discretization, companion: bool) -> list[np.ndarray]:
+            out = made(d, companion)
+            if out is None:
+                out = runs[(d, companion)] = run(d, judged, companion)
             if isinstance(out, Sensitivities):
                 return [*out.values[:, None], *out.gradients]
             return [np.array([out.response(n)]) for n in names]
@@ -467,11 +474,11 @@ class Simulation:
         relative = est.relative
         errors = dict(zip(names, map(float, relative)))
         if gradients:
-            out = runs[d] if hold_gradients else run(d, gradients)
+            out = runs[(d, False)] if hold_gradients else run(d, gradients)
             return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
-        out = runs[d]
+        out = runs[(d, False)]
         out.discretization, out.errors = d, errors
-        out.companions = (runs[d.half_steps], runs.get(d.quarter_steps), runs[d.split]) if d.steps else (None, None, runs[d.split])
+        out.companions = (made(d.half_steps), made(d.quarter_steps), made(d.split)) if d.steps else (None, None, made(d.split))
         return out
 
     def as_built(self, x: DesignLike, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:

@@ -34,12 +34,17 @@ time (BENCHMARKS.md, "Tolerances across designs"). (A design whose 230 % gradien
 first went unseen had that error in time, not in space; the distrust of contractions
 above 6 is what catches it.)
 
+The companions stop Newton at :func:`companion_newton_tol` (1e-6 rather than the run's
+1e-10): they measure differences of order ``rtol``, and the candidate, whose values and
+gradients are returned, keeps the run's own tolerance. Over the family both changes kept
+every worst error and under-estimate and cut the time of the runs to a tolerance by 42 %.
+
 Step doubling is preferred here to a local error estimator of generalized-α because it
 measures what the user asks for, the error of a response, including the spatial part and
 the effect of ρ∞'s numerical damping. Its cost over the run itself: half a run in the time
 companion (the quarter-steps run only when the slowest contraction, 1.5, would fail the
 budget), and half a run at twice the elements per bar in space (skipped while the time
-error alone is clearly over budget).
+error alone is clearly over budget), both with a looser Newton tolerance.
 """
 
 from __future__ import annotations
@@ -159,8 +164,18 @@ def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | No
     return ErrorEstimate(np.array([np.linalg.norm(q) for q in fine]), time, space)
 
 
-Values = Callable[[Discretization], Quantities]
-"""``values(d)``: the quantities of the run at ``d``."""
+Values = Callable[[Discretization, bool], Quantities]
+"""``values(d, companion)``: the quantities of the run at ``d``, a companion run (whose
+Newton iterations may stop at :func:`companion_newton_tol`) or a candidate."""
+
+
+def companion_newton_tol(rtol: float) -> float:
+    """Newton's relative tolerance for the companion runs: ``min(1e-6, 1e-4·rtol)``. A
+    companion only measures a difference of order ``rtol``; on the x = 0.4 arm Newton at
+    1e-6 moves d by 6e-7 relative and saves a quarter of the iterations (3.9 → 3.0 per
+    step at 2m). The candidate keeps the run's own tolerance (1e-10): its values and
+    gradients are the result."""
+    return min(1e-6, 1e-4 * rtol)
 
 
 @dataclass(frozen=True)
@@ -188,9 +203,9 @@ def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Disc
     """
     failures: list[SimulationError] = []
 
-    def recorded(d: Discretization) -> Quantities:
+    def recorded(d: Discretization, companion: bool) -> Quantities:
         try:
-            return values(d)
+            return values(d, companion)
         except SimulationError as error:
             failures.append(error)
             raise
@@ -233,19 +248,19 @@ def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
     estimate without it fails."""
     dynamic = d.steps > 0
     fine = _try(values, d)
-    half = _try(values, d.half_steps) if dynamic else None
+    half = _try(values, d.half_steps, companion=True) if dynamic else None
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
         return Verdict(None, np.inf, 0.0, failed=fine is None) if dynamic else Verdict(None, 0.0, np.inf, failed=True)
     if dynamic:
         least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], fine)  # contraction 4: the least time error
         if _ratio(least.time, tol.budget(least)) > 2.0:
             return Verdict(least, _ratio(least.time, tol.budget(least)), 0.0)
-    split = _try(values, d.split)
+    split = _try(values, d.split, companion=True)
     if split is None:  # the finer model failed where this one ran: more steps first
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
     est = estimate(fine, half, None, split)  # the slowest contraction assumed: no quarter run yet
     if dynamic and _ratio(est.total, tol.budget(est)) > 1.0:
-        quarter = _try(values, d.quarter_steps)
+        quarter = _try(values, d.quarter_steps, companion=True)
         est = est if quarter is None else estimate(fine, half, quarter, split)
     budget = tol.budget(est)
     return Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget))
@@ -279,9 +294,9 @@ def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool
                      np.repeat([atol, 0.0], len(names)))
 
 
-def _try(values: Values, d: Discretization) -> Quantities | None:
+def _try(values: Values, d: Discretization, companion: bool = False) -> Quantities | None:
     try:
-        out = [np.atleast_1d(np.asarray(q, dtype=float)) for q in values(d)]
+        out = [np.atleast_1d(np.asarray(q, dtype=float)) for q in values(d, companion)]
     except SimulationError:
         return None
     return out if all(np.isfinite(q).all() for q in out) else None

@@ -17,7 +17,7 @@ def model_values(c_time=0.3, c_space=0.002, exact=2.0, t_end=1.0, gradient=False
     assumes at its limits: second order in h, first order in 1/r)."""
     calls = []
 
-    def values(d):
+    def values(d, companion=False):
         calls.append(d)
         h = t_end / d.steps if d.steps else 0.0
         f = exact + c_time * h**2 + c_space / d.refinement
@@ -65,14 +65,14 @@ def test_the_observed_contraction_guards_the_preasymptotic_range():
 def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
     values, _ = model_values()
 
-    def failing(d):
+    def failing(d, companion=False):
         if d.steps and d.steps < 64:
             raise SimulationError("Newton did not converge")
         return values(d)
 
     d, _ = resolve(failing, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
     assert d.steps // 2 >= 64, "the candidate and its half-steps companion ran (a failed quarter run is not needed)"
-    def always_failing(d):
+    def always_failing(d, companion=False):
         raise SimulationError("Newton did not converge at t = 0.1 s")
 
     with pytest.raises(ToleranceError, match=r"the runs still fail after 3 refinements, at 1× the scene's elements per bar and 64 steps: "
@@ -207,3 +207,13 @@ def test_local_error_control_from_python_with_exact_gradients_on_its_steps():
     assert 0 < res.error_estimate("tip_deflection") < 0.05
     with pytest.raises(SettingsError, match="local_tol"):
         sim.run(x, local_tol=1e-6, rtol=1e-2)
+
+
+def test_companions_stop_newton_early_and_the_candidate_does_not(arm):
+    res = arm.run(0.4, rtol=1e-2)
+    half, _, split = res.companions
+    assert "tol" not in res.settings, "the candidate keeps the run's own Newton tolerance"
+    assert half.settings["tol"] == split.settings["tol"] == tolerance.companion_newton_tol(1e-2) == 1e-6
+    tight = arm.run(0.4, h=half.raw["h"])
+    assert abs(half.tip_deflection() / tight.tip_deflection() - 1.0) < 1e-5, "a thousand times below the rtol the estimate serves"
+    assert half.newton["total"] < tight.newton["total"]
