@@ -37,7 +37,7 @@ above 6 is what catches it.)
 The companions stop Newton at :func:`companion_newton_tol` (1e-6 rather than the run's
 1e-10): they measure differences of order ``rtol``, and the candidate, whose values and
 gradients are returned, keeps the run's own tolerance. Over the family both changes kept
-every worst error and under-estimate and cut the time of the runs to a tolerance by 42 %.
+every worst error and under-estimate and cut the time of the runs to a tolerance by 43–52 %.
 
 Step doubling is preferred here to a local error estimator of generalized-α because it
 measures what the user asks for, the error of a response, including the spatial part and
