@@ -8,7 +8,8 @@
 //! * when a scene is built, the mechanism checks: every node on a beam, no joint repeating
 //!   a constraint of earlier ones ([`redundant_rows`]), every cluster reaching the ground
 //!   through joints, and a static scene with no rigid-body mode left (mobility
-//!   `3 n_clusters − rank`);
+//!   `3 n_clusters − rank`); and, reported rather than refused because the flexible model
+//!   still runs, joints that over-constrain the rigid mechanism ([`Clusters::over_constraint`]);
 //! * the rigid trajectory `r_rigid(t)` of the tip-deflection response (paper Eq. 40):
 //!   the joints' constraints written on the cluster coordinates, solved by Newton at each
 //!   time; the mechanism must be fully driven (mobility zero).
@@ -20,6 +21,33 @@ use nalgebra::{DMatrix, DVector, Vector2};
 use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
 use crate::model::{Analysis, Model};
+
+/// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
+/// coordinates depend on others, among the rows of `joints` (indices into `Model::joints`).
+/// The flexible model may still run (its rows are independent once frames deform); the
+/// rigid motion exists only where the redundant constraints agree.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OverConstraint {
+    /// Number of dependent rows.
+    pub redundant: usize,
+    /// The joints involved.
+    pub joints: Vec<usize>,
+}
+
+impl OverConstraint {
+    /// The joints by name, for messages: `'A', 'C' and 'lock'`.
+    pub fn names(&self, model: &Model) -> String {
+        let names: Vec<String> = self
+            .joints
+            .iter()
+            .map(|&j| format!("'{}'", model.joints[j].name))
+            .collect();
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => names.join(""),
+        }
+    }
+}
 
 /// Partition of the nodes into rigid clusters.
 #[derive(Debug, Clone, PartialEq)]
@@ -115,6 +143,34 @@ impl Clusters {
         3 * self.len() - rank(&jac)
     }
 
+    /// How the joints over-constrain the rigid mechanism at the reference: the number of
+    /// rows of `Φ_ρ` that depend on others (rows minus rank), and the joints whose rows
+    /// enter those dependencies: the rows of the left null space of `Φ_ρ`, the
+    /// eigenvectors of `Φ_ρ Φ_ρᵀ` for its `redundant` smallest eigenvalues. `None` when
+    /// the rows are independent.
+    pub fn over_constraint(&self, model: &Model) -> Option<OverConstraint> {
+        let (_, jac) = self.constraints(model, &DVector::zeros(3 * self.len()), 0.0);
+        let rows = jac.nrows();
+        let redundant = rows - rank(&jac).min(rows);
+        if redundant == 0 {
+            return None;
+        }
+        let eigen = (&jac * jac.transpose()).symmetric_eigen();
+        let mut order: Vec<usize> = (0..rows).collect();
+        order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+        let mut joints: Vec<usize> = Vec::new();
+        for &k in &order[..redundant] {
+            let v = eigen.eigenvectors.column(k);
+            for (i, row) in model.rows.iter().enumerate() {
+                if v[i].abs() > 1e-8 && !joints.contains(&row.joint) {
+                    joints.push(row.joint);
+                }
+            }
+        }
+        joints.sort_unstable();
+        Some(OverConstraint { redundant, joints })
+    }
+
     /// Clusters not connected to the ground through any chain of joints.
     pub fn floating(&self, model: &Model) -> Vec<usize> {
         let mut grounded = vec![false; self.len()];
@@ -172,10 +228,17 @@ impl Clusters {
                     break;
                 }
                 if iter == 50 {
+                    let over = self.over_constraint(model).map_or(String::new(), |o| {
+                        format!(
+                            "; the joints {} over-constrain the rigid mechanism ({} redundant row(s))",
+                            o.names(model),
+                            o.redundant
+                        )
+                    });
                     return Err(fail(format!(
                         "no rigid configuration satisfies the joints here (Newton stalled at |Φ| = {:.3e}): \
                          the drives ask for a position the rigid mechanism cannot reach — it went through a \
-                         kinematic singularity (a toggle or dead-centre position) or its drives contradict each other",
+                         kinematic singularity (a toggle or dead-centre position) or its drives contradict each other{over}",
                         phi.amax()
                     )));
                 }

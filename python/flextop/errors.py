@@ -49,6 +49,13 @@ class CheckpointError(FlextopError, ValueError):
     not match), holding a design outside the bounds, or of a run that has finished."""
 
 
+class MechanismWarning(UserWarning):
+    """Joints that over-constrain the rigid mechanism (their rows depend on each other in
+    the frames' rigid coordinates) but not the flexible model, which still runs: the rigid
+    motion, and with it the tip deflection of Eq. 40, exists only where the redundant
+    constraints agree. The message names the joints and counts the redundant rows."""
+
+
 class SettingsWarning(UserWarning):
     """A setting the run had to change: a step ``h`` shortened by more than 1 % so that a
     whole number of steps ends exactly at ``t_end``."""

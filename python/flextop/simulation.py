@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from . import _core, execution, export, saved, tolerance
 from .accuracy import preset, split_by
-from .errors import DesignError, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
+from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
 
@@ -50,6 +50,15 @@ def _warn_if_energy_created(res: Results) -> None:
         warnings.warn(PlausibilityWarning(
             f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J, the work done "
             f"{work[k]:.4g} J ({excess[k] / scale:.1%} of the largest); use a smaller step h"), stacklevel=3)
+
+
+def _warn_if_over_constrained(mechanism: dict[str, Any]) -> None:
+    """A :class:`MechanismWarning` naming the joints that over-constrain the rigid mechanism."""
+    if mechanism["redundant_rows"]:
+        names = ", ".join(f"'{n}'" for n in mechanism["over_constraining"])
+        warnings.warn(f"the joints {names} over-constrain the rigid mechanism ({mechanism['redundant_rows']} redundant row(s)): "
+                      "the flexible model runs, but the rigid motion (and the tip deflection, Eq. 40) exists only where "
+                      "the redundant constraints agree", MechanismWarning, stacklevel=3)
 
 
 def _warn_if_step_shortened(asked: float | None, used: float) -> None:
@@ -188,6 +197,15 @@ class Simulation:
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
                          np.asarray(raw["component"], dtype=int), np.asarray(raw["volume"]))
         self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
+        if self.analysis == "dynamic":  # a static structure may well be indeterminate
+            _warn_if_over_constrained(self.mechanism)
+
+    @cached_property
+    def mechanism(self) -> dict[str, Any]:
+        """The rigid mechanism behind the flexible one: ``frames`` (rigid clusters),
+        ``mobility`` (rigid-body modes the joints leave free), ``redundant_rows`` and the
+        ``over_constraining`` joints' names when the joints over-constrain it."""
+        return dict(self.model.mechanism())
 
     @property
     def options(self) -> dict[str, Any]:

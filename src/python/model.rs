@@ -149,6 +149,25 @@ impl PyModel {
         Ok(d)
     }
 
+    /// The rigid mechanism: `frames` (rigid clusters), `mobility` (free rigid-body modes
+    /// the joints leave at the reference), and `redundant_rows` with the names of the
+    /// `over_constraining` joints when the joints over-constrain the rigid mechanism.
+    fn mechanism<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let clusters = crate::rigid::Clusters::of(m);
+        let over = clusters.over_constraint(m);
+        let d = PyDict::new(py);
+        d.set_item("frames", clusters.len())?;
+        d.set_item("mobility", clusters.mobility(m))?;
+        d.set_item("redundant_rows", over.as_ref().map_or(0, |o| o.redundant))?;
+        let names: Vec<&str> = over
+            .iter()
+            .flat_map(|o| o.joints.iter().map(|&j| m.joints[j].name.as_str()))
+            .collect();
+        d.set_item("over_constraining", names)?;
+        Ok(d)
+    }
+
     /// Joints, each a dict: `name`, `kind`, node indices `nodes`, constraint `rows` as
     /// `(first, end)` (the drive row last) and `driven`.
     fn joints<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {

@@ -326,6 +326,23 @@ def four_bar(crank_end, split=4):
     return scene
 
 
+def test_an_extra_pin_that_locks_the_four_bar_is_named_when_the_scene_is_built():
+    """In the frames' rigid coordinates the lock's rows depend on the others (9 coordinates,
+    11 rows, rank 9); in the flexible model they do not, so it runs, while the rigid
+    kinematics of the tip deflection fails, naming the joints."""
+    free = flextop.Simulation(four_bar(2.2))
+    assert free.mechanism == {"frames": 3, "mobility": 0, "redundant_rows": 0, "over_constraining": []}
+    scene = four_bar(2.2)
+    scene.pin("lock", "C_rocker")
+    with pytest.warns(flextop.errors.MechanismWarning, match=r"'motor', 'B', 'C', 'D', 'lock' over-constrain .* \(2 redundant"):
+        sim = flextop.Simulation(scene)
+    assert sim.mechanism["redundant_rows"] == 2
+    res = sim.run(h=0.01, t_end=0.5)  # the flexible model runs: the drive bends the locked links
+    assert np.isfinite(res.q).all() and res.newton["max"] <= 6
+    with pytest.raises(flextop.SimulationError, match="'lock' over-constrain the rigid mechanism"):
+        res.tip_deflection()
+
+
 def test_toggle_angle_is_the_crank_limit():
     """At θ* coupler and rocker are collinear: |C − B| + |D − C| = |D − B| = b + c."""
     c_pos = four_bar_joint_c(TOGGLE)
