@@ -62,7 +62,7 @@ pub use interrupt::{poll, with_checker};
 pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SPLIT};
 pub use model::{Densities, Model};
 pub use response::Response;
-pub use rigid::{rigid_positions, Clusters, OverConstraint};
+pub use rigid::rigid_positions;
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Sensitivities, Timings,
 };
