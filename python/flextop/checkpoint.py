@@ -18,7 +18,7 @@ from typing import Any
 
 from .errors import CheckpointError
 
-VERSION = 1
+VERSION = 2
 """Format of the checkpoint files written; other versions are refused."""
 
 KEYS = ("scene", "accuracy", "problem", "optimizer", "x0", "state")

@@ -220,14 +220,19 @@ def _settings(args: argparse.Namespace) -> dict:
 
 def optimize_command(args: argparse.Namespace) -> int:
     """Topology optimization of a scene, or of several scenarios, with checkpoints, progress
-    bar, summary and plots; the scenarios of an evaluation run on ``--workers`` local
-    processes or on the Dask cluster at ``--scheduler``."""
+    bar, summary and plots; the scenarios of an evaluation run on ``--workers`` threads or
+    on the Dask cluster at ``--scheduler``."""
     with local_executor(args.workers, args.scheduler) as workers:
         return _optimize(args, workers)
 
 
 def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     out = Path(args.out)
+    if args.scenarios is None and not args.resume:
+        alone = [flag for flag, value in (("--aggregate", args.aggregate), ("--workers", args.workers), ("--scheduler", args.scheduler))
+                 if value is not None]
+        if alone:
+            raise SettingsError(f"{', '.join(alone)}: for several scenarios; give --scenarios")
     if args.resume:
         sim, problem, options, x0, state, animate = _resume(args, out, workers)
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
@@ -238,8 +243,8 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         x0 = 0.4 if args.x0 is None else args.x0
         if not sim.x_min <= x0 <= 1.0:
             raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
-        options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move, "kkt_tol": args.kkt_tol,
-                   "xtol": args.xtol}
+        options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
+                   "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol or 1e-4}
         start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
         x0, state, animate = _start(problem, start), None, args.animate
         _folder(out)
@@ -258,14 +263,17 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         latest["state"] = record.state.to_dict()
         save(latest["state"])
         bar.update(1)
-        bar.set_postfix(f=f"{problem.unscaled(record.f0):.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
+        bar.set_postfix(f=f"{problem.unscaled(record.f0, record.g):.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", change=f"{record.change:.3f}")
 
     start = time.perf_counter()
     try:
         result = optimize(problem, x0, options["method"], max_iter=options["max_iter"], move=options["move"],
                           kkt_tol=options["kkt_tol"], xtol=options["xtol"], callback=on_iteration, state=state)
     except KeyboardInterrupt:
-        print(f"interrupted; the last iteration is saved: resume with `flextop optimize --resume --out {out}`")
+        if latest or state is not None:
+            print(f"interrupted; the last iteration is saved: resume with `flextop optimize --resume --out {out}`")
+        else:
+            print("interrupted before the first iteration ended: nothing to resume")
         return 130
     finally:
         bar.close()
@@ -277,9 +285,9 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.objective_scale}))
-    if not args.no_plots:
+    if not args.no_plots and result.history:
         _pictures(sim, problem, result, x0, out, animate=animate, every=args.every, fps=args.fps)
-    if args.vtk:
+    if args.vtk and result.history:
         x = result.x[: sim.n_design]
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
         written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
@@ -300,7 +308,8 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
         raise SettingsError("--resume takes the scene or scenarios from the checkpoint; give neither")
     fixed = {"--volume-fraction": args.volume_fraction, "--global-volume": args.global_volume or None, "--x0": args.x0,
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
-             "--rtol": args.rtol, "--aggregate": args.aggregate}
+             "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
+             "--xtol": args.xtol}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -335,12 +344,15 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
 
 def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, session: int) -> None:
     """The final summary table; `session` iterations ran in this call (the time shares)."""
+    if not result.history or problem.objective_scale is None:  # not even the start design ran
+        print(f"\nstatus: {result.status.name} — {result.message}")
+        return
     print(f"\n{'it':>4} {problem.objective:>16} {'max g':>10} {'change':>8} {'KKT':>9}")
     for r in result.history:
-        print(f"{r.iteration:>4} {problem.unscaled(r.f0):>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
+        print(f"{r.iteration:>4} {problem.unscaled(r.f0, r.g):>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
     initial, final = problem.objective_scale, result.fun  # scaled by its value at the start design
     print(f"\nstatus: {result.status.name} — {result.message}")
-    print(f"{problem.objective}: {initial:.6g} at the start → {final:.6g} "
+    print(f"{_objective(problem)}: {initial:.6g} at the start → {final:.6g} "
           f"({100 * (final / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
     constr = result.constr
     if isinstance(problem, ScenarioProblem):
@@ -429,9 +441,9 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
-    o.add_argument("--move", type=_fraction, default=0.2, help="move limit as a fraction of the bounds (default 0.2)")
-    o.add_argument("--kkt-tol", type=_positive(float), default=1e-6)
-    o.add_argument("--xtol", type=_positive(float), default=1e-4)
+    o.add_argument("--move", type=_fraction, help="move limit as a fraction of the bounds (default 0.2)")
+    o.add_argument("--kkt-tol", type=_positive(float), help="stop when the KKT residual falls below it (default 1e-6)")
+    o.add_argument("--xtol", type=_positive(float), help="stop when the largest design change falls below it (default 1e-4)")
     o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=_positive(float))

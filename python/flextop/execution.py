@@ -21,8 +21,8 @@ Executors, all used as they come:
 * ``mpi4py.futures.MPIPoolExecutor``.
 
 A task that fails raises, in the caller, the same :class:`FlextopError` class prefixed with
-its label; anything else that stops it (a worker that died, a task that could not be sent)
-is an :class:`ExecutionError` naming the task. The remaining tasks are cancelled: an
+its label (any other exception it raises, as it would here); a worker that died or a task
+that could not be sent is an :class:`ExecutionError` naming the task. The remaining tasks are cancelled: an
 evaluation never returns a partial result.
 """
 
@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 import math
-from concurrent.futures import FIRST_EXCEPTION, Executor, Future, ThreadPoolExecutor, wait
+from concurrent.futures import FIRST_EXCEPTION, BrokenExecutor, CancelledError, Executor, Future, ThreadPoolExecutor, wait
 from contextlib import contextmanager
 from typing import Any, NamedTuple, TypeVar
 
@@ -55,7 +55,7 @@ def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor:
     futures: list[Future] = []
     try:
         for chunk in chunks:
-            futures.append(executor.submit(perform_all, perform, chunk))
+            futures.append(_submit(executor, perform, chunk))
         wait(futures, return_when=FIRST_EXCEPTION)  # the first failure ends the wait
         return [r for chunk, future in zip(chunks, futures) for r in _result(chunk, future)]
     except BaseException:
@@ -76,14 +76,33 @@ def perform_all(perform: Callable[[T], R], chunk: Sequence[tuple[str, T]]) -> li
     return out
 
 
+LOST = ("KilledWorker", "CommClosedError", "FutureCancelledError")
+"""Dask's names for a task lost with its worker or connection (matched by name, so that
+Dask stays optional)."""
+
+
+def _submit(executor: Executor, perform: Callable, chunk: list) -> Future:
+    try:
+        return executor.submit(perform_all, perform, chunk)
+    except (RuntimeError, BrokenExecutor) as error:  # shut down, or broken by an earlier task
+        raise ExecutionError(f"{_labels(chunk)}: the executor does not take tasks ({type(error).__name__}: {error})") from error
+
+
 def _result(chunk: Sequence[tuple[str, Any]], future: Future) -> list:
+    """The chunk's results; a worker or task lost is an :class:`ExecutionError`, anything
+    the task itself raised is raised as it would be in this process."""
     try:
         return future.result()
-    except (FlextopError, KeyboardInterrupt, SystemExit):
+    except (BrokenExecutor, CancelledError) as error:
+        raise ExecutionError(f"{_labels(chunk)}: the task did not complete on its worker ({type(error).__name__}: {error})") from error
+    except Exception as error:
+        if type(error).__name__ in LOST:
+            raise ExecutionError(f"{_labels(chunk)}: the task did not complete on its worker ({type(error).__name__}: {error})") from error
         raise
-    except BaseException as error:  # a worker that died, a task that could not be sent or was lost
-        labels = " / ".join(label for label, _ in chunk)
-        raise ExecutionError(f"{labels}: the task did not complete on its worker ({type(error).__name__}: {error})") from error
+
+
+def _labels(chunk: Sequence[tuple[str, Any]]) -> str:
+    return " / ".join(label for label, _ in chunk)
 
 
 def _named(error: FlextopError, label: str) -> FlextopError:

@@ -34,7 +34,7 @@ JOINT, POINT_MASS = 1, 2
 
 
 def write_motion(results: Any, path: str | os.PathLike, *, every: int = 1) -> Path:
-    """The motion of ``results`` as ``STEM_0000.vtu``… beside the PVD index ``path``
+    """The motion of ``results`` as ``STEM_00000.vtu``… beside the PVD index ``path``
     (``.pvd``), every ``every``-th step and the last. Returns the index's path."""
     path = Path(path)
     if path.suffix != ".pvd":
@@ -92,7 +92,7 @@ def _mesh(sim: Any, x: np.ndarray | None, q: np.ndarray, forces: np.ndarray, ext
     lines = np.asarray(elements["nodes"], dtype=np.int64)
     bar = np.asarray(elements["bar"], dtype=np.int64)
     vertices, kinds = _vertices(sim)
-    density = _densities(sim, x)[bar]
+    density = sim.bar_densities(x)[bar]
     area = _areas(sim, lines, bar)[bar]
     nan = np.full(len(vertices), np.nan)
     cell_data = {
@@ -115,14 +115,6 @@ def _vertices(sim: Any) -> tuple[np.ndarray, np.ndarray]:
     masses = [(sim.node(p["node"]), POINT_MASS) for p in sim.spec.get("point_masses", [])]
     entries = joints + masses
     return np.array([n for n, _ in entries], dtype=np.int64), np.array([k for _, k in entries], dtype=np.int64)
-
-
-def _densities(sim: Any, x: np.ndarray | None) -> np.ndarray:
-    """Per bar: its density (1 where fixed, or for ``x = None``)."""
-    variable = np.asarray(sim.bars.variable)
-    if x is None:
-        return np.ones(len(variable))
-    return np.where(variable >= 0, np.asarray(x)[np.maximum(variable, 0)], 1.0)
 
 
 def _areas(sim: Any, lines: np.ndarray, bar: np.ndarray) -> np.ndarray:

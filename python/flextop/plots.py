@@ -38,15 +38,10 @@ DPI = 150
 def bar_densities(sim: Simulation, x: Any = None) -> np.ndarray:
     """Density of every bar for design ``x`` (one value per design variable, a scalar, or
     ``None`` for full density); fixed bars (variable −1) are at density 1."""
-    variable = np.asarray(sim.bars.variable, dtype=int)
-    if x is None:
-        return np.ones(variable.size)
-    xv = np.asarray(x, dtype=float)
-    if xv.ndim == 0:
-        xv = np.full(sim.n_design, float(xv))
-    if xv.shape != (sim.n_design,):
+    xv = None if x is None else np.asarray(x, dtype=float)
+    if xv is not None and xv.ndim and xv.shape != (sim.n_design,):
         raise ValueError(f"design has shape {xv.shape}; expected ({sim.n_design},)")
-    return np.where(variable >= 0, xv[np.maximum(variable, 0)], 1.0)
+    return sim.bar_densities(xv)
 
 
 def _bar_style(sim: Simulation, x: Any, cmap: str | Colormap, min_density: float | None,

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import scenes
-from .errors import SimulationError
+from .errors import SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .simulation import Simulation
 from .tolerance import Discretization
@@ -60,7 +60,7 @@ class TopologyProblem(Problem):
         self.constraints = list(constraints.items()) if isinstance(constraints, Mapping) else [tuple(c) for c in constraints]
         for name, bound in self.constraints:
             if not (np.isfinite(bound) and bound > 0):
-                raise ValueError(f"constraint {name!r}: the upper bound must be positive and finite, got {bound}")
+                raise SettingsError(f"constraint {name!r}: the upper bound must be positive and finite, got {bound}")
         self.settings = dict(settings or {})
         self.method = method
         self.objective_scale = objective_scale
@@ -96,8 +96,9 @@ class TopologyProblem(Problem):
         bounds = np.array([b for _, b in self.constraints])
         return Evaluation(f[0] / self.objective_scale, f[1:] / bounds - 1.0, dfdx[0] / self.objective_scale, dfdx[1:] / bounds[:, None])
 
-    def unscaled(self, f0: float) -> float:
-        """The objective in the response's units from the optimizer's ``f0 = f / f_ref``."""
+    def unscaled(self, f0: float, g: np.ndarray | None = None) -> float:
+        """The objective in the response's units from the optimizer's ``f0 = f / f_ref``
+        (``g`` is not needed here; scenario problems take it)."""
         return f0 * (1.0 if self.objective_scale is None else self.objective_scale)
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
@@ -127,7 +128,7 @@ def volume_constraints(simulation: Simulation, fraction: float, *, per_component
     that has design variables (a component of fixed bars would give a constant), or on
     the whole structure."""
     if not 0.0 < fraction <= 1.0:
-        raise ValueError(f"volume fraction must lie in (0, 1], got {fraction}")
+        raise SettingsError(f"volume fraction must lie in (0, 1], got {fraction}")
     volume = np.asarray(simulation.bars.volume)
     fixed = np.asarray(simulation.bars.variable) < 0
     component = np.asarray(simulation.bars.component)

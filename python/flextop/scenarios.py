@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import enum
 import math
+import numbers
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import astuple, dataclass
@@ -97,15 +98,15 @@ def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list
         raise SceneError(f"scenarios: names must differ, got {names}")
     sims = []
     for s in scenarios:
-        if not (isinstance(s.weight, (int, float)) and math.isfinite(s.weight) and s.weight > 0):
+        if isinstance(s.weight, bool) or not (isinstance(s.weight, numbers.Real) and math.isfinite(s.weight) and s.weight > 0):
             raise SceneError(f"scenario {s.name!r}: the weight must be a positive number, got {s.weight!r}")
         try:
             sims.append(Simulation(s.spec(), **options))
         except SceneError as error:
             raise type(error)(f"scenario {s.name!r}: {error}") from None
-        if sims[-1].variable_names != sims[0].variable_names:
-            raise SceneError(f"scenario {s.name!r}: its design variables differ from those of {scenarios[0].name!r}; "
-                             "scenarios share one design")
+        if sims[-1].variable_names != sims[0].variable_names or sims[-1].x_min != sims[0].x_min:
+            raise SceneError(f"scenario {s.name!r}: its design variables (or their x_min) differ from those of "
+                             f"{scenarios[0].name!r}; scenarios share one design")
         remember(sims[-1])
     return sims
 
@@ -135,7 +136,10 @@ class ScenarioProblem(Problem):
         self.scenarios = list(scenarios)
         self.simulations = _simulations(self.scenarios, {"accuracy": accuracy})
         self.objective = objective
-        self.aggregate = Aggregate(aggregate)
+        try:
+            self.aggregate = Aggregate(aggregate)
+        except ValueError:
+            raise SettingsError(f"aggregate must be one of {', '.join(a.value for a in Aggregate)}, got {aggregate!r}") from None
         self.executor, self.chunksize = executor, chunksize
         self.settings = dict(settings or {})
         self.method, self.objective_scale = method, objective_scale
@@ -156,9 +160,11 @@ class ScenarioProblem(Problem):
         index = {s.name: k for k, s in enumerate(self.scenarios)}
         out: list[tuple[int | None, str, str, float]] = []
         for entry in given:
+            if not (isinstance(entry, tuple) and len(entry) in (2, 3)):
+                raise SettingsError(f"constraint {entry!r}: give (response, bound) or (scenario, response, bound)")
             *where, response, bound = entry
-            if not (isinstance(bound, (int, float)) and math.isfinite(bound) and bound > 0):
-                raise ValueError(f"constraint {response!r}: the upper bound must be positive and finite, got {bound}")
+            if isinstance(bound, bool) or not (isinstance(bound, numbers.Real) and math.isfinite(bound) and bound > 0):
+                raise SettingsError(f"constraint {response!r}: the upper bound must be positive and finite, got {bound!r}")
             if where and where[0] not in index:
                 raise SceneError(f"constraint {response!r}: no scenario named {where[0]!r} ({', '.join(index)})")
             if response.split(":")[0] in DESIGN_ONLY and not where:
@@ -169,15 +175,23 @@ class ScenarioProblem(Problem):
         return out
 
     def start(self, x: Any) -> np.ndarray:
-        """The design ``x`` of the scenes as a design of this problem (``β = 0`` appended
-        for the worst case: the scaled worst case at the start design is 1)."""
-        x = np.asarray(x, dtype=float)
+        """The design ``x`` of the scenes (one number or one per variable) as a design of
+        this problem (``β = 0`` appended for the worst case: the scaled worst case at the
+        start design is 1)."""
+        x = self.simulations[0]._design(x)
+        if x is None:
+            raise DesignError("start needs a design of the scenes")
         return np.append(x, 0.0) if self.aggregate is Aggregate.WORST else x
 
-    def unscaled(self, f0: float) -> float:
-        """The aggregate in the response's units from the optimizer's objective ``f0``."""
+    def unscaled(self, f0: float, g: np.ndarray | None = None) -> float:
+        """The aggregate in the response's units from the optimizer's objective ``f0`` (and,
+        for the worst case, its constraints ``g``: the largest scenario row, which β bounds
+        from above once feasible)."""
         scale = 1.0 if self.objective_scale is None else self.objective_scale
-        return scale * math.exp(f0) if self.aggregate is Aggregate.WORST else scale * f0
+        if self.aggregate is not Aggregate.WORST:
+            return scale * f0
+        rows = len(self.scenarios)
+        return scale * math.exp(f0 + (float(np.max(g[:rows])) if g is not None else 0.0))
 
     def responses(self, k: int) -> list[str]:
         """What scenario ``k`` computes: the objective, its constraints' responses, and (the
@@ -203,7 +217,11 @@ class ScenarioProblem(Problem):
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective and constraints with gradients: one run with sensitivities per scenario."""
-        runs = self._run(np.asarray(x, dtype=float)[: self.n_design])
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.n,):
+            raise DesignError(f"the design has shape {x.shape}; this problem has {self.n} variables"
+                              + (" (the scenes' and β: use start(x))" if self.aggregate is Aggregate.WORST else ""))
+        runs = self._run(x[: self.n_design])
         value = lambda k, name: runs[k].values[self.responses(k).index(name)]  # noqa: E731
         grad = lambda k, name: runs[k].gradients[self.responses(k).index(name)]  # noqa: E731
         w = np.array([s.weight for s in self.scenarios])
@@ -278,12 +296,7 @@ def evaluate(scenarios: Sequence[Scenario], designs: Iterable[Any], responses: S
     :meth:`Simulation.map`. The runs go to ``executor``, ``chunksize`` to a task."""
     sims = _simulations(scenarios, {})
     names = (responses,) if isinstance(responses, str) else tuple(responses)
-    vectors = []
-    for i, x in enumerate(designs):
-        try:
-            vectors.append(sims[0]._design(x))
-        except DesignError as error:
-            raise DesignError(f"design {i}: {error}") from None
+    vectors = sims[0]._designs(designs)
     tasks = [(f"scenario {s.name!r}, design {i}", Task(sim.spec, x, names, gradients, options, sim.options))
              for i, x in enumerate(vectors) for s, sim in zip(scenarios, sims)]
     flat = execution.run_all(perform, tasks, executor, chunksize=chunksize)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import json
+import threading
 import math
 import os
 import warnings
@@ -120,7 +121,8 @@ class Sensitivities:
 
     Unpacks as ``f, dfdx = ...``. ``values`` has shape ``(n_r,)``, ``gradients``
     ``(n_r, n_design)``, in the order of ``names``; ``method`` is the method used
-    (``"direct"`` or ``"adjoint"``) and ``timings`` the seconds spent in the simulation and
+    (``"direct"`` or ``"adjoint"``; values only, from :meth:`Simulation.map` with
+    ``gradients=False``: ``"none"`` and ``gradients`` ``None``) and ``timings`` the seconds spent in the simulation and
     in the sensitivity analysis. A run made to a tolerance also carries its
     ``discretization`` and, per name, the estimated relative ``errors`` of the values and
     ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
@@ -199,6 +201,15 @@ class Simulation:
         self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
         if self.analysis == "dynamic":  # a static structure may well be indeterminate
             _warn_if_over_constrained(self.mechanism)
+
+    def bar_densities(self, x: DesignLike = None) -> np.ndarray:
+        """The density of every bar for design ``x`` (``None``: full density); bars that are
+        not designed (variable −1) are at 1."""
+        xv = self._design(x)
+        variable = np.asarray(self.bars.variable, dtype=int)
+        if xv is None:
+            return np.ones(variable.size)
+        return np.where(variable >= 0, xv[np.maximum(variable, 0)] if xv.size else 1.0, 1.0)
 
     @cached_property
     def mechanism(self) -> dict[str, Any]:
@@ -400,12 +411,7 @@ class Simulation:
         ``chunksize`` runs to a task; the results are the same bits whatever the executor.
         A run that fails raises its error with ``design K:`` in front."""
         names = (responses,) if isinstance(responses, str) else tuple(responses or (self._default_response(),))
-        vectors = []
-        for k, x in enumerate(designs):
-            try:
-                vectors.append(self._design(x))
-            except DesignError as error:
-                raise DesignError(f"design {k}: {error}") from None
+        vectors = self._designs(designs)
         remember(self)
         tasks = [(f"design {k}", Task(self.spec, x, names, gradients, options, self.options)) for k, x in enumerate(vectors)]
         return execution.run_all(perform, tasks, executor, chunksize=chunksize)
@@ -511,7 +517,7 @@ class Simulation:
         frame falls apart).
         """
         xv = self._design(x)
-        if xv is None or xv.shape != (self.n_design,):
+        if xv is None:
             raise DesignError(f"as_built needs a design vector of {self.n_design} densities")
         limit = self.x_min * (1.0 + 1e-9) if threshold is None else float(threshold)
         void = {name for name, v in zip(self.bars.name, self.bars.variable) if v >= 0 and xv[v] <= limit}
@@ -523,6 +529,16 @@ class Simulation:
         built = Simulation(spec, rtol=self.rtol, atol=self.atol)
         index = {name: k for k, name in enumerate(self.variable_names)}
         return built, np.array([xv[index[name]] for name in built.variable_names])
+
+    def _designs(self, designs: Iterable[DesignLike]) -> list[np.ndarray | None]:
+        """Each of ``designs`` as :meth:`_design` makes it; a bad one is named by its index."""
+        out = []
+        for k, x in enumerate(designs):
+            try:
+                out.append(self._design(x))
+            except DesignError as error:
+                raise DesignError(f"design {k}: {error}") from None
+        return out
 
     def _design(self, x: Any) -> np.ndarray | None:
         """``x`` as a vector of floats: a number means every variable; strings, complex
@@ -574,11 +590,12 @@ class Simulation:
         return self.rigid_positions(times)[:, index]
 
 
-CACHED_SCENES = 16
+CACHED_SCENES = 64
 """Scenes whose :class:`Simulation` a process keeps for its tasks, the least recently used
 dropped first."""
 
 _simulations: OrderedDict[str, Simulation] = OrderedDict()
+_simulations_lock = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -611,20 +628,27 @@ def _key(scene: dict, options: dict[str, Any]) -> str:
     return json.dumps([scene, options], sort_keys=True, default=float)
 
 
-def _cached(scene: dict, options: dict[str, Any]) -> Simulation:
+def _cached(scene: dict, options: dict[str, Any], sim: Simulation | None = None) -> Simulation:
+    """This process's Simulation of ``scene`` and ``options`` (``sim`` itself if given),
+    kept for the next task; safe from several threads."""
     key = _key(scene, options)
-    if key not in _simulations:
-        _simulations[key] = Simulation(scene, **options)
-    _simulations.move_to_end(key)
-    while len(_simulations) > CACHED_SCENES:
-        _simulations.popitem(last=False)
-    return _simulations[key]
+    with _simulations_lock:
+        if sim is not None:
+            _simulations[key] = sim
+        found = _simulations.get(key)
+    if found is None:
+        found = Simulation(scene, **options)
+    with _simulations_lock:
+        found = _simulations.setdefault(key, found)
+        _simulations.move_to_end(key)
+        while len(_simulations) > CACHED_SCENES:
+            _simulations.popitem(last=False)
+    return found
 
 
 def remember(sim: Simulation) -> None:
     """Lets this process's tasks on ``sim``'s scene and options run on ``sim`` itself."""
-    _simulations[_key(sim.spec, sim.options)] = sim
-    _cached(sim.spec, sim.options)
+    _cached(sim.spec, sim.options, sim)
 
 
 @dataclass(repr=False)
@@ -660,7 +684,8 @@ class _Run:
         return saved.write(self, path)
 
     def __repr__(self) -> str:
-        x = "full density" if self.x is None else f"x in [{np.min(self.x):.3g}, {np.max(self.x):.3g}] ({np.size(self.x)} values)"
+        x = ("full density" if self.x is None else "no design variables" if np.size(self.x) == 0
+             else f"x in [{np.min(self.x):.3g}, {np.max(self.x):.3g}] ({np.size(self.x)} values)")
         tolerance = f", {self.discretization}" if self.discretization is not None else ""
         return f"{type(self).__name__}({self.simulation.spec.get('name') or 'scene'}: {self._summary()}; {x}{tolerance})"
 
@@ -728,10 +753,11 @@ class Results(_Run):
         return f"{len(self.time) - 1} steps to t = {self.time[-1]:.6g} s"
 
     def to_xarray(self) -> Any:
-        """The time histories as an ``xarray.Dataset``: ``q``, ``qdot``, ``qddot`` over
-        ``(time, node, coordinate)`` (coordinates ``x``, ``y``, ``phi``), ``lam`` over
-        ``(time, multiplier)`` (``JOINT:ROW``), the energies and step sizes over time; the
-        design, scene name, ``h`` and ``rho_inf`` as attributes."""
+        """The time histories as an ``xarray.Dataset``: ``q`` (displacements and rotation
+        from the reference), ``qdot``, ``qddot`` over ``(time, node, coordinate)``
+        (coordinates ``x``, ``y``, ``phi``: the components), ``lam`` over ``(time,
+        multiplier)`` (``JOINT:ROW``), the energies and step sizes over time, the design
+        ``x`` over ``variable``; the scene's name, ``h`` and ``rho_inf`` as attributes."""
         try:
             import xarray as xr
         except ImportError:

@@ -252,7 +252,7 @@ def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
         return Verdict(None, np.inf, 0.0, failed=fine is None) if dynamic else Verdict(None, 0.0, np.inf, failed=True)
     if dynamic:
-        least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], fine)  # contraction 4: the least time error
+        least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], half)  # contraction 4, no space error
         if _ratio(least.time, tol.budget(least)) > 2.0:
             return Verdict(least, _ratio(least.time, tol.budget(least)), 0.0)
     split = _try(values, d.split, companion=True)

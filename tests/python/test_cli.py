@@ -188,3 +188,12 @@ def test_results_print_as_one_line(arm):
     assert repr(res) == "Results(robot_arm: 65 steps to t = 1.3 s; x in [0.4, 0.4] (148 values))"
     with pytest.warns(flextop.errors.SettingsWarning, match="shortened to 0.433333 s"):
         arm.run(0.4, h=0.5)
+
+
+def test_a_start_design_that_cannot_be_evaluated_ends_with_its_reason(tmp_path):
+    scene = flextop.scenes.static_truss(force=(0.0, -1e12))
+    (tmp_path / "huge.toml").write_text(scene.to_toml())
+    run = flextop_cli("optimize", tmp_path / "huge.toml", "--max-iter", 2, "--no-plots", "--out", tmp_path / "out", codes=(3,))
+    assert "status: EVALUATION_FAILED" in run.stdout and "Traceback" not in run.stderr
+    lone = flextop_cli("optimize", "static_truss", "--aggregate", "worst", "--workers", 2, "--out", tmp_path / "x", check=False)
+    assert lone.returncode == 2 and "--aggregate, --workers: for several scenarios" in lone.stderr

@@ -73,8 +73,20 @@ def test_the_worst_case_gradient_passes_finite_differences():
 
 
 def test_scenarios_must_share_the_design_and_have_distinct_names():
-    with pytest.raises(flextop.SceneError, match="design variables differ"):
+    with pytest.raises(flextop.SceneError, match=r"design variables \(or their x_min\) differ"):
         ScenarioProblem([Scenario("a", arm()), Scenario("b", arm(nx=4))], "tip_deflection")
+    with pytest.raises(flextop.SceneError, match="x_min"):
+        ScenarioProblem([Scenario("a", arm()), Scenario("b", arm(x_min=0.05))], "tip_deflection")
+    with pytest.raises(flextop.SettingsError, match="aggregate must be one of sum, worst"):
+        ScenarioProblem(two_scenarios(), "tip_deflection", aggregate="max")
+    with pytest.raises(flextop.SettingsError, match="give \\(response, bound\\)"):
+        ScenarioProblem(two_scenarios(), "tip_deflection", [("compliance",)])
+    with pytest.raises(flextop.SceneError, match="weight"):
+        ScenarioProblem([Scenario("a", arm(), True)], "tip_deflection")
+    worst = ScenarioProblem(two_scenarios(), "tip_deflection", aggregate="worst")
+    with pytest.raises(flextop.DesignError, match="use start"):
+        worst.evaluate(np.full(worst.n - 1, 0.4))
+    assert worst.start(0.4).shape == (worst.n,) and worst.start(0.4)[-1] == 0.0
     with pytest.raises(flextop.SceneError, match="names must differ"):
         ScenarioProblem([Scenario("a", arm()), Scenario("a", arm())], "tip_deflection")
     with pytest.raises(flextop.SceneError, match="no scenario named 'c'"):
@@ -133,6 +145,11 @@ def test_a_worker_that_dies_is_an_execution_error_naming_the_task():
         with pytest.raises(ExecutionError, match="scenario 'payload 5 kg': the task did not complete"):
             execution.run_all(os._exit, [("scenario 'payload 5 kg'", 3)], pool)
     assert issubclass(ExecutionError, FlextopError)
+    with pytest.raises(ExecutionError, match="design 0: the executor does not take tasks"):
+        execution.run_all(abs, [("design 0", -1)], pool)  # shut down
+    with ThreadPoolExecutor(1) as threads:  # a task's own error is raised as it would be here
+        with pytest.raises(ZeroDivisionError):
+            execution.run_all(lambda v: 1 / v, [("design 0", 0)], threads)
 
 
 def test_resume_reproduces_an_uninterrupted_multi_scenario_run():

@@ -145,9 +145,10 @@ def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) ->
 def _initial_state(problem: Problem, x0, method: Method, move: float,
                    evaluate: _CountingEvaluator, feas_tol: float) -> OptimizerState:
     """Evaluate the (bound-clipped) start design; multipliers start at zero."""
-    x = np.clip(np.asarray(x0, dtype=float), problem.lower, problem.upper)
+    x = np.asarray(x0, dtype=float)
     if x.shape != (problem.n,):
         raise ValueError(f"x0 has shape {x.shape}, expected ({problem.n},)")
+    x = np.clip(x, problem.lower, problem.upper)
     evaluation = evaluate(x)
     multipliers = np.zeros(problem.m)
     kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
