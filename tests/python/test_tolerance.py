@@ -217,3 +217,12 @@ def test_companions_stop_newton_early_and_the_candidate_does_not(arm):
     tight = arm.run(0.4, h=half.raw["h"])
     assert abs(half.tip_deflection() / tight.tip_deflection() - 1.0) < 1e-5, "a thousand times below the rtol the estimate serves"
     assert half.newton["total"] < tight.newton["total"]
+
+
+def test_a_time_error_clearly_over_budget_is_judged_without_a_space_error():
+    """The candidate is refined on its time error alone; the estimate it reports (and a
+    ToleranceError would quote) holds no space error, since no space companion ran."""
+    values, calls = model_values(c_time=50.0, c_space=0.002)
+    verdict = tolerance._judge(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-3]), np.array([0.0])))
+    assert verdict.worst_space == 0.0 and verdict.estimate.space[0] == 0.0 and verdict.worst_time > 2.0
+    assert all(d.refinement == 1 for d in calls), "the space companion did not run"

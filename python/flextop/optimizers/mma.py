@@ -224,6 +224,7 @@ class GCMMA(MMA):
     rho_min: float = 1e-6
     max_inner: int = 15
     name: ClassVar[str] = "gcmma"
+    # MMA's ``safeguard`` has nothing to do here: every GCMMA step is conservative.
 
     def step(self, problem: Problem, state: OptimizerState, move: float,
              evaluate: Evaluator) -> Step:
