@@ -12,7 +12,8 @@ fn alpha_step(c: &mut Criterion) {
     let arm = common::robot_arm(5, 3, 1);
     let settings = common::settings(0.02);
     let x = vec![0.4; arm.n_variables()];
-    let mut integrator = Integrator::new(&arm, arm.densities(Some(&x)).unwrap(), &settings);
+    let mut integrator =
+        Integrator::new(&arm, arm.densities(Some(&x)).unwrap(), &settings).unwrap();
     let mut state = integrator.initial_state().unwrap();
     for _ in 0..30 {
         integrator.alpha_step(&mut state, settings.h).unwrap();

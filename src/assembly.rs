@@ -27,6 +27,7 @@
 use std::ops::Range;
 
 use crate::element::MassKind;
+use crate::error::SolveError;
 use crate::model::{Densities, Model};
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
@@ -52,7 +53,10 @@ pub struct Pattern {
 
 impl Pattern {
     /// The pattern of `model`'s iteration matrix.
-    pub fn new(model: &Model) -> Self {
+    ///
+    /// # Errors
+    /// [`SolveError::Setup`] if an entry the slot maps need is missing (an engine defect).
+    pub fn new(model: &Model) -> Result<Self, SolveError> {
         let n_q = model.n_dofs();
         let n = n_q + model.n_constraints();
         let mut pairs: Vec<(usize, usize)> = Vec::new();
@@ -94,48 +98,51 @@ impl Pattern {
             row_slots: vec![],
             gram_slots: vec![],
         };
+        let missing = || SolveError::Setup("an entry missing from the sparsity pattern".into());
         p.element_slots = model
             .elements
             .iter()
             .map(|e| {
                 let d = e.dofs();
-                std::array::from_fn(|k| p.slot(d[k % 6], d[k / 6]))
+                slots(|k| p.slot(d[k % 6], d[k / 6]))
             })
-            .collect();
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
         p.node_slots = (0..model.nodes.len())
-            .map(|i| std::array::from_fn(|k| p.slot(3 * i + k, 3 * i + k)))
-            .collect();
+            .map(|i| slots(|k| p.slot(3 * i + k, 3 * i + k)))
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
+        // A zero coefficient has no slot: usize::MAX, skipped by the assembly.
+        let nonzero = |c: f64, slot: Option<usize>| if c == 0.0 { Some(usize::MAX) } else { slot };
         p.row_slots = model
             .rows
             .iter()
             .enumerate()
             .map(|(k, row)| {
-                std::array::from_fn(|t| {
-                    let (d, c) = row.terms[t];
-                    if c == 0.0 {
-                        [usize::MAX; 2]
-                    } else {
-                        [p.slot(n_q + k, d), p.slot(d, n_q + k)]
-                    }
-                })
+                let (columns, rows): (Vec<_>, Vec<_>) = row
+                    .terms
+                    .iter()
+                    .map(|&(d, c)| {
+                        (
+                            nonzero(c, p.slot(n_q + k, d)),
+                            nonzero(c, p.slot(d, n_q + k)),
+                        )
+                    })
+                    .unzip();
+                slots(|t| Some([columns[t]?, rows[t]?]))
             })
-            .collect();
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
         p.gram_slots = model
             .rows
             .iter()
             .map(|row| {
-                std::array::from_fn(|i| {
-                    std::array::from_fn(|j| {
-                        if row.terms[i].1 * row.terms[j].1 == 0.0 {
-                            usize::MAX
-                        } else {
-                            p.slot(row.terms[i].0, row.terms[j].0)
-                        }
-                    })
-                })
+                let t = &row.terms;
+                slots(|i| slots(|j| nonzero(t[i].1 * t[j].1, p.slot(t[i].0, t[j].0))))
             })
-            .collect();
-        p
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
+        Ok(p)
     }
 
     /// For each constraint row, the DOFs it acts on.
@@ -147,19 +154,28 @@ impl Pattern {
             .collect()
     }
 
-    /// Position of entry `(row, col)` in the CSC value array.
-    fn slot(&self, row: usize, col: usize) -> usize {
+    /// Position of entry `(row, col)` in the CSC value array (`None` outside the pattern).
+    fn slot(&self, row: usize, col: usize) -> Option<usize> {
         let range = self.col_ptr[col]..self.col_ptr[col + 1];
-        range.start
-            + self.row_idx[range]
-                .binary_search(&row)
-                .expect("entry in pattern")
+        let offset = self.row_idx[range.clone()].binary_search(&row).ok()?;
+        Some(range.start + offset)
     }
 
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
     }
+}
+
+/// `[f(0), …, f(N − 1)]`, or `None` if any is `None`.
+fn slots<T: Copy + Default, const N: usize>(
+    mut f: impl FnMut(usize) -> Option<T>,
+) -> Option<[T; N]> {
+    let mut out = [T::default(); N];
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = f(k)?;
+    }
+    Some(out)
 }
 
 /// Everything a run needs to evaluate forces and matrices of one design.
@@ -182,8 +198,15 @@ pub struct Assembler<'m> {
 
 impl<'m> Assembler<'m> {
     /// Assembler of `model` for a design's `densities`.
-    pub fn new(model: &'m Model, densities: Densities, mass_kind: MassKind) -> Self {
-        let pattern = Pattern::new(model);
+    ///
+    /// # Errors
+    /// As [`Pattern::new`].
+    pub fn new(
+        model: &'m Model,
+        densities: Densities,
+        mass_kind: MassKind,
+    ) -> Result<Self, SolveError> {
+        let pattern = Pattern::new(model)?;
         let mut mass = vec![0.0; pattern.nnz()];
         for (e, el) in model.elements.iter().enumerate() {
             let m = el.beam.mass_matrix(mass_kind) * densities.mass[e];
@@ -213,7 +236,7 @@ impl<'m> Assembler<'m> {
         let mut load = vec![0.0; asm.gravity.len()];
         asm.mass_times(&asm.gravity, &mut load);
         asm.gravity_load = load;
-        asm
+        Ok(asm)
     }
 
     /// `out = M a` (mass matrix times a nodal vector).
@@ -381,8 +404,16 @@ impl<'m> Assembler<'m> {
 
 /// `M`, `K_t(q)` and `Φ_q` of `model` for a design's `densities` (see
 /// [`Assembler::linearization`]).
-pub fn linearize(model: &Model, densities: Densities, mass: MassKind, q: &[f64]) -> Linearization {
-    Assembler::new(model, densities, mass).linearization(q)
+///
+/// # Errors
+/// As [`Pattern::new`].
+pub fn linearize(
+    model: &Model,
+    densities: Densities,
+    mass: MassKind,
+    q: &[f64],
+) -> Result<Linearization, SolveError> {
+    Ok(Assembler::new(model, densities, mass)?.linearization(q))
 }
 
 /// A sparse matrix in compressed sparse columns (the layout of `scipy.sparse.csc_matrix`).
@@ -459,7 +490,8 @@ mod tests {
         let x: Vec<f64> = (0..arm.n_variables())
             .map(|i| 0.05 + 0.9 * ((i * 37 % 101) as f64 / 101.0))
             .collect();
-        let asm = Assembler::new(&arm, arm.densities(Some(&x)).unwrap(), MassKind::Consistent);
+        let asm =
+            Assembler::new(&arm, arm.densities(Some(&x)).unwrap(), MassKind::Consistent).unwrap();
         let n = arm.n_dofs();
         let beta_prime = 4.0e3;
         for seed in 1..4 {

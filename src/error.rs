@@ -148,6 +148,10 @@ pub enum SolveError {
         /// The last Newton failure, as its message.
         last: String,
     },
+    /// The sparse pattern or the symbolic factorization could not be set up: a defect of
+    /// the engine, not of the input, reported instead of a panic.
+    #[error("internal error setting up the linear solver ({0}); please report it with the scene")]
+    Setup(String),
     /// The caller asked the work to stop ([`crate::with_checker`]).
     #[error("interrupted")]
     Interrupted,

@@ -93,20 +93,27 @@ pub struct Integrator<'m> {
 
 impl<'m> Integrator<'m> {
     /// Integrator of `model` with element scalings `densities`.
-    pub fn new(model: &'m Model, densities: Densities, settings: &DynamicSettings) -> Self {
+    ///
+    /// # Errors
+    /// As [`Newton::new`].
+    pub fn new(
+        model: &'m Model,
+        densities: Densities,
+        settings: &DynamicSettings,
+    ) -> Result<Self, SolveError> {
         let newton = Newton::new(
             model,
             densities,
             settings.mass,
             settings.tol,
             settings.max_iter,
-        );
+        )?;
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
-        Self {
+        Ok(Self {
             newton,
             params,
             start: vec![0.0; model.n_dofs()],
-        }
+        })
     }
 
     /// The assembler of the design: forces, matrices, the model and its densities.

@@ -37,6 +37,8 @@ pub enum FactorError {
     },
     /// Non-finite factors or solution.
     Singular(String),
+    /// The symbolic analysis failed (a pattern or ordering the engine built is invalid).
+    Analysis(String),
 }
 
 /// `LDLᵀ` factorization of a symmetric saddle-point matrix with a fixed pattern.
@@ -56,17 +58,19 @@ impl SparseLdlt {
     /// of an `n × n` matrix whose first `n_q` unknowns are DOFs and whose unknown `n_q + k`
     /// is a multiplier acting on the DOFs `multiplier_dofs[k]`.
     ///
-    /// # Panics
-    /// If the pattern is not a valid sorted CSC structure (a bug of the caller).
+    /// # Errors
+    /// [`FactorError::Analysis`] if the ordering or the symbolic factorization fails, or a
+    /// constraint acts on no DOF (defects of the caller; an invalid CSC structure is
+    /// faer's own check).
     pub fn analyze(
         n: usize,
         col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
         n_q: usize,
         multiplier_dofs: &[Vec<usize>],
-    ) -> Self {
+    ) -> Result<Self, FactorError> {
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs);
+        let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs)?;
         let perm = PermRef::new_checked(&fwd, &inv, n);
         let symbolic = factorize_symbolic_cholesky(
             pattern.as_ref(),
@@ -74,11 +78,11 @@ impl SparseLdlt {
             SymmetricOrdering::Custom(perm),
             CholeskySymbolicParams::default(),
         )
-        .expect("symbolic Cholesky of a valid pattern");
+        .map_err(|e| FactorError::Analysis(format!("symbolic Cholesky: {e:?}")))?;
         let factor_req = symbolic
             .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
-        Self {
+        Ok(Self {
             factors: vec![0.0; symbolic.len_val()],
             order: fwd,
             pattern,
@@ -86,7 +90,7 @@ impl SparseLdlt {
             factor_scratch: MemBuffer::new(factor_req),
             solve_scratch: MemBuffer::new(solve_req),
             factorized: false,
-        }
+        })
     }
 
     /// Scratch for solving `nrhs` right-hand sides at once from one thread.
@@ -168,7 +172,7 @@ fn saddle_point_ordering(
     pattern: &SymbolicSparseColMat<usize>,
     n_q: usize,
     multiplier_dofs: &[Vec<usize>],
-) -> (Vec<usize>, Vec<usize>) {
+) -> Result<(Vec<usize>, Vec<usize>), FactorError> {
     let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
     let mut block_ptr = vec![0usize; n_q + 1];
     let mut block_idx = Vec::new();
@@ -186,7 +190,7 @@ fn saddle_point_ordering(
         amd::Control::default(),
         MemStack::new(&mut mem),
     )
-    .expect("AMD ordering");
+    .map_err(|e| FactorError::Analysis(format!("AMD ordering: {e:?}")))?;
     // For each DOF, the multipliers whose last DOF (in elimination order) it is.
     let mut after: Vec<Vec<usize>> = vec![Vec::new(); n_q];
     for (k, dofs) in multiplier_dofs.iter().enumerate() {
@@ -194,7 +198,7 @@ fn saddle_point_ordering(
             .iter()
             .copied()
             .max_by_key(|&d| dof_inv[d])
-            .expect("a constraint acts on at least one DOF");
+            .ok_or_else(|| FactorError::Analysis(format!("constraint row {k} acts on no DOF")))?;
         after[last].push(n_q + k);
     }
     let fwd: Vec<usize> = dof_fwd
@@ -203,7 +207,7 @@ fn saddle_point_ordering(
         .collect();
     let mut inv = vec![0usize; fwd.len()];
     fwd.iter().enumerate().for_each(|(pos, &i)| inv[i] = pos);
-    (fwd, inv)
+    Ok((fwd, inv))
 }
 
 fn finite(x: &[f64]) -> Result<(), FactorError> {
@@ -230,7 +234,7 @@ mod tests {
     #[test]
     fn solves_a_saddle_point_system_and_refactors() {
         let (cp, ri, v) = saddle();
-        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]);
+        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
         ldlt.factorize(&v).unwrap();
         let mut b = vec![4.0, 4.0, 1.0]; // x = [1, 1, 1]
         ldlt.solve_in_place(&mut b).unwrap();
@@ -247,10 +251,21 @@ mod tests {
     }
 
     #[test]
+    fn a_constraint_on_no_dof_is_an_analysis_error_not_a_panic() {
+        let (cp, ri, _) = saddle();
+        let res = SparseLdlt::analyze(3, cp, ri, 2, &[vec![]]);
+        assert!(
+            matches!(&res, Err(FactorError::Analysis(d)) if d.contains("row 0 acts on no DOF")),
+            "{:?}",
+            res.err()
+        );
+    }
+
+    #[test]
     fn multipliers_follow_their_dofs() {
         let (cp, ri, _) = saddle();
         let pattern = SymbolicSparseColMat::new_checked(3, 3, cp, None, ri);
-        let (fwd, inv) = saddle_point_ordering(&pattern, 2, &[vec![0]]);
+        let (fwd, inv) = saddle_point_ordering(&pattern, 2, &[vec![0]]).unwrap();
         assert!(inv[2] > inv[0], "{fwd:?}");
     }
 
@@ -259,7 +274,7 @@ mod tests {
         let (cp, ri, mut v) = saddle();
         v[2] = 0.0;
         v[5] = 0.0; // the multiplier's row vanishes: its pivot is zero, the DOFs' are not
-        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]);
+        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
         let res = ldlt.factorize(&v);
         assert_eq!(res, Err(FactorError::ZeroPivot { unknown: 2 }));
         let (_, _, mut v) = saddle();

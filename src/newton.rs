@@ -79,14 +79,17 @@ pub struct Newton<'m> {
 
 impl<'m> Newton<'m> {
     /// Sets up the pattern, the symbolic `LDLᵀ` and the work vectors of `model`'s design.
+    ///
+    /// # Errors
+    /// [`SolveError::Setup`] if the pattern or the symbolic analysis cannot be made.
     pub fn new(
         model: &'m Model,
         densities: Densities,
         mass: MassKind,
         tol: f64,
         max_iter: usize,
-    ) -> Self {
-        let asm = Assembler::new(model, densities, mass);
+    ) -> Result<Self, SolveError> {
+        let asm = Assembler::new(model, densities, mass)?;
         let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
         let ldlt = SparseLdlt::analyze(
             n,
@@ -94,13 +97,21 @@ impl<'m> Newton<'m> {
             asm.pattern.row_idx.clone(),
             n_q,
             &Pattern::multiplier_dofs(model),
-        );
+        )
+        .map_err(|e| match e {
+            FactorError::Analysis(detail) | FactorError::Singular(detail) => {
+                SolveError::Setup(detail)
+            }
+            FactorError::ZeroPivot { unknown } => {
+                SolveError::Setup(format!("zero pivot at unknown {unknown}"))
+            }
+        })?;
         let matrix = vec![0.0; asm.pattern.nnz()];
         let (mean_mass, mean_stiffness) = (
             asm.mean_mass_diagonal(),
             asm.mean_stiffness_diagonal(&vec![0.0; n_q]),
         );
-        Self {
+        Ok(Self {
             asm,
             ldlt,
             matrix,
@@ -117,7 +128,7 @@ impl<'m> Newton<'m> {
             external: vec![0.0; n_q],
             joint: vec![0.0; n_q],
             phi: vec![0.0; n_c],
-        }
+        })
     }
 
     /// The assembler of the design: forces, matrices, the model and its densities.
@@ -141,7 +152,7 @@ impl<'m> Newton<'m> {
                 FactorError::ZeroPivot { unknown } => {
                     format!("zero pivot at {}", model.unknown_name(unknown))
                 }
-                FactorError::Singular(detail) => detail,
+                FactorError::Singular(detail) | FactorError::Analysis(detail) => detail,
             },
         }
     }

@@ -183,9 +183,10 @@ impl<'a> Context<'a> {
 }
 
 impl Response {
-    /// Integrand `G(qₙ, x)` at state `n`, with `rigid` the rigid position of a tip node at
-    /// that state; for [`Response::Volume`], the volume.
-    pub fn integrand(&self, ctx: &Context, q: &[f64], rigid: Option<[f64; 2]>) -> f64 {
+    /// Integrand `G(qₙ, x)` at state `n`, with `rigid` the rigid position of the response's
+    /// tip node at that state (of [`Response::rigid_node`]; unused by the other responses);
+    /// for [`Response::Volume`], the volume.
+    pub fn integrand(&self, ctx: &Context, q: &[f64], rigid: [f64; 2]) -> f64 {
         let m = ctx.model;
         match *self {
             Self::Compliance { .. } if m.analysis == Analysis::Static => {
@@ -198,7 +199,7 @@ impl Response {
                 })
                 .sum(),
             Self::TipDeflection { node } => {
-                let r = rigid.expect("rigid trajectory of the tip");
+                let r = rigid;
                 let p = m.nodes[node].position;
                 (p.x + q[3 * node] - r[0]).powi(2) + (p.y + q[3 * node + 1] - r[1]).powi(2)
             }
@@ -220,7 +221,7 @@ impl Response {
         &self,
         ctx: &Context,
         q: &[f64],
-        rigid: Option<[f64; 2]>,
+        rigid: [f64; 2],
         scale: f64,
         g_q: &mut [f64],
         g_x: &mut [f64],
@@ -259,7 +260,7 @@ impl Response {
                 }
             }
             Self::TipDeflection { node } => {
-                let r = rigid.expect("rigid trajectory of the tip");
+                let r = rigid;
                 let p = m.nodes[node].position;
                 g_q[3 * node] += scale * 2.0 * (p.x + q[3 * node] - r[0]);
                 g_q[3 * node + 1] += scale * 2.0 * (p.y + q[3 * node + 1] - r[1]);

@@ -186,7 +186,7 @@ impl<'m> Run<'m> {
         x: Option<&[f64]>,
         settings: &DynamicSettings,
     ) -> Result<Self, Error> {
-        let mut integrator = Integrator::new(model, model.densities(x)?, settings);
+        let mut integrator = Integrator::new(model, model.densities(x)?, settings)?;
         let state = integrator.initial_state()?;
         let traj = Trajectory {
             n_q: model.n_dofs(),

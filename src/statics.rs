@@ -43,7 +43,7 @@ pub(crate) fn static_newton<'m>(
     model: &'m Model,
     densities: Densities,
     settings: &StaticSettings,
-) -> Newton<'m> {
+) -> Result<Newton<'m>, SolveError> {
     Newton::new(
         model,
         densities,
@@ -62,7 +62,7 @@ pub fn solve_static(
     densities: Densities,
     settings: &StaticSettings,
 ) -> Result<StaticSolution, SolveError> {
-    load_stepping(&mut static_newton(model, densities, settings), settings)
+    load_stepping(&mut static_newton(model, densities, settings)?, settings)
 }
 
 /// Load-stepped Newton solve with the machinery of [`static_newton`].

@@ -57,7 +57,8 @@ fn alpha_steps_do_not_allocate() {
             max_iter: 20,
             mass: MassKind::Consistent,
         };
-        let mut integrator = Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings);
+        let mut integrator =
+            Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings).unwrap();
         let mut state = integrator.initial_state().unwrap();
         integrator.alpha_step(&mut state, settings.h).unwrap();
         let before = count();

@@ -206,7 +206,7 @@ pub fn linearize<'py>(
         let msg = format!("has {} entries, the model has {n} DOFs", q.len());
         return Err(Error::Settings(SettingsError::new("q", msg)).into());
     }
-    let lin = crate::assembly::linearize(m, densities, mass, &q);
+    let lin = crate::assembly::linearize(m, densities, mass, &q).map_err(Error::from)?;
     let d = PyDict::new(py);
     d.set_item("M", csc(py, lin.mass)?)?;
     d.set_item("K", csc(py, lin.stiffness)?)?;

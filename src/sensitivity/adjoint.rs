@@ -146,7 +146,7 @@ pub(crate) fn run(
     responses: &[Response],
     memory: Memory,
 ) -> Result<Sensitivities, Error> {
-    let mut it = Integrator::new(model, densities, settings);
+    let mut it = Integrator::new(model, densities, settings)?;
     let objectives = Objectives::new(model, responses, grid)?;
     let mut store = StateStore::new(memory, model.n_dofs(), grid.len());
     let clock = Instant::now();

@@ -44,7 +44,7 @@ pub(crate) fn run(
     grid: &TimeGrid,
     responses: &[Response],
 ) -> Result<Sensitivities, Error> {
-    let mut it = Integrator::new(model, densities, settings);
+    let mut it = Integrator::new(model, densities, settings)?;
     let objectives = Objectives::new(model, responses, grid)?;
     let mut sweep = Sweep::new(model, &it, settings, responses.len());
     let mut timings = Timings::default();

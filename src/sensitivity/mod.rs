@@ -53,7 +53,9 @@ pub struct Timings {
 /// Responses with their weights on a time grid and the rigid trajectories they need.
 pub(crate) struct Objectives<'a> {
     responses: &'a [Response],
-    rigid: Vec<Option<Vec<[f64; 2]>>>,
+    /// Per response: the rigid trajectory of its [`Response::rigid_node`] at every state
+    /// of the grid, empty for a response without one.
+    rigid: Vec<Vec<[f64; 2]>>,
     analysis: Analysis,
     grid: &'a TimeGrid,
 }
@@ -64,10 +66,9 @@ impl<'a> Objectives<'a> {
         let clusters = Clusters::of(model);
         let rigid = responses
             .iter()
-            .map(|r| {
-                r.rigid_node()
-                    .map(|node| clusters.rigid_trajectory(model, node, grid.times()))
-                    .transpose()
+            .map(|r| match r.rigid_node() {
+                Some(node) => clusters.rigid_trajectory(model, node, grid.times()),
+                None => Ok(Vec::new()),
             })
             .collect::<Result<_, _>>()?;
         Ok(Self {
@@ -78,8 +79,10 @@ impl<'a> Objectives<'a> {
         })
     }
 
-    fn rigid_at(&self, k: usize, n: usize) -> Option<[f64; 2]> {
-        self.rigid[k].as_ref().map(|r| r[n])
+    /// The rigid position response `k` needs at state `n` (zeros for a response that
+    /// needs none: its trajectory is empty).
+    fn rigid_at(&self, k: usize, n: usize) -> [f64; 2] {
+        self.rigid[k].get(n).copied().unwrap_or_default()
     }
 
     /// Adds `wₙ G_k(qₙ)` to each value (and the explicit responses once, at `n = 0`).
@@ -87,7 +90,7 @@ impl<'a> Objectives<'a> {
         for (k, r) in self.responses.iter().enumerate() {
             if !r.depends_on_states() {
                 if n == 0 {
-                    values[k] += r.integrand(ctx, q, None);
+                    values[k] += r.integrand(ctx, q, [0.0; 2]);
                 }
                 continue;
             }
@@ -329,7 +332,7 @@ pub fn evaluate(
     let densities = model.densities(x)?;
     let mut load = vec![0.0; n_q];
     if model.analysis == Analysis::Static {
-        Assembler::new(model, densities.clone(), MassKind::Consistent)
+        Assembler::new(model, densities.clone(), MassKind::Consistent)?
             .applied_loads(load_time, 1.0, &mut load);
     }
     let ctx = Context {

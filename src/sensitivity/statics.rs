@@ -24,7 +24,7 @@ pub(crate) fn run(
     method: Method,
 ) -> Result<Sensitivities, Error> {
     let clock = Instant::now();
-    let mut newton = static_newton(model, densities, settings);
+    let mut newton = static_newton(model, densities, settings)?;
     let sol = load_stepping(&mut newton, settings)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();

@@ -37,7 +37,7 @@ fn the_local_error_estimate_is_asymptotically_correct() {
     let mut ratios = Vec::new();
     for h in [0.04, 0.02, 0.01, 0.005] {
         let s = settings(1.3, h, 0.8);
-        let mut it = Integrator::new(&arm, arm.densities(Some(&x)).unwrap(), &s);
+        let mut it = Integrator::new(&arm, arm.densities(Some(&x)).unwrap(), &s).unwrap();
         let mut state = it.initial_state().unwrap();
         while state.t < 0.52 - 1e-9 {
             it.alpha_step(&mut state, h).unwrap();

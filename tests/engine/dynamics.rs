@@ -131,7 +131,8 @@ fn numerical_dissipation_acts_on_high_frequencies_only() {
         model.densities(None).unwrap(),
         MassKind::Consistent,
         &vec![0.0; n],
-    );
+    )
+    .unwrap();
     let dense = |m: &flextop::Csc| {
         let mut d = DMatrix::zeros(n, n);
         for j in 0..n {
