@@ -125,7 +125,7 @@ def _vtk(res, out: Path) -> Path:
     """The result for ParaView in ``out``: ``motion.pvd`` with about 100 frames, or
     ``state.vtu`` for a static result."""
     if isinstance(res, Results):
-        return res.to_vtk(out / "motion.pvd", every=-(-len(res.time) // 100))
+        return res.to_vtk(out / "motion.pvd")
     return res.to_vtk(out / "state.vtu")
 
 
@@ -190,28 +190,10 @@ def _started(sim: Simulation, path: Path) -> np.ndarray:
         raise DesignError(f"--start {path}: {error}") from None
 
 
-def _start(problem, x: np.ndarray) -> np.ndarray:
-    return problem.start(x) if isinstance(problem, ScenarioProblem) else x
-
-
 def _title(sim: Simulation, problem) -> str:
     if isinstance(problem, ScenarioProblem):
         return f"{len(problem.scenarios)} scenarios of {sim.spec.get('name') or 'a scene'}"
     return sim.spec.get("name") or "scene"
-
-
-def _objective(problem) -> str:
-    if isinstance(problem, ScenarioProblem):
-        how = "the worst" if problem.aggregate is scenarios.Aggregate.WORST else "the weighted sum of"
-        return f"{how} {problem.objective} over the scenarios"
-    return problem.objective
-
-
-def _bounds(problem) -> list[tuple[str, float]]:
-    """The constraints with an upper bound, by name."""
-    if isinstance(problem, ScenarioProblem):
-        return [(name, bound) for _, _, name, bound in problem.constraints]
-    return list(problem.constraints)
 
 
 def _settings(args: argparse.Namespace) -> dict:
@@ -246,10 +228,10 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
                    "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol or 1e-4}
         start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
-        x0, state, animate = _start(problem, start), None, args.animate
+        x0, state, animate = problem.start(start), None, args.animate
         _folder(out)
-    print(f"{_title(sim, problem)}: minimize {_objective(problem)} over {sim.n_design} densities "
-          f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in _bounds(problem)) or 'bounds only'} ({options['method']})")
+    print(f"{_title(sim, problem)}: minimize {problem.description} over {sim.n_design} densities "
+          f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in problem.bounded) or 'bounds only'} ({options['method']})")
     def save(state_dict: dict, finished: str | None = None) -> None:
         checkpoint.save(out / "checkpoint.json", {"scene": sim.spec, "accuracy": sim.accuracy, "problem": problem.to_dict(),
                                                   "optimizer": options, "x0": x0.tolist(), "state": state_dict,
@@ -352,17 +334,17 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
         print(f"{r.iteration:>4} {problem.unscaled(r.f0, r.g):>16.6g} {np.max(r.g, initial=-np.inf):>10.2e} {r.change:>8.4f} {r.kkt:>9.2e}")
     initial, final = problem.objective_scale, result.fun  # scaled by its value at the start design
     print(f"\nstatus: {result.status.name} — {result.message}")
-    print(f"{_objective(problem)}: {initial:.6g} at the start → {final:.6g} "
+    print(f"{problem.description}: {initial:.6g} at the start → {final:.6g} "
           f"({100 * (final / initial - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations")
     constr = result.constr
     if isinstance(problem, ScenarioProblem):
         if problem.aggregate is scenarios.Aggregate.WORST:  # each scenario's w f first
             for case, value in zip(problem.scenarios, constr):
                 print(f"{case.name}: {problem.objective} = {value / case.weight:.6g}")
-        constr = constr[len(constr) - len(problem.constraints):]
+        constr = constr[len(constr) - len(problem.bounded):]
         for name, d in problem.discretizations.items():
             print(f"{name}: {d}")
-    for (name, bound), value in zip(_bounds(problem), constr):
+    for (name, bound), value in zip(problem.bounded, constr):
         print(f"{name}: {value:.6g} (bound {bound:.6g})")
     if getattr(problem, "refinements", None):
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
@@ -384,7 +366,7 @@ def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, resul
 
     x0, x = x0[: sim.n_design], result.x[: sim.n_design]
     plot_design(sim, x0, path=out / "design_initial.png", title="initial design")
-    plot_design(sim, x, path=out / "design.png", title=f"optimized: {_objective(problem)}")
+    plot_design(sim, x, path=out / "design.png", title=f"optimized: {problem.description}")
     if result.history:
         worst = isinstance(problem, ScenarioProblem) and problem.aggregate is scenarios.Aggregate.WORST
         plot_history(result.history, path=out / "history.png",

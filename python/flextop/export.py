@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,25 +33,38 @@ from .errors import SettingsError
 
 JOINT, POINT_MASS = 1, 2
 
+FRAMES = 100
+"""Frames of a motion (a VTU series, an animation) when ``every`` is not given."""
 
-def write_motion(results: Any, path: str | os.PathLike, *, every: int = 1) -> Path:
+
+def frame_indices(n_times: int, every: int | None = None) -> np.ndarray:
+    """Every ``every``-th of ``n_times`` states (default: about :data:`FRAMES` of them),
+    always ending on the last one."""
+    every = -(-n_times // FRAMES) if every is None else every
+    if not (isinstance(every, (int, np.integer)) and every >= 1):
+        raise SettingsError(f"every must be a whole number ≥ 1, got {every!r}")
+    indices = np.arange(0, n_times, every)
+    return indices if indices[-1] == n_times - 1 else np.append(indices, n_times - 1)
+
+
+def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = None) -> Path:
     """The motion of ``results`` as ``STEM_00000.vtu``… beside the PVD index ``path``
-    (``.pvd``), every ``every``-th step and the last. Returns the index's path."""
+    (``.pvd``), every ``every``-th step (default: about :data:`FRAMES` frames) and the
+    last. Returns the index's path."""
     path = Path(path)
     if path.suffix != ".pvd":
         raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
-    if not (isinstance(every, int) and every >= 1):
-        raise SettingsError(f"every must be a whole number ≥ 1, got {every!r}")
+    steps = frame_indices(len(results.time), every)
     path.parent.mkdir(parents=True, exist_ok=True)
-    steps = sorted(set(range(0, len(results.time), every)) | {len(results.time) - 1})
     forces = results.section_forces
     speeds = results.qdot.reshape(len(results.time), -1, 3)
+    structure = _Structure.of(results.simulation, results.x)
     collection = ET.Element("VTKFile", type="Collection", version="0.1")
     datasets = ET.SubElement(collection, "Collection")
     for k in steps:
         name = f"{path.stem}_{k:05d}.vtu"
         extra = {"velocity": _xyz(speeds[k, :, :2]), "angular_velocity": speeds[k, :, 2]}
-        _mesh(results.simulation, results.x, results.q[k], forces[k], extra).write(path.parent / name, binary=True)
+        structure.mesh(results.q[k], forces[k], extra).write(path.parent / name, binary=True)
         ET.SubElement(datasets, "DataSet", timestep=repr(float(results.time[k])), part="0", file=name)
     ET.ElementTree(collection).write(path, xml_declaration=True, encoding="utf-8")
     return path
@@ -59,15 +73,15 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int = 1) -> Pa
 def write_state(results: Any, path: str | os.PathLike) -> Path:
     """A static result as one VTU file ``path``."""
     path = _vtu(path)
-    _mesh(results.simulation, results.x, results.q, results.section_forces[0], {}).write(path, binary=True)
+    _Structure.of(results.simulation, results.x).mesh(results.q, results.section_forces[0], {}).write(path, binary=True)
     return path
 
 
 def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
     """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
     path = _vtu(path)
-    q = np.zeros(3 * len(sim.node_names))
-    _mesh(sim, sim._design(x), q, np.zeros((len(sim.model.elements()["bar"]), 3)), {}).write(path, binary=True)
+    structure = _Structure.of(sim, sim._design(x))
+    structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), {}).write(path, binary=True)
     return path
 
 
@@ -83,30 +97,46 @@ def _xyz(planar: np.ndarray) -> np.ndarray:
     return np.column_stack([planar, np.zeros(len(planar))])
 
 
-def _mesh(sim: Any, x: np.ndarray | None, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
-    import meshio
+@dataclass(frozen=True)
+class _Structure:
+    """What every frame of a scene's files shares: the reference points, the elements as
+    lines with their bar, density and solid area, and the vertices with their kind."""
 
-    q = np.asarray(q).reshape(-1, 3)
-    reference = sim.model.reference_positions
-    elements = sim.model.elements()
-    lines = np.asarray(elements["nodes"], dtype=np.int64)
-    bar = np.asarray(elements["bar"], dtype=np.int64)
-    vertices, kinds = _vertices(sim)
-    density = sim.bar_densities(x)[bar]
-    area = _areas(sim, lines, bar)[bar]
-    nan = np.full(len(vertices), np.nan)
-    cell_data = {
-        "density": [density, nan],
-        "bar": [bar.astype(float), np.full(len(vertices), -1.0)],
-        "axial_force": [forces[:, 0], nan],
-        "moment_1": [forces[:, 1], nan],
-        "moment_2": [forces[:, 2], nan],
-        "axial_stress": [forces[:, 0] / area, nan],
-        "vertex": [np.zeros(len(lines)), kinds.astype(float)],
-    }
-    point_data = {"displacement": _xyz(q[:, :2]), "rotation": q[:, 2], **extra}
-    return meshio.Mesh(_xyz(reference + q[:, :2]), [("line", lines), ("vertex", vertices[:, None])],
-                       point_data=point_data, cell_data=cell_data)
+    reference: np.ndarray
+    lines: np.ndarray
+    bar: np.ndarray
+    density: np.ndarray
+    area: np.ndarray
+    vertices: np.ndarray
+    kinds: np.ndarray
+
+    @classmethod
+    def of(cls, sim: Any, x: np.ndarray | None) -> _Structure:
+        elements = sim.model.elements()
+        lines = np.asarray(elements["nodes"], dtype=np.int64)
+        bar = np.asarray(elements["bar"], dtype=np.int64)
+        vertices, kinds = _vertices(sim)
+        return cls(np.asarray(sim.model.reference_positions), lines, bar, sim.bar_densities(x)[bar],
+                   _areas(sim, lines, bar)[bar], vertices, kinds)
+
+    def mesh(self, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
+        """The frame of state ``q`` with section ``forces`` and ``extra`` point data."""
+        import meshio
+
+        q = np.asarray(q).reshape(-1, 3)
+        nan = np.full(len(self.vertices), np.nan)
+        cell_data = {
+            "density": [self.density, nan],
+            "bar": [self.bar.astype(float), np.full(len(self.vertices), -1.0)],
+            "axial_force": [forces[:, 0], nan],
+            "moment_1": [forces[:, 1], nan],
+            "moment_2": [forces[:, 2], nan],
+            "axial_stress": [forces[:, 0] / self.area, nan],
+            "vertex": [np.zeros(len(self.lines)), self.kinds.astype(float)],
+        }
+        point_data = {"displacement": _xyz(q[:, :2]), "rotation": q[:, 2], **extra}
+        return meshio.Mesh(_xyz(self.reference + q[:, :2]), [("line", self.lines), ("vertex", self.vertices[:, None])],
+                           point_data=point_data, cell_data=cell_data)
 
 
 def _vertices(sim: Any) -> tuple[np.ndarray, np.ndarray]:

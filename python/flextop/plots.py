@@ -22,6 +22,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
+from .export import FRAMES, frame_indices
 from .simulation import Results, Simulation
 
 __all__ = ["animate", "bar_densities", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
@@ -252,18 +253,6 @@ def magnified_positions(results: Results, magnify: float) -> np.ndarray:
     return rigid + magnify * (results.positions - rigid)
 
 
-def _frame_indices(n_times: int, every: int) -> np.ndarray:
-    """Every ``every``-th step, always ending on the last one."""
-    if every < 1:
-        raise ValueError("every must be >= 1")
-    indices = np.arange(0, n_times, every)
-    return indices if indices[-1] == n_times - 1 else np.append(indices, n_times - 1)
-
-
-FRAMES = 100
-"""Frames of an animation when ``every`` is not given."""
-
-
 def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0, fps: float = 20, x: Any = None,
             every: int | None = None) -> str | os.PathLike:
     """Writes an animated GIF of the moving mechanism and returns ``path``.
@@ -278,7 +267,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
         raise TypeError("animate needs the Results of a dynamic run")
     sim = results.simulation
     drawn = magnified_positions(results, magnify)
-    frames = _frame_indices(len(results.time), every or -(-len(results.time) // FRAMES))
+    frames = frame_indices(len(results.time), every)
 
     fig = _new_figure(figsize=(5.0, 5.0), dpi=80, layout="constrained")
     ax = fig.add_subplot()

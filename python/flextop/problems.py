@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import scenes
-from .errors import SettingsError, SimulationError
+from .errors import DesignError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .simulation import Simulation
 from .tolerance import Discretization
@@ -95,6 +95,24 @@ class TopologyProblem(Problem):
             self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
         bounds = np.array([b for _, b in self.constraints])
         return Evaluation(f[0] / self.objective_scale, f[1:] / bounds - 1.0, dfdx[0] / self.objective_scale, dfdx[1:] / bounds[:, None])
+
+    @property
+    def description(self) -> str:
+        """What is minimized, in words."""
+        return self.objective
+
+    @property
+    def bounded(self) -> list[tuple[str, float]]:
+        """The constraints by name with their upper bounds."""
+        return list(self.constraints)
+
+    def start(self, x: Any) -> np.ndarray:
+        """The design ``x`` of the scene (one number or one per variable) as a design of
+        this problem."""
+        xv = self.simulation._design(x)
+        if xv is None:
+            raise DesignError("start needs a design of the scene")
+        return xv
 
     def unscaled(self, f0: float, g: np.ndarray | None = None) -> float:
         """The objective in the response's units from the optimizer's ``f0 = f / f_ref``

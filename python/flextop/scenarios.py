@@ -174,6 +174,17 @@ class ScenarioProblem(Problem):
                 out.append((k, response, f"{self.scenarios[k].name}: {response}", float(bound)))
         return out
 
+    @property
+    def description(self) -> str:
+        """What is minimized, in words."""
+        how = "the worst" if self.aggregate is Aggregate.WORST else "the weighted sum of"
+        return f"{how} {self.objective} over the scenarios"
+
+    @property
+    def bounded(self) -> list[tuple[str, float]]:
+        """The constraints with an upper bound, by name (the worst case's rows have none)."""
+        return [(name, bound) for _, _, name, bound in self.constraints]
+
     def start(self, x: Any) -> np.ndarray:
         """The design ``x`` of the scenes (one number or one per variable) as a design of
         this problem (``β = 0`` appended for the worst case: the scaled worst case at the
@@ -222,8 +233,9 @@ class ScenarioProblem(Problem):
             raise DesignError(f"the design has shape {x.shape}; this problem has {self.n} variables"
                               + (" (the scenes' and β: use start(x))" if self.aggregate is Aggregate.WORST else ""))
         runs = self._run(x[: self.n_design])
-        value = lambda k, name: runs[k].values[self.responses(k).index(name)]  # noqa: E731
-        grad = lambda k, name: runs[k].gradients[self.responses(k).index(name)]  # noqa: E731
+        row = [{name: i for i, name in enumerate(run.names)} for run in runs]
+        value = lambda k, name: runs[k].values[row[k][name]]  # noqa: E731
+        grad = lambda k, name: runs[k].gradients[row[k][name]]  # noqa: E731
         w = np.array([s.weight for s in self.scenarios])
         f = np.array([w[k] * value(k, self.objective) for k in range(len(runs))])
         df = np.array([w[k] * grad(k, self.objective) for k in range(len(runs))])

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import copy
 import json
-import threading
 import math
 import os
+import threading
 import warnings
 from collections import OrderedDict
 from concurrent.futures import Executor
@@ -774,9 +774,10 @@ class Results(_Run):
                   "multiplier": saved.multiplier_names(sim), "variable": sim.variable_names}
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
-    def to_vtk(self, path: str | os.PathLike, *, every: int = 1) -> Path:
+    def to_vtk(self, path: str | os.PathLike, *, every: int | None = None) -> Path:
         """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
-        step (every ``every``-th and the last) beside it (:mod:`flextop.export`)."""
+        step (every ``every``-th, default about 100 frames, and the last) beside it
+        (:mod:`flextop.export`)."""
         return export.write_motion(self, path, every=every)
 
     @property

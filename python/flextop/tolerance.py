@@ -27,7 +27,7 @@ the scheme that ran.
 
 The space companion runs on the time companion's steps (2h), where the errors in time and
 in space add up as they do at h, and ``f(r, 2h)`` is already there: it costs half of a run
-at 2r (about 1.5 runs of the candidate on the arm, where 2r has six times the unknowns)
+at 2r (about 1.3 runs of the candidate on the x = 0.4 arm, where 2r has six times the unknowns)
 instead of a whole one. Over the 22 designs of the benchmark family it gave the same
 worst errors and the same worst under-estimate (1.6×) as a companion at h, in 20 % less
 time (BENCHMARKS.md, "Tolerances across designs"). (A design whose 230 % gradient error
