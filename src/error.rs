@@ -155,6 +155,9 @@ pub enum SolveError {
     /// The caller asked the work to stop ([`crate::with_checker`]).
     #[error("interrupted")]
     Interrupted,
+    /// The modal analysis failed: an unstable state, or modes it cannot account for.
+    #[error("natural modes: {0}")]
+    Eigen(String),
     /// The rigid kinematics of the driven mechanism cannot be solved.
     #[error("rigid kinematics failed at t = {time:.6} s: {detail}")]
     Kinematics {

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from . import _core, execution, export, saved, tolerance
+from . import _core, execution, export, modal, saved, tolerance
 from .accuracy import preset, split_by
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
@@ -565,16 +565,19 @@ class Simulation:
         raw = _core.linearize(self.model, self._design(x), qv, self._settings(mass=mass))
         return tuple(sp.csc_matrix((m["data"], m["indices"], m["indptr"]), shape=m["shape"]) for m in (raw[k] for k in ("M", "K", "G")))
 
-    def natural_frequencies(self, n: int = 3, x: Any = None, *, mass: str | None = None) -> np.ndarray:
-        """The ``n`` lowest natural frequencies (Hz) of the structure linearized at rest, on
-        the subspace allowed by its joints (drives locked)."""
-        import scipy.linalg as la
+    def modes(self, n: int = 6, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> modal.Modes:
+        """The ``n`` lowest natural modes of the structure at rest with its drives locked:
+        frequencies (Hz), their exact design gradients, error estimates and the Sturm
+        proof that none was skipped (:class:`flextop.modal.Modes`). With ``rtol`` they
+        meet that relative tolerance against the converged structure (bars refined for the
+        eigen-analysis, whatever this scene's elements per bar); ``rtol=None`` gives the
+        modes of the model as meshed."""
+        return modal.natural_modes(self, n, self._design(x), rtol, mass)
 
-        M, K, G = self.linearize(x, mass=mass)
-        basis = la.null_space(G.toarray()) if G.shape[0] else np.eye(M.shape[0])
-        Mr, Kr = basis.T @ (M @ basis), basis.T @ (K @ basis)
-        eig = la.eigh(Kr, Mr, eigvals_only=True, subset_by_index=[0, n - 1])
-        return np.sqrt(np.clip(eig, 0.0, None)) / (2 * np.pi)
+    def natural_frequencies(self, n: int = 3, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> np.ndarray:
+        """The ``n`` lowest natural frequencies (Hz) of the structure at rest with its drives
+        locked, to ``rtol`` against the converged structure (see :meth:`modes`)."""
+        return self.modes(n, x, rtol=rtol, mass=mass).frequencies
 
     def rigid_positions(self, times: Any) -> np.ndarray:
         """Positions (m) of every node at ``times`` when every frame is rigid and the joints

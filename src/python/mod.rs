@@ -23,6 +23,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::run_with_sensitivities, m)?)?;
     m.add_function(wrap_pyfunction!(runs::evaluate_responses, m)?)?;
     m.add_function(wrap_pyfunction!(runs::linearize, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::natural_modes, m)?)?;
     m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
     m.add_function(wrap_pyfunction!(runs::section_forces, m)?)?;
     Ok(())

@@ -214,6 +214,43 @@ pub fn linearize<'py>(
     Ok(d)
 }
 
+/// The `count` lowest natural modes at state `q` (the reference state by default), the
+/// drives locked: `frequencies` (Hz), mass-normalized `shapes` (`count × n_q`), the Sturm
+/// `bound` (Hz) and the count `below` it, and `gradients` `∂f/∂x` (`count × n_variables`).
+#[pyfunction]
+#[pyo3(signature = (model, count, x=None, q=None, settings=None))]
+pub fn natural_modes<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    count: usize,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: Option<PyReadonlyArray1<'py, f64>>,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = Arc::clone(&model.model);
+    let options = run_options(settings)?;
+    options.validate().map_err(Error::from)?;
+    let mass = options.mass.unwrap_or(MassKind::Consistent);
+    let (x, q) = (design(x)?, design(q)?);
+    let modes = detached(py, move || {
+        let densities = m.densities(x.as_deref())?;
+        let q = q.unwrap_or_else(|| vec![0.0; m.n_dofs()]);
+        crate::modal::natural_modes(&m, densities, mass, &q, count)
+    })?;
+    let (n_q, n_var, found) = (
+        model.model.n_dofs(),
+        model.model.n_variables(),
+        modes.frequencies.len(),
+    );
+    let d = PyDict::new(py);
+    d.set_item("frequencies", vector(py, modes.frequencies))?;
+    d.set_item("shapes", matrix(py, modes.shapes.concat(), found, n_q)?)?;
+    d.set_item("bound", modes.bound)?;
+    d.set_item("below", modes.below)?;
+    d.set_item("gradients", matrix(py, modes.gradients, found, n_var)?)?;
+    Ok(d)
+}
+
 /// Positions of every node at `times` when every frame is rigid and the joints follow
 /// their drives, shape `(len, n_nodes, 2)`.
 #[pyfunction]
