@@ -39,6 +39,7 @@ pub mod section;
 mod assembly;
 mod integrator;
 mod interrupt;
+mod lanczos;
 mod limits;
 mod linsolve;
 mod modal;

@@ -18,10 +18,6 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::{LdltError, LdltParams, LdltRegularization};
-use faer::matrix_free::eigen::{
-    partial_self_adjoint_eigen, partial_self_adjoint_eigen_scratch, PartialEigenParams,
-};
-use faer::matrix_free::LinOp;
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::simplicial::SimplicialLdltRef;
@@ -31,7 +27,7 @@ use faer::sparse::linalg::cholesky::{
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{Col, Conj, Mat, MatMut, MatRef, Par, Side, Spec};
+use faer::{Conj, MatMut, Par, Side, Spec};
 
 /// Why a factorization or solve failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -208,109 +204,6 @@ impl SparseLdlt {
             }
         })
     }
-}
-
-/// A symmetric operator `y = A x` given as a function, for faer's Lanczos.
-struct Operator<'a> {
-    n: usize,
-    apply: &'a (dyn Fn(&[f64], &mut [f64]) + Sync),
-}
-
-impl std::fmt::Debug for Operator<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Operator({})", self.n)
-    }
-}
-
-impl LinOp<f64> for Operator<'_> {
-    fn apply_scratch(&self, _: usize, _: Par) -> faer::dyn_stack::StackReq {
-        faer::dyn_stack::StackReq::EMPTY
-    }
-    fn nrows(&self) -> usize {
-        self.n
-    }
-    fn ncols(&self) -> usize {
-        self.n
-    }
-    fn apply(&self, mut out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, _: Par, _: &mut MemStack) {
-        let (mut x, mut y) = (vec![0.0; self.n], vec![0.0; self.n]);
-        for j in 0..rhs.ncols() {
-            x.iter_mut().enumerate().for_each(|(i, v)| *v = rhs[(i, j)]);
-            (self.apply)(&x, &mut y);
-            y.iter().enumerate().for_each(|(i, &v)| out[(i, j)] = v);
-        }
-    }
-    fn conj_apply(&self, out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, par: Par, s: &mut MemStack) {
-        self.apply(out, rhs, par, s);
-    }
-}
-
-/// Below this size (faer's smallest Lanczos basis is 64 vectors) the operator is formed
-/// and decomposed densely.
-const DENSE_EIGEN: usize = 64;
-
-/// The `count` eigenpairs of largest magnitude of the symmetric `n × n` operator `apply`
-/// (`apply(x, y)` sets `y = A x`), by faer's restarted Lanczos method from `start`, each
-/// pair's residual below `tol` (absolute, in the units of `A`); dense for a small `n`.
-/// Returns the eigenvalues and their unit eigenvectors, as many as converged.
-pub fn largest_eigenpairs(
-    n: usize,
-    count: usize,
-    tol: f64,
-    start: &[f64],
-    apply: &(dyn Fn(&[f64], &mut [f64]) + Sync),
-) -> Result<(Vec<f64>, Vec<Vec<f64>>), FactorError> {
-    let count = count.min(n);
-    let op = Operator { n, apply };
-    let columns = |v: MatRef<'_, f64>, order: &[usize]| -> Vec<Vec<f64>> {
-        order
-            .iter()
-            .map(|&j| (0..n).map(|i| v[(i, j)]).collect())
-            .collect()
-    };
-    if n <= DENSE_EIGEN.max(2 * count) {
-        let mut a = Mat::<f64>::zeros(n, n);
-        op.apply(
-            a.as_mut(),
-            Mat::<f64>::identity(n, n).as_ref(),
-            Par::Seq,
-            MemStack::new(&mut []),
-        );
-        let sym = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
-        let evd = sym
-            .self_adjoint_eigen(Side::Lower)
-            .map_err(|e| FactorError::Singular(format!("dense eigen-decomposition: {e:?}")))?;
-        let s = evd.S().column_vector();
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by(|&i, &j| s[j].abs().total_cmp(&s[i].abs()));
-        order.truncate(count);
-        return Ok((
-            order.iter().map(|&j| s[j]).collect(),
-            columns(evd.U(), &order),
-        ));
-    }
-    let params = PartialEigenParams::default();
-    let mut mem = MemBuffer::new(partial_self_adjoint_eigen_scratch::<f64>(
-        &op,
-        count,
-        Par::Seq,
-        params,
-    ));
-    let (mut vectors, mut values) = (Mat::<f64>::zeros(n, count), vec![0.0; count]);
-    let v0 = Col::<f64>::from_fn(n, |i| start[i]);
-    let info = partial_self_adjoint_eigen(
-        vectors.as_mut(),
-        &mut values,
-        &op,
-        v0.as_ref(),
-        tol,
-        Par::Seq,
-        MemStack::new(&mut mem),
-        params,
-    );
-    let found: Vec<usize> = (0..info.n_converged_eigen.min(count)).collect();
-    values.truncate(found.len());
-    Ok((values, columns(vectors.as_ref(), &found)))
 }
 
 /// AMD order of the DOF block, each multiplier inserted right after the last of its DOFs.

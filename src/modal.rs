@@ -7,8 +7,8 @@
 //! with the augmented matrix, factorized by the same sparse `LDLᵀ` as Newton's) and
 //! `M = R Rᵀ` a factor assembled from the elements' mass matrices. Then `C = Rᵀ S R` is
 //! symmetric, and `C y = ν y` with `ν = 1/(ω² − σ)` gives the mode `φ = S R y / ν`,
-//! mass-normalized (`φᵀMφ = |y|² = 1`). faer's partial self-adjoint eigensolver finds the
-//! largest `ν`: the lowest `ω²`.
+//! mass-normalized (`φᵀMφ = |y|² = 1`). Restarted Lanczos with locking
+//! ([`largest_eigenpairs`]) finds the largest `ν`: the lowest `ω²`.
 //!
 //! **Sturm count.** The augmented `K_t − σM` has as many negative pivots as eigenvalues
 //! `ω² < σ` plus one per constraint row (its inertia is that of `Zᵀ(K_t − σM)Z` on the
@@ -21,15 +21,16 @@
 //! on the design through `q`). At a repeated eigenvalue only symmetric functions of the
 //! cluster are differentiable; callers aggregate (see the Python `modes`).
 
+use std::cell::RefCell;
 use std::f64::consts::TAU;
-use std::sync::Mutex;
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::assembly::{Assembler, Pattern};
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError, SolveError};
-use crate::linsolve::{largest_eigenpairs, FactorError, SparseLdlt};
+use crate::lanczos::{largest_eigenpairs, spread};
+use crate::linsolve::{FactorError, SparseLdlt};
 use crate::model::{Densities, Model};
 
 /// The lowest natural modes of a structure, with the proof that none was skipped.
@@ -49,10 +50,12 @@ pub struct Modes {
 
 /// Largest attempts at finding enough modes before the eigen-analysis gives up.
 const ATTEMPTS: usize = 5;
-/// Lanczos residual relative to the largest `ν`.
-const LANCZOS_TOL: f64 = 1e-11;
-/// Eigenvalues closer than this (relative) belong to one cluster for the Sturm bound.
-const CLUSTER: f64 = 1e-6;
+/// Eigen-residual of `C = Rᵀ S R` relative to its largest eigenvalue `ν`.
+const EIGEN_TOL: f64 = 1e-11;
+/// The smallest relative gap between two eigenvalues `ω²` at which the Sturm bound is
+/// placed: identical void bars have modes equal to many digits, and a bound between them
+/// would ask the pivots' signs to resolve what round-off blurs.
+const GAP: f64 = 1e-3;
 
 /// The `count` lowest natural modes of `model` at state `q` for a design's `densities`.
 ///
@@ -177,7 +180,7 @@ impl<'m> Pencil<'m> {
     }
 
     /// `ω²` and mass-normalized shapes of the `count` lowest modes, the Sturm bound and
-    /// count: Lanczos with a guard of extra modes, doubled until the count agrees.
+    /// count: a guard of extra modes, doubled until the count agrees.
     #[allow(clippy::type_complexity)]
     fn lowest(
         &mut self,
@@ -186,9 +189,9 @@ impl<'m> Pencil<'m> {
     ) -> Result<(Vec<f64>, Vec<Vec<f64>>, f64, usize), Error> {
         let n_q = self.asm.model.n_dofs();
         let mut want = count + count.max(4);
-        for _ in 0..ATTEMPTS {
+        for attempt in 0..ATTEMPTS {
             self.factorize(self.shift)?;
-            let pairs = self.shift_invert(factor, want)?;
+            let pairs = self.shift_invert(factor, want, attempt)?;
             let exhaustive = want >= factor.columns;
             if pairs.len() < count {
                 if exhaustive {
@@ -197,14 +200,9 @@ impl<'m> Pencil<'m> {
                 want = (2 * want).min(factor.columns);
                 continue;
             }
-            let top = pairs[count - 1].0;
-            let next = pairs[count..]
-                .iter()
-                .position(|p| p.0 > top + CLUSTER * top.abs().max(1e-300))
-                .map(|k| k + count);
-            let (bound, expected) = match next {
-                Some(j) => (0.5 * (top + pairs[j].0), j),
-                None if exhaustive => (2.0 * top.abs() + 1.0, pairs.len()),
+            let (bound, expected) = match sturm_bound(&pairs, count) {
+                Some(found) => found,
+                None if exhaustive => (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len()),
                 None => {
                     want = (2 * want).min(factor.columns);
                     continue;
@@ -229,7 +227,7 @@ impl<'m> Pencil<'m> {
             want = (2 * want).max(below + count).min(factor.columns);
         }
         Err(eigen(format!(
-            "Lanczos did not find every mode below its Sturm bound after {ATTEMPTS} attempts"
+            "the eigensolver did not find every mode below its Sturm bound after {ATTEMPTS} attempts"
         )))
     }
 
@@ -239,22 +237,21 @@ impl<'m> Pencil<'m> {
         &self,
         factor: &MassFactor,
         want: usize,
+        attempt: usize,
     ) -> Result<Vec<(f64, Vec<f64>)>, Error> {
         let n = self.asm.pattern.n;
-        let scratch = Mutex::new((self.ldlt.scratch_for(1), vec![0.0; n]));
-        let failed = Mutex::new(None);
+        let scratch = RefCell::new((self.ldlt.scratch_for(1), vec![0.0; n]));
+        let failed = RefCell::new(None);
         let apply = |y: &[f64], out: &mut [f64]| {
-            let mut guard = scratch.lock().unwrap_or_else(|p| p.into_inner());
-            let (mem, rhs) = &mut *guard;
+            let (mem, rhs) = &mut *scratch.borrow_mut();
             rhs.fill(0.0);
             factor.times(y, rhs);
             if let Err(e) = self.ldlt.solve_block(rhs, 1, mem) {
-                *failed.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                *failed.borrow_mut() = Some(e);
             }
             factor.transpose_times(rhs, out);
         };
-        let start: Vec<f64> = (0..factor.columns).map(pseudo_random).collect();
-        let mut probe = start.clone();
+        let mut probe: Vec<f64> = (0..factor.columns).map(spread).collect();
         let mut image = vec![0.0; factor.columns];
         for _ in 0..4 {
             apply(&probe, &mut image);
@@ -266,9 +263,8 @@ impl<'m> Pencil<'m> {
         }
         let largest = image.iter().map(|v| v * v).sum::<f64>().sqrt();
         let (nu, y) =
-            largest_eigenpairs(factor.columns, want, LANCZOS_TOL * largest, &start, &apply)
-                .map_err(|e| eigen(format!("{e:?}")))?;
-        if let Some(e) = failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            largest_eigenpairs(factor.columns, want, EIGEN_TOL * largest, attempt, &apply);
+        if let Some(e) = failed.into_inner() {
             return Err(eigen(format!("{e:?}")));
         }
         let mut pairs: Vec<(f64, Vec<f64>)> = nu
@@ -319,6 +315,14 @@ impl<'m> Pencil<'m> {
         }
         out
     }
+}
+
+/// Where to count: the midpoint of the first gap (relative [`GAP`]) after the `count`
+/// lowest of the ascending eigenvalues `pairs`, and how many lie below it.
+fn sturm_bound(pairs: &[(f64, Vec<f64>)], count: usize) -> Option<(f64, usize)> {
+    (count..pairs.len())
+        .find(|&j| pairs[j].0 - pairs[j - 1].0 > GAP * pairs[j].0.abs())
+        .map(|j| (0.5 * (pairs[j - 1].0 + pairs[j].0), j))
 }
 
 /// `M = R Rᵀ`, assembled from each element's `M_e = L_e L_eᵀ` (and point masses): `R` has
@@ -395,16 +399,6 @@ fn root(m: DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// A fixed, well-spread start vector for Lanczos (a hash of the index in `[−½, ½)`), so
-/// that no mode is orthogonal to it by symmetry of the structure.
-fn pseudo_random(k: usize) -> f64 {
-    let mut h = (k as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
-    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    h ^= h >> 31;
-    (h >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-}
-
 fn eigen(detail: String) -> Error {
     SolveError::Eigen(detail).into()
 }
@@ -424,7 +418,7 @@ mod tests {
 
     fn design(model: &Model) -> Vec<f64> {
         (0..model.n_variables())
-            .map(|i| 0.05 + 0.95 * (pseudo_random(i) + 0.5))
+            .map(|i| 0.05 + 0.95 * (spread(i) + 0.5))
             .collect()
     }
 

@@ -31,7 +31,7 @@ from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, 
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
-from .problems import TopologyProblem, volume_constraints
+from .problems import MIN_FREQUENCY, TopologyProblem, relation, volume_constraints
 from .scenarios import ScenarioProblem
 from .scene import Scene, read_toml
 from .simulation import Results, Simulation
@@ -144,9 +144,13 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
     if args.scenarios is None:
         sim = Simulation(_scene(args.scene or "robot_arm"), accuracy=args.accuracy)
         constraints = volume_constraints(sim, args.volume_fraction or 0.4, per_component=not args.global_volume)
+        if args.min_frequency is not None:
+            constraints.append((MIN_FREQUENCY, args.min_frequency))
         return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
+    if args.min_frequency is not None:
+        raise SettingsError("--min-frequency applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
     first = Simulation(cases[0].spec(), accuracy=args.accuracy)
     constraints = volume_constraints(first, args.volume_fraction or 0.4, per_component=not args.global_volume)
@@ -231,7 +235,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         x0, state, animate = problem.start(start), None, args.animate
         _folder(out)
     print(f"{_title(sim, problem)}: minimize {problem.description} over {sim.n_design} densities "
-          f"subject to {', '.join(f'{n} <= {b:.4g}' for n, b in problem.bounded) or 'bounds only'} ({options['method']})")
+          f"subject to {', '.join(f'{n} {relation(n)} {b:.4g}' for n, b in problem.bounded) or 'bounds only'} ({options['method']})")
     def save(state_dict: dict, finished: str | None = None) -> None:
         checkpoint.save(out / "checkpoint.json", {"scene": sim.spec, "accuracy": sim.accuracy, "problem": problem.to_dict(),
                                                   "optimizer": options, "x0": x0.tolist(), "state": state_dict,
@@ -291,7 +295,7 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     fixed = {"--volume-fraction": args.volume_fraction, "--global-volume": args.global_volume or None, "--x0": args.x0,
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
-             "--xtol": args.xtol}
+             "--xtol": args.xtol, "--min-frequency": args.min_frequency}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -345,7 +349,7 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
         for name, d in problem.discretizations.items():
             print(f"{name}: {d}")
     for (name, bound), value in zip(problem.bounded, constr):
-        print(f"{name}: {value:.6g} (bound {bound:.6g})")
+        print(f"{name}: {value:.6g} ({relation(name)} {bound:.6g})")
     if getattr(problem, "refinements", None):
         at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
@@ -420,6 +424,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
+    o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",
+                   help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest six, to 1e-3)")
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")

@@ -8,7 +8,11 @@ over the bar densities, subject to upper bounds on other responses, with ``x_min
 seen by the optimizers as ``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1 ≤ 0``, so every
 function is of order one. Responses are those of
 :meth:`flextop.Simulation.run_with_sensitivities`; each evaluation is one simulation with
-exact gradients. A simulation that fails becomes an
+exact gradients. One constraint is a floor instead: ``("min_frequency", f_min)`` keeps the
+structure's lowest natural frequency at rest (drives locked) above ``f_min`` (Hz), as
+``g = 1 − KS/f_min ≤ 0`` with KS the smooth lower bound over the lowest
+:data:`FLOOR_MODES` frequencies (:func:`flextop.modal.ks_lowest`, differentiable where
+they coincide), each to :data:`FLOOR_RTOL` against the converged structure. A simulation that fails becomes an
 :class:`~flextop.optimizers.EvaluationError`, which the optimizer recovers from.
 """
 
@@ -21,10 +25,29 @@ from typing import Any
 import numpy as np
 
 from . import scenes
+from .modal import ks_lowest
 from .errors import DesignError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .simulation import Simulation
 from .tolerance import Discretization
+
+
+MIN_FREQUENCY = "min_frequency"
+"""The name of the constraint that is a floor (Hz) on the lowest natural frequency."""
+
+FLOOR_MODES = 6
+"""Frequencies aggregated by the floor's KS function."""
+
+FLOOR_RHO = 50.0
+"""The KS parameter: KS lies within ``f_min ln(FLOOR_MODES)/FLOOR_RHO`` (3.6 %) below the lowest."""
+
+FLOOR_RTOL = 1e-3
+"""Relative tolerance of the floor's frequencies against the converged structure."""
+
+
+def relation(name: str) -> str:
+    """How a constraint of that name bounds its response: ``>=`` for the frequency floor."""
+    return ">=" if name == MIN_FREQUENCY else "<="
 
 
 class TopologyProblem(Problem):
@@ -60,7 +83,7 @@ class TopologyProblem(Problem):
         self.constraints = list(constraints.items()) if isinstance(constraints, Mapping) else [tuple(c) for c in constraints]
         for name, bound in self.constraints:
             if not (np.isfinite(bound) and bound > 0):
-                raise SettingsError(f"constraint {name!r}: the upper bound must be positive and finite, got {bound}")
+                raise SettingsError(f"constraint {name!r}: the bound must be positive and finite, got {bound}")
         self.settings = dict(settings or {})
         self.method = method
         self.objective_scale = objective_scale
@@ -74,7 +97,8 @@ class TopologyProblem(Problem):
 
     @property
     def responses(self) -> list[str]:
-        return [self.objective, *(name for name, _ in self.constraints)]
+        """What the simulation computes: the objective and the constrained responses."""
+        return [self.objective, *(name for name, _ in self.constraints if name != MIN_FREQUENCY)]
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective and constraints with their gradients: one run with sensitivities."""
@@ -93,8 +117,27 @@ class TopologyProblem(Problem):
             self.timings[key] += seconds
         if self.objective_scale is None:
             self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
-        bounds = np.array([b for _, b in self.constraints])
-        return Evaluation(f[0] / self.objective_scale, f[1:] / bounds - 1.0, dfdx[0] / self.objective_scale, dfdx[1:] / bounds[:, None])
+        g, dg = self._constraints(x, f[1:], dfdx[1:])
+        return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
+
+    def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``g_j`` and their gradients, in the constraints' order: ``r/b − 1`` for an upper
+        bound, ``1 − KS/f_min`` for the frequency floor."""
+        g, dg, k = [], [], 0
+        for name, bound in self.constraints:
+            if name == MIN_FREQUENCY:
+                try:
+                    modes = self.simulation.modes(FLOOR_MODES, x, rtol=FLOOR_RTOL)
+                except SimulationError as error:
+                    raise EvaluationError(str(error), x) from error
+                ks, dks = ks_lowest(modes, bound, FLOOR_RHO)
+                g.append(1.0 - ks / bound)
+                dg.append(-dks / bound)
+            else:
+                g.append(r[k] / bound - 1.0)
+                dg.append(drdx[k] / bound)
+                k += 1
+        return np.array(g), np.array(dg).reshape(len(g), len(x))
 
     @property
     def description(self) -> str:
@@ -103,7 +146,8 @@ class TopologyProblem(Problem):
 
     @property
     def bounded(self) -> list[tuple[str, float]]:
-        """The constraints by name with their upper bounds."""
+        """The constraints by name with their bounds (upper bounds, but the floor of
+        :data:`MIN_FREQUENCY`: see :func:`relation`)."""
         return list(self.constraints)
 
     def start(self, x: Any) -> np.ndarray:
@@ -123,8 +167,10 @@ class TopologyProblem(Problem):
         """``f``, the constrained responses ``rⱼ`` (beside their bounds ``bⱼ``) and ``∇f``,
         in the responses' units."""
         bounds = np.array([b for _, b in self.constraints])
+        floor = np.array([name == MIN_FREQUENCY for name, _ in self.constraints], bool)
+        values = np.where(floor, 1.0 - evaluation.g, evaluation.g + 1.0) * bounds
         scale = 1.0 if self.objective_scale is None else self.objective_scale
-        return self.unscaled(evaluation.f0), (evaluation.g + 1.0) * bounds, evaluation.df0 * scale
+        return self.unscaled(evaluation.f0), values, evaluation.df0 * scale
 
     def to_dict(self) -> dict:
         """What rebuilds this problem on the same scene (for checkpoints)."""
