@@ -6,8 +6,8 @@
 //! (`α` on the diagonal, `β` beside it); a Ritz pair `(θ, V s)` of `T` has residual
 //! `‖A V s − θ V s‖ = β_m |s_m|`. Pairs whose residual meets the tolerance are locked, and
 //! later cycles are kept orthogonal to them; the next cycle starts from the sum of the
-//! wanted Ritz vectors that have not converged (plus a little of a fresh vector), and a
-//! last, short cycle verifies that no larger eigenvalue was missed. Each new basis vector is orthogonalized
+//! wanted Ritz vectors that have not converged, and a last, short cycle from a fresh vector
+//! verifies that no larger eigenvalue was missed. Each new basis vector is orthogonalized
 //! twice against the basis and the locked vectors ("twice is enough"), a fixed number of
 //! passes.
 //!
@@ -110,16 +110,16 @@ pub fn largest_eigenpairs(
     locked.into_iter().unzip()
 }
 
-/// The next cycle's start: the unconverged wanted Ritz vectors, plus a tenth of a fresh
-/// spread vector, so that every copy of a repeated eigenvalue enters some cycle (one
-/// Krylov space holds only one direction of each eigenspace).
+/// The next cycle's start: the unconverged wanted Ritz vectors, or a fresh spread vector
+/// when there are none (the first cycle, and the verifying ones: one Krylov space holds
+/// only one direction of each eigenspace, so a fresh vector brings the other copies of a
+/// repeated eigenvalue).
 fn fresh(restart: Vec<f64>, cycle: usize) -> Vec<f64> {
+    if norm(&restart) > 0.0 {
+        return restart;
+    }
     let n = restart.len();
-    let r = norm(&restart);
-    let scale = if r > 0.0 { 0.1 * r } else { 1.0 };
-    let noise: Vec<f64> = (0..n).map(|i| spread(cycle * n + i)).collect();
-    let k = scale / norm(&noise);
-    restart.iter().zip(&noise).map(|(a, b)| a + k * b).collect()
+    (0..n).map(|i| spread(cycle * n + i)).collect()
 }
 
 /// Eigenpairs of the tridiagonal with diagonal `alpha` and off-diagonal `beta[..k−1]`,

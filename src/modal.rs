@@ -40,7 +40,9 @@ pub struct Modes {
     pub frequencies: Vec<f64>,
     /// Mass-normalized mode shapes (`n_q` each).
     pub shapes: Vec<Vec<f64>>,
-    /// The Sturm bound (Hz): above every frequency returned, below the next mode found.
+    /// The Sturm bound (Hz): above every frequency returned and below the next mode found;
+    /// when the last ones returned sit in a cluster of nearly equal modes wider than the
+    /// search, below that cluster instead.
     pub bound: f64,
     /// The Sturm count: how many frequencies lie below `bound` (every one was found).
     pub below: usize,
@@ -48,10 +50,14 @@ pub struct Modes {
     pub gradients: Vec<f64>,
 }
 
-/// Largest attempts at finding enough modes before the eigen-analysis gives up.
+/// Modes sought, as a multiple of those asked for, before a cluster straddling the last one
+/// is bounded from below instead of above ([`cluster_floor`]).
+const CROWD: usize = 4;
+
+/// Most attempts at finding enough modes before the eigen-analysis gives up.
 const ATTEMPTS: usize = 5;
 /// Eigen-residual of `C = Rᵀ S R` relative to its largest eigenvalue `ν`.
-const EIGEN_TOL: f64 = 1e-11;
+const EIGEN_TOL: f64 = 1e-9;
 /// The smallest relative gap between two eigenvalues `ω²` at which the Sturm bound is
 /// placed: identical void bars have modes equal to many digits, and a bound between them
 /// would ask the pivots' signs to resolve what round-off blurs.
@@ -200,9 +206,14 @@ impl<'m> Pencil<'m> {
                 want = (2 * want).min(factor.columns);
                 continue;
             }
+            let crowded = want >= CROWD * count;
             let (bound, expected) = match sturm_bound(&pairs, count) {
                 Some(found) => found,
                 None if exhaustive => (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len()),
+                None if crowded => match cluster_floor(&pairs, count) {
+                    Some(found) => found,
+                    None => break,
+                },
                 None => {
                     want = (2 * want).min(factor.columns);
                     continue;
@@ -315,6 +326,16 @@ impl<'m> Pencil<'m> {
         }
         out
     }
+}
+
+/// Where to count when the last mode asked for sits in a cluster wider than the modes
+/// found (dozens of identical void bars): the gap before the cluster. The modes below are
+/// proven complete; those returned from the cluster are eigenpairs within its span.
+fn cluster_floor(pairs: &[(f64, Vec<f64>)], count: usize) -> Option<(f64, usize)> {
+    (1..count)
+        .rev()
+        .find(|&j| pairs[j].0 - pairs[j - 1].0 > GAP * pairs[j].0.abs())
+        .map(|j| (0.5 * (pairs[j - 1].0 + pairs[j].0), j))
 }
 
 /// Where to count: the midpoint of the first gap (relative [`GAP`]) after the `count`

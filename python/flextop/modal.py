@@ -20,16 +20,17 @@ smooth lower bound whose gradient is well defined there.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from . import _core
 from .errors import SettingsError, ToleranceError
 
-if TYPE_CHECKING:
-    from .simulation import Simulation
+Levels = Callable[[int], Any]
+"""The engine model of a scene with ``r`` times its elements per bar."""
 
 MAX_MODAL_REFINEMENT = 128
 """Largest factor on the scene's elements per bar that the eigen-analysis refines to."""
@@ -58,34 +59,34 @@ class Modes:
         return f"Modes([{freqs}] Hz, error ≤ {self.errors.max():.1e}, {self.refinement}× elements per bar)"
 
 
-def natural_modes(sim: Simulation, n: int, x: np.ndarray | None, rtol: float | None, mass: str | None) -> Modes:
-    """The ``n`` lowest modes of ``sim``'s structure at design ``x``: of the model as it is
-    meshed when ``rtol`` is None, else of the converged structure to ``rtol``."""
-    settings = sim._settings(mass=mass)
+def natural_modes(levels: Levels, n: int, x: np.ndarray | None, rtol: float | None, settings: dict[str, Any]) -> Modes:
+    """The ``n`` lowest modes at design ``x`` of the structure whose model at refinement
+    ``r`` is ``levels(r)``: of the model as meshed when ``rtol`` is None, else of the
+    converged structure to ``rtol``."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise SettingsError(f"n: the number of frequencies must be a positive integer, got {n!r}")
     if rtol is None:
-        level = _level_modes(sim, 1, n, x, settings)
+        level = _level_modes(levels, 1, n, x, settings)
         return Modes(level["frequencies"], level["gradients"], np.full(n, np.nan), 1, level["bound"], level["below"])
     if not (isinstance(rtol, (int, float)) and 1e-8 <= rtol < 1):
         raise SettingsError(f"rtol: the frequencies' relative tolerance must lie in [1e-8, 1), got {rtol!r}")
     r = 1
-    while _unknowns(sim, r) < n and r < MAX_MODAL_REFINEMENT:
+    while _unknowns(levels, r) < n and r < MAX_MODAL_REFINEMENT:
         r *= 2
-    levels = [_level_modes(sim, r, n, x, settings), _level_modes(sim, 2 * r, n, x, settings)]
+    solved = [_level_modes(levels, r, n, x, settings), _level_modes(levels, 2 * r, n, x, settings)]
     previous = None
     r *= 2
     while True:
         r *= 2
         if r > MAX_MODAL_REFINEMENT:
             raise ToleranceError(f"the frequencies do not meet rtol = {rtol:g} at {MAX_MODAL_REFINEMENT}× the scene's elements per bar")
-        levels.append(_level_modes(sim, r, n, x, settings))
+        solved.append(_level_modes(levels, r, n, x, settings))
         if previous is None:
-            previous = _extrapolate(levels[-3], levels[-2])
-        current = _extrapolate(levels[-2], levels[-1])
+            previous = _extrapolate(solved[-3], solved[-2])
+        current = _extrapolate(solved[-2], solved[-1])
         errors = np.abs(current[0] - previous[0]) / np.abs(current[0])
         if np.all(errors <= rtol):
-            finest = levels[-1]
+            finest = solved[-1]
             return Modes(current[0], current[1], errors, r, finest["bound"], finest["below"])
         previous = current
 
@@ -97,15 +98,14 @@ def _extrapolate(coarse: dict, fine: dict) -> tuple[np.ndarray, np.ndarray]:
             (c * fine["gradients"] - coarse["gradients"]) / (c - 1))
 
 
-def _unknowns(sim: Simulation, r: int) -> int:
+def _unknowns(levels: Levels, r: int) -> int:
     """DOFs less constraint rows at refinement ``r``: an upper bound on its modes."""
-    model = (sim if r == 1 else sim._level(r)).model
+    model = levels(r)
     return model.n_dofs - model.n_constraints
 
 
-def _level_modes(sim: Simulation, r: int, n: int, x: np.ndarray | None, settings: dict[str, Any]) -> dict:
-    level = sim if r == 1 else sim._level(r)
-    return _core.natural_modes(level.model, n, x, None, settings)
+def _level_modes(levels: Levels, r: int, n: int, x: np.ndarray | None, settings: dict[str, Any]) -> dict:
+    return _core.natural_modes(levels(r), n, x, None, settings)
 
 
 def ks_lowest(modes: Modes, scale: float, rho: float = 50.0) -> tuple[float, np.ndarray]:

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from . import _core, execution, export, modal, saved, tolerance
 from .accuracy import preset, split_by
+from .modal import Modes
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
@@ -565,14 +566,15 @@ class Simulation:
         raw = _core.linearize(self.model, self._design(x), qv, self._settings(mass=mass))
         return tuple(sp.csc_matrix((m["data"], m["indices"], m["indptr"]), shape=m["shape"]) for m in (raw[k] for k in ("M", "K", "G")))
 
-    def modes(self, n: int = 6, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> modal.Modes:
+    def modes(self, n: int = 6, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> Modes:
         """The ``n`` lowest natural modes of the structure at rest with its drives locked:
         frequencies (Hz), their exact design gradients, error estimates and the Sturm
         proof that none was skipped (:class:`flextop.modal.Modes`). With ``rtol`` they
         meet that relative tolerance against the converged structure (bars refined for the
         eigen-analysis, whatever this scene's elements per bar); ``rtol=None`` gives the
         modes of the model as meshed."""
-        return modal.natural_modes(self, n, self._design(x), rtol, mass)
+        levels = lambda r: (self if r == 1 else self._level(r)).model  # noqa: E731
+        return modal.natural_modes(levels, n, self._design(x), rtol, self._settings(mass=mass))
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> np.ndarray:
         """The ``n`` lowest natural frequencies (Hz) of the structure at rest with its drives

@@ -197,3 +197,17 @@ def test_a_start_design_that_cannot_be_evaluated_ends_with_its_reason(tmp_path):
     assert "status: EVALUATION_FAILED" in run.stdout and "Traceback" not in run.stderr
     lone = flextop_cli("optimize", "static_truss", "--aggregate", "worst", "--workers", 2, "--out", tmp_path / "x", check=False)
     assert lone.returncode == 2 and "--aggregate, --workers: for several scenarios" in lone.stderr
+
+
+def test_a_frequency_floor_from_the_command_line(tmp_path):
+    """--min-frequency adds the floor, shown as >= with its value in Hz at the end; it is
+    fixed by a checkpoint and applies to one scene only."""
+    run = flextop_cli("optimize", "static_truss", "--min-frequency", "1.5", "--max-iter", 2, "--out", tmp_path, "--no-plots",
+                      codes=(0, 3))
+    assert "min_frequency >= 1.5" in run.stdout
+    value = float(re.search(r"^min_frequency: (\S+) \(>= 1\.5\)$", run.stdout, re.M).group(1))
+    assert value > 0
+    resumed = flextop_cli("optimize", "--resume", "--min-frequency", "2", "--out", tmp_path, codes=(2,))
+    assert "--min-frequency" in resumed.stderr
+    mixed = flextop_cli("optimize", "--scenarios", "robust_robot_arm", "--min-frequency", "2", "--out", tmp_path / "s", codes=(2,))
+    assert mixed.stderr.strip() == "flextop: error: --min-frequency applies to one scene, not to --scenarios"
