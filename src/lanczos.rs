@@ -50,7 +50,6 @@ pub fn largest_eigenpairs(
     let m = n.min((2 * count + 20).max(40));
     let mut locked: Vec<(f64, Vec<f64>)> = Vec::new();
     let mut restart = vec![0.0; n];
-    let mut w = vec![0.0; n];
     for cycle in 0..MAX_CYCLES {
         // Wanted: the largest not locked; once `count` are, a short verifying cycle looks
         // for any larger one (a copy of a repeated eigenvalue the first cycles missed).
@@ -69,23 +68,10 @@ pub fn largest_eigenpairs(
             (count - locked.len(), m)
         };
         let start = fresh(restart, seed * MAX_CYCLES + cycle);
-        let Some(mut v) = unit(orthogonal(start, &[], &locked)) else {
+        let Some(v0) = unit(orthogonal(start, &[], &locked)) else {
             break;
         };
-        let (mut basis, mut alpha, mut beta) = (Vec::with_capacity(steps), Vec::new(), Vec::new());
-        loop {
-            apply(&v, &mut w);
-            let a = dot(&v, &w);
-            alpha.push(a);
-            basis.push(v);
-            w = orthogonal(orthogonal(w, &basis, &locked), &basis, &locked);
-            let b = norm(&w);
-            beta.push(b);
-            if basis.len() == steps || b <= 1e-14 * a.abs().max(b) {
-                break;
-            }
-            v = w.iter().map(|x| x / b).collect();
-        }
+        let (basis, alpha, beta) = cycle_basis(v0, steps, &locked, apply);
         let last = beta[beta.len() - 1];
         restart = vec![0.0; n];
         let mut open = false;
@@ -108,6 +94,33 @@ pub fn largest_eigenpairs(
         }
     }
     locked.into_iter().unzip()
+}
+
+/// One Lanczos cycle of at most `steps` from the unit vector `v`, kept orthogonal to the
+/// locked vectors: the basis, `α` and `β` (the last `β` the residual's norm). It stops
+/// early when the Krylov space becomes invariant.
+#[allow(clippy::type_complexity)]
+fn cycle_basis(
+    mut v: Vec<f64>,
+    steps: usize,
+    locked: &[(f64, Vec<f64>)],
+    apply: &dyn Fn(&[f64], &mut [f64]),
+) -> (Vec<Vec<f64>>, Vec<f64>, Vec<f64>) {
+    let (mut basis, mut alpha, mut beta) = (Vec::with_capacity(steps), Vec::new(), Vec::new());
+    let mut w = vec![0.0; v.len()];
+    loop {
+        apply(&v, &mut w);
+        let a = dot(&v, &w);
+        alpha.push(a);
+        basis.push(v);
+        w = orthogonal(orthogonal(w, &basis, locked), &basis, locked);
+        let b = norm(&w);
+        beta.push(b);
+        if basis.len() == steps || b <= 1e-14 * a.abs().max(b) {
+            return (basis, alpha, beta);
+        }
+        v = w.iter().map(|x| x / b).collect();
+    }
 }
 
 /// The next cycle's start: the unconverged wanted Ritz vectors, or a fresh spread vector

@@ -193,7 +193,6 @@ impl<'m> Pencil<'m> {
         factor: &MassFactor,
         count: usize,
     ) -> Result<(Vec<f64>, Vec<Vec<f64>>, f64, usize), Error> {
-        let n_q = self.asm.model.n_dofs();
         let mut want = count + count.max(4);
         for attempt in 0..ATTEMPTS {
             self.factorize(self.shift)?;
@@ -222,17 +221,7 @@ impl<'m> Pencil<'m> {
             let below = self.count_below(bound)?;
             if below == expected {
                 let lambdas = pairs[..count].iter().map(|p| p.0).collect();
-                self.factorize(self.shift)?;
-                let shapes = pairs[..count]
-                    .iter()
-                    .map(|(l, y)| {
-                        let mut phi = self.apply_s_r(factor, y);
-                        let nu = 1.0 / (l - self.shift);
-                        phi.iter_mut().for_each(|v| *v /= nu);
-                        phi.truncate(n_q);
-                        phi
-                    })
-                    .collect();
+                let shapes = self.shapes(factor, &pairs[..count])?;
                 return Ok((lambdas, shapes, bound, below));
             }
             want = (2 * want).max(below + count).min(factor.columns);
@@ -289,6 +278,26 @@ impl<'m> Pencil<'m> {
             return Err(eigen("non-finite eigenvalues".into()));
         }
         Ok(pairs)
+    }
+
+    /// The mass-normalized modes `φ = S(σ₀) R y / ν` of the eigenpairs `(ω², y)`.
+    fn shapes(
+        &mut self,
+        factor: &MassFactor,
+        pairs: &[(f64, Vec<f64>)],
+    ) -> Result<Vec<Vec<f64>>, Error> {
+        self.factorize(self.shift)?;
+        let n_q = self.asm.model.n_dofs();
+        Ok(pairs
+            .iter()
+            .map(|(l, y)| {
+                let mut phi = self.apply_s_r(factor, y);
+                let nu = 1.0 / (l - self.shift);
+                phi.iter_mut().for_each(|v| *v /= nu);
+                phi.truncate(n_q);
+                phi
+            })
+            .collect())
     }
 
     /// `S(σ) R y` on the current factorization (DOFs then multipliers).
