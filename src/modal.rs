@@ -78,10 +78,10 @@ pub fn natural_modes(
 ) -> Result<Modes, Error> {
     let mut pencil = Pencil::new(model, densities, mass, q)?;
     let factor = MassFactor::of(&pencil.asm);
-    let available = factor.columns.saturating_sub(model.n_constraints());
+    let available = (factor.columns.min(model.n_dofs())).saturating_sub(model.n_constraints());
     if count == 0 || count > available {
         let msg = format!("must be between 1 and {available}, the modes the structure has");
-        return Err(SettingsError::new("count", msg).into());
+        return Err(SettingsError::new("n", msg).into());
     }
     let unstable = pencil.count_below(pencil.shift)?;
     if unstable > 0 {

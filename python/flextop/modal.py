@@ -34,6 +34,9 @@ from .errors import SettingsError, ToleranceError
 Levels = Callable[[int], Any]
 """The engine model of a scene with ``r`` times its elements per bar."""
 
+MAX_FREQUENCIES = 200
+"""Most frequencies one call computes."""
+
 MAX_MODAL_REFINEMENT = 128
 """Largest factor on the scene's elements per bar that the eigen-analysis refines to."""
 
@@ -59,6 +62,8 @@ class Modes:
 
     def __repr__(self) -> str:
         freqs = ", ".join(f"{f:.4g}" for f in self.frequencies)
+        if np.isnan(self.errors).all():
+            return f"Modes([{freqs}] Hz, of the model as meshed)"
         return f"Modes([{freqs}] Hz, error ≤ {self.errors.max():.1e}, {self.refinement}× elements per bar)"
 
 
@@ -66,8 +71,8 @@ def natural_modes(levels: Levels, n: int, x: np.ndarray | None, rtol: float | No
     """The ``n`` lowest modes at design ``x`` of the structure whose model at refinement
     ``r`` is ``levels(r)``: of the model as meshed when ``rtol`` is None, else of the
     converged structure to ``rtol``."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise SettingsError(f"n: the number of frequencies must be a positive integer, got {n!r}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_FREQUENCIES:
+        raise SettingsError(f"n: the number of frequencies must be an integer from 1 to {MAX_FREQUENCIES}, got {n!r}")
     if rtol is None:
         level = _level_modes(levels, 1, n, x, settings)
         return Modes(level["frequencies"], level["gradients"], np.full(n, np.nan), 1, level["bound"], level["below"])

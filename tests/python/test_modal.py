@@ -166,8 +166,10 @@ def test_bad_requests_are_named():
     sim = flextop.Simulation(cantilever(1.0, split=2))
     with pytest.raises(SettingsError, match="n: the number of frequencies"):
         sim.modes(0)
-    with pytest.raises(SettingsError, match="count: must be between 1 and"):
+    with pytest.raises(SettingsError, match="n: must be between 1 and 6, the modes the structure has"):
         sim.modes(50, rtol=None)
+    with pytest.raises(SettingsError, match="n: the number of frequencies must be an integer from 1 to 200"):
+        sim.modes(201)
     with pytest.raises(SettingsError, match="rtol"):
         sim.modes(2, rtol=0.0)
     free = flextop.Scene("free")
