@@ -28,6 +28,7 @@ use std::ops::Range;
 
 use crate::element::MassKind;
 use crate::error::SolveError;
+use crate::linsolve::{FactorError, SparseLdlt};
 use crate::model::{Densities, Model};
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
@@ -237,6 +238,30 @@ impl<'m> Assembler<'m> {
         asm.mass_times(&asm.gravity, &mut load);
         asm.gravity_load = load;
         Ok(asm)
+    }
+
+    /// The symbolic `LDLᵀ` of this pattern's iteration matrix, ready for numeric
+    /// factorizations (Newton's, the modal analysis's).
+    ///
+    /// # Errors
+    /// [`SolveError::Setup`] if the ordering or the symbolic analysis fails.
+    pub fn symbolic_ldlt(&self) -> Result<SparseLdlt, SolveError> {
+        let p = &self.pattern;
+        SparseLdlt::analyze(
+            p.n,
+            p.col_ptr.clone(),
+            p.row_idx.clone(),
+            p.n_q,
+            &Pattern::multiplier_dofs(self.model),
+        )
+        .map_err(|e| match e {
+            FactorError::Analysis(detail) | FactorError::Singular(detail) => {
+                SolveError::Setup(detail)
+            }
+            FactorError::ZeroPivot { unknown } => {
+                SolveError::Setup(format!("zero pivot at unknown {unknown}"))
+            }
+        })
     }
 
     /// `out = M a` (mass matrix times a nodal vector).

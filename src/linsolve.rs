@@ -167,9 +167,7 @@ impl SparseLdlt {
             .solve_in_place_with_conj(Conj::No, block, Par::Seq, MemStack::new(scratch));
         finite(b)
     }
-}
 
-impl SparseLdlt {
     /// Number of negative pivots `D_kk < 0` of the last factorization. `LDLᵀ` is a
     /// congruence, so by Sylvester's law of inertia this is the number of negative
     /// eigenvalues of the matrix: the Sturm-sequence count of the modal analysis.
@@ -298,6 +296,20 @@ mod tests {
             "{:?}",
             res.err()
         );
+    }
+
+    /// Sylvester's law: the DOF block `[[2, 1], [1, 3]]` on the null space of the
+    /// constraint (DOF 1 alone) is `3`; shifted by `−5` it is `−2`. The negative pivots
+    /// count that, plus one per constraint row.
+    #[test]
+    fn negative_pivots_count_the_inertia() {
+        let (cp, ri, v) = saddle();
+        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
+        ldlt.factorize(&v).unwrap();
+        assert_eq!(ldlt.negative_pivots(), Ok(1));
+        let shifted = [v[0] - 5.0, v[1], v[2], v[3], v[4] - 5.0, v[5]];
+        ldlt.factorize(&shifted).unwrap();
+        assert_eq!(ldlt.negative_pivots(), Ok(2));
     }
 
     #[test]

@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::assembly::{Assembler, Pattern};
+use crate::assembly::Assembler;
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError, SolveError};
 use crate::lanczos::{largest_eigenpairs, spread};
@@ -112,6 +112,8 @@ struct Pencil<'m> {
     ldlt: SparseLdlt,
     /// `σ₀`, a shift just below zero so that rigid modes factorize.
     shift: f64,
+    /// The shift of the current factorization (NaN before the first).
+    factorized_at: f64,
 }
 
 impl<'m> Pencil<'m> {
@@ -127,6 +129,10 @@ impl<'m> Pencil<'m> {
             let msg = format!("has {} entries, the model has {n_q} DOFs", q.len());
             return Err(SettingsError::new("q", msg).into());
         }
+        if let Some(k) = q.iter().position(|v| !v.is_finite()) {
+            let msg = format!("entry {k} is {}: the state must be finite", q[k]);
+            return Err(SettingsError::new("q", msg).into());
+        }
         let nnz = asm.pattern.nnz();
         let (mut stiffness, mut mass_values) = (vec![0.0; nnz], vec![0.0; nnz]);
         asm.start_iteration_matrix(1.0, 0.0, &mut mass_values);
@@ -135,14 +141,7 @@ impl<'m> Pencil<'m> {
         let (mean_k, mean_m) = (asm.mean_stiffness_diagonal(q), asm.mean_mass_diagonal());
         let mut constraints = vec![0.0; nnz];
         asm.start_iteration_matrix(0.0, mean_k, &mut constraints);
-        let ldlt = SparseLdlt::analyze(
-            asm.pattern.n,
-            asm.pattern.col_ptr.clone(),
-            asm.pattern.row_idx.clone(),
-            n_q,
-            &Pattern::multiplier_dofs(model),
-        )
-        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+        let ldlt = asm.symbolic_ldlt()?;
         let shift = if mean_m > 0.0 {
             -1e-8 * mean_k / mean_m
         } else {
@@ -155,10 +154,15 @@ impl<'m> Pencil<'m> {
             constraints,
             ldlt,
             shift,
+            factorized_at: f64::NAN,
         })
     }
 
     fn factorize(&mut self, sigma: f64) -> Result<(), Error> {
+        if sigma == self.factorized_at {
+            return Ok(());
+        }
+        self.factorized_at = f64::NAN;
         let values: Vec<f64> = (self.stiffness.iter().zip(&self.mass))
             .zip(&self.constraints)
             .map(|((k, m), g)| k - sigma * m + g)
@@ -169,7 +173,9 @@ impl<'m> Pencil<'m> {
                  exactly there, or the joints are redundant)"
             )),
             other => eigen(format!("{other:?}")),
-        })
+        })?;
+        self.factorized_at = sigma;
+        Ok(())
     }
 
     /// The Sturm count: eigenvalues `ω² < sigma` on the constraints' null space.

@@ -15,7 +15,7 @@
 
 use faer::dyn_stack::MemBuffer;
 
-use crate::assembly::{Assembler, Pattern};
+use crate::assembly::Assembler;
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
@@ -91,21 +91,7 @@ impl<'m> Newton<'m> {
     ) -> Result<Self, SolveError> {
         let asm = Assembler::new(model, densities, mass)?;
         let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
-        let ldlt = SparseLdlt::analyze(
-            n,
-            asm.pattern.col_ptr.clone(),
-            asm.pattern.row_idx.clone(),
-            n_q,
-            &Pattern::multiplier_dofs(model),
-        )
-        .map_err(|e| match e {
-            FactorError::Analysis(detail) | FactorError::Singular(detail) => {
-                SolveError::Setup(detail)
-            }
-            FactorError::ZeroPivot { unknown } => {
-                SolveError::Setup(format!("zero pivot at unknown {unknown}"))
-            }
-        })?;
+        let ldlt = asm.symbolic_ldlt()?;
         let matrix = vec![0.0; asm.pattern.nnz()];
         let (mean_mass, mean_stiffness) = (
             asm.mean_mass_diagonal(),

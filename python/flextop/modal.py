@@ -11,7 +11,7 @@ extrapolates in ``r``. The frequencies converge at second order in the element l
 of two levels, ``E(r) = (4 f(2r) − f(r))/3``, is returned. The extrapolated values
 converge at fourth order (measured across the arm's design family: the change from one
 to the next falls 16× per doubling), so the error of the latest is estimated as its
-change from the previous one over 15 (measured: 1.1× the true error). Refinement stops
+change from the previous one over 15 (measured: 1.0 to 1.3 times the true error). Refinement stops
 when that estimate meets ``rtol`` on every frequency asked for.
 
 The returned gradients are exact derivatives of the returned (extrapolated) frequencies:

@@ -123,13 +123,14 @@ class TopologyProblem(Problem):
     def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``g_j`` and their gradients, in the constraints' order: ``r/b − 1`` for an upper
         bound, ``1 − KS/f_min`` for the frequency floor."""
-        g, dg, k = [], [], 0
+        g, dg, k, modes = [], [], 0, None
         for name, bound in self.constraints:
             if name == MIN_FREQUENCY:
-                try:
-                    modes = self.simulation.modes(FLOOR_MODES, x, rtol=FLOOR_RTOL)
-                except SimulationError as error:
-                    raise EvaluationError(str(error), x) from error
+                if modes is None:
+                    try:
+                        modes = self.simulation.modes(FLOOR_MODES, x, rtol=FLOOR_RTOL)
+                    except SimulationError as error:
+                        raise EvaluationError(str(error), x) from error
                 ks, dks = ks_lowest(modes, bound, FLOOR_RHO)
                 g.append(1.0 - ks / bound)
                 dg.append(-dks / bound)

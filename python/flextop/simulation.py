@@ -26,7 +26,6 @@ import scipy.sparse as sp
 
 from . import _core, execution, export, modal, saved, tolerance
 from .accuracy import preset, split_by
-from .modal import Modes
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
@@ -566,7 +565,7 @@ class Simulation:
         raw = _core.linearize(self.model, self._design(x), qv, self._settings(mass=mass))
         return tuple(sp.csc_matrix((m["data"], m["indices"], m["indptr"]), shape=m["shape"]) for m in (raw[k] for k in ("M", "K", "G")))
 
-    def modes(self, n: int = 6, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> Modes:
+    def modes(self, n: int = 6, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> modal.Modes:
         """The ``n`` lowest natural modes of the structure at rest with its drives locked:
         frequencies (Hz), their exact design gradients, error estimates and the Sturm
         proof that none was skipped (:class:`flextop.modal.Modes`). With ``rtol`` they
