@@ -255,12 +255,8 @@ impl<'m> Assembler<'m> {
             &Pattern::multiplier_dofs(self.model),
         )
         .map_err(|e| match e {
-            FactorError::Analysis(detail) | FactorError::Singular(detail) => {
-                SolveError::Setup(detail)
-            }
-            FactorError::ZeroPivot { unknown } => {
-                SolveError::Setup(format!("zero pivot at unknown {unknown}"))
-            }
+            FactorError::Analysis(detail) => SolveError::Setup(detail),
+            other => SolveError::Setup(format!("{other:?}")),
         })
     }
 

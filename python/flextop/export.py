@@ -80,7 +80,7 @@ def write_state(results: Any, path: str | os.PathLike) -> Path:
 def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
     """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
     path = _vtu(path)
-    structure = _Structure.of(sim, sim._design(x))
+    structure = _Structure.of(sim, x)
     structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), {}).write(path, binary=True)
     return path
 
@@ -111,7 +111,7 @@ class _Structure:
     kinds: np.ndarray
 
     @classmethod
-    def of(cls, sim: Any, x: np.ndarray | None) -> _Structure:
+    def of(cls, sim: Any, x: Any) -> _Structure:
         elements = sim.model.elements()
         lines = np.asarray(elements["nodes"], dtype=np.int64)
         bar = np.asarray(elements["bar"], dtype=np.int64)

@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 from .export import FRAMES, frame_indices
 from .simulation import Results, Simulation
 
-__all__ = ["animate", "bar_densities", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
+__all__ = ["animate", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
 
 #: Colormap of the density maps: light for x_min, dark for full density.
 DEFAULT_CMAP = "viridis_r"
@@ -36,21 +36,12 @@ FAINT_ALPHA = 0.15
 DPI = 150
 
 
-def bar_densities(sim: Simulation, x: Any = None) -> np.ndarray:
-    """Density of every bar for design ``x`` (one value per design variable, a scalar, or
-    ``None`` for full density); fixed bars (variable −1) are at density 1."""
-    xv = None if x is None else np.asarray(x, dtype=float)
-    if xv is not None and xv.ndim and xv.shape != (sim.n_design,):
-        raise ValueError(f"design has shape {xv.shape}; expected ({sim.n_design},)")
-    return sim.bar_densities(xv)
-
-
 def _bar_style(sim: Simulation, x: Any, cmap: str | Colormap, min_density: float | None,
                widths: tuple[float, float] = WIDTHS) -> tuple[np.ndarray, np.ndarray, ScalarMappable]:
     """Line widths (linear in density from ``widths[0]`` at x_min to ``widths[1]`` at 1)
     and RGBA colours (``cmap`` over [x_min, 1], faint below ``min_density``) of every bar,
     and the mappable for a colorbar."""
-    rho = bar_densities(sim, x)
+    rho = sim.bar_densities(x)
     colormap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
     mappable = ScalarMappable(Normalize(vmin=sim.x_min, vmax=1.0), colormap)
     t = np.clip(mappable.norm(rho), 0.0, 1.0)
