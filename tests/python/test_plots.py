@@ -70,7 +70,7 @@ def test_design_draws_bars_between_end_nodes_fixed_at_full_density():
     assert widths[0] == pytest.approx(plots.WIDTHS[1]) and widths[1] == pytest.approx(plots.WIDTHS[0])
     np.testing.assert_allclose(colors[0], cmap(1.0))  # fixed bar: density 1, opaque
     assert colors[1][3] == pytest.approx(plots.FAINT_ALPHA)  # below min_density: faint
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(flextop.errors.DesignError, match="the design has 2 entries; the scene has 1 design variables"):
         plots.plot_design(sim, [0.5, 0.5])
 
 
