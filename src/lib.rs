@@ -15,7 +15,8 @@
 //!   [`solve_static`] and [`simulate`] — the solves, with run settings validated in one
 //!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
 //! * [`Response`] and [`of_motion`] / [`of_equilibrium`] — responses of paper Eq. 8 and
-//!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint.
+//!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint;
+//!   stresses condensed by the p-mean or KS mean of [`Aggregation`].
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
 //! [`load`], [`section`], [`interpolation`]) are public modules; the solvers are private
@@ -36,6 +37,7 @@ pub mod motion;
 pub mod scene;
 pub mod section;
 
+mod aggregate;
 mod assembly;
 mod integrator;
 mod interrupt;
@@ -56,6 +58,7 @@ mod time_grid;
 #[cfg(feature = "python")]
 mod python;
 
+pub use aggregate::Aggregation;
 pub use assembly::{linearize, Csc, Linearization};
 pub use element::MassKind;
 pub use error::{DesignError, Error, SceneError, SettingsError, SolveError};

@@ -3,7 +3,8 @@
 //! Units are SI throughout the crate: metres, kilograms, seconds, newtons, pascals,
 //! radians. A section at full density (`x = 1`) has axial stiffness `EA`, shear
 //! stiffness `κGA`, bending stiffness `EI`, mass per length `ρA` and rotary inertia per
-//! length `ρI`.
+//! length `ρI`, and, when the scene gives it, the outer-fibre distance `c` of bending
+//! stresses `M c / I`.
 
 /// Per-length stiffness and inertia of a beam section at full density.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,6 +21,9 @@ pub struct Section {
     pub rho_a: f64,
     /// Rotary inertia per length `ρI` (kg m).
     pub rho_i: f64,
+    /// Outer-fibre distance `c` from the neutral axis (m), `None` for a section given by
+    /// `A`, `I`, `κ` without it: the bending stress `M c / I` needs it.
+    pub fibre: Option<f64>,
 }
 
 impl Section {
@@ -32,7 +36,28 @@ impl Section {
             ei: e * inertia,
             rho_a: rho * area,
             rho_i: rho * inertia,
+            fibre: None,
         }
+    }
+
+    /// The section with outer-fibre distance `c` (m).
+    pub fn with_fibre(self, c: f64) -> Self {
+        Self {
+            fibre: Some(c),
+            ..self
+        }
+    }
+
+    /// Young's modulus `E = EA / A` (Pa).
+    pub fn young(&self) -> f64 {
+        self.ea / self.area
+    }
+
+    /// Fibre stresses `N/A ± M c/I` of the section forces `N`, `M` (Pa): axial and bending
+    /// parts, with `c/I = c E / EI`. `None` without an outer-fibre distance.
+    pub fn fibre_stress(&self, axial: f64, moment: f64) -> Option<(f64, f64)> {
+        self.fibre
+            .map(|c| (axial / self.area, moment * c * self.young() / self.ei))
     }
 
     /// Geometry of a solid circle of diameter `d`: area `πd²/4`, second moment `πd⁴/64`

@@ -126,7 +126,8 @@ class Sensitivities:
     in the sensitivity analysis. A run made to a tolerance also carries its
     ``discretization`` and, per name, the estimated relative ``errors`` of the values and
     ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
-    ``steps``.
+    ``steps``. ``peaks`` holds, per stress response, the largest point stress over the
+    motion (Pa), beside the mean in ``values``.
     """
 
     names: tuple[str, ...]
@@ -138,6 +139,7 @@ class Sensitivities:
     errors: dict[str, float] = field(default_factory=dict)
     gradient_errors: dict[str, float] = field(default_factory=dict)
     steps: np.ndarray | None = field(default=None, repr=False)
+    peaks: dict[str, float] = field(default_factory=dict)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.gradients))
@@ -360,8 +362,13 @@ class Simulation:
         or ``Fᵀu`` for a static scene), ``"compliance:COMPONENT"``, ``"tip_deflection"``
         (mean squared deflection from the rigid trajectory, Eq. 40; the scene's tip, or
         ``"tip_deflection:NODE"``), ``"volume"`` / ``"volume:COMPONENT"`` (m³, Eq. 38, 41),
-        ``"displacement:NODE:DX,DY"`` (final) and ``"integrated_displacement:NODE:DX,DY"``.
-        Time integrals use the trapezoidal rule on the step times, and the gradients are
+        ``"displacement:NODE:DX,DY"`` (final), ``"integrated_displacement:NODE:DX,DY"`` and
+        ``"stress[:COMPONENT][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at both
+        ends of every element, condensed over the motion and the structure's length (Pa) by
+        a p-mean (``p=8`` by default) or, with ``ks=RHO,scale=PA``, a KS mean; ``q=0.5``
+        (default) relaxes vanishing bars, ``q=0`` gives the solid material's stress. Both
+        means stay below the peak, which the result holds in ``peaks``
+        (:mod:`flextop.stress`). Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),
@@ -420,7 +427,8 @@ class Simulation:
         grid = None if steps is None else [float(h) for h in steps]
         out = _core.run_with_sensitivities(self.model, xv, names, settings, grid)
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
-        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps)
+        peaks = {n: p for n, p in zip(names, out["peaks"]) if p is not None}
+        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps, peaks=peaks)
 
     # -- runs to a tolerance ------------------------------------------------------------
 

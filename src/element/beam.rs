@@ -145,6 +145,13 @@ impl Beam {
         self.local_stiffness() * self.deformation(u).local
     }
 
+    /// Section forces `[N, M₁, M₂]` at full density and their Jacobian `D B = ∂[N, M₁, M₂]/∂u`.
+    pub fn section_forces_and_jacobian(&self, u: &Vector6) -> (Vector3<f64>, SMatrix<f64, 3, 6>) {
+        let g = self.deformation(u);
+        let d = self.local_stiffness();
+        (d * g.local, d * Self::strain_matrix(&g))
+    }
+
     /// Strain energy `U(u)` at full density (J), paper Eq. 37.
     pub fn strain_energy(&self, u: &Vector6) -> f64 {
         let g = self.deformation(u);
@@ -252,6 +259,20 @@ mod tests {
             (k - k.transpose()).amax() < 1e-9 * k.amax(),
             "tangent of a conservative force is symmetric"
         );
+    }
+
+    #[test]
+    fn section_force_jacobian_matches_central_differences() {
+        let b = beam();
+        let u0 = rigid(&b, 0.7) + Vector6::from([1e-3, -2e-3, 0.05, 3e-3, 1e-3, -0.08]);
+        let (_, jac) = b.section_forces_and_jacobian(&u0);
+        for j in 0..6 {
+            let fd = central(|u| b.section_forces(u), &u0, j);
+            assert!(
+                (jac.column(j) - fd).amax() <= 1e-6 * jac.amax(),
+                "column {j}"
+            );
+        }
     }
 
     #[test]

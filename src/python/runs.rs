@@ -110,8 +110,9 @@ pub fn solve_static<'py>(
     Ok(d)
 }
 
-/// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x), the `method`
-/// used, `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
+/// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x), `peaks` (the
+/// largest point value of each aggregate, `None` for other responses), the `method` used,
+/// `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
 /// and `memory`; `steps`, the step sizes of a dynamic run (default: uniform steps `h`).
 #[pyfunction]
 #[pyo3(signature = (model, x, responses, settings=None, steps=None))]
@@ -155,6 +156,7 @@ pub fn run_with_sensitivities<'py>(
             model.model.n_variables(),
         )?,
     )?;
+    d.set_item("peaks", result.peaks)?;
     d.set_item("method", result.method.name())?;
     d.set_item("simulation_seconds", result.timings.simulation)?;
     d.set_item("gradient_seconds", result.timings.gradients)?;

@@ -32,7 +32,15 @@ fn section(path: &str, s: &SectionSpec) -> Result<Section> {
     let rho = positive(&format!("{path}.rho"), s.rho)?;
     let (g, nu) = elasticity(path, s, e)?;
     let (area, inertia, kappa) = geometry(path, s, nu)?;
-    Ok(Section::new(e, g, area, inertia, kappa, rho))
+    let section = Section::new(e, g, area, inertia, kappa, rho);
+    Ok(match (s.diameter, s.c) {
+        (Some(d), None) => section.with_fibre(d / 2.0),
+        (None, Some(c)) => section.with_fibre(positive(&format!("{path}.c"), c)?),
+        (None, None) => section,
+        (Some(_), Some(_)) => {
+            return Err(SceneError::new(path, "a solid circle's outer fibre is at diameter/2; drop `c`"))
+        }
+    })
 }
 
 /// Shear modulus `G` and Poisson's ratio `ν`: exactly one is given, the other follows from

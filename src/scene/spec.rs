@@ -90,6 +90,9 @@ pub struct SectionSpec {
     pub I: Option<f64>,
     /// Shear correction factor.
     pub kappa: Option<f64>,
+    /// Outer-fibre distance from the neutral axis (m), for bending stresses `M c / I`
+    /// (a solid circle's is `diameter / 2`).
+    pub c: Option<f64>,
 }
 
 /// A named node.

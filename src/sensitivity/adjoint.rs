@@ -147,10 +147,10 @@ pub(crate) fn run(
     memory: Memory,
 ) -> Result<Sensitivities, Error> {
     let mut it = Integrator::new(model, densities, settings)?;
-    let objectives = Objectives::new(model, responses, grid)?;
+    let mut objectives = Objectives::new(model, responses, grid)?;
     let mut store = StateStore::new(memory, model.n_dofs(), grid.len());
     let clock = Instant::now();
-    let values = forward(&mut it, grid, &objectives, settings, &mut store)?;
+    let mut values = forward(&mut it, grid, &mut objectives, settings, &mut store)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let mut sweep = Sweep::new(model, &it, settings, responses.len());
@@ -174,9 +174,11 @@ pub(crate) fn run(
     }
     let (q0, acc0) = store.get(&mut it, grid, 0, false)?;
     sweep.initial(&mut it, q0, acc0)?;
+    objectives.finish(&mut values, &mut sweep.xb);
     Ok(Sensitivities {
         values,
         gradients: sweep.xb,
+        peaks: objectives.peaks(),
         method: Method::Adjoint,
         timings: Timings {
             simulation,
@@ -190,7 +192,7 @@ pub(crate) fn run(
 fn forward(
     it: &mut Integrator,
     grid: &TimeGrid,
-    objectives: &Objectives,
+    objectives: &mut Objectives,
     settings: &DynamicSettings,
     store: &mut StateStore,
 ) -> Result<Vec<f64>, Error> {
@@ -202,6 +204,7 @@ fn forward(
             it.alpha_step(&mut state, grid.step(n - 1))?;
         }
         let ctx = Context::dynamic(model, &it.assembler().densities, settings.mass);
+        objectives.observe(&ctx, &state.q, &mut values, &mut []);
         objectives.add_values(&ctx, n, &state.q, &mut values);
         store.record(n, &state);
     }

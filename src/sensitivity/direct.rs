@@ -45,7 +45,7 @@ pub(crate) fn run(
     responses: &[Response],
 ) -> Result<Sensitivities, Error> {
     let mut it = Integrator::new(model, densities, settings)?;
-    let objectives = Objectives::new(model, responses, grid)?;
+    let mut objectives = Objectives::new(model, responses, grid)?;
     let mut sweep = Sweep::new(model, &it, settings, responses.len());
     let mut timings = Timings::default();
     let clock = Instant::now();
@@ -53,7 +53,7 @@ pub(crate) fn run(
     timings.simulation += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     sweep.initial(&mut it, &state)?;
-    sweep.accumulate(&it, &objectives, 0, &state.q);
+    sweep.accumulate(&it, &mut objectives, 0, &state.q);
     timings.gradients += clock.elapsed().as_secs_f64();
     for (n, &h) in grid.steps().iter().enumerate() {
         let clock = Instant::now();
@@ -61,14 +61,16 @@ pub(crate) fn run(
         timings.simulation += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         sweep.step(&mut it, &state, h)?;
-        sweep.accumulate(&it, &objectives, n + 1, &state.q);
+        sweep.accumulate(&it, &mut objectives, n + 1, &state.q);
         timings.gradients += clock.elapsed().as_secs_f64();
     }
+    objectives.finish(&mut sweep.values, &mut sweep.gradients);
     Ok(Sensitivities {
         values: sweep.values,
         gradients: sweep.gradients,
         method: Method::Direct,
         timings,
+        peaks: objectives.peaks(),
     })
 }
 
@@ -215,8 +217,9 @@ impl<'a> Sweep<'a> {
 
     /// Adds state `n`'s share of the responses and of their gradients
     /// `G_x + G_q q'`.
-    fn accumulate(&mut self, it: &Integrator, objectives: &Objectives, n: usize, q: &[f64]) {
+    fn accumulate(&mut self, it: &Integrator, objectives: &mut Objectives, n: usize, q: &[f64]) {
         let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
+        objectives.observe(&ctx, q, &mut self.values, &mut self.gradients);
         objectives.add_values(&ctx, n, q, &mut self.values);
         let (n_q, n_x) = (self.n_q, self.n_x);
         // `max(1)`: a model without design variables has no gradient rows to visit.

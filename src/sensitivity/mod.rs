@@ -23,7 +23,7 @@ use crate::assembly::Assembler;
 use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::{Error, SettingsError};
 use crate::model::{Analysis, Densities, Model};
-use crate::response::{Context, Response};
+use crate::response::{Context, Known, Response};
 use crate::rigid::Clusters;
 use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
 use crate::time_grid::TimeGrid;
@@ -39,6 +39,9 @@ pub struct Sensitivities {
     pub method: Method,
     /// Wall time (s) of the simulation and of the sensitivity analysis.
     pub timings: Timings,
+    /// Per response: the largest point value of an aggregate (a stress response's peak,
+    /// Pa) over the states, `None` for the others.
+    pub peaks: Vec<Option<f64>>,
 }
 
 /// Where the time of a run with gradients went.
@@ -58,6 +61,9 @@ pub(crate) struct Objectives<'a> {
     rigid: Vec<Vec<[f64; 2]>>,
     analysis: Analysis,
     grid: &'a TimeGrid,
+    /// Per response: the reference of its aggregate, the largest point value so far (0
+    /// for the others).
+    references: Vec<f64>,
 }
 
 impl<'a> Objectives<'a> {
@@ -76,13 +82,65 @@ impl<'a> Objectives<'a> {
             rigid,
             analysis: model.analysis,
             grid,
+            references: vec![0.0; responses.len()],
         })
     }
 
-    /// The rigid position response `k` needs at state `n` (zeros for a response that
-    /// needs none: its trajectory is empty).
-    fn rigid_at(&self, k: usize, n: usize) -> [f64; 2] {
-        self.rigid[k].get(n).copied().unwrap_or_default()
+    /// What response `k` needs at state `n` besides the state: its rigid position (zeros
+    /// for a response that needs none: its trajectory is empty) and its reference.
+    fn known(&self, k: usize, n: usize) -> Known {
+        Known {
+            rigid: self.rigid[k].get(n).copied().unwrap_or_default(),
+            reference: self.references[k],
+        }
+    }
+
+    /// Raises the references of the aggregates to the point values of state `q`, carrying
+    /// the sums accumulated so far in `values` and in the rows of `gradients` (row-major,
+    /// empty when the caller keeps none) to the new reference. Call before
+    /// [`Self::add_values`] at every state.
+    fn observe(&mut self, ctx: &Context, q: &[f64], values: &mut [f64], gradients: &mut [f64]) {
+        let n_x = gradients.len() / values.len().max(1);
+        for (k, r) in self.responses.iter().enumerate() {
+            let Some(a) = r.aggregation() else { continue };
+            let peak = r.peak(ctx, q);
+            if peak > self.references[k] {
+                let factor = a.rescale(self.references[k], peak);
+                values[k] *= factor;
+                gradients
+                    .iter_mut()
+                    .skip(k * n_x)
+                    .take(n_x)
+                    .for_each(|g| *g *= factor);
+                self.references[k] = peak;
+            }
+        }
+    }
+
+    /// Turns the sums of the aggregates into their means, and their gradient rows
+    /// (row-major, possibly empty) by the chain rule.
+    fn finish(&self, values: &mut [f64], gradients: &mut [f64]) {
+        let n_x = gradients.len() / values.len().max(1);
+        for (k, r) in self.responses.iter().enumerate() {
+            if let Some(a) = r.aggregation() {
+                let (mean, slope) = a.mean(values[k], self.references[k]);
+                values[k] = mean;
+                gradients
+                    .iter_mut()
+                    .skip(k * n_x)
+                    .take(n_x)
+                    .for_each(|g| *g *= slope);
+            }
+        }
+    }
+
+    /// The peaks of the aggregates over the states observed.
+    fn peaks(&self) -> Vec<Option<f64>> {
+        self.responses
+            .iter()
+            .zip(&self.references)
+            .map(|(r, &p)| r.aggregation().map(|_| p))
+            .collect()
     }
 
     /// Adds `wₙ G_k(qₙ)` to each value (and the explicit responses once, at `n = 0`).
@@ -90,13 +148,13 @@ impl<'a> Objectives<'a> {
         for (k, r) in self.responses.iter().enumerate() {
             if !r.depends_on_states() {
                 if n == 0 {
-                    values[k] += r.integrand(ctx, q, [0.0; 2]);
+                    values[k] += r.integrand(ctx, q, Known::default());
                 }
                 continue;
             }
             let w = r.weight(self.analysis, n, self.grid);
             if w != 0.0 {
-                values[k] += w * r.integrand(ctx, q, self.rigid_at(k, n));
+                values[k] += w * r.integrand(ctx, q, self.known(k, n));
             }
         }
     }
@@ -119,7 +177,7 @@ impl<'a> Objectives<'a> {
             f64::from(u8::from(n == 0))
         };
         if w != 0.0 {
-            r.add_partials(ctx, q, self.rigid_at(k, n), w, g_q, g_x);
+            r.add_partials(ctx, q, self.known(k, n), w, g_q, g_x);
         }
     }
 }
@@ -341,11 +399,13 @@ pub fn evaluate(
         static_load: &load,
         mass_kind: MassKind::Consistent,
     };
-    let objectives = Objectives::new(model, responses, &grid)?;
+    let mut objectives = Objectives::new(model, responses, &grid)?;
     let mut values = vec![0.0; responses.len()];
     for (n, q) in q.chunks(n_q).enumerate() {
+        objectives.observe(&ctx, q, &mut values, &mut []);
         objectives.add_values(&ctx, n, q, &mut values);
     }
+    objectives.finish(&mut values, &mut []);
     Ok(values)
 }
 
@@ -372,6 +432,7 @@ fn explicit(
         gradients,
         method: Method::Direct,
         timings: Timings::default(),
+        peaks: objectives.peaks(),
     })
 }
 

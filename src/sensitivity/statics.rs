@@ -29,14 +29,17 @@ pub(crate) fn run(
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     newton.factorize(Some(&sol.q), 0.0, settings.time)?;
-    let local = Local::at(&newton, settings.time, responses, &sol.q)?;
-    let (values, gradients) = match method {
+    let grid = TimeGrid::single();
+    let (local, objectives) = Local::at(&newton, settings.time, responses, &grid, &sol.q)?;
+    let (mut values, mut gradients) = match method {
         Method::Direct => direct(&newton, &sol.q, local)?,
         _ => adjoint(&newton, &sol.q, local)?,
     };
+    objectives.finish(&mut values, &mut gradients);
     Ok(Sensitivities {
         values,
         gradients,
+        peaks: objectives.peaks(),
         method,
         timings: Timings {
             simulation,
@@ -54,7 +57,14 @@ struct Local {
 }
 
 impl Local {
-    fn at(newton: &Newton, time: f64, responses: &[Response], q: &[f64]) -> Result<Self, Error> {
+    /// The local partials, and the objectives that turn sums into aggregates' means.
+    fn at<'a>(
+        newton: &Newton,
+        time: f64,
+        responses: &'a [Response],
+        grid: &'a TimeGrid,
+        q: &[f64],
+    ) -> Result<(Self, Objectives<'a>), Error> {
         let asm = newton.assembler();
         let model = asm.model;
         let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
@@ -67,13 +77,13 @@ impl Local {
             static_load: &load,
             mass_kind: MassKind::Consistent,
         };
-        let grid = TimeGrid::single();
-        let objectives = Objectives::new(model, responses, &grid)?;
+        let mut objectives = Objectives::new(model, responses, grid)?;
         let mut local = Self {
             values: vec![0.0; n_r],
             g_q: vec![0.0; n_q * n_r],
             g_x: vec![0.0; n_x * n_r],
         };
+        objectives.observe(&ctx, q, &mut local.values, &mut []);
         objectives.add_values(&ctx, 0, q, &mut local.values);
         for k in 0..n_r {
             objectives.add_partials(
@@ -85,7 +95,7 @@ impl Local {
                 &mut local.g_x[k * n_x..(k + 1) * n_x],
             );
         }
-        Ok(local)
+        Ok((local, objectives))
     }
 }
 

@@ -104,13 +104,15 @@ pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r:
     }
 }
 
-pub(crate) const DYNAMIC: [&str; 6] = [
+pub(crate) const DYNAMIC: [&str; 8] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
     "volume:link1",
     "displacement:link2[4,2]:0,1",
     "integrated_displacement:link1[2,0]:1,1",
+    "stress",
+    "stress:link1:ks=30,scale=1e6,q=0",
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.
@@ -167,7 +169,7 @@ fn static_compliance_gradients_match_finite_differences() {
     let truss = scene::build(&spec).expect("valid scene");
     let rs = responses(
         &truss,
-        &["compliance", "volume", "displacement:truss[4,1]:0,-1"],
+        &["compliance", "volume", "displacement:truss[4,1]:0,-1", "stress", "stress:p=16,q=1"],
     );
     let settings = StaticSettings {
         tol: 1e-13,
