@@ -16,7 +16,8 @@
 //!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
 //! * [`Response`] and [`of_motion`] / [`of_equilibrium`] — responses of paper Eq. 8 and
 //!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint;
-//!   stresses condensed by the p-mean or KS mean of [`Aggregation`].
+//!   stresses and buckling ratios ([`Measure`]) condensed by the p-mean or KS mean of
+//!   [`Aggregation`].
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
 //! [`load`], [`section`], [`interpolation`]) are public modules; the solvers are private
@@ -53,6 +54,7 @@ mod settings;
 mod simulation;
 mod statics;
 mod step_control;
+mod stress;
 mod time_grid;
 
 #[cfg(feature = "python")]
@@ -78,4 +80,5 @@ pub use settings::{
 pub use simulation::{simulate, simulate_adaptive, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES};
 pub use statics::{solve_static, StaticSolution};
 pub use step_control::StepControl;
+pub use stress::Measure;
 pub use time_grid::TimeGrid;

@@ -11,6 +11,7 @@
 //! exponential of the stresses, mapped to stress units at the end ([`crate::aggregate`]).
 
 use crate::aggregate::Aggregation;
+use crate::stress::{ElementState, Measure};
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
@@ -50,16 +51,17 @@ pub enum Response {
         /// Unit direction.
         direction: [f64; 2],
     },
-    /// Fibre stresses `σ = x^q (N/A ± M c/I)` along both outer fibres of every element of
-    /// one component or all, condensed over the motion and the structure's length by a
-    /// p-mean or KS mean (Pa): trapezoidal in time, six Gauss–Lobatto points per element
-    /// along the linear moment. `N`, `M` are the full-density section forces, so `x⁰` gives the
-    /// solid material's stress; `x^q` with `q > 0` is the relaxation that keeps vanishing
-    /// bars from dominating (Le et al. 2010 use `q = ½`).
-    Stress {
+    /// A [`Measure`] (fibre stresses in Pa, or Euler buckling ratios) at the points of every
+    /// element of one component or all, condensed over the motion (trapezoidal in time) and
+    /// the structure's length by a p-mean or KS mean. The measures use full-density section
+    /// forces, so `x⁰` gives the solid material's value; `x^q` with `q > 0` is the
+    /// relaxation that keeps vanishing bars from dominating (Le et al. 2010 use `q = ½`).
+    Aggregate {
+        /// What is measured.
+        measure: Measure,
         /// Component, or `None` for all.
         component: Option<usize>,
-        /// How the point stresses are condensed.
+        /// How the point values are condensed.
         aggregation: Aggregation,
         /// Relaxation exponent `q`.
         relaxation: f64,
@@ -160,17 +162,19 @@ impl Response {
             }
             "displacement" => node_and_direction(rest).map(|(node, direction)| Self::FinalDisplacement { node, direction }),
             "integrated_displacement" => node_and_direction(rest).map(|(node, direction)| Self::IntegratedDisplacement { node, direction }),
-            "stress" => {
+            "stress" | "buckling" => {
+                let measure = if name == "stress" { Measure::Stress } else { Measure::Buckling };
                 let (comp, options) = component_and_options(rest).map_err(err)?;
                 let component = component(comp)?;
-                Self::stress(model, component, &options).map_err(err)
+                Self::aggregate(model, measure, component, &options).map_err(err)
             }
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement or stress".into())),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress or buckling".into())),
         }
     }
 
-    /// A stress response over `component` from `key=value` options `p`, `ks`, `scale`, `q`.
-    fn stress(model: &Model, component: Option<usize>, options: &[(String, f64)]) -> Result<Self, String> {
+    /// An aggregate of `measure` over `component` from `key=value` options `p`, `ks`,
+    /// `scale`, `q`.
+    fn aggregate(model: &Model, measure: Measure, component: Option<usize>, options: &[(String, f64)]) -> Result<Self, String> {
         let get = |key: &str| options.iter().find(|(k, _)| k == key).map(|&(_, v)| v);
         if let Some((k, _)) = options.iter().find(|(k, _)| !["p", "ks", "scale", "q"].contains(&k.as_str())) {
             return Err(format!("unknown option '{k}' (options: p, ks, scale, q)"));
@@ -184,11 +188,11 @@ impl Response {
         if elements.is_empty() {
             return Err("no elements to take stresses in".into());
         }
-        if let Some(&e) = elements.iter().find(|&&e| model.elements[e].beam.section.fibre.is_none()) {
+        if let Some(&e) = elements.iter().find(|&&e| measure == Measure::Stress && model.elements[e].beam.section.fibre.is_none()) {
             return Err(format!("the section of bar '{}' has no outer-fibre distance; give `c` in its [sections] entry", model.bars[model.elements[e].bar].name));
         }
         let length = elements.iter().map(|&e| model.elements[e].beam.length).sum();
-        Ok(Self::Stress { component, aggregation, relaxation, length })
+        Ok(Self::Aggregate { measure, component, aggregation, relaxation, length })
     }
 
     fn weighting(&self, analysis: Analysis) -> Weighting {
@@ -245,7 +249,7 @@ impl<'a> Context<'a> {
 impl Response {
     /// Integrand `G(qₙ, x)` at state `n`, with what the caller `known` at that state (the
     /// rigid position of a tip node, an aggregate's reference); for [`Response::Volume`],
-    /// the volume; for [`Response::Stress`], the state's share of the sum of
+    /// the volume; for [`Response::Aggregate`], the state's share of the sum of
     /// [`Aggregation::point`] before the weight in time.
     pub fn integrand(&self, ctx: &Context, q: &[f64], known: Known) -> f64 {
         let m = ctx.model;
@@ -274,23 +278,24 @@ impl Response {
             | Self::IntegratedDisplacement { node, direction } => {
                 direction[0] * q[3 * node] + direction[1] * q[3 * node + 1]
             }
-            Self::Stress { component, aggregation, relaxation, length } => elements_of(m, component)
-                .map(|e| {
+            Self::Aggregate { measure, component, aggregation, relaxation, length } => {
+                let mut sum = 0.0;
+                for e in elements_of(m, component) {
                     let share = m.elements[e].beam.length / length;
-                    FibreStress::of(ctx, e, q, relaxation)
-                        .points()
-                        .map(|(w, sigma, _)| share * w * aggregation.point(sigma, known.reference).0)
-                        .sum::<f64>()
-                })
-                .sum(),
+                    measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, _| {
+                        sum += share * w * aggregation.point(v, known.reference).0;
+                    });
+                }
+                sum
+            }
         }
     }
 
     /// The largest point value of an aggregate at state `q` (0 for other responses).
     pub fn peak(&self, ctx: &Context, q: &[f64]) -> f64 {
         match *self {
-            Self::Stress { component, relaxation, .. } => elements_of(ctx.model, component)
-                .map(|e| FibreStress::of(ctx, e, q, relaxation).peak())
+            Self::Aggregate { measure, component, relaxation, .. } => elements_of(ctx.model, component)
+                .map(|e| measure.peak(&at(ctx, e, q, relaxation)))
                 .fold(0.0, f64::max),
             _ => 0.0,
         }
@@ -299,7 +304,7 @@ impl Response {
     /// The aggregation of an aggregate response.
     pub fn aggregation(&self) -> Option<Aggregation> {
         match *self {
-            Self::Stress { aggregation, .. } => Some(aggregation),
+            Self::Aggregate { aggregation, .. } => Some(aggregation),
             _ => None,
         }
     }
@@ -369,19 +374,19 @@ impl Response {
                 g_q[3 * node] += scale * direction[0];
                 g_q[3 * node + 1] += scale * direction[1];
             }
-            Self::Stress { component, aggregation, relaxation, length } => {
+            Self::Aggregate { measure, component, aggregation, relaxation, length } => {
                 for e in elements_of(m, component) {
                     let el = &m.elements[e];
                     let share = scale * el.beam.length / length;
-                    let x = ctx.densities.density[e];
-                    for (w, sigma, d_sigma) in FibreStress::of(ctx, e, q, relaxation).points() {
-                        let slope = share * w * aggregation.point(sigma, known.reference).1;
-                        el.dofs().iter().zip(d_sigma.iter()).for_each(|(&d, v)| g_q[d] += slope * v);
-                        // ∂σ/∂x = q x^{q−1} σ_solid = (q/x) σ.
-                        if let Some(v) = m.variable_of(e) {
-                            g_x[v] += slope * relaxation / x * sigma;
+                    let (x, dofs, variable) = (ctx.densities.density[e], el.dofs(), m.variable_of(e));
+                    measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, d_v| {
+                        let slope = share * w * aggregation.point(v, known.reference).1;
+                        dofs.iter().zip(d_v.iter()).for_each(|(&d, g)| g_q[d] += slope * g);
+                        // ∂v/∂x = q x^{q−1} v_solid = (q/x) v.
+                        if let Some(j) = variable {
+                            g_x[j] += slope * relaxation / x * v;
                         }
-                    }
+                    });
                 }
             }
         }
@@ -396,65 +401,15 @@ impl Response {
     }
 }
 
-/// Six-point Gauss–Lobatto rule on `[0, 1]` (abscissa, weight; weights sum to 1): exact for
-/// polynomials of degree 9, so for `|σ|^p`, `p ∈ {2, 4, 6, 8}`, of a stress linear along the
-/// element; with both ends among its points, a mean tends to the peak as `p` or `ρ` grows.
-const LOBATTO: [(f64, f64); 6] = [
-    (0.0, 1.0 / 30.0),
-    (0.117_472_338_035_267_74, 0.189_237_478_148_923_55),
-    (0.357_384_241_759_677_2, 0.277_429_188_517_743_1),
-    (0.642_615_758_240_322_6, 0.277_429_188_517_743_1),
-    (0.882_527_661_964_732_4, 0.189_237_478_148_923_55),
-    (1.0, 1.0 / 30.0),
-];
-
-/// The fibre stresses of an element, relaxed: the axial part `a = x^q N/A` and the bending
-/// parts `b₁ = −x^q M₁ c/I`, `b₂ = x^q M₂ c/I` at its ends (the bending moment runs linearly
-/// from `−M₁` to `M₂`: no load acts inside an element), with their derivatives with respect
-/// to the element's DOFs. `N`, `M` are full-density section forces, so `q = 0` gives the
-/// solid material's stress `E(ε ± κ c)`.
-struct FibreStress {
-    axial: (f64, Vector6),
-    bending: [(f64, Vector6); 2],
-}
-
-impl FibreStress {
-    fn of(ctx: &Context, e: usize, q: &[f64], relaxation: f64) -> Self {
-        let el = &ctx.model.elements[e];
-        let (forces, jacobian) = el.beam.section_forces_and_jacobian(&el.gather(q));
-        let relax = ctx.densities.density[e].powf(relaxation);
-        // Per unit N and M; a parse-time check guarantees the fibre distance.
-        let (per_n, per_m) = el.beam.section.fibre_stress(1.0, 1.0).unwrap_or((0.0, 0.0));
-        let part = |row: usize, factor: f64| {
-            let f = relax * factor;
-            (f * forces[row], jacobian.row(row).transpose() * f)
-        };
-        Self {
-            axial: part(0, per_n),
-            bending: [part(1, -per_m), part(2, per_m)],
-        }
-    }
-
-    /// `σ = a ± ((1 − s) b₁ + s b₂)` and `∂σ/∂u` at `s ∈ [0, 1]` on fibre `side = ±1`.
-    fn at(&self, s: f64, side: f64) -> (f64, Vector6) {
-        let ([b1, b2], a) = (&self.bending, &self.axial);
-        let (l1, l2) = (side * (1.0 - s), side * s);
-        (a.0 + l1 * b1.0 + l2 * b2.0, a.1 + b1.1 * l1 + b2.1 * l2)
-    }
-
-    /// Quadrature points along both fibres, `(weight, σ, ∂σ/∂u)`, the weights summing to 1.
-    fn points(&self) -> impl Iterator<Item = (f64, f64, Vector6)> + '_ {
-        [1.0, -1.0].into_iter().flat_map(move |side| {
-            LOBATTO.iter().map(move |&(s, w)| {
-                let (sigma, d) = self.at(s, side);
-                (0.5 * w, sigma, d)
-            })
-        })
-    }
-
-    /// The largest `|σ|`: at an end, on the fibre where bending adds to the axial part.
-    fn peak(&self) -> f64 {
-        self.axial.0.abs() + self.bending[0].0.abs().max(self.bending[1].0.abs())
+/// Element `e` at state `q`, as a [`Measure`] reads it.
+fn at<'a>(ctx: &'a Context, e: usize, q: &'a [f64], relaxation: f64) -> ElementState<'a> {
+    let m = ctx.model;
+    let el = &m.elements[e];
+    ElementState {
+        element: el,
+        bar_length: m.bars[el.bar].volume / el.beam.section.area,
+        relax: ctx.densities.density[e].powf(relaxation),
+        q,
     }
 }
 
@@ -487,15 +442,3 @@ fn elements_of(m: &Model, component: Option<usize>) -> impl Iterator<Item = usiz
         .filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::LOBATTO;
-
-    #[test]
-    fn lobatto_rule_integrates_degree_nine_exactly() {
-        for k in 0..=9 {
-            let sum: f64 = LOBATTO.iter().map(|&(s, w)| w * s.powi(k)).sum();
-            assert!((sum - 1.0 / f64::from(k + 1)).abs() < 1e-15, "degree {k}");
-        }
-    }
-}

@@ -104,7 +104,7 @@ pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r:
     }
 }
 
-pub(crate) const DYNAMIC: [&str; 8] = [
+pub(crate) const DYNAMIC: [&str; 9] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
@@ -113,6 +113,7 @@ pub(crate) const DYNAMIC: [&str; 8] = [
     "integrated_displacement:link1[2,0]:1,1",
     "stress",
     "stress:link1:ks=30,scale=1e6,q=0",
+    "buckling:p=4",
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.
@@ -169,7 +170,7 @@ fn static_compliance_gradients_match_finite_differences() {
     let truss = scene::build(&spec).expect("valid scene");
     let rs = responses(
         &truss,
-        &["compliance", "volume", "displacement:truss[4,1]:0,-1", "stress", "stress:p=16,q=1"],
+        &["compliance", "volume", "displacement:truss[4,1]:0,-1", "stress", "stress:p=16,q=1", "buckling:ks=20,scale=1e-3"],
     );
     let settings = StaticSettings {
         tol: 1e-13,
