@@ -12,8 +12,16 @@ exact gradients. One constraint is a floor instead: ``("min_frequency", f_min)``
 structure's lowest natural frequency at rest (drives locked) above ``f_min`` (Hz), as
 ``g = 1 − KS/f_min ≤ 0`` with KS the smooth lower bound over the lowest
 :data:`FLOOR_MODES` frequencies (:func:`flextop.modal.ks_lowest`, differentiable where
-they coincide), each to :data:`FLOOR_RTOL` against the converged structure. A simulation that fails becomes an
-:class:`~flextop.optimizers.EvaluationError`, which the optimizer recovers from.
+they coincide), each to :data:`FLOOR_RTOL` against the converged structure.
+
+A limit on an aggregate (``("stress", σ_max)``, ``("stress:COMPONENT:OPTIONS", σ_max)``,
+``("buckling", b_max)``) bounds its peak through the adaptive normalization of Le, Norato,
+Bruns, Ha and Tortorelli (Struct. Multidisc. Optim. 41, 2010): the response is a p-mean or
+KS mean P, below the peak, and the optimizer sees ``g = c P/b − 1`` with ``c`` the ratio
+peak/P of the previous evaluation, damped (:data:`NORMALIZATION_DAMPING`), so that c P
+tracks the peak as the design settles, while g stays smooth within an evaluation. A
+simulation that fails becomes an :class:`~flextop.optimizers.EvaluationError`, which the
+optimizer recovers from.
 """
 
 from __future__ import annotations
@@ -43,6 +51,18 @@ FLOOR_RHO = 50.0
 
 FLOOR_RTOL = 1e-3
 """Relative tolerance of the floor's frequencies against the converged structure."""
+
+
+AGGREGATES = ("stress", "buckling")
+"""Responses that are means of point values, reported with their peaks."""
+
+NORMALIZATION_DAMPING = 0.5
+"""α of the normalization update ``c ← α peak/P + (1 − α) c`` (Le et al. 2010)."""
+
+
+def is_aggregate(name: str) -> bool:
+    """Whether the response ``name`` is a p-mean or KS mean with a peak (stress, buckling)."""
+    return name.split(":", 1)[0] in AGGREGATES
 
 
 def relation(name: str) -> str:
@@ -92,6 +112,7 @@ class TopologyProblem(Problem):
         self.discretization: Discretization | None = None
         self.refinements: list[tuple[int, Discretization]] = []
         self.evaluations = 0
+        self.normalization: dict[str, float] = {}
         n = simulation.n_design
         super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
 
@@ -117,12 +138,21 @@ class TopologyProblem(Problem):
             self.timings[key] += seconds
         if self.objective_scale is None:
             self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
-        g, dg = self._constraints(x, f[1:], dfdx[1:])
+        g, dg = self._constraints(x, f[1:], dfdx[1:], out.peaks)
         return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
 
-    def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _normalized(self, name: str, mean: float, peak: float) -> float:
+        """The factor ``c`` of this evaluation (the previous ratio, or this one's at the
+        first), and the damped update for the next."""
+        ratio = peak / mean if mean > 0 else 1.0
+        c = self.normalization.get(name, ratio)
+        self.normalization[name] = NORMALIZATION_DAMPING * ratio + (1 - NORMALIZATION_DAMPING) * c
+        return c
+
+    def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray,
+                     peaks: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """``g_j`` and their gradients, in the constraints' order: ``r/b − 1`` for an upper
-        bound, ``1 − KS/f_min`` for the frequency floor."""
+        bound, ``c r/b − 1`` for an aggregate, ``1 − KS/f_min`` for the frequency floor."""
         g, dg, k, modes = [], [], 0, None
         for name, bound in self.constraints:
             if name == MIN_FREQUENCY:
@@ -135,8 +165,9 @@ class TopologyProblem(Problem):
                 g.append(1.0 - ks / bound)
                 dg.append(-dks / bound)
             else:
-                g.append(r[k] / bound - 1.0)
-                dg.append(drdx[k] / bound)
+                c = self._normalized(name, r[k], peaks[name]) if is_aggregate(name) else 1.0
+                g.append(c * r[k] / bound - 1.0)
+                dg.append(c * drdx[k] / bound)
                 k += 1
         return np.array(g), np.array(dg).reshape(len(g), len(x))
 
@@ -165,8 +196,8 @@ class TopologyProblem(Problem):
         return f0 * (1.0 if self.objective_scale is None else self.objective_scale)
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
-        """``f``, the constrained responses ``rⱼ`` (beside their bounds ``bⱼ``) and ``∇f``,
-        in the responses' units."""
+        """``f``, the constrained responses ``rⱼ`` (beside their bounds ``bⱼ``; an aggregate's
+        normalized ``c P``) and ``∇f``, in the responses' units."""
         bounds = np.array([b for _, b in self.constraints])
         floor = np.array([name == MIN_FREQUENCY for name, _ in self.constraints], bool)
         values = np.where(floor, 1.0 - evaluation.g, evaluation.g + 1.0) * bounds
@@ -177,7 +208,8 @@ class TopologyProblem(Problem):
         """What rebuilds this problem on the same scene (for checkpoints)."""
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,
                 "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol, "atol": self.atol,
-                "discretization": None if self.discretization is None else list(astuple(self.discretization))}
+                "discretization": None if self.discretization is None else list(astuple(self.discretization)),
+                "normalization": dict(self.normalization)}
 
     @classmethod
     def from_dict(cls, simulation: Simulation, data: Mapping[str, Any]) -> TopologyProblem:
@@ -185,6 +217,7 @@ class TopologyProblem(Problem):
                       method=data["method"], objective_scale=data["objective_scale"], rtol=data.get("rtol"), atol=data.get("atol"))
         if data.get("discretization"):
             problem.discretization = Discretization(*data["discretization"])
+        problem.normalization = dict(data.get("normalization", {}))
         return problem
 
 

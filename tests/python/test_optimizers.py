@@ -275,3 +275,20 @@ def test_callback_can_stop():
     assert result.status == Status.CALLBACK and result.nit == 3
     record = result.history[-1]
     assert record.eval_time >= 0.0 and record.solve_time > 0.0
+
+
+def test_a_bad_start_or_method_is_named():
+    """The start is one number (for every variable) or one per variable, finite; anything
+    else is a DesignError, an unknown method a SettingsError."""
+    from flextop.errors import DesignError, SettingsError
+
+    problem = cantilever()
+    with pytest.raises(DesignError, match="x0 must be one finite number or 5"):
+        optimize(problem, [1.0, 2.0])
+    with pytest.raises(DesignError, match="x0 must be one finite number"):
+        optimize(problem, np.full(5, np.nan))
+    with pytest.raises(DesignError, match="x0 must be numbers"):
+        optimize(problem, "five")
+    with pytest.raises(SettingsError, match="unknown method 'newton'"):
+        optimize(problem, 5.0, "newton")
+    assert np.array_equal(optimize(problem, 5.0, max_iter=3).x, optimize(problem, np.full(5, 5.0), max_iter=3).x)

@@ -16,6 +16,7 @@ from time import perf_counter
 
 import numpy as np
 
+from ..errors import DesignError, SettingsError
 from .conlin import Conlin
 from .method import Method
 from .mma import GCMMA, MMA
@@ -127,7 +128,7 @@ def _resolve_method(method: str | Method) -> Method:
     try:
         return METHODS[method.lower()]()
     except KeyError:
-        raise ValueError(f"unknown method {method!r}; choose from {sorted(METHODS)}") from None
+        raise SettingsError(f"unknown method {method!r}; choose from {sorted(METHODS)}") from None
 
 
 def _is_feasible(g: np.ndarray, feas_tol: float) -> bool:
@@ -145,9 +146,13 @@ def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) ->
 def _initial_state(problem: Problem, x0, method: Method, move: float,
                    evaluate: _CountingEvaluator, feas_tol: float) -> OptimizerState:
     """Evaluate the (bound-clipped) start design; multipliers start at zero."""
-    x = np.asarray(x0, dtype=float)
-    if x.shape != (problem.n,):
-        raise ValueError(f"x0 has shape {x.shape}, expected ({problem.n},)")
+    try:
+        x = np.asarray(x0, dtype=float)
+    except (TypeError, ValueError):
+        raise DesignError(f"x0 must be numbers, got {type(x0).__name__}") from None
+    x = np.full(problem.n, float(x)) if x.ndim == 0 else x
+    if x.shape != (problem.n,) or not np.all(np.isfinite(x)):
+        raise DesignError(f"x0 must be one finite number or {problem.n}, got shape {x.shape}")
     x = np.clip(x, problem.lower, problem.upper)
     evaluation = evaluate(x)
     multipliers = np.zeros(problem.m)
@@ -274,8 +279,9 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     ----------
     problem : Problem
         Gives n, m, bounds and ``evaluate(x) -> Evaluation``.
-    x0 : array (n,)
-        Start design (clipped to the bounds); ignored when resuming.
+    x0 : array (n,) or one number
+        Start design (clipped to the bounds; one number for every variable); ignored when
+        resuming.
     method : "mma", "gcmma", "conlin" or a configured :class:`Method`
         (e.g. ``MMA(asyincr=1.1)``).
     max_iter : total number of outer iterations, including those done before a resume.
@@ -294,13 +300,13 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     evaluate = _CountingEvaluator(problem, calls=0 if state is None else state.nfev)
     if state is None:
         if x0 is None:
-            raise ValueError("x0 is required unless a state is given")
+            raise DesignError("x0 is required unless a state is given")
         try:
             state = _initial_state(problem, x0, method, move, evaluate, feas_tol)
         except EvaluationError as error:
             return _failed_start(problem, x0, error, evaluate.calls)
     elif state.method != method.name or state.x.shape != (problem.n,):
-        raise ValueError(f"state of a {state.method} run with n = {state.x.size} does not fit "
+        raise SettingsError(f"state of a {state.method} run with n = {state.x.size} does not fit "
                          f"method {method.name} with n = {problem.n}")
     tolerances = {"kkt_tol": kkt_tol, "xtol": xtol, "ftol": ftol}
     status = None
