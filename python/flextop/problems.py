@@ -249,3 +249,15 @@ def robot_arm_problem(objective: str = "tip_deflection", volume_fraction: float 
     compliance (Eq. 39) over the motion, V_i ≤ 0.4 V_full,i for each link (Eq. 41)."""
     sim = Simulation(scenes.robot_arm(**scene), accuracy=accuracy)
     return TopologyProblem(sim, objective, volume_constraints(sim, volume_fraction), settings=settings)
+
+
+TEN_BAR_ALLOWABLE = 25 * scenes.KSI
+"""The literature's allowable stress of every member of the ten-bar truss (Pa)."""
+
+
+def ten_bar_truss_problem(allowable: float = TEN_BAR_ALLOWABLE, **scene: Any) -> TopologyProblem:
+    """Minimum volume of :func:`flextop.scenes.ten_bar_truss` with ``|σ| ≤ allowable`` in
+    every member (the true stress, ``q = 0``, as in the literature): a stress-constrained
+    problem with a known optimum, 1593.2 lb at 0.1 lb/in³ (Haftka and Gürdal 1992)."""
+    sim = Simulation(scenes.ten_bar_truss(**scene))
+    return TopologyProblem(sim, "volume", [(f"stress:{c}:q=0", allowable) for c in sim.components])

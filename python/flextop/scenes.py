@@ -97,7 +97,44 @@ def spun_beam(*, bars: int = 8, length: float = 1.0, split: int = 1, tip_mass: f
     return scene
 
 
-BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam}
+INCH, KIP, KSI = 0.0254, 4448.2216152605, 6.894757293168e6
+"""US customary units in SI (m, N, Pa), for the literature's ten-bar truss."""
+
+
+def ten_bar_truss(*, bay: float = 360 * INCH, load: float = 100 * KIP, E: float = 1e4 * KSI, area: float = 10 * INCH**2,
+                  x_min: float = 0.01) -> Scene:
+    """The ten-bar truss of the structural optimization literature (Venkayya 1971; Schmit
+    and Farshi 1974; Haftka and Gürdal, *Elements of Structural Optimization*, 1992): two
+    ``bay``-square bays cantilevered from pinned supports, ``load`` down at the two lower free
+    joints. Members are bars hinged at every joint (a truss: no moment at their ends),
+    each its own component ``m1``…``m10`` in the literature's numbering, of area ``x · area``
+    (linear stiffness law, so ``x`` is the area fraction; ``x_min · area`` the minimum
+    gauge). Static, without gravity. SI units; the literature's are inches, kips, ksi."""
+    scene = Scene("ten_bar_truss", analysis="static")
+    scene.section("member", E=E, nu=0.3, rho=2768.0, A=area, I=area**2 / (4 * math.pi), kappa=0.9,
+                  c=math.sqrt(area / math.pi))
+    joints = {1: (2, 1), 2: (2, 0), 3: (1, 1), 4: (1, 0), 5: (0, 1), 6: (0, 0)}
+    members = [(5, 3), (3, 1), (6, 4), (4, 2), (3, 4), (1, 2), (5, 4), (6, 3), (3, 2), (4, 1)]
+    first: dict[int, str] = {}
+    for k, (a, b) in enumerate(members, start=1):
+        ends = []
+        for j in (a, b):
+            name = scene.node(f"m{k}@{j}", joints[j][0] * bay, joints[j][1] * bay)
+            if j in first:
+                scene.hinge(f"joint{j}/m{k}", first[j], name)
+            else:
+                first[j] = name
+            ends.append(name)
+        scene.beam(*ends, section="member", name=f"m{k}", component=f"m{k}")
+    for j in (5, 6):
+        scene.pin(f"support{j}", first[j])
+    for j in (2, 4):
+        scene.load(first[j], force=(0.0, -load))
+    scene.design(interpolation="simp", p=1.0, x_min=x_min)
+    return scene
+
+
+BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam, "ten_bar_truss": ten_bar_truss}
 """The scenes the command line knows by name."""
 
 
