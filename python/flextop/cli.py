@@ -146,11 +146,16 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
         constraints = volume_constraints(sim, args.volume_fraction or 0.4, per_component=not args.global_volume)
         if args.min_frequency is not None:
             constraints.append((MIN_FREQUENCY, args.min_frequency))
+        if args.max_stress is not None:
+            constraints.append(("stress", args.max_stress))
+        if args.max_buckling is not None:
+            constraints.append(("buckling", args.max_buckling))
         return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
-    if args.min_frequency is not None:
-        raise SettingsError("--min-frequency applies to one scene, not to --scenarios")
+    for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling)):
+        if value is not None:
+            raise SettingsError(f"{flag} applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
     first = Simulation(cases[0].spec(), accuracy=args.accuracy)
     constraints = volume_constraints(first, args.volume_fraction or 0.4, per_component=not args.global_volume)
@@ -295,7 +300,8 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     fixed = {"--volume-fraction": args.volume_fraction, "--global-volume": args.global_volume or None, "--x0": args.x0,
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
-             "--xtol": args.xtol, "--min-frequency": args.min_frequency}
+             "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
+             "--max-buckling": args.max_buckling}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -426,6 +432,10 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",
                    help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest six, to 1e-3)")
+    o.add_argument("--max-stress", type=_positive(float), metavar="PA",
+                   help="a limit on the peak fibre stress over the motion (p-mean, q = 0.5, normalized to the peak)")
+    o.add_argument("--max-buckling", type=_positive(float), metavar="RATIO",
+                   help="a limit on the peak compression over the Euler load of the bars (1 = buckling)")
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")

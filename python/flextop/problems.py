@@ -17,9 +17,10 @@ they coincide), each to :data:`FLOOR_RTOL` against the converged structure.
 A limit on an aggregate (``("stress", σ_max)``, ``("stress:COMPONENT:OPTIONS", σ_max)``,
 ``("buckling", b_max)``) bounds its peak through the adaptive normalization of Le, Norato,
 Bruns, Ha and Tortorelli (Struct. Multidisc. Optim. 41, 2010): the response is a p-mean or
-KS mean P, below the peak, and the optimizer sees ``g = c P/b − 1`` with ``c`` the ratio
-peak/P of the previous evaluation, damped (:data:`NORMALIZATION_DAMPING`), so that c P
-tracks the peak as the design settles, while g stays smooth within an evaluation. A
+KS mean P, below the peak, and the optimizer sees ``g = c P/b − 1``. The factor ``c`` starts
+at the start design's ratio peak/P and moves, once per iteration, towards the ratio at the
+design accepted (damped by :data:`NORMALIZATION_DAMPING`), so that c P tracks the peak as
+the design settles while every iteration, inner ones included, sees fixed functions. A
 simulation that fails becomes an :class:`~flextop.optimizers.EvaluationError`, which the
 optimizer recovers from.
 """
@@ -113,6 +114,7 @@ class TopologyProblem(Problem):
         self.refinements: list[tuple[int, Discretization]] = []
         self.evaluations = 0
         self.normalization: dict[str, float] = {}
+        self._ratios: dict[bytes, dict[str, float]] = {}
         n = simulation.n_design
         super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
 
@@ -141,13 +143,26 @@ class TopologyProblem(Problem):
         g, dg = self._constraints(x, f[1:], dfdx[1:], out.peaks)
         return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
 
-    def _normalized(self, name: str, mean: float, peak: float) -> float:
-        """The factor ``c`` of this evaluation (the previous ratio, or this one's at the
-        first), and the damped update for the next."""
+    def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
+        """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
+        ratio peak/P of this design kept for :meth:`accept`."""
         ratio = peak / mean if mean > 0 else 1.0
-        c = self.normalization.get(name, ratio)
-        self.normalization[name] = NORMALIZATION_DAMPING * ratio + (1 - NORMALIZATION_DAMPING) * c
-        return c
+        self._ratios.setdefault(x.tobytes(), {})[name] = ratio
+        return self.normalization.setdefault(name, ratio)
+
+    def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Moves each aggregate's ``c`` towards the ratio peak/P at the accepted design and
+        rescales its constraint in ``evaluation`` to the new ``c``."""
+        ratios, self._ratios = self._ratios.get(np.asarray(x, float).tobytes(), {}), {}
+        g, dg = evaluation.g.copy(), evaluation.dg.copy()
+        for j, (name, _) in enumerate(self.constraints):
+            if name in ratios:
+                old = self.normalization[name]
+                new = NORMALIZATION_DAMPING * ratios[name] + (1 - NORMALIZATION_DAMPING) * old
+                self.normalization[name] = new
+                g[j] = new / old * (g[j] + 1.0) - 1.0
+                dg[j] *= new / old
+        return Evaluation(evaluation.f0, g, evaluation.df0, dg)
 
     def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray,
                      peaks: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -165,7 +180,7 @@ class TopologyProblem(Problem):
                 g.append(1.0 - ks / bound)
                 dg.append(-dks / bound)
             else:
-                c = self._normalized(name, r[k], peaks[name]) if is_aggregate(name) else 1.0
+                c = self._normalized(x, name, r[k], peaks[name]) if is_aggregate(name) else 1.0
                 g.append(c * r[k] / bound - 1.0)
                 dg.append(c * drdx[k] / bound)
                 k += 1

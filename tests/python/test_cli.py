@@ -211,3 +211,20 @@ def test_a_frequency_floor_from_the_command_line(tmp_path):
     assert "--min-frequency" in resumed.stderr
     mixed = flextop_cli("optimize", "--scenarios", "robust_robot_arm", "--min-frequency", "2", "--out", tmp_path / "s", codes=(2,))
     assert mixed.stderr.strip() == "flextop: error: --min-frequency applies to one scene, not to --scenarios"
+
+
+def test_stress_and_buckling_limits_from_the_command_line(tmp_path):
+    """--max-stress and --max-buckling add limits on the peaks (normalized means), shown as
+    <= with their values; a checkpoint fixes them and they apply to one scene only."""
+    run = flextop_cli("optimize", "static_truss", "--max-stress", "4e8", "--max-buckling", "0.5", "--max-iter", 3,
+                      "--out", tmp_path, "--no-plots", codes=(0, 3))
+    stress = float(re.search(r"^stress: (\S+) \(<= 4e\+08\)$", run.stdout, re.M).group(1))
+    buckling = float(re.search(r"^buckling: (\S+) \(<= 0\.5\)$", run.stdout, re.M).group(1))
+    design = np.load(tmp_path / "design.npy")
+    peaks = flextop.Simulation(flextop.scenes.static_truss()).run_with_sensitivities(design, ["stress", "buckling"]).peaks
+    # c P with c from the previous iteration: within a few per cent of the peak at the end.
+    assert stress == pytest.approx(peaks["stress"], rel=0.1) and buckling == pytest.approx(peaks["buckling"], rel=0.1)
+    resumed = flextop_cli("optimize", "--resume", "--max-stress", "1e8", "--out", tmp_path, codes=(2,))
+    assert "--max-stress" in resumed.stderr
+    mixed = flextop_cli("optimize", "--scenarios", "robust_robot_arm", "--max-buckling", "1", "--out", tmp_path / "s", codes=(2,))
+    assert mixed.stderr.strip() == "flextop: error: --max-buckling applies to one scene, not to --scenarios"

@@ -154,7 +154,7 @@ def _initial_state(problem: Problem, x0, method: Method, move: float,
     if x.shape != (problem.n,) or not np.all(np.isfinite(x)):
         raise DesignError(f"x0 must be one finite number or {problem.n}, got shape {x.shape}")
     x = np.clip(x, problem.lower, problem.upper)
-    evaluation = evaluate(x)
+    evaluation = problem.accept(x, evaluate(x))
     multipliers = np.zeros(problem.m)
     kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
     start = IterationRecord(iteration=0, f0=evaluation.f0, g=evaluation.g, change=0.0, kkt=kkt, move=move,
@@ -185,14 +185,15 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
                 return state, False
     eval_time = evaluate.time - eval_time
     solve_time = perf_counter() - start - eval_time
-    kkt = kkt_residual(step.x, step.evaluation, step.multipliers, problem.lower, problem.upper)
+    evaluation = problem.accept(step.x, step.evaluation)
+    kkt = kkt_residual(step.x, evaluation, step.multipliers, problem.lower, problem.upper)
     record = IterationRecord(
-        iteration=state.iteration + 1, f0=step.evaluation.f0, g=step.evaluation.g,
+        iteration=state.iteration + 1, f0=evaluation.f0, g=evaluation.g,
         change=float(np.max(np.abs(step.x - state.x) / (problem.upper - problem.lower))),
         kkt=kkt, move=state.move, evaluations=evaluate.calls - calls,
         eval_time=eval_time, solve_time=solve_time)
     state = replace(
-        state, iteration=record.iteration, x=step.x, evaluation=step.evaluation,
+        state, iteration=record.iteration, x=step.x, evaluation=evaluation,
         multipliers=step.multipliers, kkt=kkt, x_prev1=state.x, x_prev2=state.x_prev1,
         method_data=step.method_data,
         nfev=evaluate.calls, consecutive_failures=0, history=state.history + (record,))

@@ -82,7 +82,7 @@ class Problem(ABC):
     Subclasses call ``super().__init__(lower, upper, m, names)`` and implement
     :meth:`evaluate`. Bounds must be finite with ``lower < upper``. The
     optimizers only use ``n``, ``m``, ``lower``, ``upper`` and ``evaluate``,
-    so any object providing them works as well.
+    so any object providing them (and :meth:`accept`, if not this class's) works as well.
     """
 
     def __init__(self, lower: Sequence[float], upper: Sequence[float], m: int,
@@ -108,6 +108,14 @@ class Problem(ABC):
     @abstractmethod
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective, constraints and their gradients at x (may raise EvaluationError)."""
+
+    def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Called once per iteration with the design the optimizer moves to and its
+        evaluation; returns the evaluation the next iteration builds on. A problem whose
+        functions adapt between iterations (the normalization of a stress limit) changes
+        here, and only here, so that every iteration sees fixed functions; the default
+        changes nothing."""
+        return evaluation
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
         """The objective, the constrained quantities and the objective's gradient in the
