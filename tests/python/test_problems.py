@@ -133,3 +133,34 @@ def test_a_component_without_design_variables_gets_no_volume_constraint():
     scene.load("c", force=(0.0, -1.0))
     sim = flextop.Simulation(scene)
     assert [name for name, _ in flextop.volume_constraints(sim, 0.5)] == ["volume:designed"]
+
+
+def test_a_stress_limit_is_normalized_once_per_iteration():
+    """``("stress", b)``: g = c P/b − 1 with c the peak/P ratio of the first design; between
+    accepts c stays fixed (g's gradient is then exact: central differences), and accepting a
+    design moves c half-way to its ratio and rescales that evaluation's g."""
+    from flextop.problems import NORMALIZATION_DAMPING, TopologyProblem
+
+    sim = flextop.Simulation(flextop.scenes.static_truss())
+    bound = 2e8
+    problem = TopologyProblem(sim, "compliance", [("stress", bound)])
+    first = np.full(sim.n_design, 0.5)
+    run = sim.run_with_sensitivities(first, ["stress"])
+    g0 = problem.evaluate(first).g[0]
+    assert g0 + 1 == pytest.approx(run.peaks["stress"] / bound, rel=1e-12)
+    c = problem.normalization["stress"]
+    x = np.random.default_rng(5).uniform(0.2, 0.9, sim.n_design)
+    evaluation = problem.evaluate(x)
+    d = np.random.default_rng(6).normal(size=sim.n_design)
+    h = 1e-5
+    up, down = (problem.evaluate(x + s * h * d).g[0] for s in (1, -1))
+    assert evaluation.dg[0] @ d == pytest.approx((up - down) / (2 * h), rel=1e-6)
+    assert problem.normalization["stress"] == c
+    problem.evaluate(x)  # the accepted design is the last one evaluated there
+    accepted = problem.accept(x, evaluation)
+    here = sim.run_with_sensitivities(x, ["stress"])
+    ratio = here.peaks["stress"] / here.values[0]
+    new = NORMALIZATION_DAMPING * ratio + (1 - NORMALIZATION_DAMPING) * c
+    assert problem.normalization["stress"] == pytest.approx(new, rel=1e-12)
+    assert accepted.g[0] + 1 == pytest.approx(new * here.values[0] / bound, rel=1e-12)
+    np.testing.assert_allclose(accepted.dg[0], evaluation.dg[0] * new / c, rtol=1e-12)
