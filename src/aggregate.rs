@@ -16,8 +16,10 @@
 //! beside the mean.
 //!
 //! Sums are kept relative to a reference `r ≥ max |σ_k|` seen so far, so that no term
-//! overflows: `S = Σ w_k φ(σ_k; r)` with `φ = (|σ|/r)^p` or
-//! `φ = (e^{ρ(σ−r)/s} + e^{ρ(−σ−r)/s})/2`; when `r` grows, `S` is rescaled exactly.
+//! overflows: `S = Σ w_k φ(σ_k; r)` with `φ = (|σ|/r)^p`, or for KS, with `k = ρ/s`,
+//! `φ = e^{−kr}(cosh kσ − 1)` and `K = log(1 + e^{kr} S)/k` (`= r + log(S + e^{−kr})/k`,
+//! the form used once `kr ≥ 1`): the `− 1` keeps the digits of a KS mean far below `s/ρ`,
+//! which `log Σ w cosh` would cancel away. When `r` grows, `S` is rescaled exactly.
 
 /// How point values are condensed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,7 +53,14 @@ impl Aggregation {
             Self::KsMean { rho, scale } => {
                 let k = rho / scale;
                 let (a, b) = ((k * (sigma - r)).exp(), (k * (-sigma - r)).exp());
-                (0.5 * (a + b), 0.5 * k * (a - b))
+                let z = k * sigma.abs();
+                // e^{−kr}(cosh z − 1), without cancellation for small z.
+                let value = if z < 1.0 {
+                    2.0 * (0.5 * z).sinh().powi(2) * (-k * r).exp()
+                } else {
+                    0.5 * (a + b) - (-k * r).exp()
+                };
+                (value, 0.5 * k * (a - b))
             }
         }
     }
@@ -73,7 +82,15 @@ impl Aggregation {
                 let root = sum.powf(1.0 / p);
                 (r * root, r * root / (p * sum))
             }
-            Self::KsMean { rho, scale } => (r + scale / rho * sum.ln(), scale / (rho * sum)),
+            Self::KsMean { rho, scale } => {
+                let (k, floor) = (rho / scale, (-rho / scale * r).exp());
+                let mean = if k * r < 1.0 {
+                    (sum / floor).ln_1p() / k
+                } else {
+                    r + (sum + floor).ln() / k
+                };
+                (mean, 1.0 / (k * (sum + floor)))
+            }
         }
     }
 
@@ -96,14 +113,16 @@ impl Aggregation {
                 p: within("p", p.unwrap_or(DEFAULT_P), 2.0)?,
             }),
             (None, Some(rho), scale) => {
-                let scale = scale.ok_or("ks= needs scale=STRESS (Pa), the stress it normalizes by")?;
-                if !(scale.is_finite() && scale > 0.0) {
-                    return Err(format!("scale={scale} must be a positive stress (Pa)"));
+                let scale = scale
+                    .ok_or("ks= needs scale=S, the value it normalizes by (Pa for a stress)")?;
+                let rho = within("ks", rho, f64::MIN_POSITIVE)?;
+                let k = rho / scale;
+                if !(scale.is_finite() && scale > 0.0 && k.is_normal()) {
+                    return Err(format!(
+                        "scale={scale} must be positive, with ks/scale a normal number"
+                    ));
                 }
-                Ok(Self::KsMean {
-                    rho: within("ks", rho, f64::MIN_POSITIVE)?,
-                    scale,
-                })
+                Ok(Self::KsMean { rho, scale })
             }
         }
     }
@@ -148,6 +167,24 @@ mod tests {
     }
 
     #[test]
+    fn a_ks_mean_far_below_its_scale_keeps_its_digits() {
+        // ρσ/s = 1e-6: K ≈ k Σw σ²/2, which ln Σ w cosh would lose to cancellation.
+        let v = [3.0e8, -5.0e8, 1.0e7];
+        let a = Aggregation::KsMean {
+            rho: 1e-6,
+            scale: 1e8,
+        };
+        let k = 1e-14;
+        let exact = v.iter().map(|x| x * x).sum::<f64>() / 3.0 * k / 2.0;
+        assert!((stream(&a, &v) / exact - 1.0).abs() < 1e-9);
+        let big = Aggregation::KsMean {
+            rho: 1.0,
+            scale: 1e300,
+        };
+        assert!(stream(&big, &v) >= 0.0 && stream(&big, &v) <= 5.0e8);
+    }
+
+    #[test]
     fn means_grow_to_the_maximum_with_the_parameter() {
         let v = [3.0e8, -5.0e8, 1.0e7, 4.9e8];
         let mut last = 0.0;
@@ -163,7 +200,10 @@ mod tests {
     fn point_derivatives_match_central_differences() {
         for a in [
             Aggregation::PMean { p: 8.0 },
-            Aggregation::KsMean { rho: 30.0, scale: 2.0 },
+            Aggregation::KsMean {
+                rho: 30.0,
+                scale: 2.0,
+            },
         ] {
             for s in [-1.5, -0.3, 0.7, 1.9] {
                 let h = 1e-6;
@@ -176,7 +216,10 @@ mod tests {
 
     #[test]
     fn options_are_checked() {
-        assert_eq!(Aggregation::parse(None, None, None), Ok(Aggregation::PMean { p: DEFAULT_P }));
+        assert_eq!(
+            Aggregation::parse(None, None, None),
+            Ok(Aggregation::PMean { p: DEFAULT_P })
+        );
         assert!(Aggregation::parse(Some(1.0), None, None).is_err());
         assert!(Aggregation::parse(None, Some(50.0), None).is_err());
         assert!(Aggregation::parse(Some(8.0), Some(50.0), Some(1.0)).is_err());

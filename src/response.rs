@@ -11,10 +11,10 @@
 //! exponential of the stresses, mapped to stress units at the end ([`crate::aggregate`]).
 
 use crate::aggregate::Aggregation;
-use crate::stress::{ElementState, Measure};
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
+use crate::stress::{ElementState, Measure};
 use crate::time_grid::TimeGrid;
 
 /// What a response measures.
@@ -174,9 +174,17 @@ impl Response {
 
     /// An aggregate of `measure` over `component` from `key=value` options `p`, `ks`,
     /// `scale`, `q`.
-    fn aggregate(model: &Model, measure: Measure, component: Option<usize>, options: &[(String, f64)]) -> Result<Self, String> {
+    fn aggregate(
+        model: &Model,
+        measure: Measure,
+        component: Option<usize>,
+        options: &[(String, f64)],
+    ) -> Result<Self, String> {
         let get = |key: &str| options.iter().find(|(k, _)| k == key).map(|&(_, v)| v);
-        if let Some((k, _)) = options.iter().find(|(k, _)| !["p", "ks", "scale", "q"].contains(&k.as_str())) {
+        if let Some((k, _)) = options
+            .iter()
+            .find(|(k, _)| !["p", "ks", "scale", "q"].contains(&k.as_str()))
+        {
             return Err(format!("unknown option '{k}' (options: p, ks, scale, q)"));
         }
         let aggregation = Aggregation::parse(get("p"), get("ks"), get("scale"))?;
@@ -186,13 +194,24 @@ impl Response {
         }
         let elements: Vec<usize> = elements_of(model, component).collect();
         if elements.is_empty() {
-            return Err("no elements to take stresses in".into());
+            return Err("the structure named has no elements".into());
         }
-        if let Some(&e) = elements.iter().find(|&&e| measure == Measure::Stress && model.elements[e].beam.section.fibre.is_none()) {
+        if let Some(&e) = elements.iter().find(|&&e| {
+            measure == Measure::Stress && model.elements[e].beam.section.fibre.is_none()
+        }) {
             return Err(format!("the section of bar '{}' has no outer-fibre distance; give `c` in its [sections] entry", model.bars[model.elements[e].bar].name));
         }
-        let length = elements.iter().map(|&e| model.elements[e].beam.length).sum();
-        Ok(Self::Aggregate { measure, component, aggregation, relaxation, length })
+        let length = elements
+            .iter()
+            .map(|&e| model.elements[e].beam.length)
+            .sum();
+        Ok(Self::Aggregate {
+            measure,
+            component,
+            aggregation,
+            relaxation,
+            length,
+        })
     }
 
     fn weighting(&self, analysis: Analysis) -> Weighting {
@@ -278,7 +297,13 @@ impl Response {
             | Self::IntegratedDisplacement { node, direction } => {
                 direction[0] * q[3 * node] + direction[1] * q[3 * node + 1]
             }
-            Self::Aggregate { measure, component, aggregation, relaxation, length } => {
+            Self::Aggregate {
+                measure,
+                component,
+                aggregation,
+                relaxation,
+                length,
+            } => {
                 let mut sum = 0.0;
                 for e in elements_of(m, component) {
                     let share = m.elements[e].beam.length / length;
@@ -294,7 +319,12 @@ impl Response {
     /// The largest point value of an aggregate at state `q` (0 for other responses).
     pub fn peak(&self, ctx: &Context, q: &[f64]) -> f64 {
         match *self {
-            Self::Aggregate { measure, component, relaxation, .. } => elements_of(ctx.model, component)
+            Self::Aggregate {
+                measure,
+                component,
+                relaxation,
+                ..
+            } => elements_of(ctx.model, component)
                 .map(|e| measure.peak(&at(ctx, e, q, relaxation)))
                 .fold(0.0, f64::max),
             _ => 0.0,
@@ -374,14 +404,23 @@ impl Response {
                 g_q[3 * node] += scale * direction[0];
                 g_q[3 * node + 1] += scale * direction[1];
             }
-            Self::Aggregate { measure, component, aggregation, relaxation, length } => {
+            Self::Aggregate {
+                measure,
+                component,
+                aggregation,
+                relaxation,
+                length,
+            } => {
                 for e in elements_of(m, component) {
                     let el = &m.elements[e];
                     let share = scale * el.beam.length / length;
-                    let (x, dofs, variable) = (ctx.densities.density[e], el.dofs(), m.variable_of(e));
+                    let (x, dofs, variable) =
+                        (ctx.densities.density[e], el.dofs(), m.variable_of(e));
                     measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, d_v| {
                         let slope = share * w * aggregation.point(v, known.reference).1;
-                        dofs.iter().zip(d_v.iter()).for_each(|(&d, g)| g_q[d] += slope * g);
+                        dofs.iter()
+                            .zip(d_v.iter())
+                            .for_each(|(&d, g)| g_q[d] += slope * g);
                         // ∂v/∂x = q x^{q−1} v_solid = (q/x) v.
                         if let Some(j) = variable {
                             g_x[j] += slope * relaxation / x * v;
@@ -413,9 +452,12 @@ fn at<'a>(ctx: &'a Context, e: usize, q: &'a [f64], relaxation: f64) -> ElementS
     }
 }
 
+/// `key=value` options of a response, in the order given.
+type Options = Vec<(String, f64)>;
+
 /// `COMPONENT` and `key=value,...` options of a response argument `[COMPONENT][:OPTIONS]`
 /// (the part with `=` is the options).
-fn component_and_options(rest: Option<&str>) -> Result<(Option<&str>, Vec<(String, f64)>), String> {
+fn component_and_options(rest: Option<&str>) -> Result<(Option<&str>, Options), String> {
     let mut component = None;
     let mut options = Vec::new();
     for part in rest.into_iter().flat_map(|r| r.split(':')) {
@@ -426,9 +468,17 @@ fn component_and_options(rest: Option<&str>) -> Result<(Option<&str>, Vec<(Strin
             continue;
         }
         for option in part.split(',') {
-            let (k, v) = option.split_once('=').ok_or(format!("option '{option}' needs KEY=VALUE"))?;
-            let value = v.trim().parse::<f64>().map_err(|e| format!("option '{option}': {e}"))?;
-            if options.iter().any(|(key, _): &(String, f64)| key == k.trim()) {
+            let (k, v) = option
+                .split_once('=')
+                .ok_or(format!("option '{option}' needs KEY=VALUE"))?;
+            let value = v
+                .trim()
+                .parse::<f64>()
+                .map_err(|e| format!("option '{option}': {e}"))?;
+            if options
+                .iter()
+                .any(|(key, _): &(String, f64)| key == k.trim())
+            {
                 return Err(format!("option '{}' given twice", k.trim()));
             }
             options.push((k.trim().to_string(), value));
@@ -441,4 +491,3 @@ fn elements_of(m: &Model, component: Option<usize>) -> impl Iterator<Item = usiz
     (0..m.elements.len())
         .filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
 }
-

@@ -431,11 +431,11 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",
-                   help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest six, to 1e-3)")
+                   help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest two, to 1e-3)")
     o.add_argument("--max-stress", type=_positive(float), metavar="PA",
-                   help="a limit on the peak fibre stress over the motion (p-mean, q = 0.5, normalized to the peak)")
+                   help="a limit on the peak fibre stress over the motion, relaxed as x^0.5 σ (p-mean normalized to the peak)")
     o.add_argument("--max-buckling", type=_positive(float), metavar="RATIO",
-                   help="a limit on the peak compression over the Euler load of the bars (1 = buckling)")
+                   help="a limit on the peak compression over the Euler load of the bars, relaxed as x^0.5 P/P_cr (1 = a solid bar buckles)")
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")

@@ -50,6 +50,7 @@ import numpy as np
 from . import execution, scenes
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
+from .problems import is_aggregate
 from .scene import Scene
 from .simulation import Sensitivities, Simulation, Task, perform, remember
 from .tolerance import Discretization
@@ -165,6 +166,9 @@ class ScenarioProblem(Problem):
             *where, response, bound = entry
             if isinstance(bound, bool) or not (isinstance(bound, numbers.Real) and math.isfinite(bound) and bound > 0):
                 raise SettingsError(f"constraint {response!r}: the upper bound must be positive and finite, got {bound!r}")
+            if is_aggregate(response):
+                raise SettingsError(f"constraint {response!r}: stress and buckling limits are normalized to their peaks "
+                                    "in a TopologyProblem; a ScenarioProblem does not normalize them")
             if where and where[0] not in index:
                 raise SceneError(f"constraint {response!r}: no scenario named {where[0]!r} ({', '.join(index)})")
             if response.split(":")[0] in DESIGN_ONLY and not where:

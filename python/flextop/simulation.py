@@ -126,8 +126,8 @@ class Sensitivities:
     in the sensitivity analysis. A run made to a tolerance also carries its
     ``discretization`` and, per name, the estimated relative ``errors`` of the values and
     ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
-    ``steps``. ``peaks`` holds, per stress response, the largest point stress over the
-    motion (Pa), beside the mean in ``values``.
+    ``steps``. ``peaks`` holds, per stress or buckling response, the largest point value over
+    the motion, beside the mean in ``values`` (runs with gradients only).
     """
 
     names: tuple[str, ...]
@@ -363,12 +363,13 @@ class Simulation:
         (mean squared deflection from the rigid trajectory, Eq. 40; the scene's tip, or
         ``"tip_deflection:NODE"``), ``"volume"`` / ``"volume:COMPONENT"`` (m³, Eq. 38, 41),
         ``"displacement:NODE:DX,DY"`` (final), ``"integrated_displacement:NODE:DX,DY"`` and
-        ``"stress[:COMPONENT][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at both
-        ends of every element, condensed over the motion and the structure's length (Pa) by
-        a p-mean (``p=8`` by default) or, with ``ks=RHO,scale=PA``, a KS mean; ``q=0.5``
-        (default) relaxes vanishing bars, ``q=0`` gives the solid material's stress. Both
-        means stay below the peak, which the result holds in ``peaks``
-        (:mod:`flextop.stress`). Time integrals use the trapezoidal rule on the step times, and the gradients are
+        ``"stress[:COMPONENT][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at six
+        Gauss–Lobatto points along both fibres of every element, condensed over the motion
+        and the structure's length (Pa) by a p-mean (``p=8`` by default) or, with
+        ``ks=RHO,scale=S``, a KS mean; ``q=0.5`` (default) relaxes vanishing bars, ``q=0``
+        gives the solid material's stress; ``"buckling[:COMPONENT][:OPTIONS]"`` likewise
+        for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load. The
+        means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),

@@ -38,7 +38,10 @@ fn section(path: &str, s: &SectionSpec) -> Result<Section> {
         (None, Some(c)) => section.with_fibre(positive(&format!("{path}.c"), c)?),
         (None, None) => section,
         (Some(_), Some(_)) => {
-            return Err(SceneError::new(path, "a solid circle's outer fibre is at diameter/2; drop `c`"))
+            return Err(SceneError::new(
+                path,
+                "a solid circle's outer fibre is at diameter/2; drop `c`",
+            ))
         }
     })
 }

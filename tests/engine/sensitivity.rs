@@ -170,7 +170,14 @@ fn static_compliance_gradients_match_finite_differences() {
     let truss = scene::build(&spec).expect("valid scene");
     let rs = responses(
         &truss,
-        &["compliance", "volume", "displacement:truss[4,1]:0,-1", "stress", "stress:p=16,q=1", "buckling:ks=20,scale=1e-3"],
+        &[
+            "compliance",
+            "volume",
+            "displacement:truss[4,1]:0,-1",
+            "stress",
+            "stress:p=16,q=1",
+            "buckling:ks=20,scale=1e-3",
+        ],
     );
     let settings = StaticSettings {
         tol: 1e-13,

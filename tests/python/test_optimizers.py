@@ -292,3 +292,15 @@ def test_a_bad_start_or_method_is_named():
     with pytest.raises(SettingsError, match="unknown method 'newton'"):
         optimize(problem, 5.0, "newton")
     assert np.array_equal(optimize(problem, 5.0, max_iter=3).x, optimize(problem, np.full(5, 5.0), max_iter=3).x)
+
+
+def test_a_problem_without_accept_still_optimizes():
+    """Any object with n, m, lower, upper and evaluate works: ``accept`` is optional."""
+    inner = cantilever()
+
+    class Bare:
+        n, m, lower, upper, names = inner.n, inner.m, inner.lower, inner.upper, None
+        evaluate = staticmethod(inner.evaluate)
+        physical = staticmethod(inner.physical)
+
+    assert np.array_equal(optimize(Bare(), 5.0, max_iter=3).x, optimize(inner, 5.0, max_iter=3).x)

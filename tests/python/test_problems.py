@@ -164,3 +164,12 @@ def test_a_stress_limit_is_normalized_once_per_iteration():
     assert problem.normalization["stress"] == pytest.approx(new, rel=1e-12)
     assert accepted.g[0] + 1 == pytest.approx(new * here.values[0] / bound, rel=1e-12)
     np.testing.assert_allclose(accepted.dg[0], evaluation.dg[0] * new / c, rtol=1e-12)
+
+
+def test_a_limit_given_twice_is_refused():
+    from flextop.errors import SettingsError
+    from flextop.problems import TopologyProblem
+
+    sim = flextop.Simulation(flextop.scenes.static_truss())
+    with pytest.raises(SettingsError, match="a stress or buckling limit appears twice"):
+        TopologyProblem(sim, "compliance", [("stress", 1e8), ("stress", 2e8)])

@@ -89,6 +89,8 @@ def test_scenarios_must_share_the_design_and_have_distinct_names():
     assert worst.start(0.4).shape == (worst.n,) and worst.start(0.4)[-1] == 0.0
     with pytest.raises(flextop.SceneError, match="names must differ"):
         ScenarioProblem([Scenario("a", arm()), Scenario("a", arm())], "tip_deflection")
+    with pytest.raises(flextop.SettingsError, match="'stress:p=16': stress and buckling limits are normalized"):
+        ScenarioProblem(two_scenarios(), "tip_deflection", [("a", "stress:p=16", 1e8)])
     with pytest.raises(flextop.SceneError, match="no scenario named 'c'"):
         ScenarioProblem(two_scenarios(), "tip_deflection", [("c", "compliance", 1.0)])
     with pytest.raises(flextop.SceneError, match="weight"):

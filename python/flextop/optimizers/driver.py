@@ -143,9 +143,9 @@ def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) ->
     return Design(state.x, evaluation, state.kkt, state.multipliers, state.iteration)
 
 
-def _initial_state(problem: Problem, x0, method: Method, move: float,
-                   evaluate: _CountingEvaluator, feas_tol: float) -> OptimizerState:
-    """Evaluate the (bound-clipped) start design; multipliers start at zero."""
+def _start(problem: Problem, x0) -> np.ndarray:
+    """The start design: one number for every variable or one per variable, finite, clipped
+    to the bounds."""
     try:
         x = np.asarray(x0, dtype=float)
     except (TypeError, ValueError):
@@ -153,8 +153,19 @@ def _initial_state(problem: Problem, x0, method: Method, move: float,
     x = np.full(problem.n, float(x)) if x.ndim == 0 else x
     if x.shape != (problem.n,) or not np.all(np.isfinite(x)):
         raise DesignError(f"x0 must be one finite number or {problem.n}, got shape {x.shape}")
-    x = np.clip(x, problem.lower, problem.upper)
-    evaluation = problem.accept(x, evaluate(x))
+    return np.clip(x, problem.lower, problem.upper)
+
+
+def _accept(problem: Problem, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+    """:meth:`Problem.accept`, or the evaluation as it is for a problem without it."""
+    accept = getattr(problem, "accept", None)
+    return evaluation if accept is None else accept(x, evaluation)
+
+
+def _initial_state(problem: Problem, x: np.ndarray, method: Method, move: float,
+                   evaluate: _CountingEvaluator, feas_tol: float) -> OptimizerState:
+    """Evaluate the start design; multipliers start at zero."""
+    evaluation = _accept(problem, x, evaluate(x))
     multipliers = np.zeros(problem.m)
     kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
     start = IterationRecord(iteration=0, f0=evaluation.f0, g=evaluation.g, change=0.0, kkt=kkt, move=move,
@@ -185,7 +196,7 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
                 return state, False
     eval_time = evaluate.time - eval_time
     solve_time = perf_counter() - start - eval_time
-    evaluation = problem.accept(step.x, step.evaluation)
+    evaluation = _accept(problem, step.x, step.evaluation)
     kkt = kkt_residual(step.x, evaluation, step.multipliers, problem.lower, problem.upper)
     record = IterationRecord(
         iteration=state.iteration + 1, f0=evaluation.f0, g=evaluation.g,
@@ -259,10 +270,10 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
                           history=list(state.history), state=state)
 
 
-def _failed_start(problem: Problem, x0, error: EvaluationError, nfev: int) -> OptimizeResult:
+def _failed_start(problem: Problem, x0: np.ndarray, error: EvaluationError, nfev: int) -> OptimizeResult:
     """Result when not even the start design could be evaluated."""
     return OptimizeResult(
-        x=np.asarray(x0, dtype=float), fun=float("nan"), constr=np.full(problem.m, np.nan),
+        x=x0, fun=float("nan"), constr=np.full(problem.m, np.nan),
         jac=np.full(problem.n, np.nan), fun_scaled=float("nan"), constr_scaled=np.full(problem.m, np.nan),
         kkt=float("nan"), multipliers=np.zeros(problem.m), nit=0, nfev=nfev,
         status=Status.EVALUATION_FAILED, success=False, history=[], state=None,
@@ -302,10 +313,11 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     if state is None:
         if x0 is None:
             raise DesignError("x0 is required unless a state is given")
+        x = _start(problem, x0)
         try:
-            state = _initial_state(problem, x0, method, move, evaluate, feas_tol)
+            state = _initial_state(problem, x, method, move, evaluate, feas_tol)
         except EvaluationError as error:
-            return _failed_start(problem, x0, error, evaluate.calls)
+            return _failed_start(problem, x, error, evaluate.calls)
     elif state.method != method.name or state.x.shape != (problem.n,):
         raise SettingsError(f"state of a {state.method} run with n = {state.x.size} does not fit "
                          f"method {method.name} with n = {problem.n}")
