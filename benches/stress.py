@@ -10,8 +10,9 @@ with stress limits and a frequency floor, and the ten-bar truss of the literatur
    structure (rtol 3e-3 for d and the stress, the frequencies to 1e-3). The scene's grid
    reads the peak stress low by a factor κ (a maximum over coarse samples converges
    slower than the mean), so where the converged peak exceeds the limit a second stage of
-   half the iterations limits the model to limit/κ. The static truss of
-   Section 3.1 minimizing compliance with and without a stress limit, judged likewise.
+   half the iterations limits the model to limit/κ (``flextop.problems.tightened``). The
+   static truss of Section 3.1 minimizing compliance with and without a stress limit,
+   judged likewise.
 3. The ten-bar truss: minimum weight under member stress limits against the literature.
 
     python benches/stress.py [--quick]   # writes benches/results/stress.md
@@ -29,7 +30,8 @@ import numpy as np
 
 import flextop
 from flextop.accuracy import split_by
-from flextop.problems import MIN_FREQUENCY, TopologyProblem, robot_arm_problem, static_truss_problem, ten_bar_truss_problem
+from flextop.problems import (MIN_FREQUENCY, TopologyProblem, robot_arm_problem, static_truss_problem, ten_bar_truss_problem,
+                              tightened)
 from flextop.scenes import INCH
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -98,9 +100,8 @@ def arm(quick: bool) -> list[str]:
         if "stress" in names and truth["peak"] > 40e6:
             # Stage 2: the model's peak under-reads the converged one by κ; limit the model
             # to 40 MPa/κ and go on from the design reached.
-            kappa = truth["peak"] / sim.run_with_sensitivities(result.x, ["stress"]).peaks["stress"]
-            tight = [(n, b / kappa if n == "stress" else b) for n, b in problem.constraints]
-            problem = TopologyProblem(sim, "tip_deflection", tight)
+            problem, factors = tightened(problem, result.x)
+            kappa = factors["stress"]
             more, result = timed(lambda: flextop.optimize(problem, result.x, "mma", max_iter=iterations // 2))
             seconds += more
             truth = judged(sim, result.x, "tip_deflection")

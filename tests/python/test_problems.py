@@ -173,3 +173,23 @@ def test_a_limit_given_twice_is_refused():
     sim = flextop.Simulation(flextop.scenes.static_truss())
     with pytest.raises(SettingsError, match="a stress or buckling limit appears twice"):
         TopologyProblem(sim, "compliance", [("stress", 1e8), ("stress", 2e8)])
+
+
+def test_tightened_limits_divide_by_the_peaks_model_error():
+    """``tightened``: κ is the peak at 8× the elements per bar over the peak as meshed (a
+    static scene: rtol refines in space only), the stress limit becomes b/κ, the others and
+    the normalization stay."""
+    from flextop.accuracy import split_by
+    from flextop.problems import TopologyProblem, tightened
+
+    sim = flextop.Simulation(flextop.scenes.static_truss(force=(0.0, -1e4)))
+    problem = TopologyProblem(sim, "compliance", [("volume", 1.0), ("stress", 1e8)])
+    x = np.random.default_rng(2).uniform(0.1, 1.0, sim.n_design)
+    problem.evaluate(x)
+    tight, kappa = tightened(problem, x, rtol=1e-3)
+    fine = tight.simulation.run_with_sensitivities(x, ["stress"], rtol=1e-3, hold_gradients=False).peaks["stress"]
+    coarse = sim.run_with_sensitivities(x, ["stress"]).peaks["stress"]
+    assert kappa["stress"] == pytest.approx(fine / coarse, rel=1e-12) and kappa["stress"] != 1.0
+    assert tight.constraints == [("volume", 1.0), ("stress", 1e8 / kappa["stress"])]
+    assert tight.normalization == problem.normalization
+    assert fine == pytest.approx(flextop.Simulation(split_by(sim.spec, 16)).run_with_sensitivities(x, ["stress"]).peaks["stress"], rel=1e-2)
