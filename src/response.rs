@@ -51,16 +51,16 @@ pub enum Response {
         /// Unit direction.
         direction: [f64; 2],
     },
-    /// A [`Measure`] (fibre stresses in Pa, or Euler buckling ratios) at the points of every
-    /// element of one component or all, condensed over the motion (trapezoidal in time) and
+    /// A [`Measure`] (fibre stresses in Pa, or Euler buckling ratios) at the points of the
+    /// elements of one bar, one component or all, condensed over the motion (trapezoidal in time) and
     /// the structure's length by a p-mean or KS mean. The measures use full-density section
     /// forces, so `x⁰` gives the solid material's value; `x^q` with `q > 0` is the
     /// relaxation that keeps vanishing bars from dominating (Le et al. 2010 use `q = ½`).
     Aggregate {
         /// What is measured.
         measure: Measure,
-        /// Component, or `None` for all.
-        component: Option<usize>,
+        /// The elements aggregated.
+        members: Members,
         /// How the point values are condensed.
         aggregation: Aggregation,
         /// Relaxation exponent `q`.
@@ -69,6 +69,52 @@ pub enum Response {
         /// share of it.
         length: f64,
     },
+}
+
+/// The elements an aggregate reads: all, a component's, or one bar's (per-bar limits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Members {
+    /// Every element.
+    All,
+    /// The elements of a component.
+    Component(usize),
+    /// The elements of a bar.
+    Bar(usize),
+}
+
+impl Members {
+    /// Parses a component's or a bar's name (components first), `None` for all.
+    fn parse(model: &Model, name: Option<&str>) -> Result<Self, String> {
+        let Some(name) = name else {
+            return Ok(Self::All);
+        };
+        if let Some(c) = model.components.iter().position(|x| x == name) {
+            return Ok(Self::Component(c));
+        }
+        model
+            .bars
+            .iter()
+            .position(|b| b.name == name)
+            .map(Self::Bar)
+            .ok_or_else(|| {
+                format!(
+                    "unknown component or bar '{name}' (components: {})",
+                    model.components.join(", ")
+                )
+            })
+    }
+
+    /// The element indices.
+    fn elements(self, m: &Model) -> impl Iterator<Item = usize> + '_ {
+        let range = match self {
+            Self::Bar(b) => m.bars[b].elements.clone(),
+            _ => 0..m.elements.len(),
+        };
+        range.filter(move |&e| match self {
+            Self::Component(c) => m.bars[m.elements[e].bar].component == c,
+            _ => true,
+        })
+    }
 }
 
 /// What the caller keeps for a response at a state besides the state itself.
@@ -164,20 +210,20 @@ impl Response {
             "integrated_displacement" => node_and_direction(rest).map(|(node, direction)| Self::IntegratedDisplacement { node, direction }),
             "stress" | "buckling" => {
                 let measure = if name == "stress" { Measure::Stress } else { Measure::Buckling };
-                let (comp, options) = component_and_options(rest).map_err(err)?;
-                let component = component(comp)?;
-                Self::aggregate(model, measure, component, &options).map_err(err)
+                let (members, options) = component_and_options(rest).map_err(err)?;
+                let members = Members::parse(model, members).map_err(err)?;
+                Self::aggregate(model, measure, members, &options).map_err(err)
             }
             _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress or buckling".into())),
         }
     }
 
-    /// An aggregate of `measure` over `component` from `key=value` options `p`, `ks`,
+    /// An aggregate of `measure` over `members` from `key=value` options `p`, `ks`,
     /// `scale`, `q`.
     fn aggregate(
         model: &Model,
         measure: Measure,
-        component: Option<usize>,
+        members: Members,
         options: &[(String, f64)],
     ) -> Result<Self, String> {
         let get = |key: &str| options.iter().find(|(k, _)| k == key).map(|&(_, v)| v);
@@ -192,7 +238,7 @@ impl Response {
         if !(0.0..=1.0).contains(&relaxation) {
             return Err(format!("relaxation q={relaxation} must lie in [0, 1]"));
         }
-        let elements: Vec<usize> = elements_of(model, component).collect();
+        let elements: Vec<usize> = members.elements(model).collect();
         if elements.is_empty() {
             return Err("the structure named has no elements".into());
         }
@@ -207,7 +253,7 @@ impl Response {
             .sum();
         Ok(Self::Aggregate {
             measure,
-            component,
+            members,
             aggregation,
             relaxation,
             length,
@@ -299,13 +345,13 @@ impl Response {
             }
             Self::Aggregate {
                 measure,
-                component,
+                members,
                 aggregation,
                 relaxation,
                 length,
             } => {
                 let mut sum = 0.0;
-                for e in elements_of(m, component) {
+                for e in members.elements(m) {
                     let share = m.elements[e].beam.length / length;
                     measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, _| {
                         sum += share * w * aggregation.point(v, known.reference).0;
@@ -321,10 +367,11 @@ impl Response {
         match *self {
             Self::Aggregate {
                 measure,
-                component,
+                members,
                 relaxation,
                 ..
-            } => elements_of(ctx.model, component)
+            } => members
+                .elements(ctx.model)
                 .map(|e| measure.peak(&at(ctx, e, q, relaxation)))
                 .fold(0.0, f64::max),
             _ => 0.0,
@@ -406,12 +453,12 @@ impl Response {
             }
             Self::Aggregate {
                 measure,
-                component,
+                members,
                 aggregation,
                 relaxation,
                 length,
             } => {
-                for e in elements_of(m, component) {
+                for e in members.elements(m) {
                     let el = &m.elements[e];
                     let share = scale * el.beam.length / length;
                     let (x, dofs, variable) =

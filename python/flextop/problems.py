@@ -254,6 +254,16 @@ class TopologyProblem(Problem):
         return problem
 
 
+def per_bar_limits(simulation: Simulation, bound: float, measure: str = "stress", options: str = "") -> list[tuple[str, float]]:
+    """One limit per designed bar, ``("MEASURE:BAR[:OPTIONS]", bound)``: local constraints,
+    each a mean over its bar, normalized to the bar's peak like any aggregate limit. A
+    bar's own mean is close to its peak, so its factor stays near 1; the price is one
+    adjoint solve per bar (the direct method once there are more limits than variables)."""
+    suffix = f":{options}" if options else ""
+    return [(f"{measure}:{name}{suffix}", bound) for name, variable in zip(simulation.bars.name, simulation.bars.variable)
+            if variable >= 0]
+
+
 def tightened(problem: TopologyProblem, x: np.ndarray, rtol: float = 3e-3) -> tuple[TopologyProblem, dict[str, float]]:
     """The problem with each stress or buckling limit divided by ``κ``, the ratio of the
     design's peak on a discretization that meets ``rtol`` to its peak on the problem's own,

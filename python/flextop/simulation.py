@@ -363,11 +363,11 @@ class Simulation:
         (mean squared deflection from the rigid trajectory, Eq. 40; the scene's tip, or
         ``"tip_deflection:NODE"``), ``"volume"`` / ``"volume:COMPONENT"`` (m³, Eq. 38, 41),
         ``"displacement:NODE:DX,DY"`` (final), ``"integrated_displacement:NODE:DX,DY"`` and
-        ``"stress[:COMPONENT][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at six
+        ``"stress[:COMPONENT|BAR][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at six
         Gauss–Lobatto points along both fibres of every element, condensed over the motion
         and the structure's length (Pa) by a p-mean (``p=8`` by default) or, with
         ``ks=RHO,scale=S``, a KS mean; ``q=0.5`` (default) relaxes vanishing bars, ``q=0``
-        gives the solid material's stress; ``"buckling[:COMPONENT][:OPTIONS]"`` likewise
+        gives the solid material's stress; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
         for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load. The
         means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.

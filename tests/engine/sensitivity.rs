@@ -104,7 +104,7 @@ pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r:
     }
 }
 
-pub(crate) const DYNAMIC: [&str; 9] = [
+pub(crate) const DYNAMIC: [&str; 10] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
@@ -114,6 +114,7 @@ pub(crate) const DYNAMIC: [&str; 9] = [
     "stress",
     "stress:link1:ks=30,scale=1e6,q=0",
     "buckling:p=4",
+    "stress:link1/bar40:p=16",
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.

@@ -147,7 +147,7 @@ def test_bad_stress_requests_are_named():
         ("stress:r=3", "unknown option 'r'"),
         ("stress:p=8,p=4", "given twice"),
         ("stress:p=eight", "option 'p=eight'"),
-        ("stress:nowhere", "unknown component 'nowhere'"),
+        ("stress:nowhere", "unknown component or bar 'nowhere'"),
     ]:
         with pytest.raises(SettingsError, match=message):
             sim.run_with_sensitivities(x, [name])
@@ -222,3 +222,20 @@ def test_the_ten_bar_truss_reaches_the_literature_optimum(stiffer):
     assert weight == pytest.approx(1593.18, rel=1e-2 if stiffer == 1.0 else 1e-5)
     np.testing.assert_allclose(result.x * 10, literature, atol=0.1 if stiffer == 1.0 else 2e-3)
     assert np.all(result.constr <= 25 * KSI * (1 + 1e-6))
+
+
+def test_a_bar_is_its_own_aggregate():
+    """``stress:BAR``: one bar's stresses alone (the two-bar truss: each bar's N/A), and
+    ``per_bar_limits`` names one limit per designed bar."""
+    from flextop.problems import per_bar_limits
+
+    sim = two_bar_truss(0.1)
+    res = sim.run_with_sensitivities(np.ones(sim.n_design), ["stress:left:q=0", "stress:right:q=0"])
+    for name in res.names:
+        assert res.values[res.names.index(name)] == pytest.approx(0.1 / math.sqrt(2) / AREA, rel=1e-6)
+    # The left bar's own density only (statically determinate): σ = N/(x³A), dσ/dx = −3σ/x.
+    assert res.gradients[0][0] == pytest.approx(-3 * res.values[0], rel=1e-6)
+    assert abs(res.gradients[0][1]) < 1e-9 * abs(res.gradients[0][0])
+    assert per_bar_limits(sim, 1e6, options="q=0") == [("stress:left:q=0", 1e6), ("stress:right:q=0", 1e6)]
+    with pytest.raises(SettingsError, match="unknown component or bar 'middle'"):
+        sim.run_with_sensitivities(np.ones(sim.n_design), ["stress:middle"])
