@@ -208,13 +208,17 @@ impl Response {
             }
             "displacement" => node_and_direction(rest).map(|(node, direction)| Self::FinalDisplacement { node, direction }),
             "integrated_displacement" => node_and_direction(rest).map(|(node, direction)| Self::IntegratedDisplacement { node, direction }),
-            "stress" | "buckling" => {
-                let measure = if name == "stress" { Measure::Stress } else { Measure::Buckling };
+            "stress" | "shear" | "buckling" => {
+                let measure = match name {
+                    "stress" => Measure::Stress,
+                    "shear" => Measure::Shear,
+                    _ => Measure::Buckling,
+                };
                 let (members, options) = component_and_options(rest).map_err(err)?;
                 let members = Members::parse(model, members).map_err(err)?;
                 Self::aggregate(model, measure, members, &options).map_err(err)
             }
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress or buckling".into())),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear or buckling".into())),
         }
     }
 
@@ -242,10 +246,23 @@ impl Response {
         if elements.is_empty() {
             return Err("the structure named has no elements".into());
         }
-        if let Some(&e) = elements.iter().find(|&&e| {
-            measure == Measure::Stress && model.elements[e].beam.section.fibre.is_none()
-        }) {
-            return Err(format!("the section of bar '{}' has no outer-fibre distance; give `c` in its [sections] entry", model.bars[model.elements[e].bar].name));
+        let section = |e: usize| &model.elements[e].beam.section;
+        let missing = match measure {
+            Measure::Stress => elements
+                .iter()
+                .find(|&&e| section(e).fibre.is_none())
+                .map(|&e| (e, "outer-fibre distance; give `c`")),
+            Measure::Shear => elements
+                .iter()
+                .find(|&&e| section(e).shear_factor.is_none())
+                .map(|&e| (e, "peak shear factor; give `shear_factor`")),
+            Measure::Buckling => None,
+        };
+        if let Some((e, what)) = missing {
+            return Err(format!(
+                "the section of bar '{}' has no {what} in its [sections] entry",
+                model.bars[model.elements[e].bar].name
+            ));
         }
         let length = elements
             .iter()

@@ -24,6 +24,9 @@ pub struct Section {
     /// Outer-fibre distance `c` from the neutral axis (m), `None` for a section given by
     /// `A`, `I`, `κ` without it: the bending stress `M c / I` needs it.
     pub fibre: Option<f64>,
+    /// The largest shear stress over the mean `V/A` (4/3 for a solid circle), `None` when
+    /// the scene gives a section by `A`, `I`, `κ` without it.
+    pub shear_factor: Option<f64>,
 }
 
 impl Section {
@@ -37,6 +40,15 @@ impl Section {
             rho_a: rho * area,
             rho_i: rho * inertia,
             fibre: None,
+            shear_factor: None,
+        }
+    }
+
+    /// The section with peak shear factor `k` (the largest shear stress is `k V/A`).
+    pub fn with_shear_factor(self, k: f64) -> Self {
+        Self {
+            shear_factor: Some(k),
+            ..self
         }
     }
 

@@ -11,6 +11,9 @@
 //!   element, so the bending moment runs linearly from `−M₁` to `M₂` and `σ` is linear along
 //!   the element; six Gauss–Lobatto points integrate `|σ|^p` exactly for even `p ≤ 8`, and
 //!   the ends, where the largest `|σ|` is, are among them.
+//! * Shear stress `τ = x^q k V/A`, the largest over the section (`k = 4/3` for a solid
+//!   circle), with `V = −(M₁ + M₂)/L` constant along the element (moment equilibrium): one
+//!   point per element.
 //! * Buckling ratio `b = x^q P L²/(π² EI)`, `P = max(−N, 0)` the compression and `L` the
 //!   bar's length: the compressive force over the Euler load `π² EI/L²` of the pin-ended bar
 //!   (a bar clamped at its ends is stronger, so this is the safe side). One point per
@@ -26,6 +29,8 @@ use crate::model::Element;
 pub enum Measure {
     /// Fibre stresses (Pa).
     Stress,
+    /// The largest shear stress of the section (Pa).
+    Shear,
     /// Compression over the Euler load of the bar (dimensionless).
     Buckling,
 }
@@ -66,6 +71,10 @@ impl Measure {
                     }
                 }
             }
+            Self::Shear => {
+                let (tau, d) = shear(el);
+                f(1.0, tau, &d);
+            }
             Self::Buckling => {
                 let (b, d) = buckling(el);
                 f(1.0, b, &d);
@@ -77,6 +86,7 @@ impl Measure {
     pub fn peak(self, el: &ElementState) -> f64 {
         match self {
             Self::Stress => FibreStress::of(el).peak(),
+            Self::Shear => shear(el).0.abs(),
             Self::Buckling => buckling(el).0,
         }
     }
@@ -116,6 +126,19 @@ impl FibreStress {
     fn peak(&self) -> f64 {
         self.axial.0.abs() + self.bending[0].0.abs().max(self.bending[1].0.abs())
     }
+}
+
+/// `τ = −x^q k (M₁ + M₂)/(L A)` and `∂τ/∂u`.
+fn shear(el: &ElementState) -> (f64, Vector6) {
+    let beam = &el.element.beam;
+    let (forces, jacobian) = beam.section_forces_and_jacobian(&el.element.gather(el.q));
+    // The response's parser guarantees the factor.
+    let k = beam.section.shear_factor.unwrap_or(0.0);
+    let per_m = -el.relax * k / (beam.length * beam.section.area);
+    (
+        per_m * (forces[1] + forces[2]),
+        (jacobian.row(1) + jacobian.row(2)).transpose() * per_m,
+    )
 }
 
 /// `b = x^q max(−N, 0) L²/(π² EI)` and `∂b/∂u` (zero in tension).

@@ -80,11 +80,13 @@ class Scene:
 
     def section(self, name: str, *, E: float, rho: float, nu: float | None = None, G: float | None = None,
                 diameter: float | None = None, A: float | None = None, I: float | None = None,
-                kappa: float | None = None, c: float | None = None) -> str:
+                kappa: float | None = None, c: float | None = None, shear_factor: float | None = None) -> str:
         """A beam section: material (``E``, ``rho``, one of ``nu``/``G``) and either a solid
         circle ``diameter`` (Cowper's shear coefficient) or ``A``, ``I``, ``kappa``, with the
-        outer-fibre distance ``c`` if bending stresses ``M c / I`` are wanted (m)."""
-        entry = {"E": E, "rho": rho, "nu": nu, "G": G, "diameter": diameter, "A": A, "I": I, "kappa": kappa, "c": c}
+        outer-fibre distance ``c`` if bending stresses ``M c / I`` are wanted (m) and the
+        ``shear_factor`` k of the largest shear stress ``k V/A`` if shear stresses are."""
+        entry = {"E": E, "rho": rho, "nu": nu, "G": G, "diameter": diameter, "A": A, "I": I, "kappa": kappa, "c": c,
+                 "shear_factor": shear_factor}
         self._spec.setdefault("sections", {})[name] = {k: v for k, v in entry.items() if v is not None}
         return name
 

@@ -367,7 +367,8 @@ class Simulation:
         Gauss–Lobatto points along both fibres of every element, condensed over the motion
         and the structure's length (Pa) by a p-mean (``p=8`` by default) or, with
         ``ks=RHO,scale=S``, a KS mean; ``q=0.5`` (default) relaxes vanishing bars, ``q=0``
-        gives the solid material's stress; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
+        gives the solid material's stress; ``"shear[...]"`` the section's largest shear stress
+        ``x^q k V/A``; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
         for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load. The
         means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.

@@ -32,18 +32,23 @@ fn section(path: &str, s: &SectionSpec) -> Result<Section> {
     let rho = positive(&format!("{path}.rho"), s.rho)?;
     let (g, nu) = elasticity(path, s, e)?;
     let (area, inertia, kappa) = geometry(path, s, nu)?;
-    let section = Section::new(e, g, area, inertia, kappa, rho);
-    Ok(match (s.diameter, s.c) {
-        (Some(d), None) => section.with_fibre(d / 2.0),
-        (None, Some(c)) => section.with_fibre(positive(&format!("{path}.c"), c)?),
-        (None, None) => section,
-        (Some(_), Some(_)) => {
+    let mut section = Section::new(e, g, area, inertia, kappa, rho);
+    if let Some(d) = s.diameter {
+        if s.c.is_some() || s.shear_factor.is_some() {
             return Err(SceneError::new(
                 path,
-                "a solid circle's outer fibre is at diameter/2; drop `c`",
-            ))
+                "a solid circle's outer fibre is at diameter/2 and its peak shear 4/3 V/A; drop `c` and `shear_factor`",
+            ));
         }
-    })
+        return Ok(section.with_fibre(d / 2.0).with_shear_factor(4.0 / 3.0));
+    }
+    if let Some(c) = s.c {
+        section = section.with_fibre(positive(&format!("{path}.c"), c)?);
+    }
+    if let Some(k) = s.shear_factor {
+        section = section.with_shear_factor(positive(&format!("{path}.shear_factor"), k)?);
+    }
+    Ok(section)
 }
 
 /// Shear modulus `G` and Poisson's ratio `ν`: exactly one is given, the other follows from

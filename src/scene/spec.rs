@@ -93,6 +93,9 @@ pub struct SectionSpec {
     /// Outer-fibre distance from the neutral axis (m), for bending stresses `M c / I`
     /// (a solid circle's is `diameter / 2`).
     pub c: Option<f64>,
+    /// The largest shear stress over `V/A`, for shear stresses (3/2 for a rectangle; a solid
+    /// circle's is 4/3).
+    pub shear_factor: Option<f64>,
 }
 
 /// A named node.

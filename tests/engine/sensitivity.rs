@@ -104,7 +104,7 @@ pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r:
     }
 }
 
-pub(crate) const DYNAMIC: [&str; 10] = [
+pub(crate) const DYNAMIC: [&str; 11] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
@@ -115,6 +115,7 @@ pub(crate) const DYNAMIC: [&str; 10] = [
     "stress:link1:ks=30,scale=1e6,q=0",
     "buckling:p=4",
     "stress:link1/bar40:p=16",
+    "shear:link2",
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.
@@ -178,6 +179,7 @@ fn static_compliance_gradients_match_finite_differences() {
             "stress",
             "stress:p=16,q=1",
             "buckling:ks=20,scale=1e-3",
+            "shear:p=4,q=0",
         ],
     );
     let settings = StaticSettings {

@@ -239,3 +239,32 @@ def test_a_bar_is_its_own_aggregate():
     assert per_bar_limits(sim, 1e6, options="q=0") == [("stress:left:q=0", 1e6), ("stress:right:q=0", 1e6)]
     with pytest.raises(SettingsError, match="unknown component or bar 'middle'"):
         sim.run_with_sensitivities(np.ones(sim.n_design), ["stress:middle"])
+
+
+def test_a_cantilever_carries_its_peak_shear_stress():
+    """A transverse tip load P: V = P along the beam, so τ = (4/3) P/A in a solid circle at
+    every point, the peak and every mean; a section given by A, I, kappa names its
+    ``shear_factor`` (3/2 for a rectangle) or is refused."""
+    load = 0.02
+    sim = cantilever(0.8, load, split=3)
+    res = sim.run_with_sensitivities(np.ones(1), ["shear", "shear:ks=5,scale=1e3"])
+    tau = 4 / 3 * load / AREA
+    assert res.values[0] == pytest.approx(tau, rel=1e-6) and res.peaks["shear"] == pytest.approx(tau, rel=1e-6)
+    assert res.values[1] == pytest.approx(1e3 / 5 * math.log(math.cosh(5 * tau / 1e3)), rel=1e-6)
+    width, height = 0.02, 0.01
+    scene = flextop.Scene("bar", analysis="static")
+    scene.section("flat", E=E, nu=NU, rho=RHO, A=width * height, I=width * height**3 / 12, kappa=5 / 6)
+    scene.node("a", 0.0, 0.0)
+    scene.node("b", 0.5, 0.0)
+    scene.beam("a", "b", section="flat", name="flat")
+    scene.clamp("clamp", "a")
+    scene.load("b", force=(0.0, -load))
+    both = flextop.Scene.from_dict(scene.to_dict())
+    both.section("round", E=E, nu=NU, rho=RHO, diameter=D, shear_factor=1.5)
+    with pytest.raises(flextop.SceneError, match="its peak shear 4/3 V/A; drop `c` and `shear_factor`"):
+        flextop.Simulation(both)
+    with pytest.raises(SettingsError, match="no peak shear factor; give `shear_factor`"):
+        flextop.Simulation(scene).run_with_sensitivities(np.ones(1), ["shear"])
+    scene.section("flat", E=E, nu=NU, rho=RHO, A=width * height, I=width * height**3 / 12, kappa=5 / 6, shear_factor=1.5)
+    res = flextop.Simulation(scene).run_with_sensitivities(np.ones(1), ["shear"])
+    assert res.peaks["shear"] == pytest.approx(1.5 * load / (width * height), rel=1e-6)
