@@ -10,6 +10,8 @@
 //! response is a mean of this form over the motion and the structure, of a power or an
 //! exponential of the stresses, mapped to stress units at the end ([`crate::aggregate`]).
 
+use nalgebra::Vector3;
+
 use crate::aggregate::Aggregation;
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
@@ -56,19 +58,100 @@ pub enum Response {
     /// the structure's length by a p-mean or KS mean. The measures use full-density section
     /// forces, so `x⁰` gives the solid material's value; `x^q` with `q > 0` is the
     /// relaxation that keeps vanishing bars from dominating (Le et al. 2010 use `q = ½`).
-    Aggregate {
-        /// What is measured.
-        measure: Measure,
-        /// The elements aggregated.
-        members: Members,
-        /// How the point values are condensed.
-        aggregation: Aggregation,
-        /// Relaxation exponent `q`.
-        relaxation: f64,
-        /// Total length of the elements aggregated (m), the weight of an element being its
-        /// share of it.
-        length: f64,
-    },
+    Aggregate(Aggregated),
+}
+
+/// An aggregate response: what it measures, where, and how it condenses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Aggregated {
+    /// What is measured.
+    pub measure: Measure,
+    /// The elements aggregated.
+    pub members: Members,
+    /// How the point values are condensed.
+    pub aggregation: Aggregation,
+    /// Relaxation exponent `q`.
+    pub relaxation: f64,
+    /// Total length of the elements aggregated (m), the weight of an element being its
+    /// share of it.
+    pub length: f64,
+}
+
+impl Aggregated {
+    /// Element `e` with its full-density section `forces` at the state.
+    fn element<'a>(&self, ctx: &'a Context, e: usize, forces: Vector3<f64>) -> ElementState<'a> {
+        let m = ctx.model;
+        let el = &m.elements[e];
+        ElementState {
+            element: el,
+            bar_length: m.bars[el.bar].volume / el.beam.section.area,
+            relax: ctx.densities.density[e].powf(self.relaxation),
+            forces,
+        }
+    }
+
+    /// Element `e` at state `q` (its section forces, no Jacobian).
+    fn element_at<'a>(&self, ctx: &'a Context, e: usize, q: &[f64]) -> ElementState<'a> {
+        let el = &ctx.model.elements[e];
+        self.element(ctx, e, el.beam.section_forces(&el.gather(q)))
+    }
+
+    /// `Σ_e (L_e/L) Σ_k w_k φ(v_k; r)`: the state's share of the sum before the weight in time.
+    fn sum(&self, ctx: &Context, q: &[f64], reference: f64) -> f64 {
+        let mut sum = 0.0;
+        for e in self.members.elements(ctx.model) {
+            let el = self.element_at(ctx, e, q);
+            let share = el.element.beam.length / self.length;
+            self.measure.for_each_point(&el, |w, c| {
+                sum += share * w * self.aggregation.point(c.dot(&el.forces), reference).0;
+            });
+        }
+        sum
+    }
+
+    /// The largest point value at state `q`.
+    fn peak(&self, ctx: &Context, q: &[f64]) -> f64 {
+        self.members
+            .elements(ctx.model)
+            .map(|e| self.measure.peak(&self.element_at(ctx, e, q)))
+            .fold(0.0, f64::max)
+    }
+
+    /// Adds `scale` times the partials of [`Self::sum`] to `g_q` and `g_x`.
+    fn add_partials(
+        &self,
+        ctx: &Context,
+        q: &[f64],
+        reference: f64,
+        scale: f64,
+        g_q: &mut [f64],
+        g_x: &mut [f64],
+    ) {
+        let m = ctx.model;
+        for e in self.members.elements(m) {
+            let element = &m.elements[e];
+            let (forces, jacobian) = element.beam.section_forces_and_jacobian(&element.gather(q));
+            let el = self.element(ctx, e, forces);
+            let share = scale * el.element.beam.length / self.length;
+            let (x, dofs, variable) = (
+                ctx.densities.density[e],
+                el.element.dofs(),
+                m.variable_of(e),
+            );
+            self.measure.for_each_point(&el, |w, c| {
+                let v = c.dot(&el.forces);
+                let slope = share * w * self.aggregation.point(v, reference).1;
+                let d_v = jacobian.transpose() * c;
+                dofs.iter()
+                    .zip(d_v.iter())
+                    .for_each(|(&d, g)| g_q[d] += slope * g);
+                // ∂v/∂x = q x^{q−1} v_solid = (q/x) v.
+                if let Some(j) = variable {
+                    g_x[j] += slope * self.relaxation / x * v;
+                }
+            });
+        }
+    }
 }
 
 /// The elements an aggregate reads: all, a component's, or one bar's (per-bar limits).
@@ -268,13 +351,13 @@ impl Response {
             .iter()
             .map(|&e| model.elements[e].beam.length)
             .sum();
-        Ok(Self::Aggregate {
+        Ok(Self::Aggregate(Aggregated {
             measure,
             members,
             aggregation,
             relaxation,
             length,
-        })
+        }))
     }
 
     fn weighting(&self, analysis: Analysis) -> Weighting {
@@ -360,37 +443,14 @@ impl Response {
             | Self::IntegratedDisplacement { node, direction } => {
                 direction[0] * q[3 * node] + direction[1] * q[3 * node + 1]
             }
-            Self::Aggregate {
-                measure,
-                members,
-                aggregation,
-                relaxation,
-                length,
-            } => {
-                let mut sum = 0.0;
-                for e in members.elements(m) {
-                    let share = m.elements[e].beam.length / length;
-                    measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, _| {
-                        sum += share * w * aggregation.point(v, known.reference).0;
-                    });
-                }
-                sum
-            }
+            Self::Aggregate(ref a) => a.sum(ctx, q, known.reference),
         }
     }
 
     /// The largest point value of an aggregate at state `q` (0 for other responses).
     pub fn peak(&self, ctx: &Context, q: &[f64]) -> f64 {
         match *self {
-            Self::Aggregate {
-                measure,
-                members,
-                relaxation,
-                ..
-            } => members
-                .elements(ctx.model)
-                .map(|e| measure.peak(&at(ctx, e, q, relaxation)))
-                .fold(0.0, f64::max),
+            Self::Aggregate(ref a) => a.peak(ctx, q),
             _ => 0.0,
         }
     }
@@ -398,7 +458,7 @@ impl Response {
     /// The aggregation of an aggregate response.
     pub fn aggregation(&self) -> Option<Aggregation> {
         match *self {
-            Self::Aggregate { aggregation, .. } => Some(aggregation),
+            Self::Aggregate(ref a) => Some(a.aggregation),
             _ => None,
         }
     }
@@ -468,30 +528,7 @@ impl Response {
                 g_q[3 * node] += scale * direction[0];
                 g_q[3 * node + 1] += scale * direction[1];
             }
-            Self::Aggregate {
-                measure,
-                members,
-                aggregation,
-                relaxation,
-                length,
-            } => {
-                for e in members.elements(m) {
-                    let el = &m.elements[e];
-                    let share = scale * el.beam.length / length;
-                    let (x, dofs, variable) =
-                        (ctx.densities.density[e], el.dofs(), m.variable_of(e));
-                    measure.for_each_point(&at(ctx, e, q, relaxation), |w, v, d_v| {
-                        let slope = share * w * aggregation.point(v, known.reference).1;
-                        dofs.iter()
-                            .zip(d_v.iter())
-                            .for_each(|(&d, g)| g_q[d] += slope * g);
-                        // ∂v/∂x = q x^{q−1} v_solid = (q/x) v.
-                        if let Some(j) = variable {
-                            g_x[j] += slope * relaxation / x * v;
-                        }
-                    });
-                }
-            }
+            Self::Aggregate(ref a) => a.add_partials(ctx, q, known.reference, scale, g_q, g_x),
         }
     }
 
@@ -501,18 +538,6 @@ impl Response {
             Self::TipDeflection { node } => Some(node),
             _ => None,
         }
-    }
-}
-
-/// Element `e` at state `q`, as a [`Measure`] reads it.
-fn at<'a>(ctx: &'a Context, e: usize, q: &'a [f64], relaxation: f64) -> ElementState<'a> {
-    let m = ctx.model;
-    let el = &m.elements[e];
-    ElementState {
-        element: el,
-        bar_length: m.bars[el.bar].volume / el.beam.section.area,
-        relax: ctx.densities.density[e].powf(relaxation),
-        q,
     }
 }
 

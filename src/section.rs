@@ -60,16 +60,10 @@ impl Section {
         }
     }
 
-    /// Young's modulus `E = EA / A` (Pa).
-    pub fn young(&self) -> f64 {
-        self.ea / self.area
-    }
-
-    /// Fibre stresses `N/A ± M c/I` of the section forces `N`, `M` (Pa): axial and bending
-    /// parts, with `c/I = c E / EI`. `None` without an outer-fibre distance.
-    pub fn fibre_stress(&self, axial: f64, moment: f64) -> Option<(f64, f64)> {
-        self.fibre
-            .map(|c| (axial / self.area, moment * c * self.young() / self.ei))
+    /// `c/I = c E/EI` (1/m³), the outer-fibre stress per unit bending moment; `None`
+    /// without an outer-fibre distance.
+    pub fn fibre_per_moment(&self) -> Option<f64> {
+        self.fibre.map(|c| c * (self.ea / self.area) / self.ei)
     }
 
     /// Geometry of a solid circle of diameter `d`: area `πd²/4`, second moment `πd⁴/64`

@@ -7,6 +7,10 @@
 //! factor `x^q` multiplies them (Le et al. 2010: `q = ½`), so that vanishing bars, whose
 //! strains stay finite, do not make a stress limit singular.
 //!
+//! Each is a linear form of the section forces at a point (zero in tension for buckling),
+//! so one set of coefficients gives the value and, through the forces' Jacobian, its
+//! derivative.
+//!
 //! * Fibre stress `σ = x^q (N/A ± M c/I)` on both outer fibres. No load acts inside an
 //!   element, so the bending moment runs linearly from `−M₁` to `M₂` and `σ` is linear along
 //!   the element; six Gauss–Lobatto points integrate `|σ|^p` exactly for even `p ≤ 8`, and
@@ -21,7 +25,8 @@
 
 use std::f64::consts::PI;
 
-use crate::element::Vector6;
+use nalgebra::Vector3;
+
 use crate::model::Element;
 
 /// What an aggregate measures at its points.
@@ -43,8 +48,8 @@ pub struct ElementState<'a> {
     pub bar_length: f64,
     /// The relaxation factor `x^q` of its density.
     pub relax: f64,
-    /// The global state.
-    pub q: &'a [f64],
+    /// Its full-density section forces `[N, M₁, M₂]`.
+    pub forces: Vector3<f64>,
 }
 
 /// Six-point Gauss–Lobatto rule on `[0, 1]` (abscissa, weight; weights sum to 1): exact for
@@ -59,97 +64,50 @@ const LOBATTO: [(f64, f64); 6] = [
 ];
 
 impl Measure {
-    /// Calls `f(w, v, ∂v/∂u)` at each point of the element, with weights `w` summing to 1.
-    pub fn for_each_point(self, el: &ElementState, mut f: impl FnMut(f64, f64, &Vector6)) {
+    /// Calls `f(w, c)` at each point of the element, with weights `w` summing to 1 and `c`
+    /// the point's value as a linear form of the section forces: `v = c · [N, M₁, M₂]`,
+    /// so `∂v/∂u = Jᵀ c` with `J` their Jacobian.
+    pub fn for_each_point(self, el: &ElementState, mut f: impl FnMut(f64, Vector3<f64>)) {
+        let section = &el.element.beam.section;
         match self {
             Self::Stress => {
-                let fibre = FibreStress::of(el);
+                // The response's parser guarantees the fibre distance.
+                let per_m = section.fibre_per_moment().unwrap_or(0.0);
+                let axial = el.relax / section.area;
                 for side in [1.0, -1.0] {
                     for &(s, w) in &LOBATTO {
-                        let (sigma, d) = fibre.at(s, side);
-                        f(0.5 * w, sigma, &d);
+                        let bending = el.relax * side * per_m;
+                        f(
+                            0.5 * w,
+                            Vector3::new(axial, -bending * (1.0 - s), bending * s),
+                        );
                     }
                 }
             }
             Self::Shear => {
-                let (tau, d) = shear(el);
-                f(1.0, tau, &d);
+                // V = −(M₁ + M₂)/L; the parser guarantees the factor.
+                let k = section.shear_factor.unwrap_or(0.0);
+                let per_m = -el.relax * k / (el.element.beam.length * section.area);
+                f(1.0, Vector3::new(0.0, per_m, per_m));
             }
             Self::Buckling => {
-                let (b, d) = buckling(el);
-                f(1.0, b, &d);
+                let per_n = if el.forces[0] < 0.0 {
+                    -el.relax * el.bar_length.powi(2) / (PI * PI * section.ei)
+                } else {
+                    0.0
+                };
+                f(1.0, Vector3::new(per_n, 0.0, 0.0));
             }
         }
     }
 
-    /// The largest point value `|v|` of the element.
+    /// The largest point value `|v|` of the element (for stresses, at an end, which is a
+    /// point of the rule).
     pub fn peak(self, el: &ElementState) -> f64 {
-        match self {
-            Self::Stress => FibreStress::of(el).peak(),
-            Self::Shear => shear(el).0.abs(),
-            Self::Buckling => buckling(el).0,
-        }
+        let mut peak = 0.0_f64;
+        self.for_each_point(el, |_, c| peak = peak.max(c.dot(&el.forces).abs()));
+        peak
     }
-}
-
-/// The fibre stresses of an element, relaxed: the axial part `a = x^q N/A` and the bending
-/// parts `b₁ = −x^q M₁ c/I`, `b₂ = x^q M₂ c/I` at its ends, with their derivatives.
-struct FibreStress {
-    axial: (f64, Vector6),
-    bending: [(f64, Vector6); 2],
-}
-
-impl FibreStress {
-    fn of(el: &ElementState) -> Self {
-        let beam = &el.element.beam;
-        let (forces, jacobian) = beam.section_forces_and_jacobian(&el.element.gather(el.q));
-        // Per unit N and M; the response's parser guarantees the fibre distance.
-        let (per_n, per_m) = beam.section.fibre_stress(1.0, 1.0).unwrap_or((0.0, 0.0));
-        let part = |row: usize, factor: f64| {
-            let f = el.relax * factor;
-            (f * forces[row], jacobian.row(row).transpose() * f)
-        };
-        Self {
-            axial: part(0, per_n),
-            bending: [part(1, -per_m), part(2, per_m)],
-        }
-    }
-
-    /// `σ = a ± ((1 − s) b₁ + s b₂)` and `∂σ/∂u` at `s ∈ [0, 1]` on fibre `side = ±1`.
-    fn at(&self, s: f64, side: f64) -> (f64, Vector6) {
-        let ([b1, b2], a) = (&self.bending, &self.axial);
-        let (l1, l2) = (side * (1.0 - s), side * s);
-        (a.0 + l1 * b1.0 + l2 * b2.0, a.1 + b1.1 * l1 + b2.1 * l2)
-    }
-
-    /// The largest `|σ|`: at an end, on the fibre where bending adds to the axial part.
-    fn peak(&self) -> f64 {
-        self.axial.0.abs() + self.bending[0].0.abs().max(self.bending[1].0.abs())
-    }
-}
-
-/// `τ = −x^q k (M₁ + M₂)/(L A)` and `∂τ/∂u`.
-fn shear(el: &ElementState) -> (f64, Vector6) {
-    let beam = &el.element.beam;
-    let (forces, jacobian) = beam.section_forces_and_jacobian(&el.element.gather(el.q));
-    // The response's parser guarantees the factor.
-    let k = beam.section.shear_factor.unwrap_or(0.0);
-    let per_m = -el.relax * k / (beam.length * beam.section.area);
-    (
-        per_m * (forces[1] + forces[2]),
-        (jacobian.row(1) + jacobian.row(2)).transpose() * per_m,
-    )
-}
-
-/// `b = x^q max(−N, 0) L²/(π² EI)` and `∂b/∂u` (zero in tension).
-fn buckling(el: &ElementState) -> (f64, Vector6) {
-    let beam = &el.element.beam;
-    let (forces, jacobian) = beam.section_forces_and_jacobian(&el.element.gather(el.q));
-    if forces[0] >= 0.0 {
-        return (0.0, Vector6::zeros());
-    }
-    let per_n = -el.relax * el.bar_length.powi(2) / (PI * PI * beam.section.ei);
-    (per_n * forces[0], jacobian.row(0).transpose() * per_n)
 }
 
 #[cfg(test)]
