@@ -166,6 +166,18 @@ def test_a_stress_limit_is_normalized_once_per_iteration():
     np.testing.assert_allclose(accepted.dg[0], evaluation.dg[0] * new / c, rtol=1e-12)
 
 
+@pytest.mark.parametrize("name", ["stress", "shear:q=0", "buckling:p=4"])
+def test_every_aggregate_limit_starts_at_its_peak(name):
+    """At the first design, c P = the peak for each kind of aggregate the engine offers."""
+    from flextop.problems import TopologyProblem
+
+    sim = flextop.Simulation(flextop.scenes.static_truss())
+    x = np.full(sim.n_design, 0.5)
+    problem = TopologyProblem(sim, "compliance", [(name, 1e3)])
+    peak = sim.run_with_sensitivities(x, [name]).peaks[name]
+    assert problem.evaluate(x).g[0] + 1 == pytest.approx(peak / 1e3, rel=1e-12)
+
+
 def test_a_limit_given_twice_is_refused():
     from flextop.errors import SettingsError
     from flextop.problems import TopologyProblem
