@@ -47,6 +47,7 @@ mod limits;
 mod linsolve;
 mod modal;
 mod newton;
+mod prolongation;
 mod response;
 mod rigid;
 mod sensitivity;
@@ -69,15 +70,19 @@ pub use interrupt::{poll, with_checker};
 pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SPLIT};
 pub use modal::{natural_modes, Modes};
 pub use model::{Densities, Model};
+pub use prolongation::Prolongation;
 pub use response::Response;
 pub use rigid::rigid_positions;
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Sensitivities, Timings,
 };
 pub use settings::{
-    DynamicSettings, Memory, Method, RunOptions, SensitivitySettings, StaticSettings, MAX_STEPS,
+    DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,
+    MAX_STEPS,
 };
-pub use simulation::{simulate, simulate_adaptive, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES};
+pub use simulation::{
+    simulate, simulate_adaptive, simulate_guided, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES,
+};
 pub use statics::{solve_static, StaticSolution};
 pub use step_control::StepControl;
 pub use stress::Measure;

@@ -16,7 +16,7 @@
 //!
 //! The matrices here are `n_rows × 3 n_clusters`: a handful of bodies, not the FE mesh.
 
-use nalgebra::{DMatrix, DVector, Vector2};
+use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
 use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
@@ -205,11 +205,22 @@ impl Clusters {
         let mut rho = DVector::zeros(n);
         let mut out = Vec::with_capacity(times.len());
         let scale = model.size();
+        // The Jacobian's SVD judges the singularity wherever it is made: at each time's
+        // converged point, and where Newton with the one kept from the time before stops
+        // contracting tenfold per iteration.
+        let mut kept: Option<SVD<f64, Dyn, Dyn>> = None;
         for &t in times {
             let fail = |detail: String| SolveError::Kinematics { time: t, detail };
+            let mut previous = f64::INFINITY;
             for iter in 0.. {
                 let (phi, jac) = self.constraints(model, &rho, t);
-                let svd = jac.svd(true, true);
+                let residual = phi.amax();
+                let converged = residual <= 1e-13 * scale;
+                let svd = match kept.take() {
+                    Some(svd) if !converged && residual <= 0.1 * previous => kept.insert(svd),
+                    _ => kept.insert(jac.svd(true, true)),
+                };
+                previous = residual;
                 let sigma = &svd.singular_values;
                 let condition = sigma.min() / sigma.max().max(f64::MIN_POSITIVE);
                 if sigma.len() < n || condition < SINGULAR {
@@ -224,7 +235,7 @@ impl Clusters {
                         )
                     }));
                 }
-                if phi.amax() <= 1e-13 * scale {
+                if converged {
                     break;
                 }
                 if iter == 50 {

@@ -56,6 +56,18 @@ pub enum Memory {
     },
 }
 
+/// How often Newton's iteration matrix is refactorized.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NewtonMatrix {
+    /// At every iteration: Newton's method, quadratic convergence.
+    #[default]
+    Full,
+    /// At the first iteration of each step, then kept while the residual falls at least
+    /// tenfold per iteration (modified Newton): each kept iteration costs a residual and a
+    /// solve instead of a tangent and a factorization. The same solution to `tol`.
+    Modified,
+}
+
 /// Parses a lowercase name among `allowed`, for the `FromStr` of the setting enums.
 fn parse_name<T: Copy>(
     setting: &str,
@@ -84,6 +96,14 @@ impl FromStr for Method {
             s,
             &[("auto", Auto), ("direct", Direct), ("adjoint", Adjoint)],
         )
+    }
+}
+
+impl FromStr for NewtonMatrix {
+    type Err = SettingsError;
+    fn from_str(s: &str) -> Result<Self, SettingsError> {
+        use NewtonMatrix::*;
+        parse_name("newton", s, &[("full", Full), ("modified", Modified)])
     }
 }
 
@@ -120,6 +140,7 @@ macro_rules! deserialize_by_name {
 }
 deserialize_by_name!(Method);
 deserialize_by_name!(Memory);
+deserialize_by_name!(NewtonMatrix);
 
 impl Method {
     /// The lowercase name, as parsed.
@@ -146,6 +167,8 @@ pub struct RunOptions {
     pub tol: Option<f64>,
     /// Newton iterations per step.
     pub max_iter: Option<usize>,
+    /// Newton's matrix: `"full"` (every iteration) or `"modified"` (kept while it contracts).
+    pub newton: Option<NewtonMatrix>,
     /// Inertia discretization: `"consistent"` or `"lumped"`.
     pub mass: Option<MassKind>,
     /// Initial load steps of a static analysis.
@@ -169,6 +192,8 @@ pub struct DynamicSettings {
     pub tol: f64,
     /// Newton iterations allowed per step.
     pub max_iter: usize,
+    /// How often Newton's matrix is refactorized.
+    pub newton: NewtonMatrix,
     /// Inertia discretization.
     pub mass: MassKind,
 }
@@ -184,6 +209,8 @@ pub struct StaticSettings {
     pub tol: f64,
     /// Newton iterations per load step.
     pub max_iter: usize,
+    /// How often Newton's matrix is refactorized.
+    pub newton: NewtonMatrix,
     /// Consecutive step halvings allowed.
     pub max_cuts: usize,
 }
@@ -270,6 +297,7 @@ impl RunOptions {
             rho_inf: self.rho_inf.or(d.rho_inf),
             tol: self.tol.or(d.tol),
             max_iter: self.max_iter.or(d.max_iter),
+            newton: self.newton.or(d.newton),
             mass: self.mass.or(d.mass),
             load_steps: self.load_steps.or(d.load_steps),
             method: self.method.or(d.method),
@@ -296,6 +324,7 @@ impl RunOptions {
             rho_inf: o.rho_inf.unwrap_or(RHO_INF),
             tol: o.tol.unwrap_or(TOL),
             max_iter: o.max_iter.unwrap_or(MAX_ITER),
+            newton: o.newton.unwrap_or_default(),
             mass: o.mass.unwrap_or(MassKind::Consistent),
         })
     }
@@ -312,6 +341,7 @@ impl RunOptions {
             time: o.t_end.unwrap_or(0.0),
             tol: o.tol.unwrap_or(TOL),
             max_iter: o.max_iter.unwrap_or(MAX_ITER),
+            newton: o.newton.unwrap_or_default(),
             max_cuts: MAX_CUTS,
         })
     }

@@ -11,7 +11,7 @@ use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::model::{Densities, Model};
 use crate::newton::{Newton, Point};
-use crate::settings::StaticSettings;
+use crate::settings::{NewtonMatrix, StaticSettings};
 
 /// Smallest load-factor increment tried before the solve gives up.
 pub const MIN_LOAD_INCREMENT: f64 = 1e-6;
@@ -44,13 +44,15 @@ pub(crate) fn static_newton<'m>(
     densities: Densities,
     settings: &StaticSettings,
 ) -> Result<Newton<'m>, SolveError> {
-    Newton::new(
+    let mut newton = Newton::new(
         model,
         densities,
         MassKind::Consistent,
         settings.tol,
         settings.max_iter,
-    )
+    )?;
+    newton.keep_matrix(settings.newton == NewtonMatrix::Modified);
+    Ok(newton)
 }
 
 /// Solves for the equilibrium of `model` with element scalings `densities`.

@@ -8,7 +8,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use flextop::scene;
-use flextop::{DynamicSettings, Integrator, MassKind};
+use flextop::{DynamicSettings, Integrator, MassKind, NewtonMatrix};
 
 #[path = "support/reference.rs"]
 mod reference;
@@ -46,7 +46,8 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn alpha_steps_do_not_allocate() {
-    for split in [1, 3] {
+    let runs = [1, 3].map(|split| (split, NewtonMatrix::Full));
+    for (split, newton) in runs.into_iter().chain([(3, NewtonMatrix::Modified)]) {
         let model = scene::build(&reference::robot_arm(split)).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
@@ -55,6 +56,7 @@ fn alpha_steps_do_not_allocate() {
             rho_inf: 0.8,
             tol: 1e-10,
             max_iter: 20,
+            newton,
             mass: MassKind::Consistent,
         };
         let mut integrator =
@@ -76,7 +78,7 @@ fn alpha_steps_do_not_allocate() {
         );
         assert_eq!(
             allocations, 0,
-            "split = {split}: {allocations} allocations in 30 steps"
+            "split = {split}, {newton:?} Newton: {allocations} allocations in 30 steps"
         );
     }
 }

@@ -332,14 +332,15 @@ class Simulation:
         return res
 
     def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
-               steps: np.ndarray | None = None) -> Results | StaticResults:
+               steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Results | StaticResults:
         """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
-        to ``local_tol``."""
+        to ``local_tol``; Newton starts each step from ``guide`` (a nearby run's ``q`` at
+        the same times) when given."""
         if self.analysis == "static":
             static = StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
             _warn_if_implausible_static(static)
             return static
-        raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps])
+        raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps], guide)
         res = Results(self, raw, xv, settings)
         _warn_if_energy_created(res)
         if steps is None and local_tol is None:
@@ -474,6 +475,11 @@ class Simulation:
             self._levels[refinement] = Simulation(split_by(self.spec, refinement))
         return self._levels[refinement]
 
+    def _prolonged(self, coarse: Results, refinement: int) -> np.ndarray:
+        """The states of ``coarse``, a run at half ``refinement``, carried to this scene at
+        ``refinement`` (each element's middle node on its cubic shape): a guide for Newton."""
+        return _core.prolong(self._level(refinement // 2).model, self._level(refinement).model, coarse.q)
+
     def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
                       gradients: dict[str, str] | None, first: Discretization | None = None, hold_gradients: bool = True) -> Any:
         """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
@@ -486,12 +492,16 @@ class Simulation:
         t_end = None if self.analysis == "static" else self._t_end(settings)
         runs: dict[tuple[Discretization, bool], Any] = {}
         judged = gradients if hold_gradients else None
-        loose = {} if "tol" in settings else {"tol": tolerance.companion_newton_tol(wanted[0])}
+        loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
+        loose = {k: v for k, v in loose.items() if k not in settings}
 
         def run(d: Discretization, gradients: dict[str, str] | None, companion: bool = False) -> Any:
             level = self._level(d.refinement)
             at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {}), **(loose if companion else {})}
-            return level._sensitivities(xv, names, {**at, **gradients}) if gradients else level._fixed(xv, at)
+            if gradients:
+                return level._sensitivities(xv, names, {**at, **gradients})
+            coarse = made(Discretization(d.refinement // 2, d.steps)) if companion and d.steps and d.refinement % 2 == 0 else None
+            return level._fixed(xv, at, guide=None if coarse is None else self._prolonged(coarse, d.refinement))
 
         def made(d: Discretization, companion: bool = True) -> Any:
             return runs.get((d, False)) or (runs.get((d, True)) if companion else None)
@@ -744,7 +754,8 @@ class _Run:
                     raise SettingsError("an error estimate needs a run of at least 4 steps")
                 half, quarter = (self.simulation._fixed(self.x, self.settings, steps=_merged(steps, k)) for k in (2, 4))
             split_steps = None if steps is None else _merged(steps, 2)
-            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=split_steps))
+            guide = None if half is None else self.simulation._prolonged(half, 2)
+            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=split_steps, guide=guide))
         return self.companions
 
 

@@ -38,6 +38,12 @@ The companions stop Newton at :func:`companion_newton_tol` (1e-6 rather than the
 1e-10): they measure differences of order ``rtol``, and the candidate, whose values and
 gradients are returned, keeps the run's own tolerance. Over the family both changes kept
 every worst error and under-estimate and cut the time of the runs to a tolerance by 43–52 %.
+Forward companions also run modified Newton (the step's first factorization kept while
+the residual falls tenfold per iteration), and the space companion starts each step's
+Newton from the time companion's states carried to twice the elements per bar
+(``Prolongation`` in the engine) plus the difference the two runs already have: on the
+arm's optima and dense designs its time falls by 40–45 %; on uniformly light designs
+(x ≤ 0.1), whose refined bars move unlike the coarse ones, it rises by up to a third.
 
 Step doubling is preferred here to a local error estimator of generalized-α because it
 measures what the user asks for, the error of a response, including the spatial part and

@@ -180,7 +180,7 @@ impl Beam {
 }
 
 /// `a` wrapped to `(−π, π]`.
-fn wrap_angle(a: f64) -> f64 {
+pub(crate) fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     a - TAU * ((a + PI) / TAU).ceil() + TAU
 }

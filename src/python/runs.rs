@@ -15,9 +15,10 @@ use super::signals::detached;
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError};
 use crate::model::Analysis;
+use crate::prolongation::Prolongation;
 use crate::rigid::rigid_positions as rigid;
 use crate::sensitivity::{self, parse_responses};
-use crate::simulation::{simulate as integrate, simulate_adaptive, simulate_on};
+use crate::simulation::{simulate as integrate, simulate_adaptive, simulate_guided, simulate_on};
 use crate::statics::solve_static as equilibrium;
 use crate::step_control::StepControl;
 use crate::time_grid::TimeGrid;
@@ -26,9 +27,11 @@ use crate::time_grid::TimeGrid;
 /// `iterations` and the size of each step (`steps`, 0 first), the energies, and the step
 /// `h` (the first step for an adaptive run) and `rho_inf` used. The steps are uniform
 /// (`h` of the settings), the given `steps`, or chosen by local error control to
-/// `local_tol` starting from `h`.
+/// `local_tol` starting from `h`. With a `guide` (`q` of a nearby run at each time of
+/// the uniform steps, `t = 0` first) each step's Newton iterations start from it
+/// ([`crate::simulate_guided`]).
 #[pyfunction]
-#[pyo3(signature = (model, x=None, settings=None, local_tol=None, steps=None))]
+#[pyo3(signature = (model, x=None, settings=None, local_tol=None, steps=None, guide=None))]
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -36,21 +39,35 @@ pub fn simulate<'py>(
     settings: Option<&Bound<'py, PyAny>>,
     local_tol: Option<f64>,
     steps: Option<Vec<f64>>,
+    guide: Option<PyReadonlyArray2<'py, f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let settings = run_options(settings)?
         .dynamic(&m.defaults)
         .map_err(Error::from)?;
     let x = design(x)?;
-    let traj = detached(py, move || match (local_tol, steps) {
-        (Some(tol), _) => simulate_adaptive(
+    let guide = guide.map(|g| g.as_array().iter().copied().collect::<Vec<f64>>());
+    let traj = detached(py, move || match (local_tol, steps, guide) {
+        (Some(_), _, Some(_)) => Err(SettingsError::new(
+            "guide",
+            "applies to uniform steps, not to local error control",
+        )
+        .into()),
+        (Some(tol), _, None) => simulate_adaptive(
             &m,
             x.as_deref(),
             &settings,
             &StepControl::new(tol, settings.step()),
         ),
-        (None, Some(steps)) => simulate_on(&m, x.as_deref(), &settings, &grid(steps)?),
-        (None, None) => integrate(&m, x.as_deref(), &settings),
+        (None, Some(steps), None) => simulate_on(&m, x.as_deref(), &settings, &grid(steps)?),
+        (None, Some(steps), Some(guide)) => {
+            simulate_guided(&m, x.as_deref(), &settings, &grid(steps)?, &guide)
+        }
+        (None, None, Some(guide)) => {
+            settings.validate()?;
+            simulate_guided(&m, x.as_deref(), &settings, &settings.grid(), &guide)
+        }
+        (None, None, None) => integrate(&m, x.as_deref(), &settings),
     })?;
     let d = PyDict::new(py);
     let (n_q, n_c, states) = (traj.n_q, traj.n_c, traj.time.len());
@@ -72,6 +89,33 @@ pub fn simulate<'py>(
 
 /// The grid of the given step sizes, or a [`SettingsError`] naming `steps` if one is not
 /// positive and finite or there are none.
+/// States `q` of `coarse` (one row per state) carried to `fine`, the same scene with twice
+/// the elements per bar ([`crate::Prolongation`]).
+#[pyfunction]
+pub fn prolong<'py>(
+    py: Python<'py>,
+    coarse: &PyModel,
+    fine: &PyModel,
+    q: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let (c, f) = (&coarse.model, &fine.model);
+    let map = Prolongation::between(c, f).map_err(Error::from)?;
+    let (rows, n_c, n_f) = (q.shape()[0], c.n_dofs(), f.n_dofs());
+    if q.shape()[1] != n_c {
+        let msg = format!(
+            "has rows of {} coordinates, the coarse model has {n_c}",
+            q.shape()[1]
+        );
+        return Err(Error::Settings(SettingsError::new("q", msg)).into());
+    }
+    let q = q.as_array().iter().copied().collect::<Vec<f64>>();
+    let mut out = vec![0.0; rows * n_f];
+    for (row, fine_row) in q.chunks(n_c).zip(out.chunks_mut(n_f)) {
+        map.apply(c, row, fine_row);
+    }
+    matrix(py, out, rows, n_f)
+}
+
 fn grid(steps: Vec<f64>) -> Result<TimeGrid, Error> {
     if steps.is_empty() || steps.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
         return Err(SettingsError::new(

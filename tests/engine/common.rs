@@ -1,7 +1,7 @@
 //! Scenes and helpers shared by the engine tests.
 
 use flextop::scene;
-use flextop::{DynamicSettings, MassKind, Model, StaticSettings, Trajectory};
+use flextop::{DynamicSettings, MassKind, Model, NewtonMatrix, StaticSettings, Trajectory};
 
 #[path = "../support/reference.rs"]
 pub mod reference;
@@ -51,6 +51,7 @@ pub fn settings(t_end: f64, h: f64, rho_inf: f64) -> DynamicSettings {
         rho_inf,
         tol: 1e-10,
         max_iter: 30,
+        newton: NewtonMatrix::Full,
         mass: MassKind::Consistent,
     }
 }
@@ -62,6 +63,7 @@ pub fn static_settings(load_steps: usize) -> StaticSettings {
         time: 0.0,
         tol: 1e-10,
         max_iter: 30,
+        newton: NewtonMatrix::Full,
         max_cuts: 8,
     }
 }

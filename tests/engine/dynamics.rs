@@ -178,8 +178,7 @@ fn numerical_dissipation_acts_on_high_frequencies_only() {
                 h,
                 rho_inf: rho,
                 tol: 1e-12,
-                max_iter: 30,
-                mass: MassKind::Consistent,
+                ..settings(1.0, h, rho)
             },
         )
         .unwrap();

@@ -4,6 +4,7 @@
 mod adaptive;
 mod common;
 mod dynamics;
+mod guides;
 mod sensitivity;
 mod statics;
 mod variable_steps;

@@ -1,0 +1,160 @@
+//! A state of a model carried to the same scene with twice the elements per bar: each
+//! coarse node keeps its coordinates, and the node that splits a coarse element in two
+//! takes the element's own deformed shape at its middle — the co-rotated cubic (Hermite)
+//! deflection `w(½) = l(θ₁ − θ₂)/8` off the chord and the slope `θ(½) = −(θ₁ + θ₂)/4`,
+//! with `θ₁, θ₂` the end rotations relative to the chord.
+//!
+//! It serves as a guess, not as a result: a run on the refined model starts each step's
+//! Newton iterations from the prolonged coarse state ([`crate::simulate_guided`]).
+
+use std::collections::HashMap;
+
+use nalgebra::Vector2;
+
+use crate::element::beam::wrap_angle as wrap;
+use crate::error::SettingsError;
+use crate::model::Model;
+
+/// Where a node of the refined model takes its coordinates from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Source {
+    /// A node of the coarse model at the same place.
+    Node(usize),
+    /// The middle of a coarse element.
+    Middle(usize),
+}
+
+/// The map from a model's coordinates to those of the same scene with twice the elements
+/// per bar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prolongation {
+    sources: Vec<Source>,
+}
+
+impl Prolongation {
+    /// The prolongation from `coarse` to `fine`: bars are matched by name, the `k`-th
+    /// element of a coarse bar by the fine bar's elements `2k` and `2k + 1`, and nodes in
+    /// no bar by name.
+    ///
+    /// # Errors
+    /// A [`SettingsError`] naming the bar or node where `fine` is not `coarse` with each
+    /// element split in two (checked on the reference positions).
+    pub fn between(coarse: &Model, fine: &Model) -> Result<Self, SettingsError> {
+        let mismatch = |what: String| {
+            SettingsError::new(
+                "fine model",
+                format!("is not the coarse model with every element split in two: {what}"),
+            )
+        };
+        let tol = 1e-9 * coarse.size();
+        let mut sources: Vec<Option<Source>> = vec![None; fine.nodes.len()];
+        let assign =
+            |sources: &mut Vec<Option<Source>>, node: usize, source: Source, at: Vector2<f64>| {
+                let name = &fine.nodes[node].name;
+                if (fine.nodes[node].position - at).norm() > tol {
+                    return Err(mismatch(format!(
+                        "node {name} is not where the coarse mesh puts it"
+                    )));
+                }
+                match sources[node].replace(source) {
+                    Some(other) if other != source => {
+                        Err(mismatch(format!("node {name} has two origins")))
+                    }
+                    _ => Ok(()),
+                }
+            };
+        let fine_bars: HashMap<&str, usize> = fine
+            .bars
+            .iter()
+            .enumerate()
+            .map(|(k, b)| (b.name.as_str(), k))
+            .collect();
+        for bar in &coarse.bars {
+            let split = fine_bars.get(bar.name.as_str()).map(|&k| &fine.bars[k]);
+            let Some(split) = split.filter(|s| s.elements.len() == 2 * bar.elements.len()) else {
+                return Err(mismatch(format!(
+                    "bar {} is missing or not split in two",
+                    bar.name
+                )));
+            };
+            for (k, e) in bar.elements.clone().enumerate() {
+                let [a, b] = coarse.elements[e].nodes;
+                let (pa, pb) = (coarse.nodes[a].position, coarse.nodes[b].position);
+                let first = &fine.elements[split.elements.start + 2 * k];
+                let second = &fine.elements[split.elements.start + 2 * k + 1];
+                if first.nodes[1] != second.nodes[0] {
+                    return Err(mismatch(format!(
+                        "the halves of bar {} do not meet",
+                        bar.name
+                    )));
+                }
+                assign(&mut sources, first.nodes[0], Source::Node(a), pa)?;
+                assign(
+                    &mut sources,
+                    first.nodes[1],
+                    Source::Middle(e),
+                    0.5 * (pa + pb),
+                )?;
+                assign(&mut sources, second.nodes[1], Source::Node(b), pb)?;
+            }
+        }
+        let coarse_nodes: HashMap<&str, usize> = coarse
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(k, n)| (n.name.as_str(), k))
+            .collect();
+        for node in 0..fine.nodes.len() {
+            if sources[node].is_none() {
+                let Some(&c) = coarse_nodes.get(fine.nodes[node].name.as_str()) else {
+                    return Err(mismatch(format!(
+                        "node {} is in no bar and not in the coarse model",
+                        fine.nodes[node].name
+                    )));
+                };
+                assign(
+                    &mut sources,
+                    node,
+                    Source::Node(c),
+                    coarse.nodes[c].position,
+                )?;
+            }
+        }
+        Ok(Self {
+            sources: sources.into_iter().flatten().collect(),
+        })
+    }
+
+    /// Coordinates of the refined model (`3` per node) for coordinates `q` of `coarse`.
+    pub fn apply(&self, coarse: &Model, q: &[f64], out: &mut [f64]) {
+        for (node, source) in self.sources.iter().enumerate() {
+            let value = match *source {
+                Source::Node(c) => [q[3 * c], q[3 * c + 1], q[3 * c + 2]],
+                Source::Middle(e) => middle(coarse, e, q),
+            };
+            out[3 * node..3 * node + 3].copy_from_slice(&value);
+        }
+    }
+}
+
+/// `(u, v, φ)` at the middle of element `e` of `model` in state `q`: the chord's midpoint
+/// moved by the cubic deflection `l(θ₁ − θ₂)/8` along its normal, turned by the chord's
+/// rotation plus the cubic's slope `−(θ₁ + θ₂)/4` there.
+fn middle(model: &Model, e: usize, q: &[f64]) -> [f64; 3] {
+    let [a, b] = model.elements[e].nodes;
+    let at = |n: usize| Vector2::new(q[3 * n], q[3 * n + 1]);
+    let (pa, pb) = (model.nodes[a].position, model.nodes[b].position);
+    let (xa, xb) = (pa + at(a), pb + at(b));
+    let chord = xb - xa;
+    let reference = pb - pa;
+    let (phi_a, phi_b) = (q[3 * a + 2], q[3 * b + 2]);
+    // The chord's rotation on the branch nearest node a's rotation.
+    let turn = chord.y.atan2(chord.x) - reference.y.atan2(reference.x);
+    let rigid = phi_a - wrap(phi_a - turn);
+    let (theta_a, theta_b) = (phi_a - rigid, phi_b - rigid);
+    let w = chord.norm() * (theta_a - theta_b) / 8.0;
+    let normal = Vector2::new(-chord.y, chord.x) / chord.norm();
+    let x = xa + 0.5 * chord + w * normal;
+    let u = x - 0.5 * (pa + pb);
+    [u.x, u.y, rigid - 0.25 * (theta_a + theta_b)]
+}
