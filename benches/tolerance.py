@@ -18,6 +18,10 @@ design judged as built (bars at x_min removed) on 4× the elements per bar and 2
 Richardson-extrapolated in time. Writes benches/results/tolerance_optimization.md (and
 .json, whose rows a rerun keeps unless ``--fresh``: an rtol run takes half an hour).
 
+With ``--cost``: the issue's cost floor — a run of the x = 0.4 arm to ``rtol = 1e-2``
+against the fixed-step run on the scene's grid, both with full and both with modified
+Newton (the companions always run modified Newton), best of 5, measured five times; with the x = 0.2 and a seeded random design beside it. Prints only.
+
 With ``--local``: local error control (``local_tol``) against uniform steps, time error
 only (one element per bar, reference 8704 uniform steps): the error of d against the
 number of steps and the time, for the arm at x = 0.4 and 1 and the spun beam at x = 0.6.
@@ -253,17 +257,40 @@ def local_control() -> None:
     (ROOT / "benches" / "results" / "local_error_control.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def cost() -> None:
+    """Seconds of a run to rtol 1e-2 against the fixed-step run (full and modified Newton)."""
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    designs = {"x = 0.4": 0.4, "x = 0.2": 0.2, "random #1": np.random.default_rng(1).uniform(sim.x_min, 1.0, sim.n_design)}
+
+    def best(run) -> float:
+        return min(timed(run)[0] for _ in range(5))
+
+    print("| design | discretization accepted | Newton | fixed run (ms) | rtol 1e-2 (ms) | rtol / fixed |")
+    print("|---|---|---|---|---|---|")
+    for name, x in designs.items():
+        accepted = sim.run(x, rtol=1e-2).discretization
+        for newton in (None, "modified"):  # None: the default, full Newton for the run, modified for the companions
+            rows = np.array([[best(lambda: sim.run(x, newton=newton)), best(lambda: sim.run(x, rtol=1e-2, newton=newton))]
+                             for _ in range(5)]) * 1e3
+            span = lambda v: f"{v.min():.1f}–{v.max():.1f}"  # noqa: E731
+            print(f"| {name} | {accepted} | {newton or 'full (default)'} | {span(rows[:, 0])} | {span(rows[:, 1])} | "
+                  f"{span(rows[:, 1] / rows[:, 0])} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--optimization", action="store_true", help="optimizations to a tolerance instead")
     parser.add_argument("--local", action="store_true", help="local error control against uniform steps instead")
+    parser.add_argument("--cost", action="store_true", help="the cost of rtol 1e-2 against a fixed run instead")
     parser.add_argument("--fresh", action="store_true", help="with --optimization: redo the rows already measured")
     args = parser.parse_args()
     if args.optimization:
         return optimization(args.fresh)
     if args.local:
         return local_control()
+    if args.cost:
+        return cost()
     quick = args.quick
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     beam = flextop.Simulation(flextop.scenes.spun_beam())
