@@ -6,11 +6,12 @@ with stress limits and a frequency floor, and the ten-bar truss of the literatur
    h/16), with the time of each run.
 2. The robot arm minimizing tip deflection (V ≤ 0.4 V per link), MMA, 50 iterations, started
    from the unconstrained optimum (continuation): unconstrained, with a stress limit, and
-   with a stress limit and a first-frequency floor. Each design is judged on the converged
+   with stress limits and first-frequency floors. Each design is judged on the converged
    structure (rtol 3e-3 for d and the stress, the frequencies to 1e-3). The scene's grid
    reads the peak stress low by a factor κ (a maximum over coarse samples converges
-   slower than the mean), so where the converged peak exceeds the limit a second stage of
-   half the iterations limits the model to limit/κ (``flextop.problems.tightened``). The
+   slower than the mean), so a constrained run has a second stage of half the iterations
+   with the model limited to limit/(κ(1 + margin)) and the floor raised by the margin
+   (``flextop.problems.tightened``). The
    static truss of Section 3.1 minimizing compliance with and without a stress limit,
    judged likewise.
 3. The ten-bar truss: minimum weight under member stress limits against the literature.
@@ -79,37 +80,52 @@ def judged(sim: flextop.Simulation, x: np.ndarray, objective: str) -> dict[str, 
     return {"f": run.values[0], "peak": run.peaks["stress"], "f1": float(sim.modes(1, x, rtol=1e-3).frequencies[0])}
 
 
+STAGE_MARGIN = 5e-3
+"""The second stage's margin (``tightened``): κ moves by 0.2 % with the design between
+stages, and MMA ends up to 0.04 % short of a frequency floor that competes with a stress
+limit."""
+
+KAPPA_RTOL = 1e-2
+"""The tolerance of the run that measures κ: on the arm's stage-one designs its peak is
+within 0.01 % of the one at 3e-3 (42.045 against 42.049 MPa), for 1.3 s instead of 12 s;
+each final design is judged at 3e-3 all the same."""
+
+
 def arm(quick: bool) -> list[str]:
     base = robot_arm_problem("tip_deflection")
     sim = base.simulation
     iterations = 10 if quick else 50
     start = flextop.optimize(base, 0.4, "mma", max_iter=iterations).x
-    cases = [("unconstrained", []), ("stress ≤ 40 MPa", [("stress", 40e6)]),
-             ("stress ≤ 40 MPa, f₁ ≥ 8.2 Hz", [("stress", 40e6), (MIN_FREQUENCY, 8.2)])]
+    cases = [("unconstrained", {}), ("stress ≤ 40 MPa", {"stress": 40e6}),
+             ("stress ≤ 40 MPa, f₁ ≥ 8.1 Hz", {"stress": 40e6, MIN_FREQUENCY: 8.1}),
+             ("stress ≤ 41 MPa, f₁ ≥ 8.2 Hz", {"stress": 41e6, MIN_FREQUENCY: 8.2}),
+             ("stress ≤ 40 MPa, f₁ ≥ 8.2 Hz", {"stress": 40e6, MIN_FREQUENCY: 8.2})]
     out = ["## The paper's problems with stress limits and a frequency floor", "",
-           f"Robot arm, tip deflection, V ≤ 0.4 V per link, MMA from the unconstrained optimum, {iterations} iterations. "
-           "'model' is what the optimizer saw (the scene's grid; an aggregate's limit as c·P), 'converged' the design "
-           "judged on the converged structure.", "",
-           "| problem | time (s) | iterations | d model | d converged | stress: model c·P / converged peak (MPa) | f₁ converged (Hz) | KS floor model (Hz) | message |",
-           "|---|---|---|---|---|---|---|---|---|"]
-    for label, extra in cases:
-        problem = TopologyProblem(sim, "tip_deflection", [*base.constraints, *extra])
+           f"Robot arm, tip deflection, V ≤ 0.4 V per link, MMA from the unconstrained optimum, {iterations} iterations; "
+           f"with limits, a second stage of {iterations // 2} from there with the stress limit at target/(κ(1 + "
+           f"{STAGE_MARGIN:g})) and the floor at target·(1 + {STAGE_MARGIN:g}) (κ at rtol {KAPPA_RTOL:g}). 'model' is "
+           "what the optimizer saw (the scene's grid; an aggregate's limit as c·P), 'converged' the design judged on the "
+           "converged structure (rtol 3e-3; f₁ to 1e-3). Time: both stages and the measurement of κ, not the judging.", "",
+           "| problem | time (s) | iterations | κ | d model | d converged | stress: model c·P / converged peak (MPa) "
+           "| f₁ converged (Hz) | KS floor model (Hz) | every limit met, converged | message |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for label, limits in cases:
+        problem = TopologyProblem(sim, "tip_deflection", [*base.constraints, *limits.items()])
         seconds, result = timed(lambda: flextop.optimize(problem, start, "mma", max_iter=iterations))
+        iterations_run, kappa = result.nit, "—"
+        if limits:
+            more, (problem, factors) = timed(lambda: tightened(problem, result.x, rtol=KAPPA_RTOL, targets=limits,
+                                                                margin=STAGE_MARGIN))
+            later, result = timed(lambda: flextop.optimize(problem, result.x, "mma", max_iter=iterations // 2))
+            seconds, iterations_run, kappa = seconds + more + later, iterations_run + result.nit, f"{factors['stress']:.4f}"
         truth = judged(sim, result.x, "tip_deflection")
         names = [c[0] for c in problem.constraints]
-        if "stress" in names and truth["peak"] > 40e6:
-            # Stage 2: the model's peak under-reads the converged one by κ; limit the model
-            # to 40 MPa/κ and go on from the design reached.
-            problem, factors = tightened(problem, result.x)
-            kappa = factors["stress"]
-            more, result = timed(lambda: flextop.optimize(problem, result.x, "mma", max_iter=iterations // 2))
-            seconds += more
-            truth = judged(sim, result.x, "tip_deflection")
-            label += f" (then ≤ {40 / kappa:.2f} MPa on the model, κ = {kappa:.3f})"
+        met = truth["peak"] <= limits.get("stress", np.inf) and truth["f1"] >= limits.get(MIN_FREQUENCY, 0.0)
         model_stress = f"{result.constr[names.index('stress')] / 1e6:.2f}" if "stress" in names else "—"
         floor = f"{result.constr[names.index(MIN_FREQUENCY)]:.3f}" if MIN_FREQUENCY in names else "—"
-        out.append(f"| {label} | {seconds:.1f} | {result.nit} | {result.fun:.4e} | {truth['f']:.4e} | {model_stress} / "
-                   f"{truth['peak'] / 1e6:.2f} | {truth['f1']:.3f} | {floor} | {result.message.split(';')[0][:70]} |")
+        out.append(f"| {label} | {seconds:.1f} | {iterations_run} | {kappa} | {result.fun:.4e} | {truth['f']:.4e} | "
+                   f"{model_stress} / {truth['peak'] / 1e6:.2f} | {truth['f1']:.3f} | {floor} | {'yes' if met else 'no'} | "
+                   f"{result.message.split(';')[0][:60]} |")
         print(out[-1], flush=True)
     out += ["", "Static truss (Section 3.1), compliance, V ≤ 0.4 V, MMA from x = 0.4:", "",
             "| problem | time (s) | iterations | compliance | peak stress model / converged (MPa) | message |", "|---|---|---|---|---|---|"]

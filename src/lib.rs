@@ -74,7 +74,8 @@ pub use prolongation::Prolongation;
 pub use response::Response;
 pub use rigid::rigid_positions;
 pub use sensitivity::{
-    evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Sensitivities, Timings,
+    evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Evaluated, Sensitivities,
+    Timings,
 };
 pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,

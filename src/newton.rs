@@ -381,6 +381,12 @@ impl<'m> Newton<'m> {
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
     }
 
+    /// The scaling `s` of the constraint rows of the matrix factorized last: a solution's
+    /// multiplier rows are `μ = λ/s`.
+    pub fn multiplier_scale(&self) -> f64 {
+        self.scale
+    }
+
     /// Work space for solving `cols` right-hand sides at once with [`Newton::solve_block`].
     pub fn scratch(&self, cols: usize) -> MemBuffer {
         self.ldlt.scratch_for(cols)

@@ -59,6 +59,25 @@ pub enum Response {
     /// forces, so `x⁰` gives the solid material's value; `x^q` with `q > 0` is the
     /// relaxation that keeps vanishing bars from dominating (Le et al. 2010 use `q = ½`).
     Aggregate(Aggregated),
+    /// The torque a drive applies on the structure, `τ = −λ` of its driven row (N m),
+    /// condensed over the motion (trapezoidal in time) by a p-mean or KS mean: `p = 2` is
+    /// the RMS torque a motor is sized by for heat, a large `p` approaches the peak it must
+    /// deliver.
+    Torque {
+        /// The driven constraint row.
+        row: usize,
+        /// How the torques are condensed.
+        aggregation: Aggregation,
+    },
+}
+
+/// A recorded state as responses read it: coordinates `q` and multipliers `λ`.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// `qₙ`.
+    pub q: &'a [f64],
+    /// `λₙ`.
+    pub lam: &'a [f64],
 }
 
 /// An aggregate response: what it measures, where, and how it condenses.
@@ -301,7 +320,8 @@ impl Response {
                 let members = Members::parse(model, members).map_err(err)?;
                 Self::aggregate(model, measure, members, &options).map_err(err)
             }
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear or buckling".into())),
+            "torque" | "torque_rms" => Self::torque(model, name == "torque_rms", rest).map_err(err),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque or torque_rms".into())),
         }
     }
 
@@ -360,6 +380,49 @@ impl Response {
         }))
     }
 
+    /// A drive's torque, `torque:JOINT[:p=P|ks=RHO,scale=S]` or `torque_rms:JOINT`.
+    fn torque(model: &Model, rms: bool, rest: Option<&str>) -> Result<Self, String> {
+        if model.analysis == Analysis::Static {
+            return Err(
+                "a static scene has no motion to drive; torques are responses of a dynamic one"
+                    .into(),
+            );
+        }
+        let (joint, options) = component_and_options(rest)?;
+        let joint = joint.ok_or("name the driven joint: torque:JOINT")?;
+        let get = |key: &str| options.iter().find(|(k, _)| k == key).map(|&(_, v)| v);
+        let allowed: &[&str] = if rms { &[] } else { &["p", "ks", "scale"] };
+        if let Some((k, _)) = options.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
+            return Err(format!(
+                "unknown option '{k}' (options: {})",
+                if rms {
+                    "none".into()
+                } else {
+                    allowed.join(", ")
+                }
+            ));
+        }
+        let index = model
+            .joints
+            .iter()
+            .position(|j| j.name == joint)
+            .ok_or_else(|| {
+                let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+                format!("unknown joint '{joint}' (joints: {})", names.join(", "))
+            })?;
+        let row = model
+            .rows
+            .iter()
+            .position(|r| r.joint == index && r.driven)
+            .ok_or(format!("joint '{joint}' has no drive, so no motor torque"))?;
+        let aggregation = if rms {
+            Aggregation::PMean { p: 2.0 }
+        } else {
+            Aggregation::parse(get("p"), get("ks"), get("scale"))?
+        };
+        Ok(Self::Torque { row, aggregation })
+    }
+
     fn weighting(&self, analysis: Analysis) -> Weighting {
         match (self, analysis) {
             (Self::Volume { .. }, _) => Weighting::Explicit,
@@ -416,8 +479,8 @@ impl Response {
     /// rigid position of a tip node, an aggregate's reference); for [`Response::Volume`],
     /// the volume; for [`Response::Aggregate`], the state's share of the sum of
     /// [`Aggregation::point`] before the weight in time.
-    pub fn integrand(&self, ctx: &Context, q: &[f64], known: Known) -> f64 {
-        let m = ctx.model;
+    pub fn integrand(&self, ctx: &Context, at: Sample, known: Known) -> f64 {
+        let (m, q) = (ctx.model, at.q);
         match *self {
             Self::Compliance { .. } if m.analysis == Analysis::Static => {
                 ctx.static_load.iter().zip(q).map(|(f, u)| f * u).sum()
@@ -444,13 +507,15 @@ impl Response {
                 direction[0] * q[3 * node] + direction[1] * q[3 * node + 1]
             }
             Self::Aggregate(ref a) => a.sum(ctx, q, known.reference),
+            Self::Torque { row, aggregation } => aggregation.point(at.lam[row], known.reference).0,
         }
     }
 
-    /// The largest point value of an aggregate at state `q` (0 for other responses).
-    pub fn peak(&self, ctx: &Context, q: &[f64]) -> f64 {
+    /// The largest point value of an aggregate at a state (0 for other responses).
+    pub fn peak(&self, ctx: &Context, at: Sample) -> f64 {
         match *self {
-            Self::Aggregate(ref a) => a.peak(ctx, q),
+            Self::Aggregate(ref a) => a.peak(ctx, at.q),
+            Self::Torque { row, .. } => at.lam[row].abs(),
             _ => 0.0,
         }
     }
@@ -459,21 +524,25 @@ impl Response {
     pub fn aggregation(&self) -> Option<Aggregation> {
         match *self {
             Self::Aggregate(ref a) => Some(a.aggregation),
+            Self::Torque { aggregation, .. } => Some(aggregation),
             _ => None,
         }
     }
 
-    /// Adds `scale · G_q` to `g_q` and `scale · G_x` to `g_x` (per design variable).
+    /// Adds `scale · G_q` to `g_q`, `scale · G_λ` to `g_lam` and `scale · G_x` to `g_x`
+    /// (per design variable).
+    #[allow(clippy::too_many_arguments)]
     pub fn add_partials(
         &self,
         ctx: &Context,
-        q: &[f64],
+        at: Sample,
         known: Known,
         scale: f64,
         g_q: &mut [f64],
+        g_lam: &mut [f64],
         g_x: &mut [f64],
     ) {
-        let m = ctx.model;
+        let (m, q) = (ctx.model, at.q);
         match *self {
             Self::Compliance { .. } if m.analysis == Analysis::Static => {
                 g_q.iter_mut()
@@ -529,6 +598,9 @@ impl Response {
                 g_q[3 * node + 1] += scale * direction[1];
             }
             Self::Aggregate(ref a) => a.add_partials(ctx, q, known.reference, scale, g_q, g_x),
+            Self::Torque { row, aggregation } => {
+                g_lam[row] += scale * aggregation.point(at.lam[row], known.reference).1;
+            }
         }
     }
 

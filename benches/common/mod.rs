@@ -71,7 +71,17 @@ pub fn tip_deflection(
         let start = Instant::now();
         let traj = simulate(model, Some(&design), settings).unwrap();
         times.push(start.elapsed().as_secs_f64());
-        d = evaluate(model, Some(&design), &traj.q, &traj.time, 0.0, &responses).unwrap()[0];
+        d = evaluate(
+            model,
+            Some(&design),
+            &traj.q,
+            &traj.lam,
+            &traj.time,
+            0.0,
+            &responses,
+        )
+        .unwrap()
+        .values[0];
     }
     (d, median(&mut times))
 }

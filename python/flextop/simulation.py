@@ -373,7 +373,9 @@ class Simulation:
         ``ks=RHO,scale=S``, a KS mean; ``q=0.5`` (default) relaxes vanishing bars, ``q=0``
         gives the solid material's stress; ``"shear[...]"`` the section's largest shear stress
         ``x^q k V/A``; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
-        for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load. The
+        for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load;
+        ``"torque:JOINT[:OPTIONS]"`` the torque ``τ = −λ`` a drive applies (N m) condensed
+        over the motion the same way, and ``"torque_rms:JOINT"`` its RMS. The
         means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
 
@@ -733,8 +735,32 @@ class _Run:
         ``−λ`` of its constraint rows."""
         return {j.name: -self.lam[..., j.rows.start:j.rows.stop] for j in self.simulation.joints}
 
-    def _evaluate(self, name: str, q: np.ndarray, times: np.ndarray, load_time: float = 0.0) -> float:
-        return float(_core.evaluate_responses(self.simulation.model, self.x, q, list(map(float, times)), load_time, [name])[0])
+    def _evaluate(self, name: str, q: np.ndarray, lam: np.ndarray, times: np.ndarray,
+                  load_time: float = 0.0) -> tuple[float, float | None]:
+        """The value of response ``name`` on states ``q`` with multipliers ``lam`` at
+        ``times``, and its peak (an aggregate's largest point value; ``None`` for other
+        responses)."""
+        out = _core.evaluate_responses(self.simulation.model, self.x, q, np.atleast_2d(lam), list(map(float, times)), load_time,
+                                       [name])
+        return float(out["values"][0]), out["peaks"][0]
+
+    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
+        raise NotImplementedError  # Results and StaticResults: their states
+
+    def peak(self, name: str) -> float:
+        """The largest point value of an aggregate response (``"stress"``, ``"shear"``,
+        ``"buckling"``, …) over this run's states, beside the mean :meth:`response` gives;
+        a ``SettingsError`` for a response that is not an aggregate."""
+        value = self._value_and_peak(name)[1]
+        if value is None:
+            raise SettingsError(f"response '{name}' is not an aggregate: it has no peak")
+        return float(value)
+
+    def response(self, name: str) -> float:
+        """Value of a response of :meth:`Simulation.run_with_sensitivities` (e.g.
+        ``"compliance"``; for a static scene ``Fᵀu``) on this run — the same discrete value
+        the gradients refer to."""
+        return self._value_and_peak(name)[0]
 
     def error_estimate(self, name: str) -> float:
         """The estimated relative error of response ``name`` (any name of
@@ -866,10 +892,8 @@ class Results(_Run):
         index = self._node(node)
         return self.positions[:, index] - self.simulation.rigid_trajectory(index, self.time)
 
-    def response(self, name: str) -> float:
-        """Value of a response of :meth:`Simulation.run_with_sensitivities` (e.g.
-        ``"compliance"``) on this run — the same discrete value the gradients refer to."""
-        return self._evaluate(name, self.q, self.time)
+    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
+        return self._evaluate(name, self.q, self.lam, self.time)
 
     def tip_deflection(self, node: int | str | None = None) -> float:
         """Mean squared tip deflection ``d = (1/t_f) ∫ |e|² dt`` (paper Eq. 40, m²), by the
@@ -895,9 +919,8 @@ class StaticResults(_Run):
         """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.export`)."""
         return export.write_state(self, path)
 
-    def response(self, name: str) -> float:
-        """Value of a response (``"compliance"`` is ``Fᵀu``) at this equilibrium."""
-        return self._evaluate(name, self.q[None, :], np.zeros(1), self.raw["time"])
+    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
+        return self._evaluate(name, self.q[None, :], self.lam, np.zeros(1), self.raw["time"])
 
     @property
     def positions(self) -> np.ndarray:

@@ -207,27 +207,33 @@ pub fn run_with_sensitivities<'py>(
     Ok(d)
 }
 
-/// Values of `responses` on recorded coordinates `q` (shape `(n_states, n_dofs)`) at
-/// `times`, for design `x`; a static state's loads act at `load_time`.
+/// `values` of `responses` on recorded coordinates `q` (shape `(n_states, n_dofs)`) and
+/// multipliers `lam` (`(n_states, n_constraints)`) at `times`, for design `x`, and the aggregates' `peaks` (`None` for the others); a static
+/// state's loads act at `load_time`.
 #[pyfunction]
-#[pyo3(signature = (model, x, q, times, load_time, responses))]
+#[pyo3(signature = (model, x, q, lam, times, load_time, responses))]
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate_responses<'py>(
     py: Python<'py>,
     model: &PyModel,
     x: Option<PyReadonlyArray1<'py, f64>>,
     q: PyReadonlyArray2<'py, f64>,
+    lam: PyReadonlyArray2<'py, f64>,
     times: Vec<f64>,
     load_time: f64,
     responses: Vec<String>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Arc::clone(&model.model);
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
-    let q = q.as_slice()?.to_vec();
+    let (q, lam) = (q.as_slice()?.to_vec(), lam.as_slice()?.to_vec());
     let x = design(x)?;
-    let values = detached(py, move || {
-        sensitivity::evaluate(&m, x.as_deref(), &q, &times, load_time, &parsed)
+    let out = detached(py, move || {
+        sensitivity::evaluate(&m, x.as_deref(), &q, &lam, &times, load_time, &parsed)
     })?;
-    Ok(vector(py, values))
+    let d = PyDict::new(py);
+    d.set_item("values", vector(py, out.values))?;
+    d.set_item("peaks", out.peaks)?;
+    Ok(d.into_any())
 }
 
 /// Mass `M`, tangent stiffness `K_t(q)` (at the reference state by default) and constraint

@@ -6,7 +6,8 @@
 //!
 //! ```text
 //! ā⁺ = ā + hγ q̄̇,   q̃ = q̄ + β' Ā + ā⁺/(h²β)               (total adjoint of q'ₙ₊₁)
-//! S_t μ = [q̃; 0]                                          (S_t symmetric, at qₙ₊₁)
+//! S_t μ = [q̃; s λ̄]                                        (S_t symmetric, at qₙ₊₁;
+//!                                                          λ̄ = wₙ₊₁ G_λ, λ' = s μ')
 //! c̄ = Ā − M μ,     x̄ −= (∂r/∂x)ᵀ μ
 //! P̄ = −ā⁺/(h²β) − β' c̄
 //! q̄ₙ = P̄ + wₙ G_q,  q̄̇ₙ = q̄̇ + h P̄,  āₙ = h(1−γ) q̄̇ + α_m c̄/(1−α_f) + h²(½−β) P̄,  Āₙ = −α_f c̄/(1−α_f)
@@ -27,14 +28,18 @@ use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{step_ratio, AlphaParameters, Integrator, State};
 use crate::model::{Densities, Model};
-use crate::response::{Context, Response};
+use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
 use crate::time_grid::TimeGrid;
 
-/// The `(qₙ, q̈ₙ)` of a run, for the backward sweep.
+/// The `(qₙ, q̈ₙ, λₙ)` of a run, for the backward sweep.
 enum StateStore {
     /// Every step stored: row `n` of each.
-    All { q: Vec<f64>, acc: Vec<f64> },
+    All {
+        q: Vec<f64>,
+        acc: Vec<f64>,
+        lam: Vec<f64>,
+    },
     /// Full states every `interval` steps; the segment last replayed, from step `first`.
     Checkpoints {
         interval: usize,
@@ -42,16 +47,21 @@ enum StateStore {
         first: usize,
         q: Vec<f64>,
         acc: Vec<f64>,
+        lam: Vec<f64>,
     },
 }
+
+/// A stored state: `qₙ`, `q̈ₙ`, `λₙ`.
+type Stored<'a> = (&'a [f64], &'a [f64], &'a [f64]);
 
 impl StateStore {
     /// Records state `n` of the forward sweep.
     fn record(&mut self, n: usize, s: &State) {
         match self {
-            Self::All { q, acc } => {
+            Self::All { q, acc, lam } => {
                 q.extend_from_slice(&s.q);
                 acc.extend_from_slice(&s.qddot);
+                lam.extend_from_slice(&s.lam);
             }
             Self::Checkpoints {
                 interval, states, ..
@@ -63,26 +73,29 @@ impl StateStore {
         }
     }
 
-    /// `(qₙ, q̈ₙ)`, replaying the segment holding step `n` if needed (`prefer_below`: of two
-    /// segments holding `n`, the one below, as the sweep from `n` to `n − 1` needs).
+    /// `(qₙ, q̈ₙ, λₙ)`, replaying the segment holding step `n` if needed (`prefer_below`: of
+    /// two segments holding `n`, the one below, as the sweep from `n` to `n − 1` needs).
     fn get(
         &mut self,
         it: &mut Integrator,
         grid: &TimeGrid,
         n: usize,
         prefer_below: bool,
-    ) -> Result<(&[f64], &[f64]), Error> {
+    ) -> Result<Stored<'_>, Error> {
         let last = grid.len();
-        let n_q = it.assembler().model.n_dofs();
+        let model = it.assembler().model;
+        let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
         let rows = |k: usize| k * n_q..(k + 1) * n_q;
+        let multipliers = |k: usize| k * n_c..(k + 1) * n_c;
         match self {
-            Self::All { q, acc } => Ok((&q[rows(n)], &acc[rows(n)])),
+            Self::All { q, acc, lam } => Ok((&q[rows(n)], &acc[rows(n)], &lam[multipliers(n)])),
             Self::Checkpoints {
                 interval,
                 states,
                 first,
                 q,
                 acc,
+                lam,
             } => {
                 let k = *interval;
                 let held = n >= *first && n <= (*first + k).min(last) && !q.is_empty();
@@ -96,23 +109,26 @@ impl StateStore {
                     *first = segment * k;
                     q.clear();
                     acc.clear();
+                    lam.clear();
                     q.extend_from_slice(&state.q);
                     acc.extend_from_slice(&state.qddot);
+                    lam.extend_from_slice(&state.lam);
                     for step in *first..(*first + k).min(last) {
                         it.alpha_step(&mut state, grid.step(step))?;
                         q.extend_from_slice(&state.q);
                         acc.extend_from_slice(&state.qddot);
+                        lam.extend_from_slice(&state.lam);
                     }
                 }
                 let r = rows(n - *first);
-                Ok((&q[r.clone()], &acc[r]))
+                Ok((&q[r.clone()], &acc[r], &lam[multipliers(n - *first)]))
             }
         }
     }
 
     /// What `memory` asks for with `n_q` DOFs over `steps` steps: every state, or full
     /// states every `⌈√steps⌉` steps.
-    fn new(memory: Memory, n_q: usize, steps: usize) -> Self {
+    fn new(memory: Memory, n_q: usize, n_c: usize, steps: usize) -> Self {
         let interval = ((steps as f64).sqrt().ceil() as usize).max(1);
         let checkpoints = match memory {
             Memory::StoreAll => false,
@@ -126,11 +142,13 @@ impl StateStore {
                 first: 0,
                 q: Vec::new(),
                 acc: Vec::new(),
+                lam: Vec::new(),
             }
         } else {
             Self::All {
                 q: Vec::with_capacity(n_q * (steps + 1)),
                 acc: Vec::with_capacity(n_q * (steps + 1)),
+                lam: Vec::with_capacity(n_c * (steps + 1)),
             }
         }
     }
@@ -148,18 +166,18 @@ pub(crate) fn run(
 ) -> Result<Sensitivities, Error> {
     let mut it = Integrator::new(model, densities, settings)?;
     let mut objectives = Objectives::new(model, responses, grid)?;
-    let mut store = StateStore::new(memory, model.n_dofs(), grid.len());
+    let mut store = StateStore::new(memory, model.n_dofs(), model.n_constraints(), grid.len());
     let clock = Instant::now();
     let mut values = forward(&mut it, grid, &mut objectives, settings, &mut store)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     let mut sweep = Sweep::new(model, &it, settings, responses.len());
     let last = grid.len();
-    let (q_last, _) = store.get(&mut it, grid, last, true)?;
-    sweep.add_local(&it, &objectives, last, q_last);
+    let (q, _, lam) = store.get(&mut it, grid, last, true)?;
+    sweep.add_local(&it, &objectives, last, Sample { q, lam });
     for n in (0..last).rev() {
         crate::interrupt::poll()?;
-        let (q1, acc1) = store.get(&mut it, grid, n + 1, true)?;
+        let (q1, acc1, _) = store.get(&mut it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         sweep.step(
             &mut it,
@@ -169,10 +187,10 @@ pub(crate) fn run(
             grid.step(n),
             previous,
         )?;
-        let (q0, _) = store.get(&mut it, grid, n, false)?;
-        sweep.add_local(&it, &objectives, n, q0);
+        let (q, _, lam) = store.get(&mut it, grid, n, false)?;
+        sweep.add_local(&it, &objectives, n, Sample { q, lam });
     }
-    let (q0, acc0) = store.get(&mut it, grid, 0, false)?;
+    let (q0, acc0, _) = store.get(&mut it, grid, 0, false)?;
     sweep.initial(&mut it, q0, acc0)?;
     objectives.finish(&mut values, &mut sweep.xb);
     Ok(Sensitivities {
@@ -204,8 +222,12 @@ fn forward(
             it.alpha_step(&mut state, grid.step(n - 1))?;
         }
         let ctx = Context::dynamic(model, &it.assembler().densities, settings.mass);
-        objectives.observe(&ctx, &state.q, &mut values, &mut []);
-        objectives.add_values(&ctx, n, &state.q, &mut values);
+        let at = Sample {
+            q: &state.q,
+            lam: &state.lam,
+        };
+        objectives.observe(&ctx, at, &mut values, &mut []);
+        objectives.add_values(&ctx, n, at, &mut values);
         store.record(n, &state);
     }
     Ok(values)
@@ -226,6 +248,9 @@ struct Sweep<'a> {
     vb: Vec<f64>,
     ab: Vec<f64>,
     acc_b: Vec<f64>,
+    /// `λ̄`, `n_c × n_r`: the responses' `wₙ G_λ` at the state the next transposed solve
+    /// starts from.
+    lb: Vec<f64>,
     /// `x̄`, row-major `n_r × n_x`: the gradients.
     xb: Vec<f64>,
     rhs: Vec<f64>,
@@ -249,6 +274,7 @@ impl<'a> Sweep<'a> {
             vb: vec![0.0; n_q * n_r],
             ab: vec![0.0; n_q * n_r],
             acc_b: vec![0.0; n_q * n_r],
+            lb: vec![0.0; (n - n_q) * n_r],
             xb: vec![0.0; n_x * n_r],
             rhs: vec![0.0; n * n_r],
             c: vec![0.0; n_q],
@@ -256,19 +282,32 @@ impl<'a> Sweep<'a> {
         }
     }
 
-    /// Adds `wₙ G_q` of state `n` to `q̄` and `wₙ G_x` to `x̄`.
-    fn add_local(&mut self, it: &Integrator, objectives: &Objectives, n: usize, q: &[f64]) {
+    /// Adds `wₙ G_q` of state `n` to `q̄`, `wₙ G_λ` to `λ̄` and `wₙ G_x` to `x̄`.
+    fn add_local(&mut self, it: &Integrator, objectives: &Objectives, n: usize, at: Sample) {
         let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
-        let (n_q, n_x) = (self.n_q, self.n_x);
+        let (n_q, n_c, n_x) = (self.n_q, self.n - self.n_q, self.n_x);
         for k in 0..self.n_r {
             objectives.add_partials(
                 &ctx,
                 k,
                 n,
-                q,
+                at,
                 &mut self.qb[k * n_q..(k + 1) * n_q],
+                &mut self.lb[k * n_c..(k + 1) * n_c],
                 &mut self.xb[k * n_x..(k + 1) * n_x],
             );
+        }
+    }
+
+    /// Moves `s λ̄` into the multiplier rows of the right-hand sides and clears `λ̄`: the
+    /// direct method's `λ' = s μ'` read off a solve, transposed (the solve is symmetric).
+    fn seed_multipliers(&mut self, scale: f64) {
+        let (n, n_q) = (self.n, self.n_q);
+        for (out, lb) in self.rhs.chunks_mut(n).zip(self.lb.chunks_mut(n - n_q)) {
+            out[n_q..].iter_mut().zip(lb.iter_mut()).for_each(|(o, l)| {
+                *o = scale * *l;
+                *l = 0.0;
+            });
         }
     }
 
@@ -301,9 +340,9 @@ impl<'a> Sweep<'a> {
                 *o = self.qb[j] + bp * self.acc_b[j] + a_total / (h * h * beta);
                 self.ab[j] = a_total; // kept for P̄ below
             }
-            out[n_q..].fill(0.0);
         }
         it.newton.factorize(Some(q1), bp, t1)?;
+        self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
         let asm = it.assembler();
@@ -354,9 +393,9 @@ impl<'a> Sweep<'a> {
             {
                 *o = acc_b + ab;
             }
-            out[n_q..].fill(0.0);
         }
         it.newton.factorize(None, 1.0, 0.0)?;
+        self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
         for k in 0..self.n_r {

@@ -6,7 +6,8 @@
 //! ```text
 //! Pₙ  = q'ₙ + h q̇'ₙ + h²(½ − β) a'ₙ
 //! cₙ  = −β' Pₙ + (α_m a'ₙ − α_f q̈'ₙ)/(1 − α_f)
-//! S_t [q'ₙ₊₁; λ'ₙ₊₁] = [−(M cₙ + ∂r/∂x_j); 0]           (S_t at the converged state)
+//! S_t [q'ₙ₊₁; μ'ₙ₊₁] = [−(M cₙ + ∂r/∂x_j); 0]           (S_t at the converged state,
+//!                                                      λ'ₙ₊₁ = s μ'ₙ₊₁)
 //! q̈'ₙ₊₁ = β' q'ₙ₊₁ + cₙ,  a'ₙ₊₁ = (q'ₙ₊₁ − Pₙ)/(h²β),  q̇'ₙ₊₁ = q̇'ₙ + h(1 − γ) a'ₙ + hγ a'ₙ₊₁
 //! ```
 //!
@@ -27,7 +28,7 @@ use crate::integrator::{
     rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
 };
 use crate::model::{Densities, Model};
-use crate::response::{Context, Response};
+use crate::response::{Context, Response, Sample};
 use crate::settings::DynamicSettings;
 use crate::time_grid::TimeGrid;
 
@@ -53,7 +54,7 @@ pub(crate) fn run(
     timings.simulation += clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     sweep.initial(&mut it, &state)?;
-    sweep.accumulate(&it, &mut objectives, 0, &state.q);
+    sweep.accumulate(&it, &mut objectives, 0, &state);
     timings.gradients += clock.elapsed().as_secs_f64();
     for (n, &h) in grid.steps().iter().enumerate() {
         let clock = Instant::now();
@@ -61,7 +62,7 @@ pub(crate) fn run(
         timings.simulation += clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         sweep.step(&mut it, &state, h)?;
-        sweep.accumulate(&it, &mut objectives, n + 1, &state.q);
+        sweep.accumulate(&it, &mut objectives, n + 1, &state);
         timings.gradients += clock.elapsed().as_secs_f64();
     }
     objectives.finish(&mut sweep.values, &mut sweep.gradients);
@@ -97,6 +98,7 @@ struct Sweep<'a> {
     /// Row-major `n_responses × n_x`.
     gradients: Vec<f64>,
     g_q: Vec<f64>,
+    g_lam: Vec<f64>,
     g_x: Vec<f64>,
     model: &'a Model,
 }
@@ -125,6 +127,7 @@ impl<'a> Sweep<'a> {
             values: vec![0.0; n_r],
             gradients: vec![0.0; n_r * n_x],
             g_q: vec![0.0; n_q],
+            g_lam: vec![0.0; n - n_q],
             g_x: vec![0.0; n_x],
             model,
         }
@@ -216,21 +219,33 @@ impl<'a> Sweep<'a> {
     }
 
     /// Adds state `n`'s share of the responses and of their gradients
-    /// `G_x + G_q q'`.
-    fn accumulate(&mut self, it: &Integrator, objectives: &mut Objectives, n: usize, q: &[f64]) {
+    /// `G_x + G_q q' + G_λ λ'`, with `λ' = s μ'` from the solutions of the step (or of the
+    /// initial system) just solved.
+    fn accumulate(&mut self, it: &Integrator, objectives: &mut Objectives, n: usize, s: &State) {
         let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
-        objectives.observe(&ctx, q, &mut self.values, &mut self.gradients);
-        objectives.add_values(&ctx, n, q, &mut self.values);
-        let (n_q, n_x) = (self.n_q, self.n_x);
+        let at = Sample {
+            q: &s.q,
+            lam: &s.lam,
+        };
+        objectives.observe(&ctx, at, &mut self.values, &mut self.gradients);
+        objectives.add_values(&ctx, n, at, &mut self.values);
+        let (size, n_q, n_x, scale) = (self.n, self.n_q, self.n_x, it.newton.multiplier_scale());
         // `max(1)`: a model without design variables has no gradient rows to visit.
         for (k, row) in self.gradients.chunks_mut(n_x.max(1)).enumerate() {
             self.g_q.fill(0.0);
+            self.g_lam.fill(0.0);
             self.g_x.fill(0.0);
-            objectives.add_partials(&ctx, k, n, q, &mut self.g_q, &mut self.g_x);
-            let (g_q, g_x, dq) = (&self.g_q, &self.g_x, &self.dq);
-            row.par_iter_mut()
-                .enumerate()
-                .for_each(|(j, g)| *g += g_x[j] + dot(g_q, &dq[j * n_q..(j + 1) * n_q]));
+            let (g_q, g_lam) = (&mut self.g_q, &mut self.g_lam);
+            objectives.add_partials(&ctx, k, n, at, g_q, g_lam, &mut self.g_x);
+            let (g_q, g_lam, g_x, dq, rhs) =
+                (&self.g_q, &self.g_lam, &self.g_x, &self.dq, &self.rhs);
+            let multipliers = g_lam.iter().any(|&g| g != 0.0);
+            row.par_iter_mut().enumerate().for_each(|(j, g)| {
+                *g += g_x[j] + dot(g_q, &dq[j * n_q..(j + 1) * n_q]);
+                if multipliers {
+                    *g += scale * dot(g_lam, &rhs[j * size + n_q..(j + 1) * size]);
+                }
+            });
         }
     }
 }

@@ -23,7 +23,7 @@ use crate::assembly::Assembler;
 use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::{Error, SettingsError};
 use crate::model::{Analysis, Densities, Model};
-use crate::response::{Context, Known, Response};
+use crate::response::{Context, Known, Response, Sample};
 use crate::rigid::Clusters;
 use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
 use crate::time_grid::TimeGrid;
@@ -95,15 +95,15 @@ impl<'a> Objectives<'a> {
         }
     }
 
-    /// Raises the references of the aggregates to the point values of state `q`, carrying
+    /// Raises the references of the aggregates to the point values of state `at`, carrying
     /// the sums accumulated so far in `values` and in the rows of `gradients` (row-major,
     /// empty when the caller keeps none) to the new reference. Call before
     /// [`Self::add_values`] at every state.
-    fn observe(&mut self, ctx: &Context, q: &[f64], values: &mut [f64], gradients: &mut [f64]) {
+    fn observe(&mut self, ctx: &Context, at: Sample, values: &mut [f64], gradients: &mut [f64]) {
         let n_x = gradients.len() / values.len().max(1);
         for (k, r) in self.responses.iter().enumerate() {
             let Some(a) = r.aggregation() else { continue };
-            let peak = r.peak(ctx, q);
+            let peak = r.peak(ctx, at);
             if peak > self.references[k] {
                 let factor = a.rescale(self.references[k], peak);
                 values[k] *= factor;
@@ -143,31 +143,33 @@ impl<'a> Objectives<'a> {
             .collect()
     }
 
-    /// Adds `wₙ G_k(qₙ)` to each value (and the explicit responses once, at `n = 0`).
-    fn add_values(&self, ctx: &Context, n: usize, q: &[f64], values: &mut [f64]) {
+    /// Adds `wₙ G_k(qₙ, λₙ)` to each value (and the explicit responses once, at `n = 0`).
+    fn add_values(&self, ctx: &Context, n: usize, at: Sample, values: &mut [f64]) {
         for (k, r) in self.responses.iter().enumerate() {
             if !r.depends_on_states() {
                 if n == 0 {
-                    values[k] += r.integrand(ctx, q, Known::default());
+                    values[k] += r.integrand(ctx, at, Known::default());
                 }
                 continue;
             }
             let w = r.weight(self.analysis, n, self.grid);
             if w != 0.0 {
-                values[k] += w * r.integrand(ctx, q, self.known(k, n));
+                values[k] += w * r.integrand(ctx, at, self.known(k, n));
             }
         }
     }
 
-    /// Adds `wₙ G_q` of response `k` at state `n` to `g_q` and `wₙ G_x` to `g_x` (explicit
-    /// responses contribute their gradient at `n = 0`).
+    /// Adds `wₙ G_q` of response `k` at state `n` to `g_q`, `wₙ G_λ` to `g_lam` and
+    /// `wₙ G_x` to `g_x` (explicit responses contribute their gradient at `n = 0`).
+    #[allow(clippy::too_many_arguments)]
     fn add_partials(
         &self,
         ctx: &Context,
         k: usize,
         n: usize,
-        q: &[f64],
+        at: Sample,
         g_q: &mut [f64],
+        g_lam: &mut [f64],
         g_x: &mut [f64],
     ) {
         let r = &self.responses[k];
@@ -177,7 +179,7 @@ impl<'a> Objectives<'a> {
             f64::from(u8::from(n == 0))
         };
         if w != 0.0 {
-            r.add_partials(ctx, q, self.known(k, n), w, g_q, g_x);
+            r.add_partials(ctx, at, self.known(k, n), w, g_q, g_lam, g_x);
         }
     }
 }
@@ -355,9 +357,19 @@ pub fn of_equilibrium(
     )
 }
 
-/// Values of `responses` on recorded states `q` (row-major, one row of `n_q` per state, at
-/// `times`; one row for a static scene, whose loads act at `load_time`) for design `x`
-/// (`None`: full density).
+/// Responses evaluated on recorded states: their values and, per aggregate, its peak.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evaluated {
+    /// `f_k`.
+    pub values: Vec<f64>,
+    /// Per response: the largest point value of an aggregate over the states, `None` for
+    /// the others.
+    pub peaks: Vec<Option<f64>>,
+}
+
+/// Values of `responses` on recorded states `q` and multipliers `lam` (row-major, one row
+/// of `n_q` and of `n_c` per state, at `times`; one row for a static scene, whose loads act
+/// at `load_time`) for design `x` (`None`: full density), with the aggregates' peaks.
 ///
 /// # Errors
 /// Settings errors for states and times that do not match; design errors; kinematics
@@ -366,16 +378,28 @@ pub fn evaluate(
     model: &Model,
     x: Option<&[f64]>,
     q: &[f64],
+    lam: &[f64],
     times: &[f64],
     load_time: f64,
     responses: &[Response],
-) -> Result<Vec<f64>, Error> {
+) -> Result<Evaluated, Error> {
     let n_q = model.n_dofs();
     let states = q.len() / n_q;
     if states == 0 || states * n_q != q.len() {
         return Err(SettingsError::new(
             "q",
             format!("needs rows of {n_q} coordinates, got {} values", q.len()),
+        )
+        .into());
+    }
+    if lam.len() != states * model.n_constraints() {
+        return Err(SettingsError::new(
+            "lam",
+            format!(
+                "needs {states} rows of {} multipliers, got {} values",
+                model.n_constraints(),
+                lam.len()
+            ),
         )
         .into());
     }
@@ -401,12 +425,20 @@ pub fn evaluate(
     };
     let mut objectives = Objectives::new(model, responses, &grid)?;
     let mut values = vec![0.0; responses.len()];
+    let n_c = model.n_constraints();
     for (n, q) in q.chunks(n_q).enumerate() {
-        objectives.observe(&ctx, q, &mut values, &mut []);
-        objectives.add_values(&ctx, n, q, &mut values);
+        let at = Sample {
+            q,
+            lam: &lam[n * n_c..(n + 1) * n_c],
+        };
+        objectives.observe(&ctx, at, &mut values, &mut []);
+        objectives.add_values(&ctx, n, at, &mut values);
     }
     objectives.finish(&mut values, &mut []);
-    Ok(values)
+    Ok(Evaluated {
+        values,
+        peaks: objectives.peaks(),
+    })
 }
 
 /// Responses that are explicit in `x` (volumes) need no simulation.
@@ -419,13 +451,14 @@ fn explicit(
     let grid = TimeGrid::single();
     let objectives = Objectives::new(model, responses, &grid)?;
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
-    let q = vec![0.0; n_q];
+    let (q, lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
+    let at = Sample { q: &q, lam: &lam };
     let mut values = vec![0.0; responses.len()];
-    objectives.add_values(&ctx, 0, &q, &mut values);
+    objectives.add_values(&ctx, 0, at, &mut values);
     let mut gradients = vec![0.0; responses.len() * n_x];
-    let mut g_q = vec![0.0; n_q];
+    let (mut g_q, mut g_lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
     for (k, row) in gradients.chunks_mut(n_x.max(1)).enumerate() {
-        objectives.add_partials(&ctx, k, 0, &q, &mut g_q, row);
+        objectives.add_partials(&ctx, k, 0, at, &mut g_q, &mut g_lam, row);
     }
     Ok(Sensitivities {
         values,

@@ -10,7 +10,7 @@ use crate::element::MassKind;
 use crate::error::Error;
 use crate::model::{Densities, Model};
 use crate::newton::Newton;
-use crate::response::{Context, Response};
+use crate::response::{Context, Response, Sample};
 use crate::settings::StaticSettings;
 use crate::statics::{load_stepping, static_newton};
 use crate::time_grid::TimeGrid;
@@ -30,7 +30,11 @@ pub(crate) fn run(
     let clock = Instant::now();
     newton.factorize(Some(&sol.q), 0.0, settings.time)?;
     let grid = TimeGrid::single();
-    let (local, objectives) = Local::at(&newton, settings.time, responses, &grid, &sol.q)?;
+    let at = Sample {
+        q: &sol.q,
+        lam: &sol.lambda,
+    };
+    let (local, objectives) = Local::at(&newton, settings.time, responses, &grid, at)?;
     let (mut values, mut gradients) = match method {
         Method::Direct => direct(&newton, &sol.q, local)?,
         _ => adjoint(&newton, &sol.q, local)?,
@@ -63,7 +67,7 @@ impl Local {
         time: f64,
         responses: &'a [Response],
         grid: &'a TimeGrid,
-        q: &[f64],
+        at: Sample,
     ) -> Result<(Self, Objectives<'a>), Error> {
         let asm = newton.assembler();
         let model = asm.model;
@@ -83,15 +87,18 @@ impl Local {
             g_q: vec![0.0; n_q * n_r],
             g_x: vec![0.0; n_x * n_r],
         };
-        objectives.observe(&ctx, q, &mut local.values, &mut []);
-        objectives.add_values(&ctx, 0, q, &mut local.values);
+        objectives.observe(&ctx, at, &mut local.values, &mut []);
+        objectives.add_values(&ctx, 0, at, &mut local.values);
+        // No static response reads the multipliers (a torque needs a motion).
+        let mut g_lam = vec![0.0; model.n_constraints()];
         for k in 0..n_r {
             objectives.add_partials(
                 &ctx,
                 k,
                 0,
-                q,
+                at,
                 &mut local.g_q[k * n_q..(k + 1) * n_q],
+                &mut g_lam,
                 &mut local.g_x[k * n_x..(k + 1) * n_x],
             );
         }

@@ -104,7 +104,7 @@ pub(crate) fn check(model: &Model, eval: Evaluate, x: &[f64], js: &[usize], n_r:
     }
 }
 
-pub(crate) const DYNAMIC: [&str; 11] = [
+pub(crate) const DYNAMIC: [&str; 14] = [
     "tip_deflection",
     "compliance",
     "compliance:link2",
@@ -116,6 +116,9 @@ pub(crate) const DYNAMIC: [&str; 11] = [
     "buckling:p=4",
     "stress:link1/bar40:p=16",
     "shear:link2",
+    "torque:shoulder",
+    "torque_rms:elbow",
+    "torque:elbow:ks=20,scale=100",
 ];
 
 /// Checks the robot arm with `split` elements per bar, run `settings` and design `design`.
@@ -235,7 +238,10 @@ fn taylor_remainder_falls_as_epsilon_squared() {
 #[test]
 fn checkpointed_adjoint_is_bitwise_the_stored_one() {
     let arm = robot_arm(1, 70e9);
-    let rs = responses(&arm, &["tip_deflection", "compliance:link1"]);
+    let rs = responses(
+        &arm,
+        &["tip_deflection", "compliance:link1", "torque_rms:shoulder"],
+    );
     let x = random_design(&arm, 8);
     // 65 steps: checkpoints every 9 steps, segments replayed backwards.
     let s = settings(1.3, 0.02, 0.8);

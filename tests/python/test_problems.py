@@ -205,3 +205,18 @@ def test_tightened_limits_divide_by_the_peaks_model_error():
     assert tight.constraints == [("volume", 1.0), ("stress", 1e8 / kappa["stress"])]
     assert tight.normalization == problem.normalization
     assert fine == pytest.approx(flextop.Simulation(split_by(sim.spec, 16)).run_with_sensitivities(x, ["stress"]).peaks["stress"], rel=1e-2)
+    # A later stage: κ measured again at the stage's own design against the first
+    # problem's limit (not compounded), with a margin on the stress limit and on a floor.
+    staged, again = tightened(tight, x, rtol=1e-3, targets={"stress": 1e8}, margin=0.01)
+    assert again["stress"] == pytest.approx(kappa["stress"], rel=1e-12)
+    assert staged.constraints == [("volume", 1.0), ("stress", pytest.approx(1e8 / (kappa["stress"] * 1.01), rel=1e-12))]
+    with pytest.raises(flextop.SettingsError, match="margin must be a number in"):
+        tightened(problem, x, margin=1.5)
+
+
+def test_tightened_raises_a_frequency_floor_by_the_margin(arm):
+    from flextop.problems import MIN_FREQUENCY, TopologyProblem, tightened
+
+    problem = TopologyProblem(arm, "tip_deflection", [("volume", 1.0), (MIN_FREQUENCY, 8.0)])
+    tight, kappa = tightened(problem, np.full(arm.n_design, 0.4), margin=0.005)
+    assert kappa == {} and tight.constraints == [("volume", 1.0), (MIN_FREQUENCY, pytest.approx(8.04, rel=1e-12))]

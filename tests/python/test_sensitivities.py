@@ -16,6 +16,7 @@ def fd4(f, x, j, eps=5e-4):
 
 @pytest.mark.parametrize("scene, responses", [
     (flextop.scenes.robot_arm(), ["tip_deflection", "compliance"]),
+    (flextop.scenes.robot_arm(), ["torque_rms:shoulder", "torque:elbow:p=16"]),
     (flextop.scenes.static_truss(), ["compliance"]),
 ])
 def test_gradients_match_finite_differences_for_both_methods(scene, responses):
@@ -77,3 +78,41 @@ def test_a_direct_analysis_too_large_for_memory_is_refused_up_front():
     sim = flextop.Simulation(flextop.scenes.robot_arm(nx=21, ny=5, split=4))
     with pytest.raises(SettingsError, match=r"direct method would hold 15\.0 GiB .* use method='adjoint'"):
         sim.run_with_sensitivities(np.full(sim.n_design, 0.4), ["tip_deflection"], method="direct")
+
+
+def test_motor_torques_condense_the_drive_reactions(arm):
+    """``torque_rms:JOINT`` is the RMS of the drive's torque τ = −λ by the trapezoidal
+    rule; ``torque:JOINT`` a p-mean (p = 8) or KS mean over the motion, below the peak
+    |τ| and rising towards it with p; the peak is reported beside the mean."""
+    run = arm.run(0.4)
+    tau, t = run.motor_torques["shoulder"], run.time
+    rms = np.sqrt(np.trapezoid(tau**2, t) / t[-1])
+    assert run.response("torque_rms:shoulder") == pytest.approx(rms, rel=1e-12)
+    peak = np.abs(tau).max()
+    assert run.peak("torque:shoulder") == pytest.approx(peak, rel=1e-12)
+    means = [run.response(f"torque:shoulder:p={p}") for p in (2, 8, 32, 128)]
+    assert means[0] == pytest.approx(rms, rel=1e-12)
+    assert all(a < b for a, b in zip(means, means[1:])) and means[-1] < peak
+    assert 1 - means[-1] / peak < 0.03  # the p-mean approaches the peak like 1/p
+    ks = run.response("torque:shoulder:ks=50,scale=200")
+    assert ks < peak and 1 - ks / peak < 0.1
+    out = arm.run_with_sensitivities(0.4, ["torque:shoulder"])
+    assert out.values[0] == pytest.approx(means[1], rel=1e-12) and out.peaks["torque:shoulder"] == pytest.approx(peak)
+    with pytest.raises(SettingsError, match="not an aggregate"):
+        run.peak("tip_deflection")
+
+
+@pytest.mark.parametrize("name, match", [
+    ("torque", "name the driven joint"),
+    ("torque:bogus", "unknown joint 'bogus' .joints: shoulder, elbow"),
+    ("torque_rms:elbow:p=4", "unknown option 'p'"),
+])
+def test_torque_responses_name_their_joint(arm, name, match):
+    with pytest.raises(SettingsError, match=match):
+        arm.run_with_sensitivities(0.4, [name])
+
+
+def test_a_static_scene_has_no_motor_torque():
+    truss = flextop.Simulation(flextop.scenes.static_truss())
+    with pytest.raises(SettingsError, match="static scene has no motion to drive"):
+        truss.run_with_sensitivities(0.4, ["torque_rms:support"])
