@@ -381,8 +381,9 @@ impl<'m> Newton<'m> {
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
     }
 
-    /// The scaling `s` of the constraint rows of the matrix factorized last: a solution's
-    /// multiplier rows are `μ = λ/s`.
+    /// The scaling `s` of the constraint rows set by the last [`Newton::factorize`] (or
+    /// solve): a solution's multiplier rows are `μ = λ/s`. Read it right after
+    /// `factorize`, as the sensitivity analyses do.
     pub fn multiplier_scale(&self) -> f64 {
         self.scale
     }

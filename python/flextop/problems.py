@@ -293,15 +293,17 @@ def tightened(problem: TopologyProblem, x: np.ndarray, rtol: float = 3e-3, targe
             fine = sim.run(x, responses=names, rtol=rtol, **problem.settings)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
-        kappa = {name: fine.peak(name) / model.peak(name) if model.peak(name) > 0 else 1.0 for name in names}
-    goal = {**dict(problem.constraints), **(targets or {})}
+        kappa = {name: fine.peak(name) / model.peak(name) if min(fine.peak(name), model.peak(name)) > 0 else 1.0
+                 for name in names}
+    targets = targets or {}
 
-    def limit(name: str) -> float:
+    def limit(name: str, bound: float) -> float:
+        goal = targets.get(name, bound)
         if name == MIN_FREQUENCY:
-            return goal[name] * (1.0 + margin)
-        return goal[name] / (kappa[name] * (1.0 + margin)) if name in kappa else goal[name]
+            return goal * (1.0 + margin)
+        return goal / (kappa[name] * (1.0 + margin)) if name in kappa else goal
 
-    out = TopologyProblem(sim, problem.objective, [(name, limit(name)) for name, _ in problem.constraints],
+    out = TopologyProblem(sim, problem.objective, [(name, limit(name, bound)) for name, bound in problem.constraints],
                           settings=problem.settings, method=problem.method, objective_scale=problem.objective_scale,
                           rtol=problem.rtol, atol=problem.atol)
     out.normalization = dict(problem.normalization)

@@ -26,7 +26,8 @@ import scipy.sparse as sp
 
 from . import _core, execution, export, modal, saved, tolerance
 from .accuracy import preset, split_by
-from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
+from .errors import (DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning,
+                     SimulationError)
 from .scene import Scene
 from .tolerance import Discretization, ErrorEstimate
 
@@ -506,7 +507,14 @@ class Simulation:
             if gradients:
                 return level._sensitivities(xv, names, {**at, **gradients})
             coarse = made(Discretization(d.refinement // 2, d.steps)) if companion and d.steps and d.refinement % 2 == 0 else None
-            return level._fixed(xv, at, guide=None if coarse is None else self._prolonged(coarse, d.refinement))
+            try:
+                return level._fixed(xv, at, guide=None if coarse is None else self._prolonged(coarse, d.refinement))
+            except SimulationError:
+                if not companion:
+                    raise
+                # A guide or a kept matrix that led Newton astray must not pass for a model
+                # that cannot run: the run with full Newton and no guide decides.
+                return level._fixed(xv, {k: v for k, v in at.items() if k != "newton" or "newton" in settings})
 
         def made(d: Discretization, companion: bool = True) -> Any:
             return runs.get((d, False)) or (runs.get((d, True)) if companion else None)

@@ -219,6 +219,28 @@ def test_companions_stop_newton_early_and_the_candidate_does_not(arm):
     assert half.newton["total"] < tight.newton["total"]
 
 
+def test_companions_run_modified_newton_guided_and_fall_back_to_plain_runs(monkeypatch):
+    """The companions run modified Newton and the space companion is guided by the time
+    companion's states; where that fails, the plain run (full Newton, no guide) decides,
+    so the accepted grid and its estimate are those of plain companions."""
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    res = sim.run(0.4, rtol=1e-2)
+    half, _, split = res.companions
+    assert half.settings["newton"] == split.settings["newton"] == "modified" and "newton" not in res.settings
+    fixed = flextop.Simulation._fixed
+
+    def failing_when_guided(self, xv, settings, **kwargs):
+        if kwargs.get("guide") is not None or settings.get("newton") == "modified":
+            raise SimulationError("Newton failed at t = 0.1 s (a guide that misled it)")
+        return fixed(self, xv, settings, **kwargs)
+
+    monkeypatch.setattr(flextop.Simulation, "_fixed", failing_when_guided)
+    plain = flextop.Simulation(flextop.scenes.robot_arm()).run(0.4, rtol=1e-2)
+    assert plain.discretization == res.discretization
+    assert plain.errors["tip_deflection"] == pytest.approx(res.errors["tip_deflection"], rel=1e-3)  # Newton at 1e-6
+    assert "newton" not in plain.companions[2].settings
+
+
 def test_a_time_error_clearly_over_budget_is_judged_without_a_space_error():
     """The candidate is refined on its time error alone; the estimate it reports (and a
     ToleranceError would quote) holds no space error, since no space companion ran."""
