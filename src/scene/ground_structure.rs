@@ -182,7 +182,14 @@ impl Grid {
         } else {
             non_negative(&format!("{path}.height"), g.height)?
         };
-        let angle = finite(&format!("{path}.angle"), g.angle)?;
+        let angle = match (g.angle, g.angle_deg) {
+            (Some(_), Some(_)) => {
+                let message = "give `angle` (rad) or `angle_deg`, not both";
+                return Err(SceneError::new(format!("{path}.angle_deg"), message));
+            }
+            (_, Some(deg)) => finite(&format!("{path}.angle_deg"), deg)?.to_radians(),
+            (rad, None) => finite(&format!("{path}.angle"), rad.unwrap_or(0.0))?,
+        };
         let origin = match &g.origin {
             PointSpec::Coordinates([x, y]) => Vector2::new(
                 finite(&format!("{path}.origin[0]"), *x)?,

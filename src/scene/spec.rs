@@ -179,9 +179,12 @@ pub struct GroundStructureSpec {
     /// Position of the local origin.
     #[serde(default)]
     pub origin: PointSpec,
-    /// Angle of the local x axis from the global x axis (rad).
+    /// Angle of the local x axis from the global x axis (rad), 0 if not given.
     #[serde(default)]
-    pub angle: f64,
+    pub angle: Option<f64>,
+    /// The same angle in degrees, for scenes written by hand (instead of `angle`).
+    #[serde(default)]
+    pub angle_deg: Option<f64>,
     /// Section of every bar.
     pub section: String,
     /// Elements per bar.
@@ -379,6 +382,47 @@ struct MotionEntry {
     theta: Option<Vec<f64>>,
     start_velocity: Option<f64>,
     end_velocity: Option<f64>,
+    start_deg: Option<f64>,
+    end_deg: Option<f64>,
+    acceleration_deg: Option<f64>,
+    speed_deg: Option<f64>,
+    theta_deg: Option<Vec<f64>>,
+    start_velocity_deg: Option<f64>,
+    end_velocity_deg: Option<f64>,
+}
+
+impl MotionEntry {
+    /// The entry with every `NAME_deg` key (degrees, for laws written by hand) turned into
+    /// `NAME` in radians; both for one quantity is an error.
+    fn in_radians(mut self) -> Result<Self, String> {
+        let one = |name: &str, rad: Option<f64>, deg: Option<f64>| match (rad, deg) {
+            (Some(_), Some(_)) => Err(format!("give `{name}` (rad) or `{name}_deg`, not both")),
+            (rad, deg) => Ok(rad.or(deg.map(f64::to_radians))),
+        };
+        self.start = one("start", self.start, self.start_deg.take())?;
+        self.end = one("end", self.end, self.end_deg.take())?;
+        self.acceleration = one(
+            "acceleration",
+            self.acceleration,
+            self.acceleration_deg.take(),
+        )?;
+        self.speed = one("speed", self.speed, self.speed_deg.take())?;
+        self.start_velocity = one(
+            "start_velocity",
+            self.start_velocity,
+            self.start_velocity_deg.take(),
+        )?;
+        self.end_velocity = one(
+            "end_velocity",
+            self.end_velocity,
+            self.end_velocity_deg.take(),
+        )?;
+        self.theta = match (self.theta, self.theta_deg.take()) {
+            (Some(_), Some(_)) => return Err("give `theta` (rad) or `theta_deg`, not both".into()),
+            (rad, deg) => rad.or(deg.map(|d| d.into_iter().map(f64::to_radians).collect())),
+        };
+        Ok(self)
+    }
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -392,6 +436,7 @@ impl TryFrom<MotionEntry> for MotionSpec {
     type Error = String;
 
     fn try_from(e: MotionEntry) -> Result<Self, String> {
+        let e = e.in_radians()?;
         let given = |name: &'static str, present: bool| present.then_some(name);
         match e.kind {
             MotionKind::Trapezoidal => {

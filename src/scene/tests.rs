@@ -148,3 +148,67 @@ fn over_and_under_constrained_mechanisms_are_rejected() {
     let e = build(&truss).expect_err("scene was accepted");
     assert!(e.message.contains("mechanism with 1 free"), "{e}");
 }
+
+#[test]
+fn angles_written_in_degrees_are_the_angles_in_radians() {
+    let rad =
+        "start = 1.0471975511965976, end = 1.5707963267948966, acceleration = 2.0, speed = 0.5 }";
+    let deg = "start_deg = 60.0, end_deg = 90.0, acceleration_deg = 114.59155902616465, speed_deg = 28.64788975654116 }";
+    let (a, b) = (
+        parse_toml(ARM).unwrap(),
+        parse_toml(&ARM.replace(rad, deg)).unwrap(),
+    );
+    assert_eq!(a.joints.len(), b.joints.len());
+    let (a, b) = (build(&a).unwrap(), build(&b).unwrap());
+    for (p, q) in a.joints.iter().zip(&b.joints) {
+        let (p, q) = (p.drive.as_ref().unwrap(), q.drive.as_ref().unwrap());
+        for t in [0.0, 0.3, 0.9, 2.0] {
+            let (x, y) = (p.at(t), q.at(t));
+            assert!(
+                (x.angle - y.angle).abs() < 1e-14 && (x.velocity - y.velocity).abs() < 1e-14,
+                "t = {t}"
+            );
+        }
+    }
+    let mut spec = parse_toml(ARM).unwrap();
+    spec.ground_structures[0].angle = None;
+    spec.ground_structures[0].angle_deg = Some(30.0);
+    let turned = build(&spec).unwrap();
+    spec.ground_structures[0].angle_deg = None;
+    spec.ground_structures[0].angle = Some(std::f64::consts::PI / 6.0);
+    let same = build(&spec).unwrap();
+    for (p, q) in turned.nodes.iter().zip(&same.nodes) {
+        assert!((p.position - q.position).norm() < 1e-15, "{}", p.name);
+    }
+    spec.ground_structures[0].angle_deg = Some(30.0);
+    let e = build(&spec).unwrap_err();
+    assert!(
+        e.path == "ground_structures[0] (link1).angle_deg" && e.message.contains("not both"),
+        "{e}"
+    );
+    let e = error_of(&ARM.replacen(
+        "start = 1.0471975511965976,",
+        "start = 1.0471975511965976, start_deg = 60.0,",
+        1,
+    ));
+    assert!(
+        e.path.starts_with("joints[0]") && e.message.contains("`start` (rad) or `start_deg`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_table_of_degrees_is_a_table_of_radians() {
+    let law = |text: &str| toml::from_str::<super::spec::MotionSpec>(text);
+    let deg =
+        law("kind = \"table\"\nt = [0.0, 1.0]\ntheta_deg = [0.0, 90.0]\nend_velocity_deg = 180.0")
+            .unwrap();
+    let rad = law("kind = \"table\"\nt = [0.0, 1.0]\ntheta = [0.0, 1.5707963267948966]\nend_velocity = 3.141592653589793").unwrap();
+    assert_eq!(deg, rad);
+    let both = law("kind = \"table\"\nt = [0.0, 1.0]\ntheta = [0.0, 1.0]\ntheta_deg = [0.0, 90.0]")
+        .unwrap_err();
+    assert!(
+        both.to_string().contains("`theta` (rad) or `theta_deg`"),
+        "{both}"
+    );
+}

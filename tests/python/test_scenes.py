@@ -211,3 +211,20 @@ def test_missing_step_size_is_named():
 def test_failed_newton_reports_time_residual_and_iterations(arm):
     with pytest.raises(SimulationError, match=r"Newton did not converge at t = 0\.020000 s: residual .* after 1 iterations"):
         arm.run(0.4, max_iter=1)
+
+
+def test_a_scene_written_in_degrees_runs_as_the_one_in_radians(tmp_path):
+    """``start_deg``/``end_deg``/``speed_deg``/``acceleration_deg`` of a drive and
+    ``angle_deg`` of a ground structure are the radians' keys in degrees."""
+    text = (EXAMPLES / "robot_arm.toml").read_text()
+    rad = "start = 1.0471975511965976, end = 1.5707963267948966, acceleration = 2.0, speed = 0.5 }"
+    deg = "start_deg = 60.0, end_deg = 90.0, acceleration_deg = 114.59155902616465, speed_deg = 28.64788975654116 }"
+    assert rad in text
+    path = tmp_path / "degrees.toml"
+    path.write_text(text.replace(rad, deg))
+    x = 0.4
+    d = flextop.Simulation(EXAMPLES / "robot_arm.toml").run(x).response("tip_deflection")
+    assert flextop.Simulation(path).run(x).response("tip_deflection") == pytest.approx(d, rel=1e-12)
+    path.write_text(text.replace(rad, rad.replace("start =", "start_deg = 60.0, start =")))
+    with pytest.raises(flextop.SceneError, match="`start` .rad. or `start_deg`, not both"):
+        flextop.Simulation(path)
