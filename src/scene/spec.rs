@@ -399,24 +399,28 @@ impl MotionEntry {
             (Some(_), Some(_)) => Err(format!("give `{name}` (rad) or `{name}_deg`, not both")),
             (rad, deg) => Ok(rad.or(deg.map(f64::to_radians))),
         };
-        self.start = one("start", self.start, self.start_deg.take())?;
-        self.end = one("end", self.end, self.end_deg.take())?;
-        self.acceleration = one(
-            "acceleration",
-            self.acceleration,
-            self.acceleration_deg.take(),
-        )?;
-        self.speed = one("speed", self.speed, self.speed_deg.take())?;
-        self.start_velocity = one(
-            "start_velocity",
-            self.start_velocity,
-            self.start_velocity_deg.take(),
-        )?;
-        self.end_velocity = one(
-            "end_velocity",
-            self.end_velocity,
-            self.end_velocity_deg.take(),
-        )?;
+        for (name, rad, deg) in [
+            ("start", &mut self.start, &mut self.start_deg),
+            ("end", &mut self.end, &mut self.end_deg),
+            (
+                "acceleration",
+                &mut self.acceleration,
+                &mut self.acceleration_deg,
+            ),
+            ("speed", &mut self.speed, &mut self.speed_deg),
+            (
+                "start_velocity",
+                &mut self.start_velocity,
+                &mut self.start_velocity_deg,
+            ),
+            (
+                "end_velocity",
+                &mut self.end_velocity,
+                &mut self.end_velocity_deg,
+            ),
+        ] {
+            *rad = one(name, *rad, deg.take())?;
+        }
         self.theta = match (self.theta, self.theta_deg.take()) {
             (Some(_), Some(_)) => return Err("give `theta` (rad) or `theta_deg`, not both".into()),
             (rad, deg) => rad.or(deg.map(|d| d.into_iter().map(f64::to_radians).collect())),
