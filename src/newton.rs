@@ -162,24 +162,11 @@ impl<'m> Newton<'m> {
         self.keep = keep;
     }
 
-    /// Assembles `rhs = −E[r; sΦ]` and the augmented iteration matrix `mass_coefficient M + K_t`
-    /// at `(q, q̈, λ)`, time `t`; `load` scales external forces and prescribed motions
-    /// (statics), `acc = None` drops inertia (statics).
-    pub(crate) fn assemble(
-        &mut self,
-        q: &[f64],
-        acc: Option<&[f64]>,
-        lambda: &[f64],
-        t: f64,
-        load: f64,
-        mass_coefficient: f64,
-    ) -> Residual {
-        self.assemble_with(q, acc, lambda, t, load, mass_coefficient, true)
-    }
-
-    /// [`Newton::assemble`], the iteration matrix only `with_matrix`.
+    /// Assembles `rhs = −E[r; sΦ]` and, `with_matrix`, the augmented iteration matrix
+    /// `mass_coefficient M + K_t` at `(q, q̈, λ)`, time `t`; `load` scales external forces
+    /// and prescribed motions (statics), `acc = None` drops inertia (statics).
     #[allow(clippy::too_many_arguments)]
-    fn assemble_with(
+    pub(crate) fn assemble(
         &mut self,
         q: &[f64],
         acc: Option<&[f64]>,
@@ -317,7 +304,7 @@ impl<'m> Newton<'m> {
         loop {
             let acc = rates.as_ref().map(|(_, acc)| &acc[..]);
             let (t, load, c) = (point.t, point.load, point.mass_coefficient);
-            let mut res = self.assemble_with(q, acc, lambda, t, load, c, fresh);
+            let mut res = self.assemble(q, acc, lambda, t, load, c, fresh);
             let report = NewtonReport {
                 iterations,
                 residual: res.value(),
@@ -331,7 +318,7 @@ impl<'m> Newton<'m> {
             if !fresh && res.value() > KEPT_CONTRACTION * previous {
                 // The held factors contract too slowly: a new matrix at this iterate.
                 fresh = true;
-                res = self.assemble_with(q, acc, lambda, t, load, c, true);
+                res = self.assemble(q, acc, lambda, t, load, c, true);
             }
             previous = res.value();
             self.solve_increment(point.t, fresh)?;
@@ -418,7 +405,15 @@ impl<'m> Newton<'m> {
         let (n_q, n_c) = (q.len(), self.phi.len());
         // At q̈ = 0, λ = 0 the DOF rows of −E r are M ĝ + f_ext − f_int(q); Φ(q, 0) = 0 adds
         // nothing to them.
-        self.assemble(q, Some(&vec![0.0; n_q]), &vec![0.0; n_c], 0.0, 1.0, 1.0);
+        self.assemble(
+            q,
+            Some(&vec![0.0; n_q]),
+            &vec![0.0; n_c],
+            0.0,
+            1.0,
+            1.0,
+            false,
+        );
         self.factorize(None, 1.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);

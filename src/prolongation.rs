@@ -1,8 +1,7 @@
 //! A state of a model carried to the same scene with twice the elements per bar: each
 //! coarse node keeps its coordinates, and the node that splits a coarse element in two
-//! takes the element's own deformed shape at its middle — the co-rotated cubic (Hermite)
-//! deflection `w(½) = l(θ₁ − θ₂)/8` off the chord and the slope `θ(½) = −(θ₁ + θ₂)/4`,
-//! with `θ₁, θ₂` the end rotations relative to the chord.
+//! takes the element's own deformed shape at its middle ([`crate::element::beam::Beam::middle`]:
+//! the co-rotated cubic).
 //!
 //! It serves as a guess, not as a result: a run on the refined model starts each step's
 //! Newton iterations from the prolonged coarse state ([`crate::simulate_guided`]).
@@ -11,7 +10,6 @@ use std::collections::HashMap;
 
 use nalgebra::Vector2;
 
-use crate::element::beam::wrap_angle as wrap;
 use crate::error::SettingsError;
 use crate::model::Model;
 
@@ -98,15 +96,9 @@ impl Prolongation {
                 assign(&mut sources, second.nodes[1], Source::Node(b), pb)?;
             }
         }
-        let coarse_nodes: HashMap<&str, usize> = coarse
-            .nodes
-            .iter()
-            .enumerate()
-            .map(|(k, n)| (n.name.as_str(), k))
-            .collect();
         for node in 0..fine.nodes.len() {
             if sources[node].is_none() {
-                let Some(&c) = coarse_nodes.get(fine.nodes[node].name.as_str()) else {
+                let Some(c) = coarse.node_index(&fine.nodes[node].name) else {
                     return Err(mismatch(format!(
                         "node {} is in no bar and not in the coarse model",
                         fine.nodes[node].name
@@ -130,31 +122,12 @@ impl Prolongation {
         for (node, source) in self.sources.iter().enumerate() {
             let value = match *source {
                 Source::Node(c) => [q[3 * c], q[3 * c + 1], q[3 * c + 2]],
-                Source::Middle(e) => middle(coarse, e, q),
+                Source::Middle(e) => {
+                    let el = &coarse.elements[e];
+                    el.beam.middle(&el.gather(q))
+                }
             };
             out[3 * node..3 * node + 3].copy_from_slice(&value);
         }
     }
-}
-
-/// `(u, v, φ)` at the middle of element `e` of `model` in state `q`: the chord's midpoint
-/// moved by the cubic deflection `l(θ₁ − θ₂)/8` along its normal, turned by the chord's
-/// rotation plus the cubic's slope `−(θ₁ + θ₂)/4` there.
-fn middle(model: &Model, e: usize, q: &[f64]) -> [f64; 3] {
-    let [a, b] = model.elements[e].nodes;
-    let at = |n: usize| Vector2::new(q[3 * n], q[3 * n + 1]);
-    let (pa, pb) = (model.nodes[a].position, model.nodes[b].position);
-    let (xa, xb) = (pa + at(a), pb + at(b));
-    let chord = xb - xa;
-    let reference = pb - pa;
-    let (phi_a, phi_b) = (q[3 * a + 2], q[3 * b + 2]);
-    // The chord's rotation on the branch nearest node a's rotation.
-    let turn = chord.y.atan2(chord.x) - reference.y.atan2(reference.x);
-    let rigid = phi_a - wrap(phi_a - turn);
-    let (theta_a, theta_b) = (phi_a - rigid, phi_b - rigid);
-    let w = chord.norm() * (theta_a - theta_b) / 8.0;
-    let normal = Vector2::new(-chord.y, chord.x) / chord.norm();
-    let x = xa + 0.5 * chord + w * normal;
-    let u = x - 0.5 * (pa + pb);
-    [u.x, u.y, rigid - 0.25 * (theta_a + theta_b)]
 }

@@ -93,23 +93,16 @@ pub fn simulate_on(
     settings: &DynamicSettings,
     grid: &TimeGrid,
 ) -> Result<Trajectory, Error> {
-    check_size(model, grid.len() + 1)?;
-    let mut run = Run::start(model, x, settings)?;
-    for &h in grid.steps() {
-        run.energy.start_step(&run.state, h);
-        let report = run.integrator.alpha_step(&mut run.state, h)?;
-        run.record(report.iterations);
-    }
-    Ok(run.traj)
+    run_on(model, x, settings, grid, None)
 }
 
 /// [`simulate_on`] with each step's Newton iterations started from a nearby run's states:
 /// `guide` holds `q` at the grid's times (`t₀` first, one row of the model's coordinates
-/// per time), e.g. a run on twice the steps or a coarser mesh's run carried over by
-/// [`crate::Prolongation`]. Step `n + 1` starts from `guideₙ₊₁ + (qₙ − guideₙ)`: the
-/// guide's motion over the step plus the difference the runs already have. The result is
-/// the same to Newton's tolerance; a companion run of step doubling takes about half the
-/// iterations.
+/// per time), e.g. a coarser mesh's run carried over by [`crate::Prolongation`]. Step
+/// `n + 1` starts from `guideₙ₊₁ + (qₙ − guideₙ)`: the guide's motion over the step plus
+/// the difference the runs already have. The result is the same to Newton's tolerance; on
+/// the x = 0.4 arm at twice the elements per bar, guided by the prolonged run at one,
+/// Newton takes 75 iterations instead of 102.
 ///
 /// # Errors
 /// As [`simulate`]; a [`SettingsError`] when `guide` has not one finite row per time.
@@ -129,21 +122,32 @@ pub fn simulate_guided(
         )
         .into());
     }
+    run_on(model, x, settings, grid, Some(guide))
+}
+
+/// The time loop over `grid`, each step from the predictor or, with a `guide`, from
+/// `guideₙ₊₁ + (qₙ − guideₙ)`.
+fn run_on(
+    model: &Model,
+    x: Option<&[f64]>,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    guide: Option<&[f64]>,
+) -> Result<Trajectory, Error> {
     check_size(model, grid.len() + 1)?;
     let mut run = Run::start(model, x, settings)?;
-    let mut guess = vec![0.0; n_q];
+    let n_q = model.n_dofs();
+    let mut guess = vec![0.0; if guide.is_some() { n_q } else { 0 }];
     for (n, &h) in grid.steps().iter().enumerate() {
-        let (now, next) = (
-            &guide[n * n_q..(n + 1) * n_q],
-            &guide[(n + 1) * n_q..(n + 2) * n_q],
-        );
-        for i in 0..n_q {
-            guess[i] = next[i] + run.state.q[i] - now[i];
+        if let Some(guide) = guide {
+            let (now, next) = (&guide[n * n_q..], &guide[(n + 1) * n_q..]);
+            for (i, g) in guess.iter_mut().enumerate() {
+                *g = next[i] + run.state.q[i] - now[i];
+            }
         }
         run.energy.start_step(&run.state, h);
-        let report = run
-            .integrator
-            .alpha_step_from(&mut run.state, h, Some(&guess))?;
+        let start = guide.map(|_| &guess[..]);
+        let report = run.integrator.alpha_step_from(&mut run.state, h, start)?;
         run.record(report.iterations);
     }
     Ok(run.traj)

@@ -283,7 +283,8 @@ class Simulation:
         ``tol`` is the relative Newton tolerance (1e-10), ``max_iter`` the iterations per
         step (20), ``newton`` ``"full"`` (a new iteration matrix every iteration) or
         ``"modified"`` (the step's first kept while the residual falls tenfold per
-        iteration: the same solution to ``tol``, about 20 % faster on the arm), ``mass``
+        iteration: the same solution to ``tol``, 12–26 % faster on the arm's designs
+        measured, BENCHMARKS.md), ``mass``
         ``"consistent"`` or ``"lumped"``. Static scenes solve the
         equilibrium with ``load_steps`` initial load increments.
 
@@ -481,10 +482,21 @@ class Simulation:
             self._levels[refinement] = Simulation(split_by(self.spec, refinement))
         return self._levels[refinement]
 
-    def _prolonged(self, coarse: Results, refinement: int) -> np.ndarray:
-        """The states of ``coarse``, a run at half ``refinement``, carried to this scene at
-        ``refinement`` (each element's middle node on its cubic shape): a guide for Newton."""
-        return _core.prolong(self._level(refinement // 2).model, self._level(refinement).model, coarse.q)
+    def _companion(self, refinement: int, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],
+                   coarse: _Run | None, steps: np.ndarray | None = None) -> Results | StaticResults:
+        """A companion run of step doubling at ``refinement`` with ``settings``, each step's
+        Newton started from the states of ``coarse`` (a run at half the refinement on the
+        same steps) carried over, each element's middle node on its cubic shape. Where that
+        fails, the run with ``plain`` settings and no guide decides: a guide or a kept
+        matrix that led Newton astray must not pass for a model that cannot run."""
+        level = self._level(refinement)
+        guide = None if coarse is None else _core.prolong(self._level(refinement // 2).model, level.model, coarse.q)
+        try:
+            return level._fixed(xv, settings, steps=steps, guide=guide)
+        except SimulationError:
+            if guide is None and plain == settings:
+                raise
+            return level._fixed(xv, plain, steps=steps)
 
     def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
                       gradients: dict[str, str] | None, first: Discretization | None = None, hold_gradients: bool = True) -> Any:
@@ -506,15 +518,11 @@ class Simulation:
             at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {}), **(loose if companion else {})}
             if gradients:
                 return level._sensitivities(xv, names, {**at, **gradients})
-            coarse = made(Discretization(d.refinement // 2, d.steps)) if companion and d.steps and d.refinement % 2 == 0 else None
-            try:
-                return level._fixed(xv, at, guide=None if coarse is None else self._prolonged(coarse, d.refinement))
-            except SimulationError:
-                if not companion:
-                    raise
-                # A guide or a kept matrix that led Newton astray must not pass for a model
-                # that cannot run: the run with full Newton and no guide decides.
-                return level._fixed(xv, {k: v for k, v in at.items() if k != "newton" or "newton" in settings})
+            if not companion:
+                return level._fixed(xv, at)
+            coarse = made(Discretization(d.refinement // 2, d.steps)) if d.steps and d.refinement % 2 == 0 else None
+            plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
+            return self._companion(d.refinement, xv, at, plain, coarse)
 
         def made(d: Discretization, companion: bool = True) -> Any:
             return runs.get((d, False)) or (runs.get((d, True)) if companion else None)
@@ -743,17 +751,15 @@ class _Run:
         ``−λ`` of its constraint rows."""
         return {j.name: -self.lam[..., j.rows.start:j.rows.stop] for j in self.simulation.joints}
 
-    def _evaluate(self, name: str, q: np.ndarray, lam: np.ndarray, times: np.ndarray,
-                  load_time: float = 0.0) -> tuple[float, float | None]:
-        """The value of response ``name`` on states ``q`` with multipliers ``lam`` at
-        ``times``, and its peak (an aggregate's largest point value; ``None`` for other
-        responses)."""
-        out = _core.evaluate_responses(self.simulation.model, self.x, q, np.atleast_2d(lam), list(map(float, times)), load_time,
-                                       [name])
-        return float(out["values"][0]), out["peaks"][0]
-
     def _value_and_peak(self, name: str) -> tuple[float, float | None]:
-        raise NotImplementedError  # Results and StaticResults: their states
+        """The value of response ``name`` on this run's states and its peak (an aggregate's
+        largest point value; ``None`` for other responses). A static result is one state
+        whose loads act at its ``raw["time"]``; a dynamic one has a state per time."""
+        time = np.atleast_1d(self.raw["time"])
+        times, load_time = (np.zeros(1), float(time[0])) if self.simulation.analysis == "static" else (time, 0.0)
+        out = _core.evaluate_responses(self.simulation.model, self.x, np.atleast_2d(self.q), np.atleast_2d(self.lam),
+                                       list(map(float, times)), load_time, [name])
+        return float(out["values"][0]), out["peaks"][0]
 
     def peak(self, name: str) -> float:
         """The largest point value of an aggregate response (``"stress"``, ``"shear"``,
@@ -784,15 +790,15 @@ class _Run:
 
     def _companions(self) -> tuple[_Run | None, _Run | None, _Run]:
         if self.companions is None:
-            level, steps, half, quarter = self.simulation._level(2), None, None, None
+            steps, half, quarter = None, None, None
             if isinstance(self, Results):
                 steps = self.steps
                 if len(steps) < 4:
                     raise SettingsError("an error estimate needs a run of at least 4 steps")
                 half, quarter = (self.simulation._fixed(self.x, self.settings, steps=_merged(steps, k)) for k in (2, 4))
             split_steps = None if steps is None else _merged(steps, 2)
-            guide = None if half is None else self.simulation._prolonged(half, 2)
-            self.companions = (half, quarter, level._fixed(self.x, self.settings, steps=split_steps, guide=guide))
+            split = self.simulation._companion(2, self.x, self.settings, self.settings, half, split_steps)
+            self.companions = (half, quarter, split)
         return self.companions
 
 
@@ -900,9 +906,6 @@ class Results(_Run):
         index = self._node(node)
         return self.positions[:, index] - self.simulation.rigid_trajectory(index, self.time)
 
-    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
-        return self._evaluate(name, self.q, self.lam, self.time)
-
     def tip_deflection(self, node: int | str | None = None) -> float:
         """Mean squared tip deflection ``d = (1/t_f) ∫ |e|² dt`` (paper Eq. 40, m²), by the
         trapezoidal rule on the step times."""
@@ -926,9 +929,6 @@ class StaticResults(_Run):
     def to_vtk(self, path: str | os.PathLike) -> Path:
         """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.export`)."""
         return export.write_state(self, path)
-
-    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
-        return self._evaluate(name, self.q[None, :], self.lam, np.zeros(1), self.raw["time"])
 
     @property
     def positions(self) -> np.ndarray:

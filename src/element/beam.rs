@@ -120,6 +120,22 @@ impl Beam {
         b
     }
 
+    /// `(u, v, φ)` of the element's middle at displacements `u` on its co-rotated cubic:
+    /// the chord's midpoint moved by the deflection `l(θ₁ − θ₂)/8` along the chord's
+    /// normal, turned by the chord's rotation plus the cubic's slope `−(θ₁ + θ₂)/4` there
+    /// (`θ₁, θ₂` the end rotations relative to the chord). A guess for a node that splits
+    /// the element in two ([`crate::Prolongation`]).
+    pub fn middle(&self, u: &Vector6) -> [f64; 3] {
+        let g = self.deformation(u);
+        let (theta_a, theta_b) = (g.local[1], g.local[2]);
+        let d = self.chord + Vector2::new(u[3] - u[0], u[4] - u[1]);
+        let normal = Vector2::new(-d.y, d.x) / g.l;
+        let mid = Vector2::new(u[0], u[1])
+            + 0.5 * (d - self.chord)
+            + g.l * (theta_a - theta_b) / 8.0 * normal;
+        [mid.x, mid.y, u[2] - theta_a - 0.25 * (theta_a + theta_b)]
+    }
+
     /// Internal force `f(u)` at full density.
     pub fn internal_force(&self, u: &Vector6) -> Vector6 {
         let g = self.deformation(u);
@@ -180,7 +196,7 @@ impl Beam {
 }
 
 /// `a` wrapped to `(−π, π]`.
-pub(crate) fn wrap_angle(a: f64) -> f64 {
+fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     a - TAU * ((a + PI) / TAU).ceil() + TAU
 }

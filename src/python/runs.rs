@@ -208,8 +208,8 @@ pub fn run_with_sensitivities<'py>(
 }
 
 /// `values` of `responses` on recorded coordinates `q` (shape `(n_states, n_dofs)`) and
-/// multipliers `lam` (`(n_states, n_constraints)`) at `times`, for design `x`, and the aggregates' `peaks` (`None` for the others); a static
-/// state's loads act at `load_time`.
+/// multipliers `lam` (`(n_states, n_constraints)`) at `times`, for design `x`, and the
+/// aggregates' `peaks` (`None` for the others); a static state's loads act at `load_time`.
 #[pyfunction]
 #[pyo3(signature = (model, x, q, lam, times, load_time, responses))]
 #[allow(clippy::too_many_arguments)]

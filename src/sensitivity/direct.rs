@@ -235,8 +235,15 @@ impl<'a> Sweep<'a> {
             self.g_q.fill(0.0);
             self.g_lam.fill(0.0);
             self.g_x.fill(0.0);
-            let (g_q, g_lam) = (&mut self.g_q, &mut self.g_lam);
-            objectives.add_partials(&ctx, k, n, at, g_q, g_lam, &mut self.g_x);
+            objectives.add_partials(
+                &ctx,
+                k,
+                n,
+                at,
+                &mut self.g_q,
+                &mut self.g_lam,
+                &mut self.g_x,
+            );
             let (g_q, g_lam, g_x, dq, rhs) =
                 (&self.g_q, &self.g_lam, &self.g_x, &self.dq, &self.rhs);
             let multipliers = g_lam.iter().any(|&g| g != 0.0);
