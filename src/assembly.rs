@@ -26,6 +26,7 @@
 
 use std::ops::Range;
 
+use crate::constraint::ConstraintRow;
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
@@ -46,10 +47,12 @@ pub struct Pattern {
     element_slots: Vec<[usize; 36]>,
     /// Diagonal slots of each node's three DOFs.
     node_slots: Vec<[usize; 3]>,
-    /// For constraint row `k`, term `t`: slots of `(n_q + k, dof)` and `(dof, n_q + k)`.
-    row_slots: Vec<[[usize; 2]; 2]>,
-    /// For constraint row `k`: slots of `(dofᵢ, dofⱼ)` for its terms `i, j` (`Φ_qᵀΦ_q`).
-    gram_slots: Vec<[[usize; 2]; 2]>,
+    /// For constraint row `k`, its DOF `i` of six: slots of `(n_q + k, dof)` and
+    /// `(dof, n_q + k)` (`usize::MAX` where the row does not act).
+    row_slots: Vec<[[usize; 2]; 6]>,
+    /// For constraint row `k`: slots of `(dofᵢ, dofⱼ)` for its DOFs `i, j` (`Φ_qᵀΦ_q` and
+    /// the row's Hessian).
+    gram_slots: Vec<[[usize; 6]; 6]>,
 }
 
 impl Pattern {
@@ -67,12 +70,7 @@ impl Pattern {
         }
         pairs.extend((0..n_q).map(|i| (i, i)));
         for (k, row) in model.rows.iter().enumerate() {
-            let dofs: Vec<usize> = row
-                .terms
-                .iter()
-                .filter(|t| t.1 != 0.0)
-                .map(|t| t.0)
-                .collect();
+            let dofs = active_dofs(row);
             for &d in &dofs {
                 pairs.push((d, n_q + k));
                 pairs.push((n_q + k, d));
@@ -113,24 +111,26 @@ impl Pattern {
             .map(|i| slots(|k| p.slot(3 * i + k, 3 * i + k)))
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
-        // A zero coefficient has no slot: usize::MAX, skipped by the assembly.
-        let nonzero = |c: f64, slot: Option<usize>| if c == 0.0 { Some(usize::MAX) } else { slot };
+        // An inactive DOF of a row has no slot: usize::MAX, skipped by the assembly.
+        let row_slot = |row: &crate::constraint::ConstraintRow,
+                        i: usize,
+                        slot: &dyn Fn(usize) -> Option<usize>| {
+            match (row.dofs()[i], row.active()[i]) {
+                (Some(d), true) => slot(d),
+                _ => Some(usize::MAX),
+            }
+        };
         p.row_slots = model
             .rows
             .iter()
             .enumerate()
             .map(|(k, row)| {
-                let (columns, rows): (Vec<_>, Vec<_>) = row
-                    .terms
-                    .iter()
-                    .map(|&(d, c)| {
-                        (
-                            nonzero(c, p.slot(n_q + k, d)),
-                            nonzero(c, p.slot(d, n_q + k)),
-                        )
-                    })
-                    .unzip();
-                slots(|t| Some([columns[t]?, rows[t]?]))
+                slots(|i| {
+                    Some([
+                        row_slot(row, i, &|d| p.slot(n_q + k, d))?,
+                        row_slot(row, i, &|d| p.slot(d, n_q + k))?,
+                    ])
+                })
             })
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
@@ -138,8 +138,15 @@ impl Pattern {
             .rows
             .iter()
             .map(|row| {
-                let t = &row.terms;
-                slots(|i| slots(|j| nonzero(t[i].1 * t[j].1, p.slot(t[i].0, t[j].0))))
+                let dofs = row.dofs();
+                slots(|i| {
+                    slots(
+                        |j| match (dofs[i], dofs[j], row.active()[i] && row.active()[j]) {
+                            (Some(di), Some(dj), true) => p.slot(di, dj),
+                            _ => Some(usize::MAX),
+                        },
+                    )
+                })
             })
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
@@ -148,11 +155,7 @@ impl Pattern {
 
     /// For each constraint row, the DOFs it acts on.
     pub fn multiplier_dofs(model: &Model) -> Vec<Vec<usize>> {
-        model
-            .rows
-            .iter()
-            .map(|r| r.terms.iter().filter(|t| t.1 != 0.0).map(|t| t.0).collect())
-            .collect()
+        model.rows.iter().map(active_dofs).collect()
     }
 
     /// Position of entry `(row, col)` in the CSC value array (`None` outside the pattern).
@@ -165,6 +168,36 @@ impl Pattern {
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
+    }
+}
+
+/// The DOFs a constraint row acts on.
+fn active_dofs(row: &ConstraintRow) -> Vec<usize> {
+    row.dofs()
+        .iter()
+        .zip(row.active())
+        .filter_map(|(d, on)| d.filter(|_| on))
+        .collect()
+}
+
+/// `Φ_q` at a state: each constraint row's gradient on its six DOFs
+/// ([`ConstraintRow::dofs`]). The iteration matrix and the augmentation of its right-hand
+/// sides read the same one, so a kept factorization is solved consistently.
+#[derive(Debug, Clone)]
+pub struct Jacobian(Vec<[f64; 6]>);
+
+impl Jacobian {
+    /// `Φ_q(q)` of `model`.
+    pub fn at(model: &Model, q: &[f64]) -> Self {
+        Self(model.rows.iter().map(|r| r.gradient(q)).collect())
+    }
+
+    /// Re-evaluates at `q` in place.
+    pub fn update(&mut self, model: &Model, q: &[f64]) {
+        self.0
+            .iter_mut()
+            .zip(&model.rows)
+            .for_each(|(g, r)| *g = r.gradient(q));
     }
 }
 
@@ -326,33 +359,40 @@ impl<'m> Assembler<'m> {
             .for_each(|(fi, g)| *fi += factor * g);
     }
 
-    /// Constraint values `Φ_k = Σ c q − factor · g_k(t)`.
+    /// Constraint values `Φ_k = h_k(q) − factor · g_k(t)`.
     pub fn constraints(&self, q: &[f64], t: f64, factor: f64, phi: &mut [f64]) {
         for (k, row) in self.model.rows.iter().enumerate() {
-            phi[k] = row.apply(q) - factor * self.model.joints[row.joint].prescribed(row, t)[0];
+            phi[k] = row.value(q) - factor * self.model.joints[row.joint].prescribed(row, t)[0];
         }
     }
 
-    /// Prescribed constraint accelerations `g̈_k(t)` (`Φ_q q̈ = g̈`).
+    /// Prescribed constraint accelerations `g̈_k(t)` (`Φ_q q̈ = g̈` at rest).
     pub fn constraint_accelerations(&self, t: f64, out: &mut [f64]) {
         for (k, row) in self.model.rows.iter().enumerate() {
             out[k] = self.model.joints[row.joint].prescribed(row, t)[2];
         }
     }
 
-    /// `out += Φ_qᵀ λ`.
-    pub fn add_constraint_forces(&self, lambda: &[f64], out: &mut [f64]) {
+    /// `out += Φ_q(q)ᵀ λ`.
+    pub fn add_constraint_forces(&self, q: &[f64], lambda: &[f64], out: &mut [f64]) {
         for (row, &l) in self.model.rows.iter().zip(lambda) {
-            row.terms.iter().for_each(|&(d, c)| out[d] += c * l);
+            let g = row.gradient(q);
+            for (d, gi) in row.dofs().iter().zip(g) {
+                if let Some(d) = d {
+                    out[*d] += gi * l;
+                }
+            }
         }
     }
 
     /// Starts an augmented iteration matrix: `values = mass_coefficient · M + s Φ_qᵀΦ_q` plus
-    /// the constraint blocks `s Φ_q`, `s Φ_qᵀ`; [`Assembler::internal_forces`] then adds `K_t`.
+    /// the constraint blocks `s Φ_q`, `s Φ_qᵀ` of `jacobian`; [`Assembler::internal_forces`]
+    /// then adds `K_t`, and [`Assembler::add_constraint_hessian`] the joints' part of it.
     pub fn start_iteration_matrix(
         &self,
         mass_coefficient: f64,
         constraint_scale: f64,
+        jacobian: &Jacobian,
         values: &mut [f64],
     ) {
         values
@@ -360,25 +400,48 @@ impl<'m> Assembler<'m> {
             .zip(&self.mass)
             .for_each(|(v, m)| *v = mass_coefficient * m);
         let p = &self.pattern;
-        for ((row, slots), gram) in self.model.rows.iter().zip(&p.row_slots).zip(&p.gram_slots) {
-            for (i, (&(_, c), s)) in row.terms.iter().zip(slots).enumerate() {
-                if c != 0.0 {
-                    values[s[0]] += constraint_scale * c;
-                    values[s[1]] += constraint_scale * c;
-                    for (j, &(_, cj)) in row.terms.iter().enumerate().filter(|(_, t)| t.1 != 0.0) {
-                        values[gram[i][j]] += constraint_scale * c * cj;
-                    }
+        for ((g, slots), gram) in jacobian.0.iter().zip(&p.row_slots).zip(&p.gram_slots) {
+            for i in (0..6).filter(|&i| slots[i][0] != usize::MAX) {
+                values[slots[i][0]] += constraint_scale * g[i];
+                values[slots[i][1]] += constraint_scale * g[i];
+                for j in (0..6).filter(|&j| gram[i][j] != usize::MAX) {
+                    values[gram[i][j]] += constraint_scale * g[i] * g[j];
                 }
             }
         }
     }
 
-    /// Applies the augmentation `E` to a right-hand side `[b; c]`: `b += Φ_qᵀ c`.
-    pub fn augment_rhs(&self, rhs: &mut [f64]) {
+    /// Adds `Σ_k λ_k ∂²h_k/∂q²` at `q`, the joints' part of the tangent (nonzero only for
+    /// rows on arms or carried directions), to the matrix values.
+    pub fn add_constraint_hessian(&self, q: &[f64], lambda: &[f64], values: &mut [f64]) {
+        let rows = self
+            .model
+            .rows
+            .iter()
+            .zip(lambda)
+            .zip(&self.pattern.gram_slots);
+        for ((row, &l), gram) in rows.filter(|((r, _), _)| !r.is_linear()) {
+            let mut h = [[0.0; 6]; 6];
+            row.add_hessian(q, l, &mut h);
+            for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
+                if gram[i][j] != usize::MAX {
+                    values[gram[i][j]] += h[i][j];
+                }
+            }
+        }
+    }
+
+    /// Applies the augmentation `E` of `jacobian` to a right-hand side `[b; c]`:
+    /// `b += Φ_qᵀ c`.
+    pub fn augment_rhs(&self, jacobian: &Jacobian, rhs: &mut [f64]) {
         let n_q = self.pattern.n_q;
-        for (k, row) in self.model.rows.iter().enumerate() {
+        for (k, (row, g)) in self.model.rows.iter().zip(&jacobian.0).enumerate() {
             let c = rhs[n_q + k];
-            row.terms.iter().for_each(|&(d, coeff)| rhs[d] += coeff * c);
+            for (d, gi) in row.dofs().iter().zip(g) {
+                if let Some(d) = d {
+                    rhs[*d] += gi * c;
+                }
+            }
         }
     }
 
@@ -408,12 +471,13 @@ impl<'m> Assembler<'m> {
     pub fn linearization(&self, q: &[f64]) -> Linearization {
         let (n, n_c) = (self.pattern.n_q, self.model.n_constraints());
         let mut values = vec![0.0; self.pattern.nnz()];
-        self.start_iteration_matrix(1.0, 0.0, &mut values);
+        let jacobian = Jacobian::at(self.model, q);
+        self.start_iteration_matrix(1.0, 0.0, &jacobian, &mut values);
         let mass = self.pattern.block(&values, 0..n, 0..n);
-        self.start_iteration_matrix(0.0, 0.0, &mut values);
+        self.start_iteration_matrix(0.0, 0.0, &jacobian, &mut values);
         self.internal_forces(q, &mut vec![0.0; n], Some(&mut values));
         let stiffness = self.pattern.block(&values, 0..n, 0..n);
-        self.start_iteration_matrix(0.0, 1.0, &mut values);
+        self.start_iteration_matrix(0.0, 1.0, &jacobian, &mut values);
         let jacobian = self.pattern.block(&values, n..n + n_c, 0..n);
         Linearization {
             mass,
@@ -546,7 +610,7 @@ mod tests {
                     .collect::<Vec<f64>>()
             };
             let mut values = vec![0.0; asm.pattern.nnz()];
-            asm.start_iteration_matrix(beta_prime, 0.0, &mut values);
+            asm.start_iteration_matrix(beta_prime, 0.0, &Jacobian::at(&arm, &q), &mut values);
             asm.internal_forces(&q, &mut vec![0.0; n], Some(&mut values));
             let p = &asm.pattern;
             let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -1,35 +1,81 @@
 //! Kinematic joints as algebraic constraints `Φ(q, t) = 0` with Lagrange multipliers
 //! (paper Eq. 2–3).
 //!
-//! In planar absolute nodal coordinates every joint we offer is *linear* in `q`: a clamp
-//! fixes a node's displacement and rotation, a pin its displacement, a hinge equates the
-//! displacements of two coincident nodes, and a drive prescribes a rotation (absolute for
-//! a pin, relative `φ_b − φ_a` for a hinge) to follow `θ(t) − θ(0)`. Hence `Φ_q` is
-//! constant and the constraint Hessian `(Φ_qᵀλ)_q` vanishes, which keeps the iteration
-//! matrix exact with no extra term.
+//! A joint acts at *anchors*: a node of the mesh, or a point of a rigid body (the body's
+//! node with an arm `p`, the point's offset from the body's centre at the reference). In
+//! displacement coordinates an anchor moves by `Δr = u + (R(φ) − I) p`. Every row of a
+//! planar joint is one of two laws on at most two nodes `a`, `b` (`a` may be the ground):
+//!
+//! * **angle**: `φ_b − φ_a` (the rotation of a clamp, a weld or a slider, and drives);
+//! * **separation**: `mᵀ (Δr_a − Δr_b)`, the relative displacement of two anchors that
+//!   coincide at the reference, along a direction `m` fixed in space (`m = n`) or carried
+//!   by `a` (`m = R(φ_a) n`, a slider's axis on a moving body); either may be the ground.
+//!
+//! Between beam nodes, and for directions fixed in space, these are linear in `q`, as all
+//! joints were in the paper; an arm or a carried direction makes them nonlinear, and the
+//! Hessian term `Σ λₖ ∂²Φₖ/∂q²` of [`ConstraintRow::add_hessian`] enters the iteration
+//! matrix so that Newton stays quadratic.
 //!
 //! Sign convention: the residual is `r = M q̈ + f_int − f_ext + Φ_qᵀλ`, so the force a joint
 //! applies to the structure is `−Φ_qᵀλ`; reactions and motor torques are reported that way.
 
+use nalgebra::Vector2;
+
 use crate::motion::Motion;
 
-/// Which joint, on which nodes.
+/// Where a joint acts: a node, or a point of a rigid body at `arm` from its centre.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    /// The node (a beam's node or a rigid body's).
+    pub node: usize,
+    /// Offset of the point from the node at the reference (m); zero on a beam node.
+    pub arm: Vector2<f64>,
+}
+
+impl Anchor {
+    /// The node itself.
+    pub fn at(node: usize) -> Self {
+        Self {
+            node,
+            arm: Vector2::zeros(),
+        }
+    }
+}
+
+/// Which joint, at which anchors.
 #[derive(Debug, Clone, PartialEq)]
 pub enum JointKind {
-    /// Node fixed in position and rotation.
+    /// Anchor fixed in position and rotation.
     Clamp {
-        /// The clamped node.
-        node: usize,
+        /// The clamped anchor.
+        at: Anchor,
     },
-    /// Node fixed in position; its rotation is free or driven (absolute).
+    /// Anchor fixed in position; its rotation is free or driven (absolute).
     Pin {
-        /// The pinned node.
-        node: usize,
+        /// The pinned anchor.
+        at: Anchor,
     },
-    /// Two coincident nodes kept together; relative rotation free or driven.
+    /// Two coincident anchors kept together; relative rotation free or driven (revolute).
     Hinge {
         /// `[a, b]`; a drive prescribes `φ_b − φ_a`.
-        nodes: [usize; 2],
+        at: [Anchor; 2],
+    },
+    /// Two coincident anchors kept together with their relative rotation locked.
+    Weld {
+        /// `[a, b]`.
+        at: [Anchor; 2],
+    },
+    /// Anchor `slider` moves along `axis` through its reference position, fixed on the
+    /// ground or carried by `carrier`; relative rotation locked; a drive prescribes the
+    /// travel along the axis (m).
+    Prismatic {
+        /// The point of the body or node carrying the axis that coincides with the slider
+        /// at the reference; `None` for the ground.
+        carrier: Option<Anchor>,
+        /// The sliding anchor.
+        slider: Anchor,
+        /// Unit direction of the axis at the reference.
+        axis: Vector2<f64>,
     },
 }
 
@@ -38,17 +84,35 @@ pub enum JointKind {
 pub struct Joint {
     /// Name used in results and error messages.
     pub name: String,
-    /// Kind and nodes.
+    /// Kind and anchors.
     pub kind: JointKind,
-    /// Motion law of the driven rotation, if any (not for clamps).
+    /// Motion law of the driven rotation (or travel of a slider), if any.
     pub drive: Option<Motion>,
 }
 
-/// One scalar constraint `Φ = Σ cₖ q_{dofₖ} − g(t)`.
+/// The law of one constraint row (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Law {
+    /// `φ_b − φ_a`.
+    Angle,
+    /// `mᵀ(Δr_a − Δr_b)` with `m = n` or, `carried`, `m = R(φ_a) n`.
+    Separation {
+        /// Arms `[p_a, p_b]` of the two anchors (m).
+        arms: [Vector2<f64>; 2],
+        /// The direction `n` at the reference (unit).
+        direction: Vector2<f64>,
+        /// Whether `a` carries the direction.
+        carried: bool,
+    },
+}
+
+/// One scalar constraint `Φ = h(q_a, q_b) − g(t)` on at most two nodes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConstraintRow {
-    /// `(dof, coefficient)` terms; a second term with coefficient 0 is unused.
-    pub terms: [(usize, f64); 2],
+    /// `[a, b]`; `None` is the ground.
+    pub nodes: [Option<usize>; 2],
+    /// `h`.
+    pub law: Law,
     /// Index of the joint that owns the row.
     pub joint: usize,
     /// Whether `g(t) = θ(t) − θ(0)` of the joint's drive (otherwise `g = 0`).
@@ -61,63 +125,103 @@ pub const fn dof(node: usize, k: usize) -> usize {
 }
 
 impl JointKind {
-    /// The kind's name in a scene: `clamp`, `pin` or `hinge`.
+    /// The kind's name in a scene.
     pub fn name(&self) -> &'static str {
         match self {
             Self::Clamp { .. } => "clamp",
             Self::Pin { .. } => "pin",
             Self::Hinge { .. } => "hinge",
+            Self::Weld { .. } => "weld",
+            Self::Prismatic { .. } => "prismatic",
         }
     }
 }
 
+/// `(1, 0)` and `(0, 1)`.
+const AXES: [Vector2<f64>; 2] = [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)];
+
 impl Joint {
     /// The joint's constraint rows, the drive row last.
     pub fn rows(&self, joint: usize) -> Vec<ConstraintRow> {
-        let single = |d: usize, driven| ConstraintRow {
-            terms: [(d, 1.0), (d, 0.0)],
+        let row = |nodes, law, driven| ConstraintRow {
+            nodes,
+            law,
             joint,
             driven,
         };
-        let pair = |a: usize, b: usize, driven| ConstraintRow {
-            terms: [(a, 1.0), (b, -1.0)],
-            joint,
-            driven,
+        let coincide = |nodes: [Option<usize>; 2], arms| {
+            AXES.map(|direction| {
+                let law = Law::Separation {
+                    arms,
+                    direction,
+                    carried: false,
+                };
+                row(nodes, law, false)
+            })
         };
         let driven = self.drive.is_some();
+        let mut rows = Vec::new();
         match self.kind {
-            JointKind::Clamp { node } => (0..3).map(|k| single(dof(node, k), false)).collect(),
-            JointKind::Pin { node } => {
-                let mut rows = vec![single(dof(node, 0), false), single(dof(node, 1), false)];
-                if driven {
-                    rows.push(single(dof(node, 2), true));
+            JointKind::Clamp { at } | JointKind::Pin { at } => {
+                rows.extend(coincide([Some(at.node), None], [at.arm, Vector2::zeros()]));
+                if driven || matches!(self.kind, JointKind::Clamp { .. }) {
+                    rows.push(row([None, Some(at.node)], Law::Angle, driven));
                 }
-                rows
             }
-            JointKind::Hinge { nodes: [a, b] } => {
-                let mut rows = vec![
-                    pair(dof(a, 0), dof(b, 0), false),
-                    pair(dof(a, 1), dof(b, 1), false),
-                ];
-                if driven {
-                    rows.push(pair(dof(b, 2), dof(a, 2), true));
+            JointKind::Hinge { at: [a, b] } | JointKind::Weld { at: [a, b] } => {
+                rows.extend(coincide([Some(a.node), Some(b.node)], [a.arm, b.arm]));
+                if driven || matches!(self.kind, JointKind::Weld { .. }) {
+                    rows.push(row([Some(a.node), Some(b.node)], Law::Angle, driven));
                 }
-                rows
+            }
+            JointKind::Prismatic {
+                carrier,
+                slider,
+                axis,
+            } => {
+                let nodes = [carrier.map(|c| c.node), Some(slider.node)];
+                let arms = [carrier.map_or(Vector2::zeros(), |c| c.arm), slider.arm];
+                let along = |direction, driven| {
+                    let law = Law::Separation {
+                        arms,
+                        direction,
+                        carried: carrier.is_some(),
+                    };
+                    row(nodes, law, driven)
+                };
+                rows.push(along(Vector2::new(-axis.y, axis.x), false));
+                rows.push(row(nodes, Law::Angle, false));
+                if driven {
+                    // Along `−axis`, the slider's travel `axisᵀ(Δr_slider − Δr_carrier)`.
+                    rows.push(along(-axis, true));
+                }
             }
         }
+        rows
     }
 
     /// Nodes the joint acts on.
     pub fn nodes(&self) -> Vec<usize> {
         match self.kind {
-            JointKind::Clamp { node } | JointKind::Pin { node } => vec![node],
-            JointKind::Hinge { nodes } => nodes.to_vec(),
+            JointKind::Clamp { at } | JointKind::Pin { at } => vec![at.node],
+            JointKind::Hinge { at } | JointKind::Weld { at } => vec![at[0].node, at[1].node],
+            JointKind::Prismatic {
+                carrier, slider, ..
+            } => carrier
+                .into_iter()
+                .map(|c| c.node)
+                .chain([slider.node])
+                .collect(),
         }
     }
 
     /// Whether the joint ties its node(s) to the ground.
     pub fn is_grounded(&self) -> bool {
-        !matches!(self.kind, JointKind::Hinge { .. })
+        match self.kind {
+            JointKind::Clamp { .. } | JointKind::Pin { .. } => true,
+            JointKind::Hinge { .. } | JointKind::Weld { .. } => false,
+            JointKind::Prismatic { carrier, .. } => carrier.is_none(),
+        }
     }
 
     /// Prescribed value `g(t)` and its derivatives for a driven row, zero otherwise.
@@ -132,10 +236,164 @@ impl Joint {
     }
 }
 
+/// `R(φ) v`.
+fn rotate(phi: f64, v: Vector2<f64>) -> Vector2<f64> {
+    let (s, c) = phi.sin_cos();
+    Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+}
+
+/// `(R(φ) − I) v`, without the cancellation of `cos φ − 1` at small angles.
+fn rotate_minus_identity(phi: f64, v: Vector2<f64>) -> Vector2<f64> {
+    let (s, half) = (phi.sin(), (0.5 * phi).sin());
+    let c1 = -2.0 * half * half;
+    Vector2::new(c1 * v.x - s * v.y, s * v.x + c1 * v.y)
+}
+
+/// `J v`, the quarter turn.
+fn perp(v: Vector2<f64>) -> Vector2<f64> {
+    Vector2::new(-v.y, v.x)
+}
+
 impl ConstraintRow {
-    /// `Σ cₖ q_{dofₖ}`.
-    pub fn apply(&self, q: &[f64]) -> f64 {
-        self.terms.iter().map(|&(d, c)| c * q[d]).sum()
+    /// The six DOFs `[x_a, y_a, φ_a, x_b, y_b, φ_b]` of the row (`None` on the ground).
+    pub fn dofs(&self) -> [Option<usize>; 6] {
+        std::array::from_fn(|i| self.nodes[i / 3].map(|n| dof(n, i % 3)))
+    }
+
+    /// Which of [`ConstraintRow::dofs`] the row can depend on: its structural nonzeros.
+    pub fn active(&self) -> [bool; 6] {
+        let present = self.dofs().map(|d| d.is_some());
+        let depends = match self.law {
+            Law::Angle => [false, false, true, false, false, true],
+            Law::Separation {
+                arms,
+                direction,
+                carried,
+            } => {
+                let moves = |k: usize| direction[k] != 0.0 || carried;
+                [
+                    moves(0),
+                    moves(1),
+                    carried || arms[0] != Vector2::zeros(),
+                    moves(0),
+                    moves(1),
+                    arms[1] != Vector2::zeros(),
+                ]
+            }
+        };
+        std::array::from_fn(|i| present[i] && depends[i])
+    }
+
+    /// Whether `h` is linear in `q` (no Hessian).
+    pub fn is_linear(&self) -> bool {
+        match self.law {
+            Law::Angle => true,
+            Law::Separation { arms, carried, .. } => {
+                !carried && arms.iter().all(|a| *a == Vector2::zeros())
+            }
+        }
+    }
+
+    /// The row's six coordinates of `q` (zero on the ground).
+    fn local(&self, q: &[f64]) -> [f64; 6] {
+        self.dofs().map(|d| d.map_or(0.0, |d| q[d]))
+    }
+
+    /// `h(q)` and its gradient on [`ConstraintRow::dofs`] (zero where inactive).
+    fn evaluate(&self, q: &[f64]) -> (f64, [f64; 6]) {
+        let l = self.local(q);
+        match self.law {
+            Law::Angle => (l[5] - l[2], [0.0, 0.0, -1.0, 0.0, 0.0, 1.0]),
+            Law::Separation {
+                arms,
+                direction,
+                carried,
+            } => {
+                let s = Separation::at(&l, arms, direction, carried);
+                let m = s.m;
+                let carrying = if carried { perp(m).dot(&s.gap) } else { 0.0 };
+                let d_phi_a = carrying + m.dot(&perp(s.turned[0]));
+                let d_phi_b = -m.dot(&perp(s.turned[1]));
+                let mut g = [m.x, m.y, d_phi_a, -m.x, -m.y, d_phi_b];
+                let active = self.active();
+                g.iter_mut()
+                    .zip(active)
+                    .for_each(|(v, on)| *v = if on { *v } else { 0.0 });
+                (m.dot(&s.gap), g)
+            }
+        }
+    }
+
+    /// `h(q)`.
+    pub fn value(&self, q: &[f64]) -> f64 {
+        self.evaluate(q).0
+    }
+
+    /// `∂h/∂q` on [`ConstraintRow::dofs`].
+    pub fn gradient(&self, q: &[f64]) -> [f64; 6] {
+        self.evaluate(q).1
+    }
+
+    /// Adds `weight · ∂²h/∂q²` on [`ConstraintRow::dofs`] to `out` (row-major 6 × 6).
+    pub fn add_hessian(&self, q: &[f64], weight: f64, out: &mut [[f64; 6]; 6]) {
+        let Law::Separation {
+            arms,
+            direction,
+            carried,
+        } = self.law
+        else {
+            return;
+        };
+        let s = Separation::at(&self.local(q), arms, direction, carried);
+        let m = s.m;
+        let mut h = [[0.0; 6]; 6];
+        h[2][2] = -m.dot(&s.turned[0]);
+        h[5][5] = m.dot(&s.turned[1]);
+        if carried {
+            let jm = perp(m);
+            for k in 0..2 {
+                h[k][2] = jm[k];
+                h[3 + k][2] = -jm[k];
+                h[2][k] = jm[k];
+                h[2][3 + k] = -jm[k];
+            }
+            h[2][2] += -m.dot(&s.gap) + 2.0 * m.dot(&s.turned[0]);
+            h[2][5] = -m.dot(&s.turned[1]);
+            h[5][2] = h[2][5];
+        }
+        let active = self.active();
+        for i in 0..6 {
+            for j in 0..6 {
+                if active[i] && active[j] {
+                    out[i][j] += weight * h[i][j];
+                }
+            }
+        }
+    }
+}
+
+/// The kinematics of a separation row at a state: the direction, the anchors' gap and
+/// their turned arms `R(φ) p`.
+struct Separation {
+    /// `m`.
+    m: Vector2<f64>,
+    /// `Δr_a − Δr_b`.
+    gap: Vector2<f64>,
+    /// `[R(φ_a) p_a, R(φ_b) p_b]`.
+    turned: [Vector2<f64>; 2],
+}
+
+impl Separation {
+    fn at(l: &[f64; 6], arms: [Vector2<f64>; 2], n: Vector2<f64>, carried: bool) -> Self {
+        let shift = |k: usize| {
+            let (u, phi) = (Vector2::new(l[3 * k], l[3 * k + 1]), l[3 * k + 2]);
+            u + rotate_minus_identity(phi, arms[k])
+        };
+        Self {
+            m: if carried { rotate(l[2], n) } else { n },
+            gap: shift(0) - shift(1),
+            turned: [rotate(l[2], arms[0]), rotate(l[5], arms[1])],
+        }
     }
 }
 
@@ -149,7 +407,9 @@ mod tests {
         let drive = Motion::Trapezoidal(Trapezoidal::new(1.0, 2.0, 2.0, 0.5, 0.0));
         let j = Joint {
             name: "elbow".into(),
-            kind: JointKind::Hinge { nodes: [3, 7] },
+            kind: JointKind::Hinge {
+                at: [Anchor::at(3), Anchor::at(7)],
+            },
             drive: Some(drive.clone()),
         };
         let rows = j.rows(0);
@@ -157,9 +417,78 @@ mod tests {
         let mut q = vec![0.0; 24];
         q[dof(7, 2)] = 0.4;
         q[dof(3, 2)] = 0.1;
-        assert!((rows[2].apply(&q) - 0.3).abs() < 1e-15);
+        assert!((rows[2].value(&q) - 0.3).abs() < 1e-15);
         let g = j.prescribed(&rows[2], 0.5);
         assert!((g[0] - (drive.at(0.5).angle - 1.0)).abs() < 1e-15);
         assert_eq!(j.prescribed(&rows[0], 0.5), [0.0; 3]);
+    }
+
+    /// Every row kind: the gradient is the central difference of the value and the
+    /// Hessian that of the gradient, at a large rotation of both anchors.
+    #[test]
+    fn gradients_and_hessians_equal_central_differences() {
+        let (a, b) = (
+            Anchor {
+                node: 0,
+                arm: Vector2::new(0.3, -0.2),
+            },
+            Anchor {
+                node: 1,
+                arm: Vector2::new(-0.1, 0.4),
+            },
+        );
+        let axis = Vector2::new(0.6, 0.8);
+        let kinds = [
+            JointKind::Pin { at: b },
+            JointKind::Weld { at: [a, b] },
+            JointKind::Prismatic {
+                carrier: Some(a),
+                slider: b,
+                axis,
+            },
+            JointKind::Prismatic {
+                carrier: None,
+                slider: b,
+                axis,
+            },
+        ];
+        let q = [0.05, -0.02, 1.1, 0.3, 0.1, -0.7];
+        for kind in kinds {
+            let j = Joint {
+                name: "j".into(),
+                kind: kind.clone(),
+                drive: Some(Motion::Trapezoidal(Trapezoidal::new(
+                    0.0, 1.0, 1.0, 1.0, 0.0,
+                ))),
+            };
+            for row in j.rows(0) {
+                let g = row.gradient(&q);
+                let mut h = [[0.0; 6]; 6];
+                row.add_hessian(&q, 1.0, &mut h);
+                let dofs = row.dofs();
+                for (i, d) in dofs.iter().enumerate() {
+                    let Some(d) = *d else { continue };
+                    let eps = 1e-5;
+                    let (mut qp, mut qm) = (q, q);
+                    qp[d] += eps;
+                    qm[d] -= eps;
+                    let fd = (row.value(&qp) - row.value(&qm)) / (2.0 * eps);
+                    assert!(
+                        (fd - g[i]).abs() < 1e-9,
+                        "{kind:?} grad {i}: {} vs {fd}",
+                        g[i]
+                    );
+                    let (gp, gm) = (row.gradient(&qp), row.gradient(&qm));
+                    for k in 0..6 {
+                        let fd = (gp[k] - gm[k]) / (2.0 * eps);
+                        assert!(
+                            (fd - h[k][i]).abs() < 1e-8,
+                            "{kind:?} H[{k}][{i}]: {} vs {fd}",
+                            h[k][i]
+                        );
+                    }
+                }
+            }
+        }
     }
 }

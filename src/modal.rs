@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::assembly::Assembler;
+use crate::assembly::{Assembler, Jacobian};
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError, SolveError};
 use crate::lanczos::{largest_eigenpairs, spread};
@@ -135,12 +135,13 @@ impl<'m> Pencil<'m> {
         }
         let nnz = asm.pattern.nnz();
         let (mut stiffness, mut mass_values) = (vec![0.0; nnz], vec![0.0; nnz]);
-        asm.start_iteration_matrix(1.0, 0.0, &mut mass_values);
-        asm.start_iteration_matrix(0.0, 0.0, &mut stiffness);
+        let jacobian = Jacobian::at(model, q);
+        asm.start_iteration_matrix(1.0, 0.0, &jacobian, &mut mass_values);
+        asm.start_iteration_matrix(0.0, 0.0, &jacobian, &mut stiffness);
         asm.internal_forces(q, &mut vec![0.0; n_q], Some(&mut stiffness));
         let (mean_k, mean_m) = (asm.mean_stiffness_diagonal(q), asm.mean_mass_diagonal());
         let mut constraints = vec![0.0; nnz];
-        asm.start_iteration_matrix(0.0, mean_k, &mut constraints);
+        asm.start_iteration_matrix(0.0, mean_k, &jacobian, &mut constraints);
         let ldlt = asm.symbolic_ldlt()?;
         let shift = if mean_m > 0.0 {
             -1e-8 * mean_k / mean_m

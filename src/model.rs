@@ -1,4 +1,4 @@
-//! A built, validated mechanism: nodes, beam elements, point masses, joints, loads, design
+//! A built, validated mechanism: nodes, beam elements, rigid bodies, point masses, joints, loads, design
 //! variables and components. Produced by [`crate::scene`]; read by the solvers.
 //!
 //! Generalized coordinates: three per node, `q = [u, v, φ]`, the displacement and rotation
@@ -81,6 +81,18 @@ pub struct PointMass {
     pub inertia: f64,
 }
 
+/// A planar rigid body: its node is the centre of mass (its mass and rotary inertia are a
+/// [`PointMass`] there), its points where joints attach.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigidBody {
+    /// Name; also its node's.
+    pub name: String,
+    /// Its node.
+    pub node: usize,
+    /// Named points: their offsets from the centre of mass at the reference (m).
+    pub points: Vec<(String, Vector2<f64>)>,
+}
+
 /// Static (load-stepped equilibrium) or dynamic (time integration) analysis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Analysis {
@@ -118,7 +130,9 @@ pub struct Model {
     pub bars: Vec<Bar>,
     /// Component names (linkages), for per-component responses.
     pub components: Vec<String>,
-    /// Point masses.
+    /// Rigid bodies.
+    pub bodies: Vec<RigidBody>,
+    /// Point masses, the rigid bodies' first.
     pub point_masses: Vec<PointMass>,
     /// Joints.
     pub joints: Vec<Joint>,
@@ -309,9 +323,14 @@ impl Model {
             .collect()
     }
 
-    /// Size of the model: the diagonal of its bounding box (m), a length scale for tolerances.
+    /// Size of the model: the diagonal of the bounding box of its nodes and rigid-body
+    /// points (m), a length scale for tolerances.
     pub fn size(&self) -> f64 {
-        size_of(&self.nodes)
+        let points = self.bodies.iter().flat_map(|b| {
+            let centre = self.nodes[b.node].position;
+            b.points.iter().map(move |(_, arm)| centre + arm)
+        });
+        size_of(self.nodes.iter().map(|n| n.position).chain(points))
     }
 
     /// Full-density volume of each component (m³).
@@ -324,16 +343,16 @@ impl Model {
     }
 }
 
-/// Diagonal of the bounding box of `nodes` (m), at least the smallest positive number;
+/// Diagonal of the bounding box of `points` (m), at least the smallest positive number;
 /// infinite if the coordinates are too large to subtract.
-pub fn size_of(nodes: &[Node]) -> f64 {
+pub fn size_of(points: impl Iterator<Item = Vector2<f64>>) -> f64 {
     let (mut lo, mut hi) = (
         Vector2::repeat(f64::INFINITY),
         Vector2::repeat(f64::NEG_INFINITY),
     );
-    for n in nodes {
-        lo = lo.inf(&n.position);
-        hi = hi.sup(&n.position);
+    for p in points {
+        lo = lo.inf(&p);
+        hi = hi.sup(&p);
     }
     (hi - lo).norm().max(f64::MIN_POSITIVE)
 }

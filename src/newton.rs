@@ -15,7 +15,7 @@
 
 use faer::dyn_stack::MemBuffer;
 
-use crate::assembly::Assembler;
+use crate::assembly::{Assembler, Jacobian};
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
@@ -59,6 +59,8 @@ pub struct Newton<'m> {
     ldlt: SparseLdlt,
     /// Values of the last assembled iteration matrix.
     matrix: Vec<f64>,
+    /// The constraint Jacobian in `matrix`, which also augments its right-hand sides.
+    jacobian: Jacobian,
     /// Right-hand side / solution `E[−r; −sΦ]` → `[Δq; Δμ]`.
     rhs: Vec<f64>,
     /// Constraint scaling `s` of the current matrix (`λ = s μ`).
@@ -100,14 +102,19 @@ impl<'m> Newton<'m> {
         let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
         let ldlt = asm.symbolic_ldlt()?;
         let matrix = vec![0.0; asm.pattern.nnz()];
-        let (mean_mass, mean_stiffness) = (
-            asm.mean_mass_diagonal(),
-            asm.mean_stiffness_diagonal(&vec![0.0; n_q]),
-        );
+        let reference = vec![0.0; n_q];
+        let jacobian = Jacobian::at(model, &reference);
+        let mean_mass = asm.mean_mass_diagonal();
+        // A mechanism of rigid bodies alone has no stiffness to scale by.
+        let mean_stiffness = match asm.mean_stiffness_diagonal(&reference) {
+            k if k > 0.0 => k,
+            _ => mean_mass,
+        };
         Ok(Self {
             asm,
             ldlt,
             matrix,
+            jacobian,
             rhs: vec![0.0; n],
             scale: 1.0,
             mean_mass,
@@ -189,8 +196,15 @@ impl<'m> Newton<'m> {
             None => self.inertia.fill(0.0),
         }
         if with_matrix {
-            asm.start_iteration_matrix(mass_coefficient, self.scale, &mut self.matrix);
+            self.jacobian.update(asm.model, q);
+            asm.start_iteration_matrix(
+                mass_coefficient,
+                self.scale,
+                &self.jacobian,
+                &mut self.matrix,
+            );
             asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
+            asm.add_constraint_hessian(q, lambda, &mut self.matrix);
         } else {
             asm.internal_forces(q, &mut self.internal, None);
         }
@@ -200,7 +214,7 @@ impl<'m> Newton<'m> {
             None => asm.applied_loads(t, load, &mut self.external),
         }
         self.joint.fill(0.0);
-        asm.add_constraint_forces(lambda, &mut self.joint);
+        asm.add_constraint_forces(q, lambda, &mut self.joint);
         asm.constraints(q, t, load, &mut self.phi);
         let mut f_ref = f64::MIN_POSITIVE;
         let mut r_max: f64 = 0.0;
@@ -219,7 +233,7 @@ impl<'m> Newton<'m> {
             self.rhs[n_q + k] = -self.scale * p;
             phi_max = phi_max.max(p.abs());
         }
-        asm.augment_rhs(&mut self.rhs);
+        asm.augment_rhs(&self.jacobian, &mut self.rhs);
         Residual {
             force: r_max / f_ref,
             constraint: phi_max / self.length,
@@ -345,25 +359,33 @@ impl<'m> Newton<'m> {
         }
     }
 
-    /// Assembles and factorizes the augmented iteration matrix `c M + K_t(q) + s Φ` at
-    /// time `t` (without `K_t` when `q` is `None`), for the linear solves of the
-    /// sensitivity analysis, with the scaling `s` of a Newton solve of the same `c`.
+    /// Assembles and factorizes the augmented iteration matrix at state `q`, time `t`, for
+    /// the linear solves of the sensitivity analysis, with the scaling `s` of a Newton solve
+    /// of the same mass coefficient `c`: `c M + K_t(q) + Σ λₖ ∂²Φₖ/∂q²` and `Φ_q(q)` with
+    /// `tangent = Some(λ)`, `c M` and `Φ_q(q)` alone with `None` (the initial accelerations).
     ///
     /// # Errors
     /// [`SolveError::Singular`] for a singular matrix.
     pub fn factorize(
         &mut self,
-        q: Option<&[f64]>,
+        q: &[f64],
+        tangent: Option<&[f64]>,
         mass_coefficient: f64,
         t: f64,
     ) -> Result<(), SolveError> {
-        self.scale = self.scaling(mass_coefficient, q.is_some());
+        self.scale = self.scaling(mass_coefficient, tangent.is_some());
         self.factored_at = t;
-        self.asm
-            .start_iteration_matrix(mass_coefficient, self.scale, &mut self.matrix);
-        if let Some(q) = q {
+        self.jacobian.update(self.asm.model, q);
+        self.asm.start_iteration_matrix(
+            mass_coefficient,
+            self.scale,
+            &self.jacobian,
+            &mut self.matrix,
+        );
+        if let Some(lambda) = tangent {
             self.asm
                 .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
+            self.asm.add_constraint_hessian(q, lambda, &mut self.matrix);
         }
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
     }
@@ -414,7 +436,7 @@ impl<'m> Newton<'m> {
             1.0,
             false,
         );
-        self.factorize(None, 1.0, 0.0)?;
+        self.factorize(q, None, 1.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
         let scale = self.scale;
@@ -422,7 +444,7 @@ impl<'m> Newton<'m> {
             .iter_mut()
             .zip(&g)
             .for_each(|(r, gk)| *r = scale * gk);
-        self.asm.augment_rhs(&mut self.rhs);
+        self.asm.augment_rhs(&self.jacobian, &mut self.rhs);
         self.ldlt
             .solve_in_place(&mut self.rhs)
             .map_err(self.singular())?;

@@ -5,7 +5,9 @@
 //! `x_i = X_i + c + (R(ψ) − I)(X_i − X_k)` about the cluster's first node `k`, `φ_i = ψ`.
 //!
 //! Uses:
-//! * when a scene is built, the mechanism checks: every node on a beam, no joint repeating
+//! A rigid body is a cluster of its own node.
+//!
+//! * when a scene is built, the mechanism checks: every node on a beam or a body, no joint repeating
 //!   a constraint of earlier ones ([`redundant_rows`]), every cluster reaching the ground
 //!   through joints, and a static scene with no rigid-body mode left (mobility
 //!   `3 n_clusters − rank`); and, reported rather than refused because the flexible model
@@ -18,7 +20,6 @@
 
 use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
-use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
 use crate::model::{Analysis, Model};
 
@@ -114,7 +115,8 @@ impl Clusters {
         }
     }
 
-    /// Constraint values `Φ(ρ, t)` on the cluster coordinates and their Jacobian.
+    /// Constraint values `Φ(ρ, t)` on the cluster coordinates and their Jacobian: each
+    /// row at the nodes' coordinates `q(ρ)`, by the chain rule through [`Clusters::dof_map`].
     fn constraints(
         &self,
         model: &Model,
@@ -122,14 +124,17 @@ impl Clusters {
         t: f64,
     ) -> (DVector<f64>, DMatrix<f64>) {
         let rows = &model.rows;
+        let q: Vec<f64> = (0..model.n_dofs())
+            .map(|d| self.dof_map(model, rho, d).0)
+            .collect();
         let mut phi = DVector::zeros(rows.len());
         let mut jac = DMatrix::zeros(rows.len(), 3 * self.len());
         for (i, row) in rows.iter().enumerate() {
-            phi[i] = -model.joints[row.joint].prescribed(row, t)[0];
-            for &(dof, coeff) in row.terms.iter().filter(|(_, c)| *c != 0.0) {
-                let (value, grad) = self.dof_map(model, rho, dof);
-                phi[i] += coeff * value;
-                for (j, g) in grad {
+            phi[i] = row.value(&q) - model.joints[row.joint].prescribed(row, t)[0];
+            let gradient = row.gradient(&q);
+            for (dof, coeff) in row.dofs().iter().zip(gradient) {
+                let Some(dof) = *dof else { continue };
+                for (j, g) in self.dof_map(model, rho, dof).1 {
                     jac[(i, j)] += coeff * g;
                 }
             }
@@ -320,9 +325,9 @@ fn rank_of(s: &DVector<f64>) -> usize {
     s.iter().filter(|&&v| v > tol).count()
 }
 
-/// Rows of `Φ_q` that depend linearly on earlier ones (an over-constrained mechanism),
-/// found by modified Gram–Schmidt on the sparse rows.
-pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
+/// Rows of `Φ_q` at the reference that depend linearly on earlier ones (an
+/// over-constrained mechanism), found by modified Gram–Schmidt on the sparse rows.
+pub fn redundant_rows(model: &Model) -> Vec<usize> {
     use std::collections::BTreeMap;
     type Sparse = BTreeMap<usize, f64>;
     let dot = |a: &Sparse, b: &Sparse| {
@@ -330,12 +335,15 @@ pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
             .map(|(k, v)| v * b.get(k).unwrap_or(&0.0))
             .sum::<f64>()
     };
+    let reference = vec![0.0; model.n_dofs()];
     let mut basis: Vec<Sparse> = Vec::new();
     let mut redundant = Vec::new();
-    for (i, row) in rows.iter().enumerate() {
+    for (i, row) in model.rows.iter().enumerate() {
         let mut v = Sparse::new();
-        for &(d, c) in &row.terms {
-            *v.entry(d).or_insert(0.0) += c;
+        for (d, c) in row.dofs().iter().zip(row.gradient(&reference)) {
+            if let Some(d) = d.filter(|_| c != 0.0) {
+                *v.entry(d).or_insert(0.0) += c;
+            }
         }
         let norm0 = dot(&v, &v).sqrt();
         for b in &basis {
@@ -355,7 +363,7 @@ pub fn redundant_rows(rows: &[ConstraintRow]) -> Vec<usize> {
     redundant
 }
 
-/// The mechanism checks of a built scene, in order: every node on a beam, no redundant
+/// The mechanism checks of a built scene, in order: every node on a beam or a body, no redundant
 /// joint, every cluster grounded, and for a static scene mobility zero.
 ///
 /// # Errors
@@ -371,13 +379,14 @@ pub(crate) fn check_mechanism(model: &Model) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// Every node is an end of some element.
+/// Every node is an end of some element or a rigid body's.
 fn check_attached(model: &Model) -> Result<(), SceneError> {
     let mut attached = vec![false; model.nodes.len()];
     model
         .elements
         .iter()
         .flat_map(|e| e.nodes)
+        .chain(model.bodies.iter().map(|b| b.node))
         .for_each(|n| attached[n] = true);
     match attached.iter().position(|a| !a) {
         Some(n) => Err(SceneError::new(
@@ -390,7 +399,7 @@ fn check_attached(model: &Model) -> Result<(), SceneError> {
 
 /// No row of `Φ_q` depends on earlier ones: the first redundant row names its joint.
 fn check_redundancy(model: &Model) -> Result<(), SceneError> {
-    match redundant_rows(&model.rows).first() {
+    match redundant_rows(model).first() {
         Some(&r) => {
             let j = model.rows[r].joint;
             Err(SceneError::new(

@@ -36,7 +36,10 @@ pub fn robot_arm(nx: usize, ny: usize, split: usize) -> Model {
     for joint in &mut spec.joints {
         match joint {
             JointSpec::Clamp { node, .. } | JointSpec::Pin { node, .. } => moved(node),
-            JointSpec::Hinge { nodes, .. } => nodes.iter_mut().for_each(moved),
+            JointSpec::Hinge { nodes, .. } | JointSpec::Weld { nodes, .. } => {
+                nodes.iter_mut().for_each(moved)
+            }
+            JointSpec::Prismatic { nodes, .. } => nodes.iter_mut().flatten().for_each(moved),
         }
     }
     scene::build(&spec).expect("valid scene")

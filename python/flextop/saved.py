@@ -30,7 +30,8 @@ from .errors import SettingsError
 VERSION = 1
 """Layout of the saved file."""
 
-ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y")}
+ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y"), "weld": ("x", "y", "rotation"),
+        "prismatic": ("normal", "rotation")}
 """The multipliers of a joint's rows, by kind: its constraint rows, then ``drive`` when driven."""
 
 

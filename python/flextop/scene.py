@@ -116,6 +116,17 @@ class Scene:
                  "group": group, "fixed": fixed}
         self._spec.setdefault("beams", []).append({k: v for k, v in entry.items() if v is not None})
 
+    def rigid_body(self, name: str, *, mass: float, position: Sequence[float], inertia: float = 0.0,
+                   angle: float = 0.0, points: Mapping[str, Sequence[float]] | None = None) -> str:
+        """A planar rigid body of ``mass`` (kg) and rotary ``inertia`` about its centre of
+        mass (kg m²) at ``position``, its frame turned by ``angle``; ``points`` are named
+        ``[x, y]`` in that frame from the centre. Joints attach to the body (``name``, its
+        centre) or its points (``"name.point"``)."""
+        entry = {"name": name, "mass": mass, "inertia": inertia, "position": [float(p) for p in position],
+                 "angle": angle, "points": {k: [float(v) for v in p] for k, p in (points or {}).items()}}
+        self._spec.setdefault("rigid_bodies", []).append(entry)
+        return name
+
     def point_mass(self, node: str, mass: float, inertia: float = 0.0) -> None:
         """A point mass (kg) with rotary inertia (kg m²) on ``node``."""
         self._spec.setdefault("point_masses", []).append({"node": node, "mass": mass, "inertia": inertia})
@@ -130,17 +141,34 @@ class Scene:
         self._spec.setdefault("loads", []).append(entry)
 
     def clamp(self, name: str, node: str) -> None:
-        """Fixes ``node`` in position and rotation."""
+        """Fixes ``node`` (or a rigid-body point) in position and rotation."""
         self._joint({"kind": "clamp", "name": name, "node": node})
 
     def pin(self, name: str, node: str, *, drive: dict | None = None) -> None:
-        """Pins ``node`` to the ground; ``drive`` (a motion law) prescribes its rotation."""
+        """Pins ``node`` (or a rigid-body point) to the ground; ``drive`` (a motion law)
+        prescribes its rotation."""
         self._joint({"kind": "pin", "name": name, "node": node, "drive": drive})
 
     def hinge(self, name: str, a: str, b: str, *, drive: dict | None = None) -> None:
-        """Keeps coincident nodes ``a`` and ``b`` together; ``drive`` prescribes the relative
-        rotation ``φ_b − φ_a``."""
+        """Keeps coincident ``a`` and ``b`` (nodes or rigid-body points) together; ``drive``
+        prescribes the relative rotation ``φ_b − φ_a``."""
         self._joint({"kind": "hinge", "name": name, "nodes": [a, b], "drive": drive})
+
+    def weld(self, name: str, a: str, b: str) -> None:
+        """Joins coincident ``a`` and ``b`` (nodes or rigid-body points) rigidly."""
+        self._joint({"kind": "weld", "name": name, "nodes": [a, b]})
+
+    def prismatic(self, name: str, slider: str, *, axis: Sequence[float], carrier: str | None = None,
+                  drive: dict | None = None) -> None:
+        """A slider: ``slider`` (a node or rigid-body point) moves along ``axis`` through its
+        position, the axis fixed on the ground or carried by ``carrier``, their relative
+        rotation locked; ``drive`` (a motion law, in m) prescribes the travel."""
+        entry: dict[str, Any] = {"kind": "prismatic", "name": name, "axis": [float(a) for a in axis], "drive": drive}
+        if carrier is None:
+            entry["node"] = slider
+        else:
+            entry["nodes"] = [carrier, slider]
+        self._joint(entry)
 
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})

@@ -1,17 +1,18 @@
 """The paper's two examples with the fixed dimensions of the project's reference scenes
-(``docs/reference-scenes.md``), every number a parameter.
+(``docs/reference-scenes.md``), every number a parameter; and the mechanisms of multibody
+benchmarks: a rigid pendulum, the flexible slider-crank of Song & Haug, a four-bar with a
+flexible coupler.
 
-These builders are the one definition of the reference scenes: ``examples/robot_arm.toml``
-and ``examples/static_truss.toml`` are their output at the defaults (:func:`example_toml`),
-written by ``python scripts/write_examples.py``; a test checks the committed files are
-up to date."""
+These builders are the one definition of the example scenes: ``examples/*.toml`` are their
+output at the defaults (:func:`example_toml`), written by ``python scripts/write_examples.py``;
+a test checks the committed files are up to date."""
 
 from __future__ import annotations
 
 import math
 
 from .errors import SceneError
-from .scene import Scene, trapezoidal
+from .scene import Scene, motion_table, trapezoidal
 
 #: Aluminium (Pa, -, kg/m³) and the solid circular section diameter (m).
 ALUMINIUM = {"E": 70e9, "nu": 0.32, "rho": 2700.0}
@@ -134,7 +135,110 @@ def ten_bar_truss(*, bay: float = 360 * INCH, load: float = 100 * KIP, E: float 
     return scene
 
 
-BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam, "ten_bar_truss": ten_bar_truss}
+STEEL = {"E": 200e9, "nu": 0.3, "rho": 7870.0}
+"""Steel (Pa, -, kg/m³), the slider-crank's."""
+
+
+def pendulum(*, length: float = 1.0, mass: float = 1.0, g: float = 9.81, angle: float = math.pi / 2,
+             periods: float = 1.0, h: float = 1e-3, rho_inf: float = 1.0) -> Scene:
+    """A point ``mass`` (kg) on a rigid massless link of ``length`` (m), pinned at the
+    origin and released from rest at ``angle`` from the downward vertical under gravity
+    ``g``: a rigid body with no rotary inertia about its centre, pinned at its point
+    ``bob.pivot``. Runs ``periods`` of the exact period ``4 K(sin(angle/2)) / √(g/L)``."""
+    scene = Scene("pendulum", gravity=(0.0, -g))
+    x, y = length * math.sin(angle), -length * math.cos(angle)
+    scene.rigid_body("bob", mass=mass, position=(x, y), points={"pivot": (-x, -y)})
+    scene.pin("pivot", "bob.pivot")
+    scene.tip = "bob"
+    scene.simulation(t_end=periods * pendulum_period(length, g, angle), h=h, rho_inf=rho_inf)
+    return scene
+
+
+def pendulum_period(length: float, g: float, angle: float) -> float:
+    """The exact period (s) of a pendulum of ``length`` released at rest from ``angle``."""
+    from scipy.special import ellipk
+
+    return 4.0 * float(ellipk(math.sin(angle / 2) ** 2)) / math.sqrt(g / length)
+
+
+def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split: int = 2, diameter: float = 0.006,
+                 E: float = STEEL["E"], nu: float = STEEL["nu"], rho: float = STEEL["rho"], speed: float = 150.0,
+                 time_constant: float = 0.167, t_end: float = 0.1, h: float = 2.5e-4, rho_inf: float = 0.8,
+                 p: float = 3.0, x_min: float = 0.01) -> Scene:
+    """The flexible slider-crank of Song & Haug (1980) and Jonker (1989): a rigid ``crank``
+    (m) driven from rest to ``speed`` rad/s as ``ω(t) = speed (1 − exp(−t/time_constant))``
+    (a cubic spline through samples of its angle), a flexible steel connecting ``rod`` (m,
+    solid circle of ``diameter``) of ``bars`` bars in a row (one design variable each, split
+    into ``split`` elements), and a slider of half the rod's mass on a horizontal axis.
+    The crank is a uniform bar of the rod's section; it starts along the axis (θ = 0). The
+    ``tip`` is the rod's middle node: its deflection is the rod's mid-span deflection."""
+    if bars % 2:
+        raise SceneError(f"slider_crank: bars must be even, so that a node sits at the rod's middle (got {bars})")
+    scene = Scene("slider_crank")
+    section = scene.section("steel", E=E, nu=nu, rho=rho, diameter=diameter)
+    area = math.pi * diameter**2 / 4
+    m_crank, m_rod = rho * area * crank, rho * area * rod
+    scene.rigid_body("crank", mass=m_crank, inertia=m_crank * crank**2 / 12, position=(crank / 2, 0.0),
+                     points={"pivot": (-crank / 2, 0.0), "pin": (crank / 2, 0.0)})
+    nodes = [scene.node(f"rod{k}", crank + k * rod / bars, 0.0) for k in range(bars + 1)]
+    for k in range(bars):
+        scene.beam(nodes[k], nodes[k + 1], section=section, split=split, name=f"rod/bar{k}", component="rod")
+    scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))
+    tau = time_constant
+    t = [k * t_end / 200 for k in range(202)]
+    angle = [speed * (ti + tau * (math.exp(-ti / tau) - 1.0)) for ti in t]
+    end_velocity = speed * (1.0 - math.exp(-t[-1] / tau))
+    scene.pin("crank", "crank.pivot", drive=motion_table(t, angle, end_velocity=end_velocity))
+    scene.hinge("A", "crank.pin", nodes[0])
+    scene.hinge("B", nodes[-1], "slider")
+    scene.prismatic("slide", "slider", axis=(1.0, 0.0))
+    scene.tip = nodes[bars // 2]
+    scene.design(interpolation="simp", p=p, x_min=x_min)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf)
+    return scene
+
+
+def four_bar(*, crank: float = 0.1, coupler: float = 0.3, rocker: float = 0.25, ground: float = 0.3, nx: int = 5,
+             height: float = 0.04, split: int = 1, mass: float = 0.5, E: float = ALUMINIUM["E"],
+             nu: float = ALUMINIUM["nu"], rho: float = ALUMINIUM["rho"], diameter: float = 0.01,
+             turn: float = math.pi, acceleration: float = 100.0, speed: float = 10.0, t_end: float = 0.5,
+             h: float = 2e-3, rho_inf: float = 0.8, p: float = 3.0, x_min: float = 0.01) -> Scene:
+    """A crank-rocker four-bar with a flexible coupler: a rigid ``crank`` pinned at the
+    origin and driven through ``turn`` rad (trapezoidal law), a ground structure of
+    ``nx × 3`` nodes along the ``coupler`` (one design variable per bar), a rigid ``rocker``
+    pinned at (``ground``, 0). Crank and rocker are uniform bars of ``mass`` kg each. The
+    crank starts upright; the coupler's middle node is the ``tip`` (``nx`` odd)."""
+    if nx % 2 == 0:
+        raise SceneError(f"four_bar: nx must be odd, so that a node sits at the coupler's middle (got {nx})")
+    b = (0.0, crank)
+    dx, dy = ground - b[0], -b[1]
+    dist = math.hypot(dx, dy)
+    if not abs(coupler - rocker) < dist < coupler + rocker:
+        raise SceneError("four_bar: the coupler and rocker cannot close the loop with the crank upright")
+    along = (coupler**2 - rocker**2 + dist**2) / (2 * dist)
+    up = math.sqrt(coupler**2 - along**2)
+    c = (b[0] + (along * dx - up * dy) / dist, b[1] + (along * dy + up * dx) / dist)
+    scene = Scene("four_bar")
+    section = scene.section("aluminium", E=E, nu=nu, rho=rho, diameter=diameter)
+    scene.rigid_body("crank", mass=mass, inertia=mass * crank**2 / 12, position=(b[0] / 2, b[1] / 2),
+                     points={"pivot": (-b[0] / 2, -b[1] / 2), "pin": (b[0] / 2, b[1] / 2)})
+    link = scene.ground_structure("coupler", nx=nx, ny=3, length=coupler, height=height, origin=b,
+                                  angle=math.atan2(c[1] - b[1], c[0] - b[0]), section=section, split=split)
+    mid = ((c[0] + ground) / 2, c[1] / 2)
+    scene.rigid_body("rocker", mass=mass, inertia=mass * rocker**2 / 12, position=mid,
+                     points={"pivot": (ground - mid[0], -mid[1]), "pin": (c[0] - mid[0], c[1] - mid[1])})
+    scene.pin("crank", "crank.pivot", drive=trapezoidal(0.0, turn, acceleration=acceleration, speed=speed))
+    scene.hinge("B", "crank.pin", link.node(0, 1))
+    scene.hinge("C", link.node(nx - 1, 1), "rocker.pin")
+    scene.pin("D", "rocker.pivot")
+    scene.tip = link.node(nx // 2, 1)
+    scene.design(interpolation="simp", p=p, x_min=x_min)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf)
+    return scene
+
+
+BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam, "ten_bar_truss": ten_bar_truss,
+            "pendulum": pendulum, "slider_crank": slider_crank, "four_bar": four_bar}
 """The scenes the command line knows by name."""
 
 
@@ -159,6 +263,36 @@ EXAMPLES = {
         {
             "joints[0]": "base column's middle node clamped",
             "loads[0]": "tip load F = (0, -100) N on the tip column's middle node",
+        },
+    ),
+    "pendulum.toml": (
+        pendulum,
+        "A point mass on a rigid massless link, released horizontally under gravity: one\n"
+        "period of the exact elliptic-integral solution. SI units.\n" + _GENERATED.format("pendulum"),
+        {
+            "rigid_bodies[0]": "the bob: 1 kg, no rotary inertia, its point 'pivot' 1 m away",
+            "joints[0]": "the pivot pinned to the ground, free to turn",
+        },
+    ),
+    "slider_crank.toml": (
+        slider_crank,
+        "Flexible slider-crank of Song & Haug (1980) and Jonker (1989): rigid crank 0.15 m\n"
+        "spun up to 150 rad/s, flexible steel rod 0.30 m (d = 6 mm), slider of half the rod's\n"
+        "mass. SI units.\n" + _GENERATED.format("slider_crank"),
+        {
+            "rigid_bodies[0]": "crank: a uniform bar of the rod's section, points at its ends",
+            "rigid_bodies[1]": "slider: half the rod's mass",
+            "joints[0]": "crank pinned at the origin, angle 150 (t + 0.167 (exp(-t/0.167) - 1)) rad",
+            "joints[3]": "slider on a horizontal axis fixed on the ground",
+        },
+    ),
+    "four_bar.toml": (
+        four_bar,
+        "Crank-rocker four-bar with a flexible coupler (a ground structure to design) between\n"
+        "a rigid crank and a rigid rocker. SI units.\n" + _GENERATED.format("four_bar"),
+        {
+            "joints[0]": "crank pinned at the origin and driven half a turn",
+            "joints[3]": "rocker pinned to the ground",
         },
     ),
 }

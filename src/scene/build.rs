@@ -7,13 +7,13 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, beams), joints, point masses, loads and gravity, the design, the tip, the
+//! structures, beams, rigid bodies and their points), joints, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::rigid`].
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, SceneSpec};
 use super::validate::Result;
-use super::{design, ground_structure, joint, load, section, simulation};
+use super::{body, design, ground_structure, joint, load, section, simulation};
 use crate::model::{Analysis, Design, Model};
 use crate::rigid::check_mechanism;
 
@@ -27,10 +27,11 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     mesh.add_nodes(&spec.nodes)?;
     ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
     mesh.add_beams(&spec.beams, &sections)?;
+    let mut point_masses = body::add_all(&mut mesh, &spec.rigid_bodies)?;
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
     let rows = joint::rows(&joints);
-    let point_masses = load::point_masses(&spec.point_masses, &mesh)?;
+    point_masses.extend(load::point_masses(&spec.point_masses, &mesh)?);
     let loads = load::loads(&spec.loads, &mesh)?;
     let gravity = load::gravity(spec.gravity)?;
     let (interpolation, x_min) = design::law(&spec.design)?;
@@ -46,6 +47,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         elements: mesh.elements,
         bars: mesh.bars,
         components: mesh.components,
+        bodies: mesh.bodies,
         point_masses,
         joints,
         rows,

@@ -16,7 +16,7 @@ use nalgebra::Vector2;
 use super::mesh::{BarSpec, Mesh};
 use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
-use super::validate::{finite, non_negative, positive, Result};
+use super::validate::{angle, finite, non_negative, positive, Result};
 use crate::error::SceneError;
 use crate::limits::MAX_GRID_NODES;
 
@@ -182,14 +182,7 @@ impl Grid {
         } else {
             non_negative(&format!("{path}.height"), g.height)?
         };
-        let angle = match (g.angle, g.angle_deg) {
-            (Some(_), Some(_)) => {
-                let message = "give `angle` (rad) or `angle_deg`, not both";
-                return Err(SceneError::new(format!("{path}.angle_deg"), message));
-            }
-            (_, Some(deg)) => finite(&format!("{path}.angle_deg"), deg)?.to_radians(),
-            (rad, None) => finite(&format!("{path}.angle"), rad.unwrap_or(0.0))?,
-        };
+        let angle = angle(path, g.angle, g.angle_deg)?;
         let origin = match &g.origin {
             PointSpec::Coordinates([x, y]) => Vector2::new(
                 finite(&format!("{path}.origin[0]"), *x)?,

@@ -1,14 +1,17 @@
-//! Joints and their drives: clamps, pins and hinges, written as algebraic constraints
-//! ([`crate::constraint`]), the rotation of a pin or hinge optionally prescribed by a
-//! motion law ([`crate::motion`]).
+//! Joints and their drives: clamps, pins, hinges, welds and sliders (prismatic joints),
+//! written as algebraic constraints ([`crate::constraint`]) on nodes or rigid-body points,
+//! the rotation of a pin or hinge, or a slider's travel, optionally prescribed by a motion
+//! law ([`crate::motion`]).
 //!
-//! A hinge joins two distinct nodes that coincide, within 1e-9 of the scene's size. Scenes
-//! start at rest, so every drive must too.
+//! A hinge or weld joins two distinct nodes or bodies at points that coincide, within 1e-9
+//! of the scene's size. Scenes start at rest, so every drive must too.
 
 use super::mesh::Mesh;
 use super::spec::{JointSpec, MotionSpec};
+use nalgebra::Vector2;
+
 use super::validate::{finite, non_negative, positive, samples, Result};
-use crate::constraint::{ConstraintRow, Joint, JointKind};
+use crate::constraint::{Anchor, ConstraintRow, Joint, JointKind};
 use crate::error::SceneError;
 use crate::motion::{Motion, Table, Trapezoidal};
 
@@ -30,26 +33,44 @@ pub(super) fn rows(joints: &[Joint]) -> Vec<ConstraintRow> {
         .collect()
 }
 
-/// The joint `j` at `path`: its kind on the nodes of `mesh`, and its drive if any.
+/// The joint `j` at `path`: its kind on the anchors of `mesh`, and its drive if any.
 fn joint(path: &str, j: &JointSpec, mesh: &Mesh, size: f64) -> Result<Joint> {
+    let anchor = |key: &str, name: &str| mesh.anchor(&format!("{path}.{key}"), name);
     let (name, kind, drive) = match j {
         JointSpec::Clamp { name, node } => (
             name,
             JointKind::Clamp {
-                node: mesh.node(&format!("{path}.node"), node)?,
+                at: anchor("node", node)?,
             },
             None,
         ),
         JointSpec::Pin { name, node, drive } => (
             name,
             JointKind::Pin {
-                node: mesh.node(&format!("{path}.node"), node)?,
+                at: anchor("node", node)?,
             },
             drive.as_ref(),
         ),
-        JointSpec::Hinge { name, nodes, drive } => {
-            (name, hinge(path, name, nodes, mesh, size)?, drive.as_ref())
-        }
+        JointSpec::Hinge { name, nodes, drive } => (
+            name,
+            JointKind::Hinge {
+                at: coincident(path, name, nodes, mesh, size)?,
+            },
+            drive.as_ref(),
+        ),
+        JointSpec::Weld { name, nodes } => (
+            name,
+            JointKind::Weld {
+                at: coincident(path, name, nodes, mesh, size)?,
+            },
+            None,
+        ),
+        JointSpec::Prismatic {
+            name,
+            nodes,
+            axis,
+            drive,
+        } => (name, prismatic(path, nodes, *axis, mesh)?, drive.as_ref()),
     };
     Ok(Joint {
         name: name.clone(),
@@ -60,27 +81,84 @@ fn joint(path: &str, j: &JointSpec, mesh: &Mesh, size: f64) -> Result<Joint> {
     })
 }
 
-/// The hinge `name` at `path` between `nodes`: two distinct nodes that coincide.
-fn hinge(path: &str, name: &str, nodes: &[String; 2], mesh: &Mesh, size: f64) -> Result<JointKind> {
-    let a = mesh.node(&format!("{path}.nodes[0]"), &nodes[0])?;
-    let b = mesh.node(&format!("{path}.nodes[1]"), &nodes[1])?;
-    let gap = (mesh.nodes[a].position - mesh.nodes[b].position).norm();
-    if a == b {
+/// The anchors `nodes` of the hinge or weld `name` at `path`: on two distinct nodes, and
+/// coincident.
+fn coincident(
+    path: &str,
+    name: &str,
+    nodes: &[String; 2],
+    mesh: &Mesh,
+    size: f64,
+) -> Result<[Anchor; 2]> {
+    let a = mesh.anchor(&format!("{path}.nodes[0]"), &nodes[0])?;
+    let b = mesh.anchor(&format!("{path}.nodes[1]"), &nodes[1])?;
+    let gap = (mesh.position(a) - mesh.position(b)).norm();
+    if a.node == b.node {
         return Err(SceneError::new(
             format!("{path} ({name})"),
-            "a hinge needs two distinct nodes",
+            "a joint needs two distinct nodes or bodies",
         ));
     }
     if gap > 1e-9 * size {
         return Err(SceneError::new(
             format!("{path} ({name})"),
             format!(
-                "hinge nodes '{}' and '{}' are {gap:.3e} m apart; they must coincide",
+                "'{}' and '{}' are {gap:.3e} m apart; they must coincide",
                 nodes[0], nodes[1]
             ),
         ));
     }
-    Ok(JointKind::Hinge { nodes: [a, b] })
+    Ok([a, b])
+}
+
+/// The prismatic joint at `path`: slider `nodes[1]` on an axis through its reference
+/// position, carried by `nodes[0]` (the ground if `None`), along `axis` made unit.
+fn prismatic(
+    path: &str,
+    nodes: &[Option<String>; 2],
+    axis: [f64; 2],
+    mesh: &Mesh,
+) -> Result<JointKind> {
+    let (slider_key, carrier_key) = match nodes[0] {
+        Some(_) => ("nodes[1]", "nodes[0]"),
+        None => ("node", ""),
+    };
+    let slider = match &nodes[1] {
+        Some(name) => mesh.anchor(&format!("{path}.{slider_key}"), name)?,
+        None => return Err(SceneError::new(path, "a prismatic joint needs its slider")),
+    };
+    let carrier = match &nodes[0] {
+        Some(name) => {
+            let node = mesh.anchor(&format!("{path}.{carrier_key}"), name)?.node;
+            if node == slider.node {
+                return Err(SceneError::new(
+                    path,
+                    "a prismatic joint needs two distinct nodes or bodies",
+                ));
+            }
+            Some(Anchor {
+                node,
+                arm: mesh.position(slider) - mesh.nodes[node].position,
+            })
+        }
+        None => None,
+    };
+    let axis = Vector2::new(
+        finite(&format!("{path}.axis[0]"), axis[0])?,
+        finite(&format!("{path}.axis[1]"), axis[1])?,
+    );
+    let length = axis.norm();
+    if !(length.is_normal()) {
+        return Err(SceneError::new(
+            format!("{path}.axis"),
+            "a prismatic axis of zero length: give its direction [x, y]",
+        ));
+    }
+    Ok(JointKind::Prismatic {
+        carrier,
+        slider,
+        axis: axis / length,
+    })
 }
 
 /// The drive at `path`: a [`motion`] law at rest at `t = 0`.

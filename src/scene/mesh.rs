@@ -14,10 +14,11 @@ use super::design::Variables;
 use super::section::{self, Sections};
 use super::spec::{BeamSpec, NodeSpec};
 use super::validate::{finite, unknown, Result};
+use crate::constraint::Anchor;
 use crate::element::Beam;
 use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
-use crate::model::{size_of, Bar, Element, Node};
+use crate::model::{size_of, Bar, Element, Node, RigidBody};
 use crate::section::Section;
 
 /// Mesh under construction.
@@ -37,6 +38,10 @@ pub(super) struct Mesh {
     pub(super) components: Vec<String>,
     /// Design variables of the bars.
     pub(super) variables: Variables,
+    /// Rigid bodies.
+    pub(super) bodies: Vec<RigidBody>,
+    /// The points of rigid bodies, by name (`body.point`).
+    points: HashMap<String, Anchor>,
 }
 
 /// What a new bar is made of and where it belongs.
@@ -70,7 +75,7 @@ impl Mesh {
     pub(super) fn add_node(&mut self, path: &str, name: &str, x: f64, y: f64) -> Result<usize> {
         finite(&format!("{path}.x"), x)?;
         finite(&format!("{path}.y"), y)?;
-        if self.index.contains_key(name) {
+        if self.index.contains_key(name) || self.points.contains_key(name) {
             return Err(SceneError::new(
                 path,
                 format!("duplicate node name '{name}'"),
@@ -88,6 +93,33 @@ impl Mesh {
             position: Vector2::new(x, y),
         });
         Ok(self.nodes.len() - 1)
+    }
+
+    /// A point of a rigid body called `name`, which no node or other point may be called.
+    pub(super) fn add_point(&mut self, path: &str, name: &str, anchor: Anchor) -> Result<()> {
+        if self.index.contains_key(name) || self.points.contains_key(name) {
+            return Err(SceneError::new(
+                path,
+                format!("duplicate name '{name}': a node or point is already called so"),
+            ));
+        }
+        self.points.insert(name.to_string(), anchor);
+        Ok(())
+    }
+
+    /// Where `name` at `path` is: a node (a rigid body's is its centre of mass), or a point
+    /// of a rigid body (`body.point`).
+    pub(super) fn anchor(&self, path: &str, name: &str) -> Result<Anchor> {
+        match (self.index.get(name), self.points.get(name)) {
+            (Some(&node), _) => Ok(Anchor::at(node)),
+            (None, Some(&anchor)) => Ok(anchor),
+            (None, None) => Err(unknown(path, "node or rigid-body point", name)),
+        }
+    }
+
+    /// Reference position of `anchor` (m).
+    pub(super) fn position(&self, anchor: Anchor) -> Vector2<f64> {
+        self.nodes[anchor.node].position + anchor.arm
     }
 
     /// The node called `name` at `path`.
@@ -195,13 +227,15 @@ impl Mesh {
         Ok(chain)
     }
 
-    /// The scene's size, the diagonal of its bounding box ([`size_of`]), once the mesh is
-    /// known to have beams, none of them of zero length.
+    /// The scene's size, the diagonal of the bounding box ([`size_of`]) of its nodes and
+    /// rigid-body points, once the mesh is known to have beams or bodies, no beam of zero
+    /// length.
     pub(super) fn size(&self) -> Result<f64> {
-        if self.elements.is_empty() {
-            return Err(SceneError::new("scene", "has no beams"));
+        if self.elements.is_empty() && self.bodies.is_empty() {
+            return Err(SceneError::new("scene", "has no beams or rigid bodies"));
         }
-        let size = size_of(&self.nodes);
+        let points = self.points.values().map(|&a| self.position(a));
+        let size = size_of(self.nodes.iter().map(|n| n.position).chain(points));
         self.check_lengths(size)?;
         Ok(size)
     }

@@ -4,6 +4,7 @@
 //! A scene file is TOML; see `examples/*.toml` and the README for the keys. Parsing rejects
 //! unknown keys with their path; [`build()`] checks every value and the mechanism.
 
+mod body;
 pub mod build;
 mod design;
 pub mod ground_structure;

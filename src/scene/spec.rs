@@ -36,6 +36,9 @@ pub struct SceneSpec {
     /// Individual beams between named nodes.
     #[serde(default)]
     pub beams: Vec<BeamSpec>,
+    /// Rigid bodies.
+    #[serde(default)]
+    pub rigid_bodies: Vec<RigidBodySpec>,
     /// Point masses.
     #[serde(default)]
     pub point_masses: Vec<PointMassSpec>,
@@ -221,6 +224,31 @@ pub struct BeamSpec {
     pub fixed: bool,
 }
 
+/// A planar rigid body: three coordinates, those of its centre of mass. Its node is
+/// called `name`, its points `name.point`; joints attach to either.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RigidBodySpec {
+    /// Name.
+    pub name: String,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Rotary inertia about the centre of mass (kg m²).
+    #[serde(default)]
+    pub inertia: f64,
+    /// Centre of mass `[x, y]` (m).
+    pub position: [f64; 2],
+    /// Angle of the body's frame from the global frame (rad), 0 if not given.
+    #[serde(default)]
+    pub angle: Option<f64>,
+    /// The same angle in degrees (instead of `angle`).
+    #[serde(default)]
+    pub angle_deg: Option<f64>,
+    /// Named points `[x, y]` in the body's frame, from its centre of mass (m).
+    #[serde(default)]
+    pub points: BTreeMap<String, [f64; 2]>,
+}
+
 /// A point mass.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -289,6 +317,26 @@ pub enum JointSpec {
         /// Motion law of the relative rotation.
         drive: Option<MotionSpec>,
     },
+    /// Keeps two coincident nodes together with their relative rotation locked.
+    Weld {
+        /// Name.
+        name: String,
+        /// `[a, b]`.
+        nodes: [String; 2],
+    },
+    /// A slider: `nodes[1]` moves along `axis` carried by `nodes[0]`, or along an axis
+    /// fixed on the ground with `node`; relative rotation locked; `drive` prescribes the
+    /// travel (m).
+    Prismatic {
+        /// Name.
+        name: String,
+        /// `[carrier, slider]`; the carrier is `None` for the ground.
+        nodes: [Option<String>; 2],
+        /// Direction of the axis `[x, y]` at the reference (any length but zero).
+        axis: [f64; 2],
+        /// Motion law of the travel along the axis (m).
+        drive: Option<MotionSpec>,
+    },
 }
 
 /// A joint as written: every key a joint of any kind may have. Read as a plain struct, so
@@ -302,6 +350,8 @@ struct JointEntry {
     node: Option<String>,
     nodes: Option<[String; 2]>,
     drive: Option<MotionSpec>,
+    axis: Option<[f64; 2]>,
+    axis_deg: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -310,6 +360,8 @@ enum JointKind {
     Clamp,
     Pin,
     Hinge,
+    Weld,
+    Prismatic,
 }
 
 impl TryFrom<JointEntry> for JointSpec {
@@ -322,15 +374,52 @@ impl TryFrom<JointEntry> for JointSpec {
             node,
             nodes,
             drive,
+            axis,
+            axis_deg,
         } = e;
+        let axis = match (kind, axis, axis_deg) {
+            (JointKind::Prismatic, Some(_), Some(_)) => {
+                return Err("give `axis` [x, y] or `axis_deg`, not both".into())
+            }
+            (JointKind::Prismatic, Some(axis), None) => axis,
+            (JointKind::Prismatic, None, Some(deg)) => {
+                let (s, c) = deg.to_radians().sin_cos();
+                [c, s]
+            }
+            (JointKind::Prismatic, None, None) => {
+                return Err("a prismatic joint needs its `axis` [x, y] or `axis_deg`".into())
+            }
+            (_, None, None) => [0.0; 2],
+            _ => return Err("only a prismatic joint takes an `axis`".into()),
+        };
         match (kind, node, nodes, drive) {
             (JointKind::Clamp, _, _, Some(_)) => {
                 Err("a clamp has no drive (a pin's drive prescribes a rotation)".into())
             }
+            (JointKind::Weld, _, _, Some(_)) => {
+                Err("a weld has no drive (a hinge's drive prescribes a rotation)".into())
+            }
             (JointKind::Clamp, Some(node), None, None) => Ok(Self::Clamp { name, node }),
             (JointKind::Pin, Some(node), None, drive) => Ok(Self::Pin { name, node, drive }),
             (JointKind::Hinge, None, Some(nodes), drive) => Ok(Self::Hinge { name, nodes, drive }),
+            (JointKind::Weld, None, Some(nodes), None) => Ok(Self::Weld { name, nodes }),
+            (JointKind::Prismatic, Some(node), None, drive) => Ok(Self::Prismatic {
+                name,
+                nodes: [None, Some(node)],
+                axis,
+                drive,
+            }),
+            (JointKind::Prismatic, None, Some([a, b]), drive) => Ok(Self::Prismatic {
+                name,
+                nodes: [Some(a), Some(b)],
+                axis,
+                drive,
+            }),
+            (JointKind::Prismatic, ..) => Err(
+                "a prismatic joint takes `node` (a slider on the ground) or `nodes` [carrier, slider]".into(),
+            ),
             (JointKind::Hinge, ..) => Err("a hinge takes two `nodes` [a, b], not `node`".into()),
+            (JointKind::Weld, ..) => Err("a weld takes two `nodes` [a, b], not `node`".into()),
             (JointKind::Clamp, ..) => Err("a clamp takes one `node`, not `nodes`".into()),
             (JointKind::Pin, ..) => Err("a pin takes one `node`, not `nodes`".into()),
         }

@@ -42,6 +42,19 @@ pub(super) fn non_negative(path: &str, v: f64) -> Result<f64> {
     }
 }
 
+/// An angle given in radians (`path.angle`) or degrees (`path.angle_deg`), 0 if neither,
+/// in radians.
+pub(super) fn angle(path: &str, rad: Option<f64>, deg: Option<f64>) -> Result<f64> {
+    match (rad, deg) {
+        (Some(_), Some(_)) => {
+            let message = "give `angle` (rad) or `angle_deg`, not both";
+            Err(SceneError::new(format!("{path}.angle_deg"), message))
+        }
+        (_, Some(deg)) => Ok(finite(&format!("{path}.angle_deg"), deg)?.to_radians()),
+        (rad, None) => finite(&format!("{path}.angle"), rad.unwrap_or(0.0)),
+    }
+}
+
 /// Samples `(t_k, v_k)` of a time history: at least two, as many `what` as times, all
 /// finite, times strictly increasing.
 pub(super) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {

@@ -177,11 +177,11 @@ pub(crate) fn run(
     sweep.add_local(&it, &objectives, last, Sample { q, lam });
     for n in (0..last).rev() {
         crate::interrupt::poll()?;
-        let (q1, acc1, _) = store.get(&mut it, grid, n + 1, true)?;
+        let (q1, acc1, lam1) = store.get(&mut it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         sweep.step(
             &mut it,
-            q1,
+            Sample { q: q1, lam: lam1 },
             acc1,
             grid.times()[n + 1],
             grid.step(n),
@@ -311,13 +311,13 @@ impl<'a> Sweep<'a> {
         }
     }
 
-    /// The transposed step from `n + 1` (state `q1`, `acc1` at `t1`) back to `n`, for a step
+    /// The transposed step from `n + 1` (state `at1`, `acc1` at `t1`) back to `n`, for a step
     /// of size `h` after one of size `previous`: the transposed Newmark step, then the
     /// transposed carrying of `a` to the new step size (`ā ← ρ ā`, `Ā += (1 − ρ) ā`).
     fn step(
         &mut self,
         it: &mut Integrator,
-        q1: &[f64],
+        at1: Sample<'_>,
         acc1: &[f64],
         t1: f64,
         h: f64,
@@ -341,7 +341,7 @@ impl<'a> Sweep<'a> {
                 self.ab[j] = a_total; // kept for P̄ below
             }
         }
-        it.newton.factorize(Some(q1), bp, t1)?;
+        it.newton.factorize(at1.q, Some(at1.lam), bp, t1)?;
         self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
@@ -351,7 +351,7 @@ impl<'a> Sweep<'a> {
             let mu = &self.rhs[k * n..k * n + n_q];
             self.pseudo.subtract_transposed(
                 asm,
-                q1,
+                at1.q,
                 Some(acc1),
                 mu,
                 &mut self.xb[k * n_x..(k + 1) * n_x],
@@ -394,7 +394,7 @@ impl<'a> Sweep<'a> {
                 *o = acc_b + ab;
             }
         }
-        it.newton.factorize(None, 1.0, 0.0)?;
+        it.newton.factorize(q0, None, 1.0, 0.0)?;
         self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;

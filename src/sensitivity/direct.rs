@@ -136,7 +136,7 @@ impl<'a> Sweep<'a> {
     /// `t = 0`: `[M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0]`, `a'₀ = q̈'₀`.
     fn initial(&mut self, it: &mut Integrator, s: &State) -> Result<(), SolveError> {
         let (n, n_q, n_x, width) = (self.n, self.n_q, self.n_x, self.width);
-        it.newton.factorize(None, 1.0, 0.0)?;
+        it.newton.factorize(&s.q, None, 1.0, 0.0)?;
         let newton = &it.newton;
         self.pseudo.subtract_columns(
             newton.assembler(),
@@ -164,7 +164,7 @@ impl<'a> Sweep<'a> {
         let bp = p.beta_prime(h);
         let ratio = step_ratio(self.previous, h);
         self.previous = h;
-        it.newton.factorize(Some(&s.q), bp, s.t)?;
+        it.newton.factorize(&s.q, Some(&s.lam), bp, s.t)?;
         let newton = &it.newton;
         let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
         self.rhs

@@ -102,7 +102,7 @@ USER_ERRORS = [
     (["simulate", "{tmp}/bad.toml"], "bad.toml: not valid TOML: Illegal character '\\n' (at line 1, column 10)"),
     (["simulate", "{tmp}/latin1.toml"], "latin1.toml: not UTF-8 text (byte 8)"),
     (["simulate", "{tmp}"], "cannot read: Is a directory"),
-    (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam, ten_bar_truss)"),
+    (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam, ten_bar_truss, pendulum, slider_crank, four_bar)"),
     (["simulate", "robot_arm", "--design", "{tmp}/latin1.toml"], "cannot read a design vector"),
     (["simulate", "robot_arm", "--out", "{tmp}/bad.toml"], "a file of that name exists"),
     (["optimize", "static_truss", "--volume-fraction", "0"], "argument --volume-fraction: 0 must be above 0"),

@@ -1,0 +1,200 @@
+"""Mechanisms of rigid bodies, sliders and welds against closed-form solutions: the rigid
+pendulum's elliptic-integral motion, the rigid slider-crank's kinematics and inverse
+dynamics, a slider driven along an arm that a driven pin turns, a beam welded to a body;
+exact gradients through them; and the errors of bad bodies and joints."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import ellipj, ellipk
+
+import flextop
+from flextop import scenes
+from flextop.errors import SceneError
+from flextop.scene import Scene, trapezoidal
+
+
+def pendulum_error(h: float) -> float:
+    """Largest error in the angle (rad) over one period of the pendulum released at 90°."""
+    length, g = 1.0, 9.81
+    sim = flextop.Simulation(scenes.pendulum(length=length, g=g, h=h))
+    res = sim.run()
+    bob = sim.node("bob")
+    x, y = res.q[:, 3 * bob] + length, res.q[:, 3 * bob + 1]
+    theta = np.arctan2(x, -y)
+    k, w0 = math.sin(math.pi / 4), math.sqrt(g / length)
+    sn = ellipj(ellipk(k * k) - w0 * res.time, k * k)[0]
+    return float(np.abs(theta - 2 * np.arcsin(k * sn)).max())
+
+
+def test_rigid_pendulum_follows_the_elliptic_solution_at_second_order():
+    """A point mass on a rigid massless link released at 90°: θ(t) = 2 asin(k sn(K − ω₀t, k)),
+    k = sin 45°, over one period 4K/ω₀; the global error falls fourfold per halved step."""
+    coarse, fine = pendulum_error(4e-3), pendulum_error(2e-3)
+    assert 1.9 < math.log2(coarse / fine) < 2.1
+    assert pendulum_error(2e-4) < 1e-6
+
+
+R, L = 0.15, 0.30
+M1, M2, M3 = 0.5, 1.0, 0.8
+I1, I2 = M1 * R**2 / 12, M2 * L**2 / 12
+
+
+def rigid_slider_crank(h: float) -> flextop.Simulation:
+    scene = Scene("rigid slider-crank")
+    scene.rigid_body("crank", mass=M1, inertia=I1, position=(R / 2, 0), points={"o": (-R / 2, 0), "a": (R / 2, 0)})
+    scene.rigid_body("rod", mass=M2, inertia=I2, position=(R + L / 2, 0), points={"a": (-L / 2, 0), "b": (L / 2, 0)})
+    scene.rigid_body("slider", mass=M3, position=(R + L, 0))
+    scene.pin("O", "crank.o", drive=trapezoidal(0.0, 100.0, acceleration=200.0, speed=20.0))
+    scene.hinge("A", "crank.a", "rod.a")
+    scene.hinge("B", "rod.b", "slider")
+    scene.prismatic("P", "slider", axis=(1, 0))
+    scene.simulation(t_end=0.5, h=h, rho_inf=0.5, tol=1e-12)
+    return flextop.Simulation(scene.to_dict())
+
+
+def closed_form(theta, w, alpha):
+    """Slider position, velocity and acceleration and the crank torque of the rigid
+    slider-crank at crank angle θ, rate ω and acceleration α (no gravity): positions as
+    functions of θ differentiated by hand, the torque by virtual work
+    τ = Σ m aᵢ·∂rᵢ/∂θ + Σ I ψ̈ᵢ ∂ψᵢ/∂θ."""
+    c, s = np.cos(theta), np.sin(theta)
+    root = np.sqrt(L**2 - R**2 * s**2)
+    root_1 = -(R**2) * s * c / root
+    x, x_1 = R * c + root, -R * s + root_1
+    x_2 = -R * c - R**2 * (c**2 - s**2) / root - R**4 * s**2 * c**2 / root**3
+    root_2 = x_2 + R * c
+    psi_1, psi_2 = -R * c / root, R * s / root - R**3 * s * c**2 / root**3
+    crank_1, crank_2 = R / 2 * np.array([-s, c]), R / 2 * np.array([-c, -s])
+    rod_1, rod_2 = np.array([-R * s + root_1 / 2, R / 2 * c]), np.array([-R * c + root_2 / 2, -R / 2 * s])
+    acc = lambda d1, d2: d2 * w**2 + d1 * alpha  # noqa: E731
+    torque = (M1 * (acc(crank_1, crank_2) * crank_1).sum(0) + I1 * alpha + M2 * (acc(rod_1, rod_2) * rod_1).sum(0)
+              + I2 * acc(psi_1, psi_2) * psi_1 + M3 * acc(x_1, x_2) * x_1)
+    return x, x_1 * w, acc(x_1, x_2), torque
+
+
+def slider_crank_errors(h: float) -> np.ndarray:
+    """Largest errors, relative to the largest values after the drive's kink at 0.1 s has
+    died out (t ≥ 0.2 s), of the slider's velocity and acceleration and the crank torque;
+    and the absolute error of the slider's position over the whole run."""
+    sim = rigid_slider_crank(h)
+    res = sim.run()
+    crank, slider = 3 * sim.node("crank") + 2, 3 * sim.node("slider")
+    x, v, a, torque = closed_form(res.q[:, crank], res.qdot[:, crank], res.qddot[:, crank])
+    late = res.time >= 0.2
+    rel = lambda got, want: np.abs(got - want)[late].max() / np.abs(want[late]).max()  # noqa: E731
+    return np.array([rel(res.qdot[:, slider], v), rel(res.qddot[:, slider], a),
+                     rel(res.motor_torques["O"], torque), np.abs(R + L + res.q[:, slider] - x).max()])
+
+
+def test_rigid_slider_crank_matches_closed_form_kinematics_and_inverse_dynamics():
+    coarse, fine = slider_crank_errors(5e-4), slider_crank_errors(2.5e-4)
+    assert np.all(fine[:3] < 3e-5), fine
+    assert np.all(np.log2(coarse[:3] / fine[:3]) > 1.9), coarse / fine
+    assert fine[3] < 1e-12
+
+
+def test_slider_driven_along_a_turning_arm_reaches_its_prescribed_place():
+    """A polar robot: a rigid arm pinned at the origin and driven through 90°, carrying a
+    slider driven 0.2 m outwards along it. The slider sits at R(θ)(r₀ + s) e exactly, the
+    arm's carried axis needing the constraint Hessian for Newton to converge in few
+    iterations."""
+    scene = Scene("polar")
+    scene.rigid_body("arm", mass=2.0, inertia=0.1, position=(0.5, 0.0), points={"pivot": (-0.5, 0.0)})
+    scene.rigid_body("slider", mass=1.0, inertia=0.01, position=(0.3, 0.0))
+    scene.pin("base", "arm.pivot", drive=trapezoidal(0.0, math.pi / 2, acceleration=10.0, speed=3.0))
+    scene.prismatic("radial", "slider", carrier="arm", axis=(1.0, 0.0),
+                    drive=trapezoidal(0.0, 0.2, acceleration=2.0, speed=0.5))
+    scene.simulation(t_end=1.0, h=2e-3, rho_inf=0.8, tol=1e-11)
+    sim = flextop.Simulation(scene.to_dict())
+    res = sim.run()
+    theta = res.q[:, 3 * sim.node("arm") + 2]
+    assert theta[-1] == pytest.approx(math.pi / 2, abs=1e-9)
+    slider = 3 * sim.node("slider")
+    radius = 0.3 + 0.2
+    np.testing.assert_allclose(res.q[-1, slider:slider + 2] + [0.3, 0.0], [0.0, radius], atol=1e-9)
+    assert res.q[-1, slider + 2] == pytest.approx(math.pi / 2, abs=1e-9)  # rotation locked to the arm
+    assert res.newton["max"] <= 4
+
+
+def test_a_beam_welded_to_a_clamped_body_is_a_cantilever():
+    """A static cantilever clamped directly and one welded to a rigid body clamped at
+    another of its points deflect alike."""
+    def cantilever(welded: bool) -> float:
+        scene = Scene("cantilever", analysis="static")
+        scene.section("steel", E=200e9, nu=0.3, rho=7800.0, diameter=0.01)
+        scene.node("root", 0.0, 0.0)
+        scene.node("tip", 1.0, 0.0)
+        scene.beam("root", "tip", section="steel", split=8, fixed=True)
+        scene.load("tip", force=(0.0, -10.0))
+        if welded:
+            scene.rigid_body("wall", mass=1.0, position=(-0.2, 0.1), points={"face": (0.2, -0.1), "bolt": (0.0, 0.3)})
+            scene.weld("weld", "wall.face", "root")
+            scene.clamp("bolt", "wall.bolt")
+        else:
+            scene.clamp("root", "root")
+        sim = flextop.Simulation(scene.to_dict())
+        return float(sim.equilibrium().displacement("tip")[1])
+
+    direct, welded = cantilever(False), cantilever(True)
+    assert welded == pytest.approx(direct, rel=1e-10)
+    assert direct == pytest.approx(-10.0 / (3 * 200e9 * math.pi * 0.01**4 / 64), rel=1e-2)
+
+
+@pytest.mark.parametrize("response", ["tip_deflection", "torque_rms:crank"])
+def test_gradients_through_bodies_sliders_and_arms_are_exact(response):
+    """The flexible slider-crank: rigid crank and slider, a hinge on the crank's arm, a
+    slider on the ground; direct and adjoint agree to round-off and match fourth-order
+    central differences."""
+    sim = flextop.Simulation(scenes.slider_crank(t_end=0.03, h=5e-4))
+    x = np.array([0.9, 0.5, 0.7, 0.4])
+    direct = sim.run_with_sensitivities(x, [response], method="direct")
+    adjoint = sim.run_with_sensitivities(x, [response], method="adjoint")
+    g = direct.gradients[0]
+    np.testing.assert_allclose(adjoint.gradients[0], g, rtol=1e-9, atol=1e-9 * np.abs(g).max())
+    value = lambda y: sim.run_with_sensitivities(y, [response], method="direct").values[0]  # noqa: E731
+    step = 1e-3
+    for i in range(len(x)):
+        e = np.eye(len(x))[i] * step
+        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        assert g[i] == pytest.approx(fd, rel=1e-6, abs=1e-6 * np.abs(g).max())
+
+
+BODY = {"name": "b", "mass": 1.0, "position": [1.0, 0.0], "points": {"p": [0.5, 0.0]}}
+
+
+def body_scene(**changes) -> dict:
+    spec = {"name": "bad", "rigid_bodies": [dict(BODY)], "joints": [{"kind": "pin", "name": "pin", "node": "b.p"}]}
+    for key, value in changes.items():
+        spec[key] = value
+    return spec
+
+
+@pytest.mark.parametrize("spec, message", [
+    (body_scene(rigid_bodies=[{**BODY, "mass": -1.0}]), "rigid_bodies[0] (b).mass: must be positive"),
+    (body_scene(rigid_bodies=[{**BODY, "inertia": float("nan")}]), "rigid_bodies[0] (b).inertia: must be non-negative"),
+    (body_scene(rigid_bodies=[{**BODY, "angle": 0.1, "angle_deg": 5.0}]), "rigid_bodies[0] (b).angle_deg: give `angle`"),
+    (body_scene(rigid_bodies=[{**BODY, "points": {"p": [math.inf, 0.0]}}]), "rigid_bodies[0] (b).points.p[0]: must be finite"),
+    (body_scene(rigid_bodies=[BODY, {**BODY, "name": "b.p", "points": {}}]), "duplicate node name 'b.p'"),
+    (body_scene(joints=[{"kind": "pin", "name": "pin", "node": "b.q"}]), "joints[0].node: unknown node or rigid-body point 'b.q'"),
+    (body_scene(joints=[{"kind": "prismatic", "name": "s", "node": "b", "axis": [0.0, 0.0]}]),
+     "joints[0].axis: a prismatic axis of zero length"),
+    (body_scene(joints=[{"kind": "prismatic", "name": "s", "node": "b"}]), "a prismatic joint needs its `axis`"),
+    (body_scene(joints=[{"kind": "hinge", "name": "h", "nodes": ["b", "b.p"]}]), "needs two distinct nodes or bodies"),
+    (body_scene(joints=[{"kind": "pin", "name": "p", "node": "b", "axis": [1.0, 0.0]}]), "only a prismatic joint takes"),
+    (body_scene(joints=[{"kind": "weld", "name": "w", "nodes": ["b", "b.p"], "drive": trapezoidal(0, 1, acceleration=1, speed=1)}]),
+     "a weld has no drive"),
+    (body_scene(rigid_bodies=[BODY, {**BODY, "name": "c", "position": [3.0, 0.0]}],
+                joints=[{"kind": "pin", "name": "pin", "node": "b.p"}, {"kind": "weld", "name": "w", "nodes": ["b", "c"]}]),
+     "joints[1] (w): 'b' and 'c' are 2.000e0 m apart; they must coincide"),
+])
+def test_bad_bodies_and_joints_raise_scene_error_naming_the_entry(spec, message):
+    with pytest.raises(SceneError) as err:
+        flextop.Simulation(spec)
+    assert message in str(err.value)
+
+
+def test_a_scene_of_bodies_only_needs_one():
+    with pytest.raises(SceneError, match="has no beams or rigid bodies"):
+        flextop.Simulation({"name": "empty", "joints": []})
