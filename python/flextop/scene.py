@@ -97,15 +97,19 @@ class Scene:
 
     def ground_structure(self, name: str, *, nx: int, ny: int, length: float, height: float, section: str,
                          origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0, split: int = 1,
-                         fixed: bool = False) -> GroundStructure:
+                         fixed: bool = False, rigid: bool = False) -> GroundStructure:
         """An ``nx × ny`` ground structure over ``length × height`` in a frame at ``origin``
         (coordinates or a node name) rotated by ``angle``: bars between every pair of grid
         nodes whose segment holds no third node, each split into ``split`` elements, one
-        design variable per bar unless ``fixed``."""
+        design variable per bar unless ``fixed``. ``rigid`` makes it one rigid body with the
+        frame's mass and inertia (a link not being designed, three unknowns), its grid
+        nodes the body's points."""
         origin = origin if isinstance(origin, str) else [float(o) for o in origin]
-        self._spec.setdefault("ground_structures", []).append(
-            {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "origin": origin,
-             "angle": angle, "section": section, "split": split, "fixed": fixed})
+        entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "origin": origin,
+                 "angle": angle, "section": section, "split": split, "fixed": fixed}
+        if rigid:
+            entry["rigid"] = True
+        self._spec.setdefault("ground_structures", []).append(entry)
         return GroundStructure(name, nx, ny)
 
     def beam(self, a: str, b: str, *, section: str, split: int = 1, name: str | None = None,

@@ -25,9 +25,10 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let sections = section::sections(&spec.sections)?;
     let mut mesh = Mesh::default();
     mesh.add_nodes(&spec.nodes)?;
-    ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
+    let mut point_masses =
+        ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
     mesh.add_beams(&spec.beams, &sections)?;
-    let mut point_masses = body::add_all(&mut mesh, &spec.rigid_bodies)?;
+    point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
     let rows = joint::rows(&joints);

@@ -10,6 +10,7 @@
 //! nodes are named `NAME[i,j]`, its bars `NAME/bar{k}` form the component `NAME`, and each
 //! bar has a design variable of its own unless the structure is `fixed`. Bars listed in
 //! `omit` are left out with the grid nodes only they touched; the others keep their names.
+//! A ground structure declared `rigid` is one rigid body instead, a link not being designed.
 
 use nalgebra::Vector2;
 
@@ -17,8 +18,11 @@ use super::mesh::{BarSpec, Mesh};
 use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
 use super::validate::{angle, finite, non_negative, positive, Result};
+use crate::constraint::Anchor;
 use crate::error::SceneError;
 use crate::limits::MAX_GRID_NODES;
+use crate::model::{PointMass, RigidBody};
+use crate::section::Section;
 
 /// Grid node `k` as `(column, row)`.
 pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {
@@ -70,25 +74,28 @@ fn gcd(a: usize, b: usize) -> usize {
     }
 }
 
-/// Adds the scene's ground structures to `mesh`.
+/// Adds the scene's ground structures to `mesh`; returns the masses of those declared rigid.
 pub(super) fn add_all(
     mesh: &mut Mesh,
     specs: &[GroundStructureSpec],
     sections: &Sections,
-) -> Result<()> {
+) -> Result<Vec<PointMass>> {
+    let mut rigid = Vec::new();
     for (k, g) in specs.iter().enumerate() {
-        add(
-            mesh,
-            &format!("ground_structures[{k}] ({})", g.name),
-            g,
-            sections,
-        )?;
+        let path = format!("ground_structures[{k}] ({})", g.name);
+        rigid.extend(add(mesh, &path, g, sections)?);
     }
-    Ok(())
+    Ok(rigid)
 }
 
-/// The ground structure `g` at `path`: its grid nodes, then its bars.
-fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections) -> Result<()> {
+/// The ground structure `g` at `path`: its grid nodes, then its bars; or, declared rigid,
+/// one body (its mass returned).
+fn add(
+    mesh: &mut Mesh,
+    path: &str,
+    g: &GroundStructureSpec,
+    sections: &Sections,
+) -> Result<Option<PointMass>> {
     let grid = Grid::of(mesh, path, g)?;
     let section = section::find(sections, path, &g.section)?;
     let kept = kept_bars(path, g)?;
@@ -96,6 +103,9 @@ fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections
     for &(_, (i, j)) in &kept {
         touched[i] = true;
         touched[j] = true;
+    }
+    if g.rigid {
+        return add_rigid(mesh, path, g, &grid, section, &kept, &touched).map(Some);
     }
     // Mesh index of each grid node a kept bar touches.
     let mut node = vec![usize::MAX; g.nx * g.ny];
@@ -118,7 +128,59 @@ fn add(mesh: &mut Mesh, path: &str, g: &GroundStructureSpec, sections: &Sections
             variable,
         })?;
     }
-    Ok(())
+    Ok(None)
+}
+
+/// The ground structure `g` at `path` declared rigid: one rigid body named after it, with
+/// the frame's mass, centre of mass and rotary inertia at full density (each bar a uniform
+/// rod `ρA L` with its section's rotary inertia `ρI L`, the beams' consistent inertia in a
+/// rigid motion), its grid nodes as points `NAME[i,j]` where joints attach as to the
+/// nodes of the flexible frame. Three unknowns instead of three per node.
+fn add_rigid(
+    mesh: &mut Mesh,
+    path: &str,
+    g: &GroundStructureSpec,
+    grid: &Grid,
+    section: &Section,
+    kept: &[(usize, (usize, usize))],
+    touched: &[bool],
+) -> Result<PointMass> {
+    let at = |k: usize| {
+        let (i, j) = grid_position(k, g.ny);
+        grid.position(i, j)
+    };
+    let rods: Vec<(f64, Vector2<f64>, f64)> = kept
+        .iter()
+        .map(|&(_, (a, b))| {
+            let length = (at(b) - at(a)).norm();
+            (section.rho_a * length, 0.5 * (at(a) + at(b)), length)
+        })
+        .collect();
+    let mass: f64 = rods.iter().map(|r| r.0).sum();
+    let centre = rods.iter().map(|r| r.0 * r.1).sum::<Vector2<f64>>() / mass;
+    let inertia: f64 = rods
+        .iter()
+        .map(|&(m, c, l)| m * (l * l / 12.0 + (c - centre).norm_squared()) + section.rho_i * l)
+        .sum();
+    let node = mesh.add_node(path, &g.name, centre.x, centre.y)?;
+    let mut points = Vec::new();
+    for k in (0..g.nx * g.ny).filter(|&k| touched[k]) {
+        let (i, j) = grid_position(k, g.ny);
+        let name = format!("{}[{i},{j}]", g.name);
+        let arm = at(k) - centre;
+        mesh.add_point(path, &name, Anchor { node, arm })?;
+        points.push((name, arm));
+    }
+    mesh.bodies.push(RigidBody {
+        name: g.name.clone(),
+        node,
+        points,
+    });
+    Ok(PointMass {
+        node,
+        mass,
+        inertia,
+    })
 }
 
 /// The bars of `g` not in its `omit` list, with their numbers `k`; each listed number must
@@ -188,7 +250,7 @@ impl Grid {
                 finite(&format!("{path}.origin[0]"), *x)?,
                 finite(&format!("{path}.origin[1]"), *y)?,
             ),
-            PointSpec::Node(n) => mesh.nodes[mesh.node(&format!("{path}.origin"), n)?].position,
+            PointSpec::Node(n) => mesh.position(mesh.anchor(&format!("{path}.origin"), n)?),
         };
         Ok(Self {
             nx: g.nx,

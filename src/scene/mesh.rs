@@ -124,10 +124,18 @@ impl Mesh {
 
     /// The node called `name` at `path`.
     pub(super) fn node(&self, path: &str, name: &str) -> Result<usize> {
-        self.index
-            .get(name)
-            .copied()
-            .ok_or_else(|| unknown(path, "node", name))
+        match (self.index.get(name), self.points.get(name)) {
+            (Some(&node), _) => Ok(node),
+            (None, Some(anchor)) => Err(SceneError::new(
+                path,
+                format!(
+                    "'{name}' is a point of the rigid body '{}': only joints attach to a body's \
+                     points; loads, point masses and the tip act on its centre, '{}'",
+                    self.nodes[anchor.node].name, self.nodes[anchor.node].name
+                ),
+            )),
+            (None, None) => Err(unknown(path, "node", name)),
+        }
     }
 
     /// The component called `name`, added on first use.

@@ -196,6 +196,10 @@ pub struct GroundStructureSpec {
     /// Bars at fixed full density (not design variables).
     #[serde(default)]
     pub fixed: bool,
+    /// One rigid body with the frame's mass and inertia at full density instead of bars:
+    /// a link not being designed, three unknowns; its grid nodes are the body's points.
+    #[serde(default)]
+    pub rigid: bool,
     /// Numbers `k` of bars `NAME/bar{k}` left out (a design as built, without its void
     /// bars); grid nodes that no remaining bar touches are left out too.
     #[serde(default)]
