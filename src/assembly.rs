@@ -359,10 +359,30 @@ impl<'m> Assembler<'m> {
             .for_each(|(fi, g)| *fi += factor * g);
     }
 
-    /// Constraint values `Φ_k = h_k(q) − factor · g_k(t)`.
-    pub fn constraints(&self, q: &[f64], t: f64, factor: f64, phi: &mut [f64]) {
+    /// Constraint values `Φ_k = h_k(q) − factor · g_k(t)` and, in one pass, the joint
+    /// forces `forces += Φ_q(q)ᵀ λ` and, if given, `jacobian = Φ_q(q)`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn constraint_residual(
+        &self,
+        q: &[f64],
+        lambda: &[f64],
+        t: f64,
+        factor: f64,
+        phi: &mut [f64],
+        forces: &mut [f64],
+        mut jacobian: Option<&mut Jacobian>,
+    ) {
         for (k, row) in self.model.rows.iter().enumerate() {
-            phi[k] = row.value(q) - factor * self.model.joints[row.joint].prescribed(row, t)[0];
+            let (value, gradient) = row.evaluate(q);
+            if let Some(j) = jacobian.as_deref_mut() {
+                j.0[k] = gradient;
+            }
+            phi[k] = value - factor * self.model.joints[row.joint].prescribed(row, t)[0];
+            for (d, g) in row.dofs().iter().zip(gradient) {
+                if let Some(d) = d {
+                    forces[*d] += g * lambda[k];
+                }
+            }
         }
     }
 
@@ -370,18 +390,6 @@ impl<'m> Assembler<'m> {
     pub fn constraint_accelerations(&self, t: f64, out: &mut [f64]) {
         for (k, row) in self.model.rows.iter().enumerate() {
             out[k] = self.model.joints[row.joint].prescribed(row, t)[2];
-        }
-    }
-
-    /// `out += Φ_q(q)ᵀ λ`.
-    pub fn add_constraint_forces(&self, q: &[f64], lambda: &[f64], out: &mut [f64]) {
-        for (row, &l) in self.model.rows.iter().zip(lambda) {
-            let g = row.gradient(q);
-            for (d, gi) in row.dofs().iter().zip(g) {
-                if let Some(d) = d {
-                    out[*d] += gi * l;
-                }
-            }
         }
     }
 

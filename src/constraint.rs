@@ -236,16 +236,15 @@ impl Joint {
     }
 }
 
-/// `R(φ) v`.
-fn rotate(phi: f64, v: Vector2<f64>) -> Vector2<f64> {
+/// `(sin φ, cos φ − 1)`, the latter without cancellation at small angles: the rotation
+/// `R(φ) − I` a displacement formulation needs.
+fn turn(phi: f64) -> (f64, f64) {
     let (s, c) = phi.sin_cos();
-    Vector2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+    (s, if c > 0.0 { -s * s / (1.0 + c) } else { c - 1.0 })
 }
 
-/// `(R(φ) − I) v`, without the cancellation of `cos φ − 1` at small angles.
-fn rotate_minus_identity(phi: f64, v: Vector2<f64>) -> Vector2<f64> {
-    let (s, half) = (phi.sin(), (0.5 * phi).sin());
-    let c1 = -2.0 * half * half;
+/// `(R(φ) − I) v` for `(s, c1) = turn(φ)`.
+fn turned_minus(v: Vector2<f64>, (s, c1): (f64, f64)) -> Vector2<f64> {
     Vector2::new(c1 * v.x - s * v.y, s * v.x + c1 * v.y)
 }
 
@@ -300,7 +299,7 @@ impl ConstraintRow {
     }
 
     /// `h(q)` and its gradient on [`ConstraintRow::dofs`] (zero where inactive).
-    fn evaluate(&self, q: &[f64]) -> (f64, [f64; 6]) {
+    pub fn evaluate(&self, q: &[f64]) -> (f64, [f64; 6]) {
         let l = self.local(q);
         match self.law {
             Law::Angle => (l[5] - l[2], [0.0, 0.0, -1.0, 0.0, 0.0, 1.0]),
@@ -322,11 +321,6 @@ impl ConstraintRow {
                 (m.dot(&s.gap), g)
             }
         }
-    }
-
-    /// `h(q)`.
-    pub fn value(&self, q: &[f64]) -> f64 {
-        self.evaluate(q).0
     }
 
     /// `∂h/∂q` on [`ConstraintRow::dofs`].
@@ -385,14 +379,28 @@ struct Separation {
 
 impl Separation {
     fn at(l: &[f64; 6], arms: [Vector2<f64>; 2], n: Vector2<f64>, carried: bool) -> Self {
-        let shift = |k: usize| {
-            let (u, phi) = (Vector2::new(l[3 * k], l[3 * k + 1]), l[3 * k + 2]);
-            u + rotate_minus_identity(phi, arms[k])
-        };
+        // Only a turning arm or a carried direction needs its node's rotation.
+        let needed = [
+            carried || arms[0] != Vector2::zeros(),
+            arms[1] != Vector2::zeros(),
+        ];
+        let turns = [0, 1].map(|k| {
+            if needed[k] {
+                turn(l[3 * k + 2])
+            } else {
+                (0.0, 0.0)
+            }
+        });
+        let moved = |k: usize| turned_minus(arms[k], turns[k]);
+        let shift = |k: usize| Vector2::new(l[3 * k], l[3 * k + 1]) + moved(k);
         Self {
-            m: if carried { rotate(l[2], n) } else { n },
+            m: if carried {
+                n + turned_minus(n, turns[0])
+            } else {
+                n
+            },
             gap: shift(0) - shift(1),
-            turned: [rotate(l[2], arms[0]), rotate(l[5], arms[1])],
+            turned: [arms[0] + moved(0), arms[1] + moved(1)],
         }
     }
 }
@@ -417,7 +425,7 @@ mod tests {
         let mut q = vec![0.0; 24];
         q[dof(7, 2)] = 0.4;
         q[dof(3, 2)] = 0.1;
-        assert!((rows[2].value(&q) - 0.3).abs() < 1e-15);
+        assert!((rows[2].evaluate(&q).0 - 0.3).abs() < 1e-15);
         let g = j.prescribed(&rows[2], 0.5);
         assert!((g[0] - (drive.at(0.5).angle - 1.0)).abs() < 1e-15);
         assert_eq!(j.prescribed(&rows[0], 0.5), [0.0; 3]);
@@ -472,7 +480,7 @@ mod tests {
                     let (mut qp, mut qm) = (q, q);
                     qp[d] += eps;
                     qm[d] -= eps;
-                    let fd = (row.value(&qp) - row.value(&qm)) / (2.0 * eps);
+                    let fd = (row.evaluate(&qp).0 - row.evaluate(&qm).0) / (2.0 * eps);
                     assert!(
                         (fd - g[i]).abs() < 1e-9,
                         "{kind:?} grad {i}: {} vs {fd}",

@@ -76,6 +76,10 @@ pub fn natural_modes(
     q: &[f64],
     count: usize,
 ) -> Result<Modes, Error> {
+    if model.elements.is_empty() {
+        let msg = "the scene has no beams: a mechanism of rigid bodies has no elastic modes";
+        return Err(SettingsError::new("n", msg).into());
+    }
     let mut pencil = Pencil::new(model, densities, mass, q)?;
     let factor = MassFactor::of(&pencil.asm);
     let available = (factor.columns.min(model.n_dofs())).saturating_sub(model.n_constraints());

@@ -195,8 +195,10 @@ impl<'m> Newton<'m> {
             }
             None => self.inertia.fill(0.0),
         }
+        self.joint.fill(0.0);
+        let jacobian = with_matrix.then_some(&mut self.jacobian);
+        asm.constraint_residual(q, lambda, t, load, &mut self.phi, &mut self.joint, jacobian);
         if with_matrix {
-            self.jacobian.update(asm.model, q);
             asm.start_iteration_matrix(
                 mass_coefficient,
                 self.scale,
@@ -213,9 +215,6 @@ impl<'m> Newton<'m> {
             Some(_) => asm.external_forces(t, load, &mut self.external),
             None => asm.applied_loads(t, load, &mut self.external),
         }
-        self.joint.fill(0.0);
-        asm.add_constraint_forces(q, lambda, &mut self.joint);
-        asm.constraints(q, t, load, &mut self.phi);
         let mut f_ref = f64::MIN_POSITIVE;
         let mut r_max: f64 = 0.0;
         for i in 0..n_q {

@@ -3,11 +3,11 @@
 //! Beams meeting at a node are rigidly joined, so the nodes connected through elements form
 //! a *cluster* that moves, when rigid, with three coordinates `ρ = (c_x, c_y, ψ)`:
 //! `x_i = X_i + c + (R(ψ) − I)(X_i − X_k)` about the cluster's first node `k`, `φ_i = ψ`.
-//!
-//! Uses:
 //! A rigid body is a cluster of its own node.
 //!
-//! * when a scene is built, the mechanism checks: every node on a beam or a body, no joint repeating
+//! Uses:
+//! * when a scene is built, the mechanism checks: every node on a beam or a body, every
+//!   body's rotation held, no joint repeating
 //!   a constraint of earlier ones ([`redundant_rows`]), every cluster reaching the ground
 //!   through joints, and a static scene with no rigid-body mode left (mobility
 //!   `3 n_clusters − rank`); and, reported rather than refused because the flexible model
@@ -130,8 +130,8 @@ impl Clusters {
         let mut phi = DVector::zeros(rows.len());
         let mut jac = DMatrix::zeros(rows.len(), 3 * self.len());
         for (i, row) in rows.iter().enumerate() {
-            phi[i] = row.value(&q) - model.joints[row.joint].prescribed(row, t)[0];
-            let gradient = row.gradient(&q);
+            let (value, gradient) = row.evaluate(&q);
+            phi[i] = value - model.joints[row.joint].prescribed(row, t)[0];
             for (dof, coeff) in row.dofs().iter().zip(gradient) {
                 let Some(dof) = *dof else { continue };
                 for (j, g) in self.dof_map(model, rho, dof).1 {
@@ -363,13 +363,15 @@ pub fn redundant_rows(model: &Model) -> Vec<usize> {
     redundant
 }
 
-/// The mechanism checks of a built scene, in order: every node on a beam or a body, no redundant
+/// The mechanism checks of a built scene, in order: every node on a beam or a body, every
+/// body's rotation held by inertia or a joint, no redundant
 /// joint, every cluster grounded, and for a static scene mobility zero.
 ///
 /// # Errors
 /// A [`SceneError`] naming the first node or joint at fault.
 pub(crate) fn check_mechanism(model: &Model) -> Result<(), SceneError> {
     check_attached(model)?;
+    check_body_rotations(model)?;
     check_redundancy(model)?;
     let clusters = Clusters::of(model);
     check_grounding(model, &clusters)?;
@@ -395,6 +397,37 @@ fn check_attached(model: &Model) -> Result<(), SceneError> {
         )),
         None => Ok(()),
     }
+}
+
+/// A rigid body without rotary inertia has its rotation held by something: a beam ending
+/// at its centre, or a joint at one of its points or one that locks or drives its rotation.
+/// Otherwise the rotation is a free unknown with no inertia and the iteration matrix is
+/// singular.
+fn check_body_rotations(model: &Model) -> Result<(), SceneError> {
+    for body in &model.bodies {
+        let rotation = crate::constraint::dof(body.node, 2);
+        let inertia: f64 = model
+            .point_masses
+            .iter()
+            .filter(|p| p.node == body.node)
+            .map(|p| p.inertia)
+            .sum();
+        let beam = model.elements.iter().any(|e| e.nodes.contains(&body.node));
+        let held = model.rows.iter().any(|row| {
+            row.dofs()
+                .iter()
+                .zip(row.active())
+                .any(|(d, on)| on && *d == Some(rotation))
+        });
+        if inertia == 0.0 && !beam && !held {
+            return Err(SceneError::new(
+                format!("rigid body '{}'", body.name),
+                "has no rotary inertia and no joint holds its rotation (its joints act at its \
+                 centre): give it an inertia, or attach a joint at one of its points",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// No row of `Φ_q` depends on earlier ones: the first redundant row names its joint.

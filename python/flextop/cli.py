@@ -405,7 +405,7 @@ def parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="demo_out", help="output folder (default demo_out)")
     d.set_defaults(run=demo)
     s = sub.add_parser("simulate", help="run a scene file")
-    s.add_argument("scene", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam")
+    s.add_argument("scene", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN))
     s.add_argument("--x", type=float, help="uniform density of every bar (default: full density)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
     s.add_argument("--t-end", type=_positive(float))
@@ -419,8 +419,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--vtk", action="store_true", help="also write the motion for ParaView (motion.pvd and its .vtu files) in --out")
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
-    o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: robot_arm, static_truss, spun_beam "
-                   "(default robot_arm)")
+    o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN) + " (default robot_arm)")
     o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight) "
                    "and aggregate = \"sum\" | \"worst\", or the built-in robust_robot_arm (3 motions x 3 payloads, worst case)")
     o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")

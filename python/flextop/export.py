@@ -2,7 +2,8 @@
 a design as one VTU file.
 
 Each file holds the structure as VTK cells: every element of every bar and beam as a line
-(a bar split into m elements gives m lines), and every joint and point mass as a vertex.
+(a bar split into m elements gives m lines), and every joint, point mass and rigid body's centre
+as a vertex.
 
 * Point data: ``displacement`` (m, from the reference), ``rotation`` (rad, from the
   reference) and, for a motion, ``velocity`` (m/s) and ``angular_velocity`` (rad/s).
@@ -10,7 +11,8 @@ Each file holds the structure as VTK cells: every element of every bar and beam 
   ``bar`` (its index in :attr:`Simulation.bars`), ``axial_force`` N (N, tension positive),
   ``moment_1`` and ``moment_2`` (N m, the end moments in the chord frame),
   ``axial_stress`` N/A (Pa, on the solid section's area). Vertices carry NaN there and
-  ``vertex`` = 1 (a joint) or 2 (a point mass); lines carry ``vertex`` = 0.
+  ``vertex`` = 1 (a joint), 2 (a point mass) or 3 (a rigid body's centre of mass); lines carry
+  ``vertex`` = 0.
 
 Points are 3-D (z = 0), as VTK wants. meshio writes the VTU files; the PVD index (the
 collection ParaView opens, one dataset per time) is built with ElementTree. The functions
@@ -31,7 +33,7 @@ import numpy as np
 from .errors import SettingsError
 
 
-JOINT, POINT_MASS = 1, 2
+JOINT, POINT_MASS, BODY = 1, 2, 3
 
 FRAMES = 100
 """Frames of a motion (a VTU series, an animation) when ``every`` is not given."""
@@ -113,7 +115,7 @@ class _Structure:
     @classmethod
     def of(cls, sim: Any, x: Any) -> _Structure:
         elements = sim.model.elements()
-        lines = np.asarray(elements["nodes"], dtype=np.int64)
+        lines = np.asarray(elements["nodes"], dtype=np.int64).reshape(-1, 2)
         bar = np.asarray(elements["bar"], dtype=np.int64)
         vertices, kinds = _vertices(sim)
         return cls(np.asarray(sim.model.reference_positions), lines, bar, sim.bar_densities(x)[bar],
@@ -125,6 +127,7 @@ class _Structure:
 
         q = np.asarray(q).reshape(-1, 3)
         nan = np.full(len(self.vertices), np.nan)
+        forces = np.asarray(forces).reshape(-1, 3)
         cell_data = {
             "density": [self.density, nan],
             "bar": [self.bar.astype(float), np.full(len(self.vertices), -1.0)],
@@ -134,16 +137,21 @@ class _Structure:
             "axial_stress": [forces[:, 0] / self.area, nan],
             "vertex": [np.zeros(len(self.lines)), self.kinds.astype(float)],
         }
+        blocks = [("line", self.lines), ("vertex", self.vertices[:, None])]
+        # A mechanism of rigid bodies alone has no lines: meshio refuses an empty block.
+        kept = [k for k, (_, cells) in enumerate(blocks) if len(cells)]
         point_data = {"displacement": _xyz(q[:, :2]), "rotation": q[:, 2], **extra}
-        return meshio.Mesh(_xyz(self.reference + q[:, :2]), [("line", self.lines), ("vertex", self.vertices[:, None])],
-                           point_data=point_data, cell_data=cell_data)
+        return meshio.Mesh(_xyz(self.reference + q[:, :2]), [blocks[k] for k in kept], point_data=point_data,
+                           cell_data={name: [data[k] for k in kept] for name, data in cell_data.items()})
 
 
 def _vertices(sim: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes of joints (kind 1) and of point masses (kind 2)."""
+    """Nodes of joints (kind 1), of point masses (kind 2) and of rigid bodies (kind 3)."""
     joints = [(n, JOINT) for j in sim.joints for n in j.nodes]
     masses = [(sim.node(p["node"]), POINT_MASS) for p in sim.spec.get("point_masses", [])]
-    entries = joints + masses
+    rigid_links = [g["name"] for g in sim.spec.get("ground_structures", []) if g.get("rigid")]
+    bodies = [(sim.node(name), BODY) for name in [b["name"] for b in sim.spec.get("rigid_bodies", [])] + rigid_links]
+    entries = joints + masses + bodies
     return np.array([n for n, _ in entries], dtype=np.int64), np.array([k for _, k in entries], dtype=np.int64)
 
 

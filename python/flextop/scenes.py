@@ -140,7 +140,7 @@ STEEL = {"E": 200e9, "nu": 0.3, "rho": 7870.0}
 
 
 def pendulum(*, length: float = 1.0, mass: float = 1.0, g: float = 9.81, angle: float = math.pi / 2,
-             periods: float = 1.0, h: float = 1e-3, rho_inf: float = 1.0) -> Scene:
+             periods: float = 1.0, h: float = 1e-3, rho_inf: float = 0.9) -> Scene:
     """A point ``mass`` (kg) on a rigid massless link of ``length`` (m), pinned at the
     origin and released from rest at ``angle`` from the downward vertical under gravity
     ``g``: a rigid body with no rotary inertia about its centre, pinned at its point
@@ -149,7 +149,6 @@ def pendulum(*, length: float = 1.0, mass: float = 1.0, g: float = 9.81, angle: 
     x, y = length * math.sin(angle), -length * math.cos(angle)
     scene.rigid_body("bob", mass=mass, position=(x, y), points={"pivot": (-x, -y)})
     scene.pin("pivot", "bob.pivot")
-    scene.tip = "bob"
     scene.simulation(t_end=periods * pendulum_period(length, g, angle), h=h, rho_inf=rho_inf)
     return scene
 

@@ -89,9 +89,10 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
 
 @dataclass(frozen=True)
 class Joint:
-    """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``), node
-    indices, the ``range`` of its constraint rows in ``lam`` (the drive row last) and
-    whether a motion law drives it."""
+    """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``, ``"weld"``,
+    ``"prismatic"``), node indices (a rigid body's own node for its points; a slider's
+    carrier first), the ``range`` of its constraint rows in ``lam`` (the drive row last)
+    and whether a motion law drives it."""
 
     name: str
     kind: str

@@ -166,7 +166,7 @@ fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
     let m = motion(path, d)?;
     let rate = m.at(0.0).velocity;
     if rate.abs() > 0.0 {
-        return Err(SceneError::new(path, format!("moves at t = 0 (θ̇ = {rate} rad/s), but scenes start at rest: start the motion from rest")));
+        return Err(SceneError::new(path, format!("moves at t = 0 (rate {rate} per s), but scenes start at rest: start the motion from rest")));
     }
     Ok(m)
 }
@@ -181,6 +181,7 @@ fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
             acceleration,
             speed,
             t_start,
+            ..
         } => Motion::Trapezoidal(Trapezoidal::new(
             finite(&format!("{path}.start"), *start)?,
             finite(&format!("{path}.end"), *end)?,
@@ -193,6 +194,7 @@ fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
             theta,
             start_velocity,
             end_velocity,
+            ..
         } => {
             samples(path, t, theta, "theta")?;
             let v0 = finite(&format!("{path}.start_velocity"), *start_velocity)?;

@@ -407,6 +407,9 @@ impl TryFrom<JointEntry> for JointSpec {
             (JointKind::Pin, Some(node), None, drive) => Ok(Self::Pin { name, node, drive }),
             (JointKind::Hinge, None, Some(nodes), drive) => Ok(Self::Hinge { name, nodes, drive }),
             (JointKind::Weld, None, Some(nodes), None) => Ok(Self::Weld { name, nodes }),
+            (JointKind::Prismatic, _, _, Some(drive)) if drive.in_degrees() => Err(
+                "a prismatic joint's drive is a travel in m: it takes no `_deg` keys".into(),
+            ),
             (JointKind::Prismatic, Some(node), None, drive) => Ok(Self::Prismatic {
                 name,
                 nodes: [None, Some(node)],
@@ -446,6 +449,8 @@ pub enum MotionSpec {
         speed: f64,
         /// Start time (s), 0 if not given.
         t_start: f64,
+        /// Whether a value was given in degrees (`NAME_deg`).
+        degrees: bool,
     },
     /// Clamped cubic spline through `(t, theta)`.
     Table {
@@ -457,7 +462,18 @@ pub enum MotionSpec {
         start_velocity: f64,
         /// Velocity after the table (rad/s), 0 if not given.
         end_velocity: f64,
+        /// Whether a value was given in degrees (`NAME_deg`).
+        degrees: bool,
     },
+}
+
+impl MotionSpec {
+    /// Whether a value of the law was given in degrees.
+    pub fn in_degrees(&self) -> bool {
+        match self {
+            Self::Trapezoidal { degrees, .. } | Self::Table { degrees, .. } => *degrees,
+        }
+    }
 }
 
 /// A motion law as written: every key of any kind, checked by [`MotionSpec`] (read as a
@@ -533,6 +549,17 @@ impl TryFrom<MotionEntry> for MotionSpec {
     type Error = String;
 
     fn try_from(e: MotionEntry) -> Result<Self, String> {
+        let degrees = [
+            e.start_deg,
+            e.end_deg,
+            e.acceleration_deg,
+            e.speed_deg,
+            e.start_velocity_deg,
+            e.end_velocity_deg,
+        ]
+        .iter()
+        .any(Option::is_some)
+            || e.theta_deg.is_some();
         let e = e.in_radians()?;
         let given = |name: &'static str, present: bool| present.then_some(name);
         match e.kind {
@@ -556,6 +583,7 @@ impl TryFrom<MotionEntry> for MotionSpec {
                     acceleration: need("acceleration", e.acceleration)?,
                     speed: need("speed", e.speed)?,
                     t_start: e.t_start.unwrap_or(0.0),
+                    degrees,
                 })
             }
             MotionKind::Table => {
@@ -575,6 +603,7 @@ impl TryFrom<MotionEntry> for MotionSpec {
                     theta: need("theta", e.theta)?,
                     start_velocity: e.start_velocity.unwrap_or(0.0),
                     end_velocity: e.end_velocity.unwrap_or(0.0),
+                    degrees,
                 })
             }
         }
