@@ -204,7 +204,18 @@ fn a_table_of_degrees_is_a_table_of_radians() {
         law("kind = \"table\"\nt = [0.0, 1.0]\ntheta_deg = [0.0, 90.0]\nend_velocity_deg = 180.0")
             .unwrap();
     let rad = law("kind = \"table\"\nt = [0.0, 1.0]\ntheta = [0.0, 1.5707963267948966]\nend_velocity = 3.141592653589793").unwrap();
-    assert_eq!(deg, rad);
+    assert!(deg.in_degrees() && !rad.in_degrees());
+    let values = |m: &super::spec::MotionSpec| match m {
+        super::spec::MotionSpec::Table {
+            t,
+            theta,
+            start_velocity,
+            end_velocity,
+            ..
+        } => (t.clone(), theta.clone(), *start_velocity, *end_velocity),
+        other => panic!("not a table: {other:?}"),
+    };
+    assert_eq!(values(&deg), values(&rad));
     let both = law("kind = \"table\"\nt = [0.0, 1.0]\ntheta = [0.0, 1.0]\ntheta_deg = [0.0, 90.0]")
         .unwrap_err();
     assert!(
