@@ -574,6 +574,75 @@ mod tests {
         }
     }
 
+    /// With joints on rigid-body points and a slider, the iteration matrix's joint part —
+    /// `Φ_qᵀ` blocks and the Hessian `Σ λₖ ∂²Φₖ/∂q²` scattered by the slot maps — is the
+    /// derivative of the joint forces `Φ_q(q)ᵀλ` and of `Φ(q)`.
+    #[test]
+    fn joint_terms_of_the_iteration_matrix_equal_central_differences() {
+        let spec = crate::scene::parse_toml(include_str!("../examples/slider_crank.toml")).unwrap();
+        let model = crate::scene::build(&spec).unwrap();
+        let x = vec![0.6; model.n_variables()];
+        let asm = Assembler::new(
+            &model,
+            model.densities(Some(&x)).unwrap(),
+            MassKind::Consistent,
+        )
+        .unwrap();
+        let (n, n_c) = (model.n_dofs(), model.n_constraints());
+        let mut rnd = noise(7);
+        let q: Vec<f64> = (0..n)
+            .map(|d| {
+                if d % 3 == 2 {
+                    2.0 * rnd()
+                } else {
+                    0.05 * rnd()
+                }
+            })
+            .collect();
+        let lambda: Vec<f64> = (0..n_c).map(|_| 10.0 * rnd()).collect();
+        let residual = |qq: &[f64]| {
+            let (mut r, mut phi) = (vec![0.0; n], vec![0.0; n_c]);
+            asm.constraint_residual(qq, &lambda, 0.0, 1.0, &mut phi, &mut r, None);
+            [r, phi].concat()
+        };
+        let mut values = vec![0.0; asm.pattern.nnz()];
+        asm.start_iteration_matrix(0.0, 1.0, &Jacobian::at(&model, &q), &mut values);
+        asm.add_constraint_hessian(&q, &lambda, &mut values);
+        // Undo the augmentation: the DOF block holds ΣλH + Φ_qᵀΦ_q.
+        let jac = Jacobian::at(&model, &q);
+        let p = &asm.pattern;
+        let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for j in 0..n {
+            let eps = 1e-7;
+            let (mut qp, mut qm) = (q.clone(), q.clone());
+            qp[j] += eps;
+            qm[j] -= eps;
+            let (rp, rm) = (residual(&qp), residual(&qm));
+            let mut column = vec![0.0; n + n_c];
+            for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
+                column[p.row_idx[idx]] = values[idx];
+            }
+            for (k, row) in model.rows.iter().enumerate() {
+                let (dofs, g) = (row.dofs(), jac.0[k]);
+                if let Some(gj) = dofs.iter().position(|d| *d == Some(j)).map(|i| g[i]) {
+                    for (d, gi) in dofs.iter().zip(g) {
+                        if let Some(d) = d {
+                            column[*d] -= gi * gj;
+                        }
+                    }
+                }
+            }
+            for i in 0..n + n_c {
+                let fd = (rp[i] - rm[i]) / (2.0 * eps);
+                assert!(
+                    (fd - column[i]).abs() < 1e-6 * scale,
+                    "S[{i},{j}] = {} vs {fd}",
+                    column[i]
+                );
+            }
+        }
+    }
+
     #[test]
     fn iteration_matrix_equals_central_differences_of_the_residual() {
         let mut spec =

@@ -141,13 +141,14 @@ impl JointKind {
 const AXES: [Vector2<f64>; 2] = [Vector2::new(1.0, 0.0), Vector2::new(0.0, 1.0)];
 
 impl Joint {
-    /// The joint's constraint rows, the drive row last.
+    /// The joint's constraint rows, the drive row last: its [`Joint::coordinate`] following
+    /// the drive's law.
     pub fn rows(&self, joint: usize) -> Vec<ConstraintRow> {
-        let row = |nodes, law, driven| ConstraintRow {
+        let row = |nodes, law| ConstraintRow {
             nodes,
             law,
             joint,
-            driven,
+            driven: false,
         };
         let coincide = |nodes: [Option<usize>; 2], arms| {
             AXES.map(|direction| {
@@ -156,50 +157,74 @@ impl Joint {
                     direction,
                     carried: false,
                 };
-                row(nodes, law, false)
+                row(nodes, law)
             })
         };
-        let driven = self.drive.is_some();
         let mut rows = Vec::new();
         match self.kind {
             JointKind::Clamp { at } | JointKind::Pin { at } => {
                 rows.extend(coincide([Some(at.node), None], [at.arm, Vector2::zeros()]));
-                if driven || matches!(self.kind, JointKind::Clamp { .. }) {
-                    rows.push(row([None, Some(at.node)], Law::Angle, driven));
-                }
             }
             JointKind::Hinge { at: [a, b] } | JointKind::Weld { at: [a, b] } => {
                 rows.extend(coincide([Some(a.node), Some(b.node)], [a.arm, b.arm]));
-                if driven || matches!(self.kind, JointKind::Weld { .. }) {
-                    rows.push(row([Some(a.node), Some(b.node)], Law::Angle, driven));
-                }
             }
             JointKind::Prismatic {
                 carrier,
                 slider,
                 axis,
             } => {
-                let nodes = [carrier.map(|c| c.node), Some(slider.node)];
-                let arms = [carrier.map_or(Vector2::zeros(), |c| c.arm), slider.arm];
-                let along = |direction, driven| {
-                    let law = Law::Separation {
-                        arms,
-                        direction,
-                        carried: carrier.is_some(),
-                    };
-                    row(nodes, law, driven)
-                };
-                rows.push(along(Vector2::new(-axis.y, axis.x), false));
-                rows.push(row(nodes, Law::Angle, false));
-                if driven {
-                    // Along `−axis`, the slider's travel `axisᵀ(Δr_slider − Δr_carrier)`.
-                    rows.push(along(-axis, true));
-                }
+                let normal = separation(joint, carrier, slider, Vector2::new(-axis.y, axis.x));
+                rows.extend([normal, self.angle(joint)]);
             }
+        }
+        match (&self.kind, self.coordinate(joint)) {
+            (JointKind::Clamp { .. } | JointKind::Weld { .. }, _) => rows.push(self.angle(joint)),
+            (_, Some(free)) if self.drive.is_some() => rows.push(ConstraintRow {
+                driven: true,
+                ..free
+            }),
+            _ => {}
         }
         rows
     }
 
+    /// The joint's own coordinate as a row: the rotation of a pin, the relative rotation
+    /// `φ_b − φ_a` of a hinge, a slider's travel along its axis; what a drive prescribes.
+    /// `None` for a clamp or weld, which hold everything.
+    pub fn coordinate(&self, joint: usize) -> Option<ConstraintRow> {
+        match self.kind {
+            JointKind::Clamp { .. } | JointKind::Weld { .. } => None,
+            JointKind::Pin { .. } | JointKind::Hinge { .. } => Some(self.angle(joint)),
+            // Along `−axis`: the slider's travel `axisᵀ(Δr_slider − Δr_carrier)`.
+            JointKind::Prismatic {
+                carrier,
+                slider,
+                axis,
+            } => Some(separation(joint, carrier, slider, -axis)),
+        }
+    }
+
+    /// The row `φ_b − φ_a` of the joint's two nodes (`φ_b` alone on the ground).
+    fn angle(&self, joint: usize) -> ConstraintRow {
+        let nodes = match self.kind {
+            JointKind::Clamp { at } | JointKind::Pin { at } => [None, Some(at.node)],
+            JointKind::Hinge { at: [a, b] } | JointKind::Weld { at: [a, b] } => {
+                [Some(a.node), Some(b.node)]
+            }
+            JointKind::Prismatic {
+                carrier, slider, ..
+            } => [carrier.map(|c| c.node), Some(slider.node)],
+        };
+        ConstraintRow {
+            nodes,
+            law: Law::Angle,
+            joint,
+            driven: false,
+        }
+    }
+}
+
+impl Joint {
     /// Nodes the joint acts on.
     pub fn nodes(&self) -> Vec<usize> {
         match self.kind {
@@ -233,6 +258,26 @@ impl Joint {
             }
             _ => [0.0; 3],
         }
+    }
+}
+
+/// The row of joint `joint` separating a slider from its carrier along `direction`
+/// (carried by the carrier, fixed for the ground).
+fn separation(
+    joint: usize,
+    carrier: Option<Anchor>,
+    slider: Anchor,
+    direction: Vector2<f64>,
+) -> ConstraintRow {
+    ConstraintRow {
+        nodes: [carrier.map(|c| c.node), Some(slider.node)],
+        law: Law::Separation {
+            arms: [carrier.map_or(Vector2::zeros(), |c| c.arm), slider.arm],
+            direction,
+            carried: carrier.is_some(),
+        },
+        joint,
+        driven: false,
     }
 }
 

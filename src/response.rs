@@ -13,6 +13,7 @@
 use nalgebra::Vector3;
 
 use crate::aggregate::Aggregation;
+use crate::constraint::ConstraintRow;
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
@@ -68,6 +69,19 @@ pub enum Response {
         row: usize,
         /// How the torques are condensed.
         aggregation: Aggregation,
+    },
+    /// The integral over the motion of a drive's squared torque (or a slider drive's squared
+    /// force), `∫ τ² dt` (N² m² s): the copper losses a motor is sized by.
+    TorqueSquared {
+        /// The driven constraint row.
+        row: usize,
+    },
+    /// A joint's own coordinate at the final time ([`crate::constraint::Joint::coordinate`]):
+    /// a pin's rotation or a hinge's relative rotation from the reference (rad), a slider's
+    /// travel (m).
+    JointPosition {
+        /// The coordinate as a constraint row's law.
+        row: ConstraintRow,
     },
 }
 
@@ -321,7 +335,19 @@ impl Response {
                 Self::aggregate(model, measure, members, &options).map_err(err)
             }
             "torque" | "torque_rms" => Self::torque(model, name == "torque_rms", rest).map_err(err),
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque or torque_rms".into())),
+            "torque_squared" => {
+                let joint = rest.ok_or_else(|| err("name the driven joint: torque_squared:JOINT".into()))?;
+                Ok(Self::TorqueSquared { row: drive_row(model, joint).map_err(err)? })
+            }
+            "joint_position" => {
+                let name = rest.ok_or_else(|| err("name the joint: joint_position:JOINT".into()))?;
+                let j = joint_index(model, name).map_err(err)?;
+                let row = model.joints[j].coordinate(j).ok_or_else(|| {
+                    err(format!("joint '{name}' is a {}: it holds every coordinate, so it has no position", model.joints[j].kind.name()))
+                })?;
+                Ok(Self::JointPosition { row })
+            }
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque, torque_rms, torque_squared or joint_position".into())),
         }
     }
 
@@ -382,12 +408,6 @@ impl Response {
 
     /// A drive's torque, `torque:JOINT[:p=P|ks=RHO,scale=S]` or `torque_rms:JOINT`.
     fn torque(model: &Model, rms: bool, rest: Option<&str>) -> Result<Self, String> {
-        if model.analysis == Analysis::Static {
-            return Err(
-                "a static scene has no motion to drive; torques are responses of a dynamic one"
-                    .into(),
-            );
-        }
         let (joint, options) = component_and_options(rest)?;
         let joint = joint.ok_or("name the driven joint: torque:JOINT")?;
         let get = |key: &str| options.iter().find(|(k, _)| k == key).map(|&(_, v)| v);
@@ -402,19 +422,7 @@ impl Response {
                 }
             ));
         }
-        let index = model
-            .joints
-            .iter()
-            .position(|j| j.name == joint)
-            .ok_or_else(|| {
-                let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
-                format!("unknown joint '{joint}' (joints: {})", names.join(", "))
-            })?;
-        let row = model
-            .rows
-            .iter()
-            .position(|r| r.joint == index && r.driven)
-            .ok_or(format!("joint '{joint}' has no drive, so no motor torque"))?;
+        let row = drive_row(model, joint)?;
         let aggregation = if rms {
             Aggregation::PMean { p: 2.0 }
         } else {
@@ -427,7 +435,10 @@ impl Response {
         match (self, analysis) {
             (Self::Volume { .. }, _) => Weighting::Explicit,
             (_, Analysis::Static) | (Self::FinalDisplacement { .. }, _) => Weighting::Final,
-            (Self::IntegratedDisplacement { .. }, _) => Weighting::Integral,
+            (Self::JointPosition { .. }, _) => Weighting::Final,
+            (Self::IntegratedDisplacement { .. } | Self::TorqueSquared { .. }, _) => {
+                Weighting::Integral
+            }
             _ => Weighting::Mean,
         }
     }
@@ -447,6 +458,33 @@ impl Response {
     pub fn depends_on_states(&self) -> bool {
         !matches!(self, Self::Volume { .. })
     }
+}
+
+/// The index of the joint called `name`.
+fn joint_index(model: &Model, name: &str) -> Result<usize, String> {
+    model
+        .joints
+        .iter()
+        .position(|j| j.name == name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+            format!("unknown joint '{name}' (joints: {})", names.join(", "))
+        })
+}
+
+/// The driven constraint row of the joint called `name`.
+fn drive_row(model: &Model, name: &str) -> Result<usize, String> {
+    if model.analysis == Analysis::Static {
+        return Err(
+            "a static scene has no motion to drive; torques are responses of a dynamic one".into(),
+        );
+    }
+    let index = joint_index(model, name)?;
+    model
+        .rows
+        .iter()
+        .position(|r| r.joint == index && r.driven)
+        .ok_or(format!("joint '{name}' has no drive, so no motor torque"))
 }
 
 /// What a response needs besides the state: the model, its densities and, for a static
@@ -508,6 +546,8 @@ impl Response {
             }
             Self::Aggregate(ref a) => a.sum(ctx, q, known.reference),
             Self::Torque { row, aggregation } => aggregation.point(at.lam[row], known.reference).0,
+            Self::TorqueSquared { row } => at.lam[row] * at.lam[row],
+            Self::JointPosition { row } => row.evaluate(q).0,
         }
     }
 
@@ -600,6 +640,14 @@ impl Response {
             Self::Aggregate(ref a) => a.add_partials(ctx, q, known.reference, scale, g_q, g_x),
             Self::Torque { row, aggregation } => {
                 g_lam[row] += scale * aggregation.point(at.lam[row], known.reference).1;
+            }
+            Self::TorqueSquared { row } => g_lam[row] += scale * 2.0 * at.lam[row],
+            Self::JointPosition { row } => {
+                for (d, g) in row.dofs().iter().zip(row.evaluate(q).1) {
+                    if let Some(d) = d {
+                        g_q[*d] += scale * g;
+                    }
+                }
             }
         }
     }

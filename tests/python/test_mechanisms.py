@@ -142,7 +142,8 @@ def test_a_beam_welded_to_a_clamped_body_is_a_cantilever():
     assert direct == pytest.approx(-10.0 / (3 * 200e9 * math.pi * 0.01**4 / 64), rel=1e-2)
 
 
-@pytest.mark.parametrize("response", ["tip_deflection", "torque_rms:crank"])
+@pytest.mark.parametrize("response", ["tip_deflection", "torque_rms:crank", "torque_squared:crank",
+                                      "joint_position:slide", "joint_position:A"])
 def test_gradients_through_bodies_sliders_and_arms_are_exact(response):
     """The flexible slider-crank: rigid crank and slider, a hinge on the crank's arm, a
     slider on the ground; direct and adjoint agree to round-off and match fourth-order
@@ -181,6 +182,24 @@ def test_a_link_declared_rigid_moves_as_a_very_stiff_flexible_link_with_fewer_un
     assert np.abs(a - b).max() < 1e-6 * np.abs(b).max()
     assert (run_rigid.q.shape[1], run_stiff.q.shape[1]) == (48, 90)
     assert sim_rigid.mechanism["frames"] == 2
+
+
+def test_motor_sizing_and_joint_positions_read_the_run():
+    """∫τ² dt is the trapezoidal integral of the motor torque squared; a joint's position
+    is its coordinate at the end: the slider's travel, the crank's turn, the relative
+    rotation of the rod on the crank."""
+    sim = flextop.Simulation(scenes.slider_crank(t_end=0.03, h=5e-4))
+    res = sim.run(0.6)
+    torque = res.motor_torques["crank"]
+    assert res.response("torque_squared:crank") == pytest.approx(np.trapezoid(torque**2, res.time), rel=1e-12)
+    slider, crank, rod = (3 * sim.node(n) for n in ("slider", "crank", "rod0"))
+    assert res.response("joint_position:slide") == pytest.approx(res.q[-1, slider], rel=1e-12)
+    assert res.response("joint_position:crank") == pytest.approx(res.q[-1, crank + 2], rel=1e-12)
+    assert res.response("joint_position:A") == pytest.approx(res.q[-1, rod + 2] - res.q[-1, crank + 2], rel=1e-12)
+    weld = {"name": "w", "rigid_bodies": [BODY, {**BODY, "name": "c", "position": [1.5, 0.0], "points": {}}],
+            "joints": [{"kind": "pin", "name": "pin", "node": "b.p"}, {"kind": "weld", "name": "w", "nodes": ["b.p", "c"]}]}
+    with pytest.raises(flextop.errors.SettingsError, match="joint 'w' is a weld: it holds every coordinate"):
+        flextop.Simulation(weld).run(t_end=0.01, h=1e-3).response("joint_position:w")
 
 
 BODY = {"name": "b", "mass": 1.0, "position": [1.0, 0.0], "points": {"p": [0.5, 0.0]}}
