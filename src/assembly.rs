@@ -47,6 +47,8 @@ pub struct Pattern {
     element_slots: Vec<[usize; 36]>,
     /// Diagonal slots of each node's three DOFs.
     node_slots: Vec<[usize; 3]>,
+    /// For each spring, slots of `(dofᵢ, dofⱼ)` of its six DOFs (`usize::MAX` on the ground).
+    spring_slots: Vec<[[usize; 6]; 6]>,
     /// For constraint row `k`, its DOF `i` of six: slots of `(n_q + k, dof)` and
     /// `(dof, n_q + k)` (`usize::MAX` where the row does not act).
     row_slots: Vec<[[usize; 2]; 6]>,
@@ -69,6 +71,10 @@ impl Pattern {
             pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
         }
         pairs.extend((0..n_q).map(|i| (i, i)));
+        for spring in &model.springs {
+            let d: Vec<usize> = spring.dofs().into_iter().flatten().collect();
+            pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
+        }
         for (k, row) in model.rows.iter().enumerate() {
             let dofs = active_dofs(row);
             for &d in &dofs {
@@ -94,6 +100,7 @@ impl Pattern {
             row_idx,
             element_slots: vec![],
             node_slots: vec![],
+            spring_slots: vec![],
             row_slots: vec![],
             gram_slots: vec![],
         };
@@ -109,6 +116,20 @@ impl Pattern {
             .ok_or_else(missing)?;
         p.node_slots = (0..model.nodes.len())
             .map(|i| slots(|k| p.slot(3 * i + k, 3 * i + k)))
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
+        p.spring_slots = model
+            .springs
+            .iter()
+            .map(|spring| {
+                let d = spring.dofs();
+                slots(|i| {
+                    slots(|j| match (d[i], d[j]) {
+                        (Some(a), Some(b)) => p.slot(a, b),
+                        _ => Some(usize::MAX),
+                    })
+                })
+            })
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
         // An inactive DOF of a row has no slot: usize::MAX, skipped by the assembly.
@@ -315,8 +336,8 @@ impl<'m> Assembler<'m> {
             / self.pattern.n_q as f64
     }
 
-    /// Internal forces `f = Σ s(x_e) f_e(q)`; with `tangent`, also adds `Σ s(x_e) K_e(q)` to
-    /// the matrix values.
+    /// Internal forces `f = Σ s(x_e) f_e(q)` of the beams and those of the springs; with
+    /// `tangent`, also adds `Σ s(x_e) K_e(q)` and the springs' tangents to the matrix values.
     pub fn internal_forces(&self, q: &[f64], f: &mut [f64], mut tangent: Option<&mut [f64]>) {
         f.fill(0.0);
         for (e, el) in self.model.elements.iter().enumerate() {
@@ -334,6 +355,21 @@ impl<'m> Assembler<'m> {
                 None => {
                     let fe = el.beam.internal_force(&u);
                     dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
+                }
+            }
+        }
+        for (spring, slots) in self.model.springs.iter().zip(&self.pattern.spring_slots) {
+            let (fs, ks) = spring.force_and_tangent(q);
+            for (d, v) in spring.dofs().iter().zip(fs) {
+                if let Some(d) = d {
+                    f[*d] += v;
+                }
+            }
+            if let Some(values) = tangent.as_deref_mut() {
+                for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
+                    if slots[i][j] != usize::MAX {
+                        values[slots[i][j]] += ks[i][j];
+                    }
                 }
             }
         }
@@ -464,14 +500,16 @@ impl<'m> Assembler<'m> {
             / self.pattern.n_q as f64
     }
 
-    /// Strain energy `Σ_e s(x_e) U_e(q)` (J).
+    /// Strain energy `Σ_e s(x_e) U_e(q)` of the beams and the springs' energy (J).
     pub fn strain_energy(&self, q: &[f64]) -> f64 {
-        self.model
+        let beams: f64 = self
+            .model
             .elements
             .iter()
             .enumerate()
             .map(|(e, el)| self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q)))
-            .sum()
+            .sum();
+        beams + self.model.springs.iter().map(|s| s.energy(q)).sum::<f64>()
     }
 
     /// `M`, `K_t(q)` and `Φ_q` as compressed sparse columns, each without explicit zeros,

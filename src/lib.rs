@@ -37,6 +37,7 @@ pub mod model;
 pub mod motion;
 pub mod scene;
 pub mod section;
+pub mod spring;
 
 mod aggregate;
 mod assembly;

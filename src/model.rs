@@ -1,4 +1,4 @@
-//! A built, validated mechanism: nodes, beam elements, rigid bodies, point masses, joints, loads, design
+//! A built, validated mechanism: nodes, beam elements, rigid bodies, springs, point masses, joints, loads, design
 //! variables and components. Produced by [`crate::scene`]; read by the solvers.
 //!
 //! Generalized coordinates: three per node, `q = [u, v, φ]`, the displacement and rotation
@@ -14,6 +14,7 @@ use crate::error::{DesignError, SolveError};
 use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
 use crate::settings::RunOptions;
+use crate::spring::Spring;
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -132,6 +133,8 @@ pub struct Model {
     pub components: Vec<String>,
     /// Rigid bodies.
     pub bodies: Vec<RigidBody>,
+    /// Springs.
+    pub springs: Vec<Spring>,
     /// Point masses, the rigid bodies' first.
     pub point_masses: Vec<PointMass>,
     /// Joints.

@@ -174,6 +174,18 @@ class Scene:
             entry["nodes"] = [carrier, slider]
         self._joint(entry)
 
+    def spring(self, name: str, a: str, b: str, *, k: float, length: float | None = None) -> None:
+        """A linear spring of stiffness ``k`` (N/m) between nodes or rigid-body points ``a``
+        and ``b``, unloaded at ``length`` (m; their distance in the scene if not given)."""
+        entry = {"name": name, "nodes": [a, b], "k": k, "length": length}
+        self._spec.setdefault("springs", []).append({key: v for key, v in entry.items() if v is not None})
+
+    def joint_spring(self, name: str, joint: str, *, k: float, rest: float = 0.0) -> None:
+        """A linear spring on ``joint``'s own coordinate: a torsion spring at a pin or hinge
+        (``k`` in N m/rad), a spring along a slider's travel (N/m); unloaded at ``rest``
+        (rad or m from the scene's configuration)."""
+        self._spec.setdefault("springs", []).append({"name": name, "joint": joint, "k": k, "rest": rest})
+
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})
 

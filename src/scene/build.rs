@@ -7,13 +7,13 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, beams, rigid bodies and their points), joints, point masses, loads and gravity, the design, the tip, the
+//! structures, beams, rigid bodies and their points), joints, springs, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::rigid`].
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, SceneSpec};
 use super::validate::Result;
-use super::{body, design, ground_structure, joint, load, section, simulation};
+use super::{body, design, ground_structure, joint, load, section, simulation, spring};
 use crate::model::{Analysis, Design, Model};
 use crate::rigid::check_mechanism;
 
@@ -32,6 +32,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
     let rows = joint::rows(&joints);
+    let springs = spring::springs(&spec.springs, &mesh, &joints, size)?;
     point_masses.extend(load::point_masses(&spec.point_masses, &mesh)?);
     let loads = load::loads(&spec.loads, &mesh)?;
     let gravity = load::gravity(spec.gravity)?;
@@ -49,6 +50,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         bars: mesh.bars,
         components: mesh.components,
         bodies: mesh.bodies,
+        springs,
         point_masses,
         joints,
         rows,

@@ -14,6 +14,7 @@ mod mesh;
 mod section;
 mod simulation;
 pub mod spec;
+mod spring;
 mod validate;
 
 pub use build::build;

@@ -48,6 +48,9 @@ pub struct SceneSpec {
     /// Joints.
     #[serde(default)]
     pub joints: Vec<JointSpec>,
+    /// Springs.
+    #[serde(default)]
+    pub springs: Vec<SpringSpec>,
     /// Design parametrization.
     #[serde(default)]
     pub design: DesignSpec,
@@ -251,6 +254,26 @@ pub struct RigidBodySpec {
     /// Named points `[x, y]` in the body's frame, from its centre of mass (m).
     #[serde(default)]
     pub points: BTreeMap<String, [f64; 2]>,
+}
+
+/// A linear spring: between two points (`nodes`; `k` in N/m; rest `length`, the reference
+/// distance if not given) or on a joint's own coordinate (`joint`; `k` in N m/rad at a pin
+/// or hinge, N/m along a slider; `rest`, the reference (0) if not given).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// Name.
+    pub name: String,
+    /// The two nodes or rigid-body points it joins.
+    pub nodes: Option<[String; 2]>,
+    /// The joint whose coordinate it resists.
+    pub joint: Option<String>,
+    /// Stiffness.
+    pub k: f64,
+    /// Rest length between points (m).
+    pub length: Option<f64>,
+    /// Rest value of a joint's coordinate (rad or m).
+    pub rest: Option<f64>,
 }
 
 /// A point mass.

@@ -1,0 +1,89 @@
+//! Springs between two points, or on a joint's coordinate ([`crate::spring`]).
+
+use super::mesh::Mesh;
+use super::spec::SpringSpec;
+use super::validate::{finite, non_negative, positive, unknown, Result};
+use crate::constraint::Joint;
+use crate::error::SceneError;
+use crate::spring::{Measure, Spring};
+
+/// The scene's springs, on the anchors of `mesh` or the `joints`, in a scene of `size`.
+pub(super) fn springs(
+    specs: &[SpringSpec],
+    mesh: &Mesh,
+    joints: &[Joint],
+    size: f64,
+) -> Result<Vec<Spring>> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(k, s)| spring(&format!("springs[{k}] ({})", s.name), s, mesh, joints, size))
+        .collect()
+}
+
+/// The spring `s` at `path`.
+fn spring(path: &str, s: &SpringSpec, mesh: &Mesh, joints: &[Joint], size: f64) -> Result<Spring> {
+    let stiffness = positive(&format!("{path}.k"), s.k)?;
+    let (measure, rest) = match (&s.nodes, &s.joint) {
+        (Some(nodes), None) => {
+            if s.rest.is_some() {
+                return Err(SceneError::new(
+                    path,
+                    "a spring between points takes a rest `length`, not `rest`",
+                ));
+            }
+            let at = [
+                mesh.anchor(&format!("{path}.nodes[0]"), &nodes[0])?,
+                mesh.anchor(&format!("{path}.nodes[1]"), &nodes[1])?,
+            ];
+            let reference = mesh.position(at[1]) - mesh.position(at[0]);
+            if at[0].node == at[1].node || reference.norm() <= 1e-9 * size {
+                return Err(SceneError::new(
+                    path,
+                    format!(
+                        "'{}' and '{}' coincide or lie on one body: a spring between points needs \
+                         two bodies or nodes apart, to have a direction",
+                        nodes[0], nodes[1]
+                    ),
+                ));
+            }
+            let length = match s.length {
+                Some(l) => non_negative(&format!("{path}.length"), l)?,
+                None => reference.norm(),
+            };
+            (Measure::Distance { at, reference }, length)
+        }
+        (None, Some(name)) => {
+            if s.length.is_some() {
+                return Err(SceneError::new(
+                    path,
+                    "a spring on a joint takes a `rest` value, not `length`",
+                ));
+            }
+            let j = joints
+                .iter()
+                .position(|j| &j.name == name)
+                .ok_or_else(|| unknown(format!("{path}.joint"), "joint", name))?;
+            let row = joints[j].coordinate(j).ok_or_else(|| {
+                SceneError::new(
+                    format!("{path}.joint"),
+                    format!("'{name}' is a {}: it holds every coordinate, nothing for a spring to resist", joints[j].kind.name()),
+                )
+            })?;
+            let rest = finite(&format!("{path}.rest"), s.rest.unwrap_or(0.0))?;
+            (Measure::Coordinate(row), rest)
+        }
+        _ => {
+            return Err(SceneError::new(
+                path,
+                "a spring takes two `nodes` or one `joint`",
+            ))
+        }
+    };
+    Ok(Spring {
+        name: s.name.clone(),
+        measure,
+        stiffness,
+        rest,
+    })
+}

@@ -1,0 +1,216 @@
+//! Springs: linear elastic force elements of energy `U = ½ k (s(q) − s₀)²` on a measure
+//! `s` of the mechanism — the distance between two points (a translational spring, `k` in
+//! N/m, rest length `s₀`), or a joint's own coordinate ([`Joint::coordinate`]: a torsion
+//! spring at a pin or hinge in N m/rad, a spring along a slider's travel in N/m).
+//!
+//! Force `f = k (s − s₀) ∂s/∂q` and exact tangent `k (∂s/∂q)(∂s/∂q)ᵀ + k (s − s₀) ∂²s/∂q²`
+//! on the six coordinates of the two nodes involved, like a constraint row's.
+//!
+//! [`Joint::coordinate`]: crate::constraint::Joint::coordinate
+
+use nalgebra::Vector2;
+
+use crate::constraint::{dof, Anchor, ConstraintRow};
+
+/// What a spring measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Measure {
+    /// The distance between two anchors (m).
+    Distance {
+        /// `[a, b]`.
+        at: [Anchor; 2],
+        /// Their separation `(X_b + p_b) − (X_a + p_a)` at the reference (m).
+        reference: Vector2<f64>,
+    },
+    /// A joint's own coordinate (rad or m), as a constraint row's law.
+    Coordinate(ConstraintRow),
+}
+
+/// A named linear spring.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spring {
+    /// Name, for messages.
+    pub name: String,
+    /// What it measures.
+    pub measure: Measure,
+    /// Stiffness `k` (N/m or N m/rad).
+    pub stiffness: f64,
+    /// The measure at which it is unloaded, `s₀`.
+    pub rest: f64,
+}
+
+/// A measure `s`, its gradient and Hessian on the six coordinates of its nodes.
+pub struct Local {
+    /// `s(q)`.
+    pub value: f64,
+    /// `∂s/∂q`.
+    pub gradient: [f64; 6],
+    /// `∂²s/∂q²` (row-major).
+    pub hessian: [[f64; 6]; 6],
+}
+
+impl Spring {
+    /// The six coordinates `[x_a, y_a, φ_a, x_b, y_b, φ_b]` of its nodes (`None` on the
+    /// ground).
+    pub fn dofs(&self) -> [Option<usize>; 6] {
+        match self.measure {
+            Measure::Distance { at, .. } => {
+                std::array::from_fn(|i| Some(dof(at[i / 3].node, i % 3)))
+            }
+            Measure::Coordinate(row) => row.dofs(),
+        }
+    }
+
+    /// The measure at `q` with its derivatives.
+    pub fn measure(&self, q: &[f64]) -> Local {
+        match self.measure {
+            Measure::Distance { at, reference } => distance(at, reference, q),
+            Measure::Coordinate(row) => {
+                let (value, gradient) = row.evaluate(q);
+                let mut hessian = [[0.0; 6]; 6];
+                row.add_hessian(q, 1.0, &mut hessian);
+                Local {
+                    value,
+                    gradient,
+                    hessian,
+                }
+            }
+        }
+    }
+
+    /// Force `f = k (s − s₀) ∂s/∂q` and tangent `K` on [`Spring::dofs`] at `q`.
+    pub fn force_and_tangent(&self, q: &[f64]) -> ([f64; 6], [[f64; 6]; 6]) {
+        let Local {
+            value,
+            gradient: g,
+            hessian: h,
+        } = self.measure(q);
+        let tension = self.stiffness * (value - self.rest);
+        let force = g.map(|gi| tension * gi);
+        let tangent = std::array::from_fn(|i| {
+            std::array::from_fn(|j| self.stiffness * g[i] * g[j] + tension * h[i][j])
+        });
+        (force, tangent)
+    }
+
+    /// Elastic energy `½ k (s − s₀)²` at `q` (J).
+    pub fn energy(&self, q: &[f64]) -> f64 {
+        let stretch = self.measure(q).value - self.rest;
+        0.5 * self.stiffness * stretch * stretch
+    }
+}
+
+/// `J v`, the quarter turn.
+fn perp(v: Vector2<f64>) -> Vector2<f64> {
+    Vector2::new(-v.y, v.x)
+}
+
+/// The distance `ℓ = |d|` between anchors `at` whose separation at the reference is
+/// `reference`, `d = reference + Δr_b − Δr_a`, with `∂ℓ/∂q = uᵀ d_q` and
+/// `∂²ℓ/∂q² = (d_qᵀ d_q − ℓ_q ℓ_qᵀ)/ℓ + uᵀ d_qq` (`u = d/ℓ`).
+fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
+    let coordinates = |a: Anchor| {
+        (
+            Vector2::new(q[dof(a.node, 0)], q[dof(a.node, 1)]),
+            q[dof(a.node, 2)],
+        )
+    };
+    let [(ua, pa), (ub, pb)] = at.map(coordinates);
+    let turned = |arm: Vector2<f64>, phi: f64| {
+        let (s, c) = phi.sin_cos();
+        Vector2::new(c * arm.x - s * arm.y, s * arm.x + c * arm.y)
+    };
+    let (ra, rb) = (turned(at[0].arm, pa), turned(at[1].arm, pb));
+    let d = reference + (ub + rb - at[1].arm) - (ua + ra - at[0].arm);
+    let length = d.norm();
+    let u = d / length;
+    // Columns of d_q: ∂d/∂u_a = −I, ∂d/∂φ_a = −J R_a p_a, ∂d/∂u_b = I, ∂d/∂φ_b = J R_b p_b.
+    let columns = [
+        Vector2::new(-1.0, 0.0),
+        Vector2::new(0.0, -1.0),
+        -perp(ra),
+        Vector2::new(1.0, 0.0),
+        Vector2::new(0.0, 1.0),
+        perp(rb),
+    ];
+    let gradient = columns.map(|c| u.dot(&c));
+    let mut hessian: [[f64; 6]; 6] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| (columns[i].dot(&columns[j]) - gradient[i] * gradient[j]) / length)
+    });
+    // d_qq: ∂²d/∂φ_a² = R_a p_a, ∂²d/∂φ_b² = −R_b p_b.
+    hessian[2][2] += u.dot(&ra);
+    hessian[5][5] -= u.dot(&rb);
+    Local {
+        value: length,
+        gradient,
+        hessian,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::Law;
+
+    /// A distance between two arms and a hinge's relative rotation: the force is the
+    /// central difference of the energy and the tangent that of the force.
+    #[test]
+    fn forces_and_tangents_equal_central_differences() {
+        let at = [
+            Anchor {
+                node: 0,
+                arm: Vector2::new(0.2, -0.1),
+            },
+            Anchor {
+                node: 1,
+                arm: Vector2::new(-0.3, 0.25),
+            },
+        ];
+        let springs = [
+            Measure::Distance {
+                at,
+                reference: Vector2::new(0.7, 0.4),
+            },
+            Measure::Coordinate(ConstraintRow {
+                nodes: [Some(0), Some(1)],
+                law: Law::Angle,
+                joint: 0,
+                driven: false,
+            }),
+        ]
+        .map(|measure| Spring {
+            name: "s".into(),
+            measure,
+            stiffness: 3.0e3,
+            rest: 0.5,
+        });
+        let q = [0.03, -0.05, 0.9, -0.02, 0.04, -1.3];
+        for spring in springs {
+            let (f, k) = spring.force_and_tangent(&q);
+            for i in 0..6 {
+                let eps = 1e-6;
+                let (mut qp, mut qm) = (q, q);
+                qp[i] += eps;
+                qm[i] -= eps;
+                let fd = (spring.energy(&qp) - spring.energy(&qm)) / (2.0 * eps);
+                assert!(
+                    (fd - f[i]).abs() < 1e-6 * (1.0 + f[i].abs()),
+                    "f[{i}] = {} vs {fd}",
+                    f[i]
+                );
+                let (fp, fm) = (
+                    spring.force_and_tangent(&qp).0,
+                    spring.force_and_tangent(&qm).0,
+                );
+                for j in 0..6 {
+                    let fd = (fp[j] - fm[j]) / (2.0 * eps);
+                    assert!(
+                        (fd - k[j][i]).abs() < 1e-5 * (1.0 + k[j][i].abs()),
+                        "K[{j}][{i}] = {} vs {fd}",
+                        k[j][i]
+                    );
+                }
+            }
+        }
+    }
+}
