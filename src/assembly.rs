@@ -3,11 +3,13 @@
 //! The iteration matrix of the generalized-α Newton step (paper §2.3) is
 //!
 //! ```text
-//! S_t = [ β'M + K_t    s Φ_qᵀ ]
-//!       [ s Φ_q        0      ]
+//! S_t = [ β'M + γ'C + K_t    s Φ_qᵀ ]
+//!       [ s Φ_q              0      ]
 //! ```
 //!
-//! (no damping term: the elements are elastic and the 2D mass is constant). The factor `s`
+//! with `K_t` the tangent of the elements, the springs and the joints (`Σ λₖ ∂²Φₖ/∂q²`),
+//! `C` the dampers' constant matrix (the beams are elastic, the 2D mass constant). The
+//! factor `s`
 //! scales the constraint rows and multipliers (`λ = s μ`) so that all blocks have the
 //! magnitude of `β'M + K_t`, keeping the matrix well conditioned as `h → 0` (Bottasso,
 //! Bauchau & Cardona 2007).
@@ -190,6 +192,18 @@ impl Pattern {
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
     }
+
+    /// `out += A v` for the nodal block of a matrix with `values` on this pattern.
+    fn add_dof_block_times(&self, values: &[f64], v: &[f64], out: &mut [f64]) {
+        for (j, &vj) in v.iter().enumerate().take(self.n_q) {
+            let column = self.col_ptr[j]..self.col_ptr[j + 1];
+            for (&i, &a) in self.row_idx[column.clone()].iter().zip(&values[column]) {
+                if i < self.n_q {
+                    out[i] += a * vj;
+                }
+            }
+        }
+    }
 }
 
 /// The DOFs a constraint row acts on.
@@ -245,6 +259,8 @@ pub struct Assembler<'m> {
     pub mass_kind: MassKind,
     /// Values of `M` on the pattern (zero outside the `n_q` block).
     mass: Vec<f64>,
+    /// Values of the dampers' constant `C` on the pattern, `None` without dampers.
+    damping: Option<Vec<f64>>,
     /// Gravity as a DOF-wise acceleration `ĝ = [g_x, g_y, 0, …]`.
     pub gravity: Vec<f64>,
     /// The gravity load `M ĝ` (zero without gravity).
@@ -275,6 +291,25 @@ impl<'m> Assembler<'m> {
             mass[s[1]] += pm.mass;
             mass[s[2]] += pm.inertia;
         }
+        let dampers: Vec<_> = model
+            .springs
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.damping > 0.0)
+            .collect();
+        let damping = (!dampers.is_empty()).then(|| {
+            let (mut values, reference) = (vec![0.0; pattern.nnz()], vec![0.0; model.n_dofs()]);
+            for (k, spring) in dampers {
+                let c = spring.damping_matrix(&reference);
+                for (i, j) in (0..36).map(|m| (m / 6, m % 6)) {
+                    let slot = pattern.spring_slots[k][i][j];
+                    if slot != usize::MAX {
+                        values[slot] += c[i][j];
+                    }
+                }
+            }
+            values
+        });
         let g = model.gravity;
         let gravity: Vec<f64> = (0..model.n_dofs())
             .map(|d| [g.x, g.y, 0.0][d % 3])
@@ -285,6 +320,7 @@ impl<'m> Assembler<'m> {
             densities,
             mass_kind,
             mass,
+            damping,
             gravity_load: vec![0.0; gravity.len()],
             gravity,
         };
@@ -316,15 +352,29 @@ impl<'m> Assembler<'m> {
 
     /// `out = M a` (mass matrix times a nodal vector).
     pub fn mass_times(&self, a: &[f64], out: &mut [f64]) {
-        let p = &self.pattern;
-        out[..p.n_q].fill(0.0);
-        for (j, &aj) in a.iter().enumerate().take(p.n_q) {
-            for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
-                let i = p.row_idx[idx];
-                if i < p.n_q {
-                    out[i] += self.mass[idx] * aj;
-                }
-            }
+        out[..self.pattern.n_q].fill(0.0);
+        self.pattern.add_dof_block_times(&self.mass, a, out);
+    }
+
+    /// `out += C v` (the dampers' matrix times a nodal vector; nothing without dampers).
+    pub fn add_damping_times(&self, v: &[f64], out: &mut [f64]) {
+        if let Some(damping) = &self.damping {
+            self.pattern.add_dof_block_times(damping, v, out);
+        }
+    }
+
+    /// Whether the model has dampers.
+    pub fn has_damping(&self) -> bool {
+        self.damping.is_some()
+    }
+
+    /// Adds `coefficient · C` (`γ'` in a dynamic step) to the matrix values.
+    pub fn add_damping(&self, coefficient: f64, values: &mut [f64]) {
+        if let Some(damping) = &self.damping {
+            values
+                .iter_mut()
+                .zip(damping)
+                .for_each(|(v, c)| *v += coefficient * c);
         }
     }
 
@@ -375,7 +425,7 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// Applied nodal loads at time `t`, scaled by `factor`.
+    /// Applied nodal loads and motor torques at time `t`, scaled by `factor`.
     pub fn external_forces(&self, t: f64, factor: f64, f: &mut [f64]) {
         f.fill(0.0);
         for load in &self.model.loads {
@@ -383,6 +433,9 @@ impl<'m> Assembler<'m> {
             for k in 0..3 {
                 f[3 * load.node + k] += g * load.value[k];
             }
+        }
+        for motor in &self.model.motors {
+            motor.add_force(t, factor, f);
         }
     }
 

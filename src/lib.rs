@@ -35,6 +35,7 @@ pub mod interpolation;
 pub mod load;
 pub mod model;
 pub mod motion;
+pub mod motor;
 pub mod scene;
 pub mod section;
 pub mod spring;

@@ -13,6 +13,7 @@ use crate::element::{Beam, Vector6};
 use crate::error::{DesignError, SolveError};
 use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
+use crate::motor::Motor;
 use crate::settings::RunOptions;
 use crate::spring::Spring;
 
@@ -133,8 +134,10 @@ pub struct Model {
     pub components: Vec<String>,
     /// Rigid bodies.
     pub bodies: Vec<RigidBody>,
-    /// Springs.
+    /// Springs and dampers (a servo's among them).
     pub springs: Vec<Spring>,
+    /// Motors.
+    pub motors: Vec<Motor>,
     /// Point masses, the rigid bodies' first.
     pub point_masses: Vec<PointMass>,
     /// Joints.
@@ -255,7 +258,7 @@ impl Model {
                     .count()
     }
 
-    /// Times in `(0, t_end)` where a drive or a load table is not smooth, sorted, without
+    /// Times in `(0, t_end)` where a drive, a load table or a motor is not smooth, sorted, without
     /// repeats: where a variable step must end exactly.
     pub fn kinks(&self, t_end: f64) -> Vec<f64> {
         let drives = self
@@ -264,8 +267,10 @@ impl Model {
             .filter_map(|j| j.drive.as_ref())
             .flat_map(|m| m.kinks());
         let loads = self.loads.iter().flat_map(|l| l.time.kinks());
+        let motors = self.motors.iter().flat_map(|m| m.kinks());
         let mut t: Vec<f64> = drives
             .chain(loads)
+            .chain(motors)
             .filter(|&t| t > 0.0 && t < t_end)
             .collect();
         t.sort_by(f64::total_cmp);

@@ -170,28 +170,28 @@ impl<'m> Newton<'m> {
     }
 
     /// Assembles `rhs = −E[r; sΦ]` and, `with_matrix`, the augmented iteration matrix
-    /// `mass_coefficient M + K_t` at `(q, q̈, λ)`, time `t`; `load` scales external forces
-    /// and prescribed motions (statics), `acc = None` drops inertia (statics).
-    #[allow(clippy::too_many_arguments)]
+    /// `β'M + γ'C + K_t` at `(q, q̇, q̈, λ)` and `point`; `rates = None` drops inertia and
+    /// damping (statics), where `point.load` scales external forces and prescribed motions.
     pub(crate) fn assemble(
         &mut self,
         q: &[f64],
-        acc: Option<&[f64]>,
+        rates: Option<(&[f64], &[f64])>,
         lambda: &[f64],
-        t: f64,
-        load: f64,
-        mass_coefficient: f64,
+        point: &Point,
         with_matrix: bool,
     ) -> Residual {
         let n_q = q.len();
         let asm = &self.asm;
-        match acc {
-            Some(acc) => {
+        let (t, load) = (point.t, point.load);
+        match rates {
+            Some((velocity, acc)) => {
                 self.joint
                     .iter_mut()
                     .zip(acc.iter().zip(&asm.gravity))
                     .for_each(|(w, (a, g))| *w = a - g);
                 asm.mass_times(&self.joint, &mut self.inertia);
+                // The dampers' C q̇ joins the inertia term M(q̈ − ĝ).
+                asm.add_damping_times(velocity, &mut self.inertia);
             }
             None => self.inertia.fill(0.0),
         }
@@ -200,17 +200,18 @@ impl<'m> Newton<'m> {
         asm.constraint_residual(q, lambda, t, load, &mut self.phi, &mut self.joint, jacobian);
         if with_matrix {
             asm.start_iteration_matrix(
-                mass_coefficient,
+                point.mass_coefficient,
                 self.scale,
                 &self.jacobian,
                 &mut self.matrix,
             );
+            asm.add_damping(point.gamma_prime, &mut self.matrix);
             asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
             asm.add_constraint_hessian(q, lambda, &mut self.matrix);
         } else {
             asm.internal_forces(q, &mut self.internal, None);
         }
-        match acc {
+        match rates {
             // Dynamics: gravity is in the inertia term M(q̈ − ĝ).
             Some(_) => asm.external_forces(t, load, &mut self.external),
             None => asm.applied_loads(t, load, &mut self.external),
@@ -315,9 +316,8 @@ impl<'m> Newton<'m> {
         let mut fresh = true;
         let mut previous = f64::INFINITY;
         loop {
-            let acc = rates.as_ref().map(|(_, acc)| &acc[..]);
-            let (t, load, c) = (point.t, point.load, point.mass_coefficient);
-            let mut res = self.assemble(q, acc, lambda, t, load, c, fresh);
+            let state = rates.as_ref().map(|(v, acc)| (&v[..], &acc[..]));
+            let mut res = self.assemble(q, state, lambda, &point, fresh);
             let report = NewtonReport {
                 iterations,
                 residual: res.value(),
@@ -331,7 +331,7 @@ impl<'m> Newton<'m> {
             if !fresh && res.value() > KEPT_CONTRACTION * previous {
                 // The held factors contract too slowly: a new matrix at this iterate.
                 fresh = true;
-                res = self.assemble(q, acc, lambda, t, load, c, true);
+                res = self.assemble(q, state, lambda, &point, true);
             }
             previous = res.value();
             self.solve_increment(point.t, fresh)?;
@@ -360,8 +360,9 @@ impl<'m> Newton<'m> {
 
     /// Assembles and factorizes the augmented iteration matrix at state `q`, time `t`, for
     /// the linear solves of the sensitivity analysis, with the scaling `s` of a Newton solve
-    /// of the same mass coefficient `c`: `c M + K_t(q) + Σ λₖ ∂²Φₖ/∂q²` and `Φ_q(q)` with
-    /// `tangent = Some(λ)`, `c M` and `Φ_q(q)` alone with `None` (the initial accelerations).
+    /// of the same mass coefficient `c`: `c M + d C + K_t(q) + Σ λₖ ∂²Φₖ/∂q²` and `Φ_q(q)`
+    /// with `tangent = Some(λ)` (`d = γ'` in a dynamic step), `c M` and `Φ_q(q)` alone with
+    /// `None` (the initial accelerations).
     ///
     /// # Errors
     /// [`SolveError::Singular`] for a singular matrix.
@@ -370,6 +371,7 @@ impl<'m> Newton<'m> {
         q: &[f64],
         tangent: Option<&[f64]>,
         mass_coefficient: f64,
+        damping_coefficient: f64,
         t: f64,
     ) -> Result<(), SolveError> {
         self.scale = self.scaling(mass_coefficient, tangent.is_some());
@@ -385,6 +387,7 @@ impl<'m> Newton<'m> {
             self.asm
                 .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
             self.asm.add_constraint_hessian(q, lambda, &mut self.matrix);
+            self.asm.add_damping(damping_coefficient, &mut self.matrix);
         }
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
     }
@@ -424,18 +427,17 @@ impl<'m> Newton<'m> {
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
     pub fn initial_accelerations(&mut self, q: &[f64]) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
         let (n_q, n_c) = (q.len(), self.phi.len());
-        // At q̈ = 0, λ = 0 the DOF rows of −E r are M ĝ + f_ext − f_int(q); Φ(q, 0) = 0 adds
-        // nothing to them.
-        self.assemble(
-            q,
-            Some(&vec![0.0; n_q]),
-            &vec![0.0; n_c],
-            0.0,
-            1.0,
-            1.0,
-            false,
-        );
-        self.factorize(q, None, 1.0, 0.0)?;
+        // At rest, q̈ = 0 and λ = 0, the DOF rows of −E r are M ĝ + f_ext − f_int(q);
+        // Φ(q, 0) = 0 adds nothing to them.
+        let rest = vec![0.0; n_q];
+        let start = Point {
+            t: 0.0,
+            load: 1.0,
+            mass_coefficient: 1.0,
+            gamma_prime: 0.0,
+        };
+        self.assemble(q, Some((&rest, &rest)), &vec![0.0; n_c], &start, false);
+        self.factorize(q, None, 1.0, 0.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
         let scale = self.scale;

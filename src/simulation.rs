@@ -4,8 +4,8 @@
 //! Energies: kinetic `T = ½ q̇ᵀ M q̇`, strain `U = Σ s(x_e) U_e`, the work of the drives
 //! (motor torque times joint rotation) `W_d = Σₙ −½(λₙ + λₙ₊₁)_d (gₙ₊₁ − gₙ)_d` over the
 //! prescribed angles `g = θ(t) − θ(0)`, and of applied loads and gravity
-//! `W_e = ∫ (f_ext + M ĝ)ᵀ q̇ dt` by the trapezoidal rule. For an exact solution
-//! `T + U − W_d − W_e` is constant. The drive work uses the prescribed angle increments —
+//! `W_e = ∫ (f_ext + M ĝ)ᵀ q̇ dt` and of the dampers `W_c = −∫ q̇ᵀ C q̇ dt` by the
+//! trapezoidal rule. For an exact solution `T + U − W_d − W_e − W_c` is constant. The drive work uses the prescribed angle increments —
 //! which the index-3 constraints enforce exactly — rather than discrete velocities: those
 //! are not constrained, and with ρ∞ = 1 their error at a held joint never decays, which
 //! would show as work done by a motor that does not move.
@@ -49,6 +49,8 @@ pub struct Trajectory {
     pub drive_work: Vec<f64>,
     /// Work done by loads and gravity since `t = 0` (J).
     pub external_work: Vec<f64>,
+    /// Work done by the dampers since `t = 0`, `−∫ q̇ᵀ C q̇ dt` (J, never positive).
+    pub damping_work: Vec<f64>,
 }
 
 impl Trajectory {
@@ -288,8 +290,9 @@ struct EnergyBook {
     lambda0: Vec<f64>,
     t0: f64,
     h: f64,
-    /// External power at the start of the current step.
+    /// External power and the dampers' power at the start of the current step.
     power0: f64,
+    damping0: f64,
     force: Vec<f64>,
     mv: Vec<f64>,
 }
@@ -304,6 +307,7 @@ impl EnergyBook {
             t0: s.t,
             h: 0.0,
             power0: 0.0,
+            damping0: 0.0,
             force: vec![0.0; model.n_dofs()],
             mv: vec![0.0; model.n_dofs()],
         };
@@ -325,6 +329,7 @@ impl EnergyBook {
         let Some(&drive_work) = traj.drive_work.last() else {
             traj.drive_work.push(0.0);
             traj.external_work.push(0.0);
+            traj.damping_work.push(0.0);
             return;
         };
         let model = it.assembler().model;
@@ -341,6 +346,18 @@ impl EnergyBook {
         traj.external_work
             .push(external + 0.5 * self.h * (self.power0 + power));
         self.power0 = power;
+        let damping = self.damping_power(it, s);
+        let dissipated = traj.damping_work.last().copied().unwrap_or(0.0);
+        traj.damping_work
+            .push(dissipated + 0.5 * self.h * (self.damping0 + damping));
+        self.damping0 = damping;
+    }
+
+    /// Power `−q̇ᵀ C q̇` of the dampers.
+    fn damping_power(&mut self, it: &Integrator, s: &State) -> f64 {
+        self.mv.fill(0.0);
+        it.assembler().add_damping_times(&s.qdot, &mut self.mv);
+        -dot(&s.qdot, &self.mv)
     }
 
     fn kinetic(&mut self, it: &Integrator, s: &State) -> f64 {

@@ -1,10 +1,15 @@
-//! Springs: linear elastic force elements of energy `U = ½ k (s(q) − s₀)²` on a measure
-//! `s` of the mechanism — the distance between two points (a translational spring, `k` in
-//! N/m, rest length `s₀`), or a joint's own coordinate ([`Joint::coordinate`]: a torsion
-//! spring at a pin or hinge in N m/rad, a spring along a slider's travel in N/m).
+//! Springs and dampers: linear force elements on a measure `s` of the mechanism — the
+//! distance between two points (a translational spring, `k` in N/m, rest length `s₀`), or a
+//! joint's own coordinate ([`Joint::coordinate`]: a torsion spring at a pin or hinge in
+//! N m/rad, a spring along a slider's travel in N/m).
 //!
-//! Force `f = k (s − s₀) ∂s/∂q` and exact tangent `k (∂s/∂q)(∂s/∂q)ᵀ + k (s − s₀) ∂²s/∂q²`
-//! on the six coordinates of the two nodes involved, like a constraint row's.
+//! The spring has energy `U = ½ k (s(q) − s₀)²`, force `f = k (s − s₀) ∂s/∂q` and exact
+//! tangent `k (∂s/∂q)(∂s/∂q)ᵀ + k (s − s₀) ∂²s/∂q²` on the six coordinates of the two nodes
+//! involved, like a constraint row's. A damper `c` acts on a measure linear in `q` (a pin's
+//! or hinge's rotation, a slider's travel on a ground axis): force `c ṡ ∂s/∂q = C q̇` with
+//! the constant, symmetric `C = c (∂s/∂q)(∂s/∂q)ᵀ`. (On a distance or a carried axis the
+//! damping force's tangent is not symmetric, which the iteration matrix's `LDLᵀ` cannot
+//! take; the scene refuses it.)
 //!
 //! [`Joint::coordinate`]: crate::constraint::Joint::coordinate
 
@@ -35,6 +40,8 @@ pub struct Spring {
     pub measure: Measure,
     /// Stiffness `k` (N/m or N m/rad).
     pub stiffness: f64,
+    /// Damping `c` (N s/m or N m s/rad), on a linear measure only.
+    pub damping: f64,
     /// The measure at which it is unloaded, `s₀`.
     pub rest: f64,
 }
@@ -91,6 +98,13 @@ impl Spring {
             std::array::from_fn(|j| self.stiffness * g[i] * g[j] + tension * h[i][j])
         });
         (force, tangent)
+    }
+
+    /// The damper's `C = c (∂s/∂q)(∂s/∂q)ᵀ` on [`Spring::dofs`], at any `q`: constant, as
+    /// its measure is linear.
+    pub fn damping_matrix(&self, q: &[f64]) -> [[f64; 6]; 6] {
+        let g = self.measure(q).gradient;
+        std::array::from_fn(|i| std::array::from_fn(|j| self.damping * g[i] * g[j]))
     }
 
     /// Elastic energy `½ k (s − s₀)²` at `q` (J).
@@ -182,6 +196,7 @@ mod tests {
             name: "s".into(),
             measure,
             stiffness: 3.0e3,
+            damping: 0.0,
             rest: 0.5,
         });
         let q = [0.03, -0.05, 0.9, -0.02, 0.04, -1.3];

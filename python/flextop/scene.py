@@ -180,11 +180,27 @@ class Scene:
         entry = {"name": name, "nodes": [a, b], "k": k, "length": length}
         self._spec.setdefault("springs", []).append({key: v for key, v in entry.items() if v is not None})
 
-    def joint_spring(self, name: str, joint: str, *, k: float, rest: float = 0.0) -> None:
-        """A linear spring on ``joint``'s own coordinate: a torsion spring at a pin or hinge
-        (``k`` in N m/rad), a spring along a slider's travel (N/m); unloaded at ``rest``
-        (rad or m from the scene's configuration)."""
-        self._spec.setdefault("springs", []).append({"name": name, "joint": joint, "k": k, "rest": rest})
+    def joint_spring(self, name: str, joint: str, *, k: float = 0.0, c: float = 0.0, rest: float = 0.0) -> None:
+        """A linear spring and damper on ``joint``'s own coordinate: at a pin or hinge a
+        torsion spring ``k`` (N m/rad) and damper ``c`` (N m s/rad), along a slider's travel
+        N/m and N s/m (a damper only on a ground axis); the spring unloaded at ``rest`` (rad
+        or m from the scene's configuration)."""
+        self._spec.setdefault("springs", []).append({"name": name, "joint": joint, "k": k, "c": c, "rest": rest})
+
+    def motor(self, name: str, joint: str, *, torque: float,
+              table: tuple[Sequence[float], Sequence[float]] | None = None) -> None:
+        """A motor applying ``torque`` (N m; N on a slider) on the undriven ``joint``'s own
+        coordinate, scaled in time by the piecewise-linear ``table = (t, scale)`` if given."""
+        entry: dict[str, Any] = {"name": name, "joint": joint, "torque": torque}
+        if table is not None:
+            entry["table"] = {"t": list(map(float, table[0])), "scale": list(map(float, table[1]))}
+        self._spec.setdefault("motors", []).append(entry)
+
+    def servo(self, name: str, joint: str, *, kp: float, kd: float = 0.0, motion: dict) -> None:
+        """A PD servo on the undriven ``joint``: ``τ = kp (θ_r − θ) + kd (θ̇_r − θ̇)`` following
+        the motion law ``motion`` (from the scene's configuration)."""
+        self._spec.setdefault("motors", []).append(
+            {"name": name, "joint": joint, "servo": {"kp": kp, "kd": kd, "motion": motion}})
 
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})

@@ -44,7 +44,7 @@ dissipates; the trapezoidal work differs by O(h²): 7e-4 at the arm's coarsest s
 
 def _warn_if_energy_created(res: Results) -> None:
     e = res.energies
-    energy, work = e["kinetic"] + e["strain"], e["drive_work"] + e["external_work"]
+    energy, work = e["kinetic"] + e["strain"], e["drive_work"] + e["external_work"] + e["damping_work"]
     scale = max(np.abs(work).max(initial=0.0), np.abs(energy).max(initial=0.0))
     excess = energy - work  # at least the initial state: never empty
     k = int(np.argmax(excess))
@@ -893,8 +893,10 @@ class Results(_Run):
 
     @property
     def energies(self) -> dict[str, np.ndarray]:
-        """Kinetic, strain, work of the drives and of external loads (J)."""
-        return {k: self.raw[k] for k in ("kinetic", "strain", "drive_work", "external_work")}
+        """Kinetic and strain energy (springs included), the work of the drives, of external
+        loads and gravity, and of the dampers (negative: what they dissipated) (J)."""
+        names = ("kinetic", "strain", "drive_work", "external_work", "damping_work")
+        return {k: self.raw.get(k, np.zeros_like(self.raw["kinetic"])) for k in names}
 
     @property
     def newton(self) -> dict[str, Any]:

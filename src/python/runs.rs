@@ -82,6 +82,7 @@ pub fn simulate<'py>(
     d.set_item("strain", vector(py, traj.strain))?;
     d.set_item("drive_work", vector(py, traj.drive_work))?;
     d.set_item("external_work", vector(py, traj.external_work))?;
+    d.set_item("damping_work", vector(py, traj.damping_work))?;
     d.set_item("h", settings.step())?;
     d.set_item("rho_inf", settings.rho_inf)?;
     Ok(d)

@@ -7,13 +7,13 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, beams, rigid bodies and their points), joints, springs, point masses, loads and gravity, the design, the tip, the
+//! structures, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::rigid`].
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, SceneSpec};
 use super::validate::Result;
-use super::{body, design, ground_structure, joint, load, section, simulation, spring};
+use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
 use crate::model::{Analysis, Design, Model};
 use crate::rigid::check_mechanism;
 
@@ -32,7 +32,9 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
     let rows = joint::rows(&joints);
-    let springs = spring::springs(&spec.springs, &mesh, &joints, size)?;
+    let mut springs = spring::springs(&spec.springs, &mesh, &joints, size)?;
+    let (motors, servos) = motor::motors(&spec.motors, &joints, 3 * mesh.nodes.len())?;
+    springs.extend(servos);
     point_masses.extend(load::point_masses(&spec.point_masses, &mesh)?);
     let loads = load::loads(&spec.loads, &mesh)?;
     let gravity = load::gravity(spec.gravity)?;
@@ -51,6 +53,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         components: mesh.components,
         bodies: mesh.bodies,
         springs,
+        motors,
         point_masses,
         joints,
         rows,

@@ -173,7 +173,7 @@ fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
 
 /// The motion law at `path`: a trapezoidal velocity profile, or a clamped cubic spline
 /// through samples `(t_k, θ_k)`.
-fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
+pub(super) fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
     Ok(match m {
         MotionSpec::Trapezoidal {
             start,

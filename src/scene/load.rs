@@ -51,7 +51,7 @@ fn load(path: &str, l: &LoadSpec, mesh: &Mesh) -> Result<NodalLoad> {
 }
 
 /// Constant in time, or scaled piecewise-linearly through the samples of its `table`.
-fn time(path: &str, table: Option<&LoadTableSpec>) -> Result<TimeFunction> {
+pub(super) fn time(path: &str, table: Option<&LoadTableSpec>) -> Result<TimeFunction> {
     Ok(match table {
         None => TimeFunction::Constant,
         Some(t) => {

@@ -11,6 +11,7 @@ pub mod ground_structure;
 mod joint;
 mod load;
 mod mesh;
+mod motor;
 mod section;
 mod simulation;
 pub mod spec;

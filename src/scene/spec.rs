@@ -51,6 +51,9 @@ pub struct SceneSpec {
     /// Springs.
     #[serde(default)]
     pub springs: Vec<SpringSpec>,
+    /// Motors.
+    #[serde(default)]
+    pub motors: Vec<MotorSpec>,
     /// Design parametrization.
     #[serde(default)]
     pub design: DesignSpec,
@@ -256,9 +259,10 @@ pub struct RigidBodySpec {
     pub points: BTreeMap<String, [f64; 2]>,
 }
 
-/// A linear spring: between two points (`nodes`; `k` in N/m; rest `length`, the reference
-/// distance if not given) or on a joint's own coordinate (`joint`; `k` in N m/rad at a pin
-/// or hinge, N/m along a slider; `rest`, the reference (0) if not given).
+/// A linear spring and damper: between two points (`nodes`; `k` in N/m; rest `length`, the
+/// reference distance if not given) or on a joint's own coordinate (`joint`; `k` in N m/rad
+/// at a pin or hinge, N/m along a slider; `rest`, the reference (0) if not given; damping
+/// `c`).
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SpringSpec {
@@ -268,12 +272,47 @@ pub struct SpringSpec {
     pub nodes: Option<[String; 2]>,
     /// The joint whose coordinate it resists.
     pub joint: Option<String>,
-    /// Stiffness.
+    /// Stiffness (0 for a damper alone).
+    #[serde(default)]
     pub k: f64,
+    /// Damping (N s/m or N m s/rad; on a joint's linear coordinate only), 0 if not given.
+    #[serde(default)]
+    pub c: f64,
     /// Rest length between points (m).
     pub length: Option<f64>,
     /// Rest value of a joint's coordinate (rad or m).
     pub rest: Option<f64>,
+}
+
+/// A motor on a joint's own coordinate (a pin, a hinge, a slider on a ground axis, none
+/// driven): a constant `torque` (N m, or N on a slider), scaled by a `table` if given, or a
+/// PD `servo` following a motion law.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MotorSpec {
+    /// Name.
+    pub name: String,
+    /// The joint it turns (or pushes).
+    pub joint: String,
+    /// Constant torque (N m or N).
+    pub torque: Option<f64>,
+    /// Time scaling of `torque`.
+    pub table: Option<LoadTableSpec>,
+    /// A PD servo instead.
+    pub servo: Option<ServoSpec>,
+}
+
+/// A PD servo: `τ = kp (θ_r − s) + kd (θ̇_r − ṡ)` following `motion` (`θ_r(t) − θ_r(0)`).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ServoSpec {
+    /// Proportional gain (N m/rad or N/m).
+    pub kp: f64,
+    /// Derivative gain (N m s/rad or N s/m), 0 if not given.
+    #[serde(default)]
+    pub kd: f64,
+    /// The reference motion law.
+    pub motion: MotionSpec,
 }
 
 /// A point mass.

@@ -1,8 +1,8 @@
-//! Springs between two points, or on a joint's coordinate ([`crate::spring`]).
+//! Springs and dampers between two points, or on a joint's coordinate ([`crate::spring`]).
 
 use super::mesh::Mesh;
 use super::spec::SpringSpec;
-use super::validate::{finite, non_negative, positive, unknown, Result};
+use super::validate::{finite, non_negative, unknown, Result};
 use crate::constraint::Joint;
 use crate::error::SceneError;
 use crate::spring::{Measure, Spring};
@@ -23,7 +23,14 @@ pub(super) fn springs(
 
 /// The spring `s` at `path`.
 fn spring(path: &str, s: &SpringSpec, mesh: &Mesh, joints: &[Joint], size: f64) -> Result<Spring> {
-    let stiffness = positive(&format!("{path}.k"), s.k)?;
+    let stiffness = non_negative(&format!("{path}.k"), s.k)?;
+    let damping = non_negative(&format!("{path}.c"), s.c)?;
+    if stiffness == 0.0 && damping == 0.0 {
+        return Err(SceneError::new(
+            path,
+            "has neither stiffness `k` nor damping `c`",
+        ));
+    }
     let (measure, rest) = match (&s.nodes, &s.joint) {
         (Some(nodes), None) => {
             if s.rest.is_some() {
@@ -80,10 +87,19 @@ fn spring(path: &str, s: &SpringSpec, mesh: &Mesh, joints: &[Joint], size: f64) 
             ))
         }
     };
+    let linear = matches!(measure, Measure::Coordinate(row) if row.is_linear());
+    if damping > 0.0 && !linear {
+        return Err(SceneError::new(
+            format!("{path}.c"),
+            "damping acts only on a pin's or hinge's rotation or on a slider's travel along a \
+             ground axis: on a distance or a carried axis its tangent is not symmetric",
+        ));
+    }
     Ok(Spring {
         name: s.name.clone(),
         measure,
         stiffness,
+        damping,
         rest,
     })
 }

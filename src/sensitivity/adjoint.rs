@@ -254,7 +254,9 @@ struct Sweep<'a> {
     /// `x̄`, row-major `n_r × n_x`: the gradients.
     xb: Vec<f64>,
     rhs: Vec<f64>,
+    /// `M μ` and `C μ` of the current column.
     c: Vec<f64>,
+    damped: Vec<f64>,
     scratch: MemBuffer,
 }
 
@@ -278,6 +280,7 @@ impl<'a> Sweep<'a> {
             xb: vec![0.0; n_x * n_r],
             rhs: vec![0.0; n * n_r],
             c: vec![0.0; n_q],
+            damped: vec![0.0; n_q],
             scratch: it.newton.scratch(n_r),
         }
     }
@@ -341,7 +344,8 @@ impl<'a> Sweep<'a> {
                 self.ab[j] = a_total; // kept for P̄ below
             }
         }
-        it.newton.factorize(at1.q, Some(at1.lam), bp, t1)?;
+        it.newton
+            .factorize(at1.q, Some(at1.lam), bp, it.params.gamma_prime(h), t1)?;
         self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
@@ -357,11 +361,16 @@ impl<'a> Sweep<'a> {
                 &mut self.xb[k * n_x..(k + 1) * n_x],
             );
             asm.mass_times(mu, &mut self.c);
+            self.damped.fill(0.0);
+            asm.add_damping_times(mu, &mut self.damped);
+            let gp = it.params.gamma_prime(h);
             for i in 0..n_q {
                 let j = r.start + i;
                 let cbar = self.acc_b[j] - self.c[i];
-                let pbar = -self.ab[j] / (h * h * beta) - bp * cbar;
-                let vbar = self.vb[j];
+                // The residual's C q̇ₙ₊₁: q̇ₙ₊₁'s adjoint loses C μ, reaching the predictor
+                // through q̇ₙ₊₁ = q̇ + hγ aₙ₊₁ and aₙ₊₁ = (qₙ₊₁ − q̂)/(h²β).
+                let pbar = -self.ab[j] / (h * h * beta) - bp * cbar + gp * self.damped[i];
+                let vbar = self.vb[j] - self.damped[i];
                 self.qb[j] = pbar;
                 self.vb[j] = vbar + h * pbar;
                 self.ab[j] = h * (1.0 - gamma) * vbar
@@ -394,7 +403,7 @@ impl<'a> Sweep<'a> {
                 *o = acc_b + ab;
             }
         }
-        it.newton.factorize(q0, None, 1.0, 0.0)?;
+        it.newton.factorize(q0, None, 1.0, 0.0, 0.0)?;
         self.seed_multipliers(it.newton.multiplier_scale());
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;

@@ -136,7 +136,7 @@ impl<'a> Sweep<'a> {
     /// `t = 0`: `[M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0]`, `a'₀ = q̈'₀`.
     fn initial(&mut self, it: &mut Integrator, s: &State) -> Result<(), SolveError> {
         let (n, n_q, n_x, width) = (self.n, self.n_q, self.n_x, self.width);
-        it.newton.factorize(&s.q, None, 1.0, 0.0)?;
+        it.newton.factorize(&s.q, None, 1.0, 0.0, 0.0)?;
         let newton = &it.newton;
         self.pseudo.subtract_columns(
             newton.assembler(),
@@ -164,7 +164,8 @@ impl<'a> Sweep<'a> {
         let bp = p.beta_prime(h);
         let ratio = step_ratio(self.previous, h);
         self.previous = h;
-        it.newton.factorize(&s.q, Some(&s.lam), bp, s.t)?;
+        it.newton
+            .factorize(&s.q, Some(&s.lam), bp, p.gamma_prime(h), s.t)?;
         let newton = &it.newton;
         let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
         self.rhs
@@ -191,9 +192,9 @@ impl<'a> Sweep<'a> {
                         &mut da[r],
                     );
                     let out = &mut rhs[col * n..(col + 1) * n];
-                    newton
-                        .assembler()
-                        .mass_times(&dacc[col * n_q..(col + 1) * n_q], out);
+                    let asm = newton.assembler();
+                    asm.mass_times(&dacc[col * n_q..(col + 1) * n_q], out);
+                    asm.add_damping_times(&dv[col * n_q..(col + 1) * n_q], out);
                     out[..n_q].iter_mut().for_each(|v| *v = -*v);
                     out[n_q..].fill(0.0);
                 }

@@ -28,7 +28,7 @@ pub(crate) fn run(
     let sol = load_stepping(&mut newton, settings)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    newton.factorize(&sol.q, Some(&sol.lambda), 0.0, settings.time)?;
+    newton.factorize(&sol.q, Some(&sol.lambda), 0.0, 0.0, settings.time)?;
     let grid = TimeGrid::single();
     let at = Sample {
         q: &sol.q,
