@@ -32,7 +32,7 @@ use crate::constraint::ConstraintRow;
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
-use crate::model::{Densities, Model};
+use crate::model::{Analysis, Densities, Model};
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
 #[derive(Debug, Clone)]
@@ -227,6 +227,11 @@ impl Jacobian {
         Self(model.rows.iter().map(|r| r.gradient(q)).collect())
     }
 
+    /// Each row's gradient on its six DOFs.
+    pub fn gradients(&self) -> &[[f64; 6]] {
+        &self.0
+    }
+
     /// Re-evaluates at `q` in place.
     pub fn update(&mut self, model: &Model, q: &[f64]) {
         self.0
@@ -363,11 +368,6 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// Whether the model has dampers.
-    pub fn has_damping(&self) -> bool {
-        self.damping.is_some()
-    }
-
     /// Adds `coefficient · C` (`γ'` in a dynamic step) to the matrix values.
     pub fn add_damping(&self, coefficient: f64, values: &mut [f64]) {
         if let Some(damping) = &self.damping {
@@ -434,8 +434,9 @@ impl<'m> Assembler<'m> {
                 f[3 * load.node + k] += g * load.value[k];
             }
         }
+        let motion = self.model.analysis == Analysis::Dynamic;
         for motor in &self.model.motors {
-            motor.add_force(t, factor, f);
+            motor.add_force(t, factor, motion, f);
         }
     }
 
@@ -526,6 +527,35 @@ impl<'m> Assembler<'m> {
                 }
             }
         }
+    }
+
+    /// The tangent `K_t(q) + Σ λₖ ∂²Φₖ/∂q²` (elements, springs, joints) as values on the
+    /// pattern, for products with [`Assembler::add_tangent_times`].
+    pub fn tangent(&self, q: &[f64], lambda: &[f64]) -> Vec<f64> {
+        let mut values = vec![0.0; self.pattern.nnz()];
+        self.internal_forces(q, &mut vec![0.0; self.pattern.n_q], Some(&mut values));
+        self.add_constraint_hessian(q, lambda, &mut values);
+        values
+    }
+
+    /// `out += K v` for a [`Assembler::tangent`]'s values `K`.
+    pub fn add_tangent_times(&self, tangent: &[f64], v: &[f64], out: &mut [f64]) {
+        self.pattern.add_dof_block_times(tangent, v, out);
+    }
+
+    /// For each constraint row, `(∂²Φₖ/∂q²) a` at `q` on its six DOFs (zero for a linear
+    /// row): how `Φ_q a` changes with `q`.
+    pub fn constraint_curvature(&self, q: &[f64], a: &[f64]) -> Vec<[f64; 6]> {
+        self.model
+            .rows
+            .iter()
+            .map(|row| {
+                let mut h = [[0.0; 6]; 6];
+                row.add_hessian(q, 1.0, &mut h);
+                let local = row.dofs().map(|d| d.map_or(0.0, |d| a[d]));
+                h.map(|hi| hi.iter().zip(local).map(|(x, y)| x * y).sum())
+            })
+            .collect()
     }
 
     /// Applies the augmentation `E` of `jacobian` to a right-hand side `[b; c]`:

@@ -262,17 +262,24 @@ impl Joint {
 }
 
 /// The row of joint `joint` separating a slider from its carrier along `direction`
-/// (carried by the carrier, fixed for the ground).
+/// (carried by the carrier, fixed for the ground). On a ground axis the slider's rotation
+/// is held at zero, so its centre travels as its point does: the row reads the centre and
+/// stays linear.
 fn separation(
     joint: usize,
     carrier: Option<Anchor>,
     slider: Anchor,
     direction: Vector2<f64>,
 ) -> ConstraintRow {
+    let arm = if carrier.is_some() {
+        slider.arm
+    } else {
+        Vector2::zeros()
+    };
     ConstraintRow {
         nodes: [carrier.map(|c| c.node), Some(slider.node)],
         law: Law::Separation {
-            arms: [carrier.map_or(Vector2::zeros(), |c| c.arm), slider.arm],
+            arms: [carrier.map_or(Vector2::zeros(), |c| c.arm), arm],
             direction,
             carried: carrier.is_some(),
         },

@@ -115,6 +115,20 @@ pub enum SolveError {
         /// The node it turned.
         node: String,
     },
+    /// A spring between two points shrank to (nearly) zero length, where its direction
+    /// and its force are undefined.
+    #[error(
+        "at {at} spring '{spring}' has collapsed to {length:.3e} m: its force has no \
+         direction there; keep its points apart (a stiffer spring, a stop, other geometry)"
+    )]
+    SpringCollapsed {
+        /// Where the step ends: `t = … s` or `load factor …`.
+        at: String,
+        /// The spring's name.
+        spring: String,
+        /// Its length (m).
+        length: f64,
+    },
     /// The LDLᵀ factorization met a zero pivot or produced non-finite values.
     #[error("singular iteration matrix at t = {time:.6} s ({detail})")]
     Singular {

@@ -16,9 +16,10 @@
 //! the consistent gravity load.
 
 use crate::error::SolveError;
-use crate::model::{Densities, Model};
+use crate::model::{Densities, Initial, Model};
 use crate::newton::{Newton, NewtonReport, Point};
-use crate::settings::{DynamicSettings, NewtonMatrix};
+use crate::settings::{DynamicSettings, NewtonMatrix, StaticSettings, MAX_CUTS};
+use crate::statics::{solve_static, StaticSolution};
 
 /// Algorithmic parameters `α_m, α_f, β, γ`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,6 +90,11 @@ pub struct Integrator<'m> {
     pub params: AlphaParameters,
     /// `qₙ` of the step under way, to judge its rotations.
     start: Vec<f64>,
+    /// How the static equilibrium of an [`Initial::Equilibrium`] start is solved.
+    statics: Option<StaticSettings>,
+    /// That equilibrium, once [`Integrator::initial_state`] has solved it: the start `q₀(x)`
+    /// of the gradients.
+    pub(crate) equilibrium: Option<StaticSolution>,
 }
 
 impl<'m> Integrator<'m> {
@@ -110,10 +116,20 @@ impl<'m> Integrator<'m> {
         )?;
         newton.keep_matrix(settings.newton == NewtonMatrix::Modified);
         let params = AlphaParameters::chung_hulbert(settings.rho_inf);
+        let statics = (model.initial == Initial::Equilibrium).then(|| StaticSettings {
+            load_steps: model.defaults.load_steps.unwrap_or(1),
+            time: 0.0,
+            tol: settings.tol,
+            max_iter: settings.max_iter,
+            newton: settings.newton,
+            max_cuts: MAX_CUTS,
+        });
         Ok(Self {
             newton,
             params,
             start: vec![0.0; model.n_dofs()],
+            statics,
+            equilibrium: None,
         })
     }
 
@@ -122,14 +138,24 @@ impl<'m> Integrator<'m> {
         self.newton.assembler()
     }
 
-    /// State at `t = 0`: undeformed, at rest, with consistent accelerations and multipliers
-    /// from `[M, Φ_qᵀ; Φ_q, 0] [q̈₀; λ₀] = [M ĝ + f_ext(0) − f_int(q₀); g̈(0)]`.
+    /// State at `t = 0`: at rest, undeformed or in the static equilibrium of `t = 0` with
+    /// the drives held (the model's [`Initial`]), with consistent accelerations and
+    /// multipliers from `[M, Φ_qᵀ; Φ_q, 0] [q̈₀; λ₀] = [M ĝ + f_ext(0) − f_int(q₀); g̈(0)]`.
     ///
     /// # Errors
-    /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
+    /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold;
+    /// the static solve's errors for an equilibrium start.
     pub fn initial_state(&mut self) -> Result<State, SolveError> {
-        let n_q = self.newton.assembler().model.n_dofs();
-        let q = vec![0.0; n_q];
+        let asm = self.newton.assembler();
+        let n_q = asm.model.n_dofs();
+        self.equilibrium = match &self.statics {
+            Some(settings) => Some(solve_static(asm.model, asm.densities.clone(), settings)?),
+            None => None,
+        };
+        let q = self
+            .equilibrium
+            .as_ref()
+            .map_or_else(|| vec![0.0; n_q], |e| e.q.clone());
         let (qddot, lam) = self.newton.initial_accelerations(&q)?;
         Ok(State {
             t: 0.0,

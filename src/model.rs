@@ -15,7 +15,7 @@ use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
 use crate::motor::Motor;
 use crate::settings::RunOptions;
-use crate::spring::Spring;
+use crate::spring::{Measure, Spring};
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +95,17 @@ pub struct RigidBody {
     pub points: Vec<(String, Vector2<f64>)>,
 }
 
+/// How a dynamic run starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Initial {
+    /// Undeformed and at rest.
+    #[default]
+    Rest,
+    /// At rest in the static equilibrium under gravity and the loads at `t = 0`, the drives
+    /// held at their start.
+    Equilibrium,
+}
+
 /// Static (load-stepped equilibrium) or dynamic (time integration) analysis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Analysis {
@@ -124,6 +135,8 @@ pub struct Model {
     pub name: String,
     /// Kind of analysis the scene asks for.
     pub analysis: Analysis,
+    /// How a dynamic run starts.
+    pub initial: Initial,
     /// Nodes.
     pub nodes: Vec<Node>,
     /// Beam elements.
@@ -171,6 +184,10 @@ pub struct Densities {
     pub stiffness_rate: Vec<f64>,
 }
 
+/// Shortest length of a spring between points, as a fraction of its length in the scene,
+/// before its direction counts as lost.
+pub const COLLAPSED_SPRING: f64 = 1e-6;
+
 /// Largest rotation of a node in one time step or load step (rad).
 pub const MAX_ROTATION_STEP: f64 = std::f64::consts::FRAC_PI_2;
 
@@ -182,10 +199,13 @@ impl Model {
 
     /// Refuses a step (or load step) from coordinates `before` to `after` that turns a
     /// node by more than [`MAX_ROTATION_STEP`]: such a step has jumped to another
-    /// solution branch or wound a node around, and its caller cuts it or fails clearly.
+    /// solution branch or wound a node around, and its caller cuts it or fails clearly; and
+    /// one that ends with a spring between points shorter than [`COLLAPSED_SPRING`] of its
+    /// length in the scene.
     ///
     /// # Errors
-    /// [`SolveError::Diverged`] naming the node and `at`, where the step ends.
+    /// [`SolveError::Diverged`] naming the node and `at`, where the step ends;
+    /// [`SolveError::SpringCollapsed`] naming the spring.
     pub fn plausible_step(
         &self,
         before: &[f64],
@@ -201,6 +221,18 @@ impl Model {
                 rotation,
                 node: self.nodes[node].name.clone(),
             });
+        }
+        for spring in &self.springs {
+            if let Measure::Distance { reference, .. } = spring.measure {
+                let length = spring.measure(after).value;
+                if length.is_nan() || length <= COLLAPSED_SPRING * reference.norm() {
+                    return Err(SolveError::SpringCollapsed {
+                        at: at(),
+                        spring: spring.name.clone(),
+                        length,
+                    });
+                }
+            }
         }
         Ok(())
     }

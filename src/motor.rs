@@ -48,13 +48,19 @@ pub struct Motor {
 }
 
 impl Motor {
-    /// The applied torque `τ(t)` (the servo's feed of its reference).
-    pub fn applied(&self, t: f64) -> f64 {
+    /// The applied torque `τ(t)`: the servo's feed of its reference, its rate only in
+    /// `motion` (a static equilibrium has no `k_d ṡ` to balance `k_d θ̇_r`).
+    pub fn applied(&self, t: f64, motion: bool) -> f64 {
         match &self.law {
             MotorLaw::Torque { value, time } => value * time.at(t),
-            MotorLaw::Servo { kp, kd, motion } => {
-                let (now, start) = (motion.at(t), motion.at(0.0));
-                kp * (now.angle - start.angle) + kd * now.velocity
+            MotorLaw::Servo {
+                kp,
+                kd,
+                motion: law,
+            } => {
+                let (now, start) = (law.at(t), law.at(0.0));
+                let rate = if motion { kd * now.velocity } else { 0.0 };
+                kp * (now.angle - start.angle) + rate
             }
         }
     }
@@ -67,9 +73,10 @@ impl Motor {
         }
     }
 
-    /// Adds `factor · τ(t) ∂s/∂q` to the nodal forces `f`.
-    pub fn add_force(&self, t: f64, factor: f64, f: &mut [f64]) {
-        let torque = factor * self.applied(t);
+    /// Adds `factor · τ(t) ∂s/∂q` to the nodal forces `f` (of a motion, or of a static
+    /// equilibrium).
+    pub fn add_force(&self, t: f64, factor: f64, motion: bool, f: &mut [f64]) {
+        let torque = factor * self.applied(t, motion);
         for (d, g) in self.dofs.iter().zip(self.direction) {
             if let Some(d) = d {
                 f[*d] += torque * g;

@@ -221,7 +221,7 @@ impl<'m> Newton<'m> {
         for i in 0..n_q {
             let r = self.inertia[i] + self.internal[i] - self.external[i] + self.joint[i];
             self.rhs[i] = -r;
-            r_max = r_max.max(r.abs());
+            r_max = nan_max(r_max, r.abs());
             f_ref = f_ref
                 .max(self.inertia[i].abs())
                 .max(self.internal[i].abs())
@@ -231,7 +231,7 @@ impl<'m> Newton<'m> {
         let mut phi_max: f64 = 0.0;
         for (k, &p) in self.phi.iter().enumerate() {
             self.rhs[n_q + k] = -self.scale * p;
-            phi_max = phi_max.max(p.abs());
+            phi_max = nan_max(phi_max, p.abs());
         }
         asm.augment_rhs(&self.jacobian, &mut self.rhs);
         Residual {
@@ -268,6 +268,16 @@ impl<'m> Newton<'m> {
             residual,
             tolerance: self.tol,
         }
+    }
+}
+
+/// The larger of `a` and `b`, NaN if either is: a residual with a NaN entry is not
+/// converged (`f64::max` would drop the NaN).
+fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
     }
 }
 
@@ -390,6 +400,32 @@ impl<'m> Newton<'m> {
             self.asm.add_damping(damping_coefficient, &mut self.matrix);
         }
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
+    }
+
+    /// Applies the augmentation `E` of the factorized matrix to right-hand sides `[b; c]`
+    /// with nonzero constraint rows (`b += Φ_qᵀ c`), before [`Newton::solve_block`].
+    pub fn augment(&self, rhs: &mut [f64]) {
+        let n = self.rhs.len();
+        for column in rhs.chunks_mut(n) {
+            self.asm.augment_rhs(&self.jacobian, column);
+        }
+    }
+
+    /// Applies `Eᵀ` to solutions of [`Newton::solve_block`] (`μ += Φ_q ν`): the transposed
+    /// system's multiplier part, for adjoints that read it (the solve itself is symmetric).
+    pub fn unaugment(&self, solution: &mut [f64]) {
+        let n = self.rhs.len();
+        let rows = &self.asm.model.rows;
+        for column in solution.chunks_mut(n) {
+            let (dofs, multipliers) = column.split_at_mut(n - rows.len());
+            for ((row, g), m) in rows.iter().zip(self.jacobian.gradients()).zip(multipliers) {
+                for (d, gi) in row.dofs().iter().zip(g) {
+                    if let Some(d) = d {
+                        *m += gi * dofs[*d];
+                    }
+                }
+            }
+        }
     }
 
     /// The scaling `s` of the constraint rows set by the last [`Newton::factorize`] (or

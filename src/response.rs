@@ -484,7 +484,10 @@ fn drive_row(model: &Model, name: &str) -> Result<usize, String> {
         .rows
         .iter()
         .position(|r| r.joint == index && r.driven)
-        .ok_or(format!("joint '{name}' has no drive, so no motor torque"))
+        .ok_or(format!(
+            "joint '{name}' has no drive: a drive's torque (−λ of its row) is a response, a \
+             motor's is its input"
+        ))
 }
 
 /// What a response needs besides the state: the model, its densities and, for a static

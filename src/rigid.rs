@@ -22,6 +22,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
 use crate::error::{SceneError, SolveError};
 use crate::model::{Analysis, Model};
+use crate::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
 /// coordinates depend on others, among the rows of `joints` (indices into `Model::joints`).
@@ -142,10 +143,25 @@ impl Clusters {
         (phi, jac)
     }
 
-    /// Rigid-body modes the joints leave free: `3 n_clusters − rank(Φ_ρ)` at the reference.
-    pub fn mobility(&self, model: &Model) -> usize {
-        let (_, jac) = self.constraints(model, &DVector::zeros(3 * self.len()), 0.0);
-        3 * self.len() - rank(&jac)
+    /// Rigid-body modes neither the joints nor `springs` hold, at the reference:
+    /// `3 n_clusters` less the rank of `Φ_ρ` with the springs' gradients on the cluster
+    /// coordinates as more rows (no springs: the mechanism's mobility).
+    pub fn free_modes(&self, model: &Model, springs: &[Spring]) -> usize {
+        let rho = DVector::zeros(3 * self.len());
+        let (_, jac) = self.constraints(model, &rho, 0.0);
+        let reference = vec![0.0; model.n_dofs()];
+        let mut held = DMatrix::zeros(jac.nrows() + springs.len(), 3 * self.len());
+        held.rows_mut(0, jac.nrows()).copy_from(&jac);
+        for (i, spring) in springs.iter().enumerate() {
+            let gradient = spring.measure(&reference).gradient;
+            for (dof, coeff) in spring.dofs().iter().zip(gradient) {
+                let Some(dof) = *dof else { continue };
+                for (j, g) in self.dof_map(model, &rho, dof).1 {
+                    held[(jac.nrows() + i, j)] += coeff * g;
+                }
+            }
+        }
+        3 * self.len() - rank(&held)
     }
 
     /// How the joints over-constrain the rigid mechanism at the reference: the number of
@@ -455,10 +471,11 @@ fn check_grounding(model: &Model, clusters: &Clusters) -> Result<(), SceneError>
     }
 }
 
-/// The joints leave no rigid-body mode free (a static scene cannot be a mechanism).
+/// The joints and springs leave no rigid-body mode free (a static scene cannot be a
+/// mechanism).
 fn check_mobility(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
-    match clusters.mobility(model) {
+    match clusters.free_modes(model, &model.springs) {
         0 => Ok(()),
-        free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints"))),
+        free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints, or hold them with springs"))),
     }
 }

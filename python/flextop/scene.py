@@ -71,8 +71,13 @@ class GroundStructure:
 class Scene:
     """Builder of a scene dict; every method appends one entry and returns a handle."""
 
-    def __init__(self, name: str = "", *, analysis: str = "dynamic", gravity: Sequence[float] | None = None) -> None:
+    def __init__(self, name: str = "", *, analysis: str = "dynamic", gravity: Sequence[float] | None = None,
+                 initial: str = "rest") -> None:
+        """``initial = "equilibrium"`` starts a dynamic run at rest in the static equilibrium
+        under gravity and the loads at t = 0, the drives held; ``"rest"`` undeformed."""
         self._spec: dict[str, Any] = {"name": name, "analysis": analysis}
+        if initial != "rest":
+            self._spec["initial"] = initial
         if gravity is not None:
             self._spec["gravity"] = [float(g) for g in gravity]
 

@@ -46,11 +46,12 @@ def _warn_if_energy_created(res: Results) -> None:
     e = res.energies
     energy, work = e["kinetic"] + e["strain"], e["drive_work"] + e["external_work"] + e["damping_work"]
     scale = max(np.abs(work).max(initial=0.0), np.abs(energy).max(initial=0.0))
-    excess = energy - work  # at least the initial state: never empty
+    excess = energy - energy[0] - work  # at least the initial state: never empty
     k = int(np.argmax(excess))
     if excess[k] > ENERGY_CREATED * scale > 0:
         warnings.warn(PlausibilityWarning(
-            f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J, the work done "
+            f"the run created energy: at t = {res.time[k]:.4g} s kinetic plus strain energy is {energy[k]:.4g} J "
+            f"({energy[0]:.4g} J at the start), the work done "
             f"{work[k]:.4g} J ({excess[k] / scale:.1%} of the largest); use a smaller step h"), stacklevel=3)
 
 
@@ -893,8 +894,10 @@ class Results(_Run):
 
     @property
     def energies(self) -> dict[str, np.ndarray]:
-        """Kinetic and strain energy (springs included), the work of the drives, of external
-        loads and gravity, and of the dampers (negative: what they dissipated) (J)."""
+        """Kinetic and strain energy (springs and servos' springs included), the work of the
+        drives, of external loads, gravity and motors (a servo's feed), and of the dampers
+        (negative: what they dissipated) (J). From an equilibrium start the strain energy
+        starts at the equilibrium's; the balance is on the changes."""
         names = ("kinetic", "strain", "drive_work", "external_work", "damping_work")
         return {k: self.raw.get(k, np.zeros_like(self.raw["kinetic"])) for k in names}
 

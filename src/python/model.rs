@@ -158,7 +158,7 @@ impl PyModel {
         let over = clusters.over_constraint(m);
         let d = PyDict::new(py);
         d.set_item("frames", clusters.len())?;
-        d.set_item("mobility", clusters.mobility(m))?;
+        d.set_item("mobility", clusters.free_modes(m, &[]))?;
         d.set_item("redundant_rows", over.as_ref().map_or(0, |o| o.redundant))?;
         let names: Vec<&str> = over
             .iter()

@@ -11,10 +11,10 @@
 //! simulation defaults, and last the mechanism checks of [`crate::rigid`].
 
 use super::mesh::Mesh;
-use super::spec::{AnalysisSpec, SceneSpec};
+use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::Result;
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
-use crate::model::{Analysis, Design, Model};
+use crate::model::{Analysis, Design, Initial, Model};
 use crate::rigid::check_mechanism;
 
 /// Builds and validates the model of `spec`.
@@ -46,6 +46,10 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         analysis: match spec.analysis {
             AnalysisSpec::Dynamic => Analysis::Dynamic,
             AnalysisSpec::Static => Analysis::Static,
+        },
+        initial: match spec.initial {
+            InitialSpec::Rest => Initial::Rest,
+            InitialSpec::Equilibrium => Initial::Equilibrium,
         },
         nodes: mesh.nodes,
         elements: mesh.elements,

@@ -10,7 +10,7 @@ use super::mesh::Mesh;
 use super::spec::{JointSpec, MotionSpec};
 use nalgebra::Vector2;
 
-use super::validate::{finite, non_negative, positive, samples, Result};
+use super::validate::{finite, non_negative, positive, samples, unknown, Result};
 use crate::constraint::{Anchor, ConstraintRow, Joint, JointKind};
 use crate::error::SceneError;
 use crate::motion::{Motion, Table, Trapezoidal};
@@ -159,6 +159,28 @@ fn prismatic(
         slider,
         axis: axis / length,
     })
+}
+
+/// The joint called `name` (at `path`) with its own coordinate as a row, for a spring or a
+/// motor (`what`) to act on.
+pub(super) fn coordinate(
+    path: &str,
+    joints: &[Joint],
+    name: &str,
+    what: &str,
+) -> Result<(usize, ConstraintRow)> {
+    let j = joints
+        .iter()
+        .position(|j| j.name == name)
+        .ok_or_else(|| unknown(path, "joint", name))?;
+    let row = joints[j].coordinate(j).ok_or_else(|| {
+        let kind = joints[j].kind.name();
+        SceneError::new(
+            path,
+            format!("'{name}' is a {kind}: it holds every coordinate, nothing for {what}"),
+        )
+    })?;
+    Ok((j, row))
 }
 
 /// The drive at `path`: a [`motion`] law at rest at `t = 0`.

@@ -1,11 +1,11 @@
 //! Motors on joints' coordinates ([`crate::motor`]): a torque, constant or from a table,
 //! or a PD servo (its spring-damper among the springs).
 
-use super::joint::motion;
+use super::joint::{coordinate, motion};
 use super::load::time;
 use super::spec::MotorSpec;
-use super::validate::{finite, non_negative, unknown, Result};
-use crate::constraint::Joint;
+use super::validate::{finite, non_negative, Result};
+use crate::constraint::{ConstraintRow, Joint, JointKind};
 use crate::error::SceneError;
 use crate::motor::{Motor, MotorLaw};
 use crate::spring::{Measure, Spring};
@@ -34,22 +34,9 @@ fn motor(
     joints: &[Joint],
     n_dofs: usize,
 ) -> Result<(Motor, Option<Spring>)> {
-    let j = joints
-        .iter()
-        .position(|j| j.name == m.joint)
-        .ok_or_else(|| unknown(format!("{path}.joint"), "joint", &m.joint))?;
-    let joint = &joints[j];
     let at = format!("{path}.joint");
-    let row = joint.coordinate(j).ok_or_else(|| {
-        let kind = joint.kind.name();
-        SceneError::new(
-            &at,
-            format!(
-                "'{}' is a {kind}: it holds every coordinate, nothing for a motor to turn",
-                m.joint
-            ),
-        )
-    })?;
+    let (j, row) = coordinate(&at, joints, &m.joint, "a motor to turn")?;
+    let joint = &joints[j];
     if joint.drive.is_some() {
         let msg = format!(
             "'{}' is driven: its drive prescribes the motion a motor would make",
@@ -58,48 +45,14 @@ fn motor(
         return Err(SceneError::new(at, msg));
     }
     if !row.is_linear() {
-        let msg = format!("'{}' slides on a carried axis: a motor acts on pins, hinges and sliders on a ground axis", m.joint);
+        let msg = format!(
+            "'{}' slides on a carried axis: a motor acts on pins, hinges and sliders on a ground axis",
+            m.joint
+        );
         return Err(SceneError::new(at, msg));
     }
-    let (direction, law, spring) = {
-        let (_, direction) = row.evaluate(&vec![0.0; n_dofs]);
-        match (m.torque, &m.servo) {
-            (Some(torque), None) => {
-                let law = MotorLaw::Torque {
-                    value: finite(&format!("{path}.torque"), torque)?,
-                    time: time(path, m.table.as_ref())?,
-                };
-                (direction, law, None)
-            }
-            (None, Some(servo)) if m.table.is_none() => {
-                let kp = non_negative(&format!("{path}.servo.kp"), servo.kp)?;
-                let kd = non_negative(&format!("{path}.servo.kd"), servo.kd)?;
-                if kp == 0.0 && kd == 0.0 {
-                    return Err(SceneError::new(
-                        format!("{path}.servo"),
-                        "has neither gain `kp` nor `kd`",
-                    ));
-                }
-                let law = MotorLaw::Servo {
-                    kp,
-                    kd,
-                    motion: motion(&format!("{path}.servo.motion"), &servo.motion)?,
-                };
-                let spring = Spring {
-                    name: format!("servo of motor '{}'", m.name),
-                    measure: Measure::Coordinate(row),
-                    stiffness: kp,
-                    damping: kd,
-                    rest: 0.0,
-                };
-                (direction, law, Some(spring))
-            }
-            _ => {
-                let msg = "a motor takes a `torque` (with a `table` if it varies) or a `servo`";
-                return Err(SceneError::new(path, msg));
-            }
-        }
-    };
+    let (_, direction) = row.evaluate(&vec![0.0; n_dofs]);
+    let (law, spring) = law(path, m, joint, row)?;
     let motor = Motor {
         name: m.name.clone(),
         dofs: row.dofs(),
@@ -107,4 +60,52 @@ fn motor(
         law,
     };
     Ok((motor, spring))
+}
+
+/// The law of motor `m` at `path` on `joint`'s coordinate `row`, and a servo's
+/// spring-damper.
+fn law(
+    path: &str,
+    m: &MotorSpec,
+    joint: &Joint,
+    row: ConstraintRow,
+) -> Result<(MotorLaw, Option<Spring>)> {
+    match (m.torque, &m.servo) {
+        (Some(torque), None) => {
+            let law = MotorLaw::Torque {
+                value: finite(&format!("{path}.torque"), torque)?,
+                time: time(path, m.table.as_ref())?,
+            };
+            Ok((law, None))
+        }
+        (None, Some(servo)) if m.table.is_none() => {
+            let kp = non_negative(&format!("{path}.servo.kp"), servo.kp)?;
+            let kd = non_negative(&format!("{path}.servo.kd"), servo.kd)?;
+            if kp == 0.0 && kd == 0.0 {
+                let msg = "has neither gain `kp` nor `kd`";
+                return Err(SceneError::new(format!("{path}.servo"), msg));
+            }
+            if matches!(joint.kind, JointKind::Prismatic { .. }) && servo.motion.in_degrees() {
+                let msg = "a slider's servo follows a travel in m: its law takes no `_deg` keys";
+                return Err(SceneError::new(format!("{path}.servo.motion"), msg));
+            }
+            let law = MotorLaw::Servo {
+                kp,
+                kd,
+                motion: motion(&format!("{path}.servo.motion"), &servo.motion)?,
+            };
+            let spring = Spring {
+                name: format!("servo of motor '{}'", m.name),
+                measure: Measure::Coordinate(row),
+                stiffness: kp,
+                damping: kd,
+                rest: 0.0,
+            };
+            Ok((law, Some(spring)))
+        }
+        _ => {
+            let msg = "a motor takes a `torque` (with a `table` if it varies) or a `servo`";
+            Err(SceneError::new(path, msg))
+        }
+    }
 }

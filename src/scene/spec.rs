@@ -21,6 +21,10 @@ pub struct SceneSpec {
     /// `"dynamic"` (default) or `"static"`.
     #[serde(default)]
     pub analysis: AnalysisSpec,
+    /// How a dynamic run starts: `"rest"` (default: undeformed) or `"equilibrium"` (the
+    /// static equilibrium under gravity and the loads at `t = 0`, the drives held).
+    #[serde(default)]
+    pub initial: InitialSpec,
     /// Gravity acceleration `[g_x, g_y]` (m/s²); none by default.
     #[serde(default)]
     pub gravity: Option<[f64; 2]>,
@@ -64,6 +68,17 @@ pub struct SceneSpec {
     /// `load_steps`); a run may override each.
     #[serde(default)]
     pub simulation: RunOptions,
+}
+
+/// How a dynamic run starts.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialSpec {
+    /// Undeformed and at rest.
+    #[default]
+    Rest,
+    /// At rest in the static equilibrium of `t = 0`.
+    Equilibrium,
 }
 
 /// Kind of analysis.

@@ -1,8 +1,9 @@
 //! Springs and dampers between two points, or on a joint's coordinate ([`crate::spring`]).
 
+use super::joint::coordinate;
 use super::mesh::Mesh;
 use super::spec::SpringSpec;
-use super::validate::{finite, non_negative, unknown, Result};
+use super::validate::{finite, non_negative, Result};
 use crate::constraint::Joint;
 use crate::error::SceneError;
 use crate::spring::{Measure, Spring};
@@ -67,16 +68,8 @@ fn spring(path: &str, s: &SpringSpec, mesh: &Mesh, joints: &[Joint], size: f64) 
                     "a spring on a joint takes a `rest` value, not `length`",
                 ));
             }
-            let j = joints
-                .iter()
-                .position(|j| &j.name == name)
-                .ok_or_else(|| unknown(format!("{path}.joint"), "joint", name))?;
-            let row = joints[j].coordinate(j).ok_or_else(|| {
-                SceneError::new(
-                    format!("{path}.joint"),
-                    format!("'{name}' is a {}: it holds every coordinate, nothing for a spring to resist", joints[j].kind.name()),
-                )
-            })?;
+            let (_, row) =
+                coordinate(&format!("{path}.joint"), joints, name, "a spring to resist")?;
             let rest = finite(&format!("{path}.rest"), s.rest.unwrap_or(0.0))?;
             (Measure::Coordinate(row), rest)
         }

@@ -190,8 +190,8 @@ pub(crate) fn run(
         let (q, _, lam) = store.get(&mut it, grid, n, false)?;
         sweep.add_local(&it, &objectives, n, Sample { q, lam });
     }
-    let (q0, acc0, _) = store.get(&mut it, grid, 0, false)?;
-    sweep.initial(&mut it, q0, acc0)?;
+    let (q0, acc0, lam0) = store.get(&mut it, grid, 0, false)?;
+    sweep.initial(&mut it, (q0, acc0, lam0))?;
     objectives.finish(&mut values, &mut sweep.xb);
     Ok(Sensitivities {
         values,
@@ -389,8 +389,13 @@ impl<'a> Sweep<'a> {
     }
 
     /// `t = 0`: `q̈'₀` from `[M, Φ_qᵀ; Φ_q, 0]`, `a'₀ = q̈'₀`, so the initial-acceleration
-    /// system takes `Ā₀ + ā₀`.
-    fn initial(&mut self, it: &mut Integrator, q0: &[f64], acc0: &[f64]) -> Result<(), SolveError> {
+    /// system takes `Ā₀ + ā₀`; from the static equilibrium, `q̄₀` then reaches `x` through
+    /// it ([`super::start`]).
+    fn initial(
+        &mut self,
+        it: &mut Integrator,
+        (q0, acc0, lam0): (&[f64], &[f64], &[f64]),
+    ) -> Result<(), SolveError> {
         let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
         for k in 0..self.n_r {
             let out = &mut self.rhs[k * n..(k + 1) * n];
@@ -415,6 +420,11 @@ impl<'a> Sweep<'a> {
                 &self.rhs[k * n..k * n + n_q],
                 &mut self.xb[k * n_x..(k + 1) * n_x],
             );
+        }
+        if let Some(eq) = it.equilibrium.clone() {
+            let start = (q0, acc0, lam0);
+            let (pseudo, rhs, qb, xb) = (&self.pseudo, &mut self.rhs, &mut self.qb, &mut self.xb);
+            super::start::adjoint(it, &eq, start, pseudo, rhs, qb, xb)?;
         }
         Ok(())
     }

@@ -133,19 +133,30 @@ impl<'a> Sweep<'a> {
         }
     }
 
-    /// `t = 0`: `[M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0]`, `a'₀ = q̈'₀`.
+    /// `t = 0`: `[M, Φ_qᵀ; Φ_q, 0] [q̈'₀; λ'₀] = [−∂r/∂x; 0]`, `a'₀ = q̈'₀`; from the
+    /// static equilibrium, `q'₀` first and its terms in that system ([`super::start`]).
     fn initial(&mut self, it: &mut Integrator, s: &State) -> Result<(), SolveError> {
         let (n, n_q, n_x, width) = (self.n, self.n_q, self.n_x, self.width);
+        let equilibrium = it.equilibrium.clone();
+        if let Some(eq) = &equilibrium {
+            self.dq = super::start::direct(it, eq, &self.pseudo)?;
+        }
         it.newton.factorize(&s.q, None, 1.0, 0.0, 0.0)?;
-        let newton = &it.newton;
+        self.rhs.fill(0.0);
         self.pseudo.subtract_columns(
-            newton.assembler(),
+            it.newton.assembler(),
             &s.q,
             Some(&s.qddot),
             &mut self.rhs,
             n,
             0..n_x,
         );
+        if equilibrium.is_some() {
+            let scale = it.newton.multiplier_scale();
+            super::start::add_initial_terms(it, s, &self.dq, scale, &mut self.rhs);
+            it.newton.augment(&mut self.rhs);
+        }
+        let newton = &it.newton;
         self.rhs
             .par_chunks_mut(n * width)
             .zip(self.scratch.par_iter_mut())

@@ -17,6 +17,7 @@
 
 pub mod adjoint;
 pub mod direct;
+mod start;
 pub mod statics;
 
 use crate::assembly::Assembler;

@@ -268,6 +268,9 @@ def test_mechanisms_of_bodies_alone_export_and_refuse_modes(tmp_path):
     ({"joint": "pin", "servo": {"kp": -1.0, "motion": trapezoidal(0, 1, acceleration=1, speed=1)}},
      "motors[0] (m).servo.kp: must be non-negative"),
     ({"joint": "pin", "torque": float("inf")}, "motors[0] (m).torque: must be finite"),
+    ({"joint": "slide", "servo": {"kp": 1.0, "motion": {"kind": "trapezoidal", "start": 0, "end_deg": 10,
+                                                        "acceleration": 1, "speed": 1}}},
+     "motors[0] (m).servo.motion: a slider's servo follows a travel in m"),
 ])
 def test_bad_motors_raise_scene_error_naming_the_entry(motor, message):
     spec = body_scene(rigid_bodies=[BODY, {**BODY, "name": "c", "position": [1.5, 0.0], "points": {}},
@@ -276,6 +279,8 @@ def test_bad_motors_raise_scene_error_naming_the_entry(motor, message):
                               {"kind": "weld", "name": "w", "nodes": ["b.p", "c"]},
                               {"kind": "pin", "name": "driven", "node": "d",
                                "drive": trapezoidal(0, 1, acceleration=1, speed=1)}])
+    spec["rigid_bodies"].append({**BODY, "name": "e", "position": [9.0, 0.0], "points": {}})
+    spec["joints"].append({"kind": "prismatic", "name": "slide", "node": "e", "axis": [1.0, 0.0]})
     spec["motors"] = [{"name": "m", **motor}]
     with pytest.raises(SceneError) as err:
         flextop.Simulation(spec)
@@ -516,3 +521,107 @@ def test_a_pd_servo_follows_its_differential_equation():
         errors.append(np.abs(angle - exact).max())
     assert errors[0] / errors[1] > 3.5
     assert errors[1] < 1e-7
+
+
+def test_a_structure_started_from_equilibrium_stays_still():
+    """The arm under gravity with its drives held (their laws start after the run): from
+    `initial = "equilibrium"` it stays at the static deflection to 1e-9 of it, and that is
+    the static scene's equilibrium; from rest it swings by about twice as much."""
+    spec = scenes.robot_arm(t_end=0.5).to_dict()
+    spec["gravity"] = [0.0, -9.81]
+    for joint in spec["joints"]:
+        joint["drive"]["t_start"] = 5.0
+    moved = {}
+    for initial in ("rest", "equilibrium"):
+        res = flextop.Simulation({**spec, "initial": initial}).run(0.5)
+        moved[initial] = np.abs(res.q - res.q[0]).max()
+    static = flextop.Simulation({**spec, "analysis": "static"}).equilibrium(0.5)
+    deflection = np.abs(static.q).max()
+    np.testing.assert_allclose(res.q[0], static.q, rtol=0, atol=1e-12 * deflection)
+    assert moved["equilibrium"] < 1e-9 * deflection
+    assert moved["rest"] > deflection
+
+
+@pytest.mark.parametrize("case", ["slider_crank", "robot_arm"])
+def test_gradients_from_an_equilibrium_start_are_exact(case):
+    """q₀(x) is the static equilibrium: its sensitivity starts the direct method and the
+    adjoint carries q̄₀ back through it; both agree to round-off and with fourth-order
+    differences (the slider-crank's hinge on the crank's arm brings the joints' curvature
+    into the initial accelerations)."""
+    if case == "slider_crank":
+        spec, x = scenes.slider_crank(t_end=0.03, h=5e-4).to_dict(), np.array([0.9, 0.5, 0.7, 0.4])
+        picked = range(4)
+    else:
+        spec = scenes.robot_arm(t_end=0.2).to_dict()
+        x, picked = np.linspace(0.2, 1.0, 148), [0, 33, 100]
+    spec.update(gravity=[0.0, -9.81], initial="equilibrium")
+    sim = flextop.Simulation(spec)
+    responses = ["tip_deflection", "compliance"]
+    direct = sim.run_with_sensitivities(x, responses, method="direct")
+    adjoint = sim.run_with_sensitivities(x, responses, method="adjoint")
+    for k in range(2):
+        g = direct.gradients[k]
+        np.testing.assert_allclose(adjoint.gradients[k], g, rtol=1e-9, atol=1e-9 * np.abs(g).max())
+    value = lambda y: sim.run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
+    step = 1e-4
+    for i in picked:
+        e = np.eye(len(x))[i] * step
+        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        for k in range(2):
+            g = direct.gradients[k]
+            assert g[i] == pytest.approx(fd[k], rel=1e-6, abs=1e-6 * np.abs(g).max())
+
+
+def test_a_spring_that_collapses_stops_the_run_by_name():
+    """A slider driven onto the wall point its spring hangs from: at zero length the
+    spring's force has no direction, and the run stops naming the spring and the time."""
+    scene = Scene("collapse")
+    scene.rigid_body("wall", mass=1.0, inertia=0.1, position=(0.0, 0.0))
+    scene.clamp("wall", "wall")
+    scene.rigid_body("mass", mass=1.0, position=(0.1, 0.0))
+    scene.prismatic("slide", "mass", axis=(1.0, 0.0), drive=trapezoidal(0.0, -0.2, acceleration=10.0, speed=1.0))
+    scene.spring("tether", "wall", "mass", k=100.0)
+    scene.simulation(t_end=0.5, h=1e-3)
+    with pytest.raises(flextop.errors.SimulationError, match=r"at t = 0\.1[0-9]* s spring 'tether' has collapsed"):
+        flextop.Simulation(scene).run()
+
+
+def test_a_slider_at_a_body_point_takes_a_motor_and_a_damper():
+    """On a ground axis the slider's rotation is held, so its point travels as its centre:
+    a force and a damper act on it linearly, and a constant force F against damping c
+    reaches the speed F/c."""
+    scene = Scene("cart")
+    scene.rigid_body("cart", mass=2.0, inertia=0.1, position=(0.0, 0.0), points={"hitch": (0.3, 0.1)})
+    scene.prismatic("rail", "cart.hitch", axis=(1.0, 0.0))
+    scene.joint_spring("drag", "rail", c=20.0)
+    scene.motor("push", "rail", torque=10.0)
+    scene.simulation(t_end=2.0, h=1e-3)
+    sim = flextop.Simulation(scene)
+    res = sim.run()
+    speed = res.qdot[-1, 3 * sim.node("cart")]
+    assert speed == pytest.approx(10.0 / 20.0 * (1 - math.exp(-20.0 / 2.0 * 2.0)), rel=1e-5)
+
+
+def test_a_static_servo_holds_its_reference_without_its_rate():
+    """In a static scene a servo acts as a spring to its reference: its derivative gain,
+    which would balance only a velocity, does not shift the equilibrium."""
+    def rotation(kd: float) -> float:
+        scene = Scene("servo", analysis="static")
+        scene.section("steel", E=200e9, nu=0.3, rho=7800.0, diameter=0.01)
+        scene.node("o", 0.0, 0.0)
+        scene.node("tip", 0.5, 0.0)
+        scene.beam("o", "tip", section="steel", fixed=True)
+        scene.rigid_body("hub", mass=1.0, inertia=0.01, position=(0.0, 0.0))
+        scene.clamp("base", "hub")
+        scene.hinge("h", "hub", "o")
+        scene.servo("servo", "h", kp=100.0, kd=kd, motion=trapezoidal(0.0, 0.3, acceleration=1.0, speed=1.0))
+        scene.load("tip", force=(0.0, -5.0))
+        scene.simulation(t_end=0.5)
+        sim = flextop.Simulation(scene)
+        return float(sim.equilibrium().q[3 * sim.node("o") + 2])
+
+    assert rotation(5.0) == pytest.approx(rotation(0.0), rel=1e-12)
+    # The law's angle at t = 0.5 s (still accelerating) less the load's moment over kp, the
+    # moment's arm shortened by the turn (and the beam's small bending).
+    reference = 0.5 * 1.0 * 0.5**2
+    assert rotation(0.0) == pytest.approx(reference - 5.0 * 0.5 * math.cos(0.1) / 100.0, rel=2e-4)

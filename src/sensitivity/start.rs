@@ -1,0 +1,137 @@
+//! The start of a run from the static equilibrium ([`crate::model::Initial::Equilibrium`]):
+//! `q₀(x)` solves `r_s(q₀, λ_s, x) = f_int − f_ext − M ĝ + Φ_qᵀλ_s = 0`, so the gradients
+//! start from `q₀' = −K_s⁻¹ ∂r_s/∂x` (the static sensitivity, `K_s` the equilibrium's
+//! augmented tangent), and the initial-acceleration system
+//! `[M, Φ_qᵀ; Φ_q, 0] [q̈₀; λ₀] = [f_ext + M ĝ − f_int(q₀); g̈(0)]` changes with `q₀`:
+//!
+//! ```text
+//! M q̈₀' + Φ_qᵀλ₀' = −∂r₀/∂x − (K_t + Σ λ₀ₖ Hₖ) q₀'        Φ_q q̈₀' = −(Hₖ q̈₀)ᵀ q₀'
+//! ```
+//!
+//! (`Hₖ` the rows' Hessians). The adjoint transposes both: the adjoint of `q₀` collects the
+//! initial system's share, then one static solve carries it to `x`.
+
+use super::PseudoLoads;
+use crate::error::SolveError;
+use crate::integrator::{Integrator, State};
+use crate::statics::StaticSolution;
+
+/// Direct: the columns `q₀'` (`n_q × n_x`, column-major) of the static sensitivity.
+///
+/// # Errors
+/// [`SolveError::Singular`] for a singular equilibrium tangent.
+pub(super) fn direct(
+    it: &mut Integrator,
+    eq: &StaticSolution,
+    pseudo: &PseudoLoads,
+) -> Result<Vec<f64>, SolveError> {
+    let asm = it.assembler();
+    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let n = n_q + asm.model.n_constraints();
+    it.newton
+        .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
+    let mut rhs = vec![0.0; n * n_x];
+    pseudo.subtract_columns(it.assembler(), &eq.q, None, &mut rhs, n, 0..n_x);
+    it.newton
+        .solve_block(&mut rhs, n_x, &mut it.newton.scratch(n_x.max(1)))?;
+    Ok(rhs
+        .chunks(n)
+        .flat_map(|column| column[..n_q].iter().copied())
+        .collect())
+}
+
+/// Direct: adds the initial system's terms in `q₀'` (columns `dq`) to its right-hand sides
+/// `rhs` (leading dimension `n`, constraint rows scaled by `scale` as the solve wants).
+pub(super) fn add_initial_terms(
+    it: &Integrator,
+    s: &State,
+    dq: &[f64],
+    scale: f64,
+    rhs: &mut [f64],
+) {
+    let asm = it.assembler();
+    let n_q = asm.model.n_dofs();
+    let n = n_q + asm.model.n_constraints();
+    let tangent = asm.tangent(&s.q, &s.lam);
+    let curvature = asm.constraint_curvature(&s.q, &s.qddot);
+    let mut product = vec![0.0; n_q];
+    for (column, dq) in rhs.chunks_mut(n).zip(dq.chunks(n_q)) {
+        product.fill(0.0);
+        asm.add_tangent_times(&tangent, dq, &mut product);
+        column[..n_q]
+            .iter_mut()
+            .zip(&product)
+            .for_each(|(r, p)| *r -= p);
+        for ((row, h), r) in asm
+            .model
+            .rows
+            .iter()
+            .zip(&curvature)
+            .zip(&mut column[n_q..])
+        {
+            let change: f64 = row
+                .dofs()
+                .iter()
+                .zip(h)
+                .filter_map(|(d, hi)| d.map(|d| hi * dq[d]))
+                .sum();
+            *r -= scale * change;
+        }
+    }
+}
+
+/// Adjoint: with `solution` the transposed initial solve's (augmented) solutions, one
+/// column per response, adds to the adjoints `qbar` of `q₀` the initial system's share,
+/// `−(K_t + Σλ₀H) ν − Σₖ s νₖ Hₖ q̈₀`, then carries them to `x`: `K_s ψ = q̄₀`,
+/// `x̄ −= ψᵀ ∂r_s/∂x`.
+///
+/// # Errors
+/// [`SolveError::Singular`] for a singular equilibrium tangent.
+pub(super) fn adjoint(
+    it: &mut Integrator,
+    eq: &StaticSolution,
+    s0: (&[f64], &[f64], &[f64]),
+    pseudo: &PseudoLoads,
+    solution: &mut [f64],
+    qbar: &mut [f64],
+    xbar: &mut [f64],
+) -> Result<(), SolveError> {
+    let (q0, acc0, lam0) = s0;
+    let scale = it.newton.multiplier_scale();
+    it.newton.unaugment(solution);
+    let asm = it.assembler();
+    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let n = n_q + asm.model.n_constraints();
+    let n_r = qbar.len() / n_q.max(1);
+    let tangent = asm.tangent(q0, lam0);
+    let curvature = asm.constraint_curvature(q0, acc0);
+    let mut rhs = vec![0.0; n * n_r];
+    for ((column, nu), qbar) in rhs
+        .chunks_mut(n)
+        .zip(solution.chunks(n))
+        .zip(qbar.chunks(n_q))
+    {
+        column[..n_q].copy_from_slice(qbar);
+        let mut product = vec![0.0; n_q];
+        asm.add_tangent_times(&tangent, &nu[..n_q], &mut product);
+        column[..n_q]
+            .iter_mut()
+            .zip(&product)
+            .for_each(|(c, p)| *c -= p);
+        for ((row, h), mu) in asm.model.rows.iter().zip(&curvature).zip(&nu[n_q..]) {
+            for (d, hi) in row.dofs().iter().zip(h) {
+                if let Some(d) = d {
+                    column[*d] -= scale * mu * hi;
+                }
+            }
+        }
+    }
+    it.newton
+        .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
+    it.newton
+        .solve_block(&mut rhs, n_r, &mut it.newton.scratch(n_r))?;
+    for (psi, xbar) in rhs.chunks(n).zip(xbar.chunks_mut(n_x.max(1))) {
+        pseudo.subtract_transposed(it.assembler(), &eq.q, None, &psi[..n_q], xbar);
+    }
+    Ok(())
+}
