@@ -222,9 +222,7 @@ impl Joint {
             driven: false,
         }
     }
-}
 
-impl Joint {
     /// Nodes the joint acts on.
     pub fn nodes(&self) -> Vec<usize> {
         match self.kind {
@@ -290,18 +288,18 @@ fn separation(
 
 /// `(sin φ, cos φ − 1)`, the latter without cancellation at small angles: the rotation
 /// `R(φ) − I` a displacement formulation needs.
-fn turn(phi: f64) -> (f64, f64) {
+pub(crate) fn turn(phi: f64) -> (f64, f64) {
     let (s, c) = phi.sin_cos();
     (s, if c > 0.0 { -s * s / (1.0 + c) } else { c - 1.0 })
 }
 
 /// `(R(φ) − I) v` for `(s, c1) = turn(φ)`.
-fn turned_minus(v: Vector2<f64>, (s, c1): (f64, f64)) -> Vector2<f64> {
+pub(crate) fn turned_minus(v: Vector2<f64>, (s, c1): (f64, f64)) -> Vector2<f64> {
     Vector2::new(c1 * v.x - s * v.y, s * v.x + c1 * v.y)
 }
 
 /// `J v`, the quarter turn.
-fn perp(v: Vector2<f64>) -> Vector2<f64> {
+pub(crate) fn perp(v: Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-v.y, v.x)
 }
 

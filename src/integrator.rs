@@ -138,9 +138,10 @@ impl<'m> Integrator<'m> {
         self.newton.assembler()
     }
 
-    /// State at `t = 0`: at rest, undeformed or in the static equilibrium of `t = 0` with
-    /// the drives held (the model's [`Initial`]), with consistent accelerations and
-    /// multipliers from `[M, Φ_qᵀ; Φ_q, 0] [q̈₀; λ₀] = [M ĝ + f_ext(0) − f_int(q₀); g̈(0)]`.
+    /// State at `t = 0`: undeformed or in the static equilibrium of `t = 0` with the drives
+    /// held (the model's [`Initial`]), at rest or in the rigid motion of the scene's initial
+    /// rates, with consistent accelerations and multipliers
+    /// ([`Newton::initial_accelerations`]).
     ///
     /// # Errors
     /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold;
@@ -156,11 +157,17 @@ impl<'m> Integrator<'m> {
             .equilibrium
             .as_ref()
             .map_or_else(|| vec![0.0; n_q], |e| e.q.clone());
-        let (qddot, lam) = self.newton.initial_accelerations(&q)?;
+        let model = self.newton.assembler().model;
+        let qdot = if model.initial_velocity.is_empty() {
+            vec![0.0; n_q]
+        } else {
+            model.initial_velocity.clone()
+        };
+        let (qddot, lam) = self.newton.initial_accelerations(&q, &qdot)?;
         Ok(State {
             t: 0.0,
             q,
-            qdot: vec![0.0; n_q],
+            qdot,
             a: qddot.clone(),
             qddot,
             lam,

@@ -137,6 +137,9 @@ pub struct Model {
     pub analysis: Analysis,
     /// How a dynamic run starts.
     pub initial: Initial,
+    /// Velocities `q̇₀` at `t = 0`: a rigid motion consistent with the joints (empty: at
+    /// rest).
+    pub initial_velocity: Vec<f64>,
     /// Nodes.
     pub nodes: Vec<Node>,
     /// Beam elements.

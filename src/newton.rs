@@ -456,31 +456,47 @@ impl<'m> Newton<'m> {
             .map_err(self.singular())
     }
 
-    /// Consistent accelerations and multipliers at `(q, t = 0)`, from
-    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q); g̈(0)]`.
+    /// Consistent accelerations and multipliers at `(q, q̇, t = 0)`, from
+    /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q) − C q̇; g̈(0) − (Hₖ q̇)ᵀ q̇]` (the
+    /// last the rows' curvature along the motion, zero at rest).
     ///
     /// # Errors
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
-    pub fn initial_accelerations(&mut self, q: &[f64]) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
+    pub fn initial_accelerations(
+        &mut self,
+        q: &[f64],
+        qdot: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>), SolveError> {
         let (n_q, n_c) = (q.len(), self.phi.len());
-        // At rest, q̈ = 0 and λ = 0, the DOF rows of −E r are M ĝ + f_ext − f_int(q);
+        // At q̈ = 0, λ = 0 the DOF rows of −E r are M ĝ + f_ext − f_int(q) − C q̇;
         // Φ(q, 0) = 0 adds nothing to them.
-        let rest = vec![0.0; n_q];
         let start = Point {
             t: 0.0,
             load: 1.0,
             mass_coefficient: 1.0,
             gamma_prime: 0.0,
         };
-        self.assemble(q, Some((&rest, &rest)), &vec![0.0; n_c], &start, false);
+        self.assemble(
+            q,
+            Some((qdot, &vec![0.0; n_q])),
+            &vec![0.0; n_c],
+            &start,
+            false,
+        );
         self.factorize(q, None, 1.0, 0.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
+        let curvature = self.asm.constraint_curvature(q, qdot);
         let scale = self.scale;
-        self.rhs[n_q..]
-            .iter_mut()
-            .zip(&g)
-            .for_each(|(r, gk)| *r = scale * gk);
+        for (k, (r, gk)) in self.rhs[n_q..].iter_mut().zip(&g).enumerate() {
+            let along: f64 = self.asm.model.rows[k]
+                .dofs()
+                .iter()
+                .zip(curvature[k])
+                .filter_map(|(d, h)| d.map(|d| h * qdot[d]))
+                .sum();
+            *r = scale * (gk - along);
+        }
         self.asm.augment_rhs(&self.jacobian, &mut self.rhs);
         self.ldlt
             .solve_in_place(&mut self.rhs)

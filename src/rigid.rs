@@ -20,6 +20,7 @@
 
 use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
+use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
 use crate::model::{Analysis, Model};
 use crate::spring::Spring;
@@ -319,6 +320,56 @@ pub fn rigid_positions(model: &Model, times: &[f64]) -> Result<Vec<f64>, SolveEr
         .rigid_motion(model, times)?
         .iter()
         .flat_map(|rho| (0..model.nodes.len()).flat_map(|k| clusters.position(model, rho, k)))
+        .collect())
+}
+
+/// The velocities `q̇₀` of the rigid motion in which every joint holds (its rows' rates
+/// zero: drives start at rest) and each of `rates` has its coordinate move at its rate:
+/// `[Φ_ρ; C_ρ] ρ̇ = [0; ċ]` on the cluster coordinates, `q̇₀ = q_ρ ρ̇`.
+///
+/// # Errors
+/// A [`SceneError`] at `initial_rates` when the rates leave a rigid-body mode undetermined,
+/// or ask for a motion the joints forbid.
+pub(crate) fn initial_velocity(
+    model: &Model,
+    rates: &[(ConstraintRow, f64)],
+) -> Result<Vec<f64>, SceneError> {
+    let clusters = Clusters::of(model);
+    let rho = DVector::zeros(3 * clusters.len());
+    let (_, jac) = clusters.constraints(model, &rho, 0.0);
+    let n = jac.nrows();
+    let reference = vec![0.0; model.n_dofs()];
+    let mut system = DMatrix::zeros(n + rates.len(), 3 * clusters.len());
+    system.rows_mut(0, n).copy_from(&jac);
+    let mut rhs = DVector::zeros(n + rates.len());
+    for (i, (row, rate)) in rates.iter().enumerate() {
+        for (dof, coeff) in row.dofs().iter().zip(row.evaluate(&reference).1) {
+            let Some(dof) = *dof else { continue };
+            for (j, g) in clusters.dof_map(model, &rho, dof).1 {
+                system[(n + i, j)] += coeff * g;
+            }
+        }
+        rhs[n + i] = *rate;
+    }
+    let free = 3 * clusters.len() - rank(&system);
+    if free > 0 {
+        let msg = format!("the rates leave {free} rigid-body mode(s) of the mechanism undetermined: give the rates of more joints");
+        return Err(SceneError::new("initial_rates", msg));
+    }
+    let svd = system.clone().svd(true, true);
+    let rho_dot = svd
+        .solve(&rhs, 1e-12)
+        .map_err(|e| SceneError::new("initial_rates", e.to_string()))?;
+    let mismatch = (&system * &rho_dot - &rhs).amax();
+    if mismatch > 1e-9 * rhs.amax().max(f64::MIN_POSITIVE) {
+        let msg = "these rates ask for a motion the joints forbid (more rates than the mechanism has free modes, in contradiction)";
+        return Err(SceneError::new("initial_rates", msg));
+    }
+    Ok((0..model.n_dofs())
+        .map(|dof| {
+            let (_, grad) = clusters.dof_map(model, &rho, dof);
+            grad.iter().map(|&(j, g)| g * rho_dot[j]).sum()
+        })
         .collect())
 }
 

@@ -15,7 +15,7 @@
 
 use nalgebra::Vector2;
 
-use crate::constraint::{dof, Anchor, ConstraintRow};
+use crate::constraint::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
 
 /// What a spring measures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -114,11 +114,6 @@ impl Spring {
     }
 }
 
-/// `J v`, the quarter turn.
-fn perp(v: Vector2<f64>) -> Vector2<f64> {
-    Vector2::new(-v.y, v.x)
-}
-
 /// The distance `ℓ = |d|` between anchors `at` whose separation at the reference is
 /// `reference`, `d = reference + Δr_b − Δr_a`, with `∂ℓ/∂q = uᵀ d_q` and
 /// `∂²ℓ/∂q² = (d_qᵀ d_q − ℓ_q ℓ_qᵀ)/ℓ + uᵀ d_qq` (`u = d/ℓ`).
@@ -130,12 +125,12 @@ fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
         )
     };
     let [(ua, pa), (ub, pb)] = at.map(coordinates);
-    let turned = |arm: Vector2<f64>, phi: f64| {
-        let (s, c) = phi.sin_cos();
-        Vector2::new(c * arm.x - s * arm.y, s * arm.x + c * arm.y)
-    };
-    let (ra, rb) = (turned(at[0].arm, pa), turned(at[1].arm, pb));
-    let d = reference + (ub + rb - at[1].arm) - (ua + ra - at[0].arm);
+    let (moved_a, moved_b) = (
+        turned_minus(at[0].arm, turn(pa)),
+        turned_minus(at[1].arm, turn(pb)),
+    );
+    let (ra, rb) = (at[0].arm + moved_a, at[1].arm + moved_b);
+    let d = reference + (ub + moved_b) - (ua + moved_a);
     let length = d.norm();
     let u = d / length;
     // Columns of d_q: ∂d/∂u_a = −I, ∂d/∂φ_a = −J R_a p_a, ∂d/∂u_b = I, ∂d/∂φ_b = J R_b p_b.

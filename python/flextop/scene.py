@@ -207,6 +207,11 @@ class Scene:
         self._spec.setdefault("motors", []).append(
             {"name": name, "joint": joint, "servo": {"kp": kp, "kd": kd, "motion": motion}})
 
+    def initial_rate(self, joint: str, rate: float) -> None:
+        """Starts the undriven ``joint``'s coordinate moving at ``rate`` (rad/s; m/s on a
+        slider): the mechanism starts in the rigid motion its initial rates determine."""
+        self._spec.setdefault("initial_rates", {})[joint] = rate
+
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})
 

@@ -15,7 +15,7 @@ use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::Result;
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
 use crate::model::{Analysis, Design, Initial, Model};
-use crate::rigid::check_mechanism;
+use crate::rigid::{check_mechanism, initial_velocity};
 
 /// Builds and validates the model of `spec`.
 ///
@@ -41,7 +41,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let (interpolation, x_min) = design::law(&spec.design)?;
     let mass = design::mass_law(&spec.design, spec.analysis)?;
     let tip = spec.tip.as_ref().map(|t| mesh.node("tip", t)).transpose()?;
-    let model = Model {
+    let mut model = Model {
         name: spec.name.clone(),
         analysis: match spec.analysis {
             AnalysisSpec::Dynamic => Analysis::Dynamic,
@@ -51,6 +51,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
             InitialSpec::Rest => Initial::Rest,
             InitialSpec::Equilibrium => Initial::Equilibrium,
         },
+        initial_velocity: Vec::new(),
         nodes: mesh.nodes,
         elements: mesh.elements,
         bars: mesh.bars,
@@ -73,5 +74,14 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         defaults: simulation::defaults(&spec.simulation)?,
     };
     check_mechanism(&model)?;
+    let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;
+    if !rates.is_empty() {
+        if model.initial == Initial::Equilibrium {
+            let msg =
+                "an equilibrium start is at rest: give initial_rates or initial = \"equilibrium\"";
+            return Err(crate::error::SceneError::new("initial_rates", msg));
+        }
+        model.initial_velocity = initial_velocity(&model, &rates)?;
+    }
     Ok(model)
 }

@@ -183,6 +183,26 @@ pub(super) fn coordinate(
     Ok((j, row))
 }
 
+/// The scene's initial rates: for each named joint, its coordinate's row and rate; the
+/// joint undriven (a drive starts at rest).
+pub(super) fn initial_rates(
+    rates: &std::collections::BTreeMap<String, f64>,
+    joints: &[Joint],
+) -> Result<Vec<(ConstraintRow, f64)>> {
+    rates
+        .iter()
+        .map(|(name, &rate)| {
+            let path = format!("initial_rates.{name}");
+            let (j, row) = coordinate(&path, joints, name, "a rate to set")?;
+            if joints[j].drive.is_some() {
+                let msg = "the joint is driven: its drive starts at rest";
+                return Err(SceneError::new(path, msg));
+            }
+            Ok((row, finite(&path, rate)?))
+        })
+        .collect()
+}
+
 /// The drive at `path`: a [`motion`] law at rest at `t = 0`.
 fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
     let m = motion(path, d)?;

@@ -25,6 +25,10 @@ pub struct SceneSpec {
     /// static equilibrium under gravity and the loads at `t = 0`, the drives held).
     #[serde(default)]
     pub initial: InitialSpec,
+    /// Rates of undriven joints' coordinates at `t = 0` (rad/s, m/s on a slider): the
+    /// mechanism starts in the rigid motion they determine.
+    #[serde(default)]
+    pub initial_rates: BTreeMap<String, f64>,
     /// Gravity acceleration `[g_x, g_y]` (m/s²); none by default.
     #[serde(default)]
     pub gravity: Option<[f64; 2]>,

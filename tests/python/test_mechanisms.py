@@ -625,3 +625,76 @@ def test_a_static_servo_holds_its_reference_without_its_rate():
     # moment's arm shortened by the turn (and the beam's small bending).
     reference = 0.5 * 1.0 * 0.5**2
     assert rotation(0.0) == pytest.approx(reference - 5.0 * 0.5 * math.cos(0.1) / 100.0, rel=2e-4)
+
+
+def test_a_pendulum_launched_from_the_bottom_follows_the_elliptic_solution():
+    """Started at the bottom with the rate √(2g/L) that carries it to 90°: θ(t) =
+    2 asin(k sn(ωt, k)), k = sin 45°, over a period, at second order in the step."""
+    length, g = 1.0, 9.81
+
+    def error(h: float) -> float:
+        scene = scenes.pendulum(angle=0.0, h=h)
+        scene.initial_rate("pivot", math.sqrt(2 * g / length))
+        sim = flextop.Simulation(scene)
+        res = sim.run(t_end=scenes.pendulum_period(length, g, math.pi / 2))
+        bob = sim.node("bob")
+        theta = np.arctan2(res.q[:, 3 * bob], length - res.q[:, 3 * bob + 1])
+        k = math.sin(math.pi / 4)
+        exact = 2 * np.arcsin(k * ellipj(math.sqrt(g / length) * res.time, k * k)[0])
+        assert res.energies["kinetic"][0] == pytest.approx(g * length, rel=1e-12)
+        return float(np.abs(theta - exact).max())
+
+    coarse, fine = error(4e-3), error(2e-3)
+    assert 1.9 < math.log2(coarse / fine) < 2.1
+    assert error(2e-4) < 2e-6
+
+
+def rigid_chain(rates: dict) -> dict:
+    """Two rigid links pinned in a chain (two free modes), with initial ``rates``."""
+    bodies = [{"name": "a", "mass": 1.0, "inertia": 0.1, "position": [0.5, 0.0], "points": {"o": [-0.5, 0.0], "e": [0.5, 0.0]}},
+              {"name": "b", "mass": 1.0, "inertia": 0.1, "position": [1.5, 0.0], "points": {"o": [-0.5, 0.0]}}]
+    joints = [{"kind": "pin", "name": "O", "node": "a.o"}, {"kind": "hinge", "name": "H", "nodes": ["a.e", "b.o"]}]
+    return {"name": "chain", "rigid_bodies": bodies, "joints": joints, "initial_rates": rates}
+
+
+def test_initial_rates_set_a_rigid_motion_consistent_with_the_joints():
+    """Rates on both joints of a chain: the links turn at them, the hinge's points move
+    together (the rows' rates vanish), and the bodies' centres move as rigid links do."""
+    sim = flextop.Simulation(rigid_chain({"O": 2.0, "H": -1.0}))
+    v = sim.run(t_end=0.01, h=1e-3).qdot[0]
+    a, b = 3 * sim.node("a"), 3 * sim.node("b")
+    assert (v[a + 2], v[b + 2]) == pytest.approx((2.0, 1.0), abs=1e-12)
+    np.testing.assert_allclose(v[a:a + 2], [0.0, 1.0], atol=1e-12)  # 2 rad/s at 0.5 m
+    np.testing.assert_allclose(v[b:b + 2], [0.0, 2.0 + 0.5], atol=1e-12)  # the hinge's 2 m/s plus 1 rad/s at 0.5 m
+
+
+@pytest.mark.parametrize("rates, message", [
+    ({"O": 1.0}, "the rates leave 1 rigid-body mode(s) of the mechanism undetermined"),
+    ({"nope": 1.0}, "initial_rates.nope: unknown joint 'nope'"),
+    ({"O": float("nan"), "H": 0.0}, "initial_rates.O: must be finite"),
+])
+def test_bad_initial_rates_are_scene_errors(rates, message):
+    with pytest.raises(SceneError) as err:
+        flextop.Simulation(rigid_chain(rates))
+    assert message in str(err.value)
+
+
+def test_initial_rates_the_joints_forbid_are_refused():
+    """A slider on a ground axis driven by a turning crank through a rod: one free mode,
+    and rates on the crank and on the slider that disagree."""
+    spec = {"name": "crank-slider",
+            "rigid_bodies": [{"name": "crank", "mass": 1.0, "inertia": 0.01, "position": [0.0, 0.05],
+                              "points": {"o": [0.0, -0.05], "p": [0.0, 0.05]}},
+                             {"name": "rod", "mass": 1.0, "inertia": 0.01, "position": [0.15, 0.05],
+                              "points": {"a": [-0.15, 0.05], "b": [0.15, -0.05]}},
+                             {"name": "slider", "mass": 1.0, "position": [0.3, 0.0]}],
+            "joints": [{"kind": "pin", "name": "O", "node": "crank.o"},
+                       {"kind": "hinge", "name": "A", "nodes": ["crank.p", "rod.a"]},
+                       {"kind": "hinge", "name": "B", "nodes": ["rod.b", "slider"]},
+                       {"kind": "prismatic", "name": "S", "node": "slider", "axis": [1.0, 0.0]}],
+            "initial_rates": {"O": 1.0, "S": 5.0}}
+    with pytest.raises(SceneError, match="ask for a motion the joints forbid"):
+        flextop.Simulation(spec)
+    spec["initial_rates"] = {"O": 1.0}
+    v = flextop.Simulation(spec).run(t_end=0.01, h=1e-3).qdot[0]
+    assert v[3 * 2] == pytest.approx(-0.1, rel=1e-9)  # the crank tip's 0.1 m/s, carried to the slider
