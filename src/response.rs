@@ -70,6 +70,13 @@ pub enum Response {
         /// How the torques are condensed.
         aggregation: Aggregation,
     },
+    /// The work a drive does on the structure over the motion, `∫ τ ġ dt` with `τ = −λ` of
+    /// its row and `ġ` its prescribed rate (J): positive where the motor drives, negative
+    /// where it brakes.
+    DriveWork {
+        /// The driven constraint row.
+        row: usize,
+    },
     /// The integral over the motion of a drive's squared torque (or a slider drive's squared
     /// force), `∫ τ² dt` (N² m² s): the copper losses a motor is sized by.
     TorqueSquared {
@@ -85,13 +92,15 @@ pub enum Response {
     },
 }
 
-/// A recorded state as responses read it: coordinates `q` and multipliers `λ`.
+/// A recorded state as responses read it: coordinates `q` and multipliers `λ` at time `t`.
 #[derive(Debug, Clone, Copy)]
 pub struct Sample<'a> {
     /// `qₙ`.
     pub q: &'a [f64],
     /// `λₙ`.
     pub lam: &'a [f64],
+    /// `tₙ` (s): where a drive's prescribed rate is read.
+    pub t: f64,
 }
 
 /// An aggregate response: what it measures, where, and how it condenses.
@@ -335,6 +344,10 @@ impl Response {
                 Self::aggregate(model, measure, members, &options).map_err(err)
             }
             "torque" | "torque_rms" => Self::torque(model, name == "torque_rms", rest).map_err(err),
+            "drive_work" => {
+                let joint = rest.ok_or_else(|| err("name the driven joint: drive_work:JOINT".into()))?;
+                Ok(Self::DriveWork { row: drive_row(model, joint).map_err(err)? })
+            }
             "torque_squared" => {
                 let joint = rest.ok_or_else(|| err("name the driven joint: torque_squared:JOINT".into()))?;
                 Ok(Self::TorqueSquared { row: drive_row(model, joint).map_err(err)? })
@@ -347,7 +360,7 @@ impl Response {
                 })?;
                 Ok(Self::JointPosition { row })
             }
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque, torque_rms, torque_squared or joint_position".into())),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque, torque_rms, torque_squared, drive_work or joint_position".into())),
         }
     }
 
@@ -436,9 +449,12 @@ impl Response {
             (Self::Volume { .. }, _) => Weighting::Explicit,
             (_, Analysis::Static) | (Self::FinalDisplacement { .. }, _) => Weighting::Final,
             (Self::JointPosition { .. }, _) => Weighting::Final,
-            (Self::IntegratedDisplacement { .. } | Self::TorqueSquared { .. }, _) => {
-                Weighting::Integral
-            }
+            (
+                Self::IntegratedDisplacement { .. }
+                | Self::TorqueSquared { .. }
+                | Self::DriveWork { .. },
+                _,
+            ) => Weighting::Integral,
             _ => Weighting::Mean,
         }
     }
@@ -458,6 +474,12 @@ impl Response {
     pub fn depends_on_states(&self) -> bool {
         !matches!(self, Self::Volume { .. })
     }
+}
+
+/// The prescribed rate `ġ(t)` of driven row `row`.
+fn drive_rate(model: &Model, row: usize, t: f64) -> f64 {
+    let r = &model.rows[row];
+    model.joints[r.joint].prescribed(r, t)[1]
 }
 
 /// The index of the joint called `name`.
@@ -550,6 +572,7 @@ impl Response {
             Self::Aggregate(ref a) => a.sum(ctx, q, known.reference),
             Self::Torque { row, aggregation } => aggregation.point(at.lam[row], known.reference).0,
             Self::TorqueSquared { row } => at.lam[row] * at.lam[row],
+            Self::DriveWork { row } => -at.lam[row] * drive_rate(m, row, at.t),
             Self::JointPosition { row } => row.evaluate(q).0,
         }
     }
@@ -645,6 +668,7 @@ impl Response {
                 g_lam[row] += scale * aggregation.point(at.lam[row], known.reference).1;
             }
             Self::TorqueSquared { row } => g_lam[row] += scale * 2.0 * at.lam[row],
+            Self::DriveWork { row } => g_lam[row] -= scale * drive_rate(m, row, at.t),
             Self::JointPosition { row } => {
                 for (d, g) in row.dofs().iter().zip(row.evaluate(q).1) {
                     if let Some(d) = d {

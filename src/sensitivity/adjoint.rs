@@ -174,21 +174,26 @@ pub(crate) fn run(
     let mut sweep = Sweep::new(model, &it, settings, responses.len());
     let last = grid.len();
     let (q, _, lam) = store.get(&mut it, grid, last, true)?;
-    sweep.add_local(&it, &objectives, last, Sample { q, lam });
+    let t = |n: usize| grid.times()[n];
+    sweep.add_local(&it, &objectives, last, Sample { q, lam, t: t(last) });
     for n in (0..last).rev() {
         crate::interrupt::poll()?;
         let (q1, acc1, lam1) = store.get(&mut it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         sweep.step(
             &mut it,
-            Sample { q: q1, lam: lam1 },
+            Sample {
+                q: q1,
+                lam: lam1,
+                t: t(n + 1),
+            },
             acc1,
             grid.times()[n + 1],
             grid.step(n),
             previous,
         )?;
         let (q, _, lam) = store.get(&mut it, grid, n, false)?;
-        sweep.add_local(&it, &objectives, n, Sample { q, lam });
+        sweep.add_local(&it, &objectives, n, Sample { q, lam, t: t(n) });
     }
     let (q0, acc0, lam0) = store.get(&mut it, grid, 0, false)?;
     sweep.initial(&mut it, (q0, acc0, lam0))?;
@@ -225,6 +230,7 @@ fn forward(
         let at = Sample {
             q: &state.q,
             lam: &state.lam,
+            t: state.t,
         };
         objectives.observe(&ctx, at, &mut values, &mut []);
         objectives.add_values(&ctx, n, at, &mut values);

@@ -238,6 +238,7 @@ impl<'a> Sweep<'a> {
         let at = Sample {
             q: &s.q,
             lam: &s.lam,
+            t: s.t,
         };
         objectives.observe(&ctx, at, &mut self.values, &mut self.gradients);
         objectives.add_values(&ctx, n, at, &mut self.values);

@@ -431,6 +431,7 @@ pub fn evaluate(
         let at = Sample {
             q,
             lam: &lam[n * n_c..(n + 1) * n_c],
+            t: times[n],
         };
         objectives.observe(&ctx, at, &mut values, &mut []);
         objectives.add_values(&ctx, n, at, &mut values);
@@ -453,7 +454,11 @@ fn explicit(
     let objectives = Objectives::new(model, responses, &grid)?;
     let (n_q, n_x) = (model.n_dofs(), model.n_variables());
     let (q, lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
-    let at = Sample { q: &q, lam: &lam };
+    let at = Sample {
+        q: &q,
+        lam: &lam,
+        t: 0.0,
+    };
     let mut values = vec![0.0; responses.len()];
     objectives.add_values(&ctx, 0, at, &mut values);
     let mut gradients = vec![0.0; responses.len() * n_x];

@@ -33,6 +33,7 @@ pub(crate) fn run(
     let at = Sample {
         q: &sol.q,
         lam: &sol.lambda,
+        t: settings.time,
     };
     let (local, objectives) = Local::at(&newton, settings.time, responses, &grid, at)?;
     let (mut values, mut gradients) = match method {
