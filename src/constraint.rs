@@ -173,7 +173,8 @@ impl Joint {
                 slider,
                 axis,
             } => {
-                let normal = separation(joint, carrier, slider, Vector2::new(-axis.y, axis.x));
+                let normal =
+                    separation(joint, carrier, slider, Vector2::new(-axis.y, axis.x), false);
                 rows.extend([normal, self.angle(joint)]);
             }
         }
@@ -200,7 +201,7 @@ impl Joint {
                 carrier,
                 slider,
                 axis,
-            } => Some(separation(joint, carrier, slider, -axis)),
+            } => Some(separation(joint, carrier, slider, -axis, true)),
         }
     }
 
@@ -260,19 +261,21 @@ impl Joint {
 }
 
 /// The row of joint `joint` separating a slider from its carrier along `direction`
-/// (carried by the carrier, fixed for the ground). On a ground axis the slider's rotation
-/// is held at zero, so its centre travels as its point does: the row reads the centre and
-/// stays linear.
+/// (carried by the carrier, fixed for the ground), read at the slider's point, or with
+/// `centre` at its centre when the axis is on the ground: there the slider's rotation is
+/// held at zero, so its centre travels as its point does, and the travel stays linear for
+/// motors, dampers and springs.
 fn separation(
     joint: usize,
     carrier: Option<Anchor>,
     slider: Anchor,
     direction: Vector2<f64>,
+    centre: bool,
 ) -> ConstraintRow {
-    let arm = if carrier.is_some() {
-        slider.arm
-    } else {
+    let arm = if centre && carrier.is_none() {
         Vector2::zeros()
+    } else {
+        slider.arm
     };
     ConstraintRow {
         nodes: [carrier.map(|c| c.node), Some(slider.node)],

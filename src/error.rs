@@ -118,8 +118,9 @@ pub enum SolveError {
     /// A spring between two points shrank to (nearly) zero length, where its direction
     /// and its force are undefined.
     #[error(
-        "at {at} spring '{spring}' has collapsed to {length:.3e} m: its force has no \
-         direction there; keep its points apart (a stiffer spring, a stop, other geometry)"
+        "at {at} spring '{spring}' has collapsed (to {length:.3e} m, or through zero length): \
+         its force has no direction there; keep its points apart (a stiffer spring, a stop, \
+         other geometry)"
     )]
     SpringCollapsed {
         /// Where the step ends: `t = … s` or `load factor …`.

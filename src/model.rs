@@ -204,7 +204,7 @@ impl Model {
     /// node by more than [`MAX_ROTATION_STEP`]: such a step has jumped to another
     /// solution branch or wound a node around, and its caller cuts it or fails clearly; and
     /// one that ends with a spring between points shorter than [`COLLAPSED_SPRING`] of its
-    /// length in the scene.
+    /// length in the scene, or turned about through zero length.
     ///
     /// # Errors
     /// [`SolveError::Diverged`] naming the node and `at`, where the step ends;
@@ -226,15 +226,24 @@ impl Model {
             });
         }
         for spring in &self.springs {
-            if let Measure::Distance { reference, .. } = spring.measure {
-                let length = spring.measure(after).value;
-                if length.is_nan() || length <= COLLAPSED_SPRING * reference.norm() {
-                    return Err(SolveError::SpringCollapsed {
-                        at: at(),
-                        spring: spring.name.clone(),
-                        length,
-                    });
-                }
+            let (Some(d0), Some(d1), Measure::Distance { reference, .. }) = (
+                spring.separation(before),
+                spring.separation(after),
+                spring.measure,
+            ) else {
+                continue;
+            };
+            // Shrunk to nothing, or passed through its own point: the direction is lost.
+            let length = d1.norm();
+            if length.is_nan()
+                || length <= COLLAPSED_SPRING * reference.norm()
+                || d0.dot(&d1) <= 0.0
+            {
+                return Err(SolveError::SpringCollapsed {
+                    at: at(),
+                    spring: spring.name.clone(),
+                    length,
+                });
             }
         }
         Ok(())

@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
 use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
-use crate::model::{Analysis, Model};
+use crate::model::{Analysis, Initial, Model};
 use crate::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
@@ -442,7 +442,7 @@ pub(crate) fn check_mechanism(model: &Model) -> Result<(), SceneError> {
     check_redundancy(model)?;
     let clusters = Clusters::of(model);
     check_grounding(model, &clusters)?;
-    if model.analysis == Analysis::Static {
+    if model.analysis == Analysis::Static || model.initial == Initial::Equilibrium {
         check_mobility(model, &clusters)?;
     }
     Ok(())
@@ -522,10 +522,20 @@ fn check_grounding(model: &Model, clusters: &Clusters) -> Result<(), SceneError>
     }
 }
 
-/// The joints and springs leave no rigid-body mode free (a static scene cannot be a
-/// mechanism).
+/// The springs with stiffness (a damper alone holds nothing at rest).
+fn stiff_springs(model: &Model) -> Vec<Spring> {
+    model
+        .springs
+        .iter()
+        .filter(|s| s.stiffness > 0.0)
+        .cloned()
+        .collect()
+}
+
+/// The joints and springs leave no rigid-body mode free (a static scene, or the
+/// equilibrium a dynamic one starts from, cannot be a mechanism).
 fn check_mobility(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
-    match clusters.free_modes(model, &model.springs) {
+    match clusters.free_modes(model, &stiff_springs(model)) {
         0 => Ok(()),
         free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints, or hold them with springs"))),
     }

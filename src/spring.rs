@@ -107,6 +107,15 @@ impl Spring {
         std::array::from_fn(|i| std::array::from_fn(|j| self.damping * g[i] * g[j]))
     }
 
+    /// For a spring between points, the vector from its first point to its second at `q`
+    /// (m); `None` on a joint.
+    pub fn separation(&self, q: &[f64]) -> Option<Vector2<f64>> {
+        match self.measure {
+            Measure::Distance { at, reference } => Some(gap(at, reference, q).0),
+            Measure::Coordinate(_) => None,
+        }
+    }
+
     /// Elastic energy `½ k (s − s₀)²` at `q` (J).
     pub fn energy(&self, q: &[f64]) -> f64 {
         let stretch = self.measure(q).value - self.rest;
@@ -114,23 +123,21 @@ impl Spring {
     }
 }
 
-/// The distance `ℓ = |d|` between anchors `at` whose separation at the reference is
-/// `reference`, `d = reference + Δr_b − Δr_a`, with `∂ℓ/∂q = uᵀ d_q` and
+/// The separation `d = reference + Δr_b − Δr_a` of anchors `at` whose separation at the
+/// reference is `reference`, and their turned arms `R(φ) p`.
+fn gap(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> (Vector2<f64>, [Vector2<f64>; 2]) {
+    let moved = at.map(|a| {
+        let shift = Vector2::new(q[dof(a.node, 0)], q[dof(a.node, 1)]);
+        (shift, turned_minus(a.arm, turn(q[dof(a.node, 2)])))
+    });
+    let d = reference + (moved[1].0 + moved[1].1) - (moved[0].0 + moved[0].1);
+    (d, [at[0].arm + moved[0].1, at[1].arm + moved[1].1])
+}
+
+/// The distance `ℓ = |d|` between anchors `at` ([`gap`]), with `∂ℓ/∂q = uᵀ d_q` and
 /// `∂²ℓ/∂q² = (d_qᵀ d_q − ℓ_q ℓ_qᵀ)/ℓ + uᵀ d_qq` (`u = d/ℓ`).
 fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
-    let coordinates = |a: Anchor| {
-        (
-            Vector2::new(q[dof(a.node, 0)], q[dof(a.node, 1)]),
-            q[dof(a.node, 2)],
-        )
-    };
-    let [(ua, pa), (ub, pb)] = at.map(coordinates);
-    let (moved_a, moved_b) = (
-        turned_minus(at[0].arm, turn(pa)),
-        turned_minus(at[1].arm, turn(pb)),
-    );
-    let (ra, rb) = (at[0].arm + moved_a, at[1].arm + moved_b);
-    let d = reference + (ub + moved_b) - (ua + moved_a);
+    let (d, [ra, rb]) = gap(at, reference, q);
     let length = d.norm();
     let u = d / length;
     // Columns of d_q: ∂d/∂u_a = −I, ∂d/∂φ_a = −J R_a p_a, ∂d/∂u_b = I, ∂d/∂φ_b = J R_b p_b.

@@ -14,6 +14,7 @@ use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::Result;
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
+use crate::error::SceneError;
 use crate::model::{Analysis, Design, Initial, Model};
 use crate::rigid::{check_mechanism, initial_velocity};
 
@@ -73,13 +74,17 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         tip,
         defaults: simulation::defaults(&spec.simulation)?,
     };
-    check_mechanism(&model)?;
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;
+    let starts = model.initial == Initial::Equilibrium || !rates.is_empty();
+    if starts && model.analysis == Analysis::Static {
+        let msg = "a static scene has no start: initial and initial_rates are for dynamic ones";
+        return Err(SceneError::new("initial", msg));
+    }
+    check_mechanism(&model)?;
     if !rates.is_empty() {
         if model.initial == Initial::Equilibrium {
-            let msg =
-                "an equilibrium start is at rest: give initial_rates or initial = \"equilibrium\"";
-            return Err(crate::error::SceneError::new("initial_rates", msg));
+            let msg = "an equilibrium start is at rest: give initial_rates or initial = \"equilibrium\", not both";
+            return Err(SceneError::new("initial_rates", msg));
         }
         model.initial_velocity = initial_velocity(&model, &rates)?;
     }
