@@ -4,7 +4,8 @@
 //! law ([`crate::motion`]).
 //!
 //! A hinge or weld joins two distinct nodes or bodies at points that coincide, within 1e-9
-//! of the scene's size. Scenes start at rest, so every drive must too.
+//! of the scene's size. Drives start at rest; a scene starts moving only through its
+//! undriven joints' initial rates.
 
 use super::mesh::Mesh;
 use super::spec::{JointSpec, MotionSpec};
@@ -208,7 +209,7 @@ fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
     let m = motion(path, d)?;
     let rate = m.at(0.0).velocity;
     if rate.abs() > 0.0 {
-        return Err(SceneError::new(path, format!("moves at t = 0 (rate {rate} per s), but scenes start at rest: start the motion from rest")));
+        return Err(SceneError::new(path, format!("moves at t = 0 (rate {rate} per s), but drives start at rest: start the motion from rest")));
     }
     Ok(m)
 }

@@ -144,7 +144,7 @@ def test_bad_scenes_raise_scene_error_naming_the_culprit(mutate, culprit):
 def test_drives_must_start_at_rest():
     spec = flextop.scenes.robot_arm().to_dict()
     spec["joints"][0]["drive"] = flextop.motion_table([0.0, 1.0], [1.0, 1.5], start_velocity=0.3)
-    with pytest.raises(SceneError, match=r"joints\[0\]\.drive: moves at t = 0 .* scenes start at rest"):
+    with pytest.raises(SceneError, match=r"joints\[0\]\.drive: moves at t = 0 .* drives start at rest"):
         flextop.Simulation(spec)
 
 
