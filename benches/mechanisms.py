@@ -35,18 +35,11 @@ import flextop
 from flextop import scenes
 from flextop.scene import Scene
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from work_precision import timed  # noqa: E402
+
 HERE = Path(__file__).resolve().parent
 RHO_INF = 0.9
-
-
-def best_of(fn, repeats: int):
-    """The last result of ``fn()`` and its fastest wall time over ``repeats`` calls."""
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return out, best
 
 
 def rigid_four_bar(h: float) -> flextop.Simulation:
@@ -83,8 +76,8 @@ def four_bar_table(steps, repeats: int) -> list[str]:
             "|---|---|---|---|---|"]
     for h in steps:
         sim = rigid_four_bar(h)
-        full, t_full = best_of(lambda: sim.run(), repeats)
-        modified, t_mod = best_of(lambda: sim.run(newton="modified"), repeats)
+        t_full, full = timed(lambda: sim.run(), repeats)
+        t_mod, modified = timed(lambda: sim.run(newton="modified"), repeats)
         e = full.energies
         error = np.abs(e["kinetic"] - e["external_work"]).max() / np.abs(e["kinetic"]).max()
         rows.append(f"| {h:g} | {error:.2e} | {1e3 * t_full:.1f} | {1e3 * t_mod:.1f} | "
@@ -103,7 +96,7 @@ def mid_span(sim: flextop.Simulation, positions: np.ndarray, bars: int = 4) -> n
 
 def flextop_run(split: int, h: float, repeats: int):
     sim = flextop.Simulation(scenes.slider_crank(split=split, h=h, t_end=0.15, rho_inf=RHO_INF))
-    res, seconds = best_of(lambda: sim.run(), repeats)
+    seconds, res = timed(lambda: sim.run(), repeats)
     return res.time, mid_span(sim, res.positions), seconds
 
 

@@ -123,36 +123,19 @@ impl Pattern {
         p.spring_slots = model
             .springs
             .iter()
-            .map(|spring| {
-                let d = spring.dofs();
-                slots(|i| {
-                    slots(|j| match (d[i], d[j]) {
-                        (Some(a), Some(b)) => p.slot(a, b),
-                        _ => Some(usize::MAX),
-                    })
-                })
-            })
+            .map(|spring| p.block_slots(spring.dofs()))
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
         // An inactive DOF of a row has no slot: usize::MAX, skipped by the assembly.
-        let row_slot = |row: &crate::constraint::ConstraintRow,
-                        i: usize,
-                        slot: &dyn Fn(usize) -> Option<usize>| {
-            match (row.dofs()[i], row.active()[i]) {
-                (Some(d), true) => slot(d),
-                _ => Some(usize::MAX),
-            }
-        };
         p.row_slots = model
             .rows
             .iter()
             .enumerate()
             .map(|(k, row)| {
-                slots(|i| {
-                    Some([
-                        row_slot(row, i, &|d| p.slot(n_q + k, d))?,
-                        row_slot(row, i, &|d| p.slot(d, n_q + k))?,
-                    ])
+                let dofs = active_only(row);
+                slots(|i| match dofs[i] {
+                    Some(d) => Some([p.slot(n_q + k, d)?, p.slot(d, n_q + k)?]),
+                    None => Some([usize::MAX; 2]),
                 })
             })
             .collect::<Option<_>>()
@@ -160,17 +143,7 @@ impl Pattern {
         p.gram_slots = model
             .rows
             .iter()
-            .map(|row| {
-                let dofs = row.dofs();
-                slots(|i| {
-                    slots(
-                        |j| match (dofs[i], dofs[j], row.active()[i] && row.active()[j]) {
-                            (Some(di), Some(dj), true) => p.slot(di, dj),
-                            _ => Some(usize::MAX),
-                        },
-                    )
-                })
-            })
+            .map(|row| p.block_slots(active_only(row)))
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
         Ok(p)
@@ -179,6 +152,16 @@ impl Pattern {
     /// For each constraint row, the DOFs it acts on.
     pub fn multiplier_dofs(model: &Model) -> Vec<Vec<usize>> {
         model.rows.iter().map(active_dofs).collect()
+    }
+
+    /// Slots of `(dofᵢ, dofⱼ)` for six DOFs (`usize::MAX` where one is `None`).
+    fn block_slots(&self, dofs: [Option<usize>; 6]) -> Option<[[usize; 6]; 6]> {
+        slots(|i| {
+            slots(|j| match (dofs[i], dofs[j]) {
+                (Some(a), Some(b)) => self.slot(a, b),
+                _ => Some(usize::MAX),
+            })
+        })
     }
 
     /// Position of entry `(row, col)` in the CSC value array (`None` outside the pattern).
@@ -206,13 +189,15 @@ impl Pattern {
     }
 }
 
+/// A constraint row's six DOFs, `None` where it does not act.
+fn active_only(row: &ConstraintRow) -> [Option<usize>; 6] {
+    let active = row.active();
+    std::array::from_fn(|i| row.dofs()[i].filter(|_| active[i]))
+}
+
 /// The DOFs a constraint row acts on.
 fn active_dofs(row: &ConstraintRow) -> Vec<usize> {
-    row.dofs()
-        .iter()
-        .zip(row.active())
-        .filter_map(|(d, on)| d.filter(|_| on))
-        .collect()
+    active_only(row).into_iter().flatten().collect()
 }
 
 /// `Φ_q` at a state: each constraint row's gradient on its six DOFs

@@ -134,35 +134,57 @@ impl Clusters {
         for (i, row) in rows.iter().enumerate() {
             let (value, gradient) = row.evaluate(&q);
             phi[i] = value - model.joints[row.joint].prescribed(row, t)[0];
-            for (dof, coeff) in row.dofs().iter().zip(gradient) {
-                let Some(dof) = *dof else { continue };
-                for (j, g) in self.dof_map(model, rho, dof).1 {
-                    jac[(i, j)] += coeff * g;
-                }
-            }
+            self.chain(model, rho, row.dofs(), gradient, |j, v| jac[(i, j)] += v);
         }
         (phi, jac)
+    }
+
+    /// A gradient on six node DOFs carried to the cluster coordinates by the chain rule
+    /// through [`Clusters::dof_map`]: `add(j, ∂h/∂ρ_j)` for each term.
+    fn chain(
+        &self,
+        model: &Model,
+        rho: &DVector<f64>,
+        dofs: [Option<usize>; 6],
+        gradient: [f64; 6],
+        mut add: impl FnMut(usize, f64),
+    ) {
+        for (dof, coeff) in dofs.iter().zip(gradient) {
+            let Some(dof) = *dof else { continue };
+            for (j, g) in self.dof_map(model, rho, dof).1 {
+                add(j, coeff * g);
+            }
+        }
+    }
+
+    /// `Φ_ρ` at the reference with more rows below: the gradients `extra` (on six node
+    /// DOFs each) carried to the cluster coordinates.
+    fn jacobian_with(
+        &self,
+        model: &Model,
+        extra: &[([Option<usize>; 6], [f64; 6])],
+    ) -> DMatrix<f64> {
+        let rho = DVector::zeros(3 * self.len());
+        let (_, jac) = self.constraints(model, &rho, 0.0);
+        let n = jac.nrows();
+        let mut out = DMatrix::zeros(n + extra.len(), 3 * self.len());
+        out.rows_mut(0, n).copy_from(&jac);
+        for (i, &(dofs, gradient)) in extra.iter().enumerate() {
+            self.chain(model, &rho, dofs, gradient, |j, v| out[(n + i, j)] += v);
+        }
+        out
     }
 
     /// Rigid-body modes neither the joints nor `springs` hold, at the reference:
     /// `3 n_clusters` less the rank of `Φ_ρ` with the springs' gradients on the cluster
     /// coordinates as more rows (no springs: the mechanism's mobility).
     pub fn free_modes(&self, model: &Model, springs: &[Spring]) -> usize {
-        let rho = DVector::zeros(3 * self.len());
-        let (_, jac) = self.constraints(model, &rho, 0.0);
         let reference = vec![0.0; model.n_dofs()];
-        let mut held = DMatrix::zeros(jac.nrows() + springs.len(), 3 * self.len());
-        held.rows_mut(0, jac.nrows()).copy_from(&jac);
-        for (i, spring) in springs.iter().enumerate() {
-            let gradient = spring.measure(&reference).gradient;
-            for (dof, coeff) in spring.dofs().iter().zip(gradient) {
-                let Some(dof) = *dof else { continue };
-                for (j, g) in self.dof_map(model, &rho, dof).1 {
-                    held[(jac.nrows() + i, j)] += coeff * g;
-                }
-            }
-        }
-        3 * self.len() - rank(&held)
+        let extra: Vec<_> = springs
+            .iter()
+            .map(|s| (s.dofs(), s.measure(&reference).gradient))
+            .collect();
+        3 * self.len() - rank(&self.jacobian_with(model, &extra))
     }
 
     /// How the joints over-constrain the rigid mechanism at the reference: the number of
@@ -336,19 +358,15 @@ pub(crate) fn initial_velocity(
 ) -> Result<Vec<f64>, SceneError> {
     let clusters = Clusters::of(model);
     let rho = DVector::zeros(3 * clusters.len());
-    let (_, jac) = clusters.constraints(model, &rho, 0.0);
-    let n = jac.nrows();
     let reference = vec![0.0; model.n_dofs()];
-    let mut system = DMatrix::zeros(n + rates.len(), 3 * clusters.len());
-    system.rows_mut(0, n).copy_from(&jac);
-    let mut rhs = DVector::zeros(n + rates.len());
-    for (i, (row, rate)) in rates.iter().enumerate() {
-        for (dof, coeff) in row.dofs().iter().zip(row.evaluate(&reference).1) {
-            let Some(dof) = *dof else { continue };
-            for (j, g) in clusters.dof_map(model, &rho, dof).1 {
-                system[(n + i, j)] += coeff * g;
-            }
-        }
+    let extra: Vec<_> = rates
+        .iter()
+        .map(|(row, _)| (row.dofs(), row.evaluate(&reference).1))
+        .collect();
+    let system = clusters.jacobian_with(model, &extra);
+    let n = system.nrows() - rates.len();
+    let mut rhs = DVector::zeros(system.nrows());
+    for (i, (_, rate)) in rates.iter().enumerate() {
         rhs[n + i] = *rate;
     }
     let free = 3 * clusters.len() - rank(&system);

@@ -105,14 +105,14 @@ pub(super) fn adjoint(
     let n_r = qbar.len() / n_q.max(1);
     let tangent = asm.tangent(q0, lam0);
     let curvature = asm.constraint_curvature(q0, acc0);
-    let mut rhs = vec![0.0; n * n_r];
+    let (mut rhs, mut product) = (vec![0.0; n * n_r], vec![0.0; n_q]);
     for ((column, nu), qbar) in rhs
         .chunks_mut(n)
         .zip(solution.chunks(n))
         .zip(qbar.chunks(n_q))
     {
         column[..n_q].copy_from_slice(qbar);
-        let mut product = vec![0.0; n_q];
+        product.fill(0.0);
         asm.add_tangent_times(&tangent, &nu[..n_q], &mut product);
         column[..n_q]
             .iter_mut()
