@@ -42,14 +42,14 @@ fn main() {
                 method: Method::Adjoint,
                 memory: Memory::StoreAll,
             };
-            drop(of_motion(&arm, &x, &s, &responses, how).unwrap())
+            drop(of_motion(&arm, &x, &s, &responses, &[], how).unwrap())
         });
         let direct = time(1, || {
             let how = SensitivitySettings {
                 method: Method::Direct,
                 memory: Memory::StoreAll,
             };
-            drop(of_motion(&arm, &x, &s, &responses, how).unwrap())
+            drop(of_motion(&arm, &x, &s, &responses, &[], how).unwrap())
         });
         println!(
             "| {nx} × {ny} | {} | {} | {:.1} | {:.1} | {:.2} | {:.0} | {:.1} |",

@@ -36,6 +36,7 @@ pub mod load;
 pub mod model;
 pub mod motion;
 pub mod motor;
+pub mod parameter;
 pub mod scene;
 pub mod section;
 pub mod spring;
@@ -76,8 +77,8 @@ pub use prolongation::Prolongation;
 pub use response::Response;
 pub use rigid::rigid_positions;
 pub use sensitivity::{
-    evaluate, of_equilibrium, of_motion, of_motion_on, parse_responses, Evaluated, Sensitivities,
-    Timings,
+    evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
+    Evaluated, Sensitivities, Timings,
 };
 pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,

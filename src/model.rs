@@ -14,6 +14,7 @@ use crate::error::{DesignError, SolveError};
 use crate::interpolation::{Interpolation, MassLaw};
 use crate::load::NodalLoad;
 use crate::motor::Motor;
+use crate::section::NamedSection;
 use crate::settings::RunOptions;
 use crate::spring::{Measure, Spring};
 
@@ -70,6 +71,8 @@ pub struct Bar {
     pub elements: std::ops::Range<usize>,
     /// Full-density volume `A L` (m³).
     pub volume: f64,
+    /// Its section's index in [`Model::sections`].
+    pub section: usize,
 }
 
 /// A non-design point mass on a node.
@@ -146,6 +149,8 @@ pub struct Model {
     pub elements: Vec<Element>,
     /// Bars (groups of elements carrying one density).
     pub bars: Vec<Bar>,
+    /// The scene's sections, in name order.
+    pub sections: Vec<NamedSection>,
     /// Component names (linkages), for per-component responses.
     pub components: Vec<String>,
     /// Rigid bodies.

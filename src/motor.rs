@@ -31,6 +31,8 @@ pub enum MotorLaw {
         kd: f64,
         /// The reference `θ_r(t)`.
         motion: Motion,
+        /// Its spring-damper's index in [`crate::model::Model::springs`].
+        spring: usize,
     },
 }
 
@@ -57,6 +59,7 @@ impl Motor {
                 kp,
                 kd,
                 motion: law,
+                ..
             } => {
                 let (now, start) = (law.at(t), law.at(0.0));
                 let rate = if motion { kd * now.velocity } else { 0.0 };

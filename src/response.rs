@@ -17,6 +17,7 @@ use crate::constraint::ConstraintRow;
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
+use crate::parameter::{Designed, Parameter};
 use crate::stress::{ElementState, Measure};
 use crate::time_grid::TimeGrid;
 
@@ -526,6 +527,15 @@ pub struct Context<'a> {
 }
 
 impl<'a> Context<'a> {
+    /// The model and design, as the parameters' pseudo-loads read them.
+    pub fn designed(&self) -> Designed<'a> {
+        Designed {
+            model: self.model,
+            densities: self.densities,
+            mass: self.mass_kind,
+        }
+    }
+
     /// The context of a dynamic run: no static load.
     pub fn dynamic(model: &'a Model, densities: &'a Densities, mass_kind: MassKind) -> Self {
         Self {
@@ -538,6 +548,39 @@ impl<'a> Context<'a> {
 }
 
 impl Response {
+    /// `∂G/∂p` of a scene parameter at a state: the compliance's (a static scene's load
+    /// `F` follows masses, motors and sections' `ρ`; the strain energy follows sections'
+    /// stiffness) and the volume's (a section's diameter); zero for the others, which do
+    /// not read a parameter ([`crate::sensitivity::parse_parameters`] refuses the
+    /// aggregates, which read the sections).
+    pub fn parameter_partial(&self, ctx: &Context, at: Sample, p: &Parameter) -> f64 {
+        let m = ctx.model;
+        match (self, p.section()) {
+            (Self::Compliance { .. }, _) if m.analysis == Analysis::Static => {
+                let mut g = 0.0;
+                p.load_rate(&ctx.designed(), at.t, |i, v| g += v * at.q[i]);
+                g
+            }
+            (Self::Compliance { component }, Some((section, rate))) => elements_of(m, *component)
+                .filter(|&e| m.bars[m.elements[e].bar].section == section)
+                .map(|e| {
+                    let el = &m.elements[e];
+                    ctx.densities.stiffness[e] * el.beam.strain_energy_rate(&el.gather(at.q), rate)
+                })
+                .sum(),
+            (Self::Volume { component }, Some((section, rate))) => m
+                .bars
+                .iter()
+                .filter(|b| b.section == section && component.is_none_or(|c| b.component == c))
+                .map(|b| {
+                    let area = m.sections[section].section.area;
+                    ctx.densities.density[b.elements.start] * b.volume * rate.area / area
+                })
+                .sum(),
+            _ => 0.0,
+        }
+    }
+
     /// Integrand `G(qₙ, x)` at state `n`, with what the caller `known` at that state (the
     /// rigid position of a tip node, an aggregate's reference); for [`Response::Volume`],
     /// the volume; for [`Response::Aggregate`], the state's share of the sum of

@@ -66,6 +66,44 @@ impl Section {
         self.fibre.map(|c| c * (self.ea / self.area) / self.ei)
     }
 
+    /// The section's rates `∂(A, EA, κGA, EI, ρA, ρI)/∂p` of `property` (in the fields of
+    /// a section), given what it is made of: with `E` (and `κGA` with it: through `G` when
+    /// `ν` is given, through a circle's `κ(ν)` with `ν = E/2G − 1` when `G` is), with `ρ`,
+    /// or with a solid circle's diameter `d` (`A ∝ d²`, `I ∝ d⁴`).
+    pub fn rate(&self, made: &Made, property: SectionProperty) -> Section {
+        let zero = Self::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        match property {
+            SectionProperty::E => Self {
+                ea: self.ea / made.e,
+                ei: self.ei / made.e,
+                gak: match (made.shear_follows_e, made.diameter) {
+                    (true, _) => self.gak / made.e,
+                    // κ = 6(1 + ν)/(7 + 6ν): dκ/dν = 6/(7 + 6ν)², dν/dE = 1/2G.
+                    (false, Some(_)) => 3.0 * self.area / (7.0 + 6.0 * made.nu).powi(2),
+                    (false, None) => 0.0,
+                },
+                ..zero
+            },
+            SectionProperty::Rho => Self {
+                rho_a: self.rho_a / made.rho,
+                rho_i: self.rho_i / made.rho,
+                ..zero
+            },
+            SectionProperty::Diameter => {
+                let d = made.diameter.unwrap_or(f64::NAN);
+                Self {
+                    area: 2.0 * self.area / d,
+                    ea: 2.0 * self.ea / d,
+                    gak: 2.0 * self.gak / d,
+                    ei: 4.0 * self.ei / d,
+                    rho_a: 2.0 * self.rho_a / d,
+                    rho_i: 4.0 * self.rho_i / d,
+                    ..zero
+                }
+            }
+        }
+    }
+
     /// Geometry of a solid circle of diameter `d`: area `πd²/4`, second moment `πd⁴/64`
     /// and Cowper's shear coefficient `κ = 6(1+ν)/(7+6ν)`.
     pub fn solid_circle(d: f64, nu: f64) -> (f64, f64, f64) {
@@ -74,4 +112,44 @@ impl Section {
         let kappa = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu);
         (area, inertia, kappa)
     }
+}
+
+/// What a scene's section is made of: the scalars its properties follow.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Made {
+    /// Young's modulus `E` (Pa).
+    pub e: f64,
+    /// Density `ρ` (kg/m³).
+    pub rho: f64,
+    /// Poisson's ratio `ν`, given or from `E = 2G(1 + ν)`.
+    pub nu: f64,
+    /// Whether `G` follows `E` (the scene gives `ν`) rather than being given.
+    pub shear_follows_e: bool,
+    /// A solid circle's diameter (m); `None` for a section given by `A`, `I`, `κ`.
+    pub diameter: Option<f64>,
+}
+
+/// A section of the scene by name: its properties and what they are made of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedSection {
+    /// Name in the scene's `[sections]`.
+    pub name: String,
+    /// Its properties.
+    pub section: Section,
+    /// What they are made of.
+    pub made: Made,
+    /// Whether a ground structure declared rigid is made of it: that body's mass and
+    /// inertia then follow it too.
+    pub rigid: bool,
+}
+
+/// A scalar a section's properties follow, for gradients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SectionProperty {
+    /// Young's modulus `E`.
+    E,
+    /// Density `ρ`.
+    Rho,
+    /// A solid circle's diameter.
+    Diameter,
 }

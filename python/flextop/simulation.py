@@ -135,7 +135,9 @@ class Sensitivities:
     ``discretization`` and, per name, the estimated relative ``errors`` of the values and
     ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
     ``steps``. ``peaks`` holds, per stress or buckling response, the largest point value over
-    the motion, beside the mean in ``values`` (runs with gradients only).
+    the motion, beside the mean in ``values`` (runs with gradients only). With scene
+    ``parameters`` named, ``parameter_gradients`` has shape ``(n_r, n_parameters)``;
+    :meth:`parameter_gradient` reads one.
     """
 
     names: tuple[str, ...]
@@ -148,6 +150,16 @@ class Sensitivities:
     gradient_errors: dict[str, float] = field(default_factory=dict)
     steps: np.ndarray | None = field(default=None, repr=False)
     peaks: dict[str, float] = field(default_factory=dict)
+    parameters: tuple[str, ...] = ()
+    parameter_gradients: np.ndarray | None = None
+
+    def parameter_gradient(self, response: str, parameter: str) -> float:
+        """``∂f/∂p`` of one response with respect to one scene parameter."""
+        if self.parameter_gradients is None or parameter not in self.parameters:
+            raise SettingsError(f"parameter {parameter!r}: not among those asked for ({', '.join(self.parameters) or 'none'})")
+        if response not in self.names:
+            raise SettingsError(f"response {response!r}: not among {', '.join(self.names)}")
+        return float(self.parameter_gradients[self.names.index(response), self.parameters.index(parameter)])
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.gradients))
@@ -366,7 +378,7 @@ class Simulation:
     def run_with_sensitivities(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
                                start: Discretization | None = None, hold_gradients: bool = True, local_tol: float | None = None,
-                               **settings: Any) -> Sensitivities:
+                               parameters: Sequence[str] = (), **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -387,6 +399,15 @@ class Simulation:
         over the motion the same way, and ``"torque_rms:JOINT"`` its RMS. The
         means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
+
+        ``parameters`` names scene parameters whose gradients come too, by the same direct
+        or adjoint sweep, in ``parameter_gradients``: ``"k:SPRING"``, ``"c:SPRING"``,
+        ``"length:SPRING"`` (between points) or ``"rest:SPRING"`` (on a joint),
+        ``"mass:BODY"`` / ``"inertia:BODY"`` (a rigid body's, or a point mass's by its node),
+        ``"torque:MOTOR"``, ``"kp:MOTOR"``, ``"kd:MOTOR"``, and ``"arm_x:BODY.POINT"`` /
+        ``"arm_y:BODY.POINT"`` for a point held to the ground by its joints (the pin moves
+        with it). Their gradients are exact for the grid that ran; a run to a tolerance does
+        not estimate their error.
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),
         ``"adjoint"`` (cost independent of it) or ``"auto"`` (adjoint when there are fewer
@@ -412,7 +433,8 @@ class Simulation:
         xv = self._design(x)
         if xv is None:
             raise DesignError("run_with_sensitivities needs a design vector x")
-        gradients = {"method": method, "memory": memory}
+        asked = [parameters] if isinstance(parameters, str) else [str(p) for p in parameters]
+        gradients: dict[str, Any] = {"method": method, "memory": memory, "parameters": asked}
         if local_tol is not None:
             if rtol is not None or self.analysis == "static":
                 raise SettingsError("local_tol applies to a dynamic run without rtol")
@@ -442,10 +464,13 @@ class Simulation:
 
     def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
         grid = None if steps is None else [float(h) for h in steps]
-        out = _core.run_with_sensitivities(self.model, xv, names, settings, grid)
+        settings = dict(settings)
+        parameters = settings.pop("parameters", [])
+        out = _core.run_with_sensitivities(self.model, xv, names, settings, grid, parameters)
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
         peaks = {n: p for n, p in zip(names, out["peaks"]) if p is not None}
-        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps, peaks=peaks)
+        return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps, peaks=peaks,
+                             parameters=tuple(parameters), parameter_gradients=out["parameter_gradients"])
 
     # -- runs to a tolerance ------------------------------------------------------------
 

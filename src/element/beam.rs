@@ -91,6 +91,41 @@ impl Beam {
         Matrix3::new(s.ea / l0, 0.0, 0.0, 0.0, a, b, 0.0, b, a)
     }
 
+    /// `∂D/∂p` for a section whose `EA`, `κGA`, `EI` change at the rates `rate.ea`,
+    /// `rate.gak`, `rate.ei`: with `Φ' = Φ (EI'/EI − κGA'/κGA)` and
+    /// `k' = k (EI'/EI − Φ'/(1 + Φ))`, `a' = k'(4 + Φ) + kΦ'`, `b' = k'(2 − Φ) − kΦ'`.
+    pub fn local_stiffness_rate(&self, rate: &Section) -> Matrix3<f64> {
+        let (l0, s) = (self.length, &self.section);
+        let phi = 12.0 * s.ei / (s.gak * l0 * l0);
+        let k = s.ei / (l0 * (1.0 + phi));
+        let d_phi = phi * (rate.ei / s.ei - rate.gak / s.gak);
+        let d_k = k * (rate.ei / s.ei - d_phi / (1.0 + phi));
+        let (a, b) = (d_k * (4.0 + phi) + k * d_phi, d_k * (2.0 - phi) - k * d_phi);
+        Matrix3::new(rate.ea / l0, 0.0, 0.0, 0.0, a, b, 0.0, b, a)
+    }
+
+    /// `∂f/∂p = Bᵀ (∂D/∂p) [e, θ₁, θ₂]` at full density, the section changing at `rate`
+    /// ([`Beam::local_stiffness_rate`]); `B` does not depend on the section.
+    pub fn internal_force_rate(&self, u: &Vector6, rate: &Section) -> Vector6 {
+        let g = self.deformation(u);
+        Self::strain_matrix(&g).transpose() * (self.local_stiffness_rate(rate) * g.local)
+    }
+
+    /// `∂U/∂p = ½ [e, θ₁, θ₂] (∂D/∂p) [e, θ₁, θ₂]ᵀ` at full density.
+    pub fn strain_energy_rate(&self, u: &Vector6, rate: &Section) -> f64 {
+        let g = self.deformation(u);
+        0.5 * g.local.dot(&(self.local_stiffness_rate(rate) * g.local))
+    }
+
+    /// `∂M/∂p` at full density: the mass matrix is linear in `ρA` and `ρI`.
+    pub fn mass_matrix_rate(&self, kind: MassKind, rate: &Section) -> Matrix6 {
+        Self {
+            section: *rate,
+            ..self.clone()
+        }
+        .mass_matrix(kind)
+    }
+
     fn deformation(&self, u: &Vector6) -> Deformation {
         let du = Vector2::new(u[3] - u[0], u[4] - u[1]);
         let d = self.chord + du;
@@ -228,6 +263,36 @@ mod tests {
             t2 + rotated.y - d.y,
             angle,
         ])
+    }
+
+    /// `∂D/∂p` against central differences of `D` for a section moved along `rate`.
+    #[test]
+    fn stiffness_rate_equals_central_differences() {
+        let b = beam();
+        let rate = Section {
+            ea: 0.3 * b.section.ea,
+            gak: -0.7 * b.section.gak,
+            ei: 1.9 * b.section.ei,
+            ..Section::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        };
+        let moved = |t: f64| {
+            let s = &b.section;
+            let section = Section {
+                ea: s.ea + t * rate.ea,
+                gak: s.gak + t * rate.gak,
+                ei: s.ei + t * rate.ei,
+                ..*s
+            };
+            Beam {
+                section,
+                ..b.clone()
+            }
+            .local_stiffness()
+        };
+        let h = 1e-6;
+        let fd = (moved(h) - moved(-h)) / (2.0 * h);
+        let exact = b.local_stiffness_rate(&rate);
+        assert!((exact - fd).norm() <= 1e-8 * b.local_stiffness().norm());
     }
 
     #[test]

@@ -17,7 +17,7 @@ use crate::error::{Error, SettingsError};
 use crate::model::Analysis;
 use crate::prolongation::Prolongation;
 use crate::rigid::rigid_positions as rigid;
-use crate::sensitivity::{self, parse_responses};
+use crate::sensitivity::{self, parse_parameters, parse_responses};
 use crate::simulation::{simulate as integrate, simulate_adaptive, simulate_guided, simulate_on};
 use crate::statics::solve_static as equilibrium;
 use crate::step_control::StepControl;
@@ -155,12 +155,13 @@ pub fn solve_static<'py>(
     Ok(d)
 }
 
-/// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x), `peaks` (the
+/// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x),
+/// `parameter_gradients` (n_r, n_p) of the scene `parameters` named, `peaks` (the
 /// largest point value of each aggregate, `None` for other responses), the `method` used,
 /// `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
 /// and `memory`; `steps`, the step sizes of a dynamic run (default: uniform steps `h`).
 #[pyfunction]
-#[pyo3(signature = (model, x, responses, settings=None, steps=None))]
+#[pyo3(signature = (model, x, responses, settings=None, steps=None, parameters=Vec::new()))]
 pub fn run_with_sensitivities<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -168,9 +169,11 @@ pub fn run_with_sensitivities<'py>(
     responses: Vec<String>,
     settings: Option<&Bound<'py, PyAny>>,
     steps: Option<Vec<f64>>,
+    parameters: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
+    let wanted = parse_parameters(&m, &parameters, &parsed).map_err(Error::from)?;
     let options = run_options(settings)?;
     let how = options.sensitivity(&m.defaults);
     let x = x.as_slice()?.to_vec();
@@ -179,14 +182,16 @@ pub fn run_with_sensitivities<'py>(
             let settings = options.dynamic(&m.defaults).map_err(Error::from)?;
             let grid = steps.map(grid).transpose()?;
             detached(py, move || match grid {
-                Some(grid) => sensitivity::of_motion_on(&m, &x, &settings, &grid, &parsed, how),
-                None => sensitivity::of_motion(&m, &x, &settings, &parsed, how),
+                Some(grid) => {
+                    sensitivity::of_motion_on(&m, &x, &settings, &grid, &parsed, &wanted, how)
+                }
+                None => sensitivity::of_motion(&m, &x, &settings, &parsed, &wanted, how),
             })?
         }
         Analysis::Static => {
             let settings = options.statics(&m.defaults).map_err(Error::from)?;
             detached(py, move || {
-                sensitivity::of_equilibrium(&m, &x, &settings, &parsed, how.method)
+                sensitivity::of_equilibrium(&m, &x, &settings, &parsed, &wanted, how.method)
             })?
         }
     };
@@ -199,6 +204,15 @@ pub fn run_with_sensitivities<'py>(
             result.gradients,
             responses.len(),
             model.model.n_variables(),
+        )?,
+    )?;
+    d.set_item(
+        "parameter_gradients",
+        matrix(
+            py,
+            result.parameter_gradients,
+            responses.len(),
+            parameters.len(),
         )?,
     )?;
     d.set_item("peaks", result.peaks)?;

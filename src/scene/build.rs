@@ -23,7 +23,13 @@ use crate::rigid::{check_mechanism, initial_velocity};
 /// # Errors
 /// A [`SceneError`](crate::error::SceneError) naming the first entry at fault.
 pub fn build(spec: &SceneSpec) -> Result<Model> {
-    let sections = section::sections(&spec.sections)?;
+    let rigid: Vec<&str> = spec
+        .ground_structures
+        .iter()
+        .filter(|g| g.rigid)
+        .map(|g| g.section.as_str())
+        .collect();
+    let sections = section::sections(&spec.sections, &rigid)?;
     let mut mesh = Mesh::default();
     mesh.add_nodes(&spec.nodes)?;
     let mut point_masses =
@@ -34,7 +40,8 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let joints = joint::joints(&spec.joints, &mesh, size)?;
     let rows = joint::rows(&joints);
     let mut springs = spring::springs(&spec.springs, &mesh, &joints, size)?;
-    let (motors, servos) = motor::motors(&spec.motors, &joints, 3 * mesh.nodes.len())?;
+    let (motors, servos) =
+        motor::motors(&spec.motors, &joints, 3 * mesh.nodes.len(), springs.len())?;
     springs.extend(servos);
     point_masses.extend(load::point_masses(&spec.point_masses, &mesh)?);
     let loads = load::loads(&spec.loads, &mesh)?;
@@ -56,6 +63,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         nodes: mesh.nodes,
         elements: mesh.elements,
         bars: mesh.bars,
+        sections,
         components: mesh.components,
         bodies: mesh.bodies,
         springs,

@@ -105,7 +105,7 @@ fn add(
         touched[j] = true;
     }
     if g.rigid {
-        return add_rigid(mesh, path, g, &grid, section, &kept, &touched).map(Some);
+        return add_rigid(mesh, path, g, &grid, section.1, &kept, &touched).map(Some);
     }
     // Mesh index of each grid node a kept bar touches.
     let mut node = vec![usize::MAX; g.nx * g.ny];

@@ -52,8 +52,8 @@ pub(super) struct BarSpec<'a> {
     pub(super) name: String,
     /// End nodes.
     pub(super) ends: [usize; 2],
-    /// Section of its elements.
-    pub(super) section: &'a Section,
+    /// Section of its elements: its index in the scene's sections, and its properties.
+    pub(super) section: (usize, &'a Section),
     /// Number of elements.
     pub(super) split: usize,
     /// Component.
@@ -191,7 +191,7 @@ impl Mesh {
             let beam = Beam::new(
                 self.nodes[w[0]].position,
                 self.nodes[w[1]].position,
-                *b.section,
+                *b.section.1,
             );
             self.elements.push(Element {
                 beam,
@@ -204,7 +204,8 @@ impl Mesh {
             component: b.component,
             variable: b.variable,
             elements: first..self.elements.len(),
-            volume: b.section.area * length,
+            volume: b.section.1.area * length,
+            section: b.section.0,
         });
         self.bar_paths.push(b.path);
         Ok(())

@@ -11,16 +11,18 @@ use crate::motor::{Motor, MotorLaw};
 use crate::spring::{Measure, Spring};
 
 /// The scene's motors on `joints` of a model with `n_dofs` coordinates, and the servos'
-/// spring-dampers.
+/// spring-dampers, to follow the model's first `first` springs.
 pub(super) fn motors(
     specs: &[MotorSpec],
     joints: &[Joint],
     n_dofs: usize,
+    first: usize,
 ) -> Result<(Vec<Motor>, Vec<Spring>)> {
     let mut motors = Vec::with_capacity(specs.len());
     let mut springs = Vec::new();
     for (k, m) in specs.iter().enumerate() {
-        let (motor, spring) = motor(&format!("motors[{k}] ({})", m.name), m, joints, n_dofs)?;
+        let path = format!("motors[{k}] ({})", m.name);
+        let (motor, spring) = motor(&path, m, joints, n_dofs, first + springs.len())?;
         motors.push(motor);
         springs.extend(spring);
     }
@@ -33,6 +35,7 @@ fn motor(
     m: &MotorSpec,
     joints: &[Joint],
     n_dofs: usize,
+    spring: usize,
 ) -> Result<(Motor, Option<Spring>)> {
     let at = format!("{path}.joint");
     let (j, row) = coordinate(&at, joints, &m.joint, "a motor to turn")?;
@@ -52,7 +55,7 @@ fn motor(
         return Err(SceneError::new(at, msg));
     }
     let (_, direction) = row.evaluate(&vec![0.0; n_dofs]);
-    let (law, spring) = law(path, m, joint, row)?;
+    let (law, spring) = law(path, m, joint, row, spring)?;
     let motor = Motor {
         name: m.name.clone(),
         dofs: row.dofs(),
@@ -69,6 +72,7 @@ fn law(
     m: &MotorSpec,
     joint: &Joint,
     row: ConstraintRow,
+    index: usize,
 ) -> Result<(MotorLaw, Option<Spring>)> {
     match (m.torque, &m.servo) {
         (Some(torque), None) => {
@@ -93,6 +97,7 @@ fn law(
                 kp,
                 kd,
                 motion: motion(&format!("{path}.servo.motion"), &servo.motion)?,
+                spring: index,
             };
             let spring = Spring {
                 name: format!("servo of motor '{}'", m.name),

@@ -5,23 +5,46 @@ use std::collections::BTreeMap;
 use super::spec::SectionSpec;
 use super::validate::{positive, unknown, Result};
 use crate::error::{short, SceneError};
-use crate::section::Section;
+use crate::section::{Made, NamedSection, Section};
 
-/// The scene's sections by name.
-pub(super) type Sections = BTreeMap<String, Section>;
+/// The scene's sections, in name order.
+pub(super) type Sections = Vec<NamedSection>;
 
-/// Every section of the scene, checked in name order.
-pub(super) fn sections(specs: &BTreeMap<String, SectionSpec>) -> Result<Sections> {
+/// Every section of the scene, checked in name order; `rigid` names the sections of
+/// ground structures declared rigid.
+pub(super) fn sections(specs: &BTreeMap<String, SectionSpec>, rigid: &[&str]) -> Result<Sections> {
     specs
         .iter()
-        .map(|(k, s)| Ok((k.clone(), section(&format!("sections.{k}"), s)?)))
+        .map(|(k, s)| {
+            let path = format!("sections.{k}");
+            let section = section(&path, s)?;
+            Ok(NamedSection {
+                name: k.clone(),
+                section,
+                made: Made {
+                    e: s.E,
+                    rho: s.rho,
+                    nu: elasticity(&path, s, s.E)?.1,
+                    shear_follows_e: s.G.is_none(),
+                    diameter: s.diameter,
+                },
+                rigid: rigid.contains(&k.as_str()),
+            })
+        })
         .collect()
 }
 
-/// The section called `name` by the `section` key of the entry at `path`.
-pub(super) fn find<'a>(sections: &'a Sections, path: &str, name: &str) -> Result<&'a Section> {
+/// The section called `name` by the `section` key of the entry at `path`: its index and
+/// properties.
+pub(super) fn find<'a>(
+    sections: &'a Sections,
+    path: &str,
+    name: &str,
+) -> Result<(usize, &'a Section)> {
     sections
-        .get(name)
+        .iter()
+        .position(|s| s.name == name)
+        .map(|k| (k, &sections[k].section))
         .ok_or_else(|| unknown(format!("{path}.section"), "section", name))
 }
 
@@ -88,5 +111,79 @@ fn geometry(path: &str, s: &SectionSpec, nu: f64) -> Result<(f64, f64, f64)> {
             path,
             "give either `diameter` (solid circle) or all of `A`, `I`, `kappa`",
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::section::SectionProperty;
+
+    /// Every field of `Section::rate` against central differences of sections the scene
+    /// builds, for circles and given `A, I, κ`, with `ν` or with `G` given.
+    #[test]
+    fn section_rates_equal_central_differences() {
+        let circle = |g: Option<f64>, nu: Option<f64>| SectionSpec {
+            E: 70e9,
+            rho: 2700.0,
+            G: g,
+            nu,
+            diameter: Some(0.02),
+            ..SectionSpec::default()
+        };
+        let given = |g: Option<f64>, nu: Option<f64>| SectionSpec {
+            diameter: None,
+            A: Some(3e-4),
+            I: Some(2e-8),
+            kappa: Some(0.85),
+            ..circle(g, nu)
+        };
+        let specs = [
+            circle(None, Some(0.32)),
+            circle(Some(26e9), None),
+            given(None, Some(0.32)),
+            given(Some(26e9), None),
+        ];
+        let fields = |s: &Section| [s.area, s.ea, s.gak, s.ei, s.rho_a, s.rho_i];
+        for spec in specs {
+            let named = &sections(&[("s".to_string(), spec.clone())].into(), &[]).unwrap()[0];
+            for property in [
+                SectionProperty::E,
+                SectionProperty::Rho,
+                SectionProperty::Diameter,
+            ] {
+                if property == SectionProperty::Diameter && spec.diameter.is_none() {
+                    continue;
+                }
+                let built = |step: f64| {
+                    let mut s = spec.clone();
+                    match property {
+                        SectionProperty::E => s.E *= 1.0 + step,
+                        SectionProperty::Rho => s.rho *= 1.0 + step,
+                        SectionProperty::Diameter => {
+                            s.diameter = s.diameter.map(|d| d * (1.0 + step))
+                        }
+                    }
+                    fields(&section("s", &s).unwrap())
+                };
+                let value = match property {
+                    SectionProperty::E => spec.E,
+                    SectionProperty::Rho => spec.rho,
+                    SectionProperty::Diameter => spec.diameter.unwrap(),
+                };
+                let h = 1e-5;
+                let (up, down) = (built(h), built(-h));
+                let rate = fields(&named.section.rate(&named.made, property));
+                for k in 0..6 {
+                    let fd = (up[k] - down[k]) / (2.0 * h * value);
+                    let scale = fields(&named.section)[k] / value;
+                    assert!(
+                        (rate[k] - fd).abs() <= 1e-7 * scale,
+                        "{property:?} field {k}: {} against {fd}",
+                        rate[k]
+                    );
+                }
+            }
+        }
     }
 }

@@ -28,41 +28,104 @@ use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
 use crate::integrator::{step_ratio, AlphaParameters, Integrator, State};
 use crate::model::{Densities, Model};
+use crate::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
 use crate::time_grid::TimeGrid;
 
-/// The `(qₙ, q̈ₙ, λₙ)` of a run, for the backward sweep.
+/// Rows of the states a backward sweep reads: `qₙ`, `q̈ₙ`, `λₙ`, and `q̇ₙ` if a
+/// parameter's pseudo-load reads velocities (else empty).
+#[derive(Default)]
+struct Rows {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    acc: Vec<f64>,
+    lam: Vec<f64>,
+    velocities: bool,
+}
+
+impl Rows {
+    fn push(&mut self, s: &State) {
+        self.q.extend_from_slice(&s.q);
+        if self.velocities {
+            self.v.extend_from_slice(&s.qdot);
+        }
+        self.acc.extend_from_slice(&s.qddot);
+        self.lam.extend_from_slice(&s.lam);
+    }
+
+    fn clear(&mut self) {
+        self.q.clear();
+        self.v.clear();
+        self.acc.clear();
+        self.lam.clear();
+    }
+
+    /// Row `k` (of `n_q` coordinates and `n_c` multipliers).
+    fn row(&self, k: usize, n_q: usize, n_c: usize) -> Stored<'_> {
+        let r = k * n_q..(k + 1) * n_q;
+        Stored {
+            q: &self.q[r.clone()],
+            v: if self.velocities {
+                &self.v[r.clone()]
+            } else {
+                &[]
+            },
+            acc: &self.acc[r],
+            lam: &self.lam[k * n_c..(k + 1) * n_c],
+        }
+    }
+}
+
+/// The states of a run, for the backward sweep.
 enum StateStore {
     /// Every step stored: row `n` of each.
-    All {
-        q: Vec<f64>,
-        acc: Vec<f64>,
-        lam: Vec<f64>,
-    },
+    All(Rows),
     /// Full states every `interval` steps; the segment last replayed, from step `first`.
     Checkpoints {
         interval: usize,
         states: Vec<State>,
         first: usize,
-        q: Vec<f64>,
-        acc: Vec<f64>,
-        lam: Vec<f64>,
+        rows: Rows,
     },
 }
 
-/// A stored state: `qₙ`, `q̈ₙ`, `λₙ`.
-type Stored<'a> = (&'a [f64], &'a [f64], &'a [f64]);
+/// A stored state: `qₙ`, `q̇ₙ` (empty unless kept), `q̈ₙ`, `λₙ`.
+#[derive(Clone, Copy)]
+struct Stored<'a> {
+    q: &'a [f64],
+    v: &'a [f64],
+    acc: &'a [f64],
+    lam: &'a [f64],
+}
+
+impl<'a> Stored<'a> {
+    /// The state as the responses read it at time `t`.
+    fn sample(self, t: f64) -> Sample<'a> {
+        Sample {
+            q: self.q,
+            lam: self.lam,
+            t,
+        }
+    }
+
+    /// The state as the pseudo-loads read it at time `t`, its constraints at `level`.
+    fn at(self, t: f64, level: Level) -> At<'a> {
+        At {
+            q: self.q,
+            rates: Some((self.v, self.acc)),
+            lam: self.lam,
+            t,
+            level,
+        }
+    }
+}
 
 impl StateStore {
     /// Records state `n` of the forward sweep.
     fn record(&mut self, n: usize, s: &State) {
         match self {
-            Self::All { q, acc, lam } => {
-                q.extend_from_slice(&s.q);
-                acc.extend_from_slice(&s.qddot);
-                lam.extend_from_slice(&s.lam);
-            }
+            Self::All(rows) => rows.push(s),
             Self::Checkpoints {
                 interval, states, ..
             } => {
@@ -85,20 +148,16 @@ impl StateStore {
         let last = grid.len();
         let model = it.assembler().model;
         let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
-        let rows = |k: usize| k * n_q..(k + 1) * n_q;
-        let multipliers = |k: usize| k * n_c..(k + 1) * n_c;
         match self {
-            Self::All { q, acc, lam } => Ok((&q[rows(n)], &acc[rows(n)], &lam[multipliers(n)])),
+            Self::All(rows) => Ok(rows.row(n, n_q, n_c)),
             Self::Checkpoints {
                 interval,
                 states,
                 first,
-                q,
-                acc,
-                lam,
+                rows,
             } => {
                 let k = *interval;
-                let held = n >= *first && n <= (*first + k).min(last) && !q.is_empty();
+                let held = n >= *first && n <= (*first + k).min(last) && !rows.q.is_empty();
                 if !held || (prefer_below && n == *first && n > 0) {
                     let segment = if prefer_below && n > 0 {
                         (n - 1) / k
@@ -107,49 +166,48 @@ impl StateStore {
                     };
                     let mut state = states[segment].clone();
                     *first = segment * k;
-                    q.clear();
-                    acc.clear();
-                    lam.clear();
-                    q.extend_from_slice(&state.q);
-                    acc.extend_from_slice(&state.qddot);
-                    lam.extend_from_slice(&state.lam);
+                    rows.clear();
+                    rows.push(&state);
                     for step in *first..(*first + k).min(last) {
                         it.alpha_step(&mut state, grid.step(step))?;
-                        q.extend_from_slice(&state.q);
-                        acc.extend_from_slice(&state.qddot);
-                        lam.extend_from_slice(&state.lam);
+                        rows.push(&state);
                     }
                 }
-                let r = rows(n - *first);
-                Ok((&q[r.clone()], &acc[r], &lam[multipliers(n - *first)]))
+                Ok(rows.row(n - *first, n_q, n_c))
             }
         }
     }
 
-    /// What `memory` asks for with `n_q` DOFs over `steps` steps: every state, or full
-    /// states every `⌈√steps⌉` steps.
-    fn new(memory: Memory, n_q: usize, n_c: usize, steps: usize) -> Self {
+    /// What `memory` asks for with `n_q` DOFs over `steps` steps, with `velocities` or
+    /// not: every state, or full states every `⌈√steps⌉` steps.
+    fn new(memory: Memory, n_q: usize, n_c: usize, steps: usize, velocities: bool) -> Self {
         let interval = ((steps as f64).sqrt().ceil() as usize).max(1);
+        let rows_per_state = 2 + usize::from(velocities);
         let checkpoints = match memory {
             Memory::StoreAll => false,
             Memory::Checkpoints => true,
-            Memory::Auto { budget_bytes } => 2 * n_q * (steps + 1) * 8 > budget_bytes,
+            Memory::Auto { budget_bytes } => rows_per_state * n_q * (steps + 1) * 8 > budget_bytes,
+        };
+        let rows = Rows {
+            velocities,
+            ..Rows::default()
         };
         if checkpoints {
             Self::Checkpoints {
                 interval,
                 states: Vec::new(),
                 first: 0,
-                q: Vec::new(),
-                acc: Vec::new(),
-                lam: Vec::new(),
+                rows,
             }
         } else {
-            Self::All {
-                q: Vec::with_capacity(n_q * (steps + 1)),
-                acc: Vec::with_capacity(n_q * (steps + 1)),
-                lam: Vec::with_capacity(n_c * (steps + 1)),
-            }
+            let states = steps + 1;
+            Self::All(Rows {
+                q: Vec::with_capacity(n_q * states),
+                v: Vec::with_capacity(if velocities { n_q * states } else { 0 }),
+                acc: Vec::with_capacity(n_q * states),
+                lam: Vec::with_capacity(n_c * states),
+                velocities,
+            })
         }
     }
 }
@@ -162,52 +220,52 @@ pub(crate) fn run(
     settings: &DynamicSettings,
     grid: &TimeGrid,
     responses: &[Response],
+    parameters: &[Parameter],
     memory: Memory,
 ) -> Result<Sensitivities, Error> {
     let mut it = Integrator::new(model, densities, settings)?;
-    let mut objectives = Objectives::new(model, responses, grid)?;
-    let mut store = StateStore::new(memory, model.n_dofs(), model.n_constraints(), grid.len());
+    let mut objectives = Objectives::new(model, responses, parameters, grid)?;
+    let pseudo = PseudoLoads::new(model, settings.mass, parameters);
+    let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
+    let mut store = StateStore::new(memory, n_q, n_c, grid.len(), pseudo.reads_velocities());
     let clock = Instant::now();
     let mut values = forward(&mut it, grid, &mut objectives, settings, &mut store)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    let mut sweep = Sweep::new(model, &it, settings, responses.len());
+    let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
     let last = grid.len();
-    let (q, _, lam) = store.get(&mut it, grid, last, true)?;
     let t = |n: usize| grid.times()[n];
-    sweep.add_local(&it, &objectives, last, Sample { q, lam, t: t(last) });
+    let s = store.get(&mut it, grid, last, true)?;
+    sweep.add_local(&it, &objectives, last, s.sample(t(last)));
     for n in (0..last).rev() {
         crate::interrupt::poll()?;
-        let (q1, acc1, lam1) = store.get(&mut it, grid, n + 1, true)?;
+        let s1 = store.get(&mut it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         sweep.step(
             &mut it,
-            Sample {
-                q: q1,
-                lam: lam1,
-                t: t(n + 1),
-            },
-            acc1,
-            grid.times()[n + 1],
+            s1.at(t(n + 1), Level::Position),
             grid.step(n),
             previous,
         )?;
-        let (q, _, lam) = store.get(&mut it, grid, n, false)?;
-        sweep.add_local(&it, &objectives, n, Sample { q, lam, t: t(n) });
+        let s = store.get(&mut it, grid, n, false)?;
+        sweep.add_local(&it, &objectives, n, s.sample(t(n)));
     }
-    let (q0, acc0, lam0) = store.get(&mut it, grid, 0, false)?;
-    sweep.initial(&mut it, (q0, acc0, lam0))?;
+    let s0 = store.get(&mut it, grid, 0, false)?;
+    sweep.initial(&mut it, s0.at(0.0, Level::Acceleration))?;
     objectives.finish(&mut values, &mut sweep.xb);
-    Ok(Sensitivities {
+    let peaks = objectives.peaks();
+    let timings = Timings {
+        simulation,
+        gradients: clock.elapsed().as_secs_f64(),
+    };
+    Ok(Sensitivities::new(
+        model,
         values,
-        gradients: sweep.xb,
-        peaks: objectives.peaks(),
-        method: Method::Adjoint,
-        timings: Timings {
-            simulation,
-            gradients: clock.elapsed().as_secs_f64(),
-        },
-    })
+        &sweep.xb,
+        Method::Adjoint,
+        timings,
+        peaks,
+    ))
 }
 
 /// Forward sweep: the response values, and the states (or checkpoints) of the backward
@@ -267,12 +325,18 @@ struct Sweep<'a> {
 }
 
 impl<'a> Sweep<'a> {
-    fn new(model: &'a Model, it: &Integrator, settings: &DynamicSettings, n_r: usize) -> Self {
-        let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+    fn new(
+        model: &'a Model,
+        it: &Integrator,
+        settings: &DynamicSettings,
+        pseudo: PseudoLoads,
+        n_r: usize,
+    ) -> Self {
+        let (n_q, n_x) = (model.n_dofs(), pseudo.columns());
         let n = n_q + model.n_constraints();
         Self {
             model,
-            pseudo: PseudoLoads::new(model, settings.mass),
+            pseudo,
             mass: settings.mass,
             n_q,
             n,
@@ -320,15 +384,13 @@ impl<'a> Sweep<'a> {
         }
     }
 
-    /// The transposed step from `n + 1` (state `at1`, `acc1` at `t1`) back to `n`, for a step
-    /// of size `h` after one of size `previous`: the transposed Newmark step, then the
-    /// transposed carrying of `a` to the new step size (`ā ← ρ ā`, `Ā += (1 − ρ) ā`).
+    /// The transposed step from `n + 1` (state `at1`) back to `n`, for a step of size `h`
+    /// after one of size `previous`: the transposed Newmark step, then the transposed
+    /// carrying of `a` to the new step size (`ā ← ρ ā`, `Ā += (1 − ρ) ā`).
     fn step(
         &mut self,
         it: &mut Integrator,
-        at1: Sample<'_>,
-        acc1: &[f64],
-        t1: f64,
+        at1: At<'_>,
         h: f64,
         previous: f64,
     ) -> Result<(), SolveError> {
@@ -351,21 +413,22 @@ impl<'a> Sweep<'a> {
             }
         }
         it.newton
-            .factorize(at1.q, Some(at1.lam), bp, it.params.gamma_prime(h), t1)?;
-        self.seed_multipliers(it.newton.multiplier_scale());
+            .factorize(at1.q, Some(at1.lam), bp, it.params.gamma_prime(h), at1.t)?;
+        let scale = it.newton.multiplier_scale();
+        self.seed_multipliers(scale);
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
+        if self.pseudo.moves_constraints() {
+            it.newton.unaugment(&mut self.rhs);
+        }
         let asm = it.assembler();
         for k in 0..self.n_r {
             let r = k * n_q..(k + 1) * n_q;
-            let mu = &self.rhs[k * n..k * n + n_q];
-            self.pseudo.subtract_transposed(
-                asm,
-                at1.q,
-                Some(acc1),
-                mu,
-                &mut self.xb[k * n_x..(k + 1) * n_x],
-            );
+            let column = &self.rhs[k * n..(k + 1) * n];
+            let xb = &mut self.xb[k * n_x..(k + 1) * n_x];
+            self.pseudo
+                .subtract_transposed(asm, &at1, scale, column, xb);
+            let mu = &column[..n_q];
             asm.mass_times(mu, &mut self.c);
             self.damped.fill(0.0);
             asm.add_damping_times(mu, &mut self.damped);
@@ -397,11 +460,7 @@ impl<'a> Sweep<'a> {
     /// `t = 0`: `q̈'₀` from `[M, Φ_qᵀ; Φ_q, 0]`, `a'₀ = q̈'₀`, so the initial-acceleration
     /// system takes `Ā₀ + ā₀`; from the static equilibrium, `q̄₀` then reaches `x` through
     /// it ([`super::start`]).
-    fn initial(
-        &mut self,
-        it: &mut Integrator,
-        (q0, acc0, lam0): (&[f64], &[f64], &[f64]),
-    ) -> Result<(), SolveError> {
+    fn initial(&mut self, it: &mut Integrator, at0: At<'_>) -> Result<(), SolveError> {
         let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
         for k in 0..self.n_r {
             let out = &mut self.rhs[k * n..(k + 1) * n];
@@ -414,21 +473,23 @@ impl<'a> Sweep<'a> {
                 *o = acc_b + ab;
             }
         }
-        it.newton.factorize(q0, None, 1.0, 0.0, 0.0)?;
-        self.seed_multipliers(it.newton.multiplier_scale());
+        it.newton.factorize(at0.q, None, 1.0, 0.0, 0.0)?;
+        let scale = it.newton.multiplier_scale();
+        self.seed_multipliers(scale);
         it.newton
             .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
+        it.newton.unaugment(&mut self.rhs);
         for k in 0..self.n_r {
             self.pseudo.subtract_transposed(
                 it.assembler(),
-                q0,
-                Some(acc0),
-                &self.rhs[k * n..k * n + n_q],
+                &at0,
+                scale,
+                &self.rhs[k * n..(k + 1) * n],
                 &mut self.xb[k * n_x..(k + 1) * n_x],
             );
         }
         if let Some(eq) = it.equilibrium.clone() {
-            let start = (q0, acc0, lam0);
+            let start = (at0.q, at0.rates.map_or(&[][..], |r| r.1), at0.lam);
             let (pseudo, rhs, qb, xb) = (&self.pseudo, &mut self.rhs, &mut self.qb, &mut self.xb);
             super::start::adjoint(it, &eq, start, pseudo, rhs, qb, xb)?;
         }

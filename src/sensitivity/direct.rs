@@ -28,6 +28,7 @@ use crate::integrator::{
     rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
 };
 use crate::model::{Densities, Model};
+use crate::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::DynamicSettings;
 use crate::time_grid::TimeGrid;
@@ -44,10 +45,12 @@ pub(crate) fn run(
     settings: &DynamicSettings,
     grid: &TimeGrid,
     responses: &[Response],
+    parameters: &[Parameter],
 ) -> Result<Sensitivities, Error> {
     let mut it = Integrator::new(model, densities, settings)?;
-    let mut objectives = Objectives::new(model, responses, grid)?;
-    let mut sweep = Sweep::new(model, &it, settings, responses.len());
+    let mut objectives = Objectives::new(model, responses, parameters, grid)?;
+    let pseudo = PseudoLoads::new(model, settings.mass, parameters);
+    let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
     let mut timings = Timings::default();
     let clock = Instant::now();
     let mut state = it.initial_state()?;
@@ -66,20 +69,22 @@ pub(crate) fn run(
         timings.gradients += clock.elapsed().as_secs_f64();
     }
     objectives.finish(&mut sweep.values, &mut sweep.gradients);
-    Ok(Sensitivities {
-        values: sweep.values,
-        gradients: sweep.gradients,
-        method: Method::Direct,
+    let peaks = objectives.peaks();
+    Ok(Sensitivities::new(
+        model,
+        sweep.values,
+        &sweep.gradients,
+        Method::Direct,
         timings,
-        peaks: objectives.peaks(),
-    })
+        peaks,
+    ))
 }
 
 /// The sensitivity states of every design variable and the responses accumulated so far.
 struct Sweep<'a> {
     pseudo: PseudoLoads,
     mass: MassKind,
-    /// `n_q`, `n_q + n_c`, design variables, columns per parallel block.
+    /// `n_q`, `n_q + n_c`, design variables and parameters, columns per parallel block.
     n_q: usize,
     n: usize,
     n_x: usize,
@@ -104,12 +109,18 @@ struct Sweep<'a> {
 }
 
 impl<'a> Sweep<'a> {
-    fn new(model: &'a Model, it: &Integrator, settings: &DynamicSettings, n_r: usize) -> Self {
-        let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+    fn new(
+        model: &'a Model,
+        it: &Integrator,
+        settings: &DynamicSettings,
+        pseudo: PseudoLoads,
+        n_r: usize,
+    ) -> Self {
+        let (n_q, n_x) = (model.n_dofs(), pseudo.columns());
         let n = n_q + model.n_constraints();
         let width = block_width(n_x);
         Self {
-            pseudo: PseudoLoads::new(model, settings.mass),
+            pseudo,
             mass: settings.mass,
             n_q,
             n,
@@ -142,18 +153,22 @@ impl<'a> Sweep<'a> {
             self.dq = super::start::direct(it, eq, &self.pseudo)?;
         }
         it.newton.factorize(&s.q, None, 1.0, 0.0, 0.0)?;
+        let scale = it.newton.multiplier_scale();
         self.rhs.fill(0.0);
-        self.pseudo.subtract_columns(
-            it.newton.assembler(),
-            &s.q,
-            Some(&s.qddot),
-            &mut self.rhs,
-            n,
-            0..n_x,
-        );
+        let at = At {
+            q: &s.q,
+            rates: Some((&s.qdot, &s.qddot)),
+            lam: &s.lam,
+            t: s.t,
+            level: Level::Acceleration,
+        };
+        let asm = it.newton.assembler();
+        self.pseudo
+            .subtract_columns(asm, &at, scale, &mut self.rhs, n, 0..n_x);
         if equilibrium.is_some() {
-            let scale = it.newton.multiplier_scale();
             super::start::add_initial_terms(it, s, &self.dq, scale, &mut self.rhs);
+        }
+        if equilibrium.is_some() || self.pseudo.moves_constraints() {
             it.newton.augment(&mut self.rhs);
         }
         let newton = &it.newton;
@@ -179,6 +194,14 @@ impl<'a> Sweep<'a> {
             .factorize(&s.q, Some(&s.lam), bp, p.gamma_prime(h), s.t)?;
         let newton = &it.newton;
         let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
+        let (scale, augmented) = (newton.multiplier_scale(), pseudo.moves_constraints());
+        let at = At {
+            q: &s.q,
+            rates: Some((&s.qdot, &s.qddot)),
+            lam: &s.lam,
+            t: s.t,
+            level: Level::Position,
+        };
         self.rhs
             .par_chunks_mut(n * width)
             .zip(self.dq.par_chunks_mut(n_q * width))
@@ -211,7 +234,10 @@ impl<'a> Sweep<'a> {
                 }
                 let first = block * width;
                 let asm = newton.assembler();
-                pseudo.subtract_columns(asm, &s.q, Some(&s.qddot), rhs, n, first..first + cols);
+                pseudo.subtract_columns(asm, &at, scale, rhs, n, first..first + cols);
+                if augmented {
+                    newton.augment(rhs);
+                }
                 newton.solve_block(rhs, cols, buf)?;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;

@@ -24,6 +24,7 @@ use crate::assembly::Assembler;
 use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::{Error, SettingsError};
 use crate::model::{Analysis, Densities, Model};
+use crate::parameter::{At, Designed, Parameter};
 use crate::response::{Context, Known, Response, Sample};
 use crate::rigid::Clusters;
 use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
@@ -36,6 +37,9 @@ pub struct Sensitivities {
     pub values: Vec<f64>,
     /// `∂f_k/∂x_j`, row-major `n_responses × n_variables`.
     pub gradients: Vec<f64>,
+    /// `∂f_k/∂p_i` of the scene parameters asked for, row-major
+    /// `n_responses × n_parameters`.
+    pub parameter_gradients: Vec<f64>,
     /// The method actually used.
     pub method: Method,
     /// Wall time (s) of the simulation and of the sensitivity analysis.
@@ -43,6 +47,35 @@ pub struct Sensitivities {
     /// Per response: the largest point value of an aggregate (a stress response's peak,
     /// Pa) over the states, `None` for the others.
     pub peaks: Vec<Option<f64>>,
+}
+
+impl Sensitivities {
+    /// The result of a sweep whose gradient rows (row-major, one per value) hold the design
+    /// variables' columns, then the parameters'.
+    fn new(
+        model: &Model,
+        values: Vec<f64>,
+        rows: &[f64],
+        method: Method,
+        timings: Timings,
+        peaks: Vec<Option<f64>>,
+    ) -> Self {
+        let n_x = model.n_variables();
+        let width = rows.len() / values.len().max(1);
+        let (mut gradients, mut parameter_gradients) = (Vec::new(), Vec::new());
+        for row in rows.chunks(width.max(1)) {
+            gradients.extend_from_slice(&row[..n_x]);
+            parameter_gradients.extend_from_slice(&row[n_x..]);
+        }
+        Self {
+            values,
+            gradients,
+            parameter_gradients,
+            method,
+            timings,
+            peaks,
+        }
+    }
 }
 
 /// Where the time of a run with gradients went.
@@ -57,6 +90,8 @@ pub struct Timings {
 /// Responses with their weights on a time grid and the rigid trajectories they need.
 pub(crate) struct Objectives<'a> {
     responses: &'a [Response],
+    /// The scene parameters, whose columns follow the design variables'.
+    parameters: &'a [Parameter],
     /// Per response: the rigid trajectory of its [`Response::rigid_node`] at every state
     /// of the grid, empty for a response without one.
     rigid: Vec<Vec<[f64; 2]>>,
@@ -68,8 +103,14 @@ pub(crate) struct Objectives<'a> {
 }
 
 impl<'a> Objectives<'a> {
-    /// Objectives over the states of `grid` (a grid without steps for statics).
-    fn new(model: &Model, responses: &'a [Response], grid: &'a TimeGrid) -> Result<Self, Error> {
+    /// Objectives over the states of `grid` (a grid without steps for statics), with
+    /// gradients to the design variables and to `parameters`.
+    fn new(
+        model: &Model,
+        responses: &'a [Response],
+        parameters: &'a [Parameter],
+        grid: &'a TimeGrid,
+    ) -> Result<Self, Error> {
         let clusters = Clusters::of(model);
         let rigid = responses
             .iter()
@@ -80,6 +121,7 @@ impl<'a> Objectives<'a> {
             .collect::<Result<_, _>>()?;
         Ok(Self {
             responses,
+            parameters,
             rigid,
             analysis: model.analysis,
             grid,
@@ -161,7 +203,8 @@ impl<'a> Objectives<'a> {
     }
 
     /// Adds `wₙ G_q` of response `k` at state `n` to `g_q`, `wₙ G_λ` to `g_lam` and
-    /// `wₙ G_x` to `g_x` (explicit responses contribute their gradient at `n = 0`).
+    /// `wₙ G_x` to `g_x`, then `wₙ G_p` of the parameters to its last entries (explicit
+    /// responses contribute their gradient at `n = 0`).
     #[allow(clippy::too_many_arguments)]
     fn add_partials(
         &self,
@@ -181,51 +224,79 @@ impl<'a> Objectives<'a> {
         };
         if w != 0.0 {
             r.add_partials(ctx, at, self.known(k, n), w, g_q, g_lam, g_x);
+            let first = g_x.len() - self.parameters.len();
+            for (g, p) in g_x[first..].iter_mut().zip(self.parameters) {
+                *g += w * r.parameter_partial(ctx, at, p);
+            }
         }
     }
 }
 
-/// Pseudo-loads `∂r/∂x` (paper Eq. 35–36), element by element.
+/// Pseudo-loads `∂r/∂x` (paper Eq. 35–36), element by element, then those of the scene
+/// parameters ([`Parameter::pseudo_load`]): one column per design variable, then one per
+/// parameter.
 pub(crate) struct PseudoLoads {
     /// Full-density element mass matrices.
     masses: Vec<Matrix6>,
+    /// Design variables, the first columns.
+    n_x: usize,
+    pub(super) parameters: Vec<Parameter>,
 }
 
 impl PseudoLoads {
-    fn new(model: &Model, kind: MassKind) -> Self {
+    fn new(model: &Model, kind: MassKind, parameters: &[Parameter]) -> Self {
         Self {
             masses: model
                 .elements
                 .iter()
                 .map(|e| e.beam.mass_matrix(kind))
                 .collect(),
+            n_x: model.n_variables(),
+            parameters: parameters.to_vec(),
         }
     }
 
-    /// `m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
-    fn element(&self, asm: &Assembler, e: usize, q: &[f64], acc: Option<&[f64]>) -> Vector6 {
-        let el = &asm.model.elements[e];
-        let dofs = el.dofs();
-        let inertia =
-            Vector6::from_fn(|i, _| acc.map_or(0.0, |a| a[dofs[i]]) - asm.gravity[dofs[i]]);
-        self.masses[e] * inertia * asm.densities.mass_rate[e]
-            + el.beam.internal_force(&el.gather(q)) * asm.densities.stiffness_rate[e]
+    /// Design variables and parameters: the columns of the sensitivities.
+    fn columns(&self) -> usize {
+        self.n_x + self.parameters.len()
     }
 
-    /// Subtracts column `j` of `∂r/∂x` from column `j` of the column-major block `rhs`
-    /// (leading dimension `ld`) for `j` in `columns` (the block holds those columns only).
+    /// Whether a parameter's pseudo-load reads velocities.
+    fn reads_velocities(&self) -> bool {
+        self.parameters.iter().any(Parameter::reads_velocities)
+    }
+
+    /// Whether a parameter's pseudo-load has constraint rows: right-hand sides then need
+    /// the augmentation, and transposed solutions its transpose.
+    fn moves_constraints(&self) -> bool {
+        self.parameters.iter().any(Parameter::moves_constraints)
+    }
+
+    /// `m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
+    fn element(&self, asm: &Assembler, e: usize, at: &At) -> Vector6 {
+        let el = &asm.model.elements[e];
+        let dofs = el.dofs();
+        let acc = |d: usize| at.rates.map_or(0.0, |(_, a)| a[d]);
+        let inertia = Vector6::from_fn(|i, _| acc(dofs[i]) - asm.gravity[dofs[i]]);
+        self.masses[e] * inertia * asm.densities.mass_rate[e]
+            + el.beam.internal_force(&el.gather(at.q)) * asm.densities.stiffness_rate[e]
+    }
+
+    /// Subtracts column `j` of the pseudo-loads from column `j` of the column-major block
+    /// `rhs` (leading dimension `ld`) for `j` in `columns` (the block holds those columns
+    /// only); a parameter's constraint rows enter scaled by `scale` (the solve's `s`).
     fn subtract_columns(
         &self,
         asm: &Assembler,
-        q: &[f64],
-        acc: Option<&[f64]>,
+        at: &At,
+        scale: f64,
         rhs: &mut [f64],
         ld: usize,
         columns: std::ops::Range<usize>,
     ) {
         for e in 0..self.masses.len() {
             if let Some(j) = asm.model.variable_of(e).filter(|j| columns.contains(j)) {
-                let p = self.element(asm, e, q, acc);
+                let p = self.element(asm, e, at);
                 let col = &mut rhs[(j - columns.start) * ld..];
                 asm.model.elements[e]
                     .dofs()
@@ -234,20 +305,32 @@ impl PseudoLoads {
                     .for_each(|(&d, v)| col[d] -= v);
             }
         }
+        let n_q = asm.model.n_dofs();
+        for (k, p) in self.parameters.iter().enumerate() {
+            let j = self.n_x + k;
+            if columns.contains(&j) {
+                let col = &mut rhs[(j - columns.start) * ld..(j - columns.start + 1) * ld];
+                p.pseudo_load(&designed(asm), at, |i, v| {
+                    col[i] -= if i < n_q { v } else { scale * v };
+                });
+            }
+        }
     }
 
-    /// `x̄_j −= Σ_{e ∈ j} p_eᵀ μ_e`, i.e. `x̄ −= (∂r/∂x)ᵀ μ`.
+    /// `x̄ −= (∂r/∂x)ᵀ μ` over every column: `μ` a transposed solution `[μ_q; μ_c]` whose
+    /// multiplier part is unaugmented ([`crate::newton::Newton::unaugment`]) where a
+    /// parameter moves the constraints, scaled by `scale` as the solve's.
     fn subtract_transposed(
         &self,
         asm: &Assembler,
-        q: &[f64],
-        acc: Option<&[f64]>,
+        at: &At,
+        scale: f64,
         mu: &[f64],
         xbar: &mut [f64],
     ) {
         for e in 0..self.masses.len() {
             if let Some(j) = asm.model.variable_of(e) {
-                let p = self.element(asm, e, q, acc);
+                let p = self.element(asm, e, at);
                 xbar[j] -= asm.model.elements[e]
                     .dofs()
                     .iter()
@@ -256,6 +339,27 @@ impl PseudoLoads {
                     .sum::<f64>();
             }
         }
+        let n_q = asm.model.n_dofs();
+        for (k, p) in self.parameters.iter().enumerate() {
+            let mut sum = 0.0;
+            p.pseudo_load(&designed(asm), at, |i, v| {
+                sum += if i < n_q {
+                    v * mu[i]
+                } else {
+                    scale * v * mu[i]
+                };
+            });
+            xbar[self.n_x + k] -= sum;
+        }
+    }
+}
+
+/// The assembler's model and design, as the parameters' pseudo-loads read them.
+fn designed<'a>(asm: &'a Assembler) -> Designed<'a> {
+    Designed {
+        model: asm.model,
+        densities: &asm.densities,
+        mass: asm.mass_kind,
     }
 }
 
@@ -273,6 +377,46 @@ pub fn parse_responses(model: &Model, names: &[String]) -> Result<Vec<Response>,
     names.iter().map(|n| Response::parse(n, model)).collect()
 }
 
+/// Parses scene-parameter names against a model and the responses they will be asked of.
+///
+/// # Errors
+/// A [`SettingsError`] naming the parameter: unknown, or a combination not built (a
+/// point's arm with a response that follows a rigid trajectory, or with initial rates).
+pub fn parse_parameters(
+    model: &Model,
+    names: &[String],
+    responses: &[Response],
+) -> Result<Vec<Parameter>, SettingsError> {
+    let parameters = names
+        .iter()
+        .map(|n| Parameter::parse(n, model))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (name, p) in names.iter().zip(&parameters) {
+        let at = format!("parameter '{name}'");
+        if p.section().is_some()
+            && responses
+                .iter()
+                .any(|r| matches!(r, Response::Aggregate(_)))
+        {
+            let msg = "stresses and buckling read the section itself: their gradients to it are not built";
+            return Err(SettingsError::new(at, msg));
+        }
+        if !p.moves_constraints() {
+            continue;
+        }
+        if responses.iter().any(|r| r.rigid_node().is_some()) {
+            let msg =
+                "a response follows a rigid trajectory, which moving the point changes: not built";
+            return Err(SettingsError::new(at, msg));
+        }
+        if !model.initial_velocity.is_empty() {
+            let msg = "the initial rates' motion depends on the point's place: not built";
+            return Err(SettingsError::new(at, msg));
+        }
+    }
+    Ok(parameters)
+}
+
 /// Responses and gradients of a dynamic run on the fixed-step grid of `settings`.
 ///
 /// # Errors
@@ -282,10 +426,19 @@ pub fn of_motion(
     x: &[f64],
     settings: &DynamicSettings,
     responses: &[Response],
+    parameters: &[Parameter],
     how: SensitivitySettings,
 ) -> Result<Sensitivities, Error> {
     settings.validate()?;
-    of_motion_on(model, x, settings, &settings.grid(), responses, how)
+    of_motion_on(
+        model,
+        x,
+        settings,
+        &settings.grid(),
+        responses,
+        parameters,
+        how,
+    )
 }
 
 /// Responses and gradients of a dynamic run on the steps of `grid`, equal or not: the
@@ -299,16 +452,17 @@ pub fn of_motion_on(
     settings: &DynamicSettings,
     grid: &TimeGrid,
     responses: &[Response],
+    parameters: &[Parameter],
     how: SensitivitySettings,
 ) -> Result<Sensitivities, Error> {
     let densities = model.densities(Some(x))?;
     if !responses.iter().any(Response::depends_on_states) {
-        return explicit(model, &densities, responses);
+        return explicit(model, &densities, responses, parameters);
     }
     let (n_q, n, n_x) = (
         model.n_dofs(),
         model.n_dofs() + model.n_constraints(),
-        model.n_variables(),
+        model.n_variables() + parameters.len(),
     );
     let gib = |doubles: f64| doubles * 8.0 / (1u64 << 30) as f64;
     match resolve(how.method, responses, model) {
@@ -318,14 +472,21 @@ pub fn of_motion_on(
             if need > MAX_GIB {
                 return Err(SettingsError::new("method", format!("the direct method would hold {need:.1} GiB of sensitivities (at most {MAX_GIB} GiB); use method='adjoint'")).into());
             }
-            direct::run(model, densities, settings, grid, responses)
+            direct::run(model, densities, settings, grid, responses, parameters)
         }
         _ => {
-            let need = gib(2.0 * n_q as f64 * (grid.len() + 1) as f64);
+            let rows = if parameters.iter().any(Parameter::reads_velocities) {
+                3.0
+            } else {
+                2.0
+            };
+            let need = gib(rows * n_q as f64 * (grid.len() + 1) as f64);
             if how.memory == Memory::StoreAll && need > MAX_GIB {
                 return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
             }
-            adjoint::run(model, densities, settings, grid, responses, how.memory)
+            adjoint::run(
+                model, densities, settings, grid, responses, parameters, how.memory,
+            )
         }
     }
 }
@@ -342,20 +503,16 @@ pub fn of_equilibrium(
     x: &[f64],
     settings: &StaticSettings,
     responses: &[Response],
+    parameters: &[Parameter],
     method: Method,
 ) -> Result<Sensitivities, Error> {
     settings.validate()?;
     let densities = model.densities(Some(x))?;
     if !responses.iter().any(Response::depends_on_states) {
-        return explicit(model, &densities, responses);
+        return explicit(model, &densities, responses, parameters);
     }
-    statics::run(
-        model,
-        densities,
-        settings,
-        responses,
-        resolve(method, responses, model),
-    )
+    let method = resolve(method, responses, model);
+    statics::run(model, densities, settings, responses, parameters, method)
 }
 
 /// Responses evaluated on recorded states: their values and, per aggregate, its peak.
@@ -424,7 +581,7 @@ pub fn evaluate(
         static_load: &load,
         mass_kind: MassKind::Consistent,
     };
-    let mut objectives = Objectives::new(model, responses, &grid)?;
+    let mut objectives = Objectives::new(model, responses, &[], &grid)?;
     let mut values = vec![0.0; responses.len()];
     let n_c = model.n_constraints();
     for (n, q) in q.chunks(n_q).enumerate() {
@@ -443,16 +600,18 @@ pub fn evaluate(
     })
 }
 
-/// Responses that are explicit in `x` (volumes) need no simulation.
+/// Responses that are explicit in `x` (volumes) need no simulation, and depend on no
+/// parameter.
 fn explicit(
     model: &Model,
     densities: &Densities,
     responses: &[Response],
+    parameters: &[Parameter],
 ) -> Result<Sensitivities, Error> {
     let ctx = Context::dynamic(model, densities, MassKind::Consistent);
     let grid = TimeGrid::single();
-    let objectives = Objectives::new(model, responses, &grid)?;
-    let (n_q, n_x) = (model.n_dofs(), model.n_variables());
+    let objectives = Objectives::new(model, responses, parameters, &grid)?;
+    let (n_q, n_x) = (model.n_dofs(), model.n_variables() + parameters.len());
     let (q, lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
     let at = Sample {
         q: &q,
@@ -466,13 +625,16 @@ fn explicit(
     for (k, row) in gradients.chunks_mut(n_x.max(1)).enumerate() {
         objectives.add_partials(&ctx, k, 0, at, &mut g_q, &mut g_lam, row);
     }
-    Ok(Sensitivities {
+    let peaks = objectives.peaks();
+    let timings = Timings::default();
+    Ok(Sensitivities::new(
+        model,
         values,
-        gradients,
-        method: Method::Direct,
-        timings: Timings::default(),
-        peaks: objectives.peaks(),
-    })
+        &gradients,
+        Method::Direct,
+        timings,
+        peaks,
+    ))
 }
 
 fn resolve(method: Method, responses: &[Response], model: &Model) -> Method {

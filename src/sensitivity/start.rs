@@ -14,6 +14,7 @@
 use super::PseudoLoads;
 use crate::error::SolveError;
 use crate::integrator::{Integrator, State};
+use crate::parameter::{At, Level};
 use crate::statics::StaticSolution;
 
 /// Direct: the columns `q₀'` (`n_q × n_x`, column-major) of the static sensitivity.
@@ -26,12 +27,16 @@ pub(super) fn direct(
     pseudo: &PseudoLoads,
 ) -> Result<Vec<f64>, SolveError> {
     let asm = it.assembler();
-    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     it.newton
         .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
     let mut rhs = vec![0.0; n * n_x];
-    pseudo.subtract_columns(it.assembler(), &eq.q, None, &mut rhs, n, 0..n_x);
+    let scale = it.newton.multiplier_scale();
+    pseudo.subtract_columns(it.assembler(), &at(eq), scale, &mut rhs, n, 0..n_x);
+    if pseudo.moves_constraints() {
+        it.newton.augment(&mut rhs);
+    }
     it.newton
         .solve_block(&mut rhs, n_x, &mut it.newton.scratch(n_x.max(1)))?;
     Ok(rhs
@@ -80,7 +85,18 @@ pub(super) fn add_initial_terms(
     }
 }
 
-/// Adjoint: with `solution` the transposed initial solve's (augmented) solutions, one
+/// The equilibrium as a state the pseudo-loads are evaluated at.
+fn at(eq: &StaticSolution) -> At<'_> {
+    At {
+        q: &eq.q,
+        rates: None,
+        lam: &eq.lambda,
+        t: 0.0,
+        level: Level::Position,
+    }
+}
+
+/// Adjoint: with `solution` the transposed initial solve's (unaugmented) solutions, one
 /// column per response, adds to the adjoints `qbar` of `q₀` the initial system's share,
 /// `−(K_t + Σλ₀H) ν − Σₖ s νₖ Hₖ q̈₀`, then carries them to `x`: `K_s ψ = q̄₀`,
 /// `x̄ −= ψᵀ ∂r_s/∂x`.
@@ -98,9 +114,8 @@ pub(super) fn adjoint(
 ) -> Result<(), SolveError> {
     let (q0, acc0, lam0) = s0;
     let scale = it.newton.multiplier_scale();
-    it.newton.unaugment(solution);
     let asm = it.assembler();
-    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     let n_r = qbar.len() / n_q.max(1);
     let tangent = asm.tangent(q0, lam0);
@@ -130,8 +145,10 @@ pub(super) fn adjoint(
         .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
     it.newton
         .solve_block(&mut rhs, n_r, &mut it.newton.scratch(n_r))?;
+    it.newton.unaugment(&mut rhs);
+    let scale = it.newton.multiplier_scale();
     for (psi, xbar) in rhs.chunks(n).zip(xbar.chunks_mut(n_x.max(1))) {
-        pseudo.subtract_transposed(it.assembler(), &eq.q, None, &psi[..n_q], xbar);
+        pseudo.subtract_transposed(it.assembler(), &at(eq), scale, psi, xbar);
     }
     Ok(())
 }

@@ -10,6 +10,7 @@ use crate::element::MassKind;
 use crate::error::Error;
 use crate::model::{Densities, Model};
 use crate::newton::Newton;
+use crate::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::StaticSettings;
 use crate::statics::{load_stepping, static_newton};
@@ -21,6 +22,7 @@ pub(crate) fn run(
     densities: Densities,
     settings: &StaticSettings,
     responses: &[Response],
+    parameters: &[Parameter],
     method: Method,
 ) -> Result<Sensitivities, Error> {
     let clock = Instant::now();
@@ -35,26 +37,33 @@ pub(crate) fn run(
         lam: &sol.lambda,
         t: settings.time,
     };
-    let (local, objectives) = Local::at(&newton, settings.time, responses, &grid, at)?;
+    let pseudo = PseudoLoads::new(model, MassKind::Consistent, parameters);
+    let (local, objectives) = Local::at(&newton, settings.time, responses, &pseudo, &grid, at)?;
+    let state = At {
+        q: &sol.q,
+        rates: None,
+        lam: &sol.lambda,
+        t: settings.time,
+        level: Level::Position,
+    };
     let (mut values, mut gradients) = match method {
-        Method::Direct => direct(&newton, &sol.q, local)?,
-        _ => adjoint(&newton, &sol.q, local)?,
+        Method::Direct => direct(&newton, &state, &pseudo, local)?,
+        _ => adjoint(&newton, &state, &pseudo, local)?,
     };
     objectives.finish(&mut values, &mut gradients);
-    Ok(Sensitivities {
-        values,
-        gradients,
-        peaks: objectives.peaks(),
-        method,
-        timings: Timings {
-            simulation,
-            gradients: clock.elapsed().as_secs_f64(),
-        },
-    })
+    let peaks = objectives.peaks();
+    let timings = Timings {
+        simulation,
+        gradients: clock.elapsed().as_secs_f64(),
+    };
+    Ok(Sensitivities::new(
+        model, values, &gradients, method, timings, peaks,
+    ))
 }
 
 /// The responses at the equilibrium and their partial derivatives: `G_q` (row-major
-/// `n_r × n_q`) and `G_x` (`n_r × n_x`).
+/// `n_r × n_q`) and `G_x` (`n_r × (n_x + n_p)`, the design variables' then the
+/// parameters').
 struct Local {
     values: Vec<f64>,
     g_q: Vec<f64>,
@@ -67,12 +76,13 @@ impl Local {
         newton: &Newton,
         time: f64,
         responses: &'a [Response],
+        pseudo: &'a PseudoLoads,
         grid: &'a TimeGrid,
         at: Sample,
     ) -> Result<(Self, Objectives<'a>), Error> {
         let asm = newton.assembler();
         let model = asm.model;
-        let (n_q, n_x, n_r) = (model.n_dofs(), model.n_variables(), responses.len());
+        let (n_q, n_x, n_r) = (model.n_dofs(), pseudo.columns(), responses.len());
         // The load of the compliance Fᵀu: applied loads and gravity M ĝ.
         let mut load = vec![0.0; n_q];
         asm.applied_loads(time, 1.0, &mut load);
@@ -82,7 +92,7 @@ impl Local {
             static_load: &load,
             mass_kind: MassKind::Consistent,
         };
-        let mut objectives = Objectives::new(model, responses, grid)?;
+        let mut objectives = Objectives::new(model, responses, &pseudo.parameters, grid)?;
         let mut local = Self {
             values: vec![0.0; n_r],
             g_q: vec![0.0; n_q * n_r],
@@ -107,10 +117,16 @@ impl Local {
     }
 }
 
-/// Direct: `K_t u'_j = −∂r/∂x_j` for every design variable, then `f' = G_x + G_q u'`.
-fn direct(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64>), Error> {
+/// Direct: `K_t u'_j = −∂r/∂x_j` for every design variable and parameter, then
+/// `f' = G_x + G_q u'`.
+fn direct(
+    newton: &Newton,
+    at: &At,
+    pseudo: &PseudoLoads,
+    local: Local,
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let asm = newton.assembler();
-    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     let Local {
         values,
@@ -118,14 +134,11 @@ fn direct(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64
         mut g_x,
     } = local;
     let mut rhs = vec![0.0; n * n_x];
-    PseudoLoads::new(asm.model, MassKind::Consistent).subtract_columns(
-        asm,
-        q,
-        None,
-        &mut rhs,
-        n,
-        0..n_x,
-    );
+    let scale = newton.multiplier_scale();
+    pseudo.subtract_columns(asm, at, scale, &mut rhs, n, 0..n_x);
+    if pseudo.moves_constraints() {
+        newton.augment(&mut rhs);
+    }
     newton.solve_block(&mut rhs, n_x, &mut newton.scratch(n_x.max(1)))?;
     for (g_x, g_q) in g_x.chunks_mut(n_x.max(1)).zip(g_q.chunks(n_q)) {
         for (j, g) in g_x.iter_mut().enumerate() {
@@ -140,9 +153,14 @@ fn direct(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64
 }
 
 /// Adjoint: `K_t μ_k = G_q,k` for every response, then `f' = G_x − (∂r/∂x)ᵀ μ`.
-fn adjoint(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f64>), Error> {
+fn adjoint(
+    newton: &Newton,
+    at: &At,
+    pseudo: &PseudoLoads,
+    local: Local,
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let asm = newton.assembler();
-    let (n_q, n_x) = (asm.model.n_dofs(), asm.model.n_variables());
+    let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     let n_r = local.values.len();
     let Local {
@@ -155,10 +173,11 @@ fn adjoint(newton: &Newton, q: &[f64], local: Local) -> Result<(Vec<f64>, Vec<f6
         rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
     }
     newton.solve_block(&mut rhs, n_r, &mut newton.scratch(n_r))?;
-    let pseudo = PseudoLoads::new(asm.model, MassKind::Consistent);
+    newton.unaugment(&mut rhs);
+    let scale = newton.multiplier_scale();
     for k in 0..n_r {
-        let mu = &rhs[k * n..k * n + n_q];
-        pseudo.subtract_transposed(asm, q, None, mu, &mut g_x[k * n_x..(k + 1) * n_x]);
+        let mu = &rhs[k * n..(k + 1) * n];
+        pseudo.subtract_transposed(asm, at, scale, mu, &mut g_x[k * n_x..(k + 1) * n_x]);
     }
     Ok((values, g_x))
 }

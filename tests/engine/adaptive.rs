@@ -219,6 +219,6 @@ fn gradients_on_the_adapted_grid_are_exact() {
         "the steps vary"
     );
     let eval =
-        |x: &[f64], m: Method| of_motion_on(&arm, x, &s, &grid, &rs, how(m, Memory::StoreAll));
+        |x: &[f64], m: Method| of_motion_on(&arm, x, &s, &grid, &rs, &[], how(m, Memory::StoreAll));
     check(&arm, &eval, &x, &[0, 74, 147], rs.len());
 }

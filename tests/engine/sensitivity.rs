@@ -128,7 +128,8 @@ fn dynamic_case(split: usize, settings: DynamicSettings, design: DesignSpec) {
     let arm = scene::build(&spec).expect("valid scene");
     let rs = responses(&arm, &DYNAMIC);
     let x = random_design(&arm, 11);
-    let eval = |x: &[f64], m: Method| of_motion(&arm, x, &settings, &rs, how(m, Memory::default()));
+    let eval =
+        |x: &[f64], m: Method| of_motion(&arm, x, &settings, &rs, &[], how(m, Memory::default()));
     check(&arm, &eval, &x, &[0, 37, 74, 147], rs.len());
 }
 
@@ -189,7 +190,7 @@ fn static_compliance_gradients_match_finite_differences() {
         tol: 1e-13,
         ..static_settings(1)
     };
-    let eval = |x: &[f64], m: Method| of_equilibrium(&truss, x, &settings, &rs, m);
+    let eval = |x: &[f64], m: Method| of_equilibrium(&truss, x, &settings, &rs, &[], m);
     check(
         &truss,
         &eval,
@@ -208,7 +209,15 @@ fn taylor_remainder_falls_as_epsilon_squared() {
         ..settings(1.3, 0.02, 0.8)
     };
     let x = random_design(&arm, 5);
-    let base = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::default())).unwrap();
+    let base = of_motion(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        &[],
+        how(Method::Adjoint, Memory::default()),
+    )
+    .unwrap();
     let mut seed = 99u64;
     let v: Vec<f64> = (0..x.len())
         .map(|_| {
@@ -222,9 +231,16 @@ fn taylor_remainder_falls_as_epsilon_squared() {
         .iter()
         .map(|&e| {
             let xe: Vec<f64> = x.iter().zip(&v).map(|(xi, vi)| xi + e * vi).collect();
-            let f = of_motion(&arm, &xe, &s, &rs, how(Method::Adjoint, Memory::default()))
-                .unwrap()
-                .values[0];
+            let f = of_motion(
+                &arm,
+                &xe,
+                &s,
+                &rs,
+                &[],
+                how(Method::Adjoint, Memory::default()),
+            )
+            .unwrap()
+            .values[0];
             (f - base.values[0] - e * slope).abs()
         })
         .collect();
@@ -245,18 +261,43 @@ fn checkpointed_adjoint_is_bitwise_the_stored_one() {
     let x = random_design(&arm, 8);
     // 65 steps: checkpoints every 9 steps, segments replayed backwards.
     let s = settings(1.3, 0.02, 0.8);
-    let stored = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::StoreAll)).unwrap();
-    let replayed = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::Checkpoints)).unwrap();
-    assert_eq!(stored.values, replayed.values);
-    assert_eq!(stored.gradients, replayed.gradients);
-    // A step count that is a perfect square, so segment ends meet the final step exactly.
-    let s = settings(0.98, 0.02, 0.8);
-    let stored = of_motion(&arm, &x, &s, &rs, how(Method::Adjoint, Memory::StoreAll)).unwrap();
+    let stored = of_motion(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        &[],
+        how(Method::Adjoint, Memory::StoreAll),
+    )
+    .unwrap();
     let replayed = of_motion(
         &arm,
         &x,
         &s,
         &rs,
+        &[],
+        how(Method::Adjoint, Memory::Checkpoints),
+    )
+    .unwrap();
+    assert_eq!(stored.values, replayed.values);
+    assert_eq!(stored.gradients, replayed.gradients);
+    // A step count that is a perfect square, so segment ends meet the final step exactly.
+    let s = settings(0.98, 0.02, 0.8);
+    let stored = of_motion(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        &[],
+        how(Method::Adjoint, Memory::StoreAll),
+    )
+    .unwrap();
+    let replayed = of_motion(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        &[],
         how(Method::Adjoint, Memory::Auto { budget_bytes: 1 }),
     )
     .unwrap();

@@ -103,7 +103,8 @@ fn gradients_on_an_uneven_grid_are_exact() {
         ..settings(1.3, 0.02, 0.8)
     };
     let grid = uneven_grid(&arm_stops(&arm, 1.3), 16);
-    let eval =
-        |x: &[f64], m: Method| of_motion_on(&arm, x, &s, &grid, &rs, how(m, Memory::Checkpoints));
+    let eval = |x: &[f64], m: Method| {
+        of_motion_on(&arm, x, &s, &grid, &rs, &[], how(m, Memory::Checkpoints))
+    };
     check(&arm, &eval, &x, &[0, 74, 147], rs.len());
 }

@@ -1,0 +1,227 @@
+"""Gradients with respect to scene parameters: springs' k, c and rest, masses and
+inertias, motors' torques and servo gains, sections' E, ρ and diameter, the arm of a point
+pinned to the ground. Each
+against fourth-order central differences of runs with the parameter changed in the scene,
+and direct against adjoint; the pendulum's half period against dT/dL = T/(2L)."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import scenes
+from flextop.errors import SettingsError
+from flextop.scene import Scene
+
+
+def slider_crank_with_force_elements() -> dict:
+    """The flexible slider-crank with a torsion spring-damper at the crank pin, a damper on
+    the slider's travel, a spring from a wall to the slider, a ramped force on the slider
+    and a PD servo at the rod's end."""
+    spec = scenes.slider_crank(t_end=0.03, h=5e-4).to_dict()
+    spec["rigid_bodies"].append({"name": "wall", "mass": 1.0, "inertia": 0.1, "position": [0.6, 0.0]})
+    spec["joints"].append({"kind": "clamp", "name": "wall", "node": "wall"})
+    spec["motors"] = [{"name": "push", "joint": "slide", "torque": 0.5, "table": {"t": [0.0, 0.03], "scale": [0.0, 1.0]}},
+                      {"name": "servo", "joint": "B", "servo": {"kp": 0.2, "kd": 0.01, "motion": {
+                          "kind": "trapezoidal", "start": 0.0, "end": 0.1, "acceleration": 50.0, "speed": 5.0}}}]
+    spec["springs"] = [{"name": "torsion", "joint": "A", "k": 0.5, "c": 0.02, "rest": 0.02},
+                       {"name": "friction", "joint": "slide", "c": 5.0},
+                       {"name": "return", "nodes": ["slider", "wall"], "k": 200.0, "length": 0.14}]
+    return spec
+
+
+def entry(spec: dict, parameter: str) -> tuple[dict, str | int]:
+    """The table and key (or index) of `parameter` in a scene dict."""
+    kind, name = parameter.split(":")
+    if name in spec.get("sections", {}):
+        return spec["sections"][name], kind
+    for s in spec.get("springs", []):
+        if s["name"] == name:
+            return s, kind
+    for m in spec.get("motors", []):
+        if m["name"] == name:
+            return (m, "torque") if kind == "torque" else (m["servo"], kind)
+    body, _, point = name.partition(".")
+    for b in spec.get("rigid_bodies", []):
+        if b["name"] == body:
+            return (b["points"][point], "xy".index(kind[-1])) if point else (b, kind)
+    raise KeyError(parameter)
+
+
+def assert_exact(spec: dict, x: np.ndarray, responses: list[str], parameters: list[str], rel: float = 1e-6) -> np.ndarray:
+    """Direct = adjoint to 1e-9 of each column's largest, and fourth-order central
+    differences (steps of 1e-3 of the value) to `rel` of it; returns the gradients."""
+    sim = flextop.Simulation(spec)
+    direct = sim.run_with_sensitivities(x, responses, parameters=parameters, method="direct")
+    adjoint = sim.run_with_sensitivities(x, responses, parameters=parameters, method="adjoint")
+    g = direct.parameter_gradients
+    assert g.shape == (len(responses), len(parameters))
+    for j, p in enumerate(parameters):
+        scale = np.abs(g[:, j]).max()
+        np.testing.assert_allclose(adjoint.parameter_gradients[:, j], g[:, j], rtol=0, atol=1e-9 * scale)
+        table, key = entry(spec, p)
+        value = table[key]
+        step = 1e-3 * abs(value)
+        runs = []
+        for k in (-2, -1, 1, 2):
+            changed = copy.deepcopy(spec)
+            t, kk = entry(changed, p)
+            t[kk] = value + k * step
+            runs.append(flextop.Simulation(changed).run_with_sensitivities(x, responses, method="direct").values)
+        fd = (runs[0] - 8 * runs[1] + 8 * runs[2] - runs[3]) / (12 * step)
+        np.testing.assert_allclose(g[:, j], fd, rtol=0, atol=rel * np.abs(fd).max(), err_msg=p)
+        assert np.abs(fd).max() > 0 or p.startswith(("mass:", "inertia:")), p
+    return g
+
+
+FORCE_ELEMENTS = ["k:torsion", "c:torsion", "rest:torsion", "c:friction", "k:return", "length:return",
+                  "mass:slider", "mass:crank", "inertia:crank", "torque:push", "kp:servo", "kd:servo"]
+
+
+@pytest.mark.parametrize("initial", ["rest", "equilibrium"])
+def test_gradients_to_force_elements_masses_and_motors_are_exact(initial):
+    """Every parameter kind of the slider-crank's force elements, bodies and motors, from
+    rest and from the static equilibrium under gravity (q₀ then depends on them)."""
+    spec = slider_crank_with_force_elements()
+    if initial == "equilibrium":
+        spec.update(gravity=[0.0, -9.81], initial="equilibrium")
+    g = assert_exact(spec, np.array([0.9, 0.5, 0.7, 0.4]), ["tip_deflection", "torque_squared:crank"], FORCE_ELEMENTS)
+    assert np.all(np.abs(g[1]) > 0)  # each one changes the drive's torque
+
+
+def test_gradients_to_a_section_are_exact():
+    """The slider-crank's rod: E (G follows through ν), ρ and the diameter move its
+    stiffness, inertia and volume; the mean compliance reads the strain energy's own
+    dependence on E."""
+    spec = scenes.slider_crank(t_end=0.03, h=5e-4).to_dict()
+    responses = ["tip_deflection", "torque_squared:crank", "compliance", "volume"]
+    g = assert_exact(spec, np.array([0.9, 0.5, 0.7, 0.4]), responses, ["E:steel", "rho:steel", "diameter:steel"])
+    assert g[3, 0] == 0 and g[3, 1] == 0 and g[3, 2] > 0
+
+
+def compound_pendulum(initial: str = "rest") -> dict:
+    """A body with rotary inertia on a pin at its point, a torsion spring-damper and a
+    ramped motor there, under gravity; from rest at its reference, or from the equilibrium
+    the spring holds."""
+    scene = Scene("compound pendulum", gravity=(0.0, -9.81), initial=initial)
+    scene.rigid_body("bob", mass=1.2, inertia=0.05, position=(0.5, -0.3), points={"pivot": (-0.5, 0.3)})
+    scene.pin("pivot", "bob.pivot")
+    scene.joint_spring("spring", "pivot", k=20.0, c=0.3)
+    scene.motor("kick", "pivot", torque=3.0, table=([0.0, 0.4], [0.0, 1.0]))
+    scene.simulation(t_end=0.4, h=1e-3, rho_inf=0.9)
+    return scene.to_dict()
+
+
+@pytest.mark.parametrize("initial", ["rest", "equilibrium"])
+def test_gradients_to_a_pivot_place_mass_and_inertia_are_exact(initial):
+    """Moving the point pinned to the ground moves the pivot: the rows' pseudo-loads (and
+    the initial accelerations' at acceleration level) give exact gradients, also from an
+    equilibrium where the body has turned, so that the rows themselves change."""
+    parameters = ["arm_x:bob.pivot", "arm_y:bob.pivot", "mass:bob", "inertia:bob", "k:spring", "c:spring",
+                  "torque:kick"]
+    assert_exact(compound_pendulum(initial), np.zeros(0), ["joint_position:pivot"], parameters)
+
+
+def test_the_half_period_of_a_pendulum_grows_as_the_root_of_its_length():
+    """T ∝ √(L/g): at the bottom, a quarter period in, the angle's gradient to the pivot's
+    place over the angular rate gives dT/dL, which tends to T/(2L) at second order."""
+    length, g = 1.0, 9.81
+    quarter = scenes.pendulum_period(length, g, math.pi / 2) / 4
+    errors = []
+    for h in (2e-3, 1e-3, 5e-4):
+        sim = flextop.Simulation(scenes.pendulum(length=length, g=g, periods=0.25, h=h))
+        out = sim.run_with_sensitivities(np.zeros(0), ["joint_position:pivot"], parameters=["arm_x:bob.pivot"])
+        # φ(T(L); L) = −π/2: dT/dL = −(∂φ/∂L)/φ̇ with L = −arm_x and φ̇ = −√(2g/L) there.
+        slope = out.parameter_gradient("joint_position:pivot", "arm_x:bob.pivot") / -math.sqrt(2 * g / length)
+        errors.append(abs(slope / (quarter / (2 * length)) - 1))
+    assert 3.8 < errors[0] / errors[1] < 4.2 and 3.8 < errors[1] / errors[2] < 4.2
+    assert errors[2] < 5e-6
+
+
+@pytest.mark.parametrize("shear", ["nu", "G"])
+def test_gradients_of_a_static_scene_to_its_parameters_are_exact(shear):
+    """A cantilever on a pin held by a torsion spring, a body welded at its tip under
+    gravity, a spring to a wall and a motor's torque at the pin: the compliance Fᵀu (whose
+    load holds the body's and the beams' weight and the torque) and the tip's
+    displacement; the section with ν given (G follows E) or G given (κ(ν) follows E)."""
+    scene = Scene("sprung cantilever", analysis="static", gravity=(0.0, -9.81))
+    elastic = {"nu": 0.32} if shear == "nu" else {"G": 26e9}
+    scene.section("al", E=70e9, rho=2700.0, diameter=0.01, **elastic)
+    for k in range(3):
+        scene.node(f"n{k}", 0.3 * k, 0.0)
+    for k in range(2):
+        scene.beam(f"n{k}", f"n{k + 1}", section="al", split=2, name=f"bar{k}")
+    scene.rigid_body("bob", mass=0.8, inertia=1e-3, position=(0.6, 0.0))
+    scene.rigid_body("wall", mass=1.0, inertia=1.0, position=(0.6, 0.5))
+    scene.weld("w", "n2", "bob")
+    scene.clamp("wall", "wall")
+    scene.pin("root", "n0")
+    scene.joint_spring("torsion", "root", k=400.0, rest=0.01)
+    scene.spring("hang", "bob", "wall", k=300.0, length=0.45)
+    scene.motor("lift", "root", torque=1.5)
+    spec = scene.to_dict()
+    responses = ["compliance", "displacement:n2:0,1"]
+    parameters = ["k:torsion", "rest:torsion", "k:hang", "length:hang", "mass:bob", "torque:lift",
+                  "E:al", "rho:al", "diameter:al"]
+    assert_exact(spec, np.array([0.8, 0.6]), responses, parameters)
+
+
+@pytest.mark.parametrize("name, message", [
+    ("k", "write KIND:ENTRY"),
+    ("stiffness:torsion", "unknown kind 'stiffness'"),
+    ("k:nope", "no spring 'nope'"),
+    ("c:return", "dampers act on a joint's linear coordinate"),
+    ("length:torsion", "this spring's rest is its `rest`"),
+    ("rest:return", "this spring's rest is its `length`"),
+    ("mass:nope", "no node or rigid body 'nope'"),
+    ("mass:rod0", "'rod0' carries no point mass"),
+    ("torque:servo", "a servo has gains kp and kd"),
+    ("kp:push", "a torque motor has no gains"),
+    ("arm_x:crank.pin", "joint 'A' ties the point to another body"),
+    ("arm_x:crank.nope", "body 'crank' has no point 'nope'"),
+    ("arm_y:crank", "write BODY.POINT"),
+    ("arm_x:crank.pivot", "a response follows a rigid trajectory"),
+    ("E:nope", "no section 'nope'"),
+])
+def test_bad_parameters_raise_settings_error_naming_them(name, message):
+    sim = flextop.Simulation(slider_crank_with_force_elements())
+    with pytest.raises(SettingsError) as error:
+        sim.run_with_sensitivities(np.full(4, 0.5), ["tip_deflection"], parameters=[name])
+    assert f"parameter '{name}'" in str(error.value) and message in str(error.value)
+
+
+def test_section_parameters_refuse_what_is_not_built():
+    """A stress response reads the section itself; a rigid frame's body follows its
+    section; a section given by A, I, κ has no diameter."""
+    sim = flextop.Simulation(scenes.slider_crank(t_end=0.01, h=5e-4))
+    with pytest.raises(SettingsError, match="stresses and buckling read the section"):
+        sim.run_with_sensitivities(np.full(4, 0.5), ["stress"], parameters=["E:steel"])
+    scene = Scene("frame")
+    scene.section("s", E=1e9, rho=1e3, A=1e-4, I=1e-9, kappa=0.8, nu=0.3)
+    scene.node("a", 0.0, 0.0)
+    scene.node("b", 1.0, 0.0)
+    scene.beam("a", "b", section="s")
+    scene.clamp("root", "a")
+    scene.load("b", force=(0.0, -1.0))
+    scene.simulation(t_end=0.01, h=1e-3)
+    with pytest.raises(SettingsError, match="given by A, I and kappa, not a diameter"):
+        flextop.Simulation(scene).run_with_sensitivities(np.ones(1), ["compliance"], parameters=["diameter:s"])
+    base = scenes.robot_arm(t_end=0.04).to_dict()
+    rigid = {**base, "ground_structures": [{**base["ground_structures"][0], "rigid": True}, base["ground_structures"][1]]}
+    sim = flextop.Simulation(rigid)
+    with pytest.raises(SettingsError, match="a ground structure declared rigid is made of it"):
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.5), ["compliance"], parameters=["rho:aluminium"])
+
+
+def test_a_run_to_a_tolerance_gives_the_parameter_gradients_of_the_grid_it_accepted():
+    """With rtol, the parameters' gradients are those of the discretization accepted:
+    the same bits as a run made there directly."""
+    sim = flextop.Simulation(slider_crank_with_force_elements())
+    x, asked = np.array([0.9, 0.5, 0.7, 0.4]), ["k:return", "E:steel"]
+    out = sim.run_with_sensitivities(x, ["tip_deflection"], parameters=asked, rtol=1e-2)
+    d = out.discretization
+    again = sim._level(d.refinement).run_with_sensitivities(x, ["tip_deflection"], parameters=asked, h=0.03 / d.steps)
+    np.testing.assert_array_equal(out.parameter_gradients, again.parameter_gradients)
+    assert out.parameters == tuple(asked) and np.all(out.parameter_gradients != 0)
