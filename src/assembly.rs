@@ -29,10 +29,11 @@
 use std::ops::Range;
 
 use crate::constraint::ConstraintRow;
-use crate::element::MassKind;
+use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
 use crate::model::{Analysis, Densities, Model};
+use crate::spring::Spring;
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
 #[derive(Debug, Clone)]
@@ -237,6 +238,36 @@ fn slots<T: Copy + Default, const N: usize>(
     Some(out)
 }
 
+/// A damping block on six DOFs (`None` on the ground) at a state: `∂f_d/∂q̇` and the part
+/// of `∂f_d/∂q` that is not symmetric.
+#[derive(Debug, Clone, Copy)]
+pub struct DampingBlock {
+    /// Its DOFs.
+    pub dofs: [Option<usize>; 6],
+    /// `∂f_d/∂q̇`.
+    pub rate: Matrix6,
+    /// The non-symmetric part of `∂f_d/∂q`.
+    pub skew: Matrix6,
+}
+
+impl DampingBlock {
+    /// `out += factor · A v` for `A` its `rate` (or `skew`), transposed or not.
+    pub fn add_times(&self, skew: bool, transposed: bool, factor: f64, v: &[f64], out: &mut [f64]) {
+        let a = if skew { &self.skew } else { &self.rate };
+        let local = Vector6::from(self.dofs.map(|d| d.map_or(0.0, |d| v[d])));
+        let product = if transposed {
+            a.transpose() * local
+        } else {
+            a * local
+        };
+        for (d, x) in self.dofs.iter().zip(product.iter()) {
+            if let Some(d) = d {
+                out[*d] += factor * x;
+            }
+        }
+    }
+}
+
 /// Everything a run needs to evaluate forces and matrices of one design.
 pub struct Assembler<'m> {
     /// The mechanism.
@@ -249,8 +280,12 @@ pub struct Assembler<'m> {
     pub mass_kind: MassKind,
     /// Values of `M` on the pattern (zero outside the `n_q` block).
     mass: Vec<f64>,
-    /// Values of the dampers' constant `C` on the pattern, `None` without dampers.
+    /// Values of the constant `C` on the pattern — the dampers' and the beams' Rayleigh
+    /// `α m(x_e) M_e` — `None` without either.
     damping: Option<Vec<f64>>,
+    /// Whether a beam has stiffness-proportional damping (`β > 0`) or a damper acts on a
+    /// distance or a carried axis: their `C` follows the state.
+    structural: bool,
     /// Gravity as a DOF-wise acceleration `ĝ = [g_x, g_y, 0, …]`.
     pub gravity: Vec<f64>,
     /// The gravity load `M ĝ` (zero without gravity).
@@ -285,10 +320,20 @@ impl<'m> Assembler<'m> {
             .springs
             .iter()
             .enumerate()
-            .filter(|(_, s)| s.damping > 0.0)
+            .filter(|(_, s)| s.damping > 0.0 && !s.damps_nonlinearly())
             .collect();
-        let damping = (!dampers.is_empty()).then(|| {
+        let rayleigh = model.elements.iter().any(|e| e.beam.section.alpha > 0.0);
+        let damping = (!dampers.is_empty() || rayleigh).then(|| {
             let (mut values, reference) = (vec![0.0; pattern.nnz()], vec![0.0; model.n_dofs()]);
+            for (e, el) in model.elements.iter().enumerate() {
+                let alpha = el.beam.section.alpha;
+                if alpha > 0.0 {
+                    let m = el.beam.mass_matrix(mass_kind) * (alpha * densities.mass[e]);
+                    for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
+                        values[slot] += m[(k % 6, k / 6)];
+                    }
+                }
+            }
             for (k, spring) in dampers {
                 let c = spring.damping_matrix(&reference);
                 for (i, j) in (0..36).map(|m| (m / 6, m % 6)) {
@@ -311,6 +356,8 @@ impl<'m> Assembler<'m> {
             mass_kind,
             mass,
             damping,
+            structural: model.elements.iter().any(|e| e.beam.section.beta > 0.0)
+                || model.springs.iter().any(Spring::damps_nonlinearly),
             gravity_load: vec![0.0; gravity.len()],
             gravity,
         };
@@ -360,6 +407,89 @@ impl<'m> Assembler<'m> {
                 .iter_mut()
                 .zip(damping)
                 .for_each(|(v, c)| *v += coefficient * c);
+        }
+    }
+
+    /// Whether some damping's `C` follows the state (beams' `β`, dampers on distances).
+    pub fn has_structural_damping(&self) -> bool {
+        self.structural
+    }
+
+    /// Adds the damping whose `C` follows the state at `(q, v)` to `f` — the beams'
+    /// stiffness-proportional `Σ s(x_e) β Bᵀ D B q̇` and the dampers on distances or carried
+    /// axes; with `matrix = Some((γ', values))` also `γ' ∂f_d/∂q̇` and the symmetric part of
+    /// `∂f_d/∂q` ([`crate::element::Damping`]) to the matrix values.
+    pub fn add_structural_damping(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        f: &mut [f64],
+        mut matrix: Option<(f64, &mut [f64])>,
+    ) {
+        if !self.structural {
+            return;
+        }
+        for (e, el) in self.model.elements.iter().enumerate() {
+            if el.beam.section.beta == 0.0 {
+                continue;
+            }
+            let s = self.densities.stiffness[e];
+            let d = el.beam.damping(&el.gather(q), &el.gather(v));
+            el.dofs()
+                .iter()
+                .zip(d.force.iter())
+                .for_each(|(&k, x)| f[k] += s * x);
+            if let Some((gamma, values)) = matrix.as_mut() {
+                let block = (d.rate * *gamma + d.symmetric) * s;
+                for (k, &slot) in self.pattern.element_slots[e].iter().enumerate() {
+                    values[slot] += block[(k % 6, k / 6)];
+                }
+            }
+        }
+        for (spring, slots) in self.model.springs.iter().zip(&self.pattern.spring_slots) {
+            if !spring.damps_nonlinearly() {
+                continue;
+            }
+            let d = spring.damper(q, v);
+            for (k, x) in spring.dofs().iter().zip(d.force.iter()) {
+                if let Some(k) = k {
+                    f[*k] += x;
+                }
+            }
+            if let Some((gamma, values)) = matrix.as_mut() {
+                let block = d.rate * *gamma + d.symmetric;
+                for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
+                    if slots[i][j] != usize::MAX {
+                        values[slots[i][j]] += block[(i, j)];
+                    }
+                }
+            }
+        }
+    }
+
+    /// The blocks of the damping whose `C` follows the state, at `(q, v)`: on their DOFs,
+    /// `∂f_d/∂q̇` and the part of `∂f_d/∂q` that is not symmetric — what the iteration
+    /// matrix leaves for the exact sensitivity solves. `blocks` is cleared first.
+    pub fn damping_blocks(&self, q: &[f64], v: &[f64], blocks: &mut Vec<DampingBlock>) {
+        blocks.clear();
+        for (e, el) in self.model.elements.iter().enumerate() {
+            if el.beam.section.beta > 0.0 {
+                let s = self.densities.stiffness[e];
+                let d = el.beam.damping(&el.gather(q), &el.gather(v));
+                blocks.push(DampingBlock {
+                    dofs: el.dofs().map(Some),
+                    rate: d.rate * s,
+                    skew: d.skew * s,
+                });
+            }
+        }
+        for spring in self.model.springs.iter().filter(|s| s.damps_nonlinearly()) {
+            let d = spring.damper(q, v);
+            blocks.push(DampingBlock {
+                dofs: spring.dofs(),
+                rate: d.rate,
+                skew: d.skew,
+            });
         }
     }
 

@@ -138,6 +138,16 @@ pub enum SolveError {
         /// What the solver reported.
         detail: String,
     },
+    /// The exact sensitivity solve with the beams' stiffness-proportional damping did not
+    /// settle within its iteration limit.
+    #[error(
+        "the sensitivity solve with stiffness-proportional damping did not settle at t = \
+         {time:.6} s: the damping is too strong for the step; use a smaller step h"
+    )]
+    Unsettled {
+        /// Time of the state.
+        time: f64,
+    },
     /// Local error control wanted a step below its smallest.
     #[error(
         "the step fell below {h_min:.3e} s at t = {time:.6} s: the local error tolerance \

@@ -78,7 +78,7 @@ pub use response::Response;
 pub use rigid::rigid_positions;
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
-    Evaluated, Sensitivities, Timings,
+    Evaluated, Recorded, Sensitivities, Timings,
 };
 pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,

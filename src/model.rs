@@ -94,6 +94,9 @@ pub struct RigidBody {
     pub name: String,
     /// Its node.
     pub node: usize,
+    /// Its angle at the reference (rad): the scene gives its points in its own frame,
+    /// turned by it (a frame declared rigid: 0, its points where the grid puts them).
+    pub angle: f64,
     /// Named points: their offsets from the centre of mass at the reference (m).
     pub points: Vec<(String, Vector2<f64>)>,
 }
@@ -279,6 +282,13 @@ impl Model {
     /// Number of constraint rows `n_c`.
     pub fn n_constraints(&self) -> usize {
         self.rows.len()
+    }
+
+    /// Whether a beam has Rayleigh damping (its force then reads velocities).
+    pub fn has_rayleigh(&self) -> bool {
+        self.elements
+            .iter()
+            .any(|e| e.beam.section.alpha > 0.0 || e.beam.section.beta > 0.0)
     }
 
     /// Number of design variables.

@@ -124,6 +124,74 @@ impl Trapezoidal {
     }
 }
 
+/// A parameter of a [`Trapezoidal`] law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LawParameter {
+    /// Where it ends, `θ_end`.
+    End,
+    /// Its acceleration `a`.
+    Acceleration,
+    /// Its top speed `v` (no effect on a triangular profile).
+    Speed,
+}
+
+impl Trapezoidal {
+    /// `∂(θ, θ̇, θ̈)/∂p` at `t` for `p` one of its parameters (the start and `t0` held): with
+    /// `s(τ)` the travel, `τ = t − t0`, `t_a` the acceleration phase and `T` the duration,
+    /// `s = ½aτ²` while accelerating, `vτ − v²/2a` at speed, `D − ½a(T − τ)²` while
+    /// decelerating (`T = D/v + v/a`, or `2√(D/a)` for a triangular profile), `D` after.
+    pub fn rate(&self, t: f64, p: LawParameter) -> MotionState {
+        let (a, v, ta, tt) = (self.acceleration, self.peak, self.t_acc, self.duration);
+        let distance = tt * v - v * ta; // D, from T = D/v + t_a (t_a = v/a or the triangle's)
+        let triangular = (tt - 2.0 * ta).abs() <= 1e-12 * tt;
+        // ∂t_a/∂p and ∂T/∂p.
+        let (ta_p, tt_p) = match (p, triangular) {
+            (LawParameter::End, false) => (0.0, 1.0 / v),
+            (LawParameter::Acceleration, false) => (-v / (a * a), -v / (a * a)),
+            (LawParameter::Speed, false) => (1.0 / a, -distance / (v * v) + 1.0 / a),
+            (LawParameter::End, true) => (ta / (2.0 * distance), ta / distance),
+            (LawParameter::Acceleration, true) => (-ta / (2.0 * a), -ta / a),
+            (LawParameter::Speed, true) => (0.0, 0.0),
+        };
+        let a_p = f64::from(u8::from(p == LawParameter::Acceleration));
+        let d_p = f64::from(u8::from(p == LawParameter::End));
+        let tau = t - self.t0;
+        let (s, sd, sdd) = if tau < 0.0 {
+            (0.0, 0.0, 0.0)
+        } else if tau < ta {
+            (0.5 * a_p * tau * tau, a_p * tau, a_p)
+        } else if tau <= tt - ta {
+            // s = ½ a t_a² + v(τ − t_a) with v = a t_a.
+            let v_p = a_p * ta + a * ta_p;
+            (
+                0.5 * a_p * ta * ta + a * ta * ta_p + v_p * (tau - ta) - v * ta_p,
+                v_p,
+                0.0,
+            )
+        } else if tau <= tt {
+            let rest = tt - tau;
+            (
+                d_p - 0.5 * a_p * rest * rest - a * rest * tt_p,
+                a_p * rest + a * tt_p,
+                -a_p,
+            )
+        } else {
+            (d_p, 0.0, 0.0)
+        };
+        // The end moves the travel along the direction; the others scale it.
+        let k = if p == LawParameter::End {
+            1.0
+        } else {
+            self.direction
+        };
+        MotionState {
+            angle: k * s,
+            velocity: k * sd,
+            acceleration: k * sdd,
+        }
+    }
+}
+
 /// Clamped cubic spline through `(tᵢ, θᵢ)` with prescribed end velocities.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -213,6 +281,49 @@ fn clamped_spline_curvatures(t: &[f64], y: &[f64], v: [f64; 2]) -> Vec<f64> {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// The rates to the end, acceleration and speed against central differences of the
+    /// law rebuilt, on trapezoidal and triangular profiles, forwards and backwards, in
+    /// every phase and after.
+    #[test]
+    fn law_rates_equal_central_differences() {
+        let laws = [
+            (0.2, 1.4, 3.0, 1.5),
+            (1.5, 0.2, 3.0, 1.5),
+            (1.0, 0.7, 4.0, 2.0),
+            (0.5, 0.6, 2.0, 5.0),
+        ];
+        for (start, end, acc, speed) in laws {
+            let law = |p: LawParameter, h: f64| {
+                let (mut e, mut a, mut v) = (end, acc, speed);
+                match p {
+                    LawParameter::End => e += h,
+                    LawParameter::Acceleration => a += h,
+                    LawParameter::Speed => v += h,
+                }
+                Trapezoidal::new(start, e, a, v, 0.1)
+            };
+            let base = law(LawParameter::End, 0.0);
+            let times: Vec<f64> = (0..60).map(|k| 0.013 + k as f64 * 0.031).collect();
+            for p in [
+                LawParameter::End,
+                LawParameter::Acceleration,
+                LawParameter::Speed,
+            ] {
+                let h = 1e-6;
+                for &t in &times {
+                    let (up, down) = (law(p, h).at(t), law(p, -h).at(t));
+                    let rate = base.rate(t, p);
+                    let fd = [
+                        (up.angle - down.angle) / (2.0 * h),
+                        (up.velocity - down.velocity) / (2.0 * h),
+                    ];
+                    assert!((rate.angle - fd[0]).abs() < 1e-6, "{p:?} angle at {t}");
+                    assert!((rate.velocity - fd[1]).abs() < 1e-5, "{p:?} rate at {t}");
+                }
+            }
+        }
+    }
 
     /// Central differences of the angle reproduce velocity and acceleration.
     fn assert_consistent(m: &Motion, times: &[f64]) {

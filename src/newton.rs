@@ -15,7 +15,7 @@
 
 use faer::dyn_stack::MemBuffer;
 
-use crate::assembly::{Assembler, Jacobian};
+use crate::assembly::{Assembler, DampingBlock, Jacobian};
 use crate::element::MassKind;
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
@@ -84,7 +84,16 @@ pub struct Newton<'m> {
     external: Vec<f64>,
     joint: Vec<f64>,
     phi: Vec<f64>,
+    /// The blocks of the damping whose `C` follows the state ([`DampingBlock`]) at the
+    /// last factorization with velocities (empty without such damping).
+    damping: Vec<DampingBlock>,
+    /// Whether they hold the current factorization's.
+    skewed: bool,
 }
+
+/// Most iterations of an exact solve with a non-symmetric damping part
+/// ([`Newton::solve_exact`]).
+pub const MAX_REFINEMENTS: usize = 60;
 
 impl<'m> Newton<'m> {
     /// Sets up the pattern, the symbolic `LDLᵀ` and the work vectors of `model`'s design.
@@ -129,6 +138,8 @@ impl<'m> Newton<'m> {
             external: vec![0.0; n_q],
             joint: vec![0.0; n_q],
             phi: vec![0.0; n_c],
+            damping: Vec::new(),
+            skewed: false,
         })
     }
 
@@ -210,6 +221,12 @@ impl<'m> Newton<'m> {
             asm.add_constraint_hessian(q, lambda, &mut self.matrix);
         } else {
             asm.internal_forces(q, &mut self.internal, None);
+        }
+        if let Some((velocity, _)) = rates {
+            // The Kelvin–Voigt damping of the beams joins the inertia term too; only its
+            // symmetric derivatives enter the matrix (Newton then converges linearly).
+            let matrix = with_matrix.then_some((point.gamma_prime, &mut self.matrix[..]));
+            asm.add_structural_damping(q, velocity, &mut self.inertia, matrix);
         }
         match rates {
             // Dynamics: gravity is in the inertia term M(q̈ − ĝ).
@@ -372,7 +389,9 @@ impl<'m> Newton<'m> {
     /// the linear solves of the sensitivity analysis, with the scaling `s` of a Newton solve
     /// of the same mass coefficient `c`: `c M + d C + K_t(q) + Σ λₖ ∂²Φₖ/∂q²` and `Φ_q(q)`
     /// with `tangent = Some(λ)` (`d = γ'` in a dynamic step), `c M` and `Φ_q(q)` alone with
-    /// `None` (the initial accelerations).
+    /// `None` (the initial accelerations). With the `velocity` of a dynamic state the
+    /// beams' stiffness-proportional damping enters too, its non-symmetric part kept for
+    /// [`Newton::solve_exact`].
     ///
     /// # Errors
     /// [`SolveError::Singular`] for a singular matrix.
@@ -380,6 +399,7 @@ impl<'m> Newton<'m> {
         &mut self,
         q: &[f64],
         tangent: Option<&[f64]>,
+        velocity: Option<&[f64]>,
         mass_coefficient: f64,
         damping_coefficient: f64,
         t: f64,
@@ -399,7 +419,77 @@ impl<'m> Newton<'m> {
             self.asm.add_constraint_hessian(q, lambda, &mut self.matrix);
             self.asm.add_damping(damping_coefficient, &mut self.matrix);
         }
+        self.skewed = false;
+        if let (Some(_), Some(v)) = (tangent, velocity) {
+            if self.asm.has_structural_damping() {
+                let matrix = Some((damping_coefficient, &mut self.matrix[..]));
+                self.asm
+                    .add_structural_damping(q, v, &mut self.internal, matrix);
+                self.asm.damping_blocks(q, v, &mut self.damping);
+                self.skewed = true;
+            }
+        }
         self.ldlt.factorize(&self.matrix).map_err(self.singular())
+    }
+
+    /// `out += C v` with the damping matrix of the last factorization: the constant part
+    /// and, with velocities, the state's `∂f_d/∂q̇` of the damping that follows the state.
+    pub fn add_damping_times(&self, v: &[f64], out: &mut [f64]) {
+        self.asm.add_damping_times(v, out);
+        if self.skewed {
+            for block in &self.damping {
+                block.add_times(false, false, 1.0, v, out);
+            }
+        }
+    }
+
+    /// Solves the exact sensitivity systems `(S + N) z = b` (or `(S + N)ᵀ z = b`,
+    /// `transposed`) for the `cols` right-hand sides in `rhs`, where `S` is the factorized
+    /// (symmetric) matrix and `N` the damping's non-symmetric part at its state: by the
+    /// iteration `S z ← b − N z` from `z = S⁻¹ b`, until the change is at round-off. With
+    /// no such part it is [`Newton::solve_block`]. `work` is resized to hold `b` and a
+    /// residual.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] for non-finite values, or an iteration that does not
+    /// converge within [`MAX_REFINEMENTS`] (damping too strong for the step).
+    pub fn solve_exact(
+        &self,
+        rhs: &mut [f64],
+        cols: usize,
+        scratch: &mut MemBuffer,
+        transposed: bool,
+        work: &mut Vec<f64>,
+    ) -> Result<(), SolveError> {
+        if !self.skewed {
+            return self.solve_block(rhs, cols, scratch);
+        }
+        let (len, n) = (rhs.len(), self.rhs.len());
+        work.resize(2 * len, 0.0);
+        let (b, r) = work.split_at_mut(len);
+        b.copy_from_slice(rhs);
+        self.solve_block(rhs, cols, scratch)?;
+        for _ in 0..MAX_REFINEMENTS {
+            r.copy_from_slice(b);
+            for (column, z) in r.chunks_mut(n).zip(rhs.chunks(n)) {
+                for block in &self.damping {
+                    block.add_times(true, transposed, -1.0, z, column);
+                }
+            }
+            self.solve_block(r, cols, scratch)?;
+            let size = rhs.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let change = r
+                .iter()
+                .zip(rhs.iter())
+                .fold(0.0_f64, |m, (a, z)| m.max((a - z).abs()));
+            rhs.copy_from_slice(r);
+            if change <= 1e-14 * size {
+                return Ok(());
+            }
+        }
+        Err(SolveError::Unsettled {
+            time: self.factored_at,
+        })
     }
 
     /// Applies the augmentation `E` of the factorized matrix to right-hand sides `[b; c]`
@@ -483,7 +573,7 @@ impl<'m> Newton<'m> {
             &start,
             false,
         );
-        self.factorize(q, None, 1.0, 0.0, 0.0)?;
+        self.factorize(q, None, None, 1.0, 0.0, 0.0)?;
         let mut g = vec![0.0; n_c];
         self.asm.constraint_accelerations(0.0, &mut g);
         let curvature = self.asm.constraint_curvature(q, qdot);

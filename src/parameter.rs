@@ -23,6 +23,7 @@ use crate::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
+use crate::motion::{LawParameter, Motion, Trapezoidal};
 use crate::motor::MotorLaw;
 use crate::section::{Section, SectionProperty};
 use crate::spring::Measure;
@@ -71,7 +72,8 @@ pub enum Parameter {
         spring: usize,
     },
     /// `E:SECTION`, `rho:SECTION` or `diameter:SECTION` (a solid circle's): what the
-    /// section's stiffness and inertia follow.
+    /// section's stiffness and inertia follow; `alpha:SECTION`, `beta:SECTION`: its
+    /// Rayleigh damping.
     Section {
         /// Index in [`Model::sections`].
         section: usize,
@@ -80,15 +82,27 @@ pub enum Parameter {
         /// The section's rates `∂(A, EA, κGA, EI, ρA, ρI)/∂p` ([`Section::rate`]).
         rate: Section,
     },
+    /// `end:JOINT`, `acceleration:JOINT` or `speed:JOINT`: a parameter of a joint's
+    /// trapezoidal drive, in rad, rad/s², rad/s (m, m/s², m/s on a slider) whatever keys
+    /// the scene gives it in.
+    Drive {
+        /// Index in [`Model::joints`].
+        joint: usize,
+        /// Its driven row.
+        row: usize,
+        /// Which.
+        law: LawParameter,
+    },
     /// `arm_x:BODY.POINT` or `arm_y:BODY.POINT`, a component of the offset of a body's
-    /// point from its centre (m), for a point whose joints all hold it to the ground.
+    /// point from its centre in the body's own frame (m, as the scene gives it), for a
+    /// point whose joints all hold it to the ground.
     Arm {
         /// The body's node.
         node: usize,
         /// The point's offset at the reference.
         arm: Vector2<f64>,
-        /// 0: x, 1: y.
-        axis: usize,
+        /// The axis of the body's frame it moves along, at the reference (unit).
+        direction: Vector2<f64>,
     },
 }
 
@@ -172,14 +186,7 @@ impl Parameter {
         };
         match kind {
             "k" => Ok(Self::Stiffness { spring: spring()? }),
-            "c" => {
-                let spring = spring()?;
-                if !damped(model, spring) {
-                    let msg = "dampers act on a joint's linear coordinate; this spring has none";
-                    return Err(err(msg.into()));
-                }
-                Ok(Self::Damping { spring })
-            }
+            "c" => Ok(Self::Damping { spring: spring()? }),
             "length" | "rest" => {
                 let spring = spring()?;
                 let between = matches!(model.springs[spring].measure, Measure::Distance { .. });
@@ -210,7 +217,8 @@ impl Parameter {
                 }
             }
             "arm_x" | "arm_y" => arm(model, entry, usize::from(kind == "arm_y")).map_err(err),
-            "E" | "rho" | "diameter" => section(model, entry, kind).map_err(err),
+            "E" | "rho" | "diameter" | "alpha" | "beta" => section(model, entry, kind).map_err(err),
+            "end" | "acceleration" | "speed" => drive(model, entry, kind).map_err(err),
             _ => Err(err(format!("unknown kind '{kind}' (kinds: {KINDS})"))),
         }
     }
@@ -224,12 +232,57 @@ impl Parameter {
                     derivative: true,
                     ..
                 }
+                | Self::Section {
+                    property: SectionProperty::Alpha | SectionProperty::Beta,
+                    ..
+                }
         )
     }
 
-    /// Whether `Φ` depends on it (its pseudo-load has constraint rows).
+    /// Whether `Φ` depends on it (its pseudo-load has constraint rows); the rigid
+    /// trajectory of the drives moves with it too.
     pub fn moves_constraints(&self) -> bool {
-        matches!(self, Self::Arm { .. })
+        matches!(self, Self::Arm { .. } | Self::Drive { .. })
+    }
+
+    /// `aᵀ (∂M/∂p) b`: the rate of the mass matrix (point masses, bodies, sections' `ρ` and
+    /// diameter) between two vectors; zero for an empty `a`.
+    pub fn mass_rate_times(&self, on: &Designed, a: &[f64], b: &[f64]) -> f64 {
+        if a.is_empty() {
+            return 0.0;
+        }
+        let model = on.model;
+        match *self {
+            Self::Mass { point } => {
+                let d = dof(model.point_masses[point].node, 0);
+                a[d] * b[d] + a[d + 1] * b[d + 1]
+            }
+            Self::Inertia { point } => {
+                let d = dof(model.point_masses[point].node, 2);
+                a[d] * b[d]
+            }
+            Self::Section { section, rate, .. } => elements_of(model, section)
+                .map(|(e, el)| {
+                    let m = el.beam.mass_matrix_rate(on.mass, &rate);
+                    on.densities.mass[e] * el.gather(a).dot(&(m * el.gather(b)))
+                })
+                .sum(),
+            _ => 0.0,
+        }
+    }
+
+    /// `∂ġ/∂p` of driven row `row` at `t`: a drive law's rate, which a drive's work reads.
+    pub fn drive_rate(&self, model: &Model, row: usize, t: f64) -> f64 {
+        match *self {
+            Self::Drive {
+                joint,
+                row: driven,
+                law,
+            } if driven == row => {
+                trapezoidal(model, joint).map_or(0.0, |m| m.rate(t, law).velocity)
+            }
+            _ => 0.0,
+        }
     }
 
     /// The section it is a property of, if any.
@@ -276,17 +329,29 @@ impl Parameter {
                     stiffness(model, spring, at, &mut add);
                 }
             }
-            Self::Arm { node, arm, axis } => arm_rows(model, node, arm, axis, at, &mut add),
+            Self::Arm {
+                node,
+                arm,
+                direction,
+            } => arm_rows(model, node, arm, direction, at, &mut add),
+            // Φ = h(q) − g(t): at acceleration level Φ_q q̈ = g̈.
+            Self::Drive { joint, row, law } => {
+                if let Some(m) = trapezoidal(model, joint) {
+                    let rate = m.rate(at.t, law);
+                    let g = match at.level {
+                        Level::Position => rate.angle,
+                        Level::Acceleration => rate.acceleration,
+                    };
+                    add(model.n_dofs() + row, -g);
+                }
+            }
             Self::Section { section, rate, .. } => {
-                let acc = |d: usize| at.rates.map_or(0.0, |(_, a)| a[d]);
                 for (e, el) in elements_of(model, section) {
-                    let dofs = el.dofs();
-                    let inertia = Vector6::from_fn(|i, _| acc(dofs[i]) - gravity(model, dofs[i]));
-                    let rate =
-                        el.beam.mass_matrix_rate(on.mass, &rate) * inertia * on.densities.mass[e]
-                            + el.beam.internal_force_rate(&el.gather(at.q), &rate)
-                                * on.densities.stiffness[e];
-                    dofs.iter().zip(rate.iter()).for_each(|(&d, &v)| add(d, v));
+                    let load = section_load(on, e, &rate, at);
+                    el.dofs()
+                        .iter()
+                        .zip(load.iter())
+                        .for_each(|(&d, &v)| add(d, v));
                 }
             }
         }
@@ -340,7 +405,65 @@ impl Parameter {
 
 /// The kinds of [`Parameter`], for messages.
 const KINDS: &str =
-    "k, c, length, rest, mass, inertia, torque, kp, kd, E, rho, diameter, arm_x, arm_y";
+    "k, c, length, rest, mass, inertia, torque, kp, kd, E, rho, diameter, alpha, beta, end, acceleration, speed, arm_x, arm_y";
+
+/// `∂r_e/∂p` of element `e` for its section changing at `rate`: `m(x_e)(M' (q̈ − ĝ + α q̇)
+/// + α' M q̇) + s(x_e)(f' + f_d')` with the Rayleigh damping's terms in a motion.
+fn section_load(on: &Designed, e: usize, rate: &Section, at: &At) -> Vector6 {
+    let el = &on.model.elements[e];
+    let (dofs, u) = (el.dofs(), el.gather(at.q));
+    let (mass, beam) = (el.beam.mass_matrix_rate(on.mass, rate), &el.beam);
+    let mut inertia = mass * Vector6::from_fn(|i, _| -gravity(on.model, dofs[i]));
+    let mut stiffness = beam.internal_force_rate(&u, rate);
+    if let Some((v, acc)) = at.rates {
+        inertia += mass * el.gather(acc);
+        // Velocities are kept where damping reads them.
+        if !v.is_empty() {
+            let v = el.gather(v);
+            inertia += mass * v * beam.section.alpha + beam.mass_matrix(on.mass) * v * rate.alpha;
+            stiffness += beam.damping_force_rate(&u, &v, rate.beta, rate);
+        }
+    }
+    inertia * on.densities.mass[e] + stiffness * on.densities.stiffness[e]
+}
+
+/// The trapezoidal drive of joint `j`, if it has one.
+fn trapezoidal(model: &Model, j: usize) -> Option<&Trapezoidal> {
+    match &model.joints[j].drive {
+        Some(Motion::Trapezoidal(m)) => Some(m),
+        _ => None,
+    }
+}
+
+/// `end`, `acceleration` or `speed` (`kind`) of joint `entry`'s drive, which must be
+/// trapezoidal.
+fn drive(model: &Model, entry: &str, kind: &str) -> Result<Parameter, String> {
+    let joint = model
+        .joints
+        .iter()
+        .position(|j| j.name == entry)
+        .ok_or_else(|| format!("no joint '{entry}'"))?;
+    if trapezoidal(model, joint).is_none() {
+        let what = if model.joints[joint].drive.is_some() {
+            "a table"
+        } else {
+            "no drive"
+        };
+        return Err(format!(
+            "'{entry}' has {what}: only a trapezoidal drive has an end, acceleration and speed"
+        ));
+    }
+    let law = match kind {
+        "end" => LawParameter::End,
+        "acceleration" => LawParameter::Acceleration,
+        _ => LawParameter::Speed,
+    };
+    Ok(Parameter::Drive {
+        joint,
+        row: model.joint_rows(joint).end - 1,
+        law,
+    })
+}
 
 /// `ĝ` at coordinate `d`: gravity on translations, none on rotations.
 fn gravity(model: &Model, d: usize) -> f64 {
@@ -374,6 +497,8 @@ fn section(model: &Model, entry: &str, kind: &str) -> Result<Parameter, String> 
     let property = match kind {
         "E" => SectionProperty::E,
         "rho" => SectionProperty::Rho,
+        "alpha" => SectionProperty::Alpha,
+        "beta" => SectionProperty::Beta,
         _ if named.made.diameter.is_none() => {
             return Err("the section is given by A, I and kappa, not a diameter".into())
         }
@@ -384,11 +509,6 @@ fn section(model: &Model, entry: &str, kind: &str) -> Result<Parameter, String> 
         property,
         rate: named.section.rate(&named.made, property),
     })
-}
-
-/// Whether spring `k` can carry a damper: its measure is linear in `q`.
-fn damped(model: &Model, k: usize) -> bool {
-    matches!(model.springs[k].measure, Measure::Coordinate(row) if row.is_linear())
 }
 
 /// `add(dof, scale · g)` over the present DOFs.
@@ -423,18 +543,17 @@ fn damping(model: &Model, k: usize, at: &At, add: &mut impl FnMut(usize, f64)) {
 }
 
 /// The rows of a point at `arm` on `node` held to the ground, and their pseudo-loads for a
-/// change of the arm along `axis`: on `φ`, `λ ∂²Φ/∂φ∂p = λ σ nᵀ J R(φ) e` (`σ = ±1`, the
+/// change of the arm along `e`: on `φ`, `λ ∂²Φ/∂φ∂p = λ σ nᵀ J R(φ) e` (`σ = ±1`, the
 /// point's side of the row); on the row, `∂Φ/∂p = σ nᵀ(R(φ) − I)e`, or at acceleration
 /// level `∂(Φ_q q̈)/∂p = σ nᵀ J R(φ) e φ̈`.
 fn arm_rows(
     model: &Model,
     node: usize,
     arm: Vector2<f64>,
-    axis: usize,
+    e: Vector2<f64>,
     at: &At,
     add: &mut impl FnMut(usize, f64),
 ) {
-    let e = Vector2::ith(axis, 1.0);
     let phi = at.q[dof(node, 2)];
     let moved = turned_minus(e, turn(phi));
     for (k, row) in model.rows.iter().enumerate() {
@@ -510,9 +629,11 @@ fn arm(model: &Model, entry: &str, axis: usize) -> Result<Parameter, String> {
     if !held {
         return Err("no joint holds the point to the ground: moving it changes nothing".into());
     }
+    let (s, c) = b.angle.sin_cos();
+    let direction = [Vector2::new(c, s), Vector2::new(-s, c)][axis];
     Ok(Parameter::Arm {
         node: b.node,
         arm,
-        axis,
+        direction,
     })
 }

@@ -84,6 +84,15 @@ pub enum Response {
         /// The driven constraint row.
         row: usize,
     },
+    /// The energy a drive draws, `∫ max(τ ġ, 0) dt` (J): its work where it drives, none
+    /// recovered where it brakes. Its gradient is exact wherever the power does not pass
+    /// through zero at a step's time.
+    EnergyDrawn {
+        /// The driven constraint row.
+        row: usize,
+    },
+    /// The time integral of the kinetic energy `½ q̇ᵀ M q̇` over the motion (J s).
+    KineticEnergy,
     /// A joint's own coordinate at the final time ([`crate::constraint::Joint::coordinate`]):
     /// a pin's rotation or a hinge's relative rotation from the reference (rad), a slider's
     /// travel (m).
@@ -93,11 +102,14 @@ pub enum Response {
     },
 }
 
-/// A recorded state as responses read it: coordinates `q` and multipliers `λ` at time `t`.
+/// A recorded state as responses read it: coordinates `q`, velocities `q̇` and multipliers
+/// `λ` at time `t`.
 #[derive(Debug, Clone, Copy)]
 pub struct Sample<'a> {
     /// `qₙ`.
     pub q: &'a [f64],
+    /// `q̇ₙ`: empty where a run does not keep them (no response reads them, or statics).
+    pub v: &'a [f64],
     /// `λₙ`.
     pub lam: &'a [f64],
     /// `tₙ` (s): where a drive's prescribed rate is read.
@@ -353,6 +365,11 @@ impl Response {
                 let joint = rest.ok_or_else(|| err("name the driven joint: torque_squared:JOINT".into()))?;
                 Ok(Self::TorqueSquared { row: drive_row(model, joint).map_err(err)? })
             }
+            "energy_drawn" => {
+                let joint = rest.ok_or_else(|| err("name the driven joint: energy_drawn:JOINT".into()))?;
+                Ok(Self::EnergyDrawn { row: drive_row(model, joint).map_err(err)? })
+            }
+            "kinetic_energy" if rest.is_none() => Ok(Self::KineticEnergy),
             "joint_position" => {
                 let name = rest.ok_or_else(|| err("name the joint: joint_position:JOINT".into()))?;
                 let j = joint_index(model, name).map_err(err)?;
@@ -361,7 +378,7 @@ impl Response {
                 })?;
                 Ok(Self::JointPosition { row })
             }
-            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque, torque_rms, torque_squared, drive_work or joint_position".into())),
+            _ => Err(err("unknown response; use compliance, tip_deflection, volume, displacement, integrated_displacement, stress, shear, buckling, torque, torque_rms, torque_squared, drive_work, energy_drawn, kinetic_energy or joint_position".into())),
         }
     }
 
@@ -453,7 +470,9 @@ impl Response {
             (
                 Self::IntegratedDisplacement { .. }
                 | Self::TorqueSquared { .. }
-                | Self::DriveWork { .. },
+                | Self::DriveWork { .. }
+                | Self::EnergyDrawn { .. }
+                | Self::KineticEnergy,
                 _,
             ) => Weighting::Integral,
             _ => Weighting::Mean,
@@ -474,6 +493,33 @@ impl Response {
     /// Whether the response depends on the states at all.
     pub fn depends_on_states(&self) -> bool {
         !matches!(self, Self::Volume { .. })
+    }
+
+    /// Whether the response reads the velocities `q̇`.
+    pub fn reads_velocities(&self) -> bool {
+        matches!(self, Self::KineticEnergy)
+    }
+}
+
+/// Calls `add(d, (M v)_d)` for the mass matrix `M(x)` of the design (beams scaled by
+/// `m(x_e)`, point masses and bodies) times `v` (nothing for an empty `v`).
+fn add_mass_times(ctx: &Context, v: &[f64], mut add: impl FnMut(usize, f64)) {
+    if v.is_empty() {
+        return;
+    }
+    let m = ctx.model;
+    for (e, el) in m.elements.iter().enumerate() {
+        let p = el.beam.mass_matrix(ctx.mass_kind) * el.gather(v) * ctx.densities.mass[e];
+        el.dofs()
+            .iter()
+            .zip(p.iter())
+            .for_each(|(&d, &x)| add(d, x));
+    }
+    for pm in &m.point_masses {
+        let d = 3 * pm.node;
+        add(d, pm.mass * v[d]);
+        add(d + 1, pm.mass * v[d + 1]);
+        add(d + 2, pm.inertia * v[d + 2]);
     }
 }
 
@@ -568,6 +614,11 @@ impl Response {
                     ctx.densities.stiffness[e] * el.beam.strain_energy_rate(&el.gather(at.q), rate)
                 })
                 .sum(),
+            (Self::DriveWork { row }, _) => -at.lam[*row] * p.drive_rate(m, *row, at.t),
+            (Self::EnergyDrawn { row }, _) if -at.lam[*row] * drive_rate(m, *row, at.t) > 0.0 => {
+                -at.lam[*row] * p.drive_rate(m, *row, at.t)
+            }
+            (Self::KineticEnergy, _) => 0.5 * p.mass_rate_times(&ctx.designed(), at.v, at.v),
             (Self::Volume { component }, Some((section, rate))) => m
                 .bars
                 .iter()
@@ -616,6 +667,12 @@ impl Response {
             Self::Torque { row, aggregation } => aggregation.point(at.lam[row], known.reference).0,
             Self::TorqueSquared { row } => at.lam[row] * at.lam[row],
             Self::DriveWork { row } => -at.lam[row] * drive_rate(m, row, at.t),
+            Self::EnergyDrawn { row } => (-at.lam[row] * drive_rate(m, row, at.t)).max(0.0),
+            Self::KineticEnergy => {
+                let mut g = 0.0;
+                add_mass_times(ctx, at.v, |d, p| g += 0.5 * at.v[d] * p);
+                g
+            }
             Self::JointPosition { row } => row.evaluate(q).0,
         }
     }
@@ -712,6 +769,23 @@ impl Response {
             }
             Self::TorqueSquared { row } => g_lam[row] += scale * 2.0 * at.lam[row],
             Self::DriveWork { row } => g_lam[row] -= scale * drive_rate(m, row, at.t),
+            Self::EnergyDrawn { row } => {
+                let rate = drive_rate(m, row, at.t);
+                if -at.lam[row] * rate > 0.0 {
+                    g_lam[row] -= scale * rate;
+                }
+            }
+            // ½ m'(x_e) q̇ₑᵀ Mₑ q̇ₑ; its G_q̇ = M q̇ in `add_rate_partials`.
+            Self::KineticEnergy if !at.v.is_empty() => {
+                for (e, el) in m.elements.iter().enumerate() {
+                    if let Some(j) = m.variable_of(e) {
+                        let v = el.gather(at.v);
+                        let energy = 0.5 * v.dot(&(el.beam.mass_matrix(ctx.mass_kind) * v));
+                        g_x[j] += scale * ctx.densities.mass_rate[e] * energy;
+                    }
+                }
+            }
+            Self::KineticEnergy => {}
             Self::JointPosition { row } => {
                 for (d, g) in row.dofs().iter().zip(row.evaluate(q).1) {
                     if let Some(d) = d {
@@ -719,6 +793,13 @@ impl Response {
                     }
                 }
             }
+        }
+    }
+
+    /// Adds `scale · G_q̇` to `g_v`, for a response that reads velocities.
+    pub fn add_rate_partials(&self, ctx: &Context, at: Sample, scale: f64, g_v: &mut [f64]) {
+        if let Self::KineticEnergy = self {
+            add_mass_times(ctx, at.v, |d, p| g_v[d] += scale * p);
         }
     }
 

@@ -27,6 +27,10 @@ pub struct Section {
     /// The largest shear stress over the mean `V/A` (4/3 for a solid circle), `None` when
     /// the scene gives a section by `A`, `I`, `κ` without it.
     pub shear_factor: Option<f64>,
+    /// Rayleigh damping's mass-proportional coefficient `α` (1/s).
+    pub alpha: f64,
+    /// Its stiffness-proportional coefficient `β` (s).
+    pub beta: f64,
 }
 
 impl Section {
@@ -41,6 +45,17 @@ impl Section {
             rho_i: rho * inertia,
             fibre: None,
             shear_factor: None,
+            alpha: 0.0,
+            beta: 0.0,
+        }
+    }
+
+    /// The section damped by `C = α M + β K` (Rayleigh; `α` in 1/s, `β` in s).
+    pub fn with_rayleigh(self, alpha: f64, beta: f64) -> Self {
+        Self {
+            alpha,
+            beta,
+            ..self
         }
     }
 
@@ -69,7 +84,8 @@ impl Section {
     /// The section's rates `∂(A, EA, κGA, EI, ρA, ρI)/∂p` of `property` (in the fields of
     /// a section), given what it is made of: with `E` (and `κGA` with it: through `G` when
     /// `ν` is given, through a circle's `κ(ν)` with `ν = E/2G − 1` when `G` is), with `ρ`,
-    /// or with a solid circle's diameter `d` (`A ∝ d²`, `I ∝ d⁴`).
+    /// or with a solid circle's diameter `d` (`A ∝ d²`, `I ∝ d⁴`); Rayleigh's `α` and `β`
+    /// change only themselves.
     pub fn rate(&self, made: &Made, property: SectionProperty) -> Section {
         let zero = Self::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         match property {
@@ -101,6 +117,8 @@ impl Section {
                     ..zero
                 }
             }
+            SectionProperty::Alpha => zero.with_rayleigh(1.0, 0.0),
+            SectionProperty::Beta => zero.with_rayleigh(0.0, 1.0),
         }
     }
 
@@ -152,4 +170,8 @@ pub enum SectionProperty {
     Rho,
     /// A solid circle's diameter.
     Diameter,
+    /// Rayleigh damping's `α`.
+    Alpha,
+    /// Rayleigh damping's `β`.
+    Beta,
 }

@@ -353,10 +353,12 @@ impl EnergyBook {
         self.damping0 = damping;
     }
 
-    /// Power `−q̇ᵀ C q̇` of the dampers.
+    /// Power `−q̇ᵀ f_d` of the dampers and the beams' Rayleigh damping.
     fn damping_power(&mut self, it: &Integrator, s: &State) -> f64 {
         self.mv.fill(0.0);
-        it.assembler().add_damping_times(&s.qdot, &mut self.mv);
+        let asm = it.assembler();
+        asm.add_damping_times(&s.qdot, &mut self.mv);
+        asm.add_structural_damping(&s.q, &s.qdot, &mut self.mv, None);
         -dot(&s.qdot, &self.mv)
     }
 

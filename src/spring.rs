@@ -5,17 +5,19 @@
 //!
 //! The spring has energy `U = ½ k (s(q) − s₀)²`, force `f = k (s − s₀) ∂s/∂q` and exact
 //! tangent `k (∂s/∂q)(∂s/∂q)ᵀ + k (s − s₀) ∂²s/∂q²` on the six coordinates of the two nodes
-//! involved, like a constraint row's. A damper `c` acts on a measure linear in `q` (a pin's
-//! or hinge's rotation, a slider's travel on a ground axis): force `c ṡ ∂s/∂q = C q̇` with
-//! the constant, symmetric `C = c (∂s/∂q)(∂s/∂q)ᵀ`. (On a distance or a carried axis the
-//! damping force's tangent is not symmetric, which the iteration matrix's `LDLᵀ` cannot
-//! take; the scene refuses it.)
+//! involved, like a constraint row's. A damper `c` has force `c ṡ ∂s/∂q`. On a measure
+//! linear in `q` (a pin's or hinge's rotation, a slider's travel on a ground axis) that is
+//! `C q̇` with the constant, symmetric `C = c (∂s/∂q)(∂s/∂q)ᵀ`. On a distance or a carried
+//! axis `C` follows the state, and `∂f/∂q = c ṡ ∂²s/∂q² + c (∂s/∂q)(∂²s/∂q² q̇)ᵀ` has a part
+//! that is not symmetric, which the iteration matrix leaves out and the gradients' exact
+//! solves take back ([`crate::element::Damping`], as for the beams').
 //!
 //! [`Joint::coordinate`]: crate::constraint::Joint::coordinate
 
 use nalgebra::Vector2;
 
 use crate::constraint::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
+use crate::element::{Damping, Matrix6, Vector6};
 
 /// What a spring measures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,6 +102,34 @@ impl Spring {
         (force, tangent)
     }
 
+    /// Whether it damps a measure that is not linear in `q` (a distance, a carried axis):
+    /// its `C` then follows the state.
+    pub fn damps_nonlinearly(&self) -> bool {
+        self.damping > 0.0 && !matches!(self.measure, Measure::Coordinate(row) if row.is_linear())
+    }
+
+    /// The damper on [`Spring::dofs`] at `(q, q̇)`: force `c ṡ g`, `∂f/∂q̇ = c g gᵀ`, the
+    /// symmetric part `c ṡ H` of `∂f/∂q` and its rest `c g (H q̇)ᵀ` (`g`, `H` the measure's
+    /// gradient and Hessian).
+    pub fn damper(&self, q: &[f64], v: &[f64]) -> Damping {
+        let Local {
+            gradient: g,
+            hessian: h,
+            ..
+        } = self.measure(q);
+        let local = self.dofs().map(|d| d.map_or(0.0, |d| v[d]));
+        let (g, local) = (Vector6::from(g), Vector6::from(local));
+        let h = Matrix6::from_fn(|i, j| h[i][j]);
+        let c = self.damping;
+        let rate = g.dot(&local);
+        Damping {
+            force: g * (c * rate),
+            rate: g * g.transpose() * c,
+            symmetric: h * (c * rate),
+            skew: g * (h * local).transpose() * c,
+        }
+    }
+
     /// The damper's `C = c (∂s/∂q)(∂s/∂q)ᵀ` on [`Spring::dofs`], at any `q`: constant, as
     /// its measure is linear.
     pub fn damping_matrix(&self, q: &[f64]) -> [[f64; 6]; 6] {
@@ -167,6 +197,55 @@ fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
 mod tests {
     use super::*;
     use crate::constraint::Law;
+
+    /// A damper on a distance between arms: `∂f/∂q` (symmetric part and rest) and `∂f/∂q̇`
+    /// against central differences of its force.
+    #[test]
+    fn a_damper_on_a_distance_has_exact_derivatives() {
+        let damper = Spring {
+            name: "d".into(),
+            measure: Measure::Distance {
+                at: [
+                    Anchor {
+                        node: 0,
+                        arm: Vector2::new(0.2, -0.1),
+                    },
+                    Anchor {
+                        node: 1,
+                        arm: Vector2::new(-0.3, 0.25),
+                    },
+                ],
+                reference: Vector2::new(0.7, 0.4),
+            },
+            stiffness: 0.0,
+            damping: 40.0,
+            rest: 0.0,
+        };
+        let q = [0.03, -0.05, 0.9, -0.02, 0.04, -1.3];
+        let v = [0.4, -0.2, 1.5, -0.3, 0.6, -0.8];
+        let d = damper.damper(&q, &v);
+        let eps = 1e-6;
+        for j in 0..6 {
+            let (mut qp, mut qm, mut vp, mut vm) = (q, q, v, v);
+            qp[j] += eps;
+            qm[j] -= eps;
+            vp[j] += eps;
+            vm[j] -= eps;
+            let fq = (damper.damper(&qp, &v).force - damper.damper(&qm, &v).force) / (2.0 * eps);
+            let fv = (damper.damper(&q, &vp).force - damper.damper(&q, &vm).force) / (2.0 * eps);
+            let exact = (d.symmetric + d.skew).column(j).into_owned();
+            assert!(
+                (exact - fq).norm() < 1e-6 * (d.symmetric + d.skew).norm(),
+                "q {j}"
+            );
+            assert!(
+                (d.rate.column(j) - fv).norm() < 1e-7 * d.rate.norm(),
+                "v {j}"
+            );
+        }
+        assert!((d.symmetric - d.symmetric.transpose()).norm() < 1e-12 * d.symmetric.norm());
+        assert!(damper.damps_nonlinearly());
+    }
 
     /// A distance between two arms and a hinge's relative rotation: the force is the
     /// central difference of the energy and the tangent that of the force.

@@ -79,20 +79,10 @@ impl StepControl {
     }
 }
 
-/// The error scale of each coordinate: the model's size (m) for translations, 1 rad for
-/// rotations.
+/// The error scale of each coordinate: the model's size (m, its nodes' and rigid bodies'
+/// points') for translations, 1 rad for rotations.
 pub fn error_scales(model: &Model) -> Vec<f64> {
-    let positions = model.reference_positions();
-    let extent = |k: usize| {
-        let (lo, hi) = positions
-            .chunks(2)
-            .map(|p| p[k])
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-        hi - lo
-    };
-    let size = extent(0).hypot(extent(1)).max(f64::MIN_POSITIVE);
+    let size = model.size();
     (0..model.n_dofs())
         .map(|i| if i % 3 == 2 { 1.0 } else { size })
         .collect()

@@ -85,13 +85,15 @@ class Scene:
 
     def section(self, name: str, *, E: float, rho: float, nu: float | None = None, G: float | None = None,
                 diameter: float | None = None, A: float | None = None, I: float | None = None,
-                kappa: float | None = None, c: float | None = None, shear_factor: float | None = None) -> str:
+                kappa: float | None = None, c: float | None = None, shear_factor: float | None = None,
+                rayleigh: Sequence[float] | None = None) -> str:
         """A beam section: material (``E``, ``rho``, one of ``nu``/``G``) and either a solid
         circle ``diameter`` (Cowper's shear coefficient) or ``A``, ``I``, ``kappa``, with the
         outer-fibre distance ``c`` if bending stresses ``M c / I`` are wanted (m) and the
-        ``shear_factor`` k of the largest shear stress ``k V/A`` if shear stresses are."""
+        ``shear_factor`` k of the largest shear stress ``k V/A`` if shear stresses are;
+        ``rayleigh = (alpha, beta)`` damps its beams by ``C = αM + βK`` (1/s, s)."""
         entry = {"E": E, "rho": rho, "nu": nu, "G": G, "diameter": diameter, "A": A, "I": I, "kappa": kappa, "c": c,
-                 "shear_factor": shear_factor}
+                 "shear_factor": shear_factor, "rayleigh": None if rayleigh is None else [float(v) for v in rayleigh]}
         self._spec.setdefault("sections", {})[name] = {k: v for k, v in entry.items() if v is not None}
         return name
 
@@ -179,10 +181,11 @@ class Scene:
             entry["nodes"] = [carrier, slider]
         self._joint(entry)
 
-    def spring(self, name: str, a: str, b: str, *, k: float, length: float | None = None) -> None:
-        """A linear spring of stiffness ``k`` (N/m) between nodes or rigid-body points ``a``
-        and ``b``, unloaded at ``length`` (m; their distance in the scene if not given)."""
-        entry = {"name": name, "nodes": [a, b], "k": k, "length": length}
+    def spring(self, name: str, a: str, b: str, *, k: float = 0.0, c: float = 0.0, length: float | None = None) -> None:
+        """A linear spring of stiffness ``k`` (N/m) and damper ``c`` (N s/m, on the rate of
+        the distance) between nodes or rigid-body points ``a`` and ``b``, unloaded at
+        ``length`` (m; their distance in the scene if not given)."""
+        entry = {"name": name, "nodes": [a, b], "k": k, "c": c or None, "length": length}
         self._spec.setdefault("springs", []).append({key: v for key, v in entry.items() if v is not None})
 
     def joint_spring(self, name: str, joint: str, *, k: float = 0.0, c: float = 0.0, rest: float = 0.0) -> None:

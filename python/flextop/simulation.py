@@ -396,7 +396,10 @@ class Simulation:
         ``x^q k V/A``; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
         for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load;
         ``"torque:JOINT[:OPTIONS]"`` the torque ``τ = −λ`` a drive applies (N m) condensed
-        over the motion the same way, and ``"torque_rms:JOINT"`` its RMS. The
+        over the motion the same way, and ``"torque_rms:JOINT"`` its RMS;
+        ``"torque_squared:JOINT"`` (``∫ τ² dt``), ``"drive_work:JOINT"`` (``∫ τ ġ dt``),
+        ``"energy_drawn:JOINT"`` (``∫ max(τ ġ, 0) dt``), ``"kinetic_energy"``
+        (``∫ ½ q̇ᵀ M q̇ dt``) and ``"joint_position:JOINT"`` (at the end). The
         means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
 
@@ -789,8 +792,12 @@ class _Run:
         whose loads act at its ``raw["time"]``; a dynamic one has a state per time."""
         time = np.atleast_1d(self.raw["time"])
         times, load_time = (np.zeros(1), float(time[0])) if self.simulation.analysis == "static" else (time, 0.0)
+        qdot = getattr(self, "qdot", None)
+        kind = self.settings.get("mass") or self.simulation.spec.get("simulation", {}).get("mass")
+        mass = {"mass": kind} if kind else None
         out = _core.evaluate_responses(self.simulation.model, self.x, np.atleast_2d(self.q), np.atleast_2d(self.lam),
-                                       list(map(float, times)), load_time, [name])
+                                       list(map(float, times)), load_time, [name],
+                                       None if qdot is None else np.atleast_2d(qdot), mass)
         return float(out["values"][0]), out["peaks"][0]
 
     def peak(self, name: str) -> float:

@@ -23,6 +23,14 @@
 //!   `r = ∂l/∂u = [−c, −s, 0, c, s, 0]`, `t = l ∂α/∂u = [s, −c, 0, −s, c, 0]`;
 //! * strain energy `U = ½ (EA/L₀) e² + ½ θᵀ k_b θ`.
 //!
+//! Rayleigh damping `C = αM + βK` of the section: the mass part `α M q̇` (constant `M`),
+//! and the stiffness part as a Kelvin–Voigt material in the co-rotated frame,
+//! `f_d = β Bᵀ D ė` with `ė = B q̇` the rate of the local deformation — rigid motions are
+//! not damped. Its derivatives: `∂f_d/∂q̇ = β BᵀDB`, and `∂f_d/∂q = Σᵢ wᵢ Hᵢ + β Bᵀ D G`
+//! with `w = β D ė`, `Hᵢ = ∂²eᵢ/∂u²` (`t tᵀ/l` for the stretch, `(r tᵀ + t rᵀ)/l²` for
+//! both end rotations) and `G = ∂(B q̇)/∂q`, rows `(Hᵢ q̇)ᵀ`: a symmetric part and one
+//! that is not ([`Damping`]).
+//!
 //! Inertia uses linear interpolation of the absolute displacement and rotation fields,
 //! which gives a constant mass matrix in these coordinates (no gyroscopic term in 2D):
 //! `ρA L₀/6 [[2, 1], [1, 2]]` per translation, `ρI L₀/6 [[2, 1], [1, 2]]` for rotation;
@@ -56,6 +64,20 @@ pub struct Beam {
     pub length: f64,
     /// Section at full density.
     pub section: Section,
+}
+
+/// A damping force at a state with its derivatives: a beam's stiffness-proportional
+/// damping (at full density), or a damper's on a distance ([`crate::spring::Spring::damper`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Damping {
+    /// `f_d = β Bᵀ D B q̇`.
+    pub force: Vector6,
+    /// `∂f_d/∂q̇ = β BᵀDB`.
+    pub rate: Matrix6,
+    /// The symmetric part of `∂f_d/∂q`, `Σᵢ wᵢ Hᵢ`.
+    pub symmetric: Matrix6,
+    /// The rest of `∂f_d/∂q`, `β Bᵀ D G`, not symmetric.
+    pub skew: Matrix6,
 }
 
 /// Chord geometry and local deformation of a deformed beam.
@@ -209,6 +231,45 @@ impl Beam {
         0.5 * g.local.dot(&(self.local_stiffness() * g.local))
     }
 
+    /// The stiffness-proportional damping at displacements `u` and velocities `v`, its
+    /// force and derivatives (see the module documentation), for `β` of the section.
+    pub fn damping(&self, u: &Vector6, v: &Vector6) -> Damping {
+        let g = self.deformation(u);
+        let b = Self::strain_matrix(&g);
+        let d = self.local_stiffness() * self.section.beta;
+        let w = d * (b * v);
+        let (td, rd) = (g.t.dot(v), g.r.dot(v));
+        let he = g.t * g.t.transpose() / g.l;
+        let ht = (g.r * g.t.transpose() + g.t * g.r.transpose()) / (g.l * g.l);
+        let mut grad = SMatrix::<f64, 3, 6>::zeros();
+        grad.set_row(0, &(g.t * (td / g.l)).transpose());
+        let turning = (g.r * td + g.t * rd) / (g.l * g.l);
+        grad.set_row(1, &turning.transpose());
+        grad.set_row(2, &turning.transpose());
+        Damping {
+            force: b.transpose() * w,
+            rate: b.transpose() * d * b,
+            symmetric: he * w[0] + ht * (w[1] + w[2]),
+            skew: b.transpose() * d * grad,
+        }
+    }
+
+    /// `∂f_d/∂p = β' Bᵀ D B q̇ + β Bᵀ D' B q̇` for a section whose `β` changes at `beta_rate`
+    /// and whose `D` changes at `rate` ([`Beam::local_stiffness_rate`]).
+    pub fn damping_force_rate(
+        &self,
+        u: &Vector6,
+        v: &Vector6,
+        beta_rate: f64,
+        rate: &Section,
+    ) -> Vector6 {
+        let g = self.deformation(u);
+        let b = Self::strain_matrix(&g);
+        let d = self.local_stiffness() * beta_rate
+            + self.local_stiffness_rate(rate) * self.section.beta;
+        b.transpose() * (d * (b * v))
+    }
+
     /// Constant mass matrix at full density.
     pub fn mass_matrix(&self, kind: MassKind) -> Matrix6 {
         let (ma, mi) = (
@@ -263,6 +324,33 @@ mod tests {
             t2 + rotated.y - d.y,
             angle,
         ])
+    }
+
+    /// The damping's `∂f_d/∂u` (symmetric part plus the rest) against central
+    /// differences of its force, on a deformed beam in rigid rotation, and the rate part
+    /// `∂f_d/∂v`; a rigid motion's velocity is not damped.
+    #[test]
+    fn damping_derivatives_equal_central_differences() {
+        let mut b = beam();
+        b.section = b.section.with_rayleigh(0.0, 2e-4);
+        let u = rigid(&b, 0.7) + Vector6::from([1e-3, -2e-3, 0.02, 3e-3, 1e-3, -0.03]);
+        let v = Vector6::from([0.4, -0.3, 2.0, -0.2, 0.5, -1.5]);
+        let d = b.damping(&u, &v);
+        let h = 1e-7;
+        for j in 0..6 {
+            let e = Vector6::ith(j, h);
+            let fd = (b.damping(&(u + e), &v).force - b.damping(&(u - e), &v).force) / (2.0 * h);
+            let exact = (d.symmetric + d.skew).column(j).into_owned();
+            assert!(
+                (exact - fd).norm() <= 1e-6 * (d.symmetric + d.skew).norm(),
+                "column {j}"
+            );
+            let fv = (b.damping(&u, &(v + e)).force - b.damping(&u, &(v - e)).force) / (2.0 * h);
+            assert!((d.rate.column(j) - fv).norm() <= 1e-7 * d.rate.norm());
+        }
+        assert!((d.symmetric - d.symmetric.transpose()).norm() <= 1e-12 * d.symmetric.norm());
+        let turning = Vector6::from([0.0, 0.0, 1.0, -b.chord.y, b.chord.x, 1.0]);
+        assert!(b.damping(&Vector6::zeros(), &turning).force.norm() <= 1e-12 * d.force.norm());
     }
 
     /// `∂D/∂p` against central differences of `D` for a section moved along `rate`.

@@ -5,4 +5,4 @@
 
 pub mod beam;
 
-pub use beam::{Beam, MassKind, Matrix6, Vector6};
+pub use beam::{Beam, Damping, MassKind, Matrix6, Vector6};

@@ -225,8 +225,9 @@ pub fn run_with_sensitivities<'py>(
 /// `values` of `responses` on recorded coordinates `q` (shape `(n_states, n_dofs)`) and
 /// multipliers `lam` (`(n_states, n_constraints)`) at `times`, for design `x`, and the
 /// aggregates' `peaks` (`None` for the others); a static state's loads act at `load_time`.
+/// `qdot` (as `q`) for the responses that read velocities; `settings` may hold `mass`.
 #[pyfunction]
-#[pyo3(signature = (model, x, q, lam, times, load_time, responses))]
+#[pyo3(signature = (model, x, q, lam, times, load_time, responses, qdot=None, settings=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn evaluate_responses<'py>(
     py: Python<'py>,
@@ -237,13 +238,27 @@ pub fn evaluate_responses<'py>(
     times: Vec<f64>,
     load_time: f64,
     responses: Vec<String>,
+    qdot: Option<PyReadonlyArray2<'py, f64>>,
+    settings: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = Arc::clone(&model.model);
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
     let (q, lam) = (q.as_slice()?.to_vec(), lam.as_slice()?.to_vec());
+    let qdot = qdot
+        .map(|v| v.as_slice().map(<[f64]>::to_vec))
+        .transpose()?;
+    let mass = run_options(settings)?.mass.unwrap_or(MassKind::Consistent);
     let x = design(x)?;
     let out = detached(py, move || {
-        sensitivity::evaluate(&m, x.as_deref(), &q, &lam, &times, load_time, &parsed)
+        let recorded = sensitivity::Recorded {
+            q: &q,
+            qdot: qdot.as_deref(),
+            lam: &lam,
+            times: &times,
+            load_time,
+            mass,
+        };
+        sensitivity::evaluate(&m, x.as_deref(), &recorded, &parsed)
     })?;
     let d = PyDict::new(py);
     d.set_item("values", vector(py, out.values))?;

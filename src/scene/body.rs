@@ -24,7 +24,8 @@ pub(super) fn add_all(mesh: &mut Mesh, specs: &[RigidBodySpec]) -> Result<Vec<Po
 fn add(mesh: &mut Mesh, path: &str, b: &RigidBodySpec) -> Result<PointMass> {
     let [x, y] = b.position;
     let node = mesh.add_node(&format!("{path}.position"), &b.name, x, y)?;
-    let turn = Rotation2::new(angle(path, b.angle, b.angle_deg)?);
+    let turned = angle(path, b.angle, b.angle_deg)?;
+    let turn = Rotation2::new(turned);
     let mut points = Vec::with_capacity(b.points.len());
     for (name, &[px, py]) in &b.points {
         let at = format!("{path}.points.{name}");
@@ -39,6 +40,7 @@ fn add(mesh: &mut Mesh, path: &str, b: &RigidBodySpec) -> Result<PointMass> {
     mesh.bodies.push(RigidBody {
         name: b.name.clone(),
         node,
+        angle: turned,
         points,
     });
     Ok(PointMass {

@@ -174,6 +174,7 @@ fn add_rigid(
     mesh.bodies.push(RigidBody {
         name: g.name.clone(),
         node,
+        angle: 0.0,
         points,
     });
     Ok(PointMass {

@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 
 use super::spec::SectionSpec;
-use super::validate::{positive, unknown, Result};
+use super::validate::{non_negative, positive, unknown, Result};
 use crate::error::{short, SceneError};
 use crate::section::{Made, NamedSection, Section};
 
@@ -56,6 +56,10 @@ fn section(path: &str, s: &SectionSpec) -> Result<Section> {
     let (g, nu) = elasticity(path, s, e)?;
     let (area, inertia, kappa) = geometry(path, s, nu)?;
     let mut section = Section::new(e, g, area, inertia, kappa, rho);
+    if let Some([alpha, beta]) = s.rayleigh {
+        let alpha = non_negative(&format!("{path}.rayleigh[0]"), alpha)?;
+        section = section.with_rayleigh(alpha, non_negative(&format!("{path}.rayleigh[1]"), beta)?);
+    }
     if let Some(d) = s.diameter {
         if s.c.is_some() || s.shear_factor.is_some() {
             return Err(SceneError::new(
@@ -163,6 +167,7 @@ mod tests {
                         SectionProperty::Diameter => {
                             s.diameter = s.diameter.map(|d| d * (1.0 + step))
                         }
+                        SectionProperty::Alpha | SectionProperty::Beta => unreachable!(),
                     }
                     fields(&section("s", &s).unwrap())
                 };
@@ -170,6 +175,7 @@ mod tests {
                     SectionProperty::E => spec.E,
                     SectionProperty::Rho => spec.rho,
                     SectionProperty::Diameter => spec.diameter.unwrap(),
+                    SectionProperty::Alpha | SectionProperty::Beta => unreachable!(),
                 };
                 let h = 1e-5;
                 let (up, down) = (built(h), built(-h));

@@ -124,6 +124,8 @@ pub struct SectionSpec {
     /// The largest shear stress over `V/A`, for shear stresses (3/2 for a rectangle; a solid
     /// circle's is 4/3).
     pub shear_factor: Option<f64>,
+    /// Rayleigh damping `[α, β]` (1/s, s): `C = α M + β K` of the section's beams.
+    pub rayleigh: Option<[f64; 2]>,
 }
 
 /// A named node.
@@ -294,7 +296,7 @@ pub struct SpringSpec {
     /// Stiffness (0 for a damper alone).
     #[serde(default)]
     pub k: f64,
-    /// Damping (N s/m or N m s/rad; on a joint's linear coordinate only), 0 if not given.
+    /// Damping (N s/m or N m s/rad), 0 if not given.
     #[serde(default)]
     pub c: f64,
     /// Rest length between points (m).

@@ -80,14 +80,6 @@ fn spring(path: &str, s: &SpringSpec, mesh: &Mesh, joints: &[Joint], size: f64) 
             ))
         }
     };
-    let linear = matches!(measure, Measure::Coordinate(row) if row.is_linear());
-    if damping > 0.0 && !linear {
-        return Err(SceneError::new(
-            format!("{path}.c"),
-            "damping acts only on a pin's or hinge's rotation or on a slider's travel along a \
-             ground axis: on a distance or a carried axis its tangent is not symmetric",
-        ));
-    }
     Ok(Spring {
         name: s.name.clone(),
         measure,

@@ -104,6 +104,7 @@ impl<'a> Stored<'a> {
     fn sample(self, t: f64) -> Sample<'a> {
         Sample {
             q: self.q,
+            v: self.v,
             lam: self.lam,
             t,
         }
@@ -227,7 +228,8 @@ pub(crate) fn run(
     let mut objectives = Objectives::new(model, responses, parameters, grid)?;
     let pseudo = PseudoLoads::new(model, settings.mass, parameters);
     let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
-    let mut store = StateStore::new(memory, n_q, n_c, grid.len(), pseudo.reads_velocities());
+    let velocities = pseudo.reads_velocities() || objectives.read_velocities();
+    let mut store = StateStore::new(memory, n_q, n_c, grid.len(), velocities);
     let clock = Instant::now();
     let mut values = forward(&mut it, grid, &mut objectives, settings, &mut store)?;
     let simulation = clock.elapsed().as_secs_f64();
@@ -287,6 +289,7 @@ fn forward(
         let ctx = Context::dynamic(model, &it.assembler().densities, settings.mass);
         let at = Sample {
             q: &state.q,
+            v: &state.qdot,
             lam: &state.lam,
             t: state.t,
         };
@@ -322,6 +325,8 @@ struct Sweep<'a> {
     c: Vec<f64>,
     damped: Vec<f64>,
     scratch: MemBuffer,
+    /// Work space of the exact solves with damping ([`crate::newton::Newton::solve_exact`]).
+    work: Vec<f64>,
 }
 
 impl<'a> Sweep<'a> {
@@ -352,6 +357,7 @@ impl<'a> Sweep<'a> {
             c: vec![0.0; n_q],
             damped: vec![0.0; n_q],
             scratch: it.newton.scratch(n_r),
+            work: Vec::new(),
         }
     }
 
@@ -368,6 +374,8 @@ impl<'a> Sweep<'a> {
                 &mut self.qb[k * n_q..(k + 1) * n_q],
                 &mut self.lb[k * n_c..(k + 1) * n_c],
                 &mut self.xb[k * n_x..(k + 1) * n_x],
+                // A response's G_q̇ joins the adjoint of q̇'.
+                &mut self.vb[k * n_q..(k + 1) * n_q],
             );
         }
     }
@@ -412,12 +420,20 @@ impl<'a> Sweep<'a> {
                 self.ab[j] = a_total; // kept for P̄ below
             }
         }
-        it.newton
-            .factorize(at1.q, Some(at1.lam), bp, it.params.gamma_prime(h), at1.t)?;
+        // Velocities are stored when damping or a parameter reads them.
+        let velocity = at1.rates.map(|(v, _)| v).filter(|v| !v.is_empty());
+        it.newton.factorize(
+            at1.q,
+            Some(at1.lam),
+            velocity,
+            bp,
+            it.params.gamma_prime(h),
+            at1.t,
+        )?;
         let scale = it.newton.multiplier_scale();
         self.seed_multipliers(scale);
-        it.newton
-            .solve_block(&mut self.rhs, self.n_r, &mut self.scratch)?;
+        let (rhs, scratch, work) = (&mut self.rhs, &mut self.scratch, &mut self.work);
+        it.newton.solve_exact(rhs, self.n_r, scratch, true, work)?;
         if self.pseudo.moves_constraints() {
             it.newton.unaugment(&mut self.rhs);
         }
@@ -431,7 +447,7 @@ impl<'a> Sweep<'a> {
             let mu = &column[..n_q];
             asm.mass_times(mu, &mut self.c);
             self.damped.fill(0.0);
-            asm.add_damping_times(mu, &mut self.damped);
+            it.newton.add_damping_times(mu, &mut self.damped);
             let gp = it.params.gamma_prime(h);
             for i in 0..n_q {
                 let j = r.start + i;
@@ -473,7 +489,7 @@ impl<'a> Sweep<'a> {
                 *o = acc_b + ab;
             }
         }
-        it.newton.factorize(at0.q, None, 1.0, 0.0, 0.0)?;
+        it.newton.factorize(at0.q, None, None, 1.0, 0.0, 0.0)?;
         let scale = it.newton.multiplier_scale();
         self.seed_multipliers(scale);
         it.newton

@@ -99,12 +99,15 @@ struct Sweep<'a> {
     /// Size of the last step (0 before the first).
     previous: f64,
     scratch: Vec<MemBuffer>,
+    /// Per block, work space of the exact solves with damping.
+    work: Vec<Vec<f64>>,
     values: Vec<f64>,
     /// Row-major `n_responses × n_x`.
     gradients: Vec<f64>,
     g_q: Vec<f64>,
     g_lam: Vec<f64>,
     g_x: Vec<f64>,
+    g_v: Vec<f64>,
     model: &'a Model,
 }
 
@@ -135,11 +138,13 @@ impl<'a> Sweep<'a> {
             scratch: (0..n_x.div_ceil(width))
                 .map(|_| it.newton.scratch(width))
                 .collect(),
+            work: vec![Vec::new(); n_x.div_ceil(width)],
             values: vec![0.0; n_r],
             gradients: vec![0.0; n_r * n_x],
             g_q: vec![0.0; n_q],
             g_lam: vec![0.0; n - n_q],
             g_x: vec![0.0; n_x],
+            g_v: vec![0.0; n_q],
             model,
         }
     }
@@ -152,7 +157,7 @@ impl<'a> Sweep<'a> {
         if let Some(eq) = &equilibrium {
             self.dq = super::start::direct(it, eq, &self.pseudo)?;
         }
-        it.newton.factorize(&s.q, None, 1.0, 0.0, 0.0)?;
+        it.newton.factorize(&s.q, None, None, 1.0, 0.0, 0.0)?;
         let scale = it.newton.multiplier_scale();
         self.rhs.fill(0.0);
         let at = At {
@@ -191,7 +196,7 @@ impl<'a> Sweep<'a> {
         let ratio = step_ratio(self.previous, h);
         self.previous = h;
         it.newton
-            .factorize(&s.q, Some(&s.lam), bp, p.gamma_prime(h), s.t)?;
+            .factorize(&s.q, Some(&s.lam), Some(&s.qdot), bp, p.gamma_prime(h), s.t)?;
         let newton = &it.newton;
         let (n, n_q, width, pseudo) = (self.n, self.n_q, self.width, &self.pseudo);
         let (scale, augmented) = (newton.multiplier_scale(), pseudo.moves_constraints());
@@ -208,9 +213,9 @@ impl<'a> Sweep<'a> {
             .zip(self.dv.par_chunks_mut(n_q * width))
             .zip(self.dacc.par_chunks_mut(n_q * width))
             .zip(self.da.par_chunks_mut(n_q * width))
-            .zip(self.scratch.par_iter_mut())
+            .zip(self.scratch.par_iter_mut().zip(self.work.par_iter_mut()))
             .enumerate()
-            .try_for_each(|(block, (((((rhs, dq), dv), dacc), da), buf))| {
+            .try_for_each(|(block, (((((rhs, dq), dv), dacc), da), (buf, work)))| {
                 let cols = rhs.len() / n;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
@@ -228,7 +233,7 @@ impl<'a> Sweep<'a> {
                     let out = &mut rhs[col * n..(col + 1) * n];
                     let asm = newton.assembler();
                     asm.mass_times(&dacc[col * n_q..(col + 1) * n_q], out);
-                    asm.add_damping_times(&dv[col * n_q..(col + 1) * n_q], out);
+                    newton.add_damping_times(&dv[col * n_q..(col + 1) * n_q], out);
                     out[..n_q].iter_mut().for_each(|v| *v = -*v);
                     out[n_q..].fill(0.0);
                 }
@@ -238,7 +243,7 @@ impl<'a> Sweep<'a> {
                 if augmented {
                     newton.augment(rhs);
                 }
-                newton.solve_block(rhs, cols, buf)?;
+                newton.solve_exact(rhs, cols, buf, false, work)?;
                 for col in 0..cols {
                     let r = col * n_q..(col + 1) * n_q;
                     let new = &rhs[col * n..col * n + n_q];
@@ -263,6 +268,7 @@ impl<'a> Sweep<'a> {
         let ctx = Context::dynamic(self.model, &it.assembler().densities, self.mass);
         let at = Sample {
             q: &s.q,
+            v: &s.qdot,
             lam: &s.lam,
             t: s.t,
         };
@@ -274,6 +280,7 @@ impl<'a> Sweep<'a> {
             self.g_q.fill(0.0);
             self.g_lam.fill(0.0);
             self.g_x.fill(0.0);
+            self.g_v.fill(0.0);
             objectives.add_partials(
                 &ctx,
                 k,
@@ -282,14 +289,20 @@ impl<'a> Sweep<'a> {
                 &mut self.g_q,
                 &mut self.g_lam,
                 &mut self.g_x,
+                &mut self.g_v,
             );
             let (g_q, g_lam, g_x, dq, rhs) =
                 (&self.g_q, &self.g_lam, &self.g_x, &self.dq, &self.rhs);
             let multipliers = g_lam.iter().any(|&g| g != 0.0);
+            let rates = objectives.read_velocities();
+            let (g_v, dv) = (&self.g_v, &self.dv);
             row.par_iter_mut().enumerate().for_each(|(j, g)| {
                 *g += g_x[j] + dot(g_q, &dq[j * n_q..(j + 1) * n_q]);
                 if multipliers {
                     *g += scale * dot(g_lam, &rhs[j * size + n_q..(j + 1) * size]);
+                }
+                if rates {
+                    *g += dot(g_v, &dv[j * n_q..(j + 1) * n_q]);
                 }
             });
         }

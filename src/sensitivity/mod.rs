@@ -203,8 +203,9 @@ impl<'a> Objectives<'a> {
     }
 
     /// Adds `wₙ G_q` of response `k` at state `n` to `g_q`, `wₙ G_λ` to `g_lam` and
-    /// `wₙ G_x` to `g_x`, then `wₙ G_p` of the parameters to its last entries (explicit
-    /// responses contribute their gradient at `n = 0`).
+    /// `wₙ G_x` to `g_x`, then `wₙ G_p` of the parameters to its last entries, and
+    /// `wₙ G_q̇` to `g_v` for a response that reads velocities (explicit responses
+    /// contribute their gradient at `n = 0`).
     #[allow(clippy::too_many_arguments)]
     fn add_partials(
         &self,
@@ -215,6 +216,7 @@ impl<'a> Objectives<'a> {
         g_q: &mut [f64],
         g_lam: &mut [f64],
         g_x: &mut [f64],
+        g_v: &mut [f64],
     ) {
         let r = &self.responses[k];
         let w = if r.depends_on_states() {
@@ -228,7 +230,15 @@ impl<'a> Objectives<'a> {
             for (g, p) in g_x[first..].iter_mut().zip(self.parameters) {
                 *g += w * r.parameter_partial(ctx, at, p);
             }
+            if r.reads_velocities() {
+                r.add_rate_partials(ctx, at, w, g_v);
+            }
         }
+    }
+
+    /// Whether a response reads the velocities, which a run must then keep.
+    fn read_velocities(&self) -> bool {
+        self.responses.iter().any(Response::reads_velocities)
     }
 }
 
@@ -241,6 +251,8 @@ pub(crate) struct PseudoLoads {
     /// Design variables, the first columns.
     n_x: usize,
     pub(super) parameters: Vec<Parameter>,
+    /// Whether a beam has Rayleigh damping, whose force follows its densities.
+    damped: bool,
 }
 
 impl PseudoLoads {
@@ -253,6 +265,7 @@ impl PseudoLoads {
                 .collect(),
             n_x: model.n_variables(),
             parameters: parameters.to_vec(),
+            damped: model.has_rayleigh(),
         }
     }
 
@@ -261,9 +274,10 @@ impl PseudoLoads {
         self.n_x + self.parameters.len()
     }
 
-    /// Whether a parameter's pseudo-load reads velocities.
+    /// Whether a pseudo-load reads velocities: a parameter's, or a density's of a beam
+    /// with Rayleigh damping.
     fn reads_velocities(&self) -> bool {
-        self.parameters.iter().any(Parameter::reads_velocities)
+        self.damped || self.parameters.iter().any(Parameter::reads_velocities)
     }
 
     /// Whether a parameter's pseudo-load has constraint rows: right-hand sides then need
@@ -272,14 +286,26 @@ impl PseudoLoads {
         self.parameters.iter().any(Parameter::moves_constraints)
     }
 
-    /// `m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` of element `e` (`q̈ = 0` for statics).
+    /// `m'(x_e) M_e (q̈_e − ĝ_e + α q̇_e) + s'(x_e) (f_e(q_e) + f_d,e(q_e, q̇_e))` of
+    /// element `e`, with its Rayleigh damping (`q̈ = q̇ = 0` for statics).
     fn element(&self, asm: &Assembler, e: usize, at: &At) -> Vector6 {
         let el = &asm.model.elements[e];
         let dofs = el.dofs();
-        let acc = |d: usize| at.rates.map_or(0.0, |(_, a)| a[d]);
-        let inertia = Vector6::from_fn(|i, _| acc(dofs[i]) - asm.gravity[dofs[i]]);
+        let u = el.gather(at.q);
+        let (alpha, beta) = (el.beam.section.alpha, el.beam.section.beta);
+        let mut inertia = Vector6::from_fn(|i, _| -asm.gravity[dofs[i]]);
+        let mut stiffness = el.beam.internal_force(&u);
+        if let Some((v, acc)) = at.rates {
+            inertia += Vector6::from_fn(|i, _| acc[dofs[i]]);
+            if alpha > 0.0 {
+                inertia += el.gather(v) * alpha;
+            }
+            if beta > 0.0 {
+                stiffness += el.beam.damping(&u, &el.gather(v)).force;
+            }
+        }
         self.masses[e] * inertia * asm.densities.mass_rate[e]
-            + el.beam.internal_force(&el.gather(at.q)) * asm.densities.stiffness_rate[e]
+            + stiffness * asm.densities.stiffness_rate[e]
     }
 
     /// Subtracts column `j` of the pseudo-loads from column `j` of the column-major block
@@ -405,11 +431,10 @@ pub fn parse_parameters(
             continue;
         }
         if responses.iter().any(|r| r.rigid_node().is_some()) {
-            let msg =
-                "a response follows a rigid trajectory, which moving the point changes: not built";
+            let msg = "a response follows a rigid trajectory, which it moves: not built";
             return Err(SettingsError::new(at, msg));
         }
-        if !model.initial_velocity.is_empty() {
+        if matches!(p, Parameter::Arm { .. }) && !model.initial_velocity.is_empty() {
             let msg = "the initial rates' motion depends on the point's place: not built";
             return Err(SettingsError::new(at, msg));
         }
@@ -475,11 +500,9 @@ pub fn of_motion_on(
             direct::run(model, densities, settings, grid, responses, parameters)
         }
         _ => {
-            let rows = if parameters.iter().any(Parameter::reads_velocities) {
-                3.0
-            } else {
-                2.0
-            };
+            let velocities =
+                model.has_rayleigh() || parameters.iter().any(Parameter::reads_velocities);
+            let rows = if velocities { 3.0 } else { 2.0 };
             let need = gib(rows * n_q as f64 * (grid.len() + 1) as f64);
             if how.memory == Memory::StoreAll && need > MAX_GIB {
                 return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
@@ -525,9 +548,27 @@ pub struct Evaluated {
     pub peaks: Vec<Option<f64>>,
 }
 
-/// Values of `responses` on recorded states `q` and multipliers `lam` (row-major, one row
-/// of `n_q` and of `n_c` per state, at `times`; one row for a static scene, whose loads act
-/// at `load_time`) for design `x` (`None`: full density), with the aggregates' peaks.
+/// The recorded states of a run, as responses read them: row-major, one row of `n_q`
+/// coordinates (and velocities) and of `n_c` multipliers per state, at `times`; one row for
+/// a static scene, whose loads act at `load_time`.
+#[derive(Debug, Clone, Copy)]
+pub struct Recorded<'a> {
+    /// `q`.
+    pub q: &'a [f64],
+    /// `q̇`, if the run kept them (a response that reads them needs them).
+    pub qdot: Option<&'a [f64]>,
+    /// `λ`.
+    pub lam: &'a [f64],
+    /// The states' times (s).
+    pub times: &'a [f64],
+    /// When a static scene's loads act (s).
+    pub load_time: f64,
+    /// The run's inertia discretization.
+    pub mass: MassKind,
+}
+
+/// Values of `responses` on `recorded` states for design `x` (`None`: full density), with
+/// the aggregates' peaks.
 ///
 /// # Errors
 /// Settings errors for states and times that do not match; design errors; kinematics
@@ -535,12 +576,17 @@ pub struct Evaluated {
 pub fn evaluate(
     model: &Model,
     x: Option<&[f64]>,
-    q: &[f64],
-    lam: &[f64],
-    times: &[f64],
-    load_time: f64,
+    recorded: &Recorded,
     responses: &[Response],
 ) -> Result<Evaluated, Error> {
+    let Recorded {
+        q,
+        qdot,
+        lam,
+        times,
+        load_time,
+        mass,
+    } = *recorded;
     let n_q = model.n_dofs();
     let states = q.len() / n_q;
     if states == 0 || states * n_q != q.len() {
@@ -561,6 +607,13 @@ pub fn evaluate(
         )
         .into());
     }
+    if qdot.is_some_and(|v| v.len() != q.len()) {
+        return Err(SettingsError::new("qdot", format!("needs {} values, as q", q.len())).into());
+    }
+    if qdot.is_none() && responses.iter().any(Response::reads_velocities) {
+        let msg = "a response reads the velocities: give them";
+        return Err(SettingsError::new("qdot", msg).into());
+    }
     if times.len() != states {
         return Err(SettingsError::new(
             "times",
@@ -572,14 +625,13 @@ pub fn evaluate(
     let densities = model.densities(x)?;
     let mut load = vec![0.0; n_q];
     if model.analysis == Analysis::Static {
-        Assembler::new(model, densities.clone(), MassKind::Consistent)?
-            .applied_loads(load_time, 1.0, &mut load);
+        Assembler::new(model, densities.clone(), mass)?.applied_loads(load_time, 1.0, &mut load);
     }
     let ctx = Context {
         model,
         densities: &densities,
         static_load: &load,
-        mass_kind: MassKind::Consistent,
+        mass_kind: mass,
     };
     let mut objectives = Objectives::new(model, responses, &[], &grid)?;
     let mut values = vec![0.0; responses.len()];
@@ -587,6 +639,7 @@ pub fn evaluate(
     for (n, q) in q.chunks(n_q).enumerate() {
         let at = Sample {
             q,
+            v: qdot.map_or(&[][..], |v| &v[n * n_q..(n + 1) * n_q]),
             lam: &lam[n * n_c..(n + 1) * n_c],
             t: times[n],
         };
@@ -615,6 +668,7 @@ fn explicit(
     let (q, lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
     let at = Sample {
         q: &q,
+        v: &[],
         lam: &lam,
         t: 0.0,
     };
@@ -623,7 +677,7 @@ fn explicit(
     let mut gradients = vec![0.0; responses.len() * n_x];
     let (mut g_q, mut g_lam) = (vec![0.0; n_q], vec![0.0; model.n_constraints()]);
     for (k, row) in gradients.chunks_mut(n_x.max(1)).enumerate() {
-        objectives.add_partials(&ctx, k, 0, at, &mut g_q, &mut g_lam, row);
+        objectives.add_partials(&ctx, k, 0, at, &mut g_q, &mut g_lam, row, &mut []);
     }
     let peaks = objectives.peaks();
     let timings = Timings::default();

@@ -30,7 +30,7 @@ pub(super) fn direct(
     let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     it.newton
-        .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
+        .factorize(&eq.q, Some(&eq.lambda), None, 0.0, 0.0, 0.0)?;
     let mut rhs = vec![0.0; n * n_x];
     let scale = it.newton.multiplier_scale();
     pseudo.subtract_columns(it.assembler(), &at(eq), scale, &mut rhs, n, 0..n_x);
@@ -142,7 +142,7 @@ pub(super) fn adjoint(
         }
     }
     it.newton
-        .factorize(&eq.q, Some(&eq.lambda), 0.0, 0.0, 0.0)?;
+        .factorize(&eq.q, Some(&eq.lambda), None, 0.0, 0.0, 0.0)?;
     it.newton
         .solve_block(&mut rhs, n_r, &mut it.newton.scratch(n_r))?;
     it.newton.unaugment(&mut rhs);

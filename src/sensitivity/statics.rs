@@ -30,10 +30,11 @@ pub(crate) fn run(
     let sol = load_stepping(&mut newton, settings)?;
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    newton.factorize(&sol.q, Some(&sol.lambda), 0.0, 0.0, settings.time)?;
+    newton.factorize(&sol.q, Some(&sol.lambda), None, 0.0, 0.0, settings.time)?;
     let grid = TimeGrid::single();
     let at = Sample {
         q: &sol.q,
+        v: &[],
         lam: &sol.lambda,
         t: settings.time,
     };
@@ -111,6 +112,7 @@ impl Local {
                 &mut local.g_q[k * n_q..(k + 1) * n_q],
                 &mut g_lam,
                 &mut local.g_x[k * n_x..(k + 1) * n_x],
+                &mut [],
             );
         }
         Ok((local, objectives))

@@ -37,6 +37,9 @@ def entry(spec: dict, parameter: str) -> tuple[dict, str | int]:
     kind, name = parameter.split(":")
     if name in spec.get("sections", {}):
         return spec["sections"][name], kind
+    for j in spec.get("joints", []):
+        if j["name"] == name and kind in ("end", "acceleration", "speed"):
+            return j["drive"], kind
     for s in spec.get("springs", []):
         if s["name"] == name:
             return s, kind
@@ -101,12 +104,37 @@ def test_gradients_to_a_section_are_exact():
     assert g[3, 0] == 0 and g[3, 1] == 0 and g[3, 2] > 0
 
 
+@pytest.mark.parametrize("initial", ["rest", "equilibrium"])
+def test_gradients_to_drive_laws_are_exact(initial):
+    """The arm's trapezoidal drives: the shoulder's end, acceleration and speed and the
+    elbow's end move the driven rows (Φ = h(q) − g(t), and g̈(0) in the initial
+    accelerations); a drive's work reads its rate ġ too. A driven joint's final position is
+    its law's: its gradient is ∂g/∂p exactly."""
+    spec = scenes.robot_arm(t_end=1.2).to_dict()
+    spec.update(gravity=[0.0, -9.81], initial=initial)
+    sim = flextop.Simulation(spec)
+    x = np.linspace(0.3, 1.0, sim.n_design)
+    responses = ["compliance", "torque_squared:shoulder", "drive_work:elbow", "joint_position:shoulder"]
+    parameters = ["end:shoulder", "acceleration:shoulder", "speed:shoulder", "end:elbow"]
+    g = assert_exact(spec, x, responses, parameters)
+    # The shoulder decelerates at t = 1.2 s: s = D − ½a(T − t)², T = D/v + v/a.
+    law = spec["joints"][0]["drive"]
+    d, a, v = law["end"] - law["start"], law["acceleration"], law["speed"]
+    rest = d / v + v / a - 1.2
+    assert 0 < rest < v / a
+    exact = [1 - a * rest / v, -0.5 * rest**2 + rest * v / a, -a * rest * (1 / a - d / v**2), 0.0]
+    np.testing.assert_allclose(g[3], exact, rtol=1e-12, atol=1e-15)
+
+
 def compound_pendulum(initial: str = "rest") -> dict:
-    """A body with rotary inertia on a pin at its point, a torsion spring-damper and a
-    ramped motor there, under gravity; from rest at its reference, or from the equilibrium
-    the spring holds."""
+    """A body with rotary inertia, turned, on a pin at its point, a torsion spring-damper
+    and a ramped motor there, under gravity; from rest at its reference, or from the
+    equilibrium the spring holds."""
     scene = Scene("compound pendulum", gravity=(0.0, -9.81), initial=initial)
-    scene.rigid_body("bob", mass=1.2, inertia=0.05, position=(0.5, -0.3), points={"pivot": (-0.5, 0.3)})
+    # Turned by 0.4 rad: the point is given in the body's frame, as arm_x and arm_y are.
+    c, s = math.cos(0.4), math.sin(0.4)
+    pivot = (-0.5 * c + 0.3 * s, 0.5 * s + 0.3 * c)
+    scene.rigid_body("bob", mass=1.2, inertia=0.05, position=(0.5, -0.3), angle=0.4, points={"pivot": pivot})
     scene.pin("pivot", "bob.pivot")
     scene.joint_spring("spring", "pivot", k=20.0, c=0.3)
     scene.motor("kick", "pivot", torque=3.0, table=([0.0, 0.4], [0.0, 1.0]))
@@ -172,7 +200,6 @@ def test_gradients_of_a_static_scene_to_its_parameters_are_exact(shear):
     ("k", "write KIND:ENTRY"),
     ("stiffness:torsion", "unknown kind 'stiffness'"),
     ("k:nope", "no spring 'nope'"),
-    ("c:return", "dampers act on a joint's linear coordinate"),
     ("length:torsion", "this spring's rest is its `rest`"),
     ("rest:return", "this spring's rest is its `length`"),
     ("mass:nope", "no node or rigid body 'nope'"),
@@ -184,6 +211,9 @@ def test_gradients_of_a_static_scene_to_its_parameters_are_exact(shear):
     ("arm_y:crank", "write BODY.POINT"),
     ("arm_x:crank.pivot", "a response follows a rigid trajectory"),
     ("E:nope", "no section 'nope'"),
+    ("end:crank", "'crank' has a table: only a trapezoidal drive"),
+    ("speed:A", "'A' has no drive"),
+    ("end:nope", "no joint 'nope'"),
 ])
 def test_bad_parameters_raise_settings_error_naming_them(name, message):
     sim = flextop.Simulation(slider_crank_with_force_elements())
@@ -225,3 +255,32 @@ def test_a_run_to_a_tolerance_gives_the_parameter_gradients_of_the_grid_it_accep
     again = sim._level(d.refinement).run_with_sensitivities(x, ["tip_deflection"], parameters=asked, h=0.03 / d.steps)
     np.testing.assert_array_equal(out.parameter_gradients, again.parameter_gradients)
     assert out.parameters == tuple(asked) and np.all(out.parameter_gradients != 0)
+
+
+@pytest.mark.parametrize("mass", ["consistent", "lumped"])
+def test_kinetic_energy_and_energy_drawn_have_exact_gradients(mass):
+    """∫ T dt is the trapezoidal integral of the run's kinetic energy (its G reads q̇, which
+    the direct method's q̇' and the adjoint's q̄̇ carry); the energy the crank's drive draws
+    exceeds its net work (it brakes at times). Gradients to densities and to masses, ρ and
+    the diameter: direct = adjoint (stored, checkpointed), fourth-order differences."""
+    spec = slider_crank_with_force_elements()
+    spec["simulation"]["mass"] = mass
+    sim = flextop.Simulation(spec)
+    x = np.array([0.9, 0.5, 0.7, 0.4])
+    responses = ["kinetic_energy", "energy_drawn:crank", "drive_work:crank"]
+    res = sim.run(x)
+    kinetic = res.energies["kinetic"]
+    trapezoid = float(np.sum(0.5 * (kinetic[1:] + kinetic[:-1]) * np.diff(res.time)))
+    assert res.response("kinetic_energy") == pytest.approx(trapezoid, rel=1e-12)
+    assert res.response("energy_drawn:crank") > res.response("drive_work:crank") > 0
+    parameters = ["mass:slider", "inertia:crank", "rho:steel", "diameter:steel", "c:friction"]
+    g = assert_exact(spec, x, responses, parameters)
+    assert np.all(g[0, :4] > 0)  # more inertia, more kinetic energy
+    sensitivities = [sim.run_with_sensitivities(x, responses, method=m, memory="checkpoints") for m in ("direct", "adjoint")]
+    np.testing.assert_allclose(sensitivities[1].gradients, sensitivities[0].gradients, rtol=1e-9)
+    values = lambda y: sim.run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
+    step = 1e-4
+    for i in range(4):
+        e = np.eye(4)[i] * step
+        fd = (values(x - 2 * e) - 8 * values(x - e) + 8 * values(x + e) - values(x + 2 * e)) / (12 * step)
+        np.testing.assert_allclose(sensitivities[0].gradients[:, i], fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
