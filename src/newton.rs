@@ -446,9 +446,9 @@ impl<'m> Newton<'m> {
     /// Solves the exact sensitivity systems `(S + N) z = b` (or `(S + N)ᵀ z = b`,
     /// `transposed`) for the `cols` right-hand sides in `rhs`, where `S` is the factorized
     /// (symmetric) matrix and `N` the damping's non-symmetric part at its state: by the
-    /// iteration `S z ← b − N z` from `z = S⁻¹ b`, until the change is at round-off. With
-    /// no such part it is [`Newton::solve_block`]. `work` is resized to hold `b` and a
-    /// residual.
+    /// iteration `S z ← b − N z` from `z = S⁻¹ b`, until every column's change is at
+    /// round-off. With no such part it is [`Newton::solve_block`]. `work` is resized to
+    /// hold `b`, a residual and each column's last change.
     ///
     /// # Errors
     /// [`SolveError::Singular`] for non-finite values, or an iteration that does not
@@ -465,9 +465,11 @@ impl<'m> Newton<'m> {
             return self.solve_block(rhs, cols, scratch);
         }
         let (len, n) = (rhs.len(), self.rhs.len());
-        work.resize(2 * len, 0.0);
-        let (b, r) = work.split_at_mut(len);
+        work.resize(2 * len + cols, 0.0);
+        let (b, rest) = work.split_at_mut(len);
+        let (r, previous) = rest.split_at_mut(len);
         b.copy_from_slice(rhs);
+        previous.fill(f64::INFINITY);
         self.solve_block(rhs, cols, scratch)?;
         for _ in 0..MAX_REFINEMENTS {
             r.copy_from_slice(b);
@@ -477,13 +479,21 @@ impl<'m> Newton<'m> {
                 }
             }
             self.solve_block(r, cols, scratch)?;
-            let size = rhs.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-            let change = r
-                .iter()
-                .zip(rhs.iter())
-                .fold(0.0_f64, |m, (a, z)| m.max((a - z).abs()));
+            // Each column settles when its change is at round-off: below 1e-14 of it, or
+            // below 1e-9 of it and no longer contracting.
+            let mut settled = true;
+            for ((new, old), last) in r.chunks(n).zip(rhs.chunks(n)).zip(previous.iter_mut()) {
+                let size = new.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                let change = new
+                    .iter()
+                    .zip(old)
+                    .fold(0.0_f64, |m, (a, z)| m.max((a - z).abs()));
+                let stalled = change <= 1e-9 * size && change > 0.5 * *last;
+                settled &= change <= 1e-14 * size || stalled;
+                *last = change;
+            }
             rhs.copy_from_slice(r);
-            if change <= 1e-14 * size {
+            if settled {
                 return Ok(());
             }
         }
