@@ -284,11 +284,14 @@ impl Model {
         self.rows.len()
     }
 
-    /// Whether a beam has Rayleigh damping (its force then reads velocities).
-    pub fn has_rayleigh(&self) -> bool {
+    /// Whether the gradients read every state's velocities: a beam's Rayleigh damping
+    /// (its force follows the densities) or a damper whose `C` follows the state (on a
+    /// distance or a carried axis: the iteration matrix at a state reads `q̇`).
+    pub fn damping_reads_velocities(&self) -> bool {
         self.elements
             .iter()
             .any(|e| e.beam.section.alpha > 0.0 || e.beam.section.beta > 0.0)
+            || self.springs.iter().any(Spring::damps_nonlinearly)
     }
 
     /// Number of design variables.
@@ -391,13 +394,17 @@ impl Model {
     }
 
     /// Size of the model: the diagonal of the bounding box of its nodes and rigid-body
-    /// points (m), a length scale for tolerances.
+    /// points (m), a length scale for tolerances; 1 m for a model of one point (a body
+    /// without points), which has no extent to measure by.
     pub fn size(&self) -> f64 {
         let points = self.bodies.iter().flat_map(|b| {
             let centre = self.nodes[b.node].position;
             b.points.iter().map(move |(_, arm)| centre + arm)
         });
-        size_of(self.nodes.iter().map(|n| n.position).chain(points))
+        match size_of(self.nodes.iter().map(|n| n.position).chain(points)) {
+            s if s > f64::MIN_POSITIVE => s,
+            _ => 1.0,
+        }
     }
 
     /// Full-density volume of each component (m³).

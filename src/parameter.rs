@@ -23,7 +23,7 @@ use crate::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
 use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
-use crate::motion::{LawParameter, Motion, Trapezoidal};
+use crate::motion::{LawParameter, Motion, MotionState, Trapezoidal};
 use crate::motor::MotorLaw;
 use crate::section::{Section, SectionProperty};
 use crate::spring::Measure;
@@ -273,15 +273,19 @@ impl Parameter {
 
     /// `∂ġ/∂p` of driven row `row` at `t`: a drive law's rate, which a drive's work reads.
     pub fn drive_rate(&self, model: &Model, row: usize, t: f64) -> f64 {
-        match *self {
-            Self::Drive {
-                joint,
-                row: driven,
-                law,
-            } if driven == row => {
-                trapezoidal(model, joint).map_or(0.0, |m| m.rate(t, law).velocity)
-            }
+        match self.drive(model, t) {
+            Some((driven, rate)) if driven == row => rate.velocity,
             _ => 0.0,
+        }
+    }
+
+    /// For a drive-law parameter, its driven row and `∂(g, ġ, g̈)/∂p` there at `t`.
+    pub fn drive(&self, model: &Model, t: f64) -> Option<(usize, MotionState)> {
+        match *self {
+            Self::Drive { joint, row, law } => {
+                trapezoidal(model, joint).map(|m| (row, m.rate(t, law)))
+            }
+            _ => None,
         }
     }
 
@@ -335,9 +339,8 @@ impl Parameter {
                 direction,
             } => arm_rows(model, node, arm, direction, at, &mut add),
             // Φ = h(q) − g(t): at acceleration level Φ_q q̈ = g̈.
-            Self::Drive { joint, row, law } => {
-                if let Some(m) = trapezoidal(model, joint) {
-                    let rate = m.rate(at.t, law);
+            Self::Drive { .. } => {
+                if let Some((row, rate)) = self.drive(model, at.t) {
                     let g = match at.level {
                         Level::Position => rate.angle,
                         Level::Acceleration => rate.acceleration,
@@ -443,7 +446,7 @@ fn drive(model: &Model, entry: &str, kind: &str) -> Result<Parameter, String> {
         .iter()
         .position(|j| j.name == entry)
         .ok_or_else(|| format!("no joint '{entry}'"))?;
-    if trapezoidal(model, joint).is_none() {
+    let Some(motion) = trapezoidal(model, joint) else {
         let what = if model.joints[joint].drive.is_some() {
             "a table"
         } else {
@@ -451,6 +454,11 @@ fn drive(model: &Model, entry: &str, kind: &str) -> Result<Parameter, String> {
         };
         return Err(format!(
             "'{entry}' has {what}: only a trapezoidal drive has an end, acceleration and speed"
+        ));
+    };
+    if motion.duration() == 0.0 {
+        return Err(format!(
+            "'{entry}' is held (its drive starts where it ends): its law has no rate to a parameter"
         ));
     }
     let law = match kind {

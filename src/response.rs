@@ -369,7 +369,12 @@ impl Response {
                 let joint = rest.ok_or_else(|| err("name the driven joint: energy_drawn:JOINT".into()))?;
                 Ok(Self::EnergyDrawn { row: drive_row(model, joint).map_err(err)? })
             }
-            "kinetic_energy" if rest.is_none() => Ok(Self::KineticEnergy),
+            "kinetic_energy" if rest.is_none() => {
+                if model.analysis == Analysis::Static {
+                    return Err(err("a static scene has no motion: kinetic energy is a response of a dynamic one".into()));
+                }
+                Ok(Self::KineticEnergy)
+            }
             "joint_position" => {
                 let name = rest.ok_or_else(|| err("name the joint: joint_position:JOINT".into()))?;
                 let j = joint_index(model, name).map_err(err)?;
@@ -800,6 +805,22 @@ impl Response {
     pub fn add_rate_partials(&self, ctx: &Context, at: Sample, scale: f64, g_v: &mut [f64]) {
         if let Self::KineticEnergy = self {
             add_mass_times(ctx, at.v, |d, p| g_v[d] += scale * p);
+        }
+    }
+
+    /// `G_r · ∂r_rigid/∂p`: the response's dependence on its rigid trajectory, which a
+    /// drive-law parameter moves at `rate` (m per unit of it) at this state.
+    pub fn rigid_partial(&self, ctx: &Context, at: Sample, known: Known, rate: [f64; 2]) -> f64 {
+        match *self {
+            Self::TipDeflection { node } => {
+                let p = ctx.model.nodes[node].position;
+                let gap = [
+                    p.x + at.q[3 * node] - known.rigid[0],
+                    p.y + at.q[3 * node + 1] - known.rigid[1],
+                ];
+                -2.0 * (gap[0] * rate[0] + gap[1] * rate[1])
+            }
+            _ => 0.0,
         }
     }
 

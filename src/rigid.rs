@@ -304,6 +304,44 @@ impl Clusters {
         Ok(out)
     }
 
+    /// The rates `∂r/∂p` of `node`'s rigid positions along `motion` (the cluster
+    /// coordinates at `times`, from [`Clusters::rigid_motion`]) when driven row `row`'s
+    /// prescribed value changes at `rates[n]` at each time: `Φ_ρ ρ_p = e_row g_p`,
+    /// `r_p = q_ρ ρ_p`.
+    ///
+    /// # Errors
+    /// [`SolveError::Kinematics`] where `Φ_ρ` cannot be solved.
+    pub fn trajectory_rates(
+        &self,
+        model: &Model,
+        motion: &[DVector<f64>],
+        times: &[f64],
+        node: usize,
+        row: usize,
+        rates: &[f64],
+    ) -> Result<Vec<[f64; 2]>, SolveError> {
+        motion
+            .iter()
+            .zip(times)
+            .zip(rates)
+            .map(|((rho, &t), &rate)| {
+                let (_, jac) = self.constraints(model, rho, t);
+                let mut rhs = DVector::zeros(jac.nrows());
+                rhs[row] = rate;
+                let fail = |e: &str| SolveError::Kinematics {
+                    time: t,
+                    detail: e.to_string(),
+                };
+                let rho_p = jac.svd(true, true).solve(&rhs, 1e-12).map_err(fail)?;
+                let along = |dof: usize| -> f64 {
+                    let (_, grad) = self.dof_map(model, rho, dof);
+                    grad.iter().map(|&(j, g)| g * rho_p[j]).sum()
+                };
+                Ok([along(3 * node), along(3 * node + 1)])
+            })
+            .collect()
+    }
+
     /// Position of `node` for cluster coordinates `rho`.
     pub fn position(&self, model: &Model, rho: &DVector<f64>, node: usize) -> [f64; 2] {
         let p = model.nodes[node].position;
@@ -311,23 +349,6 @@ impl Clusters {
             p.x + self.dof_map(model, rho, 3 * node).0,
             p.y + self.dof_map(model, rho, 3 * node + 1).0,
         ]
-    }
-
-    /// Positions of `node` when every cluster is rigid, at each time of `times`.
-    ///
-    /// # Errors
-    /// As [`Clusters::rigid_motion`].
-    pub fn rigid_trajectory(
-        &self,
-        model: &Model,
-        node: usize,
-        times: &[f64],
-    ) -> Result<Vec<[f64; 2]>, SolveError> {
-        Ok(self
-            .rigid_motion(model, times)?
-            .iter()
-            .map(|rho| self.position(model, rho, node))
-            .collect())
     }
 }
 

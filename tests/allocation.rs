@@ -66,7 +66,13 @@ fn alpha_steps_do_not_allocate() {
         NewtonMatrix::Full,
         2.5e-4,
     );
-    for (name, spec, newton, h) in arms.chain([mechanism]) {
+    // Rayleigh damping: the α part in the constant C, the β part state-dependent.
+    let mut damped = reference::robot_arm(1);
+    for section in damped.sections.values_mut() {
+        section.rayleigh = Some([2.0, 1e-4]);
+    }
+    let damped = ("damped arm".to_string(), damped, NewtonMatrix::Full, 0.02);
+    for (name, spec, newton, h) in arms.chain([mechanism, damped]) {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {

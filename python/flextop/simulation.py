@@ -407,9 +407,11 @@ class Simulation:
         or adjoint sweep, in ``parameter_gradients``: ``"k:SPRING"``, ``"c:SPRING"``,
         ``"length:SPRING"`` (between points) or ``"rest:SPRING"`` (on a joint),
         ``"mass:BODY"`` / ``"inertia:BODY"`` (a rigid body's, or a point mass's by its node),
-        ``"torque:MOTOR"``, ``"kp:MOTOR"``, ``"kd:MOTOR"``, and ``"arm_x:BODY.POINT"`` /
-        ``"arm_y:BODY.POINT"`` for a point held to the ground by its joints (the pin moves
-        with it). Their gradients are exact for the grid that ran; a run to a tolerance does
+        ``"torque:MOTOR"``, ``"kp:MOTOR"``, ``"kd:MOTOR"``, ``"E:SECTION"``,
+        ``"rho:SECTION"``, ``"diameter:SECTION"``, ``"alpha:SECTION"``, ``"beta:SECTION"``
+        (Rayleigh damping), a trapezoidal drive's ``"end:JOINT"``, ``"acceleration:JOINT"``
+        and ``"speed:JOINT"``, and ``"arm_x:BODY.POINT"`` / ``"arm_y:BODY.POINT"`` for a
+        point held to the ground by its joints, in the body's frame (the pin moves with it). Their gradients are exact for the grid that ran; a run to a tolerance does
         not estimate their error.
 
         ``method``: ``"direct"`` (Algorithm 2; cost grows with the number of variables),

@@ -95,6 +95,9 @@ pub(crate) struct Objectives<'a> {
     /// Per response: the rigid trajectory of its [`Response::rigid_node`] at every state
     /// of the grid, empty for a response without one.
     rigid: Vec<Vec<[f64; 2]>>,
+    /// Per response and parameter: the rates of that trajectory to a drive-law parameter
+    /// at every state, empty for the others.
+    rigid_rates: Vec<Vec<Vec<[f64; 2]>>>,
     analysis: Analysis,
     grid: &'a TimeGrid,
     /// Per response: the reference of its aggregate, the largest point value so far (0
@@ -112,17 +115,46 @@ impl<'a> Objectives<'a> {
         grid: &'a TimeGrid,
     ) -> Result<Self, Error> {
         let clusters = Clusters::of(model);
-        let rigid = responses
-            .iter()
-            .map(|r| match r.rigid_node() {
-                Some(node) => clusters.rigid_trajectory(model, node, grid.times()),
-                None => Ok(Vec::new()),
-            })
-            .collect::<Result<_, _>>()?;
+        let times = grid.times();
+        let needed = responses.iter().any(|r| r.rigid_node().is_some());
+        let motion = if needed {
+            clusters.rigid_motion(model, times)?
+        } else {
+            Vec::new()
+        };
+        let (mut rigid, mut rigid_rates) = (Vec::new(), Vec::new());
+        for r in responses {
+            let Some(node) = r.rigid_node() else {
+                rigid.push(Vec::new());
+                rigid_rates.push(vec![Vec::new(); parameters.len()]);
+                continue;
+            };
+            rigid.push(
+                motion
+                    .iter()
+                    .map(|rho| clusters.position(model, rho, node))
+                    .collect(),
+            );
+            let rates = parameters
+                .iter()
+                .map(|p| match p.drive(model, 0.0) {
+                    Some((row, _)) => {
+                        let g: Vec<f64> = times
+                            .iter()
+                            .map(|&t| p.drive(model, t).map_or(0.0, |(_, s)| s.angle))
+                            .collect();
+                        clusters.trajectory_rates(model, &motion, times, node, row, &g)
+                    }
+                    None => Ok(Vec::new()),
+                })
+                .collect::<Result<_, _>>()?;
+            rigid_rates.push(rates);
+        }
         Ok(Self {
             responses,
             parameters,
             rigid,
+            rigid_rates,
             analysis: model.analysis,
             grid,
             references: vec![0.0; responses.len()],
@@ -227,8 +259,16 @@ impl<'a> Objectives<'a> {
         if w != 0.0 {
             r.add_partials(ctx, at, self.known(k, n), w, g_q, g_lam, g_x);
             let first = g_x.len() - self.parameters.len();
-            for (g, p) in g_x[first..].iter_mut().zip(self.parameters) {
+            let known = self.known(k, n);
+            for ((g, p), rates) in g_x[first..]
+                .iter_mut()
+                .zip(self.parameters)
+                .zip(&self.rigid_rates[k])
+            {
                 *g += w * r.parameter_partial(ctx, at, p);
+                if let Some(&rate) = rates.get(n) {
+                    *g += w * r.rigid_partial(ctx, at, known, rate);
+                }
             }
             if r.reads_velocities() {
                 r.add_rate_partials(ctx, at, w, g_v);
@@ -251,7 +291,7 @@ pub(crate) struct PseudoLoads {
     /// Design variables, the first columns.
     n_x: usize,
     pub(super) parameters: Vec<Parameter>,
-    /// Whether a beam has Rayleigh damping, whose force follows its densities.
+    /// Whether damping reads the velocities ([`Model::damping_reads_velocities`]).
     damped: bool,
 }
 
@@ -265,7 +305,7 @@ impl PseudoLoads {
                 .collect(),
             n_x: model.n_variables(),
             parameters: parameters.to_vec(),
-            damped: model.has_rayleigh(),
+            damped: model.damping_reads_velocities(),
         }
     }
 
@@ -274,8 +314,8 @@ impl PseudoLoads {
         self.n_x + self.parameters.len()
     }
 
-    /// Whether a pseudo-load reads velocities: a parameter's, or a density's of a beam
-    /// with Rayleigh damping.
+    /// Whether the sweeps read velocities: a parameter's pseudo-load, a density's of a beam
+    /// with Rayleigh damping, or a damper's state-following `C`.
     fn reads_velocities(&self) -> bool {
         self.damped || self.parameters.iter().any(Parameter::reads_velocities)
     }
@@ -430,7 +470,8 @@ pub fn parse_parameters(
         if !p.moves_constraints() {
             continue;
         }
-        if responses.iter().any(|r| r.rigid_node().is_some()) {
+        let arm = matches!(p, Parameter::Arm { .. });
+        if arm && responses.iter().any(|r| r.rigid_node().is_some()) {
             let msg = "a response follows a rigid trajectory, which it moves: not built";
             return Err(SettingsError::new(at, msg));
         }
@@ -500,8 +541,8 @@ pub fn of_motion_on(
             direct::run(model, densities, settings, grid, responses, parameters)
         }
         _ => {
-            let velocities =
-                model.has_rayleigh() || parameters.iter().any(Parameter::reads_velocities);
+            let velocities = model.damping_reads_velocities()
+                || parameters.iter().any(Parameter::reads_velocities);
             let rows = if velocities { 3.0 } else { 2.0 };
             let need = gib(rows * n_q as f64 * (grid.len() + 1) as f64);
             if how.memory == Memory::StoreAll && need > MAX_GIB {

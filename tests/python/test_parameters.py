@@ -108,15 +108,18 @@ def test_gradients_to_a_section_are_exact():
 def test_gradients_to_drive_laws_are_exact(initial):
     """The arm's trapezoidal drives: the shoulder's end, acceleration and speed and the
     elbow's end move the driven rows (Φ = h(q) − g(t), and g̈(0) in the initial
-    accelerations); a drive's work reads its rate ġ too. A driven joint's final position is
-    its law's: its gradient is ∂g/∂p exactly."""
+    accelerations); a drive's work reads its rate ġ too, and the tip deflection the rigid
+    trajectory (Φ_ρ ρ_p = e g_p at each state). A driven joint's final position is its
+    law's: its gradient is ∂g/∂p exactly."""
     spec = scenes.robot_arm(t_end=1.2).to_dict()
     spec.update(gravity=[0.0, -9.81], initial=initial)
     sim = flextop.Simulation(spec)
     x = np.linspace(0.3, 1.0, sim.n_design)
-    responses = ["compliance", "torque_squared:shoulder", "drive_work:elbow", "joint_position:shoulder"]
+    responses = ["compliance", "torque_squared:shoulder", "drive_work:elbow", "joint_position:shoulder",
+                 "tip_deflection"]
     parameters = ["end:shoulder", "acceleration:shoulder", "speed:shoulder", "end:elbow"]
     g = assert_exact(spec, x, responses, parameters)
+    assert np.all(g[4] != 0)  # the rigid trajectory the tip deflects from moves with the law
     # The shoulder decelerates at t = 1.2 s: s = D − ½a(T − t)², T = D/v + v/a.
     law = spec["joints"][0]["drive"]
     d, a, v = law["end"] - law["start"], law["acceleration"], law["speed"]
@@ -284,3 +287,16 @@ def test_kinetic_energy_and_energy_drawn_have_exact_gradients(mass):
         e = np.eye(4)[i] * step
         fd = (values(x - 2 * e) - 8 * values(x - e) + 8 * values(x + e) - values(x + 2 * e)) / (12 * step)
         np.testing.assert_allclose(sensitivities[0].gradients[:, i], fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
+
+
+def test_a_held_drive_and_a_static_kinetic_energy_are_refused():
+    """A drive that starts where it ends has no law to differentiate; a static scene has no
+    kinetic energy."""
+    spec = scenes.robot_arm(t_end=0.2).to_dict()
+    spec["joints"][0]["drive"]["end"] = spec["joints"][0]["drive"]["start"]
+    sim = flextop.Simulation(spec)
+    with pytest.raises(SettingsError, match="is held"):
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.5), ["compliance"], parameters=["end:shoulder"])
+    static = flextop.Simulation({**spec, "analysis": "static"})
+    with pytest.raises(SettingsError, match="no motion: kinetic energy"):
+        static.run_with_sensitivities(np.full(static.n_design, 0.5), ["kinetic_energy"])
