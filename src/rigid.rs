@@ -310,7 +310,8 @@ impl Clusters {
     /// `r_p = q_ρ ρ_p`.
     ///
     /// # Errors
-    /// [`SolveError::Kinematics`] where `Φ_ρ` cannot be solved.
+    /// [`SolveError::Kinematics`] where `Φ_ρ` cannot be solved, or the row is redundant
+    /// with others (the system has no solution: the drive cannot change alone).
     pub fn trajectory_rates(
         &self,
         model: &Model,
@@ -332,7 +333,14 @@ impl Clusters {
                     time: t,
                     detail: e.to_string(),
                 };
-                let rho_p = jac.svd(true, true).solve(&rhs, 1e-12).map_err(fail)?;
+                let rho_p = jac.clone().svd(true, true).solve(&rhs, 1e-12).map_err(fail)?;
+                // A driven row that other rows make redundant cannot move alone.
+                if (&jac * &rho_p - &rhs).amax() > 1e-9 * rate.abs() {
+                    let joint = &model.joints[model.rows[row].joint].name;
+                    return Err(fail(&format!(
+                        "the drive of joint '{joint}' is redundant with other joints: its law cannot change alone, so the rigid trajectory has no rate to it"
+                    )));
+                }
                 let along = |dof: usize| -> f64 {
                     let (_, grad) = self.dof_map(model, rho, dof);
                     grad.iter().map(|&(j, g)| g * rho_p[j]).sum()
