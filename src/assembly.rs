@@ -29,7 +29,7 @@
 use std::ops::Range;
 
 use crate::constraint::ConstraintRow;
-use crate::element::{MassKind, Matrix6, Vector6};
+use crate::element::{Damping, MassKind, Matrix6, Vector6};
 use crate::error::SolveError;
 use crate::linsolve::{FactorError, SparseLdlt};
 use crate::model::{Analysis, Densities, Model};
@@ -238,6 +238,23 @@ fn slots<T: Copy + Default, const N: usize>(
     Some(out)
 }
 
+/// Where a block on six DOFs sits in the pattern: an element's slots (column-major), or a
+/// spring's (`usize::MAX` on the ground).
+enum Slots<'a> {
+    Element(&'a [usize; 36]),
+    Spring(&'a [[usize; 6]; 6]),
+}
+
+impl Slots<'_> {
+    /// The slot of entry `(i, j)`, if it has one.
+    fn at(&self, i: usize, j: usize) -> Option<usize> {
+        match self {
+            Self::Element(slots) => Some(slots[6 * j + i]),
+            Self::Spring(slots) => Some(slots[i][j]).filter(|&s| s != usize::MAX),
+        }
+    }
+}
+
 /// A damping block on six DOFs (`None` on the ground) at a state: `∂f_d/∂q̇` and the part
 /// of `∂f_d/∂q` that is not symmetric.
 #[derive(Debug, Clone, Copy)]
@@ -418,40 +435,24 @@ impl<'m> Assembler<'m> {
     /// Adds the damping whose `C` follows the state at `(q, v)` to `f` — the beams'
     /// stiffness-proportional `Σ s(x_e) β Bᵀ D B q̇` and the dampers on distances or carried
     /// axes; with `matrix = Some((γ', values))` also `γ' ∂f_d/∂q̇` and the symmetric part of
-    /// `∂f_d/∂q` ([`crate::element::Damping`]) to the matrix values.
+    /// `∂f_d/∂q` ([`Damping`]) to the matrix values; with `blocks`, in the same pass, what
+    /// the matrix leaves for the exact sensitivity solves (cleared first).
     pub fn add_structural_damping(
         &self,
         q: &[f64],
         v: &[f64],
         f: &mut [f64],
         mut matrix: Option<(f64, &mut [f64])>,
+        mut blocks: Option<&mut Vec<DampingBlock>>,
     ) {
+        if let Some(blocks) = blocks.as_mut() {
+            blocks.clear();
+        }
         if !self.structural {
             return;
         }
-        for (e, el) in self.model.elements.iter().enumerate() {
-            if el.beam.section.beta == 0.0 {
-                continue;
-            }
-            let s = self.densities.stiffness[e];
-            let d = el.beam.damping(&el.gather(q), &el.gather(v));
-            el.dofs()
-                .iter()
-                .zip(d.force.iter())
-                .for_each(|(&k, x)| f[k] += s * x);
-            if let Some((gamma, values)) = matrix.as_mut() {
-                let block = (d.rate * *gamma + d.symmetric) * s;
-                for (k, &slot) in self.pattern.element_slots[e].iter().enumerate() {
-                    values[slot] += block[(k % 6, k / 6)];
-                }
-            }
-        }
-        for (spring, slots) in self.model.springs.iter().zip(&self.pattern.spring_slots) {
-            if !spring.damps_nonlinearly() {
-                continue;
-            }
-            let d = spring.damper(q, v);
-            for (k, x) in spring.dofs().iter().zip(d.force.iter()) {
+        for (dofs, slots, d) in self.state_dampings(q, v) {
+            for (k, x) in dofs.iter().zip(d.force.iter()) {
                 if let Some(k) = k {
                     f[*k] += x;
                 }
@@ -459,38 +460,51 @@ impl<'m> Assembler<'m> {
             if let Some((gamma, values)) = matrix.as_mut() {
                 let block = d.rate * *gamma + d.symmetric;
                 for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
-                    if slots[i][j] != usize::MAX {
-                        values[slots[i][j]] += block[(i, j)];
+                    if let Some(slot) = slots.at(i, j) {
+                        values[slot] += block[(i, j)];
                     }
                 }
+            }
+            if let Some(blocks) = blocks.as_mut() {
+                blocks.push(DampingBlock {
+                    dofs,
+                    rate: d.rate,
+                    skew: d.skew,
+                });
             }
         }
     }
 
-    /// The blocks of the damping whose `C` follows the state, at `(q, v)`: on their DOFs,
-    /// `∂f_d/∂q̇` and the part of `∂f_d/∂q` that is not symmetric — what the iteration
-    /// matrix leaves for the exact sensitivity solves. `blocks` is cleared first.
-    pub fn damping_blocks(&self, q: &[f64], v: &[f64], blocks: &mut Vec<DampingBlock>) {
-        blocks.clear();
-        for (e, el) in self.model.elements.iter().enumerate() {
-            if el.beam.section.beta > 0.0 {
-                let s = self.densities.stiffness[e];
+    /// The damping whose `C` follows the state at `(q, v)`, one block at a time: its DOFs,
+    /// its slots in the pattern and its [`Damping`] (a beam's scaled by `s(x_e)`).
+    fn state_dampings<'s>(
+        &'s self,
+        q: &'s [f64],
+        v: &'s [f64],
+    ) -> impl Iterator<Item = ([Option<usize>; 6], Slots<'s>, Damping)> + 's {
+        let beams = self
+            .model
+            .elements
+            .iter()
+            .enumerate()
+            .filter(|(_, el)| el.beam.section.beta > 0.0)
+            .map(move |(e, el)| {
                 let d = el.beam.damping(&el.gather(q), &el.gather(v));
-                blocks.push(DampingBlock {
-                    dofs: el.dofs().map(Some),
-                    rate: d.rate * s,
-                    skew: d.skew * s,
-                });
-            }
-        }
-        for spring in self.model.springs.iter().filter(|s| s.damps_nonlinearly()) {
-            let d = spring.damper(q, v);
-            blocks.push(DampingBlock {
-                dofs: spring.dofs(),
-                rate: d.rate,
-                skew: d.skew,
+                let slots = Slots::Element(&self.pattern.element_slots[e]);
+                (
+                    el.dofs().map(Some),
+                    slots,
+                    d.scaled(self.densities.stiffness[e]),
+                )
             });
-        }
+        let dampers = self
+            .model
+            .springs
+            .iter()
+            .zip(&self.pattern.spring_slots)
+            .filter(|(s, _)| s.damps_nonlinearly())
+            .map(move |(s, slots)| (s.dofs(), Slots::Spring(slots), s.damper(q, v)));
+        beams.chain(dampers)
     }
 
     /// Mean diagonal of `M` over the nodal DOFs, a scale for the constraint rows.

@@ -226,7 +226,7 @@ impl<'m> Newton<'m> {
             // The Kelvin–Voigt damping of the beams joins the inertia term too; only its
             // symmetric derivatives enter the matrix (Newton then converges linearly).
             let matrix = with_matrix.then_some((point.gamma_prime, &mut self.matrix[..]));
-            asm.add_structural_damping(q, velocity, &mut self.inertia, matrix);
+            asm.add_structural_damping(q, velocity, &mut self.inertia, matrix, None);
         }
         match rates {
             // Dynamics: gravity is in the inertia term M(q̈ − ĝ).
@@ -422,10 +422,11 @@ impl<'m> Newton<'m> {
         self.skewed = false;
         if let (Some(_), Some(v)) = (tangent, velocity) {
             if self.asm.has_structural_damping() {
+                // The force goes to scratch: only the matrix and the blocks are wanted.
                 let matrix = Some((damping_coefficient, &mut self.matrix[..]));
+                let blocks = Some(&mut self.damping);
                 self.asm
-                    .add_structural_damping(q, v, &mut self.internal, matrix);
-                self.asm.damping_blocks(q, v, &mut self.damping);
+                    .add_structural_damping(q, v, &mut self.internal, matrix, blocks);
                 self.skewed = true;
             }
         }

@@ -310,11 +310,10 @@ impl Parameter {
             }
             Self::Mass { point } => {
                 let node = model.point_masses[point].node;
-                for k in 0..2 {
-                    let d = dof(node, k);
+                for d in [dof(node, 0), dof(node, 1)] {
                     add(
                         d,
-                        at.rates.map_or(0.0, |(_, acc)| acc[d]) - model.gravity[k],
+                        at.rates.map_or(0.0, |(_, acc)| acc[d]) - gravity(model, d),
                     );
                 }
             }
@@ -367,7 +366,9 @@ impl Parameter {
         match *self {
             Self::Mass { point } => {
                 let node = model.point_masses[point].node;
-                (0..2).for_each(|k| add(dof(node, k), model.gravity[k]));
+                for d in [dof(node, 0), dof(node, 1)] {
+                    add(d, gravity(model, d));
+                }
             }
             Self::Section { section, rate, .. } => {
                 for (e, el) in elements_of(model, section) {

@@ -358,7 +358,7 @@ impl EnergyBook {
         self.mv.fill(0.0);
         let asm = it.assembler();
         asm.add_damping_times(&s.qdot, &mut self.mv);
-        asm.add_structural_damping(&s.q, &s.qdot, &mut self.mv, None);
+        asm.add_structural_damping(&s.q, &s.qdot, &mut self.mv, None, None);
         -dot(&s.qdot, &self.mv)
     }
 

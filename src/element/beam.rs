@@ -80,6 +80,18 @@ pub struct Damping {
     pub skew: Matrix6,
 }
 
+impl Damping {
+    /// The force and its derivatives times `s` (a design's stiffness scaling).
+    pub fn scaled(self, s: f64) -> Self {
+        Self {
+            force: self.force * s,
+            rate: self.rate * s,
+            symmetric: self.symmetric * s,
+            skew: self.skew * s,
+        }
+    }
+}
+
 /// Chord geometry and local deformation of a deformed beam.
 #[derive(Debug, Clone, Copy)]
 struct Deformation {

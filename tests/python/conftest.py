@@ -58,3 +58,25 @@ def arm_references():
         fine, coarse = (sim.run(x, h=1.3 / n).tip_deflection() for n in (2176, 1088))
         out[x] = fine + (fine - coarse) / 3
     return out
+
+
+def fourth_order(f, h: float):
+    """The fourth-order central difference `(f(−2h) − 8f(−h) + 8f(h) − f(2h)) / 12h` of `f`
+    at 0 (`f` of an offset: of a design along one variable, of a scene value)."""
+    return (f(-2 * h) - 8 * f(-h) + 8 * f(h) - f(2 * h)) / (12 * h)
+
+
+def slider_crank_with_force_elements() -> dict:
+    """The flexible slider-crank with a torsion spring-damper at the crank pin, a damper on
+    the slider's travel, a spring from a wall to the slider, a ramped force on the slider
+    and a PD servo at the rod's end."""
+    spec = flextop.scenes.slider_crank(t_end=0.03, h=5e-4).to_dict()
+    spec["rigid_bodies"].append({"name": "wall", "mass": 1.0, "inertia": 0.1, "position": [0.6, 0.0]})
+    spec["joints"].append({"kind": "clamp", "name": "wall", "node": "wall"})
+    spec["motors"] = [{"name": "push", "joint": "slide", "torque": 0.5, "table": {"t": [0.0, 0.03], "scale": [0.0, 1.0]}},
+                      {"name": "servo", "joint": "B", "servo": {"kp": 0.2, "kd": 0.01, "motion": {
+                          "kind": "trapezoidal", "start": 0.0, "end": 0.1, "acceleration": 50.0, "speed": 5.0}}}]
+    spec["springs"] = [{"name": "torsion", "joint": "A", "k": 0.5, "c": 0.02, "rest": 0.02},
+                       {"name": "friction", "joint": "slide", "c": 5.0},
+                       {"name": "return", "nodes": ["slider", "wall"], "k": 200.0, "length": 0.14}]
+    return spec

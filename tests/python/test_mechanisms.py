@@ -14,6 +14,8 @@ from flextop import scenes
 from flextop.errors import SceneError
 from flextop.scene import Scene, trapezoidal
 
+from conftest import fourth_order, slider_crank_with_force_elements
+
 
 def pendulum_error(h: float) -> float:
     """Largest error in the angle (rad) over one period of the pendulum released at 90°."""
@@ -157,8 +159,8 @@ def test_gradients_through_bodies_sliders_and_arms_are_exact(response):
     value = lambda y: sim.run_with_sensitivities(y, [response], method="direct").values[0]  # noqa: E731
     step = 1e-3
     for i in range(len(x)):
-        e = np.eye(len(x))[i] * step
-        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        unit = np.eye(len(x))[i]
+        fd = fourth_order(lambda t: value(x + t * unit), step)
         assert g[i] == pytest.approx(fd, rel=1e-6, abs=1e-6 * np.abs(g).max())
 
 
@@ -432,15 +434,7 @@ def test_gradients_through_springs_dampers_and_motors_are_exact():
     on the slider's travel, a spring from a clamped wall to the slider, a ramped force on
     the slider and a PD servo at the rod's end: direct = adjoint (also on variable steps,
     stored or checkpointed), and fourth-order central differences."""
-    spec = scenes.slider_crank(t_end=0.03, h=5e-4).to_dict()
-    spec["rigid_bodies"].append({"name": "wall", "mass": 1.0, "inertia": 0.1, "position": [0.6, 0.0]})
-    spec["joints"].append({"kind": "clamp", "name": "wall", "node": "wall"})
-    spec["motors"] = [{"name": "push", "joint": "slide", "torque": 0.5, "table": {"t": [0.0, 0.03], "scale": [0.0, 1.0]}},
-                      {"name": "servo", "joint": "B", "servo": {"kp": 0.2, "kd": 0.01, "motion": {
-                          "kind": "trapezoidal", "start": 0.0, "end": 0.1, "acceleration": 50.0, "speed": 5.0}}}]
-    spec["springs"] = [{"name": "torsion", "joint": "A", "k": 0.5, "c": 0.02, "rest": 0.02},
-                       {"name": "friction", "joint": "slide", "c": 5.0},
-                       {"name": "return", "nodes": ["slider", "wall"], "k": 200.0, "length": 0.14}]
+    spec = slider_crank_with_force_elements()
     sim = flextop.Simulation(spec)
     x = np.array([0.9, 0.5, 0.7, 0.4])
     direct = sim.run_with_sensitivities(x, ["tip_deflection"], method="direct")
@@ -450,8 +444,8 @@ def test_gradients_through_springs_dampers_and_motors_are_exact():
     value = lambda y: sim.run_with_sensitivities(y, ["tip_deflection"], method="direct").values[0]  # noqa: E731
     step = 1e-3
     for i in range(len(x)):
-        e = np.eye(len(x))[i] * step
-        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        unit = np.eye(len(x))[i]
+        fd = fourth_order(lambda t: value(x + t * unit), step)
         assert g[i] == pytest.approx(fd, rel=1e-6, abs=1e-6 * np.abs(g).max())
     plain = flextop.Simulation(scenes.slider_crank(t_end=0.03, h=5e-4)).run(x).response("tip_deflection")
     assert abs(direct.values[0] - plain) > 1e-3 * plain  # the springs act
@@ -582,8 +576,8 @@ def test_gradients_from_an_equilibrium_start_are_exact(case):
     value = lambda y: sim.run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
     step = 1e-4
     for i in picked:
-        e = np.eye(len(x))[i] * step
-        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        unit = np.eye(len(x))[i]
+        fd = fourth_order(lambda t: value(x + t * unit), step)
         for k in range(2):
             g = direct.gradients[k]
             assert g[i] == pytest.approx(fd[k], rel=1e-6, abs=1e-6 * np.abs(g).max())
@@ -741,8 +735,7 @@ def test_gradients_of_a_launched_flexible_pendulum_are_exact():
     adjoint = sim.run_with_sensitivities(x, responses, method="adjoint")
     value = lambda y: sim.run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
     step = 1e-4
-    fd = np.array([(value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
-                   for e in np.eye(4) * step]).T
+    fd = np.array([fourth_order(lambda t, u=unit: value(x + t * u), step) for unit in np.eye(4)]).T
     for k in range(2):
         g = direct.gradients[k]
         np.testing.assert_allclose(adjoint.gradients[k], g, rtol=1e-9, atol=1e-9 * np.abs(g).max())
@@ -815,14 +808,10 @@ def test_gradients_through_a_damper_between_points_are_exact():
     value = lambda y, s=spec: flextop.Simulation(s).run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
     step = 1e-4
     for i in range(4):
-        e = np.eye(4)[i] * step
-        fd = (value(x - 2 * e) - 8 * value(x - e) + 8 * value(x + e) - value(x + 2 * e)) / (12 * step)
+        unit = np.eye(4)[i]
+        fd = fourth_order(lambda t: value(x + t * unit), step)
         np.testing.assert_allclose(direct.gradients[:, i], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
-    runs = []
-    for k in (-2, -1, 1, 2):
-        changed = {**spec, "springs": [{**spec["springs"][0], "c": 8.0 * (1 + k * 1e-3)}]}
-        runs.append(value(x, changed))
-    fd = (runs[0] - 8 * runs[1] + 8 * runs[2] - runs[3]) / (12 * 8e-3)
+    fd = fourth_order(lambda t: value(x, {**spec, "springs": [{**spec["springs"][0], "c": 8.0 + t}]}), 8e-3)
     np.testing.assert_allclose(direct.parameter_gradients[:, 0], fd, rtol=1e-6)
 
 

@@ -15,21 +15,7 @@ from flextop import scenes
 from flextop.errors import SettingsError
 from flextop.scene import Scene
 
-
-def slider_crank_with_force_elements() -> dict:
-    """The flexible slider-crank with a torsion spring-damper at the crank pin, a damper on
-    the slider's travel, a spring from a wall to the slider, a ramped force on the slider
-    and a PD servo at the rod's end."""
-    spec = scenes.slider_crank(t_end=0.03, h=5e-4).to_dict()
-    spec["rigid_bodies"].append({"name": "wall", "mass": 1.0, "inertia": 0.1, "position": [0.6, 0.0]})
-    spec["joints"].append({"kind": "clamp", "name": "wall", "node": "wall"})
-    spec["motors"] = [{"name": "push", "joint": "slide", "torque": 0.5, "table": {"t": [0.0, 0.03], "scale": [0.0, 1.0]}},
-                      {"name": "servo", "joint": "B", "servo": {"kp": 0.2, "kd": 0.01, "motion": {
-                          "kind": "trapezoidal", "start": 0.0, "end": 0.1, "acceleration": 50.0, "speed": 5.0}}}]
-    spec["springs"] = [{"name": "torsion", "joint": "A", "k": 0.5, "c": 0.02, "rest": 0.02},
-                       {"name": "friction", "joint": "slide", "c": 5.0},
-                       {"name": "return", "nodes": ["slider", "wall"], "k": 200.0, "length": 0.14}]
-    return spec
+from conftest import fourth_order, slider_crank_with_force_elements
 
 
 def entry(spec: dict, parameter: str) -> tuple[dict, str | int]:
@@ -68,13 +54,14 @@ def assert_exact(spec: dict, x: np.ndarray, responses: list[str], parameters: li
         table, key = entry(spec, p)
         value = table[key]
         step = 1e-3 * abs(value)
-        runs = []
-        for k in (-2, -1, 1, 2):
+
+        def moved(t, p=p, value=value):
             changed = copy.deepcopy(spec)
-            t, kk = entry(changed, p)
-            t[kk] = value + k * step
-            runs.append(flextop.Simulation(changed).run_with_sensitivities(x, responses, method="direct").values)
-        fd = (runs[0] - 8 * runs[1] + 8 * runs[2] - runs[3]) / (12 * step)
+            table, key = entry(changed, p)
+            table[key] = value + t
+            return flextop.Simulation(changed).run_with_sensitivities(x, responses, method="direct").values
+
+        fd = fourth_order(moved, step)
         # Each response against its own size (floored at 1e-4 of the column's largest, for
         # responses a parameter barely moves), so a large one hides no small one's error.
         scale = np.maximum(np.abs(fd), 1e-4 * np.abs(fd).max())
@@ -288,8 +275,8 @@ def test_kinetic_energy_and_energy_drawn_have_exact_gradients(mass):
     values = lambda y: sim.run_with_sensitivities(y, responses, method="direct").values  # noqa: E731
     step = 1e-4
     for i in range(4):
-        e = np.eye(4)[i] * step
-        fd = (values(x - 2 * e) - 8 * values(x - e) + 8 * values(x + e) - values(x + 2 * e)) / (12 * step)
+        unit = np.eye(4)[i]
+        fd = fourth_order(lambda t: values(x + t * unit), step)
         np.testing.assert_allclose(sensitivities[0].gradients[:, i], fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
 
 
