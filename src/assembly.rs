@@ -28,10 +28,10 @@
 
 use std::ops::Range;
 
-use crate::constraint::ConstraintRow;
+use crate::constraint::{ConstraintRow, Turns};
 use crate::element::{Damping, MassKind, Matrix6, Vector6};
 use crate::error::SolveError;
-use crate::linsolve::{FactorError, SparseLdlt};
+use crate::linsolve::{FactorError, Ldlt};
 use crate::model::{Analysis, Densities, Model};
 use crate::spring::Spring;
 
@@ -218,12 +218,12 @@ impl Jacobian {
         &self.0
     }
 
-    /// Re-evaluates at `q` in place.
-    pub fn update(&mut self, model: &Model, q: &[f64]) {
+    /// Re-evaluates at `q` in place, with the nodes' `turns` at `q`.
+    pub fn update(&mut self, model: &Model, q: &[f64], turns: &Turns) {
         self.0
             .iter_mut()
             .zip(&model.rows)
-            .for_each(|(g, r)| *g = r.gradient(q));
+            .for_each(|(g, r)| *g = r.evaluate_with(q, turns).1);
     }
 }
 
@@ -389,9 +389,9 @@ impl<'m> Assembler<'m> {
     ///
     /// # Errors
     /// [`SolveError::Setup`] if the ordering or the symbolic analysis fails.
-    pub fn symbolic_ldlt(&self) -> Result<SparseLdlt, SolveError> {
+    pub fn symbolic_ldlt(&self) -> Result<Ldlt, SolveError> {
         let p = &self.pattern;
-        SparseLdlt::analyze(
+        Ldlt::analyze(
             p.n,
             p.col_ptr.clone(),
             p.row_idx.clone(),
@@ -579,11 +579,13 @@ impl<'m> Assembler<'m> {
     }
 
     /// Constraint values `Φ_k = h_k(q) − factor · g_k(t)` and, in one pass, the joint
-    /// forces `forces += Φ_q(q)ᵀ λ` and, if given, `jacobian = Φ_q(q)`.
+    /// forces `forces += Φ_q(q)ᵀ λ` and, if given, `jacobian = Φ_q(q)`; `turns` are the
+    /// nodes' at `q`.
     #[allow(clippy::too_many_arguments)]
     pub fn constraint_residual(
         &self,
         q: &[f64],
+        turns: &Turns,
         lambda: &[f64],
         t: f64,
         factor: f64,
@@ -592,7 +594,7 @@ impl<'m> Assembler<'m> {
         mut jacobian: Option<&mut Jacobian>,
     ) {
         for (k, row) in self.model.rows.iter().enumerate() {
-            let (value, gradient) = row.evaluate(q);
+            let (value, gradient) = row.evaluate_with(q, turns);
             if let Some(j) = jacobian.as_deref_mut() {
                 j.0[k] = gradient;
             }
@@ -640,7 +642,13 @@ impl<'m> Assembler<'m> {
 
     /// Adds `Σ_k λ_k ∂²h_k/∂q²` at `q`, the joints' part of the tangent (nonzero only for
     /// rows on arms or carried directions), to the matrix values.
-    pub fn add_constraint_hessian(&self, q: &[f64], lambda: &[f64], values: &mut [f64]) {
+    pub fn add_constraint_hessian(
+        &self,
+        q: &[f64],
+        turns: &Turns,
+        lambda: &[f64],
+        values: &mut [f64],
+    ) {
         let rows = self
             .model
             .rows
@@ -649,7 +657,7 @@ impl<'m> Assembler<'m> {
             .zip(&self.pattern.gram_slots);
         for ((row, &l), gram) in rows.filter(|((r, _), _)| !r.is_linear()) {
             let mut h = [[0.0; 6]; 6];
-            row.add_hessian(q, l, &mut h);
+            row.add_hessian_with(q, turns, l, &mut h);
             for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
                 if gram[i][j] != usize::MAX {
                     values[gram[i][j]] += h[i][j];
@@ -663,7 +671,8 @@ impl<'m> Assembler<'m> {
     pub fn tangent(&self, q: &[f64], lambda: &[f64]) -> Vec<f64> {
         let mut values = vec![0.0; self.pattern.nnz()];
         self.internal_forces(q, &mut vec![0.0; self.pattern.n_q], Some(&mut values));
-        self.add_constraint_hessian(q, lambda, &mut values);
+        let turns = Turns::at(&self.model.rows, q);
+        self.add_constraint_hessian(q, &turns, lambda, &mut values);
         values
     }
 
@@ -852,12 +861,13 @@ mod tests {
         let lambda: Vec<f64> = (0..n_c).map(|_| 10.0 * rnd()).collect();
         let residual = |qq: &[f64]| {
             let (mut r, mut phi) = (vec![0.0; n], vec![0.0; n_c]);
-            asm.constraint_residual(qq, &lambda, 0.0, 1.0, &mut phi, &mut r, None);
+            let turns = Turns::at(&model.rows, qq);
+            asm.constraint_residual(qq, &turns, &lambda, 0.0, 1.0, &mut phi, &mut r, None);
             [r, phi].concat()
         };
         let mut values = vec![0.0; asm.pattern.nnz()];
         asm.start_iteration_matrix(0.0, 1.0, &Jacobian::at(&model, &q), &mut values);
-        asm.add_constraint_hessian(&q, &lambda, &mut values);
+        asm.add_constraint_hessian(&q, &Turns::at(&model.rows, &q), &lambda, &mut values);
         // Undo the augmentation: the DOF block holds ΣλH + Φ_qᵀΦ_q.
         let jac = Jacobian::at(&model, &q);
         let p = &asm.pattern;

@@ -306,6 +306,58 @@ pub(crate) fn perp(v: Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-v.y, v.x)
 }
 
+/// [`turn`] of each node a row turns, at one `q`: one sine and cosine per node for all the
+/// rows that share it (the rows of a joint, the joints on a body), read by
+/// [`ConstraintRow::evaluate_with`] and [`ConstraintRow::add_hessian_with`].
+#[derive(Debug, Clone)]
+pub struct Turns {
+    /// The nodes some row turns.
+    nodes: Vec<usize>,
+    /// `turn(φ)` by node (`(0, 0)`, no turn, for the others).
+    by_node: Vec<(f64, f64)>,
+}
+
+impl Turns {
+    /// Room for the turns of `rows` on `n_nodes` nodes, all zero.
+    pub fn new(rows: &[ConstraintRow], n_nodes: usize) -> Self {
+        let mut nodes: Vec<usize> = rows
+            .iter()
+            .flat_map(|r| {
+                let turning = r.turning();
+                r.nodes
+                    .into_iter()
+                    .zip(turning)
+                    .filter_map(|(n, on)| n.filter(|_| on))
+            })
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        Self {
+            nodes,
+            by_node: vec![(0.0, 0.0); n_nodes],
+        }
+    }
+
+    /// The turns of `rows` at `q`.
+    pub fn at(rows: &[ConstraintRow], q: &[f64]) -> Self {
+        let mut turns = Self::new(rows, q.len() / 3);
+        turns.update(q);
+        turns
+    }
+
+    /// Re-reads the rotations of `q`.
+    pub fn update(&mut self, q: &[f64]) {
+        for &n in &self.nodes {
+            self.by_node[n] = turn(q[dof(n, 2)]);
+        }
+    }
+
+    /// The turns of a row's two nodes (none on the ground).
+    fn of(&self, nodes: [Option<usize>; 2]) -> [(f64, f64); 2] {
+        nodes.map(|n| n.map_or((0.0, 0.0), |n| self.by_node[n]))
+    }
+}
+
 impl ConstraintRow {
     /// The six DOFs `[x_a, y_a, φ_a, x_b, y_b, φ_b]` of the row (`None` on the ground).
     pub fn dofs(&self) -> [Option<usize>; 6] {
@@ -351,9 +403,41 @@ impl ConstraintRow {
         self.dofs().map(|d| d.map_or(0.0, |d| q[d]))
     }
 
+    /// Which of the row's two nodes it turns: an arm, or `a` carrying the direction.
+    fn turning(&self) -> [bool; 2] {
+        match self.law {
+            Law::Angle => [false; 2],
+            Law::Separation { arms, carried, .. } => [
+                carried || arms[0] != Vector2::zeros(),
+                arms[1] != Vector2::zeros(),
+            ],
+        }
+    }
+
+    /// [`turn`] of the row's nodes at its own coordinates `l`.
+    fn own_turns(&self, l: &[f64; 6]) -> [(f64, f64); 2] {
+        let turning = self.turning();
+        [0, 1].map(|k| {
+            if turning[k] {
+                turn(l[3 * k + 2])
+            } else {
+                (0.0, 0.0)
+            }
+        })
+    }
+
     /// `h(q)` and its gradient on [`ConstraintRow::dofs`] (zero where inactive).
     pub fn evaluate(&self, q: &[f64]) -> (f64, [f64; 6]) {
         let l = self.local(q);
+        self.evaluate_turned(&l, self.own_turns(&l))
+    }
+
+    /// [`ConstraintRow::evaluate`] with the nodes' turns at `q` read once for all rows.
+    pub fn evaluate_with(&self, q: &[f64], turns: &Turns) -> (f64, [f64; 6]) {
+        self.evaluate_turned(&self.local(q), turns.of(self.nodes))
+    }
+
+    fn evaluate_turned(&self, l: &[f64; 6], turns: [(f64, f64); 2]) -> (f64, [f64; 6]) {
         match self.law {
             Law::Angle => (l[5] - l[2], [0.0, 0.0, -1.0, 0.0, 0.0, 1.0]),
             Law::Separation {
@@ -361,7 +445,7 @@ impl ConstraintRow {
                 direction,
                 carried,
             } => {
-                let s = Separation::at(&l, arms, direction, carried);
+                let s = Separation::at(l, arms, direction, carried, turns);
                 let m = s.m;
                 let carrying = if carried { perp(m).dot(&s.gap) } else { 0.0 };
                 let d_phi_a = carrying + m.dot(&perp(s.turned[0]));
@@ -383,6 +467,22 @@ impl ConstraintRow {
 
     /// Adds `weight · ∂²h/∂q²` on [`ConstraintRow::dofs`] to `out` (row-major 6 × 6).
     pub fn add_hessian(&self, q: &[f64], weight: f64, out: &mut [[f64; 6]; 6]) {
+        let l = self.local(q);
+        self.add_hessian_turned(&l, self.own_turns(&l), weight, out);
+    }
+
+    /// [`ConstraintRow::add_hessian`] with the nodes' turns at `q` read once for all rows.
+    pub fn add_hessian_with(&self, q: &[f64], turns: &Turns, weight: f64, out: &mut [[f64; 6]; 6]) {
+        self.add_hessian_turned(&self.local(q), turns.of(self.nodes), weight, out);
+    }
+
+    fn add_hessian_turned(
+        &self,
+        l: &[f64; 6],
+        turns: [(f64, f64); 2],
+        weight: f64,
+        out: &mut [[f64; 6]; 6],
+    ) {
         let Law::Separation {
             arms,
             direction,
@@ -391,7 +491,7 @@ impl ConstraintRow {
         else {
             return;
         };
-        let s = Separation::at(&self.local(q), arms, direction, carried);
+        let s = Separation::at(l, arms, direction, carried, turns);
         let m = s.m;
         let mut h = [[0.0; 6]; 6];
         h[2][2] = -m.dot(&s.turned[0]);
@@ -431,19 +531,15 @@ struct Separation {
 }
 
 impl Separation {
-    fn at(l: &[f64; 6], arms: [Vector2<f64>; 2], n: Vector2<f64>, carried: bool) -> Self {
-        // Only a turning arm or a carried direction needs its node's rotation.
-        let needed = [
-            carried || arms[0] != Vector2::zeros(),
-            arms[1] != Vector2::zeros(),
-        ];
-        let turns = [0, 1].map(|k| {
-            if needed[k] {
-                turn(l[3 * k + 2])
-            } else {
-                (0.0, 0.0)
-            }
-        });
+    /// At the row's coordinates `l`, with `turns` the [`turn`] of its nodes (only a turning
+    /// arm or a carried direction reads its node's).
+    fn at(
+        l: &[f64; 6],
+        arms: [Vector2<f64>; 2],
+        n: Vector2<f64>,
+        carried: bool,
+        turns: [(f64, f64); 2],
+    ) -> Self {
         let moved = |k: usize| turned_minus(arms[k], turns[k]);
         let shift = |k: usize| Vector2::new(l[3 * k], l[3 * k + 1]) + moved(k);
         Self {

@@ -41,6 +41,9 @@ pub mod scene;
 pub mod section;
 pub mod spring;
 
+#[doc(hidden)]
+pub mod bench_support;
+
 mod aggregate;
 mod assembly;
 mod integrator;

@@ -1,5 +1,4 @@
-//! Sparse symmetric factorization of the iteration matrix — the only module that touches
-//! faer.
+//! Symmetric factorization of the iteration matrix — the only module that touches faer.
 //!
 //! The iteration matrix is symmetric and, in the augmented-Lagrangian form the assembly
 //! produces (see [`crate::assembly`]), its DOF block is positive definite whenever the
@@ -11,12 +10,16 @@
 //! partial-pivoting LU (which must order for the pattern of `AᵀA`, nearly dense for a ground
 //! structure), this halves the work and keeps the fill of a symmetric ordering.
 //!
-//! Symbolic analysis happens once per simulation ([`SparseLdlt::analyze`]); each Newton
+//! Symbolic analysis happens once per simulation ([`Ldlt::analyze`]); each Newton
 //! iteration refactors numerically into buffers kept from the previous call, so the loop
-//! does not allocate. A zero pivot is reported with its unknown
-//! ([`FactorError::ZeroPivot`]), non-finite factors or solutions as [`FactorError::Singular`].
+//! does not allocate. Factors that would fill at least [`DENSE_FILL`] of the triangle, in a
+//! system of at most [`DENSE_LIMIT`] unknowns (a mechanism of rigid bodies, a small
+//! frame), are stored dense in the same order: there a sparse factorization's bookkeeping
+//! costs more than the zeros it skips. A zero pivot is
+//! reported with its unknown ([`FactorError::ZeroPivot`]), non-finite factors or solutions
+//! as [`FactorError::Singular`].
 
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::{LdltError, LdltParams, LdltRegularization};
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
@@ -28,6 +31,15 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side, Spec};
+
+/// The largest system factored as a dense matrix (a dense `L` of 200 unknowns is 320 kB).
+pub const DENSE_LIMIT: usize = 200;
+
+/// The share of the lower triangle from which sparse factors are stored dense: measured
+/// on mechanisms and frames of 5 to 540 unknowns, dense factors were faster from about a
+/// half filled triangle on, sparse ones below (`cargo bench --bench ldlt`, BENCHMARKS.md
+/// "Dense factors").
+pub const DENSE_FILL: f64 = 0.5;
 
 /// Why a factorization or solve failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,19 +55,47 @@ pub enum FactorError {
     Analysis(String),
 }
 
+/// How the factors are stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Storage {
+    /// Every entry of `L`, in the elimination order.
+    Dense,
+    /// `L`'s nonzeros on a symbolic analysis (faer).
+    Sparse,
+}
+
 /// `LDLᵀ` factorization of a symmetric saddle-point matrix with a fixed pattern.
-pub struct SparseLdlt {
+pub struct Ldlt {
     pattern: SymbolicSparseColMat<usize>,
-    symbolic: SymbolicCholesky<usize>,
     /// `order[k]`: the unknown eliminated `k`-th.
     order: Vec<usize>,
-    factors: Vec<f64>,
-    factor_scratch: MemBuffer,
-    solve_scratch: MemBuffer,
+    numeric: Numeric,
     factorized: bool,
 }
 
-impl SparseLdlt {
+/// The numeric phase: sparse factors on a symbolic analysis, or dense ones.
+enum Numeric {
+    Sparse {
+        symbolic: Box<SymbolicCholesky<usize>>,
+        factors: Vec<f64>,
+        factor_scratch: MemBuffer,
+        solve_scratch: MemBuffer,
+    },
+    Dense(Dense),
+}
+
+/// A dense `LDLᵀ` in the elimination order: `L` below the diagonal of `a` (column-major,
+/// unit diagonal implied), `D` on it, `Lᵀ` above it.
+struct Dense {
+    n: usize,
+    /// Where each stored value of the pattern goes in `a` (`None` above the diagonal).
+    slot: Vec<Option<usize>>,
+    a: Vec<f64>,
+    /// One permuted right-hand side.
+    work: Vec<f64>,
+}
+
+impl Ldlt {
     /// Symbolic analysis of the symmetric CSC pattern `(col_ptr, row_idx)` (both triangles)
     /// of an `n × n` matrix whose first `n_q` unknowns are DOFs and whose unknown `n_q + k`
     /// is a multiplier acting on the DOFs `multiplier_dofs[k]`.
@@ -71,9 +111,227 @@ impl SparseLdlt {
         n_q: usize,
         multiplier_dofs: &[Vec<usize>],
     ) -> Result<Self, FactorError> {
+        let sparse = Self::analyze_as(Storage::Sparse, n, col_ptr, row_idx, n_q, multiplier_dofs)?;
+        match sparse.fill() {
+            Some(fill) if n <= DENSE_LIMIT && fill >= DENSE_FILL => Ok(sparse.densified()),
+            _ => Ok(sparse),
+        }
+    }
+
+    /// The same analysis with dense factors.
+    fn densified(self) -> Self {
+        let mut inv = vec![0; self.order.len()];
+        self.order.iter().enumerate().for_each(|(k, &i)| inv[i] = k);
+        Self {
+            numeric: Numeric::Dense(Dense::new(&self.pattern, &inv)),
+            ..self
+        }
+    }
+
+    /// [`Ldlt::analyze`] with the factors stored as asked.
+    ///
+    /// # Errors
+    /// As [`Ldlt::analyze`].
+    pub fn analyze_as(
+        storage: Storage,
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        n_q: usize,
+        multiplier_dofs: &[Vec<usize>],
+    ) -> Result<Self, FactorError> {
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs)?;
-        let perm = PermRef::new_checked(&fwd, &inv, n);
+        let numeric = match storage {
+            Storage::Dense => Numeric::Dense(Dense::new(&pattern, &inv)),
+            Storage::Sparse => Numeric::sparse(&pattern, &fwd, &inv)?,
+        };
+        Ok(Self {
+            order: fwd,
+            pattern,
+            numeric,
+            factorized: false,
+        })
+    }
+
+    /// The share of the lower triangle the sparse factors fill (`None` for dense ones).
+    pub fn fill(&self) -> Option<f64> {
+        let n = self.pattern.nrows() as f64;
+        match &self.numeric {
+            Numeric::Sparse { symbolic, .. } => {
+                Some(symbolic.len_val() as f64 / (n * (n + 1.0) / 2.0))
+            }
+            Numeric::Dense(_) => None,
+        }
+    }
+
+    /// Scratch for solving `nrhs` right-hand sides at once from one thread.
+    pub fn scratch_for(&self, nrhs: usize) -> MemBuffer {
+        MemBuffer::new(match &self.numeric {
+            Numeric::Sparse { symbolic, .. } => {
+                symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq)
+            }
+            Numeric::Dense(d) => StackReq::new::<f64>(d.n * nrhs),
+        })
+    }
+
+    /// Numeric factorization of the matrix with CSC `values` on the analyzed pattern.
+    pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
+        self.factorized = false;
+        let result = match &mut self.numeric {
+            Numeric::Sparse {
+                symbolic,
+                factors,
+                factor_scratch,
+                ..
+            } => {
+                let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);
+                let result = symbolic.factorize_numeric_ldlt(
+                    factors,
+                    matrix,
+                    Side::Lower,
+                    LdltRegularization::default(),
+                    Par::Seq,
+                    MemStack::new(factor_scratch),
+                    Spec::<LdltParams, f64>::default(),
+                );
+                // faer's simplicial LDLᵀ counts the failed pivot from 1 (`k + 1`).
+                result
+                    .map(|_| ())
+                    .map_err(|LdltError::ZeroPivot { index }| index.saturating_sub(1))
+            }
+            Numeric::Dense(d) => d.factorize(values),
+        };
+        let factors = match &self.numeric {
+            Numeric::Sparse { factors, .. } => factors,
+            Numeric::Dense(d) => &d.a,
+        };
+        match result {
+            Ok(()) if factors.iter().all(|v| v.is_finite()) => {
+                self.factorized = true;
+                Ok(())
+            }
+            Ok(_) => Err(FactorError::Singular("non-finite factors".into())),
+            Err(position) => Err(FactorError::ZeroPivot {
+                unknown: self.order[position],
+            }),
+        }
+    }
+
+    /// An error if the last factorization failed (or none was made).
+    fn check(&self) -> Result<(), FactorError> {
+        if self.factorized {
+            Ok(())
+        } else {
+            Err(FactorError::Singular(
+                "no successful factorization to solve with".into(),
+            ))
+        }
+    }
+
+    /// Solves `A x = b` in place (`b` overwritten by `x`).
+    pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), FactorError> {
+        self.check()?;
+        match &mut self.numeric {
+            Numeric::Sparse {
+                symbolic,
+                factors,
+                solve_scratch,
+                ..
+            } => {
+                let n = b.len();
+                LdltRef::new(symbolic, factors).solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(b, n, 1),
+                    Par::Seq,
+                    MemStack::new(solve_scratch),
+                );
+            }
+            Numeric::Dense(d) => {
+                let mut work = std::mem::take(&mut d.work);
+                d.solve(b, &self.order, &mut work);
+                d.work = work;
+            }
+        }
+        finite(b)
+    }
+
+    /// Solves `A X = B` for a column-major block `b` of `nrhs` columns, with caller scratch
+    /// from [`Ldlt::scratch_for`]; usable from several threads at once.
+    pub fn solve_block(
+        &self,
+        b: &mut [f64],
+        nrhs: usize,
+        scratch: &mut MemBuffer,
+    ) -> Result<(), FactorError> {
+        self.check()?;
+        let n = self.pattern.nrows();
+        match &self.numeric {
+            Numeric::Sparse {
+                symbolic, factors, ..
+            } => LdltRef::new(symbolic, factors).solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(b, n, nrhs),
+                Par::Seq,
+                MemStack::new(scratch),
+            ),
+            Numeric::Dense(d) => {
+                let (mut work, _) = MemStack::new(scratch).make_with(n * nrhs, |_| 0.0);
+                d.solve(b, &self.order, &mut work);
+            }
+        }
+        finite(b)
+    }
+
+    /// Number of negative pivots `D_kk < 0` of the last factorization. `LDLᵀ` is a
+    /// congruence, so by Sylvester's law of inertia this is the number of negative
+    /// eigenvalues of the matrix: the Sturm-sequence count of the modal analysis.
+    pub fn negative_pivots(&self) -> Result<usize, FactorError> {
+        self.check()?;
+        let negative = |d: f64| usize::from(d < 0.0);
+        Ok(match &self.numeric {
+            Numeric::Dense(d) => (0..d.n).map(|k| negative(d.a[k * d.n + k])).sum(),
+            Numeric::Sparse {
+                symbolic, factors, ..
+            } => match symbolic.raw() {
+                SymbolicCholeskyRaw::Simplicial(symbolic) => {
+                    let l = SimplicialLdltRef::new(symbolic, factors);
+                    let pattern = symbolic.factor();
+                    (0..symbolic.ncols())
+                        .map(|j| {
+                            let column = pattern.col_ptr()[j]..pattern.col_ptr()[j + 1];
+                            pattern.row_idx()[column.clone()]
+                                .iter()
+                                .zip(&l.values()[column])
+                                .find(|(&i, _)| i == j)
+                                .map_or(0, |(_, &d)| negative(d))
+                        })
+                        .sum()
+                }
+                SymbolicCholeskyRaw::Supernodal(symbolic) => {
+                    let l = SupernodalLdltRef::new(symbolic, factors);
+                    (0..symbolic.n_supernodes())
+                        .map(|s| {
+                            let block = l.supernode(s).val();
+                            (0..block.ncols())
+                                .map(|k| negative(block[(k, k)]))
+                                .sum::<usize>()
+                        })
+                        .sum()
+                }
+            },
+        })
+    }
+}
+
+impl Numeric {
+    /// The symbolic analysis of `pattern` in the order `(fwd, inv)` and its buffers.
+    fn sparse(
+        pattern: &SymbolicSparseColMat<usize>,
+        fwd: &[usize],
+        inv: &[usize],
+    ) -> Result<Self, FactorError> {
+        let perm = PermRef::new_checked(fwd, inv, fwd.len());
         let symbolic = factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Lower,
@@ -84,123 +342,99 @@ impl SparseLdlt {
         let factor_req = symbolic
             .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
-        Ok(Self {
+        Ok(Self::Sparse {
             factors: vec![0.0; symbolic.len_val()],
-            order: fwd,
-            pattern,
-            symbolic,
+            symbolic: Box::new(symbolic),
             factor_scratch: MemBuffer::new(factor_req),
             solve_scratch: MemBuffer::new(solve_req),
-            factorized: false,
         })
     }
+}
 
-    /// Scratch for solving `nrhs` right-hand sides at once from one thread.
-    pub fn scratch_for(&self, nrhs: usize) -> MemBuffer {
-        MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq))
-    }
-
-    /// Numeric factorization of the matrix with CSC `values` on the analyzed pattern.
-    pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
-        self.factorized = false;
-        let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);
-        let result = self
-            .symbolic
-            .factorize_numeric_ldlt(
-                &mut self.factors,
-                matrix,
-                Side::Lower,
-                LdltRegularization::default(),
-                Par::Seq,
-                MemStack::new(&mut self.factor_scratch),
-                Spec::<LdltParams, f64>::default(),
-            )
-            .map(|_| ());
-        match result {
-            Ok(_) if self.factors.iter().all(|v| v.is_finite()) => {
-                self.factorized = true;
-                Ok(())
-            }
-            Ok(_) => Err(FactorError::Singular("non-finite factors".into())),
-            // faer counts the failed pivot from 1 (`k + 1` in its simplicial LDLᵀ).
-            Err(LdltError::ZeroPivot { index }) => Err(FactorError::ZeroPivot {
-                unknown: self.order[index.saturating_sub(1)],
-            }),
+impl Dense {
+    /// Room for the factors of `pattern` eliminated in the order whose inverse is `inv`.
+    fn new(pattern: &SymbolicSparseColMat<usize>, inv: &[usize]) -> Self {
+        let n = pattern.nrows();
+        let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+        let slot = (0..n)
+            .flat_map(|j| ri[cp[j]..cp[j + 1]].iter().map(move |&i| (inv[i], inv[j])))
+            .map(|(i, j)| (i >= j).then_some(j * n + i))
+            .collect();
+        Self {
+            n,
+            slot,
+            a: vec![0.0; n * n],
+            work: vec![0.0; n],
         }
     }
 
-    /// The factors, or an error if the last factorization failed (or none was made).
-    fn factors(&self) -> Result<LdltRef<'_, usize, f64>, FactorError> {
-        if !self.factorized {
-            return Err(FactorError::Singular(
-                "no successful factorization to solve with".into(),
-            ));
+    /// Scatters `values` into the lower triangle and factors it column by column (the
+    /// outer-product form: column `k` becomes `L`'s, its pivot `D_kk`, and updates the
+    /// columns right of it); a zero, subnormal or non-finite pivot's position on failure.
+    fn factorize(&mut self, values: &[f64]) -> Result<(), usize> {
+        let n = self.n;
+        let a = &mut self.a;
+        a.fill(0.0);
+        for (&slot, &v) in self.slot.iter().zip(values) {
+            if let Some(k) = slot {
+                a[k] = v;
+            }
         }
-        Ok(LdltRef::new(&self.symbolic, &self.factors))
-    }
-
-    /// Solves `A x = b` in place (`b` overwritten by `x`).
-    pub fn solve_in_place(&mut self, b: &mut [f64]) -> Result<(), FactorError> {
-        self.factors()?;
-        let ldlt = LdltRef::new(&self.symbolic, &self.factors);
-        let n = b.len();
-        ldlt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(b, n, 1),
-            Par::Seq,
-            MemStack::new(&mut self.solve_scratch),
-        );
-        finite(b)
-    }
-
-    /// Solves `A X = B` for a column-major block `b` of `nrhs` columns, with caller scratch
-    /// from [`SparseLdlt::scratch_for`]; usable from several threads at once.
-    pub fn solve_block(
-        &self,
-        b: &mut [f64],
-        nrhs: usize,
-        scratch: &mut MemBuffer,
-    ) -> Result<(), FactorError> {
-        let n = self.pattern.nrows();
-        let block = MatMut::from_column_major_slice_mut(b, n, nrhs);
-        self.factors()?
-            .solve_in_place_with_conj(Conj::No, block, Par::Seq, MemStack::new(scratch));
-        finite(b)
-    }
-
-    /// Number of negative pivots `D_kk < 0` of the last factorization. `LDLᵀ` is a
-    /// congruence, so by Sylvester's law of inertia this is the number of negative
-    /// eigenvalues of the matrix: the Sturm-sequence count of the modal analysis.
-    pub fn negative_pivots(&self) -> Result<usize, FactorError> {
-        self.factors()?;
-        let negative = |d: f64| usize::from(d < 0.0);
-        Ok(match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Simplicial(symbolic) => {
-                let l = SimplicialLdltRef::new(symbolic, &self.factors);
-                let pattern = symbolic.factor();
-                (0..symbolic.ncols())
-                    .map(|j| {
-                        let column = pattern.col_ptr()[j]..pattern.col_ptr()[j + 1];
-                        pattern.row_idx()[column.clone()]
-                            .iter()
-                            .zip(&l.values()[column])
-                            .find(|(&i, _)| i == j)
-                            .map_or(0, |(_, &d)| negative(d))
-                    })
-                    .sum()
+        for k in 0..n {
+            // A subnormal pivot has lost its precision, and its reciprocal overflows.
+            let d = a[k * n + k];
+            if !(d.abs() >= f64::MIN_POSITIVE && d.is_finite()) {
+                return Err(k);
             }
-            SymbolicCholeskyRaw::Supernodal(symbolic) => {
-                let l = SupernodalLdltRef::new(symbolic, &self.factors);
-                (0..symbolic.n_supernodes())
-                    .map(|s| {
-                        let block = l.supernode(s).val();
-                        (0..block.ncols())
-                            .map(|k| negative(block[(k, k)]))
-                            .sum::<usize>()
-                    })
-                    .sum()
+            let (done, rest) = a.split_at_mut((k + 1) * n);
+            let column = &mut done[k * n + k + 1..];
+            for j in 0..column.len() {
+                // a[i, k+1+j] −= a[i, k] a[k+1+j, k] / d for i ≥ k+1+j.
+                let w = column[j] / d;
+                if w != 0.0 {
+                    let target = &mut rest[j * n + k + 1 + j..(j + 1) * n];
+                    for (t, &c) in target.iter_mut().zip(&column[j..]) {
+                        *t -= c * w;
+                    }
+                }
             }
-        })
+            column.iter_mut().for_each(|c| *c /= d);
+        }
+        // Lᵀ above the diagonal, so that both triangular solves run down columns.
+        for k in 0..n {
+            for i in k + 1..n {
+                a[i * n + k] = a[k * n + i];
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves for the columns of `b` (column-major, `n` rows), permuted by `order` into
+    /// `work` (as long as `b`) and back: `L y = b`, `D z = y`, `Lᵀ x = z`.
+    fn solve(&self, b: &mut [f64], order: &[usize], work: &mut [f64]) {
+        let n = self.n;
+        for (col, w) in b.chunks_exact_mut(n).zip(work.chunks_exact_mut(n)) {
+            w.iter_mut().zip(order).for_each(|(w, &i)| *w = col[i]);
+            for k in 0..n {
+                let (x, below) = (w[k], &self.a[k * n + k + 1..(k + 1) * n]);
+                if x != 0.0 {
+                    w[k + 1..]
+                        .iter_mut()
+                        .zip(below)
+                        .for_each(|(w, l)| *w -= l * x);
+                }
+            }
+            w.iter_mut()
+                .enumerate()
+                .for_each(|(k, w)| *w /= self.a[k * n + k]);
+            for k in (0..n).rev() {
+                let (x, above) = (w[k], &self.a[k * n..k * n + k]);
+                if x != 0.0 {
+                    w[..k].iter_mut().zip(above).for_each(|(w, u)| *w -= u * x);
+                }
+            }
+            order.iter().zip(w.iter()).for_each(|(&i, &x)| col[i] = x);
+        }
     }
 }
 
@@ -268,10 +502,18 @@ mod tests {
         )
     }
 
+    const BOTH: [Storage; 2] = [Storage::Dense, Storage::Sparse];
+
     #[test]
     fn solves_a_saddle_point_system_and_refactors() {
+        for storage in BOTH {
+            solves_and_refactors(storage);
+        }
+    }
+
+    fn solves_and_refactors(storage: Storage) {
         let (cp, ri, v) = saddle();
-        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
+        let mut ldlt = Ldlt::analyze_as(storage, 3, cp, ri, 2, &[vec![0]]).unwrap();
         ldlt.factorize(&v).unwrap();
         let mut b = vec![4.0, 4.0, 1.0]; // x = [1, 1, 1]
         ldlt.solve_in_place(&mut b).unwrap();
@@ -290,7 +532,7 @@ mod tests {
     #[test]
     fn a_constraint_on_no_dof_is_an_analysis_error_not_a_panic() {
         let (cp, ri, _) = saddle();
-        let res = SparseLdlt::analyze(3, cp, ri, 2, &[vec![]]);
+        let res = Ldlt::analyze(3, cp, ri, 2, &[vec![]]);
         assert!(
             matches!(&res, Err(FactorError::Analysis(d)) if d.contains("row 0 acts on no DOF")),
             "{:?}",
@@ -303,13 +545,96 @@ mod tests {
     /// count that, plus one per constraint row.
     #[test]
     fn negative_pivots_count_the_inertia() {
-        let (cp, ri, v) = saddle();
-        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
-        ldlt.factorize(&v).unwrap();
-        assert_eq!(ldlt.negative_pivots(), Ok(1));
-        let shifted = [v[0] - 5.0, v[1], v[2], v[3], v[4] - 5.0, v[5]];
-        ldlt.factorize(&shifted).unwrap();
-        assert_eq!(ldlt.negative_pivots(), Ok(2));
+        for storage in BOTH {
+            let (cp, ri, v) = saddle();
+            let mut ldlt = Ldlt::analyze_as(storage, 3, cp, ri, 2, &[vec![0]]).unwrap();
+            ldlt.factorize(&v).unwrap();
+            assert_eq!(ldlt.negative_pivots(), Ok(1));
+            let shifted = [v[0] - 5.0, v[1], v[2], v[3], v[4] - 5.0, v[5]];
+            ldlt.factorize(&shifted).unwrap();
+            assert_eq!(ldlt.negative_pivots(), Ok(2), "{storage:?}");
+        }
+    }
+
+    /// A chain of `n_q` unknowns with springs to the ground, `n_c` rows tying unknown
+    /// `2k` to `2k + 1`: dense and sparse factors solve it alike, to round-off, for one
+    /// right-hand side and for a block.
+    #[test]
+    fn dense_and_sparse_factors_agree_on_a_larger_system() {
+        let (n_q, n_c) = (40, 12);
+        let n = n_q + n_c;
+        let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+        let mut put = |i: usize, j: usize, v: f64| {
+            columns[j].push((i, v));
+            if i != j {
+                columns[i].push((j, v));
+            }
+        };
+        for i in 0..n_q {
+            put(i, i, 3.0 + (i % 5) as f64);
+            if i + 1 < n_q {
+                put(i + 1, i, -1.0);
+            }
+        }
+        let dofs: Vec<Vec<usize>> = (0..n_c).map(|k| vec![2 * k, 2 * k + 1]).collect();
+        for (k, d) in dofs.iter().enumerate() {
+            put(n_q + k, d[0], 1.0);
+            put(n_q + k, d[1], -0.5);
+        }
+        let (mut cp, mut ri, mut v) = (vec![0], Vec::new(), Vec::new());
+        for column in &mut columns {
+            column.sort_by_key(|e| e.0);
+            ri.extend(column.iter().map(|e| e.0));
+            v.extend(column.iter().map(|e| e.1));
+            cp.push(ri.len());
+        }
+        let times = |x: &[f64]| -> Vec<f64> {
+            let mut y = vec![0.0; n];
+            for (j, column) in columns.iter().enumerate() {
+                column.iter().for_each(|&(i, a)| y[i] += a * x[j]);
+            }
+            y
+        };
+        let want: Vec<Vec<f64>> = (0..2)
+            .map(|c| {
+                (0..n)
+                    .map(|i| ((i * 7 + c * 3) % 11) as f64 - 5.0)
+                    .collect()
+            })
+            .collect();
+        let mut got = Vec::new();
+        for storage in BOTH {
+            let mut ldlt =
+                Ldlt::analyze_as(storage, n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
+            ldlt.factorize(&v).unwrap();
+            let mut one = times(&want[0]);
+            ldlt.solve_in_place(&mut one).unwrap();
+            let mut block = [times(&want[0]), times(&want[1])].concat();
+            ldlt.solve_block(&mut block, 2, &mut ldlt.scratch_for(2))
+                .unwrap();
+            for (x, w) in one
+                .iter()
+                .chain(&block)
+                .zip(want[0].iter().chain(&want.concat()))
+            {
+                assert!((x - w).abs() < 1e-12, "{storage:?}: {x} vs {w}");
+            }
+            got.push(ldlt.negative_pivots().unwrap());
+        }
+        assert_eq!(got, [n_c, n_c]);
+        // A chain fills little of the triangle: the engine keeps it sparse; the small
+        // saddle above it stores dense.
+        let chain = Ldlt::analyze(n, cp, ri, n_q, &dofs).unwrap();
+        assert!(
+            chain.fill().is_some_and(|f| f < DENSE_FILL),
+            "{:?}",
+            chain.fill()
+        );
+        let (cp, ri, _) = saddle();
+        assert_eq!(
+            Ldlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap().fill(),
+            None
+        );
     }
 
     #[test]
@@ -325,12 +650,23 @@ mod tests {
         let (cp, ri, mut v) = saddle();
         v[2] = 0.0;
         v[5] = 0.0; // the multiplier's row vanishes: its pivot is zero, the DOFs' are not
-        let mut ldlt = SparseLdlt::analyze(3, cp, ri, 2, &[vec![0]]).unwrap();
-        let res = ldlt.factorize(&v);
-        assert_eq!(res, Err(FactorError::ZeroPivot { unknown: 2 }));
-        let (_, _, mut v) = saddle();
-        v[4] = f64::NAN; // a non-finite pivot is reported as a zero one, at its unknown
-        let res = ldlt.factorize(&v);
-        assert_eq!(res, Err(FactorError::ZeroPivot { unknown: 1 }));
+        for storage in BOTH {
+            let (cp, ri) = (cp.clone(), ri.clone());
+            let mut ldlt = Ldlt::analyze_as(storage, 3, cp, ri, 2, &[vec![0]]).unwrap();
+            let res = ldlt.factorize(&v);
+            assert_eq!(
+                res,
+                Err(FactorError::ZeroPivot { unknown: 2 }),
+                "{storage:?}"
+            );
+            let (_, _, mut v) = saddle();
+            v[4] = f64::NAN; // a non-finite pivot is reported as a zero one, at its unknown
+            let res = ldlt.factorize(&v);
+            assert_eq!(
+                res,
+                Err(FactorError::ZeroPivot { unknown: 1 }),
+                "{storage:?}"
+            );
+        }
     }
 }

@@ -30,7 +30,7 @@ use crate::assembly::{Assembler, Jacobian};
 use crate::element::MassKind;
 use crate::error::{Error, SettingsError, SolveError};
 use crate::lanczos::{largest_eigenpairs, spread};
-use crate::linsolve::{FactorError, SparseLdlt};
+use crate::linsolve::{FactorError, Ldlt};
 use crate::model::{Densities, Model};
 
 /// The lowest natural modes of a structure, with the proof that none was skipped.
@@ -113,7 +113,7 @@ struct Pencil<'m> {
     stiffness: Vec<f64>,
     mass: Vec<f64>,
     constraints: Vec<f64>,
-    ldlt: SparseLdlt,
+    ldlt: Ldlt,
     /// `σ₀`, a shift just below zero so that rigid modes factorize.
     shift: f64,
     /// The shift of the current factorization (NaN before the first).

@@ -16,9 +16,10 @@
 use faer::dyn_stack::MemBuffer;
 
 use crate::assembly::{Assembler, DampingBlock, Jacobian};
+use crate::constraint::Turns;
 use crate::element::MassKind;
 use crate::error::SolveError;
-use crate::linsolve::{FactorError, SparseLdlt};
+use crate::linsolve::{FactorError, Ldlt};
 use crate::model::{Densities, Model};
 
 /// Largest ratio of successive residuals at which a kept factorization is used again
@@ -56,11 +57,13 @@ pub struct Newton<'m> {
     /// Forces and matrices of the design.
     asm: Assembler<'m>,
     /// `LDLᵀ` of the (augmented) iteration matrix.
-    ldlt: SparseLdlt,
+    ldlt: Ldlt,
     /// Values of the last assembled iteration matrix.
     matrix: Vec<f64>,
     /// The constraint Jacobian in `matrix`, which also augments its right-hand sides.
     jacobian: Jacobian,
+    /// The joints' node rotations at the current iterate.
+    turns: Turns,
     /// Right-hand side / solution `E[−r; −sΦ]` → `[Δq; Δμ]`.
     rhs: Vec<f64>,
     /// Constraint scaling `s` of the current matrix (`λ = s μ`).
@@ -124,6 +127,7 @@ impl<'m> Newton<'m> {
             ldlt,
             matrix,
             jacobian,
+            turns: Turns::new(&model.rows, model.nodes.len()),
             rhs: vec![0.0; n],
             scale: 1.0,
             mean_mass,
@@ -208,7 +212,18 @@ impl<'m> Newton<'m> {
         }
         self.joint.fill(0.0);
         let jacobian = with_matrix.then_some(&mut self.jacobian);
-        asm.constraint_residual(q, lambda, t, load, &mut self.phi, &mut self.joint, jacobian);
+        self.turns.update(q);
+        let turns = &self.turns;
+        asm.constraint_residual(
+            q,
+            turns,
+            lambda,
+            t,
+            load,
+            &mut self.phi,
+            &mut self.joint,
+            jacobian,
+        );
         if with_matrix {
             asm.start_iteration_matrix(
                 point.mass_coefficient,
@@ -218,7 +233,7 @@ impl<'m> Newton<'m> {
             );
             asm.add_damping(point.gamma_prime, &mut self.matrix);
             asm.internal_forces(q, &mut self.internal, Some(&mut self.matrix));
-            asm.add_constraint_hessian(q, lambda, &mut self.matrix);
+            asm.add_constraint_hessian(q, turns, lambda, &mut self.matrix);
         } else {
             asm.internal_forces(q, &mut self.internal, None);
         }
@@ -406,7 +421,8 @@ impl<'m> Newton<'m> {
     ) -> Result<(), SolveError> {
         self.scale = self.scaling(mass_coefficient, tangent.is_some());
         self.factored_at = t;
-        self.jacobian.update(self.asm.model, q);
+        self.turns.update(q);
+        self.jacobian.update(self.asm.model, q, &self.turns);
         self.asm.start_iteration_matrix(
             mass_coefficient,
             self.scale,
@@ -416,7 +432,8 @@ impl<'m> Newton<'m> {
         if let Some(lambda) = tangent {
             self.asm
                 .internal_forces(q, &mut self.internal, Some(&mut self.matrix));
-            self.asm.add_constraint_hessian(q, lambda, &mut self.matrix);
+            self.asm
+                .add_constraint_hessian(q, &self.turns, lambda, &mut self.matrix);
             self.asm.add_damping(damping_coefficient, &mut self.matrix);
         }
         self.skewed = false;

@@ -1,6 +1,7 @@
 //! The hot path allocates nothing: after the first step (which sizes faer's buffers), a
 //! generalized-α step — residual and iteration-matrix assembly, numeric LDLᵀ
-//! refactorization and solve, every Newton iteration — makes no heap allocation.
+//! refactorization and solve (sparse or dense factors), every Newton iteration — makes no
+//! heap allocation.
 //! Counted with a global allocator wrapper (this test binary only), per thread, so the
 //! test harness's own threads do not count.
 
@@ -66,13 +67,20 @@ fn alpha_steps_do_not_allocate() {
         NewtonMatrix::Full,
         2.5e-4,
     );
+    // Dense factors: the four-bar's flexible coupler fills more than half the triangle.
+    let four_bar = (
+        "four-bar".to_string(),
+        scene::parse_toml(include_str!("../examples/four_bar.toml")).unwrap(),
+        NewtonMatrix::Full,
+        1e-3,
+    );
     // Rayleigh damping: the α part in the constant C, the β part state-dependent.
     let mut damped = reference::robot_arm(1);
     for section in damped.sections.values_mut() {
         section.rayleigh = Some([2.0, 1e-4]);
     }
     let damped = ("damped arm".to_string(), damped, NewtonMatrix::Full, 0.02);
-    for (name, spec, newton, h) in arms.chain([mechanism, damped]) {
+    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped]) {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {

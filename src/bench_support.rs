@@ -1,0 +1,68 @@
+//! Hooks for `benches/` to time internals: not part of the API.
+
+use crate::assembly::{Assembler, Jacobian, Pattern};
+use crate::element::MassKind;
+use crate::error::{Error, SolveError};
+use crate::linsolve::{FactorError, Ldlt};
+use crate::model::Model;
+
+pub use crate::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT};
+
+/// The iteration matrix `c M + K_t + s Φ_qᵀΦ_q` (with its constraint blocks) of a design at
+/// the reference, `c = s`, and its factors in a chosen storage.
+pub struct Refactoring {
+    /// Number of unknowns (DOFs and multipliers).
+    pub unknowns: usize,
+    /// The share of the lower triangle sparse factors fill (`None` when stored dense).
+    pub fill: Option<f64>,
+    ldlt: Ldlt,
+    values: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl Refactoring {
+    /// `model`'s matrix for design `x` with `c = s = mass_coefficient`, its factors stored
+    /// as `storage`.
+    ///
+    /// # Errors
+    /// A bad design, or a matrix that cannot be set up.
+    pub fn new(
+        model: &Model,
+        x: Option<&[f64]>,
+        mass_coefficient: f64,
+        storage: Storage,
+    ) -> Result<Self, Error> {
+        let asm = Assembler::new(model, model.densities(x)?, MassKind::Consistent)?;
+        let p = &asm.pattern;
+        let multipliers = Pattern::multiplier_dofs(model);
+        let (cp, ri) = (p.col_ptr.clone(), p.row_idx.clone());
+        let ldlt = Ldlt::analyze_as(storage, p.n, cp, ri, p.n_q, &multipliers).map_err(setup)?;
+        let q = vec![0.0; p.n_q];
+        let mut values = vec![0.0; p.nnz()];
+        let jacobian = Jacobian::at(model, &q);
+        asm.start_iteration_matrix(mass_coefficient, mass_coefficient, &jacobian, &mut values);
+        asm.internal_forces(&q, &mut vec![0.0; p.n_q], Some(&mut values));
+        Ok(Self {
+            unknowns: p.n,
+            fill: ldlt.fill(),
+            ldlt,
+            values,
+            rhs: vec![0.0; p.n],
+        })
+    }
+
+    /// Refactors the matrix and solves once, as a Newton iteration with a fresh matrix does.
+    ///
+    /// # Errors
+    /// A singular matrix.
+    pub fn run(&mut self) -> Result<(), Error> {
+        self.ldlt.factorize(&self.values).map_err(setup)?;
+        self.rhs.fill(1.0);
+        self.ldlt.solve_in_place(&mut self.rhs).map_err(setup)?;
+        Ok(())
+    }
+}
+
+fn setup(e: FactorError) -> SolveError {
+    SolveError::Setup(format!("{e:?}"))
+}
