@@ -10,7 +10,8 @@
 //!   and joints as algebraic [`constraint`]s driven by [`motion`] laws; `rigid` checks the
 //!   mechanism and gives its rigid trajectory.
 //! * `assembly` and `linsolve` — the residual and the iteration matrix on a fixed sparse
-//!   pattern, factorized by a symbolic-once, numeric-per-iteration `LDLᵀ`.
+//!   pattern, factorized by a symbolic-once, numeric-per-iteration `LDLᵀ` (its factors
+//!   stored dense where sparse ones would fill half the triangle).
 //! * `newton`, [`Integrator`] (generalized-α, Algorithm 1, on any [`TimeGrid`]),
 //!   [`solve_static`] and [`simulate`] — the solves, with run settings validated in one
 //!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
@@ -21,7 +22,7 @@
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
 //! [`load`], [`section`], [`interpolation`]) are public modules; the solvers are private
-//! modules behind the re-exports below. Assembly, Newton and the sparse solver are
+//! modules behind the re-exports below. Assembly, Newton and the linear solver are
 //! internals.
 //!
 //! SI units throughout: m, kg, s, N, Pa, rad. Errors are values ([`error`]), never panics on

@@ -51,8 +51,8 @@ impl Residual {
 }
 
 /// Newton's method on one nonlinear system, shared by the dynamic step, the initial
-/// accelerations and the static solver: a residual, an iteration matrix and a sparse
-/// `LDLᵀ` analysed once.
+/// accelerations and the static solver: a residual, an iteration matrix and its `LDLᵀ`
+/// analysed once.
 pub struct Newton<'m> {
     /// Forces and matrices of the design.
     asm: Assembler<'m>,
