@@ -32,12 +32,13 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side, Spec};
 
-/// The largest system factored as a dense matrix (a dense `L` of 200 unknowns is 320 kB).
-pub const DENSE_LIMIT: usize = 200;
+/// The largest system factored as a dense matrix: the largest with a half-filled triangle
+/// that was measured had 60 unknowns.
+pub const DENSE_LIMIT: usize = 64;
 
 /// The share of the lower triangle from which sparse factors are stored dense: measured
-/// on mechanisms and frames of 5 to 540 unknowns, dense factors were faster from about a
-/// half filled triangle on, sparse ones below (`cargo bench --bench ldlt`, BENCHMARKS.md
+/// on mechanisms and frames of 5 to 540 unknowns (fills 0.04 to 0.8), dense factors were
+/// faster from about a half-filled triangle on, sparse ones below (`cargo bench --bench ldlt`, BENCHMARKS.md
 /// "Dense factors").
 pub const DENSE_FILL: f64 = 0.5;
 
@@ -88,7 +89,8 @@ enum Numeric {
 /// unit diagonal implied), `D` on it, `Lᵀ` above it.
 struct Dense {
     n: usize,
-    /// Where each stored value of the pattern goes in `a` (`None` above the diagonal).
+    /// Where each stored value of the pattern goes in `a` (`None` for the given upper
+    /// triangle).
     slot: Vec<Option<usize>>,
     a: Vec<f64>,
     /// One permuted right-hand side.
@@ -206,12 +208,23 @@ impl Ldlt {
             Numeric::Sparse { factors, .. } => factors,
             Numeric::Dense(d) => &d.a,
         };
-        match result {
-            Ok(()) if factors.iter().all(|v| v.is_finite()) => {
+        let finite = factors.iter().all(|v| v.is_finite());
+        // A subnormal pivot has lost its precision, and its reciprocal overflows: zero.
+        let lost = || {
+            let mut first = None;
+            self.for_each_pivot(|k, d| {
+                if first.is_none() && d.abs() < f64::MIN_POSITIVE {
+                    first = Some(k);
+                }
+            });
+            first
+        };
+        match result.and_then(|()| lost().map_or(Ok(()), Err)) {
+            Ok(()) if finite => {
                 self.factorized = true;
                 Ok(())
             }
-            Ok(_) => Err(FactorError::Singular("non-finite factors".into())),
+            Ok(()) => Err(FactorError::Singular("non-finite factors".into())),
             Err(position) => Err(FactorError::ZeroPivot {
                 unknown: self.order[position],
             }),
@@ -288,39 +301,40 @@ impl Ldlt {
     /// eigenvalues of the matrix: the Sturm-sequence count of the modal analysis.
     pub fn negative_pivots(&self) -> Result<usize, FactorError> {
         self.check()?;
-        let negative = |d: f64| usize::from(d < 0.0);
-        Ok(match &self.numeric {
-            Numeric::Dense(d) => (0..d.n).map(|k| negative(d.a[k * d.n + k])).sum(),
+        let mut negative = 0;
+        self.for_each_pivot(|_, d| negative += usize::from(d < 0.0));
+        Ok(negative)
+    }
+
+    /// Calls `f(k, D_kk)` for each pivot, `k` its position in the elimination order.
+    fn for_each_pivot(&self, mut f: impl FnMut(usize, f64)) {
+        match &self.numeric {
+            Numeric::Dense(d) => (0..d.n).for_each(|k| f(k, d.a[k * d.n + k])),
             Numeric::Sparse {
                 symbolic, factors, ..
             } => match symbolic.raw() {
                 SymbolicCholeskyRaw::Simplicial(symbolic) => {
                     let l = SimplicialLdltRef::new(symbolic, factors);
                     let pattern = symbolic.factor();
-                    (0..symbolic.ncols())
-                        .map(|j| {
-                            let column = pattern.col_ptr()[j]..pattern.col_ptr()[j + 1];
-                            pattern.row_idx()[column.clone()]
-                                .iter()
-                                .zip(&l.values()[column])
-                                .find(|(&i, _)| i == j)
-                                .map_or(0, |(_, &d)| negative(d))
-                        })
-                        .sum()
+                    for j in 0..symbolic.ncols() {
+                        let column = pattern.col_ptr()[j]..pattern.col_ptr()[j + 1];
+                        let rows = pattern.row_idx()[column.clone()].iter();
+                        if let Some((_, &d)) = rows.zip(&l.values()[column]).find(|(&i, _)| i == j)
+                        {
+                            f(j, d);
+                        }
+                    }
                 }
                 SymbolicCholeskyRaw::Supernodal(symbolic) => {
                     let l = SupernodalLdltRef::new(symbolic, factors);
-                    (0..symbolic.n_supernodes())
-                        .map(|s| {
-                            let block = l.supernode(s).val();
-                            (0..block.ncols())
-                                .map(|k| negative(block[(k, k)]))
-                                .sum::<usize>()
-                        })
-                        .sum()
+                    for s in 0..symbolic.n_supernodes() {
+                        let block = l.supernode(s).val();
+                        let start = symbolic.supernode_begin()[s];
+                        (0..block.ncols()).for_each(|k| f(start + k, block[(k, k)]));
+                    }
                 }
             },
-        })
+        }
     }
 }
 
@@ -356,9 +370,14 @@ impl Dense {
     fn new(pattern: &SymbolicSparseColMat<usize>, inv: &[usize]) -> Self {
         let n = pattern.nrows();
         let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+        // The lower triangle as given (as the sparse factors read it), placed below the
+        // diagonal in the elimination order.
         let slot = (0..n)
-            .flat_map(|j| ri[cp[j]..cp[j + 1]].iter().map(move |&i| (inv[i], inv[j])))
-            .map(|(i, j)| (i >= j).then_some(j * n + i))
+            .flat_map(|j| ri[cp[j]..cp[j + 1]].iter().map(move |&i| (i, j)))
+            .map(|(i, j)| {
+                let (r, c) = (inv[i].max(inv[j]), inv[i].min(inv[j]));
+                (i >= j).then_some(c * n + r)
+            })
             .collect();
         Self {
             n,

@@ -18,6 +18,7 @@ use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
 use crate::model::{Analysis, Densities, Model};
 use crate::parameter::{Designed, Parameter};
+use crate::section::Section;
 use crate::stress::{ElementState, Measure};
 use crate::time_grid::TimeGrid;
 
@@ -162,6 +163,36 @@ impl Aggregated {
             });
         }
         sum
+    }
+
+    /// `∂/∂p` of [`Self::sum`] at state `q` for section `section` changing at `rate`:
+    /// through the section forces `(∂D/∂p) [e, θ₁, θ₂]` and the points' coefficients.
+    fn parameter_partial(
+        &self,
+        ctx: &Context,
+        q: &[f64],
+        reference: f64,
+        section: usize,
+        rate: &Section,
+    ) -> f64 {
+        let m = ctx.model;
+        let mut partial = 0.0;
+        for e in self.members.elements(m) {
+            let element = &m.elements[e];
+            if m.bars[element.bar].section != section {
+                continue;
+            }
+            let u = element.gather(q);
+            let el = self.element(ctx, e, element.beam.section_forces(&u));
+            let d_forces = element.beam.section_forces_rate(&u, rate);
+            let share = element.beam.length / self.length;
+            self.measure
+                .for_each_point_and_rate(&el, Some(rate), |w, c, d_c| {
+                    let (v, d_v) = (c.dot(&el.forces), d_c.dot(&el.forces) + c.dot(&d_forces));
+                    partial += share * w * self.aggregation.point(v, reference).1 * d_v;
+                });
+        }
+        partial
     }
 
     /// The largest point value at state `q`.
@@ -601,12 +632,15 @@ impl<'a> Context<'a> {
 impl Response {
     /// `∂G/∂p` of a scene parameter at a state: the compliance's (a static scene's load
     /// `F` follows masses, motors and sections' `ρ`; the strain energy follows sections'
-    /// stiffness) and the volume's (a section's diameter); zero for the others, which do
-    /// not read a parameter ([`crate::sensitivity::parse_parameters`] refuses the
-    /// aggregates, which read the sections).
-    pub fn parameter_partial(&self, ctx: &Context, at: Sample, p: &Parameter) -> f64 {
+    /// stiffness), the volume's (a section's diameter) and the aggregates' (stresses and
+    /// buckling read the section through its forces and their coefficients, with `known`'s
+    /// reference); zero for the others, which do not read a parameter.
+    pub fn parameter_partial(&self, ctx: &Context, at: Sample, known: Known, p: &Parameter) -> f64 {
         let m = ctx.model;
         match (self, p.section()) {
+            (Self::Aggregate(a), Some((section, rate))) => {
+                a.parameter_partial(ctx, at.q, known.reference, section, rate)
+            }
             (Self::Compliance { .. }, _) if m.analysis == Analysis::Static => {
                 let mut g = 0.0;
                 p.load_rate(&ctx.designed(), at.t, |i, v| g += v * at.q[i]);

@@ -81,7 +81,7 @@ impl Section {
         self.fibre.map(|c| c * (self.ea / self.area) / self.ei)
     }
 
-    /// The section's rates `∂(A, EA, κGA, EI, ρA, ρI)/∂p` of `property` (in the fields of
+    /// The section's rates `∂(A, EA, κGA, EI, ρA, ρI, c)/∂p` of `property` (in the fields of
     /// a section), given what it is made of: with `E` (and `κGA` with it: through `G` when
     /// `ν` is given, through a circle's `κ(ν)` with `ν = E/2G − 1` when `G` is), with `ρ`,
     /// or with a solid circle's diameter `d` (`A ∝ d²`, `I ∝ d⁴`); Rayleigh's `α` and `β`
@@ -114,6 +114,8 @@ impl Section {
                     ei: 4.0 * self.ei / d,
                     rho_a: 2.0 * self.rho_a / d,
                     rho_i: 4.0 * self.rho_i / d,
+                    // The outer fibre of a solid circle is at d/2.
+                    fibre: Some(0.5),
                     ..zero
                 }
             }

@@ -28,6 +28,7 @@ use std::f64::consts::PI;
 use nalgebra::Vector3;
 
 use crate::model::Element;
+use crate::section::Section;
 
 /// What an aggregate measures at its points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,19 +69,40 @@ impl Measure {
     /// the point's value as a linear form of the section forces: `v = c · [N, M₁, M₂]`,
     /// so `∂v/∂u = Jᵀ c` with `J` their Jacobian.
     pub fn for_each_point(self, el: &ElementState, mut f: impl FnMut(f64, Vector3<f64>)) {
+        self.for_each_point_and_rate(el, None, |w, c, _| f(w, c));
+    }
+
+    /// [`Measure::for_each_point`] with `f(w, c, ∂c/∂p)`, the section changing at `rate`
+    /// ([`Section::rate`]; zero without one). Each coefficient is a power product of `A`,
+    /// `EA`, `EI` and `c`, so its rate is itself times a sum of logarithmic rates; the
+    /// relaxation and the bar's length do not move.
+    pub fn for_each_point_and_rate(
+        self,
+        el: &ElementState,
+        rate: Option<&Section>,
+        mut f: impl FnMut(f64, Vector3<f64>, Vector3<f64>),
+    ) {
         let section = &el.element.beam.section;
+        // `∂ ln(value)/∂p` of a section quantity, read from the same field of `rate`.
+        let log = |value: f64, field: fn(&Section) -> f64| rate.map_or(0.0, |r| field(r) / value);
+        let area = log(section.area, |s| s.area);
         match self {
             Self::Stress => {
                 // The response's parser guarantees the fibre distance.
                 let per_m = section.fibre_per_moment().unwrap_or(0.0);
+                let fibre = section.fibre.unwrap_or(f64::INFINITY);
+                let d_per_m = per_m
+                    * (log(fibre, |s| s.fibre.unwrap_or(0.0)) + log(section.ea, |s| s.ea)
+                        - area
+                        - log(section.ei, |s| s.ei));
                 let axial = el.relax / section.area;
                 for side in [1.0, -1.0] {
                     for &(s, w) in &LOBATTO {
-                        let bending = el.relax * side * per_m;
-                        f(
-                            0.5 * w,
-                            Vector3::new(axial, -bending * (1.0 - s), bending * s),
-                        );
+                        let at = |per_m: f64, axial: f64| {
+                            let bending = el.relax * side * per_m;
+                            Vector3::new(axial, -bending * (1.0 - s), bending * s)
+                        };
+                        f(0.5 * w, at(per_m, axial), at(d_per_m, -axial * area));
                     }
                 }
             }
@@ -88,7 +110,8 @@ impl Measure {
                 // V = −(M₁ + M₂)/L; the parser guarantees the factor.
                 let k = section.shear_factor.unwrap_or(0.0);
                 let per_m = -el.relax * k / (el.element.beam.length * section.area);
-                f(1.0, Vector3::new(0.0, per_m, per_m));
+                let c = Vector3::new(0.0, per_m, per_m);
+                f(1.0, c, -c * area);
             }
             Self::Buckling => {
                 let per_n = if el.forces[0] < 0.0 {
@@ -96,7 +119,8 @@ impl Measure {
                 } else {
                     0.0
                 };
-                f(1.0, Vector3::new(per_n, 0.0, 0.0));
+                let c = Vector3::new(per_n, 0.0, 0.0);
+                f(1.0, c, -c * log(section.ei, |s| s.ei));
             }
         }
     }

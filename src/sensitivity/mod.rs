@@ -265,7 +265,7 @@ impl<'a> Objectives<'a> {
                 .zip(self.parameters)
                 .zip(&self.rigid_rates[k])
             {
-                *g += w * r.parameter_partial(ctx, at, p);
+                *g += w * r.parameter_partial(ctx, at, known, p);
                 if let Some(&rate) = rates.get(n) {
                     *g += w * r.rigid_partial(ctx, at, known, rate);
                 }
@@ -459,14 +459,6 @@ pub fn parse_parameters(
         .collect::<Result<Vec<_>, _>>()?;
     for (name, p) in names.iter().zip(&parameters) {
         let at = format!("parameter '{name}'");
-        if p.section().is_some()
-            && responses
-                .iter()
-                .any(|r| matches!(r, Response::Aggregate(_)))
-        {
-            let msg = "stresses and buckling read the section itself: their gradients to it are not built";
-            return Err(SettingsError::new(at, msg));
-        }
         if !p.moves_constraints() {
             continue;
         }
