@@ -306,7 +306,7 @@ pub(crate) fn perp(v: Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-v.y, v.x)
 }
 
-/// [`turn`] of each node a row turns, at one `q`: one sine and cosine per node for all the
+/// `turn(φ) = (sin φ, cos φ − 1)` of each node a row turns, at one `q`: one sine and cosine per node for all the
 /// rows that share it (the rows of a joint, the joints on a body), read by
 /// [`ConstraintRow::evaluate_with`] and [`ConstraintRow::add_hessian_with`].
 #[derive(Debug, Clone)]
