@@ -136,9 +136,7 @@ impl<'m> Integrator<'m> {
             newton,
             params,
             start: vec![0.0; model.n_dofs()],
-            smooth: (0..model.n_dofs())
-                .map(|d| model.bodies.iter().any(|b| d / 3 == b.node))
-                .collect(),
+            smooth: rigid_dofs(model),
             statics,
             equilibrium: None,
         })
@@ -264,6 +262,15 @@ impl<'m> Integrator<'m> {
             .for_each(|(a, acc)| *a += w * acc);
         Ok(report)
     }
+}
+
+/// Which DOFs belong to a rigid body.
+fn rigid_dofs(model: &Model) -> Vec<bool> {
+    let mut rigid = vec![false; model.n_dofs()];
+    for b in &model.bodies {
+        rigid[3 * b.node..3 * b.node + 3].fill(true);
+    }
+    rigid
 }
 
 /// `hₙ/hₙ₋₁` when the step size changes (`None` for the first step or an unchanged one).

@@ -113,21 +113,7 @@ impl Ldlt {
         n_q: usize,
         multiplier_dofs: &[Vec<usize>],
     ) -> Result<Self, FactorError> {
-        let sparse = Self::analyze_as(Storage::Sparse, n, col_ptr, row_idx, n_q, multiplier_dofs)?;
-        match sparse.fill() {
-            Some(fill) if n <= DENSE_LIMIT && fill >= DENSE_FILL => Ok(sparse.densified()),
-            _ => Ok(sparse),
-        }
-    }
-
-    /// The same analysis with dense factors.
-    fn densified(self) -> Self {
-        let mut inv = vec![0; self.order.len()];
-        self.order.iter().enumerate().for_each(|(k, &i)| inv[i] = k);
-        Self {
-            numeric: Numeric::Dense(Dense::new(&self.pattern, &inv)),
-            ..self
-        }
+        Self::analyze_with(None, n, col_ptr, row_idx, n_q, multiplier_dofs)
     }
 
     /// [`Ldlt::analyze`] with the factors stored as asked.
@@ -142,11 +128,29 @@ impl Ldlt {
         n_q: usize,
         multiplier_dofs: &[Vec<usize>],
     ) -> Result<Self, FactorError> {
+        Self::analyze_with(Some(storage), n, col_ptr, row_idx, n_q, multiplier_dofs)
+    }
+
+    /// The ordering and the symbolic analysis, then the storage asked for or, without one,
+    /// dense where the sparse factors would fill [`DENSE_FILL`] of a small triangle.
+    fn analyze_with(
+        storage: Option<Storage>,
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        n_q: usize,
+        multiplier_dofs: &[Vec<usize>],
+    ) -> Result<Self, FactorError> {
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs)?;
+        let sparse = Numeric::sparse(&pattern, &fwd, &inv)?;
+        let storage = storage.unwrap_or(match sparse.fill(n) {
+            Some(fill) if n <= DENSE_LIMIT && fill >= DENSE_FILL => Storage::Dense,
+            _ => Storage::Sparse,
+        });
         let numeric = match storage {
             Storage::Dense => Numeric::Dense(Dense::new(&pattern, &inv)),
-            Storage::Sparse => Numeric::sparse(&pattern, &fwd, &inv)?,
+            Storage::Sparse => sparse,
         };
         Ok(Self {
             order: fwd,
@@ -158,13 +162,7 @@ impl Ldlt {
 
     /// The share of the lower triangle the sparse factors fill (`None` for dense ones).
     pub fn fill(&self) -> Option<f64> {
-        let n = self.pattern.nrows() as f64;
-        match &self.numeric {
-            Numeric::Sparse { symbolic, .. } => {
-                Some(symbolic.len_val() as f64 / (n * (n + 1.0) / 2.0))
-            }
-            Numeric::Dense(_) => None,
-        }
+        self.numeric.fill(self.pattern.nrows())
     }
 
     /// Scratch for solving `nrhs` right-hand sides at once from one thread.
@@ -173,7 +171,7 @@ impl Ldlt {
             Numeric::Sparse { symbolic, .. } => {
                 symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq)
             }
-            Numeric::Dense(d) => StackReq::new::<f64>(d.n * nrhs),
+            Numeric::Dense(d) => StackReq::new::<f64>(d.n),
         })
     }
 
@@ -289,7 +287,7 @@ impl Ldlt {
                 MemStack::new(scratch),
             ),
             Numeric::Dense(d) => {
-                let (mut work, _) = MemStack::new(scratch).make_with(n * nrhs, |_| 0.0);
+                let (mut work, _) = MemStack::new(scratch).make_with(n, |_| 0.0);
                 d.solve(b, &self.order, &mut work);
             }
         }
@@ -339,6 +337,17 @@ impl Ldlt {
 }
 
 impl Numeric {
+    /// The share of the lower triangle of `n` unknowns sparse factors fill.
+    fn fill(&self, n: usize) -> Option<f64> {
+        let n = n as f64;
+        match self {
+            Self::Sparse { symbolic, .. } => {
+                Some(symbolic.len_val() as f64 / (n * (n + 1.0) / 2.0))
+            }
+            Self::Dense(_) => None,
+        }
+    }
+
     /// The symbolic analysis of `pattern` in the order `(fwd, inv)` and its buffers.
     fn sparse(
         pattern: &SymbolicSparseColMat<usize>,
@@ -428,11 +437,11 @@ impl Dense {
         Ok(())
     }
 
-    /// Solves for the columns of `b` (column-major, `n` rows), permuted by `order` into
-    /// `work` (as long as `b`) and back: `L y = b`, `D z = y`, `Lᵀ x = z`.
-    fn solve(&self, b: &mut [f64], order: &[usize], work: &mut [f64]) {
+    /// Solves for the columns of `b` (column-major, `n` rows), each permuted by `order` into
+    /// `w` (`n` long) and back: `L y = b`, `D z = y`, `Lᵀ x = z`.
+    fn solve(&self, b: &mut [f64], order: &[usize], w: &mut [f64]) {
         let n = self.n;
-        for (col, w) in b.chunks_exact_mut(n).zip(work.chunks_exact_mut(n)) {
+        for col in b.chunks_exact_mut(n) {
             w.iter_mut().zip(order).for_each(|(w, &i)| *w = col[i]);
             for k in 0..n {
                 let (x, below) = (w[k], &self.a[k * n + k + 1..(k + 1) * n]);

@@ -182,9 +182,10 @@ impl Aggregated {
             if m.bars[element.bar].section != section {
                 continue;
             }
-            let u = element.gather(q);
-            let el = self.element(ctx, e, element.beam.section_forces(&u));
-            let d_forces = element.beam.section_forces_rate(&u, rate);
+            let (forces, d_forces) = element
+                .beam
+                .section_forces_and_rate(&element.gather(q), rate);
+            let el = self.element(ctx, e, forces);
             let share = element.beam.length / self.length;
             self.measure
                 .for_each_point_and_rate(&el, Some(rate), |w, c, d_c| {

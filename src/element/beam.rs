@@ -230,10 +230,18 @@ impl Beam {
         self.local_stiffness() * self.deformation(u).local
     }
 
-    /// `∂[N, M₁, M₂]/∂p = (∂D/∂p) [e, θ₁, θ₂]` at full density, the section changing at
-    /// `rate` ([`Beam::local_stiffness_rate`]).
-    pub fn section_forces_rate(&self, u: &Vector6, rate: &Section) -> Vector3<f64> {
-        self.local_stiffness_rate(rate) * self.deformation(u).local
+    /// Section forces `[N, M₁, M₂]` at full density and their rate
+    /// `(∂D/∂p) [e, θ₁, θ₂]`, the section changing at `rate` ([`Beam::local_stiffness_rate`]).
+    pub fn section_forces_and_rate(
+        &self,
+        u: &Vector6,
+        rate: &Section,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let local = self.deformation(u).local;
+        (
+            self.local_stiffness() * local,
+            self.local_stiffness_rate(rate) * local,
+        )
     }
 
     /// Section forces `[N, M₁, M₂]` at full density and their Jacobian `D B = ∂[N, M₁, M₂]/∂u`.

@@ -78,8 +78,8 @@ def test_a_zero_pivot_names_the_node():
     spec = flextop.scenes.static_truss().to_dict()
     for section in spec["sections"].values():
         section["E"] = 3e-308  # accepted, but its stiffness underflows
-    # Which of the node's unknowns underflows first depends on the order of the sums.
-    with pytest.raises(flextop.SimulationError, match=r"singular iteration matrix at t = 0\.000000 s \(zero pivot at [xy] of node 'truss\[4,0\]' \(bar truss/bar16\)\)"):
+    # The first pivot below the smallest normal number, dense or sparse factors alike.
+    with pytest.raises(flextop.SimulationError, match=r"singular iteration matrix at t = 0\.000000 s \(zero pivot at x of node 'truss\[4,0\]' \(bar truss/bar16\)\)"):
         flextop.Simulation(spec).run(0.4)
     spec["sections"]["aluminium"]["E"] = 5e-324
     with pytest.raises(SceneError, match="sections.aluminium.E: must be positive and finite, got 5e-324"):
