@@ -17,7 +17,7 @@
 //!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
 //! * [`Response`] and [`of_motion`] / [`of_equilibrium`] — responses of paper Eq. 8 and
 //!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint;
-//!   stresses and buckling ratios ([`Measure`]) condensed by the p-mean or KS mean of
+//!   stresses and buckling ratios ([`Criterion`]) condensed by the p-mean or KS mean of
 //!   [`Aggregation`].
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
@@ -78,7 +78,7 @@ pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SP
 pub use modal::{natural_modes, Modes};
 pub use model::{Densities, Model};
 pub use prolongation::Prolongation;
-pub use response::Response;
+pub use response::{Kind as ResponseKind, Response};
 pub use rigid::rigid_positions;
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
@@ -93,5 +93,5 @@ pub use simulation::{
 };
 pub use statics::{solve_static, StaticSolution};
 pub use step_control::StepControl;
-pub use stress::Measure;
+pub use stress::Criterion;
 pub use time_grid::TimeGrid;

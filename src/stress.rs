@@ -30,9 +30,9 @@ use nalgebra::Vector3;
 use crate::model::Element;
 use crate::section::Section;
 
-/// What an aggregate measures at its points.
+/// What an aggregate measures at its points: the criterion a bar is judged by.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Measure {
+pub enum Criterion {
     /// Fibre stresses (Pa).
     Stress,
     /// The largest shear stress of the section (Pa).
@@ -64,7 +64,7 @@ const LOBATTO: [(f64, f64); 6] = [
     (1.0, 1.0 / 30.0),
 ];
 
-impl Measure {
+impl Criterion {
     /// Calls `f(w, c)` at each point of the element, with weights `w` summing to 1 and `c`
     /// the point's value as a linear form of the section forces: `v = c · [N, M₁, M₂]`,
     /// so `∂v/∂u = Jᵀ c` with `J` their Jacobian.
@@ -72,7 +72,7 @@ impl Measure {
         self.for_each_point_and_rate(el, None, |w, c, _| f(w, c));
     }
 
-    /// [`Measure::for_each_point`] with `f(w, c, ∂c/∂p)`, the section changing at `rate`
+    /// [`Criterion::for_each_point`] with `f(w, c, ∂c/∂p)`, the section changing at `rate`
     /// ([`Section::rate`]; zero without one). Each coefficient is a power product of `A`,
     /// `EA`, `EI` and `c`, so its rate is itself times a sum of logarithmic rates; the
     /// relaxation and the bar's length do not move.

@@ -6,7 +6,7 @@ Python front for scenes, optimizers, plots and the command line. Method: Brüls,
 Duysinx & Eberhard, *Optimization of multibody systems and their structural components*.
 """
 
-from . import scenes
+from . import responses, scenes
 from .errors import (CheckpointError, DesignError, ExecutionError, FlextopError, PlausibilityWarning, SceneError, SceneFileError,
                      SettingsError, SimulationError, ToleranceError)
 from .optimizers import OptimizeResult, optimize
@@ -18,6 +18,6 @@ from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticR
 __all__ = [
     "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
     "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
-    "load", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
+    "load", "responses", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]
 __version__ = "0.1.0"

@@ -2,15 +2,142 @@
 
 ``Model`` is a built mechanism and its description; the functions run it. Settings dicts
 take the keys of a scene's ``[simulation]`` table plus ``method`` and ``memory``.
+
+What crosses the boundary as a string-keyed dict is a ``TypedDict`` below, every key with its
+type, shape and units (``n_q``: DOFs, ``n_c``: constraint rows, ``n_x``: design variables,
+``n_t``: recorded states, ``t = 0`` first). They exist for the type checker only
+(``@type_check_only``); import them under ``typing.TYPE_CHECKING``. ``tests/python/test_stub.py``
+runs ``mypy.stubtest`` on this file and checks each dict's keys and value types against the running module.
 """
 
-from typing import Any
+from typing import Any, TypedDict, final, type_check_only
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["Model", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
+           "rigid_positions", "prolong", "section_forces", "response_kinds"]
+
 _F = npt.NDArray[np.float64]
 
+# -- Model's description ----------------------------------------------------------------
+
+@type_check_only
+class BarTable(TypedDict):
+    """``Model.bars()``: one entry per bar."""
+
+    name: list[str]  # the bars' names, n_bars
+    nodes: _F  # end node indices (as floats), (n_bars, 2)
+    variable: list[int]  # design variable of each bar, −1 for a bar of fixed full density
+    component: list[int]  # index into Model.components
+    volume: _F  # full-density volume, (n_bars,), m³
+
+@type_check_only
+class ElementTable(TypedDict):
+    """``Model.elements()``: one entry per beam element."""
+
+    nodes: _F  # end node indices (as floats), (n_elements, 2)
+    bar: list[int]  # the bar each element belongs to, index into BarTable's entries
+
+@type_check_only
+class MechanismInfo(TypedDict):
+    """``Model.mechanism()``: the rigid mechanism behind the flexible one."""
+
+    frames: int  # rigid clusters (frames of beams, rigid bodies)
+    mobility: int  # rigid-body modes the joints leave free at the reference
+    redundant_rows: int  # constraint rows that over-constrain the rigid mechanism (0: none)
+    over_constraining: list[str]  # names of the joints involved in the redundancy
+
+@type_check_only
+class JointInfo(TypedDict):
+    """One entry of ``Model.joints()``."""
+
+    name: str  # the joint's name
+    kind: str  # "clamp", "pin", "hinge", "weld" or "prismatic"
+    nodes: list[int]  # node indices (a rigid body's own node for its points; a slider's carrier first)
+    rows: tuple[int, int]  # its constraint rows in lam as (first, end), the drive row last
+    driven: bool  # whether a motion law drives it
+
+# -- results of the functions -------------------------------------------------------------
+
+@type_check_only
+class Trajectory(TypedDict):
+    """``simulate``: time histories of a dynamic run, one row per recorded state."""
+
+    time: _F  # times t_n, (n_t,), s
+    q: _F  # coordinates from the reference (u, v, φ per node), (n_t, n_q), m and rad
+    qdot: _F  # velocities, (n_t, n_q), m/s and rad/s
+    qddot: _F  # accelerations, (n_t, n_q), m/s² and rad/s²
+    lam: _F  # Lagrange multipliers, (n_t, n_c), N or N m
+    iterations: list[int]  # Newton iterations of each step, n_t (0 for t = 0)
+    steps: _F  # the step that reached each state, (n_t,), s (0 for t = 0)
+    kinetic: _F  # kinetic energy, (n_t,), J
+    strain: _F  # strain energy (springs included), (n_t,), J
+    drive_work: _F  # work of the drives since t = 0, (n_t,), J
+    external_work: _F  # work of loads, gravity and motors since t = 0, (n_t,), J
+    damping_work: _F  # work of the dampers since t = 0, (n_t,), J (never positive)
+    h: float  # the step used (an adaptive run's first step), s
+    rho_inf: float  # generalized-α spectral radius at infinity used, dimensionless
+
+@type_check_only
+class Equilibrium(TypedDict):
+    """``solve_static``: a static equilibrium."""
+
+    q: _F  # coordinates from the reference (u, v, φ per node), (n_q,), m and rad
+    lam: _F  # Lagrange multipliers, (n_c,), N or N m
+    iterations: int  # Newton iterations over all load steps
+    load_steps: int  # load steps taken
+    time: float  # the time the loads act at, s
+
+@type_check_only
+class SensitivityData(TypedDict):
+    """``run_with_sensitivities``: responses and their exact gradients."""
+
+    values: _F  # response values f_k(x), (n_r,), each in its response's units
+    gradients: _F  # ∂f_k/∂x_j, (n_r, n_x), response units per unit density
+    parameter_gradients: _F  # ∂f_k/∂p_i of the scene parameters named, (n_r, n_p)
+    peaks: list[float | None]  # per response, an aggregate's largest point value (stress: Pa), None for others
+    method: str  # the method actually used: "direct" or "adjoint"
+    simulation_seconds: float  # wall time of the simulation, s
+    gradient_seconds: float  # wall time of the sensitivity analysis, s
+
+@type_check_only
+class ResponseData(TypedDict):
+    """``evaluate_responses``: responses on recorded states."""
+
+    values: _F  # response values, (n_r,), each in its response's units
+    peaks: list[float | None]  # per response, an aggregate's largest point value (stress: Pa), None for others
+
+@type_check_only
+class CscMatrix(TypedDict):
+    """A sparse matrix as the arguments of ``scipy.sparse.csc_matrix((data, indices, indptr), shape)``."""
+
+    data: _F  # nonzero values, (nnz,)
+    indices: list[int]  # row index of each value, nnz
+    indptr: list[int]  # start of each column in data, n_cols + 1
+    shape: tuple[int, int]  # (n_rows, n_cols)
+
+@type_check_only
+class Linearization(TypedDict):
+    """``linearize``: the system matrices at a state."""
+
+    M: CscMatrix  # mass matrix, (n_q, n_q), kg and kg m²
+    K: CscMatrix  # tangent stiffness K_t(q), (n_q, n_q), N/m, N and N m
+    G: CscMatrix  # constraint Jacobian Φ_q, (n_c, n_q)
+
+@type_check_only
+class NaturalModes(TypedDict):
+    """``natural_modes``: the lowest natural modes, drives locked (n_f ≤ count found)."""
+
+    frequencies: _F  # natural frequencies ω/2π, ascending, (n_f,), Hz
+    shapes: _F  # mass-normalized mode shapes (φᵀMφ = 1), (n_f, n_q)
+    bound: float  # Sturm bound: above every frequency returned, Hz
+    below: int  # Sturm count: how many frequencies lie below bound
+    gradients: _F  # ∂f_j/∂x_i, (n_f, n_x), Hz per unit density
+
+# -- the module ---------------------------------------------------------------------------
+
+@final
 class Model:
     """A built and validated mechanism."""
 
@@ -40,20 +167,23 @@ class Model:
     def components(self) -> list[str]: ...
     @property
     def reference_positions(self) -> _F: ...
-    def bars(self) -> dict[str, Any]: ...
-    def elements(self) -> dict[str, Any]: ...
-    def joints(self) -> list[dict[str, Any]]: ...
-    def mechanism(self) -> dict[str, Any]: ...
+    def bars(self) -> BarTable: ...
+    def elements(self) -> ElementTable: ...
+    def joints(self) -> list[JointInfo]: ...
+    def mechanism(self) -> MechanismInfo: ...
 
 def simulate(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None, local_tol: float | None = None,
-             steps: list[float] | None = None, guide: _F | None = None) -> dict[str, Any]: ...
-def solve_static(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None) -> dict[str, Any]: ...
+             steps: list[float] | None = None, guide: _F | None = None) -> Trajectory: ...
+def solve_static(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None) -> Equilibrium: ...
 def run_with_sensitivities(model: Model, x: _F, responses: list[str], settings: dict[str, Any] | None = None,
-                           steps: list[float] | None = None) -> dict[str, Any]: ...
+                           steps: list[float] | None = None, parameters: list[str] = ...) -> SensitivityData: ...
 def evaluate_responses(model: Model, x: _F | None, q: _F, lam: _F, times: list[float], load_time: float,
-                       responses: list[str]) -> dict[str, Any]: ...
+                       responses: list[str], qdot: _F | None = None,
+                       settings: dict[str, Any] | None = None) -> ResponseData: ...
 def prolong(coarse: Model, fine: Model, q: _F) -> _F: ...
-def linearize(model: Model, x: _F | None = None, q: _F | None = None, settings: dict[str, Any] | None = None) -> dict[str, Any]: ...
-def natural_modes(model: Model, count: int, x: _F | None = None, q: _F | None = None, settings: dict[str, Any] | None = None) -> dict[str, Any]: ...
+def linearize(model: Model, x: _F | None = None, q: _F | None = None, settings: dict[str, Any] | None = None) -> Linearization: ...
+def natural_modes(model: Model, count: int, x: _F | None = None, q: _F | None = None,
+                  settings: dict[str, Any] | None = None) -> NaturalModes: ...
 def rigid_positions(model: Model, times: list[float]) -> _F: ...
 def section_forces(model: Model, x: _F | None, q: _F) -> _F: ...
+def response_kinds() -> list[tuple[str, str, str, bool]]: ...

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from . import checkpoint, export, scenarios, scenes
+from . import checkpoint, export, responses, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
@@ -425,7 +425,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")
     o.add_argument("--workers", type=_positive(int), help="run the scenarios of an evaluation on N threads")
     o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
-    o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene)")
+    o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene): "
+                   + ", ".join(responses.NAMES))
     o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")

@@ -99,7 +99,7 @@ def natural_modes(levels: Levels, n: int, x: np.ndarray | None, rtol: float | No
         previous = current
 
 
-def _extrapolate(coarse: dict, fine: dict) -> tuple[np.ndarray, np.ndarray]:
+def _extrapolate(coarse: _core.NaturalModes, fine: _core.NaturalModes) -> tuple[np.ndarray, np.ndarray]:
     """Richardson's value of two levels a factor 2 apart, and its exact gradient."""
     c = 2.0**ORDER
     return ((c * fine["frequencies"] - coarse["frequencies"]) / (c - 1),
@@ -112,7 +112,7 @@ def _unknowns(levels: Levels, r: int) -> int:
     return model.n_dofs - model.n_constraints
 
 
-def _level_modes(levels: Levels, r: int, n: int, x: np.ndarray | None, settings: dict[str, Any]) -> dict:
+def _level_modes(levels: Levels, r: int, n: int, x: np.ndarray | None, settings: dict[str, Any]) -> _core.NaturalModes:
     return _core.natural_modes(levels(r), n, x, None, settings)
 
 

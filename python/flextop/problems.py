@@ -42,6 +42,7 @@ from . import scenes
 from .modal import ks_lowest
 from .errors import DesignError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
+from .responses import PEAK_LIMITED
 from .simulation import Simulation
 from .tolerance import Discretization
 
@@ -63,9 +64,9 @@ FLOOR_RTOL = 1e-3
 """Relative tolerance of the floor's frequencies against the converged structure."""
 
 
-AGGREGATES = ("stress", "shear", "buckling", "torque")
-"""Responses that are means of point values, reported with their peaks (the engine's
-:class:`Measure` names)."""
+AGGREGATES = PEAK_LIMITED
+"""Responses that are means of point values, reported with their peaks (read from the
+engine: :data:`flextop.responses.PEAK_LIMITED`)."""
 
 KEPT_RATIOS = 16
 """Designs whose peak/mean ratios wait for :meth:`TopologyProblem.accept` (an iteration's

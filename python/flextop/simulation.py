@@ -18,13 +18,13 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence, Union
+from typing import Any, Iterable, Iterator, Mapping, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from . import _core, execution, export, modal, saved, tolerance
+from . import _core, execution, export, modal, responses, saved, tolerance
 from .accuracy import preset, split_by
 from .errors import (DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning,
                      SimulationError)
@@ -383,24 +383,12 @@ class Simulation:
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
 
-        Responses, by name: ``"compliance"`` (mean compliance over the motion, paper Eq. 39,
-        or ``Fᵀu`` for a static scene), ``"compliance:COMPONENT"``, ``"tip_deflection"``
-        (mean squared deflection from the rigid trajectory, Eq. 40; the scene's tip, or
-        ``"tip_deflection:NODE"``), ``"volume"`` / ``"volume:COMPONENT"`` (m³, Eq. 38, 41),
-        ``"displacement:NODE:DX,DY"`` (final), ``"integrated_displacement:NODE:DX,DY"`` and
-        ``"stress[:COMPONENT|BAR][:OPTIONS]"``: the fibre stresses ``x^q (N/A ± M c/I)`` at six
-        Gauss–Lobatto points along both fibres of every element, condensed over the motion
-        and the structure's length (Pa) by a p-mean (``p=8`` by default) or, with
-        ``ks=RHO,scale=S``, a KS mean; ``q=0.5`` (default) relaxes vanishing bars, ``q=0``
-        gives the solid material's stress; ``"shear[...]"`` the section's largest shear stress
-        ``x^q k V/A``; ``"buckling[:COMPONENT|BAR][:OPTIONS]"`` likewise
-        for ``x^q P L²/(π² EI)``, the compression over the pin-ended bar's Euler load;
-        ``"torque:JOINT[:OPTIONS]"`` the torque ``τ = −λ`` a drive applies (N m) condensed
-        over the motion the same way, and ``"torque_rms:JOINT"`` its RMS;
-        ``"torque_squared:JOINT"`` (``∫ τ² dt``), ``"drive_work:JOINT"`` (``∫ τ ġ dt``),
-        ``"energy_drawn:JOINT"`` (``∫ max(τ ġ, 0) dt``), ``"kinetic_energy"``
-        (``∫ ½ q̇ᵀ M q̇ dt``) and ``"joint_position:JOINT"`` (at the end). The
-        means stay below the peak, which the result holds in ``peaks``. Time integrals use the trapezoidal rule on the step times, and the gradients are
+        Responses, by name (``flextop.responses.KINDS``, read from the engine):
+
+{responses}
+
+        Means over the motion stay below the peak, which the result holds in ``peaks``.
+        Time integrals use the trapezoidal rule on the step times, and the gradients are
         those of that discrete value.
 
         ``parameters`` names scene parameters whose gradients come too, by the same direct
@@ -671,6 +659,8 @@ class Simulation:
             raise IndexError(f"node index {index} out of range")
         return self.rigid_positions(times)[:, index]
 
+Simulation.run_with_sensitivities.__doc__ = (Simulation.run_with_sensitivities.__doc__ or "").replace(
+    "{responses}", responses.describe(indent=" " * 8))
 
 CACHED_SCENES = 64
 """Scenes whose :class:`Simulation` a process keeps for its tasks, the least recently used
@@ -738,7 +728,7 @@ class _Run:
     """What dynamic and static results share: the run's data and its joint loads."""
 
     simulation: Simulation = field(repr=False)
-    raw: dict = field(repr=False)
+    raw: Mapping[str, Any] = field(repr=False)
     x: np.ndarray | None = None
     settings: dict = field(default_factory=dict, repr=False)
     discretization: Discretization | None = None

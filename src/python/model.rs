@@ -188,3 +188,13 @@ impl PyModel {
             .collect()
     }
 }
+
+/// Every kind of response the engine computes, as `(name, syntax, doc, peak)`: what the
+/// Python side documents and checks names against (`peak`: a limit on it bounds its peak).
+#[pyfunction]
+pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool)> {
+    crate::response::Response::kinds()
+        .iter()
+        .map(|k| (k.name, k.syntax, k.doc, k.peak))
+        .collect()
+}

@@ -215,7 +215,7 @@ impl StateStore {
 
 /// Runs the simulation on `grid`, keeping what the backward sweep needs, then the adjoint
 /// sweep.
-pub(crate) fn run(
+pub(crate) fn differentiate_backward(
     model: &Model,
     densities: Densities,
     settings: &DynamicSettings,
@@ -281,7 +281,7 @@ fn forward(
 ) -> Result<Vec<f64>, Error> {
     let model = it.assembler().model;
     let mut state = it.initial_state()?;
-    let mut values = vec![0.0; objectives.responses.len()];
+    let mut values = vec![0.0; objectives.len()];
     for n in 0..=grid.len() {
         if n > 0 {
             it.alpha_step(&mut state, grid.step(n - 1))?;

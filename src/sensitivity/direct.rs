@@ -39,7 +39,7 @@ fn block_width(n_x: usize) -> usize {
 }
 
 /// Runs the simulation on `grid` and its direct sensitivity analysis.
-pub(crate) fn run(
+pub(crate) fn differentiate_forward(
     model: &Model,
     densities: Densities,
     settings: &DynamicSettings,

@@ -17,7 +17,7 @@ use crate::statics::{load_stepping, static_newton};
 use crate::time_grid::TimeGrid;
 
 /// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint, resolved).
-pub(crate) fn run(
+pub(crate) fn differentiate_equilibrium(
     model: &Model,
     densities: Densities,
     settings: &StaticSettings,

@@ -7,4 +7,5 @@ mod dynamics;
 mod guides;
 mod sensitivity;
 mod statics;
+mod strain_energy;
 mod variable_steps;

@@ -18,6 +18,7 @@ def fd4(f, x, j, eps=5e-4):
     (flextop.scenes.robot_arm(), ["tip_deflection", "compliance"]),
     (flextop.scenes.robot_arm(), ["torque_rms:shoulder", "torque:elbow:p=16"]),
     (flextop.scenes.static_truss(), ["compliance"]),
+    (flextop.scenes.static_truss(), ["strain_energy"]),
 ])
 def test_gradients_match_finite_differences_for_both_methods(scene, responses):
     sim = flextop.Simulation(scene)
@@ -66,6 +67,23 @@ def test_volume_gradient_is_the_bar_volumes(arm):
 def test_bad_responses_are_named(arm, name, match):
     with pytest.raises(SettingsError, match=match):
         arm.run_with_sensitivities(np.full(arm.n_design, 0.4), [name])
+
+
+def test_the_engine_lists_every_response_it_parses(arm):
+    """The names Python documents are the engine's: each parses (with its argument, where it
+    needs one), the docstring and the CLI's help list them, and an unknown name's error does."""
+    arguments = {"displacement": ":link2[4,2]:0,1", "integrated_displacement": ":link2[4,2]:0,1", "torque": ":shoulder",
+                 "torque_rms": ":shoulder", "torque_squared": ":shoulder", "drive_work": ":shoulder",
+                 "energy_drawn": ":shoulder", "joint_position": ":elbow"}
+    names = [k.name + arguments.get(k.name, "") for k in flextop.responses.KINDS]
+    f, g = arm.run_with_sensitivities(np.full(arm.n_design, 0.4), names, h=0.05)
+    assert f.shape == (len(names),) and np.all(np.isfinite(f)) and np.all(np.isfinite(g))
+    doc = flextop.Simulation.run_with_sensitivities.__doc__
+    with pytest.raises(SettingsError) as unknown:
+        arm.run_with_sensitivities(np.full(arm.n_design, 0.4), ["stiffness"])
+    for kind in flextop.responses.KINDS:
+        assert f"``{kind.syntax}``" in doc and kind.name in str(unknown.value)
+    assert set(flextop.responses.PEAK_LIMITED) == {"stress", "shear", "buckling", "torque"}
 
 
 def test_static_scene_has_no_tip_deflection():

@@ -1,0 +1,79 @@
+//! The elastic energy stored in the beams, `U = Σ_e s(x_e) U_e(q_e)` with `U_e` the
+//! co-rotational strain energy at full density: rigid motion stores none.
+
+use super::arguments::{component, elements_of};
+use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
+use crate::parameter::Parameter;
+
+pub(super) const KIND: Kind = Kind {
+    name: "strain_energy",
+    syntax: "strain_energy[:COMPONENT]",
+    doc: "time-mean elastic energy (1/t_f) ∫ U dt of the beams of one component or all (J), \
+          rigid motion storing none; U at a static equilibrium (where compliance is Fᵀu)",
+    peak: false,
+    parse,
+};
+
+fn parse(model: &crate::model::Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
+    Ok(Box::new(StrainEnergy {
+        component: component(model, rest)?,
+    }))
+}
+
+/// The strain energy of one component or all, meaned over the motion: also the dynamic
+/// compliance of paper Eq. 37, 39.
+#[derive(Debug)]
+pub(super) struct StrainEnergy {
+    /// Component, or `None` for the sum over all.
+    pub(super) component: Option<usize>,
+}
+
+impl Family for StrainEnergy {
+    fn weighting(&self) -> Weighting {
+        Weighting::Mean
+    }
+
+    fn integrand(&self, ctx: &Context, at: Sample, _: Known) -> f64 {
+        let m = ctx.model;
+        elements_of(m, self.component)
+            .map(|e| {
+                let el = &m.elements[e];
+                ctx.densities.stiffness[e] * el.beam.strain_energy(&el.gather(at.q))
+            })
+            .sum()
+    }
+
+    /// `G_q = s(x_e) f_e(q_e)` (the internal force is the energy's gradient) and
+    /// `G_x = s'(x_e) U_e(q_e)`.
+    fn add_partials(&self, ctx: &Context, at: Sample, _: Known, scale: f64, g: Partials) {
+        let m = ctx.model;
+        for e in elements_of(m, self.component) {
+            let el = &m.elements[e];
+            let u = el.gather(at.q);
+            let f = el.beam.internal_force(&u);
+            let s = ctx.densities.stiffness[e];
+            el.dofs()
+                .iter()
+                .zip(f.iter())
+                .for_each(|(&d, fi)| g.q[d] += scale * s * fi);
+            if let Some(v) = m.variable_of(e) {
+                g.x[v] += scale * ctx.densities.stiffness_rate[e] * el.beam.strain_energy(&u);
+            }
+        }
+    }
+
+    /// A section's stiffness moves `U_e` of its elements.
+    fn parameter_partial(&self, ctx: &Context, at: Sample, _: Known, p: &Parameter) -> f64 {
+        let Some((section, rate)) = p.section() else {
+            return 0.0;
+        };
+        let m = ctx.model;
+        elements_of(m, self.component)
+            .filter(|&e| m.bars[m.elements[e].bar].section == section)
+            .map(|e| {
+                let el = &m.elements[e];
+                ctx.densities.stiffness[e] * el.beam.strain_energy_rate(&el.gather(at.q), rate)
+            })
+            .sum()
+    }
+}
