@@ -45,7 +45,7 @@ def converged(sim: flextop.Simulation, x: np.ndarray) -> tuple[np.ndarray, np.nd
     finest: a near-mechanism mode (λ ≪ the stiffness scale) loses digits to round-off as the
     bars are refined (the chords-only design's lowest at 0.0103 Hz wanders by 1e-3 beyond
     32×), so the finest pair is not always the best."""
-    f = {r: sim._level(r).modes(COUNT, x, rtol=None).frequencies for r in (4, 8, 16, 32, 64, 128)}
+    f = {r: sim.levels[r].modes(COUNT, x, rtol=None).frequencies for r in (4, 8, 16, 32, 64, 128)}
     e = {r: (4 * f[2 * r] - f[r]) / 3 for r in (4, 8, 16, 32, 64)}
     change = np.array([np.abs(e[r] / e[r // 2] - 1) for r in (8, 16, 32, 64)])
     best = change.argmin(axis=0)
@@ -77,7 +77,7 @@ def main() -> None:
     for name, x in designs.items():
         exact, uncertainty = converged(sim, x)
         err = lambda f: float(np.abs(f / exact - 1).max())  # noqa: E731
-        meshed = {m: err(sim._level(m).modes(COUNT, x, rtol=None).frequencies) for m in (1, 4)}
+        meshed = {m: err(sim.levels[m].modes(COUNT, x, rtol=None).frequencies) for m in (1, 4)}
         cells = [name, " ".join(f"{f:.4g}" for f in exact), f"{uncertainty.max():.0e}", f"{meshed[1]:.1%}", f"{meshed[4]:.2%}"]
         for rtol in (1e-3, 1e-4):
             seconds, modes = timed(lambda: sim.modes(COUNT, x, rtol=rtol))
@@ -88,7 +88,7 @@ def main() -> None:
     x = designs["uniform 0.4"]
     dense, sparse = {}, {}
     for r in (4, 8) if args.quick else (4, 8, 16):
-        level = sim._level(r)
+        level = sim.levels[r]
         dense[r] = (timed(lambda: dense_frequencies(level, x))[0], level.model.n_dofs)
         sparse[r] = timed(lambda: level.modes(COUNT, x, rtol=None))[0]
         print(f"r={r}: dense {dense[r][0]:.2f} s, sparse {sparse[r]:.3f} s, {dense[r][1]} DOFs", flush=True)
@@ -96,7 +96,7 @@ def main() -> None:
     per_cube = dense[last][0] / dense[last][1] ** 3
     tol_seconds, modes = timed(lambda: sim.modes(COUNT, x, rtol=1e-3))
     used = [modes.refinement // 4, modes.refinement // 2, modes.refinement]
-    dense_equal = sum(dense[r][0] if r in dense else per_cube * sim._level(r).model.n_dofs ** 3 for r in used)
+    dense_equal = sum(dense[r][0] if r in dense else per_cube * sim.levels[r].model.n_dofs ** 3 for r in used)
 
     out = [
         "# Natural frequencies across designs",

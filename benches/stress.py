@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 import flextop
-from flextop.accuracy import split_by
+from flextop.discretization.accuracy import split_by
 from flextop.plots import plot_design
 from flextop.problems import (MIN_FREQUENCY, TopologyProblem, robot_arm_problem, static_truss_problem, ten_bar_truss_problem,
                               tightened)

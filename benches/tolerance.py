@@ -44,7 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import flextop  # noqa: E402
-from flextop.tolerance import Discretization  # noqa: E402
+from flextop.discretization.tolerance import Discretization  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RTOLS = (3e-2, 1e-2, 3e-3)
@@ -103,8 +103,8 @@ def beam_designs(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
 def reference(sim: flextop.Simulation, x: np.ndarray, d: Discretization) -> tuple[float, np.ndarray, float]:
     """d and ∇d on ``d``, and the change of d from half that refinement and steps."""
     t_end = sim.spec["simulation"]["t_end"]
-    fine = sim._level(d.refinement).run_with_sensitivities(x, "tip_deflection", h=t_end / d.steps)
-    coarse = sim._level(d.refinement // 2).run(x, h=t_end / (d.steps // 2)).tip_deflection()
+    fine = sim.levels[d.refinement].run_with_sensitivities(x, "tip_deflection", h=t_end / d.steps)
+    coarse = sim.levels[d.refinement // 2].run(x, h=t_end / (d.steps // 2)).tip_deflection()
     return float(fine.values[0]), fine.gradients[0], abs(coarse / fine.values[0] - 1.0)
 
 
@@ -130,7 +130,7 @@ def study(scene: Scene) -> list[dict]:
             score(f"rtol {rtol:g}", seconds, out, out.errors["tip_deflection"])
         h = scene.simulation.spec["simulation"]["h"]
         for name, m in FIXED.items():
-            level = scene.simulation._level(m)
+            level = scene.simulation.levels[m]
             seconds, out = timed(lambda: level.run_with_sensitivities(x, "tip_deflection", h=h / m))
             score(name, seconds, out)
         rows.append(row)
@@ -182,7 +182,7 @@ def plot(results: list[tuple[Scene, list[dict]]], path: Path) -> None:
 def true_d(sim: flextop.Simulation, x: np.ndarray) -> float:
     """d of the design as built, on 4× the elements per bar, time error extrapolated away."""
     built, xb = sim.as_built(x)
-    fine, coarse = (built._level(4).run(xb, h=1.3 / n).tip_deflection() for n in (2176, 1088))
+    fine, coarse = (built.levels[4].run(xb, h=1.3 / n).tip_deflection() for n in (2176, 1088))
     return fine + (fine - coarse) / 3
 
 
@@ -213,7 +213,7 @@ def optimization(fresh: bool) -> None:
 
 
 def optimize_arm(sim: flextop.Simulation, options: dict, m: int, x0: np.ndarray):
-    level = sim._level(m)
+    level = sim.levels[m]
     problem = flextop.TopologyProblem(level, "tip_deflection", flextop.volume_constraints(level, 0.4), **options)
     seconds, result = timed(lambda: flextop.optimize(problem, x0, method="mma", max_iter=40))
     return problem, result, seconds

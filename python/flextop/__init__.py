@@ -13,7 +13,8 @@ from .optimizers import OptimizeResult, optimize
 from .problems import TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
 from .scenarios import Scenario, ScenarioProblem
 from .scene import GroundStructure, Scene, motion_table, trapezoidal
-from .simulation import Bars, Joint, Results, Sensitivities, Simulation, StaticResults, load
+from .results import Bars, Joint, Results, Sensitivities, StaticResults
+from .simulation import Simulation, load
 
 __all__ = [
     "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",

@@ -34,7 +34,8 @@ from .optimizers.driver import CONVERGED, Status
 from .problems import MIN_FREQUENCY, TopologyProblem, relation, volume_constraints
 from .scenarios import ScenarioProblem
 from .scene import Scene, read_toml
-from .simulation import Results, Simulation
+from .results import Results
+from .simulation import Simulation
 
 
 NOT_CONVERGED = 3
@@ -412,7 +413,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--h", type=_positive(float))
     s.add_argument("--rho-inf", type=float)
     s.add_argument("--mass", choices=["consistent", "lumped"])
-    s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
+    s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.discretization.accuracy)")
     s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")
     s.add_argument("--out", help="folder for results.npz (everything the run holds; flextop.load reads it) and tip_error.png")
@@ -445,7 +446,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=_positive(float))
-    o.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.accuracy)")
+    o.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.discretization.accuracy)")
     o.add_argument("--rtol", type=_fraction, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")

@@ -23,7 +23,8 @@ from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 from .export import FRAMES, frame_indices
-from .simulation import Results, Simulation
+from .results import Results
+from .simulation import Simulation
 
 __all__ = ["animate", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
 

@@ -44,7 +44,7 @@ from .errors import DesignError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .responses import PEAK_LIMITED
 from .simulation import Simulation
-from .tolerance import Discretization
+from .discretization.tolerance import Discretization
 
 
 MIN_FREQUENCY = "min_frequency"

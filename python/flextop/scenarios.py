@@ -52,8 +52,9 @@ from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .problems import is_aggregate
 from .scene import Scene
-from .simulation import Sensitivities, Simulation, Task, perform, remember
-from .tolerance import Discretization
+from .results import Sensitivities
+from .simulation import Simulation, Task, perform, remember
+from .discretization.tolerance import Discretization
 
 WORST_CASE_RANGE = (-20.0, 1.0)
 """Bounds of the worst-case variable ``β = ln(max wₛfₛ / f_ref)``: from a factor e⁻²⁰ (2e-9)

@@ -210,6 +210,12 @@ class Scene:
         self._spec.setdefault("motors", []).append(
             {"name": name, "joint": joint, "servo": {"kp": kp, "kd": kd, "motion": motion}})
 
+    def split(self, bar: str, elements: int) -> None:
+        """Gives the bar called ``bar`` (``LINK/barK`` of a ground structure, a beam's name)
+        ``elements`` elements, whatever the ``split`` of its ground structure or beam: a
+        discretization chosen bar by bar (the scene's ``[splits]`` table)."""
+        self._spec.setdefault("splits", {})[bar] = elements
+
     def initial_rate(self, joint: str, rate: float) -> None:
         """Starts the undriven ``joint``'s coordinate moving at ``rate`` (rad/s; m/s on a
         slider): the mechanism starts in the rigid motion its initial rates determine."""

@@ -1,4 +1,6 @@
-"""Running a scene: :class:`Simulation` and its :class:`Results`.
+"""Running a scene: :class:`Simulation`, which builds it once and runs it for any design
+(its results in :mod:`flextop.results`; runs to a tolerance in
+:mod:`flextop.discretization`).
 
 ``Simulation(scene).run(x)`` integrates a dynamic scene with generalized-α (paper
 Algorithm 1) or solves a static one, for the design ``x`` (one density per design
@@ -9,27 +11,26 @@ from __future__ import annotations
 
 import copy
 import json
-import math
 import os
 import threading
 import warnings
 from collections import OrderedDict
 from concurrent.futures import Executor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping, Sequence, Union
+from typing import Any, Iterable, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from . import _core, execution, export, modal, responses, saved, tolerance
-from .accuracy import preset, split_by
-from .errors import (DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning,
-                     SimulationError)
+from . import _core, execution, modal, responses, saved
+from .discretization import Levels, preset, refinement, tolerance
+from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
-from .tolerance import Discretization, ErrorEstimate
+from .discretization.tolerance import Discretization
+from .results import Bars, Joint, Results, Sensitivities, StaticResults
 
 
 DesignLike = Union[float, Sequence[float], "npt.NDArray[np.floating]", None]
@@ -93,88 +94,6 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     return Scene.from_toml(Path(scene)).to_dict()
 
 
-@dataclass(frozen=True)
-class Joint:
-    """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``, ``"weld"``,
-    ``"prismatic"``), node indices (a rigid body's own node for its points; a slider's
-    carrier first), the ``range`` of its constraint rows in ``lam`` (the drive row last)
-    and whether a motion law drives it."""
-
-    name: str
-    kind: str
-    nodes: tuple[int, ...]
-    rows: range
-    driven: bool
-
-
-@dataclass(frozen=True, eq=False)
-class Bars:
-    """The scene's bars, one entry per bar in each array: ``name``, end ``nodes``
-    ``(n_bars, 2)``, design ``variable`` (−1 for a bar of fixed full density), ``component``
-    index into :attr:`Simulation.components`, full-density ``volume`` (m³)."""
-
-    name: tuple[str, ...]
-    nodes: np.ndarray
-    variable: np.ndarray
-    component: np.ndarray
-    volume: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.name)
-
-
-@dataclass(frozen=True, eq=False)
-class Sensitivities:
-    """Responses and their exact gradients from :meth:`Simulation.run_with_sensitivities`.
-
-    Unpacks as ``f, dfdx = ...``. ``values`` has shape ``(n_r,)``, ``gradients``
-    ``(n_r, n_design)``, in the order of ``names``; ``method`` is the method used
-    (``"direct"`` or ``"adjoint"``; values only, from :meth:`Simulation.map` with
-    ``gradients=False``: ``"none"`` and ``gradients`` ``None``) and ``timings`` the seconds spent in the simulation and
-    in the sensitivity analysis. A run made to a tolerance also carries its
-    ``discretization`` and, per name, the estimated relative ``errors`` of the values and
-    ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
-    ``steps``. ``peaks`` holds, per stress or buckling response, the largest point value over
-    the motion, beside the mean in ``values`` (runs with gradients only). With scene
-    ``parameters`` named, ``parameter_gradients`` has shape ``(n_r, n_parameters)``;
-    :meth:`parameter_gradient` reads one.
-    """
-
-    names: tuple[str, ...]
-    values: np.ndarray
-    gradients: np.ndarray | None
-    method: str
-    timings: dict[str, float]
-    discretization: Discretization | None = None
-    errors: dict[str, float] = field(default_factory=dict)
-    gradient_errors: dict[str, float] = field(default_factory=dict)
-    steps: np.ndarray | None = field(default=None, repr=False)
-    peaks: dict[str, float] = field(default_factory=dict)
-    parameters: tuple[str, ...] = ()
-    parameter_gradients: np.ndarray | None = None
-
-    def parameter_gradient(self, response: str, parameter: str) -> float:
-        """``∂f/∂p`` of one response with respect to one scene parameter."""
-        if self.parameter_gradients is None or parameter not in self.parameters:
-            raise SettingsError(f"parameter {parameter!r}: not among those asked for ({', '.join(self.parameters) or 'none'})")
-        if response not in self.names:
-            raise SettingsError(f"response {response!r}: not among {', '.join(self.names)}")
-        return float(self.parameter_gradients[self.names.index(response), self.parameters.index(parameter)])
-
-    def __iter__(self) -> Iterator[np.ndarray]:
-        return iter((self.values, self.gradients))
-
-    def __getitem__(self, index: int) -> np.ndarray:
-        return (self.values, self.gradients)[index]
-
-    def __len__(self) -> int:
-        return 2
-
-    def __repr__(self) -> str:
-        pairs = ", ".join(f"{n}={v:.6g}" for n, v in zip(self.names, self.values))
-        return f"Sensitivities({pairs}; method={self.method!r})"
-
-
 class Simulation:
     """A validated scene, ready to run for any design.
 
@@ -184,12 +103,12 @@ class Simulation:
         A :class:`Scene`, a scene dict, or the path of a TOML scene file.
     accuracy:
         ``"fast"``, ``"balanced"`` or ``"accurate"``: a named ``rtol`` (3e-2, 1e-2, 3e-3;
-        :mod:`flextop.accuracy`).
+        :mod:`flextop.discretization.accuracy`).
     rtol, atol:
         A tolerance on the responses (relative, and absolute in their units): runs without
         an explicit ``h`` then choose the elements per bar and the step so that the
         estimated error of every response asked for is at most ``rtol·|f| + atol``
-        (:mod:`flextop.tolerance`). Each run may also pass its own.
+        (:mod:`flextop.discretization.tolerance`). Each run may also pass its own.
 
     Raises
     ------
@@ -215,7 +134,7 @@ class Simulation:
         if rtol is not None:
             tolerance.check_tolerance(rtol, atol)
         self.rtol, self.atol = rtol, atol
-        self._levels: dict[int, Simulation] = {1: self}
+        self.levels = Levels(self)
         self.model = _core.Model.from_dict(spec)
         raw = self.model.bars()
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
@@ -330,12 +249,12 @@ class Simulation:
         if local_tol is not None:
             if rtol is not None or self.analysis == "static":
                 raise SettingsError("local_tol applies to a dynamic run without rtol")
-            return self._fixed(xv, settings, local_tol=local_tol)
+            return self.run_fixed(xv, settings, local_tol=local_tol)
         wanted = self._tolerance(rtol, atol, h)
         if wanted is None:
-            return self._fixed(xv, settings)
+            return self.run_fixed(xv, settings)
         names = [responses] if isinstance(responses, str) else list(responses or [self._default_response()])
-        return self._to_tolerance(xv, names, wanted, settings, None)
+        return refinement.to_tolerance(self, xv, names, wanted, settings, None)
 
     def simulate(self, x: DesignLike = None, **options: Any) -> Results:
         """:meth:`run` of a dynamic scene, typed as its :class:`Results` (``options`` as in
@@ -355,11 +274,13 @@ class Simulation:
         assert isinstance(res, StaticResults)
         return res
 
-    def _fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
+    def run_fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
                steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Results | StaticResults:
         """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
         to ``local_tol``; Newton starts each step from ``guide`` (a nearby run's ``q`` at
-        the same times) when given."""
+        the same times) when given. ``xv`` is a checked design vector and ``settings`` the
+        run settings as the engine takes them: the primitive that :meth:`run` and the
+        refinement of :mod:`flextop.discretization` compose."""
         if self.analysis == "static":
             static = StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
             _warn_if_implausible_static(static)
@@ -431,12 +352,12 @@ class Simulation:
         if local_tol is not None:
             if rtol is not None or self.analysis == "static":
                 raise SettingsError("local_tol applies to a dynamic run without rtol")
-            steps = self._fixed(xv, self._settings(**settings), local_tol=local_tol).steps
-            return self._sensitivities(xv, names, self._settings(**gradients, **settings), steps)
+            steps = self.run_fixed(xv, self._settings(**settings), local_tol=local_tol).steps
+            return self.sensitivities_fixed(xv, names, self._settings(**gradients, **settings), steps)
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is None:
-            return self._sensitivities(xv, names, self._settings(**gradients, **settings))
-        return self._to_tolerance(xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
+            return self.sensitivities_fixed(xv, names, self._settings(**gradients, **settings))
+        return refinement.to_tolerance(self, xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
 
     def map(self, designs: Iterable[DesignLike], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
             executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:
@@ -455,7 +376,10 @@ class Simulation:
         tasks = [(f"design {k}", Task(self.spec, x, names, gradients, options, self.options)) for k, x in enumerate(vectors)]
         return execution.run_all(perform, tasks, executor, chunksize=chunksize)
 
-    def _sensitivities(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
+    def sensitivities_fixed(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
+        """Responses ``names`` and their exact gradients on the scene as it is (its steps, or
+        the given ``steps``), ``settings`` as the engine takes them (with ``method``,
+        ``memory`` and ``parameters``): the primitive of :meth:`run_with_sensitivities`."""
         grid = None if steps is None else [float(h) for h in steps]
         settings = dict(settings)
         parameters = settings.pop("parameters", [])
@@ -481,95 +405,6 @@ class Simulation:
 
     def _default_response(self) -> str:
         return "tip_deflection" if self.tip is not None and self.analysis == "dynamic" else "compliance"
-
-    def _first(self, settings: dict[str, Any]) -> Discretization:
-        """The scene's own discretization: its elements per bar and step (16 steps if the
-        scene gives none)."""
-        if self.analysis == "static":
-            return Discretization(1, 0)
-        t_end = self._t_end(settings)
-        h = self.spec.get("simulation", {}).get("h") or t_end / 16
-        if not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h <= t_end):
-            raise SettingsError(f"simulation.h: must be a step in (0, t_end], got {h!r}")
-        return tolerance.start(math.ceil(t_end / h - 1e-9))
-
-    def _t_end(self, settings: dict[str, Any]) -> float:
-        t_end = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
-        if t_end is None:
-            raise SettingsError("t_end: give it in the scene's [simulation] table or to the run")
-        if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
-            raise SettingsError(f"t_end: must be a positive number of seconds, got {t_end!r}")
-        return float(t_end)
-
-    def _level(self, refinement: int) -> Simulation:
-        """This scene with ``refinement`` times its elements per bar."""
-        if refinement not in self._levels:
-            self._levels[refinement] = Simulation(split_by(self.spec, refinement))
-        return self._levels[refinement]
-
-    def _companion(self, refinement: int, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],
-                   coarse: _Run | None, steps: np.ndarray | None = None) -> Results | StaticResults:
-        """A companion run of step doubling at ``refinement`` with ``settings``, each step's
-        Newton started from the states of ``coarse`` (a run at half the refinement on the
-        same steps) carried over, each element's middle node on its cubic shape. Where that
-        fails, the run with ``plain`` settings and no guide decides: a guide or a kept
-        matrix that led Newton astray must not pass for a model that cannot run."""
-        level = self._level(refinement)
-        guide = None if coarse is None else _core.prolong(self._level(refinement // 2).model, level.model, coarse.q)
-        try:
-            return level._fixed(xv, settings, steps=steps, guide=guide)
-        except SimulationError:
-            if guide is None and plain == settings:
-                raise
-            return level._fixed(xv, plain, steps=steps)
-
-    def _to_tolerance(self, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float], settings: dict[str, Any],
-                      gradients: dict[str, str] | None, first: Discretization | None = None, hold_gradients: bool = True) -> Any:
-        """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
-        results (or sensitivities) with its estimate and companions attached. With
-        ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and
-        the sensitivities are computed once, on the grid accepted. Companion runs stop
-        Newton at :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is
-        given), and reuse any run made at their discretization; a candidate reuses only a
-        candidate's run."""
-        t_end = None if self.analysis == "static" else self._t_end(settings)
-        runs: dict[tuple[Discretization, bool], Any] = {}
-        judged = gradients if hold_gradients else None
-        loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
-        loose = {k: v for k, v in loose.items() if k not in settings}
-
-        def run(d: Discretization, gradients: dict[str, str] | None, companion: bool = False) -> Any:
-            level = self._level(d.refinement)
-            at = {**settings, **({"h": t_end / d.steps, "t_end": t_end} if d.steps else {}), **(loose if companion else {})}
-            if gradients:
-                return level._sensitivities(xv, names, {**at, **gradients})
-            if not companion:
-                return level._fixed(xv, at)
-            coarse = made(Discretization(d.refinement // 2, d.steps)) if d.steps and d.refinement % 2 == 0 else None
-            plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
-            return self._companion(d.refinement, xv, at, plain, coarse)
-
-        def made(d: Discretization, companion: bool = True) -> Any:
-            return runs.get((d, False)) or (runs.get((d, True)) if companion else None)
-
-        def values(d: Discretization, companion: bool) -> list[np.ndarray]:
-            out = made(d, companion)
-            if out is None:
-                out = runs[(d, companion)] = run(d, judged, companion)
-            if isinstance(out, Sensitivities):
-                return [*out.values[:, None], *out.gradients]
-            return [np.array([out.response(n)]) for n in names]
-
-        d, est = tolerance.resolve(values, first or self._first(settings), tolerance.tolerance_of(names, *wanted, judged is not None))
-        relative = est.relative
-        errors = dict(zip(names, map(float, relative)))
-        if gradients:
-            out = runs[(d, False)] if hold_gradients else run(d, gradients)
-            return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
-        out = runs[(d, False)]
-        out.discretization, out.errors = d, errors
-        out.companions = (made(d.half_steps), made(d.quarter_steps), made(d.split)) if d.steps else (None, None, made(d.split))
-        return out
 
     def as_built(self, x: DesignLike, threshold: float | None = None) -> tuple[Simulation, np.ndarray]:
         """The design ``x`` as it would be built: its void bars removed.
@@ -638,8 +473,7 @@ class Simulation:
         meet that relative tolerance against the converged structure (bars refined for the
         eigen-analysis, whatever this scene's elements per bar); ``rtol=None`` gives the
         modes of the model as meshed."""
-        levels = lambda r: (self if r == 1 else self._level(r)).model  # noqa: E731
-        return modal.natural_modes(levels, n, self._design(x), rtol, self._settings(mass=mass))
+        return modal.natural_modes(self.levels.model, n, self._design(x), rtol, self._settings(mass=mass))
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> np.ndarray:
         """The ``n`` lowest natural frequencies (Hz) of the structure at rest with its drives
@@ -721,263 +555,6 @@ def _cached(scene: dict, options: dict[str, Any], sim: Simulation | None = None)
 def remember(sim: Simulation) -> None:
     """Lets this process's tasks on ``sim``'s scene and options run on ``sim`` itself."""
     _cached(sim.spec, sim.options, sim)
-
-
-@dataclass(repr=False)
-class _Run:
-    """What dynamic and static results share: the run's data and its joint loads."""
-
-    simulation: Simulation = field(repr=False)
-    raw: Mapping[str, Any] = field(repr=False)
-    x: np.ndarray | None = None
-    settings: dict = field(default_factory=dict, repr=False)
-    discretization: Discretization | None = None
-    """For a run made to a tolerance: the refinement of the scene and the steps that met it."""
-    errors: dict[str, float] = field(default_factory=dict)
-    """For a run made to a tolerance: the estimated relative error of each response it met."""
-    companions: tuple[_Run | None, _Run | None, _Run] | None = field(default=None, repr=False)
-    """The runs the estimate compares with: half and a quarter of the steps (``None`` for
-    statics), and twice the elements per bar on half the steps."""
-
-    @property
-    def q(self) -> np.ndarray:
-        """Solved coordinates ``q``: displacements and rotations from the reference
-        configuration, three per node (``(u, v, φ)``)."""
-        return self.raw["q"]
-
-    @property
-    def lam(self) -> np.ndarray:
-        """Lagrange multipliers ``λ``, one per constraint row."""
-        return self.raw["lam"]
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Everything this result holds, to ``path`` (``.npz``; :mod:`flextop.saved`), for
-        :func:`flextop.load` to give back bit for bit."""
-        return saved.write(self, path)
-
-    def __repr__(self) -> str:
-        x = ("full density" if self.x is None else "no design variables" if np.size(self.x) == 0
-             else f"x in [{np.min(self.x):.3g}, {np.max(self.x):.3g}] ({np.size(self.x)} values)")
-        tolerance = f", {self.discretization}" if self.discretization is not None else ""
-        return f"{type(self).__name__}({self.simulation.spec.get('name') or 'scene'}: {self._summary()}; {x}{tolerance})"
-
-    def _summary(self) -> str:
-        return f"{self.raw['iterations']} Newton iterations"
-
-    @cached_property
-    def section_forces(self) -> np.ndarray:
-        """Per state and element: the axial force ``N`` (N, tension positive) and the end
-        moments ``M₁``, ``M₂`` (N m) in the element's chord frame, with the design's
-        stiffness; shape ``(n_states, n_elements, 3)`` (one state for a static result)."""
-        q = np.ascontiguousarray(np.atleast_2d(self.q), dtype=float)
-        return _core.section_forces(self.simulation.model, self.x, q)
-
-    @cached_property
-    def reactions(self) -> dict[str, np.ndarray]:
-        """Per joint, the force (and, for a drive row, torque) it applies on the structure:
-        ``−λ`` of its constraint rows."""
-        return {j.name: -self.lam[..., j.rows.start:j.rows.stop] for j in self.simulation.joints}
-
-    def _value_and_peak(self, name: str) -> tuple[float, float | None]:
-        """The value of response ``name`` on this run's states and its peak (an aggregate's
-        largest point value; ``None`` for other responses). A static result is one state
-        whose loads act at its ``raw["time"]``; a dynamic one has a state per time."""
-        time = np.atleast_1d(self.raw["time"])
-        times, load_time = (np.zeros(1), float(time[0])) if self.simulation.analysis == "static" else (time, 0.0)
-        qdot = getattr(self, "qdot", None)
-        kind = self.settings.get("mass") or self.simulation.spec.get("simulation", {}).get("mass")
-        mass = {"mass": kind} if kind else None
-        out = _core.evaluate_responses(self.simulation.model, self.x, np.atleast_2d(self.q), np.atleast_2d(self.lam),
-                                       list(map(float, times)), load_time, [name],
-                                       None if qdot is None else np.atleast_2d(qdot), mass)
-        return float(out["values"][0]), out["peaks"][0]
-
-    def peak(self, name: str) -> float:
-        """The largest point value of an aggregate response (``"stress"``, ``"shear"``,
-        ``"buckling"``, …) over this run's states, beside the mean :meth:`response` gives;
-        a ``SettingsError`` for a response that is not an aggregate."""
-        value = self._value_and_peak(name)[1]
-        if value is None:
-            raise SettingsError(f"response '{name}' is not an aggregate: it has no peak")
-        return float(value)
-
-    def response(self, name: str) -> float:
-        """Value of a response of :meth:`Simulation.run_with_sensitivities` (e.g.
-        ``"compliance"``; for a static scene ``Fᵀu``) on this run — the same discrete value
-        the gradients refer to."""
-        return self._value_and_peak(name)[0]
-
-    def error_estimate(self, name: str) -> float:
-        """The estimated relative error of response ``name`` (any name of
-        :meth:`Simulation.run_with_sensitivities`) against the converged discretization, by
-        step doubling in time and space (:mod:`flextop.tolerance`). A run made to a
-        tolerance has its companion runs already; for any other run they are made on the
-        first call: its steps merged in pairs and in fours, and twice the elements per bar
-        on the steps merged in pairs (a static scene: twice the elements per bar only)."""
-        half, quarter, split = self._companions()
-        value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
-        est = tolerance.estimate(value(self), value(half), value(quarter), value(split))
-        return float(est.relative[0])
-
-    def _companions(self) -> tuple[_Run | None, _Run | None, _Run]:
-        if self.companions is None:
-            steps, half, quarter = None, None, None
-            if isinstance(self, Results):
-                steps = self.steps
-                if len(steps) < 4:
-                    raise SettingsError("an error estimate needs a run of at least 4 steps")
-                half, quarter = (self.simulation._fixed(self.x, self.settings, steps=_merged(steps, k)) for k in (2, 4))
-            split_steps = None if steps is None else _merged(steps, 2)
-            split = self.simulation._companion(2, self.x, self.settings, self.settings, half, split_steps)
-            self.companions = (half, quarter, split)
-        return self.companions
-
-
-def _merged(steps: np.ndarray, k: int) -> np.ndarray:
-    """The steps summed in consecutive groups of ``k`` (the last group may be shorter)."""
-    return np.add.reduceat(steps, np.arange(0, len(steps), k))
-
-
-@dataclass(repr=False)
-class Results(_Run):
-    """Time histories of a dynamic run (one row per time ``t_n``): ``q``, ``qdot``,
-    ``qddot``, ``lam``, as the engine and saved files name them.
-
-    ``q`` holds the solved coordinates — displacements and rotations from the reference
-    configuration, three per node; :attr:`coordinates` the absolute nodal coordinates
-    ``(x, y, φ)`` of the paper.
-    """
-
-    def _summary(self) -> str:
-        return f"{len(self.time) - 1} steps to t = {self.time[-1]:.6g} s"
-
-    def to_xarray(self) -> Any:
-        """The time histories as an ``xarray.Dataset``: ``q`` (displacements and rotation
-        from the reference), ``qdot``, ``qddot`` over ``(time, node, coordinate)``
-        (coordinates ``x``, ``y``, ``phi``: the components), ``lam`` over ``(time,
-        multiplier)`` (``JOINT:ROW``), the energies and step sizes over time, the design
-        ``x`` over ``variable``; the scene's name, ``h`` and ``rho_inf`` as attributes."""
-        try:
-            import xarray as xr
-        except ImportError:
-            raise SettingsError("to_xarray needs xarray: pip install xarray") from None
-        sim, n = self.simulation, len(self.time)
-        nodal = ("time", "node", "coordinate")
-        data = {k: (nodal, np.asarray(self.raw[k]).reshape(n, -1, 3)) for k in ("q", "qdot", "qddot")}
-        data |= {"lam": (("time", "multiplier"), self.raw["lam"]), "steps": ("time", self.raw["steps"])}
-        data |= {k: ("time", v) for k, v in self.energies.items()}
-        attrs = {"scene": sim.spec.get("name") or "", "h": self.raw["h"], "rho_inf": self.raw["rho_inf"]}
-        if self.x is not None:
-            data["x"] = ("variable", self.x)
-        coords = {"time": self.time, "node": sim.node_names, "coordinate": ["x", "y", "phi"],
-                  "multiplier": saved.multiplier_names(sim), "variable": sim.variable_names}
-        return xr.Dataset(data, coords=coords, attrs=attrs)
-
-    def to_vtk(self, path: str | os.PathLike, *, every: int | None = None) -> Path:
-        """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
-        step (every ``every``-th, default about 100 frames, and the last) beside it
-        (:mod:`flextop.export`)."""
-        return export.write_motion(self, path, every=every)
-
-    @property
-    def time(self) -> np.ndarray:
-        return self.raw["time"]
-
-    @property
-    def coordinates(self) -> np.ndarray:
-        """Absolute nodal coordinates ``(x, y, φ)`` per node: ``q`` plus the reference."""
-        ref = np.zeros(self.q.shape[1])
-        ref.reshape(-1, 3)[:, :2] = self.simulation.model.reference_positions
-        return self.q + ref
-
-    @property
-    def steps(self) -> np.ndarray:
-        """The step sizes ``hₙ = tₙ₊₁ − tₙ`` that ran (s)."""
-        return self.raw["steps"][1:]
-
-    @property
-    def qdot(self) -> np.ndarray:
-        """Velocities ``q̇``."""
-        return self.raw["qdot"]
-
-    @property
-    def qddot(self) -> np.ndarray:
-        """Accelerations ``q̈``."""
-        return self.raw["qddot"]
-
-    @cached_property
-    def positions(self) -> np.ndarray:
-        """Node positions, shape ``(n_times, n_nodes, 2)``."""
-        return self.coordinates.reshape(len(self.time), -1, 3)[:, :, :2]
-
-    @cached_property
-    def rotations(self) -> np.ndarray:
-        """Node rotations from the reference, shape ``(n_times, n_nodes)``."""
-        return self.q.reshape(len(self.time), -1, 3)[:, :, 2]
-
-    @cached_property
-    def motor_torques(self) -> dict[str, np.ndarray]:
-        """Per driven joint, the motor torque applied on the driven node (N m): its drive row,
-        the last of its reactions."""
-        return {j.name: self.reactions[j.name][..., -1] for j in self.simulation.joints if j.driven}
-
-    @property
-    def energies(self) -> dict[str, np.ndarray]:
-        """Kinetic and strain energy (springs and servos' springs included), the work of the
-        drives, of external loads, gravity and motors (a servo's feed), and of the dampers
-        (negative: what they dissipated) (J). From an equilibrium start the strain energy
-        starts at the equilibrium's; the balance is on the changes."""
-        names = ("kinetic", "strain", "drive_work", "external_work", "damping_work")
-        return {k: self.raw.get(k, np.zeros_like(self.raw["kinetic"])) for k in names}
-
-    @property
-    def newton(self) -> dict[str, Any]:
-        """Newton statistics: ``iterations`` per step, ``total``, ``max``, ``mean``."""
-        its = np.asarray(self.raw["iterations"][1:])
-        return {"iterations": its, "total": int(its.sum()), "max": int(its.max(initial=0)), "mean": float(its.mean()) if its.size else 0.0}
-
-    def tip_error(self, node: int | str | None = None) -> np.ndarray:
-        """``e(t) = r(t) − r_rigid(t)`` of ``node`` (the scene's tip by default), ``(n, 2)``."""
-        index = self._node(node)
-        return self.positions[:, index] - self.simulation.rigid_trajectory(index, self.time)
-
-    def tip_deflection(self, node: int | str | None = None) -> float:
-        """Mean squared tip deflection ``d = (1/t_f) ∫ |e|² dt`` (paper Eq. 40, m²), by the
-        trapezoidal rule on the step times."""
-        if node is None:
-            return self.response("tip_deflection")
-        name = self.simulation.node_names[node] if isinstance(node, int) else node
-        return self.response(f"tip_deflection:{name}")
-
-    def _node(self, node: int | str | None) -> int:
-        if node is None:
-            if self.simulation.tip is None:
-                raise ValueError("the scene has no tip; name a node")
-            return self.simulation.tip
-        return self.simulation.node(node) if isinstance(node, str) else int(node)
-
-
-@dataclass(repr=False)
-class StaticResults(_Run):
-    """A static equilibrium."""
-
-    def to_vtk(self, path: str | os.PathLike) -> Path:
-        """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.export`)."""
-        return export.write_state(self, path)
-
-    @property
-    def positions(self) -> np.ndarray:
-        """Node positions, shape ``(n_nodes, 2)``."""
-        return self.simulation.model.reference_positions + self.q.reshape(-1, 3)[:, :2]
-
-    @property
-    def newton(self) -> dict[str, Any]:
-        return {"total": self.raw["iterations"], "load_steps": self.raw["load_steps"]}
-
-    def displacement(self, node: int | str) -> np.ndarray:
-        """Displacement ``(u, v, φ)`` of ``node``."""
-        index = self.simulation.node(node) if isinstance(node, str) else int(node)
-        return self.q[3 * index:3 * index + 3]
 
 
 def load(path: str | os.PathLike) -> Results | StaticResults:

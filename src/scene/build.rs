@@ -30,11 +30,12 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
         .map(|g| g.section.as_str())
         .collect();
     let sections = section::sections(&spec.sections, &rigid)?;
-    let mut mesh = Mesh::default();
+    let mut mesh = Mesh::with_splits(&spec.splits);
     mesh.add_nodes(&spec.nodes)?;
     let mut point_masses =
         ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
     mesh.add_beams(&spec.beams, &sections)?;
+    mesh.check_splits()?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;

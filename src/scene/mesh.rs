@@ -2,11 +2,12 @@
 //! beam elements ([`crate::element::beam`]).
 //!
 //! Bars come from the scene's beams and from its ground structures
-//! ([`super::ground_structure`]). A bar of `split` elements gets `split − 1` interior nodes
-//! of its own, evenly spaced and named `NAME:k`. Once every bar is known, each must be
+//! ([`super::ground_structure`]). A bar of `split` elements (its beam's or ground
+//! structure's, or its own in the scene's `splits`) gets `split − 1` interior nodes of its
+//! own, evenly spaced and named `NAME:k`. Once every bar is known, each must be
 //! longer than the round-off of the scene's coordinates.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use nalgebra::Vector2;
 
@@ -42,6 +43,9 @@ pub(super) struct Mesh {
     pub(super) bodies: Vec<RigidBody>,
     /// The points of rigid bodies, by name (`body.point`).
     points: HashMap<String, Anchor>,
+    /// Elements of single bars by name, overriding their `split`, and whether a bar has
+    /// taken each.
+    splits: HashMap<String, (usize, bool)>,
 }
 
 /// What a new bar is made of and where it belongs.
@@ -63,6 +67,28 @@ pub(super) struct BarSpec<'a> {
 }
 
 impl Mesh {
+    /// An empty mesh whose bars named in `splits` get that many elements.
+    pub(super) fn with_splits(splits: &BTreeMap<String, usize>) -> Self {
+        Self {
+            splits: splits.iter().map(|(k, &v)| (k.clone(), (v, false))).collect(),
+            ..Self::default()
+        }
+    }
+
+    /// Every entry of the scene's `splits` names a bar of the mesh.
+    pub(super) fn check_splits(&self) -> Result<()> {
+        let mut unused: Vec<&String> = self.splits.iter().filter(|(_, v)| !v.1).map(|(k, _)| k).collect();
+        unused.sort();
+        match unused.first() {
+            None => Ok(()),
+            Some(name) => Err(SceneError::new(
+                format!("splits.{name}"),
+                "no deformable bar is called so (a ground structure's bars are NAME/barK, a \
+                 beam's its name; a rigid frame has none)",
+            )),
+        }
+    }
+
     /// The scene's named nodes.
     pub(super) fn add_nodes(&mut self, nodes: &[NodeSpec]) -> Result<()> {
         for (k, n) in nodes.iter().enumerate() {
@@ -179,12 +205,18 @@ impl Mesh {
         })
     }
 
-    /// A straight bar split into `split` elements, interior nodes named `NAME:k` (its length
-    /// is checked by [`Mesh::size`] once the whole mesh is known).
-    pub(super) fn add_bar(&mut self, b: BarSpec) -> Result<()> {
+    /// A straight bar split into `split` elements (or as many as the scene's `splits` gives
+    /// it), interior nodes named `NAME:k` (its length is checked by [`Mesh::size`] once the
+    /// whole mesh is known).
+    pub(super) fn add_bar(&mut self, mut b: BarSpec) -> Result<()> {
         let [a, z] = b.ends;
         let length = (self.nodes[z].position - self.nodes[a].position).norm();
-        let chain = self.chain(&b)?;
+        let mut split_at = format!("{}.split", b.path);
+        if let Some((split, used)) = self.splits.get_mut(&b.name) {
+            (b.split, *used) = (*split, true);
+            split_at = format!("splits.{}", b.name);
+        }
+        let chain = self.chain(&b, &split_at)?;
         let first = self.elements.len();
         let bar = self.bars.len();
         for w in chain.windows(2) {
@@ -211,13 +243,14 @@ impl Mesh {
         Ok(())
     }
 
-    /// The nodes along bar `b`, end to end: its ends and `split − 1` new interior nodes.
-    fn chain(&mut self, b: &BarSpec) -> Result<Vec<usize>> {
+    /// The nodes along bar `b`, end to end: its ends and `split − 1` new interior nodes
+    /// (`split_at`: where the scene gives the number).
+    fn chain(&mut self, b: &BarSpec, split_at: &str) -> Result<Vec<usize>> {
         let [a, z] = b.ends;
         let (xa, xz) = (self.nodes[a].position, self.nodes[z].position);
         if b.split == 0 || b.split > MAX_SPLIT {
             return Err(SceneError::new(
-                format!("{}.split", b.path),
+                split_at,
                 format!("must be from 1 to {MAX_SPLIT}, got {}", b.split),
             ));
         }

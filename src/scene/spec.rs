@@ -44,6 +44,11 @@ pub struct SceneSpec {
     /// Individual beams between named nodes.
     #[serde(default)]
     pub beams: Vec<BeamSpec>,
+    /// Elements of single bars by the bar's name (`link1/bar12` of a ground structure, a
+    /// beam's name), overriding the `split` of its ground structure or beam: a
+    /// discretization chosen bar by bar.
+    #[serde(default)]
+    pub splits: BTreeMap<String, usize>,
     /// Rigid bodies.
     #[serde(default)]
     pub rigid_bodies: Vec<RigidBodySpec>,

@@ -56,6 +56,43 @@ fn split_bars_get_interior_nodes_of_their_own() {
 }
 
 #[test]
+fn splits_give_single_bars_their_own_elements() {
+    let mut spec = parse_toml(ARM).unwrap();
+    spec.splits.insert("link1/bar12".into(), 4);
+    spec.splits.insert("link2/bar3".into(), 2);
+    let arm = build(&spec).unwrap();
+    assert_eq!(arm.elements.len(), 148 + 3 + 1);
+    assert_eq!(arm.nodes.len(), 30 + 3 + 1);
+    assert_eq!(arm.n_variables(), 148);
+    let bar = |name: &str| arm.bars.iter().find(|b| b.name == name).unwrap();
+    assert_eq!(bar("link1/bar12").elements.len(), 4);
+    assert_eq!(bar("link1/bar11").elements.len(), 1);
+    assert!(arm.node_index("link1/bar12:3").is_some());
+    // A split given bar by bar builds the very model a uniform one does.
+    let mut every = parse_toml(ARM).unwrap();
+    every.ground_structures.iter_mut().for_each(|g| g.split = 2);
+    let mut each = parse_toml(ARM).unwrap();
+    for b in &build(&each.clone()).unwrap().bars {
+        each.splits.insert(b.name.clone(), 2);
+    }
+    assert_eq!(build(&every).unwrap(), build(&each).unwrap());
+}
+
+#[test]
+fn splits_of_unknown_bars_or_out_of_range_are_named() {
+    let e = arm_error(|s| {
+        s.splits.insert("link1/bar999".into(), 2);
+    });
+    assert_eq!(e.path, "splits.link1/bar999");
+    assert!(e.message.contains("no deformable bar"), "{e}");
+    let e = arm_error(|s| {
+        s.splits.insert("link2/bar7".into(), 0);
+    });
+    assert_eq!(e.path, "splits.link2/bar7");
+    assert!(e.message.contains("must be from 1"), "{e}");
+}
+
+#[test]
 fn unknown_keys_are_named_with_their_path() {
     let e = error_of(&ARM.replace("speed = 0.5 }", "sped = 0.5 }"));
     assert!(e.path.starts_with("joints[0]"), "{e}");

@@ -3,7 +3,7 @@
 import pytest
 
 import flextop
-from flextop.accuracy import PRESETS
+from flextop.discretization.accuracy import PRESETS
 from flextop.errors import SettingsError
 
 

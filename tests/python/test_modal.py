@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import brentq
 
 import flextop
-from flextop.accuracy import split_by
+from flextop.discretization.accuracy import split_by
 from flextop.errors import SettingsError
 from flextop.modal import ks_lowest
 
@@ -99,7 +99,7 @@ def arm_converged(arm, arm_designs):
     """The lowest eight frequencies at 64× and 128× the elements per bar, extrapolated."""
     out = {}
     for name, x in arm_designs.items():
-        fine, coarse = (arm._level(r).modes(8, x, rtol=None).frequencies for r in (128, 64))
+        fine, coarse = (arm.levels[r].modes(8, x, rtol=None).frequencies for r in (128, 64))
         out[name] = fine + (fine - coarse) / 3
     return out
 

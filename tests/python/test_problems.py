@@ -191,7 +191,7 @@ def test_tightened_limits_divide_by_the_peaks_model_error():
     """``tightened``: κ is the peak at 8× the elements per bar over the peak as meshed (a
     static scene: rtol refines in space only), the stress limit becomes b/κ, the others and
     the normalization stay."""
-    from flextop.accuracy import split_by
+    from flextop.discretization.accuracy import split_by
     from flextop.problems import TopologyProblem, tightened
 
     sim = flextop.Simulation(flextop.scenes.static_truss(force=(0.0, -1e4)))

@@ -61,11 +61,35 @@ def test_to_toml_reads_back_as_the_same_dict():
     scene.design(interpolation="ramp", q=5.0, x_min=1e-3)
     scene.simulation(t_end=1.0, h=0.01, mass="lumped", max_iter=30)
     scene.tip = "tip\tnode"
+    scene.split("g1/bar2", 4)
     text = scene.to_toml(header="a header\n\nover lines", comments={"sections.steel": "a comment", "joints[2]": "pin"})
     assert text.startswith("# a header\n#\n# over lines\n")
     assert "[sections.steel]          # a comment\n" in text and "[[joints]]                # pin\n" in text
     assert "E = 210e9\n" in text and "E = 1500e12\n" in text and "rho = 2.5e+20\n" in text
     assert tomllib.loads(text) == json_like(scene.to_dict())
+
+
+def test_a_bar_split_on_its_own_refines_that_bar_alone():
+    """``Scene.split`` gives one bar its own elements; a split given to every bar builds and
+    runs as the uniform one, and refining a scene refines each bar's own split."""
+    from flextop.discretization.accuracy import split_by
+    scene = flextop.scenes.robot_arm()
+    scene.split("link1/bar12", 4)
+    sim = flextop.Simulation(scene)
+    elements = np.bincount(np.asarray(sim.model.elements()["bar"]))
+    assert elements.sum() == 148 + 3 and elements[list(sim.bars.name).index("link1/bar12")] == 4
+    refined = flextop.Simulation(split_by(scene.to_dict(), 2))
+    assert len(refined.model.elements()["bar"]) == 2 * (148 + 3)
+    each = flextop.scenes.robot_arm()
+    for name in sim.bars.name:
+        each.split(name, 2)
+    x = np.random.default_rng(4).uniform(0.1, 1.0, sim.n_design)
+    uniform = flextop.Simulation(flextop.scenes.robot_arm(split=2)).run(x, t_end=0.2).tip_deflection()
+    assert flextop.Simulation(each).run(x, t_end=0.2).tip_deflection() == uniform
+    with pytest.raises(SceneError, match="splits.link1/bar999"):
+        bad = flextop.scenes.robot_arm()
+        bad.split("link1/bar999", 2)
+        flextop.Simulation(bad)
 
 
 def json_like(value):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import flextop
-from flextop.accuracy import split_by
+from flextop.discretization.accuracy import split_by
 from flextop.errors import SettingsError
 
 E, NU, RHO, D = 70e9, 0.32, 2700.0, 0.02

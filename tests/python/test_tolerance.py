@@ -1,13 +1,13 @@
-"""Runs to a tolerance (flextop.tolerance): the estimator against known errors, the arm
+"""Runs to a tolerance (flextop.discretization.tolerance): the estimator against known errors, the arm
 against converged references, exact gradients on the grid that ran, and clear errors."""
 
 import numpy as np
 import pytest
 
 import flextop
-from flextop import tolerance
+from flextop.discretization import tolerance
 from flextop.errors import SettingsError, SimulationError, ToleranceError
-from flextop.tolerance import Discretization, Tolerance, estimate, resolve
+from flextop.discretization.tolerance import Discretization, Tolerance, estimate, resolve
 
 T_ARM = 1.3
 
@@ -127,7 +127,7 @@ def test_gradients_on_the_grid_that_ran_are_exact():
     np.testing.assert_allclose(direct.gradients, adjoint.gradients, rtol=1e-9, atol=1e-9 * np.abs(direct.gradients).max())
     assert max(direct.errors.values()) <= 1e-2 and max(direct.gradient_errors.values()) <= 5e-2
     d = direct.discretization
-    frozen = sim._level(d.refinement)
+    frozen = sim.levels[d.refinement]
     f = lambda xx: frozen.run(xx, h=frozen.spec["simulation"]["t_end"] / d.steps).tip_deflection()  # noqa: E731
     delta = 1e-3
     for i in range(sim.n_design):
@@ -146,7 +146,7 @@ def test_gradients_not_held_are_those_of_the_grid_chosen_on_the_values():
     d = free.discretization
     assert d.refinement <= held.discretization.refinement and d.steps <= held.discretization.steps
     assert free.errors["tip_deflection"] <= 1e-2 and not free.gradient_errors
-    on_grid = sim._level(d.refinement).run_with_sensitivities(x, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
+    on_grid = sim.levels[d.refinement].run_with_sensitivities(x, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
     np.testing.assert_array_equal(free.gradients, on_grid.gradients)
     np.testing.assert_array_equal(free.values, on_grid.values)
 
@@ -199,7 +199,7 @@ def test_local_error_control_from_python_with_exact_gradients_on_its_steps():
     np.testing.assert_array_equal(direct.steps, res.steps)
     np.testing.assert_allclose(direct.gradients, adjoint.gradients, rtol=1e-9, atol=1e-9 * np.abs(direct.gradients).max())
     assert direct.values[0] == pytest.approx(res.tip_deflection(), rel=1e-12)
-    f = lambda xx: sim._fixed(xx, {}, steps=res.steps).tip_deflection()  # noqa: E731
+    f = lambda xx: sim.run_fixed(xx, {}, steps=res.steps).tip_deflection()  # noqa: E731
     for i in (0, 4, 7):
         e = np.eye(sim.n_design)[i] * 1e-4
         fd = (f(x + e) - f(x - e)) / 2e-4
@@ -227,14 +227,14 @@ def test_companions_run_modified_newton_guided_and_fall_back_to_plain_runs(monke
     res = sim.run(0.4, rtol=1e-2)
     half, _, split = res.companions
     assert half.settings["newton"] == split.settings["newton"] == "modified" and "newton" not in res.settings
-    fixed = flextop.Simulation._fixed
+    fixed = flextop.Simulation.run_fixed
 
     def failing_when_guided(self, xv, settings, **kwargs):
         if kwargs.get("guide") is not None or settings.get("newton") == "modified":
             raise SimulationError("Newton failed at t = 0.1 s (a guide that misled it)")
         return fixed(self, xv, settings, **kwargs)
 
-    monkeypatch.setattr(flextop.Simulation, "_fixed", failing_when_guided)
+    monkeypatch.setattr(flextop.Simulation, "run_fixed", failing_when_guided)
     plain = flextop.Simulation(flextop.scenes.robot_arm()).run(0.4, rtol=1e-2)
     assert plain.discretization == res.discretization
     assert plain.errors["tip_deflection"] == pytest.approx(res.errors["tip_deflection"], rel=1e-3)  # Newton at 1e-6

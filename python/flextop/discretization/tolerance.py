@@ -62,7 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SettingsError, SimulationError, ToleranceError
+from ..errors import SettingsError, SimulationError, ToleranceError
 
 TIME_ORDER = 2
 """Order of generalized-α in h (Chung & Hulbert), assumed by ``e_time``."""

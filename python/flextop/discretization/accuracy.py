@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import copy
 
-from .errors import SettingsError
+from ..errors import SettingsError
 
 PRESETS: dict[str, float] = {"fast": 3e-2, "balanced": 1e-2, "accurate": 3e-3}
 """Preset name → ``rtol``."""
@@ -26,9 +26,12 @@ def preset(name: str) -> float:
 
 
 def split_by(spec: dict, factor: int) -> dict:
-    """A copy of the scene dict with ``factor`` times the elements per bar of every ground
-    structure and beam."""
+    """A copy of the scene dict with ``factor`` times the elements of every bar: the
+    ``split`` of every ground structure and beam, and of every bar given its own in
+    ``splits``."""
     spec = copy.deepcopy(spec)
     for entry in spec.get("ground_structures", []) + spec.get("beams", []):
         entry["split"] = int(entry.get("split", 1)) * factor
+    if "splits" in spec:
+        spec["splits"] = {bar: int(n) * factor for bar, n in spec["splits"].items()}
     return spec

@@ -1,0 +1,158 @@
+"""Where a run's discretization comes from: the scene's own, copies of the scene with every
+bar refined (levels), the companion runs of step doubling, and the loop that refines until
+the estimate of :mod:`.tolerance` meets the tolerance asked for.
+
+A :class:`~flextop.simulation.Simulation` runs one discretization at a time
+(``run_fixed``, ``sensitivities_fixed``); this module composes those runs. Results made to a
+tolerance carry their companions, and any other run gets them here on its first error
+estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import _core
+from ..errors import SettingsError, SimulationError
+from . import tolerance
+from .accuracy import split_by
+from .tolerance import Discretization
+
+if TYPE_CHECKING:
+    from ..results import _Run
+    from ..simulation import Simulation
+
+
+class Levels:
+    """A simulation and its scene with ``r`` times the elements of every bar (the same
+    design variables), each built once, on first use."""
+
+    def __init__(self, base: Simulation) -> None:
+        self._levels: dict[int, Simulation] = {1: base}
+
+    def __getitem__(self, refinement: int) -> Simulation:
+        if refinement not in self._levels:
+            base = self._levels[1]
+            self._levels[refinement] = type(base)(split_by(base.spec, refinement))
+        return self._levels[refinement]
+
+    def model(self, refinement: int) -> _core.Model:
+        """The engine model at ``refinement``."""
+        return self[refinement].model
+
+
+def t_end(simulation: Simulation, settings: dict[str, Any]) -> float:
+    """The duration of a dynamic run: the run's ``t_end``, or the scene's."""
+    value = settings.get("t_end") or simulation.spec.get("simulation", {}).get("t_end")
+    if value is None:
+        raise SettingsError("t_end: give it in the scene's [simulation] table or to the run")
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise SettingsError(f"t_end: must be a positive number of seconds, got {value!r}")
+    return float(value)
+
+
+def first(simulation: Simulation, settings: dict[str, Any]) -> Discretization:
+    """The scene's own discretization: its elements per bar and step (16 steps if the
+    scene gives none)."""
+    if simulation.analysis == "static":
+        return Discretization(1, 0)
+    duration = t_end(simulation, settings)
+    h = simulation.spec.get("simulation", {}).get("h") or duration / 16
+    if not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h <= duration):
+        raise SettingsError(f"simulation.h: must be a step in (0, t_end], got {h!r}")
+    return tolerance.start(math.ceil(duration / h - 1e-9))
+
+
+def companion(levels: Levels, refinement: int, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],
+              coarse: _Run | None, steps: np.ndarray | None = None) -> _Run:
+    """A companion run of step doubling at ``refinement`` with ``settings``, each step's
+    Newton started from the states of ``coarse`` (a run at half the refinement on the same
+    steps) carried over, each element's middle node on its cubic shape. Where that fails,
+    the run with ``plain`` settings and no guide decides: a guide or a kept matrix that led
+    Newton astray must not pass for a model that cannot run."""
+    level = levels[refinement]
+    guide = None if coarse is None else _core.prolong(levels.model(refinement // 2), level.model, coarse.q)
+    try:
+        return level.run_fixed(xv, settings, steps=steps, guide=guide)
+    except SimulationError:
+        if guide is None and plain == settings:
+            raise
+        return level.run_fixed(xv, plain, steps=steps)
+
+
+def merged(steps: np.ndarray, k: int) -> np.ndarray:
+    """The steps summed in consecutive groups of ``k`` (the last group may be shorter)."""
+    return np.add.reduceat(steps, np.arange(0, len(steps), k))
+
+
+def companions_of(run: _Run) -> tuple[_Run | None, _Run | None, _Run]:
+    """The runs an error estimate of ``run`` compares with, made on first use: its steps
+    merged in pairs and in fours, and twice the elements per bar on the steps merged in
+    pairs (a static scene: twice the elements per bar only)."""
+    if run.companions is None:
+        steps, half, quarter = None, None, None
+        simulation = run.simulation
+        if simulation.analysis == "dynamic":
+            steps = run.raw["steps"][1:]  # the step sizes that ran (Results.steps)
+            if len(steps) < 4:
+                raise SettingsError("an error estimate needs a run of at least 4 steps")
+            half, quarter = (simulation.run_fixed(run.x, run.settings, steps=merged(steps, k)) for k in (2, 4))
+        split_steps = None if steps is None else merged(steps, 2)
+        split = companion(simulation.levels, 2, run.x, run.settings, run.settings, half, split_steps)
+        run.companions = (half, quarter, split)
+    return run.companions
+
+
+def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
+                 settings: dict[str, Any], gradients: dict[str, str] | None, start: Discretization | None = None,
+                 hold_gradients: bool = True) -> Any:
+    """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
+    results (or sensitivities) with its estimate and companions attached. With
+    ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and the
+    sensitivities are computed once, on the grid accepted. Companion runs stop Newton at
+    :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
+    any run made at their discretization; a candidate reuses only a candidate's run."""
+    duration = None if simulation.analysis == "static" else t_end(simulation, settings)
+    levels = simulation.levels
+    runs: dict[tuple[Discretization, bool], Any] = {}
+    judged = gradients if hold_gradients else None
+    loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
+    loose = {k: v for k, v in loose.items() if k not in settings}
+
+    def run(d: Discretization, gradients: dict[str, str] | None, is_companion: bool = False) -> Any:
+        level = levels[d.refinement]
+        at = {**settings, **({"h": duration / d.steps, "t_end": duration} if d.steps else {}),
+              **(loose if is_companion else {})}
+        if gradients:
+            return level.sensitivities_fixed(xv, names, {**at, **gradients})
+        if not is_companion:
+            return level.run_fixed(xv, at)
+        coarse = made(Discretization(d.refinement // 2, d.steps)) if d.steps and d.refinement % 2 == 0 else None
+        plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
+        return companion(levels, d.refinement, xv, at, plain, coarse)
+
+    def made(d: Discretization, is_companion: bool = True) -> Any:
+        return runs.get((d, False)) or (runs.get((d, True)) if is_companion else None)
+
+    def values(d: Discretization, is_companion: bool) -> list[np.ndarray]:
+        out = made(d, is_companion)
+        if out is None:
+            out = runs[(d, is_companion)] = run(d, judged, is_companion)
+        if judged:
+            return [*out.values[:, None], *out.gradients]
+        return [np.array([out.response(n)]) for n in names]
+
+    d, est = tolerance.resolve(values, start or first(simulation, settings), tolerance.tolerance_of(names, *wanted, judged is not None))
+    relative = est.relative
+    errors = dict(zip(names, map(float, relative)))
+    if gradients:
+        out = runs[(d, False)] if hold_gradients else run(d, gradients)
+        return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
+    out = runs[(d, False)]
+    out.discretization, out.errors = d, errors
+    out.companions = (made(d.half_steps), made(d.quarter_steps), made(d.split)) if d.steps else (None, None, made(d.split))
+    return out
