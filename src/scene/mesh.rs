@@ -70,14 +70,22 @@ impl Mesh {
     /// An empty mesh whose bars named in `splits` get that many elements.
     pub(super) fn with_splits(splits: &BTreeMap<String, usize>) -> Self {
         Self {
-            splits: splits.iter().map(|(k, &v)| (k.clone(), (v, false))).collect(),
+            splits: splits
+                .iter()
+                .map(|(k, &v)| (k.clone(), (v, false)))
+                .collect(),
             ..Self::default()
         }
     }
 
     /// Every entry of the scene's `splits` names a bar of the mesh.
     pub(super) fn check_splits(&self) -> Result<()> {
-        let mut unused: Vec<&String> = self.splits.iter().filter(|(_, v)| !v.1).map(|(k, _)| k).collect();
+        let mut unused: Vec<&String> = self
+            .splits
+            .iter()
+            .filter(|(_, v)| !v.1)
+            .map(|(k, _)| k)
+            .collect();
         unused.sort();
         match unused.first() {
             None => Ok(()),
