@@ -1,12 +1,12 @@
 //! Hooks for `benches/` to time internals: not part of the API.
 
-use crate::assembly::{Assembler, Jacobian, Pattern};
-use crate::element::MassKind;
 use crate::error::{Error, SolveError};
-use crate::linsolve::{FactorError, Ldlt};
-use crate::model::Model;
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::Model;
+use crate::solver::assembly::{Assembler, Jacobian, Pattern};
+use crate::solver::linsolve::{FactorError, Ldlt};
 
-pub use crate::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT};
+pub use crate::solver::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT};
 
 /// The iteration matrix `c M + K_t + s Φ_qᵀΦ_q` (with its constraint blocks) of a design at
 /// the reference, `c = s`, and its factors in a chosen storage.

@@ -2,84 +2,71 @@
 //! optimization of the structural parts of moving machines (Brüls, Lemaire, Duysinx &
 //! Eberhard, *Optimization of multibody systems and their structural components*).
 //!
-//! The path from a scene to gradients, one module per concept:
+//! The path from a scene to gradients, in wings (folders), each behind the re-exports
+//! below:
 //!
-//! * [`scene`] — the scene as data (TOML or Python dict), validated into a [`model::Model`]:
-//!   nodes with absolute coordinates, co-rotational Timoshenko [`element::beam`]s grouped in
-//!   bars with one density each ([`interpolation`]: SIMP or RAMP), point masses, [`load`]s,
-//!   and joints as algebraic [`constraint`]s driven by [`motion`] laws; `rigid` checks the
-//!   mechanism and gives its rigid trajectory.
-//! * `assembly` and `linsolve` — the residual and the iteration matrix on a fixed sparse
-//!   pattern, factorized by a symbolic-once, numeric-per-iteration `LDLᵀ` (its factors
-//!   stored dense where sparse ones would fill half the triangle).
-//! * `newton`, [`Integrator`] (generalized-α, Algorithm 1, on any [`TimeGrid`]),
-//!   [`solve_static`] and [`simulate`] — the solves, with run settings validated in one
-//!   place ([`RunOptions`], [`DynamicSettings`], [`StaticSettings`]).
-//! * [`Response`] and [`of_motion`] / [`of_equilibrium`] — responses of paper Eq. 8 and
-//!   their exact gradients, by direct differentiation (Algorithm 2) or the discrete adjoint;
-//!   stresses and buckling ratios ([`Criterion`]) condensed by the p-mean or KS mean of
-//!   [`Aggregation`].
+//! * [`scene`] — the scene as data (TOML or Python dict), validated into a [`model::Model`].
+//! * `mechanism` — what a scene builds: nodes with absolute coordinates, co-rotational
+//!   Timoshenko [`element::beam`]s grouped in bars with one density each
+//!   ([`interpolation`]: SIMP or RAMP), point masses, [`load`]s, [`spring`]s, [`motor`]s,
+//!   joints as algebraic [`constraint`]s driven by [`motion`] laws, scene [`parameter`]s;
+//!   its rigid clusters check the mechanism and give its rigid trajectory.
+//! * `solver` — the residual and the iteration matrix on a fixed sparse pattern,
+//!   factorized by a symbolic-once, numeric-per-iteration `LDLᵀ`; Newton, [`Integrator`]
+//!   (generalized-α, Algorithm 1, on any [`TimeGrid`]), [`solve_static`] and [`simulate`],
+//!   with run settings validated in one place ([`RunOptions`], [`DynamicSettings`],
+//!   [`StaticSettings`]).
+//! * `modal` — [`natural_modes`] by shift-invert Lanczos with a Sturm count.
+//! * `response` — [`Response`]s of paper Eq. 8, one file per family; stresses and buckling
+//!   ratios ([`Criterion`]) condensed by the p-mean or KS mean of [`Aggregation`].
+//! * `sensitivity` — [`of_motion`] / [`of_equilibrium`]: their exact gradients, by direct
+//!   differentiation (Algorithm 2) or the discrete adjoint.
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
-//! [`load`], [`section`], [`interpolation`]) are public modules; the solvers are private
-//! modules behind the re-exports below. Assembly, Newton and the linear solver are
-//! internals.
+//! [`load`], [`section`], [`interpolation`], [`spring`], [`motor`], [`parameter`]) are
+//! public modules; the solvers are private behind the re-exports. Assembly, Newton and the
+//! linear solver are internals. Errors, limits, interrupts, settings and the time grid sit
+//! at the top, shared by every wing.
 //!
 //! SI units throughout: m, kg, s, N, Pa, rad. Errors are values ([`error`]), never panics on
 //! user data. The Python bindings live behind the `python` feature.
 #![warn(missing_docs)]
 
-pub mod constraint;
-pub mod element;
+// The wings, each a folder behind the re-exports below.
+mod mechanism;
+mod modal;
+mod response;
+mod sensitivity;
+mod solver;
+
+// Shared by every wing.
 pub mod error;
-pub mod interpolation;
-pub mod load;
-pub mod model;
-pub mod motion;
-pub mod motor;
-pub mod parameter;
+mod interrupt;
+mod limits;
+mod settings;
+mod time_grid;
+
 pub mod scene;
-pub mod section;
-pub mod spring;
 
 #[doc(hidden)]
 pub mod bench_support;
 
-mod aggregate;
-mod assembly;
-mod integrator;
-mod interrupt;
-mod lanczos;
-mod limits;
-mod linsolve;
-mod modal;
-mod newton;
-mod prolongation;
-mod response;
-mod rigid;
-mod sensitivity;
-mod settings;
-mod simulation;
-mod statics;
-mod step_control;
-mod stress;
-mod time_grid;
-
 #[cfg(feature = "python")]
 mod python;
 
-pub use aggregate::Aggregation;
-pub use assembly::{linearize, Csc, Linearization};
-pub use element::MassKind;
 pub use error::{DesignError, Error, SceneError, SettingsError, SolveError};
-pub use integrator::{AlphaParameters, Integrator, State};
 pub use interrupt::{poll, with_checker};
 pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SPLIT};
+pub use mechanism::element::MassKind;
+pub use mechanism::model::{Densities, Model};
+pub use mechanism::rigid::rigid_positions;
+pub use mechanism::{
+    constraint, element, interpolation, load, model, motion, motor, parameter, section, spring,
+};
 pub use modal::{natural_modes, Modes};
-pub use model::{Densities, Model};
-pub use prolongation::Prolongation;
+pub use response::aggregation::Aggregation;
+pub use response::criterion::Criterion;
 pub use response::{Kind as ResponseKind, Response};
-pub use rigid::rigid_positions;
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
     Evaluated, Recorded, Sensitivities, Timings,
@@ -88,10 +75,12 @@ pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,
     MAX_STEPS,
 };
-pub use simulation::{
+pub use solver::assembly::{linearize, Csc, Linearization};
+pub use solver::integrator::{AlphaParameters, Integrator, State};
+pub use solver::prolongation::Prolongation;
+pub use solver::simulation::{
     simulate, simulate_adaptive, simulate_guided, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES,
 };
-pub use statics::{solve_static, StaticSolution};
-pub use step_control::StepControl;
-pub use stress::Criterion;
+pub use solver::statics::{solve_static, StaticSolution};
+pub use solver::step_control::StepControl;
 pub use time_grid::TimeGrid;

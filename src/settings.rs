@@ -11,9 +11,9 @@ use std::str::FromStr;
 
 use serde::Deserialize;
 
-use crate::element::MassKind;
 use crate::error::{short, SettingsError};
 use crate::limits::MAX_LOAD_STEPS;
+use crate::mechanism::element::MassKind;
 use crate::time_grid::TimeGrid;
 
 /// Default spectral radius at infinite frequency.

@@ -8,10 +8,10 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use serde::de::DeserializeOwned;
 
-use crate::assembly::Csc;
 use crate::error::{Error, SceneError, SettingsError};
 use crate::scene::SceneSpec;
 use crate::settings::RunOptions;
+use crate::solver::assembly::Csc;
 
 /// Deepest nesting of dicts, lists and tuples read from Python: a scene has five levels;
 /// serde's recursive descent would overflow the stack some thousands deep.

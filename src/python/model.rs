@@ -8,7 +8,7 @@ use pyo3::types::PyDict;
 
 use super::convert::{matrix, scene_spec, vector};
 use crate::error::Error;
-use crate::model::{Analysis, Model};
+use crate::mechanism::model::{Analysis, Model};
 use crate::scene;
 
 /// A built and validated mechanism.
@@ -108,7 +108,7 @@ impl PyModel {
     fn bars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
         let d = PyDict::new(py);
-        let end = |b: &crate::model::Bar, k: usize| {
+        let end = |b: &crate::mechanism::model::Bar, k: usize| {
             let e = if k == 0 {
                 b.elements.start
             } else {
@@ -122,7 +122,7 @@ impl PyModel {
             m.bars.iter().map(|b| b.name.clone()).collect::<Vec<_>>(),
         )?;
         d.set_item("nodes", matrix(py, ends, m.bars.len(), 2)?)?;
-        let variable = |b: &crate::model::Bar| b.variable.map_or(-1, |v| v as i64);
+        let variable = |b: &crate::mechanism::model::Bar| b.variable.map_or(-1, |v| v as i64);
         d.set_item("variable", m.bars.iter().map(variable).collect::<Vec<_>>())?;
         d.set_item(
             "component",
@@ -154,7 +154,7 @@ impl PyModel {
     /// `over_constraining` joints when the joints over-constrain the rigid mechanism.
     fn mechanism<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
-        let clusters = crate::rigid::Clusters::of(m);
+        let clusters = crate::mechanism::rigid::Clusters::of(m);
         let over = clusters.over_constraint(m);
         let d = PyDict::new(py);
         d.set_item("frames", clusters.len())?;

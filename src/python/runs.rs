@@ -12,15 +12,17 @@ use pyo3::types::PyDict;
 use super::convert::{csc, design, matrix, run_options, vector};
 use super::model::PyModel;
 use super::signals::detached;
-use crate::element::MassKind;
 use crate::error::{Error, SettingsError};
-use crate::model::Analysis;
-use crate::prolongation::Prolongation;
-use crate::rigid::rigid_positions as rigid;
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::Analysis;
+use crate::mechanism::rigid::rigid_positions as rigid;
 use crate::sensitivity::{self, parse_parameters, parse_responses};
-use crate::simulation::{simulate as integrate, simulate_adaptive, simulate_guided, simulate_on};
-use crate::statics::solve_static as equilibrium;
-use crate::step_control::StepControl;
+use crate::solver::prolongation::Prolongation;
+use crate::solver::simulation::{
+    simulate as integrate, simulate_adaptive, simulate_guided, simulate_on,
+};
+use crate::solver::statics::solve_static as equilibrium;
+use crate::solver::step_control::StepControl;
 use crate::time_grid::TimeGrid;
 
 /// Time integration of a dynamic scene: `time`, `q`, `qdot`, `qddot`, `lam`, Newton
@@ -288,7 +290,7 @@ pub fn linearize<'py>(
         let msg = format!("has {} entries, the model has {n} DOFs", q.len());
         return Err(Error::Settings(SettingsError::new("q", msg)).into());
     }
-    let lin = crate::assembly::linearize(m, densities, mass, &q).map_err(Error::from)?;
+    let lin = crate::solver::assembly::linearize(m, densities, mass, &q).map_err(Error::from)?;
     let d = PyDict::new(py);
     d.set_item("M", csc(py, lin.mass)?)?;
     d.set_item("K", csc(py, lin.stiffness)?)?;

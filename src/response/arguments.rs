@@ -2,7 +2,7 @@
 //! joints and `key=value` options, each read against the model with an error in the user's
 //! words.
 
-use crate::model::{Analysis, Model};
+use crate::mechanism::model::{Analysis, Model};
 
 /// A component by name, `None` for all.
 pub(super) fn component(model: &Model, arg: Option<&str>) -> Result<Option<usize>, String> {

@@ -4,9 +4,9 @@
 use super::arguments::component;
 use super::strain_energy::StrainEnergy;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::element::Vector6;
-use crate::model::{Analysis, Model};
-use crate::parameter::Parameter;
+use crate::mechanism::element::Vector6;
+use crate::mechanism::model::{Analysis, Model};
+use crate::mechanism::parameter::Parameter;
 
 pub(super) const KIND: Kind = Kind {
     name: "compliance",

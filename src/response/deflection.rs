@@ -2,7 +2,7 @@
 
 use super::arguments::node;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::model::{Analysis, Model};
+use crate::mechanism::model::{Analysis, Model};
 
 pub(super) const KIND: Kind = Kind {
     name: "tip_deflection",

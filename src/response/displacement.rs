@@ -3,7 +3,7 @@
 
 use super::arguments::node_and_direction;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::model::Model;
+use crate::mechanism::model::Model;
 
 pub(super) const FINAL: Kind = Kind {
     name: "displacement",

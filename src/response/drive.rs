@@ -4,9 +4,9 @@
 
 use super::arguments::{component_and_options, drive_rate, drive_row, only, option};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::aggregate::Aggregation;
-use crate::model::Model;
-use crate::parameter::Parameter;
+use crate::mechanism::model::Model;
+use crate::mechanism::parameter::Parameter;
+use crate::response::aggregation::Aggregation;
 
 pub(super) const TORQUE: Kind = Kind {
     name: "torque",

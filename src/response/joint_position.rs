@@ -1,11 +1,11 @@
-//! A joint's own coordinate at the final time ([`crate::constraint::Joint::coordinate`]): a
+//! A joint's own coordinate at the final time ([`crate::mechanism::constraint::Joint::coordinate`]): a
 //! pin's rotation or a hinge's relative rotation from the reference (rad), a slider's
 //! travel (m).
 
 use super::arguments::joint_index;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::constraint::ConstraintRow;
-use crate::model::Model;
+use crate::mechanism::constraint::ConstraintRow;
+use crate::mechanism::model::Model;
 
 pub(super) const KIND: Kind = Kind {
     name: "joint_position",

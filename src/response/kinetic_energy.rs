@@ -3,8 +3,8 @@
 
 use super::arguments::none;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::model::{Analysis, Model};
-use crate::parameter::Parameter;
+use crate::mechanism::model::{Analysis, Model};
+use crate::mechanism::parameter::Parameter;
 
 pub(super) const KIND: Kind = Kind {
     name: "kinetic_energy",

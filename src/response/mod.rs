@@ -12,11 +12,12 @@
 //! to Python. [`Objectives`] weights them over a run's states for the sensitivity sweeps.
 //! A stress response is a mean of this form over the motion and the structure, of a power
 //! or an exponential of the stresses, mapped to stress units at the end
-//! ([`crate::aggregate`]).
+//! ([`crate::response::aggregation`]).
 
-mod aggregate;
+pub(crate) mod aggregation;
 mod arguments;
 mod compliance;
+pub(crate) mod criterion;
 mod deflection;
 mod displacement;
 mod drive;
@@ -24,15 +25,16 @@ mod joint_position;
 mod kinetic_energy;
 mod objectives;
 mod strain_energy;
+mod strength;
 mod volume;
 
 use std::fmt;
 
-use crate::aggregate::Aggregation;
-use crate::element::MassKind;
 use crate::error::SettingsError;
-use crate::model::{Analysis, Densities, Model};
-use crate::parameter::{Designed, Parameter};
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Analysis, Densities, Model};
+use crate::mechanism::parameter::{Designed, Parameter};
+use crate::response::aggregation::Aggregation;
 use crate::time_grid::TimeGrid;
 
 pub(crate) use objectives::Objectives;
@@ -67,9 +69,9 @@ const KINDS: &[Kind] = &[
     volume::KIND,
     displacement::FINAL,
     displacement::INTEGRATED,
-    aggregate::STRESS,
-    aggregate::SHEAR,
-    aggregate::BUCKLING,
+    strength::STRESS,
+    strength::SHEAR,
+    strength::BUCKLING,
     drive::TORQUE,
     drive::TORQUE_RMS,
     drive::TORQUE_SQUARED,

@@ -4,9 +4,9 @@
 
 use super::{Context, Known, Partials, Response, Sample};
 use crate::error::Error;
-use crate::model::{Analysis, Model};
-use crate::parameter::Parameter;
-use crate::rigid::Clusters;
+use crate::mechanism::model::{Analysis, Model};
+use crate::mechanism::parameter::Parameter;
+use crate::mechanism::rigid::Clusters;
 use crate::time_grid::TimeGrid;
 
 /// Responses with their weights on a time grid and the rigid trajectories they need.

@@ -3,7 +3,7 @@
 
 use super::arguments::{component, elements_of};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::parameter::Parameter;
+use crate::mechanism::parameter::Parameter;
 
 pub(super) const KIND: Kind = Kind {
     name: "strain_energy",
@@ -14,7 +14,10 @@ pub(super) const KIND: Kind = Kind {
     parse,
 };
 
-fn parse(model: &crate::model::Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
+fn parse(
+    model: &crate::mechanism::model::Model,
+    rest: Option<&str>,
+) -> Result<Box<dyn Family>, String> {
     Ok(Box::new(StrainEnergy {
         component: component(model, rest)?,
     }))

@@ -3,8 +3,8 @@
 
 use super::arguments::component;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::model::{Bar, Model};
-use crate::parameter::Parameter;
+use crate::mechanism::model::{Bar, Model};
+use crate::mechanism::parameter::Parameter;
 
 pub(super) const KIND: Kind = Kind {
     name: "volume",

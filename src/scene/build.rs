@@ -8,15 +8,15 @@
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
 //! structures, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
-//! simulation defaults, and last the mechanism checks of [`crate::rigid`].
+//! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`].
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::Result;
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
 use crate::error::SceneError;
-use crate::model::{Analysis, Design, Initial, Model};
-use crate::rigid::{check_mechanism, initial_velocity};
+use crate::mechanism::model::{Analysis, Design, Initial, Model};
+use crate::mechanism::rigid::{check_mechanism, initial_velocity};
 
 /// Builds and validates the model of `spec`.
 ///

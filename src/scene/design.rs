@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use super::spec::{AnalysisSpec, BeamSpec, DesignSpec, InterpolationSpec, MassSpec};
 use super::validate::{non_negative, Result};
 use crate::error::{short, SceneError};
-use crate::interpolation::{Interpolation, MassLaw, MASS_FLOOR};
+use crate::mechanism::interpolation::{Interpolation, MassLaw, MASS_FLOOR};
 
 /// Design variables under construction.
 #[derive(Default)]

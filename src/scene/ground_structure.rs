@@ -18,11 +18,11 @@ use super::mesh::{BarSpec, Mesh};
 use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
 use super::validate::{angle, finite, non_negative, positive, Result};
-use crate::constraint::Anchor;
 use crate::error::SceneError;
 use crate::limits::MAX_GRID_NODES;
-use crate::model::{PointMass, RigidBody};
-use crate::section::Section;
+use crate::mechanism::constraint::Anchor;
+use crate::mechanism::model::{PointMass, RigidBody};
+use crate::mechanism::section::Section;
 
 /// Grid node `k` as `(column, row)`.
 pub fn grid_position(k: usize, ny: usize) -> (usize, usize) {

@@ -1,7 +1,7 @@
 //! Joints and their drives: clamps, pins, hinges, welds and sliders (prismatic joints),
-//! written as algebraic constraints ([`crate::constraint`]) on nodes or rigid-body points,
+//! written as algebraic constraints ([`crate::mechanism::constraint`]) on nodes or rigid-body points,
 //! the rotation of a pin or hinge, or a slider's travel, optionally prescribed by a motion
-//! law ([`crate::motion`]).
+//! law ([`crate::mechanism::motion`]).
 //!
 //! A hinge or weld joins two distinct nodes or bodies at points that coincide, within 1e-9
 //! of the scene's size. Drives start at rest; a scene starts moving only through its
@@ -12,9 +12,9 @@ use super::spec::{JointSpec, MotionSpec};
 use nalgebra::Vector2;
 
 use super::validate::{finite, non_negative, positive, samples, unknown, Result};
-use crate::constraint::{Anchor, ConstraintRow, Joint, JointKind};
 use crate::error::SceneError;
-use crate::motion::{Motion, Table, Trapezoidal};
+use crate::mechanism::constraint::{Anchor, ConstraintRow, Joint, JointKind};
+use crate::mechanism::motion::{Motion, Table, Trapezoidal};
 
 /// The scene's joints, on the nodes of `mesh`, in a scene of size `size`.
 pub(super) fn joints(specs: &[JointSpec], mesh: &Mesh, size: f64) -> Result<Vec<Joint>> {

@@ -1,5 +1,5 @@
 //! The mesh: named nodes, and straight bars between them, each split into co-rotational
-//! beam elements ([`crate::element::beam`]).
+//! beam elements ([`crate::mechanism::element::beam`]).
 //!
 //! Bars come from the scene's beams and from its ground structures
 //! ([`super::ground_structure`]). A bar of `split` elements (its beam's or ground
@@ -15,12 +15,12 @@ use super::design::Variables;
 use super::section::{self, Sections};
 use super::spec::{BeamSpec, NodeSpec};
 use super::validate::{finite, unknown, Result};
-use crate::constraint::Anchor;
-use crate::element::Beam;
 use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
-use crate::model::{size_of, Bar, Element, Node, RigidBody};
-use crate::section::Section;
+use crate::mechanism::constraint::Anchor;
+use crate::mechanism::element::Beam;
+use crate::mechanism::model::{size_of, Bar, Element, Node, RigidBody};
+use crate::mechanism::section::Section;
 
 /// Mesh under construction.
 #[derive(Default)]

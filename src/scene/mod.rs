@@ -1,5 +1,5 @@
 //! Scenes: the description of a mechanism (TOML file or Python builder) and its validated
-//! build into a [`crate::model::Model`].
+//! build into a [`crate::mechanism::model::Model`].
 //!
 //! A scene file is TOML; see `examples/*.toml` and the README for the keys. Parsing rejects
 //! unknown keys with their path; [`build()`] checks every value and the mechanism.

@@ -1,14 +1,14 @@
-//! Motors on joints' coordinates ([`crate::motor`]): a torque, constant or from a table,
+//! Motors on joints' coordinates ([`crate::mechanism::motor`]): a torque, constant or from a table,
 //! or a PD servo (its spring-damper among the springs).
 
 use super::joint::{coordinate, motion};
 use super::load::time;
 use super::spec::MotorSpec;
 use super::validate::{finite, non_negative, Result};
-use crate::constraint::{ConstraintRow, Joint, JointKind};
 use crate::error::SceneError;
-use crate::motor::{Motor, MotorLaw};
-use crate::spring::{Measure, Spring};
+use crate::mechanism::constraint::{ConstraintRow, Joint, JointKind};
+use crate::mechanism::motor::{Motor, MotorLaw};
+use crate::mechanism::spring::{Measure, Spring};
 
 /// The scene's motors on `joints` of a model with `n_dofs` coordinates, and the servos'
 /// spring-dampers, to follow the model's first `first` springs.

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use super::spec::SectionSpec;
 use super::validate::{non_negative, positive, unknown, Result};
 use crate::error::{short, SceneError};
-use crate::section::{Made, NamedSection, Section};
+use crate::mechanism::section::{Made, NamedSection, Section};
 
 /// The scene's sections, in name order.
 pub(super) type Sections = Vec<NamedSection>;
@@ -121,7 +121,7 @@ fn geometry(path: &str, s: &SectionSpec, nu: f64) -> Result<(f64, f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::section::SectionProperty;
+    use crate::mechanism::section::SectionProperty;
 
     /// Every field of `Section::rate` against central differences of sections the scene
     /// builds, for circles and given `A, I, κ`, with `ν` or with `G` given.

@@ -1,12 +1,12 @@
-//! Springs and dampers between two points, or on a joint's coordinate ([`crate::spring`]).
+//! Springs and dampers between two points, or on a joint's coordinate ([`crate::mechanism::spring`]).
 
 use super::joint::coordinate;
 use super::mesh::Mesh;
 use super::spec::SpringSpec;
 use super::validate::{finite, non_negative, Result};
-use crate::constraint::Joint;
 use crate::error::SceneError;
-use crate::spring::{Measure, Spring};
+use crate::mechanism::constraint::Joint;
+use crate::mechanism::spring::{Measure, Spring};
 
 /// The scene's springs, on the anchors of `mesh` or the `joints`, in a scene of `size`.
 pub(super) fn springs(

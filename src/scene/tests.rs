@@ -3,7 +3,7 @@
 
 use super::spec::{JointSpec, PointSpec};
 use super::*;
-use crate::model::Analysis;
+use crate::mechanism::model::Analysis;
 
 const ARM: &str = include_str!("../../examples/robot_arm.toml");
 const TRUSS: &str = include_str!("../../examples/static_truss.toml");

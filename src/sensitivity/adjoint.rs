@@ -26,11 +26,11 @@ use faer::dyn_stack::MemBuffer;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::{Error, SolveError};
-use crate::integrator::{step_ratio, AlphaParameters, Integrator, State};
-use crate::model::{Densities, Model};
-use crate::parameter::{At, Level, Parameter};
+use crate::mechanism::model::{Densities, Model};
+use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
+use crate::solver::integrator::{step_ratio, AlphaParameters, Integrator, State};
 use crate::time_grid::TimeGrid;
 
 /// Rows of the states a backward sweep reads: `qₙ`, `q̈ₙ`, `λₙ`, and `q̇ₙ` if a
@@ -305,7 +305,7 @@ fn forward(
 struct Sweep<'a> {
     model: &'a Model,
     pseudo: PseudoLoads,
-    mass: crate::element::MassKind,
+    mass: crate::mechanism::element::MassKind,
     n_q: usize,
     n: usize,
     n_x: usize,
@@ -325,7 +325,7 @@ struct Sweep<'a> {
     c: Vec<f64>,
     damped: Vec<f64>,
     scratch: MemBuffer,
-    /// Work space of the exact solves with damping ([`crate::newton::Newton::solve_exact`]).
+    /// Work space of the exact solves with damping ([`crate::solver::newton::Newton::solve_exact`]).
     work: Vec<f64>,
 }
 

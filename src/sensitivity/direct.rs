@@ -22,15 +22,15 @@ use faer::dyn_stack::MemBuffer;
 use rayon::prelude::*;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
-use crate::element::MassKind;
 use crate::error::{Error, SolveError};
-use crate::integrator::{
-    rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
-};
-use crate::model::{Densities, Model};
-use crate::parameter::{At, Level, Parameter};
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Densities, Model};
+use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::DynamicSettings;
+use crate::solver::integrator::{
+    rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
+};
 use crate::time_grid::TimeGrid;
 
 /// Columns per parallel block.

@@ -20,13 +20,13 @@ pub mod direct;
 mod start;
 pub mod statics;
 
-use crate::assembly::Assembler;
-use crate::element::{MassKind, Matrix6, Vector6};
 use crate::error::{Error, SettingsError};
-use crate::model::{Analysis, Densities, Model};
-use crate::parameter::{At, Designed, Parameter};
+use crate::mechanism::element::{MassKind, Matrix6, Vector6};
+use crate::mechanism::model::{Analysis, Densities, Model};
+use crate::mechanism::parameter::{At, Designed, Parameter};
 use crate::response::{Context, Objectives, Response, Sample};
 use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
+use crate::solver::assembly::Assembler;
 use crate::time_grid::TimeGrid;
 
 /// Responses and their gradients.
@@ -188,7 +188,7 @@ impl PseudoLoads {
     }
 
     /// `x̄ −= (∂r/∂x)ᵀ μ` over every column: `μ` a transposed solution `[μ_q; μ_c]` whose
-    /// multiplier part is unaugmented ([`crate::newton::Newton::unaugment`]) where a
+    /// multiplier part is unaugmented ([`crate::solver::newton::Newton::unaugment`]) where a
     /// parameter moves the constraints, scaled by `scale` as the solve's.
     fn subtract_transposed(
         &self,

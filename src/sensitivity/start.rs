@@ -1,4 +1,4 @@
-//! The start of a run from the static equilibrium ([`crate::model::Initial::Equilibrium`]):
+//! The start of a run from the static equilibrium ([`crate::mechanism::model::Initial::Equilibrium`]):
 //! `q₀(x)` solves `r_s(q₀, λ_s, x) = f_int − f_ext − M ĝ + Φ_qᵀλ_s = 0`, so the gradients
 //! start from `q₀' = −K_s⁻¹ ∂r_s/∂x` (the static sensitivity, `K_s` the equilibrium's
 //! augmented tangent), and the initial-acceleration system
@@ -13,9 +13,9 @@
 
 use super::PseudoLoads;
 use crate::error::SolveError;
-use crate::integrator::{Integrator, State};
-use crate::parameter::{At, Level};
-use crate::statics::StaticSolution;
+use crate::mechanism::parameter::{At, Level};
+use crate::solver::integrator::{Integrator, State};
+use crate::solver::statics::StaticSolution;
 
 /// Direct: the columns `q₀'` (`n_q × n_x`, column-major) of the static sensitivity.
 ///

@@ -6,14 +6,14 @@
 use std::time::Instant;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
-use crate::element::MassKind;
 use crate::error::Error;
-use crate::model::{Densities, Model};
-use crate::newton::Newton;
-use crate::parameter::{At, Level, Parameter};
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Densities, Model};
+use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::StaticSettings;
-use crate::statics::{load_stepping, static_newton};
+use crate::solver::newton::Newton;
+use crate::solver::statics::{load_stepping, static_newton};
 use crate::time_grid::TimeGrid;
 
 /// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint, resolved).

@@ -171,21 +171,23 @@ fn agreement_holds_for_other_p_h_rho_and_split() {
 
 #[test]
 fn static_compliance_gradients_match_finite_differences() {
+    check_gravity_truss(&[
+        "compliance",
+        "volume",
+        "displacement:truss[4,1]:0,-1",
+        "stress",
+        "stress:p=16,q=1",
+        "buckling:ks=20,scale=1e-3",
+        "shear:p=4,q=0",
+    ]);
+}
+
+/// [`check`] of responses `names` of the static truss under its load and gravity.
+pub(crate) fn check_gravity_truss(names: &[&str]) {
     let mut spec = reference::static_truss(1);
     spec.gravity = Some([0.0, -9.81]);
     let truss = scene::build(&spec).expect("valid scene");
-    let rs = responses(
-        &truss,
-        &[
-            "compliance",
-            "volume",
-            "displacement:truss[4,1]:0,-1",
-            "stress",
-            "stress:p=16,q=1",
-            "buckling:ks=20,scale=1e-3",
-            "shear:p=4,q=0",
-        ],
-    );
+    let rs = responses(&truss, names);
     let settings = StaticSettings {
         tol: 1e-13,
         ..static_settings(1)

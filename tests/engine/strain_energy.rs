@@ -6,7 +6,7 @@ use flextop::scene;
 use flextop::{evaluate, of_equilibrium, of_motion, Memory, Method, Model, Recorded};
 
 use crate::common::*;
-use crate::sensitivity::{check, how, random_design, responses};
+use crate::sensitivity::{check, check_gravity_truss, how, random_design, responses};
 
 /// Values of `names` on state `q` of `model` at density `x`, held at rest for 0.1 s (a
 /// mean over the motion is then the state's value).
@@ -129,20 +129,5 @@ fn strain_energy_gradients_match_differences_and_each_other() {
         rs.len(),
     );
 
-    let mut spec = reference::static_truss(1);
-    spec.gravity = Some([0.0, -9.81]);
-    let truss = scene::build(&spec).expect("valid scene");
-    let rs = responses(&truss, &["strain_energy"]);
-    let equilibrium = flextop::StaticSettings {
-        tol: 1e-13,
-        ..static_settings(1)
-    };
-    let eval = |x: &[f64], m: Method| of_equilibrium(&truss, x, &equilibrium, &rs, &[], m);
-    check(
-        &truss,
-        &eval,
-        &random_design(&truss, 3),
-        &[0, 20, 45, 73],
-        rs.len(),
-    );
+    check_gravity_truss(&["strain_energy"]);
 }

@@ -19,14 +19,14 @@
 
 use nalgebra::Vector2;
 
-use crate::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
-use crate::element::{MassKind, Vector6};
 use crate::error::SettingsError;
-use crate::model::{Analysis, Densities, Model};
-use crate::motion::{LawParameter, Motion, MotionState, Trapezoidal};
-use crate::motor::MotorLaw;
-use crate::section::{Section, SectionProperty};
-use crate::spring::Measure;
+use crate::mechanism::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
+use crate::mechanism::element::{MassKind, Vector6};
+use crate::mechanism::model::{Analysis, Densities, Model};
+use crate::mechanism::motion::{LawParameter, Motion, MotionState, Trapezoidal};
+use crate::mechanism::motor::MotorLaw;
+use crate::mechanism::section::{Section, SectionProperty};
+use crate::mechanism::spring::Measure;
 
 /// A scene parameter, named `KIND:ENTRY` (e.g. `k:bumper`, `mass:bob`, `arm_x:bob.pivot`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -384,7 +384,7 @@ impl Parameter {
     }
 
     /// `∂f_ext/∂p` at `t`: a motor's torque per unit of it, a servo's feed per unit gain
-    /// (`θ_r(t) − θ_r(0)`, and `θ̇_r(t)` in a motion, as in [`crate::motor::Motor::applied`]).
+    /// (`θ_r(t) − θ_r(0)`, and `θ̇_r(t)` in a motion, as in [`crate::mechanism::motor::Motor::applied`]).
     fn applied_rate(&self, model: &Model, t: f64, add: &mut impl FnMut(usize, f64)) {
         let (Self::Torque { motor } | Self::Gain { motor, .. }) = *self else {
             return;
@@ -483,7 +483,7 @@ fn gravity(model: &Model, d: usize) -> f64 {
 pub(crate) fn elements_of(
     model: &Model,
     k: usize,
-) -> impl Iterator<Item = (usize, &crate::model::Element)> {
+) -> impl Iterator<Item = (usize, &crate::mechanism::model::Element)> {
     model
         .elements
         .iter()
@@ -606,7 +606,7 @@ fn arm(model: &Model, entry: &str, axis: usize) -> Result<Parameter, String> {
     if b.points.iter().filter(|(_, a)| *a == arm).count() > 1 {
         return Err(format!("another point of '{body}' lies at '{point}'"));
     }
-    let here = |a: &crate::constraint::Anchor| a.node == b.node && a.arm == arm;
+    let here = |a: &crate::mechanism::constraint::Anchor| a.node == b.node && a.arm == arm;
     let mut held = false;
     for j in &model.joints {
         let anchors: Vec<_> = match j.kind {

@@ -22,10 +22,10 @@
 //! the robot arm to another branch, so they start from zero.
 
 use crate::error::SolveError;
-use crate::model::{Densities, Initial, Model};
-use crate::newton::{Newton, NewtonReport, Point};
+use crate::mechanism::model::{Densities, Initial, Model};
 use crate::settings::{DynamicSettings, NewtonMatrix, StaticSettings, MAX_CUTS};
-use crate::statics::{solve_static, StaticSolution};
+use crate::solver::newton::{Newton, NewtonReport, Point};
+use crate::solver::statics::{solve_static, StaticSolution};
 
 /// Algorithmic parameters `α_m, α_f, β, γ`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -143,7 +143,7 @@ impl<'m> Integrator<'m> {
     }
 
     /// The assembler of the design: forces, matrices, the model and its densities.
-    pub fn assembler(&self) -> &crate::assembly::Assembler<'m> {
+    pub fn assembler(&self) -> &crate::solver::assembly::Assembler<'m> {
         self.newton.assembler()
     }
 

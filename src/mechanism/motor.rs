@@ -1,5 +1,5 @@
 //! Motors: a torque (a slider's force) applied on a joint's own coordinate `s`
-//! ([`crate::constraint::Joint::coordinate`]), constant, scaled by a time table, or a PD
+//! ([`crate::mechanism::constraint::Joint::coordinate`]), constant, scaled by a time table, or a PD
 //! servo following a motion law.
 //!
 //! A motor acts where `s` is linear in `q` (a pin, a hinge, a slider on a ground axis), so
@@ -9,8 +9,8 @@
 //! with `θ_r(t) − θ_r(0)` from the scene's configuration. Units: N m and rad at a pin or
 //! hinge, N and m along a slider.
 
-use crate::load::TimeFunction;
-use crate::motion::Motion;
+use crate::mechanism::load::TimeFunction;
+use crate::mechanism::motion::Motion;
 
 /// How a motor's applied torque follows time.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,7 +23,7 @@ pub enum MotorLaw {
         time: TimeFunction,
     },
     /// The applied part of a PD servo following `motion` (its spring-damper is a
-    /// [`crate::spring::Spring`]).
+    /// [`crate::mechanism::spring::Spring`]).
     Servo {
         /// Proportional gain `k_p` (N m/rad or N/m).
         kp: f64,
@@ -31,7 +31,7 @@ pub enum MotorLaw {
         kd: f64,
         /// The reference `θ_r(t)`.
         motion: Motion,
-        /// Its spring-damper's index in [`crate::model::Model::springs`].
+        /// Its spring-damper's index in [`crate::mechanism::model::Model::springs`].
         spring: usize,
     },
 }

@@ -10,14 +10,14 @@
 //! `C q̇` with the constant, symmetric `C = c (∂s/∂q)(∂s/∂q)ᵀ`. On a distance or a carried
 //! axis `C` follows the state, and `∂f/∂q = c ṡ ∂²s/∂q² + c (∂s/∂q)(∂²s/∂q² q̇)ᵀ` has a part
 //! that is not symmetric, which the iteration matrix leaves out and the gradients' exact
-//! solves take back ([`crate::element::Damping`], as for the beams').
+//! solves take back ([`crate::mechanism::element::Damping`], as for the beams').
 //!
-//! [`Joint::coordinate`]: crate::constraint::Joint::coordinate
+//! [`Joint::coordinate`]: crate::mechanism::constraint::Joint::coordinate
 
 use nalgebra::Vector2;
 
-use crate::constraint::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
-use crate::element::{Damping, Matrix6, Vector6};
+use crate::mechanism::constraint::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
+use crate::mechanism::element::{Damping, Matrix6, Vector6};
 
 /// What a spring measures.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -196,7 +196,7 @@ fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::constraint::Law;
+    use crate::mechanism::constraint::Law;
 
     /// A damper on a distance between arms: `∂f/∂q` (symmetric part and rest) and `∂f/∂q̇`
     /// against central differences of its force.

@@ -15,12 +15,12 @@
 
 use faer::dyn_stack::MemBuffer;
 
-use crate::assembly::{Assembler, DampingBlock, Jacobian};
-use crate::constraint::Turns;
-use crate::element::MassKind;
 use crate::error::SolveError;
-use crate::linsolve::{FactorError, Ldlt};
-use crate::model::{Densities, Model};
+use crate::mechanism::constraint::Turns;
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Densities, Model};
+use crate::solver::assembly::{Assembler, DampingBlock, Jacobian};
+use crate::solver::linsolve::{FactorError, Ldlt};
 
 /// Largest ratio of successive residuals at which a kept factorization is used again
 /// ([`Newton::keep_matrix`]).

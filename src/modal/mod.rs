@@ -21,17 +21,19 @@
 //! on the design through `q`). At a repeated eigenvalue only symmetric functions of the
 //! cluster are differentiable; callers aggregate (see the Python `modes`).
 
+mod lanczos;
+
 use std::cell::RefCell;
 use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::assembly::{Assembler, Jacobian};
-use crate::element::MassKind;
 use crate::error::{Error, SettingsError, SolveError};
-use crate::lanczos::{largest_eigenpairs, spread};
-use crate::linsolve::{FactorError, Ldlt};
-use crate::model::{Densities, Model};
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Densities, Model};
+use crate::solver::assembly::{Assembler, Jacobian};
+use crate::solver::linsolve::{FactorError, Ldlt};
+use lanczos::{largest_eigenpairs, spread};
 
 /// The lowest natural modes of a structure, with the proof that none was skipped.
 #[derive(Debug, Clone, PartialEq)]
@@ -449,7 +451,7 @@ mod tests {
     //! Against a dense eigen-solve of the same matrices, and finite differences.
 
     use super::*;
-    use crate::assembly::linearize;
+    use crate::solver::assembly::linearize;
     use nalgebra::DMatrix;
 
     fn arm() -> Model {
@@ -463,7 +465,7 @@ mod tests {
             .collect()
     }
 
-    fn dense(c: &crate::assembly::Csc) -> DMatrix<f64> {
+    fn dense(c: &crate::solver::assembly::Csc) -> DMatrix<f64> {
         let mut d = DMatrix::zeros(c.shape.0, c.shape.1);
         for j in 0..c.shape.1 {
             for k in c.indptr[j]..c.indptr[j + 1] {

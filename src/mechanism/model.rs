@@ -8,15 +8,15 @@
 
 use nalgebra::Vector2;
 
-use crate::constraint::{ConstraintRow, Joint};
-use crate::element::{Beam, Vector6};
 use crate::error::{DesignError, SolveError};
-use crate::interpolation::{Interpolation, MassLaw};
-use crate::load::NodalLoad;
-use crate::motor::Motor;
-use crate::section::NamedSection;
+use crate::mechanism::constraint::{ConstraintRow, Joint};
+use crate::mechanism::element::{Beam, Vector6};
+use crate::mechanism::interpolation::{Interpolation, MassLaw};
+use crate::mechanism::load::NodalLoad;
+use crate::mechanism::motor::Motor;
+use crate::mechanism::section::NamedSection;
+use crate::mechanism::spring::{Measure, Spring};
 use crate::settings::RunOptions;
-use crate::spring::{Measure, Spring};
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]

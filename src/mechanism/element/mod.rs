@@ -1,7 +1,7 @@
 //! Finite elements of the flexible bodies.
 //!
 //! The only structural element is the co-rotational Timoshenko [`beam`]; point masses are
-//! attached to nodes by the [`crate::model::Model`].
+//! attached to nodes by the [`crate::mechanism::model::Model`].
 
 pub mod beam;
 

@@ -11,10 +11,10 @@
 //! would show as work done by a motor that does not move.
 
 use crate::error::{Error, SettingsError, SolveError};
-use crate::integrator::{Integrator, State};
-use crate::model::Model;
+use crate::mechanism::model::Model;
 use crate::settings::DynamicSettings;
-use crate::step_control::{self, Controller, StepControl, Verdict};
+use crate::solver::integrator::{Integrator, State};
+use crate::solver::step_control::{self, Controller, StepControl, Verdict};
 use crate::time_grid::TimeGrid;
 
 /// Largest trajectory a run records (bytes).
@@ -156,7 +156,7 @@ fn run_on(
 }
 
 /// Runs `model` for design `x` with step sizes chosen by local error control
-/// ([`crate::step_control`]): steps rejected and retried where the local error on the
+/// ([`crate::solver::step_control`]): steps rejected and retried where the local error on the
 /// positions exceeds `control.tol`, cut to a quarter where Newton fails, ending exactly at
 /// the kinks of the motion laws and at `settings.t_end`. The recorded
 /// [`Trajectory::grid`] replays the run (for its gradients, [`crate::of_motion_on`]).

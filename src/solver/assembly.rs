@@ -19,7 +19,7 @@
 //! rows, giving `[β'M + K_t + s Φ_qᵀΦ_q, s Φ_qᵀ; s Φ_q, 0] [Δq; Δμ] = [b + Φ_qᵀ c; c]`. The
 //! solution is unchanged, the matrix stays symmetric, and its DOF block becomes positive
 //! definite for any properly constrained mechanism — statics included — which is what the
-//! pivot-free `LDLᵀ` of [`crate::linsolve`] needs.
+//! pivot-free `LDLᵀ` of [`crate::solver::linsolve`] needs.
 //!
 //! The pattern — element blocks, point-mass diagonals, constraint entries and their
 //! `Φ_qᵀΦ_q` couplings — is built once in [`Pattern`], with a *slot map* from each element's
@@ -28,12 +28,12 @@
 
 use std::ops::Range;
 
-use crate::constraint::{ConstraintRow, Turns};
-use crate::element::{Damping, MassKind, Matrix6, Vector6};
 use crate::error::SolveError;
-use crate::linsolve::{FactorError, Ldlt};
-use crate::model::{Analysis, Densities, Model};
-use crate::spring::Spring;
+use crate::mechanism::constraint::{ConstraintRow, Turns};
+use crate::mechanism::element::{Damping, MassKind, Matrix6, Vector6};
+use crate::mechanism::model::{Analysis, Densities, Model};
+use crate::mechanism::spring::Spring;
+use crate::solver::linsolve::{FactorError, Ldlt};
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
 #[derive(Debug, Clone)]

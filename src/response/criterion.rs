@@ -27,8 +27,8 @@ use std::f64::consts::PI;
 
 use nalgebra::Vector3;
 
-use crate::model::Element;
-use crate::section::Section;
+use crate::mechanism::model::Element;
+use crate::mechanism::section::Section;
 
 /// What an aggregate measures at its points: the criterion a bar is judged by.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

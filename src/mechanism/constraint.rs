@@ -21,7 +21,7 @@
 
 use nalgebra::Vector2;
 
-use crate::motion::Motion;
+use crate::mechanism::motion::Motion;
 
 /// Where a joint acts: a node, or a point of a rigid body at `arm` from its centre.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -557,7 +557,7 @@ impl Separation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::Trapezoidal;
+    use crate::mechanism::motion::Trapezoidal;
 
     #[test]
     fn driven_hinge_prescribes_relative_rotation_from_its_start() {

@@ -10,11 +10,11 @@ use nalgebra::Vector3;
 
 use super::arguments::{component_and_options, only, option};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::aggregate::Aggregation;
-use crate::model::Model;
-use crate::parameter::Parameter;
-use crate::section::Section;
-use crate::stress::{Criterion, ElementState};
+use crate::mechanism::model::Model;
+use crate::mechanism::parameter::Parameter;
+use crate::mechanism::section::Section;
+use crate::response::aggregation::Aggregation;
+use crate::response::criterion::{Criterion, ElementState};
 
 /// The relaxation exponent used unless a response names one (Le et al. 2010).
 const DEFAULT_RELAXATION: f64 = 0.5;

@@ -1,7 +1,7 @@
 //! Symmetric factorization of the iteration matrix — the only module that touches faer.
 //!
 //! The iteration matrix is symmetric and, in the augmented-Lagrangian form the assembly
-//! produces (see [`crate::assembly`]), its DOF block is positive definite whenever the
+//! produces (see [`crate::solver::assembly`]), its DOF block is positive definite whenever the
 //! mechanism is properly constrained. An `LDLᵀ` factorization without pivoting then exists
 //! as soon as every multiplier is eliminated after all the DOFs its constraint touches:
 //! each DOF pivot is a Schur complement of a positive definite matrix, each multiplier

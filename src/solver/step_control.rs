@@ -18,8 +18,8 @@
 //! the motion laws and at `t_end`; a remainder shorter than two steps is split evenly.
 
 use crate::error::SettingsError;
-use crate::integrator::AlphaParameters;
-use crate::model::Model;
+use crate::mechanism::model::Model;
+use crate::solver::integrator::AlphaParameters;
 
 /// Safety factor on the proposed step.
 const SAFETY: f64 = 0.9;

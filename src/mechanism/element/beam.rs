@@ -38,7 +38,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 
-use crate::section::Section;
+use crate::mechanism::section::Section;
 
 /// Six element DOFs.
 pub type Vector6 = SVector<f64, 6>;
@@ -67,7 +67,7 @@ pub struct Beam {
 }
 
 /// A damping force at a state with its derivatives: a beam's stiffness-proportional
-/// damping (at full density), or a damper's on a distance ([`crate::spring::Spring::damper`]).
+/// damping (at full density), or a damper's on a distance ([`crate::mechanism::spring::Spring::damper`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Damping {
     /// `f_d = β Bᵀ D B q̇`.

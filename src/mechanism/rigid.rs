@@ -20,10 +20,10 @@
 
 use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
-use crate::constraint::ConstraintRow;
 use crate::error::{SceneError, SolveError};
-use crate::model::{Analysis, Initial, Model};
-use crate::spring::Spring;
+use crate::mechanism::constraint::ConstraintRow;
+use crate::mechanism::model::{Analysis, Initial, Model};
+use crate::mechanism::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
 /// coordinates depend on others, among the rows of `joints` (indices into `Model::joints`).
@@ -519,7 +519,7 @@ fn check_attached(model: &Model) -> Result<(), SceneError> {
 /// singular.
 fn check_body_rotations(model: &Model) -> Result<(), SceneError> {
     for body in &model.bodies {
-        let rotation = crate::constraint::dof(body.node, 2);
+        let rotation = crate::mechanism::constraint::dof(body.node, 2);
         let inertia: f64 = model
             .point_masses
             .iter()

@@ -7,11 +7,11 @@
 //! branch. The solve ends with [`SolveError::LoadStepping`] when the increment falls below
 //! [`MIN_LOAD_INCREMENT`] or the iterations exceed [`iteration_budget`].
 
-use crate::element::MassKind;
 use crate::error::SolveError;
-use crate::model::{Densities, Model};
-use crate::newton::{Newton, Point};
+use crate::mechanism::element::MassKind;
+use crate::mechanism::model::{Densities, Model};
 use crate::settings::{NewtonMatrix, StaticSettings};
+use crate::solver::newton::{Newton, Point};
 
 /// Smallest load-factor increment tried before the solve gives up.
 pub const MIN_LOAD_INCREMENT: f64 = 1e-6;

@@ -1,6 +1,6 @@
 //! A state of a model carried to the same scene with twice the elements per bar: each
 //! coarse node keeps its coordinates, and the node that splits a coarse element in two
-//! takes the element's own deformed shape at its middle ([`crate::element::beam::Beam::middle`]:
+//! takes the element's own deformed shape at its middle ([`crate::mechanism::element::beam::Beam::middle`]:
 //! the co-rotated cubic).
 //!
 //! It serves as a guess, not as a result: a run on the refined model starts each step's
@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use nalgebra::Vector2;
 
 use crate::error::SettingsError;
-use crate::model::Model;
+use crate::mechanism::model::Model;
 
 /// Where a node of the refined model takes its coordinates from.
 #[derive(Debug, Clone, Copy, PartialEq)]
