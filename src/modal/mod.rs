@@ -455,7 +455,7 @@ mod tests {
     use nalgebra::DMatrix;
 
     fn arm() -> Model {
-        let spec = crate::scene::parse_toml(include_str!("../examples/robot_arm.toml")).unwrap();
+        let spec = crate::scene::parse_toml(include_str!("../../examples/robot_arm.toml")).unwrap();
         crate::scene::build(&spec).unwrap()
     }
 

@@ -838,7 +838,8 @@ mod tests {
     /// derivative of the joint forces `Φ_q(q)ᵀλ` and of `Φ(q)`.
     #[test]
     fn joint_terms_of_the_iteration_matrix_equal_central_differences() {
-        let spec = crate::scene::parse_toml(include_str!("../examples/slider_crank.toml")).unwrap();
+        let spec =
+            crate::scene::parse_toml(include_str!("../../examples/slider_crank.toml")).unwrap();
         let model = crate::scene::build(&spec).unwrap();
         let x = vec![0.6; model.n_variables()];
         let asm = Assembler::new(
@@ -906,7 +907,7 @@ mod tests {
     #[test]
     fn iteration_matrix_equals_central_differences_of_the_residual() {
         let mut spec =
-            crate::scene::parse_toml(include_str!("../examples/robot_arm.toml")).unwrap();
+            crate::scene::parse_toml(include_str!("../../examples/robot_arm.toml")).unwrap();
         spec.ground_structures.iter_mut().for_each(|g| g.split = 2);
         let arm = crate::scene::build(&spec).unwrap();
         let x: Vec<f64> = (0..arm.n_variables())
