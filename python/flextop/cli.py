@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from . import checkpoint, export, responses, scenarios, scenes
+from . import __version__, checkpoint, export, responses, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
@@ -398,6 +398,7 @@ def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, resul
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="flextop", description="Flexible multibody dynamics and topology optimization of moving machines.")
     p.add_argument("--debug", action="store_true", help="show the traceback of an error instead of one line")
+    p.add_argument("--version", action="version", version=f"flextop {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("demo", help="run the paper's robot arm and plot its tip error")
     d.add_argument("--x", type=float, default=0.4, help="density of every bar (default 0.4)")

@@ -115,6 +115,8 @@ class TopologyProblem(Problem):
     def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
                  *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None,
                  rtol: float | None = None, atol: float | None = None) -> None:
+        if simulation.n_design == 0:
+            raise SettingsError("the scene has no design variables (no bars, or all of them fixed): nothing to optimize")
         self.simulation = simulation
         self.objective = objective
         self.constraints = list(constraints.items()) if isinstance(constraints, Mapping) else [tuple(c) for c in constraints]

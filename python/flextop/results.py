@@ -321,7 +321,7 @@ class Results(_Run):
     def _node(self, node: int | str | None) -> int:
         if node is None:
             if self.simulation.tip is None:
-                raise ValueError("the scene has no tip; name a node")
+                raise SettingsError("the scene has no `tip`: name a node, e.g. tip_error(\"NODE\")")
             return self.simulation.tip
         return self.simulation.node(node) if isinstance(node, str) else int(node)
 

@@ -52,6 +52,7 @@ def write(results: Any, path: str | os.PathLike) -> Path:
     path = Path(path)
     if path.suffix != ".npz":
         raise SettingsError(f"{path}: results are saved as .npz; give a path ending in .npz")
+    path.parent.mkdir(parents=True, exist_ok=True)
     sim = results.simulation
     arrays = {k: np.asarray(v) for k, v in results.raw.items() if not np.isscalar(v)}
     scalars = {k: v for k, v in results.raw.items() if np.isscalar(v)}

@@ -10,6 +10,7 @@ variable, ``None`` for full density). The engine releases the GIL while it runs.
 from __future__ import annotations
 
 import copy
+import difflib
 import json
 import os
 import threading
@@ -200,11 +201,13 @@ class Simulation:
         return self.model.tip
 
     def node(self, name: str) -> int:
-        """Index of the node called ``name``."""
+        """Index of the node called ``name``; a :class:`SettingsError` naming it if there is none."""
         try:
             return self.model.node_names.index(name)
         except ValueError:
-            raise KeyError(f"no node named {name!r}") from None
+            near = difflib.get_close_matches(str(name), self.model.node_names, n=3)
+            hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+            raise SettingsError(f"node {name!r}: the scene has no node of that name{hint}") from None
 
     # -- runs ---------------------------------------------------------------------------
 

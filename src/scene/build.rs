@@ -12,7 +12,7 @@
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
-use super::validate::Result;
+use super::validate::{unique, Result};
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
 use crate::error::SceneError;
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
@@ -35,14 +35,17 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let mut point_masses =
         ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
     mesh.add_beams(&spec.beams, &sections)?;
-    mesh.check_splits()?;
+    mesh.check_bar_names()?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
+    unique("joints", joints.iter().map(|j| j.name.as_str()))?;
     let rows = joint::rows(&joints);
     let mut springs = spring::springs(&spec.springs, &mesh, &joints, size)?;
+    unique("springs", springs.iter().map(|s| s.name.as_str()))?;
     let (motors, servos) =
         motor::motors(&spec.motors, &joints, 3 * mesh.nodes.len(), springs.len())?;
+    unique("motors", motors.iter().map(|m| m.name.as_str()))?;
     springs.extend(servos);
     point_masses.extend(load::point_masses(&spec.point_masses, &mesh)?);
     let loads = load::loads(&spec.loads, &mesh)?;

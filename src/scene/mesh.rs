@@ -78,8 +78,25 @@ impl Mesh {
         }
     }
 
+    /// Every bar has a name of its own, and every entry of the scene's `splits` names one.
+    pub(super) fn check_bar_names(&self) -> Result<()> {
+        let mut seen = HashMap::new();
+        for (bar, path) in self.bars.iter().zip(&self.bar_paths) {
+            if let Some(first) = seen.insert(bar.name.as_str(), path) {
+                return Err(SceneError::new(
+                    path,
+                    format!(
+                        "duplicate bar name '{}': {first} is called so too",
+                        bar.name
+                    ),
+                ));
+            }
+        }
+        self.check_splits()
+    }
+
     /// Every entry of the scene's `splits` names a bar of the mesh.
-    pub(super) fn check_splits(&self) -> Result<()> {
+    fn check_splits(&self) -> Result<()> {
         let mut unused: Vec<&String> = self
             .splits
             .iter()

@@ -146,6 +146,37 @@ fn degenerate_geometry_is_rejected() {
 }
 
 #[test]
+fn duplicate_names_are_named() {
+    // Two joints called alike: the second's reactions and drive torque would be lost.
+    let e = arm_error(|s| {
+        if let JointSpec::Hinge { name, .. } = &mut s.joints[1] {
+            *name = "shoulder".into();
+        }
+    });
+    assert_eq!(e.path, "joints[1] (shoulder)");
+    assert!(
+        e.message.contains("joints[0] is called 'shoulder' too"),
+        "{e}"
+    );
+    let mut spec = parse_toml(&cantilever_pair()).unwrap();
+    spec.beams[1].name = Some("one".into());
+    let e = build(&spec).expect_err("two beams called 'one'");
+    assert_eq!(e.path, "beams[1]");
+    assert!(e.message.contains("duplicate bar name 'one'"), "{e}");
+}
+
+/// Two beams in a row from a clamp, `one` and `two`.
+fn cantilever_pair() -> String {
+    "[sections.al]\nE = 70e9\nnu = 0.3\nrho = 2700.0\ndiameter = 0.02\n\
+     [[nodes]]\nname = \"a\"\nx = 0.0\ny = 0.0\n[[nodes]]\nname = \"b\"\nx = 1.0\ny = 0.0\n\
+     [[nodes]]\nname = \"c\"\nx = 2.0\ny = 0.0\n\
+     [[beams]]\nname = \"one\"\nnodes = [\"a\", \"b\"]\nsection = \"al\"\n\
+     [[beams]]\nname = \"two\"\nnodes = [\"b\", \"c\"]\nsection = \"al\"\n\
+     [[joints]]\nkind = \"clamp\"\nname = \"root\"\nnode = \"a\"\n"
+        .into()
+}
+
+#[test]
 fn over_and_under_constrained_mechanisms_are_rejected() {
     let e = arm_error(|s| {
         s.joints.push(JointSpec::Pin {

@@ -4,6 +4,8 @@
 //! or non-negative; sampled time histories must have strictly increasing times. Every
 //! error carries the path of the entry at fault (`sections.al.E`, `loads[0].table.t[2]`).
 
+use std::collections::HashMap;
+
 use crate::error::{short, SceneError};
 
 /// The scene build's result: a value, or the error of the first entry at fault.
@@ -16,6 +18,23 @@ pub(super) fn finite(path: &str, v: f64) -> Result<f64> {
     } else {
         Err(SceneError::new(path, format!("must be finite, got {v}")))
     }
+}
+
+/// An error at the second of two entries of the list `what` (`joints`, `springs`, …) that
+/// share a name: results are read by name, and one would hide the other.
+pub(super) fn unique<'a>(what: &str, names: impl IntoIterator<Item = &'a str>) -> Result<()> {
+    let mut seen = HashMap::new();
+    for (k, name) in names.into_iter().enumerate() {
+        if let Some(first) = seen.insert(name, k) {
+            return Err(SceneError::new(
+                format!("{what}[{k}] ({name})"),
+                format!(
+                    "duplicate name: {what}[{first}] is called '{name}' too; give each its own"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `v` when it is finite and `v > 0`, and not so small that it underflows (subnormal).

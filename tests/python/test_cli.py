@@ -31,6 +31,18 @@ def test_console_script_is_installed():
     assert run.returncode == 0 and "optimize" in run.stdout
 
 
+def test_version_is_the_installed_package_s():
+    from importlib.metadata import version
+    run = flextop_cli("--version")
+    assert run.stdout.strip() == f"flextop {version('flextop')}" == f"flextop {flextop.__version__}"
+
+
+def test_a_scene_without_design_variables_is_one_line_not_a_traceback(tmp_path):
+    run = flextop_cli("optimize", "pendulum", "--out", tmp_path, check=False)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.strip() == "flextop: error: the scene has no design variables (no bars, or all of them fixed): nothing to optimize"
+
+
 def test_optimize_exits_0_only_when_the_optimizer_converged(tmp_path):
     run = flextop_cli("optimize", "static_truss", "--xtol", "0.5", "--max-iter", 20, "--out", tmp_path, "--no-plots")
     assert "status: XTOL" in run.stdout and run.stderr.count("did not converge") == 0

@@ -32,6 +32,11 @@ def test_save_and_load_give_back_every_field(tmp_path, arm):
             assert all(np.array_equal(back.motor_torques[j], t) for j, t in res.motor_torques.items())
 
 
+def test_results_save_into_a_new_directory(tmp_path):
+    res = flextop.Simulation(flextop.scenes.static_truss()).run(0.3)
+    same(res, flextop.load(res.save(tmp_path / "not" / "yet" / "there.npz")))
+
+
 def test_the_file_describes_itself_without_flextop(tmp_path, arm):
     res = arm.run(0.4)
     with np.load(res.save(tmp_path / "arm.npz")) as data:

@@ -92,6 +92,16 @@ def test_a_bar_split_on_its_own_refines_that_bar_alone():
         flextop.Simulation(bad)
 
 
+def test_unknown_nodes_and_a_missing_tip_are_settings_errors():
+    pendulum = flextop.Simulation(flextop.scenes.pendulum(periods=0.05))
+    with pytest.raises(SettingsError, match="node 'nope': the scene has no node of that name"):
+        pendulum.node("nope")
+    res = pendulum.run()
+    assert pendulum.tip is None
+    with pytest.raises(SettingsError, match="the scene has no `tip`"):
+        res.tip_error()
+
+
 def json_like(value):
     """``value`` with tuples and numpy values as the lists and floats that TOML reads back."""
     if isinstance(value, dict):
@@ -141,6 +151,7 @@ def bad(mutate):
         (lambda s: s["joints"][0]["drive"].update(speed=-1.0), "joints[0].drive.speed"),
         (lambda s: s["ground_structures"][0].update(height=0.0), "height"),
         (lambda s: s["ground_structures"][1].update(name="link1"), "duplicate node name 'link1[0,0]'"),
+        (lambda s: s["joints"][1].update(name="shoulder"), "joints[1] (shoulder): duplicate name: joints[0] is called 'shoulder' too"),
         (lambda s: s["point_masses"][0].update(node="link3[4,1]"), "unknown node 'link3[4,1]'"),
         (lambda s: s["ground_structures"][1].update(origin=[0.5, 0.9]), "must coincide"),
         (lambda s: s["joints"].append({"kind": "pin", "name": "again", "node": "link1[0,1]"}), "over-constrained"),
