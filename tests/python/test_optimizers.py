@@ -6,11 +6,14 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
+from flextop.errors import FlextopError, SettingsError
 from flextop.optimizers import (
     EvaluationError,
     FunctionProblem,
     OptimizerState,
     Status,
+    kkt_estimate,
+    kkt_residual,
     optimize,
 )
 
@@ -58,27 +61,35 @@ def cantilever_optimum():
 
 # -- Rosenbrock, where plain MMA used to alternate between two points ----------------------
 
-def rosenbrock(constrained):
-    """(1 − a)² + 100 (b − a²)² on [−2, 2]², optionally with a² + b² ≤ 1.5 (which cuts
-    off the unconstrained optimum (1, 1))."""
-    def objective(x):
-        a, b = x
-        return (1 - a) ** 2 + 100 * (b - a * a) ** 2, np.array([-2 * (1 - a) - 400 * a * (b - a * a), 200 * (b - a * a)])
+def rosenbrock_objective(x):
+    a, b = x
+    return (1 - a) ** 2 + 100 * (b - a * a) ** 2, np.array([-2 * (1 - a) - 400 * a * (b - a * a), 200 * (b - a * a)])
 
+
+def rosenbrock_in(lower, upper, disc=None):
+    """(1 − a)² + 100 (b − a²)² on the box [lower, upper], optionally inside the disc
+    a² + b² ≤ disc (1.5 cuts off the unconstrained optimum (1, 1), 4 does not)."""
     def circle(x):
-        return np.array([x[0] ** 2 + x[1] ** 2 - 1.5]), np.array([[2 * x[0], 2 * x[1]]])
+        return np.array([x[0] ** 2 + x[1] ** 2 - disc]), np.array([[2 * x[0], 2 * x[1]]])
 
-    return FunctionProblem(objective, circle if constrained else None, [-2, -2], [2, 2], 1 if constrained else 0)
+    return FunctionProblem(rosenbrock_objective, None if disc is None else circle, lower, upper,
+                           0 if disc is None else 1)
+
+
+def rosenbrock(constrained):
+    """On [−2, 2]², optionally with a² + b² ≤ 1.5 (which cuts off the unconstrained
+    optimum (1, 1))."""
+    return rosenbrock_in((-2, -2), (2, 2), 1.5 if constrained else None)
 
 
 @pytest.mark.parametrize("constrained", [False, True])
 @pytest.mark.parametrize("method", ["mma", "gcmma"])
 def test_rosenbrock_converges_without_cycling(method, constrained):
+    """A cycle never reaches a KKT point: the run ends at one, before the iteration limit."""
     problem = rosenbrock(constrained)
     x_star = reference_optimum(problem, np.array([-1.2, 1.0]))[0] if constrained else np.ones(2)
     result = optimize(problem, np.array([-1.2, 1.0]), method, max_iter=1000, xtol=0.0)
-    changes = np.array([r.change for r in result.history[-50:]])
-    assert changes.max() < 1e-5, f"still moving (a cycle?): last changes {changes[-4:]}"
+    assert result.status is Status.KKT and result.nit < 1000, result.message
     assert np.abs(result.x - x_star).max() < 1e-4, (result.x, x_star)
     assert np.max(result.constr_scaled, initial=-1.0) <= 1e-8
 
@@ -304,3 +315,138 @@ def test_a_problem_without_accept_still_optimizes():
         physical = staticmethod(inner.physical)
 
     assert np.array_equal(optimize(Bare(), 5.0, max_iter=3).x, optimize(inner, 5.0, max_iter=3).x)
+
+
+# -- success means a KKT point ----------------------------------------------------------------
+
+ROSENBROCK_BOUNDS = {"issue's box": ((-1.7, -0.8), (1.9, 2.6)), "[-2, 2]²": ((-2, -2), (2, 2))}
+ROSENBROCK_DISCS = {"no constraint": None, "inactive disc": 4.0, "active disc": 1.5}
+ROSENBROCK_STARTS = [(-1.3, 1.9), (-1.2, 1.0), (1.5, -0.5)]
+
+
+def rosenbrock_optimum(problem):
+    """(1, 1) where no constraint cuts it off, else SLSQP's optimum."""
+    inside = problem.m == 0 or problem.evaluate(np.ones(2)).g[0] <= 0.0
+    return np.ones(2) if inside else reference_optimum(problem, np.array([0.5, 0.5]))[0]
+
+
+@pytest.mark.parametrize("disc", ROSENBROCK_DISCS)
+@pytest.mark.parametrize("bounds", ROSENBROCK_BOUNDS)
+@pytest.mark.parametrize("method", ["mma", "gcmma"])
+def test_rosenbrock_success_is_a_kkt_point(method, bounds, disc):
+    """From three starts in two boxes, without a constraint and with an inactive and an
+    active disc: success=True only at a KKT residual below kkt_tol and within 1e-4 of the
+    optimum, success=False only with a message naming the KKT residual; and MMA and GCMMA
+    get there from every start."""
+    problem = rosenbrock_in(*ROSENBROCK_BOUNDS[bounds], ROSENBROCK_DISCS[disc])
+    x_star, tol = rosenbrock_optimum(problem), 1e-6
+    reached = []
+    for start in ROSENBROCK_STARTS:
+        result = optimize(problem, start, method, max_iter=1500, kkt_tol=tol)
+        assert result.kkt == kkt_estimate(result.x, problem.evaluate(result.x), problem.lower, problem.upper,
+                                          result.state.multipliers)[0] == result.history[-1].kkt
+        if result.success:
+            assert result.status is Status.KKT and result.kkt < tol, result.message
+            assert np.abs(result.x - x_star).max() <= 1e-4, (start, result.x, x_star)
+            assert np.max(result.constr_scaled, initial=-1.0) <= 1e-6
+        else:
+            assert f"KKT residual {result.kkt:.3g} not below kkt_tol = {tol:g}" in result.message
+        reached.append(result.success)
+        print(f"{method} {bounds} {disc} from {start}: {result.nit} iterations, {result.nfev} evaluations, "
+              f"|x - x*| = {np.abs(result.x - x_star).max():.1e}, KKT {result.kkt:.1e}, success {result.success}")
+    assert all(reached), "MMA reaches the optimum from every start within 1500 iterations"
+
+
+def test_the_issues_false_stop_is_no_success():
+    """The issue's run: a design change below xtol = 1e-4 (the old default) after 27
+    iterations at (0.723, 0.521), where the gradient is far from zero. It is a stall, not
+    a success, and the KKT residual there is the gradient's largest component. By default
+    a small step does not stop the run (test_rosenbrock_success_is_a_kkt_point follows it
+    to the optimum)."""
+    problem = rosenbrock_in((-1.7, -0.8), (1.9, 2.6))
+    stalled = optimize(problem, (-1.3, 1.9), "mma", xtol=1e-4)
+    assert stalled.status is Status.XTOL and not stalled.success
+    assert stalled.nit == 27 and stalled.x == pytest.approx([0.723, 0.521], abs=1e-3)
+    gradient = rosenbrock_objective(stalled.x)[1]
+    assert stalled.kkt == pytest.approx(np.abs(gradient).max(), rel=1e-12) and stalled.kkt > 0.2
+    assert stalled.message.startswith("stalled: max design change 8.29e-05 below xtol = 0.0001")
+    assert stalled.history[-1].change < 1e-4 <= stalled.history[-2].change
+    assert f"KKT residual {stalled.kkt:.3g} not below kkt_tol = 1e-06" in stalled.message
+    limited = optimize(problem, (-1.3, 1.9), "mma")  # by default: on to the iteration limit
+    assert limited.status is Status.MAX_ITER and limited.nit == 100 and not limited.success
+    assert limited.fun < stalled.fun and f"KKT residual {limited.kkt:.3g} not below" in limited.message
+
+
+def test_the_kkt_residual_where_it_is_known():
+    """On a box: the projected gradient, capped by the distance to a bound and nothing
+    where the gradient pushes outward at one, relative to |f| where |f| > 1. With a disc:
+    zero at the optimum with the multiplier that balances the gradient; a multiplier on
+    an inactive constraint costs its complementarity; infeasibility counts."""
+    def objective(x):
+        return 0.5 * ((x[0] - 2.5) ** 2 + (x[1] + 0.5) ** 2), np.array([x[0] - 2.5, x[1] + 0.5])
+
+    box = FunctionProblem(objective, None, [0.0, 0.0], [2.0, 2.0], 0)
+    for x, want in [((2.0, 0.0), 0.0),   # grad (-0.5, 0.5) pushes out of both bounds
+                    ((2.0, 0.3), 0.3),   # grad_1 = 0.8, but x_1 is 0.3 from its bound
+                    ((1.8, 0.1), 0.2),   # grad_0 = -0.7, but x_0 is 0.2 from its bound
+                    ((0.5, 1.5), 0.5)]:  # f = 4: grad / f = (-0.5, 0.5)
+        x = np.array(x)
+        assert kkt_estimate(x, box.evaluate(x), box.lower, box.upper)[0] == pytest.approx(want, abs=1e-15), x
+    disc = rosenbrock(True)
+    x_star = reference_optimum(disc, np.array([0.5, 0.5]))[0]
+    e = disc.evaluate(x_star)
+    lam_star = -(e.df0 @ e.dg[0]) / (e.dg[0] @ e.dg[0])  # grad f + lam grad g = 0 on the circle
+    residual, lam = kkt_estimate(x_star, e, disc.lower, disc.upper)
+    assert residual < 1e-6 and lam == pytest.approx([lam_star], rel=1e-6)
+    assert kkt_residual(x_star, e, np.zeros(1), disc.lower, disc.upper) == pytest.approx(np.abs(e.df0).max())
+    inside = np.array([0.5, 0.25])  # on the valley floor: grad f = (-1, 0), g = -1.1875
+    residual, lam = kkt_estimate(inside, disc.evaluate(inside), disc.lower, disc.upper, np.array([2.0]))
+    assert residual == 1.0 and lam == [0.0]  # lam = 2 would leave min(lam, -g) = 1.1875
+    outside = np.array([1.0, 1.0])  # the unconstrained optimum: grad f = 0, g = 0.5
+    assert kkt_estimate(outside, disc.evaluate(outside), disc.lower, disc.upper)[0] == 0.5
+
+
+def test_every_exit_names_the_kkt_residual_of_its_design():
+    """Iteration limit, callback, stall and repeated evaluation failures: no success, and
+    the message names the KKT residual of the design returned."""
+    calls = []
+
+    def crashing(x):
+        calls.append(1)
+        if len(calls) > 4:
+            raise SimulationCrashed("license server unreachable", x)
+        return cantilever().objective(x)
+
+    runs = {Status.MAX_ITER: (cantilever(), {"max_iter": 3}),
+            Status.CALLBACK: (cantilever(), {"callback": lambda record: record.iteration == 2}),
+            Status.XTOL: (cantilever(), {"xtol": 0.5}),
+            Status.EVALUATION_FAILED: (FunctionProblem(crashing, cantilever().constraints, np.ones(5),
+                                                       np.full(5, 10.0), m=1), {})}
+    for status, (problem, options) in runs.items():
+        result = optimize(problem, np.full(5, 5.0), "mma", **options)
+        assert result.status is status and not result.success, result.message
+        calls.clear()  # the license server is back, to evaluate the design returned
+        kkt = kkt_estimate(result.x, problem.evaluate(result.x), problem.lower, problem.upper,
+                           result.state.best.multipliers if status is Status.EVALUATION_FAILED
+                           else result.state.multipliers)[0]
+        assert result.kkt == kkt > 1e-6
+        assert f"KKT residual {kkt:.3g} not below kkt_tol = 1e-06" in result.message
+
+
+def test_conlin_names_a_lower_bound_that_is_not_positive():
+    """CONLIN's reciprocal variables 1/x need x > 0: a lower bound <= 0 is a SettingsError
+    naming the variable and the bound, raised before any evaluation."""
+    evaluated = []
+
+    def objective(x):
+        evaluated.append(x)
+        return rosenbrock_objective(x)
+
+    for lower, match in [((-1.7, -0.8), r"x\[0\] has lower bound -1.7 \(and 1 more\)"),
+                         ((0.5, 0.0), r"x\[1\] has lower bound 0;")]:
+        problem = FunctionProblem(objective, None, lower, (1.9, 2.6), 0)
+        with pytest.raises(SettingsError, match=match) as raised:
+            optimize(problem, (1.0, 1.0), "conlin")
+        assert isinstance(raised.value, FlextopError) and "reciprocal" in str(raised.value)
+    assert not evaluated
+    assert optimize(FunctionProblem(objective, None, (0.5, 0.5), (1.9, 2.6), 0), (1.2, 1.2), "conlin").nit > 0

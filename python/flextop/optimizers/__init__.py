@@ -8,12 +8,14 @@ for many design variables and few constraints::
 
 Modules: :mod:`.problem` (problem interface), :mod:`.conlin` and :mod:`.mma`
 (the approximations), :mod:`.dual` (the dual subproblem solver they share),
+:mod:`.kkt` (the KKT residual that says whether a design is optimal),
 :mod:`.driver` (outer loop, stopping rules, failure recovery) and
 :mod:`.state` (resumable state).
 """
 
 from .conlin import Conlin
-from .driver import OptimizeResult, Status, kkt_residual, optimize
+from .driver import OptimizeResult, Status, optimize
+from .kkt import kkt_estimate, kkt_residual
 from .method import Method
 from .mma import GCMMA, MMA
 from .problem import Evaluation, EvaluationError, FunctionProblem, Problem
@@ -21,6 +23,6 @@ from .state import IterationRecord, OptimizerState
 
 __all__ = [
     "Conlin", "Evaluation", "EvaluationError", "FunctionProblem", "GCMMA", "IterationRecord",
-    "MMA", "Method", "OptimizeResult", "OptimizerState", "Problem", "Status", "kkt_residual",
-    "optimize",
+    "MMA", "Method", "OptimizeResult", "OptimizerState", "Problem", "Status", "kkt_estimate",
+    "kkt_residual", "optimize",
 ]

@@ -33,6 +33,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..errors import SettingsError
 from .dual import SeparableApproximation, solve_dual
 from .method import Evaluator, Method, Step, move_limits, trend_factor
 from .problem import Evaluation, Problem
@@ -86,8 +87,13 @@ class Conlin(Method):
     name: ClassVar[str] = "conlin"
 
     def check(self, problem: Problem) -> None:
-        if (problem.lower <= 0.0).any():
-            raise ValueError("CONLIN needs positive lower bounds (reciprocal variables 1/x)")
+        """CONLIN's reciprocal variables 1/x_j need x_j > 0: every lower bound positive."""
+        bad = np.flatnonzero(problem.lower <= 0.0)
+        if bad.size:
+            j = bad[0]
+            others = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
+            raise SettingsError(f"CONLIN needs positive lower bounds (its reciprocal variables 1/x): "
+                                f"x[{j}] has lower bound {problem.lower[j]:g}{others}; use MMA or GCMMA")
 
     def move_widths(self, state: OptimizerState, move: float) -> np.ndarray:
         """Move limits s_j (fractions of xmax_j - xmin_j) for the step from ``state.x``."""

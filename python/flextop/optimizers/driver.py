@@ -1,10 +1,14 @@
 """The outer loop shared by all methods: :func:`optimize`.
 
 Each iteration asks the method for one step (approximate, solve the convex
-subproblem, evaluate the new design), records it, and checks the stopping
-rules. If the problem cannot be evaluated at a proposed design
-(:class:`EvaluationError`), the loop stays at the last good design, halves
-the move limit and tries again, up to ``max_retries`` consecutive times.
+subproblem, evaluate the new design), records it with its KKT residual
+(:mod:`.kkt`), and checks the stopping rules. Only the KKT residual says a run
+converged: a small step or a small change of the objective does not (MMA's steps
+are small wherever its asymptotes are close, converged or not), so ``xtol`` and
+``ftol``, when given, stop a run as stalled, unconverged. If the problem cannot
+be evaluated at a proposed design (:class:`EvaluationError`), the loop stays at
+the last good design, halves the move limit and tries again, up to
+``max_retries`` consecutive times.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import numpy as np
 
 from ..errors import DesignError, SettingsError
 from .conlin import Conlin
+from .kkt import kkt_estimate
 from .method import Method
 from .mma import GCMMA, MMA
 from .problem import Evaluation, EvaluationError, Problem
@@ -29,15 +34,15 @@ METHODS: dict[str, type[Method]] = {"mma": MMA, "gcmma": GCMMA, "conlin": Conlin
 class Status(IntEnum):
     """Why :func:`optimize` stopped."""
 
-    KKT = 0                #: KKT residual below kkt_tol
-    XTOL = 1               #: design change below xtol
-    FTOL = 2               #: relative objective change below ftol
+    KKT = 0                #: converged: KKT residual below kkt_tol at a feasible design
+    XTOL = 1               #: stalled: design change below xtol, KKT residual above kkt_tol
+    FTOL = 2               #: stalled: relative objective change below ftol, KKT residual above kkt_tol
     MAX_ITER = 3           #: iteration budget used up
     CALLBACK = 4           #: the callback returned True
     EVALUATION_FAILED = 5  #: evaluation failed more than max_retries times in a row
 
 
-CONVERGED = (Status.KKT, Status.XTOL, Status.FTOL)
+CONVERGED = (Status.KKT,)  # the one stop that is a success; XTOL and FTOL are stalls
 
 
 @dataclass
@@ -49,16 +54,18 @@ class OptimizeResult:
     responses beside their bounds): ``fun``, the objective; ``constr``, the constrained
     quantities; ``jac``, the objective's gradient. As the optimizer saw them:
     ``fun_scaled`` (``f0``) and ``constr_scaled`` (``g``, feasible when ≤ 0). ``kkt`` and
-    ``multipliers``: the KKT residual and multipliers of the scaled problem; ``nit``:
-    iterations; ``nfev``: calls of ``evaluate``; ``history``: one :class:`IterationRecord`
-    per iteration, the start design's first (iteration 0).
+    ``multipliers``: the KKT residual at ``x`` and the multipliers that give it, of the
+    scaled problem (:func:`~flextop.optimizers.kkt.kkt_estimate`); ``nit``: iterations; ``nfev``:
+    calls of ``evaluate``; ``history``: one :class:`IterationRecord` per iteration, the
+    start design's first (iteration 0), each with the KKT residual of its design.
 
     ``status`` says why the run stopped (:class:`Status`) and ``message`` in words, with
-    any evaluation failures recovered and whether the design is infeasible. ``success`` is
-    True only when the run converged (KKT residual, design change or objective change
-    below their tolerances) to a feasible design: False at the iteration limit, after
-    repeated evaluation failures (the best feasible design is then returned) and when the
-    callback stopped the run. ``state``: the final state, to resume with
+    the KKT residual and ``kkt_tol``, any evaluation failures recovered and whether the
+    design is infeasible. ``success`` is True only when the KKT residual of ``x`` is below
+    ``kkt_tol`` and ``x`` is feasible (status KKT): False after a small step or objective
+    change (XTOL, FTOL), at the iteration limit, after repeated evaluation failures (the
+    best feasible design is then returned) and when the callback stopped the run unless
+    ``x`` is a KKT point. ``state``: the final state, to resume with
     ``optimize(..., state=result.state)``.
     """
 
@@ -77,22 +84,6 @@ class OptimizeResult:
     success: bool
     history: list[IterationRecord] = field(repr=False)
     state: OptimizerState | None = field(repr=False)
-
-
-def kkt_residual(x: np.ndarray, evaluation: Evaluation, multipliers: np.ndarray,
-                 lower: np.ndarray, upper: np.ndarray) -> float:
-    """Euclidean norm of the natural KKT residual of the original problem,
-
-        r_x   = x - clip(x - grad_x l, lower, upper),   grad_x l = grad f0 + sum_i lam_i grad g_i
-        r_lam = lam - max(0, lam + g),
-
-    which is zero exactly when x is stationary up to bound multipliers, g <= 0,
-    lam >= 0 and lam_i g_i = 0.
-    """
-    gradient = evaluation.df0 + multipliers @ evaluation.dg
-    r_x = x - np.clip(x - gradient, lower, upper)
-    r_lam = multipliers - np.maximum(0.0, multipliers + evaluation.g)
-    return float(np.sqrt(r_x @ r_x + r_lam @ r_lam))
 
 
 class _CountingEvaluator:
@@ -167,7 +158,7 @@ def _initial_state(problem: Problem, x: np.ndarray, method: Method, move: float,
     """Evaluate the start design; multipliers start at zero."""
     evaluation = _accept(problem, x, evaluate(x))
     multipliers = np.zeros(problem.m)
-    kkt = kkt_residual(x, evaluation, multipliers, problem.lower, problem.upper)
+    kkt = kkt_estimate(x, evaluation, problem.lower, problem.upper)[0]
     start = IterationRecord(iteration=0, f0=evaluation.f0, g=evaluation.g, change=0.0, kkt=kkt, move=move,
                             evaluations=evaluate.calls, eval_time=evaluate.time, solve_time=0.0)
     state = OptimizerState(method.name, 0, x, evaluation, multipliers, kkt, move, nfev=evaluate.calls, history=(start,))
@@ -197,7 +188,7 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
     eval_time = evaluate.time - eval_time
     solve_time = perf_counter() - start - eval_time
     evaluation = _accept(problem, step.x, step.evaluation)
-    kkt = kkt_residual(step.x, evaluation, step.multipliers, problem.lower, problem.upper)
+    kkt = kkt_estimate(step.x, evaluation, problem.lower, problem.upper, step.multipliers)[0]
     record = IterationRecord(
         iteration=state.iteration + 1, f0=evaluation.f0, g=evaluation.g,
         change=float(np.max(np.abs(step.x - state.x) / (problem.upper - problem.lower))),
@@ -211,13 +202,19 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
     return replace(state, best=_best_design(state.best, state, feas_tol)), True
 
 
-def _converged(state: OptimizerState, kkt_tol: float, xtol: float,
-               ftol: float | None) -> Status | None:
-    """Convergence test on the last iteration: KKT residual, design change, objective change."""
-    record = state.history[-1]
-    if record.kkt < kkt_tol:
+def _is_kkt_point(state: OptimizerState, kkt_tol: float, feas_tol: float) -> bool:
+    """Whether the current design is converged: KKT residual below kkt_tol, feasible."""
+    return state.kkt < kkt_tol and _is_feasible(state.evaluation.g, feas_tol)
+
+
+def _stopped(state: OptimizerState, kkt_tol: float, feas_tol: float, xtol: float | None,
+             ftol: float | None) -> Status | None:
+    """Stopping test after an iteration: converged (KKT), or stalled on a design change
+    below xtol or an objective change below ftol (not converged)."""
+    if _is_kkt_point(state, kkt_tol, feas_tol):
         return Status.KKT
-    if record.change < xtol:
+    record = state.history[-1]
+    if xtol is not None and record.change < xtol:
         return Status.XTOL
     if ftol is not None and len(state.history) > 1:
         previous = state.history[-2].f0
@@ -236,21 +233,30 @@ def _stop_message(state: OptimizerState, status: Status, max_iter: int, max_retr
         return f"maximum number of iterations ({max_iter}) reached"
     if status is Status.CALLBACK:
         return "stopped by callback"
-    record = state.history[-1]
     if status is Status.KKT:
-        return f"converged: KKT residual {record.kkt:.3g} below kkt_tol = {tolerances['kkt_tol']:g}"
+        return "converged"
+    record = state.history[-1]
     if status is Status.XTOL:
-        return f"converged: max design change {record.change:.3g} below xtol = {tolerances['xtol']:g}"
-    return f"converged: relative objective change below ftol = {tolerances['ftol']:g}"
+        return f"stalled: max design change {record.change:.3g} below xtol = {tolerances['xtol']:g}"
+    return f"stalled: relative objective change below ftol = {tolerances['ftol']:g}"
 
 
-def _result(problem: Problem, state: OptimizerState, status: Status, message: str, feas_tol: float) -> OptimizeResult:
-    """Assemble the result; after evaluation failures return the best feasible design."""
-    x, evaluation, kkt, lam = state.x, state.evaluation, state.kkt, state.multipliers
+def _optimality(kkt: float, kkt_tol: float) -> str:
+    """The KKT residual beside its tolerance, in words."""
+    relation = "below" if kkt < kkt_tol else "not below"
+    return f"KKT residual {kkt:.3g} {relation} kkt_tol = {kkt_tol:g}"
+
+
+def _result(problem: Problem, state: OptimizerState, status: Status, message: str, kkt_tol: float,
+            feas_tol: float) -> OptimizeResult:
+    """Assemble the result; after evaluation failures return the best feasible design.
+    The KKT residual and multipliers are those of the returned design; success only if it
+    is a KKT point."""
+    x, evaluation, lam = state.x, state.evaluation, state.multipliers
     if status is Status.EVALUATION_FAILED:
         if state.best is not None:
             best = state.best
-            x, evaluation, kkt, lam = best.x, best.evaluation, best.kkt, best.multipliers
+            x, evaluation, lam = best.x, best.evaluation, best.multipliers
             message += f"; returning the best feasible design (iteration {best.iteration})"
         else:
             message += ("; no feasible design was found, returning the last successfully "
@@ -258,6 +264,8 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     elif state.failures:
         message += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
                     f"limit, now {state.move:g}; last error: {state.last_error})")
+    kkt, lam = kkt_estimate(x, evaluation, problem.lower, problem.upper, lam)
+    message += f": {_optimality(kkt, kkt_tol)}"
     g = evaluation.g
     feasible = _is_feasible(g, feas_tol)
     if not feasible:
@@ -266,7 +274,7 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     return OptimizeResult(x=x, fun=float(fun), constr=np.asarray(constr, dtype=float), jac=np.asarray(jac, dtype=float),
                           fun_scaled=evaluation.f0, constr_scaled=g, kkt=kkt, multipliers=lam, nit=state.iteration,
                           nfev=state.nfev, status=status, message=message,
-                          success=status in CONVERGED and feasible,
+                          success=status is Status.KKT,
                           history=list(state.history), state=state)
 
 
@@ -282,7 +290,7 @@ def _failed_start(problem: Problem, x0: np.ndarray, error: EvaluationError, nfev
 
 def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
              max_iter: int = 100, move: float = 0.2, kkt_tol: float = 1e-6,
-             xtol: float = 1e-4, ftol: float | None = None, feas_tol: float = 1e-6,
+             xtol: float | None = None, ftol: float | None = None, feas_tol: float = 1e-6,
              max_retries: int = 3, callback: Callable[[IterationRecord], bool | None] | None = None,
              state: OptimizerState | None = None) -> OptimizeResult:
     """Minimize f0(x) s.t. g(x) <= 0, lower <= x <= upper by sequential convex programming.
@@ -298,9 +306,14 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         (e.g. ``MMA(asyincr=1.1)``).
     max_iter : total number of outer iterations, including those done before a resume.
     move : largest step per iteration as a fraction of upper - lower.
-    kkt_tol : stop when the KKT residual (:func:`kkt_residual`) falls below it.
-    xtol : stop when max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below it.
-    ftol : if given, stop when |f0^k - f0^{k-1}| <= ftol max(1, |f0^k|).
+    kkt_tol : converged, and stop, when the KKT residual (:mod:`.kkt`: the projected
+        gradient of the Lagrangian with the objective divided by max(1, |f0|),
+        complementarity and infeasibility) falls below it at a feasible design; the only
+        stop that is a success. Default 1e-6.
+    xtol : if given, stop as stalled (not converged, unless the KKT test holds) when
+        max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below it. Off by default: MMA
+        takes small steps wherever its asymptotes are close, far from an optimum too.
+    ftol : if given, stop as stalled when |f0^k - f0^{k-1}| <= ftol max(1, |f0^k|).
     feas_tol : a design is feasible when max(g) <= feas_tol.
     max_retries : consecutive evaluation failures tolerated; each one halves the move limit.
     callback : called after every iteration with its :class:`IterationRecord`, whose
@@ -322,7 +335,7 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         raise SettingsError(f"state of a {state.method} run with n = {state.x.size} does not fit "
                          f"method {method.name} with n = {problem.n}")
     tolerances = {"kkt_tol": kkt_tol, "xtol": xtol, "ftol": ftol}
-    status = None
+    status = Status.KKT if _is_kkt_point(state, kkt_tol, feas_tol) else None
     while status is None:
         if state.iteration >= max_iter:
             status = Status.MAX_ITER
@@ -331,8 +344,8 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         if not succeeded:
             status = Status.EVALUATION_FAILED
             break
-        status = _converged(state, kkt_tol, xtol, ftol)
+        status = _stopped(state, kkt_tol, feas_tol, xtol, ftol)
         if callback is not None and callback(replace(state.history[-1], state=state)) and status is None:
             status = Status.CALLBACK
     message = _stop_message(state, status, max_iter, max_retries, tolerances)
-    return _result(problem, state, status, message, feas_tol)
+    return _result(problem, state, status, message, kkt_tol, feas_tol)

@@ -169,6 +169,8 @@ def solve_dual(approx: SeparableApproximation, c: np.ndarray, d: np.ndarray,
     multipliers are optimal to rounding error. Stops when the optimality
     residual |lam - max(0, lam + grad W)|_inf is below ``tol``.
     """
+    if np.size(lam0) == 0:  # no constraints: (P) is the separable minimization of f~_0
+        return DualSolution(approx.minimizer(np.ones(1)), np.zeros(0), 0)
     point = _dual_point(approx, c, d, np.maximum(0.0, np.asarray(lam0, dtype=float)))
     iteration = 0
     while iteration < max_iter and point.residual() > tol:

@@ -38,7 +38,8 @@ class Method(ABC):
     name: ClassVar[str]
 
     def check(self, problem: Problem) -> None:
-        """Raise ValueError if the method cannot handle ``problem``."""
+        """Raise :class:`~flextop.errors.SettingsError` (a ValueError) if the method cannot
+        handle ``problem``."""
 
     @abstractmethod
     def step(self, problem: Problem, state: OptimizerState, move: float,

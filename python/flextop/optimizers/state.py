@@ -30,7 +30,7 @@ class IterationRecord:
     """What happened in one outer iteration.
 
     ``change`` is max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i); ``kkt`` the
-    KKT residual of the original problem at x^k; ``move`` the move limit used;
+    KKT residual of the problem at x^k (:mod:`.kkt`); ``move`` the move limit used;
     ``evaluations`` the calls of ``evaluate`` (GCMMA inner iterations and failed
     attempts included); ``eval_time`` and ``solve_time`` the wall-clock seconds
     spent in ``evaluate`` and in building/solving subproblems. ``state`` is set
