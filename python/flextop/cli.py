@@ -236,7 +236,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         if not sim.x_min <= x0 <= 1.0:
             raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
         options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
-                   "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol or 1e-4}
+                   "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
         start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
         x0, state, animate = problem.start(start), None, args.animate
         _folder(out)
@@ -442,8 +442,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
     o.add_argument("--move", type=_fraction, help="move limit as a fraction of the bounds (default 0.2)")
-    o.add_argument("--kkt-tol", type=_positive(float), help="stop when the KKT residual falls below it (default 1e-6)")
-    o.add_argument("--xtol", type=_positive(float), help="stop when the largest design change falls below it (default 1e-4)")
+    o.add_argument("--kkt-tol", type=_positive(float), help="converged, and stop, when the KKT residual falls below it (default 1e-6)")
+    o.add_argument("--xtol", type=_positive(float), help="stop as stalled (not converged) when the largest design change falls below it (default: off)")
     o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=_positive(float))

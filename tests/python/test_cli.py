@@ -44,8 +44,11 @@ def test_a_scene_without_design_variables_is_one_line_not_a_traceback(tmp_path):
 
 
 def test_optimize_exits_0_only_when_the_optimizer_converged(tmp_path):
-    run = flextop_cli("optimize", "static_truss", "--xtol", "0.5", "--max-iter", 20, "--out", tmp_path, "--no-plots")
-    assert "status: XTOL" in run.stdout and run.stderr.count("did not converge") == 0
+    run = flextop_cli("optimize", "static_truss", "--max-iter", 20, "--out", tmp_path, "--no-plots")
+    assert "status: KKT" in run.stdout and run.stderr.count("did not converge") == 0
+    stalled = flextop_cli("optimize", "static_truss", "--xtol", "0.5", "--max-iter", 20, "--out", tmp_path / "s", "--no-plots",
+                          codes=(3,))
+    assert "stalled" in stalled.stderr and "KKT residual" in stalled.stderr
     limited = flextop_cli("optimize", "static_truss", "--max-iter", 1, "--out", tmp_path / "b", "--no-plots", codes=(3,))
     assert limited.stderr.strip().splitlines()[-1].startswith("flextop: the optimizer did not converge: maximum number")
 
