@@ -138,8 +138,9 @@ def test_a_task_that_fails_in_a_worker_names_its_scenario():
         with pytest.raises(SimulationError, match="scenario 'stiff servo', design 0: .*Newton"):
             evaluate(cases, [x], "tip_deflection", executor=pool)
         problem = ScenarioProblem(cases, "tip_deflection", executor=pool)
-        with pytest.raises(EvaluationError, match="scenario 'stiff servo'"):  # the optimizer steps back from it
+        with pytest.raises(EvaluationError, match="scenario 'stiff servo'") as failed:  # the optimizer steps back from it
             problem.evaluate(x)
+        assert isinstance(failed.value, flextop.FlextopError)
 
 
 def test_a_worker_that_dies_is_an_execution_error_naming_the_task():

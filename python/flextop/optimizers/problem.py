@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import FlextopError
+
 
 @dataclass
 class Evaluation:
@@ -63,8 +65,9 @@ class Evaluation:
         return cls(data["f0"], data["g"], data["df0"], data["dg"])
 
 
-class EvaluationError(Exception):
-    """The problem could not be evaluated at design ``x``.
+class EvaluationError(FlextopError):
+    """The problem could not be evaluated at design ``x`` (a :class:`FlextopError`, so that
+    one ``except`` catches every error flextop raises).
 
     Raise it (or a subclass) from :meth:`Problem.evaluate` when the analysis
     fails, e.g. a simulation that does not converge. The optimizer then steps
