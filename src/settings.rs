@@ -13,8 +13,17 @@ use serde::Deserialize;
 
 use crate::error::{short, SettingsError};
 use crate::limits::MAX_LOAD_STEPS;
-use crate::mechanism::element::MassKind;
 use crate::time_grid::TimeGrid;
+
+/// How the elements' inertia is discretized: a run setting (`mass`), read by the elements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MassKind {
+    /// Consistent with linear interpolation of displacements and rotation.
+    Consistent,
+    /// Row-sum lumped: half of the element's mass and rotary inertia on each node.
+    Lumped,
+}
 
 /// Default spectral radius at infinite frequency.
 pub const RHO_INF: f64 = 0.8;

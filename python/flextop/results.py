@@ -13,7 +13,7 @@ import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
@@ -22,9 +22,6 @@ from .discretization import tolerance
 from .discretization.refinement import companions_of
 from .discretization.tolerance import Discretization
 from .errors import SettingsError
-
-if TYPE_CHECKING:
-    from .simulation import Simulation
 
 
 @dataclass(frozen=True)
@@ -113,7 +110,8 @@ class Sensitivities:
 class _Run:
     """What dynamic and static results share: the run's data and its joint loads."""
 
-    simulation: Simulation = field(repr=False)
+    simulation: Any = field(repr=False)
+    """The :class:`~flextop.simulation.Simulation` that made it."""
     raw: Mapping[str, Any] = field(repr=False)
     x: np.ndarray | None = None
     settings: dict = field(default_factory=dict, repr=False)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -22,9 +22,28 @@ from . import tolerance
 from .accuracy import split_by
 from .tolerance import Discretization
 
-if TYPE_CHECKING:
-    from ..results import _Run
-    from ..simulation import Simulation
+class Simulation(Protocol):
+    """What the refinement reads of a :class:`flextop.Simulation`: its scene, its kind, its
+    engine model, its refined copies and its runs on one discretization (which return
+    results, or sensitivities, that carry their ``discretization``, ``errors`` and
+    ``companions``)."""
+
+    spec: dict
+    model: Any
+    levels: Levels
+
+    @property
+    def analysis(self) -> str: ...
+
+    def run_fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
+                  steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Any: ...
+
+    def sensitivities_fixed(self, xv: np.ndarray | None, names: list[str], settings: dict[str, Any],
+                            steps: np.ndarray | None = None) -> Any: ...
+
+
+_Run = Any
+"""A run's results (:class:`flextop.Results` or :class:`flextop.StaticResults`)."""
 
 
 class Levels:
@@ -37,7 +56,8 @@ class Levels:
     def __getitem__(self, refinement: int) -> Simulation:
         if refinement not in self._levels:
             base = self._levels[1]
-            self._levels[refinement] = type(base)(split_by(base.spec, refinement))
+            simulation: Any = type(base)  # the base's class: a refined copy is built like it
+            self._levels[refinement] = simulation(split_by(base.spec, refinement))
         return self._levels[refinement]
 
     def model(self, refinement: int) -> _core.Model:

@@ -39,21 +39,12 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 use crate::mechanism::section::Section;
+use crate::settings::MassKind;
 
 /// Six element DOFs.
 pub type Vector6 = SVector<f64, 6>;
 /// A 6×6 element matrix.
 pub type Matrix6 = SMatrix<f64, 6, 6>;
-
-/// How the element's inertia is discretized.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MassKind {
-    /// Consistent with linear interpolation of displacements and rotation.
-    Consistent,
-    /// Row-sum lumped: half of the element's mass and rotary inertia on each node.
-    Lumped,
-}
 
 /// A co-rotational Timoshenko beam between two nodes, at full density.
 #[derive(Debug, Clone, PartialEq)]

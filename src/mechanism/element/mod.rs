@@ -5,4 +5,5 @@
 
 pub mod beam;
 
-pub use beam::{Beam, Damping, MassKind, Matrix6, Vector6};
+pub use crate::settings::MassKind;
+pub use beam::{Beam, Damping, Matrix6, Vector6};
