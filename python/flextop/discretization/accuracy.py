@@ -1,4 +1,4 @@
-"""Accuracy presets: named tolerances of :mod:`flextop.tolerance`.
+"""Accuracy presets: named tolerances of :mod:`flextop.discretization.tolerance`.
 
 ``Simulation(scene, accuracy=NAME)`` is ``Simulation(scene, rtol=PRESETS[NAME])``: every run
 without an explicit ``h`` chooses the elements per bar and the step so that the estimated
