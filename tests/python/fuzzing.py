@@ -161,6 +161,11 @@ def run_case(case: dict, tmp: str) -> str:
 
     settings = dict(case["settings"])
     rtol = settings.pop("rtol", None)
+    if "toml" in case:
+        # An example file runs its own t_end (half a second of the four-bar): a tolerance on
+        # it is minutes of legitimate refinement (the four-bar at rtol 0.0625 ends in a
+        # ToleranceError after about 290 s), not a hang this bounded run could tell apart.
+        rtol = None
     method = settings.pop("method", "auto")
     try:
         scene = case["scene"]
