@@ -192,18 +192,22 @@ OPTIMIZATION_ROWS = ROOT / "benches" / "results" / "tolerance_optimization.json"
 def optimization(fresh: bool) -> None:
     """The runs of the optimization study; rows already in OPTIMIZATION_ROWS are kept
     unless ``fresh`` (an rtol run takes half an hour)."""
-    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    sims = {refine: flextop.Simulation(flextop.scenes.robot_arm(), refine=refine) for refine in ("bars", "uniform")}
+    sim = sims["bars"]
     converged = {"settings": {"h": 1.3 / 2176}}
     runs = {"fixed m=1, h=0.02": ({}, 1, False), "converged (m=4, 2176 steps)": (converged, 4, False),
-            "converged, from the m=1 optimum": (converged, 4, True), "rtol 1e-2, from the m=1 optimum": ({"rtol": 1e-2}, 1, True),
-            "rtol 1e-3, from the m=1 optimum": ({"rtol": 1e-3}, 1, True)}
+            "converged, from the m=1 optimum": (converged, 4, True),
+            "rtol 1e-2 refined bar by bar, from the m=1 optimum": ({"rtol": 1e-2}, 1, True),
+            "rtol 1e-2 refined uniformly, from the m=1 optimum": ({"rtol": 1e-2}, 1, True),
+            "rtol 1e-3 refined bar by bar, from the m=1 optimum": ({"rtol": 1e-3}, 1, True)}
     done = {} if fresh or not OPTIMIZATION_ROWS.exists() else json.loads(OPTIMIZATION_ROWS.read_text())
     first = None
     for label, (options, m, continued) in runs.items():
         if continued and first is None:
             first = optimize_arm(sim, {}, 1, np.full(sim.n_design, 0.4))[1].x
         if label not in done:
-            problem, result, seconds = optimize_arm(sim, options, m, first if continued else np.full(sim.n_design, 0.4))
+            on = sims["uniform" if "uniformly" in label else "bars"]
+            problem, result, seconds = optimize_arm(on, options, m, first if continued else np.full(sim.n_design, 0.4))
             done[label] = {"reported": result.fun, "seconds": seconds, "true": true_d(sim, result.x),
                            "evaluations": result.nfev, "grids": [[k, d.refinement, d.steps] for k, d in problem.refinements],
                            "x": result.x.tolist()}

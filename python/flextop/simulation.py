@@ -95,6 +95,10 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     return Scene.from_toml(Path(scene)).to_dict()
 
 
+REFINE = ("bars", "uniform")
+"""How a run to a tolerance may refine a scene's bars (``Simulation(..., refine=...)``)."""
+
+
 class Simulation:
     """A validated scene, ready to run for any design.
 
@@ -110,6 +114,10 @@ class Simulation:
         an explicit ``h`` then choose the elements per bar and the step so that the
         estimated error of every response asked for is at most ``rtol·|f| + atol``
         (:mod:`flextop.discretization.tolerance`). Each run may also pass its own.
+    refine:
+        How a run to a tolerance refines the bars: ``"bars"`` (default) refines those that
+        need it most, graded by each bar's own lowest frequency and mass
+        (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike.
 
     Raises
     ------
@@ -117,11 +125,12 @@ class Simulation:
         If the scene cannot be built; the message names the entry.
     SettingsError
         If ``rtol`` is not in (0, 1), ``atol`` is negative, ``accuracy`` is not a preset's
-        name, or both ``accuracy`` and ``rtol`` are given.
+        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is neither ``"bars"``
+        nor ``"uniform"``.
     """
 
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,
-                 atol: float = 0.0) -> None:
+                 atol: float = 0.0, refine: str = "bars") -> None:
         spec = _as_spec(scene)
         try:
             self.spec = copy.deepcopy(spec)
@@ -135,6 +144,9 @@ class Simulation:
         if rtol is not None:
             tolerance.check_tolerance(rtol, atol)
         self.rtol, self.atol = rtol, atol
+        if refine not in REFINE:
+            raise SettingsError(f"refine must be one of {', '.join(map(repr, REFINE))}, got {refine!r}")
+        self.refine = refine
         self.levels = Levels(self)
         self.model = _core.Model.from_dict(spec)
         raw = self.model.bars()
@@ -163,8 +175,8 @@ class Simulation:
     @property
     def options(self) -> dict[str, Any]:
         """The keyword arguments that rebuild this Simulation from its scene: ``accuracy``,
-        or ``rtol``, and ``atol``."""
-        return {"accuracy": self.accuracy, "rtol": None if self.accuracy else self.rtol, "atol": self.atol}
+        or ``rtol``, ``atol`` and ``refine``."""
+        return {"accuracy": self.accuracy, "rtol": None if self.accuracy else self.rtol, "atol": self.atol, "refine": self.refine}
 
     # -- description --------------------------------------------------------------------
 
@@ -430,7 +442,7 @@ class Simulation:
             prefix = f"{g['name']}/bar"
             omit = set(g.get("omit", [])) | {int(n[len(prefix):]) for n in void if n.startswith(prefix) and n[len(prefix):].isdigit()}
             g["omit"] = sorted(omit)
-        built = Simulation(spec, rtol=self.rtol, atol=self.atol)
+        built = Simulation(spec, rtol=self.rtol, atol=self.atol, refine=self.refine)
         index = {name: k for k, name in enumerate(self.variable_names)}
         return built, np.array([xv[index[name]] for name in built.variable_names])
 

@@ -5,6 +5,7 @@
 //! [`motor`]s, the rigid clusters and kinematics of `rigid`, and the scene [`parameter`]s
 //! with their pseudo-loads.
 
+pub mod bar_frequency;
 pub mod constraint;
 pub mod element;
 pub mod interpolation;

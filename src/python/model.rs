@@ -6,7 +6,9 @@ use std::sync::Arc;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::convert::{matrix, scene_spec, vector};
+use numpy::PyReadonlyArray1;
+
+use super::convert::{design, matrix, scene_spec, vector};
 use crate::error::Error;
 use crate::mechanism::model::{Analysis, Model};
 use crate::scene;
@@ -104,7 +106,7 @@ impl PyModel {
     }
 
     /// Bars as a dict of arrays: `name`, end `nodes` (n, 2), design `variable` (−1 if
-    /// fixed), `component` index, full-density `volume` (m³).
+    /// fixed), `component` index, full-density `volume` (m³), number of `elements`.
     fn bars<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
         let d = PyDict::new(py);
@@ -132,7 +134,40 @@ impl PyModel {
             "volume",
             vector(py, m.bars.iter().map(|b| b.volume).collect()),
         )?;
+        d.set_item(
+            "elements",
+            m.bars.iter().map(|b| b.elements.len()).collect::<Vec<_>>(),
+        )?;
         Ok(d)
+    }
+
+    /// Each bar's lowest clamped–clamped bending frequency (Hz) at design `x` (every bar
+    /// solid if `None`): the a-priori indicator of where a bar needs more elements.
+    #[pyo3(signature = (x=None))]
+    fn bar_frequencies<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let densities = self
+            .model
+            .densities(design(x)?.as_deref())
+            .map_err(Error::from)?;
+        Ok(vector(py, self.model.bar_frequencies(&densities)))
+    }
+
+    /// Each bar's mass (kg) at design `x` (every bar solid if `None`).
+    #[pyo3(signature = (x=None))]
+    fn bar_masses<'py>(
+        &self,
+        py: Python<'py>,
+        x: Option<PyReadonlyArray1<'py, f64>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let densities = self
+            .model
+            .densities(design(x)?.as_deref())
+            .map_err(Error::from)?;
+        Ok(vector(py, self.model.bar_masses(&densities)))
     }
 
     /// Elements as end-node pairs `nodes` (n_elements, 2) and the `bar` of each.

@@ -1,6 +1,7 @@
-"""Where a run's discretization comes from: the scene's own, copies of the scene with every
-bar refined (levels), the companion runs of step doubling, and the loop that refines until
-the estimate of :mod:`.tolerance` meets the tolerance asked for.
+"""Where a run's discretization comes from: the scene's own, copies of the scene with bars
+refined (levels: every bar alike, or graded bar by bar by :mod:`.indicator`), the companion
+runs of step doubling, and the loop that refines until the estimate of :mod:`.tolerance`
+meets the tolerance asked for.
 
 A :class:`~flextop.simulation.Simulation` runs one discretization at a time
 (``run_fixed``, ``sensitivities_fixed``); this module composes those runs. Results made to a
@@ -11,6 +12,7 @@ estimate.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import replace
 from typing import Any, Protocol
 
@@ -18,7 +20,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import SettingsError, SimulationError
-from . import tolerance
+from . import indicator, tolerance
 from .accuracy import split_by
 from .tolerance import Discretization
 
@@ -31,6 +33,7 @@ class Simulation(Protocol):
     spec: dict
     model: Any
     levels: Levels
+    refine: str
 
     @property
     def analysis(self) -> str: ...
@@ -46,12 +49,19 @@ _Run = Any
 """A run's results (:class:`flextop.Results` or :class:`flextop.StaticResults`)."""
 
 
+GRADED_KEPT = 8
+"""Graded copies of a scene each :class:`Levels` keeps (the most recently used): an
+optimization's designs grade the bars differently as they change."""
+
+
 class Levels:
-    """A simulation and its scene with ``r`` times the elements of every bar (the same
-    design variables), each built once, on first use."""
+    """A simulation and its scene refined: with ``r`` times the elements of every bar
+    (``levels[r]``), or of each bar its own factor (:meth:`graded`), with the same design
+    variables, each built once, on first use."""
 
     def __init__(self, base: Simulation) -> None:
         self._levels: dict[int, Simulation] = {1: base}
+        self._graded: OrderedDict[tuple[int, ...], Simulation] = OrderedDict()
 
     def __getitem__(self, refinement: int) -> Simulation:
         if refinement not in self._levels:
@@ -63,6 +73,37 @@ class Levels:
     def model(self, refinement: int) -> _core.Model:
         """The engine model at ``refinement``."""
         return self[refinement].model
+
+    def graded(self, factors: np.ndarray) -> Simulation:
+        """The scene with each bar's elements times its entry of ``factors``."""
+        if np.all(factors == factors[0]):
+            return self[int(factors[0])]
+        key = tuple(int(f) for f in factors)
+        if key not in self._graded:
+            base = self._levels[1]
+            simulation: Any = type(base)
+            self._graded[key] = simulation(indicator.refined_spec(base.spec, base.model.bars(), factors))
+            while len(self._graded) > GRADED_KEPT:
+                self._graded.popitem(last=False)
+        self._graded.move_to_end(key)
+        return self._graded[key]
+
+    def factors(self, d: Discretization, x: np.ndarray | None) -> np.ndarray:
+        """Each bar's factor on its elements in the scene refined as ``d`` says for the
+        design ``x``: graded by :mod:`.indicator` (a dynamic scene refined by bars), or
+        ``d.refinement`` on every bar; times ``d.uniform``."""
+        base = self._levels[1]
+        graded = base.refine == "bars" and base.analysis == "dynamic"
+        return d.uniform * indicator.bar_factors(base.model, x, d.refinement, graded)
+
+    def at(self, d: Discretization, x: np.ndarray | None) -> Simulation:
+        """The scene refined as ``d`` says for the design ``x``."""
+        return self.graded(self.factors(d, x))
+
+    def elements(self, d: Discretization, x: np.ndarray | None) -> float:
+        """The elements of the scene refined as ``d`` says, over the scene's."""
+        elements = self._levels[1].model.bars()["elements"]
+        return float(np.dot(elements, self.factors(d, x)) / max(1, sum(elements)))
 
 
 def t_end(simulation: Simulation, settings: dict[str, Any]) -> float:
@@ -87,21 +128,20 @@ def first(simulation: Simulation, settings: dict[str, Any]) -> Discretization:
     return tolerance.start(math.ceil(duration / h - 1e-9))
 
 
-def companion(levels: Levels, refinement: int, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],
+def companion(fine: Simulation, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],
               coarse: _Run | None, steps: np.ndarray | None = None) -> _Run:
-    """A companion run of step doubling at ``refinement`` with ``settings``, each step's
-    Newton started from the states of ``coarse`` (a run at half the refinement on the same
-    steps) carried over, each element's middle node on its cubic shape. Where that fails,
-    the run with ``plain`` settings and no guide decides: a guide or a kept matrix that led
-    Newton astray must not pass for a model that cannot run."""
-    level = levels[refinement]
-    guide = None if coarse is None else _core.prolong(levels.model(refinement // 2), level.model, coarse.q)
+    """A companion run of step doubling on ``fine`` with ``settings``, each step's Newton
+    started from the states of ``coarse`` (a run with half the elements of every bar on the
+    same steps) carried over, each element's middle node on its cubic shape. Where that
+    fails, the run with ``plain`` settings and no guide decides: a guide or a kept matrix
+    that led Newton astray must not pass for a model that cannot run."""
+    guide = None if coarse is None else _core.prolong(coarse.simulation.model, fine.model, coarse.q)
     try:
-        return level.run_fixed(xv, settings, steps=steps, guide=guide)
+        return fine.run_fixed(xv, settings, steps=steps, guide=guide)
     except SimulationError:
         if guide is None and plain == settings:
             raise
-        return level.run_fixed(xv, plain, steps=steps)
+        return fine.run_fixed(xv, plain, steps=steps)
 
 
 def merged(steps: np.ndarray, k: int) -> np.ndarray:
@@ -122,7 +162,7 @@ def companions_of(run: _Run) -> tuple[_Run | None, _Run | None, _Run]:
                 raise SettingsError("an error estimate needs a run of at least 4 steps")
             half, quarter = (simulation.run_fixed(run.x, run.settings, steps=merged(steps, k)) for k in (2, 4))
         split_steps = None if steps is None else merged(steps, 2)
-        split = companion(simulation.levels, 2, run.x, run.settings, run.settings, half, split_steps)
+        split = companion(simulation.levels[2], run.x, run.settings, run.settings, half, split_steps)
         run.companions = (half, quarter, split)
     return run.companions
 
@@ -144,16 +184,16 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     loose = {k: v for k, v in loose.items() if k not in settings}
 
     def run(d: Discretization, gradients: dict[str, str] | None, is_companion: bool = False) -> Any:
-        level = levels[d.refinement]
+        level = levels.at(d, xv)
         at = {**settings, **({"h": duration / d.steps, "t_end": duration} if d.steps else {}),
               **(loose if is_companion else {})}
         if gradients:
             return level.sensitivities_fixed(xv, names, {**at, **gradients})
         if not is_companion:
             return level.run_fixed(xv, at)
-        coarse = made(Discretization(d.refinement // 2, d.steps)) if d.steps and d.refinement % 2 == 0 else None
+        coarse = made(replace(d, uniform=d.uniform // 2)) if d.steps and d.uniform % 2 == 0 else None
         plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
-        return companion(levels, d.refinement, xv, at, plain, coarse)
+        return companion(level, xv, at, plain, coarse)
 
     def made(d: Discretization, is_companion: bool = True) -> Any:
         return runs.get((d, False)) or (runs.get((d, True)) if is_companion else None)
@@ -166,7 +206,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
             return [*out.values[:, None], *out.gradients]
         return [np.array([out.response(n)]) for n in names]
 
-    d, est = tolerance.resolve(values, start or first(simulation, settings), tolerance.tolerance_of(names, *wanted, judged is not None))
+    d, est = tolerance.resolve(values, start or first(simulation, settings), tolerance.tolerance_of(names, *wanted, judged is not None),
+                               lambda d: levels.elements(d, xv))
     relative = est.relative
     errors = dict(zip(names, map(float, relative)))
     if gradients:

@@ -1,9 +1,12 @@
 """Accuracy on demand: the discretization whose responses meet a stated tolerance.
 
-A discretization is a pair: a refinement ``r`` of the scene's meshing (every bar and beam
-gets ``r`` times the elements per bar the scene gives it) and a uniform number of steps
-over ``[0, t_end]`` (none for a static scene). Its error on a response ``f`` is estimated by
-step doubling in time and in space, from three companion runs:
+A discretization is a pair: a refinement ``r`` of the scene's meshing (the bars that need
+it most get ``r`` times the elements the scene gives them, the others fewer, graded by
+each bar's own frequency in :mod:`.indicator`; every bar of a static scene gets ``r``
+times) and a uniform number of steps over ``[0, t_end]`` (none for a static scene). Its
+error on a response ``f`` is estimated by step doubling in time and in space, from three
+companion runs (``2r`` below: twice the elements of *every* bar of ``r``, so that the bars
+the grading leaves alone are measured too):
 
     a = |f(r, h) − f(r, 2h)|,  b = |f(r, 2h) − f(r, 4h)|,  ρ = b / a (the observed contraction)
     e_time  = a / (min(ρ, 4) − 1)                Richardson with the observed order, never
@@ -20,8 +23,9 @@ asymptotic range: on the full-density arm, 66 → 132 steps only halves the erro
 second-order formula would understate it 2.5×.
 
 Otherwise the steps are multiplied by the power of two that the second-order rate says
-brings ``e_time`` under half the budget, and the refinement doubles where ``e_space``
-exceeds the other half. A refined candidate's companions reuse the runs already made. The
+brings ``e_time`` under half the budget, and the refinement doubles (twice where the
+second order in space asks for it) where ``e_space`` exceeds the other half (on the bars
+the grading picks at the new ``r``). A refined candidate's companions reuse the runs already made. The
 run that passes is an ordinary fixed-step run on one grid, so its gradients are exact for
 the scheme that ran.
 
@@ -58,7 +62,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -83,8 +87,12 @@ MIN_RTOL = 1e-6
 """Smallest ``rtol`` accepted: step doubling cannot resolve differences near Newton's
 tolerance (1e-10 of the forces) and the round-off of long runs."""
 
-MAX_REFINEMENT = 16
-"""Largest factor on the scene's elements per bar."""
+MAX_REFINEMENT = 64
+"""Largest factor on a bar's elements in the scene."""
+
+MAX_ELEMENTS_FACTOR = 16
+"""Largest factor on the scene's number of elements: a candidate's model (its space
+companion has twice as many)."""
 
 MAX_STEPS = 1 << 20
 """Most steps a run to a tolerance may take."""
@@ -96,30 +104,37 @@ to a tolerance gives up with the failure."""
 
 @dataclass(frozen=True, order=True)
 class Discretization:
-    """``refinement``: factor on the scene's elements per bar; ``steps``: uniform steps over
-    ``[0, t_end]``, 0 for a static scene."""
+    """``refinement``: factor on the elements of the bars that need them most (a dynamic
+    scene's bars with the lowest own frequencies, graded down to 1 on the others by
+    :mod:`.indicator`; every bar of a static scene); ``steps``: uniform steps over
+    ``[0, t_end]``, 0 for a static scene; ``uniform``: a further factor on every bar's
+    elements (2 in the space companion)."""
 
     refinement: int
     steps: int
+    uniform: int = 1
 
     @property
     def half_steps(self) -> Discretization:
         """The time companion: half as many steps (a static scene has none to halve)."""
-        return Discretization(self.refinement, self.steps // 2)
+        return replace(self, steps=self.steps // 2)
 
     @property
     def quarter_steps(self) -> Discretization:
         """The second time companion: a quarter of the steps."""
-        return Discretization(self.refinement, self.steps // 4)
+        return replace(self, steps=self.steps // 4)
 
     @property
     def split(self) -> Discretization:
-        """The space companion: twice the elements per bar on the time companion's steps."""
-        return Discretization(2 * self.refinement, self.steps // 2)
+        """The space companion: twice the elements of every bar on the time companion's
+        steps."""
+        return Discretization(self.refinement, self.steps // 2, 2 * self.uniform)
 
     def __str__(self) -> str:
         steps = f" and {self.steps} steps" if self.steps else ""
-        return f"{self.refinement}× the scene's elements per bar{steps}"
+        most = "up to " if self.refinement > 1 else ""  # graded: the bars that need them most
+        every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
+        return f"{most}{self.refinement}× the scene's elements per bar{every}{steps}"
 
 
 def start(steps: int) -> Discretization:
@@ -197,14 +212,17 @@ class Tolerance:
         return self.rtol * est.size + self.atol
 
 
-def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Discretization, ErrorEstimate]:
+def resolve(values: Values, first: Discretization, tol: Tolerance,
+            elements: Callable[[Discretization], float] = lambda d: d.refinement) -> tuple[Discretization, ErrorEstimate]:
     """The first candidate from ``first`` on whose estimate meets ``rtol·|q| + atol`` for
     every quantity, and that estimate. A :class:`SimulationError` in a run counts as an
     infinite error of that run. A candidate whose time error alone is clearly over budget
     is refined without running its space companion.
 
+    ``elements(d)`` is the number of elements of a candidate over the scene's.
+
     Raises :class:`ToleranceError` when the tolerance needs more than ``MAX_REFINEMENT``
-    times the elements per bar or ``MAX_STEPS`` steps, naming the quantity and the error
+    times a bar's elements, ``MAX_ELEMENTS_FACTOR`` times the scene's or ``MAX_STEPS`` steps, naming the quantity and the error
     reached, or when the runs still fail after ``MAX_FAILED_REFINEMENTS`` refinements in a
     row, with the last failure.
     """
@@ -226,7 +244,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance) -> tuple[Disc
         if failed > MAX_FAILED_REFINEMENTS and failures:
             raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
         refined = _refine(d, verdict.worst_time, verdict.worst_space)
-        if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS:
+        if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
         d = refined
 
@@ -274,7 +292,8 @@ def _judge(values: Values, d: Discretization, tol: Tolerance) -> Verdict:
 
 
 def _beyond_limits(d: Discretization, est: ErrorEstimate | None, tol: Tolerance) -> ToleranceError:
-    limits = f"the next refinement passes the limits ({MAX_REFINEMENT}× elements per bar, {MAX_STEPS} steps)"
+    limits = (f"the next refinement passes the limits ({MAX_REFINEMENT}× a bar's elements, {MAX_ELEMENTS_FACTOR}× the "
+              f"scene's elements, {MAX_STEPS} steps)")
     if est is None:
         return ToleranceError(f"the tolerance cannot be met: the runs fail with {d}, and {limits}")
     k = int(np.argmax(np.nan_to_num(est.total / np.maximum(tol.budget(est), 1e-300), nan=np.inf)))
@@ -320,12 +339,22 @@ def _ratio(error: np.ndarray, budget: np.ndarray) -> float:
 
 def _refine(d: Discretization, worst_time: float, worst_space: float) -> Discretization:
     """More steps where the time error takes more than half the budget (by the power of two
-    the rate asks for, at least one doubling), twice the elements per bar where the space
-    error does."""
+    the rate asks for, at least one doubling), a refinement doubled once or twice
+    (:func:`_doublings`) where the space error does."""
     steps, refinement = d.steps, d.refinement
     if worst_time > 0.5 or (worst_space <= 0.5 and steps):
         doublings = 1 if not math.isfinite(worst_time) else max(1, math.ceil(math.log2(worst_time / 0.5) / TIME_ORDER))
         steps *= 2**doublings
     if worst_space > 0.5 or not steps:
-        refinement *= 2
+        refinement *= 2 ** _doublings(worst_space)
     return Discretization(refinement, steps)
+
+
+def _doublings(worst_space: float) -> int:
+    """Doublings of the refinement that bring a space error ``worst_space`` times the
+    budget under half of it at the second order the bars converge at (3.5–4.5× per
+    doubling, measured on clamped bars): at least one, at most two, since the refined
+    model grows with them."""
+    if not math.isfinite(worst_space) or worst_space <= 0.5:
+        return 1
+    return min(2, max(1, math.ceil(math.log2(worst_space / 0.5) / 2)))

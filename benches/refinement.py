@@ -1,0 +1,134 @@
+"""Refinement bar by bar against uniform refinement, across the designs users give.
+
+The family: the 22 arm designs of ``benches/tolerance.py`` (uniform densities, seeded random
+designs, a chords-only design, the optima of both objectives under both mass laws), uniform
+0.08 and 0.12 beside them, and the designs MMA passes through on its way to those optima
+(iterations 5, 10 and 20); the spun beam's designs beside the arm's. Each design runs
+``run_with_sensitivities(x, "tip_deflection", rtol=1e-2)`` with ``refine="bars"`` and with
+``refine="uniform"`` — gradients held to 5·rtol (the default) and not (``hold_gradients=False``,
+what ``TopologyProblem`` asks for) — and is judged against a converged reference (arm: 8× the
+elements of every bar, 32× the steps; spun beam: 32×, 8×). The unit of cost is the fixed run
+with gradients on the scene's own grid (one element per bar, the scene's step).
+
+    python benches/refinement.py [--quick]    # writes benches/results/refinement.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import flextop  # noqa: E402
+from flextop.discretization.tolerance import Discretization  # noqa: E402
+from flextop.errors import ToleranceError  # noqa: E402
+from tolerance import arm_designs, beam_designs, reference, timed  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+RTOL = 1e-2
+MODES = ("bars", "uniform")
+
+
+def iterates(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
+    """The designs MMA passes through at iterations 5, 10 and 20 of each objective under
+    each mass law (V ≤ 0.4 per link, from x = 0.4)."""
+    out = {}
+    for mass in ("du_olhoff",) if quick else ("du_olhoff", "linear"):
+        law = flextop.Simulation(sim.spec | {"design": sim.spec["design"] | {"mass": mass}})
+        for objective in ("tip_deflection", "compliance"):
+            problem = flextop.TopologyProblem(law, objective, flextop.volume_constraints(law, 0.4))
+            seen: dict[int, np.ndarray] = {}
+            flextop.optimize(problem, np.full(sim.n_design, 0.4), method="mma", max_iter=20,
+                             callback=lambda record: seen.__setitem__(record.iteration, np.array(record.state.x)))
+            for k in (5, 10, 20):
+                out[f"{objective} iteration {k} ({mass})"] = seen[k]
+    return out
+
+
+def judged(sims: dict[str, flextop.Simulation], x: np.ndarray, ref: tuple[float, np.ndarray, float], hold: bool) -> dict:
+    """Per mode: seconds, errors of d and ∇d against the reference, the estimate, the grid's
+    unknowns, or the ToleranceError."""
+    d_ref, g_ref, _ = ref
+    out = {}
+    for mode, sim in sims.items():
+        try:
+            seconds, run = timed(lambda: sim.run_with_sensitivities(x, "tip_deflection", rtol=RTOL, hold_gradients=hold))
+        except ToleranceError as error:
+            out[mode] = {"failed": str(error)}
+            continue
+        grid = sim.levels.at(run.discretization, x)
+        out[mode] = {"seconds": seconds, "error_d": abs(run.values[0] / d_ref - 1.0),
+                     "error_grad": float(np.linalg.norm(run.gradients[0] - g_ref) / np.linalg.norm(g_ref)),
+                     "estimate": run.errors["tip_deflection"], "unknowns": grid.model.n_dofs / sim.model.n_dofs,
+                     "discretization": run.discretization}
+    return out
+
+
+def study(name: str, scene: flextop.Scene, ref: Discretization, designs: dict[str, np.ndarray]) -> list[str]:
+    sims = {mode: flextop.Simulation(scene, refine=mode) for mode in MODES}
+    base = sims["bars"]
+    h = base.spec["simulation"]["h"]
+    rows = []
+    for label, x in designs.items():
+        unit = min(timed(lambda: base.run_with_sensitivities(x, "tip_deflection", h=h))[0] for _ in range(3))
+        r = reference(base, x, ref)
+        row = {"design": label, "unit": unit, "held": judged(sims, x, r, True), "free": judged(sims, x, r, False)}
+        rows.append(row)
+        print(name, label, {k: {m: v.get("seconds", "failed") for m, v in row[k].items()} for k in ("held", "free")}, flush=True)
+    return table(name, rows)
+
+
+def cell(run: dict, unit: float) -> str:
+    if "failed" in run:
+        return "ToleranceError"
+    return (f"{run['error_d']:.2%} / {run['error_grad']:.2%} (est. {run['estimate']:.2%}) · {run['unknowns']:.2f}× unknowns · "
+            f"{run['seconds']:.2f} s = {run['seconds'] / unit:.0f}×")
+
+
+def table(name: str, rows: list[dict]) -> list[str]:
+    columns = [(kind, mode) for kind in ("held", "free") for mode in MODES]
+    out = [f"### {name}", "", "Per run: error of d / error of ∇d against the reference (the estimate) · unknowns of the grid "
+           "accepted over the scene's · seconds = multiple of the fixed run with gradients on the scene's grid.", "",
+           "| design | fixed run (s) | " + " | ".join(f"{mode}, gradients {'held' if kind == 'held' else 'not held'}"
+                                                   for kind, mode in columns) + " |",
+           "|---|---|" + "---|" * len(columns)]
+    for row in rows:
+        out.append(f"| {row['design']} | {row['unit']:.3f} | " + " | ".join(cell(row[k][m], row["unit"]) for k, m in columns) + " |")
+    out += ["", "| run | ToleranceErrors | worst error of d | worst error of ∇d | median unknowns | median cost (× fixed run) | "
+            "total seconds |", "|---|---|---|---|---|---|---|"]
+    for kind, mode in columns:
+        runs = [(row[kind][mode], row["unit"]) for row in rows]
+        ok = [(r, u) for r, u in runs if "failed" not in r]
+        out.append(f"| {mode}, gradients {'held' if kind == 'held' else 'not held'} | {len(runs) - len(ok)} | "
+                   f"{max(r['error_d'] for r, _ in ok):.2%} | {max(r['error_grad'] for r, _ in ok):.2%} | "
+                   f"{np.median([r['unknowns'] for r, _ in ok]):.2f}× | {np.median([r['seconds'] / u for r, u in ok]):.0f}× | "
+                   f"{sum(r['seconds'] for r, _ in ok):.1f} |")
+    return out + [""]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
+    args = parser.parse_args()
+    arm_scene = flextop.scenes.robot_arm()
+    arm = flextop.Simulation(arm_scene)
+    designs = arm_designs(arm, args.quick)
+    designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in ((0.08, 0.12) if not args.quick else ())}
+    designs |= iterates(arm, args.quick)
+    beam_scene = flextop.scenes.spun_beam()
+    lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{' --quick' if args.quick else ''}` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip "
+             "deflection, refined bar by bar (`refine=\"bars\"`, the default) or every bar alike (`\"uniform\"`).", ""]
+    lines += study("robot arm", arm_scene, Discretization(8, 66 * 32), designs)
+    lines += study("spun beam", beam_scene, Discretization(32, 120 * 8), beam_designs(flextop.Simulation(beam_scene), args.quick))
+    path = ROOT / "benches" / "results" / "refinement.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
