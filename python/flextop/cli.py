@@ -71,11 +71,29 @@ def _summarize(sim: Simulation, res, elapsed: float) -> None:
         if sim.tip is not None:
             error = np.linalg.norm(res.tip_error(), axis=1)
             print(f"tip '{sim.node_names[sim.tip]}': max |r - r_rigid| = {error.max() * 1e3:.3f} mm, "
-                  f"mean squared tip deflection d = {res.tip_deflection():.6e} m^2")
-        print(f"mean compliance = {res.response('compliance'):.6g} J")
+                  f"mean squared tip deflection d = {res.tip_deflection():.6e} m^2{_estimate(res, 'tip_deflection')}")
+        print(f"mean compliance = {res.response('compliance'):.6g} J{_estimate(res, 'compliance')}")
     else:
         print(f"static equilibrium in {elapsed * 1e3:.1f} ms ({res.newton['total']} Newton iterations, "
-              f"{res.newton['load_steps']} load steps); compliance F^T u = {res.response('compliance'):.6g} J")
+              f"{res.newton['load_steps']} load steps); compliance F^T u = {res.response('compliance'):.6g} J"
+              f"{_estimate(res, 'compliance')}")
+
+
+ROUGH = 0.1
+"""An estimated relative error above which a fixed run's value is called rough."""
+
+
+def _estimate(res, name: str) -> str:
+    """A fixed run's estimated error of ``name`` (step doubling in time and space), to
+    print beside its value; nothing for a run made to a tolerance (printed above)."""
+    if res.discretization is not None:
+        return ""
+    try:
+        error = res.error_estimate(name)
+    except FlextopError as failure:
+        return f" (no error estimate: {' '.join(str(failure).split())})"
+    advice = "; the grid is too coarse for it: give --rtol, or a smaller --h" if error > ROUGH else ""
+    return f" (estimated error {error:.1%}{advice})"
 
 
 def demo(args: argparse.Namespace) -> int:

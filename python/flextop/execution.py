@@ -14,10 +14,12 @@ Executors, all used as they come:
 * ``None``: one after the other, in this process (the default);
 * :class:`~concurrent.futures.ThreadPoolExecutor` (what ``--workers N`` makes, see
   :func:`local_executor`: the engine releases the GIL) or
-  :class:`~concurrent.futures.ProcessPoolExecutor` (with the spawn start method: a forked
-  child would inherit the engine's thread pool half-made);
+  :class:`~concurrent.futures.ProcessPoolExecutor` (with the spawn or forkserver start
+  method: a forked child would inherit the engine's thread pool half-made and hang, so a
+  forking pool is refused before any task is sent);
 * a ``dask.distributed`` client's ``client.get_executor()`` (what ``--scheduler ADDRESS``
-  uses), which retries a task whose worker died when given ``retries``;
+  uses), which retries a task whose worker died when given ``retries``, or the client
+  itself (its executor is used);
 * ``mpi4py.futures.MPIPoolExecutor``.
 
 A task that fails raises, in the caller, the same :class:`FlextopError` class prefixed with
@@ -28,9 +30,11 @@ evaluation never returns a partial result.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
 import math
-from concurrent.futures import FIRST_EXCEPTION, BrokenExecutor, CancelledError, Executor, Future, ThreadPoolExecutor, wait
+import multiprocessing
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import (FIRST_EXCEPTION, BrokenExecutor, CancelledError, Executor, Future, ProcessPoolExecutor,
+                                ThreadPoolExecutor, wait)
 from contextlib import contextmanager
 from typing import Any, NamedTuple, TypeVar
 
@@ -50,6 +54,7 @@ def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor:
     if not (isinstance(chunksize, int) and chunksize >= 1):
         raise SettingsError(f"chunksize must be a whole number ≥ 1, got {chunksize!r}")
     chunks = [list(tasks[k:k + chunksize]) for k in range(0, len(tasks), chunksize)]
+    executor = usable(executor)
     if executor is None:
         return [r for chunk in chunks for r in perform_all(perform, chunk)]
     futures: list[Future] = []
@@ -76,6 +81,32 @@ def perform_all(perform: Callable[[T], R], chunk: Sequence[tuple[str, T]]) -> li
     return out
 
 
+def usable(executor: Any) -> Executor | None:
+    """``executor`` checked before any task is sent: a Dask ``Client`` stands for its
+    ``get_executor()`` (a closed one is an :class:`ExecutionError`); a
+    :class:`~concurrent.futures.ProcessPoolExecutor` that forks is a
+    :class:`SettingsError` (its children would inherit the engine's thread pool half-made
+    and hang); anything else that is not an :class:`Executor` is a :class:`SettingsError`."""
+    if executor is None or isinstance(executor, ProcessPoolExecutor) and _forks(executor):
+        if executor is not None:
+            raise SettingsError("executor: a ProcessPoolExecutor must start its workers by spawn (or forkserver), not fork: "
+                                "ProcessPoolExecutor(n, mp_context=multiprocessing.get_context('spawn'))")
+        return None
+    if not isinstance(executor, Executor) and callable(getattr(executor, "get_executor", None)):  # a Dask Client
+        if getattr(executor, "status", "running") in ("closing", "closed"):
+            raise ExecutionError("executor: the Dask client is closed")
+        return executor.get_executor()
+    if not isinstance(executor, Executor):
+        raise SettingsError(f"executor: expected a concurrent.futures.Executor (or a Dask Client), got {type(executor).__name__}")
+    return executor
+
+
+def _forks(pool: ProcessPoolExecutor) -> bool:
+    context = getattr(pool, "_mp_context", None)
+    method = context.get_start_method() if context is not None else multiprocessing.get_start_method(allow_none=True)
+    return method == "fork"
+
+
 LOST = ("KilledWorker", "CommClosedError", "FutureCancelledError")
 """Dask's names for a task lost with its worker or connection (matched by name, so that
 Dask stays optional)."""
@@ -84,8 +115,10 @@ Dask stays optional)."""
 def _submit(executor: Executor, perform: Callable, chunk: list) -> Future:
     try:
         return executor.submit(perform_all, perform, chunk)
-    except (RuntimeError, BrokenExecutor) as error:  # shut down, or broken by an earlier task
-        raise ExecutionError(f"{_labels(chunk)}: the executor does not take tasks ({type(error).__name__}: {error})") from error
+    except Exception as error:  # shut down, broken by an earlier task, or a Dask client closed
+        if isinstance(error, (RuntimeError, BrokenExecutor)) or type(error).__name__ == "ClosedClientError":
+            raise ExecutionError(f"{_labels(chunk)}: the executor does not take tasks ({type(error).__name__}: {error})") from error
+        raise
 
 
 def _result(chunk: Sequence[tuple[str, Any]], future: Future) -> list:

@@ -295,6 +295,11 @@ class ScenarioProblem(Problem):
                 "atol": self.atol, "accuracy": self.accuracy,
                 "discretizations": {name: list(astuple(d)) for name, d in self.discretizations.items()}}
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without its executor (a pool or a client belongs to the process that made
+        it): an unpickled problem runs its scenarios one after the other until given one."""
+        return {**self.__dict__, "executor": None}
+
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], executor: Executor | None = None, chunksize: int = 1) -> ScenarioProblem:
         problem = cls([Scenario(s["name"], s["scene"], s["weight"]) for s in data["scenarios"]], data["objective"],

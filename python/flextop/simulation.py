@@ -156,6 +156,12 @@ class Simulation:
         if self.analysis == "dynamic":  # a static structure may well be indeterminate
             _warn_if_over_constrained(self.mechanism)
 
+    def __reduce__(self) -> tuple[Any, tuple[dict, dict[str, Any]]]:
+        """Pickled as its scene and options, and built again where it is unpickled (the
+        engine's model and refined copies are not sent): a Simulation, and the problems
+        that hold one, can be sent to another process or a cluster."""
+        return rebuilt, (self.spec, self.options)
+
     def bar_densities(self, x: DesignLike = None) -> np.ndarray:
         """The density of every bar for design ``x`` (``None``: full density); bars that are
         not designed (variable −1) are at 1."""
@@ -543,6 +549,11 @@ def perform(task: Task) -> Sensitivities:
     res = sim.run(task.x, responses=task.responses, **task.options)
     values = np.array([res.response(name) for name in task.responses])
     return Sensitivities(task.responses, values, None, "none", {}, res.discretization, dict(res.errors))
+
+
+def rebuilt(scene: dict, options: dict[str, Any]) -> Simulation:
+    """The :class:`Simulation` of ``scene`` with ``options``: what an unpickled one is."""
+    return Simulation(scene, **options)
 
 
 def _key(scene: dict, options: dict[str, Any]) -> str:

@@ -70,6 +70,17 @@ def test_simulate_a_scene_file_and_save_results(tmp_path):
     assert (tmp_path / "tip_error.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_fixed_run_prints_its_own_error_estimate_and_says_when_it_is_rough():
+    """The full-density arm at the scene's step is tens of percent off; x = 0.4 is not."""
+    rough = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "1.0")
+    estimate = float(re.search(r"d = [0-9.e+-]+ m\^2 \(estimated error ([0-9.]+)%", rough.stdout).group(1)) / 100
+    res = flextop.Simulation(flextop.scenes.robot_arm()).run(1.0)
+    assert estimate == pytest.approx(res.error_estimate("tip_deflection"), abs=1e-3) and estimate > 0.3
+    assert "too coarse" in rough.stdout and "--rtol" in rough.stdout
+    fine = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4")
+    assert "(estimated error" in fine.stdout and "too coarse" not in fine.stdout
+
+
 def test_simulate_to_a_tolerance_or_with_local_error_control():
     run = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "0.4", "--rtol", "1e-2")
     d = float(re.search(r"mean squared tip deflection d = ([0-9.e+-]+)", run.stdout).group(1))

@@ -114,6 +114,42 @@ def test_every_executor_gives_the_same_bits():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
         assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=client.get_executor())))
+        assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=client)))  # its executor
+    with pytest.raises(ExecutionError, match="the Dask client is closed"):
+        evaluate(cases, designs, "tip_deflection", executor=client)
+
+
+def test_executors_that_cannot_work_are_refused_before_any_task_is_sent():
+    cases = two_scenarios()
+    x = design(flextop.Simulation(cases[0].scene).n_design)
+    with ProcessPoolExecutor(1, mp_context=get_context("fork")) as forking:
+        with pytest.raises(flextop.SettingsError, match="spawn"):
+            evaluate(cases, [x], "tip_deflection", executor=forking)
+        assert not forking._processes, "no worker was started"
+    with pytest.raises(flextop.SettingsError, match="expected a concurrent.futures.Executor"):
+        evaluate(cases, [x], "tip_deflection", executor=object())
+
+
+def test_problems_and_simulations_pickle_by_their_scenes_and_optimize_in_another_process():
+    """``pool.submit(flextop.optimize, problem, x0)``: the same optimum as here, bit for bit."""
+    import pickle
+    sim = flextop.Simulation(arm(), rtol=1e-2, refine="uniform")
+    again = pickle.loads(pickle.dumps(sim))
+    assert again.spec == sim.spec and again.options == sim.options and again.n_design == sim.n_design
+    problem = flextop.TopologyProblem(flextop.Simulation(arm()), "tip_deflection", flextop.volume_constraints(flextop.Simulation(arm()), 0.4))
+    x0 = np.full(problem.n, 0.4)
+    here = flextop.optimize(problem, x0, "mma", max_iter=2)
+    scenarios = ScenarioProblem(two_scenarios(), "tip_deflection", executor=ThreadPoolExecutor(1))
+    copied = pickle.loads(pickle.dumps(scenarios))
+    assert copied.executor is None
+    xs = np.full(scenarios.n, 0.4)
+    assert np.array_equal(copied.evaluate(xs).df0, scenarios.evaluate(xs).df0)
+    scenarios.executor.shutdown()
+    with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
+        there = pool.submit(flextop.optimize, flextop.TopologyProblem(flextop.Simulation(arm()), "tip_deflection",
+                                                                      flextop.volume_constraints(flextop.Simulation(arm()), 0.4)),
+                            x0, "mma", max_iter=2).result()
+    assert np.array_equal(there.x, here.x) and there.fun == here.fun
 
 
 def test_a_batch_keeps_the_order_of_its_designs():
