@@ -98,13 +98,14 @@ def table(name: str, rows: list[dict]) -> list[str]:
            "|---|---|" + "---|" * len(columns)]
     for row in rows:
         out.append(f"| {row['design']} | {row['unit']:.3f} | " + " | ".join(cell(row[k][m], row["unit"]) for k, m in columns) + " |")
-    out += ["", "| run | ToleranceErrors | worst error of d | worst error of ∇d | median unknowns | median cost (× fixed run) | "
-            "total seconds |", "|---|---|---|---|---|---|---|"]
+    out += ["", "| run | ToleranceErrors | worst error of d | worst error of ∇d | worst under-estimate of d (true / est., where "
+            "true > rtol/10) | median unknowns | median cost (× fixed run) | total seconds |", "|---|---|---|---|---|---|---|---|"]
     for kind, mode in columns:
         runs = [(row[kind][mode], row["unit"]) for row in rows]
         ok = [(r, u) for r, u in runs if "failed" not in r]
         out.append(f"| {mode}, gradients {'held' if kind == 'held' else 'not held'} | {len(runs) - len(ok)} | "
                    f"{max(r['error_d'] for r, _ in ok):.2%} | {max(r['error_grad'] for r, _ in ok):.2%} | "
+                   f"{max((r['error_d'] / r['estimate'] for r, _ in ok if r['error_d'] > RTOL / 10), default=float('nan')):.2f} | "
                    f"{np.median([r['unknowns'] for r, _ in ok]):.2f}× | {np.median([r['seconds'] / u for r, u in ok]):.0f}× | "
                    f"{sum(r['seconds'] for r, _ in ok):.1f} |")
     return out + [""]

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["Model", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
-           "rigid_positions", "prolong", "section_forces", "response_kinds"]
+           "rigid_positions", "prolong", "section_forces", "response_kinds", "cancel_running"]
 
 _F = npt.NDArray[np.float64]
 
@@ -190,3 +190,4 @@ def natural_modes(model: Model, count: int, x: _F | None = None, q: _F | None = 
 def rigid_positions(model: Model, times: list[float]) -> _F: ...
 def section_forces(model: Model, x: _F | None, q: _F) -> _F: ...
 def response_kinds() -> list[tuple[str, str, str, bool]]: ...
+def cancel_running() -> None: ...

@@ -376,7 +376,7 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
     for (name, bound), value in zip(problem.bounded, constr):
         print(f"{name}: {value:.6g} ({relation(name)} {bound:.6g})")
     if getattr(problem, "refinements", None):
-        at = ", ".join(f"{d.refinement}×/{d.steps} steps at evaluation {k}" for k, d in problem.refinements)
+        at = ", ".join(f"{d} at evaluation {k}" for k, d in problem.refinements)
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
     if isinstance(problem, ScenarioProblem):  # the runs' seconds add up over the workers

@@ -22,6 +22,10 @@ Executors, all used as they come:
   itself (its executor is used);
 * ``mpi4py.futures.MPIPoolExecutor``.
 
+Ctrl-C while waiting cancels the tasks not started and stops those running on this
+process's threads at their next step (the engine hears Python's signals in the main thread
+only); tasks on other processes are the executor's to stop.
+
 A task that fails raises, in the caller, the same :class:`FlextopError` class prefixed with
 its label (any other exception it raises, as it would here); a worker that died or a task
 that could not be sent is an :class:`ExecutionError` naming the task. The remaining tasks are cancelled: an
@@ -38,6 +42,7 @@ from concurrent.futures import (FIRST_EXCEPTION, BrokenExecutor, CancelledError,
 from contextlib import contextmanager
 from typing import Any, NamedTuple, TypeVar
 
+from . import _core
 from .errors import ExecutionError, FlextopError, SettingsError
 
 T = TypeVar("T")
@@ -63,9 +68,11 @@ def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor:
             futures.append(_submit(executor, perform, chunk))
         wait(futures, return_when=FIRST_EXCEPTION)  # the first failure ends the wait
         return [r for chunk, future in zip(chunks, futures) for r in _result(chunk, future)]
-    except BaseException:
+    except BaseException as error:
         for future in futures:
             future.cancel()
+        if isinstance(error, KeyboardInterrupt):  # the tasks running on this process's threads stop too
+            _core.cancel_running()
         raise
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import astuple
 from pathlib import Path
 from typing import Any
 
@@ -62,8 +63,7 @@ def write(results: Any, path: str | os.PathLike) -> Path:
         "version": VERSION,
         "kind": "dynamic" if "qdot" in results.raw else "static",
         "scene": sim.spec, "simulation": sim.options, "settings": results.settings, "scalars": scalars,
-        "discretization": None if results.discretization is None else [results.discretization.refinement,
-                                                                         results.discretization.steps],
+        "discretization": None if results.discretization is None else list(astuple(results.discretization)),
         "errors": results.errors,
         "node_names": sim.node_names, "reference_positions": np.asarray(sim.model.reference_positions).tolist(),
         "variable_names": sim.variable_names, "components": sim.components,

@@ -143,6 +143,37 @@ except KeyboardInterrupt:
 
 
 
+def test_ctrl_c_stops_the_runs_on_a_thread_pool_too():
+    """Python hears signals in its main thread only: the runs on the pool's threads stop at
+    their next step when Ctrl-C reaches the main thread (11.8 s of waiting before)."""
+    code = """
+import time, flextop
+from concurrent.futures import ThreadPoolExecutor
+sim = flextop.Simulation(flextop.scenes.robot_arm(split=4))
+print("ready", flush=True)
+try:
+    with ThreadPoolExecutor(2) as pool:
+        sim.map([0.4, 0.5, 0.6, 0.7], executor=pool, gradients=False, h=1e-4)
+except KeyboardInterrupt:
+    print("interrupted", time.monotonic(), flush=True)
+"""
+    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        sent = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        word, at = process.stdout.readline().split()
+        assert word == "interrupted" and float(at) - sent < 1.0
+        assert process.wait(timeout=30) == 0
+    finally:
+        process.kill()
+        process.wait()
+    fresh = flextop.Simulation(flextop.scenes.robot_arm())
+    flextop._core.cancel_running()
+    assert fresh.run(0.4).tip_deflection() > 0, "a run started after a cancellation is not affected"
+
+
 @pytest.mark.parametrize("name", ["robot_arm", "static_truss"])
 @pytest.mark.parametrize("method", ["direct", "adjoint"])
 def test_a_scene_without_design_variables_has_gradients_of_zero_columns(name, method):

@@ -97,6 +97,12 @@ companion has twice as many)."""
 MAX_STEPS = 1 << 20
 """Most steps a run to a tolerance may take."""
 
+STALLED = 0.5
+"""A refinement graded bar by bar that leaves the space error above this share of what it
+was has missed where the error is (bars of little need by mass and frequency, such as
+void bars whose own gradients the chords' refinement does not touch): from then on every
+bar's elements are doubled."""
+
 MAX_FAILED_REFINEMENTS = 3
 """Refinements in a row whose runs fail (more steps, or elements, each time) before a run
 to a tolerance gives up with the failure."""
@@ -235,7 +241,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
             failures.append(error)
             raise
 
-    d, failed = first, 0
+    d, failed, before = first, 0, None
     while True:
         verdict = _judge(recorded, d, tol)
         if verdict.passed:
@@ -243,7 +249,9 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         failed = failed + 1 if verdict.failed else 0
         if failed > MAX_FAILED_REFINEMENTS and failures:
             raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
-        refined = _refine(d, verdict.worst_time, verdict.worst_space)
+        stalled = before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
+        refined = _refine(d, verdict.worst_time, verdict.worst_space, everywhere=stalled or d.uniform > 1)
+        before = (d, verdict.worst_space)
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
         d = refined
@@ -337,17 +345,21 @@ def _ratio(error: np.ndarray, budget: np.ndarray) -> float:
     return float(np.max(ratio, initial=0.0))
 
 
-def _refine(d: Discretization, worst_time: float, worst_space: float) -> Discretization:
+def _refine(d: Discretization, worst_time: float, worst_space: float, everywhere: bool = False) -> Discretization:
     """More steps where the time error takes more than half the budget (by the power of two
     the rate asks for, at least one doubling), a refinement doubled once or twice
-    (:func:`_doublings`) where the space error does."""
-    steps, refinement = d.steps, d.refinement
+    (:func:`_doublings`) where the space error does, or, ``everywhere``, every bar's
+    elements doubled on top of it."""
+    steps, refinement, uniform = d.steps, d.refinement, d.uniform
     if worst_time > 0.5 or (worst_space <= 0.5 and steps):
         doublings = 1 if not math.isfinite(worst_time) else max(1, math.ceil(math.log2(worst_time / 0.5) / TIME_ORDER))
         steps *= 2**doublings
     if worst_space > 0.5 or not steps:
-        refinement *= 2 ** _doublings(worst_space)
-    return Discretization(refinement, steps)
+        if everywhere:
+            uniform *= 2
+        else:
+            refinement *= 2 ** _doublings(worst_space)
+    return Discretization(refinement, steps, uniform)
 
 
 def _doublings(worst_space: float) -> int:
