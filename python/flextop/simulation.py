@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from . import _core, execution, modal, responses, saved
+from . import _core, execution, modal, plausibility, responses, saved
 from .discretization import Levels, preset, refinement, tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .scene import Scene
@@ -155,6 +155,8 @@ class Simulation:
         self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
         if self.analysis == "dynamic":  # a static structure may well be indeterminate
             _warn_if_over_constrained(self.mechanism)
+        positions = np.asarray(self.model.reference_positions)
+        plausibility.check(self.spec, float(np.linalg.norm(np.ptp(positions, axis=0))) if len(positions) else 0.0)
 
     def __reduce__(self) -> tuple[Any, tuple[dict, dict[str, Any]]]:
         """Pickled as its scene and options, and built again where it is unpickled (the

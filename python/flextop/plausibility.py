@@ -1,0 +1,55 @@
+"""Plausibility of a scene's sections: values that run but are almost surely a slip of units.
+
+flextop works in SI units throughout (metres, kilograms, seconds, pascals). A value far
+outside what any structural material or member has — ``E = 70`` meant as 70 GPa, a
+diameter of 20 meant in millimetres — builds and runs, and gives absurd answers quietly
+(the arm with ``E = 70`` deflects 1.2 m at the tip of a 2 m arm). :func:`check` warns about
+each such value with a :class:`~flextop.errors.PlausibilityWarning` naming the entry, its
+value and the plausible range; the run goes on, since a study may mean it.
+
+The ranges (the plausible span of solids used in structures, with a margin):
+
+========================  =============================  ==========================================
+quantity                  plausible                      outside it
+========================  =============================  ==========================================
+``E``                     1e6 Pa to 1.2e12 Pa            soft elastomers to diamond
+``G`` (when given)        3e5 Pa to 6e11 Pa              the same, over 2(1 + ν)
+``rho``                   10 kg/m³ to 23,000 kg/m³       rigid foams to osmium
+``diameter``              at most the model's size       a section wider than the mechanism
+========================  =============================  ==========================================
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+from .errors import PlausibilityWarning
+
+RANGES: dict[str, tuple[float, float, str]] = {
+    "E": (1e6, 1.2e12, "Pa"),
+    "G": (3e5, 6e11, "Pa"),
+    "rho": (10.0, 23000.0, "kg/m³"),
+}
+"""Per section property: the plausible ``(low, high, unit)``."""
+
+
+def check(spec: dict[str, Any], size: float) -> None:
+    """Warns about every section property of ``spec`` outside its plausible range, and
+    every solid circle wider than ``size`` (the model's extent, m)."""
+    for name, section in (spec.get("sections") or {}).items():
+        if not isinstance(section, dict):
+            continue
+        for key, (low, high, unit) in RANGES.items():
+            value = section.get(key)
+            if isinstance(value, (int, float)) and not low <= value <= high:
+                _warn(f"sections.{name}.{key} = {value:g} {unit} is outside the plausible {low:g}–{high:g} {unit} of "
+                      f"structural solids (SI units throughout: aluminium is E = 70e9 Pa, rho = 2700 kg/m³)")
+        diameter = section.get("diameter")
+        if isinstance(diameter, (int, float)) and size > 0 and diameter > size:
+            _warn(f"sections.{name}.diameter = {diameter:g} m is wider than the whole mechanism ({size:.3g} m across): "
+                  "diameters are in metres")
+
+
+def _warn(message: str) -> None:
+    warnings.warn(PlausibilityWarning(message), stacklevel=4)
