@@ -58,6 +58,7 @@ class JointInfo(TypedDict):
     nodes: list[int]  # node indices (a rigid body's own node for its points; a slider's carrier first)
     rows: tuple[int, int]  # its constraint rows in lam as (first, end), the drive row last
     driven: bool  # whether a motion law drives it
+    drive_phases: list[float] | None  # when its trapezoidal law stops accelerating, starts braking, is done (s)
 
 # -- results of the functions -------------------------------------------------------------
 

@@ -44,7 +44,9 @@ from .errors import DesignError, SettingsError, SimulationError
 from .optimizers import Evaluation, EvaluationError, Problem
 from .responses import PEAK_LIMITED
 from .simulation import Simulation
+from .discretization.refinement import t_end
 from .discretization.tolerance import Discretization
+from .results import Sensitivities
 
 
 MIN_FREQUENCY = "min_frequency"
@@ -67,6 +69,13 @@ FLOOR_RTOL = 1e-3
 AGGREGATES = PEAK_LIMITED
 """Responses that are means of point values, reported with their peaks (read from the
 engine: :data:`flextop.responses.PEAK_LIMITED`)."""
+
+READAPT = 0.1
+"""The design change (largest in any variable) after which :class:`TopologyProblem` with a
+tolerance measures an evaluation's error again: MMA moves the arm's densities by up to
+0.2 per iteration (its move limit) while it travels and by 5e-4 in its last iteration
+(the tip-deflection optimization from x = 0.4), so its travels are measured and its
+convergence runs on the grid measured nearby."""
 
 KEPT_RATIOS = 16
 """Designs whose peak/mean ratios wait for :meth:`TopologyProblem.accept` (an iteration's
@@ -94,17 +103,22 @@ class TopologyProblem(Problem):
     method; ``objective_scale`` is ``f_ref`` (default: the objective at the first design
     evaluated). ``timings`` accumulates the seconds spent in simulations and gradients.
 
-    ``rtol`` (and ``atol``) hold every evaluation to a tolerance (see
+    ``rtol`` (and ``atol``) hold the evaluations to a tolerance (see
     :meth:`Simulation.run_with_sensitivities`), the simulation's own by default. The rule:
-    each evaluation is re-adapted, starting from the discretization the previous one
-    accepted, so the grid only ever refines. An optimizer thus sees one fixed discretization
-    between the few evaluations where the design asks for a finer one, and every value it
-    sees is within ``rtol`` of the converged one. The grid is chosen on the values of the
-    objective and constraints (``hold_gradients=False``): the gradients are the exact
-    derivatives of the values the optimizer sees, which is what its convergence needs,
-    and holding them to a tolerance as well drove the space companion to 16× the elements
-    per bar on optimized designs. ``discretization`` is the current one and
-    ``refinements`` lists ``(evaluation, discretization)`` at each change.
+    an evaluation whose design has moved by more than ``readapt`` (in any variable) from
+    the last design whose error was measured is re-adapted — its error estimated, the grid
+    refined until it meets ``rtol``, starting from the discretization accepted before, so
+    that the refinement and the steps only ever grow; the others run once on that
+    discretization, graded bar by bar for their own design (``refine="bars"``): a bar that
+    thins into the band gains elements, one that thickens out of it gives them back. The
+    optimizer is not told of a change of grid: every value it sees comes from a grid
+    measured within ``rtol`` near it. ``readapt=0`` measures every evaluation. The grid is
+    chosen on the values of the objective and constraints (``hold_gradients=False``): the
+    gradients are the exact derivatives of the values the optimizer sees, which is what its
+    convergence needs, and holding them to a tolerance as well drove the space companion to
+    16× the elements per bar on optimized designs. ``discretization`` is the current one,
+    ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
+    the evaluations whose error was estimated.
 
     Start such a problem from a design optimized on the scene's own grid (continuation):
     on the robot arm, MMA from x = 0.4 on any accurate discretization — a converged fixed
@@ -114,7 +128,7 @@ class TopologyProblem(Problem):
 
     def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
                  *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None,
-                 rtol: float | None = None, atol: float | None = None) -> None:
+                 rtol: float | None = None, atol: float | None = None, readapt: float = READAPT) -> None:
         if simulation.n_design == 0:
             raise SettingsError("the scene has no design variables (no bars, or all of them fixed): nothing to optimize")
         self.simulation = simulation
@@ -131,8 +145,13 @@ class TopologyProblem(Problem):
         self.objective_scale = objective_scale
         self.timings = {"simulation": 0.0, "gradients": 0.0}
         self.rtol, self.atol = rtol, atol
+        if not (isinstance(readapt, (int, float)) and 0.0 <= readapt <= 1.0):
+            raise SettingsError(f"readapt must be a design change in [0, 1], got {readapt!r}")
+        self.readapt = float(readapt)
         self.discretization: Discretization | None = None
         self.refinements: list[tuple[int, Discretization]] = []
+        self.measured: list[int] = []
+        self._measured_at: np.ndarray | None = None
         self.evaluations = 0
         self.normalization: dict[str, float] = {}
         self._ratios: dict[bytes, dict[str, float]] = {}
@@ -149,8 +168,14 @@ class TopologyProblem(Problem):
         tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self.rtol or self.simulation.rtol else {}
         self.evaluations += 1
         try:
-            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False, **tolerance,
-                                                         **self.settings)
+            if tolerance and self._near_measured(x):
+                out = self._on_grid(x)
+            else:
+                out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False,
+                                                             **tolerance, **self.settings)
+                if tolerance:
+                    self.measured.append(self.evaluations)
+                    self._measured_at = np.array(x, dtype=float)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         if out.discretization is not None and out.discretization != self.discretization:
@@ -163,6 +188,19 @@ class TopologyProblem(Problem):
             self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
         g, dg = self._constraints(x, f[1:], dfdx[1:], out.peaks)
         return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
+
+    def _near_measured(self, x: np.ndarray) -> bool:
+        """Whether ``x`` is within ``readapt`` of the last design whose error was measured."""
+        return (self.discretization is not None and self._measured_at is not None
+                and float(np.max(np.abs(np.asarray(x, float) - self._measured_at), initial=0.0)) <= self.readapt)
+
+    def _on_grid(self, x: np.ndarray) -> Sensitivities:
+        """The evaluation on the discretization accepted last, graded for ``x``."""
+        d = self.discretization
+        settings = dict(self.settings)
+        if d.steps:
+            settings["h"] = t_end(self.simulation, settings) / d.steps
+        return self.simulation.levels.at(d, x).run_with_sensitivities(x, self.responses, method=self.method, **settings)
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
@@ -248,14 +286,18 @@ class TopologyProblem(Problem):
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,
                 "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol, "atol": self.atol,
                 "discretization": None if self.discretization is None else list(astuple(self.discretization)),
-                "normalization": dict(self.normalization)}
+                "normalization": dict(self.normalization), "readapt": self.readapt,
+                "measured_at": None if self._measured_at is None else self._measured_at.tolist()}
 
     @classmethod
     def from_dict(cls, simulation: Simulation, data: Mapping[str, Any]) -> TopologyProblem:
         problem = cls(simulation, data["objective"], [tuple(c) for c in data["constraints"]], settings=data["settings"],
-                      method=data["method"], objective_scale=data["objective_scale"], rtol=data.get("rtol"), atol=data.get("atol"))
+                      method=data["method"], objective_scale=data["objective_scale"], rtol=data.get("rtol"), atol=data.get("atol"),
+                      readapt=data.get("readapt", READAPT))
         if data.get("discretization"):
             problem.discretization = Discretization(*data["discretization"])
+        if data.get("measured_at") is not None:
+            problem._measured_at = np.array(data["measured_at"], dtype=float)
         problem.normalization = dict(data.get("normalization", {}))
         return problem
 

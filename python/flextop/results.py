@@ -28,14 +28,16 @@ from .errors import SettingsError
 class Joint:
     """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``, ``"weld"``,
     ``"prismatic"``), node indices (a rigid body's own node for its points; a slider's
-    carrier first), the ``range`` of its constraint rows in ``lam`` (the drive row last)
-    and whether a motion law drives it."""
+    carrier first), the ``range`` of its constraint rows in ``lam`` (the drive row last),
+    whether a motion law drives it and when a trapezoidal law stops accelerating, starts
+    braking and has done its motion (s; ``None`` for a table or no drive)."""
 
     name: str
     kind: str
     nodes: tuple[int, ...]
     rows: range
     driven: bool
+    drive_phases: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -71,6 +71,21 @@ def _warn_if_over_constrained(mechanism: dict[str, Any]) -> None:
                       "the redundant constraints agree", MechanismWarning, stacklevel=3)
 
 
+def _warn_if_drives_cut_off(joints: Sequence[Joint], t_end: float) -> None:
+    """A :class:`SettingsWarning` naming each drive whose motion law is still accelerating
+    or braking at ``t_end``: the run ends in the middle of the motion asked for. (A law cut
+    off while it cruises is the idiom of a spin-up to constant speed, and is left alone.)"""
+    for joint in joints:
+        if joint.drive_phases is None:
+            continue
+        accelerated, braking, done = joint.drive_phases
+        if t_end < accelerated * (1 - 1e-9) or braking * (1 + 1e-9) < t_end < done * (1 - 1e-9):
+            phase = "accelerating" if t_end < accelerated else "braking"
+            warnings.warn(f"joint '{joint.name}': its motion law is still {phase} at t_end = {t_end:.4g} s (done at "
+                          f"t = {done:.4g} s): the run stops in the middle of the motion; give a longer t_end to see it done",
+                          SettingsWarning, stacklevel=4)
+
+
 def _warn_if_step_shortened(asked: float | None, used: float) -> None:
     """A :class:`SettingsWarning` when the step used is more than 1 % below the one asked
     for (shortened so that a whole number of steps ends at ``t_end``)."""
@@ -152,7 +167,9 @@ class Simulation:
         raw = self.model.bars()
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
                          np.asarray(raw["component"], dtype=int), np.asarray(raw["volume"]))
-        self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"]) for j in self.model.joints())
+        self.joints = tuple(Joint(j["name"], j["kind"], tuple(j["nodes"]), range(*j["rows"]), j["driven"],
+                                  None if j["drive_phases"] is None else tuple(j["drive_phases"]))
+                            for j in self.model.joints())
         if self.analysis == "dynamic":  # a static structure may well be indeterminate
             _warn_if_over_constrained(self.mechanism)
         positions = np.asarray(self.model.reference_positions)
@@ -311,6 +328,7 @@ class Simulation:
         raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps], guide)
         res = Results(self, raw, xv, settings)
         _warn_if_energy_created(res)
+        _warn_if_drives_cut_off(self.joints, float(res.time[-1]))
         if steps is None and local_tol is None:
             _warn_if_step_shortened(settings.get("h") or self.spec.get("simulation", {}).get("h"), raw["h"])
         return res

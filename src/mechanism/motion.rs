@@ -39,6 +39,18 @@ impl Motion {
         }
     }
 
+    /// When a point-to-point law stops accelerating, starts braking and has done its
+    /// motion (s); `None` for a table, which goes on at its end velocity after its samples.
+    pub fn phases(&self) -> Option<[f64; 3]> {
+        match self {
+            Self::Trapezoidal(law) => {
+                let (t0, ta, tt) = (law.t0, law.t_acc, law.duration);
+                Some([t0 + ta, t0 + tt - ta, t0 + tt])
+            }
+            Self::Table(_) => None,
+        }
+    }
+
     /// Times where the law is not smooth (its acceleration or jerk jumps), where a
     /// variable step should end: the phase changes of a trapezoidal law, a table's knots.
     pub fn kinks(&self) -> Vec<f64> {

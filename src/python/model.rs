@@ -218,6 +218,10 @@ impl PyModel {
                 d.set_item("nodes", joint.nodes())?;
                 d.set_item("rows", (rows.start, rows.end))?;
                 d.set_item("driven", joint.drive.is_some())?;
+                d.set_item(
+                    "drive_phases",
+                    joint.drive.as_ref().and_then(|law| law.phases()),
+                )?;
                 Ok(d)
             })
             .collect()

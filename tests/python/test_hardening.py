@@ -288,3 +288,23 @@ def test_the_reference_scenes_and_examples_are_plausible():
             flextop.Simulation(path)
         for name in ("robot_arm", "static_truss", "spun_beam", "ten_bar_truss"):
             flextop.Simulation(getattr(flextop.scenes, name)())
+
+
+def test_a_drive_cut_off_by_t_end_is_named():
+    """The arm's law brakes from 1.0472 s to T = (π/6)/0.5 + 0.5/2 = 1.2972 s: t_end = 1.2
+    stops mid-braking, and an acceleration of 0.01 rad/s² is still accelerating at 1.3 s;
+    a run that ends while a law cruises (a spin-up to constant speed) is left alone."""
+    import warnings
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    T = np.pi / 6 / 0.5 + 0.25
+    assert sim.joints[0].drive_phases == pytest.approx((0.25, T - 0.25, T))
+    with pytest.warns(flextop.errors.SettingsWarning, match=r"joint 'shoulder': its motion law is still braking at t_end = 1.2 s "
+                                                            r"\(done at t = 1.297 s\)"):
+        sim.run(0.4, t_end=1.2)
+    slow = flextop.Simulation(flextop.scenes.robot_arm(acceleration=0.01))
+    with pytest.warns(flextop.errors.SettingsWarning, match="still accelerating"):
+        slow.run(0.4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", flextop.errors.SettingsWarning)
+        sim.run(0.4)
+        sim.run(0.4, t_end=0.8)  # cruising

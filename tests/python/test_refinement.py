@@ -113,3 +113,43 @@ def test_gradients_on_a_graded_grid_are_exact(one_soft_bar):
         fd = (8 * (f(x + e) - f(x - e)) - (f(x + 2 * e) - f(x - 2 * e))) / (12 * delta)
         at = grid.run_with_sensitivities(x, "tip_deflection", h=h).gradients[0, i]
         assert fd == pytest.approx(at, rel=1e-6, abs=1e-6 * np.abs(g).max()), name
+
+
+def test_companions_keep_the_grid_they_measure():
+    d = Discretization(4, 68, 1, 2)
+    assert d.split == Discretization(4, 34, 2, 2) and d.half_steps == Discretization(4, 34, 1, 2)
+    assert d.quarter_steps == Discretization(4, 17, 1, 2)
+
+
+def test_a_grading_that_misses_the_error_raises_every_bar():
+    """An error that only the least-needing bars carry (their factor is ``floor``): raising
+    the refinement of the others leaves it, and the floor is raised until it meets rtol."""
+    from flextop.discretization.tolerance import Tolerance, resolve
+
+    def values(d, companion=False):
+        return [np.array([2.0 + 0.05 / (d.uniform * d.floor)])]
+
+    d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])))
+    assert d.floor > 1 and abs(values(d)[0][0] - 2.0) <= 1e-2 * 2.0
+    assert d.refinement <= 4, "the stalled refinement was not pursued"
+
+
+def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_moved():
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    problem = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2)
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    problem.evaluate(x)
+    near = x + 0.05
+    second = problem.evaluate(near)
+    far = x - 0.2
+    problem.evaluate(far)
+    assert problem.measured == [1, 3]
+    d = problem.discretization
+    on_grid = sim.levels.at(d, near).run_with_sensitivities(near, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
+    assert second.f0 * problem.objective_scale == on_grid.values[0]
+    every = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2, readapt=0.0)
+    for design in (x, near, far):
+        every.evaluate(design)
+    assert every.measured == [1, 2, 3]
+    with pytest.raises(SettingsError, match="readapt"):
+        flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2, readapt=-1)

@@ -90,11 +90,11 @@ class Levels:
 
     def factors(self, d: Discretization, x: np.ndarray | None) -> np.ndarray:
         """Each bar's factor on its elements in the scene refined as ``d`` says for the
-        design ``x``: graded by :mod:`.indicator` (a dynamic scene refined by bars), or
-        ``d.refinement`` on every bar; times ``d.uniform``."""
+        design ``x``: graded by :mod:`.indicator` (a dynamic scene refined by bars) and at
+        least ``d.floor``, or ``d.refinement`` on every bar; times ``d.uniform``."""
         base = self._levels[1]
         graded = base.refine == "bars" and base.analysis == "dynamic"
-        return d.uniform * indicator.bar_factors(base.model, x, d.refinement, graded)
+        return d.uniform * np.maximum(d.floor, indicator.bar_factors(base.model, x, d.refinement, graded))
 
     def at(self, d: Discretization, x: np.ndarray | None) -> Simulation:
         """The scene refined as ``d`` says for the design ``x``."""

@@ -100,8 +100,8 @@ MAX_STEPS = 1 << 20
 STALLED = 0.5
 """A refinement graded bar by bar that leaves the space error above this share of what it
 was has missed where the error is (bars of little need by mass and frequency, such as
-void bars whose own gradients the chords' refinement does not touch): from then on every
-bar's elements are doubled."""
+void bars whose own gradients the chords' refinement does not touch): from then on the
+least factor of every bar doubles (up to the refinement)."""
 
 MAX_FAILED_REFINEMENTS = 3
 """Refinements in a row whose runs fail (more steps, or elements, each time) before a run
@@ -111,14 +111,16 @@ to a tolerance gives up with the failure."""
 @dataclass(frozen=True, order=True)
 class Discretization:
     """``refinement``: factor on the elements of the bars that need them most (a dynamic
-    scene's bars with the lowest own frequencies, graded down to 1 on the others by
+    scene's bars with the lowest own frequencies, graded down to ``floor`` on the others by
     :mod:`.indicator`; every bar of a static scene); ``steps``: uniform steps over
     ``[0, t_end]``, 0 for a static scene; ``uniform``: a further factor on every bar's
-    elements (2 in the space companion)."""
+    elements (2 in the space companion); ``floor``: the least factor of any bar (raised
+    where the grading missed where the error is)."""
 
     refinement: int
     steps: int
     uniform: int = 1
+    floor: int = 1
 
     @property
     def half_steps(self) -> Discretization:
@@ -134,13 +136,14 @@ class Discretization:
     def split(self) -> Discretization:
         """The space companion: twice the elements of every bar on the time companion's
         steps."""
-        return Discretization(self.refinement, self.steps // 2, 2 * self.uniform)
+        return replace(self, steps=self.steps // 2, uniform=2 * self.uniform)
 
     def __str__(self) -> str:
         steps = f" and {self.steps} steps" if self.steps else ""
-        most = "up to " if self.refinement > 1 else ""  # graded: the bars that need them most
+        most = "up to " if self.refinement > self.floor else ""  # graded: the bars that need them most
+        least = f" (at least {self.floor}×)" if 1 < self.floor < self.refinement else ""
         every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
-        return f"{most}{self.refinement}× the scene's elements per bar{every}{steps}"
+        return f"{most}{self.refinement}× the scene's elements per bar{least}{every}{steps}"
 
 
 def start(steps: int) -> Discretization:
@@ -250,7 +253,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         if failed > MAX_FAILED_REFINEMENTS and failures:
             raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
         stalled = before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
-        refined = _refine(d, verdict.worst_time, verdict.worst_space, everywhere=stalled or d.uniform > 1)
+        refined = _refine(d, verdict.worst_time, verdict.worst_space, everywhere=stalled or d.floor > 1)
         before = (d, verdict.worst_space)
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
@@ -348,18 +351,20 @@ def _ratio(error: np.ndarray, budget: np.ndarray) -> float:
 def _refine(d: Discretization, worst_time: float, worst_space: float, everywhere: bool = False) -> Discretization:
     """More steps where the time error takes more than half the budget (by the power of two
     the rate asks for, at least one doubling), a refinement doubled once or twice
-    (:func:`_doublings`) where the space error does, or, ``everywhere``, every bar's
-    elements doubled on top of it."""
-    steps, refinement, uniform = d.steps, d.refinement, d.uniform
+    (:func:`_doublings`) where the space error does, or, ``everywhere``, the floor of every
+    bar's factor doubled (up to the refinement; then both)."""
+    steps, refinement, floor = d.steps, d.refinement, d.floor
     if worst_time > 0.5 or (worst_space <= 0.5 and steps):
         doublings = 1 if not math.isfinite(worst_time) else max(1, math.ceil(math.log2(worst_time / 0.5) / TIME_ORDER))
         steps *= 2**doublings
     if worst_space > 0.5 or not steps:
-        if everywhere:
-            uniform *= 2
-        else:
+        if not everywhere:
             refinement *= 2 ** _doublings(worst_space)
-    return Discretization(refinement, steps, uniform)
+        elif floor < refinement:
+            floor *= 2
+        else:
+            refinement, floor = 2 * refinement, 2 * floor
+    return Discretization(refinement, steps, d.uniform, floor)
 
 
 def _doublings(worst_space: float) -> int:
