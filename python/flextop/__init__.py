@@ -22,3 +22,13 @@ __all__ = [
     "load", "responses", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> object:
+    """``flextop.plots`` (and ``flextop.export``) on first use: matplotlib is imported only
+    when a figure is asked for."""
+    if name in ("plots", "export"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'flextop' has no attribute {name!r}")

@@ -219,3 +219,13 @@ def test_animate_needs_a_dynamic_run(tmp_path):
     static = flextop.Simulation(flextop.scenes.static_truss()).run(0.5)
     with pytest.raises(TypeError, match="dynamic"):
         plots.animate(static, tmp_path / "static.gif")
+
+
+def test_plots_are_reached_from_the_package_as_the_readme_uses_them():
+    """``import flextop`` then ``flextop.plots.plot_design``: matplotlib loads on first use."""
+    import subprocess
+    import sys
+    code = ("import sys, flextop; assert 'matplotlib' not in sys.modules; "
+            "assert callable(flextop.plots.plot_design) and 'matplotlib' in sys.modules; "
+            "assert flextop.export.__name__ == 'flextop.export'")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
