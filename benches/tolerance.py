@@ -198,9 +198,9 @@ def optimization(fresh: bool) -> None:
     runs = {"fixed m=1, h=0.02": ({}, 1, False), "converged (m=4, 2176 steps)": (converged, 4, False),
             "converged, from the m=1 optimum": (converged, 4, True),
             "rtol 1e-2 bar by bar, re-adapted after a change of 0.1, from the m=1 optimum": ({"rtol": 1e-2}, 1, True),
-            "rtol 1e-2 bar by bar, re-adapted at every evaluation, from the m=1 optimum": ({"rtol": 1e-2, "readapt": 0.0}, 1, True),
             "rtol 1e-2 uniformly, re-adapted at every evaluation (the rule before), from the m=1 optimum":
                 ({"rtol": 1e-2, "readapt": 0.0}, 1, True),
+            "rtol 1e-2 bar by bar, re-adapted at every evaluation, from the m=1 optimum": ({"rtol": 1e-2, "readapt": 0.0}, 1, True),
             "rtol 1e-3 bar by bar, re-adapted after a change of 0.1, from the m=1 optimum": ({"rtol": 1e-3}, 1, True)}
     done = {} if fresh or not OPTIMIZATION_ROWS.exists() else json.loads(OPTIMIZATION_ROWS.read_text())
     first = None

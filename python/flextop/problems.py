@@ -108,11 +108,13 @@ class TopologyProblem(Problem):
     an evaluation whose design has moved by more than ``readapt`` (in any variable) from
     the last design whose error was measured is re-adapted — its error estimated, the grid
     refined until it meets ``rtol``, starting from the discretization accepted before, so
-    that the refinement and the steps only ever grow; the others run once on that
-    discretization, graded bar by bar for their own design (``refine="bars"``): a bar that
-    thins into the band gains elements, one that thickens out of it gives them back. The
-    optimizer is not told of a change of grid: every value it sees comes from a grid
-    measured within ``rtol`` near it. ``readapt=0`` measures every evaluation. The grid is
+    that the refinement and the steps only ever grow, and the bars graded for that design
+    (``refine="bars"``: a bar that thinned into the band has gained elements, one that
+    thickened out of it has given them back); the others run once on that grid as it is.
+    So the optimizer sees one smooth model between re-adaptations (grids re-graded at every
+    design made MMA's safeguard see their jumps as noise near its optimum: 233 evaluations
+    for 40 iterations), and every value it sees comes from a grid measured within ``rtol``
+    near it. ``readapt=0`` measures every evaluation. The grid is
     chosen on the values of the objective and constraints (``hold_gradients=False``): the
     gradients are the exact derivatives of the values the optimizer sees, which is what its
     convergence needs, and holding them to a tolerance as well drove the space companion to
@@ -152,6 +154,7 @@ class TopologyProblem(Problem):
         self.refinements: list[tuple[int, Discretization]] = []
         self.measured: list[int] = []
         self._measured_at: np.ndarray | None = None
+        self._grid: np.ndarray | None = None
         self.evaluations = 0
         self.normalization: dict[str, float] = {}
         self._ratios: dict[bytes, dict[str, float]] = {}
@@ -176,6 +179,7 @@ class TopologyProblem(Problem):
                 if tolerance:
                     self.measured.append(self.evaluations)
                     self._measured_at = np.array(x, dtype=float)
+                    self._grid = None if out.discretization is None else self.simulation.levels.factors(out.discretization, x)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         if out.discretization is not None and out.discretization != self.discretization:
@@ -195,12 +199,15 @@ class TopologyProblem(Problem):
                 and float(np.max(np.abs(np.asarray(x, float) - self._measured_at), initial=0.0)) <= self.readapt)
 
     def _on_grid(self, x: np.ndarray) -> Sensitivities:
-        """The evaluation on the discretization accepted last, graded for ``x``."""
+        """The evaluation on the grid accepted last: its steps, and each bar's elements as
+        graded for the design measured there."""
         d = self.discretization
         settings = dict(self.settings)
         if d.steps:
             settings["h"] = t_end(self.simulation, settings) / d.steps
-        return self.simulation.levels.at(d, x).run_with_sensitivities(x, self.responses, method=self.method, **settings)
+        levels = self.simulation.levels
+        grid = levels.at(d, self._measured_at) if self._grid is None else levels.graded(self._grid)
+        return grid.run_with_sensitivities(x, self.responses, method=self.method, **settings)
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the

@@ -135,6 +135,7 @@ def test_a_grading_that_misses_the_error_raises_every_bar():
 
 
 def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_moved():
+    """Near the design measured last, an evaluation runs on its grid as graded there."""
     sim = flextop.Simulation(flextop.scenes.spun_beam())
     problem = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2)
     x = np.linspace(0.9, 0.3, sim.n_design)
@@ -145,7 +146,7 @@ def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_mov
     problem.evaluate(far)
     assert problem.measured == [1, 3]
     d = problem.discretization
-    on_grid = sim.levels.at(d, near).run_with_sensitivities(near, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
+    on_grid = sim.levels.at(d, x).run_with_sensitivities(near, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
     assert second.f0 * problem.objective_scale == on_grid.values[0]
     every = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2, readapt=0.0)
     for design in (x, near, far):
