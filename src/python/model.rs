@@ -10,7 +10,7 @@ use numpy::PyReadonlyArray1;
 
 use super::convert::{design, matrix, scene_spec, vector};
 use crate::error::Error;
-use crate::mechanism::model::{Analysis, Model};
+use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::scene;
 
 /// A built and validated mechanism.
@@ -20,6 +20,14 @@ pub struct PyModel {
 }
 
 impl PyModel {
+    /// The element scalings of design `x` (every bar solid if `None`), checked.
+    fn at(&self, x: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<Densities> {
+        Ok(self
+            .model
+            .densities(design(x)?.as_deref())
+            .map_err(Error::from)?)
+    }
+
     fn built(spec: &scene::SceneSpec) -> PyResult<Self> {
         Ok(Self {
             model: Arc::new(scene::build(spec).map_err(Error::from)?),
@@ -149,11 +157,7 @@ impl PyModel {
         py: Python<'py>,
         x: Option<PyReadonlyArray1<'py, f64>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let densities = self
-            .model
-            .densities(design(x)?.as_deref())
-            .map_err(Error::from)?;
-        Ok(vector(py, self.model.bar_frequencies(&densities)))
+        Ok(vector(py, self.model.bar_frequencies(&self.at(x)?)))
     }
 
     /// Each bar's mass (kg) at design `x` (every bar solid if `None`).
@@ -163,11 +167,7 @@ impl PyModel {
         py: Python<'py>,
         x: Option<PyReadonlyArray1<'py, f64>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let densities = self
-            .model
-            .densities(design(x)?.as_deref())
-            .map_err(Error::from)?;
-        Ok(vector(py, self.model.bar_masses(&densities)))
+        Ok(vector(py, self.model.bar_masses(&self.at(x)?)))
     }
 
     /// Elements as end-node pairs `nodes` (n_elements, 2) and the `bar` of each.
