@@ -4,11 +4,14 @@ meets a tolerance.
 
 - :mod:`.tolerance`: a discretization, step doubling's estimates, :func:`resolve`;
 - :mod:`.accuracy`: presets (named tolerances) and :func:`split_by`;
+- :mod:`.indicator`: each bar's need (its own frequency and mass) and the refinement
+  graded by it, bar by bar;
 - :mod:`.refinement`: the scene refined (:class:`Levels`), companion runs, and the loop of
   a run to a tolerance.
 
 :mod:`flextop.modal` refines the eigen-analysis by the same levels; the problems'
-refine-only rule (:mod:`flextop.problems`) moves a :class:`Discretization` forward.
+rule (:mod:`flextop.problems`) moves a :class:`Discretization` forward where it measures
+again, and holds the grid in between.
 """
 
 from .accuracy import PRESETS, preset, split_by
