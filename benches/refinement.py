@@ -12,6 +12,11 @@ with gradients on the scene's own grid (one element per bar, the scene's step).
 
     python benches/refinement.py [--quick]    # writes benches/results/refinement.md
 
+With ``--shares``, instead: each bar's share of the space error — the arm solid but for its
+1.0 m diagonal ``link1/bar24`` at x = 0.1, 1088 steps, every bar refined alone (twice its
+elements) against all bars at once: whether the shares add up, how many bars carry half
+and 80 % of the change of ∇d, and the largest with their frequency, mass and rank by need.
+
 With ``--richardson``, instead: whether Richardson's extrapolation in the step pays — on three
 designs an optimizer produces, the error of d on the grid ``rtol = 1e-2`` chose in space,
 raw and extrapolated from the run at twice the step (``f(h) + (f(h) − f(2h))/3``), against
@@ -116,6 +121,33 @@ def table(name: str, rows: list[dict]) -> list[str]:
     return out + [""]
 
 
+def shares() -> None:
+    scene = flextop.scenes.robot_arm()
+    arm = flextop.Simulation(scene)
+    x = np.ones(arm.n_design)
+    x[arm.variable_names.index("link1/bar24")] = 0.1
+    h = 1.3 / 1088
+    base = arm.run_with_sensitivities(x, "tip_deflection", h=h)
+    d0, g0 = base.values[0], base.gradients[0]
+    every = arm.levels[2].run_with_sensitivities(x, "tip_deflection", h=h)
+    rows = []
+    for name in arm.bars.name:
+        alone = flextop.Scene.from_dict(scene.to_dict())
+        alone.split(name, 2)
+        run = flextop.Simulation(alone).run_with_sensitivities(x, "tip_deflection", h=h)
+        rows.append(((run.values[0] - d0) / d0, np.linalg.norm(run.gradients[0] - g0) / np.linalg.norm(g0)))
+    change = np.array(rows)
+    need = arm.model.bar_masses(x) / arm.model.bar_frequencies(x) ** 2
+    cumulative = np.cumsum(np.sort(change[:, 1])[::-1])
+    print(f"change of d: all bars at once {(every.values[0] - d0) / d0:.3e}, sum of the bars alone {change[:, 0].sum():.3e}")
+    print("bars carrying 50 % / 80 % of the sum of the changes of ∇d:",
+          [int(np.searchsorted(cumulative, p * cumulative[-1])) + 1 for p in (0.5, 0.8)])
+    frequencies, masses = arm.model.bar_frequencies(x), arm.model.bar_masses(x)
+    for b in np.argsort(-change[:, 1])[:8]:
+        print(f"{arm.bars.name[b]:14s} change of ∇d {change[b, 1]:.2e}  f {frequencies[b]:7.1f} Hz  M {masses[b]:.3f} kg  "
+              f"rank by need {int((need > need[b]).sum())}")
+
+
 def richardson() -> None:
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, quick=False) | iterates(arm, quick=False)
@@ -140,9 +172,12 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
+    parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
     args = parser.parse_args()
     if args.richardson:
         return richardson()
+    if args.shares:
+        return shares()
     arm_scene = flextop.scenes.robot_arm()
     arm = flextop.Simulation(arm_scene)
     designs = arm_designs(arm, args.quick)
