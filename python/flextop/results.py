@@ -94,6 +94,11 @@ class Sensitivities:
             raise SettingsError(f"response {response!r}: not among {', '.join(self.names)}")
         return float(self.parameter_gradients[self.names.index(response), self.parameters.index(parameter)])
 
+    def save(self, path: str | os.PathLike) -> Path:
+        """Everything these sensitivities hold, to ``path`` (``.npz``), for
+        :func:`flextop.load` to give back bit for bit."""
+        return saved.write_sensitivities(self, path)
+
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.gradients))
 

@@ -12,13 +12,17 @@ their multipliers (``lam`` columns; the ``drive`` rows are the motor torques).
 :func:`flextop.load` rebuilds the :class:`~flextop.Simulation` from the scene and
 returns :class:`~flextop.Results` or :class:`~flextop.StaticResults` equal to the saved
 ones (:func:`read` gives it the file's parts). :func:`write` takes the results without
-importing their module, which calls it (``Results.save``).
+importing their module, which calls it (``Results.save``); :func:`write_sensitivities` the
+same for :class:`~flextop.Sensitivities` (``Sensitivities.save``), which
+:func:`flextop.load` gives back too.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import zipfile
+import zlib
 from dataclasses import astuple
 from pathlib import Path
 from typing import Any
@@ -79,20 +83,41 @@ def write(results: Any, path: str | os.PathLike) -> Path:
     return path
 
 
+def write_sensitivities(sens: Any, path: str | os.PathLike) -> Path:
+    """Writes :class:`~flextop.Sensitivities` to ``path`` (``.npz``): its arrays (``values``,
+    ``gradients``, ``parameter_gradients``, ``steps`` where present) and, in ``meta``, the
+    rest (names, method, timings, discretization, estimated errors, peaks, parameters)."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise SettingsError(f"{path}: sensitivities are saved as .npz; give a path ending in .npz")
+    arrays = {name: np.asarray(value) for name, value in (("values", sens.values), ("gradients", sens.gradients),
+                                                          ("parameter_gradients", sens.parameter_gradients),
+                                                          ("steps", sens.steps)) if value is not None}
+    meta = {"version": VERSION, "kind": "sensitivities", "names": list(sens.names), "method": sens.method,
+            "timings": sens.timings, "errors": sens.errors, "gradient_errors": sens.gradient_errors, "peaks": sens.peaks,
+            "parameters": list(sens.parameters),
+            "discretization": None if sens.discretization is None else list(astuple(sens.discretization))}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, meta=np.array(json.dumps(meta, default=_plain)), **arrays)
+    return path
+
+
 def read(path: str | os.PathLike) -> tuple[dict[str, Any], dict[str, Any], np.ndarray | None]:
-    """The saved file's description, the run's raw data (arrays and scalars) and design."""
+    """The saved file's description, the run's raw data (arrays and scalars; a
+    sensitivities file: its arrays) and design."""
     try:
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {k: data[k] for k in data.files if k != "meta"}
-    except (OSError, ValueError, KeyError) as error:
-        raise SettingsError(f"{path}: not a file of saved flextop results ({error})") from None
-    if meta.get("version") != VERSION:
-        raise SettingsError(f"{path}: saved results of layout {meta.get('version')!r}; this flextop reads {VERSION}")
-    x = arrays.pop("x", None)
-    raw: dict[str, Any] = {**arrays, **meta["scalars"]}
-    if meta["kind"] == "dynamic":
-        raw["iterations"] = raw["iterations"].tolist()
+        if meta.get("version") != VERSION:
+            raise SettingsError(f"{path}: saved results of layout {meta.get('version')!r}; this flextop reads {VERSION}")
+        x = arrays.pop("x", None)
+        raw: dict[str, Any] = {**arrays, **meta.get("scalars", {})}
+        if meta["kind"] == "dynamic":
+            raw["iterations"] = raw["iterations"].tolist()
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, EOFError, zipfile.BadZipFile, zlib.error) as error:
+        raise SettingsError(f"{path}: not a file of saved flextop results, or a damaged one ({type(error).__name__}: "
+                            f"{error})") from None
     return meta, raw, x
 
 

@@ -35,6 +35,28 @@ else:  # Python 3.10: the same parser, as the tomli package
     import tomli as tomllib
 
 
+def _listed(value: Any) -> Any:
+    """A sequence (tuple, list, array) as a list, anything else as it is: the engine reads
+    the scene with the types given and names an entry of the wrong type."""
+    if isinstance(value, (tuple, list)) or hasattr(value, "tolist"):
+        return list(value.tolist() if hasattr(value, "tolist") else value)
+    return value
+
+
+def _name(what: str, value: Any) -> str:
+    """``value`` if it is a name (non-empty text), or a ``SceneError``."""
+    if not isinstance(value, str) or not value:
+        raise SceneError(f"{what}: a name must be non-empty text, got {value!r}")
+    return value
+
+
+def _scale_table(table: Any) -> dict[str, Any]:
+    """A piecewise-linear scale in time given as ``(t, scale)``, as the scene holds it."""
+    if not isinstance(table, (tuple, list)) or len(table) != 2:
+        raise SceneError(f"table: expected a pair (t, scale) of sequences, got {table!r}")
+    return {"t": _listed(table[0]), "scale": _listed(table[1])}
+
+
 def trapezoidal(start: float, end: float, *, acceleration: float, speed: float, t_start: float = 0.0) -> dict:
     """Point-to-point motion law from ``start`` to ``end`` (rad): constant ``acceleration``
     (rad/s²) up to ``speed`` (rad/s), cruise, then deceleration to rest (triangular when
@@ -50,7 +72,7 @@ def motion_table(t: Sequence[float], theta: Sequence[float], *, start_velocity: 
     """Motion law through samples ``(t, theta)``, joined by a clamped cubic spline so that
     velocity and acceleration are continuous; before and after the table the motion goes on
     with ``start_velocity`` / ``end_velocity`` (rad/s)."""
-    return {"kind": "table", "t": list(map(float, t)), "theta": list(map(float, theta)), "start_velocity": start_velocity, "end_velocity": end_velocity}
+    return {"kind": "table", "t": _listed(t), "theta": _listed(theta), "start_velocity": start_velocity, "end_velocity": end_velocity}
 
 
 @dataclass(frozen=True)
@@ -79,7 +101,7 @@ class Scene:
         if initial != "rest":
             self._spec["initial"] = initial
         if gravity is not None:
-            self._spec["gravity"] = [float(g) for g in gravity]
+            self._spec["gravity"] = _listed(gravity)
 
     # -- construction -------------------------------------------------------------------
 
@@ -93,8 +115,8 @@ class Scene:
         ``shear_factor`` k of the largest shear stress ``k V/A`` if shear stresses are;
         ``rayleigh = (alpha, beta)`` damps its beams by ``C = αM + βK`` (1/s, s)."""
         entry = {"E": E, "rho": rho, "nu": nu, "G": G, "diameter": diameter, "A": A, "I": I, "kappa": kappa, "c": c,
-                 "shear_factor": shear_factor, "rayleigh": None if rayleigh is None else [float(v) for v in rayleigh]}
-        self._spec.setdefault("sections", {})[name] = {k: v for k, v in entry.items() if v is not None}
+                 "shear_factor": shear_factor, "rayleigh": None if rayleigh is None else _listed(rayleigh)}
+        self._spec.setdefault("sections", {})[_name("section", name)] = {k: v for k, v in entry.items() if v is not None}
         return name
 
     def node(self, name: str, x: float, y: float) -> str:
@@ -111,7 +133,7 @@ class Scene:
         design variable per bar unless ``fixed``. ``rigid`` makes it one rigid body with the
         frame's mass and inertia (a link not being designed, three unknowns), its grid
         nodes the body's points."""
-        origin = origin if isinstance(origin, str) else [float(o) for o in origin]
+        origin = _listed(origin)
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "origin": origin,
                  "angle": angle, "section": section, "split": split, "fixed": fixed}
         if rigid:
@@ -133,8 +155,8 @@ class Scene:
         mass (kg m²) at ``position``, its frame turned by ``angle``; ``points`` are named
         ``[x, y]`` in that frame from the centre. Joints attach to the body (``name``, its
         centre) or its points (``"name.point"``)."""
-        entry = {"name": name, "mass": mass, "inertia": inertia, "position": [float(p) for p in position],
-                 "angle": angle, "points": {k: [float(v) for v in p] for k, p in (points or {}).items()}}
+        entry = {"name": name, "mass": mass, "inertia": inertia, "position": _listed(position),
+                 "angle": angle, "points": {k: _listed(p) for k, p in (points or {}).items()} if isinstance(points, Mapping | None) else points}
         self._spec.setdefault("rigid_bodies", []).append(entry)
         return name
 
@@ -146,9 +168,9 @@ class Scene:
              table: tuple[Sequence[float], Sequence[float]] | None = None) -> None:
         """A force (N) and moment (N m) on ``node``, scaled in time by the piecewise-linear
         ``table = (t, scale)`` if given."""
-        entry: dict[str, Any] = {"node": node, "force": [float(f) for f in force], "moment": moment}
+        entry: dict[str, Any] = {"node": node, "force": _listed(force), "moment": moment}
         if table is not None:
-            entry["table"] = {"t": list(map(float, table[0])), "scale": list(map(float, table[1]))}
+            entry["table"] = _scale_table(table)
         self._spec.setdefault("loads", []).append(entry)
 
     def clamp(self, name: str, node: str) -> None:
@@ -174,7 +196,7 @@ class Scene:
         """A slider: ``slider`` (a node or rigid-body point) moves along ``axis`` through its
         position, the axis fixed on the ground or carried by ``carrier``, their relative
         rotation locked; ``drive`` (a motion law, in m) prescribes the travel."""
-        entry: dict[str, Any] = {"kind": "prismatic", "name": name, "axis": [float(a) for a in axis], "drive": drive}
+        entry: dict[str, Any] = {"kind": "prismatic", "name": name, "axis": _listed(axis), "drive": drive}
         if carrier is None:
             entry["node"] = slider
         else:
@@ -201,7 +223,7 @@ class Scene:
         coordinate, scaled in time by the piecewise-linear ``table = (t, scale)`` if given."""
         entry: dict[str, Any] = {"name": name, "joint": joint, "torque": torque}
         if table is not None:
-            entry["table"] = {"t": list(map(float, table[0])), "scale": list(map(float, table[1]))}
+            entry["table"] = _scale_table(table)
         self._spec.setdefault("motors", []).append(entry)
 
     def servo(self, name: str, joint: str, *, kp: float, kd: float = 0.0, motion: dict) -> None:
@@ -214,12 +236,12 @@ class Scene:
         """Gives the bar called ``bar`` (``LINK/barK`` of a ground structure, a beam's name)
         ``elements`` elements, whatever the ``split`` of its ground structure or beam: a
         discretization chosen bar by bar (the scene's ``[splits]`` table)."""
-        self._spec.setdefault("splits", {})[bar] = elements
+        self._spec.setdefault("splits", {})[_name("split", bar)] = elements
 
     def initial_rate(self, joint: str, rate: float) -> None:
         """Starts the undriven ``joint``'s coordinate moving at ``rate`` (rad/s; m/s on a
         slider): the mechanism starts in the rigid motion its initial rates determine."""
-        self._spec.setdefault("initial_rates", {})[joint] = rate
+        self._spec.setdefault("initial_rates", {})[_name("initial_rate", joint)] = rate
 
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})

@@ -9,10 +9,85 @@ a test checks the committed files are up to date."""
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
+from collections.abc import Callable
+from typing import Any, TypeVar
 
+import numpy as np
+
+from . import _core
 from .errors import SceneError
 from .scene import Scene, motion_table, trapezoidal
+
+#: The engine's limits on a model's size, by name (``grid_nodes``, ``split``, ``nodes``,
+#: ``elements``): the builders check their counts against them before building.
+LIMITS = dict(_core.size_limits())
+
+_POSITIVE = ("length", "height", "E", "rho", "diameter", "p", "t_end", "h", "acceleration", "speed", "mass", "g",
+             "periods", "crank", "rod", "coupler", "rocker", "ground", "time_constant", "bay", "area")
+#: Each builder argument's interval by name, the same everywhere: (low, high, brackets).
+_RANGES: dict[str, tuple[float, float, str]] = {**dict.fromkeys(_POSITIVE, (0.0, math.inf, "()")),
+                                                 "x_min": (0.0, 1.0, "()"), "nu": (-1.0, 0.5, "()"),
+                                                 "tip_mass": (0.0, math.inf, "[)"), "rho_inf": (0.0, 1.0, "[]")}
+
+_Builder = TypeVar("_Builder", bound=Callable[..., Scene])
+
+
+def _checked(sizes: Callable[..., dict[str, int]], **ranges: tuple[float, float, str]) -> Callable[[_Builder], _Builder]:
+    """A builder whose arguments are checked before it builds anything: counts (``int``)
+    whole numbers ≥ 1, other numbers finite reals in their range (``_RANGES``, or this
+    builder's own ``ranges``), and the sizes they make (``sizes`` of the arguments: limit
+    name → size) within :data:`LIMITS`. Each refusal is a ``SceneError`` naming the
+    builder's argument."""
+
+    def wrap(builder: _Builder) -> _Builder:
+        signature = inspect.signature(builder)
+
+        @functools.wraps(builder)
+        def checked(*args: Any, **kwargs: Any) -> Scene:
+            try:
+                bound = signature.bind(*args, **kwargs)
+            except TypeError as e:
+                raise SceneError(f"{builder.__name__}: {e}") from None
+            bound.apply_defaults()
+            given = bound.arguments
+            for name, value in given.items():
+                _check_argument(builder.__name__, name, value, signature.parameters[name].annotation,
+                                ranges.get(name, _RANGES.get(name)))
+            for limit, size in sizes(**given).items():
+                if size > LIMITS[limit]:
+                    raise SceneError(f"{builder.__name__}: these arguments make {size:,} {limit.replace('_', ' ')}, "
+                                     f"beyond the limit of {LIMITS[limit]:,}")
+            return builder(*args, **kwargs)
+
+        return checked  # type: ignore[return-value]
+
+    return wrap
+
+
+def _check_argument(builder: str, name: str, value: Any, annotation: str, span: tuple[float, float, str] | None) -> None:
+    where = f"{builder}: {name}"
+    if annotation == "int":
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise SceneError(f"{where} must be a whole number ≥ 1, got {value!r}")
+        return
+    pair = annotation.startswith("tuple")
+    if pair and (not isinstance(value, (tuple, list, np.ndarray)) or len(value) != annotation.count("float")):
+        raise SceneError(f"{where} must be {annotation.count('float')} numbers, got {value!r}")
+    numbers = list(value) if pair else [value] if annotation == "float" else []
+    for v in numbers:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
+            raise SceneError(f"{where} must be a finite number, got {value!r}")
+        if span is not None:
+            low, high, brackets = span
+            above = low <= v if brackets[0] == "[" else low < v
+            below = v <= high if brackets[1] == "]" else v < high
+            if not (above and below):
+                bounds = f"{'≥' if brackets[0] == '[' else '>'} {low:g}"
+                bounds += f" and {'≤' if brackets[1] == ']' else '<'} {high:g}" if high < math.inf else ""
+                raise SceneError(f"{where} must be {bounds}, got {v!r}")
 
 #: Aluminium (Pa, -, kg/m³) and the solid circular section diameter (m).
 ALUMINIUM = {"E": 70e9, "nu": 0.32, "rho": 2700.0}
@@ -23,6 +98,7 @@ def _linkage_section(scene: Scene, E: float, nu: float, rho: float, diameter: fl
     return scene.section("aluminium", E=E, nu=nu, rho=rho, diameter=diameter)
 
 
+@_checked(lambda nx, ny, split, **_: {"grid_nodes": nx * ny, "split": split})
 def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 0.1, split: int = 1,
               tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
               acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
@@ -57,6 +133,7 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
     return scene
 
 
+@_checked(lambda nx, ny, split, **_: {"grid_nodes": nx * ny, "split": split})
 def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 0.1, split: int = 1,
                  force: tuple[float, float] = (0.0, -100.0), E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                  rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, p: float = 3.0,
@@ -79,6 +156,7 @@ _GENERATED = "Generated from flextop.scenes.{}() by `python scripts/write_exampl
 #: The example files: name → (builder, header, comments on table headers). Two Rust unit
 #: tests of src/scene/tests.rs add an unknown key to the robot arm's text (after
 #: ``speed = 0.5 }`` and ``nx = 5``): a change of its layout must keep those two strings.
+@_checked(lambda bars, split, **_: {"nodes": bars + 1, "elements": bars * split, "split": split})
 def spun_beam(*, bars: int = 8, length: float = 1.0, split: int = 1, tip_mass: float = 0.2, E: float = ALUMINIUM["E"],
               nu: float = ALUMINIUM["nu"], rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, angle: float = 1.0,
               acceleration: float = 20.0, speed: float = 2.0, t_end: float = 0.6, h: float = 0.005, rho_inf: float = 0.8) -> Scene:
@@ -102,6 +180,7 @@ INCH, KIP, KSI = 0.0254, 4448.2216152605, 6.894757293168e6
 """US customary units in SI (m, N, Pa), for the literature's ten-bar truss."""
 
 
+@_checked(lambda **_: {})
 def ten_bar_truss(*, bay: float = 360 * INCH, load: float = 100 * KIP, E: float = 1e4 * KSI, area: float = 10 * INCH**2,
                   x_min: float = 0.01) -> Scene:
     """The ten-bar truss of the structural optimization literature (Venkayya 1971; Schmit
@@ -139,6 +218,7 @@ STEEL = {"E": 200e9, "nu": 0.3, "rho": 7870.0}
 """Steel (Pa, -, kg/m³), the slider-crank's."""
 
 
+@_checked(lambda **_: {}, angle=(0.0, math.pi, "[)"))
 def pendulum(*, length: float = 1.0, mass: float = 1.0, g: float = 9.81, angle: float = math.pi / 2,
              periods: float = 1.0, h: float = 1e-3, rho_inf: float = 0.9) -> Scene:
     """A point ``mass`` (kg) on a rigid massless link of ``length`` (m), pinned at the
@@ -160,6 +240,7 @@ def pendulum_period(length: float, g: float, angle: float) -> float:
     return 4.0 * float(ellipk(math.sin(angle / 2) ** 2)) / math.sqrt(g / length)
 
 
+@_checked(lambda bars, split, **_: {"nodes": bars + 1, "elements": bars * split, "split": split})
 def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split: int = 2, diameter: float = 0.006,
                  E: float = STEEL["E"], nu: float = STEEL["nu"], rho: float = STEEL["rho"], speed: float = 150.0,
                  time_constant: float = 0.167, t_end: float = 0.1, h: float = 2.5e-4, rho_inf: float = 0.8,
@@ -197,6 +278,7 @@ def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split
     return scene
 
 
+@_checked(lambda nx, split, **_: {"grid_nodes": 3 * nx, "split": split})
 def four_bar(*, crank: float = 0.1, coupler: float = 0.3, rocker: float = 0.25, ground: float = 0.3, nx: int = 5,
              height: float = 0.04, split: int = 1, mass: float = 0.5, E: float = ALUMINIUM["E"],
              nu: float = ALUMINIUM["nu"], rho: float = ALUMINIUM["rho"], diameter: float = 0.01,

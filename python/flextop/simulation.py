@@ -325,6 +325,8 @@ class Simulation:
             static = StaticResults(self, _core.solve_static(self.model, xv, settings), xv, settings)
             _warn_if_implausible_static(static)
             return static
+        if local_tol is not None and (isinstance(local_tol, bool) or not isinstance(local_tol, (int, float, np.number))):
+            raise SettingsError(f"local_tol must be a number, got {local_tol!r}")
         raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps], guide)
         res = Results(self, raw, xv, settings)
         _warn_if_energy_created(res)
@@ -603,11 +605,15 @@ def remember(sim: Simulation) -> None:
     _cached(sim.spec, sim.options, sim)
 
 
-def load(path: str | os.PathLike) -> Results | StaticResults:
+def load(path: str | os.PathLike) -> Results | StaticResults | Sensitivities:
     """The results saved at ``path`` by ``results.save(path)``, on the Simulation of their
-    saved scene and options."""
+    saved scene and options; or the :class:`Sensitivities` saved by their ``save``."""
     meta, raw, x = saved.read(path)
+    d = meta["discretization"]
+    if meta["kind"] == "sensitivities":
+        return Sensitivities(tuple(meta["names"]), raw["values"], raw.get("gradients"), meta["method"], meta["timings"],
+                             None if d is None else Discretization(*d), meta["errors"], meta["gradient_errors"],
+                             raw.get("steps"), meta["peaks"], tuple(meta["parameters"]), raw.get("parameter_gradients"))
     sim = Simulation(meta["scene"], **meta["simulation"])
     kind = Results if meta["kind"] == "dynamic" else StaticResults
-    d = meta["discretization"]
     return kind(sim, raw, x, meta["settings"], None if d is None else Discretization(*d), meta["errors"])

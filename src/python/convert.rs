@@ -1,11 +1,13 @@
 //! Python values into engine inputs, engine outputs into numpy arrays.
 //!
-//! Dicts are read with `pythonize` through serde, unknown keys and wrong values rejected with
-//! their path, so a scene dict and a settings dict get the same checks as a TOML file.
+//! Dicts are read through serde, unknown keys and wrong values rejected with their path, so a
+//! scene dict and a settings dict get the same checks as a TOML file. They are first copied
+//! into TOML values with Python's types kept as they are (a `bool` is not a number, a string
+//! is not a `bool`): no value is taken by its truthiness.
 
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList, PyTuple};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::de::DeserializeOwned;
 
 use crate::error::{Error, SceneError, SettingsError};
@@ -48,25 +50,134 @@ fn from_python<T: DeserializeOwned>(
         let msg = format!("nested more than {MAX_NESTING} levels deep");
         return Err((whole.into(), msg));
     }
-    let mut de = pythonize::Depythonizer::from_object(value);
-    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+    let value = toml_value(value, "").map_err(|(path, msg)| {
+        let path = if path.is_empty() { whole.into() } else { path };
+        (path, msg)
+    })?;
+    serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { whole.into() } else { path };
-        (path, in_users_words(&e.into_inner().to_string()))
+        (path, in_users_words(e.into_inner().message()))
     })
 }
 
-/// A deserialization message with serde's and Python's terms replaced by the user's.
+/// `value` as a TOML value of the same type: `bool` (numpy's too) a boolean, an integer
+/// an integer, a float a float, `str` a string, a mapping a table (`None` entries left
+/// out, as if not given), a list, tuple or array an array. Anything else is refused
+/// at its `path`.
+fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (String, String)> {
+    let at = |key: &str| {
+        if path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{path}.{key}")
+        }
+    };
+    let kind = || {
+        value
+            .get_type()
+            .name()
+            .map_or("?".into(), |n| n.to_string())
+    };
+    if value.is_instance_of::<PyBool>() || kind().starts_with("bool") {
+        return Ok(toml::Value::Boolean(value.is_truthy().unwrap_or(false)));
+    }
+    if let Ok(s) = value.cast::<PyString>() {
+        return Ok(toml::Value::String(s.to_string()));
+    }
+    if value.is_instance_of::<PyInt>() || value.hasattr("__index__").unwrap_or(false) {
+        return value
+            .extract::<i64>()
+            .map(toml::Value::Integer)
+            .map_err(|_| {
+                (
+                    path.into(),
+                    format!("the whole number {value} is too large"),
+                )
+            });
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(
+            value.extract::<f64>().unwrap_or(f64::NAN),
+        ));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        let mut table = toml::Table::new();
+        for (k, v) in d.iter() {
+            let Ok(key) = k.cast::<PyString>().map(|k| k.to_string()) else {
+                return Err((path.into(), format!("keys must be strings, got {k}")));
+            };
+            if !v.is_none() {
+                let item = toml_value(&v, &at(&key))?;
+                table.insert(key, item);
+            }
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    let items: Option<Vec<Bound<'_, PyAny>>> = if let Ok(l) = value.cast::<PyList>() {
+        Some(l.iter().collect())
+    } else if let Ok(t) = value.cast::<PyTuple>() {
+        Some(t.iter().collect())
+    } else if value.hasattr("tolist").unwrap_or(false) && value.hasattr("ndim").unwrap_or(false) {
+        let list = value
+            .call_method0("tolist")
+            .map_err(|e| (path.into(), e.to_string()))?;
+        return toml_value(&list, path);
+    } else {
+        None
+    };
+    match items {
+        Some(items) => items
+            .iter()
+            .enumerate()
+            .map(|(k, item)| toml_value(item, &format!("{path}[{k}]")))
+            .collect::<Result<Vec<_>, _>>()
+            .map(toml::Value::Array),
+        None if value.hasattr("__float__").unwrap_or(false) => value
+            .extract::<f64>()
+            .map(toml::Value::Float)
+            .map_err(|e| (path.into(), e.to_string())),
+        None => Err((
+            path.into(),
+            format!("expected a number, text, list or table, got {}", kind()),
+        )),
+    }
+}
+
+/// A deserialization message in the user's words: `invalid type: string "false", expected
+/// a boolean` becomes `expected true or false, got the string "false"`.
 fn in_users_words(msg: &str) -> String {
-    if let Some(got) = msg.strip_prefix("TypeError: must be real number, not ") {
-        return format!("expected a number, got {got}");
+    if msg == "invalid type: unit variant, expected string only" {
+        return "expected a name (text)".into();
     }
-    if msg.starts_with("OverflowError: can't convert negative int to unsigned") {
-        return "expected a whole number ≥ 0".into();
+    if let Some(rest) = msg.strip_prefix("invalid type: ") {
+        if let Some((got, want)) = rest.split_once(", expected ") {
+            let want = match want {
+                "a boolean" => "true or false",
+                "f64" => "a number",
+                w if w.starts_with('u') && w[1..].chars().all(|c| c.is_ascii_digit())
+                    || w == "usize" =>
+                {
+                    "a whole number ≥ 0"
+                }
+                w => w,
+            };
+            let got = got
+                .replace("boolean `", "`")
+                .replace("integer `", "the whole number `")
+                .replace("floating point `", "the number `")
+                .replace("string \"", "the text \"");
+            return format!("expected {want}, got {got}");
+        }
     }
-    if let Some(rest) = msg.strip_prefix("unexpected type: '") {
-        if let Some((got, want)) = rest.split_once("' object is not an instance of '") {
-            return format!("expected a {}, got {got}", want.trim_end_matches('\''));
+    if let Some(rest) = msg.strip_prefix("invalid value: integer `") {
+        if let Some((got, want)) = rest.split_once("`, expected ") {
+            let want = if want == "usize" || want.starts_with('u') {
+                "a whole number ≥ 0"
+            } else {
+                want
+            };
+            return format!("expected {want}, got {got}");
         }
     }
     msg.replace("unknown variant", "unknown value")

@@ -237,3 +237,16 @@ pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool)>
         .map(|k| (k.name, k.syntax, k.doc, k.peak))
         .collect()
 }
+
+/// The named limits on a model's size ([`crate::limits`]) by name: what the example
+/// scenes' builders check their counts against before they allocate anything.
+#[pyfunction]
+pub fn size_limits() -> Vec<(&'static str, usize)> {
+    use crate::limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_NODES, MAX_SPLIT};
+    vec![
+        ("grid_nodes", MAX_GRID_NODES),
+        ("split", MAX_SPLIT),
+        ("nodes", MAX_NODES),
+        ("elements", MAX_ELEMENTS),
+    ]
+}

@@ -297,3 +297,110 @@ def test_a_drive_cut_off_by_t_end_is_named():
         warnings.simplefilter("error", flextop.errors.SettingsWarning)
         sim.run(0.4)
         sim.run(0.4, t_end=0.8)  # cruising
+
+
+WRONG = [0, -1, float("nan"), float("inf"), True, "x", None, 10**9, 1e9, -0.0, 1e-300, (1, 2), [1], {"a": 1}, object()]
+"""Values of the wrong type or range, as the fuzz campaign gave them."""
+
+
+def test_the_example_builders_name_a_bad_argument():
+    """ZeroDivisionError, IndexError, OverflowError and MemoryError came out of the example
+    scenes' builders; every argument of every builder, given each wrong value, now builds a
+    scene or raises a FlextopError."""
+    import inspect
+    foreign = []
+    for name, builder in flextop.scenes.BUILT_IN.items():
+        for argument in inspect.signature(builder).parameters:
+            for value in WRONG:
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        flextop.Simulation(builder(**{argument: value}))
+                except flextop.FlextopError:
+                    pass
+                except Exception as e:  # noqa: BLE001 - what the test looks for
+                    foreign.append(f"{name}({argument}={value!r}): {type(e).__name__}: {e}")
+    assert not foreign, "\n".join(foreign[:20])
+    with pytest.raises(SceneError, match="pendulum: length must be > 0, got 0"):
+        flextop.scenes.pendulum(length=0)
+    with pytest.raises(SceneError, match="spun_beam: bars must be a whole number ≥ 1, got -1"):
+        flextop.scenes.spun_beam(bars=-1)
+    with pytest.raises(SceneError, match="robot_arm: nx must be a whole number ≥ 1, got '5'"):
+        flextop.scenes.robot_arm(nx="5")
+    with pytest.raises(SceneError, match="static_truss: force must be 2 numbers"):
+        flextop.scenes.static_truss(force=(1.0,))
+
+
+@pytest.mark.parametrize("builder, counts, words", [
+    (flextop.scenes.spun_beam, {"bars": 1_100_000}, "spun_beam: these arguments make 1,100,001 nodes, beyond the limit of 1,000,000"),
+    (flextop.scenes.slider_crank, {"bars": 2_000_000}, "slider_crank: these arguments make 2,000,001 nodes"),
+    (flextop.scenes.robot_arm, {"nx": 10**9}, "robot_arm: these arguments make 3,000,000,000 grid nodes, beyond the limit of 2,000"),
+    (flextop.scenes.spun_beam, {"split": 5000}, "spun_beam: these arguments make 5,000 split, beyond the limit of 1,000"),
+])
+def test_the_builders_check_sizes_before_allocating(builder, counts, words):
+    """spun_beam(bars=1_100_000) took 37 s and 2.5 GB before its size error; the limits are the
+    engine's own (flextop.scenes.LIMITS), checked on the arguments."""
+    tracemalloc = pytest.importorskip("tracemalloc")
+    tracemalloc.start()
+    try:
+        with pytest.raises(SceneError, match=re.escape(words)):
+            builder(**counts)
+        assert tracemalloc.get_traced_memory()[1] < 10_000_000  # nothing of that size was made
+    finally:
+        tracemalloc.stop()
+
+
+def test_scene_methods_given_wrong_types_raise_scene_errors():
+    """189 cases of the builder's methods given wrong types ended in foreign exceptions
+    (unhashable names, float() of a string, iterating a number); each wrong argument of
+    each method is now a FlextopError, at the call or when the scene is built."""
+    import itertools
+
+    def base():
+        s = flextop.Scene("f")
+        s.section("s", E=70e9, nu=0.3, rho=2700.0, diameter=0.02)
+        s.node("a", 0.0, 0.0)
+        s.node("b", 1.0, 0.0)
+        s.beam("a", "b", section="s", name="ab")
+        s.pin("p", "a", drive=flextop.trapezoidal(0.0, 1.0, acceleration=1.0, speed=1.0))
+        return s
+
+    calls = {
+        "section": (("t",), dict(E=70e9, nu=0.3, rho=2700.0, diameter=0.02)),
+        "node": (("c", 2.0, 0.0), {}),
+        "ground_structure": (("g",), dict(nx=3, ny=3, length=1.0, height=0.1, section="s")),
+        "beam": (("a", "b"), dict(section="s", split=2, name="x")),
+        "rigid_body": (("rb",), dict(mass=1.0, position=(0.0, 1.0))),
+        "point_mass": (("b", 1.0), {}),
+        "load": (("b",), dict(force=(0.0, 1.0), table=([0.0, 1.0], [0.0, 1.0]))),
+        "clamp": (("c", "b"), {}),
+        "hinge": (("h", "a", "b"), {}),
+        "prismatic": (("s", "b"), dict(axis=(1.0, 0.0))),
+        "spring": (("sp", "a", "b"), dict(k=1.0)),
+        "joint_spring": (("js", "p"), dict(k=1.0)),
+        "motor": (("m", "p"), dict(torque=1.0)),
+        "split": (("ab", 2), {}),
+        "initial_rate": (("p", 1.0), {}),
+        "design": ((), dict(interpolation="simp", p=3.0)),
+        "simulation": ((), dict(t_end=0.1, h=0.01)),
+    }
+    foreign = []
+    for method, (args, kwargs) in calls.items():
+        slots = [*range(len(args)), *kwargs]
+        for slot, value in itertools.product(slots, WRONG):
+            a, k = list(args), dict(kwargs)
+            if isinstance(slot, int):
+                a[slot] = value
+            else:
+                k[slot] = value
+            scene = base()
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    getattr(scene, method)(*a, **k)
+                    flextop.Simulation(scene).run(t_end=0.05)
+            except flextop.FlextopError:
+                pass
+            except Exception as e:  # noqa: BLE001 - what the test looks for
+                foreign.append(f"{method}({slot}={value!r}): {type(e).__name__}: {e}")
+    assert not foreign, "\n".join(foreign[:20])

@@ -58,6 +58,32 @@ def test_bad_files_are_named(tmp_path):
     np.savez(tmp_path / "other.npz", q=np.zeros(3))
     with pytest.raises(flextop.SettingsError, match="other.npz: not a file of saved flextop results"):
         flextop.load(tmp_path / "other.npz")
+    # A damaged file (BadZipFile before), a truncated one and one whose description lacks parts.
+    (tmp_path / "damaged.npz").write_bytes(b"PK\x03\x04garbage")
+    with pytest.raises(flextop.SettingsError, match="damaged.npz: .*damaged one \\(BadZipFile"):
+        flextop.load(tmp_path / "damaged.npz")
+    good = flextop.Simulation(flextop.scenes.static_truss()).run(0.4).save(tmp_path / "good.npz")
+    (tmp_path / "cut.npz").write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    with pytest.raises(flextop.SettingsError, match="cut.npz: not a file of saved flextop results"):
+        flextop.load(tmp_path / "cut.npz")
+    np.savez(tmp_path / "partial.npz", meta=np.array('{"version": 1}'))
+    with pytest.raises(flextop.SettingsError, match="partial.npz: .*KeyError"):
+        flextop.load(tmp_path / "partial.npz")
+
+
+@pytest.mark.parametrize("rtol", [None, 5e-2])
+def test_sensitivities_save_and_load_bit_for_bit(tmp_path, rtol):
+    """Sensitivities had no save; now every field comes back bit for bit."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    sens = sim.run_with_sensitivities(0.5, ["tip_deflection", "volume"], rtol=rtol, parameters=["E:aluminium"])
+    back = flextop.load(sens.save(tmp_path / "s.npz"))
+    assert isinstance(back, flextop.Sensitivities)
+    for field in ("values", "gradients", "parameter_gradients"):
+        assert np.array_equal(getattr(back, field), getattr(sens, field))
+    assert (back.names, back.method, back.timings, back.discretization, back.errors, back.gradient_errors, back.peaks,
+            back.parameters) == (sens.names, sens.method, sens.timings, sens.discretization, sens.errors,
+                                 sens.gradient_errors, sens.peaks, sens.parameters)
+    assert (back.steps is None) == (sens.steps is None)
 
 
 def test_the_xarray_view(arm):

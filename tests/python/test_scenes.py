@@ -160,7 +160,16 @@ def bad(mutate):
         (lambda s: s["design"].update(p=float("nan")), "design.p"),
         (lambda s: s["simulation"].update(rho_inf=1.5), "simulation.rho_inf"),
         (lambda s: s["joints"][0]["drive"].pop("acceleration"), "joints[0].drive: a trapezoidal law needs `acceleration`"),
-        (lambda s: s["joints"][0]["drive"].update(acceleration="x"), "joints[0].drive.acceleration: expected a number, got str"),
+        (lambda s: s["joints"][0]["drive"].update(acceleration="x"), "joints[0].drive.acceleration: expected a number, got the text \"x\""),
+        # Types are kept, not taken by truthiness: "false" fixed a bar, True was 1 kg.
+        (lambda s: s["ground_structures"][0].update(rigid="false"), 'ground_structures[0].rigid: expected true or false, got the text "false"'),
+        (lambda s: s["ground_structures"][0].update(rigid=1), "ground_structures[0].rigid: expected true or false, got the whole number `1`"),
+        (lambda s: s["point_masses"][0].update(mass=True), "point_masses[0].mass: expected a number, got `true`"),
+        (lambda s: s["ground_structures"][0].update(length=True), "ground_structures[0].length: expected a number, got `true`"),
+        (lambda s: s["ground_structures"][0].update(split=2.0), "ground_structures[0].split: expected a whole number ≥ 0, got the number `2.0`"),
+        (lambda s: s["ground_structures"][0].update(nx=10**30), "ground_structures[0].nx: the whole number 10" + "0" * 29 + " is too large"),
+        (lambda s: s["point_masses"][0].update(mass=object()), "point_masses[0].mass: expected a number, text, list or table, got object"),
+        (lambda s: s["joints"][0].update(kind=3), "joints[0].kind: expected a name (text)"),
         (lambda s: s["joints"][0]["drive"].update(kind="bogus"), "joints[0].drive.kind: unknown value `bogus`"),
         (lambda s: s["joints"][0]["drive"].update(t=[0.0, 1.0]), "joints[0].drive: a trapezoidal law does not take `t`"),
         (lambda s: s["joints"][1].update(node="link1[4,1]"), "joints[1]: a hinge takes two `nodes` [a, b], not `node`"),
@@ -174,6 +183,25 @@ def test_bad_scenes_raise_scene_error_naming_the_culprit(mutate, culprit):
         flextop.Simulation(bad(mutate))
     assert culprit in str(info.value)
     assert isinstance(info.value, ValueError)
+
+
+def test_numpy_values_keep_their_types():
+    """numpy's booleans, integers and floats are read as Python's: an optimizer's output fed
+    back into a scene works."""
+    spec = flextop.scenes.spun_beam().to_dict()
+    spec["beams"][0].update(fixed=np.True_, split=np.int64(2))
+    spec["point_masses"][0].update(mass=np.float32(0.25))
+    spec["nodes"][1].update(x=np.float64(0.125))
+    sim = flextop.Simulation(spec)
+    assert sim.n_design == 7 and "bar0" not in sim.variable_names
+
+
+def test_a_string_boolean_in_a_toml_file_is_a_scene_error(tmp_path):
+    text = flextop.scenes.spun_beam().to_toml().replace("fixed = false", 'fixed = "false"', 1)
+    assert 'fixed = "false"' in text
+    (tmp_path / "spun.toml").write_text(text)
+    with pytest.raises(SceneError, match=r'beams\[0\]\.fixed: expected true or false, got the text "false"'):
+        flextop.Simulation(tmp_path / "spun.toml")
 
 
 def test_drives_must_start_at_rest():
