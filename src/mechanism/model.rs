@@ -304,20 +304,11 @@ impl Model {
         self.bars[self.elements[e].bar].variable
     }
 
-    /// The constraint rows of joint `j`, the drive row last (an empty range at the end for
-    /// a joint without rows).
+    /// The constraint rows of joint `j`, the drive row last (an empty range where they
+    /// would be for a joint without rows), found by bisection: the rows are in the order
+    /// of their joints.
     pub fn joint_rows(&self, j: usize) -> std::ops::Range<usize> {
-        let first = self
-            .rows
-            .iter()
-            .position(|r| r.joint == j)
-            .unwrap_or(self.rows.len());
-        first
-            ..first
-                + self.rows[first..]
-                    .iter()
-                    .take_while(|r| r.joint == j)
-                    .count()
+        self.rows.partition_point(|r| r.joint < j)..self.rows.partition_point(|r| r.joint <= j)
     }
 
     /// Times in `(0, t_end)` where a drive, a load table or a motor is not smooth, sorted, without

@@ -58,57 +58,61 @@ pub(crate) struct Link {
     b: Option<usize>,
     /// Whether it also acts on the ground.
     grounded: bool,
-    /// Each row's coefficients on `a`'s three coordinates, then on `b`'s.
-    rows: Vec<[f64; 6]>,
+    /// Its number of rows: at most three (a joint's; a spring's one).
+    len: usize,
+    /// Each row's coefficients on `a`'s three coordinates, then on `b`'s (the first `len`).
+    rows: [[f64; 6]; 3],
     /// Their sizes before any term cancelled another: the sums of the terms' magnitudes.
-    sizes: Vec<[f64; 6]>,
+    sizes: [[f64; 6]; 3],
 }
 
 impl Link {
     /// The link of `rows`, each given as the terms of its gradient: `(Some(3 body + k),
-    /// value)`, or `(None, _)` for a coordinate of the ground. The rows act on one or two
-    /// bodies together (every row of a joint on its one or two anchors).
+    /// value)`, or `(None, _)` for a coordinate of the ground. The rows, at most three, act
+    /// on one or two bodies together (every row of a joint on its one or two anchors).
     pub(crate) fn new<R>(rows: impl IntoIterator<Item = R>) -> Self
     where
         R: IntoIterator<Item = (Option<usize>, f64)>,
     {
-        let mut bodies: Vec<usize> = Vec::with_capacity(2);
-        let mut grounded = false;
-        let (rows, sizes) = rows
-            .into_iter()
-            .map(|terms| {
-                let (mut row, mut size) = ([0.0; 6], [0.0; 6]);
-                for (coordinate, value) in terms {
-                    let Some(j) = coordinate else {
-                        grounded = true;
-                        continue;
-                    };
-                    let side = match bodies.iter().position(|&b| b == j / 3) {
-                        Some(side) => side,
-                        None => {
-                            bodies.push(j / 3);
-                            bodies.len() - 1
-                        }
-                    };
-                    assert!(side < 2, "a joint or spring acts on at most two bodies");
-                    row[3 * side + j % 3] += value;
-                    size[3 * side + j % 3] += value.abs();
-                }
-                (row, size)
-            })
-            .unzip();
-        Self {
-            a: *bodies.first().expect("a joint or spring acts on a body"),
-            b: bodies.get(1).copied(),
-            grounded,
-            rows,
-            sizes,
+        let mut bodies: [Option<usize>; 2] = [None; 2];
+        let mut link = Self {
+            a: 0,
+            b: None,
+            grounded: false,
+            len: 0,
+            rows: [[0.0; 6]; 3],
+            sizes: [[0.0; 6]; 3],
+        };
+        for (i, terms) in rows.into_iter().enumerate() {
+            assert!(i < 3, "a joint has at most three rows");
+            link.len = i + 1;
+            for (coordinate, value) in terms {
+                let Some(j) = coordinate else {
+                    link.grounded = true;
+                    continue;
+                };
+                let side = (bodies.iter())
+                    .position(|&b| b.is_none() || b == Some(j / 3))
+                    .expect("a joint or spring acts on at most two bodies");
+                bodies[side] = Some(j / 3);
+                link.rows[i][3 * side + j % 3] += value;
+                link.sizes[i][3 * side + j % 3] += value.abs();
+            }
         }
+        link.a = bodies[0].expect("a joint or spring acts on a body");
+        link.b = bodies[1];
+        link
     }
 
     /// The block of the rows on side `side` (0: `a`, 1: `b`), padded with zero rows.
     fn block(&self, side: usize) -> Matrix3<f64> {
-        Matrix3::from_fn(|i, k| self.rows.get(i).map_or(0.0, |row| row[3 * side + k]))
+        Matrix3::from_fn(|i, k| {
+            if i < self.len {
+                self.rows[i][3 * side + k]
+            } else {
+                0.0
+            }
+        })
     }
 
     /// The coefficients of row `i` on side `side`.
@@ -124,7 +128,7 @@ impl Link {
     /// Whether the rows have full row rank on side `side`'s body.
     fn full_rank_on(&self, side: usize) -> bool {
         let sigma = self.block(side).singular_values();
-        self.rows.len() <= 3 && rank_of(sigma.as_slice(), 0.0) == self.rows.len()
+        rank_of(sigma.as_slice(), 0.0) == self.len
     }
 }
 
@@ -287,7 +291,7 @@ impl<'a> Rank<'a> {
         let mut rows = 0;
         for link in links {
             first.push(rows);
-            rows += link.rows.len();
+            rows += link.len;
         }
         let mut parts = Parts {
             sets: Sets::new(bodies),
@@ -323,44 +327,59 @@ impl<'a> Rank<'a> {
     }
 
     /// The forest of the tree links: from the ground first, then from each body not
-    /// reached yet as a free root; each body's [`Edge`] and depth.
+    /// reached yet as a free root; each body's [`Edge`] and depth. The tree links at each
+    /// body are `adjacent[start[body]..start[body + 1]]`.
     fn grow_forest(&mut self, tree: &[bool]) -> Result<(), SolveError> {
         let bodies = self.edge_of.len();
-        let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); bodies];
-        let mut roots = Vec::new();
-        for (l, link) in self.links.iter().enumerate() {
-            roots.push(link.a);
-            roots.extend(link.b);
-            if !tree[l] {
-                continue;
-            }
-            self.tree_rows += link.rows.len();
+        let mut start = vec![0; bodies + 1];
+        for (l, link) in self.links.iter().enumerate().filter(|&(l, _)| tree[l]) {
+            self.tree_rows += link.len;
             match link.b {
                 Some(b) => {
-                    adjacent[link.a].push(l);
-                    adjacent[b].push(l);
+                    start[link.a + 1] += 1;
+                    start[b + 1] += 1;
                 }
                 None => self.attach(link.a, Some((l, 0)), None),
             }
         }
+        for body in 0..bodies {
+            start[body + 1] += start[body];
+        }
+        let mut adjacent = vec![0; start[bodies]];
+        let mut fill = start.clone();
+        for (l, link) in self.links.iter().enumerate().filter(|&(l, _)| tree[l]) {
+            let Some(b) = link.b else { continue };
+            for body in [link.a, b] {
+                adjacent[fill[body]] = l;
+                fill[body] += 1;
+            }
+        }
+        let adjacent = |body: usize| &adjacent[start[body]..start[body + 1]];
         let mut next = 0;
         self.spread(&mut next, &adjacent)?;
-        for root in roots {
-            if self.edge_of[root] == usize::MAX {
-                self.attach(root, None, None);
-                self.spread(&mut next, &adjacent)?;
+        for link in self.links {
+            for root in [link.a].into_iter().chain(link.b) {
+                if self.edge_of[root] == usize::MAX {
+                    self.attach(root, None, None);
+                    self.spread(&mut next, &adjacent)?;
+                }
             }
         }
         Ok(())
     }
 
-    /// Attaches the children of the bodies in `order` from `next` on, breadth first.
-    fn spread(&mut self, next: &mut usize, adjacent: &[Vec<usize>]) -> Result<(), SolveError> {
+    /// Attaches the children of the bodies in `order` from `next` on, breadth first, by the
+    /// tree links `adjacent` to each.
+    fn spread<'t>(
+        &mut self,
+        next: &mut usize,
+        adjacent: &impl Fn(usize) -> &'t [usize],
+    ) -> Result<(), SolveError> {
         while *next < self.order.len() {
             poll()?;
             let parent = self.order[*next];
             *next += 1;
-            for &l in &adjacent[parent] {
+            for &l in adjacent(parent) {
                 let link = &self.links[l];
                 let (child, side) = match link.b {
                     Some(b) if b != parent => (b, 1),
@@ -383,7 +402,7 @@ impl<'a> Rank<'a> {
             let link = &self.links[l];
             let j_c = link.block(side);
             let svd = j_c.svd(true, true);
-            let r = link.rows.len();
+            let r = link.len;
             let v_t = svd.v_t.expect("V requested");
             pinv = svd
                 .pseudo_inverse(TOL * svd.singular_values[0])
@@ -424,7 +443,7 @@ impl Rank<'_> {
             if tree[l] {
                 continue;
             }
-            for at in 0..link.rows.len() {
+            for at in 0..link.len {
                 poll()?;
                 let (entries, size) = self.reduce(link, at);
                 self.loops.push(Reduced {
@@ -686,7 +705,7 @@ impl Rank<'_> {
             let Some((l, side)) = edge.link else { continue };
             let y_e = -edge.pinv.tr_mul(&sum);
             let link = &self.links[l];
-            for k in 0..link.rows.len() {
+            for k in 0..link.len {
                 y.insert(self.first[l] + k, y_e[k]);
             }
             if let Some(parent) = edge.parent {
@@ -735,7 +754,7 @@ impl Rank<'_> {
     pub(crate) fn residual(&self, u: &[Vector3<f64>], rhs: &[f64]) -> f64 {
         let mut worst: f64 = 0.0;
         for (link, &first) in self.links.iter().zip(&self.first) {
-            for k in 0..link.rows.len() {
+            for k in 0..link.len {
                 let on_b = link.b.map_or(0.0, |b| link.on(k, 1).dot(&u[b]));
                 worst = worst.max((link.on(k, 0).dot(&u[link.a]) + on_b - rhs[first + k]).abs());
             }
@@ -888,7 +907,7 @@ mod tests {
     fn dense(links: &[Link], bodies: usize) -> DMatrix<f64> {
         let rows: Vec<(usize, [f64; 6], Option<usize>)> = links
             .iter()
-            .flat_map(|l| l.rows.iter().map(|r| (l.a, *r, l.b)))
+            .flat_map(|l| l.rows[..l.len].iter().map(|r| (l.a, *r, l.b)))
             .collect();
         let mut j = DMatrix::zeros(rows.len(), 3 * bodies);
         for (i, (a, r, b)) in rows.iter().enumerate() {
@@ -1101,7 +1120,7 @@ mod tests {
                 links.push(Link::new([Bodies::angle(k.checked_sub(1), k)]));
             }
             let rank = Rank::of(&links, &bodies.0).unwrap();
-            let first_rate: usize = links[..joints].iter().map(|l| l.rows.len()).sum();
+            let first_rate: usize = links[..joints].iter().map(|l| l.len).sum();
             let rhs: Vec<f64> = (0..rank.rows())
                 .map(|i| {
                     if i < first_rate {
