@@ -1,6 +1,7 @@
 //! Interrupting long work. The loops of the engine — time steps (every generalized-α step,
-//! so forward runs, sensitivity sweeps and their replays), load steps, and the adjoint's
-//! backward steps — call [`poll`]. It asks the checker the caller installed on this thread
+//! so forward runs, sensitivity sweeps and their replays), load steps, the adjoint's
+//! backward steps, and a scene's build (reading and building its lists of entries, the
+//! rank analysis of its joints) — call [`poll`]. It asks the checker the caller installed on this thread
 //! with [`with_checker`], at most once per [`INTERVAL`], and turns a request to stop into
 //! [`SolveError::Interrupted`]. Without a checker it costs a thread-local read.
 //!

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::de::DeserializeOwned;
 
-use crate::error::{Error, SceneError, SettingsError};
+use crate::error::{Error, SceneError, SettingsError, SolveError};
 use crate::scene::SceneSpec;
 use crate::settings::RunOptions;
 use crate::solver::assembly::Csc;
@@ -20,10 +20,11 @@ use crate::solver::assembly::Csc;
 const MAX_NESTING: usize = 64;
 
 /// Whether `value` nests dicts, lists and tuples at most `limit` deep (walked without
-/// recursion).
-fn nested_within(value: &Bound<'_, PyAny>, limit: usize) -> bool {
+/// recursion, with [`crate::poll`] at each value).
+fn nested_within(value: &Bound<'_, PyAny>, limit: usize) -> Result<bool, SolveError> {
     let mut stack = vec![(value.clone(), 0usize)];
     while let Some((v, depth)) = stack.pop() {
+        crate::poll()?;
         let items: Vec<Bound<'_, PyAny>> = if let Ok(d) = v.cast::<PyDict>() {
             d.values().iter().collect()
         } else if let Ok(l) = v.cast::<PyList>() {
@@ -34,11 +35,11 @@ fn nested_within(value: &Bound<'_, PyAny>, limit: usize) -> bool {
             continue;
         };
         if depth == limit && !items.is_empty() {
-            return false;
+            return Ok(false);
         }
         stack.extend(items.into_iter().map(|item| (item, depth + 1)));
     }
-    true
+    Ok(true)
 }
 
 /// Deserializes `value`, reporting a failure at its path (`whole` for the value itself).
@@ -46,14 +47,29 @@ fn from_python<T: DeserializeOwned>(
     value: &Bound<'_, PyAny>,
     whole: &str,
 ) -> Result<T, (String, String)> {
-    if !nested_within(value, MAX_NESTING) {
+    deserialized(python_value(value, whole)?, whole)
+}
+
+/// `value` as a TOML value ([`toml_value`]), refused at its path (`whole` for the value
+/// itself) where it nests too deep or holds what TOML cannot.
+fn python_value(value: &Bound<'_, PyAny>, whole: &str) -> Result<toml::Value, (String, String)> {
+    let interrupted = |e: SolveError| (whole.to_string(), e.to_string());
+    if !nested_within(value, MAX_NESTING).map_err(interrupted)? {
         let msg = format!("nested more than {MAX_NESTING} levels deep");
         return Err((whole.into(), msg));
     }
-    let value = toml_value(value, "").map_err(|(path, msg)| {
+    toml_value(value, "").map_err(|(path, msg)| {
         let path = if path.is_empty() { whole.into() } else { path };
         (path, msg)
-    })?;
+    })
+}
+
+/// Deserializes the TOML value `value`, reporting a failure at its path (`whole` for the
+/// value itself), in the user's words.
+fn deserialized<T: DeserializeOwned>(
+    value: toml::Value,
+    whole: &str,
+) -> Result<T, (String, String)> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { whole.into() } else { path };
@@ -64,7 +80,7 @@ fn from_python<T: DeserializeOwned>(
 /// `value` as a TOML value of the same type: `bool` (numpy's too) a boolean, an integer
 /// an integer, a float a float, `str` a string, a mapping a table (`None` entries left
 /// out, as if not given), a list, tuple or array an array. Anything else is refused
-/// at its `path`.
+/// at its `path`, and so is every value once the caller asks to stop ([`crate::poll`]).
 fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (String, String)> {
     let at = |key: &str| {
         if path.is_empty() {
@@ -77,13 +93,66 @@ fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (Stri
         value
             .get_type()
             .name()
-            .map_or("?".into(), |n| n.to_string())
+            .map_or("?".into(), |n| n.to_string_lossy().into_owned())
     };
-    if value.is_instance_of::<PyBool>() || kind().starts_with("bool") {
+    crate::poll().map_err(|e| (path.to_string(), e.to_string()))?;
+    // Python's own types first, one check each, and only then the look-ups (`__index__`,
+    // `tolist`), which fail for them at a cost: most of the time of reading a large scene.
+    // Text is read as it is, not through `str()`, which would run Python's signal handlers
+    // and lose a Ctrl-C to pyo3's formatting (a key read as "<unprintable str object>").
+    if value.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(value.is_truthy().unwrap_or(false)));
     }
     if let Ok(s) = value.cast::<PyString>() {
-        return Ok(toml::Value::String(s.to_string()));
+        return Ok(toml::Value::String(s.to_string_lossy().into_owned()));
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(
+            value.extract::<f64>().unwrap_or(f64::NAN),
+        ));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        let mut table = toml::Table::new();
+        for (k, v) in d.iter() {
+            let Ok(key) = k
+                .cast::<PyString>()
+                .map(|k| k.to_string_lossy().into_owned())
+            else {
+                discard(table);
+                return Err((path.into(), format!("keys must be strings, got {k}")));
+            };
+            if !v.is_none() {
+                match toml_value(&v, &at(&key)) {
+                    Ok(item) => table.insert(key, item),
+                    Err(e) => {
+                        discard(table);
+                        return Err(e);
+                    }
+                };
+            }
+        }
+        return Ok(toml::Value::Table(table));
+    }
+    let items: Option<Vec<Bound<'_, PyAny>>> = if let Ok(l) = value.cast::<PyList>() {
+        Some(l.iter().collect())
+    } else {
+        value.cast::<PyTuple>().ok().map(|t| t.iter().collect())
+    };
+    if let Some(items) = items {
+        let mut array = Vec::with_capacity(items.len());
+        for (k, item) in items.iter().enumerate() {
+            match toml_value(item, &format!("{path}[{k}]")) {
+                Ok(v) => array.push(v),
+                Err(e) => {
+                    discard(array);
+                    return Err(e);
+                }
+            }
+        }
+        return Ok(toml::Value::Array(array));
+    }
+    if kind().starts_with("bool") {
+        return Ok(toml::Value::Boolean(value.is_truthy().unwrap_or(false)));
     }
     if value.is_instance_of::<PyInt>() || value.hasattr("__index__").unwrap_or(false) {
         return value
@@ -96,52 +165,28 @@ fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (Stri
                 )
             });
     }
-    if value.is_instance_of::<PyFloat>() {
-        return Ok(toml::Value::Float(
-            value.extract::<f64>().unwrap_or(f64::NAN),
-        ));
-    }
-    if let Ok(d) = value.cast::<PyDict>() {
-        let mut table = toml::Table::new();
-        for (k, v) in d.iter() {
-            let Ok(key) = k.cast::<PyString>().map(|k| k.to_string()) else {
-                return Err((path.into(), format!("keys must be strings, got {k}")));
-            };
-            if !v.is_none() {
-                let item = toml_value(&v, &at(&key))?;
-                table.insert(key, item);
-            }
-        }
-        return Ok(toml::Value::Table(table));
-    }
-    let items: Option<Vec<Bound<'_, PyAny>>> = if let Ok(l) = value.cast::<PyList>() {
-        Some(l.iter().collect())
-    } else if let Ok(t) = value.cast::<PyTuple>() {
-        Some(t.iter().collect())
-    } else if value.hasattr("tolist").unwrap_or(false) && value.hasattr("ndim").unwrap_or(false) {
+    if value.hasattr("tolist").unwrap_or(false) && value.hasattr("ndim").unwrap_or(false) {
         let list = value
             .call_method0("tolist")
             .map_err(|e| (path.into(), e.to_string()))?;
         return toml_value(&list, path);
-    } else {
-        None
-    };
-    match items {
-        Some(items) => items
-            .iter()
-            .enumerate()
-            .map(|(k, item)| toml_value(item, &format!("{path}[{k}]")))
-            .collect::<Result<Vec<_>, _>>()
-            .map(toml::Value::Array),
-        None if value.hasattr("__float__").unwrap_or(false) => value
+    }
+    if value.hasattr("__float__").unwrap_or(false) {
+        return value
             .extract::<f64>()
             .map(toml::Value::Float)
-            .map_err(|e| (path.into(), e.to_string())),
-        None => Err((
-            path.into(),
-            format!("expected a number, text, list or table, got {}", kind()),
-        )),
+            .map_err(|e| (path.into(), e.to_string()));
     }
+    Err((
+        path.into(),
+        format!("expected a number, text, list or table, got {}", kind()),
+    ))
+}
+
+/// Frees `value` on a thread of its own: the part of a large scene read before a refusal
+/// takes a while to free, which a Ctrl-C that stopped the reading should not wait for.
+fn discard<T: Send + 'static>(value: T) {
+    std::thread::spawn(move || drop(value));
 }
 
 /// A deserialization message in the user's words: `invalid type: string "false", expected
@@ -183,10 +228,15 @@ fn in_users_words(msg: &str) -> String {
     msg.replace("unknown variant", "unknown value")
 }
 
-/// A scene from a dict; a wrong entry is a `SceneError` naming it.
-pub fn scene_spec(spec: &Bound<'_, PyAny>) -> PyResult<SceneSpec> {
-    from_python(spec, "scene")
-        .map_err(|(path, msg)| Error::Scene(SceneError::new(path, msg)).into())
+/// A scene dict as a TOML value, the GIL held; a wrong entry is a `SceneError` naming it.
+pub fn scene_value(spec: &Bound<'_, PyAny>) -> Result<toml::Value, Error> {
+    python_value(spec, "scene").map_err(|(path, msg)| SceneError::new(path, msg).into())
+}
+
+/// The scene of a [`scene_value`], read without Python; a wrong entry is a `SceneError`
+/// naming it.
+pub fn scene_spec(value: toml::Value) -> Result<SceneSpec, Error> {
+    deserialized(value, "scene").map_err(|(path, msg)| SceneError::new(path, msg).into())
 }
 
 /// Run options from a settings dict (`None`: none given); a wrong entry is a

@@ -8,8 +8,8 @@ use pyo3::types::PyDict;
 
 use numpy::PyReadonlyArray1;
 
-use super::convert::{design, matrix, scene_spec, vector};
-use super::signals::detached;
+use super::convert::{design, matrix, scene_spec, scene_value, vector};
+use super::signals::{abandonable, heard};
 use crate::error::Error;
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::scene;
@@ -29,9 +29,13 @@ impl PyModel {
             .map_err(Error::from)?)
     }
 
-    /// The model of `spec`, built with the GIL released and Ctrl-C heard.
-    fn built(py: Python<'_>, spec: scene::SceneSpec) -> PyResult<Self> {
-        let model = detached(py, move || scene::build(&spec))?;
+    /// The model of the scene `spec` reads, read and built on a thread of its own, the GIL
+    /// released and Ctrl-C heard ([`abandonable`]).
+    fn built(
+        py: Python<'_>,
+        spec: impl FnOnce() -> Result<scene::SceneSpec, Error> + Send + 'static,
+    ) -> PyResult<Self> {
+        let model = abandonable(py, move || scene::build(&spec()?))?;
         Ok(Self {
             model: Arc::new(model),
         })
@@ -40,16 +44,18 @@ impl PyModel {
 
 #[pymethods]
 impl PyModel {
-    /// Builds a model from a scene dict.
+    /// Builds a model from a scene dict, read with Ctrl-C heard.
     #[staticmethod]
     fn from_dict(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Self> {
-        Self::built(py, scene_spec(spec)?)
+        let value = heard(|| scene_value(spec))?;
+        Self::built(py, move || scene_spec(value))
     }
 
     /// Builds a model from TOML text.
     #[staticmethod]
     fn from_toml(py: Python<'_>, text: &str) -> PyResult<Self> {
-        Self::built(py, scene::parse_toml(text).map_err(Error::from)?)
+        let text = text.to_owned();
+        Self::built(py, move || Ok(scene::parse_toml(&text)?))
     }
 
     #[getter]
@@ -192,10 +198,11 @@ impl PyModel {
     /// `over_constraining` joints when the joints over-constrain the rigid mechanism.
     fn mechanism<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
-        let (frames, mobility, over) = detached(py, || {
-            let clusters = crate::mechanism::rigid::Clusters::of(m);
-            let over = clusters.over_constraint(m)?;
-            Ok((clusters.len(), clusters.free_modes(m, &[])?, over))
+        let model = Arc::clone(m);
+        let (frames, mobility, over) = abandonable(py, move || {
+            let clusters = crate::mechanism::rigid::Clusters::of(&model);
+            let over = clusters.over_constraint(&model)?;
+            Ok((clusters.len(), clusters.free_modes(&model, &[])?, over))
         })?;
         let d = PyDict::new(py);
         d.set_item("frames", frames)?;
@@ -210,13 +217,14 @@ impl PyModel {
     }
 
     /// Joints, each a dict: `name`, `kind`, node indices `nodes`, constraint `rows` as
-    /// `(first, end)` (the drive row last) and `driven`.
+    /// `(first, end)` (the drive row last) and `driven`; Ctrl-C heard between joints.
     fn joints<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let m = &self.model;
         m.joints
             .iter()
             .enumerate()
             .map(|(j, joint)| {
+                py.check_signals()?;
                 let d = PyDict::new(py);
                 let rows = m.joint_rows(j);
                 d.set_item("name", &joint.name)?;

@@ -6,18 +6,16 @@ use nalgebra::{Rotation2, Vector2};
 
 use super::mesh::Mesh;
 use super::spec::RigidBodySpec;
-use super::validate::{angle, finite, non_negative, positive, Result};
+use super::validate::{angle, each, finite, non_negative, positive, Listed, Result};
 use crate::mechanism::constraint::Anchor;
 use crate::mechanism::model::{PointMass, RigidBody};
 
 /// Adds the scene's rigid bodies to `mesh` (their nodes and points) and returns their
 /// masses.
-pub(super) fn add_all(mesh: &mut Mesh, specs: &[RigidBodySpec]) -> Result<Vec<PointMass>> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(k, b)| add(mesh, &format!("rigid_bodies[{k}] ({})", b.name), b))
-        .collect()
+pub(super) fn add_all(mesh: &mut Mesh, specs: &[RigidBodySpec]) -> Listed<PointMass> {
+    each(specs, |k, b| {
+        add(mesh, &format!("rigid_bodies[{k}] ({})", b.name), b)
+    })
 }
 
 /// The body `b` at `path`.

@@ -8,7 +8,9 @@
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
 //! structures, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
-//! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`].
+//! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`]. The
+//! lists of entries and the checks poll for interrupts ([`crate::poll`]): a build of many
+//! thousand bodies stops soon after the caller asks.
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};

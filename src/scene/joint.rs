@@ -11,18 +11,14 @@ use super::mesh::Mesh;
 use super::spec::{JointSpec, MotionSpec};
 use nalgebra::Vector2;
 
-use super::validate::{finite, non_negative, positive, samples, unknown, Result};
+use super::validate::{each, finite, non_negative, positive, samples, unknown, Listed, Result};
 use crate::error::SceneError;
 use crate::mechanism::constraint::{Anchor, ConstraintRow, Joint, JointKind};
 use crate::mechanism::motion::{Motion, Table, Trapezoidal};
 
 /// The scene's joints, on the nodes of `mesh`, in a scene of size `size`.
-pub(super) fn joints(specs: &[JointSpec], mesh: &Mesh, size: f64) -> Result<Vec<Joint>> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(k, j)| joint(&format!("joints[{k}]"), j, mesh, size))
-        .collect()
+pub(super) fn joints(specs: &[JointSpec], mesh: &Mesh, size: f64) -> Listed<Joint> {
+    each(specs, |k, j| joint(&format!("joints[{k}]"), j, mesh, size))
 }
 
 /// The constraint rows of `Φ`, joint by joint.

@@ -5,33 +5,25 @@ use nalgebra::Vector2;
 
 use super::mesh::Mesh;
 use super::spec::{LoadSpec, LoadTableSpec, PointMassSpec};
-use super::validate::{finite, non_negative, positive, samples, Result};
+use super::validate::{each, finite, non_negative, positive, samples, Listed, Result};
 use crate::mechanism::load::{NodalLoad, TimeFunction};
 use crate::mechanism::model::PointMass;
 
 /// The scene's point masses: mass `m > 0` and rotary inertia `J ≥ 0` on a node.
-pub(super) fn point_masses(specs: &[PointMassSpec], mesh: &Mesh) -> Result<Vec<PointMass>> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let path = format!("point_masses[{k}]");
-            Ok(PointMass {
-                node: mesh.node(&format!("{path}.node"), &p.node)?,
-                mass: positive(&format!("{path}.mass"), p.mass)?,
-                inertia: non_negative(&format!("{path}.inertia"), p.inertia)?,
-            })
+pub(super) fn point_masses(specs: &[PointMassSpec], mesh: &Mesh) -> Listed<PointMass> {
+    each(specs, |k, p| {
+        let path = format!("point_masses[{k}]");
+        Ok(PointMass {
+            node: mesh.node(&format!("{path}.node"), &p.node)?,
+            mass: positive(&format!("{path}.mass"), p.mass)?,
+            inertia: non_negative(&format!("{path}.inertia"), p.inertia)?,
         })
-        .collect()
+    })
 }
 
 /// The scene's nodal loads.
-pub(super) fn loads(specs: &[LoadSpec], mesh: &Mesh) -> Result<Vec<NodalLoad>> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(k, l)| load(&format!("loads[{k}]"), l, mesh))
-        .collect()
+pub(super) fn loads(specs: &[LoadSpec], mesh: &Mesh) -> Listed<NodalLoad> {
+    each(specs, |k, l| load(&format!("loads[{k}]"), l, mesh))
 }
 
 /// The load at `path`: force `[F_x, F_y]` and moment `M` on a node, times its [`time`]

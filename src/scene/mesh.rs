@@ -14,7 +14,7 @@ use nalgebra::Vector2;
 use super::design::Variables;
 use super::section::{self, Sections};
 use super::spec::{BeamSpec, NodeSpec};
-use super::validate::{finite, unknown, Result};
+use super::validate::{each, finite, unknown, Listed, Result};
 use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
 use crate::mechanism::constraint::Anchor;
@@ -115,11 +115,10 @@ impl Mesh {
     }
 
     /// The scene's named nodes.
-    pub(super) fn add_nodes(&mut self, nodes: &[NodeSpec]) -> Result<()> {
-        for (k, n) in nodes.iter().enumerate() {
-            self.add_node(&format!("nodes[{k}] ({})", n.name), &n.name, n.x, n.y)?;
-        }
-        Ok(())
+    pub(super) fn add_nodes(&mut self, nodes: &[NodeSpec]) -> Listed<usize> {
+        each(nodes, |k, n| {
+            self.add_node(&format!("nodes[{k}] ({})", n.name), &n.name, n.x, n.y)
+        })
     }
 
     /// A node at `(x, y)` called `name`, which no other node may have.
@@ -202,11 +201,10 @@ impl Mesh {
 
     /// The scene's beams, each a bar between two named nodes (default name `beams[k]`,
     /// default component `frame`).
-    pub(super) fn add_beams(&mut self, beams: &[BeamSpec], sections: &Sections) -> Result<()> {
-        for (k, b) in beams.iter().enumerate() {
-            self.add_beam(&format!("beams[{k}]"), k, b, sections)?;
-        }
-        Ok(())
+    pub(super) fn add_beams(&mut self, beams: &[BeamSpec], sections: &Sections) -> Listed<()> {
+        each(beams, |k, b| {
+            self.add_beam(&format!("beams[{k}]"), k, b, sections)
+        })
     }
 
     /// The beam `b`, the `k`-th of the scene, at `path`.

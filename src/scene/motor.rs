@@ -5,7 +5,8 @@ use super::joint::{coordinate, motion};
 use super::load::time;
 use super::spec::MotorSpec;
 use super::validate::{finite, non_negative, Result};
-use crate::error::SceneError;
+use crate::error::{Error, SceneError};
+use crate::interrupt::poll;
 use crate::mechanism::constraint::{ConstraintRow, Joint, JointKind};
 use crate::mechanism::motor::{Motor, MotorLaw};
 use crate::mechanism::spring::{Measure, Spring};
@@ -17,10 +18,11 @@ pub(super) fn motors(
     joints: &[Joint],
     n_dofs: usize,
     first: usize,
-) -> Result<(Vec<Motor>, Vec<Spring>)> {
+) -> std::result::Result<(Vec<Motor>, Vec<Spring>), Error> {
     let mut motors = Vec::with_capacity(specs.len());
     let mut springs = Vec::new();
     for (k, m) in specs.iter().enumerate() {
+        poll()?;
         let path = format!("motors[{k}] ({})", m.name);
         let (motor, spring) = motor(&path, m, joints, n_dofs, first + springs.len())?;
         motors.push(motor);

@@ -36,13 +36,13 @@ pub struct SceneSpec {
     #[serde(default)]
     pub sections: BTreeMap<String, SectionSpec>,
     /// Free-standing nodes.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub nodes: Vec<NodeSpec>,
     /// Ground structures (one linkage each).
     #[serde(default)]
     pub ground_structures: Vec<GroundStructureSpec>,
     /// Individual beams between named nodes.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub beams: Vec<BeamSpec>,
     /// Elements of single bars by the bar's name (`link1/bar12` of a ground structure, a
     /// beam's name), overriding the `split` of its ground structure or beam: a
@@ -50,22 +50,22 @@ pub struct SceneSpec {
     #[serde(default)]
     pub splits: BTreeMap<String, usize>,
     /// Rigid bodies.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub rigid_bodies: Vec<RigidBodySpec>,
     /// Point masses.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub point_masses: Vec<PointMassSpec>,
     /// Nodal loads.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub loads: Vec<LoadSpec>,
     /// Joints.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub joints: Vec<JointSpec>,
     /// Springs.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub springs: Vec<SpringSpec>,
     /// Motors.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "polled")]
     pub motors: Vec<MotorSpec>,
     /// Design parametrization.
     #[serde(default)]
@@ -77,6 +77,35 @@ pub struct SceneSpec {
     /// `load_steps`); a run may override each.
     #[serde(default)]
     pub simulation: RunOptions,
+}
+
+/// A list read with [`crate::poll`] between its entries: reading a scene of many thousand
+/// bodies or joints stops soon after the caller asks ([`crate::with_checker`]).
+fn polled<'de, D, T>(deserializer: D) -> Result<Vec<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct Entries<T>(std::marker::PhantomData<T>);
+
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for Entries<T> {
+        type Value = Vec<T>;
+
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a sequence")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+            let mut entries = Vec::new();
+            while let Some(entry) = seq.next_element()? {
+                crate::poll().map_err(de::Error::custom)?;
+                entries.push(entry);
+            }
+            Ok(entries)
+        }
+    }
+
+    deserializer.deserialize_seq(Entries(std::marker::PhantomData))
 }
 
 /// How a dynamic run starts.

@@ -3,7 +3,7 @@
 use super::joint::coordinate;
 use super::mesh::Mesh;
 use super::spec::SpringSpec;
-use super::validate::{finite, non_negative, Result};
+use super::validate::{each, finite, non_negative, Listed, Result};
 use crate::error::SceneError;
 use crate::mechanism::constraint::Joint;
 use crate::mechanism::spring::{Measure, Spring};
@@ -14,12 +14,10 @@ pub(super) fn springs(
     mesh: &Mesh,
     joints: &[Joint],
     size: f64,
-) -> Result<Vec<Spring>> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(k, s)| spring(&format!("springs[{k}] ({})", s.name), s, mesh, joints, size))
-        .collect()
+) -> Listed<Spring> {
+    each(specs, |k, s| {
+        spring(&format!("springs[{k}] ({})", s.name), s, mesh, joints, size)
+    })
 }
 
 /// The spring `s` at `path`.

@@ -6,10 +6,28 @@
 
 use std::collections::HashMap;
 
-use crate::error::{short, SceneError};
+use crate::error::{short, Error, SceneError};
+use crate::interrupt::poll;
 
 /// The scene build's result: a value, or the error of the first entry at fault.
 pub(super) type Result<T> = std::result::Result<T, SceneError>;
+
+/// The values of a list of entries ([`each`]), the first entry's error, or
+/// [`SolveError::Interrupted`](crate::error::SolveError::Interrupted).
+pub(super) type Listed<T> = std::result::Result<Vec<T>, Error>;
+
+/// `entry(k, spec)` for each of `specs` in order, with [`poll`] before each: a build of
+/// many thousand entries stops soon after the caller asks ([`crate::with_checker`]).
+pub(super) fn each<S, T>(specs: &[S], mut entry: impl FnMut(usize, &S) -> Result<T>) -> Listed<T> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(k, spec)| {
+            poll()?;
+            Ok(entry(k, spec)?)
+        })
+        .collect()
+}
 
 /// `v` when it is finite.
 pub(super) fn finite(path: &str, v: f64) -> Result<f64> {
