@@ -112,6 +112,21 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _picture(sim: Simulation, res: Any, out: Path, label: str) -> Path:
+    """The figure of a run: its tip error (a scene with a tip), the paths of its joints and
+    bodies (a motion without one), or its deformed shape (a static scene)."""
+    from .plots import plot_deformed, plot_paths, plot_tip_error
+
+    if not isinstance(res, Results):
+        plot_deformed(res, title=label, path=out / "deformed.png")
+        return out / "deformed.png"
+    if sim.tip is not None:
+        plot_tip_error(res, path=out / "tip_error.png", labels=(label,))
+        return out / "tip_error.png"
+    plot_paths(res, title=label, path=out / "paths.png")
+    return out / "paths.png"
+
+
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
     sim = Simulation(_scene(args.scene), accuracy=args.accuracy, rtol=args.rtol)
@@ -128,12 +143,8 @@ def simulate(args: argparse.Namespace) -> int:
     res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
     if out is not None:
-        written = [res.save(out / "results.npz")]
-        if isinstance(res, Results) and sim.tip is not None:
-            from .plots import plot_tip_error
-
-            plot_tip_error(res, path=out / "tip_error.png")
-            written.append(out / "tip_error.png")
+        design = (f"design {args.design}" if args.design else f"x = {args.x} on every bar") if sim.n_design else "no design variables"
+        written = [res.save(out / "results.npz"), _picture(sim, res, out, f"{sim.spec.get('name', args.scene)}, {design}")]
         print(f"wrote {', '.join(map(str, written))} (flextop.load reads results.npz back)")
     if args.vtk:
         print(f"wrote {_vtk(res, out)} (open it in ParaView)")
@@ -426,7 +437,7 @@ def parser() -> argparse.ArgumentParser:
     d.set_defaults(run=demo)
     s = sub.add_parser("simulate", help="run a scene file")
     s.add_argument("scene", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN))
-    s.add_argument("--x", type=float, help="uniform density of every bar (default: full density)")
+    s.add_argument("--x", type=float, default=0.4, help="uniform density of every bar (default 0.4, as demo and optimize)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
     s.add_argument("--t-end", type=_positive(float))
     s.add_argument("--h", type=_positive(float))

@@ -228,13 +228,14 @@ impl PyModel {
     }
 }
 
-/// Every kind of response the engine computes, as `(name, syntax, doc, peak)`: what the
-/// Python side documents and checks names against (`peak`: a limit on it bounds its peak).
+/// Every kind of response the engine computes, as `(name, syntax, doc, peak, unit)`: what
+/// the Python side documents, labels and checks names against (`peak`: a limit on it
+/// bounds its peak).
 #[pyfunction]
-pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool)> {
+pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool, &'static str)> {
     crate::response::Response::kinds()
         .iter()
-        .map(|k| (k.name, k.syntax, k.doc, k.peak))
+        .map(|k| (k.name, k.syntax, k.doc, k.peak, k.unit))
         .collect()
 }
 
