@@ -239,6 +239,23 @@ def _settings(args: argparse.Namespace) -> dict:
     return {k: v for k, v in {"h": args.h, "rho_inf": args.rho_inf, "t_end": args.t_end}.items() if v is not None}
 
 
+def _keep_earlier_run(out: Path, force: bool) -> None:
+    """A new run does not replace the checkpoint of an earlier one in ``out`` unless
+    ``force``: one that can be resumed would be lost without a word."""
+    path = out / "checkpoint.json"
+    if force or not path.exists():
+        return
+    try:
+        saved = checkpoint.load(path)
+        finished = saved.get("finished")
+        what = (f"a run that converged ({finished})" if finished in {s.name for s in CONVERGED}
+                else f"a run that can be resumed from iteration {saved['state'].get('iteration', '?')}")
+    except (CheckpointError, AttributeError, KeyError):
+        what = "a checkpoint"
+    resume = " (--resume goes on with it)" if what.startswith("a run that can") else ""
+    raise SettingsError(f"--out {out} holds {what}{resume}: give another --out, or --force to start over in it")
+
+
 def optimize_command(args: argparse.Namespace) -> int:
     """Topology optimization of a scene, or of several scenarios, with checkpoints, progress
     bar, summary and plots; the scenarios of an evaluation run on ``--workers`` threads or
@@ -268,6 +285,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
                    "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
         start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
         x0, state, animate = problem.start(start), None, args.animate
+        _keep_earlier_run(out, args.force)
         _folder(out)
     print(f"{_title(sim, problem)}: minimize {problem.description} over {sim.n_design} densities "
           f"subject to {', '.join(f'{n} {relation(n)} {b:.4g}' for n, b in problem.bounded) or 'bounds only'} ({options['method']})")
@@ -480,6 +498,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--rtol", type=_fraction, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    o.add_argument("--force", action="store_true", help="start a new run in an --out that holds an earlier run's checkpoint")
     o.add_argument("--no-plots", action="store_true")
     o.add_argument("--animate", action="store_true", help="also write motion.gif of the optimized design")
     o.add_argument("--every", type=_positive(int), help="with --animate: a frame every N steps (default: about 100 frames)")

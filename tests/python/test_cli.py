@@ -276,3 +276,19 @@ def test_stress_and_buckling_limits_from_the_command_line(tmp_path):
     assert "--max-stress" in resumed.stderr
     mixed = flextop_cli("optimize", "--scenarios", "robust_robot_arm", "--max-buckling", "1", "--out", tmp_path / "s", codes=(2,))
     assert mixed.stderr.strip() == "flextop: error: --max-buckling applies to one scene, not to --scenarios"
+
+
+def test_a_new_run_does_not_replace_an_earlier_checkpoint_without_force(tmp_path, capsys):
+    """A new `flextop optimize` into a folder holding an interrupted, resumable run replaced
+    its checkpoint."""
+    from flextop import cli
+
+    assert cli.main(["optimize", "static_truss", "--max-iter", "2", "--no-plots", "--out", str(tmp_path)]) == 3  # not converged
+    saved = (tmp_path / "checkpoint.json").read_bytes()
+    capsys.readouterr()
+    assert cli.main(["optimize", "static_truss", "--max-iter", "3", "--no-plots", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "holds a run that can be resumed from iteration 2 (--resume goes on with it)" in err
+    assert (tmp_path / "checkpoint.json").read_bytes() == saved
+    assert cli.main(["optimize", "static_truss", "--max-iter", "3", "--no-plots", "--out", str(tmp_path), "--force"]) == 3
+    assert (tmp_path / "checkpoint.json").read_bytes() != saved
