@@ -10,7 +10,7 @@ type, shape and units (``n_q``: DOFs, ``n_c``: constraint rows, ``n_x``: design 
 runs ``mypy.stubtest`` on this file and checks each dict's keys and value types against the running module.
 """
 
-from typing import Any, TypedDict, final, type_check_only
+from typing import Callable, Any, TypedDict, final, type_check_only
 
 import numpy as np
 import numpy.typing as npt
@@ -177,7 +177,8 @@ class Model:
     def mechanism(self) -> MechanismInfo: ...
 
 def simulate(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None, local_tol: float | None = None,
-             steps: list[float] | None = None, guide: _F | None = None) -> Trajectory: ...
+             steps: list[float] | None = None, guide: _F | None = None,
+             progress: Callable[[float], object] | None = None) -> Trajectory: ...
 def solve_static(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None) -> Equilibrium: ...
 def run_with_sensitivities(model: Model, x: _F, responses: list[str], settings: dict[str, Any] | None = None,
                            steps: list[float] | None = None, parameters: list[str] = ...) -> SensitivityData: ...

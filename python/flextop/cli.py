@@ -14,6 +14,7 @@ saying why; Ctrl-C with 130. ``flextop --debug ...`` shows the traceback instead
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -21,13 +22,14 @@ import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 from tqdm import tqdm
 
 from . import __version__, checkpoint, export, responses, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
+from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
@@ -112,6 +114,18 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _progress_bar(duration: float) -> Iterator[Callable[[float], None]]:
+    """A progress bar in simulated seconds on stderr, shown once a run has taken half a
+    second; yields the function the run reports the time it reached to."""
+    bar = tqdm(total=duration, unit="s", desc="simulate", file=sys.stderr, delay=0.5,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3g} of {total:.3g} s [{elapsed}<{remaining}]")
+    try:
+        yield lambda t: bar.update(t - bar.n)
+    finally:
+        bar.close()
+
+
 def _picture(sim: Simulation, res: Any, out: Path, label: str) -> Path:
     """The figure of a run: its tip error (a scene with a tip), the paths of its joints and
     bodies (a motion without one), or its deformed shape (a static scene)."""
@@ -140,7 +154,11 @@ def simulate(args: argparse.Namespace) -> int:
         raise SettingsError("--vtk writes into the --out folder; give --out")
     out = None if args.out is None else _folder(Path(args.out))
     start = time.perf_counter()
-    res = sim.run(_design(sim, args.x, args.design), **settings)
+    if sim.analysis == "dynamic" and sim.rtol is None:
+        with _progress_bar(t_end(sim, settings)) as report:
+            res = sim.run(_design(sim, args.x, args.design), progress=report, **settings)
+    else:
+        res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
     if out is not None:
         design = (f"design {args.design}" if args.design else f"x = {args.x} on every bar") if sim.n_design else "no design variables"

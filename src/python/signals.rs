@@ -34,6 +34,16 @@ pub fn detached<T: Send>(
     py: Python<'_>,
     work: impl FnOnce() -> Result<T, Error> + Send,
 ) -> PyResult<T> {
+    reporting(py, None, work)
+}
+
+/// [`detached`], calling `progress` (if given) with the time the work reached (s) at each
+/// poll: an exception it raises stops the work as Ctrl-C does.
+pub fn reporting<T: Send>(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+    work: impl FnOnce() -> Result<T, Error> + Send,
+) -> PyResult<T> {
     let started = CANCELLATIONS.load(Ordering::SeqCst);
     py.detach(move || {
         let raised: Rc<RefCell<Option<PyErr>>> = Rc::default();
@@ -44,7 +54,14 @@ pub fn detached<T: Send>(
                     "cancelled: Ctrl-C in the main thread",
                 ))
             } else {
-                Python::attach(|py| py.check_signals())
+                Python::attach(|py| {
+                    py.check_signals()?;
+                    let t = crate::interrupt::reached();
+                    match &progress {
+                        Some(report) if t.is_finite() => report.call1(py, (t,)).map(drop),
+                        _ => Ok(()),
+                    }
+                })
             };
             match signal {
                 Ok(()) => false,
