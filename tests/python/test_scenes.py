@@ -295,3 +295,19 @@ def test_a_scene_written_in_degrees_runs_as_the_one_in_radians(tmp_path):
     path.write_text(text.replace(rad, rad.replace("start =", "start_deg = 60.0, start =")))
     with pytest.raises(flextop.SceneError, match="`start` .rad. or `start_deg`, not both"):
         flextop.Simulation(path)
+
+
+def test_the_builder_refuses_a_second_entry_of_one_name():
+    """A second section (or split, or initial rate) of one name replaced the first without
+    a word; TOML refuses a key given twice, and so does the builder now."""
+    scene = flextop.scenes.spun_beam()
+    with pytest.raises(SceneError, match="section 'aluminium': given twice"):
+        scene.section("aluminium", E=1e9, rho=1000.0, nu=0.3, diameter=0.01)
+    scene.split("bar0", 2)
+    with pytest.raises(SceneError, match="split 'bar0': given twice"):
+        scene.split("bar0", 3)
+    pendulum = flextop.scenes.pendulum()
+    pendulum.initial_rate("pivot", 1.0)
+    with pytest.raises(SceneError, match="initial_rate 'pivot': given twice"):
+        pendulum.initial_rate("pivot", 2.0)
+    assert scene.to_dict()["sections"]["aluminium"]["E"] == 70e9 and scene.to_dict()["splits"] == {"bar0": 2}
