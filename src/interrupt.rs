@@ -79,6 +79,7 @@ pub fn poll_at(t: f64) -> Result<(), SolveError> {
 
 /// The time the work on this thread last reported to [`poll_at`] (NaN before any);
 /// [`with_checker`] starts from NaN.
+#[cfg_attr(not(feature = "python"), allow(dead_code))] // read by the bindings' checker
 pub fn reached() -> f64 {
     REACHED.with(Cell::get)
 }
@@ -110,5 +111,23 @@ mod tests {
         assert_eq!(calls.get(), 3);
         assert!(started.elapsed() >= 3 * INTERVAL);
         assert_eq!(poll(), Ok(()), "the checker is gone after with_checker");
+    }
+
+    #[test]
+    fn the_checker_reads_the_time_the_work_reached() {
+        let seen = Rc::new(Cell::new(f64::NAN));
+        let read = Rc::clone(&seen);
+        with_checker(
+            move || {
+                read.set(reached());
+                false
+            },
+            || {
+                assert!(reached().is_nan(), "nothing reached yet");
+                std::thread::sleep(INTERVAL);
+                poll_at(0.25).unwrap();
+            },
+        );
+        assert_eq!(seen.get(), 0.25);
     }
 }
