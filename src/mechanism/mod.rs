@@ -2,8 +2,8 @@
 //! elements grouped in bars, rigid bodies, joints and their rows, loads, design
 //! variables), its finite [`element`]s, [`section`]s and their material [`interpolation`],
 //! joints as [`constraint`]s driven by [`motion`] laws, nodal [`load`]s, [`spring`]s and
-//! [`motor`]s, the rigid clusters and kinematics of `rigid`, and the scene [`parameter`]s
-//! with their pseudo-loads.
+//! [`motor`]s, the rigid clusters and kinematics of `rigid` and the rank analysis of the
+//! joints' Jacobian (`rank`), and the scene [`parameter`]s with their pseudo-loads.
 
 pub mod bar_frequency;
 pub mod constraint;
@@ -14,6 +14,7 @@ pub mod model;
 pub mod motion;
 pub mod motor;
 pub mod parameter;
+pub(crate) mod rank;
 pub(crate) mod rigid;
 pub mod section;
 pub mod spring;

@@ -16,13 +16,17 @@
 //!   the joints' constraints written on the cluster coordinates, solved by Newton at each
 //!   time; the mechanism must be fully driven (mobility zero).
 //!
-//! The matrices here are `n_rows × 3 n_clusters`: a handful of bodies, not the FE mesh.
+//! The checks at a build take the ranks of `Φ_q` and `Φ_ρ` by [`crate::mechanism::rank`], in
+//! near-linear time in the bodies and joints; the rigid kinematics' matrices are dense,
+//! `n_rows × 3 n_clusters`.
 
 use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
-use crate::error::{SceneError, SolveError};
+use crate::error::{Error, SceneError, SolveError};
+use crate::interrupt::poll;
 use crate::mechanism::constraint::ConstraintRow;
 use crate::mechanism::model::{Analysis, Initial, Model};
+use crate::mechanism::rank::{Link, Rank};
 use crate::mechanism::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
@@ -157,82 +161,117 @@ impl Clusters {
         }
     }
 
-    /// `Φ_ρ` at the reference with more rows below: the gradients `extra` (on six node
-    /// DOFs each) carried to the cluster coordinates.
-    fn jacobian_with(
+    /// The origin of each cluster's coordinates: its anchor's reference position.
+    fn origins(&self, model: &Model) -> Vec<Vector2<f64>> {
+        self.anchor
+            .iter()
+            .map(|&a| model.nodes[a].position)
+            .collect()
+    }
+
+    /// The links of `Φ_ρ` at the reference — each joint's rows on the cluster coordinates,
+    /// by the chain rule through [`Clusters::dof_map`] — then one link per gradient of
+    /// `extra` (on six node DOFs each).
+    fn links(
         &self,
         model: &Model,
         extra: &[([Option<usize>; 6], [f64; 6])],
-    ) -> DMatrix<f64> {
+    ) -> Result<Vec<Link>, SolveError> {
         let rho = DVector::zeros(3 * self.len());
-        let (_, jac) = self.constraints(model, &rho, 0.0);
-        let n = jac.nrows();
-        let mut out = DMatrix::zeros(n + extra.len(), 3 * self.len());
-        out.rows_mut(0, n).copy_from(&jac);
-        for (i, &(dofs, gradient)) in extra.iter().enumerate() {
-            self.chain(model, &rho, dofs, gradient, |j, v| out[(n + i, j)] += v);
-        }
-        out
+        let reference = vec![0.0; model.n_dofs()];
+        let on_clusters = |(dofs, gradient): ([Option<usize>; 6], [f64; 6])| {
+            dofs.into_iter().zip(gradient).flat_map(|(d, coeff)| {
+                let terms = d.map(|d| self.dof_map(model, &rho, d).1);
+                let ground = d.is_none().then_some((None, 0.0));
+                terms
+                    .into_iter()
+                    .flatten()
+                    .filter(|&(_, g)| g != 0.0)
+                    .map(move |(j, g)| (Some(j), coeff * g))
+                    .chain(ground)
+            })
+        };
+        let mut links = joint_links(&model.rows, |row| {
+            on_clusters((row.dofs(), row.gradient(&reference)))
+        })?;
+        links.extend(extra.iter().map(|&e| Link::new([on_clusters(e)])));
+        Ok(links)
     }
 
     /// Rigid-body modes neither the joints nor `springs` hold, at the reference:
     /// `3 n_clusters` less the rank of `Φ_ρ` with the springs' gradients on the cluster
     /// coordinates as more rows (no springs: the mechanism's mobility).
-    pub fn free_modes(&self, model: &Model, springs: &[Spring]) -> usize {
+    ///
+    /// # Errors
+    /// [`SolveError::Interrupted`] when the caller asks to stop.
+    pub fn free_modes(&self, model: &Model, springs: &[Spring]) -> Result<usize, SolveError> {
         let reference = vec![0.0; model.n_dofs()];
         let extra: Vec<_> = springs
             .iter()
             .map(|s| (s.dofs(), s.measure(&reference).gradient))
             .collect();
-        3 * self.len() - rank(&self.jacobian_with(model, &extra))
+        let links = self.links(model, &extra)?;
+        Ok(3 * self.len() - Rank::of(&links, &self.origins(model))?.rank())
     }
 
     /// How the joints over-constrain the rigid mechanism at the reference: the number of
     /// rows of `Φ_ρ` that depend on others (rows minus rank), and the joints whose rows
-    /// enter those dependencies: the rows of the left null space of `Φ_ρ`, the
-    /// eigenvectors of `Φ_ρ Φ_ρᵀ` for its `redundant` smallest eigenvalues. `None` when
-    /// the rows are independent.
-    pub fn over_constraint(&self, model: &Model) -> Option<OverConstraint> {
-        let (_, jac) = self.constraints(model, &DVector::zeros(3 * self.len()), 0.0);
-        let rows = jac.nrows();
-        let redundant = rows - rank(&jac).min(rows);
+    /// enter those dependencies: the rows where the left null space of `Φ_ρ` is not zero
+    /// ([`Rank::dependent`]). `None` when the rows are independent.
+    ///
+    /// # Errors
+    /// [`SolveError::Interrupted`] when the caller asks to stop.
+    pub fn over_constraint(&self, model: &Model) -> Result<Option<OverConstraint>, SolveError> {
+        let links = self.links(model, &[])?;
+        let origins = self.origins(model);
+        let rank = Rank::of(&links, &origins)?;
+        let redundant = rank.rows() - rank.rank();
         if redundant == 0 {
-            return None;
+            return Ok(None);
         }
-        let eigen = (&jac * jac.transpose()).symmetric_eigen();
-        let mut order: Vec<usize> = (0..rows).collect();
-        order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
-        let mut joints: Vec<usize> = Vec::new();
-        for &k in &order[..redundant] {
-            let v = eigen.eigenvectors.column(k);
-            for (i, row) in model.rows.iter().enumerate() {
-                if v[i].abs() > 1e-8 && !joints.contains(&row.joint) {
-                    joints.push(row.joint);
-                }
-            }
-        }
-        joints.sort_unstable();
-        Some(OverConstraint { redundant, joints })
+        let mut joints: Vec<usize> = rank
+            .dependent()?
+            .into_iter()
+            .map(|row| model.rows[row].joint)
+            .collect();
+        joints.dedup();
+        Ok(Some(OverConstraint { redundant, joints }))
     }
 
-    /// Clusters not connected to the ground through any chain of joints.
-    pub fn floating(&self, model: &Model) -> Vec<usize> {
-        let mut grounded = vec![false; self.len()];
-        let mut changed = true;
-        while changed {
-            changed = false;
-            for j in &model.joints {
-                let cs: Vec<usize> = j.nodes().iter().map(|&n| self.of_node[n]).collect();
-                let any = j.is_grounded() || cs.iter().any(|&c| grounded[c]);
-                for c in cs {
-                    if any && !grounded[c] {
-                        grounded[c] = true;
-                        changed = true;
-                    }
-                }
+    /// Clusters not connected to the ground through any chain of joints: the parts of the
+    /// clusters the joints join (union–find) with no joint to the ground.
+    ///
+    /// # Errors
+    /// [`SolveError::Interrupted`] when the caller asks to stop.
+    pub fn floating(&self, model: &Model) -> Result<Vec<usize>, SolveError> {
+        let mut parent: Vec<usize> = (0..self.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let mut ground = Vec::new();
+        for j in &model.joints {
+            poll()?;
+            let mut cs = j.nodes().into_iter().map(|n| self.of_node[n]);
+            let Some(first) = cs.next() else { continue };
+            for c in cs {
+                let (a, b) = (root(&mut parent, first), root(&mut parent, c));
+                parent[b] = a;
+            }
+            if j.is_grounded() {
+                ground.push(first);
             }
         }
-        (0..self.len()).filter(|&c| !grounded[c]).collect()
+        let mut grounded = vec![false; self.len()];
+        for c in ground {
+            grounded[root(&mut parent, c)] = true;
+        }
+        Ok((0..self.len())
+            .filter(|&c| !grounded[root(&mut parent, c)])
+            .collect())
     }
 
     /// Cluster coordinates `ρ(t)` when every cluster is rigid and the drives follow their
@@ -283,7 +322,7 @@ impl Clusters {
                     break;
                 }
                 if iter == 50 {
-                    let over = self.over_constraint(model).map_or(String::new(), |o| {
+                    let over = self.over_constraint(model)?.map_or(String::new(), |o| {
                         format!(
                             "; the joints {} over-constrain the rigid mechanism ({} redundant row(s))",
                             o.names(model),
@@ -376,46 +415,47 @@ pub fn rigid_positions(model: &Model, times: &[f64]) -> Result<Vec<f64>, SolveEr
 
 /// The velocities `q̇₀` of the rigid motion in which every joint holds (its rows' rates
 /// zero: drives start at rest) and each of `rates` has its coordinate move at its rate:
-/// `[Φ_ρ; C_ρ] ρ̇ = [0; ċ]` on the cluster coordinates, `q̇₀ = q_ρ ρ̇`.
+/// `[Φ_ρ; C_ρ] ρ̇ = [0; ċ]` on the cluster coordinates, `q̇₀ = q_ρ ρ̇`, solved on the free
+/// coordinates of the joints' spanning forest ([`Rank::solve`]).
 ///
 /// # Errors
 /// A [`SceneError`] at `initial_rates` when the rates leave a rigid-body mode undetermined,
-/// or ask for a motion the joints forbid.
+/// or ask for a motion the joints forbid; [`SolveError::Interrupted`] when the caller asks
+/// to stop.
 pub(crate) fn initial_velocity(
     model: &Model,
     rates: &[(ConstraintRow, f64)],
-) -> Result<Vec<f64>, SceneError> {
+) -> Result<Vec<f64>, Error> {
     let clusters = Clusters::of(model);
-    let rho = DVector::zeros(3 * clusters.len());
     let reference = vec![0.0; model.n_dofs()];
     let extra: Vec<_> = rates
         .iter()
         .map(|(row, _)| (row.dofs(), row.evaluate(&reference).1))
         .collect();
-    let system = clusters.jacobian_with(model, &extra);
-    let n = system.nrows() - rates.len();
-    let mut rhs = DVector::zeros(system.nrows());
-    for (i, (_, rate)) in rates.iter().enumerate() {
-        rhs[n + i] = *rate;
-    }
-    let free = 3 * clusters.len() - rank(&system);
+    let links = clusters.links(model, &extra)?;
+    let origins = clusters.origins(model);
+    let system = Rank::of(&links, &origins)?;
+    let free = 3 * clusters.len() - system.rank();
     if free > 0 {
         let msg = format!("the rates leave {free} rigid-body mode(s) of the mechanism undetermined: give the rates of more joints");
-        return Err(SceneError::new("initial_rates", msg));
+        return Err(SceneError::new("initial_rates", msg).into());
     }
-    let svd = system.clone().svd(true, true);
-    let rho_dot = svd
-        .solve(&rhs, 1e-12)
-        .map_err(|e| SceneError::new("initial_rates", e.to_string()))?;
-    let mismatch = (&system * &rho_dot - &rhs).amax();
-    if mismatch > 1e-9 * rhs.amax().max(f64::MIN_POSITIVE) {
+    let n = system.rows() - rates.len();
+    let rhs: Vec<f64> = (0..n)
+        .map(|_| 0.0)
+        .chain(rates.iter().map(|r| r.1))
+        .collect();
+    let rho_dot = system.solve(&rhs);
+    let largest = rhs.iter().fold(0.0, |m: f64, r| m.max(r.abs()));
+    if system.residual(&rho_dot, &rhs) > 1e-9 * largest.max(f64::MIN_POSITIVE) {
         let msg = "these rates ask for a motion the joints forbid (more rates than the mechanism has free modes, in contradiction)";
-        return Err(SceneError::new("initial_rates", msg));
+        return Err(SceneError::new("initial_rates", msg).into());
     }
+    let rho = DVector::zeros(3 * clusters.len());
     Ok((0..model.n_dofs())
         .map(|dof| {
             let (_, grad) = clusters.dof_map(model, &rho, dof);
-            grad.iter().map(|&(j, g)| g * rho_dot[j]).sum()
+            grad.iter().map(|&(j, g)| g * rho_dot[j / 3][j % 3]).sum()
         })
         .collect())
 }
@@ -427,54 +467,40 @@ pub(crate) fn initial_velocity(
 const SINGULAR: f64 = 1e-6;
 
 /// Numerical rank by singular values relative to the largest.
-fn rank(m: &DMatrix<f64>) -> usize {
-    if m.is_empty() {
-        return 0;
-    }
-    rank_of(&m.clone().svd(false, false).singular_values)
-}
-
 fn rank_of(s: &DVector<f64>) -> usize {
     let tol = 1e-10 * s.max().max(f64::MIN_POSITIVE);
     s.iter().filter(|&&v| v > tol).count()
 }
 
+/// One [`Link`] per joint of `rows` (in the order of their joints), each row's terms
+/// `(coordinate, value)` from `terms`, with [`poll`] between joints.
+fn joint_links<T>(
+    rows: &[ConstraintRow],
+    terms: impl Fn(&ConstraintRow) -> T,
+) -> Result<Vec<Link>, SolveError>
+where
+    T: IntoIterator<Item = (Option<usize>, f64)>,
+{
+    rows.chunk_by(|a, b| a.joint == b.joint)
+        .map(|rows| {
+            poll()?;
+            Ok(Link::new(rows.iter().map(&terms)))
+        })
+        .collect()
+}
+
 /// Rows of `Φ_q` at the reference that depend linearly on earlier ones (an
-/// over-constrained mechanism), found by modified Gram–Schmidt on the sparse rows.
-pub fn redundant_rows(model: &Model) -> Vec<usize> {
-    use std::collections::BTreeMap;
-    type Sparse = BTreeMap<usize, f64>;
-    let dot = |a: &Sparse, b: &Sparse| {
-        a.iter()
-            .map(|(k, v)| v * b.get(k).unwrap_or(&0.0))
-            .sum::<f64>()
-    };
+/// over-constrained mechanism), in order ([`Rank::redundant`] with the nodes as bodies).
+///
+/// # Errors
+/// [`SolveError::Interrupted`] when the caller asks to stop.
+pub fn redundant_rows(model: &Model) -> Result<Vec<usize>, SolveError> {
     let reference = vec![0.0; model.n_dofs()];
-    let mut basis: Vec<Sparse> = Vec::new();
-    let mut redundant = Vec::new();
-    for (i, row) in model.rows.iter().enumerate() {
-        let mut v = Sparse::new();
-        for (d, c) in row.dofs().iter().zip(row.gradient(&reference)) {
-            if let Some(d) = d.filter(|_| c != 0.0) {
-                *v.entry(d).or_insert(0.0) += c;
-            }
-        }
-        let norm0 = dot(&v, &v).sqrt();
-        for b in &basis {
-            let proj = dot(&v, b);
-            for (k, bk) in b {
-                *v.entry(*k).or_insert(0.0) -= proj * bk;
-            }
-        }
-        let norm = dot(&v, &v).sqrt();
-        if norm <= 1e-10 * norm0 {
-            redundant.push(i);
-        } else {
-            v.values_mut().for_each(|x| *x /= norm);
-            basis.push(v);
-        }
-    }
-    redundant
+    let links = joint_links(&model.rows, |row| {
+        row.dofs().into_iter().zip(row.gradient(&reference))
+    })?;
+    let nodes: Vec<Vector2<f64>> = model.nodes.iter().map(|n| n.position).collect();
+    Ok(Rank::of(&links, &nodes)?.redundant())
 }
 
 /// The mechanism checks of a built scene, in order: every node on a beam or a body, every
@@ -482,8 +508,9 @@ pub fn redundant_rows(model: &Model) -> Vec<usize> {
 /// joint, every cluster grounded, and for a static scene mobility zero.
 ///
 /// # Errors
-/// A [`SceneError`] naming the first node or joint at fault.
-pub(crate) fn check_mechanism(model: &Model) -> Result<(), SceneError> {
+/// A [`SceneError`] naming the first node or joint at fault; [`SolveError::Interrupted`]
+/// when the caller asks to stop.
+pub(crate) fn check_mechanism(model: &Model) -> Result<(), Error> {
     check_attached(model)?;
     check_body_rotations(model)?;
     check_redundancy(model)?;
@@ -518,52 +545,57 @@ fn check_attached(model: &Model) -> Result<(), SceneError> {
 /// Otherwise the rotation is a free unknown with no inertia and the iteration matrix is
 /// singular.
 fn check_body_rotations(model: &Model) -> Result<(), SceneError> {
-    for body in &model.bodies {
-        let rotation = crate::mechanism::constraint::dof(body.node, 2);
-        let inertia: f64 = model
-            .point_masses
-            .iter()
-            .filter(|p| p.node == body.node)
-            .map(|p| p.inertia)
-            .sum();
-        let beam = model.elements.iter().any(|e| e.nodes.contains(&body.node));
-        let held = model.rows.iter().any(|row| {
-            row.dofs()
-                .iter()
-                .zip(row.active())
-                .any(|(d, on)| on && *d == Some(rotation))
-        });
-        if inertia == 0.0 && !beam && !held {
-            return Err(SceneError::new(
-                format!("rigid body '{}'", body.name),
-                "has no rotary inertia and no joint holds its rotation (its joints act at its \
-                 centre): give it an inertia, or attach a joint at one of its points",
-            ));
+    let n = model.nodes.len();
+    let mut inertia = vec![0.0; n];
+    for p in &model.point_masses {
+        inertia[p.node] += p.inertia;
+    }
+    let mut held = vec![false; n];
+    for e in &model.elements {
+        e.nodes.iter().for_each(|&node| held[node] = true);
+    }
+    for row in &model.rows {
+        for (d, on) in row.dofs().iter().zip(row.active()) {
+            if let Some(d) = d.filter(|d| on && d % 3 == 2) {
+                held[d / 3] = true;
+            }
         }
     }
-    Ok(())
+    match model
+        .bodies
+        .iter()
+        .find(|b| inertia[b.node] == 0.0 && !held[b.node])
+    {
+        Some(body) => Err(SceneError::new(
+            format!("rigid body '{}'", body.name),
+            "has no rotary inertia and no joint holds its rotation (its joints act at its \
+             centre): give it an inertia, or attach a joint at one of its points",
+        )),
+        None => Ok(()),
+    }
 }
 
 /// No row of `Φ_q` depends on earlier ones: the first redundant row names its joint.
-fn check_redundancy(model: &Model) -> Result<(), SceneError> {
-    match redundant_rows(model).first() {
+fn check_redundancy(model: &Model) -> Result<(), Error> {
+    match redundant_rows(model)?.first() {
         Some(&r) => {
             let j = model.rows[r].joint;
             Err(SceneError::new(
                 format!("joints[{j}] ({})", model.joints[j].name),
                 "over-constrained: this joint repeats a constraint already imposed by earlier joints",
-            ))
+            )
+            .into())
         }
         None => Ok(()),
     }
 }
 
 /// Every cluster reaches the ground through a chain of joints.
-fn check_grounding(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
-    match clusters.floating(model).first() {
+fn check_grounding(model: &Model, clusters: &Clusters) -> Result<(), Error> {
+    match clusters.floating(model)?.first() {
         Some(&c) => {
             let node = &model.nodes[clusters.anchor[c]].name;
-            Err(SceneError::new("joints", format!("unconstrained: the frame containing node '{node}' is not connected to the ground by any joint")))
+            Err(SceneError::new("joints", format!("unconstrained: the frame containing node '{node}' is not connected to the ground by any joint")).into())
         }
         None => Ok(()),
     }
@@ -581,9 +613,9 @@ fn stiff_springs(model: &Model) -> Vec<Spring> {
 
 /// The joints and springs leave no rigid-body mode free (a static scene, or the
 /// equilibrium a dynamic one starts from, cannot be a mechanism).
-fn check_mobility(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
-    match clusters.free_modes(model, &stiff_springs(model)) {
+fn check_mobility(model: &Model, clusters: &Clusters) -> Result<(), Error> {
+    match clusters.free_modes(model, &stiff_springs(model))? {
         0 => Ok(()),
-        free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints, or hold them with springs"))),
+        free => Err(SceneError::new("joints", format!("unconstrained: the static scene is a mechanism with {free} free rigid-body mode(s); clamp or drive its joints, or hold them with springs")).into()),
     }
 }

@@ -9,6 +9,7 @@ use pyo3::types::PyDict;
 use numpy::PyReadonlyArray1;
 
 use super::convert::{design, matrix, scene_spec, vector};
+use super::signals::detached;
 use crate::error::Error;
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::scene;
@@ -28,9 +29,11 @@ impl PyModel {
             .map_err(Error::from)?)
     }
 
-    fn built(spec: &scene::SceneSpec) -> PyResult<Self> {
+    /// The model of `spec`, built with the GIL released and Ctrl-C heard.
+    fn built(py: Python<'_>, spec: scene::SceneSpec) -> PyResult<Self> {
+        let model = detached(py, move || scene::build(&spec))?;
         Ok(Self {
-            model: Arc::new(scene::build(spec).map_err(Error::from)?),
+            model: Arc::new(model),
         })
     }
 }
@@ -39,14 +42,14 @@ impl PyModel {
 impl PyModel {
     /// Builds a model from a scene dict.
     #[staticmethod]
-    fn from_dict(spec: &Bound<'_, PyAny>) -> PyResult<Self> {
-        Self::built(&scene_spec(spec)?)
+    fn from_dict(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Self> {
+        Self::built(py, scene_spec(spec)?)
     }
 
     /// Builds a model from TOML text.
     #[staticmethod]
-    fn from_toml(text: &str) -> PyResult<Self> {
-        Self::built(&scene::parse_toml(text).map_err(Error::from)?)
+    fn from_toml(py: Python<'_>, text: &str) -> PyResult<Self> {
+        Self::built(py, scene::parse_toml(text).map_err(Error::from)?)
     }
 
     #[getter]
@@ -189,11 +192,14 @@ impl PyModel {
     /// `over_constraining` joints when the joints over-constrain the rigid mechanism.
     fn mechanism<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
-        let clusters = crate::mechanism::rigid::Clusters::of(m);
-        let over = clusters.over_constraint(m);
+        let (frames, mobility, over) = detached(py, || {
+            let clusters = crate::mechanism::rigid::Clusters::of(m);
+            let over = clusters.over_constraint(m)?;
+            Ok((clusters.len(), clusters.free_modes(m, &[])?, over))
+        })?;
         let d = PyDict::new(py);
-        d.set_item("frames", clusters.len())?;
-        d.set_item("mobility", clusters.free_modes(m, &[]))?;
+        d.set_item("frames", frames)?;
+        d.set_item("mobility", mobility)?;
         d.set_item("redundant_rows", over.as_ref().map_or(0, |o| o.redundant))?;
         let names: Vec<&str> = over
             .iter()

@@ -12,17 +12,19 @@
 
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
-use super::validate::{unique, Result};
+use super::validate::unique;
 use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
-use crate::error::SceneError;
+use crate::error::{Error, SceneError};
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
 
 /// Builds and validates the model of `spec`.
 ///
 /// # Errors
-/// A [`SceneError`](crate::error::SceneError) naming the first entry at fault.
-pub fn build(spec: &SceneSpec) -> Result<Model> {
+/// [`Error::Scene`] naming the first entry at fault;
+/// [`SolveError::Interrupted`](crate::error::SolveError::Interrupted) when this thread's
+/// checker ([`crate::with_checker`]) asks the build to stop.
+pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     let rigid: Vec<&str> = spec
         .ground_structures
         .iter()
@@ -90,13 +92,13 @@ pub fn build(spec: &SceneSpec) -> Result<Model> {
     let starts = model.initial == Initial::Equilibrium || !rates.is_empty();
     if starts && model.analysis == Analysis::Static {
         let msg = "a static scene has no start: initial and initial_rates are for dynamic ones";
-        return Err(SceneError::new("initial", msg));
+        return Err(SceneError::new("initial", msg).into());
     }
     check_mechanism(&model)?;
     if !rates.is_empty() {
         if model.initial == Initial::Equilibrium {
             let msg = "an equilibrium start is at rest: give initial_rates or initial = \"equilibrium\", not both";
-            return Err(SceneError::new("initial_rates", msg));
+            return Err(SceneError::new("initial_rates", msg).into());
         }
         model.initial_velocity = initial_velocity(&model, &rates)?;
     }
