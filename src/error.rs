@@ -138,15 +138,18 @@ pub enum SolveError {
         /// What the solver reported.
         detail: String,
     },
-    /// The exact sensitivity solve with the beams' stiffness-proportional damping did not
-    /// settle within its iteration limit.
+    /// The exact sensitivity solve with a damping whose `C` follows the state (the beams'
+    /// stiffness-proportional damping, dampers on distances) did not settle within its
+    /// iteration limit.
     #[error(
-        "the sensitivity solve with stiffness-proportional damping did not settle at t = \
-         {time:.6} s: the damping is too strong for the step; use a smaller step h"
+        "the sensitivity solve with {damping} did not settle at t = {time:.6} s: the damping \
+         is too strong for the step; use a smaller step h"
     )]
     Unsettled {
         /// Time of the state.
         time: f64,
+        /// The dampings at fault, in the scene's words.
+        damping: String,
     },
     /// Local error control wanted a step below its smallest.
     #[error(

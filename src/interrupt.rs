@@ -6,9 +6,11 @@
 //! [`SolveError::Interrupted`]. Without a checker it costs a thread-local read.
 //!
 //! The Python bindings install a checker that runs Python's signal handlers, so Ctrl-C
-//! raises `KeyboardInterrupt` within an interval and a step.
+//! raises `KeyboardInterrupt` within an interval and a step. The time loop polls through
+//! [`poll_at`], which also records the time reached: the checker reads it ([`reached`]) to
+//! report a run's progress.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::time::{Duration, Instant};
 
 use crate::error::SolveError;
@@ -23,6 +25,7 @@ struct Checker {
 
 thread_local! {
     static CHECKER: RefCell<Option<Checker>> = const { RefCell::new(None) };
+    static REACHED: Cell<f64> = const { Cell::new(f64::NAN) };
 }
 
 /// Restores the checker a [`with_checker`] replaced, also when its body unwinds.
@@ -43,6 +46,7 @@ pub fn with_checker<R>(stop: impl FnMut() -> bool + 'static, body: impl FnOnce()
         next: Instant::now() + INTERVAL,
     };
     let _restore = Restore(CHECKER.with(|c| c.borrow_mut().replace(checker)));
+    REACHED.with(|r| r.set(f64::NAN));
     body()
 }
 
@@ -63,6 +67,22 @@ pub fn poll() -> Result<(), SolveError> {
         }
         _ => Ok(()),
     })
+}
+
+/// [`poll`], having recorded that the work on this thread reached time `t` (s).
+///
+/// # Errors
+/// [`SolveError::Interrupted`].
+pub fn poll_at(t: f64) -> Result<(), SolveError> {
+    REACHED.with(|r| r.set(t));
+    poll()
+}
+
+/// The time the work on this thread last reported to [`poll_at`] (NaN before any);
+/// [`with_checker`] starts from NaN.
+#[cfg_attr(not(feature = "python"), allow(dead_code))] // read by the bindings' checker
+pub fn reached() -> f64 {
+    REACHED.with(Cell::get)
 }
 
 #[cfg(test)]
@@ -92,5 +112,23 @@ mod tests {
         assert_eq!(calls.get(), 3);
         assert!(started.elapsed() >= 3 * INTERVAL);
         assert_eq!(poll(), Ok(()), "the checker is gone after with_checker");
+    }
+
+    #[test]
+    fn the_checker_reads_the_time_the_work_reached() {
+        let seen = Rc::new(Cell::new(f64::NAN));
+        let read = Rc::clone(&seen);
+        with_checker(
+            move || {
+                read.set(reached());
+                false
+            },
+            || {
+                assert!(reached().is_nan(), "nothing reached yet");
+                std::thread::sleep(INTERVAL);
+                poll_at(0.25).unwrap();
+            },
+        );
+        assert_eq!(seen.get(), 0.25);
     }
 }

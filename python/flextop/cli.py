@@ -14,6 +14,7 @@ saying why; Ctrl-C with 130. ``flextop --debug ...`` shows the traceback instead
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -21,13 +22,14 @@ import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 from tqdm import tqdm
 
 from . import __version__, checkpoint, export, responses, scenarios, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
+from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
@@ -112,6 +114,33 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _progress_bar(duration: float) -> Iterator[Callable[[float], None]]:
+    """A progress bar in simulated seconds on stderr, shown once a run has taken half a
+    second; yields the function the run reports the time it reached to."""
+    bar = tqdm(total=duration, unit="s", desc="simulate", file=sys.stderr, delay=0.5,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.3g} of {total:.3g} s [{elapsed}<{remaining}]")
+    try:
+        yield lambda t: bar.update(t - bar.n)
+    finally:
+        bar.close()
+
+
+def _picture(sim: Simulation, res: Any, out: Path, label: str) -> Path:
+    """The figure of a run: its tip error (a scene with a tip), the paths of its joints and
+    bodies (a motion without one), or its deformed shape (a static scene)."""
+    from .plots import plot_deformed, plot_paths, plot_tip_error
+
+    if not isinstance(res, Results):
+        plot_deformed(res, title=label, path=out / "deformed.png")
+        return out / "deformed.png"
+    if sim.tip is not None:
+        plot_tip_error(res, path=out / "tip_error.png", labels=(label,))
+        return out / "tip_error.png"
+    plot_paths(res, title=label, path=out / "paths.png")
+    return out / "paths.png"
+
+
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
     sim = Simulation(_scene(args.scene), accuracy=args.accuracy, rtol=args.rtol)
@@ -125,15 +154,15 @@ def simulate(args: argparse.Namespace) -> int:
         raise SettingsError("--vtk writes into the --out folder; give --out")
     out = None if args.out is None else _folder(Path(args.out))
     start = time.perf_counter()
-    res = sim.run(_design(sim, args.x, args.design), **settings)
+    if sim.analysis == "dynamic" and sim.rtol is None:
+        with _progress_bar(t_end(sim, settings)) as report:
+            res = sim.run(_design(sim, args.x, args.design), progress=report, **settings)
+    else:
+        res = sim.run(_design(sim, args.x, args.design), **settings)
     _summarize(sim, res, time.perf_counter() - start)
     if out is not None:
-        written = [res.save(out / "results.npz")]
-        if isinstance(res, Results) and sim.tip is not None:
-            from .plots import plot_tip_error
-
-            plot_tip_error(res, path=out / "tip_error.png")
-            written.append(out / "tip_error.png")
+        design = (f"design {args.design}" if args.design else f"x = {args.x} on every bar") if sim.n_design else "no design variables"
+        written = [res.save(out / "results.npz"), _picture(sim, res, out, f"{sim.spec.get('name', args.scene)}, {design}")]
         print(f"wrote {', '.join(map(str, written))} (flextop.load reads results.npz back)")
     if args.vtk:
         print(f"wrote {_vtk(res, out)} (open it in ParaView)")
@@ -228,6 +257,23 @@ def _settings(args: argparse.Namespace) -> dict:
     return {k: v for k, v in {"h": args.h, "rho_inf": args.rho_inf, "t_end": args.t_end}.items() if v is not None}
 
 
+def _keep_earlier_run(out: Path, force: bool) -> None:
+    """A new run does not replace the checkpoint of an earlier one in ``out`` unless
+    ``force``: one that can be resumed would be lost without a word."""
+    path = out / "checkpoint.json"
+    if force or not path.exists():
+        return
+    try:
+        saved = checkpoint.load(path)
+        finished = saved.get("finished")
+        what = (f"a run that converged ({finished})" if finished in {s.name for s in CONVERGED}
+                else f"a run that can be resumed from iteration {saved['state'].get('iteration', '?')}")
+    except (CheckpointError, AttributeError, KeyError):
+        what = "a checkpoint"
+    resume = " (--resume goes on with it)" if what.startswith("a run that can") else ""
+    raise SettingsError(f"--out {out} holds {what}{resume}: give another --out, or --force to start over in it")
+
+
 def optimize_command(args: argparse.Namespace) -> int:
     """Topology optimization of a scene, or of several scenarios, with checkpoints, progress
     bar, summary and plots; the scenarios of an evaluation run on ``--workers`` threads or
@@ -257,6 +303,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
                    "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
         start = np.full(sim.n_design, x0) if args.start is None else _started(sim, args.start)
         x0, state, animate = problem.start(start), None, args.animate
+        _keep_earlier_run(out, args.force)
         _folder(out)
     print(f"{_title(sim, problem)}: minimize {problem.description} over {sim.n_design} densities "
           f"subject to {', '.join(f'{n} {relation(n)} {b:.4g}' for n, b in problem.bounded) or 'bounds only'} ({options['method']})")
@@ -426,7 +473,7 @@ def parser() -> argparse.ArgumentParser:
     d.set_defaults(run=demo)
     s = sub.add_parser("simulate", help="run a scene file")
     s.add_argument("scene", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN))
-    s.add_argument("--x", type=float, help="uniform density of every bar (default: full density)")
+    s.add_argument("--x", type=float, default=0.4, help="uniform density of every bar (default 0.4, as demo and optimize)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
     s.add_argument("--t-end", type=_positive(float))
     s.add_argument("--h", type=_positive(float))
@@ -469,6 +516,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--rtol", type=_fraction, help="relative tolerance on every response of every evaluation (see TopologyProblem)")
     o.add_argument("--out", default="runs/optimize", help="folder for checkpoint, design, history and plots")
     o.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
+    o.add_argument("--force", action="store_true", help="start a new run in an --out that holds an earlier run's checkpoint")
     o.add_argument("--no-plots", action="store_true")
     o.add_argument("--animate", action="store_true", help="also write motion.gif of the optimized design")
     o.add_argument("--every", type=_positive(int), help="with --animate: a frame every N steps (default: about 100 frames)")

@@ -5,8 +5,15 @@ Each file holds the structure as VTK cells: every element of every bar and beam 
 (a bar split into m elements gives m lines), and every joint, point mass and rigid body's centre
 as a vertex.
 
-* Point data: ``displacement`` (m, from the reference), ``rotation`` (rad, from the
-  reference) and, for a motion, ``velocity`` (m/s) and ``angular_velocity`` (rad/s).
+Points follow one of ParaView's two conventions, said here because Warp By Vector depends on it:
+
+* **A motion** (``.pvd`` series): each frame's points are where the structure is at that time,
+  so the series plays as it is opened; there is no ``displacement`` field (warping would move
+  it twice). Point data: ``rotation`` (rad, from the reference), ``velocity`` (m/s) and
+  ``angular_velocity`` (rad/s).
+* **A static result or a design** (one ``.vtu``): points are the reference configuration and
+  ``displacement`` (m) the field that Warp By Vector adds, scaled to make small deflections
+  visible; ``rotation`` (rad) beside it.
 * Cell data of the lines: ``density`` (of the element's bar, 1 where it is not designed),
   ``bar`` (its index in :attr:`Simulation.bars`), ``axial_force`` N (N, tension positive),
   ``moment_1`` and ``moment_2`` (N m, the end moments in the chord frame),
@@ -66,7 +73,7 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
     for k in steps:
         name = f"{path.stem}_{k:05d}.vtu"
         extra = {"velocity": _xyz(speeds[k, :, :2]), "angular_velocity": speeds[k, :, 2]}
-        structure.mesh(results.q[k], forces[k], extra).write(path.parent / name, binary=True)
+        structure.mesh(results.q[k], forces[k], extra, moved=True).write(path.parent / name, binary=True)
         ET.SubElement(datasets, "DataSet", timestep=repr(float(results.time[k])), part="0", file=name)
     ET.ElementTree(collection).write(path, xml_declaration=True, encoding="utf-8")
     return path
@@ -75,7 +82,8 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
 def write_state(results: Any, path: str | os.PathLike) -> Path:
     """A static result as one VTU file ``path``."""
     path = _vtu(path)
-    _Structure.of(results.simulation, results.x).mesh(results.q, results.section_forces[0], {}).write(path, binary=True)
+    structure = _Structure.of(results.simulation, results.x)
+    structure.mesh(results.q, results.section_forces[0], {}, moved=False).write(path, binary=True)
     return path
 
 
@@ -83,7 +91,7 @@ def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
     """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
     path = _vtu(path)
     structure = _Structure.of(sim, x)
-    structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), {}).write(path, binary=True)
+    structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), {}, moved=False).write(path, binary=True)
     return path
 
 
@@ -121,8 +129,10 @@ class _Structure:
         return cls(np.asarray(sim.model.reference_positions), lines, bar, sim.bar_densities(x)[bar],
                    _areas(sim, lines, bar)[bar], vertices, kinds)
 
-    def mesh(self, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray]) -> Any:
-        """The frame of state ``q`` with section ``forces`` and ``extra`` point data."""
+    def mesh(self, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray], *, moved: bool) -> Any:
+        """The frame of state ``q`` with section ``forces`` and ``extra`` point data: points
+        ``moved`` to where ``q`` puts them, or at the reference with ``q``'s translations as
+        the ``displacement`` field."""
         import meshio
 
         q = np.asarray(q).reshape(-1, 3)
@@ -140,8 +150,9 @@ class _Structure:
         blocks = [("line", self.lines), ("vertex", self.vertices[:, None])]
         # A mechanism of rigid bodies alone has no lines: meshio refuses an empty block.
         kept = [k for k, (_, cells) in enumerate(blocks) if len(cells)]
-        point_data = {"displacement": _xyz(q[:, :2]), "rotation": q[:, 2], **extra}
-        return meshio.Mesh(_xyz(self.reference + q[:, :2]), [blocks[k] for k in kept], point_data=point_data,
+        points = self.reference + q[:, :2] if moved else self.reference
+        point_data = {**({} if moved else {"displacement": _xyz(q[:, :2])}), "rotation": q[:, 2], **extra}
+        return meshio.Mesh(_xyz(points), [blocks[k] for k in kept], point_data=point_data,
                            cell_data={name: [data[k] for k in kept] for name, data in cell_data.items()})
 
 

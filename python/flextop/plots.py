@@ -22,16 +22,18 @@ from matplotlib.collections import LineCollection
 from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
+from . import responses
 from .export import FRAMES, frame_indices
 from .results import Results
 from .simulation import Simulation
 
-__all__ = ["animate", "magnified_positions", "plot_design", "plot_history", "plot_tip_error"]
+__all__ = ["animate", "magnified_positions", "plot_deformed", "plot_design", "plot_history", "plot_paths", "plot_tip_error"]
 
 #: Colormap of the density maps: light for x_min, dark for full density.
 DEFAULT_CMAP = "viridis_r"
-#: Line widths (points) of a bar at density x_min and at full density.
-WIDTHS = (0.3, 3.5)
+#: Line widths (points) of a bar at density x_min and at full density: thin enough that the
+#: bars meeting at a node of a slender link stay apart.
+WIDTHS = (0.3, 2.5)
 #: Opacity of bars drawn below ``min_density``.
 FAINT_ALPHA = 0.15
 DPI = 150
@@ -112,6 +114,7 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
     else:
         fig = ax.figure
     mappable = _draw_bars(ax, sim, x, _segments(sim, positions), np.ones(len(sim.bars), bool), faint, cmap)
+    _draw_supports(ax, sim, positions, np.ones(len(positions), bool))
     if title is not None:
         ax.set_title(title)
     fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8,
@@ -122,7 +125,8 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
 def _draw_bars(ax: Any, sim: Simulation, x: Any, segments: np.ndarray, shown: np.ndarray, faint: float | None,
                cmap: str | Colormap) -> ScalarMappable:
     lw, colors, mappable = _bar_style(sim, x, cmap, faint)
-    ax.add_collection(LineCollection(segments[shown], linewidths=lw[shown], colors=colors[shown], capstyle="round"))
+    order = np.flatnonzero(shown)[np.argsort(sim.bar_densities(x)[shown], kind="stable")]  # the solid bars on top
+    ax.add_collection(LineCollection(segments[order], linewidths=lw[order], colors=colors[order], capstyle="round"))
     ax.margins(0.05)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
@@ -130,29 +134,61 @@ def _draw_bars(ax: Any, sim: Simulation, x: Any, segments: np.ndarray, shown: np
     return mappable
 
 
+def _draw_supports(ax: Any, sim: Simulation, positions: np.ndarray, shown: np.ndarray) -> None:
+    """What holds and moves the structure, at ``positions`` (``(n_nodes, 2)``) of the nodes
+    ``shown``: a joint to the ground a triangle, a joint between parts a circle, a driven
+    one filled red; a point mass a black square; a load an arrow along its force. A legend
+    names them."""
+    scale = 0.06 * float(np.max(np.ptp(positions[shown], axis=0))) if shown.any() else 1.0
+    styles = {"ground joint": dict(marker="^", ms=8, mfc="white", mec="k"),
+              "joint": dict(marker="o", ms=6, mfc="white", mec="k"),
+              "driven joint": dict(marker="o", ms=7, mfc="C3", mec="k"),
+              "point mass": dict(marker="s", ms=6, mfc="k", mec="k")}
+    marks: dict[str, list[int]] = {name: [] for name in styles}
+    for joint in sim.joints:
+        kind = "driven joint" if joint.driven else "ground joint" if len(joint.nodes) == 1 else "joint"
+        marks[kind] += [n for n in joint.nodes if shown[n]]
+    marks["point mass"] = [n for n in (sim.node(p["node"]) for p in sim.spec.get("point_masses", [])) if shown[n]]
+    for name, nodes in marks.items():
+        if nodes:
+            ax.plot(*positions[nodes].T, ls="none", zorder=3, label=name, **styles[name])
+    loads = [(sim.node(load["node"]), np.asarray(load["force"], float)) for load in sim.spec.get("loads", [])]
+    loads = [(node, force) for node, force in loads if shown[node] and np.any(force)]
+    for node, force in loads:
+        tail = positions[node] - scale * force / np.linalg.norm(force)
+        ax.annotate("", xy=positions[node], xytext=tail, arrowprops=dict(arrowstyle="-|>", color="C1", lw=1.5), zorder=4)
+    if loads:
+        ax.plot([], [], color="C1", lw=1.5, label="load")
+    if any(marks.values()) or loads:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="x-small", frameon=False, borderaxespad=0.2)
+
+
 def _design_by_component(sim: Simulation, x: Any, title: str | None, faint: float | None, cmap: str | Colormap) -> Figure:
     """One panel per component, each in its own frame, stacked, with one colorbar."""
     component = np.asarray(sim.bars.component)
     nodes = np.asarray(sim.bars.nodes, dtype=int)
-    ends = _segments(sim, sim.model.reference_positions)
+    reference = np.asarray(sim.model.reference_positions)
     frames = []
     for k in range(len(sim.components)):
         mine = component == k
-        points = ends[mine].reshape(-1, 2)
+        own = np.zeros(len(reference), bool)
+        own[nodes[mine].ravel()] = True
+        points = reference[own]
         centre = points.mean(axis=0)
         axis = np.linalg.svd(points - centre)[2][0]
-        first = sim.model.reference_positions[nodes[mine].min()]  # the component's first node on the left
+        first = reference[nodes[mine].min()]  # the component's first node on the left
         axis = axis if (first - centre) @ axis <= 0 else -axis
         rotation = np.array([[axis[0], axis[1]], [-axis[1], axis[0]]])  # the long axis onto x
-        local = (ends - centre) @ rotation.T
-        frames.append((mine, local - local[mine].reshape(-1, 2).min(axis=0)))
-    extent = np.array([np.ptp(local[mine].reshape(-1, 2), axis=0) for mine, local in frames]) + 1e-12
+        local = (reference - centre) @ rotation.T
+        frames.append((mine, own, local - local[own].min(axis=0)))
+    extent = np.array([np.ptp(local[own], axis=0) for _, own, local in frames]) + 1e-12
     width = float(extent[:, 0].max())
     heights = extent[:, 1] + 0.1 * width
     fig = _new_figure(figsize=(8.0, min(0.5 + float(np.sum(6.0 * heights / width + 0.75)), 12.0)), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(frames), 1, height_ratios=heights))
-    for ax, (mine, local), name in zip(axes, frames, sim.components):
-        mappable = _draw_bars(ax, sim, x, local, mine, faint, cmap)
+    for ax, (mine, own, local), name in zip(axes, frames, sim.components):
+        mappable = _draw_bars(ax, sim, x, local[nodes], mine, faint, cmap)
+        _draw_supports(ax, sim, local, own)
         ax.set_title(name, fontsize="medium")
         ax.set_xlim(-0.03 * width, 1.03 * width)
     if title is not None:
@@ -183,6 +219,7 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
     f0 = np.array([_field(r, "f0") for r in history], dtype=float)
     g = np.array([np.atleast_1d(np.asarray(_field(r, "g"), dtype=float)) for r in history])
     change = np.array([_field(r, "change") for r in history], dtype=float)
+    change[it == 0] = np.nan  # the start design has not moved
     labels = list(constraint_labels) if constraint_labels is not None else [f"g{j + 1}" for j in range(g.shape[1])]
     if len(labels) != g.shape[1]:
         raise ValueError(f"{len(labels)} constraint labels for {g.shape[1]} constraints")
@@ -195,7 +232,7 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
         top.set_yscale("log")
     if objective_scale is not None:
         right = top.secondary_yaxis("right", functions=(lambda v: v * objective_scale, lambda v: v / objective_scale))
-        right.set_ylabel(f"{objective_label} (its units)")
+        right.set_ylabel(responses.label(objective_label))
     top.grid(True, which="both", alpha=0.3)
 
     for j, label in enumerate(labels):
@@ -206,7 +243,9 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
     bottom.grid(True, alpha=0.3)
     twin = bottom.twinx()
     twin.plot(it, change, "s--", color="0.4", ms=3, label="design change")
-    twin.set_yscale("log", nonpositive="mask")
+    moved = change[np.isfinite(change) & (change > 0)]
+    if moved.size and moved.max() > 10 * moved.min():  # a log axis only where the changes span a decade
+        twin.set_yscale("log", nonpositive="mask")
     twin.set_ylabel("max design change")
     handles = bottom.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
     bottom.legend(handles=handles, loc="best", fontsize="small", ncols=2 if len(handles) > 6 else 1)
@@ -218,22 +257,76 @@ def plot_tip_error(before: Results, after: Results | None = None, *, node: int |
                    labels: Sequence[str] = ("before optimization", "after optimization")) -> Figure:
     """Tip error against time (paper Fig. 9).
 
-    For ``before`` (and ``after``, in a second panel side by side with a shared y axis):
-    error-x and error-y (m) of ``node`` (the scene's tip by default) from its rigid
-    trajectory, in millimetres; each title gives the mean squared tip deflection.
+    For ``before`` (and ``after``, in a second panel side by side): the x and y components
+    (mm) of ``node``'s position (the scene's tip by default) less its rigid trajectory;
+    each title gives the run's ``labels`` entry, its mean squared tip deflection ``d`` and
+    the peak error. Each panel has its own y axis, so that the smaller error's shape stays
+    visible; the peaks in the titles compare them.
     """
     runs = [before] if after is None else [before, after]
     fig = _new_figure(figsize=(5.0 * len(runs), 4.0), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(1, len(runs), sharey=True))
+    axes = np.atleast_1d(fig.subplots(1, len(runs)))
     for ax, res, label in zip(axes, runs, labels):
         error = 1e3 * res.tip_error(node)
-        ax.plot(res.time, error[:, 0], label="error-x")
-        ax.plot(res.time, error[:, 1], label="error-y")
-        ax.set_title(f"{label}\nd = {res.tip_deflection(node):.3g} m²")
+        ax.plot(res.time, error[:, 0], label="x")
+        ax.plot(res.time, error[:, 1], label="y")
+        peak = float(np.max(np.linalg.norm(error, axis=1)))
+        ax.set_title(f"{label}\nd = {res.tip_deflection(node):.3g} m², peak {peak:.3g} mm")
         ax.set_xlabel("time (s)")
+        ax.set_ylabel("tip − rigid trajectory (mm)")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize="small")
-    axes[0].set_ylabel("deflection (mm)")
+    return _save(fig, path)
+
+
+def plot_deformed(results: Any, *, magnify: float | None = None, title: str = "",
+                  path: str | os.PathLike | None = None) -> Figure:
+    """A static result: the structure at the reference (grey) and deformed (coloured by
+    density), displacements × ``magnify`` (default: the largest drawn as a tenth of the
+    structure's size), with its supports and loads; the title gives the largest
+    displacement."""
+    sim = results.simulation
+    reference = np.asarray(sim.model.reference_positions)
+    displacement = np.asarray(results.q).reshape(-1, 3)[:, :2]
+    largest = float(np.max(np.linalg.norm(displacement, axis=1)))
+    size = float(np.max(np.ptp(reference, axis=0)))
+    magnify = (0.1 * size / largest if largest > 0 else 1.0) if magnify is None else magnify
+    drawn = reference + magnify * displacement
+    figsize, location = _design_layout(np.vstack([reference, drawn]))
+    fig = _new_figure(figsize=figsize, layout="constrained")
+    ax = fig.add_subplot()
+    ax.add_collection(LineCollection(_segments(sim, reference), linewidths=0.6, colors="0.75"))
+    mappable = _draw_bars(ax, sim, results.x, _segments(sim, drawn), np.ones(len(sim.bars), bool), None, DEFAULT_CMAP)
+    _draw_supports(ax, sim, drawn, np.ones(len(drawn), bool))
+    ax.set_title(f"{title}\ndeformed × {magnify:.3g} (grey: unloaded); largest displacement {1e3 * largest:.3g} mm".strip())
+    fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8)
+    return _save(fig, path)
+
+
+def plot_paths(results: Results, *, title: str = "", path: str | os.PathLike | None = None) -> Figure:
+    """A motion in the plane: the path of every joint's, point mass's and rigid body's node
+    (a scene without a tip, such as a pendulum), the structure at the start (grey) and at
+    the end (black), equal axes."""
+    sim = results.simulation
+    positions = np.asarray(results.positions)
+    traced = sorted({n for j in sim.joints for n in j.nodes} | {sim.node(p["node"]) for p in sim.spec.get("point_masses", [])}
+                    | {sim.node(b["name"]) for b in sim.spec.get("rigid_bodies", [])})
+    fig = _new_figure(figsize=(6.0, 5.0), layout="constrained")
+    ax = fig.add_subplot()
+    for k, colour in ((0, "0.7"), (-1, "k")):
+        ax.add_collection(LineCollection(_segments(sim, positions[k]), linewidths=1.2, colors=colour))
+    for i, n in enumerate(traced):
+        ax.plot(positions[:, n, 0], positions[:, n, 1], color=f"C{i % 10}", lw=1.0, label=sim.node_names[n])
+        ax.plot(*positions[0, n], "o", color=f"C{i % 10}", ms=4)
+        ax.plot(*positions[-1, n], "s", color=f"C{i % 10}", ms=4)
+    ax.set_aspect("equal")
+    ax.autoscale()
+    ax.margins(0.05)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"{title}\npaths from t = 0 (circles) to {results.time[-1]:.3g} s (squares)".strip())
+    if traced:
+        ax.legend(fontsize="x-small", loc="best")
     return _save(fig, path)
 
 

@@ -16,12 +16,14 @@ from . import _core
 @dataclass(frozen=True)
 class ResponseKind:
     """One kind of response: ``syntax`` has arguments in capitals and optional parts in
-    brackets; ``peak``: a limit on it bounds its peak (Le et al.'s normalization)."""
+    brackets; ``peak``: a limit on it bounds its peak (Le et al.'s normalization); ``unit``
+    in SI ("1" for a ratio)."""
 
     name: str
     syntax: str
     doc: str
     peak: bool
+    unit: str
 
 
 KINDS: tuple[ResponseKind, ...] = tuple(ResponseKind(*k) for k in _core.response_kinds())
@@ -33,6 +35,19 @@ NAMES: tuple[str, ...] = tuple(k.name for k in KINDS)
 PEAK_LIMITED: tuple[str, ...] = tuple(k.name for k in KINDS if k.peak)
 """Responses that are means of point values reported with their peaks, whose limits bound
 the peak: stresses, shear, buckling and a drive's torque."""
+
+
+def unit(response: str) -> str:
+    """The unit of ``response`` (a name with or without its arguments, ``tip_deflection:tip``),
+    "" for a name the engine does not know."""
+    kind = response.split(":", 1)[0]
+    return next((k.unit for k in KINDS if k.name == kind), "")
+
+
+def label(response: str) -> str:
+    """``response`` with its unit for an axis: ``tip_deflection (m²)``."""
+    u = unit(response)
+    return f"{response} ({u})" if u and u != "1" else response
 
 
 def describe(indent: str = "") -> str:

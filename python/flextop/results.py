@@ -198,16 +198,24 @@ class _Run:
         the gradients refer to."""
         return self._value_and_peak(name)[0]
 
-    def error_estimate(self, name: str) -> float:
+    def error_estimate(self, name: str, *, absolute: bool = False) -> float:
         """The estimated relative error of response ``name`` (any name of
         :meth:`Simulation.run_with_sensitivities`) against the converged discretization, by
-        step doubling in time and space (:mod:`flextop.discretization.tolerance`). A run made to a
+        step doubling in time and space (:mod:`flextop.discretization.tolerance`); with
+        ``absolute``, the error in the response's own units. A run made to a
         tolerance has its companion runs already; for any other run they are made on the
         first call: its steps merged in pairs and in fours, and twice the elements per bar
-        on the steps merged in pairs (a static scene: twice the elements per bar only)."""
+        on the steps merged in pairs (a static scene: twice the elements per bar only).
+        A response of value 0 with a nonzero estimated error has no relative error: a
+        ``SettingsError`` gives the absolute one."""
         half, quarter, split = companions_of(self)
         value = lambda run: None if run is None else [np.array([run.response(name)])]  # noqa: E731
         est = tolerance.estimate(value(self), value(half), value(quarter), value(split))
+        if absolute:
+            return float(est.total[0])
+        if est.size[0] == 0.0 and est.total[0] > 0.0:
+            raise SettingsError(f"response '{name}' is 0 on this run, so it has no relative error; its estimated "
+                                f"absolute error is {est.total[0]:.3g} (error_estimate('{name}', absolute=True))")
         return float(est.relative[0])
 
 

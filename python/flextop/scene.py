@@ -116,7 +116,8 @@ class Scene:
         ``rayleigh = (alpha, beta)`` damps its beams by ``C = αM + βK`` (1/s, s)."""
         entry = {"E": E, "rho": rho, "nu": nu, "G": G, "diameter": diameter, "A": A, "I": I, "kappa": kappa, "c": c,
                  "shear_factor": shear_factor, "rayleigh": None if rayleigh is None else _listed(rayleigh)}
-        self._spec.setdefault("sections", {})[_name("section", name)] = {k: v for k, v in entry.items() if v is not None}
+        self._spec.setdefault("sections", {})[self._new_key("sections", "section", name)] = {
+            k: v for k, v in entry.items() if v is not None}
         return name
 
     def node(self, name: str, x: float, y: float) -> str:
@@ -236,12 +237,19 @@ class Scene:
         """Gives the bar called ``bar`` (``LINK/barK`` of a ground structure, a beam's name)
         ``elements`` elements, whatever the ``split`` of its ground structure or beam: a
         discretization chosen bar by bar (the scene's ``[splits]`` table)."""
-        self._spec.setdefault("splits", {})[_name("split", bar)] = elements
+        self._spec.setdefault("splits", {})[self._new_key("splits", "split", bar)] = elements
 
     def initial_rate(self, joint: str, rate: float) -> None:
         """Starts the undriven ``joint``'s coordinate moving at ``rate`` (rad/s; m/s on a
         slider): the mechanism starts in the rigid motion its initial rates determine."""
-        self._spec.setdefault("initial_rates", {})[_name("initial_rate", joint)] = rate
+        self._spec.setdefault("initial_rates", {})[self._new_key("initial_rates", "initial_rate", joint)] = rate
+
+    def _new_key(self, table: str, what: str, name: Any) -> str:
+        """``name`` as a new key of the scene's ``table``: a second entry of one name would
+        replace the first without a word."""
+        if _name(what, name) in self._spec.get(table, {}):
+            raise SceneError(f"{what} {name!r}: given twice; give each its own name, once")
+        return name
 
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})

@@ -176,6 +176,37 @@ def spun_beam(*, bars: int = 8, length: float = 1.0, split: int = 1, tip_mass: f
     return scene
 
 
+@_checked(lambda columns, **_: {"nodes": 2 * columns + 2})
+def stayed_frame(*, columns: int = 25, spacing: float = 0.04, tip_mass: float = 1.0, diameter: float = DIAMETER,
+                 E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"], rho: float = ALUMINIUM["rho"],
+                 acceleration: float = 20.0, speed: float = 2.0, t_end: float = 0.6, h: float = 0.005,
+                 rho_inf: float = 0.8) -> Scene:
+    """A frame of short bars — two rows of ``columns + 1`` nodes ``spacing`` apart (m),
+    chords ``bottomK``/``topK`` and posts ``postK`` — pinned and spun up by its first bottom
+    node as the spun beam is (0 → 1 rad), a ``tip_mass`` (kg) on its last bottom node, and
+    one long ``stay`` from the pinned node to the last top node. Not from the paper: with
+    the stay thin and the short bars solid, the one bar whose own modes fall in the band is
+    the stay, the case for refining bar by bar (``tests/python/test_refinement.py``)."""
+    scene = Scene("stayed_frame")
+    section = _linkage_section(scene, E, nu, rho, diameter)
+    for k in range(columns + 1):
+        scene.node(f"b{k}", spacing * k, 0.0)
+        scene.node(f"t{k}", spacing * k, spacing)
+    for k in range(columns):
+        scene.beam(f"b{k}", f"b{k + 1}", section=section, name=f"bottom{k}")
+        scene.beam(f"t{k}", f"t{k + 1}", section=section, name=f"top{k}")
+    for k in range(columns + 1):
+        scene.beam(f"b{k}", f"t{k}", section=section, name=f"post{k}")
+    scene.beam("b0", f"t{columns}", section=section, name="stay")
+    if tip_mass != 0.0:
+        scene.point_mass(f"b{columns}", tip_mass)
+    scene.pin("hub", "b0", drive=trapezoidal(0.0, 1.0, acceleration=acceleration, speed=speed))
+    scene.tip = f"b{columns}"
+    scene.design(interpolation="simp", p=3.0)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf)
+    return scene
+
+
 INCH, KIP, KSI = 0.0254, 4448.2216152605, 6.894757293168e6
 """US customary units in SI (m, N, Pa), for the literature's ten-bar truss."""
 

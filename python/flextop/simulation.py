@@ -20,7 +20,7 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterable, Sequence, Union
+from typing import Any, Callable, Iterable, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -251,7 +251,7 @@ class Simulation:
     def run(self, x: DesignLike = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
             local_tol: float | None = None, t_end: float | None = None, h: float | None = None, rho_inf: float | None = None,
             tol: float | None = None, max_iter: int | None = None, newton: str | None = None, mass: str | None = None,
-            load_steps: int | None = None) -> Results | StaticResults:
+            load_steps: int | None = None, progress: Callable[[float], object] | None = None) -> Results | StaticResults:
         """Runs the scene for design ``x`` (``None``: every bar at full density).
 
         Dynamic scenes integrate to ``t_end`` with step ``h`` — at most ``t_end``, and
@@ -279,6 +279,9 @@ class Simulation:
         needs as many steps as uniform steps for the same error of d, or more (x = 0.4 arm;
         BENCHMARKS.md); it is meant for motions whose difficulty varies in time.
 
+        ``progress`` (a dynamic run on one discretization: fixed steps or ``local_tol``) is
+        called with the time reached (s) about every 50 ms, for a progress bar.
+
         Raises ``DesignError``, ``SettingsError``, ``SimulationError`` (with the time,
         residual and iteration count of a failed Newton step) or ``ToleranceError``.
         """
@@ -289,10 +292,12 @@ class Simulation:
         if local_tol is not None:
             if rtol is not None or self.analysis == "static":
                 raise SettingsError("local_tol applies to a dynamic run without rtol")
-            return self.run_fixed(xv, settings, local_tol=local_tol)
+            return self.run_fixed(xv, settings, local_tol=local_tol, progress=progress)
         wanted = self._tolerance(rtol, atol, h)
         if wanted is None:
-            return self.run_fixed(xv, settings)
+            return self.run_fixed(xv, settings, progress=progress)
+        if progress is not None:
+            raise SettingsError("progress reports a run on one discretization; a run to a tolerance makes several")
         names = [responses] if isinstance(responses, str) else list(responses or [self._default_response()])
         return refinement.to_tolerance(self, xv, names, wanted, settings, None)
 
@@ -315,7 +320,8 @@ class Simulation:
         return res
 
     def run_fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
-               steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Results | StaticResults:
+                  steps: np.ndarray | None = None, guide: np.ndarray | None = None,
+                  progress: Callable[[float], object] | None = None) -> Results | StaticResults:
         """One run on the scene as it is: uniform steps, the given ``steps``, or steps chosen
         to ``local_tol``; Newton starts each step from ``guide`` (a nearby run's ``q`` at
         the same times) when given. ``xv`` is a checked design vector and ``settings`` the
@@ -327,7 +333,8 @@ class Simulation:
             return static
         if local_tol is not None and (isinstance(local_tol, bool) or not isinstance(local_tol, (int, float, np.number))):
             raise SettingsError(f"local_tol must be a number, got {local_tol!r}")
-        raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps], guide)
+        raw = _core.simulate(self.model, xv, settings, local_tol, None if steps is None else [float(h) for h in steps], guide,
+                             progress)
         res = Results(self, raw, xv, settings)
         _warn_if_energy_created(res)
         _warn_if_drives_cut_off(self.joints, float(res.time[-1]))

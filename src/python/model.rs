@@ -47,7 +47,7 @@ impl PyModel {
     /// Builds a model from a scene dict, read with Ctrl-C heard.
     #[staticmethod]
     fn from_dict(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let value = heard(|| scene_value(spec))?;
+        let value = heard(None, || scene_value(spec))?;
         Self::built(py, move || scene_spec(value))
     }
 
@@ -242,13 +242,14 @@ impl PyModel {
     }
 }
 
-/// Every kind of response the engine computes, as `(name, syntax, doc, peak)`: what the
-/// Python side documents and checks names against (`peak`: a limit on it bounds its peak).
+/// Every kind of response the engine computes, as `(name, syntax, doc, peak, unit)`: what
+/// the Python side documents, labels and checks names against (`peak`: a limit on it
+/// bounds its peak).
 #[pyfunction]
-pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool)> {
+pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool, &'static str)> {
     crate::response::Response::kinds()
         .iter()
-        .map(|k| (k.name, k.syntax, k.doc, k.peak))
+        .map(|k| (k.name, k.syntax, k.doc, k.peak, k.unit))
         .collect()
 }
 

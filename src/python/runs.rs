@@ -11,7 +11,7 @@ use pyo3::types::PyDict;
 
 use super::convert::{csc, design, matrix, run_options, vector};
 use super::model::PyModel;
-use super::signals::detached;
+use super::signals::{detached, reporting};
 use crate::error::{Error, SettingsError};
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::Analysis;
@@ -31,9 +31,11 @@ use crate::time_grid::TimeGrid;
 /// (`h` of the settings), the given `steps`, or chosen by local error control to
 /// `local_tol` starting from `h`. With a `guide` (`q` of a nearby run at each time of
 /// the uniform steps, `t = 0` first) each step's Newton iterations start from it
-/// ([`crate::simulate_guided`]).
+/// ([`crate::simulate_guided`]). `progress`, if given, is called with the time reached (s)
+/// every 50 ms or so.
 #[pyfunction]
-#[pyo3(signature = (model, x=None, settings=None, local_tol=None, steps=None, guide=None))]
+#[pyo3(signature = (model, x=None, settings=None, local_tol=None, steps=None, guide=None, progress=None))]
+#[allow(clippy::too_many_arguments)] // the Python signature: each a keyword there
 pub fn simulate<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -42,6 +44,7 @@ pub fn simulate<'py>(
     local_tol: Option<f64>,
     steps: Option<Vec<f64>>,
     guide: Option<PyReadonlyArray2<'py, f64>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let settings = run_options(settings)?
@@ -49,7 +52,7 @@ pub fn simulate<'py>(
         .map_err(Error::from)?;
     let x = design(x)?;
     let guide = guide.map(|g| g.as_array().iter().copied().collect::<Vec<f64>>());
-    let traj = detached(py, move || match (local_tol, steps, guide) {
+    let traj = reporting(py, progress, move || match (local_tol, steps, guide) {
         (Some(_), _, Some(_)) => Err(SettingsError::new(
             "guide",
             "applies to uniform steps, not to local error control",

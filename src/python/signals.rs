@@ -41,21 +41,45 @@ pub fn detached<T: Send>(
     py: Python<'_>,
     work: impl FnOnce() -> Result<T, Error> + Send,
 ) -> PyResult<T> {
-    py.detach(move || heard(work))
+    reporting(py, None, work)
+}
+
+/// [`detached`], calling `progress` (if given) with the time the work reached (s) at each
+/// poll: an exception it raises stops the work as Ctrl-C does.
+pub fn reporting<T: Send>(
+    py: Python<'_>,
+    progress: Option<Py<PyAny>>,
+    work: impl FnOnce() -> Result<T, Error> + Send,
+) -> PyResult<T> {
+    py.detach(move || heard(progress, work))
 }
 
 /// Runs `work` on this thread, GIL held or not, polled for Python signals and for
-/// [`cancel_running`]: an exception a signal handler raises replaces the error `work`
-/// stopped with.
-pub fn heard<T>(work: impl FnOnce() -> Result<T, Error>) -> PyResult<T> {
+/// [`cancel_running`], calling `progress` (if given) with the time the work reached (s)
+/// at each poll: an exception a signal handler or `progress` raises replaces the error
+/// `work` stopped with.
+pub fn heard<T>(
+    progress: Option<Py<PyAny>>,
+    work: impl FnOnce() -> Result<T, Error>,
+) -> PyResult<T> {
     let started = CANCELLATIONS.load(Ordering::SeqCst);
     let raised: Rc<RefCell<Option<PyErr>>> = Rc::default();
     let held = Rc::clone(&raised);
-    let stop = move || match Python::attach(|py| signal(py, started)) {
-        Ok(()) => false,
-        Err(e) => {
-            *held.borrow_mut() = Some(e);
-            true
+    let stop = move || {
+        let heard = Python::attach(|py| {
+            signal(py, started)?;
+            let t = crate::interrupt::reached();
+            match &progress {
+                Some(report) if t.is_finite() => report.call1(py, (t,)).map(drop),
+                _ => Ok(()),
+            }
+        });
+        match heard {
+            Ok(()) => false,
+            Err(e) => {
+                *held.borrow_mut() = Some(e);
+                true
+            }
         }
     };
     let out = panic::catch_unwind(AssertUnwindSafe(|| crate::with_checker(stop, work)));

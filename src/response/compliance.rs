@@ -14,6 +14,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "mean compliance over the motion, (1/t_f) ∫ U dt of one component or all (J, paper \
           Eq. 39); a static scene's Fᵀu (J), global",
     peak: false,
+    unit: "J",
     parse,
 };
 

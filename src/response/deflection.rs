@@ -10,6 +10,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "mean squared deflection (1/t_f) ∫ |r − r_rigid|² dt of the scene's tip or a node \
           from its rigid trajectory (m², paper Eq. 40)",
     peak: false,
+    unit: "m²",
     parse,
 };
 

@@ -11,6 +11,7 @@ pub(super) const FINAL: Kind = Kind {
     doc: "a node's displacement along the direction (DX, DY), normalized, at the final time \
           or the static equilibrium (m)",
     peak: false,
+    unit: "m",
     parse: |model, rest| parse(model, rest, Weighting::Final),
 };
 
@@ -20,6 +21,7 @@ pub(super) const INTEGRATED: Kind = Kind {
     doc: "the time integral of a node's displacement along the direction (DX, DY), \
           normalized (m s)",
     peak: false,
+    unit: "m s",
     parse: |model, rest| parse(model, rest, Weighting::Integral),
 };
 

@@ -15,6 +15,7 @@ pub(super) const TORQUE: Kind = Kind {
           (p=P) or KS mean (ks=RHO,scale=S) as stress; p=2 is the RMS, a large p nears the \
           peak",
     peak: true,
+    unit: "N m",
     parse: |model, rest| parse_torque(model, rest, false),
 };
 
@@ -23,6 +24,7 @@ pub(super) const TORQUE_RMS: Kind = Kind {
     syntax: "torque_rms:JOINT",
     doc: "a drive's RMS torque over the motion (N m): torque with p=2",
     peak: false,
+    unit: "N m",
     parse: |model, rest| parse_torque(model, rest, true),
 };
 
@@ -31,6 +33,7 @@ pub(super) const TORQUE_SQUARED: Kind = Kind {
     syntax: "torque_squared:JOINT",
     doc: "∫ τ² dt of a drive (N² m² s): the copper losses a motor is sized by",
     peak: false,
+    unit: "N² m² s",
     parse: |model, rest| parse_row(model, rest, "torque_squared", Drive::TorqueSquared),
 };
 
@@ -40,6 +43,7 @@ pub(super) const WORK: Kind = Kind {
     doc: "the work ∫ τ ġ dt a drive does on the structure (J): positive where it drives, \
           negative where it brakes",
     peak: false,
+    unit: "J",
     parse: |model, rest| parse_row(model, rest, "drive_work", Drive::Work),
 };
 
@@ -49,6 +53,7 @@ pub(super) const ENERGY_DRAWN: Kind = Kind {
     doc: "the energy ∫ max(τ ġ, 0) dt a drive draws (J), none recovered where it brakes; \
           its gradient is exact wherever the power does not pass through zero at a step",
     peak: false,
+    unit: "J",
     parse: |model, rest| parse_row(model, rest, "energy_drawn", Drive::EnergyDrawn),
 };
 

@@ -13,6 +13,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "a joint's own coordinate at the end: a pin's or hinge's rotation from the \
           reference (rad), a slider's travel (m)",
     peak: false,
+    unit: "rad (m on a slider)",
     parse,
 };
 

@@ -11,6 +11,7 @@ pub(super) const KIND: Kind = Kind {
     syntax: "kinetic_energy",
     doc: "the time integral ∫ ½ q̇ᵀ M q̇ dt of the kinetic energy over the motion (J s)",
     peak: false,
+    unit: "J s",
     parse,
 };
 

@@ -52,6 +52,8 @@ pub struct Kind {
     /// bounds the peak (Le et al.'s normalization): the stresses, buckling and a drive's
     /// torque, not a mean by definition such as the RMS torque.
     pub peak: bool,
+    /// Its unit in SI ("1" for a ratio), for labels.
+    pub unit: &'static str,
     /// Builds the response from the model and the text after the name's `:` (if any).
     parse: Parser,
 }

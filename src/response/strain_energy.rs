@@ -11,6 +11,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "time-mean elastic energy (1/t_f) ∫ U dt of the beams of one component or all (J), \
           rigid motion storing none; U at a static equilibrium (where compliance is Fᵀu)",
     peak: false,
+    unit: "J",
     parse,
 };
 

@@ -27,6 +27,7 @@ pub(super) const STRESS: Kind = Kind {
           OPTIONS: p=P, a p-mean (p=8 by default), or ks=RHO,scale=S, a KS mean; q=Q the \
           relaxation (0.5 by default, 0 gives the solid material's stress)",
     peak: true,
+    unit: "Pa",
     parse: |model, rest| parse(model, rest, Criterion::Stress),
 };
 
@@ -36,6 +37,7 @@ pub(super) const SHEAR: Kind = Kind {
     doc: "the section's largest shear stress x^q k V/A, condensed as stress, with its \
           options (Pa)",
     peak: true,
+    unit: "Pa",
     parse: |model, rest| parse(model, rest, Criterion::Shear),
 };
 
@@ -45,6 +47,7 @@ pub(super) const BUCKLING: Kind = Kind {
     doc: "the compression over the pin-ended bar's Euler load, x^q P L²/(π² EI), condensed \
           as stress, with its options (dimensionless)",
     peak: true,
+    unit: "1",
     parse: |model, rest| parse(model, rest, Criterion::Buckling),
 };
 

@@ -11,6 +11,7 @@ pub(super) const KIND: Kind = Kind {
     syntax: "volume[:COMPONENT]",
     doc: "material volume Σ x_e V_e of one component or all (m³, paper Eq. 38, 41)",
     peak: false,
+    unit: "m³",
     parse,
 };
 

@@ -210,6 +210,27 @@ fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
     Ok(m)
 }
 
+/// How finely a law's values must be held, relative to its travel (to 1 rad or m for a
+/// law that holds still): a double holds `θ` only to `|θ| ε`, so a law from 1e15 rad
+/// moves by multiples of 0.125 rad, and one from 1e17 rad not at all.
+const RESOLUTION: f64 = 1e-6;
+
+/// `start` if a law between `start` and `end` is held by doubles to [`RESOLUTION`] of its
+/// travel; a `SceneError` naming the law otherwise (it would turn by another angle, or not
+/// at all, without a word).
+fn resolved(path: &str, start: f64, end: f64) -> Result<f64> {
+    let spacing = start.abs().max(end.abs()) * f64::EPSILON;
+    let travel = (end - start).abs();
+    if spacing > RESOLUTION * if travel > 0.0 { travel } else { 1.0 } {
+        return Err(SceneError::new(
+            path,
+            format!("moves {travel:.3e} from {start:.6e}, where numbers are held only to {spacing:.3e}: the motion \
+                     would be lost in rounding; give it from the joint's position (start = 0)"),
+        ));
+    }
+    Ok(start)
+}
+
 /// The motion law at `path`: a trapezoidal velocity profile, or a clamped cubic spline
 /// through samples `(t_k, θ_k)`.
 pub(super) fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
@@ -222,7 +243,7 @@ pub(super) fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
             t_start,
             ..
         } => Motion::Trapezoidal(Trapezoidal::new(
-            finite(&format!("{path}.start"), *start)?,
+            resolved(path, finite(&format!("{path}.start"), *start)?, *end)?,
             finite(&format!("{path}.end"), *end)?,
             positive(&format!("{path}.acceleration"), *acceleration)?,
             positive(&format!("{path}.speed"), *speed)?,
@@ -236,6 +257,12 @@ pub(super) fn motion(path: &str, m: &MotionSpec) -> Result<Motion> {
             ..
         } => {
             samples(path, t, theta, "theta")?;
+            let (low, high) = theta
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            resolved(path, low, high)?;
             let v0 = finite(&format!("{path}.start_velocity"), *start_velocity)?;
             let v1 = finite(&format!("{path}.end_velocity"), *end_velocity)?;
             Motion::Table(Table::new(t.clone(), theta.clone(), [v0, v1]))

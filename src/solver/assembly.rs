@@ -432,6 +432,43 @@ impl<'m> Assembler<'m> {
         self.structural
     }
 
+    /// The dampings whose `C` follows the state, in the scene's words, for messages: the
+    /// bars with stiffness-proportional damping, the dampers on distances or axes.
+    pub fn structural_damping_sources(&self) -> String {
+        let damped: Vec<&str> = self
+            .model
+            .bars
+            .iter()
+            .filter(|b| {
+                self.model.elements[b.elements.clone()]
+                    .iter()
+                    .any(|e| e.beam.section.beta > 0.0)
+            })
+            .map(|b| b.name.as_str())
+            .collect();
+        let dampers: Vec<String> = self
+            .model
+            .springs
+            .iter()
+            .filter(|s| s.damps_nonlinearly())
+            .map(|s| format!("'{}'", s.name))
+            .collect();
+        let mut parts = Vec::new();
+        if let Some(first) = damped.first() {
+            let others = match damped.len() {
+                1 => String::new(),
+                n => format!(" and {} other bars", n - 1),
+            };
+            parts.push(format!(
+                "stiffness-proportional damping (β > 0 on bar '{first}'{others})"
+            ));
+        }
+        if !dampers.is_empty() {
+            parts.push(format!("the damper {}", dampers.join(", ")));
+        }
+        parts.join(" and ")
+    }
+
     /// Adds the damping whose `C` follows the state at `(q, v)` to `f` — the beams'
     /// stiffness-proportional `Σ s(x_e) β Bᵀ D B q̇` and the dampers on distances or carried
     /// axes; with `matrix = Some((γ', values))` also `γ' ∂f_d/∂q̇` and the symmetric part of
@@ -831,6 +868,34 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         }
+    }
+
+    /// A failed sensitivity solve names the damping at fault in the scene's words: a
+    /// damper on a distance was called stiffness-proportional damping before.
+    #[test]
+    fn state_following_damping_is_named_by_its_source() {
+        let text = include_str!("../../examples/slider_crank.toml");
+        let source = |extra: &str| {
+            let spec = crate::scene::parse_toml(&format!("{text}\n{extra}")).unwrap();
+            let model = crate::scene::build(&spec).unwrap();
+            let asm = Assembler::new(&model, model.densities(None).unwrap(), MassKind::Consistent)
+                .unwrap();
+            asm.structural_damping_sources()
+        };
+        let damper = "[[springs]]\nname = \"d\"\nnodes = [\"rod0\", \"rod4\"]\nk = 0.0\nc = 5.0\n";
+        assert_eq!(source(damper), "the damper 'd'");
+        let rayleigh = text.replace(
+            "diameter = 0.006",
+            "diameter = 0.006\nrayleigh = [0.0, 1e-4]",
+        );
+        let spec = crate::scene::parse_toml(&rayleigh).unwrap();
+        let model = crate::scene::build(&spec).unwrap();
+        let asm =
+            Assembler::new(&model, model.densities(None).unwrap(), MassKind::Consistent).unwrap();
+        assert_eq!(
+            asm.structural_damping_sources(),
+            "stiffness-proportional damping (β > 0 on bar 'rod/bar0' and 3 other bars)"
+        );
     }
 
     /// With joints on rigid-body points and a slider, the iteration matrix's joint part —

@@ -210,7 +210,7 @@ impl<'m> Integrator<'m> {
         h: f64,
         guess: Option<&[f64]>,
     ) -> Result<NewtonReport, SolveError> {
-        crate::interrupt::poll()?;
+        crate::interrupt::poll_at(s.t)?;
         let AlphaParameters {
             alpha_m,
             alpha_f,

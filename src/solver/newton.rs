@@ -517,6 +517,7 @@ impl<'m> Newton<'m> {
         }
         Err(SolveError::Unsettled {
             time: self.factored_at,
+            damping: self.asm.structural_damping_sources(),
         })
     }
 

@@ -70,6 +70,28 @@ def test_simulate_a_scene_file_and_save_results(tmp_path):
     assert (tmp_path / "tip_error.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.parametrize("scene, figure, title", [
+    ("pendulum", "paths.png", "pendulum, no design variables"),
+    ("static_truss", "deformed.png", "static_truss, x = 0.4 on every bar"),
+    ("robot_arm", "tip_error.png", "robot_arm, x = 0.4 on every bar"),
+])
+def test_every_simulated_scene_gets_a_figure_titled_by_its_design(tmp_path, monkeypatch, scene, figure, title):
+    """The pendulum and the static truss wrote no figure; the arm's was titled "before
+    optimization" by a command that optimizes nothing. simulate runs x = 0.4 by default,
+    as demo and optimize do."""
+    from flextop import cli, plots
+
+    titles = []
+    for name in ("plot_paths", "plot_deformed", "plot_tip_error"):
+        def spy(*args, _original=getattr(plots, name), **kwargs):
+            titles.append(kwargs.get("title") or kwargs.get("labels", ("",))[0])
+            return _original(*args, **kwargs)
+        monkeypatch.setattr(plots, name, spy)
+    assert cli.main(["simulate", scene, "--out", str(tmp_path)]) == 0
+    assert (tmp_path / figure).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert titles == [title]
+
+
 def test_a_fixed_run_prints_its_own_error_estimate_and_says_when_it_is_rough():
     """The full-density arm at the scene's step is tens of percent off; x = 0.4 is not."""
     rough = flextop_cli("simulate", EXAMPLES / "robot_arm.toml", "--x", "1.0")
@@ -254,3 +276,19 @@ def test_stress_and_buckling_limits_from_the_command_line(tmp_path):
     assert "--max-stress" in resumed.stderr
     mixed = flextop_cli("optimize", "--scenarios", "robust_robot_arm", "--max-buckling", "1", "--out", tmp_path / "s", codes=(2,))
     assert mixed.stderr.strip() == "flextop: error: --max-buckling applies to one scene, not to --scenarios"
+
+
+def test_a_new_run_does_not_replace_an_earlier_checkpoint_without_force(tmp_path, capsys):
+    """A new `flextop optimize` into a folder holding an interrupted, resumable run replaced
+    its checkpoint."""
+    from flextop import cli
+
+    assert cli.main(["optimize", "static_truss", "--max-iter", "2", "--no-plots", "--out", str(tmp_path)]) == 3  # not converged
+    saved = (tmp_path / "checkpoint.json").read_bytes()
+    capsys.readouterr()
+    assert cli.main(["optimize", "static_truss", "--max-iter", "3", "--no-plots", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "holds a run that can be resumed from iteration 2 (--resume goes on with it)" in err
+    assert (tmp_path / "checkpoint.json").read_bytes() == saved
+    assert cli.main(["optimize", "static_truss", "--max-iter", "3", "--no-plots", "--out", str(tmp_path), "--force"]) == 3
+    assert (tmp_path / "checkpoint.json").read_bytes() != saved

@@ -404,3 +404,24 @@ def test_scene_methods_given_wrong_types_raise_scene_errors():
             except Exception as e:  # noqa: BLE001 - what the test looks for
                 foreign.append(f"{method}({slot}={value!r}): {type(e).__name__}: {e}")
     assert not foreign, "\n".join(foreign[:20])
+
+
+def test_a_long_run_reports_its_progress_and_its_reporter_can_stop_it():
+    """A long `flextop simulate` showed no progress: the engine now reports the time it
+    reached to a callback (the command line's progress bar)."""
+    sim = flextop.Simulation(flextop.scenes.robot_arm())
+    reached = []
+    res = sim.run(0.4, h=5e-4, progress=reached.append)  # about a second of work: reports every 50 ms
+    assert len(reached) >= 3 and np.all(np.diff(reached) > 0) and 0.0 <= reached[0] and reached[-1] <= res.time[-1]
+    assert set(reached) <= set(res.time.tolist())  # the times of states reached, not guesses
+
+    class Enough(Exception):
+        pass
+
+    def stop(t):
+        if t > 0.2:
+            raise Enough(t)
+    with pytest.raises(Enough):
+        sim.run(0.4, h=5e-4, progress=stop)
+    with pytest.raises(SettingsError, match="a run to a tolerance makes several"):
+        sim.run(0.4, rtol=1e-2, progress=print)

@@ -43,6 +43,21 @@ def test_scipy_slsqp_reaches_the_optimum_with_one_evaluation_per_design(mma_opti
     assert args["fun"].evaluations.calls <= result.nfev + result.njev  # fun, jac and g shared their runs
 
 
+def test_the_scipy_result_holds_the_objective_in_its_own_units(mma_optimum):
+    """The adapter's fun was f/f_ref; an OptimizeResult's users expect the objective's value."""
+    from flextop.interop.scipy import minimize as flextop_minimize
+
+    scale, f_star = mma_optimum
+    problem = convex_truss()
+    problem.objective_scale = scale
+    result = flextop_minimize(problem, np.full(problem.n, 0.4), "SLSQP", options={"ftol": 1e-12, "maxiter": 500})
+    assert result.success, result.message
+    assert result.fun == pytest.approx(f_star, rel=1e-4) and result.fun == result.fun_scaled * scale
+    assert np.allclose(result.jac, result.jac_scaled * scale, rtol=1e-10, atol=0)
+    f, constrained, _ = problem.physical(problem.evaluate(result.x))
+    assert result.fun == f and np.array_equal(result.constrained, constrained)
+
+
 def test_openmdao_component_passes_check_partials_and_optimizes(mma_optimum):
     om = pytest.importorskip("openmdao.api")
     from flextop.interop.openmdao import ProblemComponent

@@ -43,15 +43,19 @@ def test_design_width_and_colour_follow_density(arm):
     rho = x[np.asarray(arm.bars.variable)]
     widths = np.asarray(lines.get_linewidths())
     assert widths.shape == rho.shape
-    order = np.argsort(rho)
-    assert np.all(np.diff(widths[order]) > 0), "a denser bar must be drawn wider"
-    assert widths[order[-1]] / widths[order[0]] > 5
+    # Bars are drawn from the lightest to the densest, so that the solid ones lie on top.
+    order = np.argsort(rho, kind="stable")
+    segments = np.asarray(lines.get_segments())
+    ends = np.asarray(arm.model.reference_positions)[np.asarray(arm.bars.nodes)]
+    np.testing.assert_array_equal(segments, ends[order])
+    assert np.all(np.diff(widths) > 0), "a denser bar must be drawn wider"
+    assert widths[-1] / widths[0] > 5
 
     cmap, norm = matplotlib.colormaps[plots.DEFAULT_CMAP], Normalize(arm.x_min, 1.0)
     colors = lines.get_colors()
-    np.testing.assert_allclose(colors[order[0]], cmap(0.0))   # x_min: the colormap's low end
-    np.testing.assert_allclose(colors[order[-1]], cmap(1.0))  # full density: its high end
-    np.testing.assert_allclose(colors, cmap(norm(rho)))
+    np.testing.assert_allclose(colors[0], cmap(0.0))   # x_min: the colormap's low end
+    np.testing.assert_allclose(colors[-1], cmap(1.0))  # full density: its high end
+    np.testing.assert_allclose(colors, cmap(norm(rho[order])))
     colorbar = fig.axes[1]
     assert colorbar.get_ylabel() == "Density"
     np.testing.assert_allclose(colorbar.get_ylim(), (arm.x_min, 1.0))
@@ -64,12 +68,15 @@ def test_design_draws_bars_between_end_nodes_fixed_at_full_density():
     lines = fig.axes[0].collections[0]
     ref = sim.model.reference_positions
     # one straight segment per bar (the split bar's interior nodes are skipped)
-    np.testing.assert_allclose(lines.get_segments(), [ref[[0, 1]], ref[[1, 2]]])
+    # (the light bar first, the solid one on top)
+    np.testing.assert_allclose(lines.get_segments(), [ref[[1, 2]], ref[[0, 1]]])
     widths, colors = np.asarray(lines.get_linewidths()), lines.get_colors()
     cmap = matplotlib.colormaps[plots.DEFAULT_CMAP]
-    assert widths[0] == pytest.approx(plots.WIDTHS[1]) and widths[1] == pytest.approx(plots.WIDTHS[0])
-    np.testing.assert_allclose(colors[0], cmap(1.0))  # fixed bar: density 1, opaque
-    assert colors[1][3] == pytest.approx(plots.FAINT_ALPHA)  # below min_density: faint
+    assert widths[1] == pytest.approx(plots.WIDTHS[1]) and widths[0] == pytest.approx(plots.WIDTHS[0])
+    np.testing.assert_allclose(colors[1], cmap(1.0))  # fixed bar: density 1, opaque
+    assert colors[0][3] == pytest.approx(plots.FAINT_ALPHA)  # below min_density: faint
+    # its support is drawn and named
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["ground joint"]
     with pytest.raises(flextop.errors.DesignError, match="the design has 2 entries; the scene has 1 design variables"):
         plots.plot_design(sim, [0.5, 0.5])
 
@@ -103,7 +110,7 @@ def test_design_by_component_draws_each_link_in_its_own_frame_with_faint_voids(a
         # its own frame: 1 m along x from 0, 0.1 m across from 0, whatever the link's pose
         assert np.allclose([segments[..., 0].min(), segments[..., 0].max()], [0.0, 1.0], atol=1e-12)
         assert np.allclose([segments[..., 1].min(), segments[..., 1].max()], [0.0, 0.1], atol=1e-12)
-        rho = x[np.asarray(arm.bars.variable)[component == k]]
+        rho = np.sort(x[np.asarray(arm.bars.variable)[component == k]], kind="stable")
         alpha = lines.get_colors()[:, 3]
         assert np.all(alpha[rho <= arm.x_min] == plots.FAINT_ALPHA) and np.all(alpha[rho == 1.0] == 1.0)
 
@@ -151,14 +158,17 @@ def test_tip_error_plots_both_components(short_runs, tmp_path):
     fig = plots.plot_tip_error(before, after, path=tmp_path / "tip.png")
     assert (tmp_path / "tip.png").stat().st_size > 0
     assert len(fig.axes) == 2
-    assert fig.axes[0].get_shared_y_axes().joined(fig.axes[0], fig.axes[1])
+    # Each panel its own y axis, so that the smaller error keeps its shape; peaks in the titles.
+    assert not fig.axes[0].get_shared_y_axes().joined(fig.axes[0], fig.axes[1])
     for ax, res in zip(fig.axes, short_runs):
         ex, ey = ax.get_lines()
-        assert (ex.get_label(), ey.get_label()) == ("error-x", "error-y")
+        assert (ex.get_label(), ey.get_label()) == ("x", "y")
+        peak = 1e3 * np.linalg.norm(res.tip_error(), axis=1).max()
+        assert ax.get_title().endswith(f"peak {peak:.3g} mm")
         np.testing.assert_array_equal(ex.get_xdata(), res.time)
         np.testing.assert_array_equal(ex.get_ydata(), 1e3 * res.tip_error()[:, 0])  # in mm
         np.testing.assert_array_equal(ey.get_ydata(), 1e3 * res.tip_error()[:, 1])
-    assert fig.axes[0].get_ylabel() == "deflection (mm)"
+    assert fig.axes[0].get_ylabel() == "tip − rigid trajectory (mm)"
     assert fig.axes[0].get_title().startswith("before optimization")
     assert np.abs(after.tip_error()).max() > np.abs(before.tip_error()).max()  # the two panels differ
 
@@ -206,12 +216,12 @@ def test_animate_draws_about_a_hundred_frames_of_a_long_run(arm, tmp_path):
 
 def test_history_from_iteration_zero_on_a_log_axis_in_both_units():
     history = [{"iteration": k, "f0": 10.0 ** -k, "g": [-0.1], "change": 0.0 if k == 0 else 0.1} for k in range(5)]
-    fig = plots.plot_history(history, objective_label="d", objective_scale=2e-3, constraint_labels=["volume:link1"])
+    fig = plots.plot_history(history, objective_label="tip_deflection", objective_scale=2e-3, constraint_labels=["volume:link1"])
     top = fig.axes[0]
     (objective,) = top.get_lines()
-    assert objective.get_xdata()[0] == 0 and top.get_yscale() == "log" and top.get_ylabel() == "d / f_ref"
+    assert objective.get_xdata()[0] == 0 and top.get_yscale() == "log" and top.get_ylabel() == "tip_deflection / f_ref"
     (right,) = top.child_axes
-    assert right.get_ylabel() == "d (its units)"
+    assert right.get_ylabel() == "tip_deflection (m²)"  # the engine's unit: "(its units)" before
     assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["volume:link1", "design change"]
 
 

@@ -134,6 +134,64 @@ def test_a_grading_that_misses_the_error_raises_every_bar():
     assert d.refinement <= 4, "the stalled refinement was not pursued"
 
 
+def test_a_floor_that_misses_the_error_goes_back_and_the_bars_of_most_need_go_on():
+    """An error that only the bars of most need carry, before its asymptotic range (its sign
+    alternating with each doubling of their elements up to 16, as a soft bar's gradient
+    does while its own higher modes come into the band): raising the other bars does
+    nothing, so the floor goes back and the refinement of those bars goes on."""
+    from flextop.discretization.tolerance import Tolerance, resolve
+
+    def values(d, companion=False):
+        top = d.refinement * d.uniform
+        error = 0.05 * (-1) ** int(np.log2(top)) if top < 16 else 0.05 * (16 / top) ** 2
+        return [np.array([2.0 + error])]
+
+    few = lambda d: (99 * d.floor + d.refinement) / 100 * d.uniform  # noqa: E731 - one bar of a hundred refined
+    d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-2]), np.array([0.0])), few)
+    assert d.floor == 1 and d.refinement >= 16 and abs(values(d)[0][0] - 2.0) <= 1e-2 * 2.0
+
+
+def stayed_frame(stay_elements: int | None = None) -> flextop.Scene:
+    """flextop.scenes.stayed_frame, its stay split into ``stay_elements`` if given."""
+    scene = flextop.scenes.stayed_frame()
+    if stay_elements is not None:
+        scene.split("stay", stay_elements)
+    return scene
+
+
+def test_a_soft_stay_in_a_solid_frame_is_refined_alone_to_the_tolerance():
+    """The stay at x = 0.1 (its own first mode 9 Hz, the frame's bars 22 kHz) is the one bar
+    refined. Its gradient is before its asymptotic range up to 16 elements — the change
+    from 8 to 16 is larger than from 4 to 8 — so a run to rtol = 1e-2 ended in a
+    ToleranceError (estimated gradient error 42 % with every bar at 16×): the floor raised
+    over bars that carry no error, into the limit on the scene's elements. Now the stay
+    alone goes to 128 elements, and d and ∇d are within rtol and 5·rtol of the converged
+    values (the stay at 256 elements, twice the steps), the estimates not below them."""
+    x = None
+    changes = []
+    previous = None
+    for m in (4, 8, 16):
+        sim = flextop.Simulation(stayed_frame(m))
+        x = np.where(np.array(sim.variable_names) == "stay", 0.1, 1.0)
+        run = sim.run_with_sensitivities(x, "tip_deflection", h=0.6 / 1920)
+        if previous is not None:
+            changes.append(np.linalg.norm(run.gradients - previous.gradients))
+        previous = run
+    assert changes[1] > changes[0], "the stay's gradient is before its asymptotic range"
+
+    sim = flextop.Simulation(stayed_frame())
+    sens = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2)
+    factors = sim.levels.factors(sens.discretization, x)
+    stay = list(sim.bars.name).index("stay")
+    assert factors[stay] >= 64 and np.all(np.delete(factors, stay) == 1)
+    converged = flextop.Simulation(stayed_frame(256)).run_with_sensitivities(x, "tip_deflection", h=0.6 / (2 * sens.discretization.steps))
+    error_d = abs(sens.values[0] / converged.values[0] - 1.0)
+    error_grad = np.linalg.norm(sens.gradients - converged.gradients) / np.linalg.norm(converged.gradients)
+    assert error_d <= 1e-2 and error_grad <= 5e-2
+    assert sens.errors["tip_deflection"] >= error_d / 2 or error_d <= 1e-3
+    assert sens.gradient_errors["tip_deflection"] >= error_grad / 2 or error_grad <= 5e-3
+
+
 def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_moved():
     """Near the design measured last, an evaluation runs on its grid as graded there."""
     sim = flextop.Simulation(flextop.scenes.spun_beam())

@@ -115,6 +115,13 @@ def test_every_executor_gives_the_same_bits():
             distributed.Client(cluster) as client:
         assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=client.get_executor())))
         assert _same(flat(serial), flat(evaluate(cases, designs, ["tip_deflection", "compliance"], executor=client)))  # its executor
+        # A whole optimization sent to the cluster (the problem pickled by its scene): the same bits.
+        problem = flextop.TopologyProblem(flextop.Simulation(arm()), "tip_deflection",
+                                          flextop.volume_constraints(flextop.Simulation(arm()), 0.4))
+        x0 = np.full(problem.n, 0.4)
+        there = client.submit(flextop.optimize, problem, x0, "mma", max_iter=2).result()
+        here = flextop.optimize(problem, x0, "mma", max_iter=2)
+        assert np.array_equal(there.x, here.x) and there.fun == here.fun
     with pytest.raises(ExecutionError, match="the Dask client is closed"):
         evaluate(cases, designs, "tip_deflection", executor=client)
 

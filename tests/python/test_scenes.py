@@ -161,6 +161,10 @@ def bad(mutate):
         (lambda s: s["simulation"].update(rho_inf=1.5), "simulation.rho_inf"),
         (lambda s: s["joints"][0]["drive"].pop("acceleration"), "joints[0].drive: a trapezoidal law needs `acceleration`"),
         (lambda s: s["joints"][0]["drive"].update(acceleration="x"), "joints[0].drive.acceleration: expected a number, got the text \"x\""),
+        # A law from 1e15 rad turned 0.125 rad instead of 0.15, from 1e17 rad not at all.
+        (lambda s: s["joints"][0]["drive"].update(start=1e15, end=1e15 + 0.15), "joints[0].drive: moves 1.250e-1 from 1.000000e15, where numbers are held only to 2.220e-1"),
+        (lambda s: s["joints"][0]["drive"].update(start=1e17, end=1e17 + 0.15), "joints[0].drive: moves 0.000e0 from 1.000000e17"),
+        (lambda s: s["joints"].__setitem__(0, {**s["joints"][0], "drive": flextop.motion_table([0.0, 0.5, 1.0], [1e12, 1e12 + 0.1, 1e12 + 0.2])}), "joints[0].drive: moves 2.000e-1 from 1.000000e12"),
         # Types are kept, not taken by truthiness: "false" fixed a bar, True was 1 kg.
         (lambda s: s["ground_structures"][0].update(rigid="false"), 'ground_structures[0].rigid: expected true or false, got the text "false"'),
         (lambda s: s["ground_structures"][0].update(rigid=1), "ground_structures[0].rigid: expected true or false, got the whole number `1`"),
@@ -291,3 +295,19 @@ def test_a_scene_written_in_degrees_runs_as_the_one_in_radians(tmp_path):
     path.write_text(text.replace(rad, rad.replace("start =", "start_deg = 60.0, start =")))
     with pytest.raises(flextop.SceneError, match="`start` .rad. or `start_deg`, not both"):
         flextop.Simulation(path)
+
+
+def test_the_builder_refuses_a_second_entry_of_one_name():
+    """A second section (or split, or initial rate) of one name replaced the first without
+    a word; TOML refuses a key given twice, and so does the builder now."""
+    scene = flextop.scenes.spun_beam()
+    with pytest.raises(SceneError, match="section 'aluminium': given twice"):
+        scene.section("aluminium", E=1e9, rho=1000.0, nu=0.3, diameter=0.01)
+    scene.split("bar0", 2)
+    with pytest.raises(SceneError, match="split 'bar0': given twice"):
+        scene.split("bar0", 3)
+    pendulum = flextop.scenes.pendulum()
+    pendulum.initial_rate("pivot", 1.0)
+    with pytest.raises(SceneError, match="initial_rate 'pivot': given twice"):
+        pendulum.initial_rate("pivot", 2.0)
+    assert scene.to_dict()["sections"]["aluminium"]["E"] == 70e9 and scene.to_dict()["splits"] == {"bar0": 2}

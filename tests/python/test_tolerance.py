@@ -248,3 +248,48 @@ def test_a_time_error_clearly_over_budget_is_judged_without_a_space_error():
     verdict = tolerance._judge(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-3]), np.array([0.0])))
     assert verdict.worst_space == 0.0 and verdict.estimate.space[0] == 0.0 and verdict.worst_time > 2.0
     assert all(d.uniform == 1 for d in calls), "the space companion did not run"
+
+
+def _rod(force):
+    """A clamped bar loaded along its axis at its end: in tension no bar can buckle."""
+    s = flextop.Scene("rod", analysis="static")
+    s.section("s", E=70e9, nu=0.3, rho=2700.0, diameter=0.02)
+    s.node("a", 0.0, 0.0)
+    s.node("b", 1.0, 0.0)
+    s.beam("a", "b", section="s", name="ab")
+    s.clamp("c", "a")
+    s.load("b", force=force)
+    s.design(interpolation="simp", p=3.0)
+    return flextop.Simulation(s).run(1.0)
+
+
+def test_a_response_of_value_zero_has_no_relative_error_but_an_absolute_one():
+    """error_estimate("buckling") returned inf where the value was 0."""
+    tension, compression = _rod((1000.0, 0.0)), _rod((-1000.0, 0.0))
+    assert tension.response("buckling") == 0.0 and compression.response("buckling") > 0.0
+    assert tension.error_estimate("buckling") == 0.0  # 0 of 0: both companions agree exactly
+    tension.companions = (None, None, compression)  # a companion that disagrees with the zero
+    with pytest.raises(SettingsError, match=r"response 'buckling' is 0 on this run, so it has no relative error; "
+                                            r"its estimated absolute error is 0\.369"):
+        tension.error_estimate("buckling")
+    absolute = tension.error_estimate("buckling", absolute=True)
+    assert absolute > 0.0
+    assert absolute == estimate([np.zeros(1)], None, None, [np.array([compression.response("buckling")])]).total[0]
+
+
+def test_a_failed_companion_is_named_as_the_companion(monkeypatch):
+    """A run that succeeded had its estimate fail with the coarser companion's "use a smaller
+    step"; the failure now says that the run succeeded and which companion failed."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    res = sim.run(1.0, t_end=0.1)
+    fixed = sim.run_fixed
+
+    def coarse_fails(xv, settings, **kw):
+        if kw.get("steps") is not None:
+            raise SimulationError("Newton did not converge at t = 0.02 s; use a smaller step h")
+        return fixed(xv, settings, **kw)
+
+    monkeypatch.setattr(sim, "run_fixed", coarse_fails)
+    with pytest.raises(SimulationError, match=r"the error cannot be estimated: the run succeeded, but its companion on "
+                                              r"its steps merged in pairs failed \(Newton did not converge"):
+        res.error_estimate("tip_deflection")

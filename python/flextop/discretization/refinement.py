@@ -160,11 +160,24 @@ def companions_of(run: _Run) -> tuple[_Run | None, _Run | None, _Run]:
             steps = run.raw["steps"][1:]  # the step sizes that ran (Results.steps)
             if len(steps) < 4:
                 raise SettingsError("an error estimate needs a run of at least 4 steps")
-            half, quarter = (simulation.run_fixed(run.x, run.settings, steps=merged(steps, k)) for k in (2, 4))
+            half, quarter = (_companion_run(f"its steps merged {'in pairs' if k == 2 else 'in fours'}",
+                                            lambda k=k: simulation.run_fixed(run.x, run.settings, steps=merged(steps, k)))
+                             for k in (2, 4))
         split_steps = None if steps is None else merged(steps, 2)
-        split = companion(simulation.levels[2], run.x, run.settings, run.settings, half, split_steps)
+        split = _companion_run("twice the elements per bar", lambda: companion(simulation.levels[2], run.x, run.settings,
+                                                                                run.settings, half, split_steps))
         run.companions = (half, quarter, split)
     return run.companions
+
+
+def _companion_run(what: str, make: Any) -> Any:
+    """A companion run of an error estimate, whose failure is named as the companion's: the
+    run being judged succeeded, a coarser run beside it did not."""
+    try:
+        return make()
+    except SimulationError as error:
+        raise SimulationError(f"the error cannot be estimated: the run succeeded, but its companion on {what} failed "
+                              f"({error}); a run to a tolerance (rtol=...) estimates it from finer runs") from None
 
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],

@@ -87,8 +87,10 @@ MIN_RTOL = 1e-6
 """Smallest ``rtol`` accepted: step doubling cannot resolve differences near Newton's
 tolerance (1e-10 of the forces) and the round-off of long runs."""
 
-MAX_REFINEMENT = 64
-"""Largest factor on a bar's elements in the scene."""
+MAX_REFINEMENT = 128
+"""Largest factor on a bar's elements in the scene: a soft bar's own modes may need that
+many (a 1 m stay at x = 0.1 in a frame of solid 4 cm bars: its gradient within 5 % at
+128), and the limit on all the scene's elements bounds the cost."""
 
 MAX_ELEMENTS_FACTOR = 16
 """Largest factor on the scene's number of elements: a candidate's model (its space
@@ -102,6 +104,13 @@ STALLED = 0.5
 was has missed where the error is (bars of little need by mass and frequency, such as
 void bars whose own gradients the chords' refinement does not touch): from then on the
 least factor of every bar doubles (up to the refinement)."""
+
+UNMOVED = 0.9
+"""A raised floor that leaves the space error above this share of what it was has missed
+the error as well: the bars that need most are still before their asymptotic range (a
+soft bar whose own higher modes come into the band as its elements double, its gradient
+changing sign between 4, 8 and 16 elements), so the floor goes back and those bars are
+refined further."""
 
 MAX_FAILED_REFINEMENTS = 3
 """Refinements in a row whose runs fail (more steps, or elements, each time) before a run
@@ -252,6 +261,9 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         failed = failed + 1 if verdict.failed else 0
         if failed > MAX_FAILED_REFINEMENTS and failures:
             raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
+        if (before is not None and d.floor > before[0].floor and d.refinement == before[0].refinement
+                and verdict.worst_space > UNMOVED * before[1]):
+            d = replace(d, floor=before[0].floor)  # the floor missed the error too: back to the bars that need most
         stalled = before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
         refined = _refine(d, verdict.worst_time, verdict.worst_space, everywhere=stalled or d.floor > 1)
         before = (d, verdict.worst_space)
