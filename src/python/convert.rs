@@ -154,6 +154,13 @@ fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (Stri
     if kind().starts_with("bool") {
         return Ok(toml::Value::Boolean(value.is_truthy().unwrap_or(false)));
     }
+    // An array (numpy's scalars too) as its Python values: an array has `__index__` as well.
+    if value.hasattr("tolist").unwrap_or(false) && value.hasattr("ndim").unwrap_or(false) {
+        let list = value
+            .call_method0("tolist")
+            .map_err(|e| (path.into(), e.to_string()))?;
+        return toml_value(&list, path);
+    }
     if value.is_instance_of::<PyInt>() || value.hasattr("__index__").unwrap_or(false) {
         return value
             .extract::<i64>()
@@ -164,12 +171,6 @@ fn toml_value(value: &Bound<'_, PyAny>, path: &str) -> Result<toml::Value, (Stri
                     format!("the whole number {value} is too large"),
                 )
             });
-    }
-    if value.hasattr("tolist").unwrap_or(false) && value.hasattr("ndim").unwrap_or(false) {
-        let list = value
-            .call_method0("tolist")
-            .map_err(|e| (path.into(), e.to_string()))?;
-        return toml_value(&list, path);
     }
     if value.hasattr("__float__").unwrap_or(false) {
         return value

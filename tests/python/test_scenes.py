@@ -196,6 +196,7 @@ def test_numpy_values_keep_their_types():
     spec["beams"][0].update(fixed=np.True_, split=np.int64(2))
     spec["point_masses"][0].update(mass=np.float32(0.25))
     spec["nodes"][1].update(x=np.float64(0.125))
+    spec["joints"][0]["drive"] = {"kind": "table", "t": np.linspace(0.0, 0.6, 4), "theta": np.array([0.0, 0.1, 0.5, 0.6])}
     sim = flextop.Simulation(spec)
     assert sim.n_design == 7 and "bar0" not in sim.variable_names
 
