@@ -32,6 +32,7 @@ class BarTable(TypedDict):
     component: list[int]  # index into Model.components
     volume: _F  # full-density volume, (n_bars,), m³
     elements: list[int]  # how many elements each bar is split into
+    kind: list[str]  # "frame" (Timoshenko beams) or "truss" (one pin-jointed bar)
 
 @type_check_only
 class ElementTable(TypedDict):

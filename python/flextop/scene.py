@@ -127,11 +127,13 @@ class Scene:
 
     def ground_structure(self, name: str, *, nx: int, ny: int, length: float, height: float, section: str,
                          origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0, split: int = 1,
-                         fixed: bool = False, rigid: bool = False) -> GroundStructure:
+                         fixed: bool = False, rigid: bool = False, kind: str = "frame") -> GroundStructure:
         """An ``nx × ny`` ground structure over ``length × height`` in a frame at ``origin``
         (coordinates or a node name) rotated by ``angle``: bars between every pair of grid
         nodes whose segment holds no third node, each split into ``split`` elements, one
-        design variable per bar unless ``fixed``. ``rigid`` makes it one rigid body with the
+        design variable per bar unless ``fixed``. ``kind = "truss"`` makes each bar one
+        pin-jointed truss bar (axial force only; a node only truss bars meet has no rotation)
+        instead of the frame's Timoshenko beams. ``rigid`` makes it one rigid body with the
         frame's mass and inertia (a link not being designed, three unknowns), its grid
         nodes the body's points."""
         origin = _listed(origin)
@@ -139,15 +141,19 @@ class Scene:
                  "angle": angle, "section": section, "split": split, "fixed": fixed}
         if rigid:
             entry["rigid"] = True
+        if kind != "frame":
+            entry["kind"] = kind
         self._spec.setdefault("ground_structures", []).append(entry)
         return GroundStructure(name, nx, ny)
 
     def beam(self, a: str, b: str, *, section: str, split: int = 1, name: str | None = None,
-             component: str | None = None, group: str | None = None, fixed: bool = False) -> None:
+             component: str | None = None, group: str | None = None, fixed: bool = False,
+             kind: str = "frame") -> None:
         """A bar from node ``a`` to ``b``; ``group`` shares one design variable between bars,
-        ``fixed`` keeps it at full density."""
+        ``fixed`` keeps it at full density; ``kind = "truss"`` makes it one pin-jointed truss
+        bar instead of ``split`` Timoshenko beams."""
         entry = {"nodes": [a, b], "section": section, "split": split, "name": name, "component": component,
-                 "group": group, "fixed": fixed}
+                 "group": group, "fixed": fixed, "kind": None if kind == "frame" else kind}
         self._spec.setdefault("beams", []).append({k: v for k, v in entry.items() if v is not None})
 
     def rigid_body(self, name: str, *, mass: float, position: Sequence[float], inertia: float = 0.0,

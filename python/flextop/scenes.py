@@ -137,14 +137,22 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
 def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 0.1, split: int = 1,
                  force: tuple[float, float] = (0.0, -100.0), E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                  rho: float = ALUMINIUM["rho"], diameter: float = DIAMETER, p: float = 3.0,
-                 x_min: float = 0.01) -> Scene:
+                 x_min: float = 0.01, kind: str = "frame") -> Scene:
     """Static truss of paper Section 3.1 (Fig. 4): one linkage, base column's middle node
-    clamped, ``force`` (N) on the tip column's middle node."""
+    clamped, ``force`` (N) on the tip column's middle node. ``kind = "truss"`` makes the same
+    ground structure of pin-jointed truss bars; a pin carries no moment, so its base
+    column's nodes are each pinned instead of the middle one clamped."""
+    if not isinstance(kind, str) or kind not in ("frame", "truss"):
+        raise SceneError(f"static_truss: kind must be 'frame' or 'truss', got {kind!r}")
     scene = Scene("static_truss", analysis="static")
     section = _linkage_section(scene, E, nu, rho, diameter)
     truss = scene.ground_structure("truss", nx=nx, ny=ny, length=length, height=height, origin=(0.0, 0.0),
-                                   angle=0.0, section=section, split=split)
-    scene.clamp("base", truss.node(0, ny // 2))
+                                   angle=0.0, section=section, split=split, kind=kind)
+    if kind == "frame":
+        scene.clamp("base", truss.node(0, ny // 2))
+    else:
+        for j in range(ny):
+            scene.pin(f"base{j}", truss.node(0, j))
     scene.load(truss.node(nx - 1, ny // 2), force=force)
     scene.design(interpolation="simp", p=p, x_min=x_min)
     scene.simulation(load_steps=1)

@@ -18,6 +18,7 @@
 //! 4.3 % low for its stubby 5 cm bars (`L/r = 10`, at 22 kHz: far above any motion's
 //! band), at every density (`tests/python/test_refinement.py`).
 
+use crate::mechanism::element::Kind;
 use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::section::Section;
 
@@ -90,19 +91,24 @@ impl ClampedMode {
 
 impl Model {
     /// Each bar's lowest clamped–clamped bending frequency (Hz) at the design of
-    /// `densities` (the module's formula), in the order of [`Model::bars`].
+    /// `densities` (the module's formula), in the order of [`Model::bars`]; infinite for a
+    /// truss bar, whose one element has no internal dynamics to resolve (the truss
+    /// idealization leaves its bending out).
     pub fn bar_frequencies(&self, densities: &Densities) -> Vec<f64> {
         let mode = ClampedMode::first();
         self.bars
             .iter()
             .map(|bar| {
+                if bar.kind == Kind::Truss {
+                    return f64::INFINITY;
+                }
                 let first = bar.elements.start;
                 let length: f64 = bar
                     .elements
                     .clone()
-                    .map(|e| self.elements[e].beam.length)
+                    .map(|e| self.elements[e].kernel.length())
                     .sum();
-                let section = &self.elements[first].beam.section;
+                let section = self.elements[first].kernel.section();
                 let (s, m) = (densities.stiffness[first], densities.mass[first]);
                 mode.frequency(length, section, s, m)
             })
@@ -117,8 +123,8 @@ impl Model {
                 bar.elements
                     .clone()
                     .map(|e| {
-                        let beam = &self.elements[e].beam;
-                        beam.section.rho_a * beam.length * densities.mass[e]
+                        let kernel = &self.elements[e].kernel;
+                        kernel.section().rho_a * kernel.length() * densities.mass[e]
                     })
                     .sum()
             })

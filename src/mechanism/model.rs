@@ -10,7 +10,7 @@ use nalgebra::Vector2;
 
 use crate::error::{DesignError, SolveError};
 use crate::mechanism::constraint::{ConstraintRow, Joint};
-use crate::mechanism::element::{Beam, Vector6};
+use crate::mechanism::element::{Formulation, Kind, Vector6};
 use crate::mechanism::interpolation::{Interpolation, MassLaw};
 use crate::mechanism::load::NodalLoad;
 use crate::mechanism::motor::Motor;
@@ -27,11 +27,11 @@ pub struct Node {
     pub position: Vector2<f64>,
 }
 
-/// A beam element placed in the mesh.
+/// An element placed in the mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Element {
-    /// The element kernel at full density.
-    pub beam: Beam,
+    /// The element at full density, read through [`crate::mechanism::element::Kernel`].
+    pub kernel: Formulation,
     /// End nodes.
     pub nodes: [usize; 2],
     /// The bar it belongs to.
@@ -47,7 +47,7 @@ impl Element {
 
     /// Section forces `[N, M₁, M₂]` at state `q` with stiffness scaling `s(x)`.
     pub fn section_forces(&self, stiffness: f64, q: &[f64]) -> [f64; 3] {
-        let f = self.beam.section_forces(&self.gather(q));
+        let f = self.kernel.section_forces(&self.gather(q));
         [stiffness * f[0], stiffness * f[1], stiffness * f[2]]
     }
 
@@ -73,6 +73,8 @@ pub struct Bar {
     pub volume: f64,
     /// Its section's index in [`Model::sections`].
     pub section: usize,
+    /// Its elements' kind: a frame's beams or one truss bar.
+    pub kind: Kind,
 }
 
 /// A non-design point mass on a node.
@@ -148,7 +150,7 @@ pub struct Model {
     pub initial_velocity: Vec<f64>,
     /// Nodes.
     pub nodes: Vec<Node>,
-    /// Beam elements.
+    /// Elements.
     pub elements: Vec<Element>,
     /// Bars (groups of elements carrying one density).
     pub bars: Vec<Bar>,
@@ -178,6 +180,12 @@ pub struct Model {
     pub tip: Option<usize>,
     /// Default run settings of the scene.
     pub defaults: RunOptions,
+    /// The rotation DOFs that nothing acts on — of the nodes that only truss bars meet, with
+    /// no joint, spring, motor, rotary inertia or moment on them: they are no unknowns of
+    /// the mechanism. Their rows are zero in every equation; the iteration matrix carries
+    /// its scale on their diagonal ([`crate::solver`]'s assembly) so that it stays regular,
+    /// and they stay zero.
+    pub absent_rotations: Vec<usize>,
 }
 
 /// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34).
@@ -279,6 +287,44 @@ impl Model {
         }
     }
 
+    /// The nodes whose rotation something other than a load acts on: a beam, a rigid
+    /// body, a rotary inertia, a joint row, a spring or a motor (in the order of the nodes).
+    pub fn turned_nodes(&self) -> Vec<bool> {
+        let mut turned = vec![false; self.nodes.len()];
+        let mut mark = |dofs: [Option<usize>; 6], acts: [bool; 6]| {
+            for i in [2, 5] {
+                if let (Some(d), true) = (dofs[i], acts[i]) {
+                    turned[d / 3] = true;
+                }
+            }
+        };
+        for e in self.elements.iter().filter(|e| e.kernel.turns_nodes()) {
+            mark(e.dofs().map(Some), [true; 6]);
+        }
+        for row in &self.rows {
+            mark(row.dofs(), row.active());
+        }
+        for spring in &self.springs {
+            let acts = match spring.measure {
+                Measure::Distance { at, .. } => {
+                    std::array::from_fn(|i| at[i / 3].arm != Vector2::zeros())
+                }
+                Measure::Coordinate(row) => row.active(),
+            };
+            mark(spring.dofs(), acts);
+        }
+        for motor in &self.motors {
+            mark(motor.dofs, motor.direction.map(|c| c != 0.0));
+        }
+        for b in &self.bodies {
+            turned[b.node] = true;
+        }
+        for pm in self.point_masses.iter().filter(|pm| pm.inertia != 0.0) {
+            turned[pm.node] = true;
+        }
+        turned
+    }
+
     /// Number of constraint rows `n_c`.
     pub fn n_constraints(&self) -> usize {
         self.rows.len()
@@ -290,7 +336,7 @@ impl Model {
     pub fn damping_reads_velocities(&self) -> bool {
         self.elements
             .iter()
-            .any(|e| e.beam.section.alpha > 0.0 || e.beam.section.beta > 0.0)
+            .any(|e| e.kernel.section().alpha > 0.0 || e.kernel.section().beta > 0.0)
             || self.springs.iter().any(Spring::damps_nonlinearly)
     }
 

@@ -263,7 +263,7 @@ impl Parameter {
             }
             Self::Section { section, rate, .. } => elements_of(model, section)
                 .map(|(e, el)| {
-                    let m = el.beam.mass_matrix_rate(on.mass, &rate);
+                    let m = el.kernel.mass_matrix_rate(on.mass, &rate);
                     on.densities.mass[e] * el.gather(a).dot(&(m * el.gather(b)))
                 })
                 .sum(),
@@ -374,7 +374,8 @@ impl Parameter {
                 for (e, el) in elements_of(model, section) {
                     let dofs = el.dofs();
                     let g = Vector6::from_fn(|i, _| gravity(model, dofs[i]));
-                    let load = el.beam.mass_matrix_rate(on.mass, &rate) * g * on.densities.mass[e];
+                    let load =
+                        el.kernel.mass_matrix_rate(on.mass, &rate) * g * on.densities.mass[e];
                     dofs.iter().zip(load.iter()).for_each(|(&d, &v)| add(d, v));
                 }
             }
@@ -416,16 +417,17 @@ const KINDS: &str =
 fn section_load(on: &Designed, e: usize, rate: &Section, at: &At) -> Vector6 {
     let el = &on.model.elements[e];
     let (dofs, u) = (el.dofs(), el.gather(at.q));
-    let (mass, beam) = (el.beam.mass_matrix_rate(on.mass, rate), &el.beam);
+    let (mass, kernel) = (el.kernel.mass_matrix_rate(on.mass, rate), &el.kernel);
     let mut inertia = mass * Vector6::from_fn(|i, _| -gravity(on.model, dofs[i]));
-    let mut stiffness = beam.internal_force_rate(&u, rate);
+    let mut stiffness = kernel.internal_force_rate(&u, rate);
     if let Some((v, acc)) = at.rates {
         inertia += mass * el.gather(acc);
         // Velocities are kept where damping reads them.
         if !v.is_empty() {
             let v = el.gather(v);
-            inertia += mass * v * beam.section.alpha + beam.mass_matrix(on.mass) * v * rate.alpha;
-            stiffness += beam.damping_force_rate(&u, &v, rate.beta, rate);
+            inertia +=
+                mass * v * kernel.section().alpha + kernel.mass_matrix(on.mass) * v * rate.alpha;
+            stiffness += kernel.damping_force_rate(&u, &v, rate.beta, rate);
         }
     }
     inertia * on.densities.mass[e] + stiffness * on.densities.stiffness[e]

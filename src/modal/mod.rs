@@ -336,8 +336,8 @@ impl<'m> Pencil<'m> {
             let Some(v) = model.variable_of(e) else {
                 continue;
             };
-            let (_, k) = el.beam.internal_force_and_tangent(&el.gather(q));
-            let m = el.beam.mass_matrix(kind);
+            let (_, k) = el.kernel.internal_force_and_tangent(&el.gather(q));
+            let m = el.kernel.mass_matrix(kind);
             for (j, (lambda, phi)) in lambdas.iter().zip(shapes).enumerate() {
                 let p = el.gather(phi);
                 let dlambda = d.stiffness_rate[e] * p.dot(&(k * p))
@@ -382,7 +382,7 @@ impl MassFactor {
         let model = asm.model;
         let mut blocks = Vec::new();
         for (e, el) in model.elements.iter().enumerate() {
-            let m = el.beam.mass_matrix(asm.mass_kind) * asm.densities.mass[e];
+            let m = el.kernel.mass_matrix(asm.mass_kind) * asm.densities.mass[e];
             blocks.push((
                 el.dofs().to_vec(),
                 root(DMatrix::from_iterator(6, 6, m.iter().copied())),

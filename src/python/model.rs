@@ -155,6 +155,10 @@ impl PyModel {
             "elements",
             m.bars.iter().map(|b| b.elements.len()).collect::<Vec<_>>(),
         )?;
+        d.set_item(
+            "kind",
+            m.bars.iter().map(|b| b.kind.name()).collect::<Vec<_>>(),
+        )?;
         Ok(d)
     }
 

@@ -58,7 +58,7 @@ impl Family for LoadWork {
         for (e, el) in m.elements.iter().enumerate() {
             if let Some(v) = m.variable_of(e) {
                 let rate =
-                    el.beam.mass_matrix(ctx.mass_kind) * per_node * ctx.densities.mass_rate[e];
+                    el.kernel.mass_matrix(ctx.mass_kind) * per_node * ctx.densities.mass_rate[e];
                 g.x[v] += scale * rate.dot(&el.gather(at.q));
             }
         }

@@ -82,7 +82,7 @@ impl Criterion {
         rate: Option<&Section>,
         mut f: impl FnMut(f64, Vector3<f64>, Vector3<f64>),
     ) {
-        let section = &el.element.beam.section;
+        let section = el.element.kernel.section();
         // `∂ ln(value)/∂p` of a section quantity, read from the same field of `rate`.
         let log = |value: f64, field: fn(&Section) -> f64| rate.map_or(0.0, |r| field(r) / value);
         let area = log(section.area, |s| s.area);
@@ -109,7 +109,7 @@ impl Criterion {
             Self::Shear => {
                 // V = −(M₁ + M₂)/L; the parser guarantees the factor.
                 let k = section.shear_factor.unwrap_or(0.0);
-                let per_m = -el.relax * k / (el.element.beam.length * section.area);
+                let per_m = -el.relax * k / (el.element.kernel.length() * section.area);
                 let c = Vector3::new(0.0, per_m, per_m);
                 f(1.0, c, -c * area);
             }

@@ -37,7 +37,7 @@ fn add_mass_times(ctx: &Context, v: &[f64], mut add: impl FnMut(usize, f64)) {
     }
     let m = ctx.model;
     for (e, el) in m.elements.iter().enumerate() {
-        let p = el.beam.mass_matrix(ctx.mass_kind) * el.gather(v) * ctx.densities.mass[e];
+        let p = el.kernel.mass_matrix(ctx.mass_kind) * el.gather(v) * ctx.densities.mass[e];
         el.dofs()
             .iter()
             .zip(p.iter())
@@ -71,7 +71,7 @@ impl Family for KineticEnergy {
         for (e, el) in m.elements.iter().enumerate() {
             if let Some(j) = m.variable_of(e) {
                 let v = el.gather(at.v);
-                let energy = 0.5 * v.dot(&(el.beam.mass_matrix(ctx.mass_kind) * v));
+                let energy = 0.5 * v.dot(&(el.kernel.mass_matrix(ctx.mass_kind) * v));
                 g.x[j] += scale * ctx.densities.mass_rate[e] * energy;
             }
         }

@@ -42,7 +42,7 @@ impl Family for StrainEnergy {
         elements_of(m, self.component)
             .map(|e| {
                 let el = &m.elements[e];
-                ctx.densities.stiffness[e] * el.beam.strain_energy(&el.gather(at.q))
+                ctx.densities.stiffness[e] * el.kernel.strain_energy(&el.gather(at.q))
             })
             .sum()
     }
@@ -54,14 +54,14 @@ impl Family for StrainEnergy {
         for e in elements_of(m, self.component) {
             let el = &m.elements[e];
             let u = el.gather(at.q);
-            let f = el.beam.internal_force(&u);
+            let f = el.kernel.internal_force(&u);
             let s = ctx.densities.stiffness[e];
             el.dofs()
                 .iter()
                 .zip(f.iter())
                 .for_each(|(&d, fi)| g.q[d] += scale * s * fi);
             if let Some(v) = m.variable_of(e) {
-                g.x[v] += scale * ctx.densities.stiffness_rate[e] * el.beam.strain_energy(&u);
+                g.x[v] += scale * ctx.densities.stiffness_rate[e] * el.kernel.strain_energy(&u);
             }
         }
     }
@@ -76,7 +76,7 @@ impl Family for StrainEnergy {
             .filter(|&e| m.bars[m.elements[e].bar].section == section)
             .map(|e| {
                 let el = &m.elements[e];
-                ctx.densities.stiffness[e] * el.beam.strain_energy_rate(&el.gather(at.q), rate)
+                ctx.densities.stiffness[e] * el.kernel.strain_energy_rate(&el.gather(at.q), rate)
             })
             .sum()
     }

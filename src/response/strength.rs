@@ -73,7 +73,7 @@ fn parse(
     if elements.is_empty() {
         return Err("the structure named has no elements".into());
     }
-    let section = |e: usize| &model.elements[e].beam.section;
+    let section = |e: usize| model.elements[e].kernel.section();
     let missing = match criterion {
         Criterion::Stress => elements
             .iter()
@@ -93,7 +93,7 @@ fn parse(
     }
     let length = elements
         .iter()
-        .map(|&e| model.elements[e].beam.length)
+        .map(|&e| model.elements[e].kernel.length())
         .sum();
     Ok(Box::new(Aggregated {
         criterion,
@@ -173,7 +173,7 @@ impl Aggregated {
         let el = &m.elements[e];
         ElementState {
             element: el,
-            bar_length: m.bars[el.bar].volume / el.beam.section.area,
+            bar_length: m.bars[el.bar].volume / el.kernel.section().area,
             relax: ctx.densities.density[e].powf(self.relaxation),
             forces,
         }
@@ -182,7 +182,7 @@ impl Aggregated {
     /// Element `e` at state `q` (its section forces, no Jacobian).
     fn element_at<'a>(&self, ctx: &'a Context, e: usize, q: &[f64]) -> ElementState<'a> {
         let el = &ctx.model.elements[e];
-        self.element(ctx, e, el.beam.section_forces(&el.gather(q)))
+        self.element(ctx, e, el.kernel.section_forces(&el.gather(q)))
     }
 
     /// `∂/∂p` of the sum at state `q` for section `section` changing at `rate`: through
@@ -203,10 +203,10 @@ impl Aggregated {
                 continue;
             }
             let (forces, d_forces) = element
-                .beam
+                .kernel
                 .section_forces_and_rate(&element.gather(q), rate);
             let el = self.element(ctx, e, forces);
-            let share = element.beam.length / self.length;
+            let share = element.kernel.length() / self.length;
             self.criterion
                 .for_each_point_and_rate(&el, Some(rate), |w, c, d_c| {
                     let (v, d_v) = (c.dot(&el.forces), d_c.dot(&el.forces) + c.dot(&d_forces));
@@ -228,7 +228,7 @@ impl Family for Aggregated {
         let mut sum = 0.0;
         for e in self.members.elements(ctx.model) {
             let el = self.element_at(ctx, e, at.q);
-            let share = el.element.beam.length / self.length;
+            let share = el.element.kernel.length() / self.length;
             self.criterion.for_each_point(&el, |w, c| {
                 sum += share * w * self.aggregation.point(c.dot(&el.forces), known.reference).0;
             });
@@ -241,10 +241,10 @@ impl Family for Aggregated {
         for e in self.members.elements(m) {
             let element = &m.elements[e];
             let (forces, jacobian) = element
-                .beam
+                .kernel
                 .section_forces_and_jacobian(&element.gather(at.q));
             let el = self.element(ctx, e, forces);
-            let share = scale * el.element.beam.length / self.length;
+            let share = scale * el.element.kernel.length() / self.length;
             let (x, dofs, variable) = (
                 ctx.densities.density[e],
                 el.element.dofs(),

@@ -89,7 +89,9 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         },
         tip,
         defaults: simulation::defaults(&spec.simulation)?,
+        absent_rotations: Vec::new(),
     };
+    model.absent_rotations = absent_rotations(&model)?;
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;
     let starts = model.initial == Initial::Equilibrium || !rates.is_empty();
     if starts && model.analysis == Analysis::Static {
@@ -103,6 +105,38 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
             return Err(SceneError::new("initial_rates", msg).into());
         }
         model.initial_velocity = initial_velocity(&model, &rates)?;
+        for &d in &model.absent_rotations {
+            model.initial_velocity[d] = 0.0;
+        }
     }
     Ok(model)
+}
+
+/// The rotations of the nodes that only truss bars meet and nothing else turns
+/// ([`Model::absent_rotations`]).
+///
+/// # Errors
+/// A [`SceneError`] for a moment load on such a node: a pin carries no moment.
+fn absent_rotations(model: &Model) -> Result<Vec<usize>, SceneError> {
+    let turned = model.turned_nodes();
+    let mut pinned = vec![false; model.nodes.len()];
+    for e in model.elements.iter().filter(|e| !e.kernel.turns_nodes()) {
+        e.nodes.iter().for_each(|&n| pinned[n] = !turned[n]);
+    }
+    if let Some((k, load)) = model
+        .loads
+        .iter()
+        .enumerate()
+        .find(|(_, l)| l.value[2] != 0.0 && pinned[l.node])
+    {
+        let node = &model.nodes[load.node].name;
+        let msg = format!(
+            "a moment on node '{node}', which only truss bars meet: a pin carries no moment"
+        );
+        return Err(SceneError::new(format!("loads[{k}]"), msg));
+    }
+    Ok((0..pinned.len())
+        .filter(|&n| pinned[n])
+        .map(|n| 3 * n + 2)
+        .collect())
 }

@@ -124,6 +124,7 @@ fn add(
             ends: [node[i], node[j]],
             section,
             split: g.split,
+            kind: g.kind.into(),
             component,
             variable,
         })?;

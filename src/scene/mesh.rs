@@ -1,5 +1,6 @@
 //! The mesh: named nodes, and straight bars between them, each split into co-rotational
-//! beam elements ([`crate::mechanism::element::beam`]).
+//! beam elements ([`crate::mechanism::element::beam`]) or, in a truss, one truss bar
+//! ([`crate::mechanism::element::truss`]).
 //!
 //! Bars come from the scene's beams and from its ground structures
 //! ([`super::ground_structure`]). A bar of `split` elements (its beam's or ground
@@ -18,7 +19,7 @@ use super::validate::{each, finite, unknown, Listed, Result};
 use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
 use crate::mechanism::constraint::Anchor;
-use crate::mechanism::element::Beam;
+use crate::mechanism::element::Kind;
 use crate::mechanism::model::{size_of, Bar, Element, Node, RigidBody};
 use crate::mechanism::section::Section;
 
@@ -60,6 +61,8 @@ pub(super) struct BarSpec<'a> {
     pub(super) section: (usize, &'a Section),
     /// Number of elements.
     pub(super) split: usize,
+    /// Its elements' kind.
+    pub(super) kind: Kind,
     /// Component.
     pub(super) component: usize,
     /// Design variable, none for a bar at full density.
@@ -223,6 +226,7 @@ impl Mesh {
             ends,
             section,
             split: b.split,
+            kind: b.kind.into(),
             component,
             variable,
         })
@@ -243,13 +247,9 @@ impl Mesh {
         let first = self.elements.len();
         let bar = self.bars.len();
         for w in chain.windows(2) {
-            let beam = Beam::new(
-                self.nodes[w[0]].position,
-                self.nodes[w[1]].position,
-                *b.section.1,
-            );
+            let (x1, x2) = (self.nodes[w[0]].position, self.nodes[w[1]].position);
             self.elements.push(Element {
-                beam,
+                kernel: b.kind.element(x1, x2, *b.section.1),
                 nodes: [w[0], w[1]],
                 bar,
             });
@@ -261,6 +261,7 @@ impl Mesh {
             elements: first..self.elements.len(),
             volume: b.section.1.area * length,
             section: b.section.0,
+            kind: b.kind,
         });
         self.bar_paths.push(b.path);
         Ok(())
@@ -275,6 +276,16 @@ impl Mesh {
             return Err(SceneError::new(
                 split_at,
                 format!("must be from 1 to {MAX_SPLIT}, got {}", b.split),
+            ));
+        }
+        if b.kind == Kind::Truss && b.split != 1 {
+            return Err(SceneError::new(
+                split_at,
+                format!(
+                    "a truss bar is one element, got {}: pins at its inner nodes would make it a \
+                     mechanism (a bar that bends is kind = \"frame\")",
+                    b.split
+                ),
             ));
         }
         if self.elements.len() + b.split > MAX_ELEMENTS {

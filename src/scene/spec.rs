@@ -9,6 +9,7 @@ use std::fmt;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
+use crate::mechanism::element::Kind;
 use crate::settings::RunOptions;
 
 /// A whole scene.
@@ -128,6 +129,26 @@ pub enum AnalysisSpec {
     Dynamic,
     /// Static equilibrium.
     Static,
+}
+
+/// What a ground structure's or a beam's bars are made of.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum KindSpec {
+    /// Timoshenko beams rigidly joined at the nodes: a frame.
+    #[default]
+    Frame,
+    /// Pin-jointed truss bars, each one element carrying axial force only.
+    Truss,
+}
+
+impl From<KindSpec> for Kind {
+    fn from(kind: KindSpec) -> Self {
+        match kind {
+            KindSpec::Frame => Kind::Frame,
+            KindSpec::Truss => Kind::Truss,
+        }
+    }
 }
 
 /// A beam section: material plus either a solid-circle `diameter` or `A`, `I`, `kappa`.
@@ -251,7 +272,10 @@ pub struct GroundStructureSpec {
     pub angle_deg: Option<f64>,
     /// Section of every bar.
     pub section: String,
-    /// Elements per bar.
+    /// Frame or truss.
+    #[serde(default)]
+    pub kind: KindSpec,
+    /// Elements per bar (a truss bar is one).
     #[serde(default = "one")]
     pub split: usize,
     /// Bars at fixed full density (not design variables).
@@ -277,7 +301,10 @@ pub struct BeamSpec {
     pub nodes: [String; 2],
     /// Section.
     pub section: String,
-    /// Elements in the bar.
+    /// Frame or truss.
+    #[serde(default)]
+    pub kind: KindSpec,
+    /// Elements in the bar (a truss bar is one).
     #[serde(default = "one")]
     pub split: usize,
     /// Component (default `frame`).

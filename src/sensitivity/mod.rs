@@ -105,7 +105,7 @@ impl PseudoLoads {
             masses: model
                 .elements
                 .iter()
-                .map(|e| e.beam.mass_matrix(kind))
+                .map(|e| e.kernel.mass_matrix(kind))
                 .collect(),
             n_x: model.n_variables(),
             parameters: parameters.to_vec(),
@@ -136,16 +136,16 @@ impl PseudoLoads {
         let el = &asm.model.elements[e];
         let dofs = el.dofs();
         let u = el.gather(at.q);
-        let (alpha, beta) = (el.beam.section.alpha, el.beam.section.beta);
+        let (alpha, beta) = (el.kernel.section().alpha, el.kernel.section().beta);
         let mut inertia = Vector6::from_fn(|i, _| -asm.gravity[dofs[i]]);
-        let mut stiffness = el.beam.internal_force(&u);
+        let mut stiffness = el.kernel.internal_force(&u);
         if let Some((v, acc)) = at.rates {
             inertia += Vector6::from_fn(|i, _| acc[dofs[i]]);
             if alpha > 0.0 {
                 inertia += el.gather(v) * alpha;
             }
             if beta > 0.0 {
-                stiffness += el.beam.damping(&u, &el.gather(v)).force;
+                stiffness += el.kernel.damping(&u, &el.gather(v)).force;
             }
         }
         self.masses[e] * inertia * asm.densities.mass_rate[e]

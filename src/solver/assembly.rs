@@ -322,7 +322,7 @@ impl<'m> Assembler<'m> {
         let pattern = Pattern::new(model)?;
         let mut mass = vec![0.0; pattern.nnz()];
         for (e, el) in model.elements.iter().enumerate() {
-            let m = el.beam.mass_matrix(mass_kind) * densities.mass[e];
+            let m = el.kernel.mass_matrix(mass_kind) * densities.mass[e];
             for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
                 mass[slot] += m[(k % 6, k / 6)];
             }
@@ -339,13 +339,16 @@ impl<'m> Assembler<'m> {
             .enumerate()
             .filter(|(_, s)| s.damping > 0.0 && !s.damps_nonlinearly())
             .collect();
-        let rayleigh = model.elements.iter().any(|e| e.beam.section.alpha > 0.0);
+        let rayleigh = model
+            .elements
+            .iter()
+            .any(|e| e.kernel.section().alpha > 0.0);
         let damping = (!dampers.is_empty() || rayleigh).then(|| {
             let (mut values, reference) = (vec![0.0; pattern.nnz()], vec![0.0; model.n_dofs()]);
             for (e, el) in model.elements.iter().enumerate() {
-                let alpha = el.beam.section.alpha;
+                let alpha = el.kernel.section().alpha;
                 if alpha > 0.0 {
-                    let m = el.beam.mass_matrix(mass_kind) * (alpha * densities.mass[e]);
+                    let m = el.kernel.mass_matrix(mass_kind) * (alpha * densities.mass[e]);
                     for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
                         values[slot] += m[(k % 6, k / 6)];
                     }
@@ -373,7 +376,7 @@ impl<'m> Assembler<'m> {
             mass_kind,
             mass,
             damping,
-            structural: model.elements.iter().any(|e| e.beam.section.beta > 0.0)
+            structural: model.elements.iter().any(|e| e.kernel.section().beta > 0.0)
                 || model.springs.iter().any(Spring::damps_nonlinearly),
             gravity_load: vec![0.0; gravity.len()],
             gravity,
@@ -442,7 +445,7 @@ impl<'m> Assembler<'m> {
             .filter(|b| {
                 self.model.elements[b.elements.clone()]
                     .iter()
-                    .any(|e| e.beam.section.beta > 0.0)
+                    .any(|e| e.kernel.section().beta > 0.0)
             })
             .map(|b| b.name.as_str())
             .collect();
@@ -524,9 +527,9 @@ impl<'m> Assembler<'m> {
             .elements
             .iter()
             .enumerate()
-            .filter(|(_, el)| el.beam.section.beta > 0.0)
+            .filter(|(_, el)| el.kernel.section().beta > 0.0)
             .map(move |(e, el)| {
-                let d = el.beam.damping(&el.gather(q), &el.gather(v));
+                let d = el.kernel.damping(&el.gather(q), &el.gather(v));
                 let slots = Slots::Element(&self.pattern.element_slots[e]);
                 (
                     el.dofs().map(Some),
@@ -562,14 +565,14 @@ impl<'m> Assembler<'m> {
             let dofs = el.dofs();
             match tangent.as_deref_mut() {
                 Some(values) => {
-                    let (fe, ke) = el.beam.internal_force_and_tangent(&u);
+                    let (fe, ke) = el.kernel.internal_force_and_tangent(&u);
                     for (k, &slot) in self.pattern.element_slots[e].iter().enumerate() {
                         values[slot] += s * ke[(k % 6, k / 6)];
                     }
                     dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
                 }
                 None => {
-                    let fe = el.beam.internal_force(&u);
+                    let fe = el.kernel.internal_force(&u);
                     dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
                 }
             }
@@ -652,7 +655,9 @@ impl<'m> Assembler<'m> {
     }
 
     /// Starts an augmented iteration matrix: `values = mass_coefficient · M + s Φ_qᵀΦ_q` plus
-    /// the constraint blocks `s Φ_q`, `s Φ_qᵀ` of `jacobian`; [`Assembler::internal_forces`]
+    /// the constraint blocks `s Φ_q`, `s Φ_qᵀ` of `jacobian`, and `s` on the diagonal of each
+    /// absent rotation ([`Model::absent_rotations`]: a zero row and column otherwise, its
+    /// unknown stays zero); [`Assembler::internal_forces`]
     /// then adds `K_t`, and [`Assembler::add_constraint_hessian`] the joints' part of it.
     pub fn start_iteration_matrix(
         &self,
@@ -666,6 +671,9 @@ impl<'m> Assembler<'m> {
             .zip(&self.mass)
             .for_each(|(v, m)| *v = mass_coefficient * m);
         let p = &self.pattern;
+        for &d in &self.model.absent_rotations {
+            values[p.node_slots[d / 3][2]] += constraint_scale;
+        }
         for ((g, slots), gram) in jacobian.0.iter().zip(&p.row_slots).zip(&p.gram_slots) {
             for i in (0..6).filter(|&i| slots[i][0] != usize::MAX) {
                 values[slots[i][0]] += constraint_scale * g[i];
@@ -765,7 +773,7 @@ impl<'m> Assembler<'m> {
             .elements
             .iter()
             .enumerate()
-            .map(|(e, el)| self.densities.stiffness[e] * el.beam.strain_energy(&el.gather(q)))
+            .map(|(e, el)| self.densities.stiffness[e] * el.kernel.strain_energy(&el.gather(q)))
             .sum();
         beams + self.model.springs.iter().map(|s| s.energy(q)).sum::<f64>()
     }

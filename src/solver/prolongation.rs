@@ -1,7 +1,7 @@
-//! A state of a model carried to the same scene with twice the elements per bar: each
-//! coarse node keeps its coordinates, and the node that splits a coarse element in two
-//! takes the element's own deformed shape at its middle ([`crate::mechanism::element::beam::Beam::middle`]:
-//! the co-rotated cubic).
+//! A state of a model carried to the same scene with twice the elements per frame bar (a
+//! truss bar stays one element): each coarse node keeps its coordinates, and the node that
+//! splits a coarse element in two takes the element's own deformed shape at its middle
+//! ([`crate::mechanism::element::Kernel::middle`]: a beam's co-rotated cubic).
 //!
 //! It serves as a guess, not as a result: a run on the refined model starts each step's
 //! Newton iterations from the prolonged coarse state ([`crate::simulate_guided`]).
@@ -11,6 +11,7 @@ use std::collections::HashMap;
 use nalgebra::Vector2;
 
 use crate::error::SettingsError;
+use crate::mechanism::element::Kind;
 use crate::mechanism::model::Model;
 
 /// Where a node of the refined model takes its coordinates from.
@@ -68,13 +69,25 @@ impl Prolongation {
             .map(|(k, b)| (b.name.as_str(), k))
             .collect();
         for bar in &coarse.bars {
+            // A truss bar is one element in both.
+            let halves = if bar.kind == Kind::Truss { 1 } else { 2 };
             let split = fine_bars.get(bar.name.as_str()).map(|&k| &fine.bars[k]);
-            let Some(split) = split.filter(|s| s.elements.len() == 2 * bar.elements.len()) else {
+            let Some(split) = split.filter(|s| s.elements.len() == halves * bar.elements.len())
+            else {
                 return Err(mismatch(format!(
                     "bar {} is missing or not split in two",
                     bar.name
                 )));
             };
+            if halves == 1 {
+                let ([a, b], [fa, fb]) = (
+                    coarse.elements[bar.elements.start].nodes,
+                    fine.elements[split.elements.start].nodes,
+                );
+                assign(&mut sources, fa, Source::Node(a), coarse.nodes[a].position)?;
+                assign(&mut sources, fb, Source::Node(b), coarse.nodes[b].position)?;
+                continue;
+            }
             for (k, e) in bar.elements.clone().enumerate() {
                 let [a, b] = coarse.elements[e].nodes;
                 let (pa, pb) = (coarse.nodes[a].position, coarse.nodes[b].position);
@@ -124,7 +137,7 @@ impl Prolongation {
                 Source::Node(c) => [q[3 * c], q[3 * c + 1], q[3 * c + 2]],
                 Source::Middle(e) => {
                     let el = &coarse.elements[e];
-                    el.beam.middle(&el.gather(q))
+                    el.kernel.middle(&el.gather(q))
                 }
             };
             out[3 * node..3 * node + 3].copy_from_slice(&value);

@@ -39,7 +39,7 @@ pub fn robot_arm(split: usize, e: f64) -> Model {
 
 /// Section properties of [`ALUMINIUM`]: (EA, κGA, EI).
 pub fn aluminium() -> (f64, f64, f64) {
-    let s = model(&cantilever(1.0, 1, "")).elements[0].beam.section;
+    let s = *model(&cantilever(1.0, 1, "")).elements[0].kernel.section();
     (s.ea, s.gak, s.ei)
 }
 

@@ -1,6 +1,10 @@
 """Shared fixtures: paths, and small scenes used across the tests."""
 
 import math
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -80,3 +84,23 @@ def slider_crank_with_force_elements() -> dict:
                        {"name": "friction", "joint": "slide", "c": 5.0},
                        {"name": "return", "nodes": ["slider", "wall"], "k": 200.0, "length": 0.14}]
     return spec
+
+
+def seconds_to_interrupt(code: str, wait: float, exit_within: float) -> float:
+    """Runs the Python ``code`` in a subprocess — it prints ``ready``, works until a
+    ``KeyboardInterrupt`` and then prints ``interrupted <time.monotonic()>`` — sends it a
+    SIGINT ``wait`` s after ``ready``, and returns the seconds from the signal to the
+    interrupt; the process must then exit cleanly within ``exit_within`` s."""
+    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout.readline().strip() == "ready"
+        time.sleep(wait)
+        sent = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        word, at = process.stdout.readline().split()
+        assert word == "interrupted"
+        assert process.wait(timeout=exit_within) == 0
+        return float(at) - sent
+    finally:
+        process.kill()
+        process.wait()

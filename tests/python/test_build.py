@@ -2,13 +2,12 @@
 over-constrain, refusals) on mechanisms with loops, as the dense analysis it replaced
 reported them; loops of hundreds of bodies; and Ctrl-C during the build of a large scene."""
 
-import signal
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
+from conftest import seconds_to_interrupt
 
 import flextop
 from flextop import SceneError
@@ -151,19 +150,7 @@ try:
 except KeyboardInterrupt:
     print("interrupted", time.monotonic(), flush=True)
 """
-    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
-    try:
-        assert process.stdout.readline().strip() == "ready"
-        time.sleep(wait)
-        sent = time.monotonic()
-        process.send_signal(signal.SIGINT)
-        word, at = process.stdout.readline().split()
-        assert word == "interrupted"
-        assert process.wait(timeout=60) == 0
-        return float(at) - sent
-    finally:
-        process.kill()
-        process.wait()
+    return seconds_to_interrupt(code, wait, exit_within=60)
 
 
 @pytest.mark.parametrize(("call", "wait"), [("flextop._core.Model.from_dict(spec)", 1.0),

@@ -4,15 +4,14 @@ used to crash or hang run in a subprocess, so that a regression fails instead of
 suite down."""
 
 import re
-import signal
 import subprocess
 import sys
 import textwrap
-import time
 import warnings
 
 import numpy as np
 import pytest
+from conftest import seconds_to_interrupt
 
 import flextop
 import flextop.cli
@@ -132,19 +131,7 @@ try:
 except KeyboardInterrupt:
     print("interrupted", time.monotonic(), flush=True)
 """
-    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
-    try:
-        assert process.stdout.readline().strip() == "ready"
-        time.sleep(wait)
-        sent = time.monotonic()
-        process.send_signal(signal.SIGINT)
-        word, at = process.stdout.readline().split()
-        assert word == "interrupted"
-        assert process.wait(timeout=30) == 0
-        return float(at) - sent
-    finally:
-        process.kill()
-        process.wait()
+    return seconds_to_interrupt(code, wait, exit_within=30)
 
 
 @pytest.mark.parametrize("call", ["sim.run(0.4, h=1e-4)", "sim.run_with_sensitivities(0.4, 'tip_deflection', h=2e-4, method='adjoint')",

@@ -26,12 +26,26 @@ def preset(name: str) -> float:
 
 
 def split_by(spec: dict, factor: int) -> dict:
-    """A copy of the scene dict with ``factor`` times the elements of every bar: the
+    """A copy of the scene dict with ``factor`` times the elements of every frame bar: the
     ``split`` of every ground structure and beam, and of every bar given its own in
-    ``splits``."""
+    ``splits``. A truss bar stays one element (its axial behaviour is exact with one, and
+    more would be a mechanism)."""
     spec = copy.deepcopy(spec)
-    for entry in spec.get("ground_structures", []) + spec.get("beams", []):
-        entry["split"] = int(entry.get("split", 1)) * factor
+    trusses = set()
+    for k, beam in enumerate(spec.get("beams", [])):
+        if beam.get("kind") == "truss":
+            trusses.add(beam.get("name") or f"beams[{k}]")
+        else:
+            beam["split"] = int(beam.get("split", 1)) * factor
+    for g in spec.get("ground_structures", []):
+        if g.get("kind") == "truss":
+            trusses.add(f"{g['name']}/")
+        else:
+            g["split"] = int(g.get("split", 1)) * factor
+
+    def truss(bar: str) -> bool:
+        return bar in trusses or any(bar.startswith(t) for t in trusses if t.endswith("/"))
+
     if "splits" in spec:
-        spec["splits"] = {bar: int(n) * factor for bar, n in spec["splits"].items()}
+        spec["splits"] = {bar: int(n) * (1 if truss(bar) else factor) for bar, n in spec["splits"].items()}
     return spec

@@ -59,11 +59,12 @@ def bar_factors(model: _core.Model, x: np.ndarray | None, refinement: int, dynam
 
 
 def refined_spec(spec: dict[str, Any], bars: _core.BarTable, factors: np.ndarray) -> dict[str, Any]:
-    """A copy of the scene dict in which each bar has ``factors`` times the elements it has
-    in ``bars`` (the built scene's), through the scene's ``splits`` table."""
+    """A copy of the scene dict in which each frame bar has ``factors`` times the elements it
+    has in ``bars`` (the built scene's), through the scene's ``splits`` table; a truss bar
+    stays one element."""
     spec = copy.deepcopy(spec)
     splits = spec.setdefault("splits", {})
-    for name, elements, factor in zip(bars["name"], bars["elements"], factors):
-        if factor != 1:
+    for name, elements, factor, kind in zip(bars["name"], bars["elements"], factors, bars["kind"]):
+        if factor != 1 and kind != "truss":
             splits[name] = int(elements) * int(factor)
     return spec

@@ -38,6 +38,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 
+use super::{Chord, Formulation, Kernel};
 use crate::mechanism::section::Section;
 use crate::settings::MassKind;
 
@@ -57,7 +58,7 @@ pub struct Beam {
     pub section: Section,
 }
 
-/// A damping force at a state with its derivatives: a beam's stiffness-proportional
+/// A damping force at a state with its derivatives: an element's stiffness-proportional
 /// damping (at full density), or a damper's on a distance ([`crate::mechanism::spring::Spring::damper`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Damping {
@@ -86,12 +87,8 @@ impl Damping {
 /// Chord geometry and local deformation of a deformed beam.
 #[derive(Debug, Clone, Copy)]
 struct Deformation {
-    /// Current chord length.
-    l: f64,
-    /// `∂l/∂u`.
-    r: Vector6,
-    /// `l ∂α/∂u`.
-    t: Vector6,
+    /// The chord ([`Chord`]: `l`, `r = ∂l/∂u`, `t = l ∂α/∂u`).
+    chord: Chord,
     /// Local deformation `[e, θ₁, θ₂]`.
     local: Vector3<f64>,
 }
@@ -129,105 +126,84 @@ impl Beam {
         Matrix3::new(rate.ea / l0, 0.0, 0.0, 0.0, a, b, 0.0, b, a)
     }
 
-    /// `∂f/∂p = Bᵀ (∂D/∂p) [e, θ₁, θ₂]` at full density, the section changing at `rate`
-    /// ([`Beam::local_stiffness_rate`]); `B` does not depend on the section.
-    pub fn internal_force_rate(&self, u: &Vector6, rate: &Section) -> Vector6 {
-        let g = self.deformation(u);
-        Self::strain_matrix(&g).transpose() * (self.local_stiffness_rate(rate) * g.local)
-    }
-
-    /// `∂U/∂p = ½ [e, θ₁, θ₂] (∂D/∂p) [e, θ₁, θ₂]ᵀ` at full density.
-    pub fn strain_energy_rate(&self, u: &Vector6, rate: &Section) -> f64 {
-        let g = self.deformation(u);
-        0.5 * g.local.dot(&(self.local_stiffness_rate(rate) * g.local))
-    }
-
-    /// `∂M/∂p` at full density: the mass matrix is linear in `ρA` and `ρI`.
-    pub fn mass_matrix_rate(&self, kind: MassKind, rate: &Section) -> Matrix6 {
-        Self {
-            section: *rate,
-            ..self.clone()
-        }
-        .mass_matrix(kind)
-    }
-
     fn deformation(&self, u: &Vector6) -> Deformation {
-        let du = Vector2::new(u[3] - u[0], u[4] - u[1]);
-        let d = self.chord + du;
-        let l = d.norm();
-        let (c, s) = (d.x / l, d.y / l);
-        // l − L₀ without cancellation: (l² − L₀²)/(l + L₀), l² − L₀² = 2 d₀·Δu + |Δu|².
-        let stretch = (2.0 * self.chord.dot(&du) + du.norm_squared()) / (l + self.length);
+        let chord = Chord::of(&self.chord, self.length, u);
+        let d = chord.d;
         let alpha = (self.chord.x * d.y - self.chord.y * d.x).atan2(self.chord.dot(&d));
-        let local = Vector3::new(stretch, wrap_angle(u[2] - alpha), wrap_angle(u[5] - alpha));
-        Deformation {
-            l,
-            r: Vector6::from([-c, -s, 0.0, c, s, 0.0]),
-            t: Vector6::from([s, -c, 0.0, -s, c, 0.0]),
-            local,
-        }
+        let local = Vector3::new(
+            chord.stretch,
+            wrap_angle(u[2] - alpha),
+            wrap_angle(u[5] - alpha),
+        );
+        Deformation { chord, local }
     }
 
     /// `B = ∂(e, θ₁, θ₂)/∂u`, one row per local deformation.
     fn strain_matrix(g: &Deformation) -> SMatrix<f64, 3, 6> {
         let mut b = SMatrix::<f64, 3, 6>::zeros();
-        b.set_row(0, &g.r.transpose());
-        let dalpha = g.t / g.l;
+        b.set_row(0, &g.chord.r.transpose());
+        let dalpha = g.chord.t / g.chord.l;
         b.set_row(1, &(-dalpha).transpose());
         b.set_row(2, &(-dalpha).transpose());
         b[(1, 2)] += 1.0;
         b[(2, 5)] += 1.0;
         b
     }
+}
 
-    /// `(u, v, φ)` of the element's middle at displacements `u` on its co-rotated cubic:
-    /// the chord's midpoint moved by the deflection `l(θ₁ − θ₂)/8` along the chord's
-    /// normal, turned by the chord's rotation plus the cubic's slope `−(θ₁ + θ₂)/4` there
-    /// (`θ₁, θ₂` the end rotations relative to the chord). A guess for a node that splits
-    /// the element in two ([`crate::Prolongation`]).
-    pub fn middle(&self, u: &Vector6) -> [f64; 3] {
-        let g = self.deformation(u);
-        let (theta_a, theta_b) = (g.local[1], g.local[2]);
-        let d = self.chord + Vector2::new(u[3] - u[0], u[4] - u[1]);
-        let normal = Vector2::new(-d.y, d.x) / g.l;
-        let mid = Vector2::new(u[0], u[1])
-            + 0.5 * (d - self.chord)
-            + g.l * (theta_a - theta_b) / 8.0 * normal;
-        [mid.x, mid.y, u[2] - theta_a - 0.25 * (theta_a + theta_b)]
+impl Kernel for Beam {
+    fn length(&self) -> f64 {
+        self.length
     }
 
-    /// Internal force `f(u)` at full density.
-    pub fn internal_force(&self, u: &Vector6) -> Vector6 {
+    fn section(&self) -> &Section {
+        &self.section
+    }
+
+    fn turns_nodes(&self) -> bool {
+        true
+    }
+
+    /// `f = Bᵀ D [e, θ₁, θ₂]`.
+    fn internal_force(&self, u: &Vector6) -> Vector6 {
         let g = self.deformation(u);
         Self::strain_matrix(&g).transpose() * (self.local_stiffness() * g.local)
     }
 
-    /// Internal force `f(u)` and its exact tangent `K = ∂f/∂u` at full density.
-    pub fn internal_force_and_tangent(&self, u: &Vector6) -> (Vector6, Matrix6) {
+    /// `K = Bᵀ D B + N t tᵀ/l + (M₁ + M₂)(r tᵀ + t rᵀ)/l²`.
+    fn internal_force_and_tangent(&self, u: &Vector6) -> (Vector6, Matrix6) {
         let g = self.deformation(u);
         let b = Self::strain_matrix(&g);
         let d = self.local_stiffness();
         let s = d * g.local;
         let (n, m_sum) = (s[0], s[1] + s[2]);
+        let (l, r, t) = (g.chord.l, g.chord.r, g.chord.t);
         let k = b.transpose() * d * b
-            + g.t * g.t.transpose() * (n / g.l)
-            + (g.r * g.t.transpose() + g.t * g.r.transpose()) * (m_sum / (g.l * g.l));
+            + t * t.transpose() * (n / l)
+            + (r * t.transpose() + t * r.transpose()) * (m_sum / (l * l));
         (b.transpose() * s, k)
     }
 
-    /// Section forces `[N, M₁, M₂]` at full density: the axial force (N, tension
-    /// positive) and the end moments of the chord frame (N m), `D [e, θ₁, θ₂]`.
-    pub fn section_forces(&self, u: &Vector6) -> Vector3<f64> {
+    /// `U = ½ [e, θ₁, θ₂] D [e, θ₁, θ₂]ᵀ`.
+    fn strain_energy(&self, u: &Vector6) -> f64 {
+        let g = self.deformation(u);
+        0.5 * g.local.dot(&(self.local_stiffness() * g.local))
+    }
+
+    /// `D [e, θ₁, θ₂]`.
+    fn section_forces(&self, u: &Vector6) -> Vector3<f64> {
         self.local_stiffness() * self.deformation(u).local
     }
 
-    /// Section forces `[N, M₁, M₂]` at full density and their rate
-    /// `(∂D/∂p) [e, θ₁, θ₂]`, the section changing at `rate` ([`Beam::local_stiffness_rate`]).
-    pub fn section_forces_and_rate(
-        &self,
-        u: &Vector6,
-        rate: &Section,
-    ) -> (Vector3<f64>, Vector3<f64>) {
+    /// `D [e, θ₁, θ₂]` and `D B`.
+    fn section_forces_and_jacobian(&self, u: &Vector6) -> (Vector3<f64>, SMatrix<f64, 3, 6>) {
+        let g = self.deformation(u);
+        let d = self.local_stiffness();
+        (d * g.local, d * Self::strain_matrix(&g))
+    }
+
+    /// `D [e, θ₁, θ₂]` and `(∂D/∂p) [e, θ₁, θ₂]` ([`Beam::local_stiffness_rate`]).
+    fn section_forces_and_rate(&self, u: &Vector6, rate: &Section) -> (Vector3<f64>, Vector3<f64>) {
         let local = self.deformation(u).local;
         (
             self.local_stiffness() * local,
@@ -235,32 +211,48 @@ impl Beam {
         )
     }
 
-    /// Section forces `[N, M₁, M₂]` at full density and their Jacobian `D B = ∂[N, M₁, M₂]/∂u`.
-    pub fn section_forces_and_jacobian(&self, u: &Vector6) -> (Vector3<f64>, SMatrix<f64, 3, 6>) {
+    /// `Bᵀ (∂D/∂p) [e, θ₁, θ₂]`; `B` does not depend on the section.
+    fn internal_force_rate(&self, u: &Vector6, rate: &Section) -> Vector6 {
         let g = self.deformation(u);
-        let d = self.local_stiffness();
-        (d * g.local, d * Self::strain_matrix(&g))
+        Self::strain_matrix(&g).transpose() * (self.local_stiffness_rate(rate) * g.local)
     }
 
-    /// Strain energy `U(u)` at full density (J), paper Eq. 37.
-    pub fn strain_energy(&self, u: &Vector6) -> f64 {
+    /// `½ [e, θ₁, θ₂] (∂D/∂p) [e, θ₁, θ₂]ᵀ`.
+    fn strain_energy_rate(&self, u: &Vector6, rate: &Section) -> f64 {
         let g = self.deformation(u);
-        0.5 * g.local.dot(&(self.local_stiffness() * g.local))
+        0.5 * g.local.dot(&(self.local_stiffness_rate(rate) * g.local))
     }
 
-    /// The stiffness-proportional damping at displacements `u` and velocities `v`, its
-    /// force and derivatives (see the module documentation), for `β` of the section.
-    pub fn damping(&self, u: &Vector6, v: &Vector6) -> Damping {
+    /// `ρA L₀/6 [[2, 1], [1, 2]]` per translation, `ρI L₀/6 [[2, 1], [1, 2]]` for rotation
+    /// (consistent), or their row sums on the diagonal (lumped).
+    fn mass_matrix(&self, kind: MassKind) -> Matrix6 {
+        let (ma, mi) = (
+            self.section.rho_a * self.length,
+            self.section.rho_i * self.length,
+        );
+        two_node_mass(kind, [ma, ma, mi])
+    }
+
+    fn with_section(&self, section: Section) -> Formulation {
+        Formulation::Beam(Self {
+            section,
+            ..self.clone()
+        })
+    }
+
+    /// See the module documentation.
+    fn damping(&self, u: &Vector6, v: &Vector6) -> Damping {
         let g = self.deformation(u);
         let b = Self::strain_matrix(&g);
         let d = self.local_stiffness() * self.section.beta;
         let w = d * (b * v);
-        let (td, rd) = (g.t.dot(v), g.r.dot(v));
-        let he = g.t * g.t.transpose() / g.l;
-        let ht = (g.r * g.t.transpose() + g.t * g.r.transpose()) / (g.l * g.l);
+        let (l, r, t) = (g.chord.l, g.chord.r, g.chord.t);
+        let (td, rd) = (t.dot(v), r.dot(v));
+        let he = t * t.transpose() / l;
+        let ht = (r * t.transpose() + t * r.transpose()) / (l * l);
         let mut grad = SMatrix::<f64, 3, 6>::zeros();
-        grad.set_row(0, &(g.t * (td / g.l)).transpose());
-        let turning = (g.r * td + g.t * rd) / (g.l * g.l);
+        grad.set_row(0, &(t * (td / l)).transpose());
+        let turning = (r * td + t * rd) / (l * l);
         grad.set_row(1, &turning.transpose());
         grad.set_row(2, &turning.transpose());
         Damping {
@@ -271,9 +263,8 @@ impl Beam {
         }
     }
 
-    /// `∂f_d/∂p = β' Bᵀ D B q̇ + β Bᵀ D' B q̇` for a section whose `β` changes at `beta_rate`
-    /// and whose `D` changes at `rate` ([`Beam::local_stiffness_rate`]).
-    pub fn damping_force_rate(
+    /// `β' Bᵀ D B q̇ + β Bᵀ D' B q̇`.
+    fn damping_force_rate(
         &self,
         u: &Vector6,
         v: &Vector6,
@@ -287,25 +278,38 @@ impl Beam {
         b.transpose() * (d * (b * v))
     }
 
-    /// Constant mass matrix at full density.
-    pub fn mass_matrix(&self, kind: MassKind) -> Matrix6 {
-        let (ma, mi) = (
-            self.section.rho_a * self.length,
-            self.section.rho_i * self.length,
-        );
-        let mut m = Matrix6::zeros();
-        for (k, total) in [(0, ma), (1, ma), (2, mi)] {
-            let (diag, off) = match kind {
-                MassKind::Consistent => (total / 3.0, total / 6.0),
-                MassKind::Lumped => (total / 2.0, 0.0),
-            };
-            m[(k, k)] = diag;
-            m[(k + 3, k + 3)] = diag;
-            m[(k, k + 3)] = off;
-            m[(k + 3, k)] = off;
-        }
-        m
+    /// The middle on the element's co-rotated cubic: the chord's midpoint moved by the
+    /// deflection `l(θ₁ − θ₂)/8` along the chord's normal, turned by the chord's rotation
+    /// plus the cubic's slope `−(θ₁ + θ₂)/4` there (`θ₁, θ₂` the end rotations relative to
+    /// the chord).
+    fn middle(&self, u: &Vector6) -> [f64; 3] {
+        let g = self.deformation(u);
+        let (theta_a, theta_b) = (g.local[1], g.local[2]);
+        let d = g.chord.d;
+        let normal = Vector2::new(-d.y, d.x) / g.chord.l;
+        let mid = Vector2::new(u[0], u[1])
+            + 0.5 * (d - self.chord)
+            + g.chord.l * (theta_a - theta_b) / 8.0 * normal;
+        [mid.x, mid.y, u[2] - theta_a - 0.25 * (theta_a + theta_b)]
     }
+}
+
+/// The constant mass matrix of linear interpolation between two nodes, with `totals` the
+/// element's mass in x, in y (kg) and its rotary inertia (kg m²): `total/6 [[2, 1], [1, 2]]`
+/// per coordinate (consistent), or `total/2` on the diagonal (lumped).
+pub(super) fn two_node_mass(kind: MassKind, totals: [f64; 3]) -> Matrix6 {
+    let mut m = Matrix6::zeros();
+    for (k, total) in totals.into_iter().enumerate() {
+        let (diag, off) = match kind {
+            MassKind::Consistent => (total / 3.0, total / 6.0),
+            MassKind::Lumped => (total / 2.0, 0.0),
+        };
+        m[(k, k)] = diag;
+        m[(k + 3, k + 3)] = diag;
+        m[(k, k + 3)] = off;
+        m[(k + 3, k)] = off;
+    }
+    m
 }
 
 /// `a` wrapped to `(−π, π]`.
