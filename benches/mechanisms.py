@@ -35,7 +35,7 @@ import numpy as np
 
 import flextop
 from flextop import scenes
-from flextop.scene import Scene
+from flextop.scenes.builder import Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from work_precision import timed  # noqa: E402

@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 
 import flextop  # noqa: E402
 from flextop.plots import plot_design  # noqa: E402
-from flextop.scenarios import ScenarioProblem, evaluate, robust_robot_arm  # noqa: E402
+from flextop.problems import ScenarioProblem, evaluate, robust_robot_arm  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEAT = 10

@@ -10,9 +10,8 @@ from . import responses, scenes
 from .errors import (CheckpointError, DesignError, ExecutionError, FlextopError, PlausibilityWarning, SceneError, SceneFileError,
                      SettingsError, SimulationError, ToleranceError)
 from .optimizers import OptimizeResult, optimize
-from .problems import TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
-from .scenarios import Scenario, ScenarioProblem
-from .scene import GroundStructure, Scene, motion_table, trapezoidal
+from .problems import Scenario, ScenarioProblem, TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
+from .scenes import GroundStructure, Scene, motion_table, trapezoidal
 from .results import Bars, Joint, Results, Sensitivities, StaticResults
 from .simulation import Simulation, load
 
@@ -25,9 +24,9 @@ __version__ = "0.1.0"
 
 
 def __getattr__(name: str) -> object:
-    """``flextop.plots`` (and ``flextop.export``) on first use: matplotlib is imported only
-    when a figure is asked for."""
-    if name in ("plots", "export"):
+    """``flextop.plots`` on first use: matplotlib is imported only when a figure is asked
+    for."""
+    if name == "plots":
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

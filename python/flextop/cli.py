@@ -27,15 +27,15 @@ from typing import Any, Callable, Iterator
 import numpy as np
 from tqdm import tqdm
 
-from . import __version__, checkpoint, export, responses, scenarios, scenes
+from . import __version__, responses, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED, Status
-from .problems import MIN_FREQUENCY, TopologyProblem, relation, volume_constraints
-from .scenarios import ScenarioProblem
-from .scene import Scene, read_toml
+from .io import checkpoint, export
+from .problems import MIN_FREQUENCY, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
+from .scenes import Scene, read_toml
 from .results import Results
 from .simulation import Simulation
 

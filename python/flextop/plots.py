@@ -23,7 +23,7 @@ from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 from . import responses
-from .export import FRAMES, frame_indices
+from .io.export import FRAMES, frame_indices
 from .results import Results
 from .simulation import Simulation
 

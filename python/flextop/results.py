@@ -17,11 +17,12 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from . import _core, export, saved
+from . import _core
 from .discretization import tolerance
 from .discretization.refinement import companions_of
 from .discretization.tolerance import Discretization
 from .errors import SettingsError
+from .io import export, saved
 
 
 @dataclass(frozen=True)
@@ -142,7 +143,7 @@ class _Run:
         return self.raw["lam"]
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Everything this result holds, to ``path`` (``.npz``; :mod:`flextop.saved`), for
+        """Everything this result holds, to ``path`` (``.npz``; :mod:`flextop.io.saved`), for
         :func:`flextop.load` to give back bit for bit."""
         return saved.write(self, path)
 
@@ -258,7 +259,7 @@ class Results(_Run):
     def to_vtk(self, path: str | os.PathLike, *, every: int | None = None) -> Path:
         """The motion for ParaView: a ``.pvd`` index at ``path`` and a ``.vtu`` file per
         step (every ``every``-th, default about 100 frames, and the last) beside it
-        (:mod:`flextop.export`)."""
+        (:mod:`flextop.io.export`)."""
         return export.write_motion(self, path, every=every)
 
     @property
@@ -344,7 +345,7 @@ class StaticResults(_Run):
     """A static equilibrium."""
 
     def to_vtk(self, path: str | os.PathLike) -> Path:
-        """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.export`)."""
+        """The deformed structure for ParaView as one ``.vtu`` file (:mod:`flextop.io.export`)."""
         return export.write_state(self, path)
 
     @property

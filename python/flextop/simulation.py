@@ -26,10 +26,11 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from . import _core, execution, modal, plausibility, responses, saved
+from . import _core, execution, modal, plausibility, responses
 from .discretization import Levels, preset, refinement, tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
-from .scene import Scene
+from .io import saved
+from .scenes import Scene
 from .discretization.tolerance import Discretization
 from .results import Bars, Joint, Results, Sensitivities, StaticResults
 

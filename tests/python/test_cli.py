@@ -203,7 +203,7 @@ def test_resume_verifies_the_checkpoint(tmp_path, capsys):
         copy = json.loads(json.dumps(sealed))
         copy["data"] = data
         if seal:
-            copy["sha256"] = flextop.checkpoint._digest(data)
+            copy["sha256"] = flextop.io.checkpoint._digest(data)
         (out / "checkpoint.json").write_text(json.dumps(copy))
         code = flextop.cli.main(["optimize", "--resume", "--out", str(out), "--no-plots", *extra])
         return code, capsys.readouterr().err.strip().splitlines()[-1]

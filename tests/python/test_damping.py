@@ -13,7 +13,7 @@ from scipy.optimize import curve_fit
 import flextop
 from flextop import scenes
 from flextop.errors import SceneError
-from flextop.scene import Scene
+from flextop.scenes.builder import Scene
 
 from conftest import fourth_order
 

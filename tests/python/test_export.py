@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import flextop
-from flextop import export
+from flextop.io import export
 
 from conftest import cantilever
 

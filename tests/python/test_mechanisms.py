@@ -12,7 +12,7 @@ from scipy.special import ellipj, ellipk
 import flextop
 from flextop import scenes
 from flextop.errors import SceneError
-from flextop.scene import Scene, trapezoidal
+from flextop.scenes.builder import Scene, trapezoidal
 
 from conftest import fourth_order, slider_crank_with_force_elements
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from flextop.scene import tomllib
+from flextop.scenes.builder import tomllib
 
 from conftest import EXAMPLES, ROOT
 
@@ -20,7 +20,7 @@ PROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["
 SNIPPET = """
 import sys
 import flextop
-from flextop.scene import tomllib
+from flextop.scenes.builder import tomllib
 assert sys.version_info[:2] == {version}, sys.version
 assert tomllib.__name__ == {parser!r}, tomllib.__name__
 sim = flextop.Simulation(flextop.Scene.from_toml({scene!r}))

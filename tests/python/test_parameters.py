@@ -13,7 +13,7 @@ import pytest
 import flextop
 from flextop import scenes
 from flextop.errors import SettingsError
-from flextop.scene import Scene
+from flextop.scenes.builder import Scene
 
 from conftest import fourth_order, slider_crank_with_force_elements
 

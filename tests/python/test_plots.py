@@ -237,5 +237,5 @@ def test_plots_are_reached_from_the_package_as_the_readme_uses_them():
     import sys
     code = ("import sys, flextop; assert 'matplotlib' not in sys.modules; "
             "assert callable(flextop.plots.plot_design) and 'matplotlib' in sys.modules; "
-            "assert flextop.export.__name__ == 'flextop.export'")
+            "assert flextop.io.export.__name__ == 'flextop.io.export'")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0

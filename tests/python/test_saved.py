@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import flextop
-from flextop import saved
+from flextop.io import saved
 
 
 def same(a, b):

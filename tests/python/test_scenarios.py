@@ -14,7 +14,7 @@ import flextop
 from flextop import execution, scenes
 from flextop.errors import ExecutionError, FlextopError, SimulationError
 from flextop.optimizers import EvaluationError
-from flextop.scenarios import Scenario, ScenarioProblem, evaluate, robust_robot_arm
+from flextop.problems import Scenario, ScenarioProblem, evaluate, robust_robot_arm
 
 ARM_T_END = 0.4  # a shorter motion keeps the tests quick; the physics is the arm's
 
@@ -253,7 +253,7 @@ def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
 MPI_STUDY = """
 import numpy as np
 from mpi4py.futures import MPIPoolExecutor
-from flextop.scenarios import evaluate, robust_robot_arm
+from flextop.problems import evaluate, robust_robot_arm
 if __name__ == "__main__":
     cases = robust_robot_arm()[:4]
     designs = [np.full(148, v) for v in (0.3, 0.6)]

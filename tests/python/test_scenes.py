@@ -8,7 +8,7 @@ import pytest
 
 import flextop
 from flextop import DesignError, SceneError, SettingsError, SimulationError
-from flextop.scene import tomllib
+from flextop.scenes.builder import tomllib
 
 from conftest import EXAMPLES, cantilever
 

@@ -38,15 +38,15 @@ from typing import Any
 
 import numpy as np
 
-from . import scenes
-from .modal import ks_lowest
-from .errors import DesignError, SettingsError, SimulationError
-from .optimizers import Evaluation, EvaluationError, Problem
-from .responses import PEAK_LIMITED
-from .simulation import Simulation
-from .discretization.refinement import t_end
-from .discretization.tolerance import Discretization
-from .results import Sensitivities
+from .. import scenes
+from ..modal import ks_lowest
+from ..errors import DesignError, SettingsError, SimulationError
+from ..optimizers import Evaluation, EvaluationError, Problem
+from ..responses import PEAK_LIMITED
+from ..simulation import Simulation
+from ..discretization.refinement import t_end
+from ..discretization.tolerance import Discretization
+from ..results import Sensitivities
 
 
 MIN_FREQUENCY = "min_frequency"

@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .errors import CheckpointError
+from ..errors import CheckpointError
 
 VERSION = 2
 """Format of the checkpoint files written; other versions are refused."""

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SettingsError
+from ..errors import SettingsError
 
 
 JOINT, POINT_MASS, BODY = 1, 2, 3

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from .errors import SceneError, SceneFileError
+from ..errors import SceneError, SceneFileError
 
 if sys.version_info >= (3, 11):
     import tomllib

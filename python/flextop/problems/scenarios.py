@@ -47,14 +47,14 @@ from typing import Any
 
 import numpy as np
 
-from . import execution, scenes
-from .errors import DesignError, SceneError, SettingsError, SimulationError
-from .optimizers import Evaluation, EvaluationError, Problem
-from .problems import is_aggregate
-from .scene import Scene
-from .results import Sensitivities
-from .simulation import Simulation, Task, perform, remember
-from .discretization.tolerance import Discretization
+from .. import execution, scenes
+from ..errors import DesignError, SceneError, SettingsError, SimulationError
+from ..optimizers import Evaluation, EvaluationError, Problem
+from ..results import Sensitivities
+from ..scenes import Scene
+from ..simulation import Simulation, Task, perform, remember
+from ..discretization.tolerance import Discretization
+from .topology import is_aggregate
 
 WORST_CASE_RANGE = (-20.0, 1.0)
 """Bounds of the worst-case variable ``β = ln(max wₛfₛ / f_ref)``: from a factor e⁻²⁰ (2e-9)

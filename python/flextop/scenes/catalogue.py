@@ -17,9 +17,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from . import _core
-from .errors import SceneError
-from .scene import Scene, motion_table, trapezoidal
+from .. import _core
+from ..errors import SceneError
+from .builder import Scene, motion_table, trapezoidal
 
 #: The engine's limits on a model's size, by name (``grid_nodes``, ``split``, ``nodes``,
 #: ``elements``): the builders check their counts against them before building.

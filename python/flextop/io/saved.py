@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import SettingsError
+from ..errors import SettingsError
 
 
 VERSION = 1
