@@ -105,7 +105,7 @@ def dynamic_truss() -> flextop.Scene:
 
 
 @pytest.mark.parametrize("scene, responses", [
-    (flextop.scenes.static_truss(kind="truss"), ["compliance", "stress:p=8"]),
+    (flextop.scenes.static_truss(kind="truss"), ["compliance", "stress:p=8", "buckling:p=8"]),
     (dynamic_truss(), ["strain_energy", "compliance", "displacement:truss[3,1]:0,1"]),
 ])
 def test_truss_gradients_match_differences_and_direct_equals_adjoint(scene, responses):
