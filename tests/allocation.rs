@@ -80,7 +80,14 @@ fn alpha_steps_do_not_allocate() {
         section.rayleigh = Some([2.0, 1e-4]);
     }
     let damped = ("damped arm".to_string(), damped, NewtonMatrix::Full, 0.02);
-    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped]) {
+    // Truss bars, with the rotations of their pinned nodes absent from the unknowns.
+    let truss = (
+        "truss".to_string(),
+        scene::parse_toml(TRUSS).unwrap(),
+        NewtonMatrix::Full,
+        5e-4,
+    );
+    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped, truss]) {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
@@ -115,3 +122,35 @@ fn alpha_steps_do_not_allocate() {
         );
     }
 }
+
+/// A truss ground structure pinned at its base column, swinging under gravity and a tip
+/// load, with stiffness-proportional damping.
+const TRUSS: &str = r#"
+name = "moving_truss"
+gravity = [0.0, -9.81]
+[sections.al]
+E = 70e9
+rho = 2700.0
+nu = 0.32
+diameter = 0.02
+rayleigh = [0.0, 2e-5]
+[[ground_structures]]
+name = "truss"
+nx = 4
+ny = 2
+length = 0.6
+height = 0.1
+section = "al"
+kind = "truss"
+[[joints]]
+kind = "pin"
+name = "base0"
+node = "truss[0,0]"
+[[joints]]
+kind = "pin"
+name = "base1"
+node = "truss[0,1]"
+[[loads]]
+node = "truss[3,1]"
+force = [0.0, -2000.0]
+"#;
