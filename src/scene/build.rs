@@ -19,6 +19,7 @@ use super::{body, design, ground_structure, joint, load, motor, section, simulat
 use crate::error::{Error, SceneError};
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
+use crate::mechanism::spring::Measure;
 
 /// Builds and validates the model of `spec`.
 ///
@@ -135,8 +136,67 @@ fn absent_rotations(model: &Model) -> Result<Vec<usize>, SceneError> {
         );
         return Err(SceneError::new(format!("loads[{k}]"), msg));
     }
+    check_truss_rotations(model)?;
     Ok((0..pinned.len())
         .filter(|&n| pinned[n])
         .map(|n| 3 * n + 2)
         .collect())
+}
+
+/// A joint, spring or motor that acts on the rotation of a node only truss bars meet (no
+/// beam, rigid body or rotary inertia there) drives, locks or loads nothing: the bars are
+/// pinned there and do not turn with that rotation. Refused, so that a driven truss link
+/// is not silently left free.
+///
+/// # Errors
+/// A [`SceneError`] naming the first such joint, spring or motor.
+fn check_truss_rotations(model: &Model) -> Result<(), SceneError> {
+    let n = model.nodes.len();
+    let mut bare = vec![false; n];
+    for e in model.elements.iter().filter(|e| !e.kernel.turns_nodes()) {
+        e.nodes.iter().for_each(|&k| bare[k] = true);
+    }
+    for e in model.elements.iter().filter(|e| e.kernel.turns_nodes()) {
+        e.nodes.iter().for_each(|&k| bare[k] = false);
+    }
+    for b in &model.bodies {
+        bare[b.node] = false;
+    }
+    for pm in model.point_masses.iter().filter(|pm| pm.inertia != 0.0) {
+        bare[pm.node] = false;
+    }
+    let on_bare = |dofs: [Option<usize>; 6], acts: [bool; 6]| {
+        (0..6).find_map(|i| dofs[i].filter(|d| acts[i] && d % 3 == 2 && bare[d / 3]))
+    };
+    let refuse = |at: String, d: usize| {
+        let node = &model.nodes[d / 3].name;
+        SceneError::new(
+            at,
+            format!(
+                "acts on the rotation of node '{node}', which only truss bars meet: they are \
+                 pinned there and do not turn with it, so nothing is driven, locked or loaded \
+                 (pin the node instead of clamping it; a driven link is kind = \"frame\" or \
+                 carries a rigid body)"
+            ),
+        )
+    };
+    for row in &model.rows {
+        if let Some(d) = on_bare(row.dofs(), row.active()) {
+            let name = &model.joints[row.joint].name;
+            return Err(refuse(format!("joints[{}] ({name})", row.joint), d));
+        }
+    }
+    for (k, spring) in model.springs.iter().enumerate() {
+        if let Measure::Coordinate(row) = spring.measure {
+            if let Some(d) = on_bare(row.dofs(), row.active()) {
+                return Err(refuse(format!("springs[{k}] ({})", spring.name), d));
+            }
+        }
+    }
+    for (k, motor) in model.motors.iter().enumerate() {
+        if let Some(d) = on_bare(motor.dofs, motor.direction.map(|c| c != 0.0)) {
+            return Err(refuse(format!("motors[{k}] ({})", motor.name), d));
+        }
+    }
+    Ok(())
 }

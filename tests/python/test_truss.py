@@ -78,6 +78,21 @@ def test_a_moment_on_a_pin_and_a_split_truss_bar_are_named():
         flextop.scenes.static_truss(kind="cable")
 
 
+def test_a_joint_on_a_rotation_truss_bars_do_not_turn_is_named():
+    """The arm with truss links: its elbow drive would turn a node the pinned bars do not
+    turn with (at solve, a singular matrix); a clamp at a truss support likewise locks
+    nothing. Both are refused at the build, naming the joint."""
+    arm = flextop.scenes.robot_arm().to_dict()
+    for g in arm["ground_structures"]:
+        g["kind"] = "truss"
+    with pytest.raises(SceneError, match=r"joints\[0\] \(shoulder\): acts on the rotation of node 'link1\[0,1\]'"):
+        flextop.Simulation(arm)
+    truss = flextop.scenes.static_truss(kind="truss").to_dict()
+    truss["joints"][1] = {"kind": "clamp", "name": "held", "node": "truss[0,1]"}
+    with pytest.raises(SceneError, match=r"joints\[1\] \(held\).*pin the node instead of clamping it"):
+        flextop.Simulation(truss)
+
+
 def test_refinement_leaves_truss_bars_whole():
     spec = flextop.scenes.static_truss(kind="truss").to_dict()
     spec["splits"] = {"truss/bar3": 1}
