@@ -12,7 +12,7 @@ use nalgebra::Vector2;
 
 use crate::error::SettingsError;
 use crate::mechanism::element::Kind;
-use crate::mechanism::model::Model;
+use crate::mechanism::model::{Bar, Model};
 
 /// Where a node of the refined model takes its coordinates from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,29 +39,12 @@ impl Prolongation {
     /// A [`SettingsError`] naming the bar or node where `fine` is not `coarse` with each
     /// element split in two (checked on the reference positions).
     pub fn between(coarse: &Model, fine: &Model) -> Result<Self, SettingsError> {
-        let mismatch = |what: String| {
-            SettingsError::new(
-                "fine model",
-                format!("is not the coarse model with every element split in two: {what}"),
-            )
+        let mut m = Matching {
+            coarse,
+            fine,
+            tol: 1e-9 * coarse.size(),
+            sources: vec![None; fine.nodes.len()],
         };
-        let tol = 1e-9 * coarse.size();
-        let mut sources: Vec<Option<Source>> = vec![None; fine.nodes.len()];
-        let assign =
-            |sources: &mut Vec<Option<Source>>, node: usize, source: Source, at: Vector2<f64>| {
-                let name = &fine.nodes[node].name;
-                if (fine.nodes[node].position - at).norm() > tol {
-                    return Err(mismatch(format!(
-                        "node {name} is not where the coarse mesh puts it"
-                    )));
-                }
-                match sources[node].replace(source) {
-                    Some(other) if other != source => {
-                        Err(mismatch(format!("node {name} has two origins")))
-                    }
-                    _ => Ok(()),
-                }
-            };
         let fine_bars: HashMap<&str, usize> = fine
             .bars
             .iter()
@@ -69,64 +52,14 @@ impl Prolongation {
             .map(|(k, b)| (b.name.as_str(), k))
             .collect();
         for bar in &coarse.bars {
-            // A truss bar is one element in both.
-            let halves = if bar.kind == Kind::Truss { 1 } else { 2 };
-            let split = fine_bars.get(bar.name.as_str()).map(|&k| &fine.bars[k]);
-            let Some(split) = split.filter(|s| s.elements.len() == halves * bar.elements.len())
-            else {
-                return Err(mismatch(format!(
-                    "bar {} is missing or not split in two",
-                    bar.name
-                )));
-            };
-            if halves == 1 {
-                let ([a, b], [fa, fb]) = (
-                    coarse.elements[bar.elements.start].nodes,
-                    fine.elements[split.elements.start].nodes,
-                );
-                assign(&mut sources, fa, Source::Node(a), coarse.nodes[a].position)?;
-                assign(&mut sources, fb, Source::Node(b), coarse.nodes[b].position)?;
-                continue;
-            }
-            for (k, e) in bar.elements.clone().enumerate() {
-                let [a, b] = coarse.elements[e].nodes;
-                let (pa, pb) = (coarse.nodes[a].position, coarse.nodes[b].position);
-                let first = &fine.elements[split.elements.start + 2 * k];
-                let second = &fine.elements[split.elements.start + 2 * k + 1];
-                if first.nodes[1] != second.nodes[0] {
-                    return Err(mismatch(format!(
-                        "the halves of bar {} do not meet",
-                        bar.name
-                    )));
-                }
-                assign(&mut sources, first.nodes[0], Source::Node(a), pa)?;
-                assign(
-                    &mut sources,
-                    first.nodes[1],
-                    Source::Middle(e),
-                    0.5 * (pa + pb),
-                )?;
-                assign(&mut sources, second.nodes[1], Source::Node(b), pb)?;
-            }
+            m.bar(
+                bar,
+                fine_bars.get(bar.name.as_str()).map(|&k| &fine.bars[k]),
+            )?;
         }
-        for node in 0..fine.nodes.len() {
-            if sources[node].is_none() {
-                let Some(c) = coarse.node_index(&fine.nodes[node].name) else {
-                    return Err(mismatch(format!(
-                        "node {} is in no bar and not in the coarse model",
-                        fine.nodes[node].name
-                    )));
-                };
-                assign(
-                    &mut sources,
-                    node,
-                    Source::Node(c),
-                    coarse.nodes[c].position,
-                )?;
-            }
-        }
+        m.outside_bars()?;
         Ok(Self {
-            sources: sources.into_iter().flatten().collect(),
+            sources: m.sources.into_iter().flatten().collect(),
         })
     }
 
@@ -142,5 +75,90 @@ impl Prolongation {
             };
             out[3 * node..3 * node + 3].copy_from_slice(&value);
         }
+    }
+}
+
+/// The sources of the fine model's nodes as they are matched, checked on the reference
+/// positions (within `tol`).
+struct Matching<'m> {
+    coarse: &'m Model,
+    fine: &'m Model,
+    tol: f64,
+    sources: Vec<Option<Source>>,
+}
+
+/// The refusal of a fine model that is not the coarse one split in two.
+fn mismatch(what: String) -> SettingsError {
+    SettingsError::new(
+        "fine model",
+        format!("is not the coarse model with every element split in two: {what}"),
+    )
+}
+
+impl Matching<'_> {
+    /// Fine node `node` takes its coordinates from `source`, which puts it at `at`.
+    fn assign(
+        &mut self,
+        node: usize,
+        source: Source,
+        at: Vector2<f64>,
+    ) -> Result<(), SettingsError> {
+        let name = &self.fine.nodes[node].name;
+        if (self.fine.nodes[node].position - at).norm() > self.tol {
+            return Err(mismatch(format!(
+                "node {name} is not where the coarse mesh puts it"
+            )));
+        }
+        match self.sources[node].replace(source) {
+            Some(other) if other != source => Err(mismatch(format!("node {name} has two origins"))),
+            _ => Ok(()),
+        }
+    }
+
+    /// The nodes of coarse `bar` and of its fine version `split`: each element's ends and
+    /// the node between its halves; a truss bar, one element in both, its ends.
+    fn bar(&mut self, bar: &Bar, split: Option<&Bar>) -> Result<(), SettingsError> {
+        let (coarse, fine) = (self.coarse, self.fine);
+        let halves = if bar.kind == Kind::Truss { 1 } else { 2 };
+        let Some(split) = split.filter(|s| s.elements.len() == halves * bar.elements.len()) else {
+            return Err(mismatch(format!(
+                "bar {} is missing or not split in two",
+                bar.name
+            )));
+        };
+        for (k, e) in bar.elements.clone().enumerate() {
+            let [a, b] = coarse.elements[e].nodes;
+            let (pa, pb) = (coarse.nodes[a].position, coarse.nodes[b].position);
+            let first = &fine.elements[split.elements.start + halves * k];
+            let last = &fine.elements[split.elements.start + halves * k + halves - 1];
+            if halves == 2 {
+                if first.nodes[1] != last.nodes[0] {
+                    return Err(mismatch(format!(
+                        "the halves of bar {} do not meet",
+                        bar.name
+                    )));
+                }
+                self.assign(first.nodes[1], Source::Middle(e), 0.5 * (pa + pb))?;
+            }
+            self.assign(first.nodes[0], Source::Node(a), pa)?;
+            self.assign(last.nodes[1], Source::Node(b), pb)?;
+        }
+        Ok(())
+    }
+
+    /// The nodes in no bar (rigid bodies' centres), matched by name.
+    fn outside_bars(&mut self) -> Result<(), SettingsError> {
+        for node in 0..self.fine.nodes.len() {
+            if self.sources[node].is_none() {
+                let name = &self.fine.nodes[node].name;
+                let Some(c) = self.coarse.node_index(name) else {
+                    return Err(mismatch(format!(
+                        "node {name} is in no bar and not in the coarse model"
+                    )));
+                };
+                self.assign(node, Source::Node(c), self.coarse.nodes[c].position)?;
+            }
+        }
+        Ok(())
     }
 }
