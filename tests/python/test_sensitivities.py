@@ -6,12 +6,7 @@ import pytest
 import flextop
 from flextop import SettingsError
 
-
-def fd4(f, x, j, eps=5e-4):
-    """Fourth-order central difference of f along x_j."""
-    e = np.zeros_like(x)
-    e[j] = eps
-    return (8 * (f(x + e) - f(x - e)) - (f(x + 2 * e) - f(x - 2 * e))) / (12 * eps)
+from conftest import assert_exact_gradients
 
 
 @pytest.mark.parametrize("scene, responses", [
@@ -23,15 +18,7 @@ def fd4(f, x, j, eps=5e-4):
 def test_gradients_match_finite_differences_for_both_methods(scene, responses):
     sim = flextop.Simulation(scene)
     x = np.random.default_rng(1).uniform(0.1, 0.95, sim.n_design)
-    f_adj, g_adj = sim.run_with_sensitivities(x, responses, method="adjoint", tol=1e-12)
-    f_dir, g_dir = sim.run_with_sensitivities(x, responses, method="direct", tol=1e-12)
-    np.testing.assert_array_equal(f_adj, f_dir)
-    np.testing.assert_allclose(g_dir, g_adj, rtol=0, atol=1e-9 * np.abs(g_adj).max())
-    value = lambda xx: sim.run_with_sensitivities(xx, responses, method="adjoint", tol=1e-12)[0]
-    for j in (3, sim.n_design - 5):
-        fd = fd4(value, x, j)
-        for k in range(len(responses)):
-            assert abs(fd[k] - g_adj[k, j]) <= 1e-6 * max(abs(g_adj[k, j]), 1e-3 * np.abs(g_adj[k]).max()), (responses[k], j)
+    assert_exact_gradients(sim, x, responses, (3, sim.n_design - 5))
 
 
 def test_values_equal_the_responses_of_a_plain_run(arm):
