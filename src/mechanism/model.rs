@@ -287,44 +287,6 @@ impl Model {
         }
     }
 
-    /// The nodes whose rotation something other than a load acts on: a beam, a rigid
-    /// body, a rotary inertia, a joint row, a spring or a motor (in the order of the nodes).
-    pub fn turned_nodes(&self) -> Vec<bool> {
-        let mut turned = vec![false; self.nodes.len()];
-        let mut mark = |dofs: [Option<usize>; 6], acts: [bool; 6]| {
-            for i in [2, 5] {
-                if let (Some(d), true) = (dofs[i], acts[i]) {
-                    turned[d / 3] = true;
-                }
-            }
-        };
-        for e in self.elements.iter().filter(|e| e.kernel.turns_nodes()) {
-            mark(e.dofs().map(Some), [true; 6]);
-        }
-        for row in &self.rows {
-            mark(row.dofs(), row.active());
-        }
-        for spring in &self.springs {
-            let acts = match spring.measure {
-                Measure::Distance { at, .. } => {
-                    std::array::from_fn(|i| at[i / 3].arm != Vector2::zeros())
-                }
-                Measure::Coordinate(row) => row.active(),
-            };
-            mark(spring.dofs(), acts);
-        }
-        for motor in &self.motors {
-            mark(motor.dofs, motor.direction.map(|c| c != 0.0));
-        }
-        for b in &self.bodies {
-            turned[b.node] = true;
-        }
-        for pm in self.point_masses.iter().filter(|pm| pm.inertia != 0.0) {
-            turned[pm.node] = true;
-        }
-        turned
-    }
-
     /// Number of constraint rows `n_c`.
     pub fn n_constraints(&self) -> usize {
         self.rows.len()

@@ -113,44 +113,13 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     Ok(model)
 }
 
-/// The rotations of the nodes that only truss bars meet and nothing else turns
-/// ([`Model::absent_rotations`]).
+/// The rotations of the nodes that only truss bars meet (no beam, rigid body or rotary
+/// inertia there): [`Model::absent_rotations`]. The pinned bars do not turn with them, so
+/// nothing may act on them.
 ///
 /// # Errors
-/// A [`SceneError`] for a moment load on such a node: a pin carries no moment.
+/// A [`SceneError`] naming a moment load, joint, spring or motor on such a rotation.
 fn absent_rotations(model: &Model) -> Result<Vec<usize>, SceneError> {
-    let turned = model.turned_nodes();
-    let mut pinned = vec![false; model.nodes.len()];
-    for e in model.elements.iter().filter(|e| !e.kernel.turns_nodes()) {
-        e.nodes.iter().for_each(|&n| pinned[n] = !turned[n]);
-    }
-    if let Some((k, load)) = model
-        .loads
-        .iter()
-        .enumerate()
-        .find(|(_, l)| l.value[2] != 0.0 && pinned[l.node])
-    {
-        let node = &model.nodes[load.node].name;
-        let msg = format!(
-            "a moment on node '{node}', which only truss bars meet: a pin carries no moment"
-        );
-        return Err(SceneError::new(format!("loads[{k}]"), msg));
-    }
-    check_truss_rotations(model)?;
-    Ok((0..pinned.len())
-        .filter(|&n| pinned[n])
-        .map(|n| 3 * n + 2)
-        .collect())
-}
-
-/// A joint, spring or motor that acts on the rotation of a node only truss bars meet (no
-/// beam, rigid body or rotary inertia there) drives, locks or loads nothing: the bars are
-/// pinned there and do not turn with that rotation. Refused, so that a driven truss link
-/// is not silently left free.
-///
-/// # Errors
-/// A [`SceneError`] naming the first such joint, spring or motor.
-fn check_truss_rotations(model: &Model) -> Result<(), SceneError> {
     let n = model.nodes.len();
     let mut bare = vec![false; n];
     for e in model.elements.iter().filter(|e| !e.kernel.turns_nodes()) {
@@ -165,6 +134,32 @@ fn check_truss_rotations(model: &Model) -> Result<(), SceneError> {
     for pm in model.point_masses.iter().filter(|pm| pm.inertia != 0.0) {
         bare[pm.node] = false;
     }
+    if let Some((k, load)) = model
+        .loads
+        .iter()
+        .enumerate()
+        .find(|(_, l)| l.value[2] != 0.0 && bare[l.node])
+    {
+        let node = &model.nodes[load.node].name;
+        let msg = format!(
+            "a moment on node '{node}', which only truss bars meet: a pin carries no moment"
+        );
+        return Err(SceneError::new(format!("loads[{k}]"), msg));
+    }
+    check_truss_rotations(model, &bare)?;
+    Ok((0..bare.len())
+        .filter(|&n| bare[n])
+        .map(|n| 3 * n + 2)
+        .collect())
+}
+
+/// A joint, spring or motor that acts on the rotation of a `bare` node (only truss bars
+/// meet there) drives, locks or loads nothing: the bars are pinned there and do not turn
+/// with that rotation. Refused, so that a driven truss link is not silently left free.
+///
+/// # Errors
+/// A [`SceneError`] naming the first such joint, spring or motor.
+fn check_truss_rotations(model: &Model, bare: &[bool]) -> Result<(), SceneError> {
     let on_bare = |dofs: [Option<usize>; 6], acts: [bool; 6]| {
         (0..6).find_map(|i| dofs[i].filter(|d| acts[i] && d % 3 == 2 && bare[d / 3]))
     };
