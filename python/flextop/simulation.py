@@ -349,8 +349,8 @@ class Simulation:
 
     def run_with_sensitivities(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
-                               start: Discretization | None = None, hold_gradients: bool = True, local_tol: float | None = None,
-                               parameters: Sequence[str] = (), **settings: Any) -> Sensitivities:
+                               start: Discretization | None = None, hold_gradients: bool = True, extrapolate: bool = True,
+                               local_tol: float | None = None, parameters: Sequence[str] = (), **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -390,7 +390,13 @@ class Simulation:
         their estimated errors are in ``gradient_errors``; every companion run then computes
         gradients too. With ``hold_gradients=False`` the discretization is chosen on the
         values alone (companions run without gradients) and the gradients are the exact
-        derivatives of those values on the grid accepted, their error not estimated. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
+        derivatives of those values on the grid accepted, their error not estimated. With
+        ``extrapolate`` (the default), a candidate is also judged on Richardson's
+        extrapolation in the step, ``(4 f(h) − f(2h))/3`` with the same combination of the
+        gradients (each the exact derivative of its value), its error estimated from the
+        runs at 4h and 8h; where that estimate is the smaller, the extrapolated values are
+        returned and ``discretization.extrapolated`` says so (peaks stay those of the run at
+        h). With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
         error control, then frozen: the gradients are exact for the steps that ran, which
         the result holds in ``steps``.
         """
@@ -408,7 +414,8 @@ class Simulation:
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is None:
             return self.sensitivities_fixed(xv, names, self._settings(**gradients, **settings))
-        return refinement.to_tolerance(self, xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients)
+        return refinement.to_tolerance(self, xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients,
+                                       extrapolate)
 
     def map(self, designs: Iterable[DesignLike], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
             executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:

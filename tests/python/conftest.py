@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import flextop
+from flextop.discretization.refinement import extrapolated
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
@@ -62,6 +63,16 @@ def arm_references():
         fine, coarse = (sim.run(x, h=1.3 / n).tip_deflection() for n in (2176, 1088))
         out[x] = fine + (fine - coarse) / 3
     return out
+
+
+def on_accepted_grid(sim, d, x, responses, t_end: float, design=None, **settings):
+    """What a run to a tolerance that accepted ``d`` for ``x`` returns, made again on that
+    grid (at ``design``, default ``x``): the grid's run with gradients, extrapolated from half
+    its steps where ``d`` is."""
+    grid = sim.levels.at(d, x)
+    made = [grid.run_with_sensitivities(x if design is None else design, responses, h=t_end / n, **settings)
+            for n in ((d.steps, d.steps // 2) if d.extrapolated else (d.steps,))]
+    return extrapolated(*made) if d.extrapolated else made[0]
 
 
 def fourth_order(f, h: float):

@@ -15,7 +15,7 @@ from flextop import scenes
 from flextop.errors import SettingsError
 from flextop.scenes.builder import Scene
 
-from conftest import fourth_order, slider_crank_with_force_elements
+from conftest import fourth_order, on_accepted_grid, slider_crank_with_force_elements
 
 
 def entry(spec: dict, parameter: str) -> tuple[dict, str | int]:
@@ -258,7 +258,7 @@ def test_a_run_to_a_tolerance_gives_the_parameter_gradients_of_the_grid_it_accep
     x, asked = np.array([0.9, 0.5, 0.7, 0.4]), ["k:return", "E:steel"]
     out = sim.run_with_sensitivities(x, ["tip_deflection"], parameters=asked, rtol=1e-2)
     d = out.discretization
-    again = sim.levels.at(d, x).run_with_sensitivities(x, ["tip_deflection"], parameters=asked, h=0.03 / d.steps)
+    again = on_accepted_grid(sim, d, x, ["tip_deflection"], 0.03, parameters=asked)
     np.testing.assert_array_equal(out.parameter_gradients, again.parameter_gradients)
     assert out.parameters == tuple(asked) and np.all(out.parameter_gradients != 0)
 

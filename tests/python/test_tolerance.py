@@ -1,26 +1,31 @@
 """Runs to a tolerance (flextop.discretization.tolerance): the estimator against known errors, the arm
 against converged references, exact gradients on the grid that ran, and clear errors."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 import flextop
 from flextop.discretization import tolerance
 from flextop.errors import SettingsError, SimulationError, ToleranceError
-from flextop.discretization.tolerance import Discretization, Tolerance, estimate, resolve
+from flextop.discretization.tolerance import Discretization, Tolerance, estimate, extrapolated_estimate, resolve
+
+from conftest import on_accepted_grid
 
 T_ARM = 1.3
 
 
-def model_values(c_time=0.3, c_space=0.002, exact=2.0, t_end=1.0, gradient=False):
-    """Quantities with a known error: f = exact + c_time·h² + c_space/r (what the estimator
-    assumes at its limits: second order in h, first order in 1/r)."""
+def model_values(c_time=0.3, c_space=0.002, exact=2.0, t_end=1.0, gradient=False, c_cubic=0.0):
+    """Quantities with a known error: f = exact + c_time·h² + c_cubic·h³ + c_space/r (what
+    the estimator assumes at its limits: second order in h, first order in 1/r; the h³
+    term is what Richardson's extrapolation leaves)."""
     calls = []
 
     def values(d, companion=False):
         calls.append(d)
         h = t_end / d.steps if d.steps else 0.0
-        f = exact + c_time * h**2 + c_space / (d.refinement * d.uniform)
+        f = exact + c_time * h**2 + c_cubic * h**3 + c_space / (d.refinement * d.uniform)
         return [np.array([f])] + ([np.array([f, -2 * f])] if gradient else [])
 
     return values, calls
@@ -60,6 +65,56 @@ def test_the_observed_contraction_guards_the_preasymptotic_range():
     assert estimate(fine, half, None, split).time[0] == pytest.approx(0.2), "no quarter run: the slowest contraction, 1.5"
     assert estimate(fine, half, [np.array([1.2 + 2.4])], split).time[0] == pytest.approx(0.2), \
         "a contraction of 24 means the quarter run is not asymptotic: the slowest is assumed"
+
+
+def test_the_extrapolated_estimate_is_exact_for_an_h3_error_and_errs_high_for_h4():
+    """R(h) = (4 f(h) − f(2h))/3 removes the h² term; its error estimate from the runs at
+    h, 2h, 4h and 8h is exact when an h³ term is left, at most 2.2× high when an h⁴ term
+    is, and not trusted (infinite) when R converges at first order or its difference has
+    vanished by chance."""
+    def runs(error):
+        return [[np.array([1.0 + 0.7 * h**2 + error(h)]), np.array([2.0, -1.0]) * (1.0 + error(h))]
+                for h in (0.01, 0.02, 0.04, 0.08)]
+
+    no_space = np.zeros(2)
+    for error, low, high in ((lambda h: 3.0 * h**3, 1.0, 1.0), (lambda h: -40.0 * h**4, 1.0, 2.2)):
+        fine, half, quarter, eighth = runs(error)
+        est = extrapolated_estimate(fine, half, quarter, eighth, no_space)
+        true = [abs(r - q) for r, q in zip(tolerance.richardson(fine, half), ([1.0], [2.0, -1.0]))]
+        for e, t in zip(est.time, true):
+            assert low * np.linalg.norm(t) <= e * (1 + 1e-9) and e <= high * np.linalg.norm(t) * (1 + 1e-9)
+    first_order = extrapolated_estimate(*runs(lambda h: 0.5 * h), no_space)
+    assert np.all(np.isinf(first_order.time)), "a contraction of 2: R is not asymptotic"
+    fine, half, quarter, eighth = runs(lambda h: 3.0 * h**3)
+    now, before = tolerance.richardson(fine, half)[0], tolerance.richardson(half, quarter)[0]
+    chance = [fine[0] + 0.75 * (before - now) + 1e-12, fine[1]]  # R(h) − R(2h) nearly zero in d by chance
+    assert np.isinf(extrapolated_estimate(chance, half, quarter, eighth, no_space).time[0])
+
+
+def test_a_run_to_a_tolerance_extrapolates_where_that_is_the_more_accurate():
+    """With an h³ term beside the h² one, the extrapolated values meet rtol at a quarter of
+    the steps, their estimate never below their error; without extrapolation the same
+    tolerance takes the steps the h² term needs."""
+    values, _ = model_values(c_cubic=2.0, c_space=0.0)
+    tol = Tolerance(["f"], np.array([1e-6]), np.array([0.0]))
+    plain, _ = resolve(values, Discretization(1, 8), tol)
+    d, est = resolve(values, Discretization(1, 8), tol, extrapolate=True)
+    assert d.extrapolated and not plain.extrapolated and d.steps <= plain.steps // 4
+    r = tolerance.richardson(values(d.grid), values(d.half_steps))[0][0]
+    assert abs(r - 2.0) <= 1e-6 * 2.0 and est.total[0] >= abs(r - 2.0) * (1 - 1e-6)
+    assert "extrapolated from half the steps" in str(d) and d.grid == replace(d, extrapolated=False)
+
+
+def test_the_arm_extrapolated_meets_rtol_in_fewer_steps(arm, arm_references):
+    """The full-density arm at rtol = 1e-2 with gradients: extrapolated, it passes with
+    fewer steps than without, within rtol of the reference and its estimate not below
+    half its error."""
+    x = np.ones(arm.n_design)
+    plain = arm.run_with_sensitivities(x, "tip_deflection", rtol=1e-2, extrapolate=False)
+    out = arm.run_with_sensitivities(x, "tip_deflection", rtol=1e-2)
+    assert out.discretization.extrapolated and out.discretization.steps < plain.discretization.steps
+    error = abs(out.values[0] / arm_references[1.0] - 1)
+    assert error <= 1e-2 and out.errors["tip_deflection"] >= error / 2
 
 
 def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
@@ -115,20 +170,25 @@ def test_a_fixed_run_tells_when_it_is_wrong(arm_references):
     assert res.discretization is None and res.errors == {}
 
 
-def test_gradients_on_the_grid_that_ran_are_exact():
+@pytest.mark.parametrize("hold", [True, False])
+def test_gradients_on_the_grid_that_ran_are_exact(hold):
     """Spun beam at rtol = 1e-2: direct equals adjoint, and fourth-order central differences
-    on the frozen discretization agree."""
+    on the frozen discretization agree (with the gradients not held, of the extrapolated
+    value, which the values alone choose there)."""
     sim = flextop.Simulation(flextop.scenes.spun_beam(), rtol=1e-2)
     x = np.linspace(0.9, 0.3, sim.n_design)
-    direct = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="direct")
-    adjoint = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="adjoint")
+    direct = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="direct", hold_gradients=hold)
+    adjoint = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="adjoint", hold_gradients=hold)
+    assert direct.discretization.extrapolated == (not hold)
     assert direct.discretization == adjoint.discretization
     assert direct.discretization.refinement > 1 or direct.discretization.steps > 120, "the scene's own grid is not enough"
     np.testing.assert_allclose(direct.gradients, adjoint.gradients, rtol=1e-9, atol=1e-9 * np.abs(direct.gradients).max())
-    assert max(direct.errors.values()) <= 1e-2 and max(direct.gradient_errors.values()) <= 5e-2
+    assert max(direct.errors.values()) <= 1e-2 and max(direct.gradient_errors.values(), default=0.0) <= 5e-2
     d = direct.discretization
-    frozen = sim.levels.at(d, x)
-    f = lambda xx: frozen.run(xx, h=frozen.spec["simulation"]["t_end"] / d.steps).tip_deflection()  # noqa: E731
+    frozen, t_end = sim.levels.at(d, x), sim.spec["simulation"]["t_end"]
+    extrapolated = lambda xx: (4 * frozen.run(xx, h=t_end / d.steps).tip_deflection()  # noqa: E731
+                               - frozen.run(xx, h=2 * t_end / d.steps).tip_deflection()) / 3
+    f = extrapolated if d.extrapolated else (lambda xx: frozen.run(xx, h=t_end / d.steps).tip_deflection())  # noqa: E731
     delta = 1e-3
     for i in range(sim.n_design):
         e = np.eye(sim.n_design)[i] * delta
@@ -146,7 +206,7 @@ def test_gradients_not_held_are_those_of_the_grid_chosen_on_the_values():
     d = free.discretization
     assert d.refinement <= held.discretization.refinement and d.steps <= held.discretization.steps
     assert free.errors["tip_deflection"] <= 1e-2 and not free.gradient_errors
-    on_grid = sim.levels.at(d, x).run_with_sensitivities(x, "tip_deflection", h=sim.spec["simulation"]["t_end"] / d.steps)
+    on_grid = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"])
     np.testing.assert_array_equal(free.gradients, on_grid.gradients)
     np.testing.assert_array_equal(free.values, on_grid.values)
 

@@ -44,7 +44,7 @@ from ..errors import DesignError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..responses import PEAK_LIMITED
 from ..simulation import Simulation
-from ..discretization.refinement import t_end
+from ..discretization.refinement import extrapolated, t_end
 from ..discretization.tolerance import Discretization
 from ..results import Sensitivities
 
@@ -118,7 +118,10 @@ class TopologyProblem(Problem):
     chosen on the values of the objective and constraints (``hold_gradients=False``): the
     gradients are the exact derivatives of the values the optimizer sees, which is what its
     convergence needs, and holding them to a tolerance as well drove the space companion to
-    16× the elements per bar on optimized designs. ``discretization`` is the current one,
+    16× the elements per bar on optimized designs. Where the accepted discretization is
+    ``extrapolated`` (Richardson in the step, :meth:`Simulation.run_with_sensitivities`),
+    every evaluation on it is too: the runs at h and 2h combined, gradients alike.
+    ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
     the evaluations whose error was estimated.
 
@@ -200,14 +203,19 @@ class TopologyProblem(Problem):
 
     def _on_grid(self, x: np.ndarray) -> Sensitivities:
         """The evaluation on the grid accepted last: its steps, and each bar's elements as
-        graded for the design measured there."""
+        graded for the design measured there; extrapolated from half the steps where the
+        accepted one was."""
         d = self.discretization
         settings = dict(self.settings)
         if d.steps:
             settings["h"] = t_end(self.simulation, settings) / d.steps
         levels = self.simulation.levels
         grid = levels.at(d, self._measured_at) if self._grid is None else levels.graded(self._grid)
-        return grid.run_with_sensitivities(x, self.responses, method=self.method, **settings)
+        out = grid.run_with_sensitivities(x, self.responses, method=self.method, **settings)
+        if not d.extrapolated:
+            return out
+        half = grid.run_with_sensitivities(x, self.responses, method=self.method, **{**settings, "h": 2 * settings["h"]})
+        return extrapolated(out, half)
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
