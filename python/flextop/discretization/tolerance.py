@@ -136,7 +136,9 @@ UNMOVED = 0.9
 the error as well: the bars that need most are still before their asymptotic range (a
 soft bar whose own higher modes come into the band as its elements double, its gradient
 changing sign between 4, 8 and 16 elements), so the floor goes back and those bars are
-refined further."""
+refined further — the refinement, not the floor, even where the floor it goes back to is
+above 1 (raising it again went round in a circle: the arm at x = 0.12, floors 2 and 4 at
+4×, for ever)."""
 
 MAX_FAILED_REFINEMENTS = 3
 """Refinements in a row whose runs fail (more steps, or elements, each time) before a run
@@ -343,12 +345,13 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         failed = failed + 1 if verdict.failed else 0
         if failed > MAX_FAILED_REFINEMENTS and failures:
             raise ToleranceError(f"the runs still fail after {MAX_FAILED_REFINEMENTS} refinements, at {d}: {failures[-1]}") from failures[-1]
-        if (before is not None and d.floor > before[0].floor and d.refinement == before[0].refinement
-                and verdict.worst_space > UNMOVED * before[1]):
+        back = (before is not None and d.floor > before[0].floor and d.refinement == before[0].refinement
+                and verdict.worst_space > UNMOVED * before[1])
+        if back:
             d = replace(d, floor=before[0].floor)  # the floor missed the error too: back to the bars that need most
         stalled = (before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
                    and verdict.worst_time <= 0.5)
-        refined = _refine(d, verdict, everywhere=stalled or d.floor > 1)
+        refined = _refine(d, verdict, everywhere=not back and (stalled or d.floor > 1))
         before = (d, verdict.worst_space)
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
