@@ -66,7 +66,9 @@ class Sensitivities:
     (``"direct"`` or ``"adjoint"``; values only, from :meth:`Simulation.map` with
     ``gradients=False``: ``"none"`` and ``gradients`` ``None``) and ``timings`` the seconds spent in the simulation and
     in the sensitivity analysis. A run made to a tolerance also carries its
-    ``discretization`` and, per name, the estimated relative ``errors`` of the values and
+    ``discretization`` (where ``discretization.extrapolated``, values and gradients are
+    Richardson's extrapolation in the step from its grid and half its steps, and ``peaks``
+    those of its grid) and, per name, the estimated relative ``errors`` of the values and
     ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
     ``steps``. ``peaks`` holds, per stress or buckling response, the largest point value over
     the motion, beside the mean in ``values`` (runs with gradients only). With scene
