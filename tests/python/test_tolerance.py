@@ -138,6 +138,13 @@ def test_failed_runs_refine_the_step_and_limits_give_a_named_error(monkeypatch):
         resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-8]), np.array([0.0])))
 
 
+def test_the_candidates_judged_are_bounded_and_the_bound_named(monkeypatch):
+    values, calls = model_values()
+    monkeypatch.setattr(tolerance, "MAX_CANDIDATES", 2)
+    with pytest.raises(ToleranceError, match="no discretization met the tolerance within 2 candidates"):
+        resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-4]), np.array([0.0])))
+
+
 def test_the_time_estimate_is_asymptotically_correct_on_the_arm():
     """x = 0.4 and 1, one element per bar: the ratio of the estimate to the true time
     error (against 4352 steps, Richardson-extrapolated) tends to 1 as h → 0, and it never

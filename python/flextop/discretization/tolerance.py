@@ -140,6 +140,11 @@ refined further — the refinement, not the floor, even where the floor it goes 
 above 1 (raising it again went round in a circle: the arm at x = 0.12, floors 2 and 4 at
 4×, for ever)."""
 
+MAX_CANDIDATES = 64
+"""Most candidates a run to a tolerance judges: every refinement grows the steps, the
+refinement or the floor, so the limits above end it well before this; the bound names the
+failure should a rule ever go round in a circle again."""
+
 MAX_FAILED_REFINEMENTS = 3
 """Refinements in a row whose runs fail (more steps, or elements, each time) before a run
 to a tolerance gives up with the failure."""
@@ -323,7 +328,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
 
     ``elements(d)`` is the number of elements of a candidate over the scene's.
 
-    Raises :class:`ToleranceError` when the tolerance needs more than ``MAX_REFINEMENT``
+    Raises :class:`ToleranceError` after ``MAX_CANDIDATES`` candidates, when the tolerance needs more than ``MAX_REFINEMENT``
     times a bar's elements, ``MAX_ELEMENTS_FACTOR`` times the scene's or ``MAX_STEPS`` steps, naming the quantity and the error
     reached, or when the runs still fail after ``MAX_FAILED_REFINEMENTS`` refinements in a
     row, with the last failure.
@@ -338,7 +343,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
             raise
 
     d, failed, before = first.grid, 0, None
-    while True:
+    for _ in range(MAX_CANDIDATES):
         verdict = _judge(recorded, d, tol, extrapolate)
         if verdict.passed:
             return replace(d, extrapolated=verdict.extrapolated), verdict.estimate
@@ -356,6 +361,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
         d = refined
+    raise ToleranceError(f"no discretization met the tolerance within {MAX_CANDIDATES} candidates (the last: {d})")
 
 
 @dataclass(frozen=True)
