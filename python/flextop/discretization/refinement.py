@@ -185,12 +185,13 @@ def extrapolated(fine: Any, half: Any) -> Any:
     (:func:`tolerance.richardson`): values, design and parameter gradients, each gradient
     the exact derivative of its extrapolated value. Peaks are those of the run at h; the
     timings add up."""
-    values, gradients, *parameters = tolerance.richardson(
-        [fine.values, fine.gradients, *([] if fine.parameter_gradients is None else [fine.parameter_gradients])],
-        [half.values, half.gradients, *([] if half.parameter_gradients is None else [half.parameter_gradients])])
+    def combined(field: str) -> np.ndarray | None:
+        at_h, at_2h = getattr(fine, field), getattr(half, field)
+        return None if at_h is None else tolerance.richardson([at_h], [at_2h])[0]
+
     timings = {key: fine.timings.get(key, 0.0) + half.timings.get(key, 0.0) for key in {*fine.timings, *half.timings}}
-    return replace(fine, values=values, gradients=gradients, parameter_gradients=parameters[0] if parameters else None,
-                   timings=timings, steps=None)
+    return replace(fine, values=combined("values"), gradients=combined("gradients"),
+                   parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None)
 
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
@@ -244,7 +245,7 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         out = runs[(d.grid, False)] if hold_gradients else run(d.grid, gradients)
         if d.extrapolated:
             half = runs.get((d.half_steps, False)) if hold_gradients else None
-            out = extrapolated(out, half or run(d.half_steps, gradients))
+            out = extrapolated(out, run(d.half_steps, gradients) if half is None else half)
         return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
     out = runs[(d, False)]
     out.discretization, out.errors = d, errors
