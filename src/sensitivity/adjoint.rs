@@ -13,7 +13,8 @@
 //! q̄ₙ = P̄ + wₙ G_q,  q̄̇ₙ = q̄̇ + h P̄,  āₙ = h(1−γ) q̄̇ + α_m c̄/(1−α_f) + h²(½−β) P̄,  Āₙ = −α_f c̄/(1−α_f)
 //! ```
 //!
-//! and at `t = 0` the initial-acceleration system takes `Ā₀ + ā₀`. The backward sweep
+//! and at `t = 0` the initial-acceleration system takes `Ā₀ + ā₀`; at a kink where the
+//! forward step restarted, the restart's jump system takes `Āₙ + āₙ` ([`super::kink`]). The backward sweep
 //! needs `qₙ` and `q̈ₙ` of every step: a `StateStore` keeps them all, or only full states
 //! at checkpoints every `K ≈ √N` steps and replays one segment at a time (bitwise identical,
 //! since the replay repeats the same arithmetic) — memory `O(√N)` states for one more
@@ -31,6 +32,7 @@ use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
 use crate::solver::integrator::{step_ratio, AlphaParameters, Integrator, State};
+use crate::solver::kink::Jump;
 use crate::time_grid::TimeGrid;
 
 /// Rows of the states a backward sweep reads: `qₙ`, `q̈ₙ`, `λₙ`, and `q̇ₙ` if a
@@ -250,6 +252,11 @@ pub(crate) fn differentiate_backward(
             previous,
         )?;
         let s = store.get(&mut it, grid, n, false)?;
+        if n > 0 {
+            if let Some(jump) = it.jump_at(s.q, t(n), grid.step(n - 1))? {
+                sweep.restart(&mut it, &jump)?;
+            }
+        }
         sweep.add_local(&it, &objectives, n, s.sample(t(n)));
     }
     let s0 = store.get(&mut it, grid, 0, false)?;
@@ -471,6 +478,32 @@ impl<'a> Sweep<'a> {
             }
         }
         Ok(())
+    }
+
+    /// The transposed restart at a kink the step from state `n` began with: its `Δq̈`
+    /// reached `aₙ` and `q̈ₙ`, so `[ā + Ā; 0]` is its adjoint's right-hand side
+    /// ([`super::kink::adjoint`]).
+    fn restart(&mut self, it: &mut Integrator, jump: &Jump) -> Result<(), SolveError> {
+        let (n, n_q) = (self.n, self.n_q);
+        for (k, out) in self.rhs.chunks_mut(n).enumerate() {
+            let r = k * n_q..(k + 1) * n_q;
+            for ((o, ab), acc_b) in out[..n_q]
+                .iter_mut()
+                .zip(&self.ab[r.clone()])
+                .zip(&self.acc_b[r])
+            {
+                *o = ab + acc_b;
+            }
+            out[n_q..].fill(0.0);
+        }
+        super::kink::adjoint(
+            it,
+            jump,
+            &self.pseudo,
+            &mut self.rhs,
+            &mut self.qb,
+            &mut self.xb,
+        )
     }
 
     /// `t = 0`: `q̈'₀` from `[M, Φ_qᵀ; Φ_q, 0]`, `a'₀ = q̈'₀`, so the initial-acceleration

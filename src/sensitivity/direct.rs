@@ -12,7 +12,8 @@
 //! ```
 //!
 //! starting from `q'₀ = q̇'₀ = 0` (the initial state does not depend on `x`) and `q̈'₀`
-//! from the initial-acceleration system. Where the step size changes, `a'` is carried to
+//! from the initial-acceleration system. A step that began with a restart at a kink first
+//! adds that restart's `Δq̈'` to `q̈'` and `a'` ([`super::kink`]). Where the step size changes, `a'` is carried to
 //! the new step as `a` is: `a' ← q̈' + (hₙ/hₙ₋₁)(a' − q̈')`. The factorization of `S_t` is shared by all
 //! columns, which are solved in blocks in parallel (rayon).
 
@@ -31,6 +32,7 @@ use crate::settings::DynamicSettings;
 use crate::solver::integrator::{
     rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
 };
+use crate::solver::kink::Jump;
 use crate::time_grid::TimeGrid;
 
 /// Columns per parallel block.
@@ -191,6 +193,9 @@ impl<'a> Sweep<'a> {
     /// The linear sensitivity step to the converged state `s`, taken with step size `h`:
     /// predict the parts independent of `q'ₙ₊₁`, solve for it, correct.
     fn step(&mut self, it: &mut Integrator, s: &State, h: f64) -> Result<(), SolveError> {
+        if let Some(jump) = it.restart.clone() {
+            self.restart(it, &jump)?;
+        }
         let p = it.params;
         let bp = p.beta_prime(h);
         let ratio = step_ratio(self.previous, h);
@@ -259,6 +264,25 @@ impl<'a> Sweep<'a> {
                 }
                 Ok(())
             })
+    }
+
+    /// The restart the step began with, at a kink: `q̈'ₖ` and `a'ₖ` gain `Δq̈'`
+    /// ([`super::kink::direct`]).
+    fn restart(&mut self, it: &mut Integrator, jump: &Jump) -> Result<(), SolveError> {
+        super::kink::direct(it, jump, &self.pseudo, &self.dq, &mut self.rhs)?;
+        let (n, n_q) = (self.n, self.n_q);
+        for (j, solution) in self.rhs.chunks(n).enumerate() {
+            let r = j * n_q..(j + 1) * n_q;
+            for ((acc, a), d) in self.dacc[r.clone()]
+                .iter_mut()
+                .zip(&mut self.da[r])
+                .zip(&solution[..n_q])
+            {
+                *acc += d;
+                *a += d;
+            }
+        }
+        Ok(())
     }
 
     /// Adds state `n`'s share of the responses and of their gradients

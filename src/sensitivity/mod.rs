@@ -17,6 +17,7 @@
 
 pub mod adjoint;
 pub mod direct;
+mod kink;
 mod start;
 pub mod statics;
 

@@ -711,6 +711,15 @@ impl<'m> Assembler<'m> {
         }
     }
 
+    /// `Σ λₖ ∂²Φₖ/∂q²` alone as values on the pattern, for products with
+    /// [`Assembler::add_tangent_times`].
+    pub fn constraint_hessian(&self, q: &[f64], lambda: &[f64]) -> Vec<f64> {
+        let mut values = vec![0.0; self.pattern.nnz()];
+        let turns = Turns::at(&self.model.rows, q);
+        self.add_constraint_hessian(q, &turns, lambda, &mut values);
+        values
+    }
+
     /// The tangent `K_t(q) + Σ λₖ ∂²Φₖ/∂q²` (elements, springs, joints) as values on the
     /// pattern, for products with [`Assembler::add_tangent_times`].
     pub fn tangent(&self, q: &[f64], lambda: &[f64]) -> Vec<f64> {

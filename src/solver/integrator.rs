@@ -15,6 +15,10 @@
 //! (Chung & Hulbert 1993). Gravity `ĝ` enters as a DOF-wise acceleration, so `M ĝ` is
 //! the consistent gravity load.
 //!
+//! A step that starts on a kink of a drive's law first restarts the scheme there: the
+//! accelerations and pseudo-accelerations take the jump the new law's acceleration causes
+//! ([`crate::solver::kink`]).
+//!
 //! Newton starts each step from `λ_{n+1} = λₙ`, and a rigid body's from `q̈_{n+1} = q̈ₙ`,
 //! where Algorithm 1 starts from zero: the same solution, in fewer iterations (1.5 instead
 //! of 2.4 per step on the rigid four-bar of BENCHMARKS.md, "Mechanisms"). A beam node's
@@ -24,6 +28,7 @@
 use crate::error::SolveError;
 use crate::mechanism::model::{Densities, Initial, Model};
 use crate::settings::{DynamicSettings, NewtonMatrix, StaticSettings, MAX_CUTS};
+use crate::solver::kink::{Jump, Kinks};
 use crate::solver::newton::{Newton, NewtonReport, Point};
 use crate::solver::statics::{solve_static, StaticSolution};
 
@@ -103,6 +108,10 @@ pub struct Integrator<'m> {
     /// That equilibrium, once [`Integrator::initial_state`] has solved it: the start `q₀(x)`
     /// of the gradients.
     pub(crate) equilibrium: Option<StaticSolution>,
+    /// Where the drives' accelerations jump.
+    kinks: Kinks,
+    /// The restart the last step began with, if it began on a kink.
+    pub(crate) restart: Option<Jump>,
 }
 
 impl<'m> Integrator<'m> {
@@ -139,7 +148,27 @@ impl<'m> Integrator<'m> {
             smooth: rigid_dofs(model),
             statics,
             equilibrium: None,
+            kinks: Kinks::of(model),
+            restart: None,
         })
+    }
+
+    /// The jump of accelerations at `q`, time `t` reached by a step of size `h`, if a
+    /// drive's acceleration jumps there ([`Kinks::jump_at`], [`Jump::solve`]).
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
+    pub(crate) fn jump_at(
+        &mut self,
+        q: &[f64],
+        t: f64,
+        h: f64,
+    ) -> Result<Option<Jump>, SolveError> {
+        let model = self.newton.assembler().model;
+        match self.kinks.jump_at(model, t, h) {
+            Some((kink, dg)) => Jump::solve(&mut self.newton, q, kink, dg).map(Some),
+            None => Ok(None),
+        }
     }
 
     /// The assembler of the design: forces, matrices, the model and its densities.
@@ -218,6 +247,10 @@ impl<'m> Integrator<'m> {
             gamma,
         } = self.params;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+        self.restart = self.jump_at(&s.q, s.t, s.h)?;
+        if let Some(jump) = &self.restart {
+            jump.apply(&mut s.qddot, &mut s.a);
+        }
         if let Some(ratio) = step_ratio(s.h, h) {
             rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
         }

@@ -575,6 +575,39 @@ impl<'m> Newton<'m> {
             .map_err(self.singular())
     }
 
+    /// The jump `(Δq̈, Δλ)` of accelerations and multipliers at `q` (time `t`) when the
+    /// drives' prescribed accelerations jump by `dg` at a kink of a motion law
+    /// ([`crate::solver::kink`]): `[M, Φ_qᵀ; Φ_q, 0] [Δq̈; Δλ] = [0; Δg̈]`. Leaves that
+    /// system factorized.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
+    pub fn acceleration_jump(
+        &mut self,
+        q: &[f64],
+        t: f64,
+        dg: &[f64],
+        dacc: &mut [f64],
+        dlam: &mut [f64],
+    ) -> Result<(), SolveError> {
+        let n_q = q.len();
+        self.factorize(q, None, None, 1.0, 0.0, t)?;
+        let scale = self.scale;
+        self.rhs[..n_q].fill(0.0);
+        for (r, g) in self.rhs[n_q..].iter_mut().zip(dg) {
+            *r = scale * g;
+        }
+        self.asm.augment_rhs(&self.jacobian, &mut self.rhs);
+        self.ldlt
+            .solve_in_place(&mut self.rhs)
+            .map_err(self.singular())?;
+        dacc.copy_from_slice(&self.rhs[..n_q]);
+        for (l, m) in dlam.iter_mut().zip(&self.rhs[n_q..]) {
+            *l = scale * m;
+        }
+        Ok(())
+    }
+
     /// Consistent accelerations and multipliers at `(q, q̇, t = 0)`, from
     /// `[M, Φ_qᵀ; Φ_q, 0] [q̈; λ] = [M ĝ + f_ext − f_int(q) − C q̇; g̈(0) − (Hₖ q̇)ᵀ q̇]` (the
     /// last the rows' curvature along the motion, zero at rest).

@@ -1,0 +1,124 @@
+//! The restart of generalized-α at a kink of a drive's law, where the grid lands.
+//!
+//! Where a trapezoidal law changes phase its prescribed acceleration `g̈` jumps by `Δg̈`.
+//! Positions, velocities and forces are continuous there, so the accelerations and
+//! multipliers jump by the solution of
+//!
+//! ```text
+//! [M, Φ_qᵀ; Φ_q, 0] [Δq̈; Δλ] = [0; Δg̈]          at (qₖ, tₖ)
+//! ```
+//!
+//! A step that starts on such a kink first adds `Δq̈` to `q̈ₖ` and to the
+//! pseudo-accelerations `aₖ` ([`Jump::apply`]); `λₖ` stays the left limit the step to
+//! `tₖ` found. Without the restart, `a` carries the old law's accelerations into the next
+//! steps and `q̈` and `λ` answer with an algorithmic oscillation that decays by about `ρ∞`
+//! per step: joint reactions alternate in sign after the kink, by an amount that does not
+//! fall with `h`. Adding the jump to `a` keeps what `a − q̈ ≈ Δ_α h q⃛` carries of the
+//! smooth motion on the old side ([`crate::solver::integrator::rescale_pseudo_accelerations`]).
+//!
+//! The sensitivities differentiate `Δq̈(qₖ, x)` ([`crate::sensitivity`]'s `kink`).
+
+use crate::error::SolveError;
+use crate::mechanism::model::Model;
+use crate::solver::newton::Newton;
+
+/// A kink lies on a node when it is within this fraction of the step that reached the node.
+const ON_NODE: f64 = 1e-9;
+
+/// The times where a drive's prescribed acceleration may jump.
+#[derive(Debug, Clone, Default)]
+pub struct Kinks {
+    /// Times (s) after `t = 0`, sorted, without repeats.
+    times: Vec<f64>,
+}
+
+impl Kinks {
+    /// The kinks of `model`'s drives (not those of loads or motors: forces are continuous
+    /// at theirs, so the accelerations are too).
+    pub fn of(model: &Model) -> Self {
+        let mut times: Vec<f64> = model
+            .joints
+            .iter()
+            .filter_map(|j| j.drive.as_ref())
+            .flat_map(|m| m.kinks())
+            .filter(|&t| t > 0.0)
+            .collect();
+        times.sort_by(f64::total_cmp);
+        times.dedup();
+        Self { times }
+    }
+
+    /// The kink at `t`, reached by a step of size `h`, if one lies there (`h = 0`, the
+    /// initial state, has none: the initial accelerations are consistent already).
+    fn at(&self, t: f64, h: f64) -> Option<f64> {
+        let near = |k: f64| (k - t).abs() <= ON_NODE * h;
+        let i = self.times.partition_point(|&k| k < t - ON_NODE * h);
+        self.times.get(i).copied().filter(|&k| h > 0.0 && near(k))
+    }
+
+    /// `Δg̈ = g̈(tₖ⁺) − g̈(tₖ⁻)` of every constraint row at the kink on `t` (the law's two
+    /// pieces read at the neighbouring floating-point times), or `None` where there is no
+    /// kink or no acceleration jumps there (a kink of the jerk only).
+    pub fn jump_at(&self, model: &Model, t: f64, h: f64) -> Option<(f64, Vec<f64>)> {
+        let kink = self.at(t, h)?;
+        let dg: Vec<f64> = model
+            .rows
+            .iter()
+            .map(|row| {
+                let joint = &model.joints[row.joint];
+                let before = joint.prescribed(row, kink.next_down())[2];
+                let after = joint.prescribed(row, kink.next_up())[2];
+                let jump = after - before;
+                let negligible = jump.abs() <= ON_NODE * (before.abs() + after.abs());
+                if negligible {
+                    0.0
+                } else {
+                    jump
+                }
+            })
+            .collect();
+        dg.iter().any(|&g| g != 0.0).then_some((kink, dg))
+    }
+}
+
+/// The jump of accelerations and multipliers at a kink.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Jump {
+    /// The kink `tₖ` (s).
+    pub t: f64,
+    /// `qₖ`.
+    pub q: Vec<f64>,
+    /// `Δg̈` of each row.
+    pub dg: Vec<f64>,
+    /// `Δq̈`.
+    pub dacc: Vec<f64>,
+    /// `Δλ`.
+    pub dlam: Vec<f64>,
+}
+
+impl Jump {
+    /// Solves `[M, Φ_qᵀ; Φ_q, 0] [Δq̈; Δλ] = [0; Δg̈]` at `q` ([`Newton::acceleration_jump`]).
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
+    pub fn solve(newton: &mut Newton, q: &[f64], t: f64, dg: Vec<f64>) -> Result<Self, SolveError> {
+        let mut dacc = vec![0.0; q.len()];
+        let mut dlam = vec![0.0; dg.len()];
+        newton.acceleration_jump(q, t, &dg, &mut dacc, &mut dlam)?;
+        Ok(Self {
+            t,
+            q: q.to_vec(),
+            dg,
+            dacc,
+            dlam,
+        })
+    }
+
+    /// `q̈ += Δq̈`, `a += Δq̈`.
+    pub fn apply(&self, qddot: &mut [f64], a: &mut [f64]) {
+        for ((acc, a), d) in qddot.iter_mut().zip(a.iter_mut()).zip(&self.dacc) {
+            *acc += d;
+            *a += d;
+        }
+    }
+}
