@@ -19,6 +19,7 @@
 //! The sensitivities differentiate `Δq̈(qₖ, x)` ([`crate::sensitivity`]'s `kink`).
 
 use crate::error::SolveError;
+use crate::mechanism::constraint::ConstraintRow;
 use crate::mechanism::model::Model;
 use crate::solver::newton::Newton;
 
@@ -61,23 +62,23 @@ impl Kinks {
     /// kink or no acceleration jumps there (a kink of the jerk only).
     pub fn jump_at(&self, model: &Model, t: f64, h: f64) -> Option<(f64, Vec<f64>)> {
         let kink = self.at(t, h)?;
-        let dg: Vec<f64> = model
+        let jump = |row: &ConstraintRow| {
+            let joint = &model.joints[row.joint];
+            let before = joint.prescribed(row, kink.next_down())[2];
+            let after = joint.prescribed(row, kink.next_up())[2];
+            let negligible = (after - before).abs() <= ON_NODE * (before.abs() + after.abs());
+            if negligible {
+                0.0
+            } else {
+                after - before
+            }
+        };
+        // Allocates only where the scheme restarts: a table's knots pass without.
+        model
             .rows
             .iter()
-            .map(|row| {
-                let joint = &model.joints[row.joint];
-                let before = joint.prescribed(row, kink.next_down())[2];
-                let after = joint.prescribed(row, kink.next_up())[2];
-                let jump = after - before;
-                let negligible = jump.abs() <= ON_NODE * (before.abs() + after.abs());
-                if negligible {
-                    0.0
-                } else {
-                    jump
-                }
-            })
-            .collect();
-        dg.iter().any(|&g| g != 0.0).then_some((kink, dg))
+            .any(|row| jump(row) != 0.0)
+            .then(|| (kink, model.rows.iter().map(jump).collect()))
     }
 }
 
