@@ -67,9 +67,10 @@ class Sensitivities:
     ``gradients=False``: ``"none"`` and ``gradients`` ``None``) and ``timings`` the seconds spent in the simulation and
     in the sensitivity analysis. A run made to a tolerance also carries its
     ``discretization`` (where ``discretization.extrapolated``, values and gradients are
-    Richardson's extrapolation in the step from its grid and half its steps, and ``peaks``
-    those of its grid) and, per name, the estimated relative ``errors`` of the values and
-    ``gradient_errors`` of the gradients (2-norm). A run with ``local_tol`` holds its
+    Richardson's extrapolation in the step from its grid and half its steps, and so are the
+    ``peaks``) and, per name, the estimated relative ``errors`` of the values and
+    ``gradient_errors`` of the gradients (2-norm), and per peak-limited response (a drive's
+    torque, a stress) ``peak_errors``: peaks are held to the same tolerance as values. A run with ``local_tol`` holds its
     ``steps``. ``peaks`` holds, per stress or buckling response, the largest point value over
     the motion, beside the mean in ``values`` (runs with gradients only). With scene
     ``parameters`` named, ``parameter_gradients`` has shape ``(n_r, n_parameters)``;
@@ -88,6 +89,7 @@ class Sensitivities:
     peaks: dict[str, float] = field(default_factory=dict)
     parameters: tuple[str, ...] = ()
     parameter_gradients: np.ndarray | None = None
+    peak_errors: dict[str, float] = field(default_factory=dict)
 
     def parameter_gradient(self, response: str, parameter: str) -> float:
         """``∂f/∂p`` of one response with respect to one scene parameter."""
@@ -129,6 +131,9 @@ class _Run:
     """For a run made to a tolerance: the refinement of the scene and the steps that met it."""
     errors: dict[str, float] = field(default_factory=dict)
     """For a run made to a tolerance: the estimated relative error of each response it met."""
+    peak_errors: dict[str, float] = field(default_factory=dict)
+    """For a run made to a tolerance: the estimated relative error of the peak of each
+    peak-limited response it met (a drive's torque, a stress), held to the same tolerance."""
     companions: tuple[_Run | None, _Run | None, _Run] | None = field(default=None, repr=False)
     """The runs the estimate compares with: half and a quarter of the steps (``None`` for
     statics), and twice the elements per bar on half the steps."""

@@ -395,8 +395,9 @@ class Simulation:
         extrapolation in the step, ``(4 f(h) − f(2h))/3`` with the same combination of the
         gradients (each the exact derivative of its value), its error estimated from the
         runs at 4h and 8h; where that estimate is the smaller, the extrapolated values are
-        returned and ``discretization.extrapolated`` says so (peaks stay those of the run at
-        h). With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
+        returned and ``discretization.extrapolated`` says so (the peaks extrapolated alike).
+        The peaks of peak-limited responses (a drive's torque, a stress) are held to
+        ``rtol`` too, their estimated errors in ``peak_errors``. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
         error control, then frozen: the gradients are exact for the steps that ran, which
         the result holds in ``steps``.
         """
@@ -628,7 +629,8 @@ def load(path: str | os.PathLike) -> Results | StaticResults | Sensitivities:
     if meta["kind"] == "sensitivities":
         return Sensitivities(tuple(meta["names"]), raw["values"], raw.get("gradients"), meta["method"], meta["timings"],
                              None if d is None else Discretization(*d), meta["errors"], meta["gradient_errors"],
-                             raw.get("steps"), meta["peaks"], tuple(meta["parameters"]), raw.get("parameter_gradients"))
+                             raw.get("steps"), meta["peaks"], tuple(meta["parameters"]), raw.get("parameter_gradients"),
+                             meta.get("peak_errors", {}))
     sim = Simulation(meta["scene"], **meta["simulation"])
     kind = Results if meta["kind"] == "dynamic" else StaticResults
     return kind(sim, raw, x, meta["settings"], None if d is None else Discretization(*d), meta["errors"])

@@ -198,8 +198,8 @@ def test_tightened_limits_divide_by_the_peaks_model_error():
     problem = TopologyProblem(sim, "compliance", [("volume", 1.0), ("stress", 1e8)])
     x = np.random.default_rng(2).uniform(0.1, 1.0, sim.n_design)
     problem.evaluate(x)
-    tight, kappa = tightened(problem, x, rtol=1e-3)
-    fine = tight.simulation.run_with_sensitivities(x, ["stress"], rtol=1e-3, hold_gradients=False).peaks["stress"]
+    tight, kappa = tightened(problem, x, rtol=3e-3)
+    fine = tight.simulation.run_with_sensitivities(x, ["stress"], rtol=3e-3, hold_gradients=False).peaks["stress"]
     coarse = sim.run_with_sensitivities(x, ["stress"]).peaks["stress"]
     assert kappa["stress"] == pytest.approx(fine / coarse, rel=1e-12) and kappa["stress"] != 1.0
     assert tight.constraints == [("volume", 1.0), ("stress", 1e8 / kappa["stress"])]
@@ -207,7 +207,7 @@ def test_tightened_limits_divide_by_the_peaks_model_error():
     assert fine == pytest.approx(flextop.Simulation(split_by(sim.spec, 16)).run_with_sensitivities(x, ["stress"]).peaks["stress"], rel=1e-2)
     # A later stage: κ measured again at the stage's own design against the first
     # problem's limit (not compounded), with a margin on the stress limit and on a floor.
-    staged, again = tightened(tight, x, rtol=1e-3, targets={"stress": 1e8}, margin=0.01)
+    staged, again = tightened(tight, x, rtol=3e-3, targets={"stress": 1e8}, margin=0.01)
     assert again["stress"] == pytest.approx(kappa["stress"], rel=1e-12)
     assert staged.constraints == [("volume", 1.0), ("stress", pytest.approx(1e8 / (kappa["stress"] * 1.01), rel=1e-12))]
     with pytest.raises(flextop.SettingsError, match="margin must be a number in"):

@@ -75,14 +75,15 @@ def test_bad_files_are_named(tmp_path):
 def test_sensitivities_save_and_load_bit_for_bit(tmp_path, rtol):
     """Sensitivities had no save; now every field comes back bit for bit."""
     sim = flextop.Simulation(flextop.scenes.spun_beam())
-    sens = sim.run_with_sensitivities(0.5, ["tip_deflection", "volume"], rtol=rtol, parameters=["E:aluminium"])
+    sens = sim.run_with_sensitivities(0.5, ["tip_deflection", "volume", "stress"], rtol=rtol, parameters=["E:aluminium"])
     back = flextop.load(sens.save(tmp_path / "s.npz"))
     assert isinstance(back, flextop.Sensitivities)
     for field in ("values", "gradients", "parameter_gradients"):
         assert np.array_equal(getattr(back, field), getattr(sens, field))
     assert (back.names, back.method, back.timings, back.discretization, back.errors, back.gradient_errors, back.peaks,
-            back.parameters) == (sens.names, sens.method, sens.timings, sens.discretization, sens.errors,
-                                 sens.gradient_errors, sens.peaks, sens.parameters)
+            back.parameters, back.peak_errors) == (sens.names, sens.method, sens.timings, sens.discretization, sens.errors,
+                                                   sens.gradient_errors, sens.peaks, sens.parameters, sens.peak_errors)
+    assert bool(sens.peak_errors) == (rtol is not None)
     assert (back.steps is None) == (sens.steps is None)
 
 

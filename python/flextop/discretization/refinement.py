@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import SettingsError, SimulationError
+from ..responses import PEAK_LIMITED
 from . import indicator, tolerance
 from .accuracy import split_by
 from .tolerance import Discretization
@@ -183,15 +184,15 @@ def _companion_run(what: str, make: Any) -> Any:
 def extrapolated(fine: Any, half: Any) -> Any:
     """Sensitivities at h and 2h on one grid combined by Richardson's extrapolation
     (:func:`tolerance.richardson`): values, design and parameter gradients, each gradient
-    the exact derivative of its extrapolated value. Peaks are those of the run at h; the
-    timings add up."""
+    the exact derivative of its extrapolated value, and peaks. The timings add up."""
     def combined(field: str) -> np.ndarray | None:
         at_h, at_2h = getattr(fine, field), getattr(half, field)
         return None if at_h is None else tolerance.richardson([at_h], [at_2h])[0]
 
     timings = {key: fine.timings.get(key, 0.0) + half.timings.get(key, 0.0) for key in {*fine.timings, *half.timings}}
+    peaks = {name: float(tolerance.richardson([np.array(p)], [np.array(half.peaks[name])])[0]) for name, p in fine.peaks.items()}
     return replace(fine, values=combined("values"), gradients=combined("gradients"),
-                   parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None)
+                   parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None, peaks=peaks)
 
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
@@ -229,25 +230,30 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     def made(d: Discretization, is_companion: bool = True) -> Any:
         return runs.get((d, False)) or (runs.get((d, True)) if is_companion else None)
 
+    peaked = [n for n in names if n.split(":", 1)[0] in PEAK_LIMITED]
+
     def values(d: Discretization, is_companion: bool) -> list[np.ndarray]:
         out = made(d, is_companion)
         if out is None:
             out = runs[(d, is_companion)] = run(d, judged, is_companion)
         if judged:
-            return [*out.values[:, None], *out.gradients]
-        return [np.array([out.response(n)]) for n in names]
+            return [*out.values[:, None], *out.gradients, *(np.array([out.peaks[n]]) for n in peaked)]
+        return [np.array([out.response(n)]) for n in names] + [np.array([out.peak(n)]) for n in peaked]
 
-    d, est = tolerance.resolve(values, start or first(simulation, settings), tolerance.tolerance_of(names, *wanted, judged is not None),
-                               lambda d: levels.elements(d, xv), extrapolate=extrapolate and gradients is not None)
-    relative = est.relative
-    errors = dict(zip(names, map(float, relative)))
+    tol = tolerance.tolerance_of(names, *wanted, judged is not None, peaked)
+    d, est = tolerance.resolve(values, start or first(simulation, settings), tol, lambda d: levels.elements(d, xv),
+                               extrapolate=extrapolate and gradients is not None)
+    relative = list(map(float, est.relative))
+    errors = dict(zip(names, relative))
+    peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))
     if gradients:
         out = runs[(d.grid, False)] if hold_gradients else run(d.grid, gradients)
         if d.extrapolated:
             half = runs.get((d.half_steps, False)) if hold_gradients else None
             out = extrapolated(out, run(d.half_steps, gradients) if half is None else half)
-        return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, map(float, relative[len(names):]))))
+        held = relative[len(names):2 * len(names)] if hold_gradients else []
+        return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, held)), peak_errors=peak_errors)
     out = runs[(d, False)]
-    out.discretization, out.errors = d, errors
+    out.discretization, out.errors, out.peak_errors = d, errors, peak_errors
     out.companions = (made(d.half_steps), made(d.quarter_steps), made(d.split)) if d.steps else (None, None, made(d.split))
     return out

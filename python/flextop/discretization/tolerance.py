@@ -447,13 +447,15 @@ def check_tolerance(rtol: float, atol: float) -> None:
         raise SettingsError(f"atol must be a finite number ≥ 0, got {atol!r}")
 
 
-def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool) -> Tolerance:
+def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool, peaked: Sequence[str] = ()) -> Tolerance:
     """Responses ``names`` to ``rtol·|f| + atol``, then, with ``gradients``, their gradients
-    to ``GRADIENT_FACTOR·rtol`` relative."""
-    if not gradients:
-        return Tolerance(list(names), np.full(len(names), rtol), np.full(len(names), atol))
-    return Tolerance([*names, *(f"the gradient of {n}" for n in names)], np.repeat([rtol, GRADIENT_FACTOR * rtol], len(names)),
-                     np.repeat([atol, 0.0], len(names)))
+    to ``GRADIENT_FACTOR·rtol`` relative, then the peaks of the responses ``peaked`` to
+    ``rtol·|peak| + atol``."""
+    graded = list(names) + ([f"the gradient of {n}" for n in names] if gradients else [])
+    rtols = [rtol] * len(names) + ([GRADIENT_FACTOR * rtol] * len(names) if gradients else [])
+    atols = [atol] * len(names) + ([0.0] * len(names) if gradients else [])
+    return Tolerance([*graded, *(f"the peak of {n}" for n in peaked)], np.array(rtols + [rtol] * len(peaked)),
+                     np.array(atols + [atol] * len(peaked)))
 
 
 def _try(values: Values, d: Discretization, companion: bool = False) -> Quantities | None:

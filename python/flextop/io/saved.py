@@ -95,6 +95,7 @@ def write_sensitivities(sens: Any, path: str | os.PathLike) -> Path:
                                                           ("steps", sens.steps)) if value is not None}
     meta = {"version": VERSION, "kind": "sensitivities", "names": list(sens.names), "method": sens.method,
             "timings": sens.timings, "errors": sens.errors, "gradient_errors": sens.gradient_errors, "peaks": sens.peaks,
+            "peak_errors": sens.peak_errors,
             "parameters": list(sens.parameters),
             "discretization": None if sens.discretization is None else list(astuple(sens.discretization))}
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -332,8 +332,8 @@ def tightened(problem: TopologyProblem, x: np.ndarray, rtol: float = 3e-3, targe
     """The problem with each stress or buckling limit set to ``target/(κ(1 + margin))`` and
     a frequency floor to ``target·(1 + margin)``, and the ``κ`` by name.
 
-    ``κ`` is the ratio of the design's peak on a discretization that meets ``rtol`` to its
-    peak on the problem's own. A peak is a maximum over samples in time and along the
+    ``κ`` is the ratio of the design's peak on a discretization whose peaks meet ``rtol``
+    (a run to a tolerance holds peaks to it) to its peak on the problem's own. A peak is a maximum over samples in time and along the
     bars, and the scene's grid reads it low (by 3–4 % on the arm's optima measured,
     BENCHMARKS.md): optimizing on, from ``x``, with the tightened limits ends nearer the
     limit on the converged structure. The floor's frequencies already meet their own
