@@ -32,7 +32,7 @@ from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, 
 from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
-from .optimizers.driver import CONVERGED, Status
+from .optimizers.driver import CONVERGED
 from .io import checkpoint, export
 from .problems import MIN_FREQUENCY, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
 from .scenes import Scene, read_toml

@@ -23,7 +23,7 @@ from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 from . import responses
-from .io.export import FRAMES, frame_indices
+from .io.export import frame_indices
 from .results import Results
 from .simulation import Simulation
 
@@ -342,7 +342,7 @@ def animate(results: Results, path: str | os.PathLike, *, magnify: float = 10.0,
             every: int | None = None) -> str | os.PathLike:
     """Writes an animated GIF of the moving mechanism and returns ``path``.
 
-    One frame per ``every``-th time step (default: about :data:`FRAMES` frames), and the
+    One frame per ``every``-th time step (default: about :data:`flextop.io.export.FRAMES` frames), and the
     last: the bars between the
     :func:`magnified_positions` of their end nodes (elastic deflection × ``magnify``),
     coloured and sized by density ``x`` if given (with a colorbar; voids faint), the scene's tip and a
