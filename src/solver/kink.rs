@@ -123,3 +123,78 @@ impl Jump {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(toml: &str) -> Model {
+        crate::scene::build(&crate::scene::parse_toml(toml).unwrap()).unwrap()
+    }
+
+    /// The arm's trapezoidal drives (2 rad/s² up to 0.5 rad/s over π/6): the phases end at
+    /// 0.25 s, π/3 s and π/3 + 0.25 s, where `g̈` jumps by −2, −2 and +2 rad/s² on
+    /// the two driven rows and nowhere else; no kink between nodes or at the start.
+    #[test]
+    fn the_arms_drives_jump_at_their_phase_changes() {
+        let arm = model(include_str!("../../examples/robot_arm.toml"));
+        let kinks = Kinks::of(&arm);
+        let third = std::f64::consts::FRAC_PI_3;
+        let expected = [0.25, third, third + 0.25];
+        assert_eq!(kinks.times.len(), 3);
+        for (t, e) in kinks.times.iter().zip(expected) {
+            assert!((t - e).abs() < 1e-12, "{t} against {e}");
+        }
+        let h = 0.01;
+        for (t, jump) in expected.iter().zip([-2.0, -2.0, 2.0]) {
+            // Reached by accumulated steps: a few ulps off the kink.
+            let (kink, dg) = kinks.jump_at(&arm, t + 4.0 * f64::EPSILON, h).unwrap();
+            assert_eq!(
+                kink,
+                *kinks.times.iter().find(|k| (*k - t).abs() < 1e-12).unwrap()
+            );
+            for (row, g) in arm.rows.iter().zip(&dg) {
+                let want = if row.driven { jump } else { 0.0 };
+                assert!(
+                    (g - want).abs() < 1e-9,
+                    "row of joint {}: {g} against {want}",
+                    row.joint
+                );
+            }
+        }
+        assert!(
+            kinks.jump_at(&arm, 0.25 + 1e-6, h).is_none(),
+            "a kink between nodes"
+        );
+        assert!(
+            kinks.jump_at(&arm, 0.25, 0.0).is_none(),
+            "the initial state"
+        );
+    }
+
+    /// A cubic spline's second derivative is continuous at its inner knots: the
+    /// slider-crank's table drive, knots every 0.5 ms, gives no restart at any of them; at
+    /// its last knot the table goes on at its end velocity, and the acceleration drops to 0.
+    #[test]
+    fn a_splines_inner_knots_are_no_jumps_and_its_end_is_one() {
+        let crank = model(include_str!("../../examples/slider_crank.toml"));
+        let kinks = Kinks::of(&crank);
+        let (last, inner) = kinks.times.split_last().unwrap();
+        assert!(inner.len() > 100);
+        for &t in inner {
+            assert!(kinks.jump_at(&crank, t, 5e-4).is_none(), "knot at {t}");
+        }
+        let (_, dg) = kinks.jump_at(&crank, *last, 5e-4).unwrap();
+        let (row, jump) = crank
+            .rows
+            .iter()
+            .zip(&dg)
+            .find(|(_, g)| **g != 0.0)
+            .unwrap();
+        assert!(
+            row.driven && *jump < 0.0,
+            "the crank still accelerates at its last sample"
+        );
+        assert_eq!(dg.iter().filter(|g| **g != 0.0).count(), 1);
+    }
+}
