@@ -34,7 +34,7 @@ NAMES: tuple[str, ...] = tuple(k.name for k in KINDS)
 
 PEAK_LIMITED: tuple[str, ...] = tuple(k.name for k in KINDS if k.peak)
 """Responses that are means of point values reported with their peaks, whose limits bound
-the peak: stresses, shear, buckling and a drive's torque."""
+the peak: stresses, shear, buckling, a drive's torque and a joint's reaction."""
 
 
 def unit(response: str) -> str:

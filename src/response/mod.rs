@@ -24,6 +24,7 @@ mod drive;
 mod joint_position;
 mod kinetic_energy;
 mod objectives;
+mod reaction;
 mod strain_energy;
 mod strength;
 mod volume;
@@ -79,6 +80,7 @@ const KINDS: &[Kind] = &[
     drive::TORQUE_SQUARED,
     drive::WORK,
     drive::ENERGY_DRAWN,
+    reaction::KIND,
     kinetic_energy::KIND,
     joint_position::KIND,
 ];

@@ -70,12 +70,13 @@ def test_gradients_through_a_restart_are_exact():
 
 def test_the_torque_peak_after_a_kink_is_held_to_the_tolerance():
     """A run to a tolerance holds the peaks of peak-limited responses (here the crank's
-    torque, largest at the kink, and the rod's stress) to rtol as it holds values: within
+    torque, largest at the kink, the rod's stress and the force of the crank's hinge on
+    the rod) to rtol as it holds values: within
     rtol of a reference on 8× the elements per bar and 8000 steps, whose own peaks move by
     less than 0.1 % on 16× and 16000 steps, and the estimates not below half the errors."""
     spec = kinked_flexible_slider_crank()
     spec["simulation"]["t_end"] = 0.1
-    names = ["torque:crank", "stress"]
+    names = ["torque:crank", "stress", "reaction:A"]
     x = np.linspace(0.4, 0.9, flextop.Simulation(spec).n_design)
     out = flextop.Simulation(spec).run_with_sensitivities(x, names, rtol=1e-2, hold_gradients=False)
     reference = flextop.scenes.slider_crank(t_end=0.1, h=1.25e-5, split=8).to_dict()
@@ -111,3 +112,34 @@ def test_a_checkpointed_adjoint_and_a_run_with_local_error_control_restart_alike
         fd = (on_steps(x - 2e-4 * step) - 8 * on_steps(x - 1e-4 * step) + 8 * on_steps(x + 1e-4 * step)
               - on_steps(x + 2e-4 * step)) / 12e-4
         np.testing.assert_allclose(adaptive.gradients[:, j], fd, rtol=1e-6)
+
+
+def test_a_pendulums_pin_transmits_its_tension_3mg_cos_theta():
+    """Released at rest from the horizontal, a point mass on a rigid link pulls its pin with
+    the tension m g (3 cos θ − 2 cos θ₀) = 3 m g cos θ: ``reaction:pivot`` reads it at every
+    state (its p = 2 mean against the trapezoidal mean of that law along the computed θ to
+    1e-6, its peak 3 m g at the bottom to 1e-6)."""
+    length, mass, g = 1.0, 2.0, 9.81
+    sim = flextop.Simulation(flextop.scenes.pendulum(length=length, mass=mass, g=g, periods=0.5, h=1e-4))
+    res = sim.run()
+    cos_theta = -res.q[:, 3 * sim.node("bob") + 1] / length  # the bob starts at (L, 0)
+    tension = 3 * mass * g * cos_theta
+    t = res.time
+    rms = np.sqrt(np.sum(0.5 * (tension[1:] ** 2 + tension[:-1] ** 2) * np.diff(t)) / t[-1])
+    out = sim.run_with_sensitivities(np.zeros(0), ["reaction:pivot:p=2"])
+    assert out.values[0] == pytest.approx(rms, rel=1e-6)
+    assert out.peaks["reaction:pivot:p=2"] == pytest.approx(3 * mass * g, rel=1e-6)
+
+
+def test_gradients_of_a_joints_reaction_are_exact():
+    """The crank pin's and the rod's end hinge's forces on the kinked flexible slider-crank,
+    through the restart: direct = adjoint to 1e-9 and fourth-order differences to 1e-6."""
+    sim = flextop.Simulation(kinked_flexible_slider_crank())
+    x = np.linspace(0.4, 0.9, sim.n_design)
+    assert_exact_gradients(sim, x, ["reaction:A", "reaction:B:p=4"], range(sim.n_design))
+
+
+def test_a_reaction_needs_a_joint_that_holds_a_position():
+    sim = flextop.Simulation(kinked_flexible_slider_crank())
+    with pytest.raises(flextop.SettingsError, match="unknown joint 'nope'"):
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.5), ["reaction:nope"])

@@ -81,6 +81,14 @@ from ..errors import SettingsError, SimulationError, ToleranceError
 TIME_ORDER = 2
 """Order of generalized-α in h (Chung & Hulbert), assumed by ``e_time``."""
 
+PEAK_ORDER = 1
+"""Order in h assumed for a peak's time error: a peak after a drive's kink converges at
+first order (index-3 generalized-α's transient, BENCHMARKS.md "Reactions after a kink"),
+and a peak riding on a flexible link's vibration moves with each halving of the step as
+the scheme's damping of those modes changes (the slider-crank's hinge force at 800, 1600,
+3200 and 6400 steps: 380.1, 382.1, 380.9, 380.1 N), so a faster contraction there is
+chance, not convergence."""
+
 SPACE_ORDER = 1
 """Order in 1/m assumed by ``e_space``: the lowest measured, so the estimate errs high."""
 
@@ -233,10 +241,12 @@ Quantities = list[np.ndarray]
 """What a run is judged on: responses (arrays of one value) and gradients (vectors)."""
 
 
-def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | None, split: Quantities) -> ErrorEstimate:
+def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | None, split: Quantities,
+             orders: np.ndarray | None = None) -> ErrorEstimate:
     """The error of ``fine`` from its companions' quantities: ``half`` and ``quarter`` on
     its steps merged in pairs and fours (``None`` for a static scene; ``quarter`` alone
-    ``None``: the slowest contraction is assumed), ``split`` on twice the elements per bar."""
+    ``None``: the slowest contraction is assumed), ``split`` on twice the elements per bar;
+    ``orders`` the order in h of each quantity's time error (``TIME_ORDER`` if not given)."""
     if half is None:
         time = np.zeros(len(fine))
     else:
@@ -244,7 +254,7 @@ def estimate(fine: Quantities, half: Quantities | None, quarter: Quantities | No
         b = np.zeros_like(a) if quarter is None else _distances(half, quarter)
         with np.errstate(divide="ignore", invalid="ignore"):
             observed = np.where(a == 0.0, np.inf, b / a)
-        ceiling = 2.0**TIME_ORDER
+        ceiling = 2.0 ** (TIME_ORDER if orders is None else orders)
         trusted = (observed >= SLOWEST) & (observed <= 1.5 * ceiling)
         time = a / (np.where(trusted, np.minimum(observed, ceiling), SLOWEST) - 1.0)
     space = _distances(split, fine if half is None else half) / (1.0 - 2.0**-SPACE_ORDER)
@@ -303,11 +313,17 @@ def companion_newton_tol(rtol: float) -> float:
 
 @dataclass(frozen=True)
 class Tolerance:
-    """Per quantity: its name, relative and absolute tolerance."""
+    """Per quantity: its name, relative and absolute tolerance, and the order in h its time
+    error is estimated at."""
 
     names: Sequence[str]
     rtol: np.ndarray
     atol: np.ndarray
+    orders: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.orders is None:
+            object.__setattr__(self, "orders", np.full(len(self.names), float(TIME_ORDER)))
 
     def budget(self, est: ErrorEstimate) -> np.ndarray:
         return self.rtol * est.size + self.atol
@@ -406,7 +422,8 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     extrapolation = (lambda space: extrapolated_estimate(fine, half, quarter, eighth, space)) \
         if quarter is not None and eighth is not None else None
     if dynamic:
-        least = estimate(fine, half, [h + 4 * (h - f) for f, h in zip(fine, half)], half)  # contraction 4, no space error
+        rates = 2.0**tol.orders  # each quantity's fastest contraction, no space error
+        least = estimate(fine, half, [h + c * (h - f) for f, h, c in zip(fine, half, rates)], half, tol.orders)
         candidates = [(least, False)] + ([] if extrapolation is None else [(extrapolation(least.space), True)])
         best, extrapolated = min(candidates, key=lambda c: _ratio(c[0].time, tol.budget(c[0])))
         if _ratio(best.time, tol.budget(best)) > 2.0:
@@ -414,10 +431,10 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     split = _try(values, d.split, companion=True)
     if split is None:  # the finer model failed where this one ran: more steps first
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
-    est = estimate(fine, half, quarter, split)  # without a quarter run the slowest contraction is assumed
+    est = estimate(fine, half, quarter, split, tol.orders)  # without a quarter run the slowest contraction is assumed
     if dynamic and quarter is None and _ratio(est.total, tol.budget(est)) > 1.0:
         quarter = _try(values, d.quarter_steps, companion=True)
-        est = est if quarter is None else estimate(fine, half, quarter, split)
+        est = est if quarter is None else estimate(fine, half, quarter, split, tol.orders)
     extrapolated = False
     if extrapolation is not None:
         other = extrapolation(est.space)
@@ -450,12 +467,13 @@ def check_tolerance(rtol: float, atol: float) -> None:
 def tolerance_of(names: Sequence[str], rtol: float, atol: float, gradients: bool, peaked: Sequence[str] = ()) -> Tolerance:
     """Responses ``names`` to ``rtol·|f| + atol``, then, with ``gradients``, their gradients
     to ``GRADIENT_FACTOR·rtol`` relative, then the peaks of the responses ``peaked`` to
-    ``rtol·|peak| + atol``."""
+    ``rtol·|peak| + atol``, their time errors at ``PEAK_ORDER``."""
     graded = list(names) + ([f"the gradient of {n}" for n in names] if gradients else [])
     rtols = [rtol] * len(names) + ([GRADIENT_FACTOR * rtol] * len(names) if gradients else [])
     atols = [atol] * len(names) + ([0.0] * len(names) if gradients else [])
+    orders = [float(TIME_ORDER)] * len(graded) + [float(PEAK_ORDER)] * len(peaked)
     return Tolerance([*graded, *(f"the peak of {n}" for n in peaked)], np.array(rtols + [rtol] * len(peaked)),
-                     np.array(atols + [atol] * len(peaked)))
+                     np.array(atols + [atol] * len(peaked)), np.array(orders))
 
 
 def _try(values: Values, d: Discretization, companion: bool = False) -> Quantities | None:

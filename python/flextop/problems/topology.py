@@ -87,7 +87,7 @@ NORMALIZATION_DAMPING = 0.5
 
 def is_aggregate(name: str) -> bool:
     """Whether the response ``name`` is a p-mean or KS mean with a peak (stress, shear,
-    buckling, a drive's torque; not ``torque_rms``, a mean by definition)."""
+    buckling, a drive's torque, a joint's reaction; not ``torque_rms``, a mean by definition)."""
     return name.split(":", 1)[0] in AGGREGATES
 
 
