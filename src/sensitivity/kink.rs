@@ -13,9 +13,10 @@
 //! adjoints `ā + Ā` of the restarted `aₖ`, `q̈ₖ` solve the same symmetric system, and its
 //! solution `ν` gives `x̄ += νᵀ b_x` and `q̄ₖ −= (Σ Δλₖ Hₖ) ν_q + Σₖ s νₖ Hₖ Δq̈`.
 
-use super::PseudoLoads;
+use super::{Curvature, PseudoLoads};
 use crate::error::SolveError;
 use crate::mechanism::parameter::{At, Level};
+use crate::solver::assembly::Assembler;
 use crate::solver::integrator::Integrator;
 use crate::solver::kink::Jump;
 
@@ -64,32 +65,12 @@ pub(super) fn direct(
     let mut rest = vec![0.0; rhs.len()];
     pseudo.subtract_columns(asm, &before, scale, &mut rest, n, 0..n_x);
     rhs.iter_mut().zip(&rest).for_each(|(r, b)| *r -= b);
-    let hessian = asm.constraint_hessian(&jump.q, &jump.dlam);
-    let curvature = asm.constraint_curvature(&jump.q, &jump.dacc);
-    let mut product = vec![0.0; n_q];
-    for (column, dq) in rhs.chunks_mut(n).zip(dq.chunks(n_q)) {
-        product.fill(0.0);
-        asm.add_tangent_times(&hessian, dq, &mut product);
-        column[..n_q]
-            .iter_mut()
-            .zip(&product)
-            .for_each(|(c, p)| *c -= p);
-        for ((row, h), c) in asm
-            .model
-            .rows
-            .iter()
-            .zip(&curvature)
-            .zip(&mut column[n_q..])
-        {
-            let change: f64 = row
-                .dofs()
-                .iter()
-                .zip(h)
-                .filter_map(|(d, hi)| d.map(|d| hi * dq[d]))
-                .sum();
-            *c -= scale * change;
-        }
-    }
+    let (hessian, curvature) = hessians(asm, jump);
+    let terms = Curvature {
+        matrix: &hessian,
+        curvature: &curvature,
+    };
+    terms.subtract(asm, dq, scale, rhs);
     it.newton.augment(rhs);
     it.newton
         .solve_block(rhs, n_x, &mut it.newton.scratch(n_x.max(1)))
@@ -123,28 +104,27 @@ pub(super) fn adjoint(
     let asm = it.assembler();
     let (still, none) = (vec![0.0; n_q], vec![0.0; n_c]);
     let [after, before] = sides(jump, &still, &none);
-    let hessian = asm.constraint_hessian(&jump.q, &jump.dlam);
-    let curvature = asm.constraint_curvature(&jump.q, &jump.dacc);
     let mut rest = vec![0.0; n_x];
-    for ((nu, qbar), xbar) in rhs
-        .chunks(n)
-        .zip(qbar.chunks_mut(n_q))
-        .zip(xbar.chunks_mut(n_x.max(1)))
-    {
+    for (nu, xbar) in rhs.chunks(n).zip(xbar.chunks_mut(n_x.max(1))) {
         pseudo.subtract_transposed(asm, &after, scale, nu, xbar);
         rest.fill(0.0);
         pseudo.subtract_transposed(asm, &before, scale, nu, &mut rest);
         xbar.iter_mut().zip(&rest).for_each(|(x, r)| *x -= r);
-        let mut product = vec![0.0; n_q];
-        asm.add_tangent_times(&hessian, &nu[..n_q], &mut product);
-        qbar.iter_mut().zip(&product).for_each(|(q, p)| *q -= p);
-        for ((row, h), mu) in asm.model.rows.iter().zip(&curvature).zip(&nu[n_q..]) {
-            for (d, hi) in row.dofs().iter().zip(h) {
-                if let Some(d) = d {
-                    qbar[*d] -= scale * mu * hi;
-                }
-            }
-        }
     }
+    let (hessian, curvature) = hessians(asm, jump);
+    let terms = Curvature {
+        matrix: &hessian,
+        curvature: &curvature,
+    };
+    terms.subtract_transposed(asm, rhs, scale, qbar);
     Ok(())
+}
+
+/// `Σ Δλₖ Hₖ` on the pattern and `Hₖ Δq̈` per row, at `qₖ`: how the jump system changes
+/// with `q`.
+fn hessians(asm: &Assembler, jump: &Jump) -> (Vec<f64>, Vec<[f64; 6]>) {
+    (
+        asm.constraint_hessian(&jump.q, &jump.dlam),
+        asm.constraint_curvature(&jump.q, &jump.dacc),
+    )
 }

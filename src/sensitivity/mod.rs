@@ -225,6 +225,68 @@ impl PseudoLoads {
     }
 }
 
+/// How a system `[A, Φ_qᵀ; Φ_q, 0][u; μ] = [b; c]` solved at `q` changes with `q`: `A` by
+/// the symmetric `matrix` (values on the pattern) and row `k` of `Φ_q u` by its Hessian
+/// times `u`, `curvature[k] = Hₖ u` ([`Assembler::constraint_curvature`]). The initial
+/// accelerations ([`start`]) and a restart's jump ([`kink`]) both differentiate one.
+struct Curvature<'a> {
+    matrix: &'a [f64],
+    curvature: &'a [[f64; 6]],
+}
+
+impl Curvature<'_> {
+    /// Direct: subtracts `[A q'; s (Hₖ u)ᵀ q']` from each column of `rhs` (leading dimension
+    /// `n_q + n_c`), `q'` the columns of `dq`, constraint rows scaled by `scale`.
+    fn subtract(&self, asm: &Assembler, dq: &[f64], scale: f64, rhs: &mut [f64]) {
+        let n_q = asm.model.n_dofs();
+        let n = n_q + asm.model.n_constraints();
+        let mut product = vec![0.0; n_q];
+        for (column, dq) in rhs.chunks_mut(n).zip(dq.chunks(n_q)) {
+            product.fill(0.0);
+            asm.add_tangent_times(self.matrix, dq, &mut product);
+            column[..n_q]
+                .iter_mut()
+                .zip(&product)
+                .for_each(|(r, p)| *r -= p);
+            for ((row, h), r) in asm
+                .model
+                .rows
+                .iter()
+                .zip(self.curvature)
+                .zip(&mut column[n_q..])
+            {
+                let change: f64 = row
+                    .dofs()
+                    .iter()
+                    .zip(h)
+                    .filter_map(|(d, hi)| d.map(|d| hi * dq[d]))
+                    .sum();
+                *r -= scale * change;
+            }
+        }
+    }
+
+    /// Adjoint: `q̄ −= A ν_q + Σₖ s νₖ Hₖ u` for each transposed solution `ν` (leading
+    /// dimension `n_q + n_c`) and its column of `qbar`.
+    fn subtract_transposed(&self, asm: &Assembler, solution: &[f64], scale: f64, qbar: &mut [f64]) {
+        let n_q = asm.model.n_dofs();
+        let n = n_q + asm.model.n_constraints();
+        let mut product = vec![0.0; n_q];
+        for (nu, qbar) in solution.chunks(n).zip(qbar.chunks_mut(n_q)) {
+            product.fill(0.0);
+            asm.add_tangent_times(self.matrix, &nu[..n_q], &mut product);
+            qbar.iter_mut().zip(&product).for_each(|(q, p)| *q -= p);
+            for ((row, h), mu) in asm.model.rows.iter().zip(self.curvature).zip(&nu[n_q..]) {
+                for (d, hi) in row.dofs().iter().zip(h) {
+                    if let Some(d) = d {
+                        qbar[*d] -= scale * mu * hi;
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// The assembler's model and design, as the parameters' pseudo-loads read them.
 fn designed<'a>(asm: &'a Assembler) -> Designed<'a> {
     Designed {

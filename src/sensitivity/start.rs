@@ -11,7 +11,7 @@
 //! (`Hₖ` the rows' Hessians). The adjoint transposes both: the adjoint of `q₀` collects the
 //! initial system's share, then one static solve carries it to `x`.
 
-use super::PseudoLoads;
+use super::{Curvature, PseudoLoads};
 use crate::error::SolveError;
 use crate::mechanism::parameter::{At, Level};
 use crate::solver::integrator::{Integrator, State};
@@ -55,34 +55,13 @@ pub(super) fn add_initial_terms(
     rhs: &mut [f64],
 ) {
     let asm = it.assembler();
-    let n_q = asm.model.n_dofs();
-    let n = n_q + asm.model.n_constraints();
-    let tangent = asm.tangent(&s.q, &s.lam);
+    let matrix = asm.tangent(&s.q, &s.lam);
     let curvature = asm.constraint_curvature(&s.q, &s.qddot);
-    let mut product = vec![0.0; n_q];
-    for (column, dq) in rhs.chunks_mut(n).zip(dq.chunks(n_q)) {
-        product.fill(0.0);
-        asm.add_tangent_times(&tangent, dq, &mut product);
-        column[..n_q]
-            .iter_mut()
-            .zip(&product)
-            .for_each(|(r, p)| *r -= p);
-        for ((row, h), r) in asm
-            .model
-            .rows
-            .iter()
-            .zip(&curvature)
-            .zip(&mut column[n_q..])
-        {
-            let change: f64 = row
-                .dofs()
-                .iter()
-                .zip(h)
-                .filter_map(|(d, hi)| d.map(|d| hi * dq[d]))
-                .sum();
-            *r -= scale * change;
-        }
-    }
+    let terms = Curvature {
+        matrix: &matrix,
+        curvature: &curvature,
+    };
+    terms.subtract(asm, dq, scale, rhs);
 }
 
 /// The equilibrium as a state the pseudo-loads are evaluated at.
@@ -118,28 +97,17 @@ pub(super) fn adjoint(
     let (n_q, n_x) = (asm.model.n_dofs(), pseudo.columns());
     let n = n_q + asm.model.n_constraints();
     let n_r = qbar.len() / n_q.max(1);
-    let tangent = asm.tangent(q0, lam0);
+    let matrix = asm.tangent(q0, lam0);
     let curvature = asm.constraint_curvature(q0, acc0);
-    let (mut rhs, mut product) = (vec![0.0; n * n_r], vec![0.0; n_q]);
-    for ((column, nu), qbar) in rhs
-        .chunks_mut(n)
-        .zip(solution.chunks(n))
-        .zip(qbar.chunks(n_q))
-    {
-        column[..n_q].copy_from_slice(qbar);
-        product.fill(0.0);
-        asm.add_tangent_times(&tangent, &nu[..n_q], &mut product);
-        column[..n_q]
-            .iter_mut()
-            .zip(&product)
-            .for_each(|(c, p)| *c -= p);
-        for ((row, h), mu) in asm.model.rows.iter().zip(&curvature).zip(&nu[n_q..]) {
-            for (d, hi) in row.dofs().iter().zip(h) {
-                if let Some(d) = d {
-                    column[*d] -= scale * mu * hi;
-                }
-            }
-        }
+    let terms = Curvature {
+        matrix: &matrix,
+        curvature: &curvature,
+    };
+    let mut total = qbar.to_vec();
+    terms.subtract_transposed(asm, solution, scale, &mut total);
+    let mut rhs = vec![0.0; n * n_r];
+    for (column, total) in rhs.chunks_mut(n).zip(total.chunks(n_q)) {
+        column[..n_q].copy_from_slice(total);
     }
     it.newton
         .factorize(&eq.q, Some(&eq.lambda), None, 0.0, 0.0, 0.0)?;

@@ -7,8 +7,8 @@ import pytest
 
 import flextop
 from conftest import assert_exact_gradients
-from flextop.scenes.builder import Scene, trapezoidal
-from test_mechanisms import I1, I2, L, M1, M2, M3, R, closed_form
+from flextop.scenes.builder import trapezoidal
+from test_mechanisms import closed_form, rigid_slider_crank
 from test_parameters import assert_exact
 
 KINK = 0.05  # s: the crank reaches 150 rad/s at 3000 rad/s²
@@ -18,16 +18,7 @@ def crank_torque_errors(h: float, rho_inf: float) -> np.ndarray:
     150 rad/s: the error of the crank torque at every state, relative to its peak, against
     closed-form inverse dynamics along the computed crank angle and rate with the law's own
     acceleration (the state on the kink reports the left limit, the ramp's)."""
-    scene = Scene("kinked slider-crank")
-    scene.rigid_body("crank", mass=M1, inertia=I1, position=(R / 2, 0), points={"o": (-R / 2, 0), "a": (R / 2, 0)})
-    scene.rigid_body("rod", mass=M2, inertia=I2, position=(R + L / 2, 0), points={"a": (-L / 2, 0), "b": (L / 2, 0)})
-    scene.rigid_body("slider", mass=M3, position=(R + L, 0))
-    scene.pin("O", "crank.o", drive=trapezoidal(0.0, 1000.0, acceleration=3000.0, speed=150.0))
-    scene.hinge("A", "crank.a", "rod.a")
-    scene.hinge("B", "rod.b", "slider")
-    scene.prismatic("P", "slider", axis=(1, 0))
-    scene.simulation(t_end=2 * KINK, h=h, rho_inf=rho_inf, tol=1e-12)
-    sim = flextop.Simulation(scene.to_dict())
+    sim = rigid_slider_crank(h, trapezoidal(0.0, 1000.0, acceleration=3000.0, speed=150.0), 2 * KINK, rho_inf)
     res = sim.run()
     crank = 3 * sim.node("crank") + 2
     law = np.where(res.time < KINK + 1e-9, 3000.0, 0.0)

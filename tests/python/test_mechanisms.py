@@ -43,16 +43,18 @@ M1, M2, M3 = 0.5, 1.0, 0.8
 I1, I2 = M1 * R**2 / 12, M2 * L**2 / 12
 
 
-def rigid_slider_crank(h: float) -> flextop.Simulation:
+def rigid_slider_crank(h: float, drive: dict | None = None, t_end: float = 0.5, rho_inf: float = 0.5) -> flextop.Simulation:
+    """Crank, rod and slider of rigid bodies, the crank's pin driven by ``drive`` (default:
+    from rest at 200 rad/s² up to 20 rad/s)."""
     scene = Scene("rigid slider-crank")
     scene.rigid_body("crank", mass=M1, inertia=I1, position=(R / 2, 0), points={"o": (-R / 2, 0), "a": (R / 2, 0)})
     scene.rigid_body("rod", mass=M2, inertia=I2, position=(R + L / 2, 0), points={"a": (-L / 2, 0), "b": (L / 2, 0)})
     scene.rigid_body("slider", mass=M3, position=(R + L, 0))
-    scene.pin("O", "crank.o", drive=trapezoidal(0.0, 100.0, acceleration=200.0, speed=20.0))
+    scene.pin("O", "crank.o", drive=drive or trapezoidal(0.0, 100.0, acceleration=200.0, speed=20.0))
     scene.hinge("A", "crank.a", "rod.a")
     scene.hinge("B", "rod.b", "slider")
     scene.prismatic("P", "slider", axis=(1, 0))
-    scene.simulation(t_end=0.5, h=h, rho_inf=0.5, tol=1e-12)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf, tol=1e-12)
     return flextop.Simulation(scene.to_dict())
 
 
