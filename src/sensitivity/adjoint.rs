@@ -14,11 +14,11 @@
 //! ```
 //!
 //! and at `t = 0` the initial-acceleration system takes `Ā₀ + ā₀`; at a kink where the
-//! forward step restarted, the restart's jump system takes `Āₙ + āₙ` ([`super::kink`]). The backward sweep
-//! needs `qₙ` and `q̈ₙ` of every step: a `StateStore` keeps them all, or only full states
-//! at checkpoints every `K ≈ √N` steps and replays one segment at a time (bitwise identical,
-//! since the replay repeats the same arithmetic) — memory `O(√N)` states for one more
-//! forward sweep. Either way the cost is one extra factorization and solve per step,
+//! forward step restarted, the restart's jump system takes `Āₙ + āₙ` ([`super::kink`]).
+//! The backward sweep needs `qₙ` and `q̈ₙ` of every step: a `StateStore` keeps them all,
+//! or only full states at checkpoints every `K ≈ √N` steps and replays one segment at a
+//! time (bitwise identical, since the replay repeats the same arithmetic, restarts too) —
+//! memory `O(√N)` states for one more forward sweep. Either way the cost is one extra factorization and solve per step,
 //! whatever the number of design variables.
 
 use std::time::Instant;

@@ -13,9 +13,10 @@
 //!
 //! starting from `q'₀ = q̇'₀ = 0` (the initial state does not depend on `x`) and `q̈'₀`
 //! from the initial-acceleration system. A step that began with a restart at a kink first
-//! adds that restart's `Δq̈'` to `q̈'` and `a'` ([`super::kink`]). Where the step size changes, `a'` is carried to
-//! the new step as `a` is: `a' ← q̈' + (hₙ/hₙ₋₁)(a' − q̈')`. The factorization of `S_t` is shared by all
-//! columns, which are solved in blocks in parallel (rayon).
+//! adds that restart's `Δq̈'` to `q̈'` and `a'` ([`super::kink`]). Where the step size
+//! changes, `a'` is carried to the new step as `a` is: `a' ← q̈' + (hₙ/hₙ₋₁)(a' − q̈')`.
+//! The factorization of `S_t` is shared by all columns, which are solved in blocks in
+//! parallel (rayon).
 
 use std::time::Instant;
 
