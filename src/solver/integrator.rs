@@ -166,7 +166,7 @@ impl<'m> Integrator<'m> {
     ) -> Result<Option<Jump>, SolveError> {
         let model = self.newton.assembler().model;
         match self.kinks.jump_at(model, t, h) {
-            Some((kink, dg)) => Jump::solve(&mut self.newton, q, kink, dg).map(Some),
+            Some((kink, dg)) => Jump::solve(&mut self.newton, q, kink, &dg).map(Some),
             None => Ok(None),
         }
     }

@@ -89,8 +89,6 @@ pub struct Jump {
     pub t: f64,
     /// `qₖ`.
     pub q: Vec<f64>,
-    /// `Δg̈` of each row.
-    pub dg: Vec<f64>,
     /// `Δq̈`.
     pub dacc: Vec<f64>,
     /// `Δλ`.
@@ -102,14 +100,13 @@ impl Jump {
     ///
     /// # Errors
     /// [`SolveError::Singular`] if `M` is singular on the constraint manifold.
-    pub fn solve(newton: &mut Newton, q: &[f64], t: f64, dg: Vec<f64>) -> Result<Self, SolveError> {
+    pub fn solve(newton: &mut Newton, q: &[f64], t: f64, dg: &[f64]) -> Result<Self, SolveError> {
         let mut dacc = vec![0.0; q.len()];
         let mut dlam = vec![0.0; dg.len()];
-        newton.acceleration_jump(q, t, &dg, &mut dacc, &mut dlam)?;
+        newton.acceleration_jump(q, t, dg, &mut dacc, &mut dlam)?;
         Ok(Self {
             t,
             q: q.to_vec(),
-            dg,
             dacc,
             dlam,
         })
