@@ -14,6 +14,7 @@
 //! to it. Point masses are attached to nodes by the [`crate::mechanism::model::Model`].
 
 pub mod beam;
+pub mod quad;
 pub mod truss;
 
 use std::ops::Deref;

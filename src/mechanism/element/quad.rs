@@ -1,0 +1,429 @@
+//! Four-node plane-stress quadrilateral of a continuum member: total Lagrangian, a
+//! St. Venant–Kirchhoff law, 2 × 2 Gauss points.
+//!
+//! Its unknowns are the translations of its four nodes, `u = [u₁, v₁, …, u₄, v₄]`, counted
+//! anticlockwise; it has no rotations (its nodes' rotations are no unknowns unless something
+//! else turns them: [`crate::mechanism::model::Model::absent_rotations`]). With the bilinear
+//! shape functions `N_a(ξ, η)` and their gradients `g_a = ∂N_a/∂X` in the reference
+//! configuration:
+//!
+//! * deformation gradient `F = I + Σ_a u_a g_aᵀ`, Green–Lagrange strain `E = ½ (FᵀF − I)`,
+//!   in Voigt form `ε = [E₁₁, E₂₂, 2E₁₂]`;
+//! * second Piola–Kirchhoff stress `S = C ε`, `C = E/(1 − ν²) [[1, ν, 0], [ν, 1, 0],
+//!   [0, 0, (1 − ν)/2]]` (plane stress);
+//! * strain energy `U = Σ_gp t det J ½ εᵀ C ε`, internal force `f = ∂U/∂u = Σ_gp t det J Bᵀ S`
+//!   with `B = ∂ε/∂u`, and its exact tangent `K = Σ_gp t det J (Bᵀ C B + (g_aᵀ S g_b) I₂)`;
+//! * mass `M_ab = ρ t ∫ N_a N_b dA I₂`, constant (2 × 2 Gauss integrates it exactly on any
+//!   quadrilateral).
+//!
+//! A rigid motion has `FᵀF = I`, so strain, stress and internal force vanish to round-off at
+//! any rotation: the mass matrix being constant, the index-3 generalized-α integrator and
+//! the sensitivities carry over with these element terms only. Everything is at full
+//! density; a design scales stiffness by `s(x)` and mass by `m(x)` outside, as for the
+//! bars (paper Eq. 33–34).
+
+use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
+
+/// A vector on a quadrilateral's eight DOFs.
+pub type Vector8 = SVector<f64, 8>;
+/// A matrix on a quadrilateral's eight DOFs.
+pub type Matrix8 = SMatrix<f64, 8, 8>;
+
+/// Natural coordinates `(ξ_a, η_a)` of the four corners, anticlockwise.
+const CORNERS: [(f64, f64); 4] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+
+/// An isotropic linear elastic material in plane stress, at full density.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlaneMaterial {
+    /// Young's modulus `E` (Pa).
+    pub young: f64,
+    /// Poisson's ratio `ν`.
+    pub poisson: f64,
+    /// Density `ρ` (kg/m³).
+    pub density: f64,
+    /// Thickness `t` (m).
+    pub thickness: f64,
+}
+
+impl PlaneMaterial {
+    /// The plane-stress elasticity matrix `C` on `[E₁₁, E₂₂, 2E₁₂]` (Pa).
+    pub fn elasticity(&self) -> SMatrix<f64, 3, 3> {
+        let (e, nu) = (self.young, self.poisson);
+        let c = e / (1.0 - nu * nu);
+        SMatrix::<f64, 3, 3>::new(
+            c,
+            c * nu,
+            0.0,
+            c * nu,
+            c,
+            0.0,
+            0.0,
+            0.0,
+            c * (1.0 - nu) / 2.0,
+        )
+    }
+}
+
+/// What the reference configuration fixes at one Gauss point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct GaussPoint {
+    /// Shape functions `N_a`.
+    shape: [f64; 4],
+    /// Their reference gradients `g_a = ∂N_a/∂X` (1/m).
+    gradient: [Vector2<f64>; 4],
+    /// Weight times `det J` times the thickness (m³).
+    volume: f64,
+}
+
+/// A four-node plane-stress quadrilateral at full density.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quad {
+    /// Its material and thickness.
+    pub material: PlaneMaterial,
+    /// Reference area (m²).
+    pub area: f64,
+    points: [GaussPoint; 4],
+    elasticity: SMatrix<f64, 3, 3>,
+}
+
+/// Why a quadrilateral cannot be built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QuadDefect {
+    /// Its corners are not anticlockwise and convex: `det J ≤ 0` at a Gauss point.
+    Inverted,
+}
+
+impl Quad {
+    /// The quadrilateral with reference corners `x` (anticlockwise).
+    ///
+    /// # Errors
+    /// [`QuadDefect::Inverted`] if the corners are clockwise, crossed or not convex.
+    pub fn new(x: [Vector2<f64>; 4], material: PlaneMaterial) -> Result<Self, QuadDefect> {
+        let g = 1.0 / 3.0_f64.sqrt();
+        let mut points = [GaussPoint {
+            shape: [0.0; 4],
+            gradient: [Vector2::zeros(); 4],
+            volume: 0.0,
+        }; 4];
+        for (point, (xi, eta)) in points.iter_mut().zip([(-g, -g), (g, -g), (g, g), (-g, g)]) {
+            let shape = CORNERS.map(|(a, b)| 0.25 * (1.0 + a * xi) * (1.0 + b * eta));
+            let natural = CORNERS
+                .map(|(a, b)| Vector2::new(0.25 * a * (1.0 + b * eta), 0.25 * b * (1.0 + a * xi)));
+            // J_ij = ∂X_i/∂ξ_j.
+            let jacobian: Matrix2<f64> = (0..4).map(|k| x[k] * natural[k].transpose()).sum();
+            let det = jacobian.determinant();
+            let inverse = jacobian.try_inverse().filter(|_| det > 0.0);
+            let inverse = inverse.ok_or(QuadDefect::Inverted)?;
+            *point = GaussPoint {
+                shape,
+                gradient: natural.map(|n| inverse.transpose() * n),
+                volume: det * material.thickness,
+            };
+        }
+        Ok(Self {
+            material,
+            area: points.iter().map(|p| p.volume).sum::<f64>() / material.thickness,
+            points,
+            elasticity: material.elasticity(),
+        })
+    }
+
+    /// The displacement gradient `H = F − I = Σ_a u_a g_aᵀ` at a Gauss point.
+    fn displacement_gradient(point: &GaussPoint, u: &Vector8) -> Matrix2<f64> {
+        let mut h = Matrix2::zeros();
+        for (a, g) in point.gradient.iter().enumerate() {
+            h += Vector2::new(u[2 * a], u[2 * a + 1]) * g.transpose();
+        }
+        h
+    }
+
+    /// Green–Lagrange strain `[E₁₁, E₂₂, 2E₁₂]` as `½ (H + Hᵀ + HᵀH)`: from `H`, not
+    /// `F`, so that small strains keep their digits.
+    fn strain(h: &Matrix2<f64>) -> Vector3<f64> {
+        let e = (h + h.transpose() + h.transpose() * h) * 0.5;
+        Vector3::new(e[(0, 0)], e[(1, 1)], 2.0 * e[(0, 1)])
+    }
+
+    /// `B = ∂ε/∂u` at a Gauss point with deformation gradient `f`.
+    fn strain_operator(point: &GaussPoint, f: &Matrix2<f64>) -> SMatrix<f64, 3, 8> {
+        let mut b = SMatrix::<f64, 3, 8>::zeros();
+        for (a, g) in point.gradient.iter().enumerate() {
+            for i in 0..2 {
+                // δF = e_i g_aᵀ: δE₁₁ = F_i1 g₁, δE₂₂ = F_i2 g₂, 2δE₁₂ = F_i1 g₂ + F_i2 g₁.
+                b[(0, 2 * a + i)] = f[(i, 0)] * g.x;
+                b[(1, 2 * a + i)] = f[(i, 1)] * g.y;
+                b[(2, 2 * a + i)] = f[(i, 0)] * g.y + f[(i, 1)] * g.x;
+            }
+        }
+        b
+    }
+
+    /// Green–Lagrange strains `[E₁₁, E₂₂, 2E₁₂]` at the four Gauss points.
+    pub fn strains(&self, u: &Vector8) -> [Vector3<f64>; 4] {
+        self.points
+            .map(|p| Self::strain(&Self::displacement_gradient(&p, u)))
+    }
+
+    /// Strain energy `U(u)` (J), zero in any rigid motion.
+    pub fn strain_energy(&self, u: &Vector8) -> f64 {
+        self.points
+            .iter()
+            .map(|p| {
+                let e = Self::strain(&Self::displacement_gradient(p, u));
+                0.5 * p.volume * e.dot(&(self.elasticity * e))
+            })
+            .sum()
+    }
+
+    /// Internal force `f(u) = ∂U/∂u` (N).
+    pub fn internal_force(&self, u: &Vector8) -> Vector8 {
+        let mut force = Vector8::zeros();
+        for p in &self.points {
+            let h = Self::displacement_gradient(p, u);
+            let stress = self.elasticity * Self::strain(&h);
+            let f = h + Matrix2::identity();
+            force += Self::strain_operator(p, &f).transpose() * (stress * p.volume);
+        }
+        force
+    }
+
+    /// Internal force and its exact tangent `K = ∂f/∂u` (material and geometric parts).
+    pub fn internal_force_and_tangent(&self, u: &Vector8) -> (Vector8, Matrix8) {
+        let (mut force, mut tangent) = (Vector8::zeros(), Matrix8::zeros());
+        for p in &self.points {
+            let h = Self::displacement_gradient(p, u);
+            let stress = self.elasticity * Self::strain(&h) * p.volume;
+            let f = h + Matrix2::identity();
+            let b = Self::strain_operator(p, &f);
+            force += b.transpose() * stress;
+            tangent += b.transpose() * self.elasticity * b * p.volume;
+            // Geometric part: (g_aᵀ S g_b) I₂, S = [[S₁₁, S₁₂], [S₁₂, S₂₂]] times the volume.
+            let s = Matrix2::new(stress[0], stress[2], stress[2], stress[1]);
+            for (a, ga) in p.gradient.iter().enumerate() {
+                for (c, gc) in p.gradient.iter().enumerate() {
+                    let k = ga.dot(&(s * gc));
+                    tangent[(2 * a, 2 * c)] += k;
+                    tangent[(2 * a + 1, 2 * c + 1)] += k;
+                }
+            }
+        }
+        (force, tangent)
+    }
+
+    /// The consistent mass matrix `ρ t ∫ N_a N_b dA I₂` (kg).
+    pub fn mass_matrix(&self) -> Matrix8 {
+        let mut mass = Matrix8::zeros();
+        for p in &self.points {
+            let w = self.material.density * p.volume;
+            for a in 0..4 {
+                for b in 0..4 {
+                    let m = w * p.shape[a] * p.shape[b];
+                    mass[(2 * a, 2 * b)] += m;
+                    mass[(2 * a + 1, 2 * b + 1)] += m;
+                }
+            }
+        }
+        mass
+    }
+
+    /// Full-density volume `t A` (m³).
+    pub fn volume(&self) -> f64 {
+        self.material.thickness * self.area
+    }
+
+    /// Von Mises stress of the second Piola–Kirchhoff stress at the four Gauss points (Pa),
+    /// `√(S₁₁² − S₁₁S₂₂ + S₂₂² + 3S₁₂²)` (plane stress; the Cauchy stress at small strain).
+    pub fn von_mises(&self, u: &Vector8) -> [f64; 4] {
+        self.strains(u).map(|e| {
+            let s = self.elasticity * e;
+            (s[0] * s[0] - s[0] * s[1] + s[1] * s[1] + 3.0 * s[2] * s[2]).sqrt()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    fn steel(thickness: f64) -> PlaneMaterial {
+        PlaneMaterial {
+            young: 210e9,
+            poisson: 0.3,
+            density: 7800.0,
+            thickness,
+        }
+    }
+
+    /// A distorted (convex) quadrilateral, about 0.1 m across.
+    fn corners() -> [Vector2<f64>; 4] {
+        [
+            Vector2::new(0.01, -0.005),
+            Vector2::new(0.12, 0.0),
+            Vector2::new(0.1, 0.09),
+            Vector2::new(-0.01, 0.08),
+        ]
+    }
+
+    /// A displacement of the corners that strains the element by about `scale`.
+    fn strained(scale: f64) -> Vector8 {
+        Vector8::from_fn(|i, _| scale * 0.1 * ((i as f64 * 1.7).sin() + 0.3))
+    }
+
+    fn rotated(x: &[Vector2<f64>; 4], angle: f64, shift: Vector2<f64>) -> Vector8 {
+        let r = nalgebra::Rotation2::new(angle);
+        let mut u = Vector8::zeros();
+        for (a, p) in x.iter().enumerate() {
+            let d = r * p + shift - p;
+            u[2 * a] = d.x;
+            u[2 * a + 1] = d.y;
+        }
+        u
+    }
+
+    #[test]
+    fn rigid_motion_gives_no_force_at_any_angle() {
+        let (x, material) = (corners(), steel(0.01));
+        let quad = Quad::new(x, material).unwrap();
+        // A unit-strain force: E t times the element's size.
+        let unit = material.young * material.thickness * 0.1;
+        for k in 0..=64 {
+            let angle = 2.0 * PI * f64::from(k) / 64.0;
+            let u = rotated(&x, angle, Vector2::new(3.0, -2.0));
+            let f = quad.internal_force(&u);
+            assert!(
+                f.amax() < 1e-12 * unit,
+                "angle {angle}: {}",
+                f.amax() / unit
+            );
+            assert!(quad.strain_energy(&u).abs() < 1e-24 * unit * 0.1);
+        }
+    }
+
+    #[test]
+    fn tangent_and_force_are_exact_derivatives() {
+        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        for scale in [1e-3, 0.2] {
+            let u = strained(scale);
+            let (f, k) = quad.internal_force_and_tangent(&u);
+            assert!((f - quad.internal_force(&u)).amax() <= 1e-12 * f.amax());
+            let h = 1e-7;
+            for j in 0..8 {
+                let mut up = u;
+                up[j] += h;
+                let mut um = u;
+                um[j] -= h;
+                let column = (quad.internal_force(&up) - quad.internal_force(&um)) / (2.0 * h);
+                let error = (column - k.column(j)).amax();
+                assert!(error < 1e-6 * k.amax(), "tangent column {j}: {error}");
+                let de = (quad.strain_energy(&up) - quad.strain_energy(&um)) / (2.0 * h);
+                assert!((de - f[j]).abs() < 1e-6 * f.amax(), "energy gradient {j}");
+            }
+            assert!((k - k.transpose()).amax() < 1e-9 * k.amax(), "symmetric");
+        }
+    }
+
+    /// The small-strain stiffness of a unit square of unit thickness is the 88-line code's
+    /// `KE` (Andreassen et al. 2011, Eq. 9 with E = 1): its closed form, node order and DOF
+    /// order are the same as ours (lower-left anticlockwise).
+    #[test]
+    fn small_strain_stiffness_is_the_88_line_codes() {
+        let nu = 0.3;
+        let material = PlaneMaterial {
+            young: 1.0,
+            poisson: nu,
+            density: 1.0,
+            thickness: 1.0,
+        };
+        let x = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(a, b)| Vector2::new(a, b));
+        let (_, k) = Quad::new(x, material)
+            .unwrap()
+            .internal_force_and_tangent(&Vector8::zeros());
+        let a11 = [
+            12.0, 3.0, -6.0, -3.0, 3.0, 12.0, 3.0, 0.0, -6.0, 3.0, 12.0, -3.0, -3.0, 0.0, -3.0,
+            12.0,
+        ];
+        let a12 = [
+            -6.0, -3.0, 0.0, 3.0, -3.0, -6.0, -3.0, -6.0, 0.0, -3.0, -6.0, 3.0, 3.0, -6.0, 3.0,
+            -6.0,
+        ];
+        let b11 = [
+            -4.0, 3.0, -2.0, 9.0, 3.0, -4.0, -9.0, 4.0, -2.0, -9.0, -4.0, -3.0, 9.0, 4.0, -3.0,
+            -4.0,
+        ];
+        let b12 = [
+            2.0, -3.0, 4.0, -9.0, -3.0, 2.0, 9.0, -2.0, 4.0, 9.0, 2.0, 3.0, -9.0, -2.0, 3.0, 2.0,
+        ];
+        let block = |a: [f64; 16], b: [f64; 16], i: usize, j: usize| {
+            (a[4 * i + j] + nu * b[4 * i + j]) / (24.0 * (1.0 - nu * nu))
+        };
+        // KE = [[A11, A12], [A12ᵀ, A11]] + ν [[B11, B12], [B12ᵀ, B11]], over 24(1 − ν²).
+        let ke = Matrix8::from_fn(|i, j| match (i / 4, j / 4) {
+            (0, 0) | (1, 1) => block(a11, b11, i % 4, j % 4),
+            (0, 1) => block(a12, b12, i % 4, j % 4),
+            _ => block(a12, b12, j % 4, i % 4),
+        });
+        assert!((k - ke).amax() < 1e-14, "{}", (k - ke).amax());
+    }
+
+    #[test]
+    fn a_constant_strain_field_is_reproduced_exactly() {
+        // The patch test: a linear displacement gives its strain at every Gauss point.
+        let x = corners();
+        let quad = Quad::new(x, steel(0.01)).unwrap();
+        let grad = Matrix2::new(1e-4, 3e-5, -2e-5, 2e-4);
+        let mut u = Vector8::zeros();
+        for (a, p) in x.iter().enumerate() {
+            let d = grad * p;
+            u[2 * a] = d.x;
+            u[2 * a + 1] = d.y;
+        }
+        let h = grad;
+        let e = (h + h.transpose() + h.transpose() * h) * 0.5;
+        for strain in quad.strains(&u) {
+            let expected = Vector3::new(e[(0, 0)], e[(1, 1)], 2.0 * e[(0, 1)]);
+            assert!(
+                (strain - expected).amax() < 1e-15 * expected.amax(),
+                "{}",
+                (strain - expected).amax()
+            );
+        }
+    }
+
+    #[test]
+    fn mass_carries_the_element_and_its_inertia() {
+        let (x, material) = (corners(), steel(0.01));
+        let quad = Quad::new(x, material).unwrap();
+        let m = quad.mass_matrix();
+        // Shoelace area of the corners.
+        let area = 0.5 * (0..4).map(|a| x[a].perp(&x[(a + 1) % 4])).sum::<f64>();
+        assert!((quad.area - area).abs() < 1e-15);
+        let total = material.density * material.thickness * area;
+        let ones = Vector8::from_fn(|i, _| if i % 2 == 0 { 1.0 } else { 0.0 });
+        assert!(((ones.transpose() * m * ones)[0] - total).abs() < 1e-12 * total);
+        // Polar moment about the origin: ρ t ∫ |X|² dA, against the exact polygon formula.
+        let spin = Vector8::from_fn(|i, _| {
+            let p = x[i / 2];
+            if i % 2 == 0 {
+                -p.y
+            } else {
+                p.x
+            }
+        });
+        let polar = material.density * material.thickness / 12.0
+            * (0..4)
+                .map(|a| {
+                    let (p, q) = (x[a], x[(a + 1) % 4]);
+                    p.perp(&q) * (p.norm_squared() + p.dot(&q) + q.norm_squared())
+                })
+                .sum::<f64>();
+        assert!(((spin.transpose() * m * spin)[0] - polar).abs() < 1e-12 * polar);
+    }
+
+    #[test]
+    fn inverted_corners_are_refused() {
+        let mut x = corners();
+        x.swap(1, 3);
+        assert_eq!(Quad::new(x, steel(0.01)), Err(QuadDefect::Inverted));
+    }
+}
