@@ -11,12 +11,12 @@ from .errors import (CheckpointError, DesignError, ExecutionError, FlextopError,
                      SettingsError, SimulationError, ToleranceError)
 from .optimizers import OptimizeResult, optimize
 from .problems import Scenario, ScenarioProblem, TopologyProblem, robot_arm_problem, static_truss_problem, volume_constraints
-from .scenes import GroundStructure, Scene, motion_table, trapezoidal
+from .scenes import GroundStructure, Member, Scene, motion_table, trapezoidal
 from .results import Bars, Joint, Results, Sensitivities, StaticResults
 from .simulation import Simulation, load
 
 __all__ = [
-    "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
+    "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "Member", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
     "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
     "load", "responses", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]

@@ -10,6 +10,7 @@ use nalgebra::Vector2;
 
 use crate::error::{DesignError, SolveError};
 use crate::mechanism::constraint::{ConstraintRow, Joint};
+use crate::mechanism::element::quad::{Quad, Vector8};
 use crate::mechanism::element::{Formulation, Kind, Vector6};
 use crate::mechanism::interpolation::{Interpolation, MassLaw};
 use crate::mechanism::load::NodalLoad;
@@ -55,6 +56,45 @@ impl Element {
     pub fn gather(&self, q: &[f64]) -> Vector6 {
         Vector6::from_iterator(self.dofs().iter().map(|&d| q[d]))
     }
+}
+
+/// A quadrilateral of a continuum member, with its own density.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cell {
+    /// The quadrilateral at full density.
+    pub kernel: Quad,
+    /// Its corners, anticlockwise.
+    pub nodes: [usize; 4],
+    /// The member it belongs to.
+    pub member: usize,
+    /// Design variable, `None` for a cell of fixed full density.
+    pub variable: Option<usize>,
+}
+
+impl Cell {
+    /// The eight global DOFs, the corners' translations `[3a, 3a+1, 3b, 3b+1, …]`.
+    pub fn dofs(&self) -> [usize; 8] {
+        std::array::from_fn(|k| 3 * self.nodes[k / 2] + k % 2)
+    }
+
+    /// The cell's slice of a global vector.
+    pub fn gather(&self, q: &[f64]) -> Vector8 {
+        Vector8::from_iterator(self.dofs().iter().map(|&d| q[d]))
+    }
+}
+
+/// A plane-stress continuum member: a structured mesh of quadrilateral cells, each with a
+/// density.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Member {
+    /// Name, e.g. `link1`; its nodes are `NAME[i,j]`, its cells' variables `NAME/cell[i,j]`.
+    pub name: String,
+    /// Component (linkage) it belongs to.
+    pub component: usize,
+    /// Its cells in [`Model::cells`], row by row from the bottom.
+    pub cells: std::ops::Range<usize>,
+    /// Cells along its length and its height.
+    pub shape: [usize; 2],
 }
 
 /// A straight structural member between two nodes, made of `m` collinear elements, with one
@@ -154,6 +194,11 @@ pub struct Model {
     pub elements: Vec<Element>,
     /// Bars (groups of elements carrying one density).
     pub bars: Vec<Bar>,
+    /// The quadrilaterals of the continuum members. Their densities follow the elements'
+    /// in [`Densities`]: cell `k` is entry `elements.len() + k`.
+    pub cells: Vec<Cell>,
+    /// Continuum members.
+    pub members: Vec<Member>,
     /// The scene's sections, in name order.
     pub sections: Vec<NamedSection>,
     /// Component names (linkages), for per-component responses.
@@ -188,7 +233,8 @@ pub struct Model {
     pub absent_rotations: Vec<usize>,
 }
 
-/// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34).
+/// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34): the
+/// elements of the bars, then the cells of the continuum members.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Densities {
     /// Density `x_e` (1 for a fixed bar): the volume fraction.
@@ -271,13 +317,13 @@ impl Model {
     pub fn unknown_name(&self, i: usize) -> String {
         let Some(row) = i.checked_sub(self.n_dofs()) else {
             let (node, k) = (i / 3, i % 3);
-            let bar = self
-                .elements
-                .iter()
-                .find(|e| e.nodes.contains(&node))
-                .map_or(String::new(), |e| {
-                    format!(" (bar {})", self.bars[e.bar].name)
-                });
+            let bar = self.elements.iter().find(|e| e.nodes.contains(&node));
+            let cell = self.cells.iter().find(|c| c.nodes.contains(&node));
+            let bar = match (bar, cell) {
+                (Some(e), _) => format!(" (bar {})", self.bars[e.bar].name),
+                (None, Some(c)) => format!(" (member {})", self.members[c.member].name),
+                (None, None) => String::new(),
+            };
             let which = ["x", "y", "the rotation"][k];
             return format!("{which} of node '{}'{bar}", self.nodes[node].name);
         };
@@ -307,9 +353,13 @@ impl Model {
         self.design.variables.len()
     }
 
-    /// Design variable of element `e`, if any.
+    /// Design variable of element `e`, if any; `e ≥ elements.len()` is cell
+    /// `e − elements.len()`.
     pub fn variable_of(&self, e: usize) -> Option<usize> {
-        self.bars[self.elements[e].bar].variable
+        match self.elements.get(e) {
+            Some(el) => self.bars[el.bar].variable,
+            None => self.cells[e - self.elements.len()].variable,
+        }
     }
 
     /// The constraint rows of joint `j`, the drive row last (an empty range where they
@@ -374,7 +424,9 @@ impl Model {
             (Some(i), Some(x)) => x[i],
             _ => 1.0,
         };
-        let xe: Vec<f64> = (0..self.elements.len()).map(value).collect();
+        let xe: Vec<f64> = (0..self.elements.len() + self.cells.len())
+            .map(value)
+            .collect();
         Ok(Densities {
             stiffness: xe.iter().map(|&v| law.stiffness(v)).collect(),
             stiffness_rate: xe.iter().map(|&v| law.stiffness_derivative(v)).collect(),
@@ -411,6 +463,9 @@ impl Model {
         let mut v = vec![0.0; self.components.len()];
         for bar in &self.bars {
             v[bar.component] += bar.volume;
+        }
+        for cell in &self.cells {
+            v[self.members[cell.member].component] += cell.kernel.volume();
         }
         v
     }

@@ -1,6 +1,7 @@
 //! Rigid clusters of a mechanism and their kinematics.
 //!
-//! Beams meeting at a node are rigidly joined, so the nodes connected through elements form
+//! Beams meeting at a node are rigidly joined, so the nodes connected through elements (and
+//! through a continuum member's cells) form
 //! a *cluster* that moves, when rigid, with three coordinates `ρ = (c_x, c_y, ψ)`:
 //! `x_i = X_i + c + (R(ψ) − I)(X_i − X_k)` about the cluster's first node `k`, `φ_i = ψ`.
 //! A rigid body is a cluster of its own node.
@@ -66,7 +67,7 @@ pub struct Clusters {
 }
 
 impl Clusters {
-    /// Connected components of the element graph (union–find).
+    /// Connected components of the graph of elements and cells (union–find).
     pub fn of(model: &Model) -> Self {
         let n = model.nodes.len();
         let mut parent: Vec<usize> = (0..n).collect();
@@ -77,8 +78,10 @@ impl Clusters {
             }
             i
         }
-        for e in &model.elements {
-            let (a, b) = (root(&mut parent, e.nodes[0]), root(&mut parent, e.nodes[1]));
+        let edges = model.elements.iter().map(|e| (e.nodes[0], e.nodes[1]));
+        let cells = model.cells.iter().flat_map(|c| (1..4).map(|k| (c.nodes[0], c.nodes[k])));
+        for (a, b) in edges.chain(cells) {
+            let (a, b) = (root(&mut parent, a), root(&mut parent, b));
             parent[a.max(b)] = a.min(b);
         }
         let mut of_node = vec![usize::MAX; n];
@@ -522,13 +525,14 @@ pub(crate) fn check_mechanism(model: &Model) -> Result<(), Error> {
     Ok(())
 }
 
-/// Every node is an end of some element or a rigid body's.
+/// Every node is an end of some element, a corner of a cell or a rigid body's.
 fn check_attached(model: &Model) -> Result<(), SceneError> {
     let mut attached = vec![false; model.nodes.len()];
     model
         .elements
         .iter()
         .flat_map(|e| e.nodes)
+        .chain(model.cells.iter().flat_map(|c| c.nodes))
         .chain(model.bodies.iter().map(|b| b.node))
         .for_each(|n| attached[n] = true);
     match attached.iter().position(|a| !a) {

@@ -78,8 +78,8 @@ pub fn natural_modes(
     q: &[f64],
     count: usize,
 ) -> Result<Modes, Error> {
-    if model.elements.is_empty() {
-        let msg = "the scene has no beams: a mechanism of rigid bodies has no elastic modes";
+    if model.elements.is_empty() && model.cells.is_empty() {
+        let msg = "the scene has no beams or continuum members: a mechanism of rigid bodies has no elastic modes";
         return Err(SettingsError::new("n", msg).into());
     }
     let mut pencil = Pencil::new(model, densities, mass, q)?;
@@ -346,6 +346,21 @@ impl<'m> Pencil<'m> {
                 out[j * n_var + v] += dlambda / (2.0 * TAU * TAU * f).max(1e-300);
             }
         }
+        let n_e = model.elements.len();
+        for (c, cell) in model.cells.iter().enumerate() {
+            let Some(v) = cell.variable else {
+                continue;
+            };
+            let (_, k) = cell.kernel.internal_force_and_tangent(&cell.gather(q));
+            let m = cell.kernel.mass_matrix(kind);
+            for (j, (lambda, phi)) in lambdas.iter().zip(shapes).enumerate() {
+                let p = cell.gather(phi);
+                let dlambda = d.stiffness_rate[n_e + c] * p.dot(&(k * p))
+                    - lambda * d.mass_rate[n_e + c] * p.dot(&(m * p));
+                let f = lambda.max(0.0).sqrt() / TAU;
+                out[j * n_var + v] += dlambda / (2.0 * TAU * TAU * f).max(1e-300);
+            }
+        }
         out
     }
 }
@@ -386,6 +401,14 @@ impl MassFactor {
             blocks.push((
                 el.dofs().to_vec(),
                 root(DMatrix::from_iterator(6, 6, m.iter().copied())),
+            ));
+        }
+        let n_e = model.elements.len();
+        for (k, cell) in model.cells.iter().enumerate() {
+            let m = cell.kernel.mass_matrix(asm.mass_kind) * asm.densities.mass[n_e + k];
+            blocks.push((
+                cell.dofs().to_vec(),
+                root(DMatrix::from_iterator(8, 8, m.iter().copied())),
             ));
         }
         for pm in &model.point_masses {

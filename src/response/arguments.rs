@@ -26,6 +26,12 @@ pub(super) fn elements_of(m: &Model, component: Option<usize>) -> impl Iterator<
         .filter(move |&e| component.is_none_or(|c| m.bars[m.elements[e].bar].component == c))
 }
 
+/// The cells of a component's continuum members, or all of them.
+pub(super) fn cells_of(m: &Model, component: Option<usize>) -> impl Iterator<Item = usize> + '_ {
+    (0..m.cells.len())
+        .filter(move |&k| component.is_none_or(|c| m.members[m.cells[k].member].component == c))
+}
+
 /// A node by name.
 pub(super) fn node(model: &Model, name: &str) -> Result<usize, String> {
     model

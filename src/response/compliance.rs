@@ -4,6 +4,7 @@
 use super::arguments::component;
 use super::strain_energy::StrainEnergy;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
+use crate::mechanism::element::quad::Vector8;
 use crate::mechanism::element::Vector6;
 use crate::mechanism::model::{Analysis, Model};
 use crate::mechanism::parameter::Parameter;
@@ -60,6 +61,15 @@ impl Family for LoadWork {
                 let rate =
                     el.kernel.mass_matrix(ctx.mass_kind) * per_node * ctx.densities.mass_rate[e];
                 g.x[v] += scale * rate.dot(&el.gather(at.q));
+            }
+        }
+        let per_node = Vector8::from_fn(|i, _| if i % 2 == 0 { gravity.x } else { gravity.y });
+        for (k, cell) in m.cells.iter().enumerate() {
+            if let Some(v) = cell.variable {
+                let e = m.elements.len() + k;
+                let rate =
+                    cell.kernel.mass_matrix(ctx.mass_kind) * per_node * ctx.densities.mass_rate[e];
+                g.x[v] += scale * rate.dot(&cell.gather(at.q));
             }
         }
     }

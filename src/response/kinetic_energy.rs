@@ -43,6 +43,14 @@ fn add_mass_times(ctx: &Context, v: &[f64], mut add: impl FnMut(usize, f64)) {
             .zip(p.iter())
             .for_each(|(&d, &x)| add(d, x));
     }
+    for (k, cell) in m.cells.iter().enumerate() {
+        let mass = ctx.densities.mass[m.elements.len() + k];
+        let p = cell.kernel.mass_matrix(ctx.mass_kind) * cell.gather(v) * mass;
+        cell.dofs()
+            .iter()
+            .zip(p.iter())
+            .for_each(|(&d, &x)| add(d, x));
+    }
     for pm in &m.point_masses {
         let d = 3 * pm.node;
         add(d, pm.mass * v[d]);
@@ -73,6 +81,13 @@ impl Family for KineticEnergy {
                 let v = el.gather(at.v);
                 let energy = 0.5 * v.dot(&(el.kernel.mass_matrix(ctx.mass_kind) * v));
                 g.x[j] += scale * ctx.densities.mass_rate[e] * energy;
+            }
+        }
+        for (k, cell) in m.cells.iter().enumerate() {
+            if let Some(j) = cell.variable {
+                let v = cell.gather(at.v);
+                let energy = 0.5 * v.dot(&(cell.kernel.mass_matrix(ctx.mass_kind) * v));
+                g.x[j] += scale * ctx.densities.mass_rate[m.elements.len() + k] * energy;
             }
         }
     }

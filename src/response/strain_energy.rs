@@ -1,14 +1,15 @@
-//! The elastic energy stored in the beams, `U = Σ_e s(x_e) U_e(q_e)` with `U_e` the
-//! co-rotational strain energy at full density: rigid motion stores none.
+//! The elastic energy stored in the beams and the continuum cells, `U = Σ_e s(x_e) U_e(q_e)`
+//! with `U_e` the co-rotational (a cell's: total Lagrangian) strain energy at full density:
+//! rigid motion stores none.
 
-use super::arguments::{component, elements_of};
+use super::arguments::{cells_of, component, elements_of};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::mechanism::parameter::Parameter;
 
 pub(super) const KIND: Kind = Kind {
     name: "strain_energy",
     syntax: "strain_energy[:COMPONENT]",
-    doc: "time-mean elastic energy (1/t_f) ∫ U dt of the beams of one component or all (J), \
+    doc: "time-mean elastic energy (1/t_f) ∫ U dt of the beams and cells of one component or all (J), \
           rigid motion storing none; U at a static equilibrium (where compliance is Fᵀu)",
     peak: false,
     unit: "J",
@@ -39,12 +40,20 @@ impl Family for StrainEnergy {
 
     fn integrand(&self, ctx: &Context, at: Sample, _: Known) -> f64 {
         let m = ctx.model;
-        elements_of(m, self.component)
+        let n_e = m.elements.len();
+        let beams: f64 = elements_of(m, self.component)
             .map(|e| {
                 let el = &m.elements[e];
                 ctx.densities.stiffness[e] * el.kernel.strain_energy(&el.gather(at.q))
             })
-            .sum()
+            .sum();
+        let cells: f64 = cells_of(m, self.component)
+            .map(|k| {
+                let cell = &m.cells[k];
+                ctx.densities.stiffness[n_e + k] * cell.kernel.strain_energy(&cell.gather(at.q))
+            })
+            .sum();
+        beams + cells
     }
 
     /// `G_q = s(x_e) f_e(q_e)` (the internal force is the energy's gradient) and
@@ -62,6 +71,21 @@ impl Family for StrainEnergy {
                 .for_each(|(&d, fi)| g.q[d] += scale * s * fi);
             if let Some(v) = m.variable_of(e) {
                 g.x[v] += scale * ctx.densities.stiffness_rate[e] * el.kernel.strain_energy(&u);
+            }
+        }
+        let n_e = m.elements.len();
+        for k in cells_of(m, self.component) {
+            let cell = &m.cells[k];
+            let u = cell.gather(at.q);
+            let f = cell.kernel.internal_force(&u);
+            let s = ctx.densities.stiffness[n_e + k];
+            cell.dofs()
+                .iter()
+                .zip(f.iter())
+                .for_each(|(&d, fi)| g.q[d] += scale * s * fi);
+            if let Some(v) = cell.variable {
+                let rate = ctx.densities.stiffness_rate[n_e + k];
+                g.x[v] += scale * rate * cell.kernel.strain_energy(&u);
             }
         }
     }

@@ -1,7 +1,7 @@
 //! The material volume `Σ x_e V_e` of one component or all (paper Eq. 38, 41): explicit in
 //! the design.
 
-use super::arguments::component;
+use super::arguments::{cells_of, component};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::mechanism::model::{Bar, Model};
 use crate::mechanism::parameter::Parameter;
@@ -9,7 +9,7 @@ use crate::mechanism::parameter::Parameter;
 pub(super) const KIND: Kind = Kind {
     name: "volume",
     syntax: "volume[:COMPONENT]",
-    doc: "material volume Σ x_e V_e of one component or all (m³, paper Eq. 38, 41)",
+    doc: "material volume Σ x_e V_e of the bars and cells of one component or all (m³, paper Eq. 38, 41)",
     peak: false,
     unit: "m³",
     parse,
@@ -21,7 +21,7 @@ fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
     }))
 }
 
-/// The volume of a component's bars, or all.
+/// The volume of a component's bars and cells, or all.
 #[derive(Debug)]
 struct Volume {
     component: Option<usize>,
@@ -42,15 +42,27 @@ impl Family for Volume {
     }
 
     fn integrand(&self, ctx: &Context, _: Sample, _: Known) -> f64 {
-        self.bars(ctx.model)
+        let m = ctx.model;
+        let bars: f64 = self
+            .bars(m)
             .map(|b| ctx.densities.density[b.elements.start] * b.volume)
-            .sum()
+            .sum();
+        let cells: f64 = cells_of(m, self.component)
+            .map(|k| ctx.densities.density[m.elements.len() + k] * m.cells[k].kernel.volume())
+            .sum();
+        bars + cells
     }
 
     fn add_partials(&self, ctx: &Context, _: Sample, _: Known, scale: f64, g: Partials) {
         for b in self.bars(ctx.model) {
             if let Some(v) = b.variable {
                 g.x[v] += scale * b.volume;
+            }
+        }
+        let m = ctx.model;
+        for k in cells_of(m, self.component) {
+            if let Some(v) = m.cells[k].variable {
+                g.x[v] += scale * m.cells[k].kernel.volume();
             }
         }
     }

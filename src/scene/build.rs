@@ -7,7 +7,7 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
+//! structures, beams, continuum members, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`]. The
 //! lists of entries and the checks poll for interrupts ([`crate::poll`]): a build of many
 //! thousand bodies stops soon after the caller asks.
@@ -15,7 +15,9 @@
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::unique;
-use super::{body, design, ground_structure, joint, load, motor, section, simulation, spring};
+use super::{
+    body, design, ground_structure, joint, load, member, motor, section, simulation, spring,
+};
 use crate::error::{Error, SceneError};
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
@@ -41,6 +43,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
     mesh.add_beams(&spec.beams, &sections)?;
     mesh.check_bar_names()?;
+    member::add_all(&mut mesh, &spec.members)?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;
@@ -72,6 +75,8 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         nodes: mesh.nodes,
         elements: mesh.elements,
         bars: mesh.bars,
+        cells: mesh.cells,
+        members: mesh.members,
         sections,
         components: mesh.components,
         bodies: mesh.bodies,
@@ -113,8 +118,8 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     Ok(model)
 }
 
-/// The rotations of the nodes that only truss bars meet (no beam, rigid body or rotary
-/// inertia there): [`Model::absent_rotations`]. The pinned bars do not turn with them, so
+/// The rotations of the nodes that only truss bars and continuum cells meet (no beam, rigid
+/// body or rotary inertia there): [`Model::absent_rotations`]. The pinned bars do not turn with them, so
 /// nothing may act on them.
 ///
 /// # Errors
@@ -124,6 +129,9 @@ fn absent_rotations(model: &Model) -> Result<Vec<usize>, SceneError> {
     let mut bare = vec![false; n];
     for e in model.elements.iter().filter(|e| !e.kernel.turns_nodes()) {
         e.nodes.iter().for_each(|&k| bare[k] = true);
+    }
+    for c in &model.cells {
+        c.nodes.iter().for_each(|&k| bare[k] = true);
     }
     for e in model.elements.iter().filter(|e| e.kernel.turns_nodes()) {
         e.nodes.iter().for_each(|&k| bare[k] = false);
@@ -142,7 +150,7 @@ fn absent_rotations(model: &Model) -> Result<Vec<usize>, SceneError> {
     {
         let node = &model.nodes[load.node].name;
         let msg = format!(
-            "a moment on node '{node}', which only truss bars meet: a pin carries no moment"
+            "a moment on node '{node}', which only truss bars or continuum cells meet: a pin carries no moment"
         );
         return Err(SceneError::new(format!("loads[{k}]"), msg));
     }
@@ -168,7 +176,7 @@ fn check_truss_rotations(model: &Model, bare: &[bool]) -> Result<(), SceneError>
         SceneError::new(
             at,
             format!(
-                "acts on the rotation of node '{node}', which only truss bars meet: they are \
+                "acts on the rotation of node '{node}', which only truss bars or continuum cells meet: they are \
                  pinned there and do not turn with it, so nothing is driven, locked or loaded \
                  (pin the node instead of clamping it; a driven link is kind = \"frame\" or \
                  carries a rigid body)"

@@ -214,9 +214,45 @@ struct Grid {
     ny: usize,
     length: f64,
     height: f64,
+    placement: Placement,
+}
+
+/// A local frame placed in the scene: its origin and the angle of its x axis.
+pub(super) struct Placement {
     origin: Vector2<f64>,
     /// `(cos, sin)` of the frame's angle.
     rotation: (f64, f64),
+}
+
+impl Placement {
+    /// The frame at `origin` (coordinates, or a node or point of `mesh`) turned by the
+    /// angle given in radians or degrees, for the entry at `path`.
+    pub(super) fn of(
+        mesh: &Mesh,
+        path: &str,
+        origin: &PointSpec,
+        rad: Option<f64>,
+        deg: Option<f64>,
+    ) -> Result<Self> {
+        let angle = angle(path, rad, deg)?;
+        let origin = match origin {
+            PointSpec::Coordinates([x, y]) => Vector2::new(
+                finite(&format!("{path}.origin[0]"), *x)?,
+                finite(&format!("{path}.origin[1]"), *y)?,
+            ),
+            PointSpec::Node(n) => mesh.position(mesh.anchor(&format!("{path}.origin"), n)?),
+        };
+        Ok(Self {
+            origin,
+            rotation: (angle.cos(), angle.sin()),
+        })
+    }
+
+    /// Scene position of local coordinates `[x, y]` (m).
+    pub(super) fn position(&self, [lx, ly]: [f64; 2]) -> Vector2<f64> {
+        let (c, s) = self.rotation;
+        self.origin + Vector2::new(c * lx - s * ly, s * lx + c * ly)
+    }
 }
 
 impl Grid {
@@ -246,30 +282,20 @@ impl Grid {
         } else {
             non_negative(&format!("{path}.height"), g.height)?
         };
-        let angle = angle(path, g.angle, g.angle_deg)?;
-        let origin = match &g.origin {
-            PointSpec::Coordinates([x, y]) => Vector2::new(
-                finite(&format!("{path}.origin[0]"), *x)?,
-                finite(&format!("{path}.origin[1]"), *y)?,
-            ),
-            PointSpec::Node(n) => mesh.position(mesh.anchor(&format!("{path}.origin"), n)?),
-        };
         Ok(Self {
             nx: g.nx,
             ny: g.ny,
             length,
             height,
-            origin,
-            rotation: (angle.cos(), angle.sin()),
+            placement: Placement::of(mesh, path, &g.origin, g.angle, g.angle_deg)?,
         })
     }
 
     /// Scene position of grid node `(column, row)`: its [`local_coordinates`] rotated and
     /// moved to the origin.
     fn position(&self, column: usize, row: usize) -> Vector2<f64> {
-        let (c, s) = self.rotation;
-        let [lx, ly] = local_coordinates(column, row, self.nx, self.ny, self.length, self.height);
-        self.origin + Vector2::new(c * lx - s * ly, s * lx + c * ly)
+        let local = local_coordinates(column, row, self.nx, self.ny, self.length, self.height);
+        self.placement.position(local)
     }
 }
 

@@ -20,7 +20,7 @@ use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
 use crate::mechanism::constraint::Anchor;
 use crate::mechanism::element::Kind;
-use crate::mechanism::model::{size_of, Bar, Element, Node, RigidBody};
+use crate::mechanism::model::{size_of, Bar, Cell, Element, Member, Node, RigidBody};
 use crate::mechanism::section::Section;
 
 /// Mesh under construction.
@@ -34,6 +34,10 @@ pub(super) struct Mesh {
     pub(super) elements: Vec<Element>,
     /// Bars.
     pub(super) bars: Vec<Bar>,
+    /// The continuum members' cells.
+    pub(super) cells: Vec<Cell>,
+    /// Continuum members.
+    pub(super) members: Vec<Member>,
     /// Scene path of each bar, for messages.
     bar_paths: Vec<String>,
     /// Name of each component.
@@ -307,8 +311,11 @@ impl Mesh {
     /// rigid-body points, once the mesh is known to have beams or bodies, no beam of zero
     /// length.
     pub(super) fn size(&self) -> Result<f64> {
-        if self.elements.is_empty() && self.bodies.is_empty() {
-            return Err(SceneError::new("scene", "has no beams or rigid bodies"));
+        if self.elements.is_empty() && self.cells.is_empty() && self.bodies.is_empty() {
+            return Err(SceneError::new(
+                "scene",
+                "has no beams, continuum members or rigid bodies",
+            ));
         }
         let points = self.points.values().map(|&a| self.position(a));
         let size = size_of(self.nodes.iter().map(|n| n.position).chain(points));

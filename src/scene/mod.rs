@@ -10,6 +10,7 @@ mod design;
 pub mod ground_structure;
 mod joint;
 mod load;
+mod member;
 mod mesh;
 mod motor;
 mod section;

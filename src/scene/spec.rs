@@ -45,6 +45,9 @@ pub struct SceneSpec {
     /// Individual beams between named nodes.
     #[serde(default, deserialize_with = "polled")]
     pub beams: Vec<BeamSpec>,
+    /// Plane-stress continuum members (one linkage each).
+    #[serde(default)]
+    pub members: Vec<MemberSpec>,
     /// Elements of single bars by the bar's name (`link1/bar12` of a ground structure, a
     /// beam's name), overriding the `split` of its ground structure or beam: a
     /// discretization chosen bar by bar.
@@ -289,6 +292,47 @@ pub struct GroundStructureSpec {
     /// bars); grid nodes that no remaining bar touches are left out too.
     #[serde(default)]
     pub omit: Vec<usize>,
+}
+
+/// A plane-stress continuum member: a `length × height` rectangle meshed by `nx × ny`
+/// four-node quadrilaterals, in a local frame at `origin` rotated by `angle` (the rectangle
+/// from `x = 0` to `length`, centred on the local x axis, as a ground structure's grid).
+/// Nodes are named `NAME[i,j]` (column `i` in `0..=nx`, row `j` in `0..=ny` from the
+/// bottom), cells' design variables `NAME/cell[i,j]`; the member is the component `NAME`.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+#[allow(non_snake_case)]
+pub struct MemberSpec {
+    /// Name (also the component's name).
+    pub name: String,
+    /// Cells along the local x axis.
+    pub nx: usize,
+    /// Cells along the local y axis.
+    pub ny: usize,
+    /// Extent along local x (m).
+    pub length: f64,
+    /// Extent along local y (m), centred on the axis.
+    pub height: f64,
+    /// Thickness (m).
+    pub thickness: f64,
+    /// Young's modulus (Pa).
+    pub E: f64,
+    /// Poisson's ratio.
+    pub nu: f64,
+    /// Density (kg/m³).
+    pub rho: f64,
+    /// Position of the local origin.
+    #[serde(default)]
+    pub origin: PointSpec,
+    /// Angle of the local x axis from the global x axis (rad), 0 if not given.
+    #[serde(default)]
+    pub angle: Option<f64>,
+    /// The same angle in degrees (instead of `angle`).
+    #[serde(default)]
+    pub angle_deg: Option<f64>,
+    /// Cells at fixed full density (not design variables).
+    #[serde(default)]
+    pub fixed: bool,
 }
 
 /// A beam between two named nodes.

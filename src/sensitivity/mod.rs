@@ -22,6 +22,7 @@ mod start;
 pub mod statics;
 
 use crate::error::{Error, SettingsError};
+use crate::mechanism::element::quad::{Matrix8, Vector8};
 use crate::mechanism::element::{MassKind, Matrix6, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::parameter::{At, Designed, Parameter};
@@ -93,6 +94,8 @@ pub struct Timings {
 pub(crate) struct PseudoLoads {
     /// Full-density element mass matrices.
     masses: Vec<Matrix6>,
+    /// Each cell's mass matrix at full density.
+    cell_masses: Vec<Matrix8>,
     /// Design variables, the first columns.
     n_x: usize,
     pub(super) parameters: Vec<Parameter>,
@@ -107,6 +110,11 @@ impl PseudoLoads {
                 .elements
                 .iter()
                 .map(|e| e.kernel.mass_matrix(kind))
+                .collect(),
+            cell_masses: model
+                .cells
+                .iter()
+                .map(|c| c.kernel.mass_matrix(kind))
                 .collect(),
             n_x: model.n_variables(),
             parameters: parameters.to_vec(),
@@ -153,6 +161,19 @@ impl PseudoLoads {
             + stiffness * asm.densities.stiffness_rate[e]
     }
 
+    /// `m'(x_c) M_c (q̈_c − ĝ_c) + s'(x_c) f_c(q_c)` of cell `k` (`q̈ = 0` for statics).
+    fn cell(&self, asm: &Assembler, k: usize, at: &At) -> Vector8 {
+        let cell = &asm.model.cells[k];
+        let dofs = cell.dofs();
+        let mut inertia = Vector8::from_fn(|i, _| -asm.gravity[dofs[i]]);
+        if let Some((_, acc)) = at.rates {
+            inertia += Vector8::from_fn(|i, _| acc[dofs[i]]);
+        }
+        let e = asm.model.elements.len() + k;
+        self.cell_masses[k] * inertia * asm.densities.mass_rate[e]
+            + cell.kernel.internal_force(&cell.gather(at.q)) * asm.densities.stiffness_rate[e]
+    }
+
     /// Subtracts column `j` of the pseudo-loads from column `j` of the column-major block
     /// `rhs` (leading dimension `ld`) for `j` in `columns` (the block holds those columns
     /// only); a parameter's constraint rows enter scaled by `scale` (the solve's `s`).
@@ -174,6 +195,13 @@ impl PseudoLoads {
                     .iter()
                     .zip(p.iter())
                     .for_each(|(&d, v)| col[d] -= v);
+            }
+        }
+        for (k, cell) in asm.model.cells.iter().enumerate() {
+            if let Some(j) = cell.variable.filter(|j| columns.contains(j)) {
+                let p = self.cell(asm, k, at);
+                let col = &mut rhs[(j - columns.start) * ld..];
+                cell.dofs().iter().zip(p.iter()).for_each(|(&d, v)| col[d] -= v);
             }
         }
         let n_q = asm.model.n_dofs();
@@ -208,6 +236,12 @@ impl PseudoLoads {
                     .zip(p.iter())
                     .map(|(&d, v)| v * mu[d])
                     .sum::<f64>();
+            }
+        }
+        for (k, cell) in asm.model.cells.iter().enumerate() {
+            if let Some(j) = cell.variable {
+                let p = self.cell(asm, k, at);
+                xbar[j] -= cell.dofs().iter().zip(p.iter()).map(|(&d, v)| v * mu[d]).sum::<f64>();
             }
         }
         let n_q = asm.model.n_dofs();

@@ -48,6 +48,8 @@ pub struct Pattern {
     pub row_idx: Vec<usize>,
     /// Slot of element entry `(i, j)` at index `6 j + i`.
     element_slots: Vec<[usize; 36]>,
+    /// For each cell, slots of `(dofᵢ, dofⱼ)` of its eight DOFs, column-major.
+    cell_slots: Vec<[usize; 64]>,
     /// Diagonal slots of each node's three DOFs.
     node_slots: Vec<[usize; 3]>,
     /// For each spring, slots of `(dofᵢ, dofⱼ)` of its six DOFs (`usize::MAX` on the ground).
@@ -71,6 +73,10 @@ impl Pattern {
         let mut pairs: Vec<(usize, usize)> = Vec::new();
         for e in &model.elements {
             let d = e.dofs();
+            pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
+        }
+        for cell in &model.cells {
+            let d = cell.dofs();
             pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
         }
         pairs.extend((0..n_q).map(|i| (i, i)));
@@ -102,6 +108,7 @@ impl Pattern {
             col_ptr,
             row_idx,
             element_slots: vec![],
+            cell_slots: vec![],
             node_slots: vec![],
             spring_slots: vec![],
             row_slots: vec![],
@@ -114,6 +121,15 @@ impl Pattern {
             .map(|e| {
                 let d = e.dofs();
                 slots(|k| p.slot(d[k % 6], d[k / 6]))
+            })
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
+        p.cell_slots = model
+            .cells
+            .iter()
+            .map(|c| {
+                let d = c.dofs();
+                slots(|k| p.slot(d[k % 8], d[k / 8]))
             })
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
@@ -325,6 +341,13 @@ impl<'m> Assembler<'m> {
             let m = el.kernel.mass_matrix(mass_kind) * densities.mass[e];
             for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
                 mass[slot] += m[(k % 6, k / 6)];
+            }
+        }
+        let n_e = model.elements.len();
+        for (k, cell) in model.cells.iter().enumerate() {
+            let m = cell.kernel.mass_matrix(mass_kind) * densities.mass[n_e + k];
+            for (i, &slot) in pattern.cell_slots[k].iter().enumerate() {
+                mass[slot] += m[(i % 8, i / 8)];
             }
         }
         for pm in &model.point_masses {
@@ -555,8 +578,9 @@ impl<'m> Assembler<'m> {
             / self.pattern.n_q as f64
     }
 
-    /// Internal forces `f = Σ s(x_e) f_e(q)` of the beams and those of the springs; with
-    /// `tangent`, also adds `Σ s(x_e) K_e(q)` and the springs' tangents to the matrix values.
+    /// Internal forces `f = Σ s(x_e) f_e(q)` of the beams and cells and those of the
+    /// springs; with `tangent`, also adds `Σ s(x_e) K_e(q)` and the springs' tangents to the
+    /// matrix values.
     pub fn internal_forces(&self, q: &[f64], f: &mut [f64], mut tangent: Option<&mut [f64]>) {
         f.fill(0.0);
         for (e, el) in self.model.elements.iter().enumerate() {
@@ -576,6 +600,22 @@ impl<'m> Assembler<'m> {
                     dofs.iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
                 }
             }
+        }
+        let n_e = self.model.elements.len();
+        for (k, cell) in self.model.cells.iter().enumerate() {
+            let u = cell.gather(q);
+            let s = self.densities.stiffness[n_e + k];
+            let fe = match tangent.as_deref_mut() {
+                Some(values) => {
+                    let (fe, ke) = cell.kernel.internal_force_and_tangent(&u);
+                    for (i, &slot) in self.pattern.cell_slots[k].iter().enumerate() {
+                        values[slot] += s * ke[(i % 8, i / 8)];
+                    }
+                    fe
+                }
+                None => cell.kernel.internal_force(&u),
+            };
+            cell.dofs().iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
         }
         for (spring, slots) in self.model.springs.iter().zip(&self.pattern.spring_slots) {
             let (fs, ks) = spring.force_and_tangent(q);

@@ -70,7 +70,7 @@ def test_a_node_only_truss_bars_meet_has_no_rotation():
 def test_a_moment_on_a_pin_and_a_split_truss_bar_are_named():
     scene = flextop.scenes.static_truss(kind="truss")
     scene.load("truss[2,1]", moment=1.0)
-    with pytest.raises(SceneError, match="only truss bars meet: a pin carries no moment"):
+    with pytest.raises(SceneError, match="only truss bars or continuum cells meet: a pin carries no moment"):
         flextop.Simulation(scene)
     with pytest.raises(SceneError, match="a truss bar is one element"):
         flextop.Simulation(flextop.scenes.static_truss(kind="truss", split=2))

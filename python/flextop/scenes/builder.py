@@ -90,6 +90,27 @@ class GroundStructure:
         return f"{self.name}[{column},{row}]"
 
 
+@dataclass(frozen=True)
+class Member:
+    """Handle on a continuum member of a scene: its name and its cells along and across."""
+
+    name: str
+    nx: int
+    ny: int
+
+    def node(self, column: int, row: int) -> str:
+        """Name of mesh node (``column``, ``row``), ``0 ≤ column ≤ nx``, row 0 at the bottom."""
+        if not (0 <= column <= self.nx and 0 <= row <= self.ny):
+            raise IndexError(f"{self.name} has {self.nx + 1} × {self.ny + 1} nodes; ({column}, {row}) is outside")
+        return f"{self.name}[{column},{row}]"
+
+    def cell(self, column: int, row: int) -> str:
+        """Name of cell (``column``, ``row``): its design variable."""
+        if not (0 <= column < self.nx and 0 <= row < self.ny):
+            raise IndexError(f"{self.name} has {self.nx} × {self.ny} cells; ({column}, {row}) is outside")
+        return f"{self.name}/cell[{column},{row}]"
+
+
 class Scene:
     """Builder of a scene dict; every method appends one entry and returns a handle."""
 
@@ -145,6 +166,20 @@ class Scene:
             entry["kind"] = kind
         self._spec.setdefault("ground_structures", []).append(entry)
         return GroundStructure(name, nx, ny)
+
+    def member(self, name: str, *, nx: int, ny: int, length: float, height: float, thickness: float, E: float,
+               nu: float, rho: float, origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0,
+               fixed: bool = False) -> Member:
+        """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
+        at ``origin`` (coordinates or a node name) rotated by ``angle`` (rad), from ``x = 0``
+        to ``length`` and centred on the local x axis, meshed by ``nx × ny`` four-node
+        quadrilaterals (total Lagrangian, St. Venant–Kirchhoff) of ``thickness`` (m), Young's
+        modulus ``E`` (Pa), Poisson's ratio ``nu`` and density ``rho`` (kg/m³); one design
+        variable per cell unless ``fixed``. Its nodes have no rotation: joints on them pin."""
+        entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
+                 "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
+        self._spec.setdefault("members", []).append(entry)
+        return Member(name, nx, ny)
 
     def beam(self, a: str, b: str, *, section: str, split: int = 1, name: str | None = None,
              component: str | None = None, group: str | None = None, fixed: bool = False,

@@ -24,6 +24,8 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
+use crate::settings::MassKind;
+
 /// A vector on a quadrilateral's eight DOFs.
 pub type Vector8 = SVector<f64, 8>;
 /// A matrix on a quadrilateral's eight DOFs.
@@ -210,8 +212,17 @@ impl Quad {
         (force, tangent)
     }
 
-    /// The consistent mass matrix `ρ t ∫ N_a N_b dA I₂` (kg).
-    pub fn mass_matrix(&self) -> Matrix8 {
+    /// The mass matrix: consistent, `ρ t ∫ N_a N_b dA I₂` (kg), or its row sums on the
+    /// diagonal (lumped).
+    pub fn mass_matrix(&self, kind: MassKind) -> Matrix8 {
+        let consistent = self.consistent_mass();
+        match kind {
+            MassKind::Consistent => consistent,
+            MassKind::Lumped => Matrix8::from_diagonal(&consistent.column_sum()),
+        }
+    }
+
+    fn consistent_mass(&self) -> Matrix8 {
         let mut mass = Matrix8::zeros();
         for p in &self.points {
             let w = self.material.density * p.volume;
@@ -394,7 +405,9 @@ mod tests {
     fn mass_carries_the_element_and_its_inertia() {
         let (x, material) = (corners(), steel(0.01));
         let quad = Quad::new(x, material).unwrap();
-        let m = quad.mass_matrix();
+        let m = quad.mass_matrix(MassKind::Consistent);
+        let lumped = quad.mass_matrix(MassKind::Lumped);
+        assert!((lumped.trace() - 2.0 * quad.volume() * material.density).abs() < 1e-12 * lumped.trace());
         // Shoelace area of the corners.
         let area = 0.5 * (0..4).map(|a| x[a].perp(&x[(a + 1) % 4])).sum::<f64>();
         assert!((quad.area - area).abs() < 1e-15);
