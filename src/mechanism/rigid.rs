@@ -79,7 +79,10 @@ impl Clusters {
             i
         }
         let edges = model.elements.iter().map(|e| (e.nodes[0], e.nodes[1]));
-        let cells = model.cells.iter().flat_map(|c| (1..4).map(|k| (c.nodes[0], c.nodes[k])));
+        let cells = model
+            .cells
+            .iter()
+            .flat_map(|c| (1..4).map(|k| (c.nodes[0], c.nodes[k])));
         for (a, b) in edges.chain(cells) {
             let (a, b) = (root(&mut parent, a), root(&mut parent, b));
             parent[a.max(b)] = a.min(b);

@@ -54,12 +54,14 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
     let first = mesh.cells.len();
     for j in 0..m.ny {
         for i in 0..m.nx {
-            let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(a, b)| node[b * columns + a]);
+            let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+                .map(|(a, b)| node[b * columns + a]);
             let corners = nodes.map(|n| mesh.nodes[n].position);
             let kernel = Quad::new(corners, material).map_err(|_| {
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
-            let variable = (!m.fixed).then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
+            let variable =
+                (!m.fixed).then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
             mesh.cells.push(Cell {
                 kernel,
                 nodes,

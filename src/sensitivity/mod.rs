@@ -201,7 +201,10 @@ impl PseudoLoads {
             if let Some(j) = cell.variable.filter(|j| columns.contains(j)) {
                 let p = self.cell(asm, k, at);
                 let col = &mut rhs[(j - columns.start) * ld..];
-                cell.dofs().iter().zip(p.iter()).for_each(|(&d, v)| col[d] -= v);
+                cell.dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .for_each(|(&d, v)| col[d] -= v);
             }
         }
         let n_q = asm.model.n_dofs();
@@ -241,7 +244,12 @@ impl PseudoLoads {
         for (k, cell) in asm.model.cells.iter().enumerate() {
             if let Some(j) = cell.variable {
                 let p = self.cell(asm, k, at);
-                xbar[j] -= cell.dofs().iter().zip(p.iter()).map(|(&d, v)| v * mu[d]).sum::<f64>();
+                xbar[j] -= cell
+                    .dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .map(|(&d, v)| v * mu[d])
+                    .sum::<f64>();
             }
         }
         let n_q = asm.model.n_dofs();

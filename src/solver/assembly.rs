@@ -615,7 +615,10 @@ impl<'m> Assembler<'m> {
                 }
                 None => cell.kernel.internal_force(&u),
             };
-            cell.dofs().iter().zip(fe.iter()).for_each(|(&d, v)| f[d] += s * v);
+            cell.dofs()
+                .iter()
+                .zip(fe.iter())
+                .for_each(|(&d, v)| f[d] += s * v);
         }
         for (spring, slots) in self.model.springs.iter().zip(&self.pattern.spring_slots) {
             let (fs, ks) = spring.force_and_tangent(q);

@@ -407,7 +407,10 @@ mod tests {
         let quad = Quad::new(x, material).unwrap();
         let m = quad.mass_matrix(MassKind::Consistent);
         let lumped = quad.mass_matrix(MassKind::Lumped);
-        assert!((lumped.trace() - 2.0 * quad.volume() * material.density).abs() < 1e-12 * lumped.trace());
+        assert!(
+            (lumped.trace() - 2.0 * quad.volume() * material.density).abs()
+                < 1e-12 * lumped.trace()
+        );
         // Shoelace area of the corners.
         let area = 0.5 * (0..4).map(|a| x[a].perp(&x[(a + 1) % 4])).sum::<f64>();
         assert!((quad.area - area).abs() < 1e-15);

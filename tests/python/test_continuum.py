@@ -1,0 +1,197 @@
+"""Continuum members: plane-stress quadrilaterals (total Lagrangian, St. Venant–Kirchhoff) with
+a density per cell, inside the multibody motion. The element's own checks (rigid rotation at
+any angle, exact tangent, the 88-line code's KE, patch test, mass and polar inertia) are unit
+tests in ``src/mechanism/element/quad.rs``."""
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import fourth_order
+
+import flextop
+from flextop import Scene, SceneError, trapezoidal
+from flextop.errors import MechanismWarning
+
+STEEL = {"E": 210e9, "nu": 0.3, "rho": 7800.0}
+
+# The 88-line code's element stiffness (Andreassen et al. 2011) for E = 1, a unit square of
+# unit thickness, corners lower-left anticlockwise: written out here, independently of
+# flextop's element.
+_A11 = np.array([[12, 3, -6, -3], [3, 12, 3, 0], [-6, 3, 12, -3], [-3, 0, -3, 12]])
+_A12 = np.array([[-6, -3, 0, 3], [-3, -6, -3, -6], [0, -3, -6, 3], [3, -6, 3, -6]])
+_B11 = np.array([[-4, 3, -2, 9], [3, -4, -9, 4], [-2, -9, -4, -3], [9, 4, -3, -4]])
+_B12 = np.array([[2, -3, 4, -9], [-3, 2, 9, -2], [4, 9, 2, 3], [-9, -2, 3, 2]])
+
+
+def ke88(nu: float) -> np.ndarray:
+    return (np.block([[_A11, _A12], [_A12.T, _A11]]) + nu * np.block([[_B11, _B12], [_B12.T, _B11]])) / (24 * (1 - nu**2))
+
+
+def pinned_edge(s: Scene, m, ny: int) -> None:
+    """Pins the member's left edge (column 0) to the ground."""
+    for j in range(ny + 1):
+        s.pin(f"wall{j}", m.node(0, j))
+
+
+def simulation(s: Scene) -> flextop.Simulation:
+    # A pinned edge or root over-constrains the member taken as rigid (warned, not refused).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MechanismWarning)
+        return flextop.Simulation(s)
+
+
+def test_a_cantilever_member_converges_to_timoshenko_from_above_the_locking():
+    """Tip deflection of a 1 m × 0.1 m steel cantilever under an end shear, against
+    PL³/(3EI) + PL/(κGA): plain four-node cells lock in bending, so the coarse meshes are
+    too stiff, and the deflection grows towards the beam's as the mesh is refined."""
+    length, height, t, load = 1.0, 0.1, 0.01, 1e-3
+    inertia, area, shear = t * height**3 / 12, t * height, STEEL["E"] / (2 * (1 + STEEL["nu"]))
+    exact = load * length**3 / (3 * STEEL["E"] * inertia) + load * length / (5 / 6 * shear * area)
+    ratios = []
+    for nx, ny in [(10, 1), (20, 2), (40, 4), (80, 8)]:
+        s = Scene("cantilever", analysis="static")
+        m = s.member("plate", nx=nx, ny=ny, length=length, height=height, thickness=t, **STEEL)
+        pinned_edge(s, m, ny)
+        for j in range(ny + 1):
+            s.load(m.node(nx, j), force=(0.0, -load * (0.5 if j in (0, ny) else 1.0) / ny))
+        tip = simulation(s).run().displacement(m.node(nx, ny // 2 if ny > 1 else 0))
+        ratios.append(-tip[1] / exact)
+    assert all(a < b for a, b in zip(ratios, ratios[1:])), ratios
+    assert ratios[0] < 0.75 and 0.985 < ratios[-1] < 1.005, ratios
+
+
+def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
+    """A 12 × 4 cantilever of unit-square cells (E = 1, t = 1, ν = 0.3) with random densities
+    under SIMP p = 3: as the load falls, compliance and its gradient tend to the linear
+    ones, `Fᵀu` with `K = Σ x³ KE` assembled here from the 88-line code's KE, and
+    `−3x² uₑᵀ KE uₑ`. The geometric nonlinearity departs from them at first order in the
+    load (the densities make the cantilever unsymmetric): 100 times less load, 100 times
+    less departure, below 1e-5 at a load of 1e-8."""
+    nx, ny, nu = 12, 4, 0.3
+    x = np.random.default_rng(7).uniform(0.3, 1.0, nx * ny)
+    node = lambda i, j: j * (nx + 1) + i  # noqa: E731
+    n = 2 * (nx + 1) * (ny + 1)
+    k = np.zeros((n, n))
+    edofs = []
+    for j in range(ny):
+        for i in range(nx):
+            corners = [node(i, j), node(i + 1, j), node(i + 1, j + 1), node(i, j + 1)]
+            edofs.append(np.array([2 * c + d for c in corners for d in (0, 1)]))
+            k[np.ix_(edofs[-1], edofs[-1])] += x[j * nx + i] ** 3 * ke88(nu)
+    free = np.setdiff1d(np.arange(n), [2 * node(0, j) + d for j in range(ny + 1) for d in (0, 1)])
+    force = np.zeros(n)
+    force[2 * node(nx, 0) + 1] = -1.0
+    u = np.zeros(n)
+    u[free] = np.linalg.solve(k[np.ix_(free, free)], force[free])
+    linear = np.array([force @ u] + [-3 * x[e] ** 2 * u[d] @ ke88(nu) @ u[d] for e, d in enumerate(edofs)])
+
+    departure = []
+    for load in (1e-6, 1e-8):
+        s = Scene("linear", analysis="static")
+        m = s.member("plate", nx=nx, ny=ny, length=nx, height=ny, thickness=1.0, E=1.0, nu=nu, rho=1.0)
+        pinned_edge(s, m, ny)
+        s.load(m.node(nx, 0), force=(0.0, -load))
+        s.design(x_min=1e-3)
+        sim = simulation(s)
+        f, dfdx = sim.run_with_sensitivities(x, ["compliance"])
+        computed = np.concatenate([f, dfdx[0]]) / load**2
+        departure.append(np.abs(computed - linear).max() / np.abs(linear).max())
+    assert sim.variable_names[0] == "plate/cell[0,0]" and sim.variable_names[nx] == "plate/cell[0,1]"
+    assert departure[1] < 1e-5 and 50 < departure[0] / departure[1] < 200, departure
+
+
+def spun_strip(nx: int, ny: int, *, omega: float, ramp: float, fixed: bool = True, height: float = 0.1):
+    """A 1 m steel strip of ``height`` and 10 mm thickness whose root edge is hinged to a
+    hub, the hub driven from rest at constant angular acceleration to ``omega`` (rad/s)
+    over ``ramp`` (s), then at constant speed."""
+    s = Scene("strip")
+    rows = [height * (j / ny - 0.5) for j in range(ny + 1)]
+    s.rigid_body("hub", mass=1.0, inertia=1e-3, position=(0.0, 0.0), points={f"p{j}": (0.0, y) for j, y in enumerate(rows)})
+    s.pin("axle", "hub", drive=trapezoidal(0.0, 1e6, acceleration=omega / ramp, speed=omega))
+    m = s.member("strip", nx=nx, ny=ny, length=1.0, height=height, thickness=0.01, fixed=fixed, **STEEL)
+    for j in range(ny + 1):
+        s.hinge(f"root{j}", f"hub.p{j}", m.node(0, j))
+    return s, m
+
+
+def test_a_spun_strip_elongates_by_rho_omega2_l3_over_3e():
+    """At constant ω, a strip pinned at its root stretches by ρω²L³/(3E) at its tip
+    (ρω²L²/E = 3.7e-4 here): the tip's travel along the hub's direction, at every state
+    after the spin-up's transient, within 1 %."""
+    omega, ramp = 100.0, 1.0
+    s, m = spun_strip(20, 2, omega=omega, ramp=ramp)
+    sim = simulation(s)
+    r = sim.run(t_end=ramp + 0.3, h=1e-3)
+    states = r.coordinates.reshape(len(r.time), -1, 3)
+    angle = states[:, sim.node("hub"), 2]
+    tip = r.positions[:, [sim.node(m.node(20, j)) for j in range(3)], :].mean(axis=1)
+    stretch = tip[:, 0] * np.cos(angle) + tip[:, 1] * np.sin(angle) - 1.0
+    exact = STEEL["rho"] * omega**2 / (3 * STEEL["E"])
+    after = stretch[r.time > ramp + 0.1] / exact
+    assert np.abs(after - 1).max() < 1e-2, (after.min(), after.max())
+
+
+@pytest.mark.parametrize("response", ["strain_energy", "kinetic_energy", "displacement:strip[6,2]:0,1"])
+def test_gradients_through_a_spun_member(response):
+    """Densities of the cells of a spun strip under the dynamic mass law (one cell below its
+    threshold): direct = adjoint to 1e-9, fourth-order differences to 1e-6."""
+    s, m = spun_strip(6, 2, omega=60.0, ramp=0.02, fixed=False, height=0.05)
+    s.simulation(t_end=0.04, h=1e-3)
+    sim = simulation(s)
+    x = np.random.default_rng(3).uniform(0.4, 1.0, 12)
+    x[4] = 0.05
+    names = [response, "volume"]
+    f, direct = sim.run_with_sensitivities(x, names, method="direct")
+    f_adjoint, adjoint = sim.run_with_sensitivities(x, names, method="adjoint")
+    np.testing.assert_allclose(f_adjoint, f, rtol=1e-12)
+    scale = np.abs(direct).max(axis=1, keepdims=True)
+    assert np.abs(direct - adjoint).max(axis=1, keepdims=True).max() <= 1e-9 * scale.max()
+    for j in (0, 4, 11):
+        def value(dx, j=j):
+            y = x.copy()
+            y[j] += dx
+            return sim.run_with_sensitivities(y, names, method="direct")[0]
+        difference = fourth_order(value, 1e-3 if j != 4 else 1e-4)
+        assert np.all(np.abs(direct[:, j] - difference) <= 1e-6 * scale[:, 0]), (j, direct[:, j], difference)
+    area = 1.0 * 0.05 / 12
+    np.testing.assert_allclose(direct[1], 0.01 * area, rtol=1e-12)
+
+
+def test_natural_frequencies_of_a_member_converge_to_the_beams():
+    """A slender cantilever member's first frequency, against Euler–Bernoulli's
+    1.875²/(2π) √(EI/(ρAL⁴)): too high on a coarse mesh (locking), within 2 % at 80 × 4."""
+    length, height, t = 1.0, 0.05, 0.01
+    inertia, area = t * height**3 / 12, t * height
+    exact = 1.875104**2 / (2 * np.pi) * np.sqrt(STEEL["E"] * inertia / (STEEL["rho"] * area * length**4))
+    first = []
+    for nx in (20, 40, 80):
+        s = Scene("cantilever")
+        m = s.member("plate", nx=nx, ny=4, length=length, height=height, thickness=t, **STEEL)
+        pinned_edge(s, m, 4)
+        first.append(simulation(s).natural_frequencies(1, rtol=None)[0] / exact)
+    assert first[0] > first[1] > first[2] > 1.0 and first[2] < 1.02, first
+
+
+@pytest.mark.parametrize(("change", "culprit"), [
+    ({"nu": 0.5}, r"members\[0\] \(plate\)\.nu"),
+    ({"thickness": 0.0}, r"members\[0\] \(plate\)\.thickness"),
+    ({"E": float("nan")}, r"members\[0\] \(plate\)\.E"),
+    ({"nx": 0}, r"members\[0\] \(plate\).*nx >= 1"),
+])
+def test_bad_members_are_named(change, culprit):
+    spec = {"name": "bad", "analysis": "static",
+            "members": [{"name": "plate", "nx": 4, "ny": 2, "length": 1.0, "height": 0.1, "thickness": 0.01, **STEEL,
+                         **change}],
+            "joints": [{"kind": "pin", "name": "a", "node": "plate[0,0]"}, {"kind": "pin", "name": "b", "node": "plate[0,2]"}]}
+    with pytest.raises(SceneError, match=culprit):
+        flextop.Simulation(spec)
+
+
+def test_a_clamp_on_a_member_node_is_refused():
+    """A member's nodes have no rotation: a clamp there would lock nothing."""
+    s = Scene("clamped", analysis="static")
+    m = s.member("plate", nx=2, ny=1, length=1.0, height=0.1, thickness=0.01, **STEEL)
+    s.clamp("root", m.node(0, 0))
+    with pytest.raises(SceneError, match="continuum cells meet"):
+        flextop.Simulation(s)
