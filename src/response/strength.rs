@@ -71,7 +71,10 @@ fn parse(
     }
     let elements: Vec<usize> = members.elements(model).collect();
     if elements.is_empty() {
-        return Err("the structure named has no elements".into());
+        return Err(
+            "the structure named has no bars (stresses of continuum cells are not built yet)"
+                .into(),
+        );
     }
     let section = |e: usize| model.elements[e].kernel.section();
     let missing = match criterion {

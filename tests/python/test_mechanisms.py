@@ -310,7 +310,7 @@ def test_starts_that_cannot_be_are_scene_errors():
 
 
 def test_a_scene_of_bodies_only_needs_one():
-    with pytest.raises(SceneError, match="has no beams or rigid bodies"):
+    with pytest.raises(SceneError, match="has no beams, continuum members or rigid bodies"):
         flextop.Simulation({"name": "empty", "joints": []})
 
 

@@ -12,6 +12,11 @@
 //! Assembly, mass, damping, prolongation, stresses, parameter rates and the responses read
 //! an element only through [`Kernel`]; [`Formulation`] holds either kind and dereferences
 //! to it. Point masses are attached to nodes by the [`crate::mechanism::model::Model`].
+//!
+//! A continuum member's plane-stress quadrilateral ([`quad`]) is the other family: four
+//! nodes, their translations only, a material and thickness instead of a section. It is
+//! not a [`Kernel`] (no chord, section forces or criteria); assembly, the pseudo-loads, the
+//! responses and the modes read its force, tangent, energy and mass beside the bars'.
 
 pub mod beam;
 pub mod quad;
