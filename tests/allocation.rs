@@ -87,7 +87,14 @@ fn alpha_steps_do_not_allocate() {
         NewtonMatrix::Full,
         5e-4,
     );
-    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped, truss]) {
+    // A continuum member: quadrilateral cells, their nodes without rotations.
+    let member = (
+        "member".to_string(),
+        scene::parse_toml(MEMBER).unwrap(),
+        NewtonMatrix::Full,
+        5e-4,
+    );
+    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped, truss, member]) {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
@@ -152,5 +159,33 @@ name = "base1"
 node = "truss[0,1]"
 [[loads]]
 node = "truss[3,1]"
+force = [0.0, -2000.0]
+"#;
+
+/// A continuum member pinned at two corners of its root edge, swinging under gravity and a
+/// tip load.
+const MEMBER: &str = r#"
+name = "moving_member"
+gravity = [0.0, -9.81]
+[[members]]
+name = "plate"
+nx = 8
+ny = 2
+length = 0.6
+height = 0.1
+thickness = 0.005
+E = 70e9
+nu = 0.32
+rho = 2700.0
+[[joints]]
+kind = "pin"
+name = "base0"
+node = "plate[0,0]"
+[[joints]]
+kind = "pin"
+name = "base1"
+node = "plate[0,2]"
+[[loads]]
+node = "plate[8,1]"
 force = [0.0, -2000.0]
 "#;
