@@ -35,7 +35,9 @@ pub fn robot_arm(nx: usize, ny: usize, split: usize) -> Model {
         .for_each(|m| moved(&mut m.node));
     for joint in &mut spec.joints {
         match joint {
-            JointSpec::Clamp { node, .. } | JointSpec::Pin { node, .. } => moved(node),
+            JointSpec::Clamp { node, .. }
+            | JointSpec::Pin { node, .. }
+            | JointSpec::Roller { node, .. } => moved(node),
             JointSpec::Hinge { nodes, .. } | JointSpec::Weld { nodes, .. } => {
                 nodes.iter_mut().for_each(moved)
             }

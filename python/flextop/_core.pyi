@@ -55,7 +55,7 @@ class JointInfo(TypedDict):
     """One entry of ``Model.joints()``."""
 
     name: str  # the joint's name
-    kind: str  # "clamp", "pin", "hinge", "weld" or "prismatic"
+    kind: str  # "clamp", "pin", "hinge", "weld", "prismatic" or "roller"
     nodes: list[int]  # node indices (a rigid body's own node for its points; a slider's carrier first)
     rows: tuple[int, int]  # its constraint rows in lam as (first, end), the drive row last
     driven: bool  # whether a motion law drives it

@@ -28,7 +28,7 @@ from .io import export, saved
 @dataclass(frozen=True)
 class Joint:
     """A joint of the scene: its ``kind`` (``"clamp"``, ``"pin"``, ``"hinge"``, ``"weld"``,
-    ``"prismatic"``), node indices (a rigid body's own node for its points; a slider's
+    ``"prismatic"``, ``"roller"``), node indices (a rigid body's own node for its points; a slider's
     carrier first), the ``range`` of its constraint rows in ``lam`` (the drive row last),
     whether a motion law drives it and when a trapezoidal law stops accelerating, starts
     braking and has done its motion (s; ``None`` for a table or no drive)."""

@@ -77,6 +77,14 @@ pub enum JointKind {
         /// Unit direction of the axis at the reference.
         axis: Vector2<f64>,
     },
+    /// Anchor moving along an axis fixed on the ground through its reference position, its
+    /// rotation free (a roller support); a drive prescribes the travel along the axis (m).
+    Roller {
+        /// The rolling anchor.
+        at: Anchor,
+        /// Unit direction of the axis.
+        axis: Vector2<f64>,
+    },
 }
 
 /// A named joint, possibly driven.
@@ -133,6 +141,7 @@ impl JointKind {
             Self::Hinge { .. } => "hinge",
             Self::Weld { .. } => "weld",
             Self::Prismatic { .. } => "prismatic",
+            Self::Roller { .. } => "roller",
         }
     }
 }
@@ -177,6 +186,15 @@ impl Joint {
                     separation(joint, carrier, slider, Vector2::new(-axis.y, axis.x), false);
                 rows.extend([normal, self.angle(joint)]);
             }
+            JointKind::Roller { at, axis } => {
+                rows.push(separation(
+                    joint,
+                    None,
+                    at,
+                    Vector2::new(-axis.y, axis.x),
+                    false,
+                ));
+            }
         }
         match (&self.kind, self.coordinate(joint)) {
             (JointKind::Clamp { .. } | JointKind::Weld { .. }, _) => rows.push(self.angle(joint)),
@@ -202,13 +220,17 @@ impl Joint {
                 slider,
                 axis,
             } => Some(separation(joint, carrier, slider, -axis, true)),
+            // Read at the point: the rotation is free.
+            JointKind::Roller { at, axis } => Some(separation(joint, None, at, -axis, false)),
         }
     }
 
     /// The row `φ_b − φ_a` of the joint's two nodes (`φ_b` alone on the ground).
     fn angle(&self, joint: usize) -> ConstraintRow {
         let nodes = match self.kind {
-            JointKind::Clamp { at } | JointKind::Pin { at } => [None, Some(at.node)],
+            JointKind::Clamp { at } | JointKind::Pin { at } | JointKind::Roller { at, .. } => {
+                [None, Some(at.node)]
+            }
             JointKind::Hinge { at: [a, b] } | JointKind::Weld { at: [a, b] } => {
                 [Some(a.node), Some(b.node)]
             }
@@ -227,7 +249,9 @@ impl Joint {
     /// Nodes the joint acts on.
     pub fn nodes(&self) -> Vec<usize> {
         match self.kind {
-            JointKind::Clamp { at } | JointKind::Pin { at } => vec![at.node],
+            JointKind::Clamp { at } | JointKind::Pin { at } | JointKind::Roller { at, .. } => {
+                vec![at.node]
+            }
             JointKind::Hinge { at } | JointKind::Weld { at } => vec![at[0].node, at[1].node],
             JointKind::Prismatic {
                 carrier, slider, ..
@@ -242,7 +266,7 @@ impl Joint {
     /// Whether the joint ties its node(s) to the ground.
     pub fn is_grounded(&self) -> bool {
         match self.kind {
-            JointKind::Clamp { .. } | JointKind::Pin { .. } => true,
+            JointKind::Clamp { .. } | JointKind::Pin { .. } | JointKind::Roller { .. } => true,
             JointKind::Hinge { .. } | JointKind::Weld { .. } => false,
             JointKind::Prismatic { carrier, .. } => carrier.is_none(),
         }
@@ -608,6 +632,7 @@ mod tests {
                 slider: b,
                 axis,
             },
+            JointKind::Roller { at: b, axis },
         ];
         let q = [0.05, -0.02, 1.1, 0.3, 0.1, -0.7];
         for kind in kinds {

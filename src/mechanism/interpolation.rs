@@ -19,10 +19,12 @@
 /// How stiffness is scaled with density.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Interpolation {
-    /// Power law `s(x) = xᵖ`.
+    /// Power law `s(x) = s_min + (1 − s_min) xᵖ` (`s_min = E_min/E`, 0 by default: `xᵖ`).
     Simp {
         /// Penalization exponent `p` (default 3).
         p: f64,
+        /// The stiffness of void, `E_min/E` (0 by default; the 88-line code's 1e-9).
+        e_min: f64,
     },
     /// Rational law `s(x) = x / (1 + q(1 − x))`.
     Ramp {
@@ -77,7 +79,7 @@ impl Interpolation {
     /// Stiffness factor `s(x)`.
     pub fn stiffness(self, x: f64) -> f64 {
         match self {
-            Self::Simp { p } => x.powf(p),
+            Self::Simp { p, e_min } => e_min + (1.0 - e_min) * x.powf(p),
             Self::Ramp { q } => x / (1.0 + q * (1.0 - x)),
         }
     }
@@ -85,7 +87,7 @@ impl Interpolation {
     /// Derivative `ds/dx`.
     pub fn stiffness_derivative(self, x: f64) -> f64 {
         match self {
-            Self::Simp { p } => p * x.powf(p - 1.0),
+            Self::Simp { p, e_min } => (1.0 - e_min) * p * x.powf(p - 1.0),
             Self::Ramp { q } => (1.0 + q) / (1.0 + q * (1.0 - x)).powi(2),
         }
     }
@@ -98,7 +100,11 @@ mod tests {
     #[test]
     fn derivatives_match_central_differences() {
         for law in [
-            Interpolation::Simp { p: 3.0 },
+            Interpolation::Simp { p: 3.0, e_min: 0.0 },
+            Interpolation::Simp {
+                p: 3.0,
+                e_min: 1e-9,
+            },
             Interpolation::Ramp { q: 8.0 },
         ] {
             for x in [0.01, 0.3, 0.9] {
@@ -125,7 +131,7 @@ mod tests {
         assert!((law.mass_derivative(0.1 - 1e-12) - 1.0).abs() < 1e-9);
         // A thin bar keeps its own frequencies: √(s/m) = √(x³/m(x)) is 0.31 of a solid bar's
         // at x = 0.01 (0.01 under the linear law) and stays above 0.09 for x ≥ 0.004.
-        let simp = Interpolation::Simp { p: 3.0 };
+        let simp = Interpolation::Simp { p: 3.0, e_min: 0.0 };
         let ratio = |x: f64| (simp.stiffness(x) / law.mass(x)).sqrt();
         assert!((ratio(0.01) - 0.31).abs() < 0.01);
         assert!((4..=100).all(|k| ratio(k as f64 * 1e-3) > 0.09));

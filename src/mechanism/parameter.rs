@@ -612,7 +612,9 @@ fn arm(model: &Model, entry: &str, axis: usize) -> Result<Parameter, String> {
     let mut held = false;
     for j in &model.joints {
         let anchors: Vec<_> = match j.kind {
-            JointKind::Clamp { at } | JointKind::Pin { at } => vec![at],
+            JointKind::Clamp { at } | JointKind::Pin { at } | JointKind::Roller { at, .. } => {
+                vec![at]
+            }
             JointKind::Hinge { at } | JointKind::Weld { at } => at.to_vec(),
             JointKind::Prismatic {
                 carrier, slider, ..

@@ -108,9 +108,15 @@ pub(super) fn law(d: &DesignSpec) -> Result<(Interpolation, f64)> {
     Ok((interpolation(d)?, x_min))
 }
 
-/// SIMP with exponent `p ≥ 1` (default 3) or RAMP with parameter `q ≥ 0` (default 8);
-/// each law takes only its own parameter.
+/// SIMP with exponent `p ≥ 1` (default 3) and void stiffness `0 ≤ e_min < 1` (default 0),
+/// or RAMP with parameter `q ≥ 0` (default 8); each law takes only its own parameters.
 fn interpolation(d: &DesignSpec) -> Result<Interpolation> {
+    if d.e_min.is_some() && d.interpolation == InterpolationSpec::Ramp {
+        return Err(SceneError::new(
+            "design.e_min",
+            "`e_min` is SIMP's stiffness of void; RAMP takes `q`",
+        ));
+    }
     match (d.interpolation, d.p, d.q) {
         (InterpolationSpec::Simp, p, None) => {
             let p = p.unwrap_or(3.0);
@@ -120,7 +126,17 @@ fn interpolation(d: &DesignSpec) -> Result<Interpolation> {
                     format!("SIMP exponent must be finite and >= 1, got {}", short(p)),
                 ));
             }
-            Ok(Interpolation::Simp { p })
+            let e_min = d.e_min.unwrap_or(0.0);
+            if !(0.0..1.0).contains(&e_min) {
+                return Err(SceneError::new(
+                    "design.e_min",
+                    format!(
+                        "the stiffness of void E_min/E must lie in [0, 1), got {}",
+                        short(e_min)
+                    ),
+                ));
+            }
+            Ok(Interpolation::Simp { p, e_min })
         }
         (InterpolationSpec::Ramp, None, q) => Ok(Interpolation::Ramp {
             q: non_negative("design.q", q.unwrap_or(8.0))?,

@@ -1,4 +1,5 @@
-//! Joints and their drives: clamps, pins, hinges, welds and sliders (prismatic joints),
+//! Joints and their drives: clamps, pins, hinges, welds, sliders (prismatic joints) and
+//! rollers (a point on a ground axis, its rotation free),
 //! written as algebraic constraints ([`crate::mechanism::constraint`]) on nodes or rigid-body points,
 //! the rotation of a pin or hinge, or a slider's travel, optionally prescribed by a motion
 //! law ([`crate::mechanism::motion`]).
@@ -68,6 +69,19 @@ fn joint(path: &str, j: &JointSpec, mesh: &Mesh, size: f64) -> Result<Joint> {
             axis,
             drive,
         } => (name, prismatic(path, nodes, *axis, mesh)?, drive.as_ref()),
+        JointSpec::Roller {
+            name,
+            node,
+            axis,
+            drive,
+        } => (
+            name,
+            JointKind::Roller {
+                at: anchor("node", node)?,
+                axis: unit_axis(path, *axis)?,
+            },
+            drive.as_ref(),
+        ),
     };
     Ok(Joint {
         name: name.clone(),
@@ -140,6 +154,15 @@ fn prismatic(
         }
         None => None,
     };
+    Ok(JointKind::Prismatic {
+        carrier,
+        slider,
+        axis: unit_axis(path, axis)?,
+    })
+}
+
+/// The axis `[x, y]` of the joint at `path`, made unit.
+fn unit_axis(path: &str, axis: [f64; 2]) -> Result<Vector2<f64>> {
     let axis = Vector2::new(
         finite(&format!("{path}.axis[0]"), axis[0])?,
         finite(&format!("{path}.axis[1]"), axis[1])?,
@@ -148,14 +171,10 @@ fn prismatic(
     if !(length.is_normal()) {
         return Err(SceneError::new(
             format!("{path}.axis"),
-            "a prismatic axis of zero length: give its direction [x, y]",
+            "an axis of zero length: give its direction [x, y]",
         ));
     }
-    Ok(JointKind::Prismatic {
-        carrier,
-        slider,
-        axis: axis / length,
-    })
+    Ok(axis / length)
 }
 
 /// The joint called `name` (at `path`) with its own coordinate as a row, for a spring or a

@@ -91,7 +91,11 @@ fn law(
                 let msg = "has neither gain `kp` nor `kd`";
                 return Err(SceneError::new(format!("{path}.servo"), msg));
             }
-            if matches!(joint.kind, JointKind::Prismatic { .. }) && servo.motion.in_degrees() {
+            let travels = matches!(
+                joint.kind,
+                JointKind::Prismatic { .. } | JointKind::Roller { .. }
+            );
+            if travels && servo.motion.in_degrees() {
                 let msg = "a slider's servo follows a travel in m: its law takes no `_deg` keys";
                 return Err(SceneError::new(format!("{path}.servo.motion"), msg));
             }

@@ -529,6 +529,18 @@ pub enum JointSpec {
         /// Motion law of the travel along the axis (m).
         drive: Option<MotionSpec>,
     },
+    /// A roller support: `node` moves along `axis` through its position on the ground, its
+    /// rotation free; `drive` prescribes the travel (m).
+    Roller {
+        /// Name.
+        name: String,
+        /// Node or rigid-body point.
+        node: String,
+        /// Direction of the axis `[x, y]` (any length but zero).
+        axis: [f64; 2],
+        /// Motion law of the travel along the axis (m).
+        drive: Option<MotionSpec>,
+    },
 }
 
 /// A joint as written: every key a joint of any kind may have. Read as a plain struct, so
@@ -554,6 +566,7 @@ enum JointKind {
     Hinge,
     Weld,
     Prismatic,
+    Roller,
 }
 
 impl TryFrom<JointEntry> for JointSpec {
@@ -569,20 +582,23 @@ impl TryFrom<JointEntry> for JointSpec {
             axis,
             axis_deg,
         } = e;
-        let axis = match (kind, axis, axis_deg) {
-            (JointKind::Prismatic, Some(_), Some(_)) => {
+        let along = matches!(kind, JointKind::Prismatic | JointKind::Roller);
+        let axis = match (along, axis, axis_deg) {
+            (true, Some(_), Some(_)) => {
                 return Err("give `axis` [x, y] or `axis_deg`, not both".into())
             }
-            (JointKind::Prismatic, Some(axis), None) => axis,
-            (JointKind::Prismatic, None, Some(deg)) => {
+            (true, Some(axis), None) => axis,
+            (true, None, Some(deg)) => {
                 let (s, c) = deg.to_radians().sin_cos();
                 [c, s]
             }
-            (JointKind::Prismatic, None, None) => {
-                return Err("a prismatic joint needs its `axis` [x, y] or `axis_deg`".into())
+            (true, None, None) => {
+                return Err(
+                    "a prismatic joint or a roller needs its `axis` [x, y] or `axis_deg`".into(),
+                )
             }
-            (_, None, None) => [0.0; 2],
-            _ => return Err("only a prismatic joint takes an `axis`".into()),
+            (false, None, None) => [0.0; 2],
+            _ => return Err("only a prismatic joint or a roller takes an `axis`".into()),
         };
         match (kind, node, nodes, drive) {
             (JointKind::Clamp, _, _, Some(_)) => {
@@ -595,9 +611,16 @@ impl TryFrom<JointEntry> for JointSpec {
             (JointKind::Pin, Some(node), None, drive) => Ok(Self::Pin { name, node, drive }),
             (JointKind::Hinge, None, Some(nodes), drive) => Ok(Self::Hinge { name, nodes, drive }),
             (JointKind::Weld, None, Some(nodes), None) => Ok(Self::Weld { name, nodes }),
-            (JointKind::Prismatic, _, _, Some(drive)) if drive.in_degrees() => Err(
-                "a prismatic joint's drive is a travel in m: it takes no `_deg` keys".into(),
-            ),
+            (JointKind::Prismatic | JointKind::Roller, _, _, Some(drive)) if drive.in_degrees() => {
+                Err("the drive of a prismatic joint or a roller is a travel in m: it takes no `_deg` keys".into())
+            }
+            (JointKind::Roller, Some(node), None, drive) => Ok(Self::Roller {
+                name,
+                node,
+                axis,
+                drive,
+            }),
+            (JointKind::Roller, ..) => Err("a roller takes one `node`, not `nodes`".into()),
             (JointKind::Prismatic, Some(node), None, drive) => Ok(Self::Prismatic {
                 name,
                 nodes: [None, Some(node)],
@@ -819,6 +842,8 @@ pub struct DesignSpec {
     pub p: Option<f64>,
     /// RAMP parameter (default 8).
     pub q: Option<f64>,
+    /// SIMP's stiffness of void `E_min/E` in `E_min + (E − E_min) xᵖ` (default 0).
+    pub e_min: Option<f64>,
     /// Lower bound on densities (default 0.01).
     #[serde(default = "default_x_min")]
     pub x_min: f64,
@@ -837,6 +862,7 @@ impl Default for DesignSpec {
             interpolation: InterpolationSpec::Simp,
             p: None,
             q: None,
+            e_min: None,
             x_min: default_x_min(),
             mass: None,
             mass_threshold: None,

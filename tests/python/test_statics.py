@@ -80,3 +80,26 @@ def test_load_stepping_reaches_large_rotations():
     res = sim.run(load_steps=8)
     assert res.displacement("tip")[2] == pytest.approx(np.pi, rel=1e-9)
     assert res.positions[sim.node("tip")] == pytest.approx([0.0, 2 / np.pi], abs=2e-3)
+
+
+def test_a_roller_support_slides_and_turns_freely():
+    """A simply supported beam, pinned at one end and on a roller at the other, under a
+    central load: mid-span deflection PL³/(48EI) (Timoshenko's shear part made negligible),
+    the roller's end sliding inwards by the bending's second-order shortening and turning
+    by PL²/(16EI), free of the roller."""
+    load, e, i = 100.0, 210e9, 1e-7
+    s = flextop.Scene("simply supported", analysis="static")
+    s.section("steel", E=e, rho=7800.0, nu=0.3, A=1e-3, I=i, kappa=1e6)
+    for name, x in (("a", 0.0), ("m", 0.5), ("b", 1.0)):
+        s.node(name, x, 0.0)
+    s.beam("a", "m", section="steel", split=4)
+    s.beam("m", "b", section="steel", split=4)
+    s.pin("left", "a")
+    s.roller("right", "b", axis=(1.0, 0.0))
+    s.load("m", force=(0.0, -load))
+    r = flextop.Simulation(s).run()
+    assert r.displacement("m")[1] == pytest.approx(-load / (48 * e * i), rel=1e-6)
+    u, v, phi = r.displacement("b")
+    # The chord shortens by ∫ ½ w'² dx = (P/16EI)² L⁵ · 4/15; eight elements, to 3 %.
+    assert v == pytest.approx(0.0, abs=1e-20) and u == pytest.approx(-(load / (16 * e * i)) ** 2 * 4 / 15, rel=3e-2)
+    assert phi == pytest.approx(load / (16 * e * i), rel=1e-6)

@@ -36,7 +36,7 @@ VERSION = 1
 """Layout of the saved file."""
 
 ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y"), "weld": ("x", "y", "rotation"),
-        "prismatic": ("normal", "rotation")}
+        "prismatic": ("normal", "rotation"), "roller": ("normal",)}
 """The multipliers of a joint's rows, by kind: its constraint rows, then ``drive`` when driven."""
 
 

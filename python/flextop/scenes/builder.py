@@ -245,6 +245,12 @@ class Scene:
             entry["nodes"] = [carrier, slider]
         self._joint(entry)
 
+    def roller(self, name: str, node: str, *, axis: Sequence[float], drive: dict | None = None) -> None:
+        """A roller support: ``node`` (or a rigid-body point) moves along ``axis`` on the
+        ground through its position, its rotation free; ``drive`` (a motion law, in m)
+        prescribes the travel."""
+        self._joint({"kind": "roller", "name": name, "node": node, "axis": _listed(axis), "drive": drive})
+
     def spring(self, name: str, a: str, b: str, *, k: float = 0.0, c: float = 0.0, length: float | None = None) -> None:
         """A linear spring of stiffness ``k`` (N/m) and damper ``c`` (N s/m, on the rate of
         the distance) between nodes or rigid-body points ``a`` and ``b``, unloaded at
@@ -297,15 +303,17 @@ class Scene:
 
     def design(self, *, interpolation: str = "simp", p: float | None = None, q: float | None = None,
                x_min: float = 0.01, mass: str | None = None, mass_threshold: float | None = None,
-               mass_floor: float | None = None) -> None:
-        """Design parametrization: SIMP exponent ``p`` (default 3) or RAMP parameter ``q``
-        (default 8), the lower bound ``x_min`` on densities, and the inertia law ``mass``:
+               mass_floor: float | None = None, e_min: float | None = None) -> None:
+        """Design parametrization: SIMP exponent ``p`` (default 3) with the stiffness of
+        void ``e_min`` = E_min/E in ``E_min + (E − E_min) xᵖ`` (default 0; the 88-line
+        code's 1e-9), or RAMP parameter ``q`` (default 8), the lower bound ``x_min`` on
+        densities, and the inertia law ``mass``:
         ``"du_olhoff"`` (default of dynamic scenes: below ``mass_threshold``, 0.1, the mass
         falls like ``x⁶`` down to ``mass_floor · x``, 1e-3, so that thin bars have no
         spurious low modes) or ``"linear"`` (the paper's law, valid at one element per bar;
         default of static scenes)."""
         entry = {"interpolation": interpolation, "p": p, "q": q, "x_min": x_min, "mass": mass,
-                 "mass_threshold": mass_threshold, "mass_floor": mass_floor}
+                 "mass_threshold": mass_threshold, "mass_floor": mass_floor, "e_min": e_min}
         self._spec["design"] = {k: v for k, v in entry.items() if v is not None}
 
     def simulation(self, **defaults: Any) -> None:
