@@ -23,6 +23,17 @@ _F = npt.NDArray[np.float64]
 # -- Model's description ----------------------------------------------------------------
 
 @type_check_only
+class CellTable(TypedDict):
+    """``Model.cells()``: one entry per cell of the continuum members."""
+
+    nodes: _F  # corner node indices (as floats), anticlockwise, (n_cells, 4)
+    centre: _F  # reference centre (m), (n_cells, 2)
+    volume: _F  # full-density volume t·A (m³), (n_cells,)
+    variable: list[int]  # design variable, −1 for a fixed cell
+    member: list[int]  # index into ``members``
+    members: list[str]  # the members' names
+
+@type_check_only
 class BarTable(TypedDict):
     """``Model.bars()``: one entry per bar."""
 
@@ -174,6 +185,7 @@ class Model:
     def bar_frequencies(self, x: _F | None = None) -> _F: ...
     def bar_masses(self, x: _F | None = None) -> _F: ...
     def elements(self) -> ElementTable: ...
+    def cells(self) -> CellTable: ...
     def joints(self) -> list[JointInfo]: ...
     def mechanism(self) -> MechanismInfo: ...
 

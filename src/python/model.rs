@@ -197,6 +197,50 @@ impl PyModel {
         Ok(d)
     }
 
+    /// Cells of the continuum members: corner `nodes` (n_cells, 4), reference `centre`
+    /// (n_cells, 2), full-density `volume` (m³), design `variable` (−1 if fixed), the
+    /// `member` of each, and the members' `members` names.
+    fn cells<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let m = &self.model;
+        let d = PyDict::new(py);
+        let n = m.cells.len();
+        let corners = m
+            .cells
+            .iter()
+            .flat_map(|c| c.nodes.map(|k| k as f64))
+            .collect();
+        let centres = m
+            .cells
+            .iter()
+            .flat_map(|c| {
+                let p = c
+                    .nodes
+                    .iter()
+                    .map(|&k| m.nodes[k].position)
+                    .sum::<nalgebra::Vector2<f64>>()
+                    / 4.0;
+                [p.x, p.y]
+            })
+            .collect();
+        d.set_item("nodes", matrix(py, corners, n, 4)?)?;
+        d.set_item("centre", matrix(py, centres, n, 2)?)?;
+        let volumes: Vec<f64> = m.cells.iter().map(|c| c.kernel.volume()).collect();
+        d.set_item("volume", vector(py, volumes))?;
+        let variables: Vec<i64> = m
+            .cells
+            .iter()
+            .map(|c| c.variable.map_or(-1, |v| v as i64))
+            .collect();
+        d.set_item("variable", variables)?;
+        d.set_item(
+            "member",
+            m.cells.iter().map(|c| c.member).collect::<Vec<_>>(),
+        )?;
+        let names: Vec<&str> = m.members.iter().map(|k| k.name.as_str()).collect();
+        d.set_item("members", names)?;
+        Ok(d)
+    }
+
     /// The rigid mechanism: `frames` (rigid clusters), `mobility` (free rigid-body modes
     /// the joints leave at the reference), and `redundant_rows` with the names of the
     /// `over_constraining` joints when the joints over-constrain the rigid mechanism.

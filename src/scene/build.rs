@@ -7,7 +7,7 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, beams, continuum members, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
+//! structures, continuum members, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`]. The
 //! lists of entries and the checks poll for interrupts ([`crate::poll`]): a build of many
 //! thousand bodies stops soon after the caller asks.
@@ -41,9 +41,9 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     mesh.add_nodes(&spec.nodes)?;
     let mut point_masses =
         ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
+    member::add_all(&mut mesh, &spec.members)?;
     mesh.add_beams(&spec.beams, &sections)?;
     mesh.check_bar_names()?;
-    member::add_all(&mut mesh, &spec.members)?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let size = mesh.size()?;
     let joints = joint::joints(&spec.joints, &mesh, size)?;

@@ -12,6 +12,7 @@ from conftest import fourth_order
 import flextop
 from flextop import Scene, SceneError, trapezoidal
 from flextop.errors import MechanismWarning
+from flextop.problems import DensityFilter, SensitivityFilter, TopologyProblem, volume_constraints
 
 STEEL = {"E": 210e9, "nu": 0.3, "rho": 7800.0}
 
@@ -213,3 +214,57 @@ def test_a_clamp_on_a_member_node_is_refused():
     s.clamp("root", m.node(0, 0))
     with pytest.raises(SceneError, match="continuum cells meet"):
         flextop.Simulation(s)
+
+
+def test_the_density_filter_stays_in_its_member_and_its_gradients_are_exact():
+    """Two members and a beam: the filter's weights are means within a member (rows summing
+    to 1, none across members, the beam's variable left alone), a uniform design is its own
+    filtered design, and the compliance's gradient through the filter matches fourth-order
+    differences to 1e-7."""
+    s = Scene("two plates", analysis="static")
+    s.section("rod", E=210e9, rho=7800.0, nu=0.3, diameter=0.01)
+    a = s.member("a", nx=6, ny=2, length=0.6, height=0.2, thickness=0.01, **STEEL)
+    b = s.member("b", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, origin=(0.7, 0.0), **STEEL)
+    # A member's nodes carry no moment: each beam is a pinned link, so the tie is inclined.
+    s.beam(a.node(6, 1), b.node(0, 0), section="rod", name="tie")
+    s.beam(a.node(6, 0), b.node(0, 0), section="rod", name="lower", fixed=True)
+    s.beam(a.node(6, 2), b.node(0, 2), section="rod", name="upper", fixed=True)
+    pinned_edge(s, a, 2)
+    s.load(b.node(4, 0), force=(0.0, -1e3))
+    sim = simulation(s)
+    density = DensityFilter(sim, 0.25)
+    w = density.weights.toarray()
+    names = sim.variable_names
+    member = np.array([n.split("/")[0] for n in names])
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, rtol=1e-14)
+    assert np.all(w[np.ix_(member == "a", member == "b")] == 0) and np.all(w[np.ix_(member == "b", member == "a")] == 0)
+    tie = names.index("tie")
+    assert w[tie, tie] == 1.0 and np.count_nonzero(w[tie]) == 1 and np.count_nonzero(w[:, tie]) == 1
+    # Itself; three cells at 0.1 m, two at 0.141, two at 0.2 and two at 0.224 (row 1 of two).
+    assert np.count_nonzero(w[names.index("a/cell[2,1]")]) == 10
+    np.testing.assert_allclose(density.physical(np.full(sim.n_design, 0.3)), 0.3, rtol=1e-14)
+
+    problem = TopologyProblem(sim, "compliance", volume_constraints(sim, 0.5, per_component=False),
+                              filter=density, objective_scale=1.0)
+    x = np.random.default_rng(5).uniform(0.2, 1.0, sim.n_design)
+    gradient = problem.evaluate(x).df0
+    for j in (0, names.index("a/cell[5,1]"), names.index("b/cell[0,0]"), tie):
+        def value(dx, j=j):
+            y = x.copy()
+            y[j] += dx
+            return problem.evaluate(y).f0
+        assert fourth_order(value, 1e-3) == pytest.approx(gradient[j], rel=1e-7)
+
+
+def test_filters_refuse_what_they_cannot_filter():
+    s = Scene("beams only", analysis="static")
+    s.section("rod", E=210e9, rho=7800.0, nu=0.3, diameter=0.01)
+    s.node("a", 0.0, 0.0)
+    s.node("b", 1.0, 0.0)
+    s.beam("a", "b", section="rod")
+    s.clamp("root", "a")
+    with pytest.raises(flextop.SettingsError, match="no designed cells"):
+        DensityFilter(flextop.Simulation(s), 0.1)
+    plate, _ = spun_strip(4, 2, omega=10.0, ramp=0.1, fixed=False)
+    with pytest.raises(flextop.SettingsError, match="positive length"):
+        SensitivityFilter(simulation(plate), 0.0)

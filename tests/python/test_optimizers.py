@@ -450,3 +450,31 @@ def test_conlin_names_a_lower_bound_that_is_not_positive():
         assert isinstance(raised.value, FlextopError) and "reciprocal" in str(raised.value)
     assert not evaluated
     assert optimize(FunctionProblem(objective, None, (0.5, 0.5), (1.9, 2.6), 0), (1.2, 1.2), "conlin").nit > 0
+
+
+def test_optimality_criteria_reach_the_known_optimum_of_a_sum_of_reciprocals():
+    """min Σ cᵢ/xᵢ s.t. Σ xᵢ ≤ V (the compliance of springs in series, stiffness ∝ x): the
+    optimum is xᵢ = V √cᵢ / Σ √cⱼ, the fixed point of the OC update; with η = ½ from a
+    uniform start the error contracts by half per iteration, and the KKT residual says so."""
+    c = np.array([1.0, 4.0, 9.0, 0.25, 2.0])
+    volume = 2.0
+    problem = FunctionProblem(lambda x: (np.sum(c / x), -c / x**2),
+                              lambda x: (np.array([x.sum() / volume - 1.0]), np.ones((1, x.size)) / volume),
+                              np.full(5, 1e-3), np.ones(5), 1)
+    result = optimize(problem, 0.4, method="oc", max_iter=80, kkt_tol=1e-9)
+    optimum = volume * np.sqrt(c) / np.sqrt(c).sum()
+    assert result.success and result.status is Status.KKT
+    np.testing.assert_allclose(result.x, optimum, rtol=1e-8)
+    assert result.multipliers[0] == pytest.approx(np.sqrt(c).sum() ** 2 / volume, rel=1e-6)
+
+
+def test_optimality_criteria_take_one_constraint_that_grows_with_every_variable():
+    two = FunctionProblem(lambda x: (np.sum(1 / x), -1 / x**2),
+                          lambda x: (np.array([x.sum() - 1, x[0] - 0.5]), np.array([[1.0, 1.0], [1.0, 0.0]])),
+                          np.full(2, 0.1), np.ones(2), 2)
+    with pytest.raises(SettingsError, match="exactly one constraint"):
+        optimize(two, 0.4, method="oc")
+    falling = FunctionProblem(lambda x: (np.sum(1 / x), -1 / x**2),
+                              lambda x: (np.array([1 - x.sum()]), -np.ones((1, 2))), np.full(2, 0.1), np.ones(2), 1)
+    with pytest.raises(SettingsError, match="grows with every variable"):
+        optimize(falling, 0.4, method="oc")

@@ -138,6 +138,7 @@ def evaluate_responses(arm: _core.Model):
 CALLS = {
     "Model.bars": lambda arm, truss: arm.bars(),
     "Model.elements": lambda arm, truss: arm.elements(),
+    "Model.cells": lambda arm, truss: _core.Model.from_dict({"name": "plate", "members": [{"name": "p", "nx": 2, "ny": 1, "length": 1.0, "height": 0.1, "thickness": 0.01, "E": 1e9, "nu": 0.3, "rho": 1e3}], "joints": [{"kind": "pin", "name": "a", "node": "p[0,0]"}, {"kind": "pin", "name": "b", "node": "p[0,1]"}]}).cells(),
     "Model.joints": lambda arm, truss: arm.joints(),
     "Model.mechanism": lambda arm, truss: arm.mechanism(),
     "simulate": lambda arm, truss: _core.simulate(arm, np.full(arm.n_design, 0.5)),

@@ -25,10 +25,11 @@ from .conlin import Conlin
 from .kkt import kkt_estimate
 from .method import Method
 from .mma import GCMMA, MMA
+from .oc import OptimalityCriteria
 from .problem import Evaluation, EvaluationError, Problem
 from .state import Design, IterationRecord, OptimizerState
 
-METHODS: dict[str, type[Method]] = {"mma": MMA, "gcmma": GCMMA, "conlin": Conlin}
+METHODS: dict[str, type[Method]] = {"mma": MMA, "gcmma": GCMMA, "conlin": Conlin, "oc": OptimalityCriteria}
 
 
 class Status(IntEnum):
@@ -302,7 +303,7 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     x0 : array (n,) or one number
         Start design (clipped to the bounds; one number for every variable); ignored when
         resuming.
-    method : "mma", "gcmma", "conlin" or a configured :class:`Method`
+    method : "mma", "gcmma", "conlin", "oc" or a configured :class:`Method`
         (e.g. ``MMA(asyincr=1.1)``).
     max_iter : total number of outer iterations, including those done before a resume.
     move : largest step per iteration as a fraction of upper - lower.

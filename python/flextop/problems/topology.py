@@ -47,6 +47,7 @@ from ..simulation import Simulation
 from ..discretization.refinement import extrapolated, t_end
 from ..discretization.tolerance import Discretization
 from ..results import Sensitivities
+from .filters import DensityFilter, SensitivityFilter
 
 
 MIN_FREQUENCY = "min_frequency"
@@ -133,7 +134,8 @@ class TopologyProblem(Problem):
 
     def __init__(self, simulation: Simulation, objective: str, constraints: Mapping[str, float] | Sequence[tuple[str, float]] = (),
                  *, settings: Mapping[str, Any] | None = None, method: str = "auto", objective_scale: float | None = None,
-                 rtol: float | None = None, atol: float | None = None, readapt: float = READAPT) -> None:
+                 rtol: float | None = None, atol: float | None = None, readapt: float = READAPT,
+                 filter: DensityFilter | SensitivityFilter | None = None) -> None:
         if simulation.n_design == 0:
             raise SettingsError("the scene has no design variables (no bars, or all of them fixed): nothing to optimize")
         self.simulation = simulation
@@ -153,6 +155,7 @@ class TopologyProblem(Problem):
         if not (isinstance(readapt, (int, float)) and 0.0 <= readapt <= 1.0):
             raise SettingsError(f"readapt must be a design change in [0, 1], got {readapt!r}")
         self.readapt = float(readapt)
+        self.filter = filter
         self.discretization: Discretization | None = None
         self.refinements: list[tuple[int, Discretization]] = []
         self.measured: list[int] = []
@@ -170,7 +173,17 @@ class TopologyProblem(Problem):
         return [self.objective, *(name for name, _ in self.constraints if name != MIN_FREQUENCY)]
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
-        """Objective and constraints with their gradients: one run with sensitivities."""
+        """Objective and constraints with their gradients: one run with sensitivities (of
+        the physical densities where a density filter stands between)."""
+        if isinstance(self.filter, DensityFilter):
+            e = self._evaluate(self.filter.physical(x))
+            return Evaluation(e.f0, e.g, self.filter.chain(e.df0), self.filter.chain(e.dg))
+        e = self._evaluate(x)
+        if isinstance(self.filter, SensitivityFilter):
+            return Evaluation(e.f0, e.g, self.filter.filtered(x, e.df0), e.dg)
+        return e
+
+    def _evaluate(self, x: np.ndarray) -> Evaluation:
         tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self.rtol or self.simulation.rtol else {}
         self.evaluations += 1
         try:
@@ -372,13 +385,16 @@ def tightened(problem: TopologyProblem, x: np.ndarray, rtol: float = 3e-3, targe
 
 def volume_constraints(simulation: Simulation, fraction: float, *, per_component: bool = True) -> list[tuple[str, float]]:
     """Upper bounds ``V ≤ fraction · V_full`` (paper Eq. 38), one per component (Eq. 41)
-    that has design variables (a component of fixed bars would give a constant), or on
-    the whole structure."""
+    that has design variables (a component of fixed bars or cells would give a constant),
+    or on the whole structure; bars and continuum members' cells alike."""
     if not 0.0 < fraction <= 1.0:
         raise SettingsError(f"volume fraction must lie in (0, 1], got {fraction}")
-    volume = np.asarray(simulation.bars.volume)
-    fixed = np.asarray(simulation.bars.variable) < 0
-    component = np.asarray(simulation.bars.component)
+    cells = simulation.model.cells()
+    volume = np.concatenate([simulation.bars.volume, cells["volume"]])
+    fixed = np.concatenate([simulation.bars.variable, cells["variable"]]).astype(int) < 0
+    owner = {name: k for k, name in enumerate(simulation.components)}
+    component = np.concatenate([simulation.bars.component,
+                                [owner[cells["members"][m]] for m in cells["member"]]]).astype(int)
     if not per_component:
         return [("volume", fraction * volume[~fixed].sum() + volume[fixed].sum())]
     return [(f"volume:{name}", fraction * volume[(component == k) & ~fixed].sum() + volume[(component == k) & fixed].sum())
