@@ -177,7 +177,7 @@ class TopologyProblem(Problem):
         the physical densities where a density filter stands between)."""
         if isinstance(self.filter, DensityFilter):
             e = self._evaluate(self.filter.physical(x))
-            return Evaluation(e.f0, e.g, self.filter.chain(e.df0), self.filter.chain(e.dg))
+            return Evaluation(e.f0, e.g, self.filter.chain(x, e.df0), self.filter.chain(x, e.dg))
         e = self._evaluate(x)
         if isinstance(self.filter, SensitivityFilter):
             return Evaluation(e.f0, e.g, self.filter.filtered(x, e.df0), e.dg)
