@@ -1,0 +1,68 @@
+"""Continuum links in the arm's motion: cost against mesh size, and the issue's floor.
+
+The robot arm of the paper with each link a plane-stress member (1.0 m × 0.1 m, 5 mm of
+aluminium, :func:`flextop.scenes.continuum_robot_arm`), driven through rigid rings over
+its 1.3 s motion in 100 steps, every cell at density 0.5:
+
+1. one forward run, and one run with the adjoint gradients of the tip deflection (Eq. 40)
+   and the strain energy, at 20 × 6 to 120 × 40 cells per link: seconds, microseconds per
+   cell-step, Newton iterations per step, unknowns (three per node: a member's nodes keep
+   a rotation row, zero and scaled, in the iteration matrix);
+2. at 60 × 20 (the issue's floor: forward with the adjoint gradient in at most 5 s), full
+   and modified Newton side by side.
+
+    python benches/continuum.py       # → benches/results/continuum.md (about 3 min)
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import flextop
+from flextop.errors import MechanismWarning
+from flextop.scenes import continuum_robot_arm
+
+ROOT = Path(__file__).resolve().parents[1]
+RESPONSES = ["tip_deflection", "strain_energy"]
+
+
+def simulation(nx: int, ny: int) -> flextop.Simulation:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MechanismWarning)
+        return flextop.Simulation(continuum_robot_arm(nx=nx, ny=ny))
+
+
+def row(nx: int, ny: int, newton: str = "full") -> str:
+    sim = simulation(nx, ny)
+    x = np.full(sim.n_design, 0.5)
+    clock = time.perf_counter()
+    run = sim.run(x, newton=newton)
+    forward = time.perf_counter() - clock
+    clock = time.perf_counter()
+    f, _ = sim.run_with_sensitivities(x, RESPONSES, newton=newton)
+    adjoint = time.perf_counter() - clock
+    steps, cells = len(run.time) - 1, sim.n_design
+    return (f"| {nx} × {ny} | {cells} | {sim.model.n_dofs + sim.model.n_constraints} | {newton} | {forward:.2f} | "
+            f"{adjoint:.2f} | {1e6 * forward / (cells * steps):.1f} | {run.newton['mean']:.2f} | {f[0]:.4e} |")
+
+
+def main() -> None:
+    lines = ["| cells per link | cells | unknowns | Newton | run (s) | run + adjoint (s) | µs per cell-step | "
+             "iterations per step | d (m²) |", "|---|---|---|---|---|---|---|---|---|"]
+    for nx, ny in ((20, 6), (40, 12), (60, 20), (120, 40)):
+        lines.append(row(nx, ny))
+        print(lines[-1], flush=True)
+    lines.append(row(60, 20, "modified"))
+    print(lines[-1], flush=True)
+    out = ROOT / "benches" / "results" / "continuum.md"
+    out.write_text("Produced by `python benches/continuum.py`: the continuum robot arm, 100 steps over 1.3 s, "
+                   "x = 0.5.\n\n" + "\n".join(lines) + "\n")
+    print(f"→ {out}")
+
+
+if __name__ == "__main__":
+    main()
