@@ -18,7 +18,7 @@ import numpy as np
 from matplotlib.animation import PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PolyCollection
 from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
@@ -114,6 +114,7 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
     else:
         fig = ax.figure
     mappable = _draw_bars(ax, sim, x, _segments(sim, positions), np.ones(len(sim.bars), bool), faint, cmap)
+    _draw_cells(ax, sim, x, positions, np.ones(len(sim.cell_densities()), bool), cmap)
     _draw_supports(ax, sim, positions, np.ones(len(positions), bool))
     if title is not None:
         ax.set_title(title)
@@ -132,6 +133,30 @@ def _draw_bars(ax: Any, sim: Simulation, x: Any, segments: np.ndarray, shown: np
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     return mappable
+
+
+def _draw_cells(ax: Any, sim: Simulation, x: Any, positions: np.ndarray, shown: np.ndarray, cmap: str | Colormap) -> None:
+    """The continuum members' cells ``shown`` (a mask over the cells) as quadrilaterals at
+    ``positions``, filled by density on the bars' colour scale."""
+    if not shown.any():
+        return
+    corners = np.asarray(sim.model.cells()["nodes"], dtype=int)[shown]
+    _, _, mappable = _bar_style(sim, x, cmap, None)
+    colors = mappable.to_rgba(sim.cell_densities(x)[shown])
+    ax.add_collection(PolyCollection(positions[corners], facecolors=colors, edgecolors="none", zorder=1))
+    ax.autoscale_view()
+
+
+def _component_nodes(sim: Simulation, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Component ``k``'s bars, cells (masks) and the nodes they touch (a mask)."""
+    cells = sim.model.cells()
+    owner = [sim.components.index(name) for name in cells["members"]]
+    bars = np.asarray(sim.bars.component) == k
+    mine = np.array([owner[m] == k for m in cells["member"]], bool)
+    own = np.zeros(len(sim.node_names), bool)
+    own[np.asarray(sim.bars.nodes, dtype=int)[bars].ravel()] = True
+    own[np.asarray(cells["nodes"], dtype=int)[mine].ravel()] = True
+    return bars, mine, own
 
 
 def _draw_supports(ax: Any, sim: Simulation, positions: np.ndarray, shown: np.ndarray) -> None:
@@ -165,29 +190,27 @@ def _draw_supports(ax: Any, sim: Simulation, positions: np.ndarray, shown: np.nd
 
 def _design_by_component(sim: Simulation, x: Any, title: str | None, faint: float | None, cmap: str | Colormap) -> Figure:
     """One panel per component, each in its own frame, stacked, with one colorbar."""
-    component = np.asarray(sim.bars.component)
     nodes = np.asarray(sim.bars.nodes, dtype=int)
     reference = np.asarray(sim.model.reference_positions)
     frames = []
     for k in range(len(sim.components)):
-        mine = component == k
-        own = np.zeros(len(reference), bool)
-        own[nodes[mine].ravel()] = True
+        mine, cells, own = _component_nodes(sim, k)
         points = reference[own]
         centre = points.mean(axis=0)
         axis = np.linalg.svd(points - centre)[2][0]
-        first = reference[nodes[mine].min()]  # the component's first node on the left
+        first = reference[np.flatnonzero(own).min()]  # the component's first node on the left
         axis = axis if (first - centre) @ axis <= 0 else -axis
         rotation = np.array([[axis[0], axis[1]], [-axis[1], axis[0]]])  # the long axis onto x
         local = (reference - centre) @ rotation.T
-        frames.append((mine, own, local - local[own].min(axis=0)))
-    extent = np.array([np.ptp(local[own], axis=0) for _, own, local in frames]) + 1e-12
+        frames.append((mine, cells, own, local - local[own].min(axis=0)))
+    extent = np.array([np.ptp(local[own], axis=0) for _, _, own, local in frames]) + 1e-12
     width = float(extent[:, 0].max())
     heights = extent[:, 1] + 0.1 * width
     fig = _new_figure(figsize=(8.0, min(0.5 + float(np.sum(6.0 * heights / width + 0.75)), 12.0)), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(frames), 1, height_ratios=heights))
-    for ax, (mine, own, local), name in zip(axes, frames, sim.components):
+    for ax, (mine, cells, own, local), name in zip(axes, frames, sim.components):
         mappable = _draw_bars(ax, sim, x, local[nodes], mine, faint, cmap)
+        _draw_cells(ax, sim, x, local, cells, cmap)
         _draw_supports(ax, sim, local, own)
         ax.set_title(name, fontsize="medium")
         ax.set_xlim(-0.03 * width, 1.03 * width)

@@ -191,6 +191,15 @@ class Simulation:
             return np.ones(variable.size)
         return np.where(variable >= 0, xv[np.maximum(variable, 0)] if xv.size else 1.0, 1.0)
 
+    def cell_densities(self, x: DesignLike = None) -> np.ndarray:
+        """The density of every cell of the continuum members for design ``x`` (``None``:
+        full density); cells that are not designed are at 1."""
+        xv = self._design(x)
+        variable = np.asarray(self.model.cells()["variable"], dtype=int)
+        if xv is None:
+            return np.ones(variable.size)
+        return np.where(variable >= 0, xv[np.maximum(variable, 0)] if xv.size else 1.0, 1.0)
+
     @cached_property
     def mechanism(self) -> dict[str, Any]:
         """The rigid mechanism behind the flexible one: ``frames`` (rigid clusters),

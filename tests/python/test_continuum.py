@@ -322,3 +322,40 @@ def test_the_continuum_arm_moves_its_rings_rigidly_and_has_exact_gradients():
             y[j] += dx
             return sim.run_with_sensitivities(y, ["tip_deflection"], method="direct")[0][0]
         assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=1e-6, abs=1e-6 * np.abs(direct).max())
+
+
+def test_a_member_goes_to_paraview_as_quads_with_their_densities(tmp_path):
+    """A spun strip's motion and a design: each cell a quad with its density, read back by
+    meshio; the hub's joints as vertices; the motion's points where the run puts them."""
+    import meshio
+
+    s, m = spun_strip(4, 2, omega=20.0, ramp=0.02, fixed=False, height=0.05)
+    s.simulation(t_end=0.02, h=1e-3)
+    sim = simulation(s)
+    x = np.linspace(0.2, 1.0, sim.n_design)
+    r = sim.run(x)
+    index = r.to_vtk(tmp_path / "strip.pvd", every=10)
+    last = meshio.read(sorted(index.parent.glob("strip_*.vtu"))[-1])
+    quads = last.cells_dict["quad"]
+    assert quads.shape == (8, 4) and "vertex" in last.cells_dict and "line" not in last.cells_dict
+    density = last.cell_data_dict["density"]["quad"]
+    np.testing.assert_allclose(density, x[[sim.variable_names.index(f"strip/cell[{i},{j}]") for j in range(2) for i in range(4)]])
+    np.testing.assert_allclose(last.points[:, :2], r.positions[-1], atol=1e-12)
+    design = meshio.read(flextop.io.export.write_design(sim, x, tmp_path / "design.vtu"))
+    np.testing.assert_allclose(design.cell_data_dict["density"]["quad"], density)
+
+
+def test_a_design_of_continuum_links_is_plotted_cell_by_cell(tmp_path):
+    """plot_design draws each link's cells as filled quadrilaterals coloured by density, on
+    one panel per link and on one panel in the scene's pose."""
+    from matplotlib.collections import PolyCollection
+
+    import flextop.plots as plots
+
+    sim = simulation(flextop.scenes.continuum_robot_arm(nx=6, ny=2))
+    x = np.linspace(0.01, 1.0, sim.n_design)
+    for by_component in (True, False):
+        figure = plots.plot_design(sim, x, by_component=by_component, path=tmp_path / f"design{by_component}.png")
+        polygons = [c for ax in figure.axes for c in ax.collections if isinstance(c, PolyCollection)]
+        assert sum(len(c.get_paths()) for c in polygons) == sim.n_design
+        assert (tmp_path / f"design{by_component}.png").stat().st_size > 0

@@ -2,8 +2,8 @@
 a design as one VTU file.
 
 Each file holds the structure as VTK cells: every element of every bar and beam as a line
-(a bar split into m elements gives m lines), and every joint, point mass and rigid body's centre
-as a vertex.
+(a bar split into m elements gives m lines), every cell of a continuum member as a quad,
+and every joint, point mass and rigid body's centre as a vertex.
 
 Points follow one of ParaView's two conventions, said here because Warp By Vector depends on it:
 
@@ -17,9 +17,10 @@ Points follow one of ParaView's two conventions, said here because Warp By Vecto
 * Cell data of the lines: ``density`` (of the element's bar, 1 where it is not designed),
   ``bar`` (its index in :attr:`Simulation.bars`), ``axial_force`` N (N, tension positive),
   ``moment_1`` and ``moment_2`` (N m, the end moments in the chord frame),
-  ``axial_stress`` N/A (Pa, on the solid section's area). Vertices carry NaN there and
-  ``vertex`` = 1 (a joint), 2 (a point mass) or 3 (a rigid body's centre of mass); lines carry
-  ``vertex`` = 0.
+  ``axial_stress`` N/A (Pa, on the solid section's area). Quads carry their ``density`` (1
+  where not designed), ``bar`` = −1 and NaN for the bars' forces. Vertices carry NaN there and
+  ``vertex`` = 1 (a joint), 2 (a point mass) or 3 (a rigid body's centre of mass); lines and
+  quads carry ``vertex`` = 0.
 
 Points are 3-D (z = 0), as VTK wants. meshio writes the VTU files; the PVD index (the
 collection ParaView opens, one dataset per time) is built with ElementTree. The functions
@@ -117,6 +118,8 @@ class _Structure:
     bar: np.ndarray
     density: np.ndarray
     area: np.ndarray
+    quads: np.ndarray
+    quad_density: np.ndarray
     vertices: np.ndarray
     kinds: np.ndarray
 
@@ -126,8 +129,9 @@ class _Structure:
         lines = np.asarray(elements["nodes"], dtype=np.int64).reshape(-1, 2)
         bar = np.asarray(elements["bar"], dtype=np.int64)
         vertices, kinds = _vertices(sim)
+        quads = np.asarray(sim.model.cells()["nodes"], dtype=np.int64).reshape(-1, 4)
         return cls(np.asarray(sim.model.reference_positions), lines, bar, sim.bar_densities(x)[bar],
-                   _areas(sim, lines, bar)[bar], vertices, kinds)
+                   _areas(sim, lines, bar)[bar], quads, sim.cell_densities(x), vertices, kinds)
 
     def mesh(self, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray], *, moved: bool) -> Any:
         """The frame of state ``q`` with section ``forces`` and ``extra`` point data: points
@@ -136,19 +140,20 @@ class _Structure:
         import meshio
 
         q = np.asarray(q).reshape(-1, 3)
-        nan = np.full(len(self.vertices), np.nan)
+        nan, none = np.full(len(self.vertices), np.nan), np.full(len(self.quads), np.nan)
         forces = np.asarray(forces).reshape(-1, 3)
         cell_data = {
-            "density": [self.density, nan],
-            "bar": [self.bar.astype(float), np.full(len(self.vertices), -1.0)],
-            "axial_force": [forces[:, 0], nan],
-            "moment_1": [forces[:, 1], nan],
-            "moment_2": [forces[:, 2], nan],
-            "axial_stress": [forces[:, 0] / self.area, nan],
-            "vertex": [np.zeros(len(self.lines)), self.kinds.astype(float)],
+            "density": [self.density, self.quad_density, nan],
+            "bar": [self.bar.astype(float), np.full(len(self.quads), -1.0), np.full(len(self.vertices), -1.0)],
+            "axial_force": [forces[:, 0], none, nan],
+            "moment_1": [forces[:, 1], none, nan],
+            "moment_2": [forces[:, 2], none, nan],
+            "axial_stress": [forces[:, 0] / self.area, none, nan],
+            "vertex": [np.zeros(len(self.lines)), np.zeros(len(self.quads)), self.kinds.astype(float)],
         }
-        blocks = [("line", self.lines), ("vertex", self.vertices[:, None])]
-        # A mechanism of rigid bodies alone has no lines: meshio refuses an empty block.
+        blocks = [("line", self.lines), ("quad", self.quads), ("vertex", self.vertices[:, None])]
+        # A mechanism of rigid bodies alone has no lines, a frame no quads: meshio refuses an
+        # empty block.
         kept = [k for k, (_, cells) in enumerate(blocks) if len(cells)]
         points = self.reference + q[:, :2] if moved else self.reference
         point_data = {**({} if moved else {"displacement": _xyz(q[:, :2])}), "rotation": q[:, 2], **extra}
