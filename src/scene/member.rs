@@ -4,7 +4,8 @@
 //! In a scene, a member lies in a local frame at `origin` rotated by `angle`, from `x = 0`
 //! to `length` and centred on the local x axis; its nodes are named `NAME[i,j]` (column `i`
 //! in `0..=nx`, row `j` in `0..=ny` from the bottom), its cells `NAME/cell[i,j]` (their
-//! design variables, unless the member is `fixed`), and it forms the component `NAME`.
+//! design variables, unless the member is `fixed` or the cell `solid`), and it forms the
+//! component `NAME`. Cells in `holes` are left out, with the nodes only they touched.
 
 use super::ground_structure::{local_coordinates, Placement};
 use super::mesh::Mesh;
@@ -41,27 +42,48 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
     let length = positive(&format!("{path}.length"), m.length)?;
     let height = positive(&format!("{path}.height"), m.height)?;
     let placement = Placement::of(mesh, path, &m.origin, m.angle, m.angle_deg)?;
+    let kept: Vec<bool> = marked(&format!("{path}.holes"), m, &m.holes)?
+        .iter()
+        .map(|&hole| !hole)
+        .collect();
+    let solid = marked(&format!("{path}.solid"), m, &m.solid)?;
+    if !kept.contains(&true) {
+        return Err(SceneError::new(
+            format!("{path}.holes"),
+            "leave out every cell",
+        ));
+    }
     let (columns, rows) = (m.nx + 1, m.ny + 1);
-    let mut node = Vec::with_capacity(columns * rows);
+    let mut touched = vec![false; columns * rows];
+    for (j, i) in (0..m.ny).flat_map(|j| (0..m.nx).map(move |i| (j, i))) {
+        if kept[j * m.nx + i] {
+            for (a, b) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+                touched[b * columns + a] = true;
+            }
+        }
+    }
+    let mut node = vec![usize::MAX; columns * rows];
     for j in 0..rows {
-        for i in 0..columns {
+        for i in (0..columns).filter(|&i| touched[j * columns + i]) {
             let p = placement.position(local_coordinates(i, j, columns, rows, length, height));
-            node.push(mesh.add_node(path, &format!("{}[{i},{j}]", m.name), p.x, p.y)?);
+            node[j * columns + i] =
+                mesh.add_node(path, &format!("{}[{i},{j}]", m.name), p.x, p.y)?;
         }
     }
     let component = mesh.component(&m.name);
     let member = mesh.members.len();
     let first = mesh.cells.len();
     for j in 0..m.ny {
-        for i in 0..m.nx {
+        for i in (0..m.nx).filter(|&i| kept[j * m.nx + i]) {
             let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
                 .map(|(a, b)| node[b * columns + a]);
             let corners = nodes.map(|n| mesh.nodes[n].position);
             let kernel = Quad::new(corners, material).map_err(|_| {
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
+            let designed = !(m.fixed || solid[j * m.nx + i]);
             let variable =
-                (!m.fixed).then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
+                designed.then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
             mesh.cells.push(Cell {
                 kernel,
                 nodes,
@@ -77,6 +99,26 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
         shape: [m.nx, m.ny],
     });
     Ok(())
+}
+
+/// The cells of member `m` that the rectangles `[i0, j0, i1, j1]` at `path` cover, row by
+/// row: each rectangle within the member and not empty.
+fn marked(path: &str, m: &MemberSpec, rectangles: &[[usize; 4]]) -> Result<Vec<bool>> {
+    let mut covered = vec![false; m.nx * m.ny];
+    for (k, &[i0, j0, i1, j1]) in rectangles.iter().enumerate() {
+        if !(i0 < i1 && i1 <= m.nx && j0 < j1 && j1 <= m.ny) {
+            let msg = format!(
+                "[{i0}, {j0}, {i1}, {j1}] is no rectangle of cells [i0, j0, i1, j1] with \
+                 i0 < i1 <= nx = {} and j0 < j1 <= ny = {}",
+                m.nx, m.ny
+            );
+            return Err(SceneError::new(format!("{path}[{k}]"), msg));
+        }
+        for j in j0..j1 {
+            covered[j * m.nx + i0..j * m.nx + i1].fill(true);
+        }
+    }
+    Ok(covered)
 }
 
 /// The member's material and thickness: `E`, `rho` and `thickness` positive, `0 ≤ ν < 1/2`.

@@ -333,6 +333,14 @@ pub struct MemberSpec {
     /// Cells at fixed full density (not design variables).
     #[serde(default)]
     pub fixed: bool,
+    /// Rectangles of cells `[i0, j0, i1, j1]` (columns `i0..i1`, rows `j0..j1`) left out:
+    /// holes; a node no remaining cell touches is left out too.
+    #[serde(default)]
+    pub holes: Vec<[usize; 4]>,
+    /// Rectangles of cells, as `holes`, at full density and not designed (passive solid,
+    /// e.g. around a joint).
+    #[serde(default)]
+    pub solid: Vec<[usize; 4]>,
 }
 
 /// A beam between two named nodes.

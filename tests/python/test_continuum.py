@@ -359,3 +359,46 @@ def test_a_design_of_continuum_links_is_plotted_cell_by_cell(tmp_path):
         polygons = [c for ax in figure.axes for c in ax.collections if isinstance(c, PolyCollection)]
         assert sum(len(c.get_paths()) for c in polygons) == sim.n_design
         assert (tmp_path / f"design{by_component}.png").stat().st_size > 0
+
+
+def test_a_hole_is_the_limit_of_void_cells_and_solid_cells_are_not_designed():
+    """A cantilever plate with a hole of 2 × 2 cells reaching its top edge: the cells and the
+    nodes only they touched are gone, and its compliance is that of the full plate with those cells at
+    x_min = 1e-3 under SIMP (stiffness 1e-9) to 1e-6. Solid cells are at full density, not
+    design variables, and outside the density filter's neighbourhoods."""
+    def plate(**kwargs):
+        s = Scene("plate", analysis="static")
+        m = s.member("plate", nx=6, ny=3, length=0.6, height=0.3, thickness=0.01, **STEEL, **kwargs)
+        pinned_edge(s, m, 3)
+        s.load(m.node(6, 0), force=(0.0, -1e3))
+        s.design(x_min=1e-3)
+        return simulation(s)
+
+    holed = plate(holes=[(2, 1, 4, 3)], solid=[(0, 0, 1, 3)])
+    full = plate(solid=[(0, 0, 1, 3)])
+    assert holed.n_design == 6 * 3 - 4 - 3 and full.n_design == 6 * 3 - 3
+    assert "plate[3,2]" not in holed.node_names and "plate[3,3]" not in holed.node_names
+    assert "plate[3,1]" in holed.node_names and "plate[2,2]" in holed.node_names
+    assert not any(name.startswith("plate/cell[0,") for name in holed.variable_names)
+    x = np.full(full.n_design, 0.8)
+    for i, j in ((2, 1), (3, 1), (2, 2), (3, 2)):
+        x[full.variable_names.index(f"plate/cell[{i},{j}]")] = 1e-3
+    void = full.run_with_sensitivities(x, ["compliance"])[0][0]
+    hole = holed.run_with_sensitivities(np.full(holed.n_design, 0.8), ["compliance"])[0][0]
+    assert hole == pytest.approx(void, rel=1e-6)
+    weights = DensityFilter(holed, 0.25).weights
+    assert weights.shape == (holed.n_design, holed.n_design)
+
+
+@pytest.mark.parametrize(("key", "value", "culprit"), [
+    ("holes", [[0, 0, 7, 1]], r"members\[0\] \(plate\)\.holes\[0\].*no rectangle"),
+    ("solid", [[2, 1, 2, 2]], r"members\[0\] \(plate\)\.solid\[0\].*no rectangle"),
+    ("holes", [[0, 0, 6, 3]], r"members\[0\] \(plate\)\.holes.*every cell"),
+])
+def test_bad_holes_and_solid_regions_are_named(key, value, culprit):
+    spec = {"name": "bad", "analysis": "static",
+            "members": [{"name": "plate", "nx": 6, "ny": 3, "length": 0.6, "height": 0.3, "thickness": 0.01, **STEEL,
+                         key: value}],
+            "joints": [{"kind": "pin", "name": "a", "node": "plate[0,0]"}, {"kind": "pin", "name": "b", "node": "plate[0,3]"}]}
+    with pytest.raises(SceneError, match=culprit):
+        flextop.Simulation(spec)
