@@ -28,6 +28,7 @@ mod reaction;
 mod strain_energy;
 mod strength;
 mod volume;
+mod von_mises;
 
 use std::fmt;
 
@@ -75,6 +76,7 @@ const KINDS: &[Kind] = &[
     strength::STRESS,
     strength::SHEAR,
     strength::BUCKLING,
+    von_mises::KIND,
     drive::TORQUE,
     drive::TORQUE_RMS,
     drive::TORQUE_SQUARED,

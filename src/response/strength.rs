@@ -17,7 +17,7 @@ use crate::response::aggregation::Aggregation;
 use crate::response::criterion::{Criterion, ElementState};
 
 /// The relaxation exponent used unless a response names one (Le et al. 2010).
-const DEFAULT_RELAXATION: f64 = 0.5;
+pub(super) const DEFAULT_RELAXATION: f64 = 0.5;
 
 pub(super) const STRESS: Kind = Kind {
     name: "stress",

@@ -402,3 +402,45 @@ def test_bad_holes_and_solid_regions_are_named(key, value, culprit):
             "joints": [{"kind": "pin", "name": "a", "node": "plate[0,0]"}, {"kind": "pin", "name": "b", "node": "plate[0,3]"}]}
     with pytest.raises(SceneError, match=culprit):
         flextop.Simulation(spec)
+
+
+def test_von_mises_of_a_plate_in_tension_and_its_gradients():
+    """A plate pulled along its length by a uniform end traction σ₀ (rollers at the fixed
+    end, so that nothing restrains its contraction): every Gauss point's von Mises stress is
+    σ₀ at full density, so the p-means and the peak are σ₀, the KS mean (s/ρ) ln cosh(ρσ₀/s),
+    and at a uniform x below 1 the solid's stress at the design's strain, relaxed:
+    x^q σ₀ / x^p. On a spun strip with random densities, the
+    gradients of its p-mean are direct = adjoint (1e-9) and fourth-order differences (1e-6)."""
+    nx, ny, traction = 6, 2, 5e6
+    s = Scene("tension", analysis="static")
+    m = s.member("plate", nx=nx, ny=ny, length=0.6, height=0.2, thickness=0.01, **STEEL)
+    for j in range(ny + 1):
+        s.roller(f"end{j}", m.node(0, j), axis=(0.0, 1.0))
+    s.roller("base", m.node(nx, 1), axis=(1.0, 0.0))
+    for j in range(ny + 1):
+        s.load(m.node(nx, j), force=(traction * 0.2 * 0.01 * (0.5 if j in (0, ny) else 1.0) / ny, 0.0))
+    sim = simulation(s)
+    r = sim.run(np.ones(sim.n_design))
+    ks = 1e7 / 30 * np.log(np.cosh(30 * traction / 1e7))  # the KS mean of equal values
+    for name, mean in (("von_mises:q=0", traction), ("von_mises:p=4,q=0", traction), ("von_mises:ks=30,scale=1e7,q=0", ks)):
+        assert r.response(name) == pytest.approx(mean, rel=1e-4), name
+        assert r.peak(name) == pytest.approx(traction, rel=1e-4), name
+    # At x = 0.5 the strain is 1/s(x) = 8 times the solid's, measured with the solid's E (to the
+    # strain, 1.9e-4, that the Green–Lagrange measure departs from the engineering one by).
+    assert sim.run(np.full(sim.n_design, 0.5)).response("von_mises:q=0.5") == pytest.approx(0.5**0.5 * 8 * traction, rel=1e-3)
+
+    spun, _ = spun_strip(6, 2, omega=60.0, ramp=0.02, fixed=False, height=0.05)
+    spun.simulation(t_end=0.04, h=1e-3)
+    sim = simulation(spun)
+    x = np.random.default_rng(4).uniform(0.3, 1.0, sim.n_design)
+    names = ["von_mises:strip", "von_mises:ks=20,scale=1e6,q=0"]
+    f, direct = sim.run_with_sensitivities(x, names, method="direct")
+    _, adjoint = sim.run_with_sensitivities(x, names, method="adjoint")
+    assert np.abs(direct - adjoint).max() <= 1e-9 * np.abs(direct).max()
+    for j in (0, 7):
+        def value(dx, j=j):
+            y = x.copy()
+            y[j] += dx
+            return sim.run_with_sensitivities(y, names, method="direct")[0]
+        difference = fourth_order(value, 1e-4)
+        assert np.all(np.abs(difference - direct[:, j]) <= 1e-6 * np.abs(direct).max(axis=1)), (j, difference, direct[:, j])

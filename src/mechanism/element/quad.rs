@@ -245,11 +245,37 @@ impl Quad {
     /// Von Mises stress of the second Piola–Kirchhoff stress at the four Gauss points (Pa),
     /// `√(S₁₁² − S₁₁S₂₂ + S₂₂² + 3S₁₂²)` (plane stress; the Cauchy stress at small strain).
     pub fn von_mises(&self, u: &Vector8) -> [f64; 4] {
-        self.strains(u).map(|e| {
-            let s = self.elasticity * e;
-            (s[0] * s[0] - s[0] * s[1] + s[1] * s[1] + 3.0 * s[2] * s[2]).sqrt()
+        self.strains(u).map(|e| von_mises(&(self.elasticity * e)))
+    }
+
+    /// The von Mises stress at each Gauss point with its gradient `∂σ/∂u` (zero where the
+    /// stress is) and the point's share of the element's volume.
+    pub fn von_mises_and_gradient(&self, u: &Vector8) -> [(f64, Vector8, f64); 4] {
+        let volume = self.volume();
+        self.points.map(|p| {
+            let h = Self::displacement_gradient(&p, u);
+            let stress = self.elasticity * Self::strain(&h);
+            let sigma = von_mises(&stress);
+            // σ² = sᵀ P s with P = [[1, −½, 0], [−½, 1, 0], [0, 0, 3]]: ∂σ/∂s = P s / σ.
+            let d_sigma = Vector3::new(
+                stress[0] - 0.5 * stress[1],
+                stress[1] - 0.5 * stress[0],
+                3.0 * stress[2],
+            );
+            let b = Self::strain_operator(&p, &(h + Matrix2::identity()));
+            let gradient = if sigma > 0.0 {
+                b.transpose() * (self.elasticity * d_sigma) / sigma
+            } else {
+                Vector8::zeros()
+            };
+            (sigma, gradient, p.volume / volume)
         })
     }
+}
+
+/// `√(S₁₁² − S₁₁S₂₂ + S₂₂² + 3S₁₂²)` of a plane stress `[S₁₁, S₂₂, S₁₂]`.
+fn von_mises(s: &Vector3<f64>) -> f64 {
+    (s[0] * s[0] - s[0] * s[1] + s[1] * s[1] + 3.0 * s[2] * s[2]).sqrt()
 }
 
 #[cfg(test)]
@@ -434,6 +460,25 @@ mod tests {
                 })
                 .sum::<f64>();
         assert!(((spin.transpose() * m * spin)[0] - polar).abs() < 1e-12 * polar);
+    }
+
+    #[test]
+    fn von_mises_gradients_are_exact() {
+        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        let u = strained(1e-3);
+        let h = 1e-9;
+        for (k, (sigma, gradient, share)) in quad.von_mises_and_gradient(&u).into_iter().enumerate()
+        {
+            assert!((sigma - quad.von_mises(&u)[k]).abs() < 1e-12 * sigma);
+            assert!(share > 0.0 && share < 1.0);
+            for j in 0..8 {
+                let (mut up, mut um) = (u, u);
+                up[j] += h;
+                um[j] -= h;
+                let fd = (quad.von_mises(&up)[k] - quad.von_mises(&um)[k]) / (2.0 * h);
+                assert!((fd - gradient[j]).abs() < 1e-6 * gradient.amax(), "{k} {j}");
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,127 @@
+//! The von Mises stress of continuum members' cells at their Gauss points, relaxed by `x^q`
+//! and condensed over the motion (trapezoidal in time) and the members' volume by a p-mean
+//! or KS mean ([`Aggregation`]), as the bars' stresses are ([`super::strength`]).
+//!
+//! At a Gauss point of cell `c`, `v = x_c^q σ_vM(S(u_c))` with `S` the second
+//! Piola–Kirchhoff stress of the solid material: `q = 0` gives the solid's stress at the
+//! strain the design produces, `q > 0` keeps vanishing cells from dominating (the relaxed
+//! stress of Le et al. 2010). Each point weighs its share of the cells' volume.
+
+use super::aggregation::Aggregation;
+use super::arguments::{cells_of, component, component_and_options, only, option};
+use super::strength::DEFAULT_RELAXATION;
+use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
+use crate::mechanism::model::Model;
+
+pub(super) const KIND: Kind = Kind {
+    name: "von_mises",
+    syntax: "von_mises[:COMPONENT][:OPTIONS]",
+    doc: "the von Mises stress x^q σ_vM of the continuum members' cells at their Gauss points, \
+          condensed over the motion and the cells' volume (Pa); OPTIONS as stress: p=P (8 by \
+          default) or ks=RHO,scale=S, q=Q the relaxation (0.5 by default)",
+    peak: true,
+    unit: "Pa",
+    parse,
+};
+
+fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
+    let (name, options) = component_and_options(rest)?;
+    let component = component(model, name)?;
+    only(&options, &["p", "ks", "scale", "q"])?;
+    let aggregation = Aggregation::parse(
+        option(&options, "p"),
+        option(&options, "ks"),
+        option(&options, "scale"),
+    )?;
+    let relaxation = option(&options, "q").unwrap_or(DEFAULT_RELAXATION);
+    if !(0.0..=1.0).contains(&relaxation) {
+        return Err(format!("relaxation q={relaxation} must lie in [0, 1]"));
+    }
+    let volume: f64 = cells_of(model, component)
+        .map(|k| model.cells[k].kernel.volume())
+        .sum();
+    if volume == 0.0 {
+        return Err(
+            "the structure named has no continuum cells (a bar's stress is `stress`)".into(),
+        );
+    }
+    Ok(Box::new(VonMises {
+        component,
+        aggregation,
+        relaxation,
+        volume,
+    }))
+}
+
+/// The aggregate of the cells' von Mises stresses.
+#[derive(Debug)]
+struct VonMises {
+    /// Component, `None` for every cell.
+    component: Option<usize>,
+    /// How the point values are condensed.
+    aggregation: Aggregation,
+    /// Relaxation exponent `q`.
+    relaxation: f64,
+    /// Full-density volume of the cells aggregated (m³).
+    volume: f64,
+}
+
+impl VonMises {
+    /// Calls `visit(cell, weight, x, v, ∂σ/∂u relaxed)` for every Gauss point of the cells
+    /// at state `q`: `v = x^q σ` and the point's weight in the mean.
+    fn for_each_point(
+        &self,
+        ctx: &Context,
+        q: &[f64],
+        mut visit: impl FnMut(usize, f64, f64, f64, &crate::mechanism::element::quad::Vector8),
+    ) {
+        let m = ctx.model;
+        for k in cells_of(m, self.component) {
+            let cell = &m.cells[k];
+            let x = ctx.densities.density[m.elements.len() + k];
+            let relax = x.powf(self.relaxation);
+            let share = cell.kernel.volume() / self.volume;
+            for (sigma, gradient, part) in cell.kernel.von_mises_and_gradient(&cell.gather(q)) {
+                visit(k, share * part, x, relax * sigma, &(gradient * relax));
+            }
+        }
+    }
+}
+
+impl Family for VonMises {
+    fn weighting(&self) -> Weighting {
+        Weighting::Mean
+    }
+
+    fn integrand(&self, ctx: &Context, at: Sample, known: Known) -> f64 {
+        let mut sum = 0.0;
+        self.for_each_point(ctx, at.q, |_, w, _, v, _| {
+            sum += w * self.aggregation.point(v, known.reference).0;
+        });
+        sum
+    }
+
+    /// `G_q = Σ w φ'(v) x^q ∂σ/∂u`, `G_x = Σ w φ'(v) (q/x) v`.
+    fn add_partials(&self, ctx: &Context, at: Sample, known: Known, scale: f64, g: Partials) {
+        let cells = &ctx.model.cells;
+        self.for_each_point(ctx, at.q, |k, w, x, v, d_v| {
+            let slope = scale * w * self.aggregation.point(v, known.reference).1;
+            for (&d, dv) in cells[k].dofs().iter().zip(d_v.iter()) {
+                g.q[d] += slope * dv;
+            }
+            if let Some(j) = cells[k].variable {
+                g.x[j] += slope * self.relaxation / x * v;
+            }
+        });
+    }
+
+    fn aggregation(&self) -> Option<Aggregation> {
+        Some(self.aggregation)
+    }
+
+    fn peak(&self, ctx: &Context, at: Sample) -> f64 {
+        let mut peak = 0.0_f64;
+        self.for_each_point(ctx, at.q, |_, _, _, v, _| peak = peak.max(v));
+        peak
+    }
+}
