@@ -8,7 +8,7 @@
 
 use nalgebra::Vector3;
 
-use super::arguments::{component_and_options, only, option};
+use super::arguments::{component_and_options, only, option, Options};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::mechanism::model::Model;
 use crate::mechanism::parameter::Parameter;
@@ -17,7 +17,7 @@ use crate::response::aggregation::Aggregation;
 use crate::response::criterion::{Criterion, ElementState};
 
 /// The relaxation exponent used unless a response names one (Le et al. 2010).
-pub(super) const DEFAULT_RELAXATION: f64 = 0.5;
+const DEFAULT_RELAXATION: f64 = 0.5;
 
 pub(super) const STRESS: Kind = Kind {
     name: "stress",
@@ -51,6 +51,22 @@ pub(super) const BUCKLING: Kind = Kind {
     parse: |model, rest| parse(model, rest, Criterion::Buckling),
 };
 
+/// The options of an aggregate: `p=P` or `ks=RHO,scale=S` ([`Aggregation::parse`]) and the
+/// relaxation `q=Q` in `[0, 1]` ([`DEFAULT_RELAXATION`] if not given).
+pub(super) fn aggregation_and_relaxation(options: &Options) -> Result<(Aggregation, f64), String> {
+    only(options, &["p", "ks", "scale", "q"])?;
+    let aggregation = Aggregation::parse(
+        option(options, "p"),
+        option(options, "ks"),
+        option(options, "scale"),
+    )?;
+    let relaxation = option(options, "q").unwrap_or(DEFAULT_RELAXATION);
+    if !(0.0..=1.0).contains(&relaxation) {
+        return Err(format!("relaxation q={relaxation} must lie in [0, 1]"));
+    }
+    Ok((aggregation, relaxation))
+}
+
 /// An aggregate of `criterion` over the members named in `rest`, with its options.
 fn parse(
     model: &Model,
@@ -59,16 +75,7 @@ fn parse(
 ) -> Result<Box<dyn Family>, String> {
     let (members, options) = component_and_options(rest)?;
     let members = Members::parse(model, members)?;
-    only(&options, &["p", "ks", "scale", "q"])?;
-    let aggregation = Aggregation::parse(
-        option(&options, "p"),
-        option(&options, "ks"),
-        option(&options, "scale"),
-    )?;
-    let relaxation = option(&options, "q").unwrap_or(DEFAULT_RELAXATION);
-    if !(0.0..=1.0).contains(&relaxation) {
-        return Err(format!("relaxation q={relaxation} must lie in [0, 1]"));
-    }
+    let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
     let elements: Vec<usize> = members.elements(model).collect();
     if elements.is_empty() {
         return Err(

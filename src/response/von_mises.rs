@@ -8,8 +8,8 @@
 //! stress of Le et al. 2010). Each point weighs its share of the cells' volume.
 
 use super::aggregation::Aggregation;
-use super::arguments::{cells_of, component, component_and_options, only, option};
-use super::strength::DEFAULT_RELAXATION;
+use super::arguments::{cells_of, component, component_and_options};
+use super::strength::aggregation_and_relaxation;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::mechanism::model::Model;
 
@@ -27,16 +27,7 @@ pub(super) const KIND: Kind = Kind {
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
     let (name, options) = component_and_options(rest)?;
     let component = component(model, name)?;
-    only(&options, &["p", "ks", "scale", "q"])?;
-    let aggregation = Aggregation::parse(
-        option(&options, "p"),
-        option(&options, "ks"),
-        option(&options, "scale"),
-    )?;
-    let relaxation = option(&options, "q").unwrap_or(DEFAULT_RELAXATION);
-    if !(0.0..=1.0).contains(&relaxation) {
-        return Err(format!("relaxation q={relaxation} must lie in [0, 1]"));
-    }
+    let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
     let volume: f64 = cells_of(model, component)
         .map(|k| model.cells[k].kernel.volume())
         .sum();

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 from conftest import fourth_order
+from top88 import ke88
 
 import flextop
 from flextop import Scene, SceneError, trapezoidal
@@ -15,19 +16,6 @@ from flextop.errors import MechanismWarning
 from flextop.problems import DensityFilter, SensitivityFilter, TopologyProblem, volume_constraints
 
 STEEL = {"E": 210e9, "nu": 0.3, "rho": 7800.0}
-
-# The 88-line code's element stiffness (Andreassen et al. 2011) for E = 1, a unit square of
-# unit thickness, corners lower-left anticlockwise: written out here, independently of
-# flextop's element.
-_A11 = np.array([[12, 3, -6, -3], [3, 12, 3, 0], [-6, 3, 12, -3], [-3, 0, -3, 12]])
-_A12 = np.array([[-6, -3, 0, 3], [-3, -6, -3, -6], [0, -3, -6, 3], [3, -6, 3, -6]])
-_B11 = np.array([[-4, 3, -2, 9], [3, -4, -9, 4], [-2, -9, -4, -3], [9, 4, -3, -4]])
-_B12 = np.array([[2, -3, 4, -9], [-3, 2, 9, -2], [4, 9, 2, 3], [-9, -2, 3, 2]])
-
-
-def ke88(nu: float) -> np.ndarray:
-    return (np.block([[_A11, _A12], [_A12.T, _A11]]) + nu * np.block([[_B11, _B12], [_B12.T, _B11]])) / (24 * (1 - nu**2))
-
 
 def pinned_edge(s: Scene, m, ny: int) -> None:
     """Pins the member's left edge (column 0) to the ground."""
