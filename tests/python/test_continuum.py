@@ -432,3 +432,43 @@ def test_von_mises_of_a_plate_in_tension_and_its_gradients():
             return sim.run_with_sensitivities(y, names, method="direct")[0]
         difference = fourth_order(value, 1e-4)
         assert np.all(np.abs(difference - direct[:, j]) <= 1e-6 * np.abs(direct).max(axis=1)), (j, difference, direct[:, j])
+
+
+def mid_span(sim: flextop.Simulation, results, ends: tuple[str, str], middle: str) -> np.ndarray:
+    """The rod's middle node from the chord between its ends (m), at every state."""
+    p = results.positions
+    a, b, m = (p[:, sim.node(n)] for n in (*ends, middle))
+    chord = b - a
+    normal = np.stack([-chord[:, 1], chord[:, 0]], axis=1) / np.linalg.norm(chord, axis=1)[:, None]
+    return np.einsum("ij,ij->i", m - a, normal)
+
+
+def test_a_continuum_connecting_rod_moves_as_a_beam_rod_does():
+    """The slider-crank with a 0.3 m × 10 mm × 5 mm continuum rod against the same with a
+    Timoshenko beam rod of that section (16 elements), crank and slider alike: the slider
+    follows the same travel to 1e-6 of it at every state; the rod's largest mid-span
+    deflection is within 5 % of the beam's at 120 × 4 cells, and more than 15 % below it at
+    30 × 2 (four-node cells lock in bending). Gradients of the tip deflection and the von
+    Mises stress through the rings: direct = adjoint to 1e-9."""
+    height, thickness = 0.01, 0.005
+    coarse = simulation(flextop.scenes.continuum_slider_crank(nx=30, ny=2))
+    spec = flextop.scenes.slider_crank(split=4).to_dict()
+    spec["sections"]["steel"] = {"E": STEEL["E"], "nu": STEEL["nu"], "rho": STEEL["rho"], "A": height * thickness,
+                                 "I": thickness * height**3 / 12, "kappa": 5 / 6}
+    spec["rigid_bodies"] = [b for b in coarse.spec["rigid_bodies"] if b["name"] in ("crank", "slider")]
+    beam = flextop.Simulation(spec)
+    reference = beam.run()
+    travel = reference.positions[:, beam.node("slider"), 0]
+    peak = np.abs(mid_span(beam, reference, ("rod0", "rod4"), "rod2")).max()
+    ratios = []
+    for sim, (nx, ny) in ((coarse, (30, 2)), (simulation(flextop.scenes.continuum_slider_crank(nx=120, ny=4)), (120, 4))):
+        r = sim.run()
+        assert np.abs(r.positions[:, sim.node("slider"), 0] - travel).max() < 1e-6 * np.ptp(travel)
+        middle = f"rod[{nx // 2},{ny // 2}]"
+        ratios.append(np.abs(mid_span(sim, r, (f"rod[0,{ny // 2}]", f"rod[{nx},{ny // 2}]"), middle)).max() / peak)
+    assert ratios[0] < 0.85 and abs(ratios[1] - 1) < 0.05, ratios
+    x = np.random.default_rng(8).uniform(0.4, 1.0, coarse.n_design)
+    names = ["tip_deflection", "von_mises"]
+    _, direct = coarse.run_with_sensitivities(x, names, method="direct")
+    _, adjoint = coarse.run_with_sensitivities(x, names, method="adjoint")
+    assert np.all(np.abs(direct - adjoint).max(axis=1) <= 1e-9 * np.abs(direct).max(axis=1))

@@ -371,6 +371,46 @@ def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split
     return scene
 
 
+@_checked(lambda nx, ny, **_: {"elements": nx * ny})
+def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: float = 0.01, thickness: float = 0.005,
+                           nx: int = 30, ny: int = 2, E: float = STEEL["E"], nu: float = STEEL["nu"],
+                           rho: float = STEEL["rho"], speed: float = 150.0, time_constant: float = 0.167,
+                           t_end: float = 0.1, h: float = 2.5e-4, rho_inf: float = 0.8, p: float = 3.0,
+                           x_min: float = 0.01) -> Scene:
+    """The slider-crank of :func:`slider_crank` with a continuum connecting rod: a ``rod ×
+    height`` steel member of ``thickness`` meshed by ``nx × ny`` cells (a density each),
+    joined to the crank and the slider through rigid rings (:func:`rigid_ring`) on its end
+    edges. Crank, drive and slider as there (the crank a uniform bar of the rod's section, the
+    slider half the rod's mass). The ``tip`` is the rod's middle node. ``nx`` and ``ny`` must
+    be even."""
+    if nx % 2 or ny % 2:
+        raise SceneError(f"continuum_slider_crank: nx and ny must be even, so that a node sits at the rod's middle (got {nx} × {ny})")
+    scene = Scene("continuum_slider_crank")
+    area = height * thickness
+    m_crank, m_rod = rho * area * crank, rho * area * rod
+    scene.rigid_body("crank", mass=m_crank, inertia=m_crank * crank**2 / 12, position=(crank / 2, 0.0),
+                     points={"pivot": (-crank / 2, 0.0), "pin": (crank / 2, 0.0)})
+    member = scene.member("rod", nx=nx, ny=ny, length=rod, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
+                          origin=(crank, 0.0))
+    rows = [height * (j / ny - 0.5) for j in range(ny + 1)]
+    left = rigid_ring(scene, "ring_A", (crank, 0.0), [member.node(0, j) for j in range(ny + 1)], [(crank, y) for y in rows])
+    right = rigid_ring(scene, "ring_B", (crank + rod, 0.0), [member.node(nx, j) for j in range(ny + 1)],
+                       [(crank + rod, y) for y in rows])
+    scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))
+    tau = time_constant
+    t = [k * t_end / 200 for k in range(202)]
+    angle = [speed * (ti + tau * (math.exp(-ti / tau) - 1.0)) for ti in t]
+    end_velocity = speed * (1.0 - math.exp(-t[-1] / tau))
+    scene.pin("crank", "crank.pivot", drive=motion_table(t, angle, end_velocity=end_velocity))
+    scene.hinge("A", "crank.pin", left)
+    scene.hinge("B", right, "slider")
+    scene.prismatic("slide", "slider", axis=(1.0, 0.0))
+    scene.tip = member.node(nx // 2, ny // 2)
+    scene.design(interpolation="simp", p=p, x_min=x_min)
+    scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf, newton="modified")
+    return scene
+
+
 @_checked(lambda nx, split, **_: {"grid_nodes": 3 * nx, "split": split})
 def four_bar(*, crank: float = 0.1, coupler: float = 0.3, rocker: float = 0.25, ground: float = 0.3, nx: int = 5,
              height: float = 0.04, split: int = 1, mass: float = 0.5, E: float = ALUMINIUM["E"],
