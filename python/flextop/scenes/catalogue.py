@@ -333,6 +333,14 @@ def pendulum_period(length: float, g: float, angle: float) -> float:
     return 4.0 * float(ellipk(math.sin(angle / 2) ** 2)) / math.sqrt(g / length)
 
 
+def _crank_drive(speed: float, time_constant: float, t_end: float) -> dict:
+    """The slider-cranks' drive: from rest to ``speed`` rad/s as ``ω(t) = speed (1 −
+    exp(−t/time_constant))``, a cubic spline through samples of its angle up to ``t_end``."""
+    t = [k * t_end / 200 for k in range(202)]
+    angle = [speed * (ti + time_constant * (math.exp(-ti / time_constant) - 1.0)) for ti in t]
+    return motion_table(t, angle, end_velocity=speed * (1.0 - math.exp(-t[-1] / time_constant)))
+
+
 @_checked(lambda bars, split, **_: {"nodes": bars + 1, "elements": bars * split, "split": split})
 def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split: int = 2, diameter: float = 0.006,
                  E: float = STEEL["E"], nu: float = STEEL["nu"], rho: float = STEEL["rho"], speed: float = 150.0,
@@ -357,11 +365,7 @@ def slider_crank(*, crank: float = 0.15, rod: float = 0.30, bars: int = 4, split
     for k in range(bars):
         scene.beam(nodes[k], nodes[k + 1], section=section, split=split, name=f"rod/bar{k}", component="rod")
     scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))
-    tau = time_constant
-    t = [k * t_end / 200 for k in range(202)]
-    angle = [speed * (ti + tau * (math.exp(-ti / tau) - 1.0)) for ti in t]
-    end_velocity = speed * (1.0 - math.exp(-t[-1] / tau))
-    scene.pin("crank", "crank.pivot", drive=motion_table(t, angle, end_velocity=end_velocity))
+    scene.pin("crank", "crank.pivot", drive=_crank_drive(speed, time_constant, t_end))
     scene.hinge("A", "crank.pin", nodes[0])
     scene.hinge("B", nodes[-1], "slider")
     scene.prismatic("slide", "slider", axis=(1.0, 0.0))
@@ -397,11 +401,7 @@ def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: fl
     right = rigid_ring(scene, "ring_B", (crank + rod, 0.0), [member.node(nx, j) for j in range(ny + 1)],
                        [(crank + rod, y) for y in rows])
     scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))
-    tau = time_constant
-    t = [k * t_end / 200 for k in range(202)]
-    angle = [speed * (ti + tau * (math.exp(-ti / tau) - 1.0)) for ti in t]
-    end_velocity = speed * (1.0 - math.exp(-t[-1] / tau))
-    scene.pin("crank", "crank.pivot", drive=motion_table(t, angle, end_velocity=end_velocity))
+    scene.pin("crank", "crank.pivot", drive=_crank_drive(speed, time_constant, t_end))
     scene.hinge("A", "crank.pin", left)
     scene.hinge("B", right, "slider")
     scene.prismatic("slide", "slider", axis=(1.0, 0.0))
