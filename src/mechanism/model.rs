@@ -93,8 +93,6 @@ pub struct Member {
     pub component: usize,
     /// Its cells in [`Model::cells`], row by row from the bottom.
     pub cells: std::ops::Range<usize>,
-    /// Cells along its length and its height.
-    pub shape: [usize; 2],
 }
 
 /// A straight structural member between two nodes, made of `m` collinear elements, with one

@@ -58,22 +58,16 @@ struct VonMises {
 }
 
 impl VonMises {
-    /// Calls `visit(cell, weight, x, v, ∂σ/∂u relaxed)` for every Gauss point of the cells
-    /// at state `q`: `v = x^q σ` and the point's weight in the mean.
-    fn for_each_point(
-        &self,
-        ctx: &Context,
-        q: &[f64],
-        mut visit: impl FnMut(usize, f64, f64, f64, &crate::mechanism::element::quad::Vector8),
-    ) {
+    /// Calls `visit(weight, v)` for every Gauss point of the cells at state `q`: `v = x^q σ`
+    /// and the point's weight in the mean.
+    fn for_each_point(&self, ctx: &Context, q: &[f64], mut visit: impl FnMut(f64, f64)) {
         let m = ctx.model;
         for k in cells_of(m, self.component) {
             let cell = &m.cells[k];
-            let x = ctx.densities.density[m.elements.len() + k];
-            let relax = x.powf(self.relaxation);
+            let relax = ctx.densities.density[m.elements.len() + k].powf(self.relaxation);
             let share = cell.kernel.volume() / self.volume;
-            for (sigma, gradient, part) in cell.kernel.von_mises_and_gradient(&cell.gather(q)) {
-                visit(k, share * part, x, relax * sigma, &(gradient * relax));
+            for (sigma, part) in cell.kernel.von_mises(&cell.gather(q)) {
+                visit(share * part, relax * sigma);
             }
         }
     }
@@ -86,7 +80,7 @@ impl Family for VonMises {
 
     fn integrand(&self, ctx: &Context, at: Sample, known: Known) -> f64 {
         let mut sum = 0.0;
-        self.for_each_point(ctx, at.q, |_, w, _, v, _| {
+        self.for_each_point(ctx, at.q, |w, v| {
             sum += w * self.aggregation.point(v, known.reference).0;
         });
         sum
@@ -94,16 +88,24 @@ impl Family for VonMises {
 
     /// `G_q = Σ w φ'(v) x^q ∂σ/∂u`, `G_x = Σ w φ'(v) (q/x) v`.
     fn add_partials(&self, ctx: &Context, at: Sample, known: Known, scale: f64, g: Partials) {
-        let cells = &ctx.model.cells;
-        self.for_each_point(ctx, at.q, |k, w, x, v, d_v| {
-            let slope = scale * w * self.aggregation.point(v, known.reference).1;
-            for (&d, dv) in cells[k].dofs().iter().zip(d_v.iter()) {
-                g.q[d] += slope * dv;
+        let m = ctx.model;
+        for k in cells_of(m, self.component) {
+            let cell = &m.cells[k];
+            let x = ctx.densities.density[m.elements.len() + k];
+            let relax = x.powf(self.relaxation);
+            let share = cell.kernel.volume() / self.volume;
+            let dofs = cell.dofs();
+            for (sigma, d_sigma, part) in cell.kernel.von_mises_and_gradient(&cell.gather(at.q)) {
+                let v = relax * sigma;
+                let slope = scale * share * part * self.aggregation.point(v, known.reference).1;
+                for (&d, ds) in dofs.iter().zip(d_sigma.iter()) {
+                    g.q[d] += slope * relax * ds;
+                }
+                if let Some(j) = cell.variable {
+                    g.x[j] += slope * self.relaxation / x * v;
+                }
             }
-            if let Some(j) = cells[k].variable {
-                g.x[j] += slope * self.relaxation / x * v;
-            }
-        });
+        }
     }
 
     fn aggregation(&self) -> Option<Aggregation> {
@@ -112,7 +114,7 @@ impl Family for VonMises {
 
     fn peak(&self, ctx: &Context, at: Sample) -> f64 {
         let mut peak = 0.0_f64;
-        self.for_each_point(ctx, at.q, |_, _, _, v, _| peak = peak.max(v));
+        self.for_each_point(ctx, at.q, |_, v| peak = peak.max(v));
         peak
     }
 }

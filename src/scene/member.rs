@@ -96,7 +96,6 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
         name: m.name.clone(),
         component,
         cells: first..mesh.cells.len(),
-        shape: [m.nx, m.ny],
     });
     Ok(())
 }

@@ -243,9 +243,14 @@ impl Quad {
     }
 
     /// Von Mises stress of the second Piola–Kirchhoff stress at the four Gauss points (Pa),
-    /// `√(S₁₁² − S₁₁S₂₂ + S₂₂² + 3S₁₂²)` (plane stress; the Cauchy stress at small strain).
-    pub fn von_mises(&self, u: &Vector8) -> [f64; 4] {
-        self.strains(u).map(|e| von_mises(&(self.elasticity * e)))
+    /// `√(S₁₁² − S₁₁S₂₂ + S₂₂² + 3S₁₂²)` (plane stress; the Cauchy stress at small strain),
+    /// with each point's share of the element's volume.
+    pub fn von_mises(&self, u: &Vector8) -> [(f64, f64); 4] {
+        let volume = self.volume();
+        self.points.map(|p| {
+            let e = Self::strain(&Self::displacement_gradient(&p, u));
+            (von_mises(&(self.elasticity * e)), p.volume / volume)
+        })
     }
 
     /// The von Mises stress at each Gauss point with its gradient `∂σ/∂u` (zero where the
@@ -469,13 +474,13 @@ mod tests {
         let h = 1e-9;
         for (k, (sigma, gradient, share)) in quad.von_mises_and_gradient(&u).into_iter().enumerate()
         {
-            assert!((sigma - quad.von_mises(&u)[k]).abs() < 1e-12 * sigma);
-            assert!(share > 0.0 && share < 1.0);
+            assert!((sigma - quad.von_mises(&u)[k].0).abs() < 1e-12 * sigma);
+            assert!(share > 0.0 && share < 1.0 && share == quad.von_mises(&u)[k].1);
             for j in 0..8 {
                 let (mut up, mut um) = (u, u);
                 up[j] += h;
                 um[j] -= h;
-                let fd = (quad.von_mises(&up)[k] - quad.von_mises(&um)[k]) / (2.0 * h);
+                let fd = (quad.von_mises(&up)[k].0 - quad.von_mises(&um)[k].0) / (2.0 * h);
                 assert!((fd - gradient[j]).abs() < 1e-6 * gradient.amax(), "{k} {j}");
             }
         }
