@@ -9,13 +9,14 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
    cell-step, Newton iterations per step, unknowns (three per node: a member's nodes keep
    a rotation row, zero and scaled, in the iteration matrix);
 2. at 60 × 20 (the issue's floor: forward with the adjoint gradient in at most 5 s), full
-   and modified Newton side by side;
+   and modified Newton side by side, on four designs (uniform 0.5 and 1, random in
+   [0.01, 1], and a random mix of void 0.01 and solid cells), a failed run reported as such;
 3. with ``--optimize NX NY``: the tip deflection (Eq. 40) minimized under a volume of 0.5
    per link, the density filter at 25 mm, by MMA for 200 iterations from the uniform 0.5
    at NX × NY cells per link (the issue's floor: 60 × 20 in at most 20 minutes); the
    objective before and after, the time, and the design (``docs/continuum_arm.png``).
 
-    python benches/continuum.py                   # → benches/results/continuum.md (about 3 min)
+    python benches/continuum.py                   # → benches/results/continuum.md (about 4 min)
     python benches/continuum.py --optimize 20 6   # → benches/results/continuum_optimization.md
 """
 
@@ -80,6 +81,28 @@ def optimization(nx: int, ny: int, iterations: int = 200) -> None:
     print(text)
 
 
+def designs() -> list[str]:
+    sim = simulation(60, 20)
+    rng = np.random.default_rng(0)
+    family = {"uniform 0.5": np.full(sim.n_design, 0.5), "uniform 1": np.ones(sim.n_design),
+              "random": rng.uniform(0.01, 1.0, sim.n_design),
+              "void or solid": np.where(rng.random(sim.n_design) < 0.5, 0.01, 1.0)}
+    lines = ["| design (60 × 20) | modified Newton, run + adjoint (s) | full Newton (s) | d (m²) |", "|---|---|---|---|"]
+    for label, x in family.items():
+        cells, values = [], []
+        for newton in ("modified", "full"):
+            clock = time.perf_counter()
+            try:
+                f, _ = sim.run_with_sensitivities(x, RESPONSES, newton=newton)
+                cells.append(f"{time.perf_counter() - clock:.2f}")
+                values.append(f"{f[0]:.6e}")
+            except flextop.SimulationError as error:
+                cells.append(f"fails: {error}")
+        lines.append(f"| {label} | {cells[0]} | {cells[1]} | {' / '.join(dict.fromkeys(values)) or '—'} |")
+        print(lines[-1], flush=True)
+    return lines
+
+
 def main() -> None:
     if "--optimize" in sys.argv:
         at = sys.argv.index("--optimize")
@@ -94,7 +117,7 @@ def main() -> None:
     print(lines[-1], flush=True)
     out = ROOT / "benches" / "results" / "continuum.md"
     out.write_text("Produced by `python benches/continuum.py`: the continuum robot arm, 100 steps over 1.3 s, "
-                   "x = 0.5.\n\n" + "\n".join(lines) + "\n")
+                   "x = 0.5.\n\n" + "\n".join(lines) + "\n\nAcross designs:\n\n" + "\n".join(designs()) + "\n")
     print(f"→ {out}")
 
 

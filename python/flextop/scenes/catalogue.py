@@ -181,8 +181,8 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     if tip_mass != 0.0:
         scene.point_mass(scene.tip, tip_mass)
     scene.design(interpolation="simp", p=p, x_min=x_min)
-    # Modified Newton: 2.7× faster than full at 60 × 20 cells per link, the same d to the
-    # digits shown (BENCHMARKS.md, "Continuum links").
+    # Modified Newton: 1.0–2.2× faster than full with the adjoint at 60 × 20 cells per link
+    # on uniform and random designs, the same d (BENCHMARKS.md, "Continuum links").
     scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf, newton="modified")
     return scene
 
