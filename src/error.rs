@@ -130,6 +130,22 @@ pub enum SolveError {
         /// Its length (m).
         length: f64,
     },
+    /// A converged step turned a continuum cell inside out: its deformed area passed
+    /// through zero at a Gauss point.
+    #[error(
+        "at {at} cell '{cell}' has turned inside out (area ratio {ratio:.3e} at a Gauss \
+         point): a cell far softer than its neighbours cannot keep its shape against them, \
+         as void cells joining solid regions; filter the design (regions joined through \
+         material), or raise x_min or e_min"
+    )]
+    CellInverted {
+        /// Where the step ends: `t = … s` or `load factor …`.
+        at: String,
+        /// The cell, `NAME/cell[i,j]`.
+        cell: String,
+        /// The smallest `det F` over its Gauss points.
+        ratio: f64,
+    },
     /// The LDLᵀ factorization met a zero pivot or produced non-finite values.
     #[error("singular iteration matrix at t = {time:.6} s ({detail})")]
     Singular {

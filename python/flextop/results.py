@@ -172,6 +172,14 @@ class _Run:
         return _core.section_forces(self.simulation.model, self.x, q)
 
     @cached_property
+    def cell_fields(self) -> np.ndarray:
+        """Per state and continuum cell: the von Mises stress (Pa; the volume mean over the
+        cell's Gauss points of the stress its material carries, ``s(x)`` times the solid's
+        at the cell's strain) and the strain energy (J); shape ``(n_states, n_cells, 2)``."""
+        q = np.ascontiguousarray(np.atleast_2d(self.q), dtype=float)
+        return _core.cell_fields(self.simulation.model, self.x, q)
+
+    @cached_property
     def reactions(self) -> dict[str, np.ndarray]:
         """Per joint, the force (and, for a drive row, torque) it applies on the structure:
         ``−λ`` of its constraint rows."""

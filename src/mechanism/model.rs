@@ -81,6 +81,18 @@ impl Cell {
     pub fn gather(&self, q: &[f64]) -> Vector8 {
         Vector8::from_iterator(self.dofs().iter().map(|&d| q[d]))
     }
+
+    /// What the cell carries at displacements `q` with stiffness factor `s(x)`: the von
+    /// Mises stress (Pa), the volume mean over its Gauss points of `s(x)` times the solid's
+    /// at the cell's strain, and its strain energy `s(x) U` (J).
+    pub fn stress_and_energy(&self, stiffness: f64, q: &[f64]) -> [f64; 2] {
+        let u = self.gather(q);
+        let stress: f64 = self.kernel.von_mises(&u).iter().map(|(s, w)| s * w).sum();
+        [
+            stiffness * stress,
+            stiffness * self.kernel.strain_energy(&u),
+        ]
+    }
 }
 
 /// A plane-stress continuum member: a structured mesh of quadrilateral cells, each with a
@@ -264,11 +276,14 @@ impl Model {
     /// node by more than [`MAX_ROTATION_STEP`]: such a step has jumped to another
     /// solution branch or wound a node around, and its caller cuts it or fails clearly; and
     /// one that ends with a spring between points shorter than [`COLLAPSED_SPRING`] of its
-    /// length in the scene, or turned about through zero length.
+    /// length in the scene, or turned about through zero length; and one that turns a
+    /// continuum cell inside out (`det F ≤ 0` at a Gauss point), as finite-element codes
+    /// refuse a negative Jacobian: no material passes through zero volume.
     ///
     /// # Errors
     /// [`SolveError::Diverged`] naming the node and `at`, where the step ends;
-    /// [`SolveError::SpringCollapsed`] naming the spring.
+    /// [`SolveError::SpringCollapsed`] naming the spring; [`SolveError::CellInverted`]
+    /// naming the first cell turned inside out.
     pub fn plausible_step(
         &self,
         before: &[f64],
@@ -306,7 +321,25 @@ impl Model {
                 });
             }
         }
+        let inverted = self.cells.iter().find_map(|cell| {
+            let ratio = cell.kernel.smallest_area_ratio(&cell.gather(after));
+            (ratio.is_nan() || ratio <= 0.0).then_some((cell, ratio))
+        });
+        if let Some((cell, ratio)) = inverted {
+            return Err(SolveError::CellInverted {
+                at: at(),
+                cell: self.cell_name(cell),
+                ratio,
+            });
+        }
         Ok(())
+    }
+
+    /// A cell in the user's words, `NAME/cell[i,j]`, from its first corner `NAME[i,j]`.
+    pub fn cell_name(&self, cell: &Cell) -> String {
+        let member = &self.members[cell.member].name;
+        let corner = &self.nodes[cell.nodes[0]].name;
+        format!("{member}/cell{}", &corner[member.len()..])
     }
 
     /// Unknown `i` of the iteration matrix in the user's words: a node's coordinate with a

@@ -27,6 +27,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
     m.add_function(wrap_pyfunction!(runs::prolong, m)?)?;
     m.add_function(wrap_pyfunction!(runs::section_forces, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::cell_fields, m)?)?;
     m.add_function(wrap_pyfunction!(model::response_kinds, m)?)?;
     m.add_function(wrap_pyfunction!(model::size_limits, m)?)?;
     m.add_function(wrap_pyfunction!(signals::cancel_running, m)?)?;

@@ -367,15 +367,8 @@ pub fn section_forces<'py>(
     let m = &model.model;
     let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
     let (states, n) = (q.shape()[0], m.n_dofs());
-    if q.shape()[1] != n {
-        let msg = format!(
-            "has rows of {} entries, the model has {n} DOFs",
-            q.shape()[1]
-        );
-        return Err(Error::Settings(SettingsError::new("q", msg)).into());
-    }
-    let q = q.as_slice()?;
-    let flat: Vec<f64> = q
+    let rows = states_of(&q, n)?;
+    let flat: Vec<f64> = rows
         .chunks(n.max(1))
         .flat_map(|row| {
             m.elements
@@ -386,5 +379,48 @@ pub fn section_forces<'py>(
         .collect();
     Ok(numpy::PyArray1::from_vec(py, flat)
         .reshape([states, m.elements.len(), 3])?
+        .into_any())
+}
+
+/// The states `q` (one per row) as one slice, each row of the model's `n` DOFs.
+fn states_of<'a>(q: &'a PyReadonlyArray2<'_, f64>, n: usize) -> PyResult<&'a [f64]> {
+    if q.shape()[1] != n {
+        let msg = format!(
+            "has rows of {} entries, the model has {n} DOFs",
+            q.shape()[1]
+        );
+        return Err(Error::Settings(SettingsError::new("q", msg)).into());
+    }
+    Ok(q.as_slice()?)
+}
+
+/// The von Mises stress (Pa) and the strain energy (J) of every continuum cell at each state
+/// of `q` (one row per state), with the design's stiffness
+/// ([`Cell::stress_and_energy`](crate::model::Cell::stress_and_energy)), shape
+/// `(n_states, n_cells, 2)`.
+#[pyfunction]
+#[pyo3(signature = (model, x, q))]
+pub fn cell_fields<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let m = &model.model;
+    let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
+    let (states, n) = (q.shape()[0], m.n_dofs());
+    let rows = states_of(&q, n)?;
+    let stiffness = &densities.stiffness[m.elements.len()..];
+    let flat: Vec<f64> = rows
+        .chunks(n.max(1))
+        .flat_map(|row| {
+            m.cells
+                .iter()
+                .zip(stiffness)
+                .flat_map(move |(cell, &s)| cell.stress_and_energy(s, row))
+        })
+        .collect();
+    Ok(numpy::PyArray1::from_vec(py, flat)
+        .reshape([states, m.cells.len(), 2])?
         .into_any())
 }

@@ -12,6 +12,8 @@
 //! lists of entries and the checks poll for interrupts ([`crate::poll`]): a build of many
 //! thousand bodies stops soon after the caller asks.
 
+use std::collections::HashSet;
+
 use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::unique;
@@ -41,7 +43,17 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     mesh.add_nodes(&spec.nodes)?;
     let mut point_masses =
         ground_structure::add_all(&mut mesh, &spec.ground_structures, &sections)?;
-    member::add_all(&mut mesh, &spec.members)?;
+    let attached: HashSet<&str> = spec
+        .joints
+        .iter()
+        .flat_map(|j| j.anchors())
+        .chain(
+            spec.beams
+                .iter()
+                .flat_map(|b| b.nodes.iter().map(String::as_str)),
+        )
+        .collect();
+    member::add_all(&mut mesh, &spec.members, &attached)?;
     mesh.add_beams(&spec.beams, &sections)?;
     mesh.check_bar_names()?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);

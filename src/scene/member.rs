@@ -5,7 +5,11 @@
 //! to `length` and centred on the local x axis; its nodes are named `NAME[i,j]` (column `i`
 //! in `0..=nx`, row `j` in `0..=ny` from the bottom), its cells `NAME/cell[i,j]` (their
 //! design variables, unless the member is `fixed` or the cell `solid`), and it forms the
-//! component `NAME`. Cells in `holes` are left out, with the nodes only they touched.
+//! component `NAME`. Cells in `holes` are left out, with the nodes only they touched. Cells
+//! in `solid`, and by default those touching a node a joint or a beam attaches to (a ring
+//! around the joint that an optimizer cannot take away), are passive solid.
+
+use std::collections::HashSet;
 
 use super::ground_structure::{local_coordinates, Placement};
 use super::mesh::Mesh;
@@ -16,16 +20,23 @@ use crate::limits::MAX_ELEMENTS;
 use crate::mechanism::element::quad::{PlaneMaterial, Quad};
 use crate::mechanism::model::{Cell, Member};
 
-/// Adds the scene's continuum members to `mesh`.
-pub(super) fn add_all(mesh: &mut Mesh, specs: &[MemberSpec]) -> Result<()> {
+/// Adds the scene's continuum members to `mesh`; `attached`: the names of the nodes that
+/// joints and beams attach to.
+pub(super) fn add_all(
+    mesh: &mut Mesh,
+    specs: &[MemberSpec],
+    attached: &HashSet<&str>,
+) -> Result<()> {
     for (k, m) in specs.iter().enumerate() {
-        add(mesh, &format!("members[{k}] ({})", m.name), m)?;
+        add(mesh, &format!("members[{k}] ({})", m.name), m, attached)?;
     }
     Ok(())
 }
 
-/// The member `m` at `path`: its grid nodes, then its cells row by row from the bottom.
-fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
+/// The member `m` at `path`: its grid nodes, then its cells row by row from the bottom,
+/// passive solid where `m.solid` says or, with `m.solid_at_joints`, where they touch a node
+/// in `attached`.
+fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) -> Result<()> {
     let material = material(path, m)?;
     if m.nx == 0 || m.ny == 0 {
         let msg = format!("needs nx >= 1 and ny >= 1 cells, got {} × {}", m.nx, m.ny);
@@ -81,7 +92,11 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec) -> Result<()> {
             let kernel = Quad::new(corners, material).map_err(|_| {
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
-            let designed = !(m.fixed || solid[j * m.nx + i]);
+            let at_joint = m.solid_at_joints
+                && [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+                    .iter()
+                    .any(|(a, b)| attached.contains(format!("{}[{a},{b}]", m.name).as_str()));
+            let designed = !(m.fixed || solid[j * m.nx + i] || at_joint);
             let variable =
                 designed.then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
             mesh.cells.push(Cell {

@@ -341,6 +341,10 @@ pub struct MemberSpec {
     /// e.g. around a joint).
     #[serde(default)]
     pub solid: Vec<[usize; 4]>,
+    /// Whether the cells around a node that a joint or a beam attaches to are passive solid
+    /// (default), so that an optimizer cannot detach the joint.
+    #[serde(default = "yes")]
+    pub solid_at_joints: bool,
 }
 
 /// A beam between two named nodes.
@@ -549,6 +553,21 @@ pub enum JointSpec {
         /// Motion law of the travel along the axis (m).
         drive: Option<MotionSpec>,
     },
+}
+
+impl JointSpec {
+    /// The names of the nodes or rigid-body points the joint acts on.
+    pub fn anchors(&self) -> Vec<&str> {
+        match self {
+            Self::Clamp { node, .. } | Self::Pin { node, .. } | Self::Roller { node, .. } => {
+                vec![node]
+            }
+            Self::Hinge { nodes, .. } | Self::Weld { nodes, .. } => {
+                nodes.iter().map(String::as_str).collect()
+            }
+            Self::Prismatic { nodes, .. } => nodes.iter().flatten().map(String::as_str).collect(),
+        }
+    }
 }
 
 /// A joint as written: every key a joint of any kind may have. Read as a plain struct, so
@@ -898,6 +917,10 @@ pub enum MassSpec {
     Linear,
     /// `m = x` above the threshold, `x r⁵(6 − 5r)` below.
     DuOlhoff,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn one() -> usize {

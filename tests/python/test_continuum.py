@@ -78,7 +78,7 @@ def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
     departure = []
     for load in (1e-6, 1e-8):
         s = Scene("linear", analysis="static")
-        m = s.member("plate", nx=nx, ny=ny, length=nx, height=ny, thickness=1.0, E=1.0, nu=nu, rho=1.0)
+        m = s.member("plate", nx=nx, ny=ny, length=nx, height=ny, thickness=1.0, E=1.0, nu=nu, rho=1.0, solid_at_joints=False)
         pinned_edge(s, m, ny)
         s.load(m.node(nx, 0), force=(0.0, -load))
         s.design(x_min=1e-3)
@@ -98,7 +98,8 @@ def spun_strip(nx: int, ny: int, *, omega: float, ramp: float, fixed: bool = Tru
     rows = [height * (j / ny - 0.5) for j in range(ny + 1)]
     s.rigid_body("hub", mass=1.0, inertia=1e-3, position=(0.0, 0.0), points={f"p{j}": (0.0, y) for j, y in enumerate(rows)})
     s.pin("axle", "hub", drive=trapezoidal(0.0, 1e6, acceleration=omega / ramp, speed=omega))
-    m = s.member("strip", nx=nx, ny=ny, length=1.0, height=height, thickness=0.01, fixed=fixed, **STEEL)
+    m = s.member("strip", nx=nx, ny=ny, length=1.0, height=height, thickness=0.01, fixed=fixed, **STEEL,
+                 solid_at_joints=False)
     for j in range(ny + 1):
         s.hinge(f"root{j}", f"hub.p{j}", m.node(0, j))
     return s, m
@@ -166,7 +167,7 @@ def test_frequency_gradients_of_a_member_are_exact():
     """The two lowest frequencies of a cantilever member with random cell densities: their
     gradients against fourth-order differences, to 1e-8 of the largest."""
     s = Scene("cantilever")
-    m = s.member("plate", nx=6, ny=2, length=1.0, height=0.1, thickness=0.01, **STEEL)
+    m = s.member("plate", nx=6, ny=2, length=1.0, height=0.1, thickness=0.01, **STEEL, solid_at_joints=False)
     pinned_edge(s, m, 2)
     sim = simulation(s)
     x = np.random.default_rng(1).uniform(0.4, 1.0, 12)
@@ -211,8 +212,8 @@ def test_the_density_filter_stays_in_its_member_and_its_gradients_are_exact():
     differences to 1e-7."""
     s = Scene("two plates", analysis="static")
     s.section("rod", E=210e9, rho=7800.0, nu=0.3, diameter=0.01)
-    a = s.member("a", nx=6, ny=2, length=0.6, height=0.2, thickness=0.01, **STEEL)
-    b = s.member("b", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, origin=(0.7, 0.0), **STEEL)
+    a = s.member("a", nx=6, ny=2, length=0.6, height=0.2, thickness=0.01, **STEEL, solid_at_joints=False)
+    b = s.member("b", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, origin=(0.7, 0.0), **STEEL, solid_at_joints=False)
     # A member's nodes carry no moment: each beam is a pinned link, so the tie is inclined.
     s.beam(a.node(6, 1), b.node(0, 0), section="rod", name="tie")
     s.beam(a.node(6, 0), b.node(0, 0), section="rod", name="lower", fixed=True)
@@ -345,7 +346,7 @@ def test_a_design_of_continuum_links_is_plotted_cell_by_cell(tmp_path):
     for by_component in (True, False):
         figure = plots.plot_design(sim, x, by_component=by_component, path=tmp_path / f"design{by_component}.png")
         polygons = [c for ax in figure.axes for c in ax.collections if isinstance(c, PolyCollection)]
-        assert sum(len(c.get_paths()) for c in polygons) == sim.n_design
+        assert sum(len(c.get_paths()) for c in polygons) == len(sim.model.cells()["variable"]) == 2 * 6 * 2
         assert (tmp_path / f"design{by_component}.png").stat().st_size > 0
 
 
@@ -378,6 +379,53 @@ def test_a_hole_is_the_limit_of_void_cells_and_solid_cells_are_not_designed():
     assert weights.shape == (holed.n_design, holed.n_design)
 
 
+def test_cells_around_joints_and_beam_ends_are_solid_unless_asked_otherwise():
+    """The cells touching a node that a joint or a beam attaches to are passive solid by
+    default: not designed, at full density (the compliance equals that of the same cells
+    designed at x = 1 to round-off). The arm's rings make the columns at its shoulder and
+    elbow solid; link 2's end, where only the payload sits, stays designed."""
+    def plate(**kwargs):
+        s = Scene("plate", analysis="static")
+        m = s.member("plate", nx=6, ny=3, length=0.6, height=0.3, thickness=0.01, **STEEL, **kwargs)
+        s.section("rod", E=STEEL["E"], rho=STEEL["rho"], nu=STEEL["nu"], diameter=0.02)
+        s.node("end", 0.8, 0.3)
+        s.beam(m.node(6, 3), "end", section="rod")
+        s.clamp("wall", "end")
+        pinned_edge(s, m, 3)
+        s.load(m.node(6, 0), force=(0.0, -1e3))
+        s.design(x_min=1e-3)
+        return simulation(s)
+
+    ringed, bare = plate(), plate(solid_at_joints=False)
+    solid = {f"plate/cell[0,{j}]" for j in range(3)} | {"plate/cell[5,2]"}
+    assert bare.n_design == 6 * 3 + 1 and ringed.n_design == bare.n_design - len(solid)
+    assert solid.isdisjoint(ringed.variable_names) and solid <= set(bare.variable_names)
+    x = np.random.default_rng(3).uniform(0.2, 1.0, bare.n_design)
+    x[[bare.variable_names.index(name) for name in solid]] = 1.0
+    kept = [bare.variable_names.index(name) for name in ringed.variable_names]
+    compliance = ringed.run_with_sensitivities(x[kept], ["compliance"])[0][0]
+    assert compliance == pytest.approx(bare.run_with_sensitivities(x, ["compliance"])[0][0], rel=1e-12)
+    arm = simulation(flextop.scenes.continuum_robot_arm(nx=6, ny=2))
+    assert arm.n_design == 2 * 6 * 2 - 3 * 2
+    ringed = {f"link1/cell[{i},{j}]" for i in (0, 5) for j in (0, 1)} | {f"link2/cell[0,{j}]" for j in (0, 1)}
+    assert ringed.isdisjoint(arm.variable_names) and "link2/cell[5,0]" in arm.variable_names
+
+
+def test_a_cell_turned_inside_out_stops_the_run_by_name():
+    """The continuum arm with link 1 cut through by a column of void cells (x_min = 0.01):
+    the outer part, the elbow, link 2 and the payload hang on them, and their motion squeezes
+    one until it turns inside out. The run stops there with an error naming that cell,
+    instead of going on through a state no material can take; at x = 0.05 the column holds."""
+    sim = simulation(flextop.scenes.continuum_robot_arm(nx=20, ny=6))
+    column = [sim.variable_names.index(f"link1/cell[10,{j}]") for j in range(6)]
+    x = np.ones(sim.n_design)
+    x[column] = 0.01
+    with pytest.raises(flextop.SimulationError, match=r"at t = .* s cell 'link1/cell\[10,\d\]' has turned inside out"):
+        sim.run(x)
+    x[column] = 0.05
+    assert sim.run(x).response("tip_deflection") > 0.0
+
+
 @pytest.mark.parametrize(("key", "value", "culprit"), [
     ("holes", [[0, 0, 7, 1]], r"members\[0\] \(plate\)\.holes\[0\].*no rectangle"),
     ("solid", [[2, 1, 2, 2]], r"members\[0\] \(plate\)\.solid\[0\].*no rectangle"),
@@ -392,6 +440,37 @@ def test_bad_holes_and_solid_regions_are_named(key, value, culprit):
         flextop.Simulation(spec)
 
 
+def plate_in_tension(nx: int = 6, ny: int = 2, traction: float = 5e6) -> tuple[flextop.Simulation, float]:
+    """A 0.6 m × 0.2 m steel plate pulled along its length by a uniform end traction (Pa),
+    on rollers at its fixed end, so that nothing restrains its contraction."""
+    s = Scene("tension", analysis="static")
+    m = s.member("plate", nx=nx, ny=ny, length=0.6, height=0.2, thickness=0.01, **STEEL, solid_at_joints=False)
+    for j in range(ny + 1):
+        s.roller(f"end{j}", m.node(0, j), axis=(0.0, 1.0))
+    s.roller("base", m.node(nx, 1), axis=(1.0, 0.0))
+    for j in range(ny + 1):
+        s.load(m.node(nx, j), force=(traction * 0.2 * 0.01 * (0.5 if j in (0, ny) else 1.0) / ny, 0.0))
+    return simulation(s), traction
+
+
+def test_paraview_cells_carry_their_stress_and_strain_energy(tmp_path):
+    """The plate in tension at a uniform x = 0.5, written for ParaView and read back by
+    meshio: every quad's von Mises stress is the traction its material carries, and the
+    cells' strain energies sum to half the compliance (Clapeyron), both to 1e-3 (the
+    Green–Lagrange strain of 1.9e-4); a design's file, at the reference, reads zero."""
+    import meshio
+
+    sim, traction = plate_in_tension()
+    x = np.full(sim.n_design, 0.5)
+    state = sim.run(x)
+    cells = meshio.read(state.to_vtk(tmp_path / "tension.vtu")).cell_data_dict
+    np.testing.assert_allclose(cells["von_mises"]["quad"], traction, rtol=1e-3)
+    assert cells["strain_energy"]["quad"].sum() == pytest.approx(state.response("compliance") / 2, rel=1e-3)
+    assert np.isnan(cells["von_mises"]["vertex"]).all()
+    design = meshio.read(flextop.io.export.write_design(sim, x, tmp_path / "design.vtu")).cell_data_dict
+    assert not design["strain_energy"]["quad"].any() and not design["von_mises"]["quad"].any()
+
+
 def test_von_mises_of_a_plate_in_tension_and_its_gradients():
     """A plate pulled along its length by a uniform end traction σ₀ (rollers at the fixed
     end, so that nothing restrains its contraction): every Gauss point's von Mises stress is
@@ -399,15 +478,7 @@ def test_von_mises_of_a_plate_in_tension_and_its_gradients():
     and at a uniform x below 1 the solid's stress at the design's strain, relaxed:
     x^q σ₀ / x^p. On a spun strip with random densities, the
     gradients of its p-mean are direct = adjoint (1e-9) and fourth-order differences (1e-6)."""
-    nx, ny, traction = 6, 2, 5e6
-    s = Scene("tension", analysis="static")
-    m = s.member("plate", nx=nx, ny=ny, length=0.6, height=0.2, thickness=0.01, **STEEL)
-    for j in range(ny + 1):
-        s.roller(f"end{j}", m.node(0, j), axis=(0.0, 1.0))
-    s.roller("base", m.node(nx, 1), axis=(1.0, 0.0))
-    for j in range(ny + 1):
-        s.load(m.node(nx, j), force=(traction * 0.2 * 0.01 * (0.5 if j in (0, ny) else 1.0) / ny, 0.0))
-    sim = simulation(s)
+    sim, traction = plate_in_tension()
     r = sim.run(np.ones(sim.n_design))
     ks = 1e7 / 30 * np.log(np.cosh(30 * traction / 1e7))  # the KS mean of equal values
     for name, mean in (("von_mises:q=0", traction), ("von_mises:p=4,q=0", traction), ("von_mises:ks=30,scale=1e7,q=0", ks)):

@@ -18,7 +18,9 @@ Points follow one of ParaView's two conventions, said here because Warp By Vecto
   ``bar`` (its index in :attr:`Simulation.bars`), ``axial_force`` N (N, tension positive),
   ``moment_1`` and ``moment_2`` (N m, the end moments in the chord frame),
   ``axial_stress`` N/A (Pa, on the solid section's area). Quads carry their ``density`` (1
-  where not designed), ``bar`` = −1 and NaN for the bars' forces. Vertices carry NaN there and
+  where not designed), ``von_mises`` (Pa, the volume mean over the cell's Gauss points of the
+  stress its material carries) and ``strain_energy`` (J), ``bar`` = −1 and NaN for the bars'
+  forces; lines carry NaN for the cells' fields. Vertices carry NaN there and
   ``vertex`` = 1 (a joint), 2 (a point mass) or 3 (a rigid body's centre of mass); lines and
   quads carry ``vertex`` = 0.
 
@@ -66,7 +68,7 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
         raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
     steps = frame_indices(len(results.time), every)
     path.parent.mkdir(parents=True, exist_ok=True)
-    forces = results.section_forces
+    forces, fields = results.section_forces, results.cell_fields
     speeds = results.qdot.reshape(len(results.time), -1, 3)
     structure = _Structure.of(results.simulation, results.x)
     collection = ET.Element("VTKFile", type="Collection", version="0.1")
@@ -74,7 +76,7 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
     for k in steps:
         name = f"{path.stem}_{k:05d}.vtu"
         extra = {"velocity": _xyz(speeds[k, :, :2]), "angular_velocity": speeds[k, :, 2]}
-        structure.mesh(results.q[k], forces[k], extra, moved=True).write(path.parent / name, binary=True)
+        structure.mesh(results.q[k], forces[k], fields[k], extra, moved=True).write(path.parent / name, binary=True)
         ET.SubElement(datasets, "DataSet", timestep=repr(float(results.time[k])), part="0", file=name)
     ET.ElementTree(collection).write(path, xml_declaration=True, encoding="utf-8")
     return path
@@ -84,7 +86,7 @@ def write_state(results: Any, path: str | os.PathLike) -> Path:
     """A static result as one VTU file ``path``."""
     path = _vtu(path)
     structure = _Structure.of(results.simulation, results.x)
-    structure.mesh(results.q, results.section_forces[0], {}, moved=False).write(path, binary=True)
+    structure.mesh(results.q, results.section_forces[0], results.cell_fields[0], {}, moved=False).write(path, binary=True)
     return path
 
 
@@ -92,7 +94,8 @@ def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
     """Design ``x`` (densities) on the reference configuration as one VTU file ``path``."""
     path = _vtu(path)
     structure = _Structure.of(sim, x)
-    structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), {}, moved=False).write(path, binary=True)
+    structure.mesh(np.zeros(3 * len(sim.node_names)), np.zeros((len(structure.lines), 3)), np.zeros((len(structure.quads), 2)), {},
+                   moved=False).write(path, binary=True)
     return path
 
 
@@ -133,15 +136,18 @@ class _Structure:
         return cls(np.asarray(sim.model.reference_positions), lines, bar, sim.bar_densities(x)[bar],
                    _areas(sim, lines, bar)[bar], quads, sim.cell_densities(x), vertices, kinds)
 
-    def mesh(self, q: np.ndarray, forces: np.ndarray, extra: dict[str, np.ndarray], *, moved: bool) -> Any:
-        """The frame of state ``q`` with section ``forces`` and ``extra`` point data: points
+    def mesh(self, q: np.ndarray, forces: np.ndarray, fields: np.ndarray, extra: dict[str, np.ndarray], *,
+             moved: bool) -> Any:
+        """The frame of state ``q`` with section ``forces``, the cells' ``fields`` (von Mises,
+        strain energy) and ``extra`` point data: points
         ``moved`` to where ``q`` puts them, or at the reference with ``q``'s translations as
         the ``displacement`` field."""
         import meshio
 
         q = np.asarray(q).reshape(-1, 3)
         nan, none = np.full(len(self.vertices), np.nan), np.full(len(self.quads), np.nan)
-        forces = np.asarray(forces).reshape(-1, 3)
+        unread = np.full(len(self.lines), np.nan)
+        forces, fields = np.asarray(forces).reshape(-1, 3), np.asarray(fields).reshape(-1, 2)
         cell_data = {
             "density": [self.density, self.quad_density, nan],
             "bar": [self.bar.astype(float), np.full(len(self.quads), -1.0), np.full(len(self.vertices), -1.0)],
@@ -149,6 +155,8 @@ class _Structure:
             "moment_1": [forces[:, 1], none, nan],
             "moment_2": [forces[:, 2], none, nan],
             "axial_stress": [forces[:, 0] / self.area, none, nan],
+            "von_mises": [unread, fields[:, 0], nan],
+            "strain_energy": [unread, fields[:, 1], nan],
             "vertex": [np.zeros(len(self.lines)), np.zeros(len(self.quads)), self.kinds.astype(float)],
         }
         blocks = [("line", self.lines), ("quad", self.quads), ("vertex", self.vertices[:, None])]

@@ -155,7 +155,8 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     height`` member of ``nx × ny`` cells and ``thickness`` (m), a density per cell. The
     shoulder drives a rigid ring (:func:`rigid_ring`) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
-    payload sits on link 2's end-edge middle node, the ``tip``. ``ny`` must be even, for a row
+    payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
+    hold are passive solid (a member's ``solid_at_joints``). ``ny`` must be even, for a row
     of nodes on each link's axis."""
     if ny % 2:
         raise SceneError(f"continuum_robot_arm: ny must be even, so that a row of nodes lies on each link's axis (got {ny})")

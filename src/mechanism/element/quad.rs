@@ -139,6 +139,15 @@ impl Quad {
         h
     }
 
+    /// The smallest `det F` over the Gauss points: the local ratio of the deformed area to
+    /// the reference one, at or below zero where the cell has turned inside out.
+    pub fn smallest_area_ratio(&self, u: &Vector8) -> f64 {
+        self.points
+            .iter()
+            .map(|p| (Self::displacement_gradient(p, u) + Matrix2::identity()).determinant())
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Green–Lagrange strain `[E₁₁, E₂₂, 2E₁₂]` as `½ (H + Hᵀ + HᵀH)`: from `H`, not
     /// `F`, so that small strains keep their digits.
     fn strain(h: &Matrix2<f64>) -> Vector3<f64> {
@@ -321,6 +330,20 @@ mod tests {
             u[2 * a + 1] = d.y;
         }
         u
+    }
+
+    #[test]
+    fn the_area_ratio_is_one_in_rigid_motion_and_negative_once_turned_inside_out() {
+        let x = corners();
+        let quad = Quad::new(x, steel(0.01)).unwrap();
+        let ratio = quad.smallest_area_ratio(&rotated(&x, 2.0, Vector2::new(1.0, 4.0)));
+        assert!((ratio - 1.0).abs() < 1e-14, "{ratio}");
+        // Stretched by 2 along x and 1.5 along y: det F = 3 everywhere.
+        let stretch = Vector8::from_fn(|i, _| x[i / 2][i % 2] * [1.0, 0.5][i % 2]);
+        assert!((quad.smallest_area_ratio(&stretch) - 3.0).abs() < 1e-13);
+        // Mirrored through the y axis: det F = −1.
+        let mirrored = Vector8::from_fn(|i, _| if i % 2 == 0 { -2.0 * x[i / 2].x } else { 0.0 });
+        assert!((quad.smallest_area_ratio(&mirrored) + 1.0).abs() < 1e-14);
     }
 
     #[test]
