@@ -34,7 +34,7 @@ from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
 from .io import checkpoint, export
-from .problems import MIN_FREQUENCY, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
+from .problems import MIN_FREQUENCY, DensityFilter, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
 from .scenes import Scene, read_toml
 from .results import Results
 from .simulation import Simulation
@@ -198,10 +198,12 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
             constraints.append(("stress", args.max_stress))
         if args.max_buckling is not None:
             constraints.append(("buckling", args.max_buckling))
-        return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol)
+        return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol,
+                                    filter=_filter(sim, args))
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
-    for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling)):
+    for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling),
+                        ("--filter", args.filter), ("--projection", args.projection)):
         if value is not None:
             raise SettingsError(f"{flag} applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
@@ -211,6 +213,18 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
                               executor=workers.executor, chunksize=workers.chunksize(len(cases)), settings=_settings(args),
                               rtol=args.rtol, accuracy=args.accuracy)
     return problem.simulations[0], problem
+
+
+def _filter(sim: Simulation, args: argparse.Namespace) -> DensityFilter | None:
+    """The density filter of ``--filter`` (radius in m) with the projection of
+    ``--projection`` (its sharpness β), or none."""
+    if args.filter is None:
+        if args.projection is not None:
+            raise SettingsError("--projection sharpens the density filter's densities: give --filter RADIUS too")
+        return None
+    if not np.asarray(sim.model.cells()["variable"]).max(initial=-1) >= 0:
+        raise SettingsError("--filter acts on continuum members' cells, and the scene designs none")
+    return DensityFilter(sim, args.filter, beta=args.projection)
 
 
 def _scenario_file(spec: str) -> tuple[list[scenarios.Scenario], str]:
@@ -339,13 +353,15 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     elapsed = time.perf_counter() - start
     _report(problem, result, elapsed, result.nit - (0 if state is None else state.iteration))
     np.save(out / "design.npy", result.x[: sim.n_design])
+    if getattr(problem, "filter", None) is not None:
+        np.save(out / "densities.npy", problem.densities(result.x[: sim.n_design]))
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.objective_scale}))
     if not args.no_plots and result.history:
         _pictures(sim, problem, result, x0, out, animate=animate, every=args.every, fps=args.fps)
     if args.vtk and result.history:
-        x = result.x[: sim.n_design]
+        x = problem.densities(result.x[: sim.n_design])
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
         written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
         print(f"wrote {', '.join(map(str, written))} (open them in ParaView)")
@@ -367,7 +383,7 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
-             "--max-buckling": args.max_buckling}
+             "--max-buckling": args.max_buckling, "--filter": args.filter, "--projection": args.projection}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -440,7 +456,7 @@ def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, resul
     """Designs, history and tip error (of the first scenario) of a finished run."""
     from .plots import animate as animation, plot_design, plot_history, plot_tip_error
 
-    x0, x = x0[: sim.n_design], result.x[: sim.n_design]
+    x0, x = problem.densities(x0[: sim.n_design]), problem.densities(result.x[: sim.n_design])
     plot_design(sim, x0, path=out / "design_initial.png", title="initial design")
     plot_design(sim, x, path=out / "design.png", title=f"optimized: {problem.description}")
     if result.history:
@@ -494,7 +510,11 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
     o.add_argument("--objective", help="response to minimize (default: tip_deflection, or compliance for a static scene): "
                    + ", ".join(responses.NAMES))
-    o.add_argument("--method", choices=["mma", "gcmma", "conlin"], help="optimizer (default mma)")
+    o.add_argument("--method", choices=["mma", "gcmma", "conlin", "oc"],
+                   help="optimizer (default mma; oc: optimality criteria, for one volume constraint with --global-volume)")
+    o.add_argument("--filter", type=_positive(float), metavar="RADIUS",
+                   help="density filter on continuum members' cells, radius in m (design.npy then holds the variables, densities.npy the densities)")
+    o.add_argument("--projection", type=_positive(float), metavar="BETA", help="with --filter: tanh projection of sharpness BETA about 0.5")
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",

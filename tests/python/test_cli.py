@@ -137,6 +137,33 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
 
 
+def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path):
+    """A cantilever plate of 12 × 4 cells, compliance under one volume constraint, the
+    density filter (60 mm) with a projection: the checkpoint holds the filter, and a run
+    stopped after 3 iterations and resumed to 6 is the uninterrupted one. densities.npy holds
+    the filtered, projected densities of design.npy; optimality criteria run it too."""
+    scene = flextop.Scene("plate", analysis="static")
+    plate = scene.member("plate", nx=12, ny=4, length=0.6, height=0.2, thickness=0.01, E=70e9, nu=0.3, rho=2700.0)
+    for j in range(5):
+        scene.pin(f"wall{j}", plate.node(0, j))
+    scene.load(plate.node(12, 0), force=(0.0, -1e3))
+    (tmp_path / "plate.toml").write_text(scene.to_toml())
+    common = [tmp_path / "plate.toml", "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--projection", 2, "--no-plots"]
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    flextop_cli("optimize", *common, "--max-iter", 6, "--out", straight, codes=(0, 3))
+    flextop_cli("optimize", *common, "--max-iter", 3, "--out", split, codes=(0, 3))
+    saved = json.loads((split / "checkpoint.json").read_text())["data"]["problem"]["filter"]
+    assert saved == {"kind": "density", "radius": 0.06, "beta": 2.0, "eta": 0.5}
+    flextop_cli("optimize", "--resume", "--max-iter", 6, "--out", split, codes=(0, 3))
+    np.testing.assert_allclose(np.load(split / "design.npy"), np.load(straight / "design.npy"), rtol=0, atol=1e-12)
+    assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
+    sim = flextop.Simulation(flextop.Scene.from_toml(tmp_path / "plate.toml"))
+    physical = flextop.problems.DensityFilter(sim, 0.06, beta=2.0).physical(np.load(straight / "design.npy"))
+    np.testing.assert_allclose(np.load(straight / "densities.npy"), physical, rtol=0, atol=1e-15)
+    oc = flextop_cli("optimize", *common, "--method", "oc", "--max-iter", 3, "--out", tmp_path / "oc", codes=(0, 3))
+    assert "(oc)" in oc.stdout and "compliance" in oc.stdout
+
+
 def test_optimize_robot_arm_writes_the_pictures(tmp_path):
     run = flextop_cli("optimize", "robot_arm", "--max-iter", 3, "--out", tmp_path, "--animate", codes=(3,))
     assert "did not converge: maximum number of iterations (3) reached" in run.stderr
@@ -150,13 +177,16 @@ USER_ERRORS = [
     (["simulate", "{tmp}/bad.toml"], "bad.toml: not valid TOML: Illegal character '\\n' (at line 1, column 10)"),
     (["simulate", "{tmp}/latin1.toml"], "latin1.toml: not UTF-8 text (byte 8)"),
     (["simulate", "{tmp}"], "cannot read: Is a directory"),
-    (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam, ten_bar_truss, pendulum, slider_crank, four_bar)"),
+    (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam, ten_bar_truss, pendulum, slider_crank, four_bar, "
+                                           "continuum_robot_arm, continuum_slider_crank)"),
     (["simulate", "robot_arm", "--design", "{tmp}/latin1.toml"], "cannot read a design vector"),
     (["simulate", "robot_arm", "--out", "{tmp}/bad.toml"], "a file of that name exists"),
     (["optimize", "static_truss", "--volume-fraction", "0"], "argument --volume-fraction: 0 must be above 0"),
     (["optimize", "static_truss", "--max-iter", "-5"], "argument --max-iter: -5 must be above 0"),
     (["optimize", "static_truss", "--move", "-1"], "argument --move: -1 must be above 0"),
     (["optimize", "robot-arm"], "no such scene file, nor a built-in scene"),
+    (["optimize", "static_truss", "--projection", "4"], "--projection sharpens the density filter's densities: give --filter RADIUS too"),
+    (["optimize", "static_truss", "--filter", "0.1"], "--filter acts on continuum members' cells, and the scene designs none"),
 ]
 
 

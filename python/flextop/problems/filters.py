@@ -97,6 +97,10 @@ class DensityFilter:
         projected, _ = self._projected(self.weights @ np.asarray(x, dtype=float))
         return np.clip(projected, self.x_min, 1.0)
 
+    def to_dict(self) -> dict[str, Any]:
+        """What rebuilds this filter on the same scene (for checkpoints): β as it stands."""
+        return {"kind": "density", "radius": self.radius, "beta": self._beta, "eta": self.eta}
+
     def chain(self, x: np.ndarray, dfdx_physical: np.ndarray) -> np.ndarray:
         """``df/dx = (df/dx̄ ⊙ dx̄/dx̃) W`` at ``x``, for gradients of shape ``(n,)`` or
         ``(m, n)``."""
@@ -112,7 +116,22 @@ class SensitivityFilter:
         self.h = _neighbourhoods(simulation, radius)
         self.sums = np.asarray(self.h.sum(axis=1)).ravel()
 
+    def to_dict(self) -> dict[str, Any]:
+        """What rebuilds this filter on the same scene (for checkpoints)."""
+        return {"kind": "sensitivity", "radius": self.radius}
+
     def filtered(self, x: np.ndarray, dfdx: np.ndarray) -> np.ndarray:
         """``H(x ⊙ ∂f/∂x) / (Σᵢ Hₑᵢ · max(10⁻³, x))``."""
         x = np.asarray(x, dtype=float)
         return (self.h @ (x * dfdx)) / self.sums / np.maximum(1e-3, x)
+
+
+def from_dict(simulation: Any, data: dict[str, Any] | None) -> DensityFilter | SensitivityFilter | None:
+    """The filter that ``to_dict`` described, on ``simulation`` (``None`` for none)."""
+    if data is None:
+        return None
+    if data["kind"] == "density":
+        return DensityFilter(simulation, data["radius"], beta=data["beta"], eta=data["eta"])
+    if data["kind"] == "sensitivity":
+        return SensitivityFilter(simulation, data["radius"])
+    raise ValueError(f"unknown filter kind {data['kind']!r}")

@@ -190,6 +190,10 @@ class ScenarioProblem(Problem):
         """The constraints with an upper bound, by name (the worst case's rows have none)."""
         return [(name, bound) for _, _, name, bound in self.constraints]
 
+    def densities(self, x: np.ndarray) -> np.ndarray:
+        """The densities the scenes are run with at design ``x``: its scenes' variables."""
+        return np.asarray(x, dtype=float)[: self.simulations[0].n_design]
+
     def start(self, x: Any) -> np.ndarray:
         """The design ``x`` of the scenes (one number or one per variable) as a design of
         this problem (``β = 0`` appended for the worst case: the scaled worst case at the

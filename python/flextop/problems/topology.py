@@ -47,6 +47,7 @@ from ..simulation import Simulation
 from ..discretization.refinement import extrapolated, t_end
 from ..discretization.tolerance import Discretization
 from ..results import Sensitivities
+from . import filters
 from .filters import DensityFilter, SensitivityFilter
 
 
@@ -287,6 +288,11 @@ class TopologyProblem(Problem):
         :data:`MIN_FREQUENCY`: see :func:`relation`)."""
         return list(self.constraints)
 
+    def densities(self, x: np.ndarray) -> np.ndarray:
+        """The densities the scene is run with at design ``x``: the density filter's
+        physical ones where it stands between, ``x`` otherwise."""
+        return self.filter.physical(x) if isinstance(self.filter, DensityFilter) else np.asarray(x, dtype=float)
+
     def start(self, x: Any) -> np.ndarray:
         """The design ``x`` of the scene (one number or one per variable) as a design of
         this problem."""
@@ -315,13 +321,14 @@ class TopologyProblem(Problem):
                 "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol, "atol": self.atol,
                 "discretization": None if self.discretization is None else list(astuple(self.discretization)),
                 "normalization": dict(self.normalization), "readapt": self.readapt,
-                "measured_at": None if self._measured_at is None else self._measured_at.tolist()}
+                "measured_at": None if self._measured_at is None else self._measured_at.tolist(),
+                "filter": None if self.filter is None else self.filter.to_dict()}
 
     @classmethod
     def from_dict(cls, simulation: Simulation, data: Mapping[str, Any]) -> TopologyProblem:
         problem = cls(simulation, data["objective"], [tuple(c) for c in data["constraints"]], settings=data["settings"],
                       method=data["method"], objective_scale=data["objective_scale"], rtol=data.get("rtol"), atol=data.get("atol"),
-                      readapt=data.get("readapt", READAPT))
+                      readapt=data.get("readapt", READAPT), filter=filters.from_dict(simulation, data.get("filter")))
         if data.get("discretization"):
             problem.discretization = Discretization(*data["discretization"])
         if data.get("measured_at") is not None:

@@ -453,7 +453,8 @@ def four_bar(*, crank: float = 0.1, coupler: float = 0.3, rocker: float = 0.25, 
 
 
 BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam, "ten_bar_truss": ten_bar_truss,
-            "pendulum": pendulum, "slider_crank": slider_crank, "four_bar": four_bar}
+            "pendulum": pendulum, "slider_crank": slider_crank, "four_bar": four_bar,
+            "continuum_robot_arm": continuum_robot_arm, "continuum_slider_crank": continuum_slider_crank}
 """The scenes the command line knows by name."""
 
 
