@@ -1,7 +1,9 @@
 //! Dense against sparse `LDLᵀ` factors of the iteration matrix: one refactorization and one
 //! solve, as a Newton iteration with a fresh matrix does, on mechanisms and frames from 5
-//! to a few hundred unknowns. The smallest time of several batches, one core. Prints a
-//! Markdown table; `DENSE_FILL` and `DENSE_LIMIT` are where the engine switches.
+//! to a few hundred unknowns; then sparse factors simplicial against supernodal on frames
+//! and continuum members (plane meshes) up to 30,000 unknowns. The smallest time of several
+//! batches, one core. Prints Markdown tables; `DENSE_FILL`, `DENSE_LIMIT` and
+//! `SUPERNODAL_RATIO` are where the engine switches.
 //!
 //! `cargo bench --bench ldlt`
 
@@ -9,7 +11,7 @@ mod common;
 
 use std::time::Instant;
 
-use flextop::bench_support::{Refactoring, Storage, DENSE_FILL, DENSE_LIMIT};
+use flextop::bench_support::{Refactoring, Storage, DENSE_FILL, DENSE_LIMIT, SUPERNODAL_RATIO};
 use flextop::scene;
 use flextop::Model;
 
@@ -56,6 +58,20 @@ node = "rocker.b"
 t_end = 1.0
 h = 0.001
 "#;
+
+/// A continuum member of `nx × ny` cells, 1.0 m × 0.1 m of aluminium, pinned along its
+/// root edge: the plane mesh of a continuum link.
+fn member(nx: usize, ny: usize) -> Model {
+    let pins: String = (0..=ny)
+        .map(|j| {
+            format!("[[joints]]\nkind = \"pin\"\nname = \"root{j}\"\nnode = \"plate[0,{j}]\"\n")
+        })
+        .collect();
+    example(&format!(
+        "name = \"member\"\n[[members]]\nname = \"plate\"\nnx = {nx}\nny = {ny}\nlength = 1.0\n\
+         height = 0.1\nthickness = 0.005\nE = 70e9\nnu = 0.32\nrho = 2700.0\n{pins}"
+    ))
+}
 
 fn example(toml: &str) -> Model {
     scene::build(&scene::parse_toml(toml).expect("valid scene")).expect("valid scene")
@@ -116,6 +132,35 @@ fn main() {
             1e6 * dense,
             1e6 * sparse,
             sparse / dense
+        );
+    }
+    let mut sparse: Vec<(String, Model)> = [(5, 3, 2), (5, 3, 8)]
+        .into_iter()
+        .map(|(nx, ny, split)| {
+            let name = format!("robot arm {nx}×{ny}, m = {split}");
+            (name, common::robot_arm(nx, ny, split))
+        })
+        .collect();
+    for (nx, ny) in [(20, 6), (40, 12), (60, 20), (120, 40)] {
+        sparse.push((format!("member {nx} × {ny}"), member(nx, ny)));
+    }
+    println!("\nEngine switch: supernodal factors above a flop ratio of {SUPERNODAL_RATIO} (faer's own: 1.0).\n");
+    println!("| scene | unknowns | engine's choice | simplicial (µs) | supernodal (µs) | supernodal / simplicial |");
+    println!("|---|---|---|---|---|---|");
+    for (name, model) in &sparse {
+        let (n, simplicial_fill, simplicial) = time(model, Storage::Simplicial);
+        let (_, chosen_fill, _) = time(model, Storage::Sparse);
+        let (_, _, supernodal) = time(model, Storage::Supernodal);
+        let chosen = if chosen_fill == simplicial_fill {
+            "simplicial"
+        } else {
+            "supernodal"
+        };
+        println!(
+            "| {name} | {n} | {chosen} | {:.1} | {:.1} | {:.2} |",
+            1e6 * simplicial,
+            1e6 * supernodal,
+            supernodal / simplicial
         );
     }
 }

@@ -6,7 +6,7 @@ use crate::mechanism::model::Model;
 use crate::solver::assembly::{Assembler, Jacobian, Pattern};
 use crate::solver::linsolve::{FactorError, Ldlt};
 
-pub use crate::solver::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT};
+pub use crate::solver::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT, SUPERNODAL_RATIO};
 
 /// The iteration matrix `c M + K_t + s Φ_qᵀΦ_q` (with its constraint blocks) of a design at
 /// the reference, `c = s`, and its factors in a chosen storage.

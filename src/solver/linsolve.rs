@@ -29,6 +29,7 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side, Spec};
 
@@ -56,13 +57,28 @@ pub enum FactorError {
     Analysis(String),
 }
 
+/// The flop ratio (flops of the factorization per nonzero of `L`, in units of faer's 40)
+/// above which sparse factors are supernodal (dense blocks of columns that share their
+/// pattern, BLAS-3 kernels) rather than simplicial (column by column). faer's own threshold
+/// is 1.0, which left a member of 60 × 20 cells simplicial, 1.4 times slower. Measured on
+/// plane meshes of one member from 20 × 6 to 120 × 40 cells and on frames (`cargo bench
+/// --bench ldlt`, BENCHMARKS.md "Dense factors"): 0.5 makes supernodal the members from
+/// 60 × 20 cells on and keeps simplicial the frames and the smaller members (at 40 × 12 the
+/// two are within 5 %; 0.4 took it supernodal, 1.3 times slower; 0.6 left 60 × 20 simplicial).
+pub const SUPERNODAL_RATIO: f64 = 0.5;
+
 /// How the factors are stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Storage {
     /// Every entry of `L`, in the elimination order.
     Dense,
-    /// `L`'s nonzeros on a symbolic analysis (faer).
+    /// `L`'s nonzeros on a symbolic analysis (faer), column by column or in supernodes as
+    /// [`SUPERNODAL_RATIO`] says.
     Sparse,
+    /// Sparse, column by column whatever the ratio (for benchmarks).
+    Simplicial,
+    /// Sparse, in supernodes whatever the ratio (for benchmarks).
+    Supernodal,
 }
 
 /// `LDLᵀ` factorization of a symmetric saddle-point matrix with a fixed pattern.
@@ -143,14 +159,21 @@ impl Ldlt {
     ) -> Result<Self, FactorError> {
         let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs)?;
-        let sparse = Numeric::sparse(&pattern, &fwd, &inv)?;
-        let storage = storage.unwrap_or(match sparse.fill(n) {
-            Some(fill) if n <= DENSE_LIMIT && fill >= DENSE_FILL => Storage::Dense,
-            _ => Storage::Sparse,
-        });
+        let sparse = |ratio| Numeric::sparse(&pattern, &fwd, &inv, SupernodalThreshold(ratio));
         let numeric = match storage {
-            Storage::Dense => Numeric::Dense(Dense::new(&pattern, &inv)),
-            Storage::Sparse => sparse,
+            None => match sparse(SUPERNODAL_RATIO)? {
+                s if s
+                    .fill(n)
+                    .is_some_and(|f| n <= DENSE_LIMIT && f >= DENSE_FILL) =>
+                {
+                    Numeric::Dense(Dense::new(&pattern, &inv))
+                }
+                s => s,
+            },
+            Some(Storage::Dense) => Numeric::Dense(Dense::new(&pattern, &inv)),
+            Some(Storage::Sparse) => sparse(SUPERNODAL_RATIO)?,
+            Some(Storage::Simplicial) => sparse(f64::INFINITY)?,
+            Some(Storage::Supernodal) => sparse(0.0)?,
         };
         Ok(Self {
             order: fwd,
@@ -195,10 +218,14 @@ impl Ldlt {
                     MemStack::new(factor_scratch),
                     Spec::<LdltParams, f64>::default(),
                 );
-                // faer's simplicial LDLᵀ counts the failed pivot from 1 (`k + 1`).
+                // faer's simplicial LDLᵀ counts the failed pivot from 1 (`k + 1`), its
+                // supernodal one from 0.
+                let from_one = matches!(symbolic.raw(), SymbolicCholeskyRaw::Simplicial(_));
                 result
                     .map(|_| ())
-                    .map_err(|LdltError::ZeroPivot { index }| index.saturating_sub(1))
+                    .map_err(|LdltError::ZeroPivot { index }| {
+                        index.saturating_sub(usize::from(from_one))
+                    })
             }
             Numeric::Dense(d) => d.factorize(values),
         };
@@ -348,18 +375,24 @@ impl Numeric {
         }
     }
 
-    /// The symbolic analysis of `pattern` in the order `(fwd, inv)` and its buffers.
+    /// The symbolic analysis of `pattern` in the order `(fwd, inv)` and its buffers,
+    /// supernodal above the flop ratio `supernodal`.
     fn sparse(
         pattern: &SymbolicSparseColMat<usize>,
         fwd: &[usize],
         inv: &[usize],
+        supernodal: SupernodalThreshold,
     ) -> Result<Self, FactorError> {
         let perm = PermRef::new_checked(fwd, inv, fwd.len());
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: supernodal,
+            ..Default::default()
+        };
         let symbolic = factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Lower,
             SymmetricOrdering::Custom(perm),
-            CholeskySymbolicParams::default(),
+            params,
         )
         .map_err(|e| FactorError::Analysis(format!("symbolic Cholesky: {e:?}")))?;
         let factor_req = symbolic
@@ -530,11 +563,17 @@ mod tests {
         )
     }
 
-    const BOTH: [Storage; 2] = [Storage::Dense, Storage::Sparse];
+    /// Every storage: dense, the engine's sparse choice, and both sparse forms forced.
+    const ALL: [Storage; 4] = [
+        Storage::Dense,
+        Storage::Sparse,
+        Storage::Simplicial,
+        Storage::Supernodal,
+    ];
 
     #[test]
     fn solves_a_saddle_point_system_and_refactors() {
-        for storage in BOTH {
+        for storage in ALL {
             solves_and_refactors(storage);
         }
     }
@@ -573,7 +612,7 @@ mod tests {
     /// count that, plus one per constraint row.
     #[test]
     fn negative_pivots_count_the_inertia() {
-        for storage in BOTH {
+        for storage in ALL {
             let (cp, ri, v) = saddle();
             let mut ldlt = Ldlt::analyze_as(storage, 3, cp, ri, 2, &[vec![0]]).unwrap();
             ldlt.factorize(&v).unwrap();
@@ -585,8 +624,8 @@ mod tests {
     }
 
     /// A chain of `n_q` unknowns with springs to the ground, `n_c` rows tying unknown
-    /// `2k` to `2k + 1`: dense and sparse factors solve it alike, to round-off, for one
-    /// right-hand side and for a block.
+    /// `2k` to `2k + 1`: dense, simplicial and supernodal factors solve it alike, to
+    /// round-off, for one right-hand side and for a block.
     #[test]
     fn dense_and_sparse_factors_agree_on_a_larger_system() {
         let (n_q, n_c) = (40, 12);
@@ -631,7 +670,7 @@ mod tests {
             })
             .collect();
         let mut got = Vec::new();
-        for storage in BOTH {
+        for storage in ALL {
             let mut ldlt =
                 Ldlt::analyze_as(storage, n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
             ldlt.factorize(&v).unwrap();
@@ -649,7 +688,7 @@ mod tests {
             }
             got.push(ldlt.negative_pivots().unwrap());
         }
-        assert_eq!(got, [n_c, n_c]);
+        assert_eq!(got, [n_c; 4]);
         // A chain fills little of the triangle: the engine keeps it sparse; the small
         // saddle above it stores dense.
         let chain = Ldlt::analyze(n, cp, ri, n_q, &dofs).unwrap();
@@ -678,7 +717,7 @@ mod tests {
         let (cp, ri, mut v) = saddle();
         v[2] = 0.0;
         v[5] = 0.0; // the multiplier's row vanishes: its pivot is zero, the DOFs' are not
-        for storage in BOTH {
+        for storage in ALL {
             let (cp, ri) = (cp.clone(), ri.clone());
             let mut ldlt = Ldlt::analyze_as(storage, 3, cp, ri, 2, &[vec![0]]).unwrap();
             let res = ldlt.factorize(&v);
