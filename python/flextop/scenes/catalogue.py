@@ -182,8 +182,9 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     if tip_mass != 0.0:
         scene.point_mass(scene.tip, tip_mass)
     scene.design(interpolation="simp", p=p, x_min=x_min)
-    # Modified Newton: 1.0–2.2× faster than full with the adjoint at 60 × 20 cells per link
-    # on uniform and random designs, the same d (BENCHMARKS.md, "Continuum links").
+    # Modified Newton: 1.0–1.3× faster than full with the adjoint at 60 × 20 cells per link
+    # on uniform and random designs (up to 2.2× on simplicial factors), the same d
+    # (BENCHMARKS.md, "Continuum links").
     scene.simulation(t_end=t_end, h=h, rho_inf=rho_inf, newton="modified")
     return scene
 
