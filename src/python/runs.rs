@@ -14,7 +14,7 @@ use super::model::PyModel;
 use super::signals::{detached, reporting};
 use crate::error::{Error, SettingsError};
 use crate::mechanism::element::MassKind;
-use crate::mechanism::model::Analysis;
+use crate::mechanism::model::{Analysis, Model};
 use crate::mechanism::rigid::rigid_positions as rigid;
 use crate::sensitivity::{self, parse_parameters, parse_responses};
 use crate::solver::prolongation::Prolongation;
@@ -365,33 +365,18 @@ pub fn section_forces<'py>(
     q: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = &model.model;
-    let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
-    let (states, n) = (q.shape()[0], m.n_dofs());
-    let rows = states_of(&q, n)?;
-    let flat: Vec<f64> = rows
-        .chunks(n.max(1))
-        .flat_map(|row| {
-            m.elements
-                .iter()
-                .zip(&densities.stiffness)
-                .flat_map(move |(el, &s)| el.section_forces(s, row))
-        })
-        .collect();
-    Ok(numpy::PyArray1::from_vec(py, flat)
-        .reshape([states, m.elements.len(), 3])?
-        .into_any())
-}
-
-/// The states `q` (one per row) as one slice, each row of the model's `n` DOFs.
-fn states_of<'a>(q: &'a PyReadonlyArray2<'_, f64>, n: usize) -> PyResult<&'a [f64]> {
-    if q.shape()[1] != n {
-        let msg = format!(
-            "has rows of {} entries, the model has {n} DOFs",
-            q.shape()[1]
-        );
-        return Err(Error::Settings(SettingsError::new("q", msg)).into());
-    }
-    Ok(q.as_slice()?)
+    per_state(
+        py,
+        m,
+        x,
+        &q,
+        [m.elements.len(), 3],
+        |stiffness, row, out| {
+            for (el, &s) in m.elements.iter().zip(stiffness) {
+                out.extend(el.section_forces(s, row));
+            }
+        },
+    )
 }
 
 /// The von Mises stress (Pa) and the strain energy (J) of every continuum cell at each state
@@ -407,20 +392,38 @@ pub fn cell_fields<'py>(
     q: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = &model.model;
+    per_state(py, m, x, &q, [m.cells.len(), 2], |stiffness, row, out| {
+        let cells = &stiffness[m.elements.len()..];
+        for (cell, &s) in m.cells.iter().zip(cells) {
+            out.extend(cell.stress_and_energy(s, row));
+        }
+    })
+}
+
+/// `fill(stiffness, row, out)` at each state (row) of `q`, with the stiffness factors of
+/// design `x`, as an array of shape `(n_states, shape[0], shape[1])`.
+fn per_state<'py>(
+    py: Python<'py>,
+    m: &Model,
+    x: Option<PyReadonlyArray1<'py, f64>>,
+    q: &PyReadonlyArray2<'py, f64>,
+    shape: [usize; 2],
+    fill: impl Fn(&[f64], &[f64], &mut Vec<f64>),
+) -> PyResult<Bound<'py, PyAny>> {
     let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
     let (states, n) = (q.shape()[0], m.n_dofs());
-    let rows = states_of(&q, n)?;
-    let stiffness = &densities.stiffness[m.elements.len()..];
-    let flat: Vec<f64> = rows
-        .chunks(n.max(1))
-        .flat_map(|row| {
-            m.cells
-                .iter()
-                .zip(stiffness)
-                .flat_map(move |(cell, &s)| cell.stress_and_energy(s, row))
-        })
-        .collect();
+    if q.shape()[1] != n {
+        let msg = format!(
+            "has rows of {} entries, the model has {n} DOFs",
+            q.shape()[1]
+        );
+        return Err(Error::Settings(SettingsError::new("q", msg)).into());
+    }
+    let mut flat = Vec::with_capacity(states * shape[0] * shape[1]);
+    for row in q.as_slice()?.chunks(n.max(1)) {
+        fill(&densities.stiffness, row, &mut flat);
+    }
     Ok(numpy::PyArray1::from_vec(py, flat)
-        .reshape([states, m.cells.len(), 2])?
+        .reshape([states, shape[0], shape[1]])?
         .into_any())
 }
