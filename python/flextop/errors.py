@@ -58,7 +58,8 @@ class MechanismWarning(UserWarning):
 
 class SettingsWarning(UserWarning):
     """A setting the run had to change: a step ``h`` shortened by more than 1 % so that a
-    whole number of steps ends exactly at ``t_end``."""
+    whole number of steps ends exactly at ``t_end``; or one that does less than asked: a
+    filter radius that reaches no neighbouring cell along a member."""
 
 
 class PlausibilityWarning(UserWarning):

@@ -245,6 +245,19 @@ def test_the_density_filter_stays_in_its_member_and_its_gradients_are_exact():
         assert fourth_order(value, 1e-3) == pytest.approx(gradient[j], rel=1e-7)
 
 
+def test_a_filter_radius_within_one_cell_is_warned():
+    """The continuum arm at 20 × 6 cells per link (50 mm × 16.7 mm): a radius of 25 mm
+    reaches the cells above and below but none along the links, where the design stays as
+    fine as the mesh: warned by member. At 60 mm it reaches both ways: no warning."""
+    sim = simulation(flextop.scenes.continuum_robot_arm(nx=20, ny=6))
+    with pytest.warns(flextop.errors.SettingsWarning, match=r"radius 0.025 m reaches no neighbouring cell of member 'link\d' along its length 0.05 m \(") as caught:
+        DensityFilter(sim, 0.025)
+    assert sorted(str(w.message).split("'")[1] for w in caught) == ["link1", "link2"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", flextop.errors.SettingsWarning)
+        SensitivityFilter(sim, 0.06)
+
+
 def test_filters_refuse_what_they_cannot_filter():
     s = Scene("beams only", analysis="static")
     s.section("rod", E=210e9, rho=7800.0, nu=0.3, diameter=0.01)

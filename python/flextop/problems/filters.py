@@ -3,7 +3,9 @@ dependence (Sigmund 2007; the 88-line code, Andreassen et al. 2011).
 
 Both weigh a cell's neighbours within ``radius`` (m, so that the design's resolution does not
 change with the mesh) by ``Hₑᵢ = max(0, r − |cₑ − cᵢ|)`` between reference centres, within the
-same member, over the cells that are design variables; a bar's variable is left alone.
+same member, over the cells that are design variables; a bar's variable is left alone. A
+radius no longer than a member's cells reaches no neighbour in that direction: warned
+(:class:`~flextop.errors.SettingsWarning`), as the design there is then mesh-dependent.
 
 * :class:`DensityFilter` (Bruns and Tortorelli): the simulation sees the physical densities
   ``x̃ = W x``, ``W = diag(1/Σᵢ Hₑᵢ) H``, and the gradients follow by the chain rule
@@ -15,13 +17,14 @@ same member, over the cells that are design variables; a bar's variable is left 
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sparse
 from scipy.spatial import cKDTree
 
-from ..errors import SettingsError
+from ..errors import SettingsError, SettingsWarning
 
 
 def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
@@ -41,11 +44,26 @@ def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
     rows, cols = variable[pairs.row[same]], variable[pairs.col[same]]
     weights = np.concatenate([radius - pairs.data[same], np.full(variable.size, radius)])
     rows, cols = np.concatenate([rows, variable]), np.concatenate([cols, variable])
+    _warn_if_unfiltered(simulation, radius)
     n = simulation.n_design
     others = np.setdiff1d(np.arange(n), variable)
     rows, cols = np.concatenate([rows, others]), np.concatenate([cols, others])
     weights = np.concatenate([weights, np.ones(others.size)])
     return sparse.csr_matrix((weights, (rows, cols)), shape=(n, n))
+
+
+def _warn_if_unfiltered(simulation: Any, radius: float) -> None:
+    """A :class:`SettingsWarning` for each member whose cells are as long (or as high) as
+    the radius or more: no neighbour along that direction falls within it, so the filter
+    leaves designs there as fine as the mesh (the 88-line code's radius is 1.5 cells and
+    more)."""
+    for member in simulation.spec.get("members", []):
+        sizes = {"length": member["length"] / member["nx"], "height": member["height"] / member["ny"]}
+        short = [f"{along} {size:.4g} m" for along, size in sizes.items() if radius <= size]
+        if short:
+            warnings.warn(f"filter radius {radius:g} m reaches no neighbouring cell of member '{member['name']}' along its "
+                          f"{' and '.join(short)} (its cells' size): there the design is as fine as the mesh and changes "
+                          "with it; take a radius of 1.5 cells or more", SettingsWarning, stacklevel=4)
 
 
 class DensityFilter:
