@@ -11,8 +11,8 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
 2. at 60 × 20 (the issue's floor: forward with the adjoint gradient in at most 5 s), full
    and modified Newton side by side, on four designs (uniform 0.5 and 1, random in
    [0.01, 1], and a random mix of void 0.01 and solid cells), a failed run reported as such;
-3. with ``--optimize NX NY [--plain]``: the tip deflection (Eq. 40) minimized under a volume
-   of 0.5 per link, the density filter at 25 mm, by MMA (with its safeguard, or plain) for
+3. with ``--optimize NX NY [--plain] [--radius R]``: the tip deflection (Eq. 40) minimized
+   under a volume of 0.5 per link, the density filter at R m (default 0.025), by MMA (with its safeguard, or plain) for
    200 iterations from the uniform 0.5 at NX × NY cells per link (the issue's floor: 60 × 20
    in at most 20 minutes); the objective before and after, the time, the design
    (``docs/continuum_arm_NXxNY[_plain].png``), and the optimized design's objective on
@@ -63,11 +63,11 @@ def row(nx: int, ny: int, newton: str = "full") -> str:
             f"{adjoint:.2f} | {1e6 * forward / (cells * steps):.1f} | {run.newton['mean']:.2f} | {f[0]:.4e} |")
 
 
-def optimization(nx: int, ny: int, plain: bool, iterations: int = 200) -> None:
+def optimization(nx: int, ny: int, plain: bool, radius: float = 0.025, iterations: int = 200) -> None:
     import flextop.plots as plots
 
     sim = simulation(nx, ny)
-    problem = TopologyProblem(sim, "tip_deflection", volume_constraints(sim, 0.5), filter=DensityFilter(sim, 0.025))
+    problem = TopologyProblem(sim, "tip_deflection", volume_constraints(sim, 0.5), filter=DensityFilter(sim, radius))
     method = MMA(safeguard=not plain)
     clock = time.perf_counter()
     result = flextop.optimize(problem, np.full(sim.n_design, 0.5), method=method, max_iter=iterations,
@@ -76,19 +76,21 @@ def optimization(nx: int, ny: int, plain: bool, iterations: int = 200) -> None:
     physical = problem.filter.physical(result.x)
     start = result.history[0].f0 * problem.objective_scale
     label = "plain MMA" if plain else "MMA with its safeguard"
+    tag = f"{nx}x{ny}{'_plain' if plain else ''}{'' if radius == 0.025 else f'_r{radius * 1e3:g}mm'}"
     plots.plot_design(sim, physical, title=f"tip deflection {result.fun:.3e} m² (uniform 0.5: {start:.3e})",
-                      path=ROOT / "docs" / f"continuum_arm_{nx}x{ny}{'_plain' if plain else ''}.png")
+                      path=ROOT / "docs" / f"continuum_arm_{tag}.png")
     values = on_refined_meshes(sim, physical, nx, ny)
     refined = " | ".join([f"{v:.4e}" for v in values] + ["—"] * (2 - len(values)))
-    text = (f"Produced by `python benches/continuum.py --optimize {nx} {ny}{' --plain' if plain else ''}`: the continuum "
-            f"robot arm, {nx} × {ny} cells per link, tip deflection under V ≤ 0.5 per link, density filter 25 mm, {label} "
+    flags = f"{' --plain' if plain else ''}{'' if radius == 0.025 else f' --radius {radius:g}'}"
+    text = (f"Produced by `python benches/continuum.py --optimize {nx} {ny}{flags}`: the continuum "
+            f"robot arm, {nx} × {ny} cells per link, tip deflection under V ≤ 0.5 per link, density filter {radius * 1e3:g} mm, {label} "
             f"from x = 0.5; the optimized (physical) design then evaluated with every cell split into 2 × 2 and 4 × 4 "
             f"and the step halved and quartered.\n\n"
             f"| method | iterations | evaluations | seconds | d at x = 0.5 (m²) | d optimized (m²) | ratio | volume "
             f"constraints | status | d, cells 2 × 2, h/2 | d, cells 4 × 4, h/4 |\n|---|---|---|---|---|---|---|---|---|---|---|\n"
             f"| {label} | {result.nit} | {result.nfev} | {seconds:.0f} | {start:.4e} | {result.fun:.4e} | "
             f"{start / result.fun:.2f} | {np.array2string(result.constr, precision=4)} | {result.status.name} | {refined} |\n")
-    name = f"continuum_optimization_{nx}x{ny}{'_plain' if plain else ''}.md"
+    name = f"continuum_optimization_{tag}.md"
     (ROOT / "benches" / "results" / name).write_text(text)
     print(text)
 
@@ -139,7 +141,8 @@ def designs() -> list[str]:
 def main() -> None:
     if "--optimize" in sys.argv:
         at = sys.argv.index("--optimize")
-        optimization(*(int(v) for v in sys.argv[at + 1:at + 3]), plain="--plain" in sys.argv)
+        radius = float(sys.argv[sys.argv.index("--radius") + 1]) if "--radius" in sys.argv else 0.025
+        optimization(*(int(v) for v in sys.argv[at + 1:at + 3]), plain="--plain" in sys.argv, radius=radius)
         return
     lines = ["| cells per link | cells | unknowns | Newton | run (s) | run + adjoint (s) | µs per cell-step | "
              "iterations per step | d (m²) |", "|---|---|---|---|---|---|---|---|---|"]
