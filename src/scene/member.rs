@@ -93,9 +93,9 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
             let at_joint = m.solid_at_joints
-                && [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+                && nodes
                     .iter()
-                    .any(|(a, b)| attached.contains(format!("{}[{a},{b}]", m.name).as_str()));
+                    .any(|&n| attached.contains(mesh.nodes[n].name.as_str()));
             let designed = !(m.fixed || solid[j * m.nx + i] || at_joint);
             let variable =
                 designed.then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
