@@ -10,8 +10,16 @@
    and rod: their peaks against a reference on 16×
    the elements per bar and 32000 steps (and how far that reference moved from 16× and
    16000 steps), with the estimated errors the run reports.
+3. ``--arm``: does a grid that lands on the robot arm's kinks (0.25 s, π/3 s and π/3 + 0.25 s,
+   where both drives' accelerations jump by ∓2 rad/s²) converge faster than the uniform
+   grids that runs to a tolerance use? Relative errors of d, ∇d and the peaks of the
+   shoulder and elbow torques and of the elbow's reaction, at the scene's elements, on
+   uniform grids of 68·2ᵏ steps and on grids of as many steps spread over the four pieces
+   between kinks in proportion to their lengths (at least one step each at 17 steps),
+   against a landing grid of 17408 steps.
 
     python benches/kink.py            # → benches/results/kink.md (about 10 min)
+    python benches/kink.py --arm      # → benches/results/kink_arm.md (about 2 min)
 """
 
 from __future__ import annotations
@@ -78,7 +86,54 @@ def peak_table() -> list[str]:
     return lines
 
 
+ARM_KINKS = (0.25, np.pi / 3, np.pi / 3 + 0.25)
+"""The arm's kinks (docs/reference-scenes.md): the end of the ramp up, the start and the
+end of the ramp down, the same for both drives."""
+
+ARM_NAMES = ["tip_deflection", "torque:shoulder", "torque:elbow", "reaction:elbow"]
+
+
+def arm_grid(t_end: float, level: int, landing: bool) -> np.ndarray:
+    """Steps of 17·2ᵏ over ``[0, t_end]``: uniform, or spread over the pieces between the
+    arm's kinks in proportion to their lengths, each halved ``level`` times."""
+    if not landing:
+        n = 17 * 2**level
+        return np.full(n, t_end / n)
+    pieces = np.diff([0.0, *ARM_KINKS, t_end])
+    counts = np.maximum(1, np.round(17 * pieces / t_end)).astype(int) * 2**level
+    return np.concatenate([np.full(n, piece / n) for n, piece in zip(counts, pieces)])
+
+
+def arm_table() -> list[str]:
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    t_end, n = 1.3, arm.n_design
+    designs = {"uniform 0.4": np.full(n, 0.4), "uniform 1": np.ones(n),
+               "random #0": np.random.default_rng(0).uniform(arm.x_min, 1.0, n)}
+    settings = {"t_end": t_end, "method": "adjoint"}
+    lines = ["| design | grid | steps | d | ∇d | shoulder torque peak | elbow torque peak | elbow reaction peak |",
+             "|---|---|---|---|---|---|---|---|"]
+    for label, x in designs.items():
+        ref = arm.sensitivities_fixed(x, ARM_NAMES, settings, steps=arm_grid(t_end, 10, True))
+        for landing in (False, True):
+            for level in range(2, 8):
+                steps = arm_grid(t_end, level, landing)
+                out = arm.sensitivities_fixed(x, ARM_NAMES, settings, steps=steps)
+                d = abs(out.values[0] - ref.values[0]) / ref.values[0]
+                g = np.linalg.norm(out.gradients[0] - ref.gradients[0]) / np.linalg.norm(ref.gradients[0])
+                peaks = [abs(out.peaks[m] - ref.peaks[m]) / ref.peaks[m] for m in ARM_NAMES[1:]]
+                cells = " | ".join(f"{e:.1e}" for e in (d, g, *peaks))
+                lines.append(f"| {label} | {'landing' if landing else 'uniform'} | {len(steps)} | {cells} |")
+    return lines
+
+
 def main() -> None:
+    if "--arm" in sys.argv[1:]:
+        lines = ["# The arm's kinks: grids that land on them against uniform grids", "", "`python benches/kink.py --arm`",
+                 "", "Relative errors against a landing grid of 17408 steps, at the scene's elements.", "", *arm_table(), ""]
+        out = ROOT / "benches" / "results" / "kink_arm.md"
+        out.write_text("\n".join(lines))
+        print("\n".join(lines))
+        return
     lines = ["# Reactions after a kink; peaks held to a tolerance", "", "`python benches/kink.py`", "",
              "## Crank torque against inverse dynamics (rigid slider-crank, kink at 0.05 s)", "", *torque_table(), "",
              "## Peaks of a run to a tolerance (flexible slider-crank, same drive)", "", *peak_table(), ""]
