@@ -28,13 +28,11 @@ from __future__ import annotations
 
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 import flextop
-from flextop.errors import MechanismWarning
 from flextop.optimizers.mma import MMA
 from flextop.problems import DensityFilter, TopologyProblem, volume_constraints
 from flextop.scenes import continuum_robot_arm
@@ -44,9 +42,7 @@ RESPONSES = ["tip_deflection", "strain_energy"]
 
 
 def simulation(nx: int, ny: int) -> flextop.Simulation:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", MechanismWarning)
-        return flextop.Simulation(continuum_robot_arm(nx=nx, ny=ny))
+    return flextop.Simulation(continuum_robot_arm(nx=nx, ny=ny))
 
 
 def row(nx: int, ny: int, newton: str = "full") -> str:
@@ -103,9 +99,7 @@ def on_refined_meshes(sim: flextop.Simulation, physical: np.ndarray, nx: int, ny
     density = dict(zip(sim.variable_names, physical))
     values = []
     for f in (2, 4) if nx * ny <= 20 * 6 else (2,):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", MechanismWarning)
-            fine = flextop.Simulation(continuum_robot_arm(nx=f * nx, ny=f * ny, h=0.013 / f))
+        fine = flextop.Simulation(continuum_robot_arm(nx=f * nx, ny=f * ny, h=0.013 / f))
         x = np.empty(fine.n_design)
         for k, name in enumerate(fine.variable_names):
             link, cell = name.split("/cell[")

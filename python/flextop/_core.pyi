@@ -58,8 +58,9 @@ class MechanismInfo(TypedDict):
 
     frames: int  # rigid clusters (frames of beams, rigid bodies)
     mobility: int  # rigid-body modes the joints leave free at the reference
-    redundant_rows: int  # constraint rows that over-constrain the rigid mechanism (0: none)
-    over_constraining: list[str]  # names of the joints involved in the redundancy
+    redundant_rows: int  # constraint rows that depend on others in the rigid mechanism (0: none)
+    repeated_rows: int  # of those, rows that repeat undriven rows between the same two frames
+    over_constraining: list[str]  # names of the joints in the other dependencies
 
 @type_check_only
 class JointInfo(TypedDict):

@@ -64,10 +64,13 @@ def _warn_if_energy_created(res: Results) -> None:
 
 
 def _warn_if_over_constrained(mechanism: dict[str, Any]) -> None:
-    """A :class:`MechanismWarning` naming the joints that over-constrain the rigid mechanism."""
-    if mechanism["redundant_rows"]:
+    """A :class:`MechanismWarning` naming the joints that over-constrain the rigid mechanism
+    (not for rows that only repeat what undriven joints between the same two frames impose:
+    those agree in every motion)."""
+    if mechanism["over_constraining"]:
         names = ", ".join(f"'{n}'" for n in mechanism["over_constraining"])
-        warnings.warn(f"the joints {names} over-constrain the rigid mechanism ({mechanism['redundant_rows']} redundant row(s)): "
+        count = mechanism["redundant_rows"] - mechanism["repeated_rows"]
+        warnings.warn(f"the joints {names} over-constrain the rigid mechanism ({count} redundant row(s)): "
                       "the flexible model runs, but the rigid motion (and the tip deflection, Eq. 40) exists only where "
                       "the redundant constraints agree", MechanismWarning, stacklevel=3)
 
@@ -203,8 +206,12 @@ class Simulation:
     @cached_property
     def mechanism(self) -> dict[str, Any]:
         """The rigid mechanism behind the flexible one: ``frames`` (rigid clusters),
-        ``mobility`` (rigid-body modes the joints leave free), ``redundant_rows`` and the
-        ``over_constraining`` joints' names when the joints over-constrain it."""
+        ``mobility`` (rigid-body modes the joints leave free), ``redundant_rows`` (rows of
+        the joints that depend on others), ``repeated_rows`` (how many of those only repeat
+        what undriven joints between the same two frames, or a frame and the ground,
+        already impose: a frame pinned at both ends, a ring hinged at every node of an edge;
+        they agree in every motion) and the ``over_constraining`` joints' names, those whose
+        rows enter the other dependencies (empty when there are none)."""
         return dict(self.model.mechanism())
 
     @property

@@ -125,11 +125,79 @@ impl Link {
         Vector3::from_column_slice(&self.sizes[i][3 * side..3 * side + 3])
     }
 
+    /// The link of the rows `keep` marks (`None` where it marks none): the same bodies.
+    pub(crate) fn keeping(&self, keep: &[bool]) -> Option<Self> {
+        let mut out = Self {
+            len: 0,
+            rows: [[0.0; 6]; 3],
+            sizes: [[0.0; 6]; 3],
+            ..self.clone()
+        };
+        for i in (0..self.len).filter(|&i| keep[i]) {
+            out.rows[out.len] = self.rows[i];
+            out.sizes[out.len] = self.sizes[i];
+            out.len += 1;
+        }
+        (out.len > 0).then_some(out)
+    }
+
+    /// Its number of rows.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// The bodies it acts on as a key that does not depend on their order (`(a, b, ground)`,
+    /// `a < b`), and row `i` on their coordinates in that order.
+    fn keyed_row(&self, i: usize) -> ((usize, Option<usize>, bool), [f64; 6]) {
+        let mut row = self.rows[i];
+        match self.b {
+            Some(b) if b < self.a => {
+                row.rotate_left(3);
+                ((b, Some(self.a), self.grounded), row)
+            }
+            b => ((self.a, b, self.grounded), row),
+        }
+    }
+
     /// Whether the rows have full row rank on side `side`'s body.
     fn full_rank_on(&self, side: usize) -> bool {
         let sigma = self.block(side).singular_values();
         rank_of(sigma.as_slice(), 0.0) == self.len
     }
+}
+
+/// Per row of `links`, in order: whether it repeats what rows before it on the same bodies
+/// (one body and the ground, or two bodies) already impose, among the rows `counts` admits
+/// (ordered Gram–Schmidt on each pair of bodies' rows; a row repeats where its residual is
+/// at most [`TOL`] times its size). Such rows hold in every motion the others allow: two
+/// pins between the same two frames weld them, and a third says nothing more.
+pub(crate) fn repeated_rows(links: &[Link], counts: impl Fn(usize) -> bool) -> Vec<bool> {
+    let mut bases: HashMap<(usize, Option<usize>, bool), Vec<DVector<f64>>> = HashMap::new();
+    let mut out = Vec::with_capacity(links.iter().map(Link::len).sum());
+    for link in links {
+        for i in 0..link.len {
+            if !counts(out.len()) {
+                out.push(false);
+                continue;
+            }
+            let (key, row) = link.keyed_row(i);
+            let size: f64 = link.sizes[i].iter().sum();
+            let basis = bases.entry(key).or_default();
+            let mut v = DVector::from_column_slice(&row);
+            for _ in 0..2 {
+                for b in basis.iter() {
+                    v -= b * b.dot(&v);
+                }
+            }
+            let norm = v.norm();
+            let repeats = norm <= TOL * size;
+            if !repeats {
+                basis.push(v / norm);
+            }
+            out.push(repeats);
+        }
+    }
+    out
 }
 
 /// Number of the singular values `sigma` (largest first) above [`TOL`] times the larger of
@@ -1151,5 +1219,59 @@ mod tests {
             }
         }
         assert!(unique > 20, "{unique} cases with one solution");
+    }
+
+    /// Three hinges between bodies 0 and 1 at three points (the second welds them, the
+    /// third repeats two rows), given as (1, 0) once to check that the order of the bodies
+    /// does not matter; a pin of body 0 to the ground, then a second pin of it at another
+    /// point (one row repeats); and a driven angle row that would repeat is kept.
+    #[test]
+    fn repeated_rows_are_those_a_pair_of_bodies_already_has() {
+        let bodies = Bodies(vec![Vector2::new(0.0, 0.0), Vector2::new(1.0, 0.5)]);
+        let hinge = |a, b, p: Vector2<f64>| {
+            Link::new([
+                bodies.separation(Some(a), Some(b), p, X),
+                bodies.separation(Some(a), Some(b), p, Y),
+            ])
+        };
+        let pin = |p: Vector2<f64>| {
+            Link::new([
+                bodies.separation(Some(0), None, p, X),
+                bodies.separation(Some(0), None, p, Y),
+            ])
+        };
+        let links = vec![
+            hinge(0, 1, Vector2::new(0.2, 0.1)),
+            hinge(1, 0, Vector2::new(0.7, 0.4)),
+            hinge(0, 1, Vector2::new(0.3, 0.9)),
+            pin(Vector2::new(-0.5, 0.0)),
+            pin(Vector2::new(0.5, 0.3)),
+            Link::new([Bodies::angle(Some(0), 1)]),
+        ];
+        let repeated = repeated_rows(&links, |row| row != 10);
+        let expected = [
+            false, false, false, true, true, true, false, false, false, true, false,
+        ];
+        assert_eq!(repeated, expected);
+        // Without the rows that repeat, the rank is the same and only the driven row is
+        // redundant (the hinges weld the bodies, so their angle is fixed).
+        let positions = &bodies.0;
+        let all = Rank::of(&links, positions).unwrap();
+        let kept: Vec<Link> = links
+            .iter()
+            .scan(0, |first, link| {
+                let keep: Vec<bool> = (0..link.len()).map(|k| !repeated[*first + k]).collect();
+                *first += link.len();
+                Some(link.keeping(&keep))
+            })
+            .flatten()
+            .collect();
+        let rest = Rank::of(&kept, positions).unwrap();
+        assert_eq!((all.rows(), all.rank()), (11, 6));
+        assert_eq!((rest.rows(), rest.rank()), (7, 6));
+        // Kept in order: the weld's rows 0, 1, 2, the pins' 6, 7, 8, the angle 10: the
+        // angle depends on the weld's rows only (the two x rows give the relative turn).
+        let dependent = rest.dependent().unwrap();
+        assert!(dependent.contains(&6) && dependent.iter().all(|&r| r < 3 || r == 6));
     }
 }

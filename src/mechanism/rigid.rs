@@ -27,18 +27,24 @@ use crate::error::{Error, SceneError, SolveError};
 use crate::interrupt::poll;
 use crate::mechanism::constraint::ConstraintRow;
 use crate::mechanism::model::{Analysis, Initial, Model};
-use crate::mechanism::rank::{Link, Rank};
+use crate::mechanism::rank::{repeated_rows, Link, Rank};
 use crate::mechanism::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
-/// coordinates depend on others, among the rows of `joints` (indices into `Model::joints`).
-/// The flexible model may still run (its rows are independent once frames deform); the
-/// rigid motion exists only where the redundant constraints agree.
+/// coordinates depend on others. `repeated` of them only repeat what undriven joints
+/// between the same two clusters (or a cluster and the ground) already impose — a frame
+/// pinned at both ends, a ring hinged at every node of a member's edge —: those agree in
+/// every motion. The rest depend through `joints` (indices into `Model::joints`; empty
+/// when every redundant row is a repetition): there the flexible model still runs (its
+/// rows are independent once frames deform), but the rigid motion exists only where the
+/// redundant constraints agree.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OverConstraint {
     /// Number of dependent rows.
     pub redundant: usize,
-    /// The joints involved.
+    /// How many of them repeat rows between the same two clusters.
+    pub repeated: usize,
+    /// The joints whose rows enter the other dependencies.
     pub joints: Vec<usize>,
 }
 
@@ -221,9 +227,11 @@ impl Clusters {
     }
 
     /// How the joints over-constrain the rigid mechanism at the reference: the number of
-    /// rows of `Φ_ρ` that depend on others (rows minus rank), and the joints whose rows
-    /// enter those dependencies: the rows where the left null space of `Φ_ρ` is not zero
-    /// ([`Rank::dependent`]). `None` when the rows are independent.
+    /// rows of `Φ_ρ` that depend on others (rows minus rank), how many of them repeat
+    /// undriven rows between the same two clusters ([`repeated_rows`]), and the joints
+    /// whose rows enter the dependencies left once those are set aside: the rows where the
+    /// left null space of the other rows is not zero ([`Rank::dependent`]). `None` when
+    /// the rows are independent.
     ///
     /// # Errors
     /// [`SolveError::Interrupted`] when the caller asks to stop.
@@ -235,13 +243,35 @@ impl Clusters {
         if redundant == 0 {
             return Ok(None);
         }
-        let mut joints: Vec<usize> = rank
-            .dependent()?
-            .into_iter()
-            .map(|row| model.rows[row].joint)
-            .collect();
+        let repeats = repeated_rows(&links, |row| !model.rows[row].driven);
+        let repeated = repeats.iter().filter(|&&r| r).count();
+        // The links without their repeated rows, and the model row of each row kept.
+        let (mut kept, mut rows) = (Vec::new(), Vec::new());
+        let mut first = 0;
+        for link in &links {
+            let keep: Vec<bool> = repeats[first..first + link.len()]
+                .iter()
+                .map(|r| !r)
+                .collect();
+            rows.extend((first..first + link.len()).filter(|&r| !repeats[r]));
+            kept.extend(link.keeping(&keep));
+            first += link.len();
+        }
+        let mut joints: Vec<usize> = if redundant > repeated {
+            let rest = Rank::of(&kept, &origins)?;
+            rest.dependent()?
+                .into_iter()
+                .map(|row| model.rows[rows[row]].joint)
+                .collect()
+        } else {
+            Vec::new()
+        };
         joints.dedup();
-        Ok(Some(OverConstraint { redundant, joints }))
+        Ok(Some(OverConstraint {
+            redundant,
+            repeated,
+            joints,
+        }))
     }
 
     /// Clusters not connected to the ground through any chain of joints: the parts of the
@@ -328,11 +358,14 @@ impl Clusters {
                     break;
                 }
                 if iter == 50 {
-                    let over = self.over_constraint(model)?.map_or(String::new(), |o| {
+                    let over = self
+                        .over_constraint(model)?
+                        .filter(|o| !o.joints.is_empty());
+                    let over = over.map_or(String::new(), |o| {
                         format!(
                             "; the joints {} over-constrain the rigid mechanism ({} redundant row(s))",
                             o.names(model),
-                            o.redundant
+                            o.redundant - o.repeated
                         )
                     });
                     return Err(fail(format!(

@@ -242,8 +242,9 @@ impl PyModel {
     }
 
     /// The rigid mechanism: `frames` (rigid clusters), `mobility` (free rigid-body modes
-    /// the joints leave at the reference), and `redundant_rows` with the names of the
-    /// `over_constraining` joints when the joints over-constrain the rigid mechanism.
+    /// the joints leave at the reference), `redundant_rows`, the `repeated_rows` among them
+    /// and the names of the `over_constraining` joints
+    /// ([`crate::mechanism::rigid::OverConstraint`]).
     fn mechanism<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let m = &self.model;
         let model = Arc::clone(m);
@@ -256,6 +257,7 @@ impl PyModel {
         d.set_item("frames", frames)?;
         d.set_item("mobility", mobility)?;
         d.set_item("redundant_rows", over.as_ref().map_or(0, |o| o.redundant))?;
+        d.set_item("repeated_rows", over.as_ref().map_or(0, |o| o.repeated))?;
         let names: Vec<&str> = over
             .iter()
             .flat_map(|o| o.joints.iter().map(|&j| m.joints[j].name.as_str()))

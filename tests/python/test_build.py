@@ -5,6 +5,7 @@ reported them; loops of hundreds of bodies; and Ctrl-C during the build of a lar
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import pytest
 from conftest import seconds_to_interrupt
@@ -58,7 +59,7 @@ def chain(n: int, rise: float, pins: tuple[int, ...] = ()) -> flextop.Scene:
 
 def test_a_rigid_four_bar_has_one_free_mode_and_starts_in_the_motion_of_its_crank():
     sim = flextop.Simulation(four_bar())
-    assert sim.mechanism == {"frames": 3, "mobility": 1, "redundant_rows": 0, "over_constraining": []}
+    assert sim.mechanism == {"frames": 3, "mobility": 1, "redundant_rows": 0, "repeated_rows": 0, "over_constraining": []}
     scene = four_bar()
     scene.initial_rate("A", 1.0)
     qdot = flextop.Simulation(scene).run(t_end=0.01, h=0.01).qdot[0]
@@ -77,10 +78,8 @@ def test_a_static_four_bar_is_refused_for_its_free_mode_unless_a_spring_holds_it
     assert flextop.Simulation(held).mechanism["mobility"] == 1
 
 
-def test_a_coupler_on_three_parallel_rockers_is_over_constrained_by_every_joint():
-    """Three rockers pinned below a rigid coupler (two beams meeting at the middle rocker):
-    a parallelogram with one rocker too many, one redundant row, whose dependency runs
-    through every pin and hinge."""
+def three_rockers() -> flextop.Scene:
+    """Three rockers pinned below a rigid coupler (two beams meeting at the middle rocker)."""
     s = frames("three_rockers")
     for k in range(3):
         s.node(f"g{k}", float(k), 0.0)
@@ -92,31 +91,60 @@ def test_a_coupler_on_three_parallel_rockers_is_over_constrained_by_every_joint(
     s.beam("c1", "c2", section="al", name="coupler_b")
     for k in range(3):
         s.hinge(f"top{k}", f"t{k}", f"c{k}")
+    return s
+
+
+def test_a_coupler_on_three_parallel_rockers_is_over_constrained_by_every_joint():
+    """A parallelogram with one rocker too many: one redundant row, whose dependency runs
+    through every pin and hinge."""
+    s = three_rockers()
     names = ["ground0", "ground1", "ground2", "top0", "top1", "top2"]
     with pytest.warns(MechanismWarning, match=r"'ground0', 'ground1', 'ground2', 'top0', 'top1', 'top2' over-constrain .* \(1 redundant"):
         sim = flextop.Simulation(s)
-    assert sim.mechanism == {"frames": 4, "mobility": 1, "redundant_rows": 1, "over_constraining": names}
+    assert sim.mechanism == {"frames": 4, "mobility": 1, "redundant_rows": 1, "repeated_rows": 0, "over_constraining": names}
 
 
-def test_a_body_pinned_twice_is_refused_and_a_frame_pinned_twice_over_constrained():
+def test_a_body_pinned_twice_is_refused_and_a_frame_pinned_twice_repeats_a_row_without_a_warning():
     """A rigid body's two pins repeat a constraint on its three unknowns: the second pin is
-    named. A beam pinned at both ends runs (the beam stretches), its rigid frame has one
-    redundant row between the two pins."""
+    named. A beam pinned at both ends runs (the beam stretches): its rigid frame has one
+    redundant row between the two pins, a repetition that holds in every motion (the frame
+    welded to the ground), so no warning. A drive on one of the pins makes it a conflict."""
     s = flextop.Scene("bar")
     link(s, "bar", (0.0, 0.0), (1.0, 0.0))
     s.pin("left", "bar.p")
     s.pin("right", "bar.q")
     with pytest.raises(SceneError, match=r"joints\[1\] \(right\): over-constrained"):
         flextop.Simulation(s)
-    s = frames("beam")
-    s.node("a", 0.0, 0.0)
-    s.node("b", 1.0, 0.0)
-    s.beam("a", "b", section="al")
-    s.pin("left", "a")
-    s.pin("right", "b")
+
+    def beam(drive: bool) -> flextop.Scene:
+        s = frames("beam")
+        s.node("a", 0.0, 0.0)
+        s.node("b", 1.0, 0.0)
+        s.beam("a", "b", section="al")
+        s.pin("left", "a", drive=flextop.trapezoidal(0.0, 0.1, acceleration=1.0, speed=0.1) if drive else None)
+        s.pin("right", "b")
+        return s
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MechanismWarning)
+        sim = flextop.Simulation(beam(drive=False))
+    assert sim.mechanism == {"frames": 1, "mobility": 0, "redundant_rows": 1, "repeated_rows": 1, "over_constraining": []}
     with pytest.warns(MechanismWarning, match=r"'left', 'right' over-constrain .* \(1 redundant"):
-        sim = flextop.Simulation(s)
-    assert sim.mechanism == {"frames": 1, "mobility": 0, "redundant_rows": 1, "over_constraining": ["left", "right"]}
+        sim = flextop.Simulation(beam(drive=True))
+    assert sim.mechanism == {"frames": 1, "mobility": 0, "redundant_rows": 2, "repeated_rows": 1, "over_constraining": ["left", "right"]}
+
+
+def test_a_ring_hinged_at_every_node_of_an_edge_repeats_rows_without_a_warning():
+    """The continuum arm's rings (a light body hinged at each node of a member's edge) weld
+    the body to the member: all but three of their rows repeat, and nothing is warned.
+    (A repetition beside a true over-constraint: test_stability's locked four-bar.)"""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MechanismWarning)
+        sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=4, ny=2))
+    info = sim.mechanism
+    assert info["over_constraining"] == [] and info["redundant_rows"] == info["repeated_rows"]
+    # Three rings of three nodes each: 6 rows a ring on 3 relative coordinates.
+    assert info["redundant_rows"] == 3 * (2 * 3 - 3)
 
 
 def test_a_loop_of_three_hundred_bodies_keeps_every_free_mode_and_a_straight_one_is_at_a_dead_centre():
@@ -124,7 +152,7 @@ def test_a_loop_of_three_hundred_bodies_keeps_every_free_mode_and_a_straight_one
     pins take four more. Straight, its end pin repeats what the chain's rows already hold
     (a dead centre), and is named."""
     n = 300
-    assert flextop.Simulation(chain(n, 0.25)).mechanism == {"frames": n, "mobility": n - 2, "redundant_rows": 0,
+    assert flextop.Simulation(chain(n, 0.25)).mechanism == {"frames": n, "mobility": n - 2, "redundant_rows": 0, "repeated_rows": 0,
                                                             "over_constraining": []}
     assert flextop.Simulation(chain(n, 0.25, pins=(100, 200))).mechanism["mobility"] == n - 6
     with pytest.raises(SceneError, match=rf"joints\[{n}\] \(end\): over-constrained"):

@@ -24,9 +24,10 @@ def pinned_edge(s: Scene, m, ny: int) -> None:
 
 
 def simulation(s: Scene) -> flextop.Simulation:
-    # A pinned edge or root over-constrains the member taken as rigid (warned, not refused).
+    # A pinned edge only repeats what two of its pins impose on the member taken as rigid:
+    # counted, not warned about.
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", MechanismWarning)
+        warnings.simplefilter("error", MechanismWarning)
         return flextop.Simulation(s)
 
 

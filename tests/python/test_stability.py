@@ -328,15 +328,18 @@ def four_bar(crank_end, split=4):
 
 def test_an_extra_pin_that_locks_the_four_bar_is_named_when_the_scene_is_built():
     """In the frames' rigid coordinates the lock's rows depend on the others (9 coordinates,
-    11 rows, rank 9); in the flexible model they do not, so it runs, while the rigid
-    kinematics of the tip deflection fails, naming the joints."""
+    11 rows, rank 9: one row repeats D's pin of the rocker, the other conflicts with the
+    drive); in the flexible model they do not, so it runs, while the rigid kinematics of the
+    tip deflection fails, naming the joints."""
     free = flextop.Simulation(four_bar(2.2))
-    assert free.mechanism == {"frames": 3, "mobility": 0, "redundant_rows": 0, "over_constraining": []}
+    assert free.mechanism == {"frames": 3, "mobility": 0, "redundant_rows": 0, "repeated_rows": 0, "over_constraining": []}
     scene = four_bar(2.2)
     scene.pin("lock", "C_rocker")
-    with pytest.warns(flextop.errors.MechanismWarning, match=r"'motor', 'B', 'C', 'D', 'lock' over-constrain .* \(2 redundant"):
+    with pytest.warns(flextop.errors.MechanismWarning, match=r"'motor', 'B', 'C', 'D', 'lock' over-constrain .* \(1 redundant"):
         sim = flextop.Simulation(scene)
-    assert sim.mechanism["redundant_rows"] == 2
+    # The lock and D both pin the rocker to the ground: one row repeats, and the other
+    # redundancy (the driven loop, now locked) is still named.
+    assert sim.mechanism["redundant_rows"] == 2 and sim.mechanism["repeated_rows"] == 1
     res = sim.run(h=0.01, t_end=0.5)  # the flexible model runs: the drive bends the locked links
     assert np.isfinite(res.q).all() and res.newton["max"] <= 6
     with pytest.raises(flextop.SimulationError, match="'lock' over-constrain the rigid mechanism"):
