@@ -47,17 +47,20 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn alpha_steps_do_not_allocate() {
-    let runs = [1, 3].map(|split| (split, NewtonMatrix::Full));
+    let runs = [1, 3].map(|split| (split, NewtonMatrix::Full, MassKind::Consistent));
     let slider_crank = include_str!("../examples/slider_crank.toml");
     let arms = runs
         .into_iter()
-        .chain([(3, NewtonMatrix::Modified)])
-        .map(|(split, newton)| {
+        .chain([(3, NewtonMatrix::Modified, MassKind::Consistent)])
+        // Bars' end nodes coupled in the mass matrix.
+        .chain([(3, NewtonMatrix::Full, MassKind::BarLumped)])
+        .map(|(split, newton, mass)| {
             (
-                format!("arm, split = {split}"),
+                format!("arm, split = {split}, {mass:?} mass"),
                 reference::robot_arm(split),
                 newton,
                 0.02,
+                mass,
             )
         });
     // Rigid bodies, hinges on their arms (constraint Hessians) and a slider.
@@ -66,6 +69,7 @@ fn alpha_steps_do_not_allocate() {
         scene::parse_toml(slider_crank).unwrap(),
         NewtonMatrix::Full,
         2.5e-4,
+        MassKind::Consistent,
     );
     // Dense factors: the four-bar's flexible coupler fills more than half the triangle.
     let four_bar = (
@@ -73,19 +77,27 @@ fn alpha_steps_do_not_allocate() {
         scene::parse_toml(include_str!("../examples/four_bar.toml")).unwrap(),
         NewtonMatrix::Full,
         1e-3,
+        MassKind::Consistent,
     );
     // Rayleigh damping: the α part in the constant C, the β part state-dependent.
     let mut damped = reference::robot_arm(1);
     for section in damped.sections.values_mut() {
         section.rayleigh = Some([2.0, 1e-4]);
     }
-    let damped = ("damped arm".to_string(), damped, NewtonMatrix::Full, 0.02);
+    let damped = (
+        "damped arm".to_string(),
+        damped,
+        NewtonMatrix::Full,
+        0.02,
+        MassKind::Consistent,
+    );
     // Truss bars, with the rotations of their pinned nodes absent from the unknowns.
     let truss = (
         "truss".to_string(),
         scene::parse_toml(TRUSS).unwrap(),
         NewtonMatrix::Full,
         5e-4,
+        MassKind::Consistent,
     );
     // A continuum member: quadrilateral cells, their nodes without rotations.
     let member = (
@@ -93,8 +105,9 @@ fn alpha_steps_do_not_allocate() {
         scene::parse_toml(MEMBER).unwrap(),
         NewtonMatrix::Full,
         5e-4,
+        MassKind::Consistent,
     );
-    for (name, spec, newton, h) in arms.chain([mechanism, four_bar, damped, truss, member]) {
+    for (name, spec, newton, h, mass) in arms.chain([mechanism, four_bar, damped, truss, member]) {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
@@ -104,7 +117,7 @@ fn alpha_steps_do_not_allocate() {
             tol: 1e-10,
             max_iter: 20,
             newton,
-            mass: MassKind::Consistent,
+            mass,
         };
         let mut integrator =
             Integrator::new(&model, model.densities(Some(&x)).unwrap(), &settings).unwrap();

@@ -494,7 +494,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--t-end", type=_positive(float))
     s.add_argument("--h", type=_positive(float))
     s.add_argument("--rho-inf", type=float)
-    s.add_argument("--mass", choices=["consistent", "lumped"])
+    s.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"])
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.discretization.accuracy)")
     s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")

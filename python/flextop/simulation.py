@@ -279,8 +279,12 @@ class Simulation:
         step (20), ``newton`` ``"full"`` (a new iteration matrix every iteration) or
         ``"modified"`` (the step's first kept while the residual falls tenfold per
         iteration: the same solution to ``tol``, 12–26 % faster on the arm's designs
-        measured, BENCHMARKS.md), ``mass``
-        ``"consistent"`` or ``"lumped"``. Static scenes solve the
+        measured, BENCHMARKS.md), ``mass`` ``"consistent"`` (linear interpolation),
+        ``"lumped"`` or ``"bar_lumped"`` (a bar's mass lumped on its nodes and its end
+        nodes coupled so that its rigid motion carries its exact inertia: consistent on a
+        bar of one element, and on a split bar its own bending modes converge at fourth
+        order in its elements rather than the second; BENCHMARKS.md "Mass of a split
+        bar"). Static scenes solve the
         equilibrium with ``load_steps`` initial load increments.
 
         With a tolerance (``rtol`` here or on the :class:`Simulation`) and no ``h``, the

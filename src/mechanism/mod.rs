@@ -6,6 +6,7 @@
 //! joints' Jacobian (`rank`), and the scene [`parameter`]s with their pseudo-loads.
 
 pub mod bar_frequency;
+pub mod bar_mass;
 pub mod constraint;
 pub mod element;
 pub mod interpolation;

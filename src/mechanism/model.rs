@@ -9,6 +9,7 @@
 use nalgebra::Vector2;
 
 use crate::error::{DesignError, SolveError};
+use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::{ConstraintRow, Joint};
 use crate::mechanism::element::quad::{Quad, Vector8};
 use crate::mechanism::element::{Formulation, Kind, Vector6};
@@ -17,7 +18,7 @@ use crate::mechanism::load::NodalLoad;
 use crate::mechanism::motor::Motor;
 use crate::mechanism::section::NamedSection;
 use crate::mechanism::spring::{Measure, Spring};
-use crate::settings::RunOptions;
+use crate::settings::{MassKind, RunOptions};
 
 /// A node of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -241,6 +242,9 @@ pub struct Model {
     /// its scale on their diagonal ([`crate::solver`]'s assembly) so that it stays regular,
     /// and they stay zero.
     pub absent_rotations: Vec<usize>,
+    /// The coupling of each bar's end nodes that `mass = "bar_lumped"` adds to its lumped
+    /// mass ([`BarMass`]; read through [`Model::bar_couplings`]).
+    pub bar_couplings: Vec<BarMass>,
 }
 
 /// Per-element scaling of inertia and stiffness for one design (paper Eq. 33–34): the
@@ -418,6 +422,15 @@ impl Model {
         t.sort_by(f64::total_cmp);
         t.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * t_end);
         t
+    }
+
+    /// The couplings of bars' end nodes in the mass matrix of `kind`: every bar's for
+    /// `bar_lumped`, none otherwise.
+    pub fn bar_couplings(&self, kind: MassKind) -> &[BarMass] {
+        match kind {
+            MassKind::BarLumped => &self.bar_couplings,
+            MassKind::Consistent | MassKind::Lumped => &[],
+        }
     }
 
     /// Index of the node called `name`.

@@ -17,9 +17,10 @@
 //! `Φ = ±nᵀ(u + (R(φ) − I) p)` keep the reference configuration consistent whatever `p`
 //! (`∂Φ/∂p = 0` at `φ = 0`), so the run still starts at rest in its reference.
 
-use nalgebra::Vector2;
+use nalgebra::{Vector2, Vector4};
 
 use crate::error::SettingsError;
+use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
 use crate::mechanism::element::{MassKind, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
@@ -261,12 +262,22 @@ impl Parameter {
                 let d = dof(model.point_masses[point].node, 2);
                 a[d] * b[d]
             }
-            Self::Section { section, rate, .. } => elements_of(model, section)
-                .map(|(e, el)| {
-                    let m = el.kernel.mass_matrix_rate(on.mass, &rate);
-                    on.densities.mass[e] * el.gather(a).dot(&(m * el.gather(b)))
-                })
-                .sum(),
+            Self::Section { section, rate, .. } => {
+                let elements: f64 = elements_of(model, section)
+                    .map(|(e, el)| {
+                        let m = el.kernel.mass_matrix_rate(on.mass, &rate);
+                        on.densities.mass[e] * el.gather(a).dot(&(m * el.gather(b)))
+                    })
+                    .sum();
+                let couplings: f64 = couplings_of(on, section)
+                    .map(|c| {
+                        let (a, b) = (c.dofs().map(|d| a[d]), c.dofs().map(|d| b[d]));
+                        let m = c.matrix_rate(&rate) * on.densities.mass[c.element];
+                        Vector4::from(a).dot(&(m * Vector4::from(b)))
+                    })
+                    .sum();
+                elements + couplings
+            }
             _ => 0.0,
         }
     }
@@ -355,6 +366,13 @@ impl Parameter {
                         .zip(load.iter())
                         .for_each(|(&d, &v)| add(d, v));
                 }
+                for c in couplings_of(on, section) {
+                    let load = coupling_load(on, c, &rate, at);
+                    c.dofs()
+                        .iter()
+                        .zip(load.iter())
+                        .for_each(|(&d, &v)| add(d, v));
+                }
             }
         }
     }
@@ -431,6 +449,30 @@ fn section_load(on: &Designed, e: usize, rate: &Section, at: &At) -> Vector6 {
         }
     }
     inertia * on.densities.mass[e] + stiffness * on.densities.stiffness[e]
+}
+
+/// `m(x_b)(M_c' (q̈ + α q̇) + α' M_c q̇)` of a bar's end coupling for its section changing
+/// at `rate` (`M_c ĝ = 0`: gravity is uniform; zero in statics).
+fn coupling_load(on: &Designed, c: &BarMass, rate: &Section, at: &At) -> Vector4<f64> {
+    let Some((v, acc)) = at.rates else {
+        return Vector4::zeros();
+    };
+    let gather = |x: &[f64]| Vector4::from(c.dofs().map(|d| x[d]));
+    let mut inertia = c.matrix_rate(rate) * gather(acc);
+    if !v.is_empty() {
+        let alpha = on.model.elements[c.element].kernel.section().alpha;
+        inertia += (c.matrix_rate(rate) * alpha + c.matrix() * rate.alpha) * gather(v);
+    }
+    inertia * on.densities.mass[c.element]
+}
+
+/// The end couplings of the bars of section `k` in the design's mass matrix.
+fn couplings_of<'a>(on: &Designed<'a>, k: usize) -> impl Iterator<Item = &'a BarMass> {
+    let model = on.model;
+    model
+        .bar_couplings(on.mass)
+        .iter()
+        .filter(move |c| model.bars[model.elements[c.element].bar].section == k)
 }
 
 /// The trapezoidal drive of joint `j`, if it has one.

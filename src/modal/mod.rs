@@ -346,6 +346,18 @@ impl<'m> Pencil<'m> {
                 out[j * n_var + v] += dlambda / (2.0 * TAU * TAU * f).max(1e-300);
             }
         }
+        for c in model.bar_couplings(kind) {
+            let Some(v) = model.variable_of(c.element) else {
+                continue;
+            };
+            let m = c.matrix();
+            for (j, (lambda, phi)) in lambdas.iter().zip(shapes).enumerate() {
+                let p = nalgebra::Vector4::from(c.dofs().map(|d| phi[d]));
+                let dlambda = -lambda * d.mass_rate[c.element] * p.dot(&(m * p));
+                let f = lambda.max(0.0).sqrt() / TAU;
+                out[j * n_var + v] += dlambda / (2.0 * TAU * TAU * f).max(1e-300);
+            }
+        }
         let n_e = model.elements.len();
         for (c, cell) in model.cells.iter().enumerate() {
             let Some(v) = cell.variable else {
@@ -396,8 +408,28 @@ impl MassFactor {
     fn of(asm: &Assembler<'_>) -> Self {
         let model = asm.model;
         let mut blocks = Vec::new();
-        for (e, el) in model.elements.iter().enumerate() {
-            let m = el.kernel.mass_matrix(asm.mass_kind) * asm.densities.mass[e];
+        let mut masses: Vec<_> = (model.elements.iter().enumerate())
+            .map(|(e, el)| el.kernel.mass_matrix(asm.mass_kind) * asm.densities.mass[e])
+            .collect();
+        // A bar's end coupling (negative semidefinite) joins the lumped translational
+        // mass of its end nodes, which it leaves positive definite.
+        for c in model.bar_couplings(asm.mass_kind) {
+            let bar = &model.bars[model.elements[c.element].bar];
+            let (first, last) = (bar.elements.start, bar.elements.end - 1);
+            let (la, lb) = (masses[first][(0, 0)], masses[last][(3, 3)]);
+            for (e, k) in [(first, 0), (first, 1), (last, 3), (last, 4)] {
+                masses[e][(k, k)] = 0.0;
+            }
+            let mut m = c.matrix() * asm.densities.mass[c.element];
+            for (k, l) in [la, la, lb, lb].into_iter().enumerate() {
+                m[(k, k)] += l;
+            }
+            blocks.push((
+                c.dofs().to_vec(),
+                root(DMatrix::from_iterator(4, 4, m.iter().copied())),
+            ));
+        }
+        for (el, m) in model.elements.iter().zip(&masses) {
             blocks.push((
                 el.dofs().to_vec(),
                 root(DMatrix::from_iterator(6, 6, m.iter().copied())),

@@ -29,8 +29,9 @@ fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
 #[derive(Debug)]
 struct KineticEnergy;
 
-/// Calls `add(d, (M v)_d)` for the mass matrix `M(x)` of the design (beams scaled by
-/// `m(x_e)`, point masses and bodies) times `v` (nothing for an empty `v`).
+/// Calls `add(d, (M v)_d)` for the mass matrix `M(x)` of the design (beams, cells and
+/// bars' end couplings scaled by `m(x_e)`, point masses and bodies) times `v` (nothing for
+/// an empty `v`).
 fn add_mass_times(ctx: &Context, v: &[f64], mut add: impl FnMut(usize, f64)) {
     if v.is_empty() {
         return;
@@ -50,6 +51,14 @@ fn add_mass_times(ctx: &Context, v: &[f64], mut add: impl FnMut(usize, f64)) {
             .iter()
             .zip(p.iter())
             .for_each(|(&d, &x)| add(d, x));
+    }
+    for c in m.bar_couplings(ctx.mass_kind) {
+        let p = c.times(v);
+        let mass = ctx.densities.mass[c.element];
+        c.dofs()
+            .iter()
+            .zip(p.iter())
+            .for_each(|(&d, &x)| add(d, x * mass));
     }
     for pm in &m.point_masses {
         let d = 3 * pm.node;
@@ -81,6 +90,18 @@ impl Family for KineticEnergy {
                 let v = el.gather(at.v);
                 let energy = 0.5 * v.dot(&(el.kernel.mass_matrix(ctx.mass_kind) * v));
                 g.x[j] += scale * ctx.densities.mass_rate[e] * energy;
+            }
+        }
+        for c in m.bar_couplings(ctx.mass_kind) {
+            if let Some(j) = m.variable_of(c.element) {
+                let p = c.times(at.v);
+                let energy = 0.5
+                    * c.dofs()
+                        .iter()
+                        .zip(p)
+                        .map(|(&d, x)| at.v[d] * x)
+                        .sum::<f64>();
+                g.x[j] += scale * ctx.densities.mass_rate[c.element] * energy;
             }
         }
         for (k, cell) in m.cells.iter().enumerate() {

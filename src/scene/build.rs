@@ -21,6 +21,7 @@ use super::{
     body, design, ground_structure, joint, load, member, motor, section, simulation, spring,
 };
 use crate::error::{Error, SceneError};
+use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
 use crate::mechanism::spring::Measure;
@@ -108,8 +109,10 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         tip,
         defaults: simulation::defaults(&spec.simulation)?,
         absent_rotations: Vec::new(),
+        bar_couplings: Vec::new(),
     };
     model.absent_rotations = absent_rotations(&model)?;
+    model.bar_couplings = BarMass::of(&model);
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;
     let starts = model.initial == Initial::Equilibrium || !rates.is_empty();
     if starts && model.analysis == Analysis::Static {

@@ -161,6 +161,22 @@ impl PseudoLoads {
             + stiffness * asm.densities.stiffness_rate[e]
     }
 
+    /// `m'(x_b) M_c (q̈ + α q̇)` on the four DOFs of bar coupling `k`
+    /// ([`crate::mechanism::bar_mass::BarMass`]; gravity
+    /// is uniform, so `M_c ĝ = 0`; zero for statics).
+    fn bar(asm: &Assembler, k: usize, at: &At) -> [f64; 4] {
+        let bar = &asm.model.bar_couplings(asm.mass_kind)[k];
+        let Some((v, acc)) = at.rates else {
+            return [0.0; 4];
+        };
+        let alpha = asm.model.elements[bar.element].kernel.section().alpha;
+        let rate = asm.densities.mass_rate[bar.element];
+        // Velocities are kept where damping reads them.
+        let b = if v.is_empty() { [0.0; 4] } else { bar.times(v) };
+        let a = bar.times(acc);
+        std::array::from_fn(|i| rate * (a[i] + alpha * b[i]))
+    }
+
     /// `m'(x_c) M_c (q̈_c − ĝ_c) + s'(x_c) f_c(q_c)` of cell `k` (`q̈ = 0` for statics).
     fn cell(&self, asm: &Assembler, k: usize, at: &At) -> Vector8 {
         let cell = &asm.model.cells[k];
@@ -207,6 +223,20 @@ impl PseudoLoads {
                     .for_each(|(&d, v)| col[d] -= v);
             }
         }
+        for (k, bar) in asm.model.bar_couplings(asm.mass_kind).iter().enumerate() {
+            if let Some(j) = asm
+                .model
+                .variable_of(bar.element)
+                .filter(|j| columns.contains(j))
+            {
+                let p = Self::bar(asm, k, at);
+                let col = &mut rhs[(j - columns.start) * ld..];
+                bar.dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .for_each(|(&d, v)| col[d] -= v);
+            }
+        }
         let n_q = asm.model.n_dofs();
         for (k, p) in self.parameters.iter().enumerate() {
             let j = self.n_x + k;
@@ -245,6 +275,17 @@ impl PseudoLoads {
             if let Some(j) = cell.variable {
                 let p = self.cell(asm, k, at);
                 xbar[j] -= cell
+                    .dofs()
+                    .iter()
+                    .zip(p.iter())
+                    .map(|(&d, v)| v * mu[d])
+                    .sum::<f64>();
+            }
+        }
+        for (k, bar) in asm.model.bar_couplings(asm.mass_kind).iter().enumerate() {
+            if let Some(j) = asm.model.variable_of(bar.element) {
+                let p = Self::bar(asm, k, at);
+                xbar[j] -= bar
                     .dofs()
                     .iter()
                     .zip(p.iter())

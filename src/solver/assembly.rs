@@ -29,6 +29,7 @@
 use std::ops::Range;
 
 use crate::error::SolveError;
+use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::{ConstraintRow, Turns};
 use crate::mechanism::element::{Damping, MassKind, Matrix6, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
@@ -50,6 +51,9 @@ pub struct Pattern {
     element_slots: Vec<[usize; 36]>,
     /// For each cell, slots of `(dofᵢ, dofⱼ)` of its eight DOFs, column-major.
     cell_slots: Vec<[usize; 64]>,
+    /// For each bar's end coupling ([`BarMass`], `mass = "bar_lumped"` only), slots of
+    /// `(dofᵢ, dofⱼ)` of its four DOFs, column-major.
+    bar_slots: Vec<[usize; 16]>,
     /// Diagonal slots of each node's three DOFs.
     node_slots: Vec<[usize; 3]>,
     /// For each spring, slots of `(dofᵢ, dofⱼ)` of its six DOFs (`usize::MAX` on the ground).
@@ -63,11 +67,12 @@ pub struct Pattern {
 }
 
 impl Pattern {
-    /// The pattern of `model`'s iteration matrix.
+    /// The pattern of `model`'s iteration matrix, with the couplings `bars` of bars' end
+    /// nodes.
     ///
     /// # Errors
     /// [`SolveError::Setup`] if an entry the slot maps need is missing (an engine defect).
-    pub fn new(model: &Model) -> Result<Self, SolveError> {
+    pub fn new(model: &Model, bars: &[BarMass]) -> Result<Self, SolveError> {
         let n_q = model.n_dofs();
         let n = n_q + model.n_constraints();
         let mut pairs: Vec<(usize, usize)> = Vec::new();
@@ -80,6 +85,10 @@ impl Pattern {
             pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
         }
         pairs.extend((0..n_q).map(|i| (i, i)));
+        for bar in bars {
+            let d = bar.dofs();
+            pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
+        }
         for spring in &model.springs {
             let d: Vec<usize> = spring.dofs().into_iter().flatten().collect();
             pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
@@ -109,6 +118,7 @@ impl Pattern {
             row_idx,
             element_slots: vec![],
             cell_slots: vec![],
+            bar_slots: vec![],
             node_slots: vec![],
             spring_slots: vec![],
             row_slots: vec![],
@@ -130,6 +140,14 @@ impl Pattern {
             .map(|c| {
                 let d = c.dofs();
                 slots(|k| p.slot(d[k % 8], d[k / 8]))
+            })
+            .collect::<Option<_>>()
+            .ok_or_else(missing)?;
+        p.bar_slots = bars
+            .iter()
+            .map(|b| {
+                let d = b.dofs();
+                slots(|k| p.slot(d[k % 4], d[k / 4]))
             })
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
@@ -335,8 +353,15 @@ impl<'m> Assembler<'m> {
         densities: Densities,
         mass_kind: MassKind,
     ) -> Result<Self, SolveError> {
-        let pattern = Pattern::new(model)?;
+        let bar_masses = model.bar_couplings(mass_kind);
+        let pattern = Pattern::new(model, bar_masses)?;
         let mut mass = vec![0.0; pattern.nnz()];
+        for (bar, slots) in bar_masses.iter().zip(&pattern.bar_slots) {
+            let m = bar.matrix() * densities.mass[bar.element];
+            for (k, &slot) in slots.iter().enumerate() {
+                mass[slot] += m[(k % 4, k / 4)];
+            }
+        }
         for (e, el) in model.elements.iter().enumerate() {
             let m = el.kernel.mass_matrix(mass_kind) * densities.mass[e];
             for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
@@ -375,6 +400,13 @@ impl<'m> Assembler<'m> {
                     for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
                         values[slot] += m[(k % 6, k / 6)];
                     }
+                }
+            }
+            for (bar, slots) in bar_masses.iter().zip(&pattern.bar_slots) {
+                let alpha = model.elements[bar.element].kernel.section().alpha;
+                let m = bar.matrix() * (alpha * densities.mass[bar.element]);
+                for (k, &slot) in slots.iter().enumerate() {
+                    values[slot] += m[(k % 4, k / 4)];
                 }
             }
             for (k, spring) in dampers {

@@ -302,7 +302,8 @@ pub(super) fn two_node_mass(kind: MassKind, totals: [f64; 3]) -> Matrix6 {
     for (k, total) in totals.into_iter().enumerate() {
         let (diag, off) = match kind {
             MassKind::Consistent => (total / 3.0, total / 6.0),
-            MassKind::Lumped => (total / 2.0, 0.0),
+            // A bar's end nodes are coupled outside (`crate::mechanism::bar_mass`).
+            MassKind::Lumped | MassKind::BarLumped => (total / 2.0, 0.0),
         };
         m[(k, k)] = diag;
         m[(k + 3, k + 3)] = diag;

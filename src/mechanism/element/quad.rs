@@ -226,7 +226,7 @@ impl Quad {
     pub fn mass_matrix(&self, kind: MassKind) -> Matrix8 {
         let consistent = self.consistent_mass();
         match kind {
-            MassKind::Consistent => consistent,
+            MassKind::Consistent | MassKind::BarLumped => consistent,
             MassKind::Lumped => Matrix8::from_diagonal(&consistent.column_sum()),
         }
     }
