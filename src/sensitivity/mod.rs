@@ -22,6 +22,7 @@ mod start;
 pub mod statics;
 
 use crate::error::{Error, SettingsError};
+use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::element::quad::{Matrix8, Vector8};
 use crate::mechanism::element::{MassKind, Matrix6, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
@@ -161,11 +162,9 @@ impl PseudoLoads {
             + stiffness * asm.densities.stiffness_rate[e]
     }
 
-    /// `m'(x_b) M_c (q̈ + α q̇)` on the four DOFs of bar coupling `k`
-    /// ([`crate::mechanism::bar_mass::BarMass`]; gravity
-    /// is uniform, so `M_c ĝ = 0`; zero for statics).
-    fn bar(asm: &Assembler, k: usize, at: &At) -> [f64; 4] {
-        let bar = &asm.model.bar_couplings(asm.mass_kind)[k];
+    /// `m'(x_b) M_c (q̈ + α q̇)` on the four DOFs of a bar's end coupling `bar` (gravity is
+    /// uniform, so `M_c ĝ = 0`; zero for statics).
+    fn bar(asm: &Assembler, bar: &BarMass, at: &At) -> [f64; 4] {
         let Some((v, acc)) = at.rates else {
             return [0.0; 4];
         };
@@ -223,13 +222,13 @@ impl PseudoLoads {
                     .for_each(|(&d, v)| col[d] -= v);
             }
         }
-        for (k, bar) in asm.model.bar_couplings(asm.mass_kind).iter().enumerate() {
+        for bar in asm.model.bar_couplings(asm.mass_kind) {
             if let Some(j) = asm
                 .model
                 .variable_of(bar.element)
                 .filter(|j| columns.contains(j))
             {
-                let p = Self::bar(asm, k, at);
+                let p = Self::bar(asm, bar, at);
                 let col = &mut rhs[(j - columns.start) * ld..];
                 bar.dofs()
                     .iter()
@@ -282,9 +281,9 @@ impl PseudoLoads {
                     .sum::<f64>();
             }
         }
-        for (k, bar) in asm.model.bar_couplings(asm.mass_kind).iter().enumerate() {
+        for bar in asm.model.bar_couplings(asm.mass_kind) {
             if let Some(j) = asm.model.variable_of(bar.element) {
-                let p = Self::bar(asm, k, at);
+                let p = Self::bar(asm, bar, at);
                 xbar[j] -= bar
                     .dofs()
                     .iter()
