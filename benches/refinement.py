@@ -15,6 +15,10 @@ scene's step).
 
     python benches/refinement.py [--quick]    # writes benches/results/refinement.md
 
+With ``--mass KIND`` (``lumped``, ``bar_lumped``): the same study with the scenes' runs and
+references on that mass matrix (the designs are those of the default mass); writes
+benches/results/refinement_KIND.md.
+
 With ``--shares``, instead: each bar's share of the space error — the arm solid but for its
 1.0 m diagonal ``link1/bar24`` at x = 0.1, 1088 steps, every bar refined alone (twice its
 elements) against all bars at once: whether the shares add up, how many bars carry half
@@ -88,7 +92,7 @@ def judged(sims: dict[str, flextop.Simulation], x: np.ndarray, ref: tuple[float,
     return out
 
 
-def study(name: str, scene: flextop.Scene, ref: Discretization, designs: dict[str, np.ndarray]) -> list[str]:
+def study(name: str, scene: flextop.Scene | dict, ref: Discretization, designs: dict[str, np.ndarray]) -> list[str]:
     sims = {mode: flextop.Simulation(scene, refine=refine) for mode, (refine, _) in MODES.items()}
     base = sims["bars"]
     h = base.spec["simulation"]["h"]
@@ -201,12 +205,21 @@ def frame() -> None:
     print("\n".join(lines))
 
 
+def with_mass(scene: flextop.Scene, mass: str) -> dict:
+    """The scene as a dict whose runs take ``mass``."""
+    spec = scene.to_dict()
+    spec["simulation"] = {**spec.get("simulation", {}), "mass": mass}
+    return spec
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
     parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
     parser.add_argument("--frame", action="store_true", help="the stayed frame: one soft bar among solid ones, instead")
+    parser.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"], default="consistent",
+                        help="the mass matrix of the runs and references")
     args = parser.parse_args()
     if args.frame:
         return frame()
@@ -214,18 +227,19 @@ def main() -> None:
         return richardson()
     if args.shares:
         return shares()
-    arm_scene = flextop.scenes.robot_arm()
-    arm = flextop.Simulation(arm_scene)
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, args.quick)
     designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in ((0.08, 0.12) if not args.quick else ())}
     designs |= iterates(arm, args.quick)
-    beam_scene = flextop.scenes.spun_beam()
-    lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{' --quick' if args.quick else ''}` on "
+    arm_scene, beam_scene = (with_mass(scene, args.mass) for scene in (flextop.scenes.robot_arm(), flextop.scenes.spun_beam()))
+    options = (" --quick" if args.quick else "") + ("" if args.mass == "consistent" else f" --mass {args.mass}")
+    lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{options}` on "
              f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip "
-             "deflection, refined bar by bar (`refine=\"bars\"`, the default) or every bar alike (`\"uniform\"`).", ""]
+             f"deflection, refined bar by bar (`refine=\"bars\"`, the default) or every bar alike (`\"uniform\"`), "
+             f"mass `{args.mass}`.", ""]
     lines += study("robot arm", arm_scene, Discretization(8, 66 * 32), designs)
     lines += study("spun beam", beam_scene, Discretization(32, 120 * 8), beam_designs(flextop.Simulation(beam_scene), args.quick))
-    path = ROOT / "benches" / "results" / "refinement.md"
+    path = ROOT / "benches" / "results" / ("refinement.md" if args.mass == "consistent" else f"refinement_{args.mass}.md")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 
