@@ -11,14 +11,15 @@
 //!
 //! removes that excess, and as exactly in a uniform stretch; a translation is untouched.
 //! On one element the lumped mass plus the coupling is the consistent mass of linear
-//! interpolation in translation (rotary inertia stays lumped). On a split bar the interior stays lumped, whose bending modes converge
-//! at fourth order with the beams' exact static stiffness (a clamped bar's first
-//! frequency: 3.2e-3, 1.1e-4, 6.4e-6 at 4, 8, 16 elements) where the consistent mass of
-//! linear interpolation converges at second order (5.4e-2, 1.5e-2, 4.0e-3): the bars whose
-//! own modes fall in a motion's band need several times fewer elements. The matrix is
-//! constant (it acts on translations only, the same in every direction), so the integrator
-//! and the sensitivities keep their form; `c` scales with the bar's mass law like the rest
-//! of its mass.
+//! interpolation in translation (rotary inertia stays lumped). On a split bar the interior
+//! stays lumped, whose bending modes converge at fourth order with the beams' exact static
+//! stiffness (a clamped bar's first frequency against 256 elements: 3.3e-3, 1.4e-4,
+//! 1.2e-5 at 4, 8, 16 elements) where the consistent mass of linear interpolation
+//! converges at second order (5.4e-2, 1.5e-2, 3.9e-3; `benches/bar_mass.py`): the bars
+//! whose own modes fall in a motion's band need several times fewer elements. The matrix
+//! is constant (it acts on translations only, the same in every direction), so the
+//! integrator and the sensitivities keep their form; `c` scales with the bar's mass law
+//! like the rest of its mass.
 
 use nalgebra::Matrix4;
 
