@@ -246,6 +246,35 @@ def test_the_density_filter_stays_in_its_member_and_its_gradients_are_exact():
         assert fourth_order(value, 1e-3) == pytest.approx(gradient[j], rel=1e-7)
 
 
+def test_a_stress_limit_through_the_density_filter_is_normalized_at_each_accept():
+    """The normalization of a stress limit moves at :meth:`accept` to the ratio peak/P of
+    the physical densities the design runs with (it was looked up by the design variables,
+    which the filter changes, and so stayed at the first design's ratio)."""
+    from flextop.problems import NORMALIZATION_DAMPING
+
+    s = Scene("plate and tie", analysis="static")
+    s.section("rod", E=210e9, rho=7800.0, nu=0.3, diameter=0.01)
+    a = s.member("a", nx=6, ny=2, length=0.6, height=0.2, thickness=0.01, **STEEL, solid_at_joints=False)
+    tip = s.node("tip", 0.8, 0.1)
+    s.beam(a.node(6, 0), tip, section="rod", name="lower")
+    s.beam(a.node(6, 2), tip, section="rod", name="upper")
+    pinned_edge(s, a, 2)
+    s.load(tip, force=(0.0, -1e3), moment=20.0)
+    sim = simulation(s)
+    density = DensityFilter(sim, 0.15)
+    problem = TopologyProblem(sim, "compliance", [("stress", 2e8)], filter=density)
+    rng = np.random.default_rng(3)
+    first, second = rng.uniform(0.3, 1.0, (2, sim.n_design))
+    problem.accept(first, problem.evaluate(first))
+    c = problem.normalization["stress"]
+    problem.accept(second, problem.evaluate(second))
+    here = sim.run_with_sensitivities(density.physical(second), ["stress"])
+    ratio = here.peaks["stress"] / here.values[0]
+    assert abs(ratio / c - 1) > 1e-3, "the two designs' ratios differ"
+    new = NORMALIZATION_DAMPING * ratio + (1 - NORMALIZATION_DAMPING) * c
+    assert problem.normalization["stress"] == pytest.approx(new, rel=1e-12)
+
+
 def test_a_filter_radius_within_one_cell_is_warned():
     """The continuum arm at 20 × 6 cells per link (50 mm × 16.7 mm): a radius of 25 mm
     reaches the cells above and below but none along the links, where the design stays as

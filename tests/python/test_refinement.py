@@ -233,6 +233,20 @@ def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_mov
     assert problem.measured == [1, 3]
     on_grid = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=near)
     assert second.f0 * problem.objective_scale == pytest.approx(on_grid.values[0], rel=1e-14)
+
+    # With an optimizer that accepts its designs, the grid changes only there: a trial far
+    # away runs on the grid held, and the design accepted there is measured.
+    accepting = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2)
+    accepting.accept(x, accepting.evaluate(x))
+    trial = accepting.evaluate(far)
+    assert accepting.measured == [1] and accepting.discretization == d
+    held = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=far)
+    assert trial.f0 * accepting.objective_scale == pytest.approx(held.values[0], rel=1e-14)
+    accepted = accepting.accept(far, trial)
+    assert accepting.measured == [1, 3]
+    measured = sim.run_with_sensitivities(far, "tip_deflection", rtol=1e-2, start=d, hold_gradients=False)
+    assert accepted.f0 * accepting.objective_scale == pytest.approx(measured.values[0], rel=1e-14)
+    np.testing.assert_allclose(accepted.df0 * accepting.objective_scale, measured.gradients[0], rtol=1e-12)
     every = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2, readapt=0.0)
     for design in (x, near, far):
         every.evaluate(design)
