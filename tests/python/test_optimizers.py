@@ -478,3 +478,32 @@ def test_optimality_criteria_take_one_constraint_that_grows_with_every_variable(
                               lambda x: (np.array([1 - x.sum()]), -np.ones((1, 2))), np.full(2, 0.1), np.ones(2), 1)
     with pytest.raises(SettingsError, match="grows with every variable"):
         optimize(falling, 0.4, method="oc")
+
+
+def test_a_rejected_trial_raises_rho_until_the_approximation_bounds_it():
+    """:func:`raised_rho` on Rosenbrock in the disc a² + b² ≤ 1.5 from (−1.2, 1), from
+    GCMMA's start and larger ones: where an approximation falls below its function at MMA's
+    trial, rho_i becomes 1.1 (rho_i + delta_i), which bounds the function there from above,
+    unless that exceeds GCMMA's cap of 10 rho_i; where it already bounds it, rho_i stays."""
+    from flextop.optimizers.mma import MMA, initial_rho, raised_rho
+
+    problem = rosenbrock(True)
+    x0 = np.array([-1.2, 1.0])
+    evaluation = problem.evaluate(x0)
+    state = OptimizerState("mma", 0, x0, evaluation, np.zeros(1), 1.0, 0.2)
+    method = MMA()
+    mma = method.approximation(problem, state, 0.2, np.full(2, method.rho))
+    trial = method.solve(mma, state.multipliers).x
+    exact = problem.evaluate(trial)
+    values = np.array([exact.f0, *exact.g])
+    bounded = 0
+    for scale in (1.0, 3.0, 10.0, 30.0):
+        start = scale * initial_rho(evaluation, problem.upper - problem.lower)
+        rho = raised_rho(mma, start, trial, exact)
+        below = values > mma.regularized(start).values(trial)
+        capped = rho == 10.0 * start
+        assert np.all(rho[~below] == start[~below])
+        assert np.all(mma.regularized(rho).values(trial)[below & ~capped] >= values[below & ~capped])
+        assert np.all((rho > start)[below])
+        bounded += int(np.sum(below & ~capped))
+    assert bounded >= 1, "the bound reached without the cap at least once"

@@ -119,7 +119,8 @@ class TopologyProblem(Problem):
     trial and MMA's inner iterations included, runs once on the grid as it is. So each
     iteration compares its designs on one smooth model: measured at the trial designs
     instead, the grid changed under MMA's safeguard at most iterations (163 measurements
-    in 278 evaluations for 40 iterations of the arm, 432 s, against 9 in 236 and 229 s;
+    in 278 evaluations for 40 iterations of the arm, 432 s, against 9 in 236 and 229 s, and
+    198 and 209 s with the safeguard's start of :func:`~flextop.optimizers.mma.raised_rho`;
     grids re-graded at every design: 233 evaluations), and the values each iteration
     starts from come from a grid measured within ``rtol`` near them. ``readapt=0``
     measures every accepted design. Through the scipy and OpenMDAO adapters, which do not
