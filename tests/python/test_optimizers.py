@@ -507,3 +507,25 @@ def test_a_rejected_trial_raises_rho_until_the_approximation_bounds_it():
         assert np.all((rho > start)[below])
         bounded += int(np.sum(below & ~capped))
     assert bounded >= 1, "the bound reached without the cap at least once"
+
+
+def test_a_failure_in_accept_is_recovered_like_one_in_evaluate():
+    """A problem whose ``accept`` fails once (a problem held to a tolerance measures the
+    accepted design there, and that run may fail): the iteration is redone from the same
+    design with half the move limit, and the run still reaches the cantilever's optimum."""
+    inner = cantilever()
+
+    class FailsOnce(type(inner)):
+        accepted = 0
+
+        def accept(self, x, evaluation):
+            self.accepted += 1
+            if self.accepted == 3:
+                raise EvaluationError("the accepted design's measurement failed", x)
+            return evaluation
+
+    problem = FailsOnce(inner.objective, inner.constraints, inner.lower, inner.upper, inner.m)
+    result = optimize(problem, np.full(5, 5.0), "mma")
+    assert result.success and result.fun == pytest.approx(1.33996, abs=1e-5), result.message
+    assert result.state.failures == 1 and "1 evaluation failure(s) recovered" in result.message
+    assert result.history[2].move == pytest.approx(0.5 * result.history[1].move)

@@ -171,13 +171,21 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
              feas_tol: float) -> tuple[OptimizerState, bool]:
     """One outer iteration; returns the new state and whether it succeeded.
 
-    On EvaluationError: keep x, halve the move limit, retry; give up (return
-    False) after more than ``max_retries`` consecutive failures.
+    On EvaluationError, from ``evaluate`` or from the problem's ``accept`` (a problem
+    held to a tolerance measures the accepted design there): keep x, halve the move limit,
+    retry; give up (return False) after more than ``max_retries`` consecutive failures.
+    The time ``accept`` takes counts as evaluation time.
     """
     calls, eval_time, start = evaluate.calls, evaluate.time, perf_counter()
+    accepting = 0.0
     while True:
         try:
             step = method.step(problem, state, state.move, evaluate)
+            before = perf_counter()
+            try:
+                evaluation = _accept(problem, step.x, step.evaluation)
+            finally:
+                accepting += perf_counter() - before
             break
         except EvaluationError as error:
             state = replace(state, move=0.5 * state.move, nfev=evaluate.calls,
@@ -186,9 +194,8 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
                             last_error=str(error))
             if state.consecutive_failures > max_retries:
                 return state, False
-    eval_time = evaluate.time - eval_time
+    eval_time = evaluate.time - eval_time + accepting
     solve_time = perf_counter() - start - eval_time
-    evaluation = _accept(problem, step.x, step.evaluation)
     kkt = kkt_estimate(step.x, evaluation, problem.lower, problem.upper, step.multipliers)[0]
     record = IterationRecord(
         iteration=state.iteration + 1, f0=evaluation.f0, g=evaluation.g,
