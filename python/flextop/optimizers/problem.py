@@ -115,9 +115,11 @@ class Problem(ABC):
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Called once per iteration with the design the optimizer moves to and its
         evaluation; returns the evaluation the next iteration builds on. A problem whose
-        functions adapt between iterations (the normalization of a stress limit) changes
-        here, and only here, so that every iteration sees fixed functions; the default
-        changes nothing."""
+        functions adapt between iterations (the normalization of a stress limit, the grid
+        of a problem held to a tolerance) changes here, and only here, so that every
+        iteration sees fixed functions; it may raise :class:`EvaluationError`, which the
+        optimizer recovers from as from one in :meth:`evaluate`. The default changes
+        nothing."""
         return evaluation
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
