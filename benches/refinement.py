@@ -32,6 +32,15 @@ With ``--richardson``, instead: whether Richardson's extrapolation in the step p
 designs an optimizer produces, the error of d on the grid ``rtol = 1e-2`` chose in space,
 raw and extrapolated from the run at twice the step (``f(h) + (f(h) − f(2h))/3``), against
 the extrapolated value at 4352 steps. Writes benches/results/richardson.md.
+
+With ``--oracle``, instead: the least a run to rtol could pay on this integrator. For each
+design of the family, every grid of a ladder — one element per bar, the graded grids of
+refinement 2, 4 and 8, and every bar at 2× and 4× — at 66 to 2112 steps, on its own values
+and extrapolated from its half steps, is judged against the converged reference; the
+cheapest that meets rtol on d and 5·rtol on ∇d is what a method that knew the answer would
+run, with no estimate and no companion. Beside it, the time error alone: the fewest steps at
+which the one-element grid's d and ∇d are within the same bounds of that grid's own limit in
+the step. Writes benches/results/oracle.md.
 """
 
 from __future__ import annotations
@@ -205,6 +214,86 @@ def frame() -> None:
     print("\n".join(lines))
 
 
+ORACLE_STEPS = tuple(66 * 2**k for k in range(6))
+"""The steps of the oracle's ladder: the scene's grid (h = 0.02 s over 1.3 s) to 32× it."""
+
+
+def ladder(sim: flextop.Simulation, x: np.ndarray) -> dict[str, flextop.Simulation]:
+    """The space grids the oracle may choose from, cheapest first."""
+    grids = {"m=1": sim}
+    grids |= {f"graded {r}": sim.levels.at(Discretization(r, 0), x) for r in (2, 4, 8)}
+    return grids | {f"m={m}": sim.levels[m] for m in (2, 4)}
+
+
+def oracle_design(sim: flextop.Simulation, x: np.ndarray, ref: tuple[float, np.ndarray, float], unit: float) -> dict:
+    """The cheapest grid of the ladder within rtol on d and 5·rtol on ∇d, raw or extrapolated
+    from its half steps, and the fewest steps that bring the one-element grid within those
+    bounds of its own limit in the step."""
+    d_ref, g_ref, _ = ref
+    t_end = sim.spec["simulation"]["t_end"]
+    best = None
+    own: dict[int, tuple[float, np.ndarray]] = {}
+    for name, grid in ladder(sim, x).items():
+        runs: dict[int, tuple[float, float, np.ndarray]] = {}
+        for n in ORACLE_STEPS:
+            if best is not None and name != "m=1" and 2 * runs.get(n // 2, (0.0,))[0] > best["cost"]:
+                break  # a run at n steps would cost more than the cheapest found (twice the run at n/2)
+            seconds, run = timed(lambda: grid.run_with_sensitivities(x, "tip_deflection", h=t_end / n))
+            runs[n] = (seconds, float(run.values[0]), run.gradients[0])
+            if name == "m=1":
+                own[n] = runs[n][1:]
+            candidates = [(seconds, runs[n][1], runs[n][2], "raw")]
+            if n // 2 in runs:
+                half = runs[n // 2]
+                candidates.append((seconds + half[0], runs[n][1] + (runs[n][1] - half[1]) / 3,
+                                   runs[n][2] + (runs[n][2] - half[2]) / 3, "extrapolated"))
+            met = False
+            for cost, d, g, how in candidates:
+                meets = abs(d / d_ref - 1) <= RTOL and np.linalg.norm(g - g_ref) <= 5 * RTOL * np.linalg.norm(g_ref)
+                met = met or bool(meets)
+                if meets and (best is None or cost < best["cost"]):
+                    best = {"cost": cost, "grid": f"{name}, {n} steps, {how}", "unknowns": grid.model.n_dofs / sim.model.n_dofs}
+            if met and name != "m=1":
+                break  # more steps on this grid cost more (the one-element grid goes on: its limit in the step is wanted)
+    top = ORACLE_STEPS[-1]
+    limit_d = own[top][0] + (own[top][0] - own[top // 2][0]) / 3
+    limit_g = own[top][1] + (own[top][1] - own[top // 2][1]) / 3
+    steps = next((n for n in ORACLE_STEPS if abs(own[n][0] / limit_d - 1) <= RTOL
+                  and np.linalg.norm(own[n][1] - limit_g) <= 5 * RTOL * np.linalg.norm(limit_g)), None)
+    return {"best": best, "time_steps": steps, "unit": unit}
+
+
+def oracle() -> None:
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    designs = arm_designs(arm, quick=False)
+    designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
+    designs |= iterates(arm, quick=False)
+    h = arm.spec["simulation"]["h"]
+    lines = ["# What a run to rtol could pay at best", "", "`python benches/refinement.py --oracle` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip deflection "
+             "(d within rtol, ∇d within 5·rtol of the reference: 8× every bar, 2112 steps extrapolated from 1056). The "
+             "cheapest grid of the ladder that meets both, its cost over the fixed run (one element per bar, the scene's "
+             "step), and the fewest steps at which the one-element grid meets both against its own limit in the step.", "",
+             "| design | cheapest grid that meets rtol | unknowns | cost (× fixed run) | steps the time error alone needs |",
+             "|---|---|---|---|---|"]
+    costs, steps = [], []
+    for label, x in designs.items():
+        unit = min(timed(lambda: arm.run_with_sensitivities(x, "tip_deflection", h=h))[0] for _ in range(3))
+        row = oracle_design(arm, x, reference(arm, x, Discretization(8, 66 * 32)), unit)
+        best = row["best"]
+        costs.append(best["cost"] / unit if best else float("inf"))
+        steps.append(row["time_steps"] or float("inf"))
+        lines.append(f"| {label} | {best['grid'] if best else 'none on the ladder'} | "
+                     f"{best['unknowns']:.2f}× | {costs[-1]:.1f}× | {row['time_steps'] or '> 2112'} |" if best else
+                     f"| {label} | none on the ladder | — | — | {row['time_steps'] or '> 2112'} |")
+        print(lines[-1], flush=True)
+    lines += ["", f"Median cost of the cheapest grid: {np.median(costs):.1f}× the fixed run; median steps the time error "
+              f"alone needs: {np.median(steps):.0f} (the scene's grid: 66); designs whose cheapest grid costs more than 5×: "
+              f"{sum(c > 5 for c in costs)} of {len(costs)}."]
+    (ROOT / "benches" / "results" / "oracle.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines[-1:]))
+
+
 def with_mass(scene: flextop.Scene, mass: str) -> dict:
     """The scene as a dict whose runs take ``mass``."""
     spec = scene.to_dict()
@@ -218,6 +307,7 @@ def main() -> None:
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
     parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
     parser.add_argument("--frame", action="store_true", help="the stayed frame: one soft bar among solid ones, instead")
+    parser.add_argument("--oracle", action="store_true", help="the cheapest grid that meets rtol on each design, instead")
     parser.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"], default="consistent",
                         help="the mass matrix of the runs and references")
     args = parser.parse_args()
@@ -227,6 +317,8 @@ def main() -> None:
         return richardson()
     if args.shares:
         return shares()
+    if args.oracle:
+        return oracle()
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, args.quick)
     designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in ((0.08, 0.12) if not args.quick else ())}

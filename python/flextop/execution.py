@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import (FIRST_EXCEPTION, BrokenExecutor, CancelledError, Executor, Future, ProcessPoolExecutor,
                                 ThreadPoolExecutor, wait)
@@ -47,6 +48,7 @@ from .errors import ExecutionError, FlextopError, SettingsError
 
 T = TypeVar("T")
 R = TypeVar("R")
+S = TypeVar("S")
 
 
 def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor: Executor | None = None, *,
@@ -86,6 +88,30 @@ def perform_all(perform: Callable[[T], R], chunk: Sequence[tuple[str, T]]) -> li
         except FlextopError as error:
             raise _named(error, label) from error
     return out
+
+
+def side_by_side(here: Callable[[], R], beside: Callable[[], S]) -> tuple[R, S]:
+    """``(here(), beside())``, ``beside`` on a thread of its own while ``here`` runs in this
+    one where this process may use two cores or more (the engine releases the GIL: two runs
+    take the time of the longer), one after the other where it may use one. The same bits
+    either way: each run is the same code on the same inputs. A failure is raised once both
+    have ended; Ctrl-C stops both."""
+    if _cores() < 2:
+        return here(), beside()
+    with ThreadPoolExecutor(1, thread_name_prefix="flextop-beside") as pool:
+        future = pool.submit(beside)
+        try:
+            return here(), future.result()
+        except BaseException as error:
+            if isinstance(error, KeyboardInterrupt):  # the run beside stops at its next step too
+                _core.cancel_running()
+            raise
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return len(affinity(0)) if affinity is not None else os.cpu_count() or 1
 
 
 def usable(executor: Any) -> Executor | None:

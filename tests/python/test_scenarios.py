@@ -4,6 +4,8 @@ against finite differences, resume, the same bits on every executor, failures na
 import os
 import subprocess
 import sys
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from multiprocessing import get_context
 
@@ -248,6 +250,60 @@ def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
     assert short.returncode == 2 and "--start" in short.stderr and short.stderr.count("\n") == 1
     unknown = cli("--scenarios", "robust_arm", "--out", tmp_path / "d")
     assert unknown.returncode == 2 and "robust_robot_arm" in unknown.stderr
+
+
+def test_side_by_side_runs_beside_on_another_thread_and_raises_either_failure(monkeypatch):
+    threads = []
+
+    def mark(value):
+        threads.append(threading.get_ident())
+        return value
+
+    assert execution.side_by_side(lambda: mark(1), lambda: mark(2)) == (1, 2)
+    assert len(set(threads)) == 2  # two cores here (CI's machine has two)
+    monkeypatch.setattr(execution, "_cores", lambda: 1)
+    threads.clear()
+    assert execution.side_by_side(lambda: mark(1), lambda: mark(2)) == (1, 2)
+    assert len(set(threads)) == 1
+    monkeypatch.undo()
+
+    def fails():
+        raise SimulationError("Newton diverged")
+
+    with pytest.raises(SimulationError, match="diverged"):
+        execution.side_by_side(fails, lambda: 2)
+    with pytest.raises(SimulationError, match="diverged"):
+        execution.side_by_side(lambda: 1, fails)
+
+
+def test_ctrl_c_in_this_thread_stops_the_run_beside():
+    sim = flextop.Simulation(arm())
+    stopped = []
+
+    def long_run():  # a thousand times the scene's steps: seconds, if Ctrl-C does not stop it
+        try:
+            return sim.run(np.full(sim.n_design, 0.4), h=ARM_T_END / 20_000)
+        except KeyboardInterrupt:
+            stopped.append(True)
+            raise
+
+    def interrupted():
+        time.sleep(0.5)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        execution.side_by_side(interrupted, long_run)
+    assert stopped == [True]
+
+
+def test_an_extrapolated_run_to_a_tolerance_is_the_same_bits_side_by_side_or_in_turn(monkeypatch):
+    sim = flextop.Simulation(scenes.spun_beam())
+    x = np.full(sim.n_design, 0.4)
+    beside = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2, hold_gradients=False)
+    assert beside.discretization.extrapolated
+    monkeypatch.setattr(execution, "_cores", lambda: 1)
+    in_turn = flextop.Simulation(scenes.spun_beam()).run_with_sensitivities(x, "tip_deflection", rtol=1e-2, hold_gradients=False)
+    assert np.array_equal(beside.values, in_turn.values) and np.array_equal(beside.gradients, in_turn.gradients)
 
 
 MPI_STUDY = """

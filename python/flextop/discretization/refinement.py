@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import _core
 from ..errors import SettingsError, SimulationError
+from ..execution import side_by_side
 from ..responses import PEAK_LIMITED
 from . import indicator, tolerance
 from .accuracy import split_by
@@ -205,7 +206,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     ``extrapolate``, the sensitivities may be Richardson's extrapolation from the grid
     accepted and its half steps (:func:`extrapolated`), where that is the more accurate by
     the estimate: the half-steps run is made again at the run's own Newton tolerance
-    (unless a candidate made it), so that the values are those of two ordinary runs. Companion runs stop Newton at
+    (unless a candidate made it), so that the values are those of two ordinary runs, side
+    by side (:func:`~flextop.execution.side_by_side`). Companion runs stop Newton at
     :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
     any run made at their discretization; a candidate reuses only a candidate's run."""
     duration = None if simulation.analysis == "static" else t_end(simulation, settings)
@@ -247,10 +249,14 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     errors = dict(zip(names, relative))
     peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))
     if gradients:
-        out = runs[(d.grid, False)] if hold_gradients else run(d.grid, gradients)
-        if d.extrapolated:
-            half = runs.get((d.half_steps, False)) if hold_gradients else None
-            out = extrapolated(out, run(d.half_steps, gradients) if half is None else half)
+        def with_gradients(at: Discretization) -> Any:
+            kept = runs.get((at, False)) if hold_gradients else None
+            return run(at, gradients) if kept is None else kept
+
+        if d.extrapolated:  # the grid and its half steps side by side
+            out = extrapolated(*side_by_side(lambda: with_gradients(d.grid), lambda: with_gradients(d.half_steps)))
+        else:
+            out = with_gradients(d.grid)
         held = relative[len(names):2 * len(names)] if hold_gradients else []
         return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, held)), peak_errors=peak_errors)
     out = runs[(d, False)]

@@ -46,6 +46,7 @@ from ..responses import PEAK_LIMITED
 from ..simulation import Simulation
 from ..discretization.refinement import extrapolated, t_end
 from ..discretization.tolerance import Discretization
+from ..execution import side_by_side
 from ..results import Sensitivities
 from . import filters
 from .filters import DensityFilter, SensitivityFilter
@@ -236,19 +237,22 @@ class TopologyProblem(Problem):
     def _on_grid(self, x: np.ndarray) -> Sensitivities:
         """The evaluation on the grid accepted last: its steps, and each bar's elements as
         graded for the design measured there; extrapolated from half the steps where the
-        accepted one was. Newton is modified unless the settings say otherwise: the same
-        values to its tolerance, in a quarter less time on the arm's held grid."""
+        accepted one was, the two runs side by side (:func:`~flextop.execution.side_by_side`).
+        Newton is modified unless the settings say otherwise: the same values to its
+        tolerance, in a quarter less time on the arm's held grid."""
         d = self.discretization
         settings = {"newton": "modified", **self.settings}
         if d.steps:
             settings["h"] = t_end(self.simulation, settings) / d.steps
         levels = self.simulation.levels
         grid = levels.at(d, self._measured_at) if self._grid is None else levels.graded(self._grid)
-        out = grid.run_with_sensitivities(x, self.responses, method=self.method, **settings)
+
+        def run(**step: float) -> Sensitivities:
+            return grid.run_with_sensitivities(x, self.responses, method=self.method, **{**settings, **step})
+
         if not d.extrapolated:
-            return out
-        half = grid.run_with_sensitivities(x, self.responses, method=self.method, **{**settings, "h": 2 * settings["h"]})
-        return extrapolated(out, half)
+            return run()
+        return extrapolated(*side_by_side(run, lambda: run(h=2 * settings["h"])))
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
