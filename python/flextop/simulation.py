@@ -597,11 +597,17 @@ class Task:
     gradients: bool = True
     options: dict[str, Any] = field(default_factory=dict)
     simulation: dict[str, Any] = field(default_factory=dict)
+    held: tuple[Discretization, np.ndarray | None] | None = None
+    """A discretization held and the design its bars were graded for: the run is made on
+    that grid (:func:`~flextop.discretization.refinement.on_grid`, ``options`` its
+    settings), an optimization's between its measurements."""
 
 
 def perform(task: Task) -> Sensitivities:
     """Runs ``task`` on this process's :class:`Simulation` of its scene, built on first use."""
     sim = _cached(task.scene, task.simulation)
+    if task.held is not None:
+        return refinement.on_grid(sim, task.x, task.responses, *task.held, task.options)
     if task.gradients:
         return sim.run_with_sensitivities(task.x, task.responses, **task.options)
     res = sim.run(task.x, responses=task.responses, **task.options)

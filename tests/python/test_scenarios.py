@@ -16,6 +16,7 @@ import flextop
 from flextop import execution, scenes
 from flextop.errors import ExecutionError, FlextopError, SimulationError
 from flextop.optimizers import EvaluationError
+from conftest import on_accepted_grid
 from flextop.problems import Scenario, ScenarioProblem, evaluate, robust_robot_arm
 
 ARM_T_END = 0.4  # a shorter motion keeps the tests quick; the physics is the arm's
@@ -250,6 +251,32 @@ def test_the_command_line_optimizes_scenarios_on_workers_and_resumes(tmp_path):
     assert short.returncode == 2 and "--start" in short.stderr and short.stderr.count("\n") == 1
     unknown = cli("--scenarios", "robust_arm", "--out", tmp_path / "d")
     assert unknown.returncode == 2 and "robust_robot_arm" in unknown.stderr
+
+
+def test_scenarios_held_to_a_tolerance_are_measured_only_where_an_accepted_design_moved():
+    cases = two_scenarios()
+    problem = ScenarioProblem(cases, "tip_deflection", rtol=1e-2)
+    x = design(problem.n_design)
+    problem.accept(x, problem.evaluate(x))
+    held = dict(problem.discretizations)
+    far = np.clip(x - 0.2, problem.lower, problem.upper)
+    trial = problem.evaluate(far)
+    assert problem.measured == [1] and problem.discretizations == held
+
+    def weighted(runs):
+        return sum(s.weight * run.values[0] for s, run in zip(cases, runs))
+
+    on_grids = [on_accepted_grid(flextop.Simulation(s.scene), held[s.name], x, "tip_deflection", ARM_T_END, design=far,
+                                 newton="modified") for s in cases]
+    assert trial.f0 * problem.objective_scale == pytest.approx(weighted(on_grids), rel=1e-14)
+    accepted = problem.accept(far, trial)
+    assert problem.measured == [1, 3]
+    measured = [flextop.Simulation(s.scene).run_with_sensitivities(far, "tip_deflection", rtol=1e-2, start=held[s.name],
+                                                                   hold_gradients=False) for s in cases]
+    assert accepted.f0 * problem.objective_scale == pytest.approx(weighted(measured), rel=1e-14)
+    again = ScenarioProblem.from_dict(problem.to_dict())
+    np.testing.assert_array_equal(again.rule.at, far)
+    assert again.rule.accepts and again.discretizations == problem.discretizations
 
 
 def test_side_by_side_runs_beside_on_another_thread_and_raises_either_failure(monkeypatch):

@@ -54,6 +54,7 @@ from ..results import Sensitivities
 from ..scenes import Scene
 from ..simulation import Simulation, Task, perform, remember
 from ..discretization.tolerance import Discretization
+from .held import READAPT, Readapt
 from .topology import is_aggregate
 
 WORST_CASE_RANGE = (-20.0, 1.0)
@@ -122,7 +123,10 @@ class ScenarioProblem(Problem):
     ``executor`` runs the scenarios of an evaluation, ``chunksize`` to a task
     (:mod:`flextop.execution`; ``None``: here, in turn). ``settings``, ``method``, ``rtol``, ``atol`` and ``objective_scale`` are
     those of :class:`~flextop.TopologyProblem`, with the discretization chosen per scenario
-    (``discretizations``). A failed scenario run becomes an
+    (``discretizations``); held to a tolerance, the problem follows the same rule
+    (:mod:`.held`, ``readapt``): every scenario's error is measured at an accepted design
+    that moved by more than ``readapt``, and every other evaluation runs each scenario on its
+    grid held (``measured`` lists the evaluations that measured). A failed scenario run becomes an
     :class:`~flextop.optimizers.EvaluationError` naming it, which the optimizer recovers
     from; a worker lost is an :class:`~flextop.errors.ExecutionError`.
 
@@ -134,7 +138,7 @@ class ScenarioProblem(Problem):
                  constraints: Iterable[tuple[str, float] | tuple[str, str, float]] = (), *, aggregate: str | Aggregate = "sum",
                  executor: Executor | None = None, chunksize: int = 1, settings: Mapping[str, Any] | None = None,
                  method: str = "auto", objective_scale: float | None = None, rtol: float | None = None,
-                 atol: float | None = None, accuracy: str | None = None) -> None:
+                 atol: float | None = None, accuracy: str | None = None, readapt: float = READAPT) -> None:
         self.scenarios = list(scenarios)
         self.simulations = _simulations(self.scenarios, {"accuracy": accuracy})
         self.objective = objective
@@ -147,6 +151,9 @@ class ScenarioProblem(Problem):
         self.method, self.objective_scale = method, objective_scale
         self.rtol, self.atol, self.accuracy = rtol, atol, accuracy
         self.discretizations: dict[str, Discretization] = {}
+        self.rule = Readapt(readapt)
+        self.measured: list[int] = []
+        self.evaluations = 0
         self.timings = {"simulation": 0.0, "gradients": 0.0}
         self.given = [tuple(c) for c in constraints]
         self.constraints = self._constraints(self.given)
@@ -241,7 +248,23 @@ class ScenarioProblem(Problem):
         if x.shape != (self.n,):
             raise DesignError(f"the design has shape {x.shape}; this problem has {self.n} variables"
                               + (" (the scenes' and β: use start(x))" if self.aggregate is Aggregate.WORST else ""))
-        runs = self._run(x[: self.n_design])
+        return self._combined(x, measure=self.rule.in_evaluate(x[: self.n_design], held=bool(self.discretizations)))
+
+    def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Held to a tolerance: where the accepted design moved by more than ``readapt``
+        from the one measured last, every scenario's error is measured there and
+        ``evaluation`` replaced by the one on the grids accepted (:mod:`.held`)."""
+        x = np.asarray(x, dtype=float)
+        moved = self.rule.in_accept(x[: self.n_design])
+        return self._combined(x, measure=True) if self._held_to_tolerance() and moved else evaluation
+
+    def _held_to_tolerance(self) -> bool:
+        return bool(self.rtol or any(sim.rtol for sim in self.simulations))
+
+    def _combined(self, x: np.ndarray, measure: bool) -> Evaluation:
+        """The evaluation at ``x`` from its scenarios' runs, each scenario's error measured
+        or its grid held."""
+        runs = self._run(x[: self.n_design], measure)
         row = [{name: i for i, name in enumerate(run.names)} for run in runs]
         value = lambda k, name: runs[k].values[row[k][name]]  # noqa: E731
         grad = lambda k, name: runs[k].gradients[row[k][name]]  # noqa: E731
@@ -271,18 +294,28 @@ class ScenarioProblem(Problem):
         return Evaluation(beta, np.concatenate([np.log(f / scale) - beta, g_arr]), df0,
                           np.vstack([column(df / f[:, None], -1.0), column(dg_arr, 0.0)]))
 
-    def _run(self, x: np.ndarray) -> list[Sensitivities]:
-        options = {"method": self.method, **self.settings}
-        if self.rtol or any(sim.rtol for sim in self.simulations):
+    def _run(self, x: np.ndarray, measure: bool) -> list[Sensitivities]:
+        options: dict[str, Any] = {"method": self.method, **self.settings}
+        tolerance, held = self._held_to_tolerance(), self._held_to_tolerance() and not measure
+        if tolerance and measure:
             options |= {"rtol": self.rtol, "atol": self.atol, "hold_gradients": False}
-        tasks = [(f"scenario {s.name!r}", Task(sim.spec, x, tuple(self.responses(k)), True,
-                                               options | ({"start": self.discretizations.get(s.name)} if "rtol" in options else {}),
-                                               sim.options))
-                 for k, (s, sim) in enumerate(zip(self.scenarios, self.simulations))]
+        self.evaluations += 1
+
+        def task(s: Scenario, k: int, sim: Simulation) -> Task:
+            if held:
+                return Task(sim.spec, x, tuple(self.responses(k)), True, options, sim.options,
+                            held=(self.discretizations[s.name], self.rule.at))
+            start = {"start": self.discretizations.get(s.name)} if tolerance else {}
+            return Task(sim.spec, x, tuple(self.responses(k)), True, options | start, sim.options)
+
+        tasks = [(f"scenario {s.name!r}", task(s, k, sim)) for k, (s, sim) in enumerate(zip(self.scenarios, self.simulations))]
         try:
             runs = execution.run_all(perform, tasks, self.executor, chunksize=self.chunksize)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
+        if tolerance and measure:
+            self.measured.append(self.evaluations)
+            self.rule.measured(x)
         for s, run in zip(self.scenarios, runs):
             if run.discretization is not None:
                 self.discretizations[s.name] = run.discretization
@@ -296,7 +329,7 @@ class ScenarioProblem(Problem):
                 "objective": self.objective, "aggregate": self.aggregate.value,
                 "constraints": [list(c) for c in self.given],
                 "settings": self.settings, "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol,
-                "atol": self.atol, "accuracy": self.accuracy,
+                "atol": self.atol, "accuracy": self.accuracy, **self.rule.to_dict(),
                 "discretizations": {name: list(astuple(d)) for name, d in self.discretizations.items()}}
 
     def __getstate__(self) -> dict[str, Any]:
@@ -311,6 +344,7 @@ class ScenarioProblem(Problem):
                       settings=data["settings"], method=data["method"], objective_scale=data["objective_scale"],
                       rtol=data.get("rtol"), atol=data.get("atol"), accuracy=data.get("accuracy"))
         problem.discretizations = {name: Discretization(*d) for name, d in data.get("discretizations", {}).items()}
+        problem.rule = Readapt.from_dict(data)
         return problem
 
 

@@ -44,12 +44,11 @@ from ..errors import DesignError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..responses import PEAK_LIMITED
 from ..simulation import Simulation
-from ..discretization.refinement import extrapolated, t_end
+from ..discretization.refinement import on_grid
 from ..discretization.tolerance import Discretization
-from ..execution import side_by_side
-from ..results import Sensitivities
 from . import filters
 from .filters import DensityFilter, SensitivityFilter
+from .held import READAPT, Readapt
 
 
 MIN_FREQUENCY = "min_frequency"
@@ -72,14 +71,6 @@ FLOOR_RTOL = 1e-3
 AGGREGATES = PEAK_LIMITED
 """Responses that are means of point values, reported with their peaks (read from the
 engine: :data:`flextop.responses.PEAK_LIMITED`)."""
-
-READAPT = 0.1
-"""The design change (largest in any variable) after which :class:`TopologyProblem` with a
-tolerance measures an accepted design's error again: MMA moves the arm's densities by up
-to 0.2 per iteration (its move limit) while it travels and by 5e-4 in its last iteration
-(the tip-deflection optimization from x = 0.4), so its travels are measured and its
-convergence runs on the grid measured nearby. From the one-element optimum at rtol 1e-2 it
-measured 9 of 40 accepted designs (0.3: 5, in 8 % less time)."""
 
 KEPT_RATIOS = 16
 """Designs whose peak/mean ratios wait for :meth:`TopologyProblem.accept` (an iteration's
@@ -163,16 +154,11 @@ class TopologyProblem(Problem):
         self.objective_scale = objective_scale
         self.timings = {"simulation": 0.0, "gradients": 0.0}
         self.rtol, self.atol = rtol, atol
-        if not (isinstance(readapt, (int, float)) and 0.0 <= readapt <= 1.0):
-            raise SettingsError(f"readapt must be a design change in [0, 1], got {readapt!r}")
-        self.readapt = float(readapt)
+        self.rule = Readapt(readapt)
         self.filter = filter
         self.discretization: Discretization | None = None
         self.refinements: list[tuple[int, Discretization]] = []
         self.measured: list[int] = []
-        self._measured_at: np.ndarray | None = None
-        self._grid: np.ndarray | None = None
-        self._accepts = False
         self.evaluations = 0
         self.normalization: dict[str, float] = {}
         self._ratios: dict[bytes, dict[str, float]] = {}
@@ -190,8 +176,7 @@ class TopologyProblem(Problem):
         tolerance, on the grid accepted last; its error is measured here only where no grid
         was chosen yet and, for a caller that never calls :meth:`accept` (the scipy and
         OpenMDAO adapters), where the design has moved by more than ``readapt``."""
-        return self._filtered(x, measure=self.discretization is None
-                              or (not self._accepts and not self._near_measured(self.densities(x))))
+        return self._filtered(x, measure=self.rule.in_evaluate(self.densities(x), held=self.discretization is not None))
 
     def _filtered(self, x: np.ndarray, measure: bool) -> Evaluation:
         """The evaluation at the design ``x`` through the filter, its error measured or not."""
@@ -214,8 +199,7 @@ class TopologyProblem(Problem):
                                                              **tolerance, **self.settings)
                 if tolerance:
                     self.measured.append(self.evaluations)
-                    self._measured_at = np.array(x, dtype=float)
-                    self._grid = None if out.discretization is None else self.simulation.levels.factors(out.discretization, x)
+                    self.rule.measured(x)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         if out.discretization is not None and out.discretization != self.discretization:
@@ -229,30 +213,11 @@ class TopologyProblem(Problem):
         g, dg = self._constraints(x, f[1:], dfdx[1:], out.peaks)
         return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
 
-    def _near_measured(self, x: np.ndarray) -> bool:
-        """Whether ``x`` is within ``readapt`` of the last design whose error was measured."""
-        return (self.discretization is not None and self._measured_at is not None
-                and float(np.max(np.abs(np.asarray(x, float) - self._measured_at), initial=0.0)) <= self.readapt)
-
-    def _on_grid(self, x: np.ndarray) -> Sensitivities:
-        """The evaluation on the grid accepted last: its steps, and each bar's elements as
-        graded for the design measured there; extrapolated from half the steps where the
-        accepted one was, the two runs side by side (:func:`~flextop.execution.side_by_side`).
-        Newton is modified unless the settings say otherwise: the same values to its
-        tolerance, in a quarter less time on the arm's held grid."""
-        d = self.discretization
-        settings = {"newton": "modified", **self.settings}
-        if d.steps:
-            settings["h"] = t_end(self.simulation, settings) / d.steps
-        levels = self.simulation.levels
-        grid = levels.at(d, self._measured_at) if self._grid is None else levels.graded(self._grid)
-
-        def run(**step: float) -> Sensitivities:
-            return grid.run_with_sensitivities(x, self.responses, method=self.method, **{**settings, **step})
-
-        if not d.extrapolated:
-            return run()
-        return extrapolated(*side_by_side(run, lambda: run(h=2 * settings["h"])))
+    def _on_grid(self, x: np.ndarray) -> Any:
+        """The evaluation on the grid held (:func:`~flextop.discretization.refinement.on_grid`),
+        graded for the design measured last."""
+        return on_grid(self.simulation, x, self.responses, self.discretization, self.rule.at,
+                       {"method": self.method, **self.settings})
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
@@ -271,8 +236,8 @@ class TopologyProblem(Problem):
         :class:`~flextop.optimizers.EvaluationError` if that fails). Then each aggregate's
         ``c`` moves towards the ratio peak/P at the design and its constraint is rescaled
         to the new ``c``."""
-        self._accepts = True
-        if (self.rtol or self.simulation.rtol) and not self._near_measured(self.densities(x)):
+        moved = self.rule.in_accept(self.densities(x))
+        if (self.rtol or self.simulation.rtol) and moved:
             evaluation = self._filtered(x, measure=True)
         ratios, self._ratios = self._ratios.get(self.densities(x).tobytes(), {}), {}
         g, dg = evaluation.g.copy(), evaluation.dg.copy()
@@ -350,8 +315,7 @@ class TopologyProblem(Problem):
         return {"objective": self.objective, "constraints": [list(c) for c in self.constraints], "settings": self.settings,
                 "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol, "atol": self.atol,
                 "discretization": None if self.discretization is None else list(astuple(self.discretization)),
-                "normalization": dict(self.normalization), "readapt": self.readapt,
-                "measured_at": None if self._measured_at is None else self._measured_at.tolist(), "accepts": self._accepts,
+                "normalization": dict(self.normalization), **self.rule.to_dict(),
                 "filter": None if self.filter is None else self.filter.to_dict()}
 
     @classmethod
@@ -361,10 +325,8 @@ class TopologyProblem(Problem):
                       readapt=data.get("readapt", READAPT), filter=filters.from_dict(simulation, data.get("filter")))
         if data.get("discretization"):
             problem.discretization = Discretization(*data["discretization"])
-        if data.get("measured_at") is not None:
-            problem._measured_at = np.array(data["measured_at"], dtype=float)
+        problem.rule = Readapt.from_dict(data)
         problem.normalization = dict(data.get("normalization", {}))
-        problem._accepts = bool(data.get("accepts", False))
         return problem
 
 
