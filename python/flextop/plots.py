@@ -327,13 +327,13 @@ def plot_deformed(results: Any, *, magnify: float | None = None, title: str = ""
 
 
 def plot_paths(results: Results, *, title: str = "", path: str | os.PathLike | None = None) -> Figure:
-    """A motion in the plane: the path of every joint's, point mass's and rigid body's node
+    """A motion in the plane: the path of every joint's, point mass's, rigid body's and ring's node
     (a scene without a tip, such as a pendulum), the structure at the start (grey) and at
     the end (black), equal axes."""
     sim = results.simulation
     positions = np.asarray(results.positions)
     traced = sorted({n for j in sim.joints for n in j.nodes} | {sim.node(p["node"]) for p in sim.spec.get("point_masses", [])}
-                    | {sim.node(b["name"]) for b in sim.spec.get("rigid_bodies", [])})
+                    | {sim.node(b["name"]) for b in sim.spec.get("rigid_bodies", []) + sim.spec.get("rings", [])})
     fig = _new_figure(figsize=(6.0, 5.0), layout="constrained")
     ax = fig.add_subplot()
     for k, colour in ((0, "0.7"), (-1, "k")):

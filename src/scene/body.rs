@@ -19,7 +19,7 @@ pub(super) fn add_all(mesh: &mut Mesh, specs: &[RigidBodySpec]) -> Listed<PointM
 }
 
 /// The body `b` at `path`.
-fn add(mesh: &mut Mesh, path: &str, b: &RigidBodySpec) -> Result<PointMass> {
+pub(super) fn add(mesh: &mut Mesh, path: &str, b: &RigidBodySpec) -> Result<PointMass> {
     let [x, y] = b.position;
     let node = mesh.add_node(&format!("{path}.position"), &b.name, x, y)?;
     let turned = angle(path, b.angle, b.angle_deg)?;

@@ -7,7 +7,7 @@
 //! mode left free.
 //!
 //! The phases, in order, each checking its own entries: sections, the mesh (nodes, ground
-//! structures, continuum members, beams, rigid bodies and their points), joints, springs, motors, point masses, loads and gravity, the design, the tip, the
+//! structures, continuum members, beams, rigid bodies and their points, rings), joints (a ring's hinges first), springs, motors, point masses, loads and gravity, the design, the tip, the
 //! simulation defaults, and last the mechanism checks of [`crate::mechanism::rigid`]. The
 //! lists of entries and the checks poll for interrupts ([`crate::poll`]): a build of many
 //! thousand bodies stops soon after the caller asks.
@@ -18,7 +18,7 @@ use super::mesh::Mesh;
 use super::spec::{AnalysisSpec, InitialSpec, SceneSpec};
 use super::validate::unique;
 use super::{
-    body, design, ground_structure, joint, load, member, motor, section, simulation, spring,
+    body, design, ground_structure, joint, load, member, motor, ring, section, simulation, spring,
 };
 use crate::error::{Error, SceneError};
 use crate::mechanism::bar_mass::BarMass;
@@ -53,13 +53,24 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
                 .iter()
                 .flat_map(|b| b.nodes.iter().map(String::as_str)),
         )
+        .chain(
+            spec.rings
+                .iter()
+                .flat_map(|r| r.nodes.iter().map(String::as_str)),
+        )
         .collect();
     member::add_all(&mut mesh, &spec.members, &attached)?;
     mesh.add_beams(&spec.beams, &sections)?;
     mesh.check_bar_names()?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
+    let mut joint_specs = Vec::new();
+    for (mass, hinges) in ring::add_all(&mut mesh, &spec.rings)? {
+        point_masses.push(mass);
+        joint_specs.extend(hinges);
+    }
+    joint_specs.extend(spec.joints.iter().cloned());
     let size = mesh.size()?;
-    let joints = joint::joints(&spec.joints, &mesh, size)?;
+    let joints = joint::joints(&joint_specs, &mesh, size)?;
     unique("joints", joints.iter().map(|j| j.name.as_str()))?;
     let rows = joint::rows(&joints);
     let mut springs = spring::springs(&spec.springs, &mesh, &joints, size)?;

@@ -13,6 +13,7 @@ mod load;
 mod member;
 mod mesh;
 mod motor;
+mod ring;
 mod section;
 mod simulation;
 pub mod spec;

@@ -56,6 +56,9 @@ pub struct SceneSpec {
     /// Rigid bodies.
     #[serde(default, deserialize_with = "polled")]
     pub rigid_bodies: Vec<RigidBodySpec>,
+    /// Rigid interface rings (RBE2-type) on nodes.
+    #[serde(default, deserialize_with = "polled")]
+    pub rings: Vec<RingSpec>,
     /// Point masses.
     #[serde(default, deserialize_with = "polled")]
     pub point_masses: Vec<PointMassSpec>,
@@ -395,6 +398,23 @@ pub struct RigidBodySpec {
     /// Named points `[x, y]` in the body's frame, from its centre of mass (m).
     #[serde(default)]
     pub points: BTreeMap<String, [f64; 2]>,
+}
+
+/// A rigid interface ring (RBE2-type): its `nodes` (of a continuum member's hole or edge,
+/// or of a frame) move as one rigid frame, whose centre is the node called `name` — joints,
+/// springs, loads and point masses attach there as to a rigid body's centre. Built as a light
+/// rigid body at `centre` (the nodes' mean if not given) hinged to each node (hinges
+/// `name.0`, `name.1`, …, in the order of `nodes`).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RingSpec {
+    /// Name.
+    pub name: String,
+    /// The nodes that follow the ring: two or more, not all at one place.
+    pub nodes: Vec<String>,
+    /// The ring's centre `[x, y]` (m); the mean of its nodes if not given.
+    #[serde(default)]
+    pub centre: Option<[f64; 2]>,
 }
 
 /// A linear spring and damper: between two points (`nodes`; `k` in N/m; rest `length`, the

@@ -471,7 +471,7 @@ def test_a_cell_turned_inside_out_stops_the_run_by_name():
 
 def test_a_rigid_ring_moves_rigidly():
     """The issue's RBE2 must-show: on the continuum arm, at a random design, every node of
-    the three rings (a light rigid body hinged to a link's edge, :func:`rigid_ring`) keeps
+    the three rings (``Scene.ring`` on a link's edge: a light rigid body hinged to each node) keeps
     its place in the ring's turning frame at every step, to 1e-12 of the ring's size, while
     the links turn by 30° and link 1's far end leaves that frame by a centimetre."""
     sim = simulation(flextop.scenes.continuum_robot_arm(nx=20, ny=6))
@@ -499,6 +499,36 @@ def test_a_rigid_ring_moves_rigidly():
             bent = np.abs(far - moved).max()
     assert turned >= np.radians(29.0)
     assert bent > 1e-4, bent
+
+
+def test_a_ring_is_a_scene_entry_that_round_trips_through_toml(tmp_path):
+    scene = flextop.scenes.continuum_slider_crank(nx=8, ny=2, t_end=0.01)
+    spec = scene.to_dict()
+    assert [r["name"] for r in spec["rings"]] == ["ring_A", "ring_B"]
+    path = tmp_path / "crank.toml"
+    path.write_text(scene.to_toml(), encoding="utf-8")
+    sim, again = flextop.Simulation(scene), flextop.Simulation(path)
+    x = np.random.default_rng(1).uniform(0.2, 1.0, sim.n_design)
+    assert sim.n_design == again.n_design == 8 * 2 - 2 * 2  # the cells at the rings' nodes are passive solid
+    np.testing.assert_array_equal(sim.run(x).positions, again.run(x).positions)
+    ring = sim.node_names.index("ring_A")  # at its nodes' mean: the rod's left end
+    edge = [sim.node_names.index(f"rod[0,{j}]") for j in range(3)]
+    np.testing.assert_allclose(sim.model.reference_positions[ring], sim.model.reference_positions[edge].mean(axis=0), atol=1e-15)
+
+
+@pytest.mark.parametrize(("ring", "culprit"), [
+    ({"name": "r", "nodes": ["plate[0,0]"]}, r"rings\[0\] \(r\)\.nodes: a ring needs two nodes or more"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[9,9]"]}, r"rings\[0\] \(r\)\.nodes\[1\].*plate\[9,9\]"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "centre": [0.0, float("nan")]}, r"rings\[0\] \(r\)\.centre\[1\].*finite"),
+    ({"name": "r", "nodes": ["plate[0,0]", "twin"]}, r"rings\[0\] \(r\)\.nodes: its nodes are all at one place"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "mass": 1.0}, r"rings.*unknown field `mass`"),
+])
+def test_bad_rings_are_named(ring, culprit):
+    spec = {"name": "bad", "analysis": "static", "nodes": [{"name": "twin", "x": 0.0, "y": -0.15}],
+            "members": [{"name": "plate", "nx": 6, "ny": 3, "length": 0.6, "height": 0.3, "thickness": 0.01, **STEEL}],
+            "rings": [ring], "joints": [{"kind": "clamp", "name": "a", "node": "r"}]}
+    with pytest.raises(SceneError, match=culprit):
+        flextop.Simulation(spec)
 
 
 @pytest.mark.parametrize(("key", "value", "culprit"), [

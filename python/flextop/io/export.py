@@ -170,11 +170,12 @@ class _Structure:
 
 
 def _vertices(sim: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes of joints (kind 1), of point masses (kind 2) and of rigid bodies (kind 3)."""
+    """Nodes of joints (kind 1), of point masses (kind 2) and of rigid bodies and rings (kind 3)."""
     joints = [(n, JOINT) for j in sim.joints for n in j.nodes]
     masses = [(sim.node(p["node"]), POINT_MASS) for p in sim.spec.get("point_masses", [])]
     rigid_links = [g["name"] for g in sim.spec.get("ground_structures", []) if g.get("rigid")]
-    bodies = [(sim.node(name), BODY) for name in [b["name"] for b in sim.spec.get("rigid_bodies", [])] + rigid_links]
+    named = [b["name"] for b in sim.spec.get("rigid_bodies", []) + sim.spec.get("rings", [])]
+    bodies = [(sim.node(name), BODY) for name in named + rigid_links]
     entries = joints + masses + bodies
     return np.array([n for n, _ in entries], dtype=np.int64), np.array([k for _, k in entries], dtype=np.int64)
 

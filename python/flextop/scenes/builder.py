@@ -213,6 +213,19 @@ class Scene:
         self._spec.setdefault("rigid_bodies", []).append(entry)
         return name
 
+    def ring(self, name: str, nodes: Sequence[str], *, centre: Sequence[float] | None = None) -> str:
+        """A rigid interface ring (RBE2-type): ``nodes`` (two or more: a member's hole, boss
+        or edge) move as one rigid frame whose centre is ``name`` (at ``centre``, the nodes'
+        mean if not given), where joints, springs, loads and point masses attach as to a
+        rigid body's. Its hinges to the nodes are ``name.0``, ``name.1``, …; a member's
+        cells at its nodes are passive solid by default. Built as a light rigid body (1e-6
+        kg and kg m²): the ring carries the joints, not inertia."""
+        entry: dict[str, Any] = {"name": name, "nodes": list(nodes)}
+        if centre is not None:
+            entry["centre"] = _listed(centre)
+        self._spec.setdefault("rings", []).append(entry)
+        return name
+
     def point_mass(self, node: str, mass: float, inertia: float = 0.0) -> None:
         """A point mass (kg) with rotary inertia (kg m²) on ``node``."""
         self._spec.setdefault("point_masses", []).append({"node": node, "mass": mass, "inertia": inertia})

@@ -133,18 +133,6 @@ def robot_arm(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float = 
     return scene
 
 
-def rigid_ring(scene: Scene, name: str, centre: tuple[float, float], nodes: list[str], positions: list[tuple[float, float]]) -> str:
-    """A rigid ring (RBE2-type) until interface rings are an entry of their own: a light
-    rigid body at ``centre`` hinged to each of ``nodes`` (at ``positions``), which then move
-    as one rigid frame with it. The body's mass and rotary inertia are 1e-6 of a kilogram and
-    of a kg m²: the ring carries the joints, not inertia. Returns the body's name."""
-    points = {f"n{k}": (x - centre[0], y - centre[1]) for k, (x, y) in enumerate(positions)}
-    scene.rigid_body(name, mass=1e-6, inertia=1e-6, position=centre, points=points)
-    for k, node in enumerate(nodes):
-        scene.hinge(f"{name}.{k}", f"{name}.n{k}", node)
-    return name
-
-
 @_checked(lambda nx, ny, **_: {"elements": 2 * nx * ny})
 def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, height: float = 0.1, thickness: float = 0.005,
                         tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
@@ -153,7 +141,7 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         h: float = 0.013, rho_inf: float = 0.8) -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
     height`` member of ``nx × ny`` cells and ``thickness`` (m), a density per cell. The
-    shoulder drives a rigid ring (:func:`rigid_ring`) on link 1's root edge; the elbow drives
+    shoulder drives a rigid ring (:meth:`Scene.ring`) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
     payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
     hold are passive solid (a member's ``solid_at_joints``). ``ny`` must be even, for a row
@@ -164,19 +152,15 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     links = []
     origin = (0.0, 0.0)
     for k, angle in enumerate((theta_start, 2 * theta_start)):
-        link = scene.member(f"link{k + 1}", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu,
-                            rho=rho, origin=origin, angle=angle)
-        axis, normal = np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)])
-        edge = [tuple(np.array(origin) + c * length * axis + height * (j / ny - 0.5) * normal) for c in (0, 1) for j in range(ny + 1)]
-        links.append((link, edge[:ny + 1], edge[ny + 1:]))
-        origin = tuple(np.array(origin) + length * axis)
-    (link1, root1, end1), (link2, root2, end2) = links
-    elbow = tuple(np.array(end1).mean(axis=0))
+        links.append(scene.member(f"link{k + 1}", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E,
+                                  nu=nu, rho=rho, origin=origin, angle=angle))
+        origin = (origin[0] + length * math.cos(angle), origin[1] + length * math.sin(angle))
+    link1, link2 = links
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
-    shoulder = rigid_ring(scene, "shoulder_ring", (0.0, 0.0), [link1.node(0, j) for j in range(ny + 1)], root1)
+    shoulder = scene.ring("shoulder_ring", [link1.node(0, j) for j in range(ny + 1)])
     scene.pin("shoulder", shoulder, drive=motion)
-    upper = rigid_ring(scene, "elbow_ring1", elbow, [link1.node(nx, j) for j in range(ny + 1)], end1)
-    lower = rigid_ring(scene, "elbow_ring2", elbow, [link2.node(0, j) for j in range(ny + 1)], root2)
+    upper = scene.ring("elbow_ring1", [link1.node(nx, j) for j in range(ny + 1)])
+    lower = scene.ring("elbow_ring2", [link2.node(0, j) for j in range(ny + 1)])
     scene.hinge("elbow", upper, lower, drive=dict(motion))
     scene.tip = link2.node(nx, ny // 2)
     if tip_mass != 0.0:
@@ -385,7 +369,7 @@ def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: fl
                            x_min: float = 0.01) -> Scene:
     """The slider-crank of :func:`slider_crank` with a continuum connecting rod: a ``rod ×
     height`` steel member of ``thickness`` meshed by ``nx × ny`` cells (a density each),
-    joined to the crank and the slider through rigid rings (:func:`rigid_ring`) on its end
+    joined to the crank and the slider through rigid rings (:meth:`Scene.ring`) on its end
     edges. Crank, drive and slider as there (the crank a uniform bar of the rod's section, the
     slider half the rod's mass). The ``tip`` is the rod's middle node. ``nx`` and ``ny`` must
     be even."""
@@ -398,10 +382,8 @@ def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: fl
                      points={"pivot": (-crank / 2, 0.0), "pin": (crank / 2, 0.0)})
     member = scene.member("rod", nx=nx, ny=ny, length=rod, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
                           origin=(crank, 0.0))
-    rows = [height * (j / ny - 0.5) for j in range(ny + 1)]
-    left = rigid_ring(scene, "ring_A", (crank, 0.0), [member.node(0, j) for j in range(ny + 1)], [(crank, y) for y in rows])
-    right = rigid_ring(scene, "ring_B", (crank + rod, 0.0), [member.node(nx, j) for j in range(ny + 1)],
-                       [(crank + rod, y) for y in rows])
+    left = scene.ring("ring_A", [member.node(0, j) for j in range(ny + 1)])
+    right = scene.ring("ring_B", [member.node(nx, j) for j in range(ny + 1)])
     scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))
     scene.pin("crank", "crank.pivot", drive=_crank_drive(speed, time_constant, t_end))
     scene.hinge("A", "crank.pin", left)
