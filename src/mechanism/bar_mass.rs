@@ -23,7 +23,6 @@
 
 use nalgebra::Matrix4;
 
-use crate::mechanism::model::Model;
 use crate::mechanism::section::Section;
 
 /// The coupling of one bar's end nodes (module documentation).
@@ -40,25 +39,16 @@ pub struct BarMass {
 }
 
 impl BarMass {
-    /// The coupling of every bar of `model`.
-    pub fn of(model: &Model) -> Vec<Self> {
-        model
-            .bars
-            .iter()
-            .map(|bar| {
-                let elements = &model.elements[bar.elements.clone()];
-                let m = elements.len() as f64;
-                let length: f64 = elements.iter().map(|e| e.kernel.length()).sum();
-                let rho_a = elements[0].kernel.section().rho_a;
-                let per_rho_a = length / (6.0 * m * m);
-                Self {
-                    nodes: [elements[0].nodes[0], elements[elements.len() - 1].nodes[1]],
-                    element: bar.elements.start,
-                    coupling: rho_a * per_rho_a,
-                    per_rho_a,
-                }
-            })
-            .collect()
+    /// The coupling of a bar from end node `a` to `b` of `m` elements, the first at index
+    /// `element`, of total `length` (m) and mass per length `rho_a` (kg/m) at full density.
+    pub fn new(nodes: [usize; 2], element: usize, m: usize, length: f64, rho_a: f64) -> Self {
+        let per_rho_a = length / (6.0 * (m * m) as f64);
+        Self {
+            nodes,
+            element,
+            coupling: rho_a * per_rho_a,
+            per_rho_a,
+        }
     }
 
     /// Its DOFs: the translations `[x_a, y_a, x_b, y_b]`.

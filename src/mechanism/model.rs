@@ -424,6 +424,20 @@ impl Model {
         t
     }
 
+    /// The end coupling of every bar's mass ([`BarMass`]), built once with the model.
+    pub fn end_couplings(&self) -> Vec<BarMass> {
+        self.bars
+            .iter()
+            .map(|bar| {
+                let elements = &self.elements[bar.elements.clone()];
+                let length = elements.iter().map(|e| e.kernel.length()).sum();
+                let ends = [elements[0].nodes[0], elements[elements.len() - 1].nodes[1]];
+                let rho_a = elements[0].kernel.section().rho_a;
+                BarMass::new(ends, bar.elements.start, elements.len(), length, rho_a)
+            })
+            .collect()
+    }
+
     /// The couplings of bars' end nodes in the mass matrix of `kind`: every bar's for
     /// `bar_lumped`, none otherwise.
     pub fn bar_couplings(&self, kind: MassKind) -> &[BarMass] {

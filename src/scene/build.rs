@@ -21,7 +21,6 @@ use super::{
     body, design, ground_structure, joint, load, member, motor, ring, section, simulation, spring,
 };
 use crate::error::{Error, SceneError};
-use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
 use crate::mechanism::spring::Measure;
@@ -123,7 +122,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         bar_couplings: Vec::new(),
     };
     model.absent_rotations = absent_rotations(&model)?;
-    model.bar_couplings = BarMass::of(&model);
+    model.bar_couplings = model.end_couplings();
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;
     let starts = model.initial == Initial::Equilibrium || !rates.is_empty();
     if starts && model.analysis == Analysis::Static {
