@@ -32,6 +32,19 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<Join
         let msg = "a ring needs two nodes or more: its frame's angle follows from where they are";
         return Err(SceneError::new(format!("{path}.nodes"), msg));
     }
+    if mesh.node("", &r.name).is_ok() {
+        let msg = format!(
+            "a node or body is already called '{}': a ring's centre is a node of its own",
+            r.name
+        );
+        return Err(SceneError::new(format!("{path}.name"), msg));
+    }
+    for (i, name) in r.nodes.iter().enumerate() {
+        if let Some(first) = r.nodes[..i].iter().position(|n| n == name) {
+            let msg = format!("'{name}' is listed twice (also nodes[{first}])");
+            return Err(SceneError::new(format!("{path}.nodes[{i}]"), msg));
+        }
+    }
     let positions = r
         .nodes
         .iter()

@@ -521,6 +521,8 @@ def test_a_ring_is_a_scene_entry_that_round_trips_through_toml(tmp_path):
     ({"name": "r", "nodes": ["plate[0,0]", "plate[9,9]"]}, r"rings\[0\] \(r\)\.nodes\[1\].*plate\[9,9\]"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "centre": [0.0, float("nan")]}, r"rings\[0\] \(r\)\.centre\[1\].*finite"),
     ({"name": "r", "nodes": ["plate[0,0]", "twin"]}, r"rings\[0\] \(r\)\.nodes: its nodes are all at one place"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]", "plate[0,0]"]}, r"rings\[0\] \(r\)\.nodes\[2\]: 'plate\[0,0\]' is listed twice"),
+    ({"name": "twin", "nodes": ["plate[0,0]", "plate[0,1]"]}, r"rings\[0\] \(twin\)\.name: a node or body is already called 'twin'"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "mass": 1.0}, r"rings.*unknown field `mass`"),
 ])
 def test_bad_rings_are_named(ring, culprit):
