@@ -256,9 +256,10 @@ class ScenarioProblem(Problem):
         ``evaluation`` replaced by the one on the grids accepted (:mod:`.held`)."""
         x = np.asarray(x, dtype=float)
         moved = self.rule.in_accept(x[: self.n_design])
-        return self._combined(x, measure=True) if self._held_to_tolerance() and moved else evaluation
+        return self._combined(x, measure=True) if self._to_tolerance() and moved else evaluation
 
-    def _held_to_tolerance(self) -> bool:
+    def _to_tolerance(self) -> bool:
+        """Whether the evaluations are held to a tolerance (the problem's or a scenario's)."""
         return bool(self.rtol or any(sim.rtol for sim in self.simulations))
 
     def _combined(self, x: np.ndarray, measure: bool) -> Evaluation:
@@ -296,7 +297,8 @@ class ScenarioProblem(Problem):
 
     def _run(self, x: np.ndarray, measure: bool) -> list[Sensitivities]:
         options: dict[str, Any] = {"method": self.method, **self.settings}
-        tolerance, held = self._held_to_tolerance(), self._held_to_tolerance() and not measure
+        tolerance = self._to_tolerance()
+        held = tolerance and not measure
         if tolerance and measure:
             options |= {"rtol": self.rtol, "atol": self.atol, "hold_gradients": False}
         self.evaluations += 1
