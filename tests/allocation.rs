@@ -107,7 +107,16 @@ fn alpha_steps_do_not_allocate() {
         5e-4,
         MassKind::Consistent,
     );
-    for (name, spec, newton, h, mass) in arms.chain([mechanism, four_bar, damped, truss, member]) {
+    // A member swinging on an averaging ring: rows on many nodes, one of them nonlinear.
+    let on_ring = (
+        "member on an averaging ring".to_string(),
+        scene::parse_toml(&format!("{MEMBER_ON_RING}{RING}")).unwrap(),
+        NewtonMatrix::Full,
+        5e-4,
+        MassKind::Consistent,
+    );
+    let runs = arms.chain([mechanism, four_bar, damped, truss, member, on_ring]);
+    for (name, spec, newton, h, mass) in runs {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];
         let settings = DynamicSettings {
@@ -201,4 +210,33 @@ node = "plate[0,2]"
 [[loads]]
 node = "plate[8,1]"
 force = [0.0, -20.0]
+"#;
+
+/// [`MEMBER`] hanging from an averaging ring on its root edge, pinned at the ring's centre.
+const MEMBER_ON_RING: &str = r#"
+name = "member_on_ring"
+gravity = [0.0, -9.81]
+[[members]]
+name = "plate"
+nx = 8
+ny = 2
+length = 0.6
+height = 0.1
+thickness = 0.005
+E = 70e9
+nu = 0.32
+rho = 2700.0
+[[joints]]
+kind = "pin"
+name = "base"
+node = "hub"
+"#;
+
+/// The ring of [`MEMBER_ON_RING`].
+const RING: &str = r#"
+[[rings]]
+name = "hub"
+kind = "averaging"
+nodes = ["plate[0,0]", "plate[0,1]", "plate[0,2]"]
+weights = [1.0, 2.0, 1.0]
 "#;

@@ -5,6 +5,7 @@
 //! [`motor`]s, the rigid clusters and kinematics of `rigid` and the rank analysis of the
 //! joints' Jacobian (`rank`), and the scene [`parameter`]s with their pseudo-loads.
 
+pub mod averaging;
 pub mod bar_frequency;
 pub mod bar_mass;
 pub mod constraint;
@@ -17,5 +18,6 @@ pub mod motor;
 pub mod parameter;
 pub(crate) mod rank;
 pub(crate) mod rigid;
+pub mod rows;
 pub mod section;
 pub mod spring;

@@ -9,6 +9,7 @@
 use nalgebra::Vector2;
 
 use crate::error::{DesignError, SolveError};
+use crate::mechanism::averaging::Averaging;
 use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::{ConstraintRow, Joint};
 use crate::mechanism::element::quad::{Quad, Vector8};
@@ -16,6 +17,7 @@ use crate::mechanism::element::{Formulation, Kind, Vector6};
 use crate::mechanism::interpolation::{Interpolation, MassLaw};
 use crate::mechanism::load::NodalLoad;
 use crate::mechanism::motor::Motor;
+use crate::mechanism::rows::RowDofs;
 use crate::mechanism::section::NamedSection;
 use crate::mechanism::spring::{Measure, Spring};
 use crate::settings::{MassKind, RunOptions};
@@ -226,6 +228,10 @@ pub struct Model {
     pub joints: Vec<Joint>,
     /// Their constraint rows, in joint order.
     pub rows: Vec<ConstraintRow>,
+    /// Averaging rings (RBE3-type), three rows each after the joints'.
+    pub averagings: Vec<Averaging>,
+    /// The DOFs of every constraint row, joints' and rings' ([`RowDofs`]).
+    pub row_dofs: RowDofs,
     /// Applied loads.
     pub loads: Vec<NodalLoad>,
     /// Gravity acceleration (m/s²), zero by default.
@@ -362,15 +368,16 @@ impl Model {
             let which = ["x", "y", "the rotation"][k];
             return format!("{which} of node '{}'{bar}", self.nodes[node].name);
         };
-        match self.rows.get(row) {
-            Some(r) => format!("a multiplier of joint '{}'", self.joints[r.joint].name),
-            None => format!("unknown {i}"),
+        if row < self.n_constraints() {
+            format!("a multiplier of {}", self.row_owner(row))
+        } else {
+            format!("unknown {i}")
         }
     }
 
     /// Number of constraint rows `n_c`.
     pub fn n_constraints(&self) -> usize {
-        self.rows.len()
+        self.rows.len() + 3 * self.averagings.len()
     }
 
     /// Whether the gradients read every state's velocities: a beam's Rayleigh damping

@@ -28,6 +28,7 @@ use crate::interrupt::poll;
 use crate::mechanism::constraint::ConstraintRow;
 use crate::mechanism::model::{Analysis, Initial, Model};
 use crate::mechanism::rank::{repeated_rows, Link, Rank};
+use crate::mechanism::rows::Row;
 use crate::mechanism::spring::Spring;
 
 /// Rigid over-constraint: `redundant` rows of the joints' Jacobian on the cluster
@@ -141,36 +142,22 @@ impl Clusters {
         rho: &DVector<f64>,
         t: f64,
     ) -> (DVector<f64>, DMatrix<f64>) {
-        let rows = &model.rows;
+        let n_c = model.n_constraints();
         let q: Vec<f64> = (0..model.n_dofs())
             .map(|d| self.dof_map(model, rho, d).0)
             .collect();
-        let mut phi = DVector::zeros(rows.len());
-        let mut jac = DMatrix::zeros(rows.len(), 3 * self.len());
-        for (i, row) in rows.iter().enumerate() {
-            let (value, gradient) = row.evaluate(&q);
-            phi[i] = value - model.joints[row.joint].prescribed(row, t)[0];
-            self.chain(model, rho, row.dofs(), gradient, |j, v| jac[(i, j)] += v);
+        let mut phi = DVector::zeros(n_c);
+        let mut jac = DMatrix::zeros(n_c, 3 * self.len());
+        for i in 0..n_c {
+            let dofs = model.row_dofs.of_row(i);
+            let value = model.evaluate_row(i, &q, None, |l, coeff| {
+                for (j, g) in self.dof_map(model, rho, dofs[l]).1 {
+                    jac[(i, j)] += coeff * g;
+                }
+            });
+            phi[i] = value - model.prescribed(i, t)[0];
         }
         (phi, jac)
-    }
-
-    /// A gradient on six node DOFs carried to the cluster coordinates by the chain rule
-    /// through [`Clusters::dof_map`]: `add(j, ∂h/∂ρ_j)` for each term.
-    fn chain(
-        &self,
-        model: &Model,
-        rho: &DVector<f64>,
-        dofs: [Option<usize>; 6],
-        gradient: [f64; 6],
-        mut add: impl FnMut(usize, f64),
-    ) {
-        for (dof, coeff) in dofs.iter().zip(gradient) {
-            let Some(dof) = *dof else { continue };
-            for (j, g) in self.dof_map(model, rho, dof).1 {
-                add(j, coeff * g);
-            }
-        }
     }
 
     /// The origin of each cluster's coordinates: its anchor's reference position.
@@ -191,8 +178,8 @@ impl Clusters {
     ) -> Result<Vec<Link>, SolveError> {
         let rho = DVector::zeros(3 * self.len());
         let reference = vec![0.0; model.n_dofs()];
-        let on_clusters = |(dofs, gradient): ([Option<usize>; 6], [f64; 6])| {
-            dofs.into_iter().zip(gradient).flat_map(|(d, coeff)| {
+        let on_clusters = |terms: Vec<(Option<usize>, f64)>| {
+            terms.into_iter().flat_map(|(d, coeff)| {
                 let terms = d.map(|d| self.dof_map(model, &rho, d).1);
                 let ground = d.is_none().then_some((None, 0.0));
                 terms
@@ -203,10 +190,11 @@ impl Clusters {
                     .chain(ground)
             })
         };
-        let mut links = joint_links(&model.rows, |row| {
-            on_clusters((row.dofs(), row.gradient(&reference)))
-        })?;
-        links.extend(extra.iter().map(|&e| Link::new([on_clusters(e)])));
+        let mut links = row_links(model, |k| on_clusters(row_terms(model, k, &reference)))?;
+        let extra = extra
+            .iter()
+            .map(|(d, g)| d.iter().copied().zip(g.iter().copied()));
+        links.extend(extra.map(|e| Link::new([on_clusters(e.collect())])));
         Ok(links)
     }
 
@@ -243,7 +231,7 @@ impl Clusters {
         if redundant == 0 {
             return Ok(None);
         }
-        let repeats = repeated_rows(&links, |row| !model.rows[row].driven);
+        let repeats = repeated_rows(&links, |row| !model.row_driven(row));
         let repeated = repeats.iter().filter(|&&r| r).count();
         // The links without their repeated rows, and the model row of each row kept.
         let (mut kept, mut rows) = (Vec::new(), Vec::new());
@@ -261,7 +249,7 @@ impl Clusters {
             let rest = Rank::of(&kept, &origins)?;
             rest.dependent()?
                 .into_iter()
-                .map(|row| model.rows[rows[row]].joint)
+                .filter_map(|row| model.rows.get(rows[row]).map(|r| r.joint))
                 .collect()
         } else {
             Vec::new()
@@ -274,8 +262,8 @@ impl Clusters {
         }))
     }
 
-    /// Clusters not connected to the ground through any chain of joints: the parts of the
-    /// clusters the joints join (union–find) with no joint to the ground.
+    /// Clusters not connected to the ground through any chain of joints and averaging
+    /// rings: the parts of the clusters they join (union–find) with no joint to the ground.
     ///
     /// # Errors
     /// [`SolveError::Interrupted`] when the caller asks to stop.
@@ -300,6 +288,11 @@ impl Clusters {
             if j.is_grounded() {
                 ground.push(first);
             }
+        }
+        for ring in &model.averagings {
+            let (a, b) = (self.of_node[ring.reference], self.of_node[ring.nodes[0]]);
+            let (a, b) = (root(&mut parent, a), root(&mut parent, b));
+            parent[b] = a;
         }
         let mut grounded = vec![false; self.len()];
         for c in ground {
@@ -511,40 +504,74 @@ fn rank_of(s: &DVector<f64>) -> usize {
     s.iter().filter(|&&v| v > tol).count()
 }
 
-/// One [`Link`] per joint of `rows` (in the order of their joints), each row's terms
-/// `(coordinate, value)` from `terms`, with [`poll`] between joints.
-fn joint_links<T>(
-    rows: &[ConstraintRow],
-    terms: impl Fn(&ConstraintRow) -> T,
-) -> Result<Vec<Link>, SolveError>
+/// Row `k`'s gradient at `q` as terms `(DOF, value)`, `(None, 0)` for a joint's
+/// anchor on the ground.
+fn row_terms(model: &Model, k: usize, q: &[f64]) -> Vec<(Option<usize>, f64)> {
+    match model.row(k) {
+        Row::Joint(row) => row.dofs().into_iter().zip(row.gradient(q)).collect(),
+        Row::Ring(..) => {
+            let dofs = model.row_dofs.of_row(k).iter().map(|&d| Some(d));
+            dofs.zip(model.row_gradient(k, q)).collect()
+        }
+    }
+}
+
+/// One [`Link`] per joint and per averaging ring (in the order of the rows), each row's
+/// terms `(coordinate, value)` from `terms`, with [`poll`] between links.
+fn row_links<T>(model: &Model, terms: impl Fn(usize) -> T) -> Result<Vec<Link>, SolveError>
 where
     T: IntoIterator<Item = (Option<usize>, f64)>,
 {
-    rows.chunk_by(|a, b| a.joint == b.joint)
+    let owner = |k: usize| match model.row(k) {
+        Row::Joint(row) => (0, row.joint),
+        Row::Ring(..) => (1, (k - model.rows.len()) / 3),
+    };
+    let rows: Vec<usize> = (0..model.n_constraints()).collect();
+    rows.chunk_by(|&a, &b| owner(a) == owner(b))
         .map(|rows| {
             poll()?;
-            Ok(Link::new(rows.iter().map(&terms)))
+            Ok(Link::new(rows.iter().map(|&k| terms(k))))
         })
         .collect()
 }
 
 /// Rows of `Φ_q` at the reference that depend linearly on earlier ones (an
 /// over-constrained mechanism), in order ([`Rank::redundant`] with the nodes as bodies).
+/// An averaging ring, on many nodes, enters as what it does to its reference node alone:
+/// a weld to a body of its own, so its rows are never taken as repeating others.
 ///
 /// # Errors
 /// [`SolveError::Interrupted`] when the caller asks to stop.
 pub fn redundant_rows(model: &Model) -> Result<Vec<usize>, SolveError> {
     let reference = vec![0.0; model.n_dofs()];
-    let links = joint_links(&model.rows, |row| {
-        row.dofs().into_iter().zip(row.gradient(&reference))
+    let n_nodes = model.nodes.len();
+    let links = row_links(model, |k| match model.row(k) {
+        Row::Joint(_) => row_terms(model, k, &reference),
+        Row::Ring(ring, c) => {
+            let own = n_nodes + (k - model.rows.len()) / 3;
+            let coordinate = c as usize;
+            vec![
+                (Some(3 * ring.reference + coordinate), 1.0),
+                (Some(3 * own + coordinate), -1.0),
+            ]
+        }
     })?;
-    let nodes: Vec<Vector2<f64>> = model.nodes.iter().map(|n| n.position).collect();
-    Ok(Rank::of(&links, &nodes)?.redundant())
+    let rings = model
+        .averagings
+        .iter()
+        .map(|r| model.nodes[r.reference].position);
+    let bodies: Vec<Vector2<f64>> = model
+        .nodes
+        .iter()
+        .map(|n| n.position)
+        .chain(rings)
+        .collect();
+    Ok(Rank::of(&links, &bodies)?.redundant())
 }
 
 /// The mechanism checks of a built scene, in order: every node on a beam or a body, every
 /// body's rotation held by inertia or a joint, no redundant
-/// joint, every cluster grounded, and for a static scene mobility zero.
+/// joint, every averaging ring on one cluster, every cluster grounded, and for a static scene mobility zero.
 ///
 /// # Errors
 /// A [`SceneError`] naming the first node or joint at fault; [`SolveError::Interrupted`]
@@ -554,6 +581,7 @@ pub(crate) fn check_mechanism(model: &Model) -> Result<(), Error> {
     check_body_rotations(model)?;
     check_redundancy(model)?;
     let clusters = Clusters::of(model);
+    check_rings(model, &clusters)?;
     check_grounding(model, &clusters)?;
     if model.analysis == Analysis::Static || model.initial == Initial::Equilibrium {
         check_mobility(model, &clusters)?;
@@ -594,12 +622,8 @@ fn check_body_rotations(model: &Model) -> Result<(), SceneError> {
     for e in &model.elements {
         e.nodes.iter().for_each(|&node| held[node] = true);
     }
-    for row in &model.rows {
-        for (d, on) in row.dofs().iter().zip(row.active()) {
-            if let Some(d) = d.filter(|d| on && d % 3 == 2) {
-                held[d / 3] = true;
-            }
-        }
+    for &d in model.row_dofs.dofs().iter().filter(|&&d| d % 3 == 2) {
+        held[d / 3] = true;
     }
     match model
         .bodies
@@ -618,7 +642,7 @@ fn check_body_rotations(model: &Model) -> Result<(), SceneError> {
 /// No row of `Φ_q` depends on earlier ones: the first redundant row names its joint.
 fn check_redundancy(model: &Model) -> Result<(), Error> {
     match redundant_rows(model)?.first() {
-        Some(&r) => {
+        Some(&r) if r < model.rows.len() => {
             let j = model.rows[r].joint;
             Err(SceneError::new(
                 format!("joints[{j}] ({})", model.joints[j].name),
@@ -626,8 +650,26 @@ fn check_redundancy(model: &Model) -> Result<(), Error> {
             )
             .into())
         }
-        None => Ok(()),
+        // A ring's rows stand for a weld to a body of their own: never redundant.
+        _ => Ok(()),
     }
+}
+
+/// An averaging ring's nodes lie on one member or frame: its rows act on that cluster and
+/// its body, as every link of the rank analysis acts on two.
+fn check_rings(model: &Model, clusters: &Clusters) -> Result<(), SceneError> {
+    for ring in &model.averagings {
+        let first = clusters.of_node[ring.nodes[0]];
+        if let Some(&n) = (ring.nodes.iter()).find(|&&n| clusters.of_node[n] != first) {
+            let (a, b) = (&model.nodes[ring.nodes[0]].name, &model.nodes[n].name);
+            let msg = format!(
+                "nodes '{a}' and '{b}' lie on different members or frames: an averaging ring \
+                 acts on one (join two with a joint at each ring's centre)"
+            );
+            return Err(SceneError::new(format!("ring '{}'", ring.name), msg));
+        }
+    }
+    Ok(())
 }
 
 /// Every cluster reaches the ground through a chain of joints.

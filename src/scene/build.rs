@@ -23,6 +23,7 @@ use super::{
 use crate::error::{Error, SceneError};
 use crate::mechanism::model::{Analysis, Design, Initial, Model};
 use crate::mechanism::rigid::{check_mechanism, initial_velocity};
+use crate::mechanism::rows::RowDofs;
 use crate::mechanism::spring::Measure;
 
 /// Builds and validates the model of `spec`.
@@ -63,9 +64,11 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
     mesh.check_bar_names()?;
     point_masses.extend(body::add_all(&mut mesh, &spec.rigid_bodies)?);
     let mut joint_specs = Vec::new();
-    for (mass, hinges) in ring::add_all(&mut mesh, &spec.rings)? {
-        point_masses.push(mass);
-        joint_specs.extend(hinges);
+    let mut averagings = Vec::new();
+    for r in ring::add_all(&mut mesh, &spec.rings)? {
+        point_masses.push(r.mass);
+        joint_specs.extend(r.hinges);
+        averagings.extend(r.averaging);
     }
     joint_specs.extend(spec.joints.iter().cloned());
     let size = mesh.size()?;
@@ -108,6 +111,8 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         point_masses,
         joints,
         rows,
+        averagings,
+        row_dofs: RowDofs::default(),
         loads,
         gravity,
         design: Design {
@@ -121,6 +126,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         absent_rotations: Vec::new(),
         bar_couplings: Vec::new(),
     };
+    model.row_dofs = RowDofs::of(&model);
     model.absent_rotations = absent_rotations(&model)?;
     model.bar_couplings = model.end_couplings();
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;

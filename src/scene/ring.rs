@@ -1,8 +1,13 @@
-//! Rigid interface rings (RBE2-type): the nodes of a hole, a boss or an edge follow one rigid
-//! frame. A ring is a light rigid body at its centre, hinged to each of its nodes: a node's
-//! translation is the frame's at its arm, its own rotation stays free (a member's nodes have
-//! none). The body carries the joints, not inertia: its mass and rotary inertia are
-//! [`RING_MASS`], so that the iteration matrix keeps a pivot on each of its coordinates.
+//! Interface rings: the nodes of a hole, a boss or an edge and one frame that joints attach
+//! to, a light rigid body at the ring's centre. Its mass and rotary inertia are
+//! [`RING_MASS`], so that the iteration matrix keeps a pivot on each of its coordinates: it
+//! carries the joints, not inertia.
+//!
+//! * **Rigid** (RBE2-type): the body is hinged to each node; a node's translation is the
+//!   frame's at its arm, its own rotation stays free (a member's nodes have none).
+//! * **Averaging** (RBE3-type): the body sits at the nodes' weighted mean and follows their
+//!   mean and least-squares rotation ([`Averaging`]); the nodes stay free, so the ring adds
+//!   no stiffness.
 
 use std::collections::BTreeMap;
 
@@ -10,24 +15,35 @@ use nalgebra::Vector2;
 
 use super::body;
 use super::mesh::Mesh;
-use super::spec::{JointSpec, RigidBodySpec, RingSpec};
-use super::validate::{each, finite, Listed, Result};
+use super::spec::{JointSpec, RigidBodySpec, RingKind, RingSpec};
+use super::validate::{each, finite, positive, Listed, Result};
 use crate::error::SceneError;
+use crate::mechanism::averaging::{weighted_centre, Averaging};
 use crate::mechanism::model::PointMass;
 
 /// The mass (kg) and rotary inertia (kg m²) of a ring's body.
 const RING_MASS: f64 = 1e-6;
 
-/// Adds the scene's rings to `mesh` as rigid bodies and returns, per ring, the body's mass
-/// and the hinges that join it to its nodes.
-pub(super) fn add_all(mesh: &mut Mesh, specs: &[RingSpec]) -> Listed<(PointMass, Vec<JointSpec>)> {
+/// A ring as built: its body's mass and what holds the body to the nodes.
+pub(super) struct Ring {
+    /// The light body's.
+    pub mass: PointMass,
+    /// A rigid ring's hinges, one per node.
+    pub hinges: Vec<JointSpec>,
+    /// An averaging ring's rows.
+    pub averaging: Option<Averaging>,
+}
+
+/// Adds the scene's rings to `mesh` as light rigid bodies, with what holds each to its
+/// nodes.
+pub(super) fn add_all(mesh: &mut Mesh, specs: &[RingSpec]) -> Listed<Ring> {
     each(specs, |k, r| {
         add(mesh, &format!("rings[{k}] ({})", r.name), r)
     })
 }
 
 /// The ring `r` at `path`.
-fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<JointSpec>)> {
+fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<Ring> {
     if r.nodes.len() < 2 {
         let msg = "a ring needs two nodes or more: its frame's angle follows from where they are";
         return Err(SceneError::new(format!("{path}.nodes"), msg));
@@ -51,13 +67,7 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<Join
         .enumerate()
         .map(|(i, name)| Ok(mesh.nodes[mesh.node(&format!("{path}.nodes[{i}]"), name)?].position))
         .collect::<Result<Vec<Vector2<f64>>>>()?;
-    let centre = match r.centre {
-        Some([x, y]) => Vector2::new(
-            finite(&format!("{path}.centre[0]"), x)?,
-            finite(&format!("{path}.centre[1]"), y)?,
-        ),
-        None => positions.iter().sum::<Vector2<f64>>() / positions.len() as f64,
-    };
+    let weights = weights(path, r)?;
     let spread = positions
         .iter()
         .map(|p| (p - positions[0]).norm())
@@ -65,6 +75,21 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<Join
     if spread == 0.0 {
         let msg = "its nodes are all at one place: a ring's angle needs two distinct positions";
         return Err(SceneError::new(format!("{path}.nodes"), msg));
+    }
+    let mean = weighted_centre(&positions, &weights);
+    let centre = match r.centre {
+        Some([x, y]) => Vector2::new(
+            finite(&format!("{path}.centre[0]"), x)?,
+            finite(&format!("{path}.centre[1]"), y)?,
+        ),
+        None => mean,
+    };
+    if r.kind == RingKind::Averaging && (centre - mean).norm() > 1e-9 * spread {
+        let msg = format!(
+            "an averaging ring's centre is its nodes' weighted mean, ({}, {}): leave it out, or              attach joints at a point of a body there",
+            mean.x, mean.y
+        );
+        return Err(SceneError::new(format!("{path}.centre"), msg));
     }
     let points: BTreeMap<String, [f64; 2]> = positions
         .iter()
@@ -81,6 +106,17 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<Join
         points,
     };
     let mass = body::add(mesh, path, &spec)?;
+    if r.kind == RingKind::Averaging {
+        let nodes = (r.nodes.iter())
+            .map(|name| mesh.node(path, name))
+            .collect::<Result<Vec<usize>>>()?;
+        let averaging = Averaging::new(r.name.clone(), mass.node, nodes, &positions, &weights);
+        return Ok(Ring {
+            mass,
+            hinges: Vec::new(),
+            averaging: Some(averaging),
+        });
+    }
     let hinges = r
         .nodes
         .iter()
@@ -91,5 +127,32 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<(PointMass, Vec<Join
             drive: None,
         })
         .collect();
-    Ok((mass, hinges))
+    Ok(Ring {
+        mass,
+        hinges,
+        averaging: None,
+    })
+}
+
+/// The ring's weights, summing to one: an averaging ring's as given (each positive, one
+/// per node) or all equal.
+fn weights(path: &str, r: &RingSpec) -> Result<Vec<f64>> {
+    let n = r.nodes.len();
+    let given = match (&r.weights, r.kind) {
+        (None, _) => vec![1.0; n],
+        (Some(_), RingKind::Rigid) => {
+            let msg = "weights are for averaging rings (kind = \"averaging\"): a rigid ring's \
+                       nodes all follow its frame";
+            return Err(SceneError::new(format!("{path}.weights"), msg));
+        }
+        (Some(w), RingKind::Averaging) if w.len() != n => {
+            let msg = format!("{} weights for {n} nodes: give one per node", w.len());
+            return Err(SceneError::new(format!("{path}.weights"), msg));
+        }
+        (Some(w), RingKind::Averaging) => (w.iter().enumerate())
+            .map(|(i, &v)| positive(&format!("{path}.weights[{i}]"), v))
+            .collect::<Result<_>>()?,
+    };
+    let total: f64 = given.iter().sum();
+    Ok(given.into_iter().map(|w| w / total).collect())
 }

@@ -56,7 +56,7 @@ pub struct SceneSpec {
     /// Rigid bodies.
     #[serde(default, deserialize_with = "polled")]
     pub rigid_bodies: Vec<RigidBodySpec>,
-    /// Rigid interface rings (RBE2-type) on nodes.
+    /// Interface rings on nodes: rigid (RBE2-type) or averaging (RBE3-type).
     #[serde(default, deserialize_with = "polled")]
     pub rings: Vec<RingSpec>,
     /// Point masses.
@@ -412,9 +412,28 @@ pub struct RingSpec {
     pub name: String,
     /// The nodes that follow the ring: two or more, not all at one place.
     pub nodes: Vec<String>,
-    /// The ring's centre `[x, y]` (m); the mean of its nodes if not given.
+    /// The ring's centre `[x, y]` (m); the mean of its nodes if not given (an averaging
+    /// ring's is their weighted mean).
     #[serde(default)]
     pub centre: Option<[f64; 2]>,
+    /// How the ring holds its nodes.
+    #[serde(default)]
+    pub kind: RingKind,
+    /// An averaging ring's weight of each node (positive; all equal if not given).
+    #[serde(default)]
+    pub weights: Option<Vec<f64>>,
+}
+
+/// How a ring holds its nodes.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum RingKind {
+    /// RBE2-type: the nodes follow the ring's rigid frame.
+    #[default]
+    Rigid,
+    /// RBE3-type: the ring's centre follows its nodes' weighted mean and least-squares
+    /// rotation; the nodes stay free, the ring adds no stiffness.
+    Averaging,
 }
 
 /// A linear spring and damper: between two points (`nodes`; `k` in N/m; rest `length`, the

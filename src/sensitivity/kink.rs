@@ -122,7 +122,7 @@ pub(super) fn adjoint(
 
 /// `Σ Δλₖ Hₖ` on the pattern and `Hₖ Δq̈` per row, at `qₖ`: how the jump system changes
 /// with `q`.
-fn hessians(asm: &Assembler, jump: &Jump) -> (Vec<f64>, Vec<[f64; 6]>) {
+fn hessians(asm: &Assembler, jump: &Jump) -> (Vec<f64>, Vec<f64>) {
     (
         asm.constraint_hessian(&jump.q, &jump.dlam),
         asm.constraint_curvature(&jump.q, &jump.dacc),

@@ -313,7 +313,7 @@ impl PseudoLoads {
 /// accelerations ([`start`]) and a restart's jump ([`kink`]) both differentiate one.
 struct Curvature<'a> {
     matrix: &'a [f64],
-    curvature: &'a [[f64; 6]],
+    curvature: &'a [f64],
 }
 
 impl Curvature<'_> {
@@ -330,18 +330,17 @@ impl Curvature<'_> {
                 .iter_mut()
                 .zip(&product)
                 .for_each(|(r, p)| *r -= p);
-            for ((row, h), r) in asm
-                .model
-                .rows
-                .iter()
-                .zip(self.curvature)
+            let rows = &asm.model.row_dofs;
+            for ((k, h), r) in rows
+                .split(self.curvature)
+                .enumerate()
                 .zip(&mut column[n_q..])
             {
-                let change: f64 = row
-                    .dofs()
+                let change: f64 = rows
+                    .of_row(k)
                     .iter()
                     .zip(h)
-                    .filter_map(|(d, hi)| d.map(|d| hi * dq[d]))
+                    .map(|(&d, hi)| hi * dq[d])
                     .sum();
                 *r -= scale * change;
             }
@@ -358,11 +357,10 @@ impl Curvature<'_> {
             product.fill(0.0);
             asm.add_tangent_times(self.matrix, &nu[..n_q], &mut product);
             qbar.iter_mut().zip(&product).for_each(|(q, p)| *q -= p);
-            for ((row, h), mu) in asm.model.rows.iter().zip(self.curvature).zip(&nu[n_q..]) {
-                for (d, hi) in row.dofs().iter().zip(h) {
-                    if let Some(d) = d {
-                        qbar[*d] -= scale * mu * hi;
-                    }
+            let rows = &asm.model.row_dofs;
+            for ((k, h), mu) in rows.split(self.curvature).enumerate().zip(&nu[n_q..]) {
+                for (&d, hi) in rows.of_row(k).iter().zip(h) {
+                    qbar[d] -= scale * mu * hi;
                 }
             }
         }

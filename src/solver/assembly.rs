@@ -30,7 +30,7 @@ use std::ops::Range;
 
 use crate::error::SolveError;
 use crate::mechanism::bar_mass::BarMass;
-use crate::mechanism::constraint::{ConstraintRow, Turns};
+use crate::mechanism::constraint::Turns;
 use crate::mechanism::element::{Damping, MassKind, Matrix6, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::spring::Spring;
@@ -58,12 +58,14 @@ pub struct Pattern {
     node_slots: Vec<[usize; 3]>,
     /// For each spring, slots of `(dofᵢ, dofⱼ)` of its six DOFs (`usize::MAX` on the ground).
     spring_slots: Vec<[[usize; 6]; 6]>,
-    /// For constraint row `k`, its DOF `i` of six: slots of `(n_q + k, dof)` and
-    /// `(dof, n_q + k)` (`usize::MAX` where the row does not act).
-    row_slots: Vec<[[usize; 2]; 6]>,
-    /// For constraint row `k`: slots of `(dofᵢ, dofⱼ)` for its DOFs `i, j` (`Φ_qᵀΦ_q` and
-    /// the row's Hessian).
-    gram_slots: Vec<[[usize; 6]; 6]>,
+    /// For each entry of [`RowDofs`] (row `k`, its DOF `d`): the slots of `(n_q + k, d)`
+    /// and `(d, n_q + k)`.
+    row_slots: Vec<[usize; 2]>,
+    /// For constraint row `k`, from `gram_offsets[k]`: the slots of `(dᵢ, dⱼ)` for its
+    /// DOFs `i, j`, row-major (`Φ_qᵀΦ_q` and the row's Hessian).
+    gram_slots: Vec<usize>,
+    /// Where each row's block starts in `gram_slots` (one more than the rows).
+    gram_offsets: Vec<usize>,
 }
 
 impl Pattern {
@@ -93,9 +95,9 @@ impl Pattern {
             let d: Vec<usize> = spring.dofs().into_iter().flatten().collect();
             pairs.extend(d.iter().flat_map(|&c| d.iter().map(move |&r| (c, r))));
         }
-        for (k, row) in model.rows.iter().enumerate() {
-            let dofs = active_dofs(row);
-            for &d in &dofs {
+        for k in 0..model.n_constraints() {
+            let dofs = model.row_dofs.of_row(k);
+            for &d in dofs {
                 pairs.push((d, n_q + k));
                 pairs.push((n_q + k, d));
                 pairs.extend(dofs.iter().map(|&e| (d, e)));
@@ -123,6 +125,7 @@ impl Pattern {
             spring_slots: vec![],
             row_slots: vec![],
             gram_slots: vec![],
+            gram_offsets: vec![0],
         };
         let missing = || SolveError::Setup("an entry missing from the sparsity pattern".into());
         p.element_slots = model
@@ -161,32 +164,36 @@ impl Pattern {
             .map(|spring| p.block_slots(spring.dofs()))
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
-        // An inactive DOF of a row has no slot: usize::MAX, skipped by the assembly.
-        p.row_slots = model
-            .rows
-            .iter()
-            .enumerate()
-            .map(|(k, row)| {
-                let dofs = active_only(row);
-                slots(|i| match dofs[i] {
-                    Some(d) => Some([p.slot(n_q + k, d)?, p.slot(d, n_q + k)?]),
-                    None => Some([usize::MAX; 2]),
-                })
-            })
+        let rows = &model.row_dofs;
+        p.row_slots = (0..rows.rows())
+            .flat_map(|k| rows.of_row(k).iter().map(move |&d| (k, d)))
+            .map(|(k, d)| Some([p.slot(n_q + k, d)?, p.slot(d, n_q + k)?]))
             .collect::<Option<_>>()
             .ok_or_else(missing)?;
-        p.gram_slots = model
-            .rows
-            .iter()
-            .map(|row| p.block_slots(active_only(row)))
-            .collect::<Option<_>>()
-            .ok_or_else(missing)?;
+        let mut gram = Vec::new();
+        for k in 0..rows.rows() {
+            let dofs = rows.of_row(k);
+            for &a in dofs {
+                for &b in dofs {
+                    gram.push(p.slot(a, b).ok_or_else(missing)?);
+                }
+            }
+            p.gram_offsets.push(gram.len());
+        }
+        p.gram_slots = gram;
         Ok(p)
     }
 
     /// For each constraint row, the DOFs it acts on.
     pub fn multiplier_dofs(model: &Model) -> Vec<Vec<usize>> {
-        model.rows.iter().map(active_dofs).collect()
+        (0..model.n_constraints())
+            .map(|k| model.row_dofs.of_row(k).to_vec())
+            .collect()
+    }
+
+    /// Row `k`'s block of `gram_slots`, `n × n` for its `n` DOFs.
+    fn gram(&self, k: usize) -> &[usize] {
+        &self.gram_slots[self.gram_offsets[k]..self.gram_offsets[k + 1]]
     }
 
     /// Slots of `(dofᵢ, dofⱼ)` for six DOFs (`usize::MAX` where one is `None`).
@@ -224,40 +231,32 @@ impl Pattern {
     }
 }
 
-/// A constraint row's six DOFs, `None` where it does not act.
-fn active_only(row: &ConstraintRow) -> [Option<usize>; 6] {
-    let active = row.active();
-    std::array::from_fn(|i| row.dofs()[i].filter(|_| active[i]))
-}
-
-/// The DOFs a constraint row acts on.
-fn active_dofs(row: &ConstraintRow) -> Vec<usize> {
-    active_only(row).into_iter().flatten().collect()
-}
-
-/// `Φ_q` at a state: each constraint row's gradient on its six DOFs
-/// ([`ConstraintRow::dofs`]). The iteration matrix and the augmentation of its right-hand
-/// sides read the same one, so a kept factorization is solved consistently.
+/// `Φ_q` at a state: each constraint row's gradient on its DOFs, row after row as in
+/// [`RowDofs`]. The iteration matrix and the augmentation of its right-hand sides read the
+/// same one, so a kept factorization is solved consistently.
 #[derive(Debug, Clone)]
-pub struct Jacobian(Vec<[f64; 6]>);
+pub struct Jacobian(Vec<f64>);
 
 impl Jacobian {
     /// `Φ_q(q)` of `model`.
     pub fn at(model: &Model, q: &[f64]) -> Self {
-        Self(model.rows.iter().map(|r| r.gradient(q)).collect())
+        let mut out = Self(vec![0.0; model.row_dofs.dofs().len()]);
+        out.update(model, q, &Turns::at(&model.rows, q));
+        out
     }
 
-    /// Each row's gradient on its six DOFs.
-    pub fn gradients(&self) -> &[[f64; 6]] {
-        &self.0
+    /// Row `k`'s gradient on its DOFs ([`RowDofs::of_row`]).
+    pub fn row(&self, model: &Model, k: usize) -> &[f64] {
+        &self.0[model.row_dofs.range(k)]
     }
 
     /// Re-evaluates at `q` in place, with the nodes' `turns` at `q`.
     pub fn update(&mut self, model: &Model, q: &[f64], turns: &Turns) {
-        self.0
-            .iter_mut()
-            .zip(&model.rows)
-            .for_each(|(g, r)| *g = r.evaluate_with(q, turns).1);
+        for k in 0..model.n_constraints() {
+            let g = &mut self.0[model.row_dofs.range(k)];
+            g.fill(0.0);
+            model.evaluate_row(k, q, Some(turns), |i, v| g[i] += v);
+        }
     }
 }
 
@@ -708,24 +707,27 @@ impl<'m> Assembler<'m> {
         forces: &mut [f64],
         mut jacobian: Option<&mut Jacobian>,
     ) {
-        for (k, row) in self.model.rows.iter().enumerate() {
-            let (value, gradient) = row.evaluate_with(q, turns);
-            if let Some(j) = jacobian.as_deref_mut() {
-                j.0[k] = gradient;
-            }
-            phi[k] = value - factor * self.model.joints[row.joint].prescribed(row, t)[0];
-            for (d, g) in row.dofs().iter().zip(gradient) {
-                if let Some(d) = d {
-                    forces[*d] += g * lambda[k];
+        let model = self.model;
+        if let Some(j) = jacobian.as_deref_mut() {
+            j.0.fill(0.0);
+        }
+        for k in 0..model.n_constraints() {
+            let (range, dofs) = (model.row_dofs.range(k), model.row_dofs.of_row(k));
+            let mut entries = jacobian.as_deref_mut().map(|j| &mut j.0[range]);
+            let value = model.evaluate_row(k, q, Some(turns), |i, g| {
+                forces[dofs[i]] += g * lambda[k];
+                if let Some(entries) = entries.as_deref_mut() {
+                    entries[i] += g;
                 }
-            }
+            });
+            phi[k] = value - factor * model.prescribed(k, t)[0];
         }
     }
 
     /// Prescribed constraint accelerations `g̈_k(t)` (`Φ_q q̈ = g̈` at rest).
     pub fn constraint_accelerations(&self, t: f64, out: &mut [f64]) {
-        for (k, row) in self.model.rows.iter().enumerate() {
-            out[k] = self.model.joints[row.joint].prescribed(row, t)[2];
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.model.prescribed(k, t)[2];
         }
     }
 
@@ -749,12 +751,15 @@ impl<'m> Assembler<'m> {
         for &d in &self.model.absent_rotations {
             values[p.node_slots[d / 3][2]] += constraint_scale;
         }
-        for ((g, slots), gram) in jacobian.0.iter().zip(&p.row_slots).zip(&p.gram_slots) {
-            for i in (0..6).filter(|&i| slots[i][0] != usize::MAX) {
-                values[slots[i][0]] += constraint_scale * g[i];
-                values[slots[i][1]] += constraint_scale * g[i];
-                for j in (0..6).filter(|&j| gram[i][j] != usize::MAX) {
-                    values[gram[i][j]] += constraint_scale * g[i] * g[j];
+        let rows = &self.model.row_dofs;
+        for (k, g) in rows.split(&jacobian.0).enumerate() {
+            let slots = &p.row_slots[rows.range(k)];
+            let gram = p.gram(k);
+            for (i, (gi, slot)) in g.iter().zip(slots).enumerate() {
+                values[slot[0]] += constraint_scale * gi;
+                values[slot[1]] += constraint_scale * gi;
+                for (gj, &s) in g.iter().zip(&gram[i * g.len()..]) {
+                    values[s] += constraint_scale * gi * gj;
                 }
             }
         }
@@ -769,20 +774,13 @@ impl<'m> Assembler<'m> {
         lambda: &[f64],
         values: &mut [f64],
     ) {
-        let rows = self
-            .model
-            .rows
-            .iter()
-            .zip(lambda)
-            .zip(&self.pattern.gram_slots);
-        for ((row, &l), gram) in rows.filter(|((r, _), _)| !r.is_linear()) {
-            let mut h = [[0.0; 6]; 6];
-            row.add_hessian_with(q, turns, l, &mut h);
-            for (i, j) in (0..36).map(|k| (k / 6, k % 6)) {
-                if gram[i][j] != usize::MAX {
-                    values[gram[i][j]] += h[i][j];
-                }
+        let model = self.model;
+        for (k, &l) in lambda.iter().enumerate() {
+            if model.row_is_linear(k) {
+                continue;
             }
+            let (gram, n) = (self.pattern.gram(k), model.row_dofs.range(k).len());
+            model.add_row_hessian(k, q, Some(turns), l, |i, j, h| values[gram[i * n + j]] += h);
         }
     }
 
@@ -810,31 +808,28 @@ impl<'m> Assembler<'m> {
         self.pattern.add_dof_block_times(tangent, v, out);
     }
 
-    /// For each constraint row, `(∂²Φₖ/∂q²) a` at `q` on its six DOFs (zero for a linear
-    /// row): how `Φ_q a` changes with `q`.
-    pub fn constraint_curvature(&self, q: &[f64], a: &[f64]) -> Vec<[f64; 6]> {
-        self.model
-            .rows
-            .iter()
-            .map(|row| {
-                let mut h = [[0.0; 6]; 6];
-                row.add_hessian(q, 1.0, &mut h);
-                let local = row.dofs().map(|d| d.map_or(0.0, |d| a[d]));
-                h.map(|hi| hi.iter().zip(local).map(|(x, y)| x * y).sum())
-            })
-            .collect()
+    /// For each constraint row, `(∂²Φₖ/∂q²) a` at `q` on its DOFs (zero for a linear
+    /// row), row after row as in [`RowDofs`]: how `Φ_q a` changes with `q`.
+    pub fn constraint_curvature(&self, q: &[f64], a: &[f64]) -> Vec<f64> {
+        let model = self.model;
+        let mut out = vec![0.0; model.row_dofs.dofs().len()];
+        for k in (0..model.n_constraints()).filter(|&k| !model.row_is_linear(k)) {
+            let (range, dofs) = (model.row_dofs.range(k), model.row_dofs.of_row(k));
+            let entries = &mut out[range];
+            model.add_row_hessian(k, q, None, 1.0, |i, j, h| entries[i] += h * a[dofs[j]]);
+        }
+        out
     }
 
     /// Applies the augmentation `E` of `jacobian` to a right-hand side `[b; c]`:
     /// `b += Φ_qᵀ c`.
     pub fn augment_rhs(&self, jacobian: &Jacobian, rhs: &mut [f64]) {
         let n_q = self.pattern.n_q;
-        for (k, (row, g)) in self.model.rows.iter().zip(&jacobian.0).enumerate() {
+        let rows = &self.model.row_dofs;
+        for (k, g) in rows.split(&jacobian.0).enumerate() {
             let c = rhs[n_q + k];
-            for (d, gi) in row.dofs().iter().zip(g) {
-                if let Some(d) = d {
-                    rhs[*d] += gi * c;
-                }
+            for (&d, gi) in rows.of_row(k).iter().zip(g) {
+                rhs[d] += gi * c;
             }
         }
     }
@@ -1040,13 +1035,11 @@ mod tests {
             for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
                 column[p.row_idx[idx]] = values[idx];
             }
-            for (k, row) in model.rows.iter().enumerate() {
-                let (dofs, g) = (row.dofs(), jac.0[k]);
-                if let Some(gj) = dofs.iter().position(|d| *d == Some(j)).map(|i| g[i]) {
-                    for (d, gi) in dofs.iter().zip(g) {
-                        if let Some(d) = d {
-                            column[*d] -= gi * gj;
-                        }
+            for k in 0..n_c {
+                let (dofs, g) = (model.row_dofs.of_row(k), jac.row(&model, k));
+                if let Some(gj) = dofs.iter().position(|&d| d == j).map(|i| g[i]) {
+                    for (&d, gi) in dofs.iter().zip(g) {
+                        column[d] -= gi * gj;
                     }
                 }
             }

@@ -19,7 +19,6 @@
 //! The sensitivities differentiate `Δq̈(qₖ, x)` ([`crate::sensitivity`]'s `kink`).
 
 use crate::error::SolveError;
-use crate::mechanism::constraint::ConstraintRow;
 use crate::mechanism::model::Model;
 use crate::solver::newton::Newton;
 
@@ -62,10 +61,9 @@ impl Kinks {
     /// kink or no acceleration jumps there (a kink of the jerk only).
     pub fn jump_at(&self, model: &Model, t: f64, h: f64) -> Option<(f64, Vec<f64>)> {
         let kink = self.at(t, h)?;
-        let jump = |row: &ConstraintRow| {
-            let joint = &model.joints[row.joint];
-            let before = joint.prescribed(row, kink.next_down())[2];
-            let after = joint.prescribed(row, kink.next_up())[2];
+        let jump = |k: usize| {
+            let before = model.prescribed(k, kink.next_down())[2];
+            let after = model.prescribed(k, kink.next_up())[2];
             let negligible = (after - before).abs() <= ON_NODE * (before.abs() + after.abs());
             if negligible {
                 0.0
@@ -74,11 +72,10 @@ impl Kinks {
             }
         };
         // Allocates only where the scheme restarts: a table's knots pass without.
-        model
-            .rows
-            .iter()
-            .any(|row| jump(row) != 0.0)
-            .then(|| (kink, model.rows.iter().map(jump).collect()))
+        let rows = 0..model.n_constraints();
+        rows.clone()
+            .any(|k| jump(k) != 0.0)
+            .then(|| (kink, rows.map(jump).collect()))
     }
 }
 

@@ -534,14 +534,13 @@ impl<'m> Newton<'m> {
     /// system's multiplier part, for adjoints that read it (the solve itself is symmetric).
     pub fn unaugment(&self, solution: &mut [f64]) {
         let n = self.rhs.len();
-        let rows = &self.asm.model.rows;
+        let model = self.asm.model;
         for column in solution.chunks_mut(n) {
-            let (dofs, multipliers) = column.split_at_mut(n - rows.len());
-            for ((row, g), m) in rows.iter().zip(self.jacobian.gradients()).zip(multipliers) {
-                for (d, gi) in row.dofs().iter().zip(g) {
-                    if let Some(d) = d {
-                        *m += gi * dofs[*d];
-                    }
+            let (dofs, multipliers) = column.split_at_mut(n - model.n_constraints());
+            for (k, m) in multipliers.iter_mut().enumerate() {
+                let g = self.jacobian.row(model, k);
+                for (&d, gi) in model.row_dofs.of_row(k).iter().zip(g) {
+                    *m += gi * dofs[d];
                 }
             }
         }
@@ -640,12 +639,13 @@ impl<'m> Newton<'m> {
         self.asm.constraint_accelerations(0.0, &mut g);
         let curvature = self.asm.constraint_curvature(q, qdot);
         let scale = self.scale;
+        let rows = &self.asm.model.row_dofs;
         for (k, (r, gk)) in self.rhs[n_q..].iter_mut().zip(&g).enumerate() {
-            let along: f64 = self.asm.model.rows[k]
-                .dofs()
+            let along: f64 = rows
+                .of_row(k)
                 .iter()
-                .zip(curvature[k])
-                .filter_map(|(d, h)| d.map(|d| h * qdot[d]))
+                .zip(&curvature[rows.range(k)])
+                .map(|(&d, h)| h * qdot[d])
                 .sum();
             *r = scale * (gk - along);
         }

@@ -301,7 +301,7 @@ impl EnergyBook {
     fn new(model: &Model, it: &Integrator, s: &State) -> Self {
         let mut book = Self {
             driven: (0..model.n_constraints())
-                .filter(|&k| model.rows[k].driven)
+                .filter(|&k| model.row_driven(k))
                 .collect(),
             lambda0: s.lam.clone(),
             t0: s.t,

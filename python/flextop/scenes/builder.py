@@ -213,16 +213,27 @@ class Scene:
         self._spec.setdefault("rigid_bodies", []).append(entry)
         return name
 
-    def ring(self, name: str, nodes: Sequence[str], *, centre: Sequence[float] | None = None) -> str:
-        """A rigid interface ring (RBE2-type): ``nodes`` (two or more: a member's hole, boss
-        or edge) move as one rigid frame whose centre is ``name`` (at ``centre``, the nodes'
-        mean if not given), where joints, springs, loads and point masses attach as to a
-        rigid body's. Its hinges to the nodes are ``name.0``, ``name.1``, …; a member's
-        cells at its nodes are passive solid by default. Built as a light rigid body (1e-6
-        kg and kg m²): the ring carries the joints, not inertia."""
+    def ring(self, name: str, nodes: Sequence[str], *, centre: Sequence[float] | None = None,
+             kind: str = "rigid", weights: Sequence[float] | None = None) -> str:
+        """An interface ring on ``nodes`` (two or more: a member's hole, boss or edge) whose
+        centre ``name`` is where joints, springs, loads and point masses attach as to a
+        rigid body's; a member's cells at its nodes are passive solid by default. Built as
+        a light rigid body (1e-6 kg and kg m²): the ring carries the joints, not inertia.
+
+        ``kind="rigid"`` (RBE2-type): the nodes move as one rigid frame centred at
+        ``centre`` (the nodes' mean if not given), through hinges ``name.0``, ``name.1``, ….
+
+        ``kind="averaging"`` (RBE3-type): the centre, at the nodes' weighted mean, follows
+        their weighted mean displacement and least-squares rotation; the nodes stay free,
+        so the ring adds no stiffness. ``weights``: one positive number per node (all
+        equal if not given)."""
         entry: dict[str, Any] = {"name": name, "nodes": list(nodes)}
         if centre is not None:
             entry["centre"] = _listed(centre)
+        if kind != "rigid":
+            entry["kind"] = kind
+        if weights is not None:
+            entry["weights"] = _listed(weights)
         self._spec.setdefault("rings", []).append(entry)
         return name
 

@@ -138,10 +138,11 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
                         acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                         rho: float = ALUMINIUM["rho"], p: float = 3.0, x_min: float = 0.01, t_end: float = 1.3,
-                        h: float = 0.013, rho_inf: float = 0.8) -> Scene:
+                        h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid") -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
     height`` member of ``nx × ny`` cells and ``thickness`` (m), a density per cell. The
-    shoulder drives a rigid ring (:meth:`Scene.ring`) on link 1's root edge; the elbow drives
+    shoulder drives a ring (:meth:`Scene.ring`, of kind ``rings``: ``"rigid"`` or
+    ``"averaging"``) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
     payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
     hold are passive solid (a member's ``solid_at_joints``). ``ny`` must be even, for a row
@@ -157,10 +158,10 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
         origin = (origin[0] + length * math.cos(angle), origin[1] + length * math.sin(angle))
     link1, link2 = links
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
-    shoulder = scene.ring("shoulder_ring", [link1.node(0, j) for j in range(ny + 1)])
+    shoulder = scene.ring("shoulder_ring", [link1.node(0, j) for j in range(ny + 1)], kind=rings)
     scene.pin("shoulder", shoulder, drive=motion)
-    upper = scene.ring("elbow_ring1", [link1.node(nx, j) for j in range(ny + 1)])
-    lower = scene.ring("elbow_ring2", [link2.node(0, j) for j in range(ny + 1)])
+    upper = scene.ring("elbow_ring1", [link1.node(nx, j) for j in range(ny + 1)], kind=rings)
+    lower = scene.ring("elbow_ring2", [link2.node(0, j) for j in range(ny + 1)], kind=rings)
     scene.hinge("elbow", upper, lower, drive=dict(motion))
     scene.tip = link2.node(nx, ny // 2)
     if tip_mass != 0.0:
