@@ -17,7 +17,7 @@ use crate::mechanism::element::{Formulation, Kind, Vector6};
 use crate::mechanism::interpolation::{Interpolation, MassLaw};
 use crate::mechanism::load::NodalLoad;
 use crate::mechanism::motor::Motor;
-use crate::mechanism::rows::RowDofs;
+use crate::mechanism::rows::{Constraints, RowDofs};
 use crate::mechanism::section::NamedSection;
 use crate::mechanism::spring::{Measure, Spring};
 use crate::settings::{MassKind, RunOptions};
@@ -369,7 +369,7 @@ impl Model {
             return format!("{which} of node '{}'{bar}", self.nodes[node].name);
         };
         if row < self.n_constraints() {
-            format!("a multiplier of {}", self.row_owner(row))
+            format!("a multiplier of {}", self.constraints().owner(row))
         } else {
             format!("unknown {i}")
         }
@@ -378,6 +378,16 @@ impl Model {
     /// Number of constraint rows `n_c`.
     pub fn n_constraints(&self) -> usize {
         self.rows.len() + 3 * self.averagings.len()
+    }
+
+    /// Every constraint row, the joints' and the averaging rings' ([`Constraints`]).
+    pub fn constraints(&self) -> Constraints<'_> {
+        Constraints {
+            joints: &self.joints,
+            rows: &self.rows,
+            averagings: &self.averagings,
+            dofs: &self.row_dofs,
+        }
     }
 
     /// Whether the gradients read every state's velocities: a beam's Rayleigh damping

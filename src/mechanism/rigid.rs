@@ -150,12 +150,12 @@ impl Clusters {
         let mut jac = DMatrix::zeros(n_c, 3 * self.len());
         for i in 0..n_c {
             let dofs = model.row_dofs.of_row(i);
-            let value = model.evaluate_row(i, &q, None, |l, coeff| {
+            let value = model.constraints().evaluate(i, &q, None, |l, coeff| {
                 for (j, g) in self.dof_map(model, rho, dofs[l]).1 {
                     jac[(i, j)] += coeff * g;
                 }
             });
-            phi[i] = value - model.prescribed(i, t)[0];
+            phi[i] = value - model.constraints().prescribed(i, t)[0];
         }
         (phi, jac)
     }
@@ -231,7 +231,7 @@ impl Clusters {
         if redundant == 0 {
             return Ok(None);
         }
-        let repeats = repeated_rows(&links, |row| !model.row_driven(row));
+        let repeats = repeated_rows(&links, |row| !model.constraints().driven(row));
         let repeated = repeats.iter().filter(|&&r| r).count();
         // The links without their repeated rows, and the model row of each row kept.
         let (mut kept, mut rows) = (Vec::new(), Vec::new());
@@ -507,11 +507,11 @@ fn rank_of(s: &DVector<f64>) -> usize {
 /// Row `k`'s gradient at `q` as terms `(DOF, value)`, `(None, 0)` for a joint's
 /// anchor on the ground.
 fn row_terms(model: &Model, k: usize, q: &[f64]) -> Vec<(Option<usize>, f64)> {
-    match model.row(k) {
+    match model.constraints().row(k) {
         Row::Joint(row) => row.dofs().into_iter().zip(row.gradient(q)).collect(),
         Row::Ring(..) => {
             let dofs = model.row_dofs.of_row(k).iter().map(|&d| Some(d));
-            dofs.zip(model.row_gradient(k, q)).collect()
+            dofs.zip(model.constraints().gradient(k, q)).collect()
         }
     }
 }
@@ -522,7 +522,7 @@ fn row_links<T>(model: &Model, terms: impl Fn(usize) -> T) -> Result<Vec<Link>, 
 where
     T: IntoIterator<Item = (Option<usize>, f64)>,
 {
-    let owner = |k: usize| match model.row(k) {
+    let owner = |k: usize| match model.constraints().row(k) {
         Row::Joint(row) => (0, row.joint),
         Row::Ring(..) => (1, (k - model.rows.len()) / 3),
     };
@@ -545,7 +545,7 @@ where
 pub fn redundant_rows(model: &Model) -> Result<Vec<usize>, SolveError> {
     let reference = vec![0.0; model.n_dofs()];
     let n_nodes = model.nodes.len();
-    let links = row_links(model, |k| match model.row(k) {
+    let links = row_links(model, |k| match model.constraints().row(k) {
         Row::Joint(_) => row_terms(model, k, &reference),
         Row::Ring(ring, c) => {
             let own = n_nodes + (k - model.rows.len()) / 3;

@@ -7,8 +7,32 @@
 use std::ops::Range;
 
 use crate::mechanism::averaging::{Averaging, Component};
-use crate::mechanism::constraint::{ConstraintRow, Turns};
-use crate::mechanism::model::Model;
+use crate::mechanism::constraint::{ConstraintRow, Joint, Turns};
+
+/// A model's constraint rows, as [`crate::mechanism::model::Model::constraints`] lends
+/// them: the joints with their rows, then the averaging rings, and every row's DOFs.
+#[derive(Debug, Clone, Copy)]
+pub struct Constraints<'m> {
+    /// The joints (for their drives and names).
+    pub joints: &'m [Joint],
+    /// Their rows.
+    pub rows: &'m [ConstraintRow],
+    /// The averaging rings, three rows each.
+    pub averagings: &'m [Averaging],
+    /// Every row's DOFs.
+    pub dofs: &'m RowDofs,
+}
+
+/// Row `k` of the joints' `rows` followed by the `averagings`' rows.
+fn row<'m>(rows: &'m [ConstraintRow], averagings: &'m [Averaging], k: usize) -> Row<'m> {
+    match rows.get(k) {
+        Some(row) => Row::Joint(row),
+        None => {
+            let r = k - rows.len();
+            Row::Ring(&averagings[r / 3], Component::ALL[r % 3])
+        }
+    }
+}
 
 /// One constraint row.
 #[derive(Debug, Clone, Copy)]
@@ -29,14 +53,14 @@ pub struct RowDofs {
 }
 
 impl RowDofs {
-    /// Of every row of `model`.
-    pub fn of(model: &Model) -> Self {
+    /// Of every row of the joints' `rows` and the `averagings`' rows, in that order.
+    pub fn of(rows: &[ConstraintRow], averagings: &[Averaging]) -> Self {
         let mut out = Self {
             offsets: vec![0],
             dofs: Vec::new(),
         };
-        for k in 0..model.n_constraints() {
-            match model.row(k) {
+        for k in 0..rows.len() + 3 * averagings.len() {
+            match row(rows, averagings, k) {
                 Row::Joint(row) => {
                     let active = row.active();
                     let dofs = row.dofs().into_iter().zip(active);
@@ -75,21 +99,15 @@ impl RowDofs {
     }
 }
 
-impl Model {
+impl<'m> Constraints<'m> {
     /// Row `k`: a joint's below `rows.len()`, an averaging ring's after.
-    pub fn row(&self, k: usize) -> Row<'_> {
-        match self.rows.get(k) {
-            Some(row) => Row::Joint(row),
-            None => {
-                let r = k - self.rows.len();
-                Row::Ring(&self.averagings[r / 3], Component::ALL[r % 3])
-            }
-        }
+    pub fn row(&self, k: usize) -> Row<'m> {
+        row(self.rows, self.averagings, k)
     }
 
     /// `h_k(q)`, and its gradient on the row's DOFs ([`RowDofs::of_row`]) through
     /// `gradient(local index, value)`; `turns`, the nodes' at `q`, if read already.
-    pub fn evaluate_row(
+    pub fn evaluate(
         &self,
         k: usize,
         q: &[f64],
@@ -111,15 +129,15 @@ impl Model {
     }
 
     /// Row `k`'s gradient at `q` on its DOFs.
-    pub fn row_gradient(&self, k: usize, q: &[f64]) -> Vec<f64> {
-        let mut g = vec![0.0; self.row_dofs.range(k).len()];
-        self.evaluate_row(k, q, None, |i, v| g[i] += v);
+    pub fn gradient(&self, k: usize, q: &[f64]) -> Vec<f64> {
+        let mut g = vec![0.0; self.dofs.range(k).len()];
+        self.evaluate(k, q, None, |i, v| g[i] += v);
         g
     }
 
     /// Adds `weight · ∂²h_k/∂q²` at `q` through `add(local i, local j, value)`, on the
     /// row's DOFs; nothing for a linear row.
-    pub fn add_row_hessian(
+    pub fn add_hessian(
         &self,
         k: usize,
         q: &[f64],
@@ -150,7 +168,7 @@ impl Model {
     }
 
     /// Whether row `k` is linear in `q` (no Hessian).
-    pub fn row_is_linear(&self, k: usize) -> bool {
+    pub fn is_linear(&self, k: usize) -> bool {
         match self.row(k) {
             Row::Joint(row) => row.is_linear(),
             Row::Ring(_, c) => c != Component::Rotation,
@@ -166,12 +184,12 @@ impl Model {
     }
 
     /// Whether row `k` follows a drive.
-    pub fn row_driven(&self, k: usize) -> bool {
+    pub fn driven(&self, k: usize) -> bool {
         matches!(self.row(k), Row::Joint(row) if row.driven)
     }
 
     /// What owns row `k`, for messages: `joint 'elbow'`, `ring 'hub'`.
-    pub fn row_owner(&self, k: usize) -> String {
+    pub fn owner(&self, k: usize) -> String {
         match self.row(k) {
             Row::Joint(row) => format!("joint '{}'", self.joints[row.joint].name),
             Row::Ring(ring, _) => format!("ring '{}'", ring.name),

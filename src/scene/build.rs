@@ -126,7 +126,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
         absent_rotations: Vec::new(),
         bar_couplings: Vec::new(),
     };
-    model.row_dofs = RowDofs::of(&model);
+    model.row_dofs = RowDofs::of(&model.rows, &model.averagings);
     model.absent_rotations = absent_rotations(&model)?;
     model.bar_couplings = model.end_couplings();
     let rates = joint::initial_rates(&spec.initial_rates, &model.joints)?;

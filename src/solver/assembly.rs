@@ -255,7 +255,9 @@ impl Jacobian {
         for k in 0..model.n_constraints() {
             let g = &mut self.0[model.row_dofs.range(k)];
             g.fill(0.0);
-            model.evaluate_row(k, q, Some(turns), |i, v| g[i] += v);
+            model
+                .constraints()
+                .evaluate(k, q, Some(turns), |i, v| g[i] += v);
         }
     }
 }
@@ -714,20 +716,20 @@ impl<'m> Assembler<'m> {
         for k in 0..model.n_constraints() {
             let (range, dofs) = (model.row_dofs.range(k), model.row_dofs.of_row(k));
             let mut entries = jacobian.as_deref_mut().map(|j| &mut j.0[range]);
-            let value = model.evaluate_row(k, q, Some(turns), |i, g| {
+            let value = model.constraints().evaluate(k, q, Some(turns), |i, g| {
                 forces[dofs[i]] += g * lambda[k];
                 if let Some(entries) = entries.as_deref_mut() {
                     entries[i] += g;
                 }
             });
-            phi[k] = value - factor * model.prescribed(k, t)[0];
+            phi[k] = value - factor * model.constraints().prescribed(k, t)[0];
         }
     }
 
     /// Prescribed constraint accelerations `g̈_k(t)` (`Φ_q q̈ = g̈` at rest).
     pub fn constraint_accelerations(&self, t: f64, out: &mut [f64]) {
         for (k, o) in out.iter_mut().enumerate() {
-            *o = self.model.prescribed(k, t)[2];
+            *o = self.model.constraints().prescribed(k, t)[2];
         }
     }
 
@@ -776,11 +778,13 @@ impl<'m> Assembler<'m> {
     ) {
         let model = self.model;
         for (k, &l) in lambda.iter().enumerate() {
-            if model.row_is_linear(k) {
+            if model.constraints().is_linear(k) {
                 continue;
             }
             let (gram, n) = (self.pattern.gram(k), model.row_dofs.range(k).len());
-            model.add_row_hessian(k, q, Some(turns), l, |i, j, h| values[gram[i * n + j]] += h);
+            model
+                .constraints()
+                .add_hessian(k, q, Some(turns), l, |i, j, h| values[gram[i * n + j]] += h);
         }
     }
 
@@ -813,10 +817,12 @@ impl<'m> Assembler<'m> {
     pub fn constraint_curvature(&self, q: &[f64], a: &[f64]) -> Vec<f64> {
         let model = self.model;
         let mut out = vec![0.0; model.row_dofs.dofs().len()];
-        for k in (0..model.n_constraints()).filter(|&k| !model.row_is_linear(k)) {
+        for k in (0..model.n_constraints()).filter(|&k| !model.constraints().is_linear(k)) {
             let (range, dofs) = (model.row_dofs.range(k), model.row_dofs.of_row(k));
             let entries = &mut out[range];
-            model.add_row_hessian(k, q, None, 1.0, |i, j, h| entries[i] += h * a[dofs[j]]);
+            model
+                .constraints()
+                .add_hessian(k, q, None, 1.0, |i, j, h| entries[i] += h * a[dofs[j]]);
         }
         out
     }

@@ -62,8 +62,8 @@ impl Kinks {
     pub fn jump_at(&self, model: &Model, t: f64, h: f64) -> Option<(f64, Vec<f64>)> {
         let kink = self.at(t, h)?;
         let jump = |k: usize| {
-            let before = model.prescribed(k, kink.next_down())[2];
-            let after = model.prescribed(k, kink.next_up())[2];
+            let before = model.constraints().prescribed(k, kink.next_down())[2];
+            let after = model.constraints().prescribed(k, kink.next_up())[2];
             let negligible = (after - before).abs() <= ON_NODE * (before.abs() + after.abs());
             if negligible {
                 0.0

@@ -301,7 +301,7 @@ impl EnergyBook {
     fn new(model: &Model, it: &Integrator, s: &State) -> Self {
         let mut book = Self {
             driven: (0..model.n_constraints())
-                .filter(|&k| model.row_driven(k))
+                .filter(|&k| model.constraints().driven(k))
                 .collect(),
             lambda0: s.lam.clone(),
             t0: s.t,
