@@ -19,9 +19,20 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
    meshes refined 2 × 2 and 4 × 4 with the step halved and quartered (the filter radius is
    fixed in metres, so the design is a field that the finer meshes resolve).
 
+4. with ``--beside``: the continuum designs beside the frame designs of the same machines:
+   the slider-crank of Song & Haug with a continuum rod (0.30 m × 20 mm, 5 mm of steel,
+   60 × 8 cells, :func:`flextop.scenes.continuum_slider_crank`) and with its frame rod
+   (four bars of a 6 mm circle, :func:`flextop.scenes.slider_crank`), the rod's mid-span
+   deflection (Eq. 40) minimized under V ≤ 0.5 from x = 0.5 by plain MMA for 100
+   iterations, the continuum rod's density filter at 7.5 mm (1.5 cells), its design then
+   evaluated with the cells split 2 × 2 and the step halved; the frame arm's tip deflection
+   under V ≤ 0.4 per link from x = 0.4, 40 iterations on the scene's grid; and the
+   continuum arm's row as ``--optimize 60 20 --plain`` wrote it.
+
     python benches/continuum.py                   # → benches/results/continuum.md (about 4 min)
     python benches/continuum.py --optimize 20 6   # → benches/results/continuum_optimization_20x6.md
     python benches/continuum.py --optimize 60 20 --plain
+    python benches/continuum.py --beside          # → benches/results/continuum_beside_frames.md (about 5 min)
 """
 
 from __future__ import annotations
@@ -35,7 +46,7 @@ import numpy as np
 import flextop
 from flextop.optimizers.mma import MMA
 from flextop.problems import DensityFilter, TopologyProblem, volume_constraints
-from flextop.scenes import continuum_robot_arm
+from flextop.scenes import continuum_robot_arm, continuum_slider_crank, robot_arm, slider_crank
 
 ROOT = Path(__file__).resolve().parents[1]
 RESPONSES = ["tip_deflection", "strain_energy"]
@@ -110,6 +121,66 @@ def on_refined_meshes(sim: flextop.Simulation, physical: np.ndarray, nx: int, ny
     return values
 
 
+ROD = {"nx": 60, "ny": 8, "height": 0.02}
+"""The continuum rod of ``--beside``: 0.30 m × 20 mm in 60 × 8 cells (5 mm by 2.5 mm)."""
+
+
+def optimized(sim: flextop.Simulation, fraction: float, x0: float, iterations: int,
+              radius: float | None = None) -> tuple[str, np.ndarray, TopologyProblem]:
+    """``sim``'s tip deflection minimized under V ≤ ``fraction`` per component from the
+    uniform ``x0`` by plain MMA: the row's cells (objective before and after, their ratio,
+    iterations, evaluations, seconds, status), the physical design and the problem."""
+    cells = None if radius is None else DensityFilter(sim, radius)
+    problem = TopologyProblem(sim, "tip_deflection", volume_constraints(sim, fraction), filter=cells)
+    clock = time.perf_counter()
+    result = flextop.optimize(problem, np.full(sim.n_design, x0), method=MMA(safeguard=False), max_iter=iterations)
+    seconds = time.perf_counter() - clock
+    start = result.history[0].f0 * problem.objective_scale
+    physical = result.x if cells is None else cells.physical(result.x)
+    row = (f"{start:.4e} | {result.fun:.4e} | {start / result.fun:.2f} | {result.nit} | {result.nfev} | "
+           f"{seconds:.0f} | {result.status.name}")
+    print(row, flush=True)
+    return row, physical, problem
+
+
+def beside_frames() -> None:
+    """The table of ``--beside`` (module docstring, 4.)."""
+    import flextop.plots as plots
+
+    header = ("| machine | links | design variables | d at the start (m²) | d optimized (m²) | ratio | iterations | "
+              "evaluations | seconds | status | d optimized, refined (m²) |\n|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = [header]
+    rod = flextop.Simulation(continuum_slider_crank(**ROD))
+    row, physical, _ = optimized(rod, 0.5, 0.5, 100, radius=0.0075)
+    density = dict(zip(rod.variable_names, physical))
+    fine = flextop.Simulation(continuum_slider_crank(nx=2 * ROD["nx"], ny=2 * ROD["ny"], height=ROD["height"], h=1.25e-4))
+    split = [density.get(f"rod/cell[{int(c.split('[')[1].split(',')[0]) // 2},"
+                         f"{int(c.split(',')[1].rstrip(']')) // 2}]", 1.0) for c in fine.variable_names]
+    refined = fine.run_with_sensitivities(np.array(split), ["tip_deflection"])[0][0]
+    plots.plot_design(rod, physical, title="slider-crank, continuum rod: mid-span deflection under V ≤ 0.5",
+                      path=ROOT / "docs" / "continuum_slider_crank.png")
+    lines.append(f"| slider-crank | continuum rod, 60 × 8 cells, filter 7.5 mm | {rod.n_design} | {row} | "
+                 f"{refined:.4e} (cells 2 × 2, h/2) |")
+    frame = flextop.Simulation(slider_crank())
+    row, _, _ = optimized(frame, 0.5, 0.5, 100)
+    lines.append(f"| slider-crank | frame rod, 4 bars of a 6 mm circle | {frame.n_design} | {row} | — |")
+    arm = flextop.Simulation(robot_arm())
+    row, _, _ = optimized(arm, 0.4, 0.4, 40)
+    lines.append(f"| robot arm | frame links, 5 × 3 ground structures, 1 element per bar | {arm.n_design} | {row} | "
+                 f"see the tolerance rows of BENCHMARKS.md |")
+    stored = (ROOT / "benches" / "results" / "continuum_optimization_60x20_plain.md").read_text().splitlines()
+    cells = [c.strip() for c in stored[-1].strip("|").split("|")]
+    variables = simulation(60, 20).n_design
+    lines.append(f"| robot arm | continuum links, 60 × 20 cells, filter 25 mm (`--optimize 60 20 --plain`) | {variables} | "
+                 f"{cells[4]} | {cells[5]} | {cells[6]} | {cells[1]} | {cells[2]} | {cells[3]} | {cells[8]} | "
+                 f"{cells[9]} (cells 2 × 2, h/2) |")
+    text = ("Produced by `python benches/continuum.py --beside` (the continuum arm's row read from "
+            "`continuum_optimization_60x20_plain.md`): each machine's tip or mid-span deflection (Eq. 40) minimized by "
+            "plain MMA from a uniform design, the volume bound per link.\n\n" + "\n".join(lines) + "\n")
+    (ROOT / "benches" / "results" / "continuum_beside_frames.md").write_text(text)
+    print(text)
+
+
 def designs() -> list[str]:
     sim = simulation(60, 20)
     rng = np.random.default_rng(0)
@@ -133,6 +204,9 @@ def designs() -> list[str]:
 
 
 def main() -> None:
+    if "--beside" in sys.argv:
+        beside_frames()
+        return
     if "--optimize" in sys.argv:
         at = sys.argv.index("--optimize")
         radius = float(sys.argv[sys.argv.index("--radius") + 1]) if "--radius" in sys.argv else 0.025
