@@ -115,7 +115,27 @@ fn alpha_steps_do_not_allocate() {
         5e-4,
         MassKind::Consistent,
     );
-    let runs = arms.chain([mechanism, four_bar, damped, truss, member, on_ring]);
+    // Its cells with Rayleigh damping: eight-DOF damping blocks.
+    let damped_member = (
+        "damped member".to_string(),
+        scene::parse_toml(
+            &MEMBER.replace("rho = 2700.0\n", "rho = 2700.0\nrayleigh = [2.0, 1e-4]\n"),
+        )
+        .unwrap(),
+        NewtonMatrix::Full,
+        5e-4,
+        MassKind::Consistent,
+    );
+    assert!(damped_member.1.members[0].rayleigh.is_some());
+    let runs = arms.chain([
+        mechanism,
+        four_bar,
+        damped,
+        truss,
+        member,
+        on_ring,
+        damped_member,
+    ]);
     for (name, spec, newton, h, mass) in runs {
         let model = scene::build(&spec).unwrap();
         let x = vec![0.4; model.n_variables()];

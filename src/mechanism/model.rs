@@ -390,13 +390,15 @@ impl Model {
         }
     }
 
-    /// Whether the gradients read every state's velocities: a beam's Rayleigh damping
-    /// (its force follows the densities) or a damper whose `C` follows the state (on a
+    /// Whether the gradients read every state's velocities: a beam's or a cell's Rayleigh
+    /// damping (its force follows the densities) or a damper whose `C` follows the state (on a
     /// distance or a carried axis: the iteration matrix at a state reads `q̇`).
     pub fn damping_reads_velocities(&self) -> bool {
         self.elements
             .iter()
             .any(|e| e.kernel.section().alpha > 0.0 || e.kernel.section().beta > 0.0)
+            || (self.cells.iter())
+                .any(|c| c.kernel.material.alpha > 0.0 || c.kernel.material.beta > 0.0)
             || self.springs.iter().any(Spring::damps_nonlinearly)
     }
 

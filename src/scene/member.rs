@@ -14,7 +14,7 @@ use std::collections::HashSet;
 use super::ground_structure::{local_coordinates, Placement};
 use super::mesh::Mesh;
 use super::spec::MemberSpec;
-use super::validate::{finite, positive, Result};
+use super::validate::{finite, non_negative, positive, Result};
 use crate::error::SceneError;
 use crate::limits::MAX_ELEMENTS;
 use crate::mechanism::element::quad::{PlaneMaterial, Quad};
@@ -142,10 +142,13 @@ fn material(path: &str, m: &MemberSpec) -> Result<PlaneMaterial> {
         let msg = format!("Poisson's ratio must lie in [0, 0.5), got {poisson}");
         return Err(SceneError::new(format!("{path}.nu"), msg));
     }
+    let [alpha, beta] = m.rayleigh.unwrap_or([0.0; 2]);
     Ok(PlaneMaterial {
         young: positive(&format!("{path}.E"), m.E)?,
         poisson,
         density: positive(&format!("{path}.rho"), m.rho)?,
         thickness: positive(&format!("{path}.thickness"), m.thickness)?,
+        alpha: non_negative(&format!("{path}.rayleigh[0]"), alpha)?,
+        beta: non_negative(&format!("{path}.rayleigh[1]"), beta)?,
     })
 }

@@ -324,6 +324,10 @@ pub struct MemberSpec {
     pub nu: f64,
     /// Density (kg/m³).
     pub rho: f64,
+    /// Rayleigh damping `[α, β]` (1/s, s) of its cells: `C = αM + βK`, the stiffness
+    /// part as Kelvin–Voigt on the Green–Lagrange strain rate.
+    #[serde(default)]
+    pub rayleigh: Option<[f64; 2]>,
     /// Position of the local origin.
     #[serde(default)]
     pub origin: PointSpec,

@@ -176,17 +176,27 @@ impl PseudoLoads {
         std::array::from_fn(|i| rate * (a[i] + alpha * b[i]))
     }
 
-    /// `m'(x_c) M_c (q̈_c − ĝ_c) + s'(x_c) f_c(q_c)` of cell `k` (`q̈ = 0` for statics).
+    /// `m'(x_c) M_c (q̈_c − ĝ_c + α q̇_c) + s'(x_c) (f_c(q_c) + f_d,c(q_c, q̇_c))` of cell
+    /// `k`, with its member's Rayleigh damping (`q̈ = q̇ = 0` for statics).
     fn cell(&self, asm: &Assembler, k: usize, at: &At) -> Vector8 {
         let cell = &asm.model.cells[k];
         let dofs = cell.dofs();
+        let u = cell.gather(at.q);
+        let (alpha, beta) = (cell.kernel.material.alpha, cell.kernel.material.beta);
         let mut inertia = Vector8::from_fn(|i, _| -asm.gravity[dofs[i]]);
-        if let Some((_, acc)) = at.rates {
+        let mut stiffness = cell.kernel.internal_force(&u);
+        if let Some((v, acc)) = at.rates {
             inertia += Vector8::from_fn(|i, _| acc[dofs[i]]);
+            if alpha > 0.0 {
+                inertia += cell.gather(v) * alpha;
+            }
+            if beta > 0.0 {
+                stiffness += cell.kernel.damping(&u, &cell.gather(v)).force;
+            }
         }
         let e = asm.model.elements.len() + k;
         self.cell_masses[k] * inertia * asm.densities.mass_rate[e]
-            + cell.kernel.internal_force(&cell.gather(at.q)) * asm.densities.stiffness_rate[e]
+            + stiffness * asm.densities.stiffness_rate[e]
     }
 
     /// Subtracts column `j` of the pseudo-loads from column `j` of the column-major block

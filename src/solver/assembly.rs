@@ -31,7 +31,8 @@ use std::ops::Range;
 use crate::error::SolveError;
 use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::Turns;
-use crate::mechanism::element::{Damping, MassKind, Matrix6, Vector6};
+use crate::mechanism::element::quad::{Matrix8, Vector8};
+use crate::mechanism::element::{Damping, MassKind};
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::spring::Spring;
 use crate::solver::linsolve::{FactorError, Ldlt};
@@ -290,23 +291,36 @@ impl Slots<'_> {
     }
 }
 
-/// A damping block on six DOFs (`None` on the ground) at a state: `∂f_d/∂q̇` and the part
-/// of `∂f_d/∂q` that is not symmetric.
+/// A damping block on up to eight DOFs (`None` on the ground and past a beam's or a
+/// damper's six) at a state: `∂f_d/∂q̇` and the part of `∂f_d/∂q` that is not symmetric.
 #[derive(Debug, Clone, Copy)]
 pub struct DampingBlock {
     /// Its DOFs.
-    pub dofs: [Option<usize>; 6],
+    pub dofs: [Option<usize>; 8],
     /// `∂f_d/∂q̇`.
-    pub rate: Matrix6,
+    pub rate: Matrix8,
     /// The non-symmetric part of `∂f_d/∂q`.
-    pub skew: Matrix6,
+    pub skew: Matrix8,
 }
 
 impl DampingBlock {
+    /// The block of a damping on `N` DOFs, padded to eight.
+    fn new<const N: usize>(dofs: [Option<usize>; N], d: &Damping<N>) -> Self {
+        let mut block = Self {
+            dofs: [None; 8],
+            rate: Matrix8::zeros(),
+            skew: Matrix8::zeros(),
+        };
+        block.dofs[..N].copy_from_slice(&dofs);
+        block.rate.fixed_view_mut::<N, N>(0, 0).copy_from(&d.rate);
+        block.skew.fixed_view_mut::<N, N>(0, 0).copy_from(&d.skew);
+        block
+    }
+
     /// `out += factor · A v` for `A` its `rate` (or `skew`), transposed or not.
     pub fn add_times(&self, skew: bool, transposed: bool, factor: f64, v: &[f64], out: &mut [f64]) {
         let a = if skew { &self.skew } else { &self.rate };
-        let local = Vector6::from(self.dofs.map(|d| d.map_or(0.0, |d| v[d])));
+        let local = Vector8::from(self.dofs.map(|d| d.map_or(0.0, |d| v[d])));
         let product = if transposed {
             a.transpose() * local
         } else {
@@ -388,10 +402,12 @@ impl<'m> Assembler<'m> {
             .enumerate()
             .filter(|(_, s)| s.damping > 0.0 && !s.damps_nonlinearly())
             .collect();
+        let n_e = model.elements.len();
         let rayleigh = model
             .elements
             .iter()
-            .any(|e| e.kernel.section().alpha > 0.0);
+            .any(|e| e.kernel.section().alpha > 0.0)
+            || model.cells.iter().any(|c| c.kernel.material.alpha > 0.0);
         let damping = (!dampers.is_empty() || rayleigh).then(|| {
             let (mut values, reference) = (vec![0.0; pattern.nnz()], vec![0.0; model.n_dofs()]);
             for (e, el) in model.elements.iter().enumerate() {
@@ -400,6 +416,15 @@ impl<'m> Assembler<'m> {
                     let m = el.kernel.mass_matrix(mass_kind) * (alpha * densities.mass[e]);
                     for (k, &slot) in pattern.element_slots[e].iter().enumerate() {
                         values[slot] += m[(k % 6, k / 6)];
+                    }
+                }
+            }
+            for (k, cell) in model.cells.iter().enumerate() {
+                let alpha = cell.kernel.material.alpha;
+                if alpha > 0.0 {
+                    let m = cell.kernel.mass_matrix(mass_kind) * (alpha * densities.mass[n_e + k]);
+                    for (i, &slot) in pattern.cell_slots[k].iter().enumerate() {
+                        values[slot] += m[(i % 8, i / 8)];
                     }
                 }
             }
@@ -433,6 +458,7 @@ impl<'m> Assembler<'m> {
             mass,
             damping,
             structural: model.elements.iter().any(|e| e.kernel.section().beta > 0.0)
+                || model.cells.iter().any(|c| c.kernel.material.beta > 0.0)
                 || model.springs.iter().any(Spring::damps_nonlinearly),
             gravity_load: vec![0.0; gravity.len()],
             gravity,
@@ -512,7 +538,19 @@ impl<'m> Assembler<'m> {
             .filter(|s| s.damps_nonlinearly())
             .map(|s| format!("'{}'", s.name))
             .collect();
+        let members: Vec<String> = (self.model.members.iter().enumerate())
+            .filter(|(m, _)| {
+                (self.model.cells.iter()).any(|c| c.member == *m && c.kernel.material.beta > 0.0)
+            })
+            .map(|(_, m)| format!("'{}'", m.name))
+            .collect();
         let mut parts = Vec::new();
+        if !members.is_empty() {
+            parts.push(format!(
+                "stiffness-proportional damping (β > 0 on member {})",
+                members.join(", ")
+            ));
+        }
         if let Some(first) = damped.first() {
             let others = match damped.len() {
                 1 => String::new(),
@@ -562,11 +600,28 @@ impl<'m> Assembler<'m> {
                 }
             }
             if let Some(blocks) = blocks.as_mut() {
-                blocks.push(DampingBlock {
-                    dofs,
-                    rate: d.rate,
-                    skew: d.skew,
-                });
+                blocks.push(DampingBlock::new(dofs, &d));
+            }
+        }
+        let n_e = self.model.elements.len();
+        let damped =
+            (self.model.cells.iter().enumerate()).filter(|(_, c)| c.kernel.material.beta > 0.0);
+        for (k, cell) in damped {
+            let d = (cell.kernel)
+                .damping(&cell.gather(q), &cell.gather(v))
+                .scaled(self.densities.stiffness[n_e + k]);
+            let dofs = cell.dofs();
+            dofs.iter()
+                .zip(d.force.iter())
+                .for_each(|(&k, x)| f[k] += x);
+            if let Some((gamma, values)) = matrix.as_mut() {
+                let block = d.rate * *gamma + d.symmetric;
+                for (i, &slot) in self.pattern.cell_slots[k].iter().enumerate() {
+                    values[slot] += block[(i % 8, i / 8)];
+                }
+            }
+            if let Some(blocks) = blocks.as_mut() {
+                blocks.push(DampingBlock::new(dofs.map(Some), &d));
             }
         }
     }
@@ -851,7 +906,7 @@ impl<'m> Assembler<'m> {
             / self.pattern.n_q as f64
     }
 
-    /// Strain energy `Σ_e s(x_e) U_e(q)` of the beams and the springs' energy (J).
+    /// Strain energy `Σ_e s(x_e) U_e(q)` of the beams and the cells, and the springs' energy (J).
     pub fn strain_energy(&self, q: &[f64]) -> f64 {
         let beams: f64 = self
             .model
@@ -860,7 +915,11 @@ impl<'m> Assembler<'m> {
             .enumerate()
             .map(|(e, el)| self.densities.stiffness[e] * el.kernel.strain_energy(&el.gather(q)))
             .sum();
-        beams + self.model.springs.iter().map(|s| s.energy(q)).sum::<f64>()
+        let n_e = self.model.elements.len();
+        let cells: f64 = (self.model.cells.iter().enumerate())
+            .map(|(k, c)| self.densities.stiffness[n_e + k] * c.kernel.strain_energy(&c.gather(q)))
+            .sum();
+        beams + cells + self.model.springs.iter().map(|s| s.energy(q)).sum::<f64>()
     }
 
     /// `M`, `K_t(q)` and `Φ_q` as compressed sparse columns, each without explicit zeros,

@@ -170,7 +170,7 @@ class Scene:
     def member(self, name: str, *, nx: int, ny: int, length: float, height: float, thickness: float, E: float,
                nu: float, rho: float, origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0,
                fixed: bool = False, holes: Sequence[Sequence[int]] = (), solid: Sequence[Sequence[int]] = (),
-               solid_at_joints: bool = True) -> Member:
+               solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None) -> Member:
         """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
         at ``origin`` (coordinates or a node name) rotated by ``angle`` (rad), from ``x = 0``
         to ``length`` and centred on the local x axis, meshed by ``nx × ny`` four-node
@@ -180,7 +180,10 @@ class Scene:
         ``(i0, j0, i1, j1)`` (columns ``i0..i1``, rows ``j0..j1``, from the bottom left) left out,
         or kept at full density and not designed. Its nodes have no rotation: joints on them
         pin. With ``solid_at_joints`` (default) the cells touching a node that a joint or a
-        beam attaches to are kept solid too, so that an optimizer cannot detach the joint."""
+        beam attaches to are kept solid too, so that an optimizer cannot detach the joint.
+        ``rayleigh = (α, β)`` (1/s, s) damps the cells by ``C = αM + βK``, the stiffness part
+        as a Kelvin–Voigt material on the Green–Lagrange strain rate (no damping of a rigid
+        motion)."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
         if holes:
@@ -189,6 +192,8 @@ class Scene:
             entry["solid"] = [[int(v) for v in r] for r in solid]
         if not solid_at_joints:
             entry["solid_at_joints"] = False
+        if rayleigh is not None:
+            entry["rayleigh"] = _listed(rayleigh)
         self._spec.setdefault("members", []).append(entry)
         return Member(name, nx, ny)
 

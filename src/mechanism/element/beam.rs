@@ -60,19 +60,20 @@ pub struct Beam {
 
 /// A damping force at a state with its derivatives: an element's stiffness-proportional
 /// damping (at full density), or a damper's on a distance ([`crate::mechanism::spring::Spring::damper`]).
+/// On `N` DOFs: six for a beam or a damper, eight for a continuum cell.
 #[derive(Debug, Clone, Copy)]
-pub struct Damping {
+pub struct Damping<const N: usize = 6> {
     /// `f_d = β Bᵀ D B q̇`.
-    pub force: Vector6,
+    pub force: SVector<f64, N>,
     /// `∂f_d/∂q̇ = β BᵀDB`.
-    pub rate: Matrix6,
+    pub rate: SMatrix<f64, N, N>,
     /// The symmetric part of `∂f_d/∂q`, `Σᵢ wᵢ Hᵢ`.
-    pub symmetric: Matrix6,
+    pub symmetric: SMatrix<f64, N, N>,
     /// The rest of `∂f_d/∂q`, `β Bᵀ D G`, not symmetric.
-    pub skew: Matrix6,
+    pub skew: SMatrix<f64, N, N>,
 }
 
-impl Damping {
+impl<const N: usize> Damping<N> {
     /// The force and its derivatives times `s` (a design's stiffness scaling).
     pub fn scaled(self, s: f64) -> Self {
         Self {

@@ -14,7 +14,12 @@
 //! * strain energy `U = Σ_gp t det J ½ εᵀ C ε`, internal force `f = ∂U/∂u = Σ_gp t det J Bᵀ S`
 //!   with `B = ∂ε/∂u`, and its exact tangent `K = Σ_gp t det J (Bᵀ C B + (g_aᵀ S g_b) I₂)`;
 //! * mass `M_ab = ρ t ∫ N_a N_b dA I₂`, constant (2 × 2 Gauss integrates it exactly on any
-//!   quadrilateral).
+//!   quadrilateral);
+//! * Rayleigh damping `C = αM + βK`: `αM` constant, and `βK` as Kelvin–Voigt on the strain
+//!   rate, `S_d = β C Ė` with `Ė = sym(FᵀḞ) = B q̇`, which vanishes in any rigid motion:
+//!   `f_d = Σ_gp t det J Bᵀ S_d`, `∂f_d/∂q̇ = β Σ t det J BᵀCB`, and `∂f_d/∂q` the symmetric
+//!   `(g_aᵀ S_d g_b) I₂` plus `β Σ t det J Bᵀ C B(Ḟ)` (`B` built on `Ḟ` instead of `F`:
+//!   `δĖ = sym(Ḟᵀ δF)`), not symmetric.
 //!
 //! A rigid motion has `FᵀF = I`, so strain, stress and internal force vanish to round-off at
 //! any rotation: the mass matrix being constant, the index-3 generalized-α integrator and
@@ -24,6 +29,7 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
+use crate::mechanism::element::beam::Damping;
 use crate::settings::MassKind;
 
 /// A vector on a quadrilateral's eight DOFs.
@@ -45,6 +51,10 @@ pub struct PlaneMaterial {
     pub density: f64,
     /// Thickness `t` (m).
     pub thickness: f64,
+    /// Rayleigh's mass-proportional damping `α` (1/s).
+    pub alpha: f64,
+    /// Rayleigh's stiffness-proportional damping `β` (s).
+    pub beta: f64,
 }
 
 impl PlaneMaterial {
@@ -221,6 +231,37 @@ impl Quad {
         (force, tangent)
     }
 
+    /// Kelvin–Voigt damping `β K` at displacements `u` and velocities `v` (module
+    /// documentation), at full density.
+    pub fn damping(&self, u: &Vector8, v: &Vector8) -> Damping<8> {
+        let beta = self.material.beta;
+        let mut d = Damping {
+            force: Vector8::zeros(),
+            rate: Matrix8::zeros(),
+            symmetric: Matrix8::zeros(),
+            skew: Matrix8::zeros(),
+        };
+        for p in &self.points {
+            let f = Self::displacement_gradient(p, u) + Matrix2::identity();
+            let b = Self::strain_operator(p, &f);
+            let c = self.elasticity * (beta * p.volume);
+            let stress = c * (b * v);
+            d.force += b.transpose() * stress;
+            d.rate += b.transpose() * c * b;
+            d.skew +=
+                b.transpose() * c * Self::strain_operator(p, &Self::displacement_gradient(p, v));
+            let s = Matrix2::new(stress[0], stress[2], stress[2], stress[1]);
+            for (a, ga) in p.gradient.iter().enumerate() {
+                for (e, ge) in p.gradient.iter().enumerate() {
+                    let k = ga.dot(&(s * ge));
+                    d.symmetric[(2 * a, 2 * e)] += k;
+                    d.symmetric[(2 * a + 1, 2 * e + 1)] += k;
+                }
+            }
+        }
+        d
+    }
+
     /// The mass matrix: consistent, `ρ t ∫ N_a N_b dA I₂` (kg), or its row sums on the
     /// diagonal (lumped).
     pub fn mass_matrix(&self, kind: MassKind) -> Matrix8 {
@@ -303,6 +344,8 @@ mod tests {
             poisson: 0.3,
             density: 7800.0,
             thickness,
+            alpha: 0.0,
+            beta: 1e-4,
         }
     }
 
@@ -365,6 +408,53 @@ mod tests {
         }
     }
 
+    /// The damping's force against its derivatives by central differences, at a large
+    /// strain; none in a rigid motion at any angle and rate of turn; `∂f_d/∂q̇ = β K` at
+    /// the reference.
+    #[test]
+    fn damping_derivatives_are_exact_and_rigid_motion_is_not_damped() {
+        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        let (u, v) = (strained(0.2), strained(3.0).map(|x| x.sin()));
+        let d = quad.damping(&u, &v);
+        let h = 1e-7;
+        for j in 0..8 {
+            let e = Vector8::from_fn(|i, _| if i == j { h } else { 0.0 });
+            let fq =
+                (quad.damping(&(u + e), &v).force - quad.damping(&(u - e), &v).force) / (2.0 * h);
+            let fv =
+                (quad.damping(&u, &(v + e)).force - quad.damping(&u, &(v - e)).force) / (2.0 * h);
+            let exact = (d.symmetric + d.skew).column(j).into_owned();
+            assert!(
+                (exact - fq).amax() <= 1e-6 * (d.symmetric + d.skew).amax(),
+                "∂f_d/∂q column {j}"
+            );
+            assert!(
+                (d.rate.column(j) - fv).amax() <= 1e-7 * d.rate.amax(),
+                "∂f_d/∂q̇ column {j}"
+            );
+        }
+        assert!((d.symmetric - d.symmetric.transpose()).amax() <= 1e-12 * d.symmetric.amax());
+        let x = corners();
+        for angle in [0.3, 2.0, 5.5] {
+            let (turned, spin) = (rotated(&x, angle, Vector2::new(0.1, -0.2)), 7.0);
+            // The velocity of a rigid spin about the origin: ω J (X + u).
+            let v = Vector8::from_fn(|i, _| {
+                let (a, k) = (i / 2, i % 2);
+                let p = x[a] + Vector2::new(turned[2 * a], turned[2 * a + 1]);
+                spin * if k == 0 { -p.y } else { p.x }
+            });
+            let f = quad.damping(&turned, &v).force;
+            assert!(
+                f.amax() <= 1e-9 * d.force.amax(),
+                "angle {angle}: {}",
+                f.amax()
+            );
+        }
+        let k = quad.internal_force_and_tangent(&Vector8::zeros()).1;
+        let rate = quad.damping(&Vector8::zeros(), &v).rate;
+        assert!((rate - k * 1e-4).amax() <= 1e-12 * rate.amax());
+    }
+
     #[test]
     fn tangent_and_force_are_exact_derivatives() {
         let quad = Quad::new(corners(), steel(0.01)).unwrap();
@@ -399,6 +489,8 @@ mod tests {
             poisson: nu,
             density: 1.0,
             thickness: 1.0,
+            alpha: 0.0,
+            beta: 0.0,
         };
         let x = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(a, b)| Vector2::new(a, b));
         let (_, k) = Quad::new(x, material)
