@@ -650,9 +650,52 @@ fn check_redundancy(model: &Model) -> Result<(), Error> {
             )
             .into())
         }
-        // A ring's rows stand for a weld to a body of their own: never redundant.
-        _ => Ok(()),
+        // A ring's rows stand there for a weld to a body of their own: judged below.
+        _ => check_ring_redundancy(model),
     }
+}
+
+/// An averaging ring's rows with every row that acts on its nodes or its body, at the
+/// reference (a dense rank, the ring being small): the ring named where they depend on one
+/// another — its nodes all pinned and its centre held as well, say. Dependencies that reach
+/// further through the structure are not seen here; Newton then names the ring's multiplier
+/// at a zero pivot.
+fn check_ring_redundancy(model: &Model) -> Result<(), Error> {
+    let constraints = model.constraints();
+    let reference = vec![0.0; model.n_dofs()];
+    for ring in &model.averagings {
+        poll()?;
+        let mut on = vec![false; model.nodes.len()];
+        ring.nodes
+            .iter()
+            .chain([&ring.reference])
+            .for_each(|&n| on[n] = true);
+        let rows: Vec<usize> = (0..model.n_constraints())
+            .filter(|&k| model.row_dofs.of_row(k).iter().any(|&d| on[d / 3]))
+            .collect();
+        let mut dofs: Vec<usize> = (rows.iter())
+            .flat_map(|&k| model.row_dofs.of_row(k))
+            .copied()
+            .collect();
+        dofs.sort_unstable();
+        dofs.dedup();
+        let mut jac = DMatrix::<f64>::zeros(rows.len(), dofs.len());
+        for (i, &k) in rows.iter().enumerate() {
+            let gradient = constraints.gradient(k, &reference);
+            for (&d, g) in model.row_dofs.of_row(k).iter().zip(gradient) {
+                jac[(i, dofs.binary_search(&d).unwrap_or_default())] += g;
+            }
+        }
+        if rank_of(&jac.transpose().singular_values()) < rows.len() {
+            return Err(SceneError::new(
+                format!("ring '{}'", ring.name),
+                "over-constrained: its rows repeat what the joints on its nodes and its centre \
+                 already impose (an averaging ring's nodes must keep some freedom)",
+            )
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// An averaging ring's nodes lie on one member or frame: its rows act on that cluster and

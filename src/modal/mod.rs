@@ -194,7 +194,7 @@ impl<'m> Pencil<'m> {
             .map_err(|e| eigen(format!("{e:?}")))?;
         let n_c = self.asm.model.n_constraints();
         negative.checked_sub(n_c).ok_or_else(|| {
-            eigen("fewer negative pivots than constraint rows: the joints are redundant".into())
+            eigen("fewer negative pivots than constraint rows: the joints or averaging rings are redundant".into())
         })
     }
 

@@ -86,7 +86,7 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<Ring> {
     };
     if r.kind == RingKind::Averaging && (centre - mean).norm() > 1e-9 * spread {
         let msg = format!(
-            "an averaging ring's centre is its nodes' weighted mean, ({}, {}): leave it out, or              attach joints at a point of a body there",
+            "an averaging ring's centre is its nodes' weighted mean, ({}, {}): leave it out, or attach joints at a point of a body there",
             mean.x, mean.y
         );
         return Err(SceneError::new(format!("{path}.centre"), msg));
@@ -154,5 +154,11 @@ fn weights(path: &str, r: &RingSpec) -> Result<Vec<f64>> {
             .collect::<Result<_>>()?,
     };
     let total: f64 = given.iter().sum();
-    Ok(given.into_iter().map(|w| w / total).collect())
+    let weights: Vec<f64> = given.into_iter().map(|w| w / total).collect();
+    if !total.is_finite() || weights.iter().any(|&w| w < 1e-12) {
+        let msg = "each weight must be at least 1e-12 of their sum, and the sum finite: a ring's \
+                   rotation is a weighted fit over its nodes";
+        return Err(SceneError::new(format!("{path}.weights"), msg));
+    }
+    Ok(weights)
 }

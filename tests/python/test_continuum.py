@@ -606,6 +606,10 @@ def test_a_ring_is_a_scene_entry_that_round_trips_through_toml(tmp_path):
      r"rings\[0\] \(r\)\.weights: 1 weights for 2 nodes"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "kind": "averaging", "weights": [1.0, 0.0]},
      r"rings\[0\] \(r\)\.weights\[1\]"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "kind": "averaging", "weights": [1e308, 1e308]},
+     r"rings\[0\] \(r\)\.weights: each weight must be at least 1e-12 of their sum, and the sum finite"),
+    ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "kind": "averaging", "weights": [1e300, 1e-300]},
+     r"rings\[0\] \(r\)\.weights: each weight must be at least 1e-12"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "kind": "averaging", "centre": [0.0, 0.0]},
      r"rings\[0\] \(r\)\.centre: an averaging ring's centre is its nodes' weighted mean"),
 ])
@@ -615,6 +619,34 @@ def test_bad_rings_are_named(ring, culprit):
             "rings": [ring], "joints": [{"kind": "clamp", "name": "a", "node": "r"}]}
     with pytest.raises(SceneError, match=culprit):
         flextop.Simulation(spec)
+
+
+def test_an_averaging_ring_that_repeats_its_nodes_joints_is_named():
+    """A plate pinned along its root edge, with an averaging ring on that edge pinned at its
+    centre: the ring's mean repeats what the pins hold, named at the build (a rigid ring
+    there is named as over-constraining its hinges' joints)."""
+    spec = {"name": "bad", "analysis": "static",
+            "members": [{"name": "plate", "nx": 4, "ny": 2, "length": 0.4, "height": 0.1, "thickness": 0.01, **STEEL}],
+            "rings": [{"name": "root", "nodes": [f"plate[0,{j}]" for j in range(3)], "kind": "averaging"}],
+            "joints": [{"kind": "pin", "name": f"wall{j}", "node": f"plate[0,{j}]"} for j in range(3)]
+                      + [{"kind": "pin", "name": "centre", "node": "root"}],
+            "loads": [{"node": "plate[4,1]", "force": [0.0, -100.0]}]}
+    with pytest.raises(SceneError, match=r"ring 'root': over-constrained"):
+        flextop.Simulation(spec)
+    spec["joints"] = spec["joints"][1:]  # the ring's mean now holds what wall0 held
+    assert flextop.Simulation(spec).run().displacement("plate[4,1]")[1] < 0.0
+
+
+def test_averaging_rings_multipliers_are_named_and_saved(tmp_path):
+    """The multipliers of averaging rings, after the joints', carry their names into
+    ``to_xarray`` and saved results."""
+    sim = simulation(flextop.scenes.continuum_robot_arm(nx=6, ny=2, h=0.026, rings="averaging"))
+    run = sim.run()
+    names = run.to_xarray().coords["multiplier"].values.tolist()
+    assert len(names) == run.lam.shape[1] == sim.model.n_constraints
+    assert names[-3:] == ["elbow_ring2:mean_x", "elbow_ring2:mean_y", "elbow_ring2:rotation"]
+    again = flextop.load(run.save(tmp_path / "run.npz"))
+    np.testing.assert_array_equal(again.lam, run.lam)
 
 
 def test_an_averaging_ring_on_two_members_is_named():

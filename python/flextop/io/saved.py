@@ -42,13 +42,16 @@ ROWS = {"clamp": ("x", "y", "rotation"), "pin": ("x", "y"), "hinge": ("x", "y"),
 
 def multiplier_names(sim: Any) -> list[str]:
     """``JOINT:ROW`` for every column of ``lam``: ``shoulder:x``, ``shoulder:y``,
-    ``shoulder:drive`` (the motor torque) and so on."""
+    ``shoulder:drive`` (the motor torque) and so on; then each averaging ring's
+    ``RING:mean_x``, ``RING:mean_y`` and ``RING:rotation``, whose rows follow the joints'."""
     names = []
     for joint in sim.joints:
         rows = [*ROWS.get(joint.kind, ()), *(["drive"] if joint.driven else [])]
         if len(rows) != len(joint.rows):
             rows = [f"row{k}" for k in range(len(joint.rows))]
         names += [f"{joint.name}:{row}" for row in rows]
+    rings = [r["name"] for r in sim.spec.get("rings", []) if r.get("kind", "rigid") == "averaging"]
+    names += [f"{ring}:{row}" for ring in rings for row in ("mean_x", "mean_y", "rotation")]
     return names
 
 
