@@ -81,6 +81,18 @@ def fourth_order(f, h: float):
     return (f(-2 * h) - 8 * f(-h) + 8 * f(h) - f(2 * h)) / (12 * h)
 
 
+def assert_tip_gradient_is_exact(sim, x, direct, variables, tol: float = 1e-6) -> None:
+    """The tip deflection's gradient ``direct`` (shape ``(1, n)``) at ``x`` against
+    fourth-order differences along each of ``variables`` (step 1e-3), to ``tol`` of itself
+    or of the gradient's largest entry."""
+    for j in variables:
+        def value(t, j=j):
+            y = x.copy()
+            y[j] += t
+            return sim.run_with_sensitivities(y, ["tip_deflection"], method="direct")[0][0]
+        assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=tol, abs=tol * np.abs(direct).max())
+
+
 def slider_crank_with_force_elements() -> dict:
     """The flexible slider-crank with a torsion spring-damper at the crank pin, a damper on
     the slider's travel, a spring from a wall to the slider, a ramped force on the slider

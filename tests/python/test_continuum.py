@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import fourth_order
+from conftest import assert_tip_gradient_is_exact, fourth_order
 from top88 import ke88
 
 import flextop
@@ -348,12 +348,7 @@ def test_the_continuum_arm_moves_its_rings_rigidly_and_has_exact_gradients():
     f, direct = sim.run_with_sensitivities(x, ["tip_deflection"], method="direct")
     _, adjoint = sim.run_with_sensitivities(x, ["tip_deflection"], method="adjoint")
     assert np.abs(direct - adjoint).max() <= 1e-9 * np.abs(direct).max()
-    for j in (0, 11, 17):
-        def value(dx, j=j):
-            y = x.copy()
-            y[j] += dx
-            return sim.run_with_sensitivities(y, ["tip_deflection"], method="direct")[0][0]
-        assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=1e-6, abs=1e-6 * np.abs(direct).max())
+    assert_tip_gradient_is_exact(sim, x, direct, (0, 11, 17))
 
 
 def test_a_member_goes_to_paraview_as_quads_with_their_densities(tmp_path):
@@ -568,12 +563,7 @@ def test_the_continuum_arm_on_averaging_rings_has_exact_gradients():
     f, direct = sim.run_with_sensitivities(x, ["tip_deflection"], method="direct")
     _, adjoint = sim.run_with_sensitivities(x, ["tip_deflection"], method="adjoint")
     assert np.abs(direct - adjoint).max() <= 1e-9 * np.abs(direct).max()
-    for j in (0, 11, 17):
-        def value(dx, j=j):
-            y = x.copy()
-            y[j] += dx
-            return sim.run_with_sensitivities(y, ["tip_deflection"], method="direct")[0][0]
-        assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=1e-6, abs=1e-6 * np.abs(direct).max())
+    assert_tip_gradient_is_exact(sim, x, direct, (0, 11, 17))
 
 
 def test_a_ring_is_a_scene_entry_that_round_trips_through_toml(tmp_path):

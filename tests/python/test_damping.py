@@ -16,7 +16,7 @@ from flextop import scenes
 from flextop.errors import SceneError
 from flextop.scenes.builder import Scene
 
-from conftest import fourth_order
+from conftest import assert_tip_gradient_is_exact, fourth_order
 
 
 def cantilever(alpha: float, beta: float, h: float, t_end: float = 1.0) -> Scene:
@@ -34,17 +34,18 @@ def cantilever(alpha: float, beta: float, h: float, t_end: float = 1.0) -> Scene
     return scene
 
 
-def modal_damping(alpha: float, beta: float, h: float) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The two lowest modes' ω (rad/s) and damping ratios, fitted to the free decay of the
-    run's modal coordinates ηₖ = φₖᵀ M q (mass-normalized modes of the clamped beam), and
-    the run's energies."""
-    sim = flextop.Simulation(cantilever(alpha, beta, h))
+def ring_down(sim: flextop.Simulation, held: set[int], alpha: float, beta: float,
+              h: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The two lowest modes' ω (rad/s) and damping ratios, fitted to the free decay (after
+    the first step, when the load is gone) of the run's modal coordinates ηₖ = φₖᵀ M q
+    (mass-normalized modes of the structure with the coordinates ``held`` and those without
+    mass left out), and the run's energies."""
     res = sim.run()
     m, k, _ = (a.toarray() for a in sim.linearize())
-    free = np.arange(3, m.shape[0])  # the clamped node's three coordinates held
+    free = np.array([d for d in range(m.shape[0]) if m[d, d] > 0.0 and d not in held])
     w2, shapes = eigh(k[np.ix_(free, free)], m[np.ix_(free, free)])
     omegas, zetas = np.sqrt(w2[:2]), []
-    late = res.time >= h  # the load is gone
+    late = res.time >= h
     for w, shape in zip(omegas, shapes.T):
         phi = np.zeros(m.shape[0])
         phi[free] = shape
@@ -54,6 +55,11 @@ def modal_damping(alpha: float, beta: float, h: float) -> tuple[np.ndarray, np.n
         fit, _ = curve_fit(ring, res.time[late], eta[late], p0=[eta[0], guess, w, 0.0])
         zetas.append(fit[1])
     return omegas, np.array(zetas), res.energies
+
+
+def modal_damping(alpha: float, beta: float, h: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    """:func:`ring_down` of the beam cantilever (its clamped node's three coordinates held)."""
+    return ring_down(flextop.Simulation(cantilever(alpha, beta, h)), {0, 1, 2}, alpha, beta, h)
 
 
 def test_rayleigh_damping_gives_the_modal_damping_ratios_of_theory():
@@ -179,25 +185,10 @@ def member_cantilever(alpha: float, beta: float, h: float) -> Scene:
 
 
 def member_modal_damping(alpha: float, beta: float, h: float) -> tuple[np.ndarray, np.ndarray, dict]:
-    """As :func:`modal_damping`, for :func:`member_cantilever` (the unknowns with mass, less
-    the pinned translations)."""
+    """:func:`ring_down` of :func:`member_cantilever` (its pinned translations held)."""
     sim = flextop.Simulation(member_cantilever(alpha, beta, h))
-    res = sim.run()
-    m, k, _ = (a.toarray() for a in sim.linearize())
     pinned = {3 * sim.node(f"plate[0,{j}]") + c for j in range(3) for c in (0, 1)}
-    free = np.array([d for d in range(m.shape[0]) if m[d, d] > 0.0 and d not in pinned])
-    w2, shapes = eigh(k[np.ix_(free, free)], m[np.ix_(free, free)])
-    omegas, zetas = np.sqrt(w2[:2]), []
-    late = res.time >= h
-    for w, shape in zip(omegas, shapes.T):
-        phi = np.zeros(m.shape[0])
-        phi[free] = shape
-        eta = res.q @ (m @ phi)
-        guess = alpha / (2 * w) + beta * w / 2
-        ring = lambda t, a, z, wd, p: a * np.exp(-z * w * t) * np.cos(wd * t + p)  # noqa: B023, E731
-        fit, _ = curve_fit(ring, res.time[late], eta[late], p0=[eta[0], guess, w, 0.0])
-        zetas.append(fit[1])
-    return omegas, np.array(zetas), res.energies
+    return ring_down(sim, pinned, alpha, beta, h)
 
 
 def test_a_members_rayleigh_damping_gives_the_modal_damping_ratios_of_theory():
@@ -259,12 +250,7 @@ def test_gradients_through_a_members_rayleigh_damping_are_exact():
     for memory in ("store", "checkpoints"):
         _, adjoint = sim.run_with_sensitivities(x, ["tip_deflection"], method="adjoint", memory=memory)
         np.testing.assert_allclose(adjoint, direct, rtol=0, atol=1e-9 * np.abs(direct).max())
-    for j in (0, 9, 17):
-        def value(t, j=j):
-            y = x.copy()
-            y[j] += t
-            return sim.run_with_sensitivities(y, ["tip_deflection"], method="direct")[0][0]
-        assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=1e-6, abs=1e-6 * np.abs(direct).max())
+    assert_tip_gradient_is_exact(sim, x, direct, (0, 9, 17))
     assert abs(f[0] - plain.run_with_sensitivities(x, ["tip_deflection"])[0][0]) > 1e-3 * f[0]
 
 
