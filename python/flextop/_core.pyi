@@ -117,6 +117,14 @@ class SensitivityData(TypedDict):
     gradient_seconds: float  # wall time of the sensitivity analysis, s
 
 @type_check_only
+class BarShares(TypedDict):
+    """``bar_shares``: each bar's share of the responses' change when the frame bars are split in two."""
+
+    values: _F  # response values on the coarse model, (n_r,)
+    shares: _F  # each bar's share, dual-weighted by the trapezoidal rule, (n_r, n_bars)
+    first_order: _F  # the same weighted by the coarse run's adjoint alone, (n_r, n_bars)
+
+@type_check_only
 class ResponseData(TypedDict):
     """``evaluate_responses``: responses on recorded states."""
 
@@ -200,6 +208,8 @@ def evaluate_responses(model: Model, x: _F | None, q: _F, lam: _F, times: list[f
                        responses: list[str], qdot: _F | None = None,
                        settings: dict[str, Any] | None = None) -> ResponseData: ...
 def prolong(coarse: Model, fine: Model, q: _F) -> _F: ...
+def bar_shares(coarse: Model, fine: Model, x: _F, responses: list[str], settings: dict[str, Any] | None, steps: list[float],
+               q: _F, qdot: _F, qddot: _F, lam: _F) -> BarShares: ...
 def linearize(model: Model, x: _F | None = None, q: _F | None = None, settings: dict[str, Any] | None = None) -> Linearization: ...
 def natural_modes(model: Model, count: int, x: _F | None = None, q: _F | None = None,
                   settings: dict[str, Any] | None = None) -> NaturalModes: ...

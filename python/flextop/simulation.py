@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import difflib
 import json
+import math
 import os
 import threading
 import warnings
@@ -27,7 +28,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from . import _core, execution, modal, plausibility, responses
-from .discretization import Levels, preset, refinement, tolerance
+from .discretization import Levels, indicator, preset, refinement, tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .io import saved
 from .scenes import Scene
@@ -553,6 +554,26 @@ class Simulation:
         eigen-analysis, whatever this scene's elements per bar); ``rtol=None`` gives the
         modes of the model as meshed."""
         return modal.natural_modes(self.levels.model, n, self._design(x), rtol, self._settings(mass=mass))
+
+    def bar_shares(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *, h: float | None = None,
+                   t_end: float | None = None, rho_inf: float | None = None, mass: str | None = None) -> indicator.Shares:
+        """Each bar's share of the change of ``responses`` when the elements of every frame
+        bar are split in two, for design ``x``: where refinement pays, measured (the
+        a-posteriori indicator of :mod:`flextop.discretization.indicator`). One run of the
+        split scene and two adjoint sweeps of this one, on uniform steps ``h`` (the scene's by
+        default; other settings as in :meth:`run`). ``shares.shares[name]`` follows
+        ``self.bars.name``; ``shares.change`` is the change measured, ``unattributed`` what
+        the shares leave of it."""
+        xv = self._design(x)
+        settings = self._settings(h=h, t_end=t_end, rho_inf=rho_inf, mass=mass)
+        names = [responses] if isinstance(responses, str) else list(responses)
+        if self.analysis != "dynamic":
+            raise SettingsError("bar shares are measured on a dynamic run; a static scene's refinement is uniform")
+        duration = refinement.t_end(self, settings)
+        step = settings.get("h") or self.spec.get("simulation", {}).get("h") or duration / 16
+        count = max(1, math.ceil(duration / step - 1e-9))
+        design = np.ones(self.n_design) if xv is None else xv
+        return indicator.shares(self, design, names, settings, np.full(count, duration / count))
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> np.ndarray:
         """The ``n`` lowest natural frequencies (Hz) of the structure at rest with its drives

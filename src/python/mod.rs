@@ -26,6 +26,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::natural_modes, m)?)?;
     m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
     m.add_function(wrap_pyfunction!(runs::prolong, m)?)?;
+    m.add_function(wrap_pyfunction!(runs::bar_shares, m)?)?;
     m.add_function(wrap_pyfunction!(runs::section_forces, m)?)?;
     m.add_function(wrap_pyfunction!(runs::cell_fields, m)?)?;
     m.add_function(wrap_pyfunction!(model::response_kinds, m)?)?;

@@ -16,6 +16,7 @@ use crate::error::{Error, SettingsError};
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Analysis, Model};
 use crate::mechanism::rigid::rigid_positions as rigid;
+use crate::sensitivity::shares::{bar_shares as bar_shares_of, States};
 use crate::sensitivity::{self, parse_parameters, parse_responses};
 use crate::solver::prolongation::Prolongation;
 use crate::solver::simulation::{
@@ -120,6 +121,56 @@ pub fn prolong<'py>(
         map.apply(c, row, fine_row);
     }
     matrix(py, out, rows, n_f)
+}
+
+/// Each frame bar's share of the change of `responses` from a run of `coarse` to the run
+/// of `fine` (`coarse` with every frame bar's elements split in two) on the same `steps`,
+/// whose states are `q`, `qdot` and `qddot` (one row per time): `values` (n_r,) on
+/// `coarse` and `shares` (n_r, n_bars), dual-weighted residuals
+/// ([`crate::sensitivity::shares`]).
+#[pyfunction]
+#[pyo3(signature = (coarse, fine, x, responses, settings, steps, q, qdot, qddot, lam))]
+#[allow(clippy::too_many_arguments)]
+pub fn bar_shares<'py>(
+    py: Python<'py>,
+    coarse: &PyModel,
+    fine: &PyModel,
+    x: PyReadonlyArray1<'py, f64>,
+    responses: Vec<String>,
+    settings: Option<&Bound<'py, PyAny>>,
+    steps: Vec<f64>,
+    q: PyReadonlyArray2<'py, f64>,
+    qdot: PyReadonlyArray2<'py, f64>,
+    qddot: PyReadonlyArray2<'py, f64>,
+    lam: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (c, f) = (Arc::clone(&coarse.model), Arc::clone(&fine.model));
+    let parsed = parse_responses(&c, &responses).map_err(Error::from)?;
+    let settings = run_options(settings)?
+        .dynamic(&c.defaults)
+        .map_err(Error::from)?;
+    let grid = grid(steps)?;
+    let x = x.as_slice()?.to_vec();
+    let rows = |a: &PyReadonlyArray2<'py, f64>| a.as_array().iter().copied().collect::<Vec<f64>>();
+    let (q, qdot, qddot, lam) = (rows(&q), rows(&qdot), rows(&qddot), rows(&lam));
+    let n_b = c.bars.len();
+    let out = detached(py, move || {
+        let states = States {
+            q: &q,
+            qdot: &qdot,
+            qddot: &qddot,
+            lam: &lam,
+        };
+        bar_shares_of(&c, &f, &x, &settings, &grid, &parsed, states)
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("values", vector(py, out.values))?;
+    d.set_item("shares", matrix(py, out.shares, responses.len(), n_b)?)?;
+    d.set_item(
+        "first_order",
+        matrix(py, out.first_order, responses.len(), n_b)?,
+    )?;
+    Ok(d)
 }
 
 fn grid(steps: Vec<f64>) -> Result<TimeGrid, Error> {

@@ -48,12 +48,16 @@ struct Rows {
 
 impl Rows {
     fn push(&mut self, s: &State) {
-        self.q.extend_from_slice(&s.q);
+        self.push_row(&s.q, &s.qdot, &s.qddot, &s.lam);
+    }
+
+    fn push_row(&mut self, q: &[f64], v: &[f64], acc: &[f64], lam: &[f64]) {
+        self.q.extend_from_slice(q);
         if self.velocities {
-            self.v.extend_from_slice(&s.qdot);
+            self.v.extend_from_slice(v);
         }
-        self.acc.extend_from_slice(&s.qddot);
-        self.lam.extend_from_slice(&s.lam);
+        self.acc.extend_from_slice(acc);
+        self.lam.extend_from_slice(lam);
     }
 
     fn clear(&mut self) {
@@ -226,55 +230,150 @@ pub(crate) fn differentiate_backward(
     parameters: &[Parameter],
     memory: Memory,
 ) -> Result<Sensitivities, Error> {
-    let mut it = Integrator::new(model, densities, settings)?;
-    let mut objectives = Objectives::new(model, responses, parameters, grid)?;
-    let pseudo = PseudoLoads::new(model, settings.mass, parameters);
-    let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
-    let velocities = pseudo.reads_velocities() || objectives.read_velocities();
-    let mut store = StateStore::new(memory, n_q, n_c, grid.len(), velocities);
-    let clock = Instant::now();
-    let mut values = forward(&mut it, grid, &mut objectives, settings, &mut store)?;
-    let simulation = clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
-    let last = grid.len();
-    let t = |n: usize| grid.times()[n];
-    let s = store.get(&mut it, grid, last, true)?;
-    sweep.add_local(&it, &objectives, last, s.sample(t(last)));
-    for n in (0..last).rev() {
-        crate::interrupt::poll()?;
-        let s1 = store.get(&mut it, grid, n + 1, true)?;
-        let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
-        sweep.step(
-            &mut it,
-            s1.at(t(n + 1), Level::Position),
-            grid.step(n),
-            previous,
-        )?;
-        let s = store.get(&mut it, grid, n, false)?;
-        if n > 0 {
-            if let Some(jump) = it.jump_at(s.q, t(n), grid.step(n - 1))? {
-                sweep.restart(&mut it, &jump)?;
-            }
-        }
-        sweep.add_local(&it, &objectives, n, s.sample(t(n)));
-    }
-    let s0 = store.get(&mut it, grid, 0, false)?;
-    sweep.initial(&mut it, s0.at(0.0, Level::Acceleration))?;
-    objectives.finish(&mut values, &mut sweep.xb);
-    let peaks = objectives.peaks();
-    let timings = Timings {
-        simulation,
-        gradients: clock.elapsed().as_secs_f64(),
-    };
-    Ok(Sensitivities::new(
+    let run = Backward {
         model,
-        values,
-        &sweep.xb,
-        Method::Adjoint,
-        timings,
-        peaks,
-    ))
+        settings,
+        grid,
+        responses,
+        parameters,
+        memory,
+    };
+    run.sweep_about(densities, None, None)
+}
+
+/// A trajectory given at every time of a grid, one row of the model's coordinates (or
+/// multipliers) per time: what a backward sweep may linearize about instead of its own run.
+#[derive(Debug, Clone, Copy)]
+pub struct Path<'a> {
+    /// `qₙ`.
+    pub q: &'a [f64],
+    /// `q̇ₙ`.
+    pub qdot: &'a [f64],
+    /// `q̈ₙ`.
+    pub qddot: &'a [f64],
+    /// `λₙ`.
+    pub lam: &'a [f64],
+}
+
+/// The adjoint variables `μₙ` of the equilibrium residual at every time `tₙ` of `grid`
+/// (`μ₀` that of the initial accelerations), one column of `n_q` per response: row-major
+/// `[(N + 1) × n_r × n_q]`, linearized about the model's own run on `grid`, or about the
+/// trajectory `about`. A residual `δrₙ` added at `tₙ` changes response `k` by `μₙ,ₖᵀ δrₙ`
+/// to first order (the dual weights of [`super::shares`]). Returned with the responses'
+/// values on that trajectory.
+///
+/// # Errors
+/// As [`differentiate_backward`].
+pub(crate) fn dual_weights(
+    model: &Model,
+    densities: Densities,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    about: Option<Path<'_>>,
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    let run = Backward {
+        model,
+        settings,
+        grid,
+        responses,
+        parameters: &[],
+        memory: Memory::Auto {
+            budget_bytes: crate::settings::STORE_BUDGET_BYTES,
+        },
+    };
+    let mut weights = vec![0.0; (grid.len() + 1) * responses.len() * model.n_dofs()];
+    let sensitivities = run.sweep_about(densities, about, Some(&mut weights))?;
+    Ok((sensitivities.values, weights))
+}
+
+/// What one adjoint analysis reads.
+struct Backward<'a> {
+    model: &'a Model,
+    settings: &'a DynamicSettings,
+    grid: &'a TimeGrid,
+    responses: &'a [Response],
+    parameters: &'a [Parameter],
+    memory: Memory,
+}
+
+impl Backward<'_> {
+    /// The forward run (or the trajectory `about`, every state stored), then the backward
+    /// sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]).
+    fn sweep_about(
+        &self,
+        densities: Densities,
+        about: Option<Path<'_>>,
+        weights: Option<&mut [f64]>,
+    ) -> Result<Sensitivities, Error> {
+        let Self {
+            model,
+            settings,
+            grid,
+            responses,
+            parameters,
+            memory,
+        } = *self;
+        let mut it = Integrator::new(model, densities, settings)?;
+        let mut objectives = Objectives::new(model, responses, parameters, grid)?;
+        let pseudo = PseudoLoads::new(model, settings.mass, parameters);
+        let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
+        let velocities = pseudo.reads_velocities() || objectives.read_velocities();
+        let memory = if about.is_some() {
+            Memory::StoreAll
+        } else {
+            memory
+        };
+        let mut store = StateStore::new(memory, n_q, n_c, grid.len(), velocities);
+        let clock = Instant::now();
+        let mut values = match about {
+            Some(path) => replay(&it, grid, &mut objectives, settings, path, &mut store),
+            None => forward(&mut it, grid, &mut objectives, settings, &mut store)?,
+        };
+        let simulation = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
+        sweep.weights = weights;
+        let last = grid.len();
+        let t = |n: usize| grid.times()[n];
+        let s = store.get(&mut it, grid, last, true)?;
+        sweep.add_local(&it, &objectives, last, s.sample(t(last)));
+        for n in (0..last).rev() {
+            crate::interrupt::poll()?;
+            let s1 = store.get(&mut it, grid, n + 1, true)?;
+            let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
+            sweep.step(
+                &mut it,
+                s1.at(t(n + 1), Level::Position),
+                grid.step(n),
+                previous,
+            )?;
+            sweep.keep_weights(n + 1);
+            let s = store.get(&mut it, grid, n, false)?;
+            if n > 0 {
+                if let Some(jump) = it.jump_at(s.q, t(n), grid.step(n - 1))? {
+                    sweep.restart(&mut it, &jump)?;
+                }
+            }
+            sweep.add_local(&it, &objectives, n, s.sample(t(n)));
+        }
+        let s0 = store.get(&mut it, grid, 0, false)?;
+        sweep.initial(&mut it, s0.at(0.0, Level::Acceleration))?;
+        objectives.finish(&mut values, &mut sweep.xb);
+        let peaks = objectives.peaks();
+        let timings = Timings {
+            simulation,
+            gradients: clock.elapsed().as_secs_f64(),
+        };
+        Ok(Sensitivities::new(
+            model,
+            values,
+            &sweep.xb,
+            Method::Adjoint,
+            timings,
+            peaks,
+        ))
+    }
 }
 
 /// Forward sweep: the response values, and the states (or checkpoints) of the backward
@@ -307,6 +406,32 @@ fn forward(
     Ok(values)
 }
 
+/// [`forward`] on a given trajectory: its response values, its states stored.
+fn replay(
+    it: &Integrator,
+    grid: &TimeGrid,
+    objectives: &mut Objectives,
+    settings: &DynamicSettings,
+    path: Path<'_>,
+    store: &mut StateStore,
+) -> Vec<f64> {
+    let model = it.assembler().model;
+    let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
+    let mut values = vec![0.0; objectives.len()];
+    for (n, &t) in grid.times().iter().enumerate() {
+        let (r, c) = (n * n_q..(n + 1) * n_q, n * n_c..(n + 1) * n_c);
+        let (q, v, lam) = (&path.q[r.clone()], &path.qdot[r.clone()], &path.lam[c]);
+        let ctx = Context::dynamic(model, &it.assembler().densities, settings.mass);
+        let at = Sample { q, v, lam, t };
+        objectives.observe(&ctx, at, &mut values, &mut []);
+        objectives.add_values(&ctx, n, at, &mut values);
+        if let StateStore::All(rows) = store {
+            rows.push_row(q, v, &path.qddot[r], lam);
+        }
+    }
+    values
+}
+
 /// The adjoint variables of every response (column-major, one column each) and the
 /// gradients accumulated so far.
 struct Sweep<'a> {
@@ -334,6 +459,8 @@ struct Sweep<'a> {
     scratch: MemBuffer,
     /// Work space of the exact solves with damping ([`crate::solver::newton::Newton::solve_exact`]).
     work: Vec<f64>,
+    /// Where each time's `μ` is kept, if asked ([`dual_weights`]).
+    weights: Option<&'a mut [f64]>,
 }
 
 impl<'a> Sweep<'a> {
@@ -365,6 +492,7 @@ impl<'a> Sweep<'a> {
             damped: vec![0.0; n_q],
             scratch: it.newton.scratch(n_r),
             work: Vec::new(),
+            weights: None,
         }
     }
 
@@ -384,6 +512,17 @@ impl<'a> Sweep<'a> {
                 // A response's G_q̇ joins the adjoint of q̇'.
                 &mut self.vb[k * n_q..(k + 1) * n_q],
             );
+        }
+    }
+
+    /// Keeps the force rows `μ` of the solution columns in `rhs` as the weights of `t_time`.
+    fn keep_weights(&mut self, time: usize) {
+        let (n_q, n, n_r) = (self.n_q, self.n, self.n_r);
+        if let Some(weights) = self.weights.as_deref_mut() {
+            let out = &mut weights[time * n_r * n_q..(time + 1) * n_r * n_q];
+            for (o, column) in out.chunks_mut(n_q).zip(self.rhs.chunks(n)) {
+                o.copy_from_slice(&column[..n_q]);
+            }
         }
     }
 
@@ -537,6 +676,7 @@ impl<'a> Sweep<'a> {
                 &mut self.xb[k * n_x..(k + 1) * n_x],
             );
         }
+        self.keep_weights(0);
         if let Some(eq) = it.equilibrium.clone() {
             let start = (at0.q, at0.rates.map_or(&[][..], |r| r.1), at0.lam);
             let (pseudo, rhs, qb, xb) = (&self.pseudo, &mut self.rhs, &mut self.qb, &mut self.xb);

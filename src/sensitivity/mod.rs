@@ -18,6 +18,7 @@
 pub mod adjoint;
 pub mod direct;
 mod kink;
+pub mod shares;
 mod start;
 pub mod statics;
 
@@ -105,7 +106,7 @@ pub(crate) struct PseudoLoads {
 }
 
 impl PseudoLoads {
-    fn new(model: &Model, kind: MassKind, parameters: &[Parameter]) -> Self {
+    pub(crate) fn new(model: &Model, kind: MassKind, parameters: &[Parameter]) -> Self {
         Self {
             masses: model
                 .elements
@@ -143,6 +144,21 @@ impl PseudoLoads {
     /// `m'(x_e) M_e (q̈_e − ĝ_e + α q̇_e) + s'(x_e) (f_e(q_e) + f_d,e(q_e, q̇_e))` of
     /// element `e`, with its Rayleigh damping (`q̈ = q̇ = 0` for statics).
     fn element(&self, asm: &Assembler, e: usize, at: &At) -> Vector6 {
+        let d = &asm.densities;
+        self.element_residual(asm, e, at, d.mass_rate[e], d.stiffness_rate[e])
+    }
+
+    /// `m M_e (q̈_e − ĝ_e + α q̇_e) + s (f_e(q_e) + f_d,e(q_e, q̇_e))`: element `e`'s terms
+    /// of the residual with its mass scaled by `m` and its stiffness by `s` (the densities'
+    /// `m(x)` and `s(x)` give its share of the residual, their rates its pseudo-load).
+    pub(crate) fn element_residual(
+        &self,
+        asm: &Assembler,
+        e: usize,
+        at: &At,
+        m: f64,
+        s: f64,
+    ) -> Vector6 {
         let el = &asm.model.elements[e];
         let dofs = el.dofs();
         let u = el.gather(at.q);
@@ -158,18 +174,27 @@ impl PseudoLoads {
                 stiffness += el.kernel.damping(&u, &el.gather(v)).force;
             }
         }
-        self.masses[e] * inertia * asm.densities.mass_rate[e]
-            + stiffness * asm.densities.stiffness_rate[e]
+        self.masses[e] * inertia * m + stiffness * s
     }
 
     /// `m'(x_b) M_c (q̈ + α q̇)` on the four DOFs of a bar's end coupling `bar` (gravity is
     /// uniform, so `M_c ĝ = 0`; zero for statics).
     fn bar(asm: &Assembler, bar: &BarMass, at: &At) -> [f64; 4] {
+        Self::coupling_residual(bar, asm, at, asm.densities.mass_rate[bar.element])
+    }
+
+    /// `m M_c (q̈ + α q̇)`: the terms of the residual of a bar's end coupling `bar` with its
+    /// mass scaled by `m`.
+    pub(crate) fn coupling_residual(
+        bar: &BarMass,
+        asm: &Assembler,
+        at: &At,
+        rate: f64,
+    ) -> [f64; 4] {
         let Some((v, acc)) = at.rates else {
             return [0.0; 4];
         };
         let alpha = asm.model.elements[bar.element].kernel.section().alpha;
-        let rate = asm.densities.mass_rate[bar.element];
         // Velocities are kept where damping reads them.
         let b = if v.is_empty() { [0.0; 4] } else { bar.times(v) };
         let a = bar.times(acc);

@@ -63,6 +63,14 @@ impl Prolongation {
         })
     }
 
+    /// The coarse node that fine node `node` is, or `None` for an element's middle.
+    pub fn coarse_node(&self, node: usize) -> Option<usize> {
+        match self.sources[node] {
+            Source::Node(c) => Some(c),
+            Source::Middle(_) => None,
+        }
+    }
+
     /// Coordinates of the refined model (`3` per node) for coordinates `q` of `coarse`.
     pub fn apply(&self, coarse: &Model, q: &[f64], out: &mut [f64]) {
         for (node, source) in self.sources.iter().enumerate() {
