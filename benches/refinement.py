@@ -28,6 +28,14 @@ With ``--frame``, instead: the stayed frame solid but for its 1 m stay at x = 0.
 gradient is before its asymptotic range up to 16 elements: the grid a run to rtol = 1e-2
 accepts and its errors against the stay at 256 elements. Writes benches/results/frame.md.
 
+With ``--dual``, instead: the a-posteriori indicator (``Simulation.bar_shares``, dual-weighted
+residuals) against the truth it estimates, on the arm (1088 steps; solid but for
+``link1/bar24`` at x = 0.1, uniform 0.1 and 0.4, a random design, the tip-deflection optimum),
+the stayed frame and the spun beam: the shares' sum against the change of splitting every
+bar (with the trapezoidal weights and with the coarse run's adjoint alone), each bar's share
+against the change of splitting it alone, whether the bars of the largest shares are those
+of the largest changes, and what the shares cost. Writes benches/results/shares.md.
+
 With ``--richardson``, instead: whether Richardson's extrapolation in the step pays — on three
 designs an optimizer produces, the error of d on the grid ``rtol = 1e-2`` chose in space,
 raw and extrapolated from the run at twice the step (``f(h) + (f(h) − f(2h))/3``), against
@@ -171,6 +179,69 @@ def shares() -> None:
               f"rank by need {int((need > need[b]).sum())}")
 
 
+def dual_study(label: str, sim: flextop.Simulation, x: np.ndarray, h: float) -> str:
+    """One row of ``--dual``: the shares of ``sim`` at ``x`` against each bar split alone."""
+    base_seconds, _ = timed(lambda: sim.run_with_sensitivities(x, "tip_deflection", h=h))
+    fine = sim.levels[2]
+    steps = np.full(round(sim.spec["simulation"]["t_end"] / h), h)
+
+    def measure():
+        run = fine.run_fixed(x, {}, steps=steps)
+        raw = run.raw
+        out = flextop._core.bar_shares(sim.model, fine.model, x, ["tip_deflection"], {}, list(steps),
+                                       raw["q"], raw["qdot"], raw["qddot"], raw["lam"])
+        return run.response("tip_deflection"), out
+
+    seconds, (d_fine, out) = timed(measure)
+    eta, d0 = out["shares"][0], out["values"][0]
+    change = d_fine - d0
+    alone = np.zeros(len(eta))
+    bars = sim.model.bars()
+    for b, (name, elements, kind) in enumerate(zip(bars["name"], bars["elements"], bars["kind"])):
+        if kind != "truss":
+            split = dict(sim.spec, splits={**sim.spec.get("splits", {}), name: 2 * int(elements)})
+            alone[b] = flextop.Simulation(split).run(x, h=h).response("tip_deflection") - d0
+    top = np.argsort(-np.abs(alone))[:10]
+    carry = int(np.searchsorted(np.cumsum(np.sort(np.abs(alone))[::-1]), 0.8 * np.abs(alone).sum())) + 1
+    ratios = eta[top[:5]] / alone[top[:5]]
+    overlap = len(set(top) & set(np.argsort(-np.abs(eta))[:10]))
+    return (f"| {label} | {change / d0:+.2e} | {eta.sum() / change:.3f} | {out['first_order'][0].sum() / change:.3f} | "
+            f"{alone.sum() / change:.3f} | {carry} | {ratios.min():.2f}–{ratios.max():.2f} | {overlap}/10 | "
+            f"{seconds / base_seconds:.1f} |")
+
+
+def dual() -> None:
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    h = 1.3 / 1088
+    solid = np.ones(arm.n_design)
+    solid[arm.variable_names.index("link1/bar24")] = 0.1
+    problem = flextop.TopologyProblem(arm, "tip_deflection", flextop.volume_constraints(arm, 0.4))
+    optimum = flextop.optimize(problem, np.full(arm.n_design, 0.4), method="mma", max_iter=40).x
+    rows = [dual_study(f"arm, {label}", arm, x, h) for label, x in (
+        ("solid but link1/bar24 at 0.1", solid), ("uniform 0.1", np.full(arm.n_design, 0.1)),
+        ("uniform 0.4", np.full(arm.n_design, 0.4)),
+        ("random #0", np.random.default_rng(0).uniform(arm.x_min, 1.0, arm.n_design)),
+        ("tip-deflection optimum (MMA, 40 iterations)", optimum))]
+    frame = flextop.Simulation(flextop.scenes.stayed_frame())
+    stay = np.where(np.array(frame.variable_names) == "stay", 0.1, 1.0)
+    rows.append(dual_study("stayed frame, the stay at 0.1", frame, stay, 0.6 / 240))
+    beam = flextop.Simulation(flextop.scenes.spun_beam())
+    for x in (1.0, 0.3):
+        rows.append(dual_study(f"spun beam, uniform {x:g}", beam, np.full(beam.n_design, x), beam.spec["simulation"]["t_end"] / 200))
+    lines = ["# Each bar's share of the space error: dual-weighted residuals against bars split alone", "",
+             f"`python benches/refinement.py --dual` on {platform.processor() or platform.machine()}, "
+             f"{platform.python_version()}. Change: d with every frame bar split in two, relative. Σ shares / change: "
+             "the trapezoidal weights (what `bar_shares` returns) and the coarse run's adjoint alone. Σ alone: each bar "
+             "split by itself, summed. 80 %: the bars whose own splitting carries 80 % of Σ|alone|. Share / alone: the five "
+             "bars of the largest change alone. Top 10: how many of the ten largest changes alone are among the ten "
+             "largest shares. Cost: `bar_shares` (the split run, two adjoint sweeps) over the fixed run with its "
+             "gradient.", "",
+             "| design | change of d | Σ shares / change | first order only | Σ alone / change | bars for 80 % | "
+             "share / alone (top 5) | top 10 | cost |", "|---|---|---|---|---|---|---|---|---|", *rows]
+    (ROOT / "benches" / "results" / "shares.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+
+
 def richardson() -> None:
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, quick=False) | iterates(arm, quick=False)
@@ -306,11 +377,14 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
     parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
+    parser.add_argument("--dual", action="store_true", help="the a-posteriori shares against bars split alone, instead")
     parser.add_argument("--frame", action="store_true", help="the stayed frame: one soft bar among solid ones, instead")
     parser.add_argument("--oracle", action="store_true", help="the cheapest grid that meets rtol on each design, instead")
     parser.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"], default="consistent",
                         help="the mass matrix of the runs and references")
     args = parser.parse_args()
+    if args.dual:
+        return dual()
     if args.frame:
         return frame()
     if args.richardson:

@@ -113,3 +113,44 @@ fn modified_newton_reaches_the_states_of_newton() {
         "{e}"
     );
 }
+
+/// Each bar's share of the change from one to two elements per bar (dual-weighted
+/// residuals): the shares add up to the change the split run measures, and a share weighted
+/// by the coarse run's adjoint alone would not (the tip deflection is quadratic in the
+/// motion: the trapezoidal weights make the sum exact for a linear scheme).
+#[test]
+fn the_bars_shares_add_up_to_the_change_of_splitting_every_bar() {
+    let (coarse, fine) = (robot_arm(1, 70e9), robot_arm(2, 70e9));
+    let x = vec![0.4; coarse.n_variables()];
+    let s = arm_run(136, NewtonMatrix::Full);
+    let responses = flextop::parse_responses(&coarse, &["tip_deflection".into()]).unwrap();
+    let run = simulate(&fine, Some(&x), &s).unwrap();
+    let states = flextop::States {
+        q: &run.q,
+        qdot: &run.qdot,
+        qddot: &run.qddot,
+        lam: &run.lam,
+    };
+    let shares =
+        flextop::bar_shares(&coarse, &fine, &x, &s, &s.grid(), &responses, states).unwrap();
+    let value = |m: &Model| {
+        let tip = flextop::parse_responses(m, &["tip_deflection".into()]).unwrap();
+        flextop::of_motion(m, &x, &s, &tip, &[], Default::default())
+            .unwrap()
+            .values[0]
+    };
+    let change = value(&fine) - value(&coarse);
+    assert!((shares.values[0] - value(&coarse)).abs() <= 1e-12 * value(&coarse));
+    let sum: f64 = shares.shares.iter().sum();
+    assert!(
+        (sum / change - 1.0).abs() < 1e-2,
+        "shares {sum:e}, change {change:e}"
+    );
+    let first: f64 = shares.first_order.iter().sum();
+    assert!(
+        (first / change - 1.0).abs() > 2e-2,
+        "first order {first:e}, change {change:e}"
+    );
+    let refused = flextop::bar_shares(&coarse, &coarse, &x, &s, &s.grid(), &responses, states);
+    assert!(matches!(refused, Err(Error::Settings(_))));
+}
