@@ -36,6 +36,10 @@ bar (with the trapezoidal weights and with the coarse run's adjoint alone), each
 against the change of splitting it alone, whether the bars of the largest shares are those
 of the largest changes, and what the shares cost. Writes benches/results/shares.md.
 
+With ``--measured``: the same family, only the default rule against ``refine="shares"`` (the
+bars refined where their measured shares of the space error carry 80 % of it), with
+extrapolation in the step; writes benches/results/refinement_shares.md.
+
 With ``--richardson``, instead: whether Richardson's extrapolation in the step pays — on three
 designs an optimizer produces, the error of d on the grid ``rtol = 1e-2`` chose in space,
 raw and extrapolated from the run at twice the step (``f(h) + (f(h) − f(2h))/3``), against
@@ -71,6 +75,8 @@ RTOL = 1e-2
 MODES = {"bars, extrapolated": ("bars", True), "bars": ("bars", False), "uniform": ("uniform", False)}
 """The runs compared: refinement bar by bar with Richardson's extrapolation in the step (the
 default), bar by bar on the grid's own values, and every bar alike (the rule before both)."""
+MEASURED = {"bars, extrapolated": ("bars", True), "shares, extrapolated": ("shares", True)}
+"""With ``--measured``: the default against refinement by measured shares (``refine="shares"``)."""
 
 
 def iterates(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
@@ -111,7 +117,7 @@ def judged(sims: dict[str, flextop.Simulation], x: np.ndarray, ref: tuple[float,
 
 def study(name: str, scene: flextop.Scene | dict, ref: Discretization, designs: dict[str, np.ndarray]) -> list[str]:
     sims = {mode: flextop.Simulation(scene, refine=refine) for mode, (refine, _) in MODES.items()}
-    base = sims["bars"]
+    base = flextop.Simulation(scene)
     h = base.spec["simulation"]["h"]
     rows = []
     for label, x in designs.items():
@@ -205,8 +211,11 @@ def dual_study(label: str, sim: flextop.Simulation, x: np.ndarray, h: float) -> 
     carry = int(np.searchsorted(np.cumsum(np.sort(np.abs(alone))[::-1]), 0.8 * np.abs(alone).sum())) + 1
     ratios = eta[top[:5]] / alone[top[:5]]
     overlap = len(set(top) & set(np.argsort(-np.abs(eta))[:10]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.nan_to_num(sim.model.bar_masses(x) / sim.model.bar_frequencies(x) ** 2)
+    by_need = len(set(top) & set(np.argsort(-need)[:10]))
     return (f"| {label} | {change / d0:+.2e} | {eta.sum() / change:.3f} | {out['first_order'][0].sum() / change:.3f} | "
-            f"{alone.sum() / change:.3f} | {carry} | {ratios.min():.2f}–{ratios.max():.2f} | {overlap}/10 | "
+            f"{alone.sum() / change:.3f} | {carry} | {ratios.min():.2f}–{ratios.max():.2f} | {overlap}/10 | {by_need}/10 | "
             f"{seconds / base_seconds:.1f} |")
 
 
@@ -234,10 +243,10 @@ def dual() -> None:
              "the trapezoidal weights (what `bar_shares` returns) and the coarse run's adjoint alone. Σ alone: each bar "
              "split by itself, summed. 80 %: the bars whose own splitting carries 80 % of Σ|alone|. Share / alone: the five "
              "bars of the largest change alone. Top 10: how many of the ten largest changes alone are among the ten "
-             "largest shares. Cost: `bar_shares` (the split run, two adjoint sweeps) over the fixed run with its "
+             "largest shares, and among the ten of largest need `M/f²` (the a-priori indicator). Cost: `bar_shares` (the split run, two adjoint sweeps) over the fixed run with its "
              "gradient.", "",
              "| design | change of d | Σ shares / change | first order only | Σ alone / change | bars for 80 % | "
-             "share / alone (top 5) | top 10 | cost |", "|---|---|---|---|---|---|---|---|---|", *rows]
+             "share / alone (top 5) | top 10 by share | top 10 by need | cost |", "|---|---|---|---|---|---|---|---|---|---|", *rows]
     (ROOT / "benches" / "results" / "shares.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 
@@ -377,6 +386,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
     parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
+    parser.add_argument("--measured", action="store_true", help="the default rule against refine='shares' only")
     parser.add_argument("--dual", action="store_true", help="the a-posteriori shares against bars split alone, instead")
     parser.add_argument("--frame", action="store_true", help="the stayed frame: one soft bar among solid ones, instead")
     parser.add_argument("--oracle", action="store_true", help="the cheapest grid that meets rtol on each design, instead")
@@ -393,19 +403,24 @@ def main() -> None:
         return shares()
     if args.oracle:
         return oracle()
+    if args.measured:
+        MODES.clear()
+        MODES.update(MEASURED)
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, args.quick)
     designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in ((0.08, 0.12) if not args.quick else ())}
     designs |= iterates(arm, args.quick)
     arm_scene, beam_scene = (with_mass(scene, args.mass) for scene in (flextop.scenes.robot_arm(), flextop.scenes.spun_beam()))
-    options = (" --quick" if args.quick else "") + ("" if args.mass == "consistent" else f" --mass {args.mass}")
+    options = (" --quick" if args.quick else "") + (" --measured" if args.measured else "") + \
+        ("" if args.mass == "consistent" else f" --mass {args.mass}")
     lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{options}` on "
              f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip "
              f"deflection, refined bar by bar (`refine=\"bars\"`, the default) or every bar alike (`\"uniform\"`), "
              f"mass `{args.mass}`.", ""]
     lines += study("robot arm", arm_scene, Discretization(8, 66 * 32), designs)
     lines += study("spun beam", beam_scene, Discretization(32, 120 * 8), beam_designs(flextop.Simulation(beam_scene), args.quick))
-    path = ROOT / "benches" / "results" / ("refinement.md" if args.mass == "consistent" else f"refinement_{args.mass}.md")
+    stem = "refinement_shares" if args.measured else "refinement"
+    path = ROOT / "benches" / "results" / (f"{stem}.md" if args.mass == "consistent" else f"{stem}_{args.mass}.md")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 

@@ -115,7 +115,7 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     return Scene.from_toml(Path(scene)).to_dict()
 
 
-REFINE = ("bars", "uniform")
+REFINE = ("bars", "uniform", "shares")
 """How a run to a tolerance may refine a scene's bars (``Simulation(..., refine=...)``)."""
 
 
@@ -137,7 +137,10 @@ class Simulation:
     refine:
         How a run to a tolerance refines the bars: ``"bars"`` (default) refines those that
         need it most, graded by each bar's own lowest frequency and mass
-        (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike.
+        (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike;
+        ``"shares"`` those whose measured shares of the space error carry 80 % of it
+        (:meth:`bar_shares` on each candidate's companions; BENCHMARKS.md, "Refinement by
+        measured shares").
 
     Raises
     ------
@@ -145,8 +148,8 @@ class Simulation:
         If the scene cannot be built; the message names the entry.
     SettingsError
         If ``rtol`` is not in (0, 1), ``atol`` is negative, ``accuracy`` is not a preset's
-        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is neither ``"bars"``
-        nor ``"uniform"``.
+        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is not ``"bars"``,
+        ``"uniform"`` or ``"shares"``.
     """
 
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,

@@ -3,6 +3,7 @@ against modal analyses of bars alone, the grading of a refinement bar by bar, an
 tolerance on a grid refined bar by bar."""
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
@@ -303,3 +304,22 @@ def test_bar_shares_name_what_they_cannot_measure():
     static = flextop.Simulation(flextop.scenes.static_truss())
     with pytest.raises(SettingsError, match="dynamic"):
         static.bar_shares(None, "compliance")
+
+
+def test_refinement_by_measured_shares_refines_the_soft_stay_alone_and_meets_the_tolerance():
+    """``refine="shares"``: each candidate's bars refined where their shares of the space error
+    (dual-weighted residuals on its companions) carry 80 % of it. On the stayed frame that
+    is the stay and a few bars beside it (6 of 77 measured), and the run meets rtol against
+    the stay at 256 elements; the measured factors survive a checkpoint's tuple."""
+    sim = flextop.Simulation(stayed_frame(), refine="shares")
+    x = np.where(np.array(sim.variable_names) == "stay", 0.1, 1.0)
+    run = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2)
+    d = run.discretization
+    factors = sim.levels.factors(d, x)
+    stay = list(sim.bars.name).index("stay")
+    assert d.factors and factors[stay] == factors.max() >= 64 and (factors > 1).sum() <= 8
+    converged = flextop.Simulation(stayed_frame(256)).run_with_sensitivities(x, "tip_deflection", h=0.6 / (2 * d.steps))
+    assert abs(run.values[0] / converged.values[0] - 1.0) <= 1e-2
+    assert np.linalg.norm(run.gradients - converged.gradients) <= 5e-2 * np.linalg.norm(converged.gradients)
+    assert Discretization(*list(dataclasses.astuple(d))) == d
+    assert "measured shares" in str(d)

@@ -41,6 +41,9 @@ class Simulation(Protocol):
     @property
     def analysis(self) -> str: ...
 
+    @property
+    def n_design(self) -> int: ...
+
     def run_fixed(self, xv: np.ndarray | None, settings: dict[str, Any], *, local_tol: float | None = None,
                   steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Any: ...
 
@@ -98,7 +101,9 @@ class Levels:
         design ``x``: graded by :mod:`.indicator` (a dynamic scene refined by bars) and at
         least ``d.floor``, or ``d.refinement`` on every bar; times ``d.uniform``."""
         base = self._levels[1]
-        graded = base.refine == "bars" and base.analysis == "dynamic"
+        if d.factors:
+            return d.uniform * np.asarray(d.factors, dtype=np.int64)
+        graded = base.refine in ("bars", "shares") and base.analysis == "dynamic"
         return d.uniform * np.maximum(d.floor, indicator.bar_factors(base.model, x, d.refinement, graded))
 
     def at(self, d: Discretization, x: np.ndarray | None) -> Simulation:
@@ -220,6 +225,24 @@ def on_grid(simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Dis
     return extrapolated(*side_by_side(run, lambda: run(h=2 * settings["h"])))
 
 
+def marks(simulation: Simulation, d: Discretization, everywhere: bool, xv: np.ndarray | None, names: Sequence[str],
+          settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """Each bar's factor at candidate ``d`` and the bars to refine (``refine="shares"``): those
+    whose shares of the change of splitting every bar (:func:`indicator.shares` on ``d``'s
+    time companion and its split run, relative to each response, summed over them) carry 80 %
+    of it (:func:`tolerance.dorfler`); ``everywhere``, every bar."""
+    factors = simulation.levels.factors(d.grid, xv)
+    if everywhere:
+        return factors, np.ones(len(factors), bool)
+    duration = t_end(simulation, settings)
+    count = d.half_steps.steps
+    x = np.ones(simulation.n_design) if xv is None else xv
+    shares = indicator.shares(simulation.levels.at(d.half_steps, xv), x, list(names), {**settings, "t_end": duration},
+                              np.full(count, duration / count))
+    relative = sum(np.abs(shares.shares[n]) / max(abs(shares.coarse[n]), 1e-300) for n in names)
+    return factors, tolerance.dorfler(np.asarray(relative))
+
+
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
                  settings: dict[str, Any], gradients: dict[str, str] | None, start: Discretization | None = None,
                  hold_gradients: bool = True, extrapolate: bool = False) -> Any:
@@ -267,8 +290,10 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         return [np.array([out.response(n)]) for n in names] + [np.array([out.peak(n)]) for n in peaked]
 
     tol = tolerance.tolerance_of(names, *wanted, judged is not None, peaked)
+    measured = simulation.refine == "shares" and duration is not None
     d, est = tolerance.resolve(values, start or first(simulation, settings), tol, lambda d: levels.elements(d, xv),
-                               extrapolate=extrapolate and gradients is not None)
+                               extrapolate=extrapolate and gradients is not None,
+                               mark=(lambda d, everywhere: marks(simulation, d, everywhere, xv, names, settings)) if measured else None)
     relative = list(map(float, est.relative))
     errors = dict(zip(names, relative))
     peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))

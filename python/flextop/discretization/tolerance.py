@@ -174,6 +174,12 @@ class Discretization:
     extrapolated: bool = False
     """Whether the values are Richardson's extrapolation ``(4 f(h) − f(2h))/3`` from this
     grid and its half steps rather than this grid's own (:func:`richardson`)."""
+    factors: tuple[int, ...] = ()
+    """Each bar's factor on its elements where measured shares of the error set them
+    (``refine="shares"``, :func:`marked`); empty: graded by the a-priori need."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "factors", tuple(int(f) for f in self.factors))  # a list from a checkpoint
 
     @property
     def grid(self) -> Discretization:
@@ -204,6 +210,12 @@ class Discretization:
 
     def __str__(self) -> str:
         steps = f" and {self.steps} steps" if self.steps else ""
+        if self.factors:
+            refined = sum(f > 1 for f in self.factors)
+            every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
+            extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
+            return (f"up to {max(self.factors)}× the scene's elements on the {refined} of {len(self.factors)} bars that "
+                    f"measured shares of the error refined{every}{steps}{extrapolated}")
         most = "up to " if self.refinement > self.floor else ""  # graded: the bars that need them most
         least = f" (at least {self.floor}×)" if 1 < self.floor < self.refinement else ""
         every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
@@ -329,9 +341,15 @@ class Tolerance:
         return self.rtol * est.size + self.atol
 
 
+Marks = Callable[[Discretization, bool], tuple[np.ndarray, np.ndarray]]
+"""For a candidate whose space error is over budget: each bar's factor on its elements there
+and the bars to refine, from the candidate's measured shares of that error
+(``refine="shares"``), or every bar (the flag: the last marking missed where the error is)."""
+
+
 def resolve(values: Values, first: Discretization, tol: Tolerance,
             elements: Callable[[Discretization], float] = lambda d: d.refinement,
-            extrapolate: bool = False) -> tuple[Discretization, ErrorEstimate]:
+            extrapolate: bool = False, mark: Marks | None = None) -> tuple[Discretization, ErrorEstimate]:
     """The first candidate from ``first`` on whose estimate meets ``rtol·|q| + atol`` for
     every quantity, and that estimate. A :class:`SimulationError` in a run counts as an
     infinite error of that run. A candidate whose time error alone is clearly over budget
@@ -342,7 +360,9 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
     at 2h, 4h and 8h), and where that estimate is the smaller, the candidate returned is
     ``extrapolated`` and the estimate is the extrapolated value's.
 
-    ``elements(d)`` is the number of elements of a candidate over the scene's.
+    ``elements(d)`` is the number of elements of a candidate over the scene's. With
+    ``mark``, a candidate whose space error takes more than half the budget is refined on
+    the bars ``mark`` names (:func:`marked`) instead of by the a-priori grading.
 
     Raises :class:`ToleranceError` after ``MAX_CANDIDATES`` candidates, when the tolerance needs more than ``MAX_REFINEMENT``
     times a bar's elements, ``MAX_ELEMENTS_FACTOR`` times the scene's or ``MAX_STEPS`` steps, naming the quantity and the error
@@ -372,7 +392,11 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
             d = replace(d, floor=before[0].floor)  # the floor missed the error too: back to the bars that need most
         stalled = (before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
                    and verdict.worst_time <= 0.5)
-        refined = _refine(d, verdict, everywhere=not back and (stalled or d.floor > 1))
+        if mark is not None and verdict.estimate is not None and verdict.worst_space > 0.5:
+            missed = before is not None and bool(before[0].factors) and verdict.worst_space > UNMOVED * before[1]
+            refined = marked(d, verdict, *mark(d, missed))
+        else:
+            refined = _refine(d, verdict, everywhere=not back and (stalled or d.floor > 1))
         before = (d, verdict.worst_space)
         if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
@@ -512,6 +536,29 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
         else:
             refinement, floor = 2 * refinement, 2 * floor
     return Discretization(refinement, steps, d.uniform, floor)
+
+
+def marked(d: Discretization, verdict: Verdict, factors: np.ndarray, mask: np.ndarray) -> Discretization:
+    """``d`` with the bars of ``mask`` refined — their ``factors`` doubled once or twice as
+    the space error asks (:func:`_doublings`) — and more steps where the time error takes
+    more than half the budget (as :func:`_refine`)."""
+    refined = tuple(int(f) for f in np.where(mask, factors * 2 ** _doublings(verdict.worst_space), factors))
+    steps = d.steps
+    if verdict.worst_time > 0.5:
+        worst = verdict.worst_time
+        steps *= 2 ** (1 if not math.isfinite(worst) else max(1, math.ceil(math.log2(worst / 0.5) / verdict.time_order)))
+    return Discretization(max(refined), steps, d.uniform, d.floor, factors=refined)
+
+
+def dorfler(shares: np.ndarray, theta: float = 0.8) -> np.ndarray:
+    """The fewest bars whose shares ``|η|`` carry ``theta`` of their sum (Dörfler's marking),
+    as a mask."""
+    order = np.argsort(-shares, kind="stable")
+    carried = np.cumsum(shares[order])
+    count = int(np.searchsorted(carried, theta * carried[-1])) + 1 if carried[-1] > 0 else len(shares)
+    mask = np.zeros(len(shares), bool)
+    mask[order[:count]] = True
+    return mask
 
 
 def _doublings(worst_space: float) -> int:
