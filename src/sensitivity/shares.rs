@@ -24,7 +24,11 @@
 //! ```
 //!
 //! with `μₙ` the adjoint of the coarse residual at `tₙ` ([`super::adjoint::dual_weights`]):
-//! `η_b`, the change bar `b`'s splitting makes, is its **share**.
+//! `η_b`, the change bar `b`'s splitting makes, is its **share**. The weights are the mean of
+//! the adjoints linearized about `u` and about `R u_f` (the trapezoidal rule, exact for a
+//! linear scheme and a quadratic response such as the tip deflection, third order otherwise);
+//! `u`'s alone (`first_order`) is off by 3–74 % on the designs measured and has the wrong
+//! sign where splitting a bar adds a resonance (BENCHMARKS.md, "Each bar's share, measured").
 //!
 //! Left out: the responses' own reading of a split bar (a strain energy or a stress reads
 //! its elements; tip deflections, joint positions and reactions read nodes and joints, alike

@@ -323,3 +323,10 @@ def test_refinement_by_measured_shares_refines_the_soft_stay_alone_and_meets_the
     assert np.linalg.norm(run.gradients - converged.gradients) <= 5e-2 * np.linalg.norm(converged.gradients)
     assert Discretization(*list(dataclasses.astuple(d))) == d
     assert "measured shares" in str(d)
+
+
+def test_dorfler_marks_the_fewest_bars_that_carry_the_fraction_asked():
+    from flextop.discretization.tolerance import dorfler
+    assert dorfler(np.array([1.0, 5.0, 1.0, 3.0])).tolist() == [False, True, False, True]  # 8 of 10
+    assert dorfler(np.array([1.0, 5.0, 1.0, 3.0]), theta=0.9).sum() == 3
+    assert dorfler(np.zeros(3)).all(), "no measured share: every bar"

@@ -225,22 +225,37 @@ def on_grid(simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Dis
     return extrapolated(*side_by_side(run, lambda: run(h=2 * settings["h"])))
 
 
-def marks(simulation: Simulation, d: Discretization, everywhere: bool, xv: np.ndarray | None, names: Sequence[str],
-          settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """Each bar's factor at candidate ``d`` and the bars to refine (``refine="shares"``): those
-    whose shares of the change of splitting every bar (:func:`indicator.shares` on ``d``'s
-    time companion and its split run, relative to each response, summed over them) carry 80 %
-    of it (:func:`tolerance.dorfler`); ``everywhere``, every bar."""
-    factors = simulation.levels.factors(d.grid, xv)
-    if everywhere:
-        return factors, np.ones(len(factors), bool)
-    duration = t_end(simulation, settings)
-    count = d.half_steps.steps
-    x = np.ones(simulation.n_design) if xv is None else xv
-    shares = indicator.shares(simulation.levels.at(d.half_steps, xv), x, list(names), {**settings, "t_end": duration},
-                              np.full(count, duration / count))
-    relative = sum(np.abs(shares.shares[n]) / max(abs(shares.coarse[n]), 1e-300) for n in names)
-    return factors, tolerance.dorfler(np.asarray(relative))
+def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.ndarray, xv: np.ndarray | None,
+          names: Sequence[str], settings: dict[str, Any]) -> Discretization | None:
+    """The refinement after candidate ``d`` (``refine="shares"``), given each quantity's space
+    error over its budget (``ratios``: the responses' values first). Where a value's is over
+    half of it, the bars whose shares of the change of splitting every bar carry 80 % of it
+    (:func:`indicator.shares` on ``d``'s time companion and its split run, relative to each
+    response and summed over them; :func:`tolerance.dorfler`) double their elements, once or
+    twice as the error asks (:func:`tolerance.doublings`). The shares are the values': where a
+    gradient's or a peak's is over, the a-priori grading's refinement doubles too, and no bar
+    has fewer elements than it gives. Where the last marking ``missed`` (the space error did
+    not fall), every bar doubles. ``None`` for a scene with no frame bar."""
+    if "frame" not in simulation.model.bars()["kind"]:
+        return None
+    levels = simulation.levels
+    factors = levels.factors(d.grid, xv)
+    k = 2 ** tolerance.doublings(float(ratios.max()))
+    if missed:
+        return replace(d.grid, refinement=2 * d.refinement, factors=tuple(int(f) for f in 2 * factors))
+    refinement, refined = d.refinement, factors
+    if ratios[:len(names)].max() > 0.5:
+        duration = t_end(simulation, settings)
+        count = d.half_steps.steps
+        x = np.ones(simulation.n_design) if xv is None else xv
+        shares = indicator.shares(levels.at(d.half_steps, xv), x, list(names), {"newton": "modified", **settings,
+                                  "t_end": duration}, np.full(count, duration / count))
+        relative = sum(np.abs(shares.shares[n]) / max(abs(shares.coarse[n]), 1e-300) for n in names)
+        refined = np.where(tolerance.dorfler(np.asarray(relative)), k * factors, factors)
+    if ratios[len(names):].max(initial=0.0) > 0.5:
+        refinement *= k
+        refined = np.maximum(refined, levels.factors(Discretization(refinement, d.steps, floor=d.floor), xv))
+    return replace(d.grid, refinement=refinement, factors=tuple(int(f) for f in refined))
 
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
@@ -293,7 +308,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     measured = simulation.refine == "shares" and duration is not None
     d, est = tolerance.resolve(values, start or first(simulation, settings), tol, lambda d: levels.elements(d, xv),
                                extrapolate=extrapolate and gradients is not None,
-                               mark=(lambda d, everywhere: marks(simulation, d, everywhere, xv, names, settings)) if measured else None)
+                               mark=(lambda d, missed, ratios: marks(simulation, d, missed, ratios, xv, names, settings))
+                               if measured else None)
     relative = list(map(float, est.relative))
     errors = dict(zip(names, relative))
     peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))

@@ -341,10 +341,12 @@ class Tolerance:
         return self.rtol * est.size + self.atol
 
 
-Marks = Callable[[Discretization, bool], tuple[np.ndarray, np.ndarray]]
-"""For a candidate whose space error is over budget: each bar's factor on its elements there
-and the bars to refine, from the candidate's measured shares of that error
-(``refine="shares"``), or every bar (the flag: the last marking missed where the error is)."""
+Marks = Callable[[Discretization, bool, np.ndarray], "Discretization | None"]
+"""For a candidate whose space error is over budget, given whether the last marking missed
+where the error is and each quantity's space error over its budget: the refinement of the
+next candidate (its steps aside), from the candidate's measured shares of that error
+(``refine="shares"``); ``None`` where no frame bar can be refined (the a-priori grading
+then decides)."""
 
 
 def resolve(values: Values, first: Discretization, tol: Tolerance,
@@ -392,13 +394,20 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
             d = replace(d, floor=before[0].floor)  # the floor missed the error too: back to the bars that need most
         stalled = (before is not None and d.refinement > before[0].refinement and verdict.worst_space > STALLED * before[1]
                    and verdict.worst_time <= 0.5)
+        marks = None
         if mark is not None and verdict.estimate is not None and verdict.worst_space > 0.5:
             missed = before is not None and bool(before[0].factors) and verdict.worst_space > UNMOVED * before[1]
-            refined = marked(d, verdict, *mark(d, missed))
+            est = verdict.estimate
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratios = np.where(est.space == 0.0, 0.0, est.space / tol.budget(est))
+            marks = mark(d, missed, ratios)
+        if marks is not None:
+            refined = replace(marks, steps=_more_steps(d.steps, verdict))
         else:
             refined = _refine(d, verdict, everywhere=not back and (stalled or d.floor > 1))
         before = (d, verdict.worst_space)
-        if refined.refinement > MAX_REFINEMENT or refined.steps > MAX_STEPS or elements(refined) > MAX_ELEMENTS_FACTOR:
+        if max((refined.refinement, *refined.factors)) > MAX_REFINEMENT or refined.steps > MAX_STEPS \
+                or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
         d = refined
     raise ToleranceError(f"no discretization met the tolerance within {MAX_CANDIDATES} candidates (the last: {d})")
@@ -520,17 +529,15 @@ def _ratio(error: np.ndarray, budget: np.ndarray) -> float:
 def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Discretization:
     """More steps where the time error takes more than half the budget (by the power of two
     the rate of the values judged asks for, at least one doubling), a refinement doubled
-    once or twice (:func:`_doublings`) where the space error does, or, ``everywhere``, the
+    once or twice (:func:`doublings`) where the space error does, or, ``everywhere``, the
     floor of every bar's factor doubled (up to the refinement; then both)."""
     steps, refinement, floor = d.steps, d.refinement, d.floor
     worst_time, worst_space = verdict.worst_time, verdict.worst_space
     if worst_time > 0.5 or (worst_space <= 0.5 and steps):
-        rate = verdict.time_order
-        doublings = 1 if not math.isfinite(worst_time) else max(1, math.ceil(math.log2(worst_time / 0.5) / rate))
-        steps *= 2**doublings
+        steps = _more_steps(steps, verdict) if worst_time > 0.5 else 2 * steps
     if worst_space > 0.5 or not steps:
         if not everywhere:
-            refinement *= 2 ** _doublings(worst_space)
+            refinement *= 2 ** doublings(worst_space)
         elif floor < refinement:
             floor *= 2
         else:
@@ -538,16 +545,13 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
     return Discretization(refinement, steps, d.uniform, floor)
 
 
-def marked(d: Discretization, verdict: Verdict, factors: np.ndarray, mask: np.ndarray) -> Discretization:
-    """``d`` with the bars of ``mask`` refined — their ``factors`` doubled once or twice as
-    the space error asks (:func:`_doublings`) — and more steps where the time error takes
-    more than half the budget (as :func:`_refine`)."""
-    refined = tuple(int(f) for f in np.where(mask, factors * 2 ** _doublings(verdict.worst_space), factors))
-    steps = d.steps
-    if verdict.worst_time > 0.5:
-        worst = verdict.worst_time
-        steps *= 2 ** (1 if not math.isfinite(worst) else max(1, math.ceil(math.log2(worst / 0.5) / verdict.time_order)))
-    return Discretization(max(refined), steps, d.uniform, d.floor, factors=refined)
+def _more_steps(steps: int, verdict: Verdict) -> int:
+    """``steps`` times the power of two that brings a time error over half the budget under
+    it at the rate of the values judged (at least one doubling)."""
+    worst = verdict.worst_time
+    if worst <= 0.5:
+        return steps
+    return steps * 2 ** (1 if not math.isfinite(worst) else max(1, math.ceil(math.log2(worst / 0.5) / verdict.time_order)))
 
 
 def dorfler(shares: np.ndarray, theta: float = 0.8) -> np.ndarray:
@@ -561,7 +565,7 @@ def dorfler(shares: np.ndarray, theta: float = 0.8) -> np.ndarray:
     return mask
 
 
-def _doublings(worst_space: float) -> int:
+def doublings(worst_space: float) -> int:
     """Doublings of the refinement that bring a space error ``worst_space`` times the
     budget under half of it at the second order the bars converge at (3.5–4.5× per
     doubling, measured on clamped bars): at least one, at most two, since the refined
