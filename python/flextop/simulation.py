@@ -138,9 +138,12 @@ class Simulation:
         How a run to a tolerance refines the bars: ``"bars"`` (default) refines those that
         need it most, graded by each bar's own lowest frequency and mass
         (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike;
-        ``"shares"`` those whose measured shares of the space error carry 80 % of it
-        (:meth:`bar_shares` on each candidate's companions; BENCHMARKS.md, "Refinement by
-        measured shares").
+        ``"shares"`` (opt-in) those whose measured shares of a value's space error carry 80 %
+        of it (:meth:`bar_shares` on each candidate's time companion), the a-priori grading a
+        floor where a gradient's error is over: over the arm's 29 designs a median 13 % less
+        time and 27 % fewer unknowns than ``"bars"``, 7 % more in total, and one
+        ``ToleranceError`` where ``"bars"`` passes (BENCHMARKS.md, "Refinement by measured
+        shares").
 
     Raises
     ------

@@ -36,10 +36,16 @@ on the same steps and two adjoint sweeps of the scene as it is. The split run's 
 the scene's nodes satisfy the scene's own scheme but for a residual that is a sum over the
 bars (each bar's terms on its nodes, minus its halves'); weighted by the adjoint (the
 trapezoidal rule, the adjoint linearized about both runs), it is the change to third order
-(``src/sensitivity/shares.rs``). Measured (``python benches/shares.py``): the shares add up
-to the measured change within 1 % on the stayed frame, the spun beam and the arm, and a bar's
-share is within 15–20 % of the change its splitting alone makes on the bars that matter
-(the stay exactly, where the coarse run's adjoint alone gets even its sign wrong).
+(``src/sensitivity/shares.rs``). Measured (``python benches/refinement.py --dual``): the
+shares add up to the measured change within 0.7 % on the stayed frame, the spun beam and
+four of five arm designs, and a bar's share is within 10 % of the change its splitting
+alone makes on the five bars that matter most where the bars act alone (0.90–1.07; 0.81 at
+the arm's uniform 0.4, whose bars split one by one sum to 1.28 times the change); on the arm
+at uniform 0.1, where every bar is near
+its own frequency and the bars' changes do not add (splitting them one by one sums to −1.8
+times splitting all), the sum is 1.32 times the change. The coarse run's adjoint alone gets
+even the sign wrong on the stayed frame's stay.
+``refine="shares"`` refines by them (:func:`flextop.discretization.refinement.marks`).
 """
 
 from __future__ import annotations
