@@ -95,17 +95,17 @@ pub fn bar_shares(
         )
         .into());
     }
-    let rows = (grid.len() + 1) * fine.n_dofs();
-    let finite = |v: &[f64]| v.len() == rows && v.iter().all(|x| x.is_finite());
-    if !(finite(fine_run.q) && finite(fine_run.qdot) && finite(fine_run.qddot)) {
-        let what = format!(
-            "{} finite rows of {} coordinates",
-            grid.len() + 1,
-            fine.n_dofs()
-        );
-        return Err(
-            SettingsError::new("fine run", format!("needs {what} in q, qdot and qddot")).into(),
-        );
+    let times = grid.len() + 1;
+    let finite =
+        |v: &[f64], width: usize| v.len() == times * width && v.iter().all(|x| x.is_finite());
+    let (n_f, n_c) = (fine.n_dofs(), coarse.n_constraints());
+    let states = [fine_run.q, fine_run.qdot, fine_run.qddot];
+    if !(states.iter().all(|v| finite(v, n_f))
+        && finite(fine_run.lam, n_c)
+        && fine.n_constraints() == n_c)
+    {
+        let what = format!("{times} finite rows of {n_f} coordinates in q, qdot and qddot and of {n_c} multipliers in lam");
+        return Err(SettingsError::new("fine run", format!("needs {what}")).into());
     }
     let map = NodeMap::new(coarse, fine)?;
     let n_q = coarse.n_dofs();
@@ -117,13 +117,14 @@ pub fn bar_shares(
         lam: fine_run.lam,
     };
     let densities = || coarse.densities(Some(x));
-    let (values, at_coarse) = dual_weights(coarse, densities()?, settings, grid, responses, None)?;
-    let (_, at_fine) = dual_weights(coarse, densities()?, settings, grid, responses, Some(path))?;
+    let (values, about_coarse) =
+        dual_weights(coarse, densities()?, settings, grid, responses, None)?;
+    let (_, about_fine) =
+        dual_weights(coarse, densities()?, settings, grid, responses, Some(path))?;
     let residuals = Residuals::new(coarse, fine, x, settings)?;
     let (n_r, n_b) = (responses.len(), coarse.bars.len());
     let mut shares = vec![0.0; n_r * n_b];
     let mut first_order = vec![0.0; n_r * n_b];
-    let n_f = fine.n_dofs();
     let mut mu = vec![0.0; n_r * n_q];
     for (n, &t) in grid.times().iter().enumerate() {
         crate::interrupt::poll()?;
@@ -138,13 +139,19 @@ pub fn bar_shares(
         let w = n * n_r * n_q..(n + 1) * n_r * n_q;
         for ((m, c), f) in mu
             .iter_mut()
-            .zip(&at_coarse[w.clone()])
-            .zip(&at_fine[w.clone()])
+            .zip(&about_coarse[w.clone()])
+            .zip(&about_fine[w.clone()])
         {
             *m = 0.5 * (c + f);
         }
         residuals.add_shares(&map, &coarse_at, &fine_at, &mu, &mut shares);
-        residuals.add_shares(&map, &coarse_at, &fine_at, &at_coarse[w], &mut first_order);
+        residuals.add_shares(
+            &map,
+            &coarse_at,
+            &fine_at,
+            &about_coarse[w],
+            &mut first_order,
+        );
     }
     Ok(Shares {
         values,

@@ -297,10 +297,12 @@ def test_the_bars_shares_of_the_spun_beam_add_up_and_match_each_bar_split_alone(
 
 def test_bar_shares_name_what_they_cannot_measure():
     sim = flextop.Simulation(flextop.scenes.spun_beam())
+    q, lam = np.zeros((2, sim.model.n_dofs)), np.zeros((2, sim.model.n_constraints))
     with pytest.raises(SettingsError, match="fine model"):
-        flextop._core.bar_shares(sim.model, sim.model, np.ones(sim.n_design), ["tip_deflection"], {}, [0.01],
-                                 np.zeros((2, sim.model.n_dofs)), np.zeros((2, sim.model.n_dofs)), np.zeros((2, sim.model.n_dofs)),
-                                 np.zeros((2, 1)))
+        flextop._core.bar_shares(sim.model, sim.model, np.ones(sim.n_design), ["tip_deflection"], {}, [0.01], q, q, q, lam)
+    with pytest.raises(SettingsError, match="multipliers in lam"):
+        flextop._core.bar_shares(sim.model, sim.levels[2].model, np.ones(sim.n_design), ["tip_deflection"], {}, [0.01],
+                                 *(np.zeros((2, sim.levels[2].model.n_dofs)),) * 3, lam[:, :-1])
     static = flextop.Simulation(flextop.scenes.static_truss())
     with pytest.raises(SettingsError, match="dynamic"):
         static.bar_shares(None, "compliance")
