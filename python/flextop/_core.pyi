@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["Model", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
-           "rigid_positions", "prolong", "section_forces", "cell_fields", "response_kinds", "size_limits", "cancel_running"]
+           "rigid_positions", "prolong", "bar_shares", "section_forces", "cell_fields", "response_kinds", "size_limits", "cancel_running"]
 
 _F = npt.NDArray[np.float64]
 

@@ -135,6 +135,13 @@ def evaluate_responses(arm: _core.Model):
                                     qdot=run["qdot"], settings={"mass": "consistent"})
 
 
+def bar_shares(arm: _core.Model):
+    fine = flextop.Simulation(flextop.scenes.robot_arm(t_end=0.1, h=0.05)).levels[2].model
+    x, steps = np.full(arm.n_design, 0.5), [0.05, 0.05]
+    run = _core.simulate(fine, x, steps=steps)
+    return _core.bar_shares(arm, fine, x, ["tip_deflection"], {}, steps, run["q"], run["qdot"], run["qddot"], run["lam"])
+
+
 CALLS = {
     "Model.bars": lambda arm, truss: arm.bars(),
     "Model.elements": lambda arm, truss: arm.elements(),
@@ -148,6 +155,7 @@ CALLS = {
     "evaluate_responses": lambda arm, truss: evaluate_responses(arm),
     "linearize": lambda arm, truss: _core.linearize(arm),
     "natural_modes": lambda arm, truss: _core.natural_modes(truss, 2, np.full(truss.n_design, 0.5)),
+    "bar_shares": lambda arm, truss: bar_shares(arm),
 }
 """A call on a small scene of every function and method of the stub that returns a dict."""
 
