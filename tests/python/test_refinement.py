@@ -332,3 +332,12 @@ def test_dorfler_marks_the_fewest_bars_that_carry_the_fraction_asked():
     assert dorfler(np.array([1.0, 5.0, 1.0, 3.0])).tolist() == [False, True, False, True]  # 8 of 10
     assert dorfler(np.array([1.0, 5.0, 1.0, 3.0]), theta=0.9).sum() == 3
     assert dorfler(np.zeros(3)).all(), "no measured share: every bar"
+
+
+def test_more_steps_keep_the_bars_measured_factors():
+    """After a marking, a candidate whose time error alone is over budget gets more steps on
+    the same bars (before, the measured factors fell back to the a-priori grading)."""
+    from flextop.discretization.tolerance import Verdict, _refine
+    d = Discretization(2, 64, factors=(1, 4, 2))
+    refined = _refine(d, Verdict(None, worst_time=3.0, worst_space=0.0))
+    assert refined.factors == d.factors and refined.steps > d.steps

@@ -176,7 +176,8 @@ class Discretization:
     grid and its half steps rather than this grid's own (:func:`richardson`)."""
     factors: tuple[int, ...] = ()
     """Each bar's factor on its elements where measured shares of the error set them
-    (``refine="shares"``, :func:`marked`); empty: graded by the a-priori need."""
+    (``refine="shares"``, :func:`flextop.discretization.refinement.marks`); empty: graded
+    by the a-priori need."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "factors", tuple(int(f) for f in self.factors))  # a list from a checkpoint
@@ -363,8 +364,8 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
     ``extrapolated`` and the estimate is the extrapolated value's.
 
     ``elements(d)`` is the number of elements of a candidate over the scene's. With
-    ``mark``, a candidate whose space error takes more than half the budget is refined on
-    the bars ``mark`` names (:func:`marked`) instead of by the a-priori grading.
+    ``mark``, a candidate whose space error takes more than half the budget is refined as
+    ``mark`` says (:class:`Marks`) instead of by the a-priori grading.
 
     Raises :class:`ToleranceError` after ``MAX_CANDIDATES`` candidates, when the tolerance needs more than ``MAX_REFINEMENT``
     times a bar's elements, ``MAX_ELEMENTS_FACTOR`` times the scene's or ``MAX_STEPS`` steps, naming the quantity and the error
@@ -530,7 +531,8 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
     """More steps where the time error takes more than half the budget (by the power of two
     the rate of the values judged asks for, at least one doubling), a refinement doubled
     once or twice (:func:`doublings`) where the space error does, or, ``everywhere``, the
-    floor of every bar's factor doubled (up to the refinement; then both)."""
+    floor of every bar's factor doubled (up to the refinement; then both). Measured
+    ``factors`` are kept (only the steps change where a marking decides the space)."""
     steps, refinement, floor = d.steps, d.refinement, d.floor
     worst_time, worst_space = verdict.worst_time, verdict.worst_space
     if worst_time > 0.5 or (worst_space <= 0.5 and steps):
@@ -542,7 +544,7 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
             floor *= 2
         else:
             refinement, floor = 2 * refinement, 2 * floor
-    return Discretization(refinement, steps, d.uniform, floor)
+    return Discretization(refinement, steps, d.uniform, floor, factors=d.factors)
 
 
 def _more_steps(steps: int, verdict: Verdict) -> int:
