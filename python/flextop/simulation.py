@@ -140,10 +140,10 @@ class Simulation:
         (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike;
         ``"shares"`` (opt-in) those whose measured shares of a value's space error carry 80 %
         of it (:meth:`bar_shares` on each candidate's time companion), the a-priori grading a
-        floor where a gradient's error is over: over the arm's 29 designs a median 13 % less
-        time and 27 % fewer unknowns than ``"bars"``, 7 % more in total, and one
-        ``ToleranceError`` where ``"bars"`` passes (BENCHMARKS.md, "Refinement by measured
-        shares").
+        floor where a gradient's error is over: over the arm's 29 designs the median cost of
+        ``"bars"``, 27 % fewer unknowns, 10 % more time in total, and one ``ToleranceError``
+        where ``"bars"`` passes; in the arm's optimization to ``rtol``, 1.3–2.8× less time
+        (BENCHMARKS.md, "Refinement by measured shares", "Optimization to a tolerance").
 
     Raises
     ------

@@ -126,7 +126,7 @@ class TopologyProblem(Problem):
     every evaluation on it is too: the runs at h and 2h combined, gradients alike. On a
     :class:`Simulation` made with ``refine="shares"`` the grid refines the bars whose measured
     shares of the error carry it (opt-in): the arm's tip-deflection optimization from the
-    one-element optimum took 70.3 s against 105.3 s at ``rtol=1e-2`` and 491.6 s against
+    one-element optimum took 86.6 s against 109.9 s at ``rtol=1e-2`` and 518.4 s against
     1441.3 s at 1e-3, to designs within 0.9 % in true d (BENCHMARKS.md, "Optimization to a
     tolerance"; one problem measured). ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
