@@ -67,7 +67,8 @@ pub use modal::{natural_modes, Modes};
 pub use response::aggregation::Aggregation;
 pub use response::criterion::Criterion;
 pub use response::{Kind as ResponseKind, Response};
-pub use sensitivity::shares::{bar_shares, Shares, States};
+pub use sensitivity::adjoint::Path;
+pub use sensitivity::shares::{bar_shares, Shares};
 pub use sensitivity::{
     evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
     Evaluated, Recorded, Sensitivities, Timings,

@@ -16,7 +16,8 @@ use crate::error::{Error, SettingsError};
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Analysis, Model};
 use crate::mechanism::rigid::rigid_positions as rigid;
-use crate::sensitivity::shares::{bar_shares as bar_shares_of, States};
+use crate::sensitivity::adjoint::Path;
+use crate::sensitivity::shares::bar_shares as bar_shares_of;
 use crate::sensitivity::{self, parse_parameters, parse_responses};
 use crate::solver::prolongation::Prolongation;
 use crate::solver::simulation::{
@@ -155,7 +156,7 @@ pub fn bar_shares<'py>(
     let (q, qdot, qddot, lam) = (rows(&q), rows(&qdot), rows(&qddot), rows(&lam));
     let n_b = c.bars.len();
     let out = detached(py, move || {
-        let states = States {
+        let states = Path {
             q: &q,
             qdot: &qdot,
             qddot: &qddot,

@@ -47,19 +47,6 @@ use crate::solver::assembly::Assembler;
 use crate::solver::prolongation::Prolongation;
 use crate::time_grid::TimeGrid;
 
-/// A run's states at every time of its grid, one row of the model's coordinates per time.
-#[derive(Debug, Clone, Copy)]
-pub struct States<'a> {
-    /// `qₙ`.
-    pub q: &'a [f64],
-    /// `q̇ₙ`.
-    pub qdot: &'a [f64],
-    /// `q̈ₙ`.
-    pub qddot: &'a [f64],
-    /// `λₙ`, one row of the multipliers per time.
-    pub lam: &'a [f64],
-}
-
 /// The coarse run's response values and each bar's share of their change.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shares {
@@ -86,7 +73,7 @@ pub fn bar_shares(
     settings: &DynamicSettings,
     grid: &TimeGrid,
     responses: &[Response],
-    fine_run: States<'_>,
+    fine_run: Path<'_>,
 ) -> Result<Shares, Error> {
     if coarse.initial == Initial::Equilibrium {
         return Err(SettingsError::new(
@@ -125,7 +112,6 @@ pub fn bar_shares(
     let (n_r, n_b) = (responses.len(), coarse.bars.len());
     let mut shares = vec![0.0; n_r * n_b];
     let mut first_order = vec![0.0; n_r * n_b];
-    let mut mu = vec![0.0; n_r * n_q];
     for (n, &t) in grid.times().iter().enumerate() {
         crate::interrupt::poll()?;
         let fine_at = row_at(
@@ -137,21 +123,14 @@ pub fn bar_shares(
         );
         let coarse_at = row_at(path.q, path.qdot, path.qddot, n * n_q..(n + 1) * n_q, t);
         let w = n * n_r * n_q..(n + 1) * n_r * n_q;
-        for ((m, c), f) in mu
-            .iter_mut()
-            .zip(&about_coarse[w.clone()])
-            .zip(&about_fine[w.clone()])
-        {
-            *m = 0.5 * (c + f);
-        }
-        residuals.add_shares(&map, &coarse_at, &fine_at, &mu, &mut shares);
-        residuals.add_shares(
-            &map,
-            &coarse_at,
-            &fine_at,
-            &about_coarse[w],
-            &mut first_order,
-        );
+        let (own, about) = (&about_coarse[w.clone()], &about_fine[w]);
+        residuals.for_each_term(&map, &coarse_at, &fine_at, |b, dof, value| {
+            for k in 0..n_r {
+                let (i, j) = (k * n_q + dof, k * n_b + b);
+                shares[j] += 0.5 * (own[i] + about[i]) * value;
+                first_order[j] += own[i] * value;
+            }
+        });
     }
     Ok(Shares {
         values,
@@ -177,12 +156,13 @@ fn row_at<'s>(
     }
 }
 
-/// Which coarse node each fine node is (`None` for the middles), and which coarse bar each
-/// fine bar is.
+/// Which coarse node each fine node is (`None` for the middles), and the bars matched by name.
 struct NodeMap {
     coarse_node: Vec<Option<usize>>,
     /// Each coarse bar's index among the fine model's bars.
     fine_bar: Vec<usize>,
+    /// Each fine bar's index among the coarse model's.
+    coarse_bar: Vec<Option<usize>>,
 }
 
 impl NodeMap {
@@ -194,7 +174,12 @@ impl NodeMap {
             .map(|bar| fine.bars.iter().position(|b| b.name == bar.name))
             .collect::<Option<Vec<_>>>()
             .ok_or_else(|| SettingsError::new("fine model", "misses a bar of the coarse one"))?;
+        let mut coarse_bar = vec![None; fine.bars.len()];
+        for (b, &f) in fine_bar.iter().enumerate() {
+            coarse_bar[f] = Some(b);
+        }
         Ok(Self {
+            coarse_bar,
             coarse_node: (0..fine.nodes.len())
                 .map(|k| prolongation.coarse_node(k))
                 .collect(),
@@ -216,7 +201,7 @@ struct Restricted {
 }
 
 impl Restricted {
-    fn of(map: &NodeMap, fine: States<'_>, n_q: usize, times: usize) -> Self {
+    fn of(map: &NodeMap, fine: Path<'_>, n_q: usize, times: usize) -> Self {
         let n_f = fine.q.len() / times;
         let take = |all: &[f64]| {
             let mut out = vec![0.0; n_q * times];
@@ -261,99 +246,63 @@ impl<'m> Residuals<'m> {
         })
     }
 
-    /// Adds `μₙ,ₖᵀ Δg_b,ₙ` of every response `k` and frame bar `b` to `shares`.
-    fn add_shares(
+    /// Calls `add(b, i, v)` for each term `v` of `Δg_b` on coarse coordinate `i`: bar `b`'s
+    /// elements and end coupling in the coarse model at `at`, less its halves' in the fine
+    /// model at `at_fine` on the coarse nodes. A truss bar is one element in both.
+    fn for_each_term(
         &self,
         map: &NodeMap,
         at: &At<'_>,
         at_fine: &At<'_>,
-        mu: &[f64],
-        shares: &mut [f64],
+        mut add: impl FnMut(usize, usize, f64),
     ) {
         let (coarse, fine) = (self.coarse.model, self.fine.model);
-        let (n_q, n_b) = (coarse.n_dofs(), coarse.bars.len());
+        let (dc, df) = (&self.coarse.densities, &self.fine.densities);
         for (b, bar) in coarse.bars.iter().enumerate() {
             if bar.kind == Kind::Truss {
-                continue; // one element in both models
+                continue;
             }
-            let mut add = |dof: usize, value: f64| {
-                for (k, column) in mu.chunks(n_q).enumerate() {
-                    shares[k * n_b + b] += column[dof] * value;
-                }
-            };
             for e in bar.elements.clone() {
-                let d = &self.coarse.densities;
                 let g = self.coarse_terms.element_residual(
                     &self.coarse,
                     e,
                     at,
-                    d.mass[e],
-                    d.stiffness[e],
+                    dc.mass[e],
+                    dc.stiffness[e],
                 );
                 coarse.elements[e]
                     .dofs()
                     .iter()
                     .zip(g.iter())
-                    .for_each(|(&i, &v)| add(i, v));
+                    .for_each(|(&i, &v)| add(b, i, v));
             }
             for e in fine.bars[map.fine_bar[b]].elements.clone() {
-                let d = &self.fine.densities;
                 let g = self.fine_terms.element_residual(
                     &self.fine,
                     e,
                     at_fine,
-                    d.mass[e],
-                    d.stiffness[e],
+                    df.mass[e],
+                    df.stiffness[e],
                 );
                 for (&i, &v) in fine.elements[e].dofs().iter().zip(g.iter()) {
                     if let Some(c) = map.coarse_dof(i) {
-                        add(c, -v);
+                        add(b, c, -v);
                     }
                 }
             }
         }
-        self.add_couplings(map, at, at_fine, mu, shares);
-    }
-
-    /// The bars' end couplings (`mass = "bar_lumped"`), whose coefficient differs between
-    /// the models.
-    fn add_couplings(
-        &self,
-        map: &NodeMap,
-        at: &At<'_>,
-        at_fine: &At<'_>,
-        mu: &[f64],
-        shares: &mut [f64],
-    ) {
+        // The bars' end couplings (`mass = "bar_lumped"`), whose coefficient differs.
         let kind = self.coarse.mass_kind;
-        let (coarse, fine) = (self.coarse.model, self.fine.model);
-        let (n_q, n_b) = (coarse.n_dofs(), coarse.bars.len());
-        let mut add = |b: usize, dof: usize, value: f64| {
-            for (k, column) in mu.chunks(n_q).enumerate() {
-                shares[k * n_b + b] += column[dof] * value;
-            }
-        };
         for bar in coarse.bar_couplings(kind) {
             let b = coarse.elements[bar.element].bar;
-            let g = PseudoLoads::coupling_residual(
-                bar,
-                &self.coarse,
-                at,
-                self.coarse.densities.mass[bar.element],
-            );
+            let g = PseudoLoads::coupling_residual(bar, &self.coarse, at, dc.mass[bar.element]);
             bar.dofs().iter().zip(g).for_each(|(&i, v)| add(b, i, v));
         }
         for bar in fine.bar_couplings(kind) {
-            let fine_b = fine.elements[bar.element].bar;
-            let Some(b) = map.fine_bar.iter().position(|&f| f == fine_b) else {
+            let Some(b) = map.coarse_bar[fine.elements[bar.element].bar] else {
                 continue;
             };
-            let g = PseudoLoads::coupling_residual(
-                bar,
-                &self.fine,
-                at_fine,
-                self.fine.densities.mass[bar.element],
-            );
+            let g = PseudoLoads::coupling_residual(bar, &self.fine, at_fine, df.mass[bar.element]);
             for (&i, v) in bar.dofs().iter().zip(g) {
                 if let Some(c) = map.coarse_dof(i) {
                     add(b, c, -v);

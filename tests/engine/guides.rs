@@ -125,7 +125,7 @@ fn the_bars_shares_add_up_to_the_change_of_splitting_every_bar() {
     let s = arm_run(136, NewtonMatrix::Full);
     let responses = flextop::parse_responses(&coarse, &["tip_deflection".into()]).unwrap();
     let run = simulate(&fine, Some(&x), &s).unwrap();
-    let states = flextop::States {
+    let states = flextop::Path {
         q: &run.q,
         qdot: &run.qdot,
         qddot: &run.qddot,
