@@ -70,8 +70,8 @@ pub use response::{Kind as ResponseKind, Response};
 pub use sensitivity::adjoint::Path;
 pub use sensitivity::shares::{bar_shares, Shares};
 pub use sensitivity::{
-    evaluate, of_equilibrium, of_motion, of_motion_on, parse_parameters, parse_responses,
-    Evaluated, Recorded, Sensitivities, Timings,
+    evaluate, of_equilibrium, of_motion, of_motion_about, of_motion_on, parse_parameters,
+    parse_responses, Evaluated, Recorded, Sensitivities, Timings,
 };
 pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,

@@ -13,7 +13,7 @@ import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -187,17 +187,24 @@ class _Run:
 
     def _value_and_peak(self, name: str) -> tuple[float, float | None]:
         """The value of response ``name`` on this run's states and its peak (an aggregate's
-        largest point value; ``None`` for other responses). A static result is one state
-        whose loads act at its ``raw["time"]``; a dynamic one has a state per time."""
+        largest point value; ``None`` for other responses)."""
+        values, peaks = self.values_and_peaks([name])
+        return float(values[0]), peaks[0]
+
+    def values_and_peaks(self, names: Sequence[str]) -> tuple[np.ndarray, list[float | None]]:
+        """The values of responses ``names`` on this run's states, in one pass, and their
+        peaks (an aggregate's largest point value; ``None`` for other responses). A static
+        result is one state whose loads act at its ``raw["time"]``; a dynamic one has a
+        state per time."""
         time = np.atleast_1d(self.raw["time"])
         times, load_time = (np.zeros(1), float(time[0])) if self.simulation.analysis == "static" else (time, 0.0)
         qdot = getattr(self, "qdot", None)
         kind = self.settings.get("mass") or self.simulation.spec.get("simulation", {}).get("mass")
         mass = {"mass": kind} if kind else None
         out = _core.evaluate_responses(self.simulation.model, self.x, np.atleast_2d(self.q), np.atleast_2d(self.lam),
-                                       list(map(float, times)), load_time, [name],
+                                       list(map(float, times)), load_time, list(names),
                                        None if qdot is None else np.atleast_2d(qdot), mass)
-        return float(out["values"][0]), out["peaks"][0]
+        return np.asarray(out["values"], dtype=float), list(out["peaks"])
 
     def peak(self, name: str) -> float:
         """The largest point value of an aggregate response (``"stress"``, ``"shear"``,

@@ -462,18 +462,33 @@ class Simulation:
         tasks = [(f"design {k}", Task(self.spec, x, names, gradients, options, self.options)) for k, x in enumerate(vectors)]
         return execution.run_all(perform, tasks, executor, chunksize=chunksize)
 
-    def sensitivities_fixed(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None) -> Sensitivities:
+    def sensitivities_fixed(self, xv: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray | None = None,
+                            about: Results | None = None) -> Sensitivities:
         """Responses ``names`` and their exact gradients on the scene as it is (its steps, or
         the given ``steps``), ``settings`` as the engine takes them (with ``method``,
-        ``memory`` and ``parameters``): the primitive of :meth:`run_with_sensitivities`."""
+        ``memory`` and ``parameters``): the primitive of :meth:`run_with_sensitivities`.
+        With ``about``, this scene's :meth:`run_fixed` of ``xv`` with these settings and
+        steps, by the adjoint method about its states: the run is not made again (a
+        ``SettingsError`` if it ran another design or other settings)."""
         grid = None if steps is None else [float(h) for h in steps]
         settings = dict(settings)
         parameters = settings.pop("parameters", [])
-        out = _core.run_with_sensitivities(self.model, xv, names, settings, grid, parameters)
+        path = None if about is None else self._states_of(about, xv, settings)
+        out = _core.run_with_sensitivities(self.model, xv, names, settings, grid, parameters, path)
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
         peaks = {n: p for n, p in zip(names, out["peaks"]) if p is not None}
         return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps, peaks=peaks,
                              parameters=tuple(parameters), parameter_gradients=out["parameter_gradients"])
+
+    def _states_of(self, run: Results, xv: np.ndarray | None, settings: dict[str, Any]) -> tuple[np.ndarray, ...]:
+        """The states of ``run``, checked to be this scene's run of ``xv`` with ``settings``
+        (``method`` and ``memory`` aside)."""
+        same = {k: v for k, v in settings.items() if k not in ("method", "memory")}
+        design = (run.x is None) == (xv is None) and (xv is None or np.array_equal(run.x, xv))
+        if not isinstance(run, Results) or run.simulation is not self or not design or run.settings != same:
+            raise SettingsError("about must be this scene's run of the same design with the same settings: "
+                                "its gradients are those of the run it holds")
+        return run.q, run.qdot, run.qddot, run.lam
 
     # -- runs to a tolerance ------------------------------------------------------------
 

@@ -136,6 +136,7 @@ impl Clusters {
 
     /// Constraint values `Φ(ρ, t)` on the cluster coordinates and their Jacobian: each
     /// row at the nodes' coordinates `q(ρ)`, by the chain rule through [`Clusters::dof_map`].
+    /// Only the nodes the rows act on are placed: the rows read no other.
     fn constraints(
         &self,
         model: &Model,
@@ -143,9 +144,13 @@ impl Clusters {
         t: f64,
     ) -> (DVector<f64>, DMatrix<f64>) {
         let n_c = model.n_constraints();
-        let q: Vec<f64> = (0..model.n_dofs())
-            .map(|d| self.dof_map(model, rho, d).0)
-            .collect();
+        let mut q = vec![0.0; model.n_dofs()];
+        for &dof in model.row_dofs.dofs() {
+            let node = dof - dof % 3;
+            for (d, value) in q.iter_mut().enumerate().skip(node).take(3) {
+                *value = self.dof_map(model, rho, d).0;
+            }
+        }
         let mut phi = DVector::zeros(n_c);
         let mut jac = DMatrix::zeros(n_c, 3 * self.len());
         for i in 0..n_c {

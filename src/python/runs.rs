@@ -19,6 +19,7 @@ use crate::mechanism::rigid::rigid_positions as rigid;
 use crate::sensitivity::adjoint::Path;
 use crate::sensitivity::shares::bar_shares as bar_shares_of;
 use crate::sensitivity::{self, parse_parameters, parse_responses};
+use crate::settings::Method;
 use crate::solver::prolongation::Prolongation;
 use crate::solver::simulation::{
     simulate as integrate, simulate_adaptive, simulate_guided, simulate_on,
@@ -152,7 +153,6 @@ pub fn bar_shares<'py>(
         .map_err(Error::from)?;
     let grid = grid(steps)?;
     let x = x.as_slice()?.to_vec();
-    let rows = |a: &PyReadonlyArray2<'py, f64>| a.as_array().iter().copied().collect::<Vec<f64>>();
     let (q, qdot, qddot, lam) = (rows(&q), rows(&qdot), rows(&qddot), rows(&lam));
     let n_b = c.bars.len();
     let out = detached(py, move || {
@@ -172,6 +172,15 @@ pub fn bar_shares<'py>(
         matrix(py, out.first_order, responses.len(), n_b)?,
     )?;
     Ok(d)
+}
+
+/// A run's states as the bindings receive them, one row per time: `q`, `qdot`, `qddot`,
+/// `lam`.
+type States<'py> = [PyReadonlyArray2<'py, f64>; 4];
+
+/// A 2-d array's entries, row by row.
+fn rows(a: &PyReadonlyArray2<'_, f64>) -> Vec<f64> {
+    a.as_array().iter().copied().collect()
 }
 
 fn grid(steps: Vec<f64>) -> Result<TimeGrid, Error> {
@@ -217,8 +226,12 @@ pub fn solve_static<'py>(
 /// largest point value of each aggregate, `None` for other responses), the `method` used,
 /// `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
 /// and `memory`; `steps`, the step sizes of a dynamic run (default: uniform steps `h`).
+/// With `path`, the states `(q, qdot, qddot, lam)` that [`simulate`] returned for this
+/// design and these settings, the adjoint sweeps about them and the run is not made again
+/// ([`crate::of_motion_about`]).
 #[pyfunction]
-#[pyo3(signature = (model, x, responses, settings=None, steps=None, parameters=Vec::new()))]
+#[pyo3(signature = (model, x, responses, settings=None, steps=None, parameters=Vec::new(), path=None))]
+#[allow(clippy::too_many_arguments)] // the Python signature: each a keyword there
 pub fn run_with_sensitivities<'py>(
     py: Python<'py>,
     model: &PyModel,
@@ -227,6 +240,7 @@ pub fn run_with_sensitivities<'py>(
     settings: Option<&Bound<'py, PyAny>>,
     steps: Option<Vec<f64>>,
     parameters: Vec<String>,
+    path: Option<States<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
     let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
@@ -234,15 +248,33 @@ pub fn run_with_sensitivities<'py>(
     let options = run_options(settings)?;
     let how = options.sensitivity(&m.defaults);
     let x = x.as_slice()?.to_vec();
+    if path.is_some() && (m.analysis == Analysis::Static || how.method == Method::Direct) {
+        let msg = "is a dynamic run's, differentiated by the adjoint method (not method='direct')";
+        return Err(Error::Settings(SettingsError::new("path", msg)).into());
+    }
     let result = match m.analysis {
         Analysis::Dynamic => {
             let settings = options.dynamic(&m.defaults).map_err(Error::from)?;
             let grid = steps.map(grid).transpose()?;
-            detached(py, move || match grid {
-                Some(grid) => {
+            let path = path.map(|states| states.map(|a| rows(&a)));
+            detached(py, move || match (grid, path) {
+                (grid, Some([q, qdot, qddot, lam])) => {
+                    let grid = match grid {
+                        Some(grid) => grid,
+                        None => settings.validate().map(|()| settings.grid())?,
+                    };
+                    let path = Path {
+                        q: &q,
+                        qdot: &qdot,
+                        qddot: &qddot,
+                        lam: &lam,
+                    };
+                    sensitivity::of_motion_about(&m, &x, &settings, &grid, &parsed, &wanted, path)
+                }
+                (Some(grid), None) => {
                     sensitivity::of_motion_on(&m, &x, &settings, &grid, &parsed, &wanted, how)
                 }
-                None => sensitivity::of_motion(&m, &x, &settings, &parsed, &wanted, how),
+                (None, None) => sensitivity::of_motion(&m, &x, &settings, &parsed, &wanted, how),
             })?
         }
         Analysis::Static => {

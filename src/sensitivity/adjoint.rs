@@ -26,7 +26,7 @@ use std::time::Instant;
 use faer::dyn_stack::MemBuffer;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
-use crate::error::{Error, SolveError};
+use crate::error::{Error, SettingsError, SolveError};
 use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
@@ -241,6 +241,33 @@ pub(crate) fn differentiate_backward(
     run.sweep_about(densities, None, None)
 }
 
+/// [`differentiate_backward`] about the model's own run `path` on `grid` (the states of
+/// [`crate::simulate_on`] with the same `settings`, checked by the caller): the same values
+/// and gradients, the run not made again — the gradients of a run judged on its values
+/// first.
+///
+/// # Errors
+/// Solve errors of the backward sweep.
+pub(crate) fn differentiate_about(
+    model: &Model,
+    densities: Densities,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    parameters: &[Parameter],
+    path: Path<'_>,
+) -> Result<Sensitivities, Error> {
+    let run = Backward {
+        model,
+        settings,
+        grid,
+        responses,
+        parameters,
+        memory: Memory::StoreAll,
+    };
+    run.sweep_about(densities, Some(path), None)
+}
+
 /// A trajectory given at every time of a grid, one row of the model's coordinates (or
 /// multipliers) per time: what a backward sweep may linearize about instead of its own run.
 #[derive(Debug, Clone, Copy)]
@@ -253,6 +280,30 @@ pub struct Path<'a> {
     pub qddot: &'a [f64],
     /// `λₙ`.
     pub lam: &'a [f64],
+}
+
+impl Path<'_> {
+    /// A [`SettingsError`] naming `what` unless the path has `times` finite rows of `n_q`
+    /// coordinates and `n_c` multipliers.
+    pub(crate) fn check(
+        &self,
+        what: &str,
+        n_q: usize,
+        n_c: usize,
+        times: usize,
+    ) -> Result<(), SettingsError> {
+        let finite =
+            |v: &[f64], width: usize| v.len() == times * width && v.iter().all(|x| x.is_finite());
+        if [self.q, self.qdot, self.qddot]
+            .iter()
+            .all(|v| finite(v, n_q))
+            && finite(self.lam, n_c)
+        {
+            return Ok(());
+        }
+        let rows = format!("{times} finite rows of {n_q} coordinates in q, qdot and qddot and of {n_c} multipliers in lam");
+        Err(SettingsError::new(what, format!("needs {rows}")))
+    }
 }
 
 /// The adjoint variables `μₙ` of the equilibrium residual at every time `tₙ` of `grid`

@@ -529,6 +529,40 @@ pub fn of_motion_on(
     }
 }
 
+/// [`of_motion_on`] by the adjoint method about `path`, the model's own run for the design
+/// `x` on `grid` with `settings` (the states [`crate::simulate_on`] returns): the same
+/// values and gradients without making the run again, so that a run first judged on its
+/// values (an optimizer's trial, which it may reject) is differentiated only if it is kept.
+/// A path of another design or other settings gives the gradients about that path, not
+/// those of the run: the caller keeps them together.
+///
+/// # Errors
+/// A [`SettingsError`] naming `path` unless it has a finite row of the model's coordinates
+/// and multipliers at every time of `grid`; design and solve errors.
+pub fn of_motion_about(
+    model: &Model,
+    x: &[f64],
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    parameters: &[Parameter],
+    path: adjoint::Path<'_>,
+) -> Result<Sensitivities, Error> {
+    let densities = model.densities(Some(x))?;
+    path.check(
+        "path",
+        model.n_dofs(),
+        model.n_constraints(),
+        grid.len() + 1,
+    )?;
+    if !responses.iter().any(Response::depends_on_states) {
+        return explicit(model, &densities, responses, parameters);
+    }
+    adjoint::differentiate_about(
+        model, densities, settings, grid, responses, parameters, path,
+    )
+}
+
 /// Memory a sensitivity analysis may hold in its largest arrays (GiB).
 const MAX_GIB: f64 = 8.0;
 

@@ -82,20 +82,14 @@ pub fn bar_shares(
         )
         .into());
     }
-    let times = grid.len() + 1;
-    let finite =
-        |v: &[f64], width: usize| v.len() == times * width && v.iter().all(|x| x.is_finite());
-    let (n_f, n_c) = (fine.n_dofs(), coarse.n_constraints());
-    let states = [fine_run.q, fine_run.qdot, fine_run.qddot];
-    if !(states.iter().all(|v| finite(v, n_f))
-        && finite(fine_run.lam, n_c)
-        && fine.n_constraints() == n_c)
-    {
-        let what = format!("{times} finite rows of {n_f} coordinates in q, qdot and qddot and of {n_c} multipliers in lam");
-        return Err(SettingsError::new("fine run", format!("needs {what}")).into());
+    let n_c = coarse.n_constraints();
+    if fine.n_constraints() != n_c {
+        let msg = "has other joints than the coarse model: not the coarse one split";
+        return Err(SettingsError::new("fine model", msg).into());
     }
+    fine_run.check("fine run", fine.n_dofs(), n_c, grid.len() + 1)?;
     let map = NodeMap::new(coarse, fine)?;
-    let n_q = coarse.n_dofs();
+    let (n_q, n_f) = (coarse.n_dofs(), fine.n_dofs());
     let restricted = Restricted::of(&map, fine_run, n_q, grid.len() + 1);
     let path = Path {
         q: &restricted.q,

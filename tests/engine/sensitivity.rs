@@ -305,3 +305,48 @@ fn checkpointed_adjoint_is_bitwise_the_stored_one() {
     .unwrap();
     assert_eq!(stored.gradients, replayed.gradients);
 }
+
+/// The adjoint about a run's own states (`of_motion_about`, an optimizer's trial kept after
+/// its values were judged) is the adjoint of that run, bit for bit, with modified Newton and
+/// a scene parameter too; a path of the wrong size is named.
+#[test]
+fn the_adjoint_about_a_runs_states_is_that_runs_bit_for_bit() {
+    let arm = robot_arm(1, 70e9);
+    let rs = responses(&arm, &["tip_deflection", "torque_rms:shoulder"]);
+    let parameters = flextop::parse_parameters(&arm, &["E:aluminium".into()], &rs).unwrap();
+    let x = random_design(&arm, 3);
+    let s = DynamicSettings {
+        newton: flextop::NewtonMatrix::Modified,
+        ..settings(1.3, 0.02, 0.8)
+    };
+    let grid = s.grid();
+    let run = flextop::simulate(&arm, Some(&x), &s).unwrap();
+    let path = flextop::Path {
+        q: &run.q,
+        qdot: &run.qdot,
+        qddot: &run.qddot,
+        lam: &run.lam,
+    };
+    let about = flextop::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, path).unwrap();
+    let own = of_motion(
+        &arm,
+        &x,
+        &s,
+        &rs,
+        &parameters,
+        how(Method::Adjoint, Memory::StoreAll),
+    )
+    .unwrap();
+    assert_eq!(about.values, own.values);
+    assert_eq!(about.gradients, own.gradients);
+    assert_eq!(about.parameter_gradients, own.parameter_gradients);
+    let short = flextop::Path {
+        q: &run.q[arm.n_dofs()..],
+        ..path
+    };
+    let refused = flextop::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, short);
+    assert!(
+        matches!(&refused, Err(Error::Settings(e)) if e.name == "path"),
+        "{refused:?}"
+    );
+}

@@ -12,6 +12,7 @@ from flextop.optimizers import (
     FunctionProblem,
     OptimizerState,
     Status,
+    Trial,
     kkt_estimate,
     kkt_residual,
     optimize,
@@ -315,6 +316,32 @@ def test_a_problem_without_accept_still_optimizes():
         physical = staticmethod(inner.physical)
 
     assert np.array_equal(optimize(Bare(), 5.0, max_iter=3).x, optimize(inner, 5.0, max_iter=3).x)
+
+
+@pytest.mark.parametrize("method", ["mma", "gcmma"])
+def test_trials_make_gradients_only_where_the_design_is_kept(method):
+    """A problem whose gradients cost extra gives MMA and GCMMA trials: the values first, the
+    gradients only for the designs they keep (one per iteration and the start), and the
+    same iterates, bit for bit, as evaluating everything."""
+    whole = rosenbrock(constrained=True)
+
+    class Lazy(FunctionProblem):
+        made = 0
+
+        def trial(self, x):
+            e = self.evaluate(x)
+
+            def gradients():
+                Lazy.made += 1
+                return e
+
+            return Trial(e.f0, e.g, gradients)
+
+    lazy = Lazy(rosenbrock_objective, whole.constraints, whole.lower, whole.upper, 1)
+    result = optimize(lazy, np.array([-1.2, 1.0]), method, max_iter=60, xtol=0.0)
+    reference = optimize(whole, np.array([-1.2, 1.0]), method, max_iter=60, xtol=0.0)
+    assert np.array_equal(result.x, reference.x) and result.nfev == reference.nfev
+    assert Lazy.made == result.nit < result.nfev - 1, (Lazy.made, result.nit, result.nfev)
 
 
 # -- success means a KKT point ----------------------------------------------------------------

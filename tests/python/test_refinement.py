@@ -10,6 +10,7 @@ import pytest
 
 import flextop
 from flextop.discretization import indicator
+from flextop.discretization.refinement import HELD_NEWTON_TOL, on_grid
 from flextop.discretization.tolerance import Discretization
 from flextop.errors import SettingsError
 
@@ -222,6 +223,29 @@ def test_a_soft_stay_in_a_solid_frame_is_refined_alone_to_the_tolerance():
     assert sens.gradient_errors["tip_deflection"] >= error_grad / 2 or error_grad <= 5e-3
 
 
+def test_a_trial_on_the_grid_held_gets_the_gradients_of_its_runs_only_when_kept():
+    """On the grid held, a trial reads its runs' values; its gradients, made when asked by
+    the adjoint about the same runs, are bit for bit those of the runs made with gradients
+    (:func:`on_grid`). A run of another design is refused as the path of the adjoint."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    problem = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2)
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    problem.accept(x, problem.evaluate(x))
+    d, near = problem.discretization, x + 0.05
+    seconds = dict(problem.timings)
+    trial = problem.trial(near)
+    assert problem.evaluations == 2 and problem.measured == [1] and problem.timings["gradients"] == seconds["gradients"]
+    kept = trial.evaluation()
+    assert problem.timings["gradients"] > seconds["gradients"]
+    made = on_grid(sim, near, ["tip_deflection"], d, x, {"method": "auto"})
+    assert d.extrapolated and kept.f0 == trial.f0
+    assert trial.f0 * problem.objective_scale == pytest.approx(made.values[0], rel=1e-14)
+    np.testing.assert_array_equal(kept.df0, made.gradients[0] / problem.objective_scale)
+    run = sim.run_fixed(x, {"h": 0.01})
+    with pytest.raises(SettingsError, match="about must be this scene's run of the same design"):
+        sim.sensitivities_fixed(near, ["tip_deflection"], {"h": 0.01}, about=run)
+
+
 def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_moved():
     """Near the design measured last, an evaluation runs on its grid as graded there."""
     sim = flextop.Simulation(flextop.scenes.spun_beam())
@@ -234,7 +258,8 @@ def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_mov
     far = x - 0.2
     problem.evaluate(far)
     assert problem.measured == [1, 3]
-    on_grid = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=near)
+    on_grid = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=near,
+                               newton="modified", tol=HELD_NEWTON_TOL)
     assert second.f0 * problem.objective_scale == pytest.approx(on_grid.values[0], rel=1e-14)
 
     # With an optimizer that accepts its designs, the grid changes only there: a trial far

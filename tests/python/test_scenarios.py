@@ -14,6 +14,7 @@ import pytest
 
 import flextop
 from flextop import execution, scenes
+from flextop.discretization.refinement import HELD_NEWTON_TOL
 from flextop.errors import ExecutionError, FlextopError, SimulationError
 from flextop.optimizers import EvaluationError
 from conftest import on_accepted_grid
@@ -267,7 +268,7 @@ def test_scenarios_held_to_a_tolerance_are_measured_only_where_an_accepted_desig
         return sum(s.weight * run.values[0] for s, run in zip(cases, runs))
 
     on_grids = [on_accepted_grid(flextop.Simulation(s.scene), held[s.name], x, "tip_deflection", ARM_T_END, design=far,
-                                 newton="modified") for s in cases]
+                                 newton="modified", tol=HELD_NEWTON_TOL) for s in cases]
     assert trial.f0 * problem.objective_scale == pytest.approx(weighted(on_grids), rel=1e-14)
     accepted = problem.accept(far, trial)
     assert problem.measured == [1, 3]

@@ -50,14 +50,14 @@ def test_stubtest_passes_on_the_stub(tmp_path):
 
 def test_stubtest_fails_on_a_drifted_signature(tmp_path):
     text = STUB.read_text()
-    drifted = text.replace("steps: list[float] | None = None, parameters: list[str] = ...) -> SensitivityData",
-                           "steps: list[float] | None = None) -> SensitivityData")
+    drifted = text.replace(",\n                           path: tuple[_F, _F, _F, _F] | None = None) -> SensitivityData",
+                           ") -> SensitivityData")
     assert drifted != text
     out, path = stubtest(tmp_path, drifted)
     assert out.returncode == 1, out.stdout + out.stderr
     # the copy was read (its path is named), and the one drift is the only finding
     assert f"in file {path}" in out.stdout, out.stdout
-    assert 'flextop._core.run_with_sensitivities is inconsistent, stub does not have parameter "parameters"' in out.stdout
+    assert 'flextop._core.run_with_sensitivities is inconsistent, stub does not have parameter "path"' in out.stdout
     assert "Found 1 error" in out.stdout, out.stdout
 
 

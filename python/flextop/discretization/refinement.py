@@ -12,6 +12,7 @@ estimate.
 from __future__ import annotations
 
 import math
+from time import perf_counter
 from collections import OrderedDict
 from dataclasses import replace
 from collections.abc import Sequence
@@ -48,7 +49,7 @@ class Simulation(Protocol):
                   steps: np.ndarray | None = None, guide: np.ndarray | None = None) -> Any: ...
 
     def sensitivities_fixed(self, xv: np.ndarray | None, names: list[str], settings: dict[str, Any],
-                            steps: np.ndarray | None = None) -> Any: ...
+                            steps: np.ndarray | None = None, about: Any = None) -> Any: ...
 
     def run_with_sensitivities(self, x: Any, responses: Sequence[str] | str, **options: Any) -> Any: ...
 
@@ -204,25 +205,85 @@ def extrapolated(fine: Any, half: Any) -> Any:
                    parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None, peaks=peaks)
 
 
+HELD_NEWTON_TOL = 1e-8
+"""Newton's relative tolerance on the grid held (:func:`on_grid`, :class:`Held`), unless the
+settings give one: on the arm's 24 designs of ``benches/tolerance.py`` and MMA's iterates at
+1×, 4× and 8× the elements per bar, against the default 1e-10, d moved by at most 7e-9 and ∇d
+by 4e-8 (relative), far below any tolerance a grid is held to, and Newton took 2.0–2.6
+iterations per step where it took 2.0–3.9."""
+
+
+def _held(simulation: Simulation, d: Discretization, graded_for: np.ndarray | None,
+          settings: dict[str, Any]) -> tuple[Simulation, list[dict[str, Any]]]:
+    """The grid held (each bar's elements as graded for the design ``graded_for``) and the
+    settings of its runs: its steps, then twice them where ``d`` is extrapolated. Newton is
+    modified (the same values to its tolerance, in a quarter less time on the arm's held
+    grid) at :data:`HELD_NEWTON_TOL`, unless ``settings`` say otherwise."""
+    settings = {"newton": "modified", "tol": HELD_NEWTON_TOL, **settings}
+    if d.steps:
+        settings["h"] = t_end(simulation, settings) / d.steps
+    runs = [settings, {**settings, "h": 2 * settings["h"]}] if d.extrapolated else [settings]
+    return simulation.levels.at(d, graded_for), runs
+
+
 def on_grid(simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Discretization, graded_for: np.ndarray | None,
             settings: dict[str, Any]) -> Any:
     """Sensitivities on the discretization ``d`` held (an optimization's between its
     measurements): its steps and each bar's elements as graded for the design
     ``graded_for`` (where its error was measured), extrapolated from half the steps where
-    ``d`` is, the two runs side by side (:func:`~flextop.execution.side_by_side`). Newton
-    is modified unless ``settings`` say otherwise: the same values to its tolerance, in a
-    quarter less time on the arm's held grid."""
-    settings = {"newton": "modified", **settings}
-    if d.steps:
-        settings["h"] = t_end(simulation, settings) / d.steps
-    grid = simulation.levels.at(d, graded_for)
+    ``d`` is, the two runs side by side (:func:`~flextop.execution.side_by_side`), each as
+    :func:`_held` sets it."""
+    grid, runs = _held(simulation, d, graded_for, settings)
+    made = [lambda s=s: grid.run_with_sensitivities(xv, names, **s) for s in runs]
+    return extrapolated(*side_by_side(*made)) if d.extrapolated else made[0]()
 
-    def run(**step: float) -> Any:
-        return grid.run_with_sensitivities(xv, names, **{**settings, **step})
 
-    if not d.extrapolated:
-        return run()
-    return extrapolated(*side_by_side(run, lambda: run(h=2 * settings["h"])))
+class Held:
+    """An evaluation on the discretization ``d`` held, as :func:`on_grid` makes it, in two
+    phases: the runs made and their ``values`` and ``peaks`` read (extrapolated where ``d``
+    is), then the gradients only when asked (:meth:`sensitivities`), by the adjoint method
+    about the same runs, which are not made again. An optimizer that rejects the design (MMA's
+    inner iterations, which read the values only) does not pay for them: on the arm's held
+    grid the adjoint is two fifths of a run with gradients. ``settings`` may hold ``method``
+    (``"direct"`` makes the runs again, with the gradients) and ``memory``."""
+
+    def __init__(self, simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Discretization,
+                 graded_for: np.ndarray | None, settings: dict[str, Any]) -> None:
+        self.method = settings.get("method", "auto")
+        plain = {k: v for k, v in settings.items() if k not in ("method", "memory")}
+        self.grid, self.settings = _held(simulation, d, graded_for, plain)
+        self.xv, self.names = xv, list(names)
+        clock = perf_counter()
+
+        def read(settings: dict[str, Any]) -> tuple[Any, tuple[np.ndarray, list[float | None]]]:
+            run = self.grid.run_fixed(xv, settings)
+            return run, run.values_and_peaks(self.names)
+
+        made = [lambda s=s: read(s) for s in self.settings]
+        both = list(side_by_side(*made)) if len(made) == 2 else [made[0]()]
+        self.seconds = perf_counter() - clock
+        self.runs = [run for run, _ in both]
+        read = [values_and_peaks for _, values_and_peaks in both]
+        self.values = combined([values for values, _ in read])
+        self.peaks = {n: float(combined([np.array([peaks[k]]) for _, peaks in read])[0])
+                      for k, n in enumerate(self.names) if read[0][1][k] is not None}
+
+    def sensitivities(self) -> Any:
+        """The gradients of :attr:`values`: each run's by the adjoint method about its states
+        (made again with them for ``method="direct"``), extrapolated as the values are."""
+        def differentiated(run: Any, settings: dict[str, Any]) -> Any:
+            about = None if self.method == "direct" else run
+            return self.grid.sensitivities_fixed(self.xv, self.names, {**settings, "method": self.method}, about=about)
+
+        made = [lambda r=r, s=s: differentiated(r, s) for r, s in zip(self.runs, self.settings)]
+        out = extrapolated(*side_by_side(*made)) if len(made) == 2 else made[0]()
+        return replace(out, timings={"simulation": self.seconds, "gradients": sum(out.timings.values())})
+
+
+def combined(runs: list[np.ndarray]) -> np.ndarray:
+    """One run's quantities, or those of the runs at h and 2h extrapolated
+    (:func:`tolerance.richardson`)."""
+    return runs[0] if len(runs) == 1 else tolerance.richardson([runs[0]], [runs[1]])[0]
 
 
 def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.ndarray, xv: np.ndarray | None,
@@ -264,7 +325,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
     results (or sensitivities) with its estimate and companions attached. With
     ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and the
-    sensitivities are computed once, on the grid accepted. With ``gradients`` and
+    sensitivities are computed once, on the grid accepted: of a dynamic run by the adjoint
+    method about the candidate's run, not made again (but for ``method="direct"``). With ``gradients`` and
     ``extrapolate``, the sensitivities may be Richardson's extrapolation from the grid
     accepted and its half steps (:func:`extrapolated`), where that is the more accurate by
     the estimate: the half-steps run is made again at the run's own Newton tolerance
@@ -315,8 +377,12 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))
     if gradients:
         def with_gradients(at: Discretization) -> Any:
-            kept = runs.get((at, False)) if hold_gradients else None
-            return run(at, gradients) if kept is None else kept
+            kept = runs.get((at, False))
+            if hold_gradients and kept is not None:
+                return kept
+            if kept is None or duration is None or gradients.get("method") == "direct":
+                return run(at, gradients)
+            return levels.at(at, xv).sensitivities_fixed(xv, names, {**kept.settings, **gradients}, about=kept)
 
         if d.extrapolated:  # the grid and its half steps side by side
             out = extrapolated(*side_by_side(lambda: with_gradients(d.grid), lambda: with_gradients(d.half_steps)))

@@ -20,11 +20,11 @@ from .kkt import kkt_estimate, kkt_residual
 from .method import Method
 from .mma import GCMMA, MMA
 from .oc import OptimalityCriteria
-from .problem import Evaluation, EvaluationError, FunctionProblem, Problem
+from .problem import Evaluation, EvaluationError, FunctionProblem, Problem, Trial
 from .state import IterationRecord, OptimizerState
 
 __all__ = [
     "Conlin", "Evaluation", "EvaluationError", "FunctionProblem", "GCMMA", "IterationRecord",
-    "MMA", "Method", "OptimalityCriteria", "OptimizeResult", "OptimizerState", "Problem", "Status", "kkt_estimate",
-    "kkt_residual", "optimize",
+    "MMA", "Method", "OptimalityCriteria", "OptimizeResult", "OptimizerState", "Problem", "Status", "Trial",
+    "kkt_estimate", "kkt_residual", "optimize",
 ]

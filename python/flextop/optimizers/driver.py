@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from time import perf_counter
+from typing import TypeVar
 
 import numpy as np
 
@@ -26,8 +27,10 @@ from .kkt import kkt_estimate
 from .method import Method
 from .mma import GCMMA, MMA
 from .oc import OptimalityCriteria
-from .problem import Evaluation, EvaluationError, Problem
+from .problem import Evaluation, EvaluationError, Problem, Trial
 from .state import Design, IterationRecord, OptimizerState
+
+T = TypeVar("T")
 
 METHODS: dict[str, type[Method]] = {"mma": MMA, "gcmma": GCMMA, "conlin": Conlin, "oc": OptimalityCriteria}
 
@@ -88,7 +91,8 @@ class OptimizeResult:
 
 
 class _CountingEvaluator:
-    """problem.evaluate with call count, accumulated wall time and checks.
+    """problem.evaluate (and problem.trial) with call count, accumulated wall time and
+    checks: a trial counts as an evaluation, and its gradients' time as evaluation time.
 
     A result with NaN or infinite entries is turned into an EvaluationError,
     wrongly shaped results into a ValueError.
@@ -100,12 +104,29 @@ class _CountingEvaluator:
         self.time = 0.0
 
     def __call__(self, x: np.ndarray) -> Evaluation:
+        return self.trial(x, whole=True).evaluation()
+
+    def trial(self, x: np.ndarray, whole: bool = False) -> Trial:
+        """The problem's :meth:`~Problem.trial` at ``x`` (its ``evaluate``, ``whole``, or
+        for a problem without ``trial``), checked, its gradients timed and checked when
+        made."""
         self.calls += 1
+        make = getattr(self.problem, "trial", None)
+        trial = self._timed(lambda: Trial.of(self.problem.evaluate(x.copy())) if whole or make is None else make(x.copy()))
+        if trial.g.shape != (self.problem.m,):
+            raise ValueError(f"evaluate returned g of shape {trial.g.shape}; expected ({self.problem.m},)")
+        if not (np.isfinite(trial.f0) and np.isfinite(trial.g).all()):
+            raise EvaluationError("evaluation returned non-finite values", x)
+        return Trial(trial.f0, trial.g, lambda: self._checked(x, self._timed(trial.evaluation)))
+
+    def _timed(self, make: Callable[[], T]) -> T:
         start = perf_counter()
         try:
-            evaluation = self.problem.evaluate(x.copy())
+            return make()
         finally:
             self.time += perf_counter() - start
+
+    def _checked(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         if evaluation.g.shape != (self.problem.m,) or evaluation.df0.shape != (self.problem.n,):
             raise ValueError(f"evaluate returned g of shape {evaluation.g.shape} and df0 of shape "
                              f"{evaluation.df0.shape}; expected ({self.problem.m},) and ({self.problem.n},)")

@@ -8,16 +8,22 @@ box, and evaluates the problem at the solution x^{k+1}.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 
-from .problem import Evaluation, Problem
+from .problem import Evaluation, Problem, Trial
 from .state import OptimizerState
 
-Evaluator = Callable[[np.ndarray], Evaluation]
+class Evaluator(Protocol):
+    """How a method evaluates the problem: whole (``evaluate(x)``), or as a :class:`Trial`
+    whose gradients are made only if the method keeps the design (``evaluate.trial(x)``).
+    Either may raise :class:`~flextop.optimizers.EvaluationError`."""
+
+    def __call__(self, x: np.ndarray) -> Evaluation: ...
+
+    def trial(self, x: np.ndarray) -> Trial: ...
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ import numpy as np
 
 from .dual import DualSolution, SeparableApproximation, solve_dual
 from .method import Evaluator, Method, Step, move_limits, trend_factor
-from .problem import Evaluation, Problem
+from .problem import Evaluation, Problem, Values
 from .state import OptimizerState
 
 
@@ -188,14 +188,15 @@ class MMA(Method):
              evaluate: Evaluator) -> Step:
         approx = self.approximation(problem, state, move, np.full(problem.m + 1, self.rho))
         solution = self.solve(approx, state.multipliers)
-        evaluation = evaluate(solution.x)
-        if self.safeguard and dominated(evaluation, state.evaluation):
-            rho = raised_rho(approx, initial_rho(state.evaluation, problem.upper - problem.lower), solution.x, evaluation)
+        trial = evaluate.trial(solution.x) if self.safeguard else None
+        if trial is not None and dominated(trial, state.evaluation):
+            rho = raised_rho(approx, initial_rho(state.evaluation, problem.upper - problem.lower), solution.x, trial)
             return conservative_step(self, problem, state, move, evaluate, rho)
+        evaluation = evaluate(solution.x) if trial is None else trial.evaluation()
         return Step(solution.x, evaluation, solution.lam, approx.asymptotes())
 
 
-def dominated(new: Evaluation, current: Evaluation) -> bool:
+def dominated(new: Values, current: Values) -> bool:
     """Whether ``new`` is no better than ``current`` in both objective and infeasibility
     ``Σ max(g_i, 0)``, and worse in the objective."""
     violation = lambda e: float(np.sum(np.maximum(e.g, 0.0)))  # noqa: E731
@@ -208,7 +209,7 @@ def initial_rho(evaluation: Evaluation, span: np.ndarray, rho_min: float = 1e-6)
     return np.maximum(rho_min, 0.1 * np.abs(df) @ span / span.size)
 
 
-def raised_rho(approx: MMAApproximation, rho: np.ndarray, x: np.ndarray, evaluation: Evaluation) -> np.ndarray:
+def raised_rho(approx: MMAApproximation, rho: np.ndarray, x: np.ndarray, evaluation: Values) -> np.ndarray:
     """GCMMA's update of ``rho`` from a design ``x`` evaluated already (the rejected MMA
     trial): each approximation with ``rho_i`` that falls below its function there by
     ``delta_i d(x)`` gets ``min(1.1 (rho_i + delta_i), 10 rho_i)``, as if ``x`` had been the
@@ -237,12 +238,12 @@ def conservative_step(method: MMA, problem: Problem, state: OptimizerState, move
         approx = approx.regularized(rho)
         solution = method.solve(approx, lam)
         lam = solution.lam
-        evaluation = evaluate(solution.x)
-        exact = np.concatenate(([evaluation.f0], evaluation.g))
+        trial = evaluate.trial(solution.x)
+        exact = np.concatenate(([trial.f0], trial.g))
         shortfall = exact - approx.values(solution.x)
         if (shortfall <= rounding * (1.0 + np.abs(exact))).all() or inner == max_inner:
-            return Step(solution.x, evaluation, lam, approx.asymptotes())
-        rho = raised_rho(approx, rho, solution.x, evaluation)
+            return Step(solution.x, trial.evaluation(), lam, approx.asymptotes())
+        rho = raised_rho(approx, rho, solution.x, trial)
     raise AssertionError("unreachable")
 
 

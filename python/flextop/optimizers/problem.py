@@ -15,6 +15,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -65,6 +66,41 @@ class Evaluation:
         return cls(data["f0"], data["g"], data["df0"], data["dg"])
 
 
+class Values(Protocol):
+    """What an :class:`Evaluation` and a :class:`Trial` both hold: the objective's and
+    constraints' values."""
+
+    f0: float
+    g: np.ndarray
+
+
+class Trial:
+    """The objective's and constraints' values at a design an optimizer may still reject,
+    ``f0`` and ``g`` as in :class:`Evaluation`, and the whole :meth:`evaluation` when it
+    keeps it: a problem whose gradients cost extra (an adjoint sweep) makes them only then.
+    ``gradients()`` returns the evaluation at the same design, its values those of the
+    trial."""
+
+    def __init__(self, f0: float, g: np.ndarray, gradients: Callable[[], Evaluation]) -> None:
+        self.f0 = float(f0)
+        self.g = np.atleast_1d(np.asarray(g, dtype=float))
+        self._gradients: Callable[[], Evaluation] | None = gradients
+        self._evaluation: Evaluation | None = None
+
+    @classmethod
+    def of(cls, evaluation: Evaluation) -> Trial:
+        """A trial whose gradients are made already."""
+        return cls(evaluation.f0, evaluation.g, lambda: evaluation)
+
+    def evaluation(self) -> Evaluation:
+        """Values and gradients, the gradients made on the first call (may raise
+        :class:`EvaluationError`)."""
+        if self._evaluation is None:
+            assert self._gradients is not None
+            self._evaluation, self._gradients = self._gradients(), None
+        return self._evaluation
+
+
 class EvaluationError(FlextopError):
     """The problem could not be evaluated at design ``x`` (a :class:`FlextopError`, so that
     one ``except`` catches every error flextop raises).
@@ -85,7 +121,8 @@ class Problem(ABC):
     Subclasses call ``super().__init__(lower, upper, m, names)`` and implement
     :meth:`evaluate`. Bounds must be finite with ``lower < upper``. The
     optimizers only use ``n``, ``m``, ``lower``, ``upper`` and ``evaluate``,
-    so any object providing them (and :meth:`accept`, if not this class's) works as well.
+    so any object providing them (and :meth:`accept` and :meth:`trial`, if not this class's)
+    works as well.
     """
 
     def __init__(self, lower: Sequence[float], upper: Sequence[float], m: int,
@@ -111,6 +148,12 @@ class Problem(ABC):
     @abstractmethod
     def evaluate(self, x: np.ndarray) -> Evaluation:
         """Objective, constraints and their gradients at x (may raise EvaluationError)."""
+
+    def trial(self, x: np.ndarray) -> Trial:
+        """The values at ``x`` for an optimizer that may reject it, the gradients made when
+        it keeps it (:class:`Trial`). The default evaluates everything at once; a problem
+        whose gradients cost extra overrides it."""
+        return Trial.of(self.evaluate(x))
 
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Called once per iteration with the design the optimizer moves to and its

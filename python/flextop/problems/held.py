@@ -6,7 +6,9 @@ from the design measured last is measured — its error estimated, its grid refi
 meets ``rtol`` from the discretization held, so that refinement and steps only grow — and
 its evaluation replaced by the one on that grid. Every other evaluation (an iteration's
 trial, MMA's inner iterations) runs on the grid held
-(:func:`~flextop.discretization.refinement.on_grid`). A caller that never calls ``accept``
+(:class:`~flextop.discretization.refinement.Held`): a trial the optimizer may reject
+reads the values, and the gradients are made, by the adjoint about the same runs, only
+for the design it keeps. A caller that never calls ``accept``
 (the scipy and OpenMDAO adapters) has an evaluation measured where it moved by more than
 ``readapt``. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
 follow it.

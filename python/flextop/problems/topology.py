@@ -32,7 +32,7 @@ optimizer recovers from.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import astuple
 from typing import Any
 
@@ -41,10 +41,10 @@ import numpy as np
 from .. import scenes
 from ..modal import ks_lowest
 from ..errors import DesignError, SettingsError, SimulationError
-from ..optimizers import Evaluation, EvaluationError, Problem
+from ..optimizers import Evaluation, EvaluationError, Problem, Trial
 from ..responses import PEAK_LIMITED
 from ..simulation import Simulation
-from ..discretization.refinement import on_grid
+from ..discretization.refinement import Held
 from ..discretization.tolerance import Discretization
 from . import filters
 from .filters import DensityFilter, SensitivityFilter
@@ -180,48 +180,97 @@ class TopologyProblem(Problem):
         tolerance, on the grid accepted last; its error is measured here only where no grid
         was chosen yet and, for a caller that never calls :meth:`accept` (the scipy and
         OpenMDAO adapters), where the design has moved by more than ``readapt``."""
-        return self._filtered(x, measure=self.rule.in_evaluate(self.densities(x), held=self.discretization is not None))
+        return self._whole(x, measure=self._measures(x))
 
-    def _filtered(self, x: np.ndarray, measure: bool) -> Evaluation:
-        """The evaluation at the design ``x`` through the filter, its error measured or not."""
+    def trial(self, x: np.ndarray) -> Trial:
+        """:meth:`evaluate` for an optimizer that may reject ``x`` (MMA's inner iterations):
+        on the grid held, the values now and the gradients, by the adjoint method about the
+        same runs, only if it keeps ``x`` (:class:`~flextop.discretization.refinement.Held`);
+        made whole where the error is measured or no tolerance holds the grid."""
+        if not self._holds() or self._measures(x):
+            return Trial.of(self.evaluate(x))
+        self.evaluations += 1
+        held = self._on_grid(self.densities(x))
+        return Trial(held.f0, held.g, lambda: self._through_filter(x, held.evaluation()))
+
+    def _whole(self, x: np.ndarray, measure: bool) -> Evaluation:
+        """The evaluation at the design ``x``, its error measured or not."""
+        return self._through_filter(x, self._evaluate(self.densities(x), measure))
+
+    def _holds(self) -> bool:
+        """Whether a tolerance holds the grid."""
+        return bool(self.rtol or self.simulation.rtol)
+
+    def _measures(self, x: np.ndarray) -> bool:
+        """Whether an evaluation at ``x`` measures its error (:meth:`Readapt.in_evaluate`)."""
+        return self.rule.in_evaluate(self.densities(x), held=self.discretization is not None)
+
+    def _through_filter(self, x: np.ndarray, e: Evaluation) -> Evaluation:
+        """The evaluation ``e`` at the physical densities as seen from the design ``x``: its
+        gradients chained through the density filter, or the sensitivity filter's."""
         if isinstance(self.filter, DensityFilter):
-            e = self._evaluate(self.filter.physical(x), measure)
             return Evaluation(e.f0, e.g, self.filter.chain(x, e.df0), self.filter.chain(x, e.dg))
-        e = self._evaluate(x, measure)
         if isinstance(self.filter, SensitivityFilter):
             return Evaluation(e.f0, e.g, self.filter.filtered(x, e.df0), e.dg)
         return e
 
     def _evaluate(self, x: np.ndarray, measure: bool) -> Evaluation:
-        tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self.rtol or self.simulation.rtol else {}
+        """The evaluation at the physical densities ``x``: on the grid held, or measured to
+        the tolerance (``measure``), or on the scene's own grid."""
         self.evaluations += 1
+        if self._holds() and not measure:
+            return self._on_grid(x).evaluation()
+        tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self._holds() else {}
         try:
-            if tolerance and not measure:
-                out = self._on_grid(x)
-            else:
-                out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False,
-                                                             **tolerance, **self.settings)
-                if tolerance:
-                    self.measured.append(self.evaluations)
-                    self.rule.measured(x)
+            out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False,
+                                                         **tolerance, **self.settings)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
+        if tolerance:
+            self.measured.append(self.evaluations)
+            self.rule.measured(x)
         if out.discretization is not None and out.discretization != self.discretization:
             self.discretization = out.discretization
             self.refinements.append((self.evaluations, out.discretization))
+        self._timed(out.timings)
         f, dfdx = out
-        for key, seconds in out.timings.items():
-            self.timings[key] += seconds
-        if self.objective_scale is None:
-            self.objective_scale = abs(f[0]) if f[0] != 0 else 1.0
-        g, dg = self._constraints(x, f[1:], dfdx[1:], out.peaks)
-        return Evaluation(f[0] / self.objective_scale, g, dfdx[0] / self.objective_scale, dg)
+        scale = self._scale(f[0])
+        g, dg = self._constraints(x, f[1:], out.peaks)
+        return Evaluation(f[0] / scale, g, dfdx[0] / scale, dg(dfdx[1:]))
 
-    def _on_grid(self, x: np.ndarray) -> Any:
-        """The evaluation on the grid held (:func:`~flextop.discretization.refinement.on_grid`),
-        graded for the design measured last."""
-        return on_grid(self.simulation, x, self.responses, self.discretization, self.rule.at,
-                       {"method": self.method, **self.settings})
+    def _on_grid(self, x: np.ndarray) -> Trial:
+        """The evaluation at the physical densities ``x`` on the grid held, graded for the
+        design measured last (:class:`~flextop.discretization.refinement.Held`): the values
+        now, the gradients when asked."""
+        try:
+            held = Held(self.simulation, x, self.responses, self.discretization, self.rule.at,
+                        {"method": self.method, **self.settings})
+        except SimulationError as error:
+            raise EvaluationError(str(error), x) from error
+        self._timed({"simulation": held.seconds})
+        f = held.values
+        scale = self._scale(f[0])
+        g, dg = self._constraints(x, f[1:], held.peaks)
+
+        def gradients() -> Evaluation:
+            try:
+                out = held.sensitivities()
+            except SimulationError as error:
+                raise EvaluationError(str(error), x) from error
+            self._timed({"gradients": out.timings["gradients"]})
+            return Evaluation(f[0] / scale, g, out.gradients[0] / scale, dg(out.gradients[1:]))
+
+        return Trial(f[0] / scale, g, gradients)
+
+    def _timed(self, timings: Mapping[str, float]) -> None:
+        for key, seconds in timings.items():
+            self.timings[key] += seconds
+
+    def _scale(self, f0: float) -> float:
+        """The objective's scale, set by the first evaluation (``|f0|``, or 1 where 0)."""
+        if self.objective_scale is None:
+            self.objective_scale = abs(f0) if f0 != 0 else 1.0
+        return self.objective_scale
 
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
@@ -242,7 +291,7 @@ class TopologyProblem(Problem):
         to the new ``c``."""
         moved = self.rule.in_accept(self.densities(x))
         if (self.rtol or self.simulation.rtol) and moved:
-            evaluation = self._filtered(x, measure=True)
+            evaluation = self._whole(x, measure=True)
         ratios, self._ratios = self._ratios.get(self.densities(x).tobytes(), {}), {}
         g, dg = evaluation.g.copy(), evaluation.dg.copy()
         for j, (name, _) in enumerate(self.constraints):
@@ -254,11 +303,12 @@ class TopologyProblem(Problem):
                 dg[j] *= new / old
         return Evaluation(evaluation.f0, g, evaluation.df0, dg)
 
-    def _constraints(self, x: np.ndarray, r: np.ndarray, drdx: np.ndarray,
-                     peaks: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-        """``g_j`` and their gradients, in the constraints' order: ``r/b − 1`` for an upper
-        bound, ``c r/b − 1`` for an aggregate, ``1 − KS/f_min`` for the frequency floor."""
-        g, dg, k, modes = [], [], 0, None
+    def _constraints(self, x: np.ndarray, r: np.ndarray,
+                     peaks: Mapping[str, float]) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+        """``g_j`` in the constraints' order — ``r/b − 1`` for an upper bound, ``c r/b − 1``
+        for an aggregate, ``1 − KS/f_min`` for the frequency floor — and the map from the
+        responses' gradients ``drdx`` to theirs."""
+        g, rows, k, modes = [], [], 0, None
         for name, bound in self.constraints:
             if name == MIN_FREQUENCY:
                 if modes is None:
@@ -268,13 +318,13 @@ class TopologyProblem(Problem):
                         raise EvaluationError(str(error), x) from error
                 ks, dks = ks_lowest(modes, bound, FLOOR_RHO)
                 g.append(1.0 - ks / bound)
-                dg.append(-dks / bound)
+                rows.append(lambda drdx, row=-dks / bound: row)
             else:
                 c = self._normalized(x, name, r[k], peaks[name]) if is_aggregate(name) else 1.0
                 g.append(c * r[k] / bound - 1.0)
-                dg.append(c * drdx[k] / bound)
+                rows.append(lambda drdx, k=k, factor=c / bound: factor * drdx[k])
                 k += 1
-        return np.array(g), np.array(dg).reshape(len(g), len(x))
+        return np.array(g), lambda drdx: np.array([row(drdx) for row in rows]).reshape(len(g), len(x))
 
     @property
     def description(self) -> str:
