@@ -53,6 +53,11 @@ cheapest that meets rtol on d and 5·rtol on ∇d is what a method that knew the
 run, with no estimate and no companion. Beside it, the time error alone: the fewest steps at
 which the one-element grid's d and ∇d are within the same bounds of that grid's own limit in
 the step. Writes benches/results/oracle.md.
+
+With ``--held-newton``, instead: Newton's tolerance on the grid an optimization holds
+(``HELD_NEWTON_TOL``) against the default 1e-10 on 30 arm designs at 1×, 4× and 8× the
+elements per bar: the change of d and ∇d, and Newton's iterations per step. Writes
+benches/results/held_newton.md.
 """
 
 from __future__ import annotations
@@ -66,6 +71,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import flextop  # noqa: E402
+from flextop.discretization.refinement import HELD_NEWTON_TOL  # noqa: E402
 from flextop.discretization.tolerance import Discretization  # noqa: E402
 from flextop.errors import ToleranceError  # noqa: E402
 from tolerance import arm_designs, beam_designs, reference, timed  # noqa: E402
@@ -381,6 +387,34 @@ def with_mass(scene: flextop.Scene, mass: str) -> dict:
     return spec
 
 
+def held_newton() -> None:
+    """Newton's tolerance on the grid held (``HELD_NEWTON_TOL``) against the default 1e-10:
+    d and ∇d (modified Newton, adjoint) and Newton's iterations per step on 30 arm designs
+    at 1×, 4× and 8× the elements per bar. Writes benches/results/held_newton.md."""
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    designs = arm_designs(arm, False) | {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
+    designs |= iterates(arm, True)
+    tols = (1e-10, HELD_NEWTON_TOL)
+    lines = ["# Newton's tolerance on the grid held", "", "`python benches/refinement.py --held-newton` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}: modified Newton at "
+             f"{HELD_NEWTON_TOL:g} against 1e-10; d and ∇d (adjoint) relative change, Newton iterations per step.", "",
+             "| design | m / steps | change of d | change of ∇d (2-norm) | iterations at 1e-10 | at the held tolerance |",
+             "|---|---|---|---|---|---|"]
+    worst = np.zeros(2)
+    for name, x in designs.items():
+        for m, steps in ((1, 1088), (4, 1088), (8, 544)):
+            level, settings = arm.levels[m], {"h": 1.3 / steps, "newton": "modified"}
+            runs = [level.run_with_sensitivities(x, ["tip_deflection"], method="adjoint", tol=tol, **settings) for tol in tols]
+            iterations = [level.run_fixed(x, {**settings, "tol": tol}).newton["mean"] for tol in tols]
+            change = np.array([abs(runs[1].values[0] / runs[0].values[0] - 1),
+                               np.linalg.norm(runs[1].gradients[0] - runs[0].gradients[0]) / np.linalg.norm(runs[0].gradients[0])])
+            worst = np.maximum(worst, change)
+            lines.append(f"| {name} | {m} / {steps} | {change[0]:.1e} | {change[1]:.1e} | {iterations[0]:.2f} | {iterations[1]:.2f} |")
+            print(lines[-1], flush=True)
+    lines += ["", f"Worst change: d {worst[0]:.1e}, ∇d {worst[1]:.1e}."]
+    (ROOT / "benches" / "results" / "held_newton.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
@@ -392,7 +426,10 @@ def main() -> None:
     parser.add_argument("--oracle", action="store_true", help="the cheapest grid that meets rtol on each design, instead")
     parser.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"], default="consistent",
                         help="the mass matrix of the runs and references")
+    parser.add_argument("--held-newton", action="store_true", help="Newton's tolerance on the grid held against 1e-10, instead")
     args = parser.parse_args()
+    if args.held_newton:
+        return held_newton()
     if args.dual:
         return dual()
     if args.frame:

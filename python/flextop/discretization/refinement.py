@@ -207,10 +207,11 @@ def extrapolated(fine: Any, half: Any) -> Any:
 
 HELD_NEWTON_TOL = 1e-8
 """Newton's relative tolerance on the grid held (:func:`on_grid`, :class:`Held`), unless the
-settings give one: on the arm's 24 designs of ``benches/tolerance.py`` and MMA's iterates at
-1×, 4× and 8× the elements per bar, against the default 1e-10, d moved by at most 7e-9 and ∇d
-by 4e-8 (relative), far below any tolerance a grid is held to, and Newton took 2.0–2.6
-iterations per step where it took 2.0–3.9."""
+settings give one: on 30 arm designs (the 22 of ``benches/tolerance.py``, uniform 0.08 and
+0.12, MMA's iterates 5, 10 and 20 of both objectives) at 1×, 4× and 8× the elements per bar
+and 1088 or 544 steps, against the default 1e-10, d moved by at most 1.1e-8 and ∇d by 4.4e-8
+(relative), far below any tolerance a grid is held to, and Newton took 1.0–3.0 iterations
+per step where it took 1.1–4.2."""
 
 
 def _held(simulation: Simulation, d: Discretization, graded_for: np.ndarray | None,
