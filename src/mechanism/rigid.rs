@@ -145,9 +145,13 @@ impl Clusters {
     ) -> (DVector<f64>, DMatrix<f64>) {
         let n_c = model.n_constraints();
         let mut q = vec![0.0; model.n_dofs()];
+        let mut placed = vec![false; model.nodes.len()];
         for &dof in model.row_dofs.dofs() {
-            let node = dof - dof % 3;
-            for (d, value) in q.iter_mut().enumerate().skip(node).take(3) {
+            if std::mem::replace(&mut placed[dof / 3], true) {
+                continue;
+            }
+            let first = dof - dof % 3;
+            for (d, value) in q.iter_mut().enumerate().skip(first).take(3) {
                 *value = self.dof_map(model, rho, d).0;
             }
         }
