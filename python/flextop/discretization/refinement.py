@@ -264,10 +264,10 @@ class Held:
         both = list(side_by_side(*made)) if len(made) == 2 else [made[0]()]
         self.seconds = perf_counter() - clock
         self.runs = [run for run, _ in both]
-        read = [values_and_peaks for _, values_and_peaks in both]
-        self.values = combined([values for values, _ in read])
-        self.peaks = {n: float(combined([np.array([peaks[k]]) for _, peaks in read])[0])
-                      for k, n in enumerate(self.names) if read[0][1][k] is not None}
+        readings = [values_and_peaks for _, values_and_peaks in both]
+        self.values = combined([values for values, _ in readings])
+        self.peaks = {n: float(combined([np.array([peaks[k]]) for _, peaks in readings])[0])
+                      for k, n in enumerate(self.names) if readings[0][1][k] is not None}
 
     def sensitivities(self) -> Any:
         """The gradients of :attr:`values`: each run's by the adjoint method about its states
