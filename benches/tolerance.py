@@ -373,6 +373,25 @@ def cost() -> None:
                   f"{span(rows[:, 1] / rows[:, 0])} |", flush=True)
 
 
+def fixed_trials() -> None:
+    """The arm's tip-deflection optimization on a fixed grid finer than the scene's (2× the
+    elements per bar, 1088 steps) from the one-element optimum, with MMA's trials on values
+    only (the default) and with every trial evaluated whole, one after the other. Prints
+    only."""
+    base = flextop.Simulation(flextop.scenes.robot_arm())
+    first = optimize_arm(base, {}, 1, np.full(base.n_design, 0.4))[1].x
+    level = base.levels[2]
+
+    class Whole(flextop.TopologyProblem):
+        def trial(self, x: np.ndarray) -> flextop.optimizers.Trial:
+            return flextop.optimizers.Trial.of(self.evaluate(x))
+
+    for kind in (flextop.TopologyProblem, Whole):
+        problem = kind(level, "tip_deflection", flextop.volume_constraints(level, 0.4), settings={"h": 1.3 / 1088})
+        seconds, result = timed(lambda: flextop.optimize(problem, first, method="mma", max_iter=40))
+        print(f"| {kind.__name__} | {seconds:.1f} | {problem.evaluations} | {result.fun:.6e} |", flush=True)
+
+
 ACROSS_ROWS = ROOT / "benches" / "results" / "tolerance_optimization_across.json"
 
 
@@ -431,7 +450,10 @@ def main() -> None:
     parser.add_argument("--fresh", action="store_true", help="with --optimization: redo the rows already measured")
     parser.add_argument("--ladder", action="store_true", help="the optimized designs' d on 4× to 64× the elements instead")
     parser.add_argument("--across", action="store_true", help="optimizations of three other problems, bars against shares")
+    parser.add_argument("--fixed-trials", action="store_true", help="a fixed-grid optimization with and without trials")
     args = parser.parse_args()
+    if args.fixed_trials:
+        return fixed_trials()
     if args.across:
         return across()
     if args.optimization:

@@ -109,15 +109,15 @@ def test_robot_arm_mean_compliance_converges_or_stops_with_a_diagnosis():
 def test_failed_simulations_are_recovered_from(monkeypatch):
     problem = flextop.robot_arm_problem("tip_deflection")
     calls = {"n": 0}
-    original = problem.simulation.run_with_sensitivities
+    original = problem.simulation.run_fixed
 
-    def flaky(x, *args, **kwargs):
+    def flaky(xv, settings, **kwargs):  # the run of each of MMA's trials
         calls["n"] += 1
         if calls["n"] in (3, 4):
-            return original(x, *args, **{**kwargs, "max_iter": 1})  # Newton cannot converge
-        return original(x, *args, **kwargs)
+            return original(xv, {**settings, "max_iter": 1}, **kwargs)  # Newton cannot converge
+        return original(xv, settings, **kwargs)
 
-    monkeypatch.setattr(problem.simulation, "run_with_sensitivities", flaky)
+    monkeypatch.setattr(problem.simulation, "run_fixed", flaky)
     result = flextop.optimize(problem, np.full(problem.n, 0.4), method="mma", max_iter=6)
     assert result.status is Status.MAX_ITER and "2 evaluation failure(s) recovered" in result.message
     assert "Newton did not converge" in result.message

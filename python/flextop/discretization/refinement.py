@@ -240,19 +240,27 @@ def on_grid(simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Dis
 
 
 class Held:
-    """An evaluation on the discretization ``d`` held, as :func:`on_grid` makes it, in two
-    phases: the runs made and their ``values`` and ``peaks`` read (extrapolated where ``d``
-    is), then the gradients only when asked (:meth:`sensitivities`), by the adjoint method
-    about the same runs, which are not made again. An optimizer that rejects the design (MMA's
-    inner iterations, which read the values only) does not pay for them: on the arm's held
-    grid the adjoint is two fifths of a run with gradients. ``settings`` may hold ``method``
-    (``"direct"`` makes the runs again, with the gradients) and ``memory``."""
+    """An evaluation in two phases: the runs of ``grid`` with each of ``runs`` (run settings;
+    two, at h and 2h, are made side by side and extrapolated) and their ``values`` and
+    ``peaks`` read, then the gradients only when asked (:meth:`sensitivities`), by the
+    adjoint method about the same runs, which are not made again. An optimizer that rejects
+    the design (MMA's inner iterations, which read the values only) does not pay for them: on
+    the arm's held grid the adjoint is two fifths of a run with gradients. ``method="direct"``
+    makes the runs again, with the gradients. :meth:`on` makes it on a discretization held,
+    as :func:`on_grid` does."""
 
-    def __init__(self, simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Discretization,
-                 graded_for: np.ndarray | None, settings: dict[str, Any]) -> None:
-        self.method = settings.get("method", "auto")
+    @classmethod
+    def on(cls, simulation: Simulation, xv: np.ndarray, names: Sequence[str], d: Discretization,
+           graded_for: np.ndarray | None, settings: dict[str, Any]) -> Held:
+        """On the discretization ``d`` held, graded for ``graded_for`` (:func:`_held`);
+        ``settings`` may hold ``method`` and ``memory``."""
         plain = {k: v for k, v in settings.items() if k not in ("method", "memory")}
-        self.grid, self.settings = _held(simulation, d, graded_for, plain)
+        grid, runs = _held(simulation, d, graded_for, plain)
+        return cls(grid, xv, names, runs, settings.get("method", "auto"))
+
+    def __init__(self, grid: Simulation, xv: np.ndarray, names: Sequence[str], runs: list[dict[str, Any]],
+                 method: str = "auto") -> None:
+        self.grid, self.settings, self.method = grid, runs, method
         self.xv, self.names = xv, list(names)
         clock = perf_counter()
 
