@@ -219,8 +219,20 @@ impl StateStore {
     }
 }
 
-/// Runs the simulation on `grid`, keeping what the backward sweep needs, then the adjoint
-/// sweep.
+/// What a backward sweep linearizes about.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum About<'a> {
+    /// The model's own run on the grid, made first and kept as `Memory` says (every state,
+    /// or checkpoints).
+    Run(Memory),
+    /// The model's own run given (the states of [`crate::simulate_on`] with the same
+    /// settings, checked by the caller), every state stored: the same values and gradients,
+    /// the run not made again — the gradients of a run judged on its values first. Or, for
+    /// [`dual_weights`], another trajectory.
+    Path(Path<'a>),
+}
+
+/// The adjoint sweep about `about` on `grid`: the responses and their gradients.
 pub(crate) fn differentiate_backward(
     model: &Model,
     densities: Densities,
@@ -228,7 +240,7 @@ pub(crate) fn differentiate_backward(
     grid: &TimeGrid,
     responses: &[Response],
     parameters: &[Parameter],
-    memory: Memory,
+    about: About<'_>,
 ) -> Result<Sensitivities, Error> {
     let run = Backward {
         model,
@@ -236,36 +248,8 @@ pub(crate) fn differentiate_backward(
         grid,
         responses,
         parameters,
-        memory,
     };
-    run.sweep_about(densities, None, None)
-}
-
-/// [`differentiate_backward`] about the model's own run `path` on `grid` (the states of
-/// [`crate::simulate_on`] with the same `settings`, checked by the caller): the same values
-/// and gradients, the run not made again — the gradients of a run judged on its values
-/// first.
-///
-/// # Errors
-/// Solve errors of the backward sweep.
-pub(crate) fn differentiate_about(
-    model: &Model,
-    densities: Densities,
-    settings: &DynamicSettings,
-    grid: &TimeGrid,
-    responses: &[Response],
-    parameters: &[Parameter],
-    path: Path<'_>,
-) -> Result<Sensitivities, Error> {
-    let run = Backward {
-        model,
-        settings,
-        grid,
-        responses,
-        parameters,
-        memory: Memory::StoreAll,
-    };
-    run.sweep_about(densities, Some(path), None)
+    run.sweep_about(densities, about, None)
 }
 
 /// A trajectory given at every time of a grid, one row of the model's coordinates (or
@@ -329,10 +313,13 @@ pub(crate) fn dual_weights(
         grid,
         responses,
         parameters: &[],
-        memory: Memory::Auto {
-            budget_bytes: crate::settings::STORE_BUDGET_BYTES,
-        },
     };
+    let about = about.map_or(
+        About::Run(Memory::Auto {
+            budget_bytes: crate::settings::STORE_BUDGET_BYTES,
+        }),
+        About::Path,
+    );
     let mut weights = vec![0.0; (grid.len() + 1) * responses.len() * model.n_dofs()];
     let sensitivities = run.sweep_about(densities, about, Some(&mut weights))?;
     Ok((sensitivities.values, weights))
@@ -345,16 +332,15 @@ struct Backward<'a> {
     grid: &'a TimeGrid,
     responses: &'a [Response],
     parameters: &'a [Parameter],
-    memory: Memory,
 }
 
 impl Backward<'_> {
-    /// The forward run (or the trajectory `about`, every state stored), then the backward
-    /// sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]).
+    /// The forward run, or the trajectory given (every state stored), as `about` says; then
+    /// the backward sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]).
     fn sweep_about(
         &self,
         densities: Densities,
-        about: Option<Path<'_>>,
+        about: About<'_>,
         weights: Option<&mut [f64]>,
     ) -> Result<Sensitivities, Error> {
         let Self {
@@ -363,23 +349,21 @@ impl Backward<'_> {
             grid,
             responses,
             parameters,
-            memory,
         } = *self;
         let mut it = Integrator::new(model, densities, settings)?;
         let mut objectives = Objectives::new(model, responses, parameters, grid)?;
         let pseudo = PseudoLoads::new(model, settings.mass, parameters);
         let (n_q, n_c) = (model.n_dofs(), model.n_constraints());
         let velocities = pseudo.reads_velocities() || objectives.read_velocities();
-        let memory = if about.is_some() {
-            Memory::StoreAll
-        } else {
-            memory
+        let memory = match about {
+            About::Run(memory) => memory,
+            About::Path(_) => Memory::StoreAll,
         };
         let mut store = StateStore::new(memory, n_q, n_c, grid.len(), velocities);
         let clock = Instant::now();
         let mut values = match about {
-            Some(path) => replay(&it, grid, &mut objectives, settings, path, &mut store),
-            None => forward(&mut it, grid, &mut objectives, settings, &mut store)?,
+            About::Path(path) => replay(&it, grid, &mut objectives, settings, path, &mut store),
+            About::Run(_) => forward(&mut it, grid, &mut objectives, settings, &mut store)?,
         };
         let simulation = clock.elapsed().as_secs_f64();
         let clock = Instant::now();

@@ -522,8 +522,9 @@ pub fn of_motion_on(
             if how.memory == Memory::StoreAll && need > MAX_GIB {
                 return Err(SettingsError::new("memory", format!("storing every state would take {need:.1} GiB (at most {MAX_GIB} GiB); use memory='checkpoints'")).into());
             }
+            let about = adjoint::About::Run(how.memory);
             adjoint::differentiate_backward(
-                model, densities, settings, grid, responses, parameters, how.memory,
+                model, densities, settings, grid, responses, parameters, about,
             )
         }
     }
@@ -558,8 +559,9 @@ pub fn of_motion_about(
     if !responses.iter().any(Response::depends_on_states) {
         return explicit(model, &densities, responses, parameters);
     }
-    adjoint::differentiate_about(
-        model, densities, settings, grid, responses, parameters, path,
+    let about = adjoint::About::Path(path);
+    adjoint::differentiate_backward(
+        model, densities, settings, grid, responses, parameters, about,
     )
 }
 
