@@ -352,6 +352,33 @@ def test_refinement_by_measured_shares_refines_the_soft_stay_alone_and_meets_the
     assert "measured shares" in str(d)
 
 
+def test_refinement_by_shares_meets_a_gradients_tolerance_where_the_grading_stalls():
+    """The shares are the values': on the arm with its chords solid and every other bar void,
+    d is within a twentieth of its budget at one element per bar and the gradient's error is
+    over seven times its budget, in the void bars the chords' refinement does not touch.
+    ``refine="shares"`` then follows the a-priori grading's candidates, floor raised where
+    they stall, and meets rtol on the same grid as ``refine="bars"`` (before, it refined the
+    graded bars alone to the limits and raised a ToleranceError)."""
+    runs = {}
+    for refine in ("shares", "bars"):
+        sim = flextop.Simulation(flextop.scenes.robot_arm(), refine=refine)
+        ends = sim.model.reference_positions[sim.bars.nodes]
+        chord = np.zeros(sim.n_design, bool)
+        for k in np.unique(sim.bars.component):  # both ends on a link's outermost row across its long axis
+            mine = sim.bars.component == k
+            across = np.linalg.svd(ends[mine].reshape(-1, 2) - ends[mine].reshape(-1, 2).mean(axis=0))[2][1]
+            offset = ends[mine] @ across
+            outer = np.isclose(offset, offset.min()).all(axis=1) | np.isclose(offset, offset.max()).all(axis=1)
+            chord[sim.bars.variable[mine][outer]] = True
+        x = np.where(chord, 1.0, sim.x_min)
+        runs[refine] = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2)
+        factors = sim.levels.factors(runs[refine].discretization, x)
+        assert factors.min() >= 2, "the floor of every bar was raised"
+    shares, bars = runs["shares"], runs["bars"]
+    assert shares.gradient_errors["tip_deflection"] <= 5e-2
+    assert shares.values.tolist() == bars.values.tolist() and np.array_equal(shares.gradients, bars.gradients)
+
+
 def test_dorfler_marks_the_fewest_bars_that_carry_the_fraction_asked():
     from flextop.discretization.tolerance import dorfler
     assert dorfler(np.array([1.0, 5.0, 1.0, 3.0])).tolist() == [False, True, False, True]  # 8 of 10
@@ -366,3 +393,26 @@ def test_more_steps_keep_the_bars_measured_factors():
     d = Discretization(2, 64, factors=(1, 4, 2))
     refined = _refine(d, Verdict(None, worst_time=3.0, worst_space=0.0))
     assert refined.factors == d.factors and refined.steps > d.steps
+
+
+def test_a_simulation_let_go_is_freed_at_once_with_its_refined_copies():
+    """No reference cycle keeps a Simulation: its levels refer back to it weakly, so that
+    reference counting frees it, and the refined copies a run to a tolerance built, as soon
+    as it is let go (a 200,000-body scene left to the cyclic collector paused Ctrl-C for half a
+    second)."""
+    import gc
+    import weakref
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        sim = flextop.Simulation(flextop.scenes.spun_beam())
+        sim.run_with_sensitivities(np.full(sim.n_design, 0.5), "tip_deflection", rtol=1e-2)
+        copies = [weakref.ref(s) for s in (sim, sim.levels[2])]
+        del sim
+        assert all(copy() is None for copy in copies)
+        levels = flextop.Simulation(flextop.scenes.spun_beam()).levels
+        with pytest.raises(SettingsError, match="let go"):
+            levels[2]
+    finally:
+        if enabled:
+            gc.enable()

@@ -12,6 +12,7 @@ estimate.
 from __future__ import annotations
 
 import math
+import weakref
 from time import perf_counter
 from collections import OrderedDict
 from dataclasses import replace
@@ -66,15 +67,28 @@ optimization's designs grade the bars differently as they change."""
 class Levels:
     """A simulation and its scene refined: with ``r`` times the elements of every bar
     (``levels[r]``), or of each bar its own factor (:meth:`graded`), with the same design
-    variables, each built once, on first use."""
+    variables, each built once, on first use. The simulation holds its levels, which refer
+    back to it weakly: a simulation let go is freed at once (a large scene's millions of
+    objects are not left to the cyclic garbage collector, whose pass delays Ctrl-C)."""
 
     def __init__(self, base: Simulation) -> None:
-        self._levels: dict[int, Simulation] = {1: base}
+        self._base = weakref.ref(base)
+        self._levels: dict[int, Simulation] = {}
         self._graded: OrderedDict[tuple[int, ...], Simulation] = OrderedDict()
 
+    @property
+    def base(self) -> Simulation:
+        """The simulation whose levels these are."""
+        base = self._base()
+        if base is None:
+            raise SettingsError("these levels' simulation was let go: keep the Simulation while its levels are used")
+        return base
+
     def __getitem__(self, refinement: int) -> Simulation:
+        if refinement == 1:
+            return self.base
         if refinement not in self._levels:
-            base = self._levels[1]
+            base = self.base
             simulation: Any = type(base)  # the base's class: a refined copy is built like it
             self._levels[refinement] = simulation(split_by(base.spec, refinement))
         return self._levels[refinement]
@@ -89,7 +103,7 @@ class Levels:
             return self[int(factors[0])]
         key = tuple(int(f) for f in factors)
         if key not in self._graded:
-            base = self._levels[1]
+            base = self.base
             simulation: Any = type(base)
             self._graded[key] = simulation(indicator.refined_spec(base.spec, base.model.bars(), factors))
             while len(self._graded) > GRADED_KEPT:
@@ -101,7 +115,7 @@ class Levels:
         """Each bar's factor on its elements in the scene refined as ``d`` says for the
         design ``x``: graded by :mod:`.indicator` (a dynamic scene refined by bars) and at
         least ``d.floor``, or ``d.refinement`` on every bar; times ``d.uniform``."""
-        base = self._levels[1]
+        base = self.base
         if d.factors:
             return d.uniform * np.asarray(d.factors, dtype=np.int64)
         graded = base.refine in ("bars", "shares") and base.analysis == "dynamic"
@@ -113,7 +127,7 @@ class Levels:
 
     def elements(self, d: Discretization, x: np.ndarray | None) -> float:
         """The elements of the scene refined as ``d`` says, over the scene's."""
-        elements = self._levels[1].model.bars()["elements"]
+        elements = self.base.model.bars()["elements"]
         return float(np.dot(elements, self.factors(d, x)) / max(1, sum(elements)))
 
 
@@ -305,8 +319,11 @@ def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.nd
     twice as the error asks (:func:`tolerance.doublings`). The shares are the values': where a
     gradient's or a peak's is over, the a-priori grading's refinement doubles too, and no bar
     has fewer elements than it gives. Where the last marking ``missed`` (the space error did
-    not fall), every bar doubles. ``None`` for a scene with no frame bar."""
-    if "frame" not in simulation.model.bars()["kind"]:
+    not fall), every bar doubles. ``None`` for a scene with no frame bar, and where no
+    value's error has marked a bar yet nor is over now: a gradient's or a peak's error alone
+    follows the a-priori grading, whose floor rises where it stalls (the void bars of a
+    chords-only arm, whose own gradients the chords' refinement does not touch)."""
+    if "frame" not in simulation.model.bars()["kind"] or (not d.factors and ratios[:len(names)].max() <= 0.5):
         return None
     levels = simulation.levels
     factors = levels.factors(d.grid, xv)

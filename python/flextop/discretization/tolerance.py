@@ -346,8 +346,8 @@ Marks = Callable[[Discretization, bool, np.ndarray], "Discretization | None"]
 """For a candidate whose space error is over budget, given whether the last marking missed
 where the error is and each quantity's space error over its budget: the refinement of the
 next candidate (its steps aside), from the candidate's measured shares of that error
-(``refine="shares"``); ``None`` where no frame bar can be refined (the a-priori grading
-then decides)."""
+(``refine="shares"``); ``None`` where the a-priori grading decides (no frame bar can be
+refined, or only a gradient's or a peak's error is over and no bar was marked yet)."""
 
 
 def resolve(values: Values, first: Discretization, tol: Tolerance,
