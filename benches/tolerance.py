@@ -221,6 +221,7 @@ def optimization(fresh: bool) -> None:
     """The runs of the optimization study; rows already in OPTIMIZATION_ROWS are kept
     unless ``fresh`` (an rtol run takes half an hour)."""
     sims = {refine: flextop.Simulation(flextop.scenes.robot_arm(), refine=refine) for refine in ("bars", "uniform", "shares")}
+    sims["default"] = flextop.Simulation(flextop.scenes.robot_arm())
     sim = sims["bars"]
     converged = {"settings": {"h": 1.3 / 2176}}
     runs = {"fixed m=1, h=0.02": ({}, 1, False), "converged (m=4, 2176 steps)": (converged, 4, False),
@@ -232,7 +233,9 @@ def optimization(fresh: bool) -> None:
             "rtol 1e-3, the rule now, from the m=1 optimum": ({"rtol": 1e-3}, 1, True),
             "as the rule now, the bars refined by their measured shares (refine=\"shares\")": ({"rtol": 1e-2}, 1, True),
             "rtol 1e-3, the rule now, refine=\"shares\"": ({"rtol": 1e-3}, 1, True),
-            "rtol 1e-2, the rule now, every bar refined uniformly (refine=\"uniform\")": ({"rtol": 1e-2}, 1, True)}
+            "rtol 1e-2, the rule now, every bar refined uniformly (refine=\"uniform\")": ({"rtol": 1e-2}, 1, True),
+            "rtol 1e-2, the default refinement (refine=\"shares\" since it became the default)": ({"rtol": 1e-2}, 1, True),
+            "rtol 1e-3, the default refinement (refine=\"shares\" since it became the default)": ({"rtol": 1e-3}, 1, True)}
     done = {} if fresh or not OPTIMIZATION_ROWS.exists() else json.loads(OPTIMIZATION_ROWS.read_text())
     for row in done.values():  # designs judged on the 4× reference before: judged again
         if "x" in row and row.get("judged") != TRUE_ELEMENTS:
@@ -242,7 +245,8 @@ def optimization(fresh: bool) -> None:
         if continued and first is None:
             first = optimize_arm(sim, {}, 1, np.full(sim.n_design, 0.4))[1].x
         if label not in done:
-            on = sims["uniform" if "uniformly" in label else "shares" if "shares" in label else "bars"]
+            on = sims["default" if "the default" in label else "uniform" if "uniformly" in label
+                      else "shares" if "shares" in label else "bars"]
             problem, result, seconds = optimize_arm(on, options, m, first if continued else np.full(sim.n_design, 0.4))
             done[label] = {"reported": result.fun, "seconds": seconds, "true": true_d(sim, result.x), "judged": TRUE_ELEMENTS,
                            "evaluations": problem.evaluations if options.get("rtol") else result.nfev,

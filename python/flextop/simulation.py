@@ -28,7 +28,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from . import _core, execution, modal, plausibility, responses
-from .discretization import Levels, indicator, preset, refinement, tolerance
+from .discretization import Levels, Refined, indicator, preset, refinement, tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .io import saved
 from .scenes import Scene
@@ -115,7 +115,7 @@ def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     return Scene.from_toml(Path(scene)).to_dict()
 
 
-REFINE = ("bars", "uniform", "shares")
+REFINE = ("shares", "bars", "uniform")
 """How a run to a tolerance may refine a scene's bars (``Simulation(..., refine=...)``)."""
 
 
@@ -135,15 +135,18 @@ class Simulation:
         estimated error of every response asked for is at most ``rtol·|f| + atol``
         (:mod:`flextop.discretization.tolerance`). Each run may also pass its own.
     refine:
-        How a run to a tolerance refines the bars: ``"bars"`` (default) refines those that
-        need it most, graded by each bar's own lowest frequency and mass
-        (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar alike;
-        ``"shares"`` (opt-in) those whose measured shares of a value's space error carry 80 %
-        of it (:meth:`bar_shares` on each candidate's time companion), the a-priori grading a
-        floor where a gradient's error is over: over the arm's 29 designs the median cost of
-        ``"bars"``, 27 % fewer unknowns, 10 % more time in total, and one ``ToleranceError``
-        where ``"bars"`` passes; in the arm's optimization to ``rtol``, 1.3–2.8× less time
-        (BENCHMARKS.md, "Refinement by measured shares", "Optimization to a tolerance").
+        How a run to a tolerance refines the bars: ``"shares"`` (default) those whose
+        measured shares of a value's space error carry 80 % of it (:meth:`bar_shares` on each
+        candidate's time companion), the a-priori grading a floor where a gradient's or a
+        peak's error is over, and the a-priori rule itself where only theirs is; ``"bars"``
+        those that need it most by the a-priori grading alone, each bar's own lowest
+        frequency and mass (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar
+        alike. Over the arm's 29 designs at rtol 1e-2 ``"shares"`` and ``"bars"`` are as
+        honest (no ``ToleranceError``, the same worst under-estimate); ``"shares"`` costs
+        69× the fixed run in the median against 78× on 26 % fewer unknowns, 6 % more in
+        total (its markings' split runs and sweeps); the arm's tip-deflection optimization
+        to rtol 1e-2 takes 1.4× less time (BENCHMARKS.md, "Refinement by measured shares",
+        "Optimization to a tolerance").
 
     Raises
     ------
@@ -151,12 +154,12 @@ class Simulation:
         If the scene cannot be built; the message names the entry.
     SettingsError
         If ``rtol`` is not in (0, 1), ``atol`` is negative, ``accuracy`` is not a preset's
-        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is not ``"bars"``,
-        ``"uniform"`` or ``"shares"``.
+        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is not ``"shares"``,
+        ``"bars"`` or ``"uniform"``.
     """
 
     def __init__(self, scene: Scene | dict | str | os.PathLike, *, accuracy: str | None = None, rtol: float | None = None,
-                 atol: float = 0.0, refine: str = "bars") -> None:
+                 atol: float = 0.0, refine: str = "shares") -> None:
         spec = _as_spec(scene)
         try:
             self.spec = copy.deepcopy(spec)
@@ -173,7 +176,7 @@ class Simulation:
         if refine not in REFINE:
             raise SettingsError(f"refine must be one of {', '.join(map(repr, REFINE))}, got {refine!r}")
         self.refine = refine
-        self.levels = Levels(self)
+        self._refined = Refined()
         self.model = _core.Model.from_dict(spec)
         raw = self.model.bars()
         self.bars = Bars(tuple(raw["name"]), np.asarray(raw["nodes"], dtype=int), np.asarray(raw["variable"], dtype=int),
@@ -185,6 +188,11 @@ class Simulation:
             _warn_if_over_constrained(self.mechanism)
         positions = np.asarray(self.model.reference_positions)
         plausibility.check(self.spec, float(np.linalg.norm(np.ptp(positions, axis=0))) if len(positions) else 0.0)
+
+    @property
+    def levels(self) -> Levels:
+        """This simulation and its refined copies (:class:`~flextop.discretization.refinement.Levels`)."""
+        return Levels(self, self._refined)
 
     def __reduce__(self) -> tuple[Any, tuple[dict, dict[str, Any]]]:
         """Pickled as its scene and options, and built again where it is unpickled (the

@@ -268,7 +268,8 @@ def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_mov
     accepting.accept(x, accepting.evaluate(x))
     trial = accepting.evaluate(far)
     assert accepting.measured == [1] and accepting.discretization == d
-    held = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=far)
+    held = on_accepted_grid(sim, d, x, "tip_deflection", sim.spec["simulation"]["t_end"], design=far,
+                            newton="modified", tol=HELD_NEWTON_TOL)
     assert trial.f0 * accepting.objective_scale == pytest.approx(held.values[0], rel=1e-14)
     accepted = accepting.accept(far, trial)
     assert accepting.measured == [1, 3]
@@ -396,10 +397,10 @@ def test_more_steps_keep_the_bars_measured_factors():
 
 
 def test_a_simulation_let_go_is_freed_at_once_with_its_refined_copies():
-    """No reference cycle keeps a Simulation: its levels refer back to it weakly, so that
-    reference counting frees it, and the refined copies a run to a tolerance built, as soon
+    """No reference cycle keeps a Simulation: its refined copies do not refer back to it,
+    so that reference counting frees it, and the copies a run to a tolerance built, as soon
     as it is let go (a 200,000-body scene left to the cyclic collector paused Ctrl-C for half a
-    second)."""
+    second). A temporary's levels stay usable."""
     import gc
     import weakref
     enabled = gc.isenabled()
@@ -410,9 +411,7 @@ def test_a_simulation_let_go_is_freed_at_once_with_its_refined_copies():
         copies = [weakref.ref(s) for s in (sim, sim.levels[2])]
         del sim
         assert all(copy() is None for copy in copies)
-        levels = flextop.Simulation(flextop.scenes.spun_beam()).levels
-        with pytest.raises(SettingsError, match="let go"):
-            levels[2]
+        assert flextop.Simulation(flextop.scenes.spun_beam()).levels[2].n_design == 8
     finally:
         if enabled:
             gc.enable()

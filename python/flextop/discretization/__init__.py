@@ -6,7 +6,7 @@ meets a tolerance.
 - :mod:`.accuracy`: presets (named tolerances) and :func:`split_by`;
 - :mod:`.indicator`: each bar's need (its own frequency and mass) and the refinement
   graded by it, bar by bar;
-- :mod:`.refinement`: the scene refined (:class:`Levels`), companion runs, and the loop of
+- :mod:`.refinement`: the scene refined (:class:`Levels`, kept in :class:`Refined`), companion runs, and the loop of
   a run to a tolerance.
 
 :mod:`flextop.modal` refines the eigen-analysis by the same levels; the problems'
@@ -15,7 +15,7 @@ again, and holds the grid in between.
 """
 
 from .accuracy import PRESETS, preset, split_by
-from .refinement import Levels, companions_of, to_tolerance
+from .refinement import Levels, Refined, companions_of, to_tolerance
 from .tolerance import Discretization, ErrorEstimate
 
-__all__ = ["PRESETS", "Discretization", "ErrorEstimate", "Levels", "companions_of", "preset", "split_by", "to_tolerance"]
+__all__ = ["PRESETS", "Discretization", "ErrorEstimate", "Levels", "Refined", "companions_of", "preset", "split_by", "to_tolerance"]

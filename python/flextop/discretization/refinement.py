@@ -12,7 +12,6 @@ estimate.
 from __future__ import annotations
 
 import math
-import weakref
 from time import perf_counter
 from collections import OrderedDict
 from dataclasses import replace
@@ -64,34 +63,34 @@ GRADED_KEPT = 8
 optimization's designs grade the bars differently as they change."""
 
 
+class Refined:
+    """The refined copies of a simulation, each built once, on first use: with ``r`` times
+    the elements of every bar, and the graded ones most recently used. The simulation keeps
+    them; they do not refer back to it, so that a simulation let go is freed at once (a
+    large scene's millions of objects are not left to the cyclic garbage collector, whose
+    pass delays Ctrl-C)."""
+
+    def __init__(self) -> None:
+        self.uniform: dict[int, Simulation] = {}
+        self.graded: OrderedDict[tuple[int, ...], Simulation] = OrderedDict()
+
+
 class Levels:
     """A simulation and its scene refined: with ``r`` times the elements of every bar
     (``levels[r]``), or of each bar its own factor (:meth:`graded`), with the same design
-    variables, each built once, on first use. The simulation holds its levels, which refer
-    back to it weakly: a simulation let go is freed at once (a large scene's millions of
-    objects are not left to the cyclic garbage collector, whose pass delays Ctrl-C)."""
+    variables, kept in the simulation's :class:`Refined`."""
 
-    def __init__(self, base: Simulation) -> None:
-        self._base = weakref.ref(base)
-        self._levels: dict[int, Simulation] = {}
-        self._graded: OrderedDict[tuple[int, ...], Simulation] = OrderedDict()
-
-    @property
-    def base(self) -> Simulation:
-        """The simulation whose levels these are."""
-        base = self._base()
-        if base is None:
-            raise SettingsError("these levels' simulation was let go: keep the Simulation while its levels are used")
-        return base
+    def __init__(self, base: Simulation, refined: Refined) -> None:
+        self.base, self._refined = base, refined
 
     def __getitem__(self, refinement: int) -> Simulation:
         if refinement == 1:
             return self.base
-        if refinement not in self._levels:
-            base = self.base
-            simulation: Any = type(base)  # the base's class: a refined copy is built like it
-            self._levels[refinement] = simulation(split_by(base.spec, refinement))
-        return self._levels[refinement]
+        made = self._refined.uniform
+        if refinement not in made:
+            simulation: Any = type(self.base)  # the base's class: a refined copy is built like it
+            made[refinement] = simulation(split_by(self.base.spec, refinement))
+        return made[refinement]
 
     def model(self, refinement: int) -> _core.Model:
         """The engine model at ``refinement``."""
@@ -102,14 +101,14 @@ class Levels:
         if np.all(factors == factors[0]):
             return self[int(factors[0])]
         key = tuple(int(f) for f in factors)
-        if key not in self._graded:
-            base = self.base
-            simulation: Any = type(base)
-            self._graded[key] = simulation(indicator.refined_spec(base.spec, base.model.bars(), factors))
-            while len(self._graded) > GRADED_KEPT:
-                self._graded.popitem(last=False)
-        self._graded.move_to_end(key)
-        return self._graded[key]
+        made = self._refined.graded
+        if key not in made:
+            simulation: Any = type(self.base)
+            made[key] = simulation(indicator.refined_spec(self.base.spec, self.base.model.bars(), factors))
+            while len(made) > GRADED_KEPT:
+                made.popitem(last=False)
+        made.move_to_end(key)
+        return made[key]
 
     def factors(self, d: Discretization, x: np.ndarray | None) -> np.ndarray:
         """Each bar's factor on its elements in the scene refined as ``d`` says for the

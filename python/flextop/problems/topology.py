@@ -104,9 +104,10 @@ class TopologyProblem(Problem):
     accepts that has moved by more than ``readapt`` (in any variable) from the last design
     whose error was measured is re-adapted — its error estimated, the grid refined until
     it meets ``rtol``, starting from the discretization accepted before, so that the
-    refinement and the steps only ever grow, and the bars graded for that design
-    (``refine="bars"``: a bar that thinned into the band has gained elements, one that
-    thickened out of it has given them back) — and its evaluation replaced by the one on
+    refinement and the steps only ever grow, and the bars refined for that design (by the
+    shares of the error measured there, the default; with ``refine="bars"`` graded by
+    their own frequencies, so that a bar that thinned into the band has gained elements,
+    one that thickened out of it has given them back) — and its evaluation replaced by the one on
     that grid, which the next iteration builds on. Every other evaluation, an iteration's
     trial and MMA's inner iterations included, runs once on the grid as it is. So each
     iteration compares its designs on one smooth model: measured at the trial designs
@@ -129,12 +130,13 @@ class TopologyProblem(Problem):
     same runs, only for the design it keeps: on the arm's optimization below, gradients at
     48 of 188 evaluations (the 40 designs kept and the 8 measured). Without a tolerance the
     same holds on the scene's own grid (a dynamic scene on uniform steps, by the adjoint):
-    1.28× less time on the arm at 2× the elements and 1088 steps. On a
-    :class:`Simulation` made with ``refine="shares"`` the grid refines the bars whose measured
-    shares of the error carry it (opt-in): the arm's tip-deflection optimization from the
-    one-element optimum took 48.9 s against 69.2 s at ``rtol=1e-2`` and 290.7 s at 1e-3, to
-    designs within 1.3 % in true d (BENCHMARKS.md, "Optimization to a tolerance"; one
-    problem measured, one run each). ``discretization`` is the current one,
+    1.28× less time on the arm at 2× the elements and 1088 steps. The grid refines the bars
+    whose measured shares of the error carry it (``refine="shares"``, the default): the
+    arm's tip-deflection optimization from the one-element optimum took 48.9–52.2 s
+    against 69.2 s with ``refine="bars"`` and 217.7 s with ``"uniform"`` at ``rtol=1e-2``,
+    and 290.7–293.4 s at 1e-3, to designs within 1.3 % in true d; the arm's compliance, the spun beam
+    and the slider-crank ran the same optimizations under both (BENCHMARKS.md,
+    "Optimization to a tolerance"). ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
     the evaluations whose error was estimated.
 
