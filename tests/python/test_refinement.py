@@ -415,3 +415,32 @@ def test_a_simulation_let_go_is_freed_at_once_with_its_refined_copies():
     finally:
         if enabled:
             gc.enable()
+
+
+def test_a_kept_trial_that_accept_measures_again_has_no_gradients_made():
+    """MMA keeps a trial and the driver hands it to ``accept``: where the design moved by more
+    than ``readapt`` its evaluation is replaced by the measured one, so the trial's gradients
+    are made only at the iterations ``accept`` does not measure; the optimization is the
+    same, bit for bit, as one that makes them first."""
+    from flextop.discretization.refinement import Held
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    made = []
+    sensitivities = Held.sensitivities
+
+    def counted(self):
+        made.append(self.xv.copy())
+        return sensitivities(self)
+
+    results = {}
+    for takes in (True, False):
+        problem = flextop.TopologyProblem(sim, "tip_deflection", flextop.volume_constraints(sim, 0.4), rtol=1e-2)
+        problem.accepts_trials = takes
+        made.clear()
+        Held.sensitivities = counted
+        try:
+            results[takes] = flextop.optimize(problem, np.full(sim.n_design, 0.5), method="mma", max_iter=20)
+        finally:
+            Held.sensitivities = sensitivities
+        iterations, in_accept = len(results[takes].history) - 1, len(problem.measured) - 1  # the first: the start
+        assert in_accept >= 1 and len(made) == (iterations - in_accept if takes else iterations)
+    np.testing.assert_array_equal(results[True].x, results[False].x)

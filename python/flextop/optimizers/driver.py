@@ -169,10 +169,14 @@ def _start(problem: Problem, x0) -> np.ndarray:
     return np.clip(x, problem.lower, problem.upper)
 
 
-def _accept(problem: Problem, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
-    """:meth:`Problem.accept`, or the evaluation as it is for a problem without it."""
+def _accept(problem: Problem, x: np.ndarray, made: Evaluation | Trial) -> Evaluation:
+    """:meth:`Problem.accept` of the evaluation ``made`` (a kept :class:`Trial`'s gradients
+    made first, unless the problem ``accepts_trials``), or the evaluation as it is for a
+    problem without it."""
     accept = getattr(problem, "accept", None)
-    return evaluation if accept is None else accept(x, evaluation)
+    if isinstance(made, Trial) and (accept is None or not getattr(problem, "accepts_trials", False)):
+        made = made.evaluation()
+    return made if accept is None else accept(x, made)  # type: ignore[return-value]
 
 
 def _initial_state(problem: Problem, x: np.ndarray, method: Method, move: float,
@@ -202,11 +206,11 @@ def _iterate(problem: Problem, method: Method, state: OptimizerState,
     while True:
         try:
             step = method.step(problem, state, state.move, evaluate)
-            before = perf_counter()
+            before, evaluating = perf_counter(), evaluate.time
             try:
                 evaluation = _accept(problem, step.x, step.evaluation)
-            finally:
-                accepting += perf_counter() - before
+            finally:  # a kept trial's gradients made in there are the evaluator's time already
+                accepting += perf_counter() - before - (evaluate.time - evaluating)
             break
         except EvaluationError as error:
             state = replace(state, move=0.5 * state.move, nfev=evaluate.calls,

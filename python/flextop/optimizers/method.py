@@ -33,7 +33,10 @@ class Step:
     (stored as ``OptimizerState.method_data``)."""
 
     x: np.ndarray
-    evaluation: Evaluation
+    evaluation: Evaluation | Trial
+    """The evaluation at ``x``, or the :class:`Trial` of it the method kept, its gradients
+    made when the driver asks (after :meth:`~Problem.accept` for a problem that
+    ``accepts_trials``)."""
     multipliers: np.ndarray
     method_data: dict[str, np.ndarray] = field(default_factory=dict)
 

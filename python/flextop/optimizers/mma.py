@@ -192,8 +192,7 @@ class MMA(Method):
         if trial is not None and dominated(trial, state.evaluation):
             rho = raised_rho(approx, initial_rho(state.evaluation, problem.upper - problem.lower), solution.x, trial)
             return conservative_step(self, problem, state, move, evaluate, rho)
-        evaluation = evaluate(solution.x) if trial is None else trial.evaluation()
-        return Step(solution.x, evaluation, solution.lam, approx.asymptotes())
+        return Step(solution.x, evaluate(solution.x) if trial is None else trial, solution.lam, approx.asymptotes())
 
 
 def dominated(new: Values, current: Values) -> bool:
@@ -242,7 +241,7 @@ def conservative_step(method: MMA, problem: Problem, state: OptimizerState, move
         exact = np.concatenate(([trial.f0], trial.g))
         shortfall = exact - approx.values(solution.x)
         if (shortfall <= rounding * (1.0 + np.abs(exact))).all() or inner == max_inner:
-            return Step(solution.x, trial.evaluation(), lam, approx.asymptotes())
+            return Step(solution.x, trial, lam, approx.asymptotes())
         rho = raised_rho(approx, rho, solution.x, trial)
     raise AssertionError("unreachable")
 

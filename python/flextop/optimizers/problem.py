@@ -15,7 +15,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 
@@ -154,6 +154,11 @@ class Problem(ABC):
         it keeps it (:class:`Trial`). The default evaluates everything at once; a problem
         whose gradients cost extra overrides it."""
         return Trial.of(self.evaluate(x))
+
+    accepts_trials: ClassVar[bool] = False
+    """Whether :meth:`accept` takes the :class:`Trial` a method kept, and makes its gradients
+    only if it keeps its evaluation (a problem held to a tolerance replaces it where it
+    measures the design); otherwise the optimizer makes them before."""
 
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Called once per iteration with the design the optimizer moves to and its
