@@ -385,7 +385,8 @@ class Simulation:
     def run_with_sensitivities(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *,
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
                                start: Discretization | None = None, hold_gradients: bool = True, extrapolate: bool = True,
-                               local_tol: float | None = None, parameters: Sequence[str] = (), **settings: Any) -> Sensitivities:
+                               local_tol: float | None = None, parameters: Sequence[str] = (), made: Sequence[Results] = (),
+                               **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -432,7 +433,11 @@ class Simulation:
         runs at 4h and 8h; where that estimate is the smaller, the extrapolated values are
         returned and ``discretization.extrapolated`` says so (the peaks extrapolated alike).
         The peaks of peak-limited responses (a drive's torque, a stress) are held to
-        ``rtol`` too, their estimated errors in ``peak_errors``. With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
+        ``rtol`` too, their estimated errors in ``peak_errors``. ``made``: runs of ``x`` on
+        this scene's refined copies already made (an optimization's trial on the grid
+        held): with ``hold_gradients=False``, a candidate or companion on one of their grids
+        and steps reads it instead of running again (a run of another design is a
+        :class:`SettingsError`). With ``local_tol`` (as in :meth:`run`) the steps are chosen by local
         error control, then frozen: the gradients are exact for the steps that ran, which
         the result holds in ``steps``.
         """
@@ -451,7 +456,7 @@ class Simulation:
         if wanted is None:
             return self.sensitivities_fixed(xv, names, self._settings(**gradients, **settings))
         return refinement.to_tolerance(self, xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients,
-                                       extrapolate)
+                                       extrapolate, made)
 
     def map(self, designs: Iterable[DesignLike], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
             executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:

@@ -274,8 +274,14 @@ def test_an_optimization_to_a_tolerance_measures_again_only_where_the_design_mov
     accepted = accepting.accept(far, trial)
     assert accepting.measured == [1, 3]
     measured = sim.run_with_sensitivities(far, "tip_deflection", rtol=1e-2, start=d, hold_gradients=False)
-    assert accepted.f0 * accepting.objective_scale == pytest.approx(measured.values[0], rel=1e-14)
-    np.testing.assert_allclose(accepted.df0 * accepting.objective_scale, measured.gradients[0], rtol=1e-12)
+    assert measured.discretization.grid == d.grid
+    # The measurement read the trial's runs where its candidate ran the grid held (Newton
+    # as held), within Newton's tolerances of runs made anew.
+    read = on_accepted_grid(sim, measured.discretization, x, "tip_deflection", sim.spec["simulation"]["t_end"],
+                            design=far, newton="modified", tol=HELD_NEWTON_TOL)
+    assert accepted.f0 * accepting.objective_scale == pytest.approx(read.values[0], rel=1e-14)
+    assert accepted.f0 * accepting.objective_scale == pytest.approx(measured.values[0], rel=1e-7)
+    np.testing.assert_allclose(accepted.df0 * accepting.objective_scale, measured.gradients[0], rtol=1e-6)
     every = flextop.TopologyProblem(sim, "tip_deflection", rtol=1e-2, readapt=0.0)
     for design in (x, near, far):
         every.evaluate(design)
@@ -444,3 +450,39 @@ def test_a_kept_trial_that_accept_measures_again_has_no_gradients_made():
         iterations, in_accept = len(results[takes].history) - 1, len(problem.measured) - 1  # the first: the start
         assert in_accept >= 1 and len(made) == (iterations - in_accept if takes else iterations)
     np.testing.assert_array_equal(results[True].x, results[False].x)
+
+
+def test_a_measurement_reads_the_runs_a_trial_made_on_the_grid_held():
+    """``made``: a run to a tolerance judged on values reads the runs of the design already
+    made on its candidates' grids (an optimization's trial on the grid held, which ``accept``
+    then measures) instead of running them again: two runs fewer on the spun beam's held
+    grid and its half steps, the values those runs read, within Newton's tolerances of runs
+    made anew. A run of another design is refused."""
+    from flextop.discretization.refinement import Held
+    from flextop.simulation import Simulation
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    x = np.linspace(0.9, 0.3, sim.n_design)
+    d = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2, hold_gradients=False).discretization
+    held = Held.on(sim, x, ["tip_deflection"], d, x, {})
+    counted, run_fixed = [], Simulation.run_fixed
+
+    def counting(self, *args, **kwargs):
+        counted.append(1)
+        return run_fixed(self, *args, **kwargs)
+
+    out = {}
+    Simulation.run_fixed = counting
+    try:
+        for made in ((), held.runs):
+            counted.clear()
+            out[len(made)] = (sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2, start=d, hold_gradients=False,
+                                                         made=made), len(counted))
+    finally:
+        Simulation.run_fixed = run_fixed
+    (anew, runs), (read, fewer) = out[0], out[2]
+    assert d.extrapolated and read.discretization == anew.discretization == d and fewer == runs - 2
+    assert read.values[0] == pytest.approx(held.values[0], rel=1e-14)
+    assert read.values[0] == pytest.approx(anew.values[0], rel=1e-7)
+    np.testing.assert_allclose(read.gradients, anew.gradients, rtol=1e-6)
+    with pytest.raises(SettingsError, match="made"):
+        sim.run_with_sensitivities(x + 0.05, "tip_deflection", rtol=1e-2, start=d, hold_gradients=False, made=held.runs)

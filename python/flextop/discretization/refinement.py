@@ -346,7 +346,7 @@ def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.nd
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
                  settings: dict[str, Any], gradients: dict[str, str] | None, start: Discretization | None = None,
-                 hold_gradients: bool = True, extrapolate: bool = False) -> Any:
+                 hold_gradients: bool = True, extrapolate: bool = False, made: Sequence[_Run] = ()) -> Any:
     """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
     results (or sensitivities) with its estimate and companions attached. With
     ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and the
@@ -358,8 +358,12 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     (unless a candidate made it), so that the values are those of two ordinary runs, side
     by side (:func:`~flextop.execution.side_by_side`). Companion runs stop Newton at
     :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
-    any run made at their discretization; a candidate reuses only a candidate's run."""
+    any run made at their discretization; a candidate reuses only a candidate's run. Judged on
+    the values alone, a grid and steps one of the runs ``made`` already ran (of ``xv``: an
+    optimization's trial on the grid held) are read from it, not run again."""
     duration = None if simulation.analysis == "static" else t_end(simulation, settings)
+    if any(run.x is None or not np.array_equal(run.x, xv) for run in made):
+        raise SettingsError("made: every run given must be of the design being run")
     levels = simulation.levels
     runs: dict[tuple[Discretization, bool], Any] = {}
     judged = gradients if hold_gradients else None
@@ -374,17 +378,27 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
             return level.sensitivities_fixed(xv, names, {**at, **gradients})
         if not is_companion:
             return level.run_fixed(xv, at)
-        coarse = made(replace(d, uniform=d.uniform // 2)) if d.steps and d.uniform % 2 == 0 else None
+        coarse = found(replace(d, uniform=d.uniform // 2)) if d.steps and d.uniform % 2 == 0 else None
         plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
         return companion(level, xv, at, plain, coarse)
 
-    def made(d: Discretization, is_companion: bool = True) -> Any:
+    def found(d: Discretization, is_companion: bool = True) -> Any:
         return runs.get((d, False)) or (runs.get((d, True)) if is_companion else None)
 
     peaked = [n for n in names if n.split(":", 1)[0] in PEAK_LIMITED]
 
+    def given(d: Discretization) -> Any:
+        """The run of ``made`` on ``d``'s grid and steps, if any."""
+        level = levels.at(d, xv) if made and d.steps else None
+        return next((r for r in made if r.simulation is level and math.isclose(r.settings.get("h", 0.0), duration / d.steps,
+                                                                                 rel_tol=1e-12)), None)
+
     def values(d: Discretization, is_companion: bool) -> list[np.ndarray]:
-        out = made(d, is_companion)
+        out = found(d, is_companion)
+        if out is None and not judged:
+            out = given(d)
+            if out is not None:
+                runs[(d, False)] = out
         if out is None:
             out = runs[(d, is_companion)] = run(d, judged, is_companion)
         if judged:
@@ -417,5 +431,5 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         return replace(out, discretization=d, errors=errors, gradient_errors=dict(zip(names, held)), peak_errors=peak_errors)
     out = runs[(d, False)]
     out.discretization, out.errors, out.peak_errors = d, errors, peak_errors
-    out.companions = (made(d.half_steps), made(d.quarter_steps), made(d.split)) if d.steps else (None, None, made(d.split))
+    out.companions = (found(d.half_steps), found(d.quarter_steps), found(d.split)) if d.steps else (None, None, found(d.split))
     return out

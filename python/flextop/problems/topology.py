@@ -170,6 +170,7 @@ class TopologyProblem(Problem):
         self.filter = filter
         self.discretization: Discretization | None = None
         self.refinements: list[tuple[int, Discretization]] = []
+        self._last_trial: tuple[np.ndarray | None, list[Any]] = (None, [])
         self.measured: list[int] = []
         self.evaluations = 0
         self.normalization: dict[str, float] = {}
@@ -234,7 +235,8 @@ class TopologyProblem(Problem):
         self.evaluations += 1
         if self._holds() and not measure:
             return self._values_first(x).evaluation()
-        tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization} if self._holds() else {}
+        tolerance = {"rtol": self.rtol, "atol": self.atol, "start": self.discretization, "made": self._trial_runs(x)} \
+            if self._holds() else {}
         try:
             out = self.simulation.run_with_sensitivities(x, self.responses, method=self.method, hold_gradients=False,
                                                          **tolerance, **self.settings)
@@ -252,6 +254,13 @@ class TopologyProblem(Problem):
         g, dg = self._constraints(x, f[1:], out.peaks)
         return Evaluation(f[0] / scale, g, dfdx[0] / scale, dg(dfdx[1:]))
 
+    def _trial_runs(self, x: np.ndarray) -> list[Any]:
+        """The runs of the last trial, if it was at the physical densities ``x`` (a kept
+        trial that :meth:`accept` measures: the measurement reads them where its candidates
+        run the grid held)."""
+        at, runs = self._last_trial
+        return list(runs) if at is not None and np.array_equal(at, x) else []
+
     def _values_first(self, x: np.ndarray) -> Trial:
         """The evaluation at the physical densities ``x`` on the grid held, graded for the
         design measured last, or without a tolerance on the scene's own grid
@@ -266,6 +275,7 @@ class TopologyProblem(Problem):
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         self._timed({"simulation": held.seconds})
+        self._last_trial = (np.array(x, dtype=float), held.runs)
         f = held.values
         scale = self._scale(f[0])
         g, dg = self._constraints(x, f[1:], held.peaks)
