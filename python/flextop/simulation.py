@@ -145,7 +145,7 @@ class Simulation:
         honest (no ``ToleranceError``, the same worst under-estimate); ``"shares"`` costs
         69× the fixed run in the median against 78× on 26 % fewer unknowns, 6 % more in
         total (its markings' split runs and sweeps); the arm's tip-deflection optimization
-        to rtol 1e-2 takes 1.4× less time (BENCHMARKS.md, "Refinement by measured shares",
+        to rtol 1e-2 takes 1.65× less time (BENCHMARKS.md, "Refinement by measured shares",
         "Optimization to a tolerance").
 
     Raises

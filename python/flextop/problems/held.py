@@ -4,7 +4,8 @@ The model changes only between iterations, in :meth:`~flextop.optimizers.Problem
 a design the optimizer accepts that has moved by more than ``readapt`` (in any variable)
 from the design measured last is measured — its error estimated, its grid refined until it
 meets ``rtol`` from the discretization held, so that refinement and steps only grow — and
-its evaluation replaced by the one on that grid. Every other evaluation (an iteration's
+its evaluation replaced by the one on that grid (the measurement reads the kept trial's runs
+where a candidate is the grid held, and the trial's gradients are not made). Every other evaluation (an iteration's
 trial, MMA's inner iterations) runs on the grid held
 (:class:`~flextop.discretization.refinement.Held`): a trial the optimizer may reject
 reads the values, and the gradients are made, by the adjoint about the same runs, only

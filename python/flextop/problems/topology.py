@@ -132,9 +132,9 @@ class TopologyProblem(Problem):
     same holds on the scene's own grid (a dynamic scene on uniform steps, by the adjoint):
     1.28× less time on the arm at 2× the elements and 1088 steps. The grid refines the bars
     whose measured shares of the error carry it (``refine="shares"``, the default): the
-    arm's tip-deflection optimization from the one-element optimum took 48.9–52.2 s
-    against 69.2 s with ``refine="bars"`` and 217.7 s with ``"uniform"`` at ``rtol=1e-2``,
-    and 290.7–293.4 s at 1e-3, to designs within 1.3 % in true d; the arm's compliance, the spun beam
+    arm's tip-deflection optimization from the one-element optimum took 44.8 s against
+    74.0 s with ``refine="bars"`` and 210.4 s with ``"uniform"`` at ``rtol=1e-2``, and
+    278.1 s at 1e-3, to designs within 1.3 % in true d; the arm's compliance, the spun beam
     and the slider-crank ran the same optimizations under both (BENCHMARKS.md,
     "Optimization to a tolerance"). ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
