@@ -174,9 +174,10 @@ def _accept(problem: Problem, x: np.ndarray, made: Evaluation | Trial) -> Evalua
     made first, unless the problem ``accepts_trials``), or the evaluation as it is for a
     problem without it."""
     accept = getattr(problem, "accept", None)
-    if isinstance(made, Trial) and (accept is None or not getattr(problem, "accepts_trials", False)):
-        made = made.evaluation()
-    return made if accept is None else accept(x, made)  # type: ignore[return-value]
+    if accept is not None and getattr(problem, "accepts_trials", False):
+        return accept(x, made)
+    evaluation = made.evaluation() if isinstance(made, Trial) else made
+    return evaluation if accept is None else accept(x, evaluation)
 
 
 def _initial_state(problem: Problem, x: np.ndarray, method: Method, move: float,
