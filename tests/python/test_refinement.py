@@ -400,6 +400,44 @@ def test_more_steps_keep_the_bars_measured_factors():
     assert refined.factors == d.factors and refined.steps > d.steps
 
 
+def test_more_steps_are_foreseen_at_the_order_of_the_values_the_next_candidate_is_judged_on():
+    """A time error 59 times the budget (the arm's tip-deflection optimum at the scene's 68
+    steps): the raw values' second order asks for four doublings (1088 steps); where the
+    next candidate is extrapolated, at the extrapolated values' third order, three (544,
+    where its error is a tenth of the budget). Where the space is refined in the same step,
+    its error measured on too few steps, the raw order decides (a slider-crank refined its
+    bars to the limits before)."""
+    from flextop.discretization.tolerance import EXTRAPOLATED_ORDER, TIME_ORDER, Verdict, _more_steps
+    raw, ahead = Verdict(None, 58.9, 0.0), Verdict(None, 58.9, 0.0, extrapolable=True)
+    assert (raw.time_order, ahead.time_order) == (TIME_ORDER, EXTRAPOLATED_ORDER)
+    assert (_more_steps(68, raw), _more_steps(68, ahead)) == (1088, 544)
+    assert _more_steps(68, Verdict(None, 58.9, 4.2, extrapolable=True)) == 1088
+    assert _more_steps(68, Verdict(None, 58.9, 0.0, extrapolated=True)) == 544
+
+
+def test_the_shares_read_the_space_companions_run(monkeypatch):
+    """``refine="shares"`` marks bars on the candidate's space companion, whose run the
+    shares read (``split``) instead of making it again: the same shares as from a run made
+    anew, to the companion's Newton tolerance."""
+    calls = []
+    made = indicator.shares
+
+    def recorded(simulation, x, names, settings, steps, split=None):
+        calls.append((simulation, x, names, settings, steps, split))
+        return made(simulation, x, names, settings, steps, split)
+
+    sim = flextop.Simulation(flextop.scenes.spun_beam(), refine="shares")
+    x = np.linspace(1.0, 0.1, sim.n_design)
+    monkeypatch.setattr(indicator, "shares", recorded)
+    run = sim.run_with_sensitivities(x, "tip_deflection", rtol=1e-2)
+    assert run.discretization.factors and calls, "the tapered beam is marked"
+    for simulation, x, names, settings, steps, split in calls:
+        assert split is not None and len(split.time) == len(steps) + 1
+        read, anew = made(simulation, x, names, settings, steps, split), made(simulation, x, names, settings, steps)
+        for name in names:
+            assert anew.shares[name] == pytest.approx(read.shares[name], rel=1e-4, abs=1e-4 * np.abs(anew.shares[name]).max())
+
+
 def test_a_simulation_let_go_is_freed_at_once_with_its_refined_copies():
     """No reference cycle keeps a Simulation: its refined copies do not refer back to it,
     so that reference counting frees it, and the copies a run to a tolerance built, as soon

@@ -180,12 +180,14 @@ def test_a_fixed_run_tells_when_it_is_wrong(arm_references):
 @pytest.mark.parametrize("hold", [True, False])
 def test_gradients_on_the_grid_that_ran_are_exact(hold):
     """Spun beam at rtol = 1e-2: direct equals adjoint, and fourth-order central differences
-    on the frozen discretization agree (with the gradients not held, of the extrapolated
-    value, which the values alone choose there)."""
+    on the frozen discretization agree (with the gradients held, of the grid's own values,
+    ``extrapolate=False``; not held, of the extrapolated value, which the values alone
+    choose there)."""
     sim = flextop.Simulation(flextop.scenes.spun_beam(), rtol=1e-2)
     x = np.linspace(0.9, 0.3, sim.n_design)
-    direct = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="direct", hold_gradients=hold)
-    adjoint = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="adjoint", hold_gradients=hold)
+    options = {"hold_gradients": hold, "extrapolate": not hold}
+    direct = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="direct", **options)
+    adjoint = sim.run_with_sensitivities(x, ["tip_deflection", "compliance"], method="adjoint", **options)
     assert direct.discretization.extrapolated == (not hold)
     assert direct.discretization == adjoint.discretization
     assert direct.discretization.refinement > 1 or direct.discretization.steps > 120, "the scene's own grid is not enough"

@@ -125,15 +125,17 @@ class Shares:
         return {name: self.change[name] - float(self.shares[name].sum()) for name in self.coarse}
 
 
-def shares(simulation: _Runs, x: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray) -> Shares:
+def shares(simulation: _Runs, x: np.ndarray, names: list[str], settings: dict[str, Any], steps: np.ndarray,
+           split: Any = None) -> Shares:
     """Each bar's share of the change of responses ``names`` for design ``x`` from the scene
     as it is to the scene with twice the elements of every frame bar, both on ``steps``
-    (dual-weighted residuals: the module's docstring)."""
+    (dual-weighted residuals: the module's docstring). ``split``: that finer scene's run of
+    ``x`` on ``steps``, if one was made (a run to a tolerance's space companion); else it is
+    made here with ``settings``."""
     if simulation.analysis != "dynamic":
         raise SettingsError("bar shares are measured on a dynamic run; a static scene's refinement is uniform")
-    fine = simulation.levels[2]
-    run = fine.run_fixed(x, settings, steps=steps)
-    raw = run.raw
+    run = split if split is not None else simulation.levels[2].run_fixed(x, settings, steps=steps)
+    fine, raw = run.simulation, run.raw
     out = _core.bar_shares(simulation.model, fine.model, x, names, settings, [float(h) for h in steps],
                            raw["q"], raw["qdot"], raw["qddot"], raw["lam"])
     return Shares(bars=tuple(simulation.model.bars()["name"]),

@@ -309,12 +309,13 @@ def combined(runs: list[np.ndarray]) -> np.ndarray:
 
 
 def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.ndarray, xv: np.ndarray | None,
-          names: Sequence[str], settings: dict[str, Any]) -> Discretization | None:
+          names: Sequence[str], settings: dict[str, Any], split: _Run | None = None) -> Discretization | None:
     """The refinement after candidate ``d`` (``refine="shares"``), given each quantity's space
     error over its budget (``ratios``: the responses' values first). Where a value's is over
     half of it, the bars whose shares of the change of splitting every bar carry 80 % of it
-    (:func:`indicator.shares` on ``d``'s time companion and its split run, relative to each
-    response and summed over them; :func:`tolerance.dorfler`) double their elements, once or
+    (:func:`indicator.shares` on ``d``'s time companion and its split run, ``split`` where
+    the candidate's space companion made it, relative to each response and summed over
+    them; :func:`tolerance.dorfler`) double their elements, once or
     twice as the error asks (:func:`tolerance.doublings`). The shares are the values': where a
     gradient's or a peak's is over, the a-priori grading's refinement doubles too, and no bar
     has fewer elements than it gives. Where the last marking ``missed`` (the space error did
@@ -335,7 +336,7 @@ def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.nd
         count = d.half_steps.steps
         x = np.ones(simulation.n_design) if xv is None else xv
         shares = indicator.shares(levels.at(d.half_steps, xv), x, list(names), {"newton": "modified", **settings,
-                                  "t_end": duration}, np.full(count, duration / count))
+                                  "t_end": duration}, np.full(count, duration / count), split)
         relative = sum(np.abs(shares.shares[n]) / max(abs(shares.coarse[n]), 1e-300) for n in names)
         refined = np.where(tolerance.dorfler(np.asarray(relative)), k * factors, factors)
     if ratios[len(names):].max(initial=0.0) > 0.5:
@@ -366,6 +367,7 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         raise SettingsError("made: every run given must be of the design being run")
     levels = simulation.levels
     runs: dict[tuple[Discretization, bool], Any] = {}
+    splits: dict[Discretization, Any] = {}  # the last space companion's run, whose states the shares read
     judged = gradients if hold_gradients else None
     loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
     loose = {k: v for k, v in loose.items() if k not in settings}
@@ -374,13 +376,26 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         level = levels.at(d, xv)
         at = {**settings, **({"h": duration / d.steps, "t_end": duration} if d.steps else {}),
               **(loose if is_companion else {})}
+        if gradients and is_companion and is_split(d) and gradients.get("method") != "direct":
+            states = forward(d, level, at)  # kept for the shares; the gradients about them
+            return level.sensitivities_fixed(xv, names, {**states.settings, **gradients}, about=states)
         if gradients:
             return level.sensitivities_fixed(xv, names, {**at, **gradients})
-        if not is_companion:
-            return level.run_fixed(xv, at)
-        coarse = found(replace(d, uniform=d.uniform // 2)) if d.steps and d.uniform % 2 == 0 else None
+        return forward(d, level, at) if is_companion else level.run_fixed(xv, at)
+
+    def is_split(d: Discretization) -> bool:
+        return d.steps > 0 and d.uniform % 2 == 0
+
+    def forward(d: Discretization, level: Simulation, at: dict[str, Any]) -> Any:
+        """A companion's forward run, a space companion's guided by its time companion's
+        states where they were kept, and kept for the shares."""
+        coarse = found(replace(d, uniform=d.uniform // 2)) if is_split(d) and not judged else None
         plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
-        return companion(level, xv, at, plain, coarse)
+        out = companion(level, xv, at, plain, coarse)
+        if is_split(d):
+            splits.clear()
+            splits[d] = out
+        return out
 
     def found(d: Discretization, is_companion: bool = True) -> Any:
         return runs.get((d, False)) or (runs.get((d, True)) if is_companion else None)
@@ -409,7 +424,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     measured = simulation.refine == "shares" and duration is not None
     d, est = tolerance.resolve(values, start or first(simulation, settings), tol, lambda d: levels.elements(d, xv),
                                extrapolate=extrapolate and gradients is not None,
-                               mark=(lambda d, missed, ratios: marks(simulation, d, missed, ratios, xv, names, settings))
+                               mark=(lambda d, missed, ratios: marks(simulation, d, missed, ratios, xv, names, settings,
+                                                                     splits.get(d.split)))
                                if measured else None)
     relative = list(map(float, est.relative))
     errors = dict(zip(names, relative))

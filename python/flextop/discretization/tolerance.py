@@ -428,6 +428,8 @@ class Verdict:
     """Whether the candidate's own run failed (not only a companion)."""
     extrapolated: bool = False
     """Whether the estimate is that of the candidate's extrapolated values."""
+    extrapolable: bool = False
+    """Whether a candidate with more steps is judged on its extrapolated values too."""
 
     @property
     def passed(self) -> bool:
@@ -435,8 +437,11 @@ class Verdict:
 
     @property
     def time_order(self) -> int:
-        """The order in h at which the judged values' time error falls."""
-        return EXTRAPOLATED_ORDER if self.extrapolated else TIME_ORDER
+        """The order in h at which the time error falls from this candidate to one with more
+        steps: that of extrapolated values where these are extrapolated, or where the next
+        will be and the space needs no refinement (a space error measured on too few steps
+        is trusted for the next candidate only with the steps the raw order asks for)."""
+        return EXTRAPOLATED_ORDER if self.extrapolated or (self.extrapolable and self.worst_space <= 0.5) else TIME_ORDER
 
 
 def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool = False) -> Verdict:
@@ -461,7 +466,7 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
         candidates = [(least, False)] + ([] if extrapolation is None else [(extrapolation(least.space), True)])
         best, extrapolated = min(candidates, key=lambda c: _ratio(c[0].time, tol.budget(c[0])))
         if _ratio(best.time, tol.budget(best)) > 2.0:
-            return Verdict(best, _ratio(best.time, tol.budget(best)), 0.0, extrapolated=extrapolated)
+            return Verdict(best, _ratio(best.time, tol.budget(best)), 0.0, extrapolated=extrapolated, extrapolable=extrapolate)
     split = _try(values, d.split, companion=True)
     if split is None:  # the finer model failed where this one ran: more steps first
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
@@ -475,7 +480,8 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
         if _ratio(other.total, tol.budget(other)) < _ratio(est.total, tol.budget(est)):
             est, extrapolated = other, True
     budget = tol.budget(est)
-    return Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget), extrapolated=extrapolated)
+    return Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget), extrapolated=extrapolated,
+                   extrapolable=extrapolate and dynamic)
 
 
 def _beyond_limits(d: Discretization, est: ErrorEstimate | None, tol: Tolerance) -> ToleranceError:
@@ -549,7 +555,7 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
 
 def _more_steps(steps: int, verdict: Verdict) -> int:
     """``steps`` times the power of two that brings a time error over half the budget under
-    it at the rate of the values judged (at least one doubling)."""
+    it at the verdict's :attr:`~Verdict.time_order` (at least one doubling)."""
     worst = verdict.worst_time
     if worst <= 0.5:
         return steps
