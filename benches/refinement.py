@@ -54,6 +54,11 @@ run, with no estimate and no companion. Beside it, the time error alone: the few
 which the one-element grid's d and ∇d are within the same bounds of that grid's own limit in
 the step. Writes benches/results/oracle.md.
 
+With ``--tight``, instead: the family (and the design the rtol 1e-3 optimization of
+``benches/tolerance.py --optimization`` ends at) run to rtol 1e-3 with the gradients not
+held, against 32× the elements of every bar: whether the estimate stays honest at a tight
+tolerance. Writes benches/results/refinement_tight.md.
+
 With ``--held-newton``, instead: Newton's tolerance on the grid an optimization holds
 (``HELD_NEWTON_TOL``) against the default 1e-10 on 30 arm designs at 1×, 4× and 8× the
 elements per bar: the change of d and ∇d, and Newton's iterations per step. Writes
@@ -63,6 +68,7 @@ benches/results/held_newton.md.
 from __future__ import annotations
 
 import argparse
+import json
 import platform
 import sys
 from pathlib import Path
@@ -415,6 +421,54 @@ def held_newton() -> None:
     (ROOT / "benches" / "results" / "held_newton.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+TIGHT_RTOL = 1e-3
+
+
+def tight() -> None:
+    """The arm's family at rtol 1e-3 (the default refinement, gradients not held, what an
+    optimization asks for), and the design the 1e-3 optimization of "Optimization to a
+    tolerance" ends at, against 32× the elements of every bar, 1088 steps extrapolated from
+    544 (the reference's uncertainty: its change from 16×). Writes
+    benches/results/refinement_tight.md."""
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    designs = arm_designs(arm, False) | {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
+    designs |= iterates(arm, False)
+    rows = json.loads((ROOT / "benches" / "results" / "tolerance_optimization.json").read_text())
+    ended = "rtol 1e-3, the default, as the row above"
+    if ended in rows:
+        designs[f"the end of \"{ended}\""] = np.array(rows[ended]["x"])
+    lines = ["# Runs to rtol 1e-3", "", f"`python benches/refinement.py --tight` on {platform.processor() or platform.machine()}, "
+             f"{platform.python_version()}: `run_with_sensitivities(x, \"tip_deflection\", rtol={TIGHT_RTOL:g}, "
+             "hold_gradients=False)` against 32× the elements of every bar, 1088 steps extrapolated from 544.", "",
+             "| design | error of d | estimate | true / estimate | reference's uncertainty (16× against 32×) | grid | seconds |",
+             "|---|---|---|---|---|---|---|"]
+    under, over = [], 0
+    for name, x in designs.items():
+        f32, f16 = (truth_of(arm.levels[m], x) for m in (32, 16))
+        uncertainty = abs(f16 / f32 - 1.0)
+        try:
+            seconds, run = timed(lambda: arm.run_with_sensitivities(x, "tip_deflection", rtol=TIGHT_RTOL, hold_gradients=False))
+        except ToleranceError as error:
+            lines.append(f"| {name} | ToleranceError: {error} | | | {uncertainty:.1e} | | |")
+            continue
+        error, estimate = abs(run.values[0] / f32 - 1.0), run.errors["tip_deflection"]
+        if error > TIGHT_RTOL / 10 and error > uncertainty:
+            under.append(error / estimate)
+        over += error > TIGHT_RTOL
+        lines.append(f"| {name} | {error:.3%} | {estimate:.3%} | {error / estimate:.2f} | {uncertainty:.1e} | {run.discretization} | "
+                     f"{seconds:.1f} |")
+        print(lines[-1], flush=True)
+    lines += ["", f"Worst under-estimate (true / estimate where the true error exceeds rtol/10 and the reference's "
+              f"uncertainty): {max(under, default=float('nan')):.2f}; runs whose true error is over rtol: {over}."]
+    (ROOT / "benches" / "results" / "refinement_tight.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def truth_of(level: flextop.Simulation, x: np.ndarray) -> float:
+    """d on ``level``, 1088 steps extrapolated from 544."""
+    fine, coarse = (level.run(x, h=1.3 / n).tip_deflection() for n in (1088, 544))
+    return fine + (fine - coarse) / 3
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
@@ -427,7 +481,10 @@ def main() -> None:
     parser.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"], default="consistent",
                         help="the mass matrix of the runs and references")
     parser.add_argument("--held-newton", action="store_true", help="Newton's tolerance on the grid held against 1e-10, instead")
+    parser.add_argument("--tight", action="store_true", help="the family at rtol 1e-3 against 32x references, instead")
     args = parser.parse_args()
+    if args.tight:
+        return tight()
     if args.held_newton:
         return held_newton()
     if args.dual:
@@ -452,7 +509,8 @@ def main() -> None:
         ("" if args.mass == "consistent" else f" --mass {args.mass}")
     lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{options}` on "
              f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip "
-             f"deflection, refined bar by bar (`refine=\"bars\"`, the default) or every bar alike (`\"uniform\"`), "
+             f"deflection, refined bar by bar (`refine=\"bars\"`, or by measured shares, `\"shares\"`, the default) or every bar "
+             f"alike (`\"uniform\"`), "
              f"mass `{args.mass}`.", ""]
     lines += study("robot arm", arm_scene, Discretization(8, 66 * 32), designs)
     lines += study("spun beam", beam_scene, Discretization(32, 120 * 8), beam_designs(flextop.Simulation(beam_scene), args.quick))

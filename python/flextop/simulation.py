@@ -143,9 +143,9 @@ class Simulation:
         frequency and mass (:mod:`flextop.discretization.indicator`); ``"uniform"`` every bar
         alike. Over the arm's 29 designs at rtol 1e-2 ``"shares"`` and ``"bars"`` are as
         honest (no ``ToleranceError``, the same worst under-estimate); ``"shares"`` costs
-        69× the fixed run in the median against 78× on 26 % fewer unknowns, 6 % more in
-        total (its markings' split runs and sweeps); the arm's tip-deflection optimization
-        to rtol 1e-2 takes 1.65× less time (BENCHMARKS.md, "Refinement by measured shares",
+        56× the fixed run in the median against 68× on 26 % fewer unknowns, 3 % more in
+        total (its markings' sweeps); the arm's tip-deflection optimization to rtol 1e-2
+        took 1.65× less time (BENCHMARKS.md, "Refinement by measured shares",
         "Optimization to a tolerance").
 
     Raises

@@ -132,9 +132,11 @@ class TopologyProblem(Problem):
     same holds on the scene's own grid (a dynamic scene on uniform steps, by the adjoint):
     1.28× less time on the arm at 2× the elements and 1088 steps. The grid refines the bars
     whose measured shares of the error carry it (``refine="shares"``, the default): the
-    arm's tip-deflection optimization from the one-element optimum took 44.8 s against
-    74.0 s with ``refine="bars"`` and 210.4 s with ``"uniform"`` at ``rtol=1e-2``, and
-    278.1 s at 1e-3, to designs within 1.3 % in true d; the arm's compliance, the spun beam
+    arm's tip-deflection optimization from the one-element optimum took 44.5 s against
+    126.0 s with ``"uniform"`` at ``rtol=1e-2`` (74.0 s with ``refine="bars"`` at the
+    commit before), and 128.6 s at 1e-3, to designs within 1.3 % in true d (at 1e-3 the
+    value it reports at its last design was 0.84 % off: the space estimate under-reads
+    there, BENCHMARKS.md); the arm's compliance, the spun beam
     and the slider-crank ran the same optimizations under both (BENCHMARKS.md,
     "Optimization to a tolerance"). ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
