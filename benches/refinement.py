@@ -434,7 +434,7 @@ def tight() -> None:
     designs = arm_designs(arm, False) | {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
     designs |= iterates(arm, False)
     rows = json.loads((ROOT / "benches" / "results" / "tolerance_optimization.json").read_text())
-    ended = "rtol 1e-3, the default, as the row above"
+    ended = "rtol 1e-3, the default, as the row above"  # the design it ended at, before the confirmation
     if ended in rows:
         designs[f"the end of \"{ended}\""] = np.array(rows[ended]["x"])
     lines = ["# Runs to rtol 1e-3", "", f"`python benches/refinement.py --tight` on {platform.processor() or platform.machine()}, "

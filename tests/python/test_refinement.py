@@ -157,6 +157,34 @@ def test_a_floor_that_misses_the_error_goes_back_and_the_bars_of_most_need_go_on
     assert d.floor == 1 and d.refinement >= 16 and abs(values(d)[0][0] - 2.0) <= 1e-2 * 2.0
 
 
+def test_a_space_error_that_grows_with_the_elements_is_confirmed_before_a_tight_tolerance_passes(monkeypatch):
+    """Below ``CONFIRMED_BELOW``, a candidate that passes has its space estimate confirmed
+    with four times the elements. A value whose error is 2e-3 at one element and changes by
+    1e-5 from one to two elements and by 1e-3 from two to four (a bar's own frequency still
+    moving, as on the arm's last design of an rtol 1e-3 optimization) passed rtol 1e-3 at
+    one element, estimated 2e-5; it now passes where its true error is within rtol. A value
+    converging at first order passes on the same grid with or without the confirmation."""
+    from flextop.discretization import tolerance
+    from flextop.discretization.tolerance import Tolerance, resolve
+    irregular = {1: 2.0e-3, 2: 1.99e-3}
+
+    def error(m, regular):
+        return 4e-3 / m if regular or m not in irregular else irregular[m]
+
+    def run(regular, rtol):
+        values = lambda d, companion=False: [np.array([1.0 + error(d.refinement * d.uniform, regular)])]  # noqa: E731
+        d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([rtol]), np.array([0.0])))
+        return d, est, error(d.refinement, regular)
+
+    d, est, true = run(regular=False, rtol=1e-3)
+    assert d.refinement > 1 and true <= 1e-3 * (1.0 + true) and est.space[0] >= true / 2
+    regular = run(regular=True, rtol=1e-3)[0]
+    monkeypatch.setattr(tolerance, "CONFIRMED_BELOW", 0.0)
+    unconfirmed, est, true = run(regular=False, rtol=1e-3)
+    assert unconfirmed.refinement == 1 and true > 50 * est.space[0], "the irregular case passed unconfirmed before"
+    assert run(regular=True, rtol=1e-3)[0] == regular
+
+
 @pytest.mark.parametrize("least", [0.01, 0.1, 0.3])
 @pytest.mark.parametrize("order", [0.25, 0.5, 1.0])
 def test_a_run_to_a_tolerance_ends_whatever_the_floor_and_the_bars_of_most_need_do(least, order):

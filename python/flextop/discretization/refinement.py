@@ -367,7 +367,7 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         raise SettingsError("made: every run given must be of the design being run")
     levels = simulation.levels
     runs: dict[tuple[Discretization, bool], Any] = {}
-    splits: dict[Discretization, Any] = {}  # the last space companion's run, whose states the shares read
+    splits: dict[Discretization, Any] = {}  # the last two space companions' runs, whose states the shares read
     judged = gradients if hold_gradients else None
     loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
     loose = {k: v for k, v in loose.items() if k not in settings}
@@ -387,14 +387,15 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         return d.steps > 0 and d.uniform % 2 == 0
 
     def forward(d: Discretization, level: Simulation, at: dict[str, Any]) -> Any:
-        """A companion's forward run, a space companion's guided by its time companion's
-        states where they were kept, and kept for the shares."""
+        """A companion's forward run, a space companion's guided by the run with half its
+        elements where its states were kept, and kept for the shares."""
         coarse = found(replace(d, uniform=d.uniform // 2)) if is_split(d) and not judged else None
         plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
         out = companion(level, xv, at, plain, coarse)
         if is_split(d):
-            splits.clear()
             splits[d] = out
+            while len(splits) > 2:  # a candidate's split and the split twice that confirms it
+                splits.pop(next(iter(splits)))
         return out
 
     def found(d: Discretization, is_companion: bool = True) -> Any:
