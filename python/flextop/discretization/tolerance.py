@@ -22,6 +22,14 @@ same estimates taken on the vectors in the 2-norm). The observed order matters b
 asymptotic range: on the full-density arm, 66 → 132 steps only halves the error, and the
 second-order formula would understate it 2.5×.
 
+Below ``CONFIRMED_BELOW`` (rtol 1e-2) a dynamic candidate that passes is confirmed by a
+second space companion with four times the elements of every bar: with ``a`` and ``b`` the
+changes from ``r`` to ``2r`` and from ``2r`` to ``4r`` (both on 2h), ``e_space = max(2a, a +
+2b)``, the same where the convergence is at least first order and first order assumed from
+``2r`` on where it is not. A bar near resonance, its own frequency still moving with its
+elements, can change d less from ``r`` to ``2r`` than the error it leaves (the arm's last
+design of an rtol 1e-3 optimization: 8e-5, 1.1e-3 and 5.4e-3 from 1× to 8×).
+
 Otherwise the steps are multiplied by the power of two that the second-order rate says
 brings ``e_time`` under half the budget, and the refinement doubles (twice where the
 second order in space asks for it) where ``e_space`` exceeds the other half (on the bars
