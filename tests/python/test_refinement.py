@@ -171,18 +171,18 @@ def test_a_space_error_that_grows_with_the_elements_is_confirmed_before_a_tight_
     def error(m, regular):
         return 4e-3 / m if regular or m not in irregular else irregular[m]
 
-    def run(regular, rtol):
+    def run(regular):  # to rtol 1e-3
         values = lambda d, companion=False: [np.array([1.0 + error(d.refinement * d.uniform, regular)])]  # noqa: E731
-        d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([rtol]), np.array([0.0])))
+        d, est = resolve(values, Discretization(1, 8), Tolerance(["f"], np.array([1e-3]), np.array([0.0])))
         return d, est, error(d.refinement, regular)
 
-    d, est, true = run(regular=False, rtol=1e-3)
+    d, est, true = run(regular=False)
     assert d.refinement > 1 and true <= 1e-3 * (1.0 + true) and est.space[0] >= true / 2
-    regular = run(regular=True, rtol=1e-3)[0]
+    regular = run(regular=True)[0]
     monkeypatch.setattr(tolerance, "CONFIRMED_BELOW", 0.0)
-    unconfirmed, est, true = run(regular=False, rtol=1e-3)
+    unconfirmed, est, true = run(regular=False)
     assert unconfirmed.refinement == 1 and true > 50 * est.space[0], "the irregular case passed unconfirmed before"
-    assert run(regular=True, rtol=1e-3)[0] == regular
+    assert run(regular=True)[0] == regular
 
 
 @pytest.mark.parametrize("least", [0.01, 0.1, 0.3])
