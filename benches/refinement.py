@@ -57,7 +57,8 @@ the step. Writes benches/results/oracle.md.
 With ``--tight``, instead: the family (and the design the rtol 1e-3 optimization of
 ``benches/tolerance.py --optimization`` ends at) run to rtol 1e-3 with the gradients not
 held, against 32× the elements of every bar: whether the estimate stays honest at a tight
-tolerance. Writes benches/results/refinement_tight.md.
+tolerance. Writes benches/results/refinement_tight.md. With ``--scene spun_beam`` or
+``--scene slider_crank``: that scene's designs instead, to refinement_tight_SCENE.md.
 
 With ``--held-newton``, instead: Newton's tolerance on the grid an optimization holds
 (``HELD_NEWTON_TOL``) against the default 1e-10 on 30 arm designs at 1×, 4× and 8× the
@@ -424,48 +425,79 @@ def held_newton() -> None:
 TIGHT_RTOL = 1e-3
 
 
-def tight() -> None:
-    """The arm's family at rtol 1e-3 (the default refinement, gradients not held, what an
-    optimization asks for), and the design the 1e-3 optimization of "Optimization to a
-    tolerance" ends at, against 32× the elements of every bar, 1088 steps extrapolated from
-    544 (the reference's uncertainty: its change from 16×). Writes
-    benches/results/refinement_tight.md."""
-    arm = flextop.Simulation(flextop.scenes.robot_arm())
-    designs = arm_designs(arm, False) | {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
-    designs |= iterates(arm, False)
+TIGHT_SCENES = {  # name: scene, the reference's steps (extrapolated from half of them), its elements per bar
+    "arm": (flextop.scenes.robot_arm, 1088, 32),
+    "spun_beam": (flextop.scenes.spun_beam, 960, 32),
+    "slider_crank": (flextop.scenes.slider_crank, 1600, 32),
+}
+
+
+def tight_designs(scene: str, sim: flextop.Simulation) -> dict[str, np.ndarray]:
+    """The arm's family (and the design the rtol 1e-3 optimization of "Optimization to a
+    tolerance" ended at before the confirmation); the other scenes' uniform, random and
+    tapered designs (``beam_designs``) and their one-element optimum (MMA, 40 iterations
+    from 0.5, V ≤ 0.4 per component)."""
+    if scene != "arm":
+        designs = beam_designs(sim, False)
+        optimum = flextop.optimize(flextop.TopologyProblem(sim, "tip_deflection", flextop.volume_constraints(sim, 0.4)),
+                                   np.full(sim.n_design, 0.5), method="mma", max_iter=40).x
+        return designs | {"the one-element optimum (MMA, 40 iterations from 0.5)": optimum}
+    designs = arm_designs(sim, False) | {f"uniform {x:g}": np.full(sim.n_design, x) for x in (0.08, 0.12)}
+    designs |= iterates(sim, False)
     rows = json.loads((ROOT / "benches" / "results" / "tolerance_optimization.json").read_text())
     ended = "rtol 1e-3, the default, as the row above"  # the design it ended at, before the confirmation
     if ended in rows:
         designs[f"the end of \"{ended}\""] = np.array(rows[ended]["x"])
-    lines = ["# Runs to rtol 1e-3", "", f"`python benches/refinement.py --tight` on {platform.processor() or platform.machine()}, "
+    return designs
+
+
+def tight(scene: str) -> None:
+    """A scene's designs (:func:`tight_designs`) at rtol 1e-3 (the default refinement,
+    gradients not held, what an optimization asks for) against 32× the elements of every
+    bar, :data:`TIGHT_SCENES`' steps extrapolated from half of them (the reference's
+    uncertainty: its change from 16×, and from the same elements on half the steps).
+    Writes benches/results/refinement_tight.md for the arm, refinement_tight_SCENE.md
+    otherwise."""
+    make, steps, elements = TIGHT_SCENES[scene]
+    sim = flextop.Simulation(make())
+    t_end = sim.spec["simulation"]["t_end"]
+    flag = "" if scene == "arm" else f" --scene {scene}"
+    lines = [f"# Runs to rtol 1e-3: {scene.replace('_', ' ')}", "",
+             f"`python benches/refinement.py --tight{flag}` on {platform.processor() or platform.machine()}, "
              f"{platform.python_version()}: `run_with_sensitivities(x, \"tip_deflection\", rtol={TIGHT_RTOL:g}, "
-             "hold_gradients=False)` against 32× the elements of every bar, 1088 steps extrapolated from 544.", "",
-             "| design | error of d | estimate | true / estimate | reference's uncertainty (16× against 32×) | grid | seconds |",
+             f"hold_gradients=False)` against {elements}× the elements of every bar, {steps} steps extrapolated from "
+             f"{steps // 2}.", "",
+             f"| design | error of d | estimate | true / estimate | reference's uncertainty ({elements // 2}× against "
+             f"{elements}×; half its steps) | grid | seconds |",
              "|---|---|---|---|---|---|---|"]
-    under, over = [], 0
-    for name, x in designs.items():
-        f32, f16 = (truth_of(arm.levels[m], x) for m in (32, 16))
-        uncertainty = abs(f16 / f32 - 1.0)
+    under, over, total = [], 0, 0.0
+    for name, x in tight_designs(scene, sim).items():
+        fine = truth_of(sim.levels[elements], x, t_end, steps)
+        uncertainty = max(abs(truth_of(sim.levels[elements // 2], x, t_end, steps) / fine - 1.0),
+                          abs(truth_of(sim.levels[elements], x, t_end, steps // 2) / fine - 1.0))
         try:
-            seconds, run = timed(lambda: arm.run_with_sensitivities(x, "tip_deflection", rtol=TIGHT_RTOL, hold_gradients=False))
+            seconds, run = timed(lambda: sim.run_with_sensitivities(x, "tip_deflection", rtol=TIGHT_RTOL, hold_gradients=False))
         except ToleranceError as error:
             lines.append(f"| {name} | ToleranceError: {error} | | | {uncertainty:.1e} | | |")
             continue
-        error, estimate = abs(run.values[0] / f32 - 1.0), run.errors["tip_deflection"]
+        error, estimate = abs(run.values[0] / fine - 1.0), run.errors["tip_deflection"]
         if error > TIGHT_RTOL / 10 and error > uncertainty:
             under.append(error / estimate)
         over += error > TIGHT_RTOL
+        total += seconds
         lines.append(f"| {name} | {error:.3%} | {estimate:.3%} | {error / estimate:.2f} | {uncertainty:.1e} | {run.discretization} | "
                      f"{seconds:.1f} |")
         print(lines[-1], flush=True)
     lines += ["", f"Worst under-estimate (true / estimate where the true error exceeds rtol/10 and the reference's "
-              f"uncertainty): {max(under, default=float('nan')):.2f}; runs whose true error is over rtol: {over}."]
-    (ROOT / "benches" / "results" / "refinement_tight.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+              f"uncertainty): {max(under, default=float('nan')):.2f}; runs whose true error is over rtol: {over}; "
+              f"seconds in all: {total:.1f}."]
+    stem = "refinement_tight" if scene == "arm" else f"refinement_tight_{scene}"
+    (ROOT / "benches" / "results" / f"{stem}.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-def truth_of(level: flextop.Simulation, x: np.ndarray) -> float:
-    """d on ``level``, 1088 steps extrapolated from 544."""
-    fine, coarse = (level.run(x, h=1.3 / n).tip_deflection() for n in (1088, 544))
+def truth_of(level: flextop.Simulation, x: np.ndarray, t_end: float = 1.3, steps: int = 1088) -> float:
+    """d on ``level``, ``steps`` extrapolated from half of them."""
+    fine, coarse = (level.run(x, h=t_end / n).tip_deflection() for n in (steps, steps // 2))
     return fine + (fine - coarse) / 3
 
 
@@ -482,9 +514,10 @@ def main() -> None:
                         help="the mass matrix of the runs and references")
     parser.add_argument("--held-newton", action="store_true", help="Newton's tolerance on the grid held against 1e-10, instead")
     parser.add_argument("--tight", action="store_true", help="the family at rtol 1e-3 against 32x references, instead")
+    parser.add_argument("--scene", choices=sorted(TIGHT_SCENES), default="arm", help="with --tight: whose designs")
     args = parser.parse_args()
     if args.tight:
-        return tight()
+        return tight(args.scene)
     if args.held_newton:
         return held_newton()
     if args.dual:

@@ -348,8 +348,8 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         return 130
     finally:
         bar.close()
-    if latest:  # a resume can tell a run that has stopped for good
-        save(latest["state"], finished=result.status.name)
+    if latest:  # a resume can tell a run that has stopped for good; the state as concluded at the returned design
+        save(result.state.to_dict() if result.state is not None else latest["state"], finished=result.status.name)
     elapsed = time.perf_counter() - start
     _report(problem, result, elapsed, result.nit - (0 if state is None else state.iteration))
     np.save(out / "design.npy", result.x[: sim.n_design])

@@ -8,6 +8,7 @@ from scipy.optimize import minimize
 
 from flextop.errors import FlextopError, SettingsError
 from flextop.optimizers import (
+    Evaluation,
     EvaluationError,
     FunctionProblem,
     OptimizerState,
@@ -556,3 +557,40 @@ def test_a_failure_in_accept_is_recovered_like_one_in_evaluate():
     assert result.success and result.fun == pytest.approx(1.33996, abs=1e-5), result.message
     assert result.state.failures == 1 and "1 evaluation failure(s) recovered" in result.message
     assert result.history[2].move == pytest.approx(0.5 * result.history[1].move)
+
+
+def test_the_returned_design_is_the_one_the_problem_concludes():
+    """``conclude`` (a problem held to a tolerance measures the returned design as the run
+    ends): the result reports the concluded evaluation and judges convergence on it. A
+    conclusion that moves the objective's gradient away from the KKT point is no success
+    (UNCONFIRMED, the residual of the concluded gradient named); one that fails keeps the
+    held values and says so; one that changes nothing changes nothing."""
+    inner = cantilever()
+
+    class Concludes(type(inner)):
+        def __init__(self, change):
+            super().__init__(inner.objective, inner.constraints, inner.lower, inner.upper, inner.m)
+            self.change, self.concluded = change, []
+
+        def conclude(self, x, evaluation):
+            self.concluded.append(x.copy())
+            return self.change(x, evaluation)
+
+    plain = optimize(inner, np.full(5, 5.0), "mma")
+    same = Concludes(lambda x, e: e)
+    result = optimize(same, np.full(5, 5.0), "mma")
+    assert result.success and np.array_equal(result.x, plain.x) and len(same.concluded) == 1
+    np.testing.assert_array_equal(same.concluded[0], result.x)
+
+    tilted = Concludes(lambda x, e: Evaluation(1.001 * e.f0, e.g, e.df0 + [0.01, -0.01, 0.0, 0.0, 0.0], e.dg))
+    result = optimize(tilted, np.full(5, 5.0), "mma")
+    assert result.status is Status.UNCONFIRMED and not result.success, result.message
+    assert result.fun == pytest.approx(1.001 * plain.fun, rel=1e-12) and result.kkt > 1e-6
+    assert result.state.evaluation.f0 == result.fun_scaled and f"KKT residual {result.kkt:.3g} not below" in result.message
+
+    def fails(x, e):
+        raise EvaluationError("the returned design's run to rtol did not converge", x)
+
+    result = optimize(Concludes(fails), np.full(5, 5.0), "mma")
+    assert result.status is Status.UNCONFIRMED and not result.success and result.fun == plain.fun
+    assert "could not be measured (the returned design's run to rtol did not converge)" in result.message

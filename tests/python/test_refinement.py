@@ -507,11 +507,13 @@ def test_a_kept_trial_that_accept_measures_again_has_no_gradients_made():
         problem.accepts_trials = takes
         made.clear()
         Held.sensitivities = counted
+        looped = []
         try:
-            results[takes] = flextop.optimize(problem, np.full(sim.n_design, 0.5), method="mma", max_iter=20)
+            results[takes] = flextop.optimize(problem, np.full(sim.n_design, 0.5), method="mma", max_iter=20,
+                                              callback=lambda record, p=problem: looped.append(len(p.measured)))
         finally:
             Held.sensitivities = sensitivities
-        iterations, in_accept = len(results[takes].history) - 1, len(problem.measured) - 1  # the first: the start
+        iterations, in_accept = len(results[takes].history) - 1, looped[-1] - 1  # the first: the start
         assert in_accept >= 1 and len(made) == (iterations - in_accept if takes else iterations)
     np.testing.assert_array_equal(results[True].x, results[False].x)
 
@@ -550,3 +552,27 @@ def test_a_measurement_reads_the_runs_a_trial_made_on_the_grid_held():
     np.testing.assert_allclose(read.gradients, anew.gradients, rtol=1e-6)
     with pytest.raises(SettingsError, match="made"):
         sim.run_with_sensitivities(x + 0.05, "tip_deflection", rtol=1e-2, start=d, hold_gradients=False, made=held.runs)
+
+
+def test_the_design_an_optimization_to_a_tolerance_returns_is_measured_as_it_ends():
+    """The designs an optimization held to a tolerance ends on moved by less than
+    ``readapt`` from the one measured last, so the values they were given are the held
+    grid's. The design it returns is measured as it ends (``conclude``): the result reports
+    the run to rtol from the grid held (equal to one made anew, within Newton's tolerances),
+    and a design measured last is not measured again."""
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    problem = flextop.TopologyProblem(sim, "tip_deflection", flextop.volume_constraints(sim, 0.4), rtol=1e-2)
+    last = {}
+
+    def held(record):
+        last.update(d=problem.discretization, at=problem.rule.at.copy(), measured=len(problem.measured))
+
+    result = flextop.optimize(problem, np.full(sim.n_design, 0.5), method="mma", max_iter=12, callback=held)
+    assert not np.array_equal(last["at"], result.x)  # the returned design was held, not measured, as the loop ended
+    assert len(problem.measured) == last["measured"] + 1 and problem.measured[-1] == problem.evaluations
+    np.testing.assert_array_equal(problem.rule.at, result.x)
+    measured = sim.run_with_sensitivities(result.x, "tip_deflection", rtol=1e-2, start=last["d"], hold_gradients=False)
+    assert result.fun == pytest.approx(measured.values[0], rel=1e-7)
+    np.testing.assert_allclose(result.jac, measured.gradients[0], rtol=1e-6)
+    evaluation = result.state.evaluation
+    assert problem.conclude(result.x, evaluation) is evaluation and len(problem.measured) == last["measured"] + 1

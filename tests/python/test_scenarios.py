@@ -278,6 +278,15 @@ def test_scenarios_held_to_a_tolerance_are_measured_only_where_an_accepted_desig
     again = ScenarioProblem.from_dict(problem.to_dict())
     np.testing.assert_array_equal(again.rule.at, far)
     assert again.rule.accepts and again.discretizations == problem.discretizations
+    # A run ends: the design it returns is measured unless it was the one measured last.
+    assert problem.conclude(far, accepted) is accepted and problem.measured == [1, 3]
+    near = np.clip(far + 0.05, problem.lower, problem.upper)
+    held = dict(problem.discretizations)
+    concluded = problem.conclude(near, problem.evaluate(near))
+    assert problem.measured == [1, 3, 5]
+    measured = [flextop.Simulation(s.scene).run_with_sensitivities(near, "tip_deflection", rtol=1e-2, start=held[s.name],
+                                                                   hold_gradients=False) for s in cases]
+    assert concluded.f0 * problem.objective_scale == pytest.approx(weighted(measured), rel=1e-14)
 
 
 def test_side_by_side_runs_beside_on_another_thread_and_raises_either_failure(monkeypatch):

@@ -44,6 +44,7 @@ class Status(IntEnum):
     MAX_ITER = 3           #: iteration budget used up
     CALLBACK = 4           #: the callback returned True
     EVALUATION_FAILED = 5  #: evaluation failed more than max_retries times in a row
+    UNCONFIRMED = 6        #: a KKT point on the model held, not on the one measured at the returned design (or not measured)
 
 
 CONVERGED = (Status.KKT,)  # the one stop that is a success; XTOL and FTOL are stalls
@@ -68,8 +69,11 @@ class OptimizeResult:
     design is infeasible. ``success`` is True only when the KKT residual of ``x`` is below
     ``kkt_tol`` and ``x`` is feasible (status KKT): False after a small step or objective
     change (XTOL, FTOL), at the iteration limit, after repeated evaluation failures (the
-    best feasible design is then returned) and when the callback stopped the run unless
-    ``x`` is a KKT point. ``state``: the final state, to resume with
+    best feasible design is then returned), when the callback stopped the run unless
+    ``x`` is a KKT point, and where a problem that held its model (a grid held to a
+    tolerance) measured the returned design as the run ended (:meth:`Problem.conclude`)
+    and found no KKT point there (status UNCONFIRMED); the values and gradients reported
+    are that measurement's. ``state``: the final state, to resume with
     ``optimize(..., state=result.state)``.
     """
 
@@ -284,24 +288,31 @@ def _optimality(kkt: float, kkt_tol: float) -> str:
 def _result(problem: Problem, state: OptimizerState, status: Status, message: str, kkt_tol: float,
             feas_tol: float) -> OptimizeResult:
     """Assemble the result; after evaluation failures return the best feasible design.
-    The KKT residual and multipliers are those of the returned design; success only if it
-    is a KKT point."""
-    x, evaluation, lam = state.x, state.evaluation, state.multipliers
+    The returned design's evaluation is the one the problem concludes (:func:`_concluded`);
+    the KKT residual and multipliers are those of that evaluation; success only if it is a
+    KKT point there. The state keeps the concluded evaluation, so that a resume builds on
+    it."""
+    x, evaluation, lam, remarks = state.x, state.evaluation, state.multipliers, ""
     if status is Status.EVALUATION_FAILED:
         if state.best is not None:
             best = state.best
             x, evaluation, lam = best.x, best.evaluation, best.multipliers
-            message += f"; returning the best feasible design (iteration {best.iteration})"
+            remarks += f"; returning the best feasible design (iteration {best.iteration})"
         else:
-            message += ("; no feasible design was found, returning the last successfully "
+            remarks += ("; no feasible design was found, returning the last successfully "
                         f"evaluated design (iteration {state.iteration})")
     elif state.failures:
-        message += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
+        remarks += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
                     f"limit, now {state.move:g}; last error: {state.last_error})")
+    evaluation, unmeasured = _concluded(problem, x, evaluation)
     kkt, lam = kkt_estimate(x, evaluation, problem.lower, problem.upper, lam)
-    message += f": {_optimality(kkt, kkt_tol)}"
     g = evaluation.g
     feasible = _is_feasible(g, feas_tol)
+    if status is Status.KKT and (unmeasured or not (kkt < kkt_tol and feasible)):
+        status, message = Status.UNCONFIRMED, "a KKT point on the model held, not on the one measured at the returned design"
+    message += remarks + unmeasured + f": {_optimality(kkt, kkt_tol)}"
+    if x is state.x:
+        state = replace(state, evaluation=evaluation, kkt=kkt)
     if not feasible:
         message += f"; the design is infeasible (max g = {np.max(g):.3g})"
     fun, constr, jac = problem.physical(evaluation)
@@ -310,6 +321,22 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
                           nfev=state.nfev, status=status, message=message,
                           success=status is Status.KKT,
                           history=list(state.history), state=state)
+
+
+def _concluded(problem: Problem, x: np.ndarray, evaluation: Evaluation) -> tuple[Evaluation, str]:
+    """The returned design's evaluation as the problem concludes it (:meth:`Problem.conclude`:
+    measured where its model was held since a design nearby), or, where that measurement
+    fails, the evaluation as it was and a remark that says so."""
+    conclude = getattr(problem, "conclude", None)
+    if conclude is None:
+        return evaluation, ""
+    try:
+        concluded = conclude(x, evaluation)
+    except EvaluationError as error:
+        return evaluation, f"; the returned design could not be measured ({error}): its values are the model's held"
+    if not concluded.is_finite():
+        return evaluation, "; the returned design's measurement gave non-finite values: its values are the model's held"
+    return concluded, ""
 
 
 def _failed_start(problem: Problem, x0: np.ndarray, error: EvaluationError, nfev: int) -> OptimizeResult:

@@ -121,7 +121,7 @@ class Problem(ABC):
     Subclasses call ``super().__init__(lower, upper, m, names)`` and implement
     :meth:`evaluate`. Bounds must be finite with ``lower < upper``. The
     optimizers only use ``n``, ``m``, ``lower``, ``upper`` and ``evaluate``,
-    so any object providing them (and :meth:`accept` and :meth:`trial`, if not this class's)
+    so any object providing them (and :meth:`accept`, :meth:`conclude` and :meth:`trial`, if not this class's)
     works as well.
     """
 
@@ -168,6 +168,15 @@ class Problem(ABC):
         iteration sees fixed functions; it may raise :class:`EvaluationError`, which the
         optimizer recovers from as from one in :meth:`evaluate`. The default changes
         nothing."""
+        return evaluation
+
+    def conclude(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Called once, as a run ends, with the design it returns and that design's
+        evaluation; returns the evaluation the result reports. A problem whose model was
+        held while the optimizer travelled (a grid held to a tolerance since a design
+        nearby was measured) measures the returned design here, so that what the result
+        reports meets the tolerance at that design; it may raise
+        :class:`EvaluationError`. The default changes nothing."""
         return evaluation
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:

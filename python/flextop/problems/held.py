@@ -9,9 +9,11 @@ where a candidate is the grid held, and the trial's gradients are not made). Eve
 trial, MMA's inner iterations) runs on the grid held
 (:class:`~flextop.discretization.refinement.Held`): a trial the optimizer may reject
 reads the values, and the gradients are made, by the adjoint about the same runs, only
-for the design it keeps. A caller that never calls ``accept``
-(the scipy and OpenMDAO adapters) has an evaluation measured where it moved by more than
-``readapt``. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
+for the design it keeps. The design a run returns is measured as it ends
+(:meth:`~flextop.optimizers.Problem.conclude`) unless it is the design measured last, so
+that the values reported meet the tolerance there, not only near it. A caller that never
+calls ``accept`` or ``conclude`` (the scipy and OpenMDAO adapters) has an evaluation
+measured where it moved by more than ``readapt``. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
 follow it.
 """
 
@@ -57,6 +59,11 @@ class Readapt:
         """Whether the design ``x`` the optimizer accepts is measured: it moved."""
         self.accepts = True
         return not self.near(x)
+
+    def in_conclude(self, x: np.ndarray) -> bool:
+        """Whether the design ``x`` a run returns is measured: an error was measured before
+        (a grid is held), at another design."""
+        return self.at is not None and not np.array_equal(self.at, np.asarray(x, dtype=float))
 
     def measured(self, x: np.ndarray) -> None:
         """``x``'s error was measured: the next designs are judged against it."""

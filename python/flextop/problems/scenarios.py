@@ -258,6 +258,14 @@ class ScenarioProblem(Problem):
         moved = self.rule.in_accept(x[: self.n_design])
         return self._combined(x, measure=True) if self._to_tolerance() and moved else evaluation
 
+    def conclude(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Held to a tolerance: the design a run returns, where it is not the design
+        measured last, has every scenario's error measured and ``evaluation`` replaced by
+        the one on the grids accepted there (:mod:`.held`)."""
+        x = np.asarray(x, dtype=float)
+        return self._combined(x, measure=True) if self._to_tolerance() and self.rule.in_conclude(x[: self.n_design]) \
+            else evaluation
+
     def _to_tolerance(self) -> bool:
         """Whether the evaluations are held to a tolerance (the problem's or a scenario's)."""
         return bool(self.rtol or any(sim.rtol for sim in self.simulations))

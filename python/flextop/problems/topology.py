@@ -339,6 +339,16 @@ class TopologyProblem(Problem):
                 dg[j] *= new / old
         return Evaluation(evaluation.f0, g, evaluation.df0, dg)
 
+    def conclude(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """The evaluation a run reports at the design ``x`` it returns. Held to a
+        tolerance, where ``x`` is not the design measured last, its error is measured from
+        the grid held and ``evaluation`` replaced by the one on the grid that meets ``rtol``
+        there (raises :class:`~flextop.optimizers.EvaluationError` if that fails); the
+        aggregates' ``c`` do not move."""
+        if self._holds() and self.rule.in_conclude(self.densities(x)):
+            return self._whole(x, measure=True)
+        return evaluation
+
     def _constraints(self, x: np.ndarray, r: np.ndarray,
                      peaks: Mapping[str, float]) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
         """``g_j`` in the constraints' order — ``r/b − 1`` for an upper bound, ``c r/b − 1``
