@@ -134,10 +134,10 @@ class TopologyProblem(Problem):
     whose measured shares of the error carry it (``refine="shares"``, the default): the
     arm's tip-deflection optimization from the one-element optimum took 44.5 s against
     126.0 s with ``"uniform"`` at ``rtol=1e-2`` (74.0 s with ``refine="bars"`` at the
-    commit before), and 117.7 s at 1e-3, to designs within 1.3 % in true d. At 1e-3 the
-    value it reports at its last design was 0.84 % off: the grid held since the design
-    measured last (less than ``readapt`` away) does not meet the tolerance there, where a
-    run to rtol of that design alone does (BENCHMARKS.md); the arm's compliance, the spun beam
+    commit before), and 117.7 s at 1e-3, to designs within 1.3 % in true d. The design a
+    run returns is measured as it ends (:meth:`conclude`) unless it is the design
+    measured last: at 1e-3 the value the grid held gave there was 0.84 % off, the
+    measurement's is 0.001 % (127.5 s in all; BENCHMARKS.md); the arm's compliance, the spun beam
     and the slider-crank ran the same optimizations under both (BENCHMARKS.md,
     "Optimization to a tolerance"). ``discretization`` is the current one,
     ``refinements`` lists ``(evaluation, discretization)`` at each change and ``measured``
