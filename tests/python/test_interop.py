@@ -82,3 +82,27 @@ def test_openmdao_component_passes_check_partials_and_optimizes(mma_optimum):
     prob.run_driver()
     assert prob.get_val("f")[0] * scale == pytest.approx(f_star, rel=1e-4)
     assert prob.get_val("g")[0] <= 1e-8
+
+
+def test_the_scipy_result_at_a_tolerance_is_measured_at_its_design():
+    """Through scipy a problem held to a tolerance measures an evaluation only where it moved
+    by more than ``readapt``; the design SLSQP returns is measured as it ends (``conclude``),
+    so the result's values are those of a run to rtol there."""
+    from flextop.interop.scipy import minimize as flextop_minimize
+
+    sim = flextop.Simulation(flextop.scenes.spun_beam())
+    problem = flextop.TopologyProblem(sim, "tip_deflection", flextop.volume_constraints(sim, 0.4), rtol=1e-2)
+    held = []
+    original = problem._evaluate
+
+    def evaluate(x, measure):
+        held.append((None if problem.rule.at is None else problem.rule.at.copy(), problem.discretization))
+        return original(x, measure)
+
+    problem._evaluate = evaluate
+    result = flextop_minimize(problem, np.full(problem.n, 0.5), "SLSQP", options={"maxiter": 6})
+    at, grid = held[-1]
+    assert not np.array_equal(at, result.x) and problem.measured[-1] == problem.evaluations
+    np.testing.assert_array_equal(problem.rule.at, result.x)
+    measured = sim.run_with_sensitivities(result.x, "tip_deflection", rtol=1e-2, start=grid, hold_gradients=False)
+    assert result.fun == pytest.approx(measured.values[0], rel=1e-7)

@@ -55,10 +55,16 @@ def minimize(problem: Problem, x0: Any, method: str = "SLSQP", **options: Any) -
     ``options`` passed on): its result with ``fun`` and ``jac`` the objective and its gradient
     in their own units at ``x`` (:meth:`Problem.physical`), ``fun_scaled`` and ``jac_scaled``
     those the optimizer saw, ``constrained`` the constrained responses in their units, and
-    ``evaluations`` the designs evaluated."""
+    ``evaluations`` the designs evaluated. Those values are the evaluation the problem
+    concludes at ``x`` (:meth:`Problem.conclude`: a problem held to a tolerance measures it
+    there, unless it is the design measured last); ``success`` and ``message`` are
+    scipy's, on the functions it saw."""
     args = arguments(problem)
     result = scipy.optimize.minimize(x0=np.asarray(x0, float), method=method, **args, **options)
     evaluation = args["fun"].evaluations(result.x)
+    conclude = getattr(problem, "conclude", None)
+    if conclude is not None:
+        evaluation = conclude(result.x, evaluation)
     f, constrained, df = problem.physical(evaluation)
     result.fun_scaled, result.jac_scaled = evaluation.f0, np.asarray(evaluation.df0)
     result.fun, result.jac, result.constrained = float(f), np.asarray(df), np.asarray(constrained)

@@ -11,9 +11,12 @@ trial, MMA's inner iterations) runs on the grid held
 reads the values, and the gradients are made, by the adjoint about the same runs, only
 for the design it keeps. The design a run returns is measured as it ends
 (:meth:`~flextop.optimizers.Problem.conclude`) unless it is the design measured last, so
-that the values reported meet the tolerance there, not only near it. A caller that never
-calls ``accept`` or ``conclude`` (the scipy and OpenMDAO adapters) has an evaluation
-measured where it moved by more than ``readapt``. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
+that the values reported meet the tolerance there, not only near it (``optimize`` and
+:func:`flextop.interop.scipy.minimize` call it). A caller that never calls ``accept``
+(the scipy and OpenMDAO adapters) has an evaluation measured where it moved by more than
+``readapt``; one that never calls ``conclude`` either (``scipy.optimize.minimize`` given
+:func:`~flextop.interop.scipy.arguments`, OpenMDAO) may end on a design within
+``readapt`` of the one measured last. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
 follow it.
 """
 
