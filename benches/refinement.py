@@ -61,6 +61,10 @@ tolerance. Writes benches/results/refinement_tight.md. With ``--scene spun_beam`
 ``--scene slider_crank``: that scene's designs instead, to refinement_tight_SCENE.md; with
 ``--held``, the gradients held too and judged against the reference's (…_held.md).
 
+With ``--adaptive``, instead: on the one-element grid of each design of the family, the
+fewest steps at which d is within rtol of that grid's own limit in the step, uniform and
+with local error control. Writes benches/results/adaptive.md.
+
 With ``--held-newton``, instead: Newton's tolerance on the grid an optimization holds
 (``HELD_NEWTON_TOL``) against the default 1e-10 on 30 arm designs at 1×, 4× and 8× the
 elements per bar: the change of d and ∇d, and Newton's iterations per step. Writes
@@ -390,6 +394,65 @@ def oracle() -> None:
     print("\n".join(lines[-1:]))
 
 
+LOCAL_TOLS = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7)
+
+
+def fewest_steps(runs, limit: float) -> tuple[int, float] | None:
+    """The first of ``runs`` (a run's steps and d, in order of cost) whose d is within rtol of
+    ``limit``, with its seconds; ``None`` if none is."""
+    for steps, d, seconds in runs:
+        if abs(d / limit - 1.0) < RTOL:
+            return steps, seconds
+    return None
+
+
+def adaptive() -> None:
+    """Whether steps that vary pay where uniform ones cost most: on the one-element grid of
+    each design of the family, the fewest steps at which d is within rtol of that grid's own
+    limit in the step (8448 steps extrapolated from 4224), with uniform steps (66 to 4224)
+    and with local error control (the loosest ``local_tol`` from 1e-3 down to 1e-7 from
+    which every tighter one meets it too: the error is not monotone in it), and the seconds
+    of that run. Writes benches/results/adaptive.md."""
+    arm = flextop.Simulation(flextop.scenes.robot_arm())
+    designs = arm_designs(arm, quick=False) | {f"uniform {x:g}": np.full(arm.n_design, x) for x in (0.08, 0.12)}
+    designs |= iterates(arm, quick=False)
+    t_end = arm.spec["simulation"]["t_end"]
+    lines = ["# Local error control against uniform steps", "", "`python benches/refinement.py --adaptive` on "
+             f"{platform.processor() or platform.machine()}, {platform.python_version()}: one element per bar; the fewest "
+             f"steps at which d is within rtol = {RTOL:g} of the grid's own limit in the step (8448 steps extrapolated from "
+             "4224), uniform (66 · 2^k) and with local error control (the loosest `local_tol` from 1e-3 down to 1e-7 from "
+             "which every tighter one meets it too), and that run's seconds.",
+             "", "| design | uniform: steps (s) | local error control: steps (s), local_tol |", "|---|---|---|"]
+    ratios = []
+    for label, x in designs.items():
+        fine, coarse = (arm.run(x, h=t_end / n).tip_deflection() for n in (8448, 4224))
+        limit = fine + (fine - coarse) / 3
+
+        def uniform():
+            for n in (66 * 2**k for k in range(7)):
+                seconds, run = timed(lambda: arm.run(x, h=t_end / n))
+                yield n, run.tip_deflection(), seconds
+
+        def controlled():
+            for tol in LOCAL_TOLS:
+                seconds, run = timed(lambda: arm.run(x, local_tol=tol))
+                yield len(run.time) - 1, run.tip_deflection(), seconds, tol
+
+        u = fewest_steps(uniform(), limit)
+        runs = list(controlled())  # the error is not monotone in local_tol: the loosest from which every tighter meets
+        meets = [abs(d / limit - 1.0) < RTOL for _, d, _, _ in runs]
+        first = next((k for k in range(len(runs)) if all(meets[k:])), None)
+        found = None if first is None else (runs[first][0], runs[first][2], runs[first][3])
+        if u and found:
+            ratios.append(found[0] / u[0])
+        lines.append(f"| {label} | {f'{u[0]} ({u[1]:.2f})' if u else '> 4224'} | "
+                     + (f"{found[0]} ({found[1]:.2f}), {found[2]:g}" if found else "none down to 1e-7") + " |")
+        print(lines[-1], flush=True)
+    lines += ["", f"Steps with local error control over uniform steps: median {np.median(ratios):.2f}, "
+              f"from {min(ratios):.2f} to {max(ratios):.2f} ({len(ratios)} designs where both meet rtol)."]
+    (ROOT / "benches" / "results" / "adaptive.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 def with_mass(scene: flextop.Scene, mass: str) -> dict:
     """The scene as a dict whose runs take ``mass``."""
     spec = scene.to_dict()
@@ -534,11 +597,14 @@ def main() -> None:
                         help="the mass matrix of the runs and references")
     parser.add_argument("--held-newton", action="store_true", help="Newton's tolerance on the grid held against 1e-10, instead")
     parser.add_argument("--tight", action="store_true", help="the family at rtol 1e-3 against 32x references, instead")
+    parser.add_argument("--adaptive", action="store_true", help="local error control against uniform steps, instead")
     parser.add_argument("--scene", choices=sorted(TIGHT_SCENES), default="arm", help="with --tight: whose designs")
     parser.add_argument("--held", action="store_true", help="with --tight: the gradients held too, and judged")
     args = parser.parse_args()
     if args.tight:
         return tight(args.scene, args.held)
+    if args.adaptive:
+        return adaptive()
     if args.held_newton:
         return held_newton()
     if args.dual:
