@@ -72,8 +72,8 @@ class OptimizeResult:
     best feasible design is then returned), when the callback stopped the run unless
     ``x`` is a KKT point, and where a problem that held its model (a grid held to a
     tolerance) measured the returned design as the run ended (:meth:`Problem.conclude`)
-    and found no KKT point there (status UNCONFIRMED); the values and gradients reported
-    are that measurement's. ``state``: the final state, to resume with
+    and found no KKT point there, or could not measure it (status UNCONFIRMED); the values
+    and gradients reported are that measurement's where it was made. ``state``: the final state, to resume with
     ``optimize(..., state=result.state)``.
     """
 
