@@ -33,11 +33,13 @@
 #![warn(missing_docs)]
 
 // The wings, each a folder behind the re-exports below.
+pub mod group;
 mod mechanism;
 mod modal;
 mod response;
 mod sensitivity;
 mod solver;
+pub mod spatial;
 
 // Shared by every wing.
 pub mod error;

@@ -9,6 +9,7 @@ pub(crate) mod assembly;
 pub(crate) mod integrator;
 pub(crate) mod kink;
 pub(crate) mod linsolve;
+pub(crate) mod lu;
 pub(crate) mod newton;
 pub(crate) mod prolongation;
 pub(crate) mod simulation;

@@ -6,6 +6,7 @@ mod common;
 mod dynamics;
 mod guides;
 mod sensitivity;
+mod spatial;
 mod statics;
 mod strain_energy;
 mod variable_steps;

@@ -1,0 +1,177 @@
+//! The rotation group SO(3): the exponential and logarithm, and the tangent operator of the
+//! exponential (Brüls, Cardona & Arnold, *Mech. Mach. Theory* 48, 2012, §2).
+//!
+//! Rotations are unit quaternions (four numbers, never three angles that can lock). An
+//! increment `θ ∈ ℝ³` of the algebra acts on the right, `R ∘ exp(θ̃)`, the body-fixed
+//! convention of the Lie-group generalized-α method: velocities are body angular velocities
+//! `Ω`, `Ṙ = R Ω̃`.
+//!
+//! The tangent operator `T(θ)` relates a change of the increment to the rotation it causes,
+//! `exp((θ + δ)~) = exp(θ̃) exp((T(θ) δ)~) + O(δ²)`:
+//!
+//! ```text
+//! T(θ)  = I − (1 − cos φ)/φ² θ̃ + (φ − sin φ)/φ³ θ̃²,          φ = |θ|
+//! T⁻¹(θ) = I + ½ θ̃ + (1 − (φ/2) cot(φ/2))/φ² θ̃²
+//! ```
+//!
+//! Each coefficient switches to its Taylor series near `φ = 0`, where the closed forms lose
+//! their digits; `T` is regular for every `|θ| < 2π`, so an increment may cross `π`.
+
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+
+/// Below this angle (rad) the coefficients are evaluated by their Taylor series: their
+/// truncation error there is below 1e-17, the closed forms' cancellation above it.
+const SERIES_ANGLE: f64 = 1e-3;
+
+/// The skew matrix `ṽ` with `ṽ w = v × w`.
+pub fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// `exp(θ̃)`: the rotation by `|θ|` about `θ/|θ|` (Rodrigues), as a unit quaternion.
+pub fn exp(theta: &Vector3<f64>) -> UnitQuaternion<f64> {
+    let phi = theta.norm();
+    // sin(φ/2)/φ and cos(φ/2).
+    let (s, c) = if phi < SERIES_ANGLE {
+        let p2 = phi * phi;
+        (0.5 - p2 / 48.0, 1.0 - p2 / 8.0 + p2 * p2 / 384.0)
+    } else {
+        ((0.5 * phi).sin() / phi, (0.5 * phi).cos())
+    };
+    UnitQuaternion::new_unchecked(Quaternion::new(c, s * theta.x, s * theta.y, s * theta.z))
+}
+
+/// `log(R)`: the rotation vector `θ`, `|θ| ≤ π`, with `exp(θ̃) = R`.
+pub fn log(r: &UnitQuaternion<f64>) -> Vector3<f64> {
+    // q and −q are the same rotation: take the one with w ≥ 0, so that φ ≤ π.
+    let q = if r.w < 0.0 {
+        -r.into_inner()
+    } else {
+        r.into_inner()
+    };
+    let v = q.imag();
+    let s = v.norm();
+    // φ/s = 2 atan2(s, w)/s, its series near s = 0 where w → 1.
+    let ratio = if s < SERIES_ANGLE {
+        2.0 / q.w * (1.0 - s * s / (3.0 * q.w * q.w))
+    } else {
+        2.0 * s.atan2(q.w) / s
+    };
+    v * ratio
+}
+
+/// The coefficients `(a, b)` of `T(θ) = I − a θ̃ + b θ̃²`.
+fn tangent_coefficients(phi: f64) -> (f64, f64) {
+    if phi < SERIES_ANGLE {
+        let p2 = phi * phi;
+        (0.5 - p2 / 24.0, 1.0 / 6.0 - p2 / 120.0)
+    } else {
+        let p2 = phi * phi;
+        ((1.0 - phi.cos()) / p2, (phi - phi.sin()) / (p2 * phi))
+    }
+}
+
+/// The tangent operator `T(θ)` of the exponential (module docs).
+pub fn tangent(theta: &Vector3<f64>) -> Matrix3<f64> {
+    let (a, b) = tangent_coefficients(theta.norm());
+    let t = hat(theta);
+    Matrix3::identity() - t * a + t * t * b
+}
+
+/// `T⁻¹(θ)` (module docs), for `|θ| < 2π`.
+pub fn tangent_inverse(theta: &Vector3<f64>) -> Matrix3<f64> {
+    let phi = theta.norm();
+    let c = if phi < SERIES_ANGLE {
+        1.0 / 12.0 + phi * phi / 720.0
+    } else {
+        let half = 0.5 * phi;
+        (1.0 - half / half.tan()) / (phi * phi)
+    };
+    let t = hat(theta);
+    Matrix3::identity() + t * 0.5 + t * t * c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rotation vectors of every size that matters: tiny, around the series switch, large,
+    /// near and at π.
+    fn samples() -> Vec<Vector3<f64>> {
+        let axes = [
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.3, -0.8, 0.52).normalize(),
+            Vector3::new(-0.2, 0.1, 0.97).normalize(),
+        ];
+        let angles = [
+            1e-9,
+            1e-4,
+            9.9e-4,
+            1.01e-3,
+            0.1,
+            1.0,
+            2.5,
+            3.1,
+            std::f64::consts::PI - 1e-7,
+        ];
+        axes.iter()
+            .flat_map(|a| angles.iter().map(move |&p| a * p))
+            .collect()
+    }
+
+    #[test]
+    fn log_inverts_exp_up_to_pi() {
+        for theta in samples() {
+            let back = log(&exp(&theta));
+            assert!(
+                (back - theta).norm() <= 1e-14 * (1.0 + theta.norm()),
+                "{theta:?} → {back:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn exp_is_the_rotation_of_rodrigues() {
+        for theta in samples() {
+            let expected = nalgebra::Rotation3::new(theta);
+            let got = exp(&theta).to_rotation_matrix();
+            assert!((got.matrix() - expected.matrix()).norm() < 1e-15);
+        }
+    }
+
+    /// Beyond π the logarithm returns the equivalent rotation of the other sense: many turns
+    /// are a sum of increments, never one logarithm.
+    #[test]
+    fn log_wraps_beyond_pi() {
+        let axis = Vector3::new(0.0, 0.0, 1.0);
+        let back = log(&exp(&(axis * 4.0)));
+        assert!((back - axis * (4.0 - 2.0 * std::f64::consts::PI)).norm() < 1e-14);
+    }
+
+    #[test]
+    fn tangent_is_the_derivative_of_exp() {
+        // exp(θ + εδ) ≈ exp(θ) exp(ε T(θ)δ): the logarithm of exp(θ)⁻¹ exp(θ + εδ), by
+        // central differences, against T(θ)δ.
+        let delta = Vector3::new(0.4, -0.7, 0.2);
+        let eps = 1e-6;
+        for theta in samples() {
+            let back = |e: f64| log(&(exp(&theta).inverse() * exp(&(theta + delta * e))));
+            let fd = (back(eps) - back(-eps)) / (2.0 * eps);
+            let exact = tangent(&theta) * delta;
+            assert!(
+                (fd - exact).norm() < 1e-8,
+                "{theta:?}: {fd:?} against {exact:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn tangent_inverse_inverts_up_to_two_pi() {
+        let mut thetas = samples();
+        thetas.push(Vector3::new(0.0, 5.0, -3.0));
+        for theta in thetas {
+            let product = tangent(&theta) * tangent_inverse(&theta);
+            assert!((product - Matrix3::identity()).norm() < 1e-12, "{theta:?}");
+        }
+    }
+}

@@ -1,0 +1,16 @@
+//! **The spatial wing**: mechanisms in space on the Lie group `(ℝ³ × SO(3))ⁿ` of
+//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), joints as index-3
+//! constraints with their constraint-force stiffness ([`joint`]), the mechanism built entry by
+//! entry and checked ([`model`]), its residual and non-symmetric iteration matrix on a fixed
+//! pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by sparse
+//! `LU`.
+//!
+//! This is the first part of the spatial engine: rigid bodies and spherical joints. Beams,
+//! the other joints, drives, springs and the gradients come next, on the same group.
+
+pub mod body;
+pub mod integrator;
+pub mod joint;
+pub mod model;
+
+pub(crate) mod assembly;

@@ -1,0 +1,451 @@
+//! A spatial mechanism: nodes on `ℝ³ × SO(3)`, rigid bodies on them, joints between their
+//! points, gravity. Built entry by entry, each checked as it comes: a value that is not
+//! physical, a joint whose points do not meet, initial rates the joints forbid — a
+//! [`SceneError`] naming it.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::error::{short, SceneError};
+use crate::group::{six, split, Frame, NQ, NV};
+use crate::spatial::body::Body;
+use crate::spatial::joint::{Anchor, Joint, JointKind, Point};
+
+/// Relative gap (of the mechanism's size) below which a joint's points meet, and relative
+/// rate (of the bodies' speeds) below which initial rates satisfy the joints.
+pub const MEET_TOLERANCE: f64 = 1e-9;
+
+/// Relative asymmetry below which an inertia tensor is symmetric.
+const SYMMETRY_TOLERANCE: f64 = 1e-12;
+
+/// A spatial node: its initial frame and rates (the velocity of its origin in the inertial
+/// frame, its angular velocity in its own frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// The name of what it carries.
+    pub name: String,
+    /// Initial frame.
+    pub frame: Frame,
+    /// Initial velocity `(u̇, Ω)`.
+    pub velocity: [f64; NV],
+}
+
+/// A spatial mechanism (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialModel {
+    /// Nodes.
+    pub nodes: Vec<Node>,
+    /// Rigid bodies.
+    pub bodies: Vec<Body>,
+    /// Joints, their rows numbered in this order.
+    pub joints: Vec<Joint>,
+    /// Gravity (m/s²).
+    pub gravity: Vector3<f64>,
+}
+
+fn finite(path: &str, v: &Vector3<f64>) -> Result<(), SceneError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("({}, {}, {}) is not finite", v.x, v.y, v.z),
+        ))
+    }
+}
+
+impl SpatialModel {
+    /// An empty mechanism under `gravity` (m/s²).
+    ///
+    /// # Errors
+    /// A [`SceneError`] for non-finite gravity.
+    pub fn new(gravity: Vector3<f64>) -> Result<Self, SceneError> {
+        finite("gravity", &gravity)?;
+        Ok(Self {
+            nodes: Vec::new(),
+            bodies: Vec::new(),
+            joints: Vec::new(),
+            gravity,
+        })
+    }
+
+    /// Adds a rigid body of `mass` (kg) and `inertia` about its centre of mass in its own
+    /// frame (kg m²), its centre of mass and axes at `frame`, at rest; returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `bodies.NAME` for a duplicate name, a non-finite position, a
+    /// mass that is not positive, or an inertia that no body has (not symmetric, not
+    /// positive definite, principal moments that break `I₁ + I₂ ≥ I₃`).
+    pub fn add_body(
+        &mut self,
+        name: &str,
+        frame: Frame,
+        mass: f64,
+        inertia: Matrix3<f64>,
+    ) -> Result<usize, SceneError> {
+        let path = format!("bodies.{name}");
+        if self.bodies.iter().any(|b| b.name == name) {
+            return Err(SceneError::new(path, "a body of this name exists already"));
+        }
+        finite(&format!("{path}.position"), &frame.x)?;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(SceneError::new(
+                format!("{path}.mass"),
+                format!("{} kg: must be positive", short(mass)),
+            ));
+        }
+        check_inertia(&format!("{path}.inertia"), &inertia)?;
+        self.nodes.push(Node {
+            name: name.to_string(),
+            frame,
+            velocity: [0.0; NV],
+        });
+        self.bodies.push(Body {
+            name: name.to_string(),
+            node: self.nodes.len() - 1,
+            mass,
+            inertia,
+        });
+        Ok(self.bodies.len() - 1)
+    }
+
+    /// Sets body `body`'s initial rates: the velocity of its centre of mass (m/s, inertial
+    /// frame) and its angular velocity (rad/s, in its own frame).
+    ///
+    /// # Errors
+    /// A [`SceneError`] for an unknown body or non-finite rates.
+    pub fn set_rates(
+        &mut self,
+        body: usize,
+        velocity: Vector3<f64>,
+        angular_velocity: Vector3<f64>,
+    ) -> Result<(), SceneError> {
+        let b = self
+            .bodies
+            .get(body)
+            .ok_or_else(|| SceneError::new(format!("bodies[{body}]"), "no such body"))?;
+        let path = format!("bodies.{}", b.name);
+        finite(&format!("{path}.velocity"), &velocity)?;
+        finite(&format!("{path}.angular_velocity"), &angular_velocity)?;
+        let v = &mut self.nodes[b.node].velocity;
+        v[..3].copy_from_slice(velocity.as_slice());
+        v[3..].copy_from_slice(angular_velocity.as_slice());
+        Ok(())
+    }
+
+    /// Adds a joint of `kind` between anchors `a` and `b`; returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `joints.NAME` for a duplicate name, an unknown body, both anchors
+    /// on the ground or on one body, non-finite points, or points that do not meet.
+    pub fn add_joint(
+        &mut self,
+        name: &str,
+        kind: JointKind,
+        a: Anchor,
+        b: Anchor,
+    ) -> Result<usize, SceneError> {
+        let path = format!("joints.{name}");
+        if self.joints.iter().any(|j| j.name == name) {
+            return Err(SceneError::new(path, "a joint of this name exists already"));
+        }
+        let a = self.resolve(&format!("{path}.a"), a)?;
+        let b = self.resolve(&format!("{path}.b"), b)?;
+        if a.node == b.node {
+            let what = if a.node.is_none() {
+                "the ground"
+            } else {
+                "one body"
+            };
+            return Err(SceneError::new(
+                path,
+                format!(
+                    "both anchors are on {what}: a joint joins two bodies, or a body to the ground"
+                ),
+            ));
+        }
+        let joint = Joint {
+            name: name.to_string(),
+            kind,
+            a,
+            b,
+        };
+        let q = self.initial_configuration();
+        let gap = joint.value(&q).norm();
+        if gap > MEET_TOLERANCE * self.size() {
+            return Err(SceneError::new(
+                path,
+                format!("its points are {} m apart in the initial configuration; a spherical joint's points must coincide", short(gap)),
+            ));
+        }
+        self.joints.push(joint);
+        Ok(self.joints.len() - 1)
+    }
+
+    fn resolve(&self, path: &str, anchor: Anchor) -> Result<Point, SceneError> {
+        match anchor {
+            Anchor::Ground(p) => {
+                finite(path, &p)?;
+                Ok(Point { node: None, arm: p })
+            }
+            Anchor::Body { body, point } => {
+                let b = self.bodies.get(body).ok_or_else(|| {
+                    SceneError::new(
+                        path,
+                        format!("no body {body} (the mechanism has {})", self.bodies.len()),
+                    )
+                })?;
+                finite(path, &point)?;
+                Ok(Point {
+                    node: Some(b.node),
+                    arm: point,
+                })
+            }
+        }
+    }
+
+    /// Unknowns of a configuration `q` (seven per node).
+    pub fn n_q(&self) -> usize {
+        NQ * self.nodes.len()
+    }
+
+    /// Unknowns of a velocity (six per node).
+    pub fn n_v(&self) -> usize {
+        NV * self.nodes.len()
+    }
+
+    /// Constraint rows.
+    pub fn n_rows(&self) -> usize {
+        self.joints.iter().map(|j| j.kind.rows()).sum()
+    }
+
+    /// The mechanism's size (m): the largest distance of a node or joint point from the
+    /// origin, 1 m for a mechanism at the origin: the reference of length tolerances.
+    pub fn size(&self) -> f64 {
+        let nodes = self.nodes.iter().map(|n| n.frame.x.norm());
+        let points = self
+            .joints
+            .iter()
+            .flat_map(|j| [j.a.arm.norm(), j.b.arm.norm()]);
+        let size = nodes.chain(points).fold(0.0, f64::max);
+        if size > 0.0 {
+            size
+        } else {
+            1.0
+        }
+    }
+
+    /// The initial configuration.
+    pub fn initial_configuration(&self) -> Vec<f64> {
+        let mut q = vec![0.0; self.n_q()];
+        self.nodes
+            .iter()
+            .enumerate()
+            .for_each(|(i, n)| n.frame.write(&mut q, i));
+        q
+    }
+
+    /// The initial velocities.
+    pub fn initial_velocity(&self) -> Vec<f64> {
+        self.nodes.iter().flat_map(|n| n.velocity).collect()
+    }
+
+    /// Checks that the initial rates move the joints' points together (`B v = 0`).
+    ///
+    /// # Errors
+    /// A [`SceneError`] naming the first joint whose points the rates pull apart.
+    pub fn check_rates(&self) -> Result<(), SceneError> {
+        let (q, v) = (self.initial_configuration(), self.initial_velocity());
+        let speed = self.size()
+            * v.chunks(NV)
+                .map(|c| split(&six(c, 0)).1.norm())
+                .fold(0.0, f64::max)
+            + v.chunks(NV)
+                .map(|c| split(&six(c, 0)).0.norm())
+                .fold(0.0, f64::max);
+        for j in &self.joints {
+            let rate: Vector3<f64> = j
+                .gradient(&q)
+                .map(|(n, b)| b * nalgebra::Vector6::from_column_slice(&six(&v, n)))
+                .sum();
+            if rate.norm() > MEET_TOLERANCE * speed.max(f64::MIN_POSITIVE) {
+                return Err(SceneError::new(
+                    format!("joints.{}", j.name),
+                    format!(
+                        "the initial rates separate its points at {} m/s",
+                        short(rate.norm())
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Kinetic energy at velocity `v` (J).
+    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+        self.bodies
+            .iter()
+            .map(|b| b.kinetic_energy(&six(v, b.node)))
+            .sum()
+    }
+
+    /// Potential energy of gravity at `q`, zero at the origin (J).
+    pub fn potential_energy(&self, q: &[f64]) -> f64 {
+        self.bodies
+            .iter()
+            .map(|b| -b.mass * self.gravity.dot(&Frame::read(q, b.node).x))
+            .sum()
+    }
+
+    /// Angular momentum about the point `c` of the inertial frame (kg m²/s):
+    /// `Σ m (x − c) × u̇ + R J Ω`.
+    pub fn angular_momentum(&self, q: &[f64], v: &[f64], c: &Vector3<f64>) -> Vector3<f64> {
+        self.bodies
+            .iter()
+            .map(|b| {
+                let f = Frame::read(q, b.node);
+                let (u, omega) = split(&six(v, b.node));
+                (f.x - c).cross(&u) * b.mass + f.r * (b.inertia * omega)
+            })
+            .sum()
+    }
+}
+
+/// An inertia tensor a body can have: symmetric, its principal moments positive and each
+/// at most the sum of the other two.
+fn check_inertia(path: &str, j: &Matrix3<f64>) -> Result<(), SceneError> {
+    let scale = j.abs().max();
+    if !j.iter().all(|x| x.is_finite()) || scale <= 0.0 {
+        return Err(SceneError::new(path, "must be finite and not zero"));
+    }
+    if (j - j.transpose()).abs().max() > SYMMETRY_TOLERANCE * scale {
+        return Err(SceneError::new(path, "is not symmetric"));
+    }
+    let mut moments: Vec<f64> = j.symmetric_eigenvalues().iter().copied().collect();
+    moments.sort_by(f64::total_cmp);
+    if moments[0] <= 0.0 {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "has principal moment {} kg m²: must be positive definite",
+                short(moments[0])
+            ),
+        ));
+    }
+    if moments[0] + moments[1] < moments[2] * (1.0 - 1e-12) {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "has principal moments {}, {}, {} kg m²: no body has one larger than the sum of the other two",
+                short(moments[0]),
+                short(moments[1]),
+                short(moments[2])
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    fn at(x: f64, y: f64, z: f64) -> Frame {
+        Frame::new(Vector3::new(x, y, z), UnitQuaternion::identity())
+    }
+
+    #[test]
+    fn bad_bodies_are_named() {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let j = Matrix3::identity();
+        let err = m.add_body("rod", at(0.0, 0.0, 0.0), -1.0, j).unwrap_err();
+        assert_eq!(err.path, "bodies.rod.mass");
+        let err = m
+            .add_body(
+                "rod",
+                at(0.0, 0.0, 0.0),
+                1.0,
+                Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 3.0)),
+            )
+            .unwrap_err();
+        assert!(err.message.contains("sum of the other two"), "{err}");
+        let mut skew = j;
+        skew[(0, 1)] = 0.5;
+        assert!(m
+            .add_body("rod", at(0.0, 0.0, 0.0), 1.0, skew)
+            .unwrap_err()
+            .message
+            .contains("not symmetric"));
+        let err = m
+            .add_body("rod", at(f64::NAN, 0.0, 0.0), 1.0, j)
+            .unwrap_err();
+        assert_eq!(err.path, "bodies.rod.position");
+        m.add_body("rod", at(0.0, 0.0, 0.0), 1.0, j).unwrap();
+        assert!(m
+            .add_body("rod", at(0.0, 0.0, 0.0), 1.0, j)
+            .unwrap_err()
+            .message
+            .contains("exists"));
+    }
+
+    #[test]
+    fn bad_joints_are_named() {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let b = m
+            .add_body("top", at(0.0, 1.0, 0.0), 1.0, Matrix3::identity())
+            .unwrap();
+        let pivot = Anchor::Body {
+            body: b,
+            point: Vector3::new(0.0, -1.0, 0.0),
+        };
+        let err = m
+            .add_joint(
+                "pivot",
+                JointKind::Spherical,
+                pivot,
+                Anchor::Ground(Vector3::new(0.0, 0.0, 0.1)),
+            )
+            .unwrap_err();
+        assert_eq!(err.path, "joints.pivot");
+        assert!(err.message.contains("0.1 m apart"), "{err}");
+        let err = m
+            .add_joint(
+                "pivot",
+                JointKind::Spherical,
+                Anchor::Ground(Vector3::zeros()),
+                Anchor::Ground(Vector3::zeros()),
+            )
+            .unwrap_err();
+        assert!(err.message.contains("the ground"), "{err}");
+        let err = m
+            .add_joint(
+                "pivot",
+                JointKind::Spherical,
+                Anchor::Body {
+                    body: 3,
+                    point: Vector3::zeros(),
+                },
+                Anchor::Ground(Vector3::zeros()),
+            )
+            .unwrap_err();
+        assert_eq!(err.path, "joints.pivot.a");
+        m.add_joint(
+            "pivot",
+            JointKind::Spherical,
+            pivot,
+            Anchor::Ground(Vector3::zeros()),
+        )
+        .unwrap();
+        // A spin about the pivot's axis is allowed; a drift of the centre of mass is not.
+        m.set_rates(b, Vector3::zeros(), Vector3::new(0.0, 5.0, 0.0))
+            .unwrap();
+        m.check_rates().unwrap();
+        m.set_rates(b, Vector3::new(0.0, 0.0, 1.0), Vector3::zeros())
+            .unwrap();
+        let err = m.check_rates().unwrap_err();
+        assert!(
+            err.path == "joints.pivot" && err.message.contains("separate"),
+            "{err}"
+        );
+    }
+}
