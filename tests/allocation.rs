@@ -251,8 +251,9 @@ weights = [1.0, 2.0, 1.0]
 "#;
 
 /// A Lie-group α-step of a spatial mechanism — residual, non-symmetric iteration matrix,
-/// sparse LU refactorization and solve, every Newton iteration — allocates nothing: two
-/// bodies hung from the ground and joined by spherical joints, under gravity, tumbling.
+/// sparse LU refactorization and solve, every Newton iteration — allocates nothing: a body
+/// on a driven hinge, a second hung from it on a universal joint and spinning, under
+/// gravity.
 #[test]
 fn lie_group_alpha_steps_do_not_allocate() {
     use flextop::group::{so3, Frame};
@@ -280,19 +281,28 @@ fn lie_group_alpha_steps_do_not_allocate() {
             inertia,
         )
         .unwrap();
-    m.add_joint(
-        "root",
-        JointKind::Spherical,
-        Anchor::Body {
-            body: one,
-            point: a1,
-        },
-        Anchor::Ground(Vector3::zeros()),
-    )
-    .unwrap();
+    let root = m
+        .add_joint(
+            "root",
+            JointKind::Revolute {
+                axis: Vector3::new(0.0, 0.6, 0.8),
+            },
+            Anchor::Body {
+                body: one,
+                point: a1,
+            },
+            Anchor::Ground(Vector3::zeros()),
+        )
+        .unwrap();
+    let law = flextop::motion::Table::new(vec![0.0, 0.02, 0.05], vec![0.0, 0.01, 0.05], [0.0, 2.0]);
+    m.add_drive(root, flextop::motion::Motion::Table(law))
+        .unwrap();
     m.add_joint(
         "middle",
-        JointKind::Spherical,
+        JointKind::Universal {
+            axis_a: Vector3::x(),
+            axis_b: Vector3::y(),
+        },
         Anchor::Body {
             body: one,
             point: tip,

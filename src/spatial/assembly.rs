@@ -17,10 +17,11 @@
 
 use std::collections::BTreeSet;
 
-use nalgebra::{Matrix3, Matrix6, SMatrix, Vector3};
+use nalgebra::{Matrix6, SMatrix, SVector, Vector3};
 
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
+use crate::spatial::joint::{Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
 
 /// A CSC pattern with lookup of an entry's slot.
@@ -99,11 +100,13 @@ impl<'m> Assembler<'m> {
         let mut row = n_v;
         for j in &model.joints {
             first_row.push(row);
-            let rows = j.kind.rows();
-            for node in j.nodes() {
-                block(NV * node + 3, NV * node + 3, 3, 3);
-                block(row, NV * node, rows, NV);
-                block(NV * node, row, NV, rows);
+            let rows = j.n_rows();
+            for (_, n1) in j.local_nodes() {
+                for (_, n2) in j.local_nodes() {
+                    block(NV * n1, NV * n2, NV, NV);
+                }
+                block(row, NV * n1, rows, NV);
+                block(NV * n1, row, NV, rows);
             }
             row += rows;
         }
@@ -117,7 +120,7 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// The residual `[f_inertia + Bᵀλ; Φ]` at `(q, v, v̇, λ)` into `r` (length `n`); returns
+    /// The residual `[f_inertia + Bᵀλ; Φ]` at `(q, v, v̇, λ)` and time `t` into `r` (length `n`); returns
     /// `F_ref`, the largest magnitude among the inertia, gravity and joint forces.
     pub fn residual(
         &self,
@@ -125,6 +128,7 @@ impl<'m> Assembler<'m> {
         v: &[f64],
         vdot: &[f64],
         lambda: &[f64],
+        t: f64,
         r: &mut [f64],
     ) -> f64 {
         let model = self.model;
@@ -138,20 +142,18 @@ impl<'m> Assembler<'m> {
             reference = f.iter().fold(reference.max(weight), |m, x| m.max(x.abs()));
         }
         for (j, &row) in model.joints.iter().zip(&self.first_row) {
-            let l = Vector3::new(
-                lambda[row - n_v],
-                lambda[row - n_v + 1],
-                lambda[row - n_v + 2],
-            );
-            for (node, b) in j.gradient(q) {
-                let f = b.transpose() * l;
+            let n = j.n_rows();
+            let l = multipliers(&lambda[row - n_v..row - n_v + n]);
+            let forces = j.gradient(q, t).transpose() * l;
+            for (side, node) in j.local_nodes() {
+                let f = forces.fixed_rows::<NV>(NV * side);
                 reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
                 r[NV * node..NV * node + NV]
                     .iter_mut()
                     .zip(f.iter())
                     .for_each(|(ri, fi)| *ri += fi);
             }
-            r[row..row + 3].copy_from_slice(j.value(q).as_slice());
+            j.values(q, t, &mut r[row..row + n]);
         }
         reference
     }
@@ -159,7 +161,7 @@ impl<'m> Assembler<'m> {
     /// The right-hand side `[−f(q, v); −b(q, v)]` of the initial accelerations, `f` the
     /// inertia forces at zero acceleration, `b` the joints' acceleration terms, scaled
     /// rows `−s b`.
-    pub fn acceleration_rhs(&self, q: &[f64], v: &[f64], scale: f64, rhs: &mut [f64]) {
+    pub fn acceleration_rhs(&self, q: &[f64], v: &[f64], t: f64, scale: f64, rhs: &mut [f64]) {
         let zero = [0.0; NV];
         rhs.fill(0.0);
         let model = self.model;
@@ -171,57 +173,81 @@ impl<'m> Assembler<'m> {
                 .for_each(|(r, fi)| *r = -fi);
         }
         for (j, &row) in model.joints.iter().zip(&self.first_row) {
-            let bterm = j.acceleration_term(q, v);
-            rhs[row..row + 3].copy_from_slice((-bterm * scale).as_slice());
+            let out = &mut rhs[row..row + j.n_rows()];
+            j.acceleration_terms(q, v, t, out);
+            out.iter_mut().for_each(|x| *x *= -scale);
         }
     }
 
-    /// Writes the iteration matrix at `(q, v)` (module docs).
-    pub fn matrix(&mut self, q: &[f64], v: &[f64], c: Coefficients<'_>) {
+    /// Writes the iteration matrix at `(q, v)` and time `time` (module docs).
+    pub fn matrix(&mut self, q: &[f64], v: &[f64], time: f64, c: Coefficients<'_>) {
         self.values.fill(0.0);
         let model = self.model;
         let n_v = model.n_v();
         for b in &model.bodies {
             let block = b.iteration_block(&six(v, b.node), c.beta_prime, c.gamma_prime);
-            self.add(NV * b.node, NV * b.node, &block);
+            self.add(NV * b.node, NV * b.node, &block, NV);
         }
         for (k, j) in model.joints.iter().enumerate() {
-            let row = self.first_row[k];
-            let t_of = |node: usize| -> Matrix3<f64> {
-                c.tangent.map_or_else(Matrix3::identity, |(inc, _)| {
+            let (row, n) = (self.first_row[k], j.n_rows());
+            // diag(I, T_A, I, T_B) on the joint's local unknowns.
+            let mut t = Stiffness::identity();
+            if let Some((inc, _)) = c.tangent {
+                for (side, node) in j.local_nodes() {
                     let d = six(inc, node);
-                    tangent(&Vector3::new(d[3], d[4], d[5]))
-                })
-            };
-            if let Some((_, lambda)) = c.tangent {
-                let l = Vector3::new(
-                    lambda[row - n_v],
-                    lambda[row - n_v + 1],
-                    lambda[row - n_v + 2],
-                );
-                for (node, k) in j.force_stiffness(q, &l) {
-                    let kt = k * t_of(node);
-                    self.add(NV * node + 3, NV * node + 3, &kt);
+                    t.fixed_view_mut::<3, 3>(NV * side + 3, NV * side + 3)
+                        .copy_from(&tangent(&Vector3::new(d[3], d[4], d[5])));
                 }
             }
-            for (node, b) in j.gradient(q) {
-                let mut t = Matrix6::identity();
-                t.fixed_view_mut::<3, 3>(3, 3).copy_from(&t_of(node));
-                let bt = b * t * c.scale;
-                let bs = b.transpose() * c.scale;
-                self.add(row, NV * node, &bt);
-                self.add(NV * node, row, &bs);
+            if let Some((_, lambda)) = c.tangent {
+                let kt = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]) * t;
+                for (s1, n1) in j.local_nodes() {
+                    for (s2, n2) in j.local_nodes() {
+                        let block: Matrix6<f64> =
+                            kt.fixed_view::<NV, NV>(NV * s1, NV * s2).into_owned();
+                        self.add(NV * n1, NV * n2, &block, NV);
+                    }
+                }
+            }
+            let g = j.gradient(q, time);
+            let gt = g * t * c.scale;
+            let gs = g.transpose() * c.scale;
+            for (side, node) in j.local_nodes() {
+                let bt: SMatrix<f64, MAX_ROWS, NV> =
+                    gt.fixed_view::<MAX_ROWS, NV>(0, NV * side).into_owned();
+                self.add(row, NV * node, &bt, n);
+                let bs: SMatrix<f64, NV, MAX_ROWS> =
+                    gs.fixed_view::<NV, MAX_ROWS>(NV * side, 0).into_owned();
+                self.add_columns(NV * node, row, &bs, n);
             }
         }
     }
 
+    /// Adds the first `rows` rows of `block` at `(r0, c0)`.
     fn add<const R: usize, const C: usize>(
         &mut self,
         r0: usize,
         c0: usize,
         block: &SMatrix<f64, R, C>,
+        rows: usize,
     ) {
         for c in 0..C {
+            for r in 0..rows {
+                let s = self.pattern.slot(r0 + r, c0 + c);
+                self.values[s] += block[(r, c)];
+            }
+        }
+    }
+
+    /// Adds the first `columns` columns of `block` at `(r0, c0)`.
+    fn add_columns<const R: usize, const C: usize>(
+        &mut self,
+        r0: usize,
+        c0: usize,
+        block: &SMatrix<f64, R, C>,
+        columns: usize,
+    ) {
+        for c in 0..columns {
             for r in 0..R {
                 let s = self.pattern.slot(r0 + r, c0 + c);
                 self.values[s] += block[(r, c)];
@@ -244,18 +270,26 @@ impl<'m> Assembler<'m> {
     }
 }
 
+/// A joint's multipliers, padded with zeros to [`MAX_ROWS`].
+fn multipliers(lambda: &[f64]) -> SVector<f64, MAX_ROWS> {
+    let mut l = SVector::<f64, MAX_ROWS>::zeros();
+    l.rows_mut(0, lambda.len()).copy_from_slice(lambda);
+    l
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::group::{so3, Frame, NQ};
     use crate::spatial::joint::{Anchor, JointKind};
 
-    /// Two bodies, one hung from the ground at a point, joined to each other at another.
+    /// Two bodies, one hinged to the ground, joined to each other at one point by a joint of
+    /// every kind (far too many constraints to move, but each row's derivatives count).
     fn chain() -> SpatialModel {
         let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -9.81)).unwrap();
         let r1 = so3::exp(&Vector3::new(0.3, -0.5, 1.0));
         let r2 = so3::exp(&Vector3::new(-1.2, 0.4, 0.2));
-        let inertia = Matrix3::new(3.0, 0.2, -0.1, 0.2, 2.0, 0.3, -0.1, 0.3, 1.5);
+        let inertia = nalgebra::Matrix3::new(3.0, 0.2, -0.1, 0.2, 2.0, 0.3, -0.1, 0.3, 1.5);
         let a1 = Vector3::new(0.1, -0.6, 0.2);
         let a2 = Vector3::new(-0.3, 0.2, 0.5);
         let b1 = m
@@ -271,9 +305,13 @@ mod tests {
                 inertia * 0.5,
             )
             .unwrap();
+        let axis = Vector3::new(0.3, -0.5, 0.8);
+        let root = JointKind::Revolute {
+            axis: Vector3::new(0.0, 0.6, 0.8),
+        };
         m.add_joint(
             "root",
-            JointKind::Spherical,
+            root,
             Anchor::Body {
                 body: b1,
                 point: a1,
@@ -281,19 +319,30 @@ mod tests {
             Anchor::Ground(Vector3::zeros()),
         )
         .unwrap();
-        m.add_joint(
-            "middle",
+        let kinds = [
             JointKind::Spherical,
-            Anchor::Body {
-                body: b1,
-                point: tip,
+            JointKind::Revolute { axis },
+            JointKind::Universal {
+                axis_a: axis,
+                axis_b: Vector3::new(0.8, 0.0, -0.3),
             },
-            Anchor::Body {
-                body: b2,
-                point: a2,
-            },
-        )
-        .unwrap();
+            JointKind::Cylindrical { axis },
+            JointKind::Prismatic { axis },
+            JointKind::Weld,
+        ];
+        for (k, kind) in kinds.into_iter().enumerate() {
+            let (a, b) = (
+                Anchor::Body {
+                    body: b1,
+                    point: tip,
+                },
+                Anchor::Body {
+                    body: b2,
+                    point: a2,
+                },
+            );
+            m.add_joint(&format!("middle{k}"), kind, a, b).unwrap();
+        }
         m
     }
 
@@ -331,7 +380,7 @@ mod tests {
                     .write(&mut q, node);
             }
             let mut r = vec![0.0; n];
-            Assembler::new(&model).residual(&q, &v, &vdot, &lam, &mut r);
+            Assembler::new(&model).residual(&q, &v, &vdot, &lam, 0.3, &mut r);
             r[n_v..].iter_mut().for_each(|x| *x *= scale);
             r
         };
@@ -344,6 +393,7 @@ mod tests {
         asm.matrix(
             &q,
             &v,
+            0.3,
             Coefficients {
                 beta_prime: bp,
                 gamma_prime: gp,

@@ -103,6 +103,7 @@ impl<'m> SpatialIntegrator<'m> {
         self.asm.matrix(
             &q,
             &v,
+            0.0,
             Coefficients {
                 beta_prime: 1.0,
                 gamma_prime: 0.0,
@@ -113,7 +114,7 @@ impl<'m> SpatialIntegrator<'m> {
         self.lu
             .factorize(&self.asm.values)
             .map_err(Self::singular(0.0))?;
-        self.asm.acceleration_rhs(&q, &v, scale, &mut self.rhs);
+        self.asm.acceleration_rhs(&q, &v, 0.0, scale, &mut self.rhs);
         self.lu
             .solve_in_place(&mut self.rhs, false)
             .map_err(Self::singular(0.0))?;
@@ -188,7 +189,7 @@ impl<'m> SpatialIntegrator<'m> {
         loop {
             let force = self
                 .asm
-                .residual(&s.q, &s.qdot, &s.qddot, &s.lam, &mut self.rhs);
+                .residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut self.rhs);
             let f_res = self.rhs[..n_v].iter().fold(0.0f64, |m, x| m.max(x.abs()))
                 / force.max(f64::MIN_POSITIVE);
             let c_res = self.rhs[n_v..].iter().fold(0.0f64, |m, x| m.max(x.abs())) / length;
@@ -210,6 +211,7 @@ impl<'m> SpatialIntegrator<'m> {
             self.asm.matrix(
                 &s.q,
                 &s.qdot,
+                s.t,
                 Coefficients {
                     beta_prime: bp,
                     gamma_prime: gp,

@@ -4,22 +4,52 @@
 //! adjoint cannot — is part of the iteration matrix.
 //!
 //! A joint holds two anchors, each a point of a body (`p = x + R a`, `a` in the body's
-//! frame from its centre of mass) or of the ground. The spherical joint makes them coincide:
+//! frame from its centre of mass) or of the ground. Every kind is a list of rows of one
+//! shape, the dot product of two *measures* `Φ = α · β` (as Chrono and MBDyn build theirs
+//! from primitives):
 //!
-//! ```text
-//! Φ = p_A − p_B,            B = ±[I, −R ã]  on each body's node (+ for A, − for B)
-//! ∂(Bᵀλ)/∂θ = ± ã (Rᵀλ)~    (the rotation rows and columns of the anchor's node)
-//! Φ̈ = B v̇ + b,             b = Σ ± R Ω̃ Ω̃ a
-//! ```
+//! | measure | value | gradient on its node `(u, θ)` | `∂(Jᵀc)/∂θ` | `α̈ − J v̇` |
+//! |---|---|---|---|---|
+//! | a constant `e` | `e` | — | — | 0 |
+//! | an axis `u` of a body | `R u` | `[0, −R ũ]` | `ũ (Rᵀc)~` | `R Ω̃Ω̃ u` |
+//! | a point `a` of a body | `x + R a` | `[I, −R ã]` | `ã (Rᵀc)~` | `R Ω̃Ω̃ a` |
+//! | the gap `p_B − p_A` | | the points' | the points' | the points' |
 //!
-//! `λ` is the force the joint exerts on B (its opposite acts on A), in the inertial frame.
+//! so that a row's gradient is `J_αᵀβ + J_βᵀα`, its Hessian contracted with its multiplier
+//! `λ (H_α[β] + H_β[α] + J_αᵀJ_β + J_βᵀJ_α)`, and `Φ̈ = B v̇ + b` with
+//! `b = (α̈ − J_α v̇)·β + 2 α̇·β̇ + α·(β̈ − J_β v̇)`. The kinds:
+//!
+//! | kind | rows |
+//! |---|---|
+//! | spherical | the gap's three components: the points coincide |
+//! | universal | spherical, and A's axis ⟂ B's axis |
+//! | revolute | spherical, and two axes of A normal to the hinge ⟂ the hinge in B |
+//! | cylindrical | the hinge kept parallel (two rows), B's point on A's hinge line (the gap ⟂ A's two normals) |
+//! | prismatic | cylindrical, and A's first normal ⟂ B's second: no turning about the axis |
+//! | weld | spherical, and three pairs of A's and B's axes kept normal: no relative rotation |
+//!
+//! Axes are given in the inertial frame in the initial configuration and carried by each
+//! body from there. Local unknowns are A's node's six then B's.
 
-use nalgebra::{Matrix3, Matrix3x6, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::group::so3::hat;
 use crate::group::{six, split, Frame};
+use crate::mechanism::motion::Motion;
 
-/// A point a joint holds: of a body (by its node, the arm in the body's frame from its
+/// The most rows a joint has (the weld's).
+pub const MAX_ROWS: usize = 6;
+
+/// A joint's local unknowns: its two nodes' six each.
+const LOCAL: usize = 12;
+
+type Jacobian = SMatrix<f64, 3, LOCAL>;
+/// A joint's rows' gradients on its local unknowns.
+pub(crate) type Gradient = SMatrix<f64, MAX_ROWS, LOCAL>;
+/// A joint's constraint-force stiffness on its local unknowns.
+pub(crate) type Stiffness = SMatrix<f64, LOCAL, LOCAL>;
+
+/// A point a joint holds: of a body (by its index, the point in the body's frame from its
 /// centre of mass) or fixed in space.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Anchor {
@@ -34,42 +64,108 @@ pub enum Anchor {
     },
 }
 
-/// An anchor resolved to the node that carries it.
+/// What a joint constrains, its axes in the inertial frame in the initial configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Point {
-    /// The node (`None`: the ground).
-    pub node: Option<usize>,
-    /// The arm in the node's frame, or the ground point.
-    pub arm: Vector3<f64>,
-}
-
-impl Point {
-    /// Where the point is at configuration `q`.
-    pub fn position(&self, q: &[f64]) -> Vector3<f64> {
-        match self.node {
-            Some(n) => {
-                let f = Frame::read(q, n);
-                f.x + f.r * self.arm
-            }
-            None => self.arm,
-        }
-    }
-}
-
-/// What a joint constrains.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JointKind {
-    /// The two points coincide: three rows, the rotations free.
+    /// The points coincide; every rotation free (3 rows).
     Spherical,
+    /// The points coincide; one rotation about `axis` free (5 rows).
+    Revolute {
+        /// The hinge's axis.
+        axis: Vector3<f64>,
+    },
+    /// The points coincide; rotations about A's `axis_a` and B's `axis_b`, at right angles,
+    /// free: a Cardan joint (4 rows).
+    Universal {
+        /// The axis carried by A.
+        axis_a: Vector3<f64>,
+        /// The axis carried by B, normal to `axis_a`.
+        axis_b: Vector3<f64>,
+    },
+    /// B slides along and turns about A's `axis` through A's point (4 rows).
+    Cylindrical {
+        /// The axis.
+        axis: Vector3<f64>,
+    },
+    /// B slides along A's `axis` through A's point, without turning (5 rows).
+    Prismatic {
+        /// The axis.
+        axis: Vector3<f64>,
+    },
+    /// The points coincide and the bodies do not turn relative to each other (6 rows).
+    Weld,
 }
 
 impl JointKind {
-    /// Constraint rows of the kind.
-    pub fn rows(self) -> usize {
+    /// The kind as a scene names it.
+    pub fn name(&self) -> &'static str {
         match self {
-            Self::Spherical => 3,
+            Self::Spherical => "spherical",
+            Self::Revolute { .. } => "revolute",
+            Self::Universal { .. } => "universal",
+            Self::Cylindrical { .. } => "cylindrical",
+            Self::Prismatic { .. } => "prismatic",
+            Self::Weld => "weld",
         }
     }
+}
+
+/// A node's configuration and rates as a joint reads them; the ground's is the identity at
+/// rest.
+#[derive(Debug, Clone, Copy)]
+struct Side {
+    x: Vector3<f64>,
+    r: Matrix3<f64>,
+    omega: Vector3<f64>,
+    /// The linear velocity, inertial frame.
+    u: Vector3<f64>,
+}
+
+impl Side {
+    fn read(node: Option<usize>, q: &[f64], v: Option<&[f64]>) -> Self {
+        let Some(n) = node else {
+            return Self {
+                x: Vector3::zeros(),
+                r: Matrix3::identity(),
+                omega: Vector3::zeros(),
+                u: Vector3::zeros(),
+            };
+        };
+        let f = Frame::read(q, n);
+        let (u, omega) = v.map_or((Vector3::zeros(), Vector3::zeros()), |v| split(&six(v, n)));
+        Self {
+            x: f.x,
+            r: f.rotation(),
+            omega,
+            u,
+        }
+    }
+}
+
+/// A vector of the joint (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Measure {
+    Constant(Vector3<f64>),
+    /// An axis of side 0 (A) or 1 (B), in that side's frame.
+    Axis(usize, Vector3<f64>),
+    /// The gap `p_B − p_A`.
+    Gap,
+}
+
+/// A measure's value, Jacobian, velocity `J v` and `α̈ − J v̇`.
+struct Evaluated {
+    value: Vector3<f64>,
+    jacobian: Jacobian,
+    rate: Vector3<f64>,
+    term: Vector3<f64>,
+}
+
+/// A row `Φ = α · β` and what its breaking means, for errors.
+#[derive(Debug, Clone, PartialEq)]
+struct Row {
+    alpha: Measure,
+    beta: Measure,
+    what: &'static str,
 }
 
 /// A joint between two anchors.
@@ -79,94 +175,538 @@ pub struct Joint {
     pub name: String,
     /// What it constrains.
     pub kind: JointKind,
-    pub(crate) a: Point,
-    pub(crate) b: Point,
+    /// The nodes of A and B (`None`: the ground).
+    pub(crate) nodes: [Option<usize>; 2],
+    /// The points of A and B, in their frames (the ground's in the inertial one).
+    arms: [Vector3<f64>; 2],
+    rows: Vec<Row>,
+    /// The nodes' rotations in the initial configuration.
+    initial: [Matrix3<f64>; 2],
+    /// The motion imposed on its free coordinate, if driven.
+    drive: Option<Drive>,
+}
+
+/// A motion law imposed on a joint's coordinate.
+#[derive(Debug, Clone, PartialEq)]
+struct Drive {
+    law: Motion,
+    coordinate: Coordinate,
+}
+
+/// A joint's free coordinate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Coordinate {
+    /// A revolute joint's angle `φ` about its axis, from the initial configuration:
+    /// `cos φ = e₁·b₁`, `sin φ = e₂·b₁`, with `e₁, e₂` normals of the axis carried by A
+    /// and `b₁` the first carried by B.
+    Angle {
+        e1: Vector3<f64>,
+        e2: Vector3<f64>,
+        b1: Vector3<f64>,
+    },
+    /// A prismatic joint's travel `n·(p_B − p_A)` along A's axis `n`, `start` initially.
+    Slide { axis: Vector3<f64>, start: f64 },
+}
+
+/// Two unit vectors normal to `n` and to each other.
+fn normals(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let pick = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = n.cross(&pick).normalize();
+    (e1, n.cross(&e1).normalize())
 }
 
 impl Joint {
-    /// The anchored points with their signs in `Φ = p_A − p_B`.
-    pub(crate) fn signed_points(&self) -> [(f64, &Point); 2] {
-        [(1.0, &self.a), (-1.0, &self.b)]
-    }
-
-    /// The nodes the joint acts on.
-    pub(crate) fn nodes(&self) -> impl Iterator<Item = usize> + '_ {
-        self.signed_points().into_iter().filter_map(|(_, p)| p.node)
-    }
-
-    /// `Φ(q)` (module docs).
-    pub fn value(&self, q: &[f64]) -> Vector3<f64> {
-        self.a.position(q) - self.b.position(q)
-    }
-
-    /// Each anchored node with its block `±[I, −R ã]` of `B` (module docs).
-    pub(crate) fn gradient<'a>(
-        &'a self,
-        q: &'a [f64],
-    ) -> impl Iterator<Item = (usize, Matrix3x6<f64>)> + 'a {
-        self.signed_points()
-            .into_iter()
-            .filter_map(move |(sign, p)| {
-                let node = p.node?;
-                let r = Frame::read(q, node).rotation();
-                let mut block = Matrix3x6::zeros();
-                block
-                    .fixed_view_mut::<3, 3>(0, 0)
-                    .copy_from(&(Matrix3::identity() * sign));
-                block
-                    .fixed_view_mut::<3, 3>(0, 3)
-                    .copy_from(&(r * hat(&p.arm) * -sign));
-                Some((node, block))
+    /// The joint `kind` between the points `arms` of the nodes `nodes`, whose rotations in
+    /// the initial configuration are `initial`.
+    ///
+    /// # Errors
+    /// What is wrong with the axes, as a message: zero or non-finite, not at right angles.
+    pub(crate) fn new(
+        name: &str,
+        kind: JointKind,
+        nodes: [Option<usize>; 2],
+        arms: [Vector3<f64>; 2],
+        initial: [Matrix3<f64>; 2],
+    ) -> Result<Self, String> {
+        let unit = |v: &Vector3<f64>, which: &str| {
+            let n = v.norm();
+            if v.iter().all(|x| x.is_finite()) && n > 0.0 {
+                Ok(v / n)
+            } else {
+                Err(format!(
+                    "{which} ({}, {}, {}) must be finite and not zero",
+                    v.x, v.y, v.z
+                ))
+            }
+        };
+        // An inertial vector in side s's frame.
+        let body = |s: usize, v: &Vector3<f64>| initial[s].transpose() * v;
+        let coincide = || {
+            [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| Row {
+                alpha: Measure::Gap,
+                beta: Measure::Constant(e),
+                what: "its points are apart",
             })
+        };
+        let normal = |a: Vector3<f64>, b: Vector3<f64>, what| Row {
+            alpha: Measure::Axis(0, body(0, &a)),
+            beta: Measure::Axis(1, body(1, &b)),
+            what,
+        };
+        let parallel = |n: &Vector3<f64>| {
+            let (e1, e2) = normals(n);
+            [e1, e2].map(|e| normal(e, *n, "its axis is not the same in both bodies"))
+        };
+        let on_line = |n: &Vector3<f64>| {
+            let (e1, e2) = normals(n);
+            [e1, e2].map(|e| Row {
+                alpha: Measure::Axis(0, body(0, &e)),
+                beta: Measure::Gap,
+                what: "B's point is off A's axis",
+            })
+        };
+        let mut rows = Vec::new();
+        match kind {
+            JointKind::Spherical => rows.extend(coincide()),
+            JointKind::Revolute { axis } => {
+                let n = unit(&axis, "axis")?;
+                rows.extend(coincide());
+                rows.extend(parallel(&n));
+            }
+            JointKind::Universal { axis_a, axis_b } => {
+                let (a, b) = (unit(&axis_a, "axis_a")?, unit(&axis_b, "axis_b")?);
+                if a.dot(&b).abs() > 1e-9 {
+                    return Err(format!(
+                        "axis_a and axis_b must be at right angles (their cosine is {:.3e})",
+                        a.dot(&b)
+                    ));
+                }
+                rows.extend(coincide());
+                rows.push(normal(a, b, "its axes are not at right angles"));
+            }
+            JointKind::Cylindrical { axis } => {
+                let n = unit(&axis, "axis")?;
+                rows.extend(parallel(&n));
+                rows.extend(on_line(&n));
+            }
+            JointKind::Prismatic { axis } => {
+                let n = unit(&axis, "axis")?;
+                let (e1, e2) = normals(&n);
+                rows.extend(parallel(&n));
+                rows.extend(on_line(&n));
+                rows.push(normal(e1, e2, "the bodies are turned about the axis"));
+            }
+            JointKind::Weld => {
+                rows.extend(coincide());
+                let [x, y, z] = [Vector3::x(), Vector3::y(), Vector3::z()];
+                let what = "the bodies are turned relative to each other";
+                rows.extend([normal(x, y, what), normal(y, z, what), normal(z, x, what)]);
+            }
+        }
+        Ok(Self {
+            name: name.to_string(),
+            kind,
+            nodes,
+            arms,
+            rows,
+            drive: None,
+            initial,
+        })
     }
 
-    /// Each anchored node with `∂(Bᵀλ)/∂θ` on its rotations, `± ã (Rᵀλ)~` (module docs).
-    pub(crate) fn force_stiffness<'a>(
-        &'a self,
-        q: &'a [f64],
-        lambda: &'a Vector3<f64>,
-    ) -> impl Iterator<Item = (usize, Matrix3<f64>)> + 'a {
-        self.signed_points()
-            .into_iter()
-            .filter_map(move |(sign, p)| {
-                let node = p.node?;
-                let r = Frame::read(q, node).rotation();
-                Some((node, hat(&p.arm) * hat(&(r.transpose() * lambda)) * sign))
-            })
+    /// Imposes `law` on the joint's free coordinate from the initial configuration `q`:
+    /// the angle of a revolute joint, the travel of a prismatic one, `f(t) − f(0)` from
+    /// where they start.
+    ///
+    /// # Errors
+    /// What is wrong, as a message: another kind of joint, a joint driven already.
+    pub(crate) fn drive(&mut self, law: Motion, q: &[f64]) -> Result<(), String> {
+        if self.drive.is_some() {
+            return Err("is driven already".into());
+        }
+        let body = |s: usize, v: &Vector3<f64>| self.initial[s].transpose() * v;
+        let coordinate = match self.kind {
+            JointKind::Revolute { axis } => {
+                let (e1, e2) = normals(&axis.normalize());
+                Coordinate::Angle {
+                    e1: body(0, &e1),
+                    e2: body(0, &e2),
+                    b1: body(1, &e1),
+                }
+            }
+            JointKind::Prismatic { axis } => {
+                let axis = body(0, &axis.normalize());
+                let sides = self.sides(q, None);
+                let start = self
+                    .product(&Measure::Axis(0, axis), &Measure::Gap, &sides)
+                    .value;
+                Coordinate::Slide { axis, start }
+            }
+            _ => {
+                return Err(format!(
+                    "is {}: only revolute and prismatic joints are driven",
+                    self.kind.name()
+                ))
+            }
+        };
+        self.drive = Some(Drive { law, coordinate });
+        Ok(())
     }
 
-    /// `b` of `Φ̈ = B v̇ + b` at velocity `v`: `Σ ± R Ω̃ Ω̃ a` (module docs).
-    pub fn acceleration_term(&self, q: &[f64], v: &[f64]) -> Vector3<f64> {
-        self.signed_points()
-            .into_iter()
-            .filter_map(|(sign, p)| {
-                let node = p.node?;
-                let (_, omega) = split(&six(v, node));
-                let r = Frame::read(q, node).rotation();
-                Some(r * omega.cross(&omega.cross(&p.arm)) * sign)
-            })
-            .sum()
+    /// Constraint rows, the drive's last.
+    pub fn n_rows(&self) -> usize {
+        self.rows.len() + usize::from(self.drive.is_some())
     }
+
+    /// The nodes the joint acts on, with their place (0: A, 1: B) among its local unknowns.
+    pub(crate) fn local_nodes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..2).filter_map(|s| self.nodes[s].map(|n| (s, n)))
+    }
+
+    fn sides(&self, q: &[f64], v: Option<&[f64]>) -> [Side; 2] {
+        [
+            Side::read(self.nodes[0], q, v),
+            Side::read(self.nodes[1], q, v),
+        ]
+    }
+
+    /// A point's value, Jacobian on its side's columns, velocity and `p̈ − J v̇`.
+    fn point(&self, sides: &[Side; 2], s: usize) -> Evaluated {
+        let (side, a) = (&sides[s], &self.arms[s]);
+        let ra = side.r * a;
+        let mut jacobian = Jacobian::zeros();
+        if self.nodes[s].is_some() {
+            jacobian
+                .fixed_view_mut::<3, 3>(0, 6 * s)
+                .copy_from(&Matrix3::identity());
+            jacobian
+                .fixed_view_mut::<3, 3>(0, 6 * s + 3)
+                .copy_from(&(-side.r * hat(a)));
+        }
+        Evaluated {
+            value: side.x + ra,
+            jacobian,
+            rate: side.u + side.r * side.omega.cross(a),
+            term: side.r * side.omega.cross(&side.omega.cross(a)),
+        }
+    }
+
+    fn evaluate(&self, m: &Measure, sides: &[Side; 2]) -> Evaluated {
+        match m {
+            Measure::Constant(e) => Evaluated {
+                value: *e,
+                jacobian: Jacobian::zeros(),
+                rate: Vector3::zeros(),
+                term: Vector3::zeros(),
+            },
+            Measure::Axis(s, u) => {
+                let side = &sides[*s];
+                let mut jacobian = Jacobian::zeros();
+                if self.nodes[*s].is_some() {
+                    jacobian
+                        .fixed_view_mut::<3, 3>(0, 6 * s + 3)
+                        .copy_from(&(-side.r * hat(u)));
+                }
+                Evaluated {
+                    value: side.r * u,
+                    jacobian,
+                    rate: side.r * side.omega.cross(u),
+                    term: side.r * side.omega.cross(&side.omega.cross(u)),
+                }
+            }
+            Measure::Gap => {
+                let (a, b) = (self.point(sides, 0), self.point(sides, 1));
+                Evaluated {
+                    value: b.value - a.value,
+                    jacobian: b.jacobian - a.jacobian,
+                    rate: b.rate - a.rate,
+                    term: b.term - a.term,
+                }
+            }
+        }
+    }
+
+    /// `∂(J_mᵀ c)/∂q` of measure `m` at fixed `c`, added into `k` times `scale`.
+    fn add_hessian(
+        &self,
+        m: &Measure,
+        sides: &[Side; 2],
+        c: &Vector3<f64>,
+        scale: f64,
+        k: &mut Stiffness,
+    ) {
+        let mut rotation = |s: usize, v: &Vector3<f64>, sign: f64| {
+            if self.nodes[s].is_some() {
+                let block = hat(v) * hat(&(sides[s].r.transpose() * c)) * (sign * scale);
+                let mut view = k.fixed_view_mut::<3, 3>(6 * s + 3, 6 * s + 3);
+                view += block;
+            }
+        };
+        match m {
+            Measure::Constant(_) => {}
+            Measure::Axis(s, u) => rotation(*s, u, 1.0),
+            Measure::Gap => {
+                rotation(1, &self.arms[1], 1.0);
+                rotation(0, &self.arms[0], -1.0);
+            }
+        }
+    }
+
+    /// The dot product `α · β` of two measures: its value, gradient `J_αᵀβ + J_βᵀα`, rate
+    /// and `b = (α̈ − J_α v̇)·β + 2 α̇·β̇ + α·(β̈ − J_β v̇)`.
+    fn product(&self, alpha: &Measure, beta: &Measure, sides: &[Side; 2]) -> Product {
+        let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
+        Product {
+            value: a.value.dot(&b.value),
+            gradient: a.jacobian.transpose() * b.value + b.jacobian.transpose() * a.value,
+            rate: a.rate.dot(&b.value) + a.value.dot(&b.rate),
+            term: a.term.dot(&b.value) + 2.0 * a.rate.dot(&b.rate) + a.value.dot(&b.term),
+        }
+    }
+
+    /// The Hessian of `α · β`, `H_α[β] + H_β[α] + J_αᵀJ_β + J_βᵀJ_α`, times `scale`, into `k`.
+    fn add_product_hessian(
+        &self,
+        alpha: &Measure,
+        beta: &Measure,
+        sides: &[Side; 2],
+        scale: f64,
+        k: &mut Stiffness,
+    ) {
+        let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
+        self.add_hessian(alpha, sides, &b.value, scale, k);
+        self.add_hessian(beta, sides, &a.value, scale, k);
+        *k += (a.jacobian.transpose() * b.jacobian + b.jacobian.transpose() * a.jacobian) * scale;
+    }
+
+    /// The drive's row as a combination of products `Σ cₖ (αₖ · βₖ) − g(t)` at time `t`:
+    /// its terms, and `(g, ġ, g̈)`. For an angle, `Φ = cos ψ (e₂·b₁) − sin ψ (e₁·b₁) =
+    /// sin(φ − ψ)`, `ψ(t)` the law's angle since `t = 0`, whose coefficients move with time;
+    /// for a slide, `Φ = n·(p_B − p_A) − d₀ − (f(t) − f(0))`.
+    fn drive_row(&self, drive: &Drive, t: f64) -> (Vec2<Term>, [f64; 3]) {
+        let law = drive.law.at(t);
+        let psi = law.angle - drive.law.at(0.0).angle;
+        match drive.coordinate {
+            Coordinate::Angle { e1, e2, b1 } => {
+                let (sn, cs) = psi.sin_cos();
+                let (w, acc) = (law.velocity, law.acceleration);
+                let cosine = Term {
+                    c: [cs, -sn * w, -cs * w * w - sn * acc],
+                    alpha: Measure::Axis(0, e2),
+                    beta: Measure::Axis(1, b1),
+                };
+                let sine = Term {
+                    c: [-sn, -cs * w, sn * w * w - cs * acc],
+                    alpha: Measure::Axis(0, e1),
+                    beta: Measure::Axis(1, b1),
+                };
+                ([Some(cosine), Some(sine)], [0.0; 3])
+            }
+            Coordinate::Slide { axis, start } => {
+                let travel = Term {
+                    c: [1.0, 0.0, 0.0],
+                    alpha: Measure::Axis(0, axis),
+                    beta: Measure::Gap,
+                };
+                (
+                    [Some(travel), None],
+                    [start + psi, law.velocity, law.acceleration],
+                )
+            }
+        }
+    }
+
+    /// Every row at `(q, v, t)`: its value, gradient, `∂Φ/∂t` and `b` of
+    /// `Φ̈ = B v̇ + b` (with `v = None`, rates and `b` at rest), handed to `f` in order.
+    fn for_each_row(
+        &self,
+        q: &[f64],
+        v: Option<&[f64]>,
+        t: f64,
+        mut f: impl FnMut(usize, RowValue),
+    ) {
+        let sides = self.sides(q, v);
+        for (k, row) in self.rows.iter().enumerate() {
+            let p = self.product(&row.alpha, &row.beta, &sides);
+            f(
+                k,
+                RowValue {
+                    value: p.value,
+                    gradient: p.gradient,
+                    time_rate: 0.0,
+                    term: p.term,
+                },
+            );
+        }
+        if let Some(drive) = &self.drive {
+            let (products, [g, gd, gdd]) = self.drive_row(drive, t);
+            let mut row = RowValue {
+                value: -g,
+                gradient: SVector::zeros(),
+                time_rate: -gd,
+                term: -gdd,
+            };
+            for Term {
+                c: [c, cd, cdd],
+                alpha,
+                beta,
+            } in products.iter().flatten()
+            {
+                let p = self.product(alpha, beta, &sides);
+                row.value += c * p.value;
+                row.gradient += p.gradient * *c;
+                row.time_rate += cd * p.value;
+                row.term += c * p.term + 2.0 * cd * p.rate + cdd * p.value;
+            }
+            f(self.rows.len(), row);
+        }
+    }
+
+    /// `Φ(q, t)` into `out` (its first [`Joint::n_rows`] entries).
+    pub fn values(&self, q: &[f64], t: f64, out: &mut [f64]) {
+        self.for_each_row(q, None, t, |k, r| out[k] = r.value);
+    }
+
+    /// The first row that the initial configuration `q` breaks by more than `tolerance`
+    /// (lengths relative to `size`), with its value and what it means.
+    pub(crate) fn broken(
+        &self,
+        q: &[f64],
+        size: f64,
+        tolerance: f64,
+    ) -> Option<(f64, &'static str)> {
+        let mut out = [0.0; MAX_ROWS];
+        self.values(q, 0.0, &mut out);
+        self.rows.iter().zip(out).find_map(|(row, value)| {
+            let lengths = [row.alpha, row.beta]
+                .iter()
+                .filter(|m| **m == Measure::Gap)
+                .count();
+            (value.abs() > tolerance * size.powi(lengths as i32)).then_some((value, row.what))
+        })
+    }
+
+    /// `B` on the local unknowns at `(q, t)`.
+    pub(crate) fn gradient(&self, q: &[f64], t: f64) -> Gradient {
+        let mut g = Gradient::zeros();
+        self.for_each_row(q, None, t, |k, r| g.set_row(k, &r.gradient.transpose()));
+        g
+    }
+
+    /// `∂(Bᵀλ)/∂q` on the local unknowns at `(q, t)`: `Σ λₖ ∂²Φₖ/∂q²`.
+    pub(crate) fn stiffness(&self, q: &[f64], t: f64, lambda: &[f64]) -> Stiffness {
+        let sides = self.sides(q, None);
+        let mut k = Stiffness::zeros();
+        for (row, &l) in self.rows.iter().zip(lambda) {
+            self.add_product_hessian(&row.alpha, &row.beta, &sides, l, &mut k);
+        }
+        if let Some(drive) = &self.drive {
+            let l = lambda[self.rows.len()];
+            for term in self.drive_row(drive, t).0.iter().flatten() {
+                self.add_product_hessian(&term.alpha, &term.beta, &sides, term.c[0] * l, &mut k);
+            }
+        }
+        k
+    }
+
+    /// `b` of `Φ̈ = B v̇ + b` at `(q, v, t)` into `out`.
+    pub fn acceleration_terms(&self, q: &[f64], v: &[f64], t: f64, out: &mut [f64]) {
+        self.for_each_row(q, Some(v), t, |k, r| out[k] = r.term);
+    }
+
+    /// `Φ̇ = B v + ∂Φ/∂t` at `(q, v, t)`: the rows' rates.
+    pub(crate) fn rates(&self, q: &[f64], v: &[f64], t: f64) -> SVector<f64, MAX_ROWS> {
+        let mut local = SVector::<f64, LOCAL>::zeros();
+        for (s, n) in self.local_nodes() {
+            local.fixed_rows_mut::<6>(6 * s).copy_from_slice(&six(v, n));
+        }
+        let mut rates = SVector::zeros();
+        self.for_each_row(q, None, t, |k, r| {
+            rates[k] = r.gradient.dot(&local) + r.time_rate
+        });
+        rates
+    }
+}
+
+/// Up to two of a kind.
+type Vec2<T> = [Option<T>; 2];
+
+/// A term `c(t) (α · β)` of a drive's row: the coefficient with its first two time
+/// derivatives, and the product's measures.
+struct Term {
+    c: [f64; 3],
+    alpha: Measure,
+    beta: Measure,
+}
+
+/// A row's value and derivatives at one state.
+struct RowValue {
+    value: f64,
+    gradient: SVector<f64, LOCAL>,
+    /// `∂Φ/∂t`.
+    time_rate: f64,
+    /// `b` of `Φ̈ = B v̇ + b`.
+    term: f64,
+}
+
+/// A product's value, gradient, rate and `b`.
+struct Product {
+    value: f64,
+    gradient: SVector<f64, LOCAL>,
+    rate: f64,
+    term: f64,
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::group::{so3, NQ, NV};
+    use crate::mechanism::motion::Table;
 
-    fn two_bodies() -> (Joint, Vec<f64>) {
-        let joint = Joint {
-            name: "j".into(),
-            kind: JointKind::Spherical,
-            a: Point {
-                node: Some(0),
-                arm: Vector3::new(0.3, -0.2, 0.5),
+    /// The time at which rows are differentiated: inside the law's table, where its speed
+    /// and acceleration are not zero.
+    const T: f64 = 0.37;
+
+    /// Every kind, and the revolute and prismatic joints driven.
+    fn joints(ground_b: bool) -> Vec<(Joint, Vec<f64>)> {
+        let axis = Vector3::new(0.3, -0.5, 0.8);
+        let kinds = [
+            JointKind::Spherical,
+            JointKind::Revolute { axis },
+            JointKind::Universal {
+                axis_a: axis,
+                axis_b: normals(&axis).0,
             },
-            b: Point {
-                node: Some(1),
-                arm: Vector3::new(-0.1, 0.4, 0.2),
-            },
-        };
+            JointKind::Cylindrical { axis },
+            JointKind::Prismatic { axis },
+            JointKind::Weld,
+        ];
+        let law = Motion::Table(Table::new(
+            vec![0.0, 0.5, 1.0],
+            vec![0.2, 1.4, 0.5],
+            [0.3, 0.0],
+        ));
+        let mut out = Vec::new();
+        for kind in kinds {
+            let (joint, q) = setup(kind, ground_b);
+            if matches!(
+                kind,
+                JointKind::Revolute { .. } | JointKind::Prismatic { .. }
+            ) {
+                let (mut driven, q0) = setup_initial(kind, ground_b);
+                driven.drive(law.clone(), &q0).unwrap();
+                out.push((driven, q.clone()));
+            }
+            out.push((joint, q));
+        }
+        out
+    }
+
+    fn initial_configuration() -> Vec<f64> {
         let mut q = vec![0.0; 2 * NQ];
         Frame::new(
             Vector3::new(0.1, 0.2, 0.3),
@@ -178,10 +718,28 @@ mod tests {
             so3::exp(&Vector3::new(-2.5, 0.3, 0.1)),
         )
         .write(&mut q, 1);
+        q
+    }
+
+    fn setup_initial(kind: JointKind, ground_b: bool) -> (Joint, Vec<f64>) {
+        let q = initial_configuration();
+        let initial = [Frame::read(&q, 0).rotation(), Frame::read(&q, 1).rotation()];
+        let nodes = [Some(0), (!ground_b).then_some(1)];
+        let arms = [Vector3::new(0.3, -0.2, 0.5), Vector3::new(-0.1, 0.4, 0.2)];
+        (Joint::new("j", kind, nodes, arms, initial).unwrap(), q)
+    }
+
+    /// The joint built on two frames as its initial configuration; then the configuration
+    /// moved away, so that no row is at its rest value.
+    fn setup(kind: JointKind, ground_b: bool) -> (Joint, Vec<f64>) {
+        let (joint, mut q) = setup_initial(kind, ground_b);
+        for n in 0..2 {
+            let moved = Frame::read(&q, n).retract(&[0.05, -0.1, 0.2, 0.3, -0.2, 0.4]);
+            moved.write(&mut q, n);
+        }
         (joint, q)
     }
 
-    /// Perturbs node `node`'s configuration by `e` along algebra direction `k`.
     fn perturbed(q: &[f64], node: usize, k: usize, e: f64) -> Vec<f64> {
         let mut inc = [0.0; NV];
         inc[k] = e;
@@ -190,67 +748,146 @@ mod tests {
         out
     }
 
+    /// Gradient and constraint-force stiffness of every kind, driven or not, on two bodies
+    /// and on a body and the ground, against central differences.
     #[test]
-    fn gradient_and_force_stiffness_against_differences() {
-        let (joint, q) = two_bodies();
-        let lambda = Vector3::new(2.0, -1.0, 0.5);
+    fn gradient_and_stiffness_against_differences() {
         let eps = 1e-6;
-        let blocks: Vec<_> = joint.gradient(&q).collect();
-        let stiff: Vec<_> = joint.force_stiffness(&q, &lambda).collect();
-        for ((node, b), (_, k)) in blocks.iter().zip(&stiff) {
-            for c in 0..NV {
-                let d = (joint.value(&perturbed(&q, *node, c, eps))
-                    - joint.value(&perturbed(&q, *node, c, -eps)))
-                    / (2.0 * eps);
-                assert!(
-                    (d - b.column(c)).norm() < 1e-8,
-                    "B, node {node}, column {c}"
-                );
+        for ground_b in [false, true] {
+            for (joint, q) in joints(ground_b) {
+                let name = (joint.kind.name(), joint.drive.is_some(), ground_b);
+                let n = joint.n_rows();
+                let lambda: Vec<f64> = (0..n)
+                    .map(|k| 1.0 + k as f64 * 0.7 - 0.3 * (k % 2) as f64 * 5.0)
+                    .collect();
+                let g = joint.gradient(&q, T);
+                let k = joint.stiffness(&q, T, &lambda);
+                for (s, node) in joint.local_nodes() {
+                    for c in 0..NV {
+                        let (p, m) = (perturbed(&q, node, c, eps), perturbed(&q, node, c, -eps));
+                        let (mut vp, mut vm) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+                        joint.values(&p, T, &mut vp);
+                        joint.values(&m, T, &mut vm);
+                        for r in 0..n {
+                            let fd = (vp[r] - vm[r]) / (2.0 * eps);
+                            assert!(
+                                (fd - g[(r, 6 * s + c)]).abs() < 1e-8,
+                                "{name:?}: B[{r}, {}]",
+                                6 * s + c
+                            );
+                        }
+                        let force = |qq: &[f64]| {
+                            joint.gradient(qq, T).rows(0, n).transpose()
+                                * nalgebra::DVector::from_column_slice(&lambda)
+                        };
+                        let fd = (force(&p) - force(&m)) / (2.0 * eps);
+                        for (s2, _) in joint.local_nodes() {
+                            for r in 0..NV {
+                                let i = 6 * s2 + r;
+                                let exact = k[(i, 6 * s + c)];
+                                assert!(
+                                    (fd[i] - exact).abs() < 1e-7,
+                                    "{name:?}: K[{i}, {}] {} against {exact}",
+                                    6 * s + c,
+                                    fd[i]
+                                );
+                            }
+                        }
+                    }
+                }
             }
-            // Bᵀλ's rotation part, differentiated in the node's rotations.
-            let moment = |qq: &[f64]| -> Vector3<f64> {
-                let (_, bb) = joint.gradient(qq).find(|(n, _)| n == node).unwrap();
-                bb.fixed_view::<3, 3>(0, 3).transpose() * lambda
+        }
+    }
+
+    /// Along a motion `q(τ)` with known rates and accelerations, `Φ(q(τ), T + τ)`'s first
+    /// and second differences in `τ` against `B v + ∂Φ/∂t` and `B v̇ + b`, every kind, driven
+    /// or not.
+    #[test]
+    fn rates_and_acceleration_terms_against_differences() {
+        let v = [
+            0.3, -0.1, 0.2, 1.5, -0.7, 2.0, -0.2, 0.4, 0.1, -1.0, 0.5, 0.3,
+        ];
+        // Rotational accelerations along the rates: exp(τΩ + ½τ²Ω̇) turns about a fixed
+        // body axis, whose body rates are exactly Ω + τΩ̇, only when Ω̇ ∥ Ω.
+        let mut acc = [0.5, 0.2, -0.4, 0.0, 0.0, 0.0, 0.1, -0.3, 0.2, 0.0, 0.0, 0.0];
+        for node in 0..2 {
+            for k in 0..3 {
+                acc[6 * node + 3 + k] = 0.4 * v[6 * node + 3 + k];
+            }
+        }
+        for (joint, q) in joints(false) {
+            let name = (joint.kind.name(), joint.drive.is_some());
+            let n = joint.n_rows();
+            let at = |tau: f64| {
+                let mut out = q.clone();
+                for node in 0..2 {
+                    let inc: Vec<f64> = (0..NV)
+                        .map(|k| tau * v[6 * node + k] + 0.5 * tau * tau * acc[6 * node + k])
+                        .collect();
+                    Frame::read(&q, node).retract(&inc).write(&mut out, node);
+                }
+                let mut values = [0.0; MAX_ROWS];
+                joint.values(&out, T + tau, &mut values);
+                values
             };
-            for c in 0..3 {
-                let d = (moment(&perturbed(&q, *node, 3 + c, eps))
-                    - moment(&perturbed(&q, *node, 3 + c, -eps)))
-                    / (2.0 * eps);
+            let h = 1e-4;
+            let (p, z, m) = (at(h), at(0.0), at(-h));
+            let bvdot = joint.gradient(&q, T) * SVector::<f64, LOCAL>::from_column_slice(&acc);
+            let mut b = [0.0; MAX_ROWS];
+            joint.acceleration_terms(&q, &v, T, &mut b);
+            let rates = joint.rates(&q, &v, T);
+            for r in 0..n {
+                let first = (p[r] - m[r]) / (2.0 * h);
                 assert!(
-                    (d - k.column(c)).norm() < 1e-8,
-                    "K, node {node}, column {c}"
+                    (first - rates[r]).abs() < 1e-6 * rates[r].abs().max(1.0),
+                    "{name:?}, row {r}: rate {first} against {}",
+                    rates[r]
+                );
+                let second = (p[r] - 2.0 * z[r] + m[r]) / (h * h);
+                let expected = bvdot[r] + b[r];
+                assert!(
+                    (second - expected).abs() < 1e-5 * expected.abs().max(1.0),
+                    "{name:?}, row {r}: {second} against {expected}"
                 );
             }
         }
     }
 
-    /// `Φ̈ = B v̇ + b` along the motion `q(t) = q ⊕ (t v + ½t² v̇)` with constant body rates:
-    /// second differences of `Φ` in time.
+    /// A drive holds at the start, whatever its law's value there.
     #[test]
-    fn acceleration_term_against_differences() {
-        let (joint, q) = two_bodies();
-        let v = [
-            0.3, -0.1, 0.2, 1.5, -0.7, 2.0, -0.2, 0.4, 0.1, -1.0, 0.5, 0.3,
-        ];
-        let vdot = [0.0; 2 * NV];
-        let at = |t: f64| {
-            let mut out = q.clone();
-            for n in 0..2 {
-                let inc: Vec<f64> = six(&v, n).iter().map(|x| x * t).collect();
-                Frame::read(&q, n).retract(&inc).write(&mut out, n);
-            }
-            joint.value(&out)
-        };
-        let h = 1e-4;
-        let second = (at(h) - at(0.0) * 2.0 + at(-h)) / (h * h);
-        let bvdot: Vector3<f64> = joint
-            .gradient(&q)
-            .map(|(n, b)| b * nalgebra::Vector6::from_column_slice(&six(&vdot, n)))
-            .sum();
-        let expected = bvdot + joint.acceleration_term(&q, &v);
-        assert!(
-            (second - expected).norm() < 1e-5 * expected.norm().max(1.0),
-            "{second:?} against {expected:?}"
-        );
+    fn a_drive_starts_where_its_joint_is() {
+        for kind in [
+            JointKind::Revolute { axis: Vector3::z() },
+            JointKind::Prismatic { axis: Vector3::x() },
+        ] {
+            let (mut joint, q) = setup_initial(kind, false);
+            let law = Motion::Table(Table::new(vec![0.0, 1.0], vec![2.0, 3.0], [1.0, 1.0]));
+            joint.drive(law.clone(), &q).unwrap();
+            let mut values = [1.0; MAX_ROWS];
+            joint.values(&q, 0.0, &mut values);
+            // The drive's row (the others hold where the anchors are placed to meet).
+            assert!(values[joint.n_rows() - 1].abs() < 1e-15, "{values:?}");
+            assert!(joint.drive(law, &q).unwrap_err().contains("driven already"));
+        }
+        let (mut joint, q) = setup_initial(JointKind::Spherical, false);
+        let law = Motion::Table(Table::new(vec![0.0, 1.0], vec![0.0, 1.0], [0.0, 0.0]));
+        assert!(joint.drive(law, &q).unwrap_err().contains("is spherical"));
+    }
+
+    #[test]
+    fn bad_axes_are_named() {
+        let i = Matrix3::identity();
+        let build = |kind| Joint::new("j", kind, [Some(0), None], [Vector3::zeros(); 2], [i, i]);
+        assert!(build(JointKind::Revolute {
+            axis: Vector3::zeros()
+        })
+        .unwrap_err()
+        .contains("axis"));
+        let err = build(JointKind::Universal {
+            axis_a: Vector3::x(),
+            axis_b: Vector3::new(1.0, 1.0, 0.0),
+        })
+        .unwrap_err();
+        assert!(err.contains("right angles"), "{err}");
     }
 }

@@ -1,12 +1,13 @@
 //! **The spatial wing**: mechanisms in space on the Lie group `(ℝ³ × SO(3))ⁿ` of
-//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), joints as index-3
-//! constraints with their constraint-force stiffness ([`joint`]), the mechanism built entry by
+//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), joints and drives as
+//! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built entry by
 //! entry and checked ([`model`]), its residual and non-symmetric iteration matrix on a fixed
 //! pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by sparse
 //! `LU`.
 //!
-//! This is the first part of the spatial engine: rigid bodies and spherical joints. Beams,
-//! the other joints, drives, springs and the gradients come next, on the same group.
+//! This is the first part of the spatial engine: rigid bodies, the joints (spherical,
+//! revolute, universal, cylindrical, prismatic, weld) and drives. Beams, springs, motors,
+//! statics, modes and the gradients come next, on the same group.
 
 pub mod body;
 pub mod integrator;

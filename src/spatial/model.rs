@@ -7,8 +7,9 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{short, SceneError};
 use crate::group::{six, split, Frame, NQ, NV};
+use crate::mechanism::motion::Motion;
 use crate::spatial::body::Body;
-use crate::spatial::joint::{Anchor, Joint, JointKind, Point};
+use crate::spatial::joint::{Anchor, Joint, JointKind};
 
 /// Relative gap (of the mechanism's size) below which a joint's points meet, and relative
 /// rate (of the bodies' speeds) below which initial rates satisfy the joints.
@@ -132,11 +133,14 @@ impl SpatialModel {
         Ok(())
     }
 
-    /// Adds a joint of `kind` between anchors `a` and `b`; returns its index.
+    /// Adds a joint of `kind` between anchors `a` and `b`, its axes given in the initial
+    /// configuration; returns its index.
     ///
     /// # Errors
     /// A [`SceneError`] at `joints.NAME` for a duplicate name, an unknown body, both anchors
-    /// on the ground or on one body, non-finite points, or points that do not meet.
+    /// on the ground or on one body, non-finite points, a zero axis, a universal joint's
+    /// axes not at right angles, or a joint the initial configuration breaks (points that
+    /// do not meet, B's point off a prismatic joint's axis).
     pub fn add_joint(
         &mut self,
         name: &str,
@@ -148,10 +152,10 @@ impl SpatialModel {
         if self.joints.iter().any(|j| j.name == name) {
             return Err(SceneError::new(path, "a joint of this name exists already"));
         }
-        let a = self.resolve(&format!("{path}.a"), a)?;
-        let b = self.resolve(&format!("{path}.b"), b)?;
-        if a.node == b.node {
-            let what = if a.node.is_none() {
+        let (node_a, arm_a) = self.resolve(&format!("{path}.a"), a)?;
+        let (node_b, arm_b) = self.resolve(&format!("{path}.b"), b)?;
+        if node_a == node_b {
+            let what = if node_a.is_none() {
                 "the ground"
             } else {
                 "one body"
@@ -163,29 +167,54 @@ impl SpatialModel {
                 ),
             ));
         }
-        let joint = Joint {
-            name: name.to_string(),
+        let rotation =
+            |n: Option<usize>| n.map_or_else(Matrix3::identity, |n| self.nodes[n].frame.rotation());
+        let joint = Joint::new(
+            name,
             kind,
-            a,
-            b,
-        };
-        let q = self.initial_configuration();
-        let gap = joint.value(&q).norm();
-        if gap > MEET_TOLERANCE * self.size() {
+            [node_a, node_b],
+            [arm_a, arm_b],
+            [rotation(node_a), rotation(node_b)],
+        )
+        .map_err(|m| SceneError::new(&path, m))?;
+        if let Some((value, what)) =
+            joint.broken(&self.initial_configuration(), self.size(), MEET_TOLERANCE)
+        {
             return Err(SceneError::new(
                 path,
-                format!("its points are {} m apart in the initial configuration; a spherical joint's points must coincide", short(gap)),
+                format!("{what} in the initial configuration (by {}); place its bodies so that it holds", short(value)),
             ));
         }
         self.joints.push(joint);
         Ok(self.joints.len() - 1)
     }
 
-    fn resolve(&self, path: &str, anchor: Anchor) -> Result<Point, SceneError> {
+    /// Drives joint `joint` by `law`: a revolute joint's angle about its axis (rad), a
+    /// prismatic joint's travel along its axis (m), each `f(t) − f(0)` from where it starts.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `joints.NAME.drive` for an unknown joint, a joint of another kind
+    /// or one driven already.
+    pub fn add_drive(&mut self, joint: usize, law: Motion) -> Result<(), SceneError> {
+        let q = self.initial_configuration();
+        let j = self
+            .joints
+            .get_mut(joint)
+            .ok_or_else(|| SceneError::new(format!("joints[{joint}]"), "no such joint"))?;
+        j.drive(law, &q)
+            .map_err(|m| SceneError::new(format!("joints.{}.drive", j.name), m))
+    }
+
+    /// An anchor's node (`None`: the ground) and point.
+    fn resolve(
+        &self,
+        path: &str,
+        anchor: Anchor,
+    ) -> Result<(Option<usize>, Vector3<f64>), SceneError> {
         match anchor {
             Anchor::Ground(p) => {
                 finite(path, &p)?;
-                Ok(Point { node: None, arm: p })
+                Ok((None, p))
             }
             Anchor::Body { body, point } => {
                 let b = self.bodies.get(body).ok_or_else(|| {
@@ -195,10 +224,7 @@ impl SpatialModel {
                     )
                 })?;
                 finite(path, &point)?;
-                Ok(Point {
-                    node: Some(b.node),
-                    arm: point,
-                })
+                Ok((Some(b.node), point))
             }
         }
     }
@@ -215,18 +241,23 @@ impl SpatialModel {
 
     /// Constraint rows.
     pub fn n_rows(&self) -> usize {
-        self.joints.iter().map(|j| j.kind.rows()).sum()
+        self.joints.iter().map(Joint::n_rows).sum()
     }
 
-    /// The mechanism's size (m): the largest distance of a node or joint point from the
-    /// origin, 1 m for a mechanism at the origin: the reference of length tolerances.
+    /// The rows of joint `joint` among the multipliers `λ`, its drive's last: `λ` of a
+    /// point's rows is the force the joint exerts on A's point (N, its opposite on B's), of
+    /// an angle's a moment (N m), of a drive's the generalized force it takes from the joint's
+    /// coordinate (N m or N: the drive applies its opposite).
+    pub fn joint_rows(&self, joint: usize) -> std::ops::Range<usize> {
+        let start: usize = self.joints[..joint].iter().map(Joint::n_rows).sum();
+        start..start + self.joints[joint].n_rows()
+    }
+
+    /// The mechanism's size (m): the largest distance of a node from the origin, 1 m for a
+    /// mechanism at the origin: the reference of length tolerances.
     pub fn size(&self) -> f64 {
         let nodes = self.nodes.iter().map(|n| n.frame.x.norm());
-        let points = self
-            .joints
-            .iter()
-            .flat_map(|j| [j.a.arm.norm(), j.b.arm.norm()]);
-        let size = nodes.chain(points).fold(0.0, f64::max);
+        let size = nodes.fold(0.0, f64::max);
         if size > 0.0 {
             size
         } else {
@@ -249,10 +280,10 @@ impl SpatialModel {
         self.nodes.iter().flat_map(|n| n.velocity).collect()
     }
 
-    /// Checks that the initial rates move the joints' points together (`B v = 0`).
+    /// Checks that the initial rates keep the joints (`B v = 0`).
     ///
     /// # Errors
-    /// A [`SceneError`] naming the first joint whose points the rates pull apart.
+    /// A [`SceneError`] naming the first joint the rates break.
     pub fn check_rates(&self) -> Result<(), SceneError> {
         let (q, v) = (self.initial_configuration(), self.initial_velocity());
         let speed = self.size()
@@ -263,16 +294,13 @@ impl SpatialModel {
                 .map(|c| split(&six(c, 0)).0.norm())
                 .fold(0.0, f64::max);
         for j in &self.joints {
-            let rate: Vector3<f64> = j
-                .gradient(&q)
-                .map(|(n, b)| b * nalgebra::Vector6::from_column_slice(&six(&v, n)))
-                .sum();
-            if rate.norm() > MEET_TOLERANCE * speed.max(f64::MIN_POSITIVE) {
+            let rate = j.rates(&q, &v, 0.0).rows(0, j.n_rows()).amax();
+            if rate > MEET_TOLERANCE * speed.max(f64::MIN_POSITIVE) {
                 return Err(SceneError::new(
                     format!("joints.{}", j.name),
                     format!(
-                        "the initial rates separate its points at {} m/s",
-                        short(rate.norm())
+                        "the initial rates break it at {} (m/s, or rad/s)",
+                        short(rate)
                     ),
                 ));
             }
@@ -407,7 +435,11 @@ mod tests {
             )
             .unwrap_err();
         assert_eq!(err.path, "joints.pivot");
-        assert!(err.message.contains("0.1 m apart"), "{err}");
+        assert!(
+            err.message
+                .contains("its points are apart in the initial configuration (by 0.1)"),
+            "{err}"
+        );
         let err = m
             .add_joint(
                 "pivot",
@@ -444,7 +476,7 @@ mod tests {
             .unwrap();
         let err = m.check_rates().unwrap_err();
         assert!(
-            err.path == "joints.pivot" && err.message.contains("separate"),
+            err.path == "joints.pivot" && err.message.contains("break it at 1 "),
             "{err}"
         );
     }

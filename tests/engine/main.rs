@@ -7,6 +7,7 @@ mod dynamics;
 mod guides;
 mod sensitivity;
 mod spatial;
+mod spatial_joints;
 mod statics;
 mod strain_energy;
 mod variable_steps;

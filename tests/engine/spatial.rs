@@ -17,7 +17,7 @@ fn top_inertia() -> Matrix3<f64> {
     Matrix3::from_diagonal(&Vector3::new(0.234375, 0.46875, 0.234375))
 }
 
-fn settings(rho_inf: f64) -> DynamicSettings {
+pub fn settings(rho_inf: f64) -> DynamicSettings {
     DynamicSettings {
         t_end: 0.0,
         h: 0.0,
@@ -59,7 +59,7 @@ fn guide_top() -> SpatialModel {
     )
 }
 
-fn run(model: &SpatialModel, rho_inf: f64, h: f64, steps: usize) -> Vec<State> {
+pub fn run(model: &SpatialModel, rho_inf: f64, h: f64, steps: usize) -> Vec<State> {
     simulate_spatial(model, &settings(rho_inf), &TimeGrid::uniform(h, steps)).unwrap()
 }
 
