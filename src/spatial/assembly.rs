@@ -17,11 +17,11 @@
 
 use std::collections::BTreeSet;
 
-use nalgebra::{Matrix6, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
 
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
-use crate::spatial::joint::{Stiffness, MAX_ROWS};
+use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
 
 /// A CSC pattern with lookup of an entry's slot.
@@ -65,6 +65,9 @@ pub(crate) struct Assembler<'m> {
     pub values: Vec<f64>,
     /// First row of each joint.
     first_row: Vec<usize>,
+    /// Each joint's `∂(Bᵀλ)/∂q` and `B` at the last [`Assembler::matrix`] with a tangent,
+    /// for the sensitivities' [`Assembler::linear_terms`] at the same state.
+    joint_blocks: Vec<(Stiffness, Gradient)>,
 }
 
 /// What the iteration matrix is made of at one iterate.
@@ -116,6 +119,7 @@ impl<'m> Assembler<'m> {
             model,
             pattern,
             values,
+            joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
             first_row,
         }
     }
@@ -199,8 +203,11 @@ impl<'m> Assembler<'m> {
                         .copy_from(&tangent(&Vector3::new(d[3], d[4], d[5])));
                 }
             }
+            let g = j.gradient(q, time);
             if let Some((_, lambda)) = c.tangent {
-                let kt = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]) * t;
+                let stiffness = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]);
+                self.joint_blocks[k] = (stiffness, g);
+                let kt = stiffness * t;
                 for (s1, n1) in j.local_nodes() {
                     for (s2, n2) in j.local_nodes() {
                         let block: Matrix6<f64> =
@@ -209,7 +216,6 @@ impl<'m> Assembler<'m> {
                     }
                 }
             }
-            let g = j.gradient(q, time);
             let gt = g * t * c.scale;
             let gs = g.transpose() * c.scale;
             for (side, node) in j.local_nodes() {
@@ -219,6 +225,94 @@ impl<'m> Assembler<'m> {
                 let bs: SMatrix<f64, NV, MAX_ROWS> =
                     gs.fixed_view::<NV, MAX_ROWS>(NV * side, 0).into_owned();
                 self.add_columns(NV * node, row, &bs, n);
+            }
+        }
+    }
+
+    /// Adds `K ε + C v'` to `force` and `B ε` to `constraint`: the residual's change with
+    /// a variation `ε` of the configuration (in the nodes' algebra) and `v'` of the
+    /// velocities — the terms the sensitivities carry from step to step — at velocity `v`
+    /// and the configuration, multipliers and time of the last [`Assembler::matrix`] with
+    /// a tangent.
+    pub fn linear_terms(
+        &self,
+        v: &[f64],
+        eps: &[f64],
+        vp: &[f64],
+        force: &mut [f64],
+        constraint: &mut [f64],
+    ) {
+        let model = self.model;
+        let n_v = model.n_v();
+        for b in &model.bodies {
+            let c = b.iteration_block(&six(v, b.node), 0.0, 1.0);
+            let f = c * Vector6::from_column_slice(&six(vp, b.node));
+            add_six(force, b.node, &f);
+        }
+        for ((j, &row), (stiffness, gradient)) in model
+            .joints
+            .iter()
+            .zip(&self.first_row)
+            .zip(&self.joint_blocks)
+        {
+            let n = j.n_rows();
+            let mut local = SVector::<f64, 12>::zeros();
+            for (side, node) in j.local_nodes() {
+                local
+                    .fixed_rows_mut::<NV>(NV * side)
+                    .copy_from_slice(&six(eps, node));
+            }
+            let k = stiffness * local;
+            for (side, node) in j.local_nodes() {
+                add_six(force, node, &k.fixed_rows::<NV>(NV * side).into_owned());
+            }
+            let b = gradient * local;
+            constraint[row - n_v..row - n_v + n]
+                .iter_mut()
+                .zip(b.iter())
+                .for_each(|(c, x)| *c += x);
+        }
+    }
+
+    /// The transpose of [`Assembler::linear_terms`]: adds `Kᵀ y_f + Bᵀ y_c` to `eps_bar` and
+    /// `Cᵀ y_f` to `v_bar`, at the same state.
+    pub fn linear_terms_transpose(
+        &self,
+        v: &[f64],
+        y_force: &[f64],
+        y_constraint: &[f64],
+        eps_bar: &mut [f64],
+        v_bar: &mut [f64],
+    ) {
+        let model = self.model;
+        let n_v = model.n_v();
+        for b in &model.bodies {
+            let c = b.iteration_block(&six(v, b.node), 0.0, 1.0);
+            let f = c.transpose() * Vector6::from_column_slice(&six(y_force, b.node));
+            add_six(v_bar, b.node, &f);
+        }
+        for ((j, &row), (stiffness, gradient)) in model
+            .joints
+            .iter()
+            .zip(&self.first_row)
+            .zip(&self.joint_blocks)
+        {
+            let n = j.n_rows();
+            let mut local = SVector::<f64, 12>::zeros();
+            for (side, node) in j.local_nodes() {
+                local
+                    .fixed_rows_mut::<NV>(NV * side)
+                    .copy_from_slice(&six(y_force, node));
+            }
+            let mut from_rows = multipliers(&y_constraint[row - n_v..row - n_v + n]);
+            from_rows.rows_mut(n, MAX_ROWS - n).fill(0.0);
+            let back = stiffness.transpose() * local + gradient.transpose() * from_rows;
+            for (side, node) in j.local_nodes() {
+                add_six(
+                    eps_bar,
+                    node,
+                    &back.fixed_rows::<NV>(NV * side).into_owned(),
+                );
             }
         }
     }
@@ -268,6 +362,14 @@ impl<'m> Assembler<'m> {
             .sum();
         total / (NV * model.bodies.len()) as f64
     }
+}
+
+/// Adds six numbers to node `node`'s in `out`.
+fn add_six(out: &mut [f64], node: usize, f: &Vector6<f64>) {
+    out[NV * node..NV * node + NV]
+        .iter_mut()
+        .zip(f.iter())
+        .for_each(|(o, x)| *o += x);
 }
 
 /// A joint's multipliers, padded with zeros to [`MAX_ROWS`].

@@ -13,5 +13,6 @@ pub mod body;
 pub mod integrator;
 pub mod joint;
 pub mod model;
+pub mod sensitivity;
 
 pub(crate) mod assembly;

@@ -8,6 +8,7 @@ mod guides;
 mod sensitivity;
 mod spatial;
 mod spatial_joints;
+mod spatial_sensitivity;
 mod statics;
 mod strain_energy;
 mod variable_steps;

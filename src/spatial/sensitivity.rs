@@ -1,0 +1,632 @@
+//! Exact gradients of a spatial motion's responses to scene parameters: direct
+//! differentiation (the paper's Algorithm 2 carried to the Lie group) and the discrete
+//! adjoint, both of the scheme as it runs (Brüls & Eberhard, *IJNME* 74, 2008; Sonneville &
+//! Brüls, *Multibody Syst. Dyn.* 31, 2014).
+//!
+//! A variation of the configuration is a vector `ε` of the nodes' algebra, `δq = q ε̃`. The
+//! update `qₙ₊₁ = qₙ ∘ exp(Δ)` carries it as
+//!
+//! ```text
+//! εₙ₊₁ = Ad(exp(−Δ)) εₙ + T(Δ) Δ'          (per node: diag(I, exp(Δθ)ᵀ) and diag(I, T(Δθ)))
+//! ```
+//!
+//! and the rest is the vector-space scheme's: with `δ` the unknown of the step,
+//! `Δ' = Δ'_pred + δ`, `v' = v'_pred + γ'δ`, `v̇' = β'δ`, the linearized equations of the
+//! step are solved with the step's own iteration matrix `S` at the converged state,
+//!
+//! ```text
+//! S [δ; ν'] = −[∂r/∂p + K ε_pred + C v'_pred;  s (∂Φ/∂p + B ε_pred)],   λ' = s ν'
+//! ```
+//!
+//! The adjoint runs the transposes of the same operations backwards, with `Sᵀ` on the same
+//! `LU`. The start is differentiated too: `[M, sBᵀ; sB, 0][v̇₀'; ν₀'] = −[∂r/∂p; 0]`.
+//! A change of step size, which carries the pseudo-accelerations to the new step, is
+//! differentiated as it runs.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::error::{Error, SettingsError, SolveError};
+use crate::group::so3::{exp, log, tangent};
+use crate::group::{six, split, Frame, NV};
+use crate::settings::{DynamicSettings, Method};
+use crate::solver::integrator::{step_ratio, AlphaParameters, State};
+use crate::solver::lu::Lu;
+use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::model::SpatialModel;
+use crate::TimeGrid;
+
+/// A scene parameter of a spatial mechanism.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Parameter {
+    /// A body's mass (kg).
+    Mass {
+        /// The body.
+        body: usize,
+    },
+    /// Entry `(i, j)` of a body's inertia tensor and its symmetric `(j, i)` (kg m²).
+    Inertia {
+        /// The body.
+        body: usize,
+        /// Row.
+        i: usize,
+        /// Column.
+        j: usize,
+    },
+}
+
+/// A response of a spatial motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Response {
+    /// A coordinate of a body's centre of mass at the end of the run (m).
+    Position {
+        /// The body.
+        body: usize,
+        /// 0, 1, 2 for x, y, z.
+        axis: usize,
+    },
+    /// `∫ λ² dt` of one row of a joint (trapezoidal rule on the run's grid): of a drive's
+    /// row, the effort `∫ τ² dt` a motor must deliver.
+    Effort {
+        /// The joint.
+        joint: usize,
+        /// Its row, the drive's last.
+        row: usize,
+    },
+}
+
+/// Responses and their gradients: `gradient[k][i]` is `∂f_k/∂p_i`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gradients {
+    /// The responses' values.
+    pub values: Vec<f64>,
+    /// Their derivatives to the parameters.
+    pub gradient: Vec<Vec<f64>>,
+}
+
+fn check(
+    model: &SpatialModel,
+    responses: &[Response],
+    parameters: &[Parameter],
+) -> Result<(), SettingsError> {
+    let body = |b: usize, what: String| {
+        (b < model.bodies.len()).then_some(()).ok_or_else(|| {
+            SettingsError::new(
+                what,
+                format!("no body {b} (the mechanism has {})", model.bodies.len()),
+            )
+        })
+    };
+    for (k, r) in responses.iter().enumerate() {
+        match *r {
+            Response::Position { body: b, axis } => {
+                body(b, format!("responses[{k}]"))?;
+                if axis > 2 {
+                    return Err(SettingsError::new(
+                        format!("responses[{k}]"),
+                        format!("axis {axis}: 0, 1 or 2"),
+                    ));
+                }
+            }
+            Response::Effort { joint, row } => {
+                let rows = model.joints.get(joint).map(|j| j.n_rows());
+                if rows.is_none_or(|n| row >= n) {
+                    return Err(SettingsError::new(
+                        format!("responses[{k}]"),
+                        format!("joint {joint} has no row {row}"),
+                    ));
+                }
+            }
+        }
+    }
+    for (k, p) in parameters.iter().enumerate() {
+        match *p {
+            Parameter::Mass { body: b } => body(b, format!("parameters[{k}]"))?,
+            Parameter::Inertia { body: b, i, j } => {
+                body(b, format!("parameters[{k}]"))?;
+                if i > 2 || j > 2 {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("inertia entry ({i}, {j}): 0, 1 or 2 each"),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The responses of the motion of `model` on `grid` and their exact gradients to
+/// `parameters`, by `method` (`Auto`: the adjoint where there are fewer responses than
+/// parameters).
+///
+/// # Errors
+/// [`SettingsError`] for a response or parameter the mechanism does not have; the run's
+/// errors ([`simulate_spatial`]); [`SolveError::Singular`] for a singular step matrix.
+pub fn sensitivities(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    parameters: &[Parameter],
+    method: Method,
+) -> Result<Gradients, Error> {
+    check(model, responses, parameters)?;
+    let states = simulate_spatial(model, settings, grid)?;
+    let mut sweep = Sweep::new(model, settings, &states)?;
+    let values = responses.iter().map(|r| sweep.value(r)).collect();
+    let adjoint = match method {
+        Method::Direct => false,
+        Method::Adjoint => true,
+        Method::Auto => responses.len() < parameters.len(),
+    };
+    let gradient = if adjoint {
+        responses
+            .iter()
+            .map(|r| sweep.adjoint(r, parameters))
+            .collect::<Result<_, _>>()?
+    } else {
+        let by_parameter = sweep.direct(parameters, responses)?;
+        (0..responses.len())
+            .map(|k| by_parameter.iter().map(|g| g[k]).collect())
+            .collect()
+    };
+    Ok(Gradients { values, gradient })
+}
+
+/// The stored run and the linear algebra its sweeps share.
+struct Sweep<'m> {
+    asm: Assembler<'m>,
+    lu: Lu,
+    params: AlphaParameters,
+    states: &'m [State],
+    n_v: usize,
+    n_rows: usize,
+}
+
+/// A state's sensitivities to one parameter: `ε, v', v̇', a', λ'`.
+#[derive(Clone)]
+struct Tangent {
+    eps: Vec<f64>,
+    v: Vec<f64>,
+    vdot: Vec<f64>,
+    a: Vec<f64>,
+    lam: Vec<f64>,
+}
+
+impl<'m> Sweep<'m> {
+    fn new(
+        model: &'m SpatialModel,
+        settings: &DynamicSettings,
+        states: &'m [State],
+    ) -> Result<Self, Error> {
+        let asm = Assembler::new(model);
+        let p = &asm.pattern;
+        let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
+            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+        Ok(Self {
+            asm,
+            lu,
+            params: AlphaParameters::chung_hulbert(settings.rho_inf),
+            states,
+            n_v: model.n_v(),
+            n_rows: model.n_rows(),
+        })
+    }
+
+    fn model(&self) -> &'m SpatialModel {
+        self.asm.model
+    }
+
+    /// The value of a response over the stored run.
+    fn value(&self, r: &Response) -> f64 {
+        match *r {
+            Response::Position { body, axis } => {
+                let node = self.model().bodies[body].node;
+                Frame::read(&self.states[self.states.len() - 1].q, node).x[axis]
+            }
+            Response::Effort { joint, row } => {
+                let k = self.model().joint_rows(joint).start + row;
+                (0..self.states.len())
+                    .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
+                    .sum()
+            }
+        }
+    }
+
+    /// The trapezoidal weight of state `n`.
+    fn weight(&self, n: usize) -> f64 {
+        let before = if n > 0 { self.states[n].h } else { 0.0 };
+        let after = self.states.get(n + 1).map_or(0.0, |s| s.h);
+        0.5 * (before + after)
+    }
+
+    /// A response's partial derivatives at state `n`: to `ε` and to `λ`.
+    fn seed(&self, r: &Response, n: usize, eps: &mut [f64], lam: &mut [f64]) {
+        eps.fill(0.0);
+        lam.fill(0.0);
+        match *r {
+            Response::Position { body, axis } => {
+                if n + 1 == self.states.len() {
+                    eps[NV * self.model().bodies[body].node + axis] = 1.0;
+                }
+            }
+            Response::Effort { joint, row } => {
+                let k = self.model().joint_rows(joint).start + row;
+                lam[k] = 2.0 * self.weight(n) * self.states[n].lam[k];
+            }
+        }
+    }
+
+    /// `∂r/∂p` at state `n`: its node and its six force rows there (no parameter here
+    /// reaches another node or the constraints).
+    fn parameter_load(&self, p: &Parameter, n: usize) -> (usize, [f64; NV]) {
+        let s = &self.states[n];
+        let model = self.model();
+        let mut local = [0.0; NV];
+        match *p {
+            Parameter::Mass { body } => {
+                let node = model.bodies[body].node;
+                let (udot, _) = split(&six(&s.qddot, node));
+                local[..3].copy_from_slice((udot - model.gravity).as_slice());
+                (node, local)
+            }
+            Parameter::Inertia { body, i, j } => {
+                let node = model.bodies[body].node;
+                let mut e = Matrix3::zeros();
+                e[(i, j)] = 1.0;
+                e[(j, i)] = 1.0;
+                let (_, omega) = split(&six(&s.qdot, node));
+                let (_, omegadot) = split(&six(&s.qddot, node));
+                let m = e * omegadot + omega.cross(&(e * omega));
+                local[3..].copy_from_slice(m.as_slice());
+                (node, local)
+            }
+        }
+    }
+
+    /// `(∂r/∂p) · y` at state `n`.
+    fn parameter_dot(&self, p: &Parameter, n: usize, y: &[f64]) -> f64 {
+        let (node, local) = self.parameter_load(p, n);
+        dot(&local, &y[NV * node..NV * node + NV])
+    }
+
+    /// The row scaling of the step into state `n` (`n > 0`) or of the start.
+    fn scale(&self, n: usize) -> f64 {
+        let c = if n == 0 {
+            1.0
+        } else {
+            self.params.beta_prime(self.states[n].h)
+        };
+        c * self.asm.mean_mass()
+    }
+
+    /// Factorizes the matrix of the start (`n = 0`) or of the step into state `n`, at its
+    /// converged state.
+    fn factorize(&mut self, n: usize) -> Result<(), SolveError> {
+        let s = &self.states[n];
+        let scale = self.scale(n);
+        let increment;
+        let c = if n == 0 {
+            Coefficients {
+                beta_prime: 1.0,
+                gamma_prime: 0.0,
+                scale,
+                tangent: None,
+            }
+        } else {
+            increment = increments(self.model(), &self.states[n - 1].q, &s.q);
+            Coefficients {
+                beta_prime: self.params.beta_prime(s.h),
+                gamma_prime: self.params.gamma_prime(s.h),
+                scale,
+                tangent: Some((&increment, &s.lam)),
+            }
+        };
+        self.asm.matrix(&s.q, &s.qdot, s.t, c);
+        self.lu
+            .factorize(&self.asm.values)
+            .map_err(|e| SolveError::Singular {
+                time: s.t,
+                detail: format!("{e:?}"),
+            })
+    }
+
+    fn solve(&mut self, rhs: &mut [f64], transpose: bool, n: usize) -> Result<(), SolveError> {
+        let time = self.states[n].t;
+        self.lu
+            .solve_in_place(rhs, transpose)
+            .map_err(|e| SolveError::Singular {
+                time,
+                detail: format!("{e:?}"),
+            })
+    }
+
+    /// Direct differentiation: every response's derivative to every parameter,
+    /// `[parameter][response]`, each step's matrix factored once for all parameters.
+    fn direct(
+        &mut self,
+        parameters: &[Parameter],
+        responses: &[Response],
+    ) -> Result<Vec<Vec<f64>>, SolveError> {
+        let (n_v, m) = (self.n_v, self.n_rows);
+        let mut rhs = vec![0.0; n_v + m];
+        // The start: ε₀ = v₀' = 0.
+        self.factorize(0)?;
+        let s0 = self.scale(0);
+        let mut tangents = Vec::with_capacity(parameters.len());
+        for p in parameters {
+            let (node, local) = self.parameter_load(p, 0);
+            rhs.fill(0.0);
+            rhs[NV * node..NV * node + NV]
+                .iter_mut()
+                .zip(local)
+                .for_each(|(r, l)| *r = -l);
+            self.solve(&mut rhs, false, 0)?;
+            tangents.push(Tangent {
+                eps: vec![0.0; n_v],
+                v: vec![0.0; n_v],
+                vdot: rhs[..n_v].to_vec(),
+                a: rhs[..n_v].to_vec(),
+                lam: rhs[n_v..].iter().map(|x| x * s0).collect(),
+            });
+        }
+        let mut gradient = vec![vec![0.0; responses.len()]; parameters.len()];
+        let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
+        for n in 0..self.states.len() {
+            if n > 0 {
+                self.factorize(n)?;
+                for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
+                    self.direct_step(p, n, z, &mut rhs)?;
+                }
+            }
+            for (k, r) in responses.iter().enumerate() {
+                self.seed(r, n, &mut g_eps, &mut g_lam);
+                for (g, z) in gradient.iter_mut().zip(&tangents) {
+                    g[k] += dot(&g_eps, &z.eps) + dot(&g_lam, &z.lam);
+                }
+            }
+        }
+        Ok(gradient)
+    }
+
+    /// Carries the sensitivities `z` of state `n − 1` to state `n` (module docs).
+    fn direct_step(
+        &mut self,
+        p: &Parameter,
+        n: usize,
+        z: &mut Tangent,
+        rhs: &mut [f64],
+    ) -> Result<(), SolveError> {
+        let (n_v, m) = (self.n_v, self.n_rows);
+        let AlphaParameters {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = self.params;
+        let h = self.states[n].h;
+        let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
+        if let Some(ratio) = step_ratio(self.states[n - 1].h, h) {
+            z.a.iter_mut()
+                .zip(&z.vdot)
+                .for_each(|(a, acc)| *a = acc + ratio * (*a - acc));
+        }
+        let increment = increments(self.model(), &self.states[n - 1].q, &self.states[n].q);
+        let mut a_next = vec![0.0; n_v];
+        let mut delta_pred = vec![0.0; n_v];
+        let mut v_pred = vec![0.0; n_v];
+        for i in 0..n_v {
+            a_next[i] = (alpha_f * z.vdot[i] - alpha_m * z.a[i]) / (1.0 - alpha_m);
+            delta_pred[i] = h * z.v[i] + h * h * ((0.5 - beta) * z.a[i] + beta * a_next[i]);
+            v_pred[i] = z.v[i] + h * ((1.0 - gamma) * z.a[i] + gamma * a_next[i]);
+        }
+        let mut eps_pred = transport(&increment, &z.eps, false);
+        let t_delta = apply_tangent(&increment, &delta_pred, false);
+        eps_pred.iter_mut().zip(&t_delta).for_each(|(e, t)| *e += t);
+        // The right-hand side −[∂r/∂p + K ε + C v'; s (∂Φ/∂p + B ε)], on the factors of
+        // the step's matrix at its converged state.
+        let scale = self.scale(n);
+        let s = &self.states[n];
+        let (node, local) = self.parameter_load(p, n);
+        rhs.fill(0.0);
+        let (force, constraint) = rhs.split_at_mut(n_v);
+        self.asm
+            .linear_terms(&s.qdot, &eps_pred, &v_pred, force, constraint);
+        force[NV * node..NV * node + NV]
+            .iter_mut()
+            .zip(local)
+            .for_each(|(f, l)| *f += l);
+        force.iter_mut().for_each(|f| *f = -*f);
+        constraint.iter_mut().for_each(|c| *c *= -scale);
+        self.solve(rhs, false, n)?;
+        let (delta, nu) = rhs.split_at(n_v);
+        let t_step = apply_tangent(&increment, delta, false);
+        for i in 0..n_v {
+            z.eps[i] = eps_pred[i] + t_step[i];
+            z.v[i] = v_pred[i] + gp * delta[i];
+            z.vdot[i] = bp * delta[i];
+            z.a[i] = a_next[i] + w * bp * delta[i];
+        }
+        z.lam.iter_mut().zip(nu).for_each(|(l, x)| *l = scale * x);
+        debug_assert_eq!(z.lam.len(), m);
+        Ok(())
+    }
+
+    /// The discrete adjoint: one response's derivatives to every parameter (module docs;
+    /// each operation of [`Sweep::direct_step`] transposed, in reverse).
+    fn adjoint(&mut self, r: &Response, parameters: &[Parameter]) -> Result<Vec<f64>, SolveError> {
+        let (n_v, m) = (self.n_v, self.n_rows);
+        let AlphaParameters {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = self.params;
+        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
+        let last = self.states.len() - 1;
+        let mut gradient = vec![0.0; parameters.len()];
+        let (mut eps_bar, mut lam_bar) = (vec![0.0; n_v], vec![0.0; m]);
+        self.seed(r, last, &mut eps_bar, &mut lam_bar);
+        let (mut v_bar, mut vdot_bar, mut a_bar) = (vec![0.0; n_v], vec![0.0; n_v], vec![0.0; n_v]);
+        let mut rhs = vec![0.0; n_v + m];
+        let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
+        for n in (1..=last).rev() {
+            let h = self.states[n].h;
+            let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+            let increment = increments(self.model(), &self.states[n - 1].q, &self.states[n].q);
+            let scale = self.scale(n);
+            // Step 7 transposed: δ̄ = Tᵀ ε̄ + γ' v̄ + β' v̇̄ + w β' ā, ν̄ = s λ̄.
+            let t_eps = apply_tangent(&increment, &eps_bar, true);
+            for i in 0..n_v {
+                rhs[i] = t_eps[i] + gp * v_bar[i] + bp * vdot_bar[i] + w * bp * a_bar[i];
+            }
+            rhs[n_v..]
+                .iter_mut()
+                .zip(&lam_bar)
+                .for_each(|(x, l)| *x = scale * l);
+            self.factorize(n)?;
+            self.solve(&mut rhs, true, n)?;
+            // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
+            for (g, p) in gradient.iter_mut().zip(parameters) {
+                *g -= self.parameter_dot(p, n, &rhs[..n_v]);
+            }
+            let (y_force, y_constraint) = rhs.split_at_mut(n_v);
+            y_force.iter_mut().for_each(|y| *y = -*y);
+            y_constraint.iter_mut().for_each(|y| *y *= -scale);
+            let s = &self.states[n];
+            let mut eps_pred_bar = eps_bar.clone();
+            let mut v_pred_bar = v_bar.clone();
+            self.asm.linear_terms_transpose(
+                &s.qdot,
+                y_force,
+                y_constraint,
+                &mut eps_pred_bar,
+                &mut v_pred_bar,
+            );
+            let mut a_next_bar = a_bar.clone();
+            // Step 4: ε̄ₙ = Adᵀ ε̄_pred, Δ̄_pred = Tᵀ ε̄_pred.
+            eps_bar = transport(&increment, &eps_pred_bar, true);
+            let delta_bar = apply_tangent(&increment, &eps_pred_bar, true);
+            // Steps 3, 2, 1.
+            for i in 0..n_v {
+                v_bar[i] = v_pred_bar[i] + h * delta_bar[i];
+                a_bar[i] = h * (1.0 - gamma) * v_pred_bar[i] + h * h * (0.5 - beta) * delta_bar[i];
+                a_next_bar[i] += h * gamma * v_pred_bar[i] + h * h * beta * delta_bar[i];
+                vdot_bar[i] = alpha_f / (1.0 - alpha_m) * a_next_bar[i];
+                a_bar[i] -= alpha_m / (1.0 - alpha_m) * a_next_bar[i];
+            }
+            if let Some(ratio) = step_ratio(self.states[n - 1].h, h) {
+                for i in 0..n_v {
+                    vdot_bar[i] += (1.0 - ratio) * a_bar[i];
+                    a_bar[i] *= ratio;
+                }
+            }
+            self.seed(r, n - 1, &mut g_eps, &mut g_lam);
+            eps_bar.iter_mut().zip(&g_eps).for_each(|(e, g)| *e += g);
+            lam_bar.copy_from_slice(&g_lam);
+        }
+        // The start: ε₀ and v₀ do not depend on p; v̇₀' = a₀' and λ₀' from its solve.
+        let s0 = self.scale(0);
+        for i in 0..n_v {
+            rhs[i] = vdot_bar[i] + a_bar[i];
+        }
+        rhs[n_v..]
+            .iter_mut()
+            .zip(&lam_bar)
+            .for_each(|(x, l)| *x = s0 * l);
+        self.factorize(0)?;
+        self.solve(&mut rhs, true, 0)?;
+        for (g, p) in gradient.iter_mut().zip(parameters) {
+            *g -= self.parameter_dot(p, 0, &rhs[..n_v]);
+        }
+        Ok(gradient)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The step's increment `Δ` from `q₀` to `q₁`, node by node: `(x₁ − x₀, log(R₀ᵀR₁))`.
+fn increments(model: &SpatialModel, q0: &[f64], q1: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; model.n_v()];
+    for node in 0..model.nodes.len() {
+        let (a, b) = (Frame::read(q0, node), Frame::read(q1, node));
+        let theta = log(&(a.r.inverse() * b.r));
+        out[NV * node..NV * node + 3].copy_from_slice((b.x - a.x).as_slice());
+        out[NV * node + 3..NV * node + 6].copy_from_slice(theta.as_slice());
+    }
+    out
+}
+
+/// The rotation part of node `node` of a six-per-node vector.
+fn rotation_of(v: &[f64], node: usize) -> Vector3<f64> {
+    Vector3::new(v[NV * node + 3], v[NV * node + 4], v[NV * node + 5])
+}
+
+/// `Ad(exp(−Δ)) x` node by node, `diag(I, exp(Δθ)ᵀ)` (or its transpose).
+fn transport(increment: &[f64], x: &[f64], transpose: bool) -> Vec<f64> {
+    let mut out = x.to_vec();
+    for node in 0..x.len() / NV {
+        let r = exp(&rotation_of(increment, node)).to_rotation_matrix();
+        let rot = if transpose {
+            r * rotation_of(x, node)
+        } else {
+            r.inverse() * rotation_of(x, node)
+        };
+        out[NV * node + 3..NV * node + 6].copy_from_slice(rot.as_slice());
+    }
+    out
+}
+
+/// `T(Δ) x` node by node, `diag(I, T(Δθ))` (or its transpose).
+fn apply_tangent(increment: &[f64], x: &[f64], transpose: bool) -> Vec<f64> {
+    let mut out = x.to_vec();
+    for node in 0..x.len() / NV {
+        let t = tangent(&rotation_of(increment, node));
+        let rot = if transpose { t.transpose() } else { t } * rotation_of(x, node);
+        out[NV * node + 3..NV * node + 6].copy_from_slice(rot.as_slice());
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    #[test]
+    fn responses_and_parameters_the_mechanism_lacks_are_named() {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let frame = Frame::new(Vector3::zeros(), UnitQuaternion::identity());
+        m.add_body("b", frame, 1.0, Matrix3::identity()).unwrap();
+        let ok = [Response::Position { body: 0, axis: 1 }];
+        let bad_body = [Response::Position { body: 1, axis: 0 }];
+        let err = check(&m, &bad_body, &[]).unwrap_err();
+        assert!(
+            err.name == "responses[0]" && err.message.contains("no body 1"),
+            "{err}"
+        );
+        let err = check(&m, &[Response::Position { body: 0, axis: 3 }], &[]).unwrap_err();
+        assert!(err.message.contains("axis 3"), "{err}");
+        let err = check(&m, &[Response::Effort { joint: 0, row: 0 }], &[]).unwrap_err();
+        assert!(err.message.contains("joint 0 has no row 0"), "{err}");
+        let err = check(
+            &m,
+            &ok,
+            &[Parameter::Inertia {
+                body: 0,
+                i: 0,
+                j: 5,
+            }],
+        )
+        .unwrap_err();
+        assert!(
+            err.name == "parameters[0]" && err.message.contains("(0, 5)"),
+            "{err}"
+        );
+        check(&m, &ok, &[Parameter::Mass { body: 0 }]).unwrap();
+    }
+}
