@@ -253,7 +253,7 @@ weights = [1.0, 2.0, 1.0]
 /// A Lie-group α-step of a spatial mechanism — residual, non-symmetric iteration matrix,
 /// sparse LU refactorization and solve, every Newton iteration — allocates nothing: a body
 /// on a driven hinge, a second hung from it on a universal joint and spinning, under
-/// gravity.
+/// gravity, a spring-damper and a follower load.
 #[test]
 fn lie_group_alpha_steps_do_not_allocate() {
     use flextop::group::{so3, Frame};
@@ -311,6 +311,33 @@ fn lie_group_alpha_steps_do_not_allocate() {
             body: two,
             point: Vector3::new(-0.5, 0.0, 0.0),
         },
+    )
+    .unwrap();
+    // A spring-damper, a motor on the driven hinge's neighbour and a follower load.
+    m.add_spring(
+        "spring",
+        Anchor::Ground(Vector3::new(1.0, 0.0, 0.0)),
+        Anchor::Body {
+            body: two,
+            point: Vector3::new(0.5, 0.0, 0.0),
+        },
+        50.0,
+        0.5,
+        None,
+    )
+    .unwrap();
+    let push = flextop::load::TimeFunction::Table {
+        t: vec![0.0, 0.05],
+        value: vec![0.0, 1.0],
+    };
+    m.add_load(
+        "push",
+        one,
+        tip,
+        Vector3::new(0.0, 0.0, 3.0),
+        Vector3::zeros(),
+        push,
+        true,
     )
     .unwrap();
     m.set_rates(

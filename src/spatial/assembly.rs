@@ -19,10 +19,13 @@ use std::collections::BTreeSet;
 
 use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
 
+use crate::error::SolveError;
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
+use crate::spatial::force::Local;
 use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
+use crate::spatial::pair::Pair;
 
 /// A CSC pattern with lookup of an entry's slot.
 pub(crate) struct Pattern {
@@ -68,6 +71,8 @@ pub(crate) struct Assembler<'m> {
     /// Each joint's `∂(Bᵀλ)/∂q` and `B` at the last [`Assembler::matrix`] with a tangent,
     /// for the sensitivities' [`Assembler::linear_terms`] at the same state.
     joint_blocks: Vec<(Stiffness, Gradient)>,
+    /// Each force element's `K` and `C` at the last [`Assembler::matrix`], likewise.
+    force_blocks: Vec<(Stiffness, Stiffness)>,
 }
 
 /// What the iteration matrix is made of at one iterate.
@@ -113,6 +118,13 @@ impl<'m> Assembler<'m> {
             }
             row += rows;
         }
+        for f in &model.forces {
+            for (_, n1) in f.pair.local_nodes() {
+                for (_, n2) in f.pair.local_nodes() {
+                    block(NV * n1, NV * n2, NV, NV);
+                }
+            }
+        }
         let pattern = Pattern::from_entries(n, &entries);
         let values = vec![0.0; pattern.row_idx.len()];
         Self {
@@ -120,12 +132,17 @@ impl<'m> Assembler<'m> {
             pattern,
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
+            force_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.forces.len()],
             first_row,
         }
     }
 
-    /// The residual `[f_inertia + Bᵀλ; Φ]` at `(q, v, v̇, λ)` and time `t` into `r` (length `n`); returns
-    /// `F_ref`, the largest magnitude among the inertia, gravity and joint forces.
+    /// The residual `[f_inertia + f_forces + Bᵀλ; Φ]` at `(q, v, v̇, λ)` and time `t` into `r`
+    /// (length `n`); returns `F_ref`, the largest magnitude among the inertia, gravity,
+    /// force elements' and joint forces.
+    ///
+    /// # Errors
+    /// A force element's ([`crate::spatial::force::Force::terms`]).
     pub fn residual(
         &self,
         q: &[f64],
@@ -134,7 +151,7 @@ impl<'m> Assembler<'m> {
         lambda: &[f64],
         t: f64,
         r: &mut [f64],
-    ) -> f64 {
+    ) -> Result<f64, SolveError> {
         let model = self.model;
         let n_v = model.n_v();
         r.fill(0.0);
@@ -159,13 +176,28 @@ impl<'m> Assembler<'m> {
             }
             j.values(q, t, &mut r[row..row + n]);
         }
-        reference
+        for force in &model.forces {
+            let f = force.terms(q, v, t)?.force;
+            reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
+            scatter(r, &force.pair, &f);
+        }
+        Ok(reference)
     }
 
     /// The right-hand side `[−f(q, v); −b(q, v)]` of the initial accelerations, `f` the
-    /// inertia forces at zero acceleration, `b` the joints' acceleration terms, scaled
-    /// rows `−s b`.
-    pub fn acceleration_rhs(&self, q: &[f64], v: &[f64], t: f64, scale: f64, rhs: &mut [f64]) {
+    /// inertia forces at zero acceleration and the force elements', `b` the joints'
+    /// acceleration terms, scaled rows `−s b`.
+    ///
+    /// # Errors
+    /// A force element's.
+    pub fn acceleration_rhs(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        scale: f64,
+        rhs: &mut [f64],
+    ) -> Result<(), SolveError> {
         let zero = [0.0; NV];
         rhs.fill(0.0);
         let model = self.model;
@@ -181,10 +213,24 @@ impl<'m> Assembler<'m> {
             j.acceleration_terms(q, v, t, out);
             out.iter_mut().for_each(|x| *x *= -scale);
         }
+        for force in &model.forces {
+            let f = -force.terms(q, v, t)?.force;
+            scatter(rhs, &force.pair, &f);
+        }
+        Ok(())
     }
 
     /// Writes the iteration matrix at `(q, v)` and time `time` (module docs).
-    pub fn matrix(&mut self, q: &[f64], v: &[f64], time: f64, c: Coefficients<'_>) {
+    ///
+    /// # Errors
+    /// A force element's.
+    pub fn matrix(
+        &mut self,
+        q: &[f64],
+        v: &[f64],
+        time: f64,
+        c: Coefficients<'_>,
+    ) -> Result<(), SolveError> {
         self.values.fill(0.0);
         let model = self.model;
         let n_v = model.n_v();
@@ -194,27 +240,12 @@ impl<'m> Assembler<'m> {
         }
         for (k, j) in model.joints.iter().enumerate() {
             let (row, n) = (self.first_row[k], j.n_rows());
-            // diag(I, T_A, I, T_B) on the joint's local unknowns.
-            let mut t = Stiffness::identity();
-            if let Some((inc, _)) = c.tangent {
-                for (side, node) in j.local_nodes() {
-                    let d = six(inc, node);
-                    t.fixed_view_mut::<3, 3>(NV * side + 3, NV * side + 3)
-                        .copy_from(&tangent(&Vector3::new(d[3], d[4], d[5])));
-                }
-            }
+            let t = local_tangent(&j.pair, c.tangent.map(|(inc, _)| inc));
             let g = j.gradient(q, time);
             if let Some((_, lambda)) = c.tangent {
                 let stiffness = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]);
                 self.joint_blocks[k] = (stiffness, g);
-                let kt = stiffness * t;
-                for (s1, n1) in j.local_nodes() {
-                    for (s2, n2) in j.local_nodes() {
-                        let block: Matrix6<f64> =
-                            kt.fixed_view::<NV, NV>(NV * s1, NV * s2).into_owned();
-                        self.add(NV * n1, NV * n2, &block, NV);
-                    }
-                }
+                self.add_local(&j.pair, &(stiffness * t));
             }
             let gt = g * t * c.scale;
             let gs = g.transpose() * c.scale;
@@ -225,6 +256,28 @@ impl<'m> Assembler<'m> {
                 let bs: SMatrix<f64, NV, MAX_ROWS> =
                     gs.fixed_view::<NV, MAX_ROWS>(NV * side, 0).into_owned();
                 self.add_columns(NV * node, row, &bs, n);
+            }
+        }
+        if let Some((inc, _)) = c.tangent {
+            for (k, force) in model.forces.iter().enumerate() {
+                let terms = force.terms(q, v, time)?;
+                let t = local_tangent(&force.pair, Some(inc));
+                self.add_local(
+                    &force.pair,
+                    &(terms.stiffness * t + terms.damping * c.gamma_prime),
+                );
+                self.force_blocks[k] = (terms.stiffness, terms.damping);
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds a pair's local `12 × 12` block on its nodes.
+    fn add_local(&mut self, pair: &Pair, block: &Stiffness) {
+        for (s1, n1) in pair.local_nodes() {
+            for (s2, n2) in pair.local_nodes() {
+                let b: Matrix6<f64> = block.fixed_view::<NV, NV>(NV * s1, NV * s2).into_owned();
+                self.add(NV * n1, NV * n2, &b, NV);
             }
         }
     }
@@ -272,6 +325,10 @@ impl<'m> Assembler<'m> {
                 .zip(b.iter())
                 .for_each(|(c, x)| *c += x);
         }
+        for (element, (stiffness, damping)) in model.forces.iter().zip(&self.force_blocks) {
+            let f = stiffness * gather(&element.pair, eps) + damping * gather(&element.pair, vp);
+            scatter(force, &element.pair, &f);
+        }
     }
 
     /// The transpose of [`Assembler::linear_terms`]: adds `Kᵀ y_f + Bᵀ y_c` to `eps_bar` and
@@ -314,6 +371,11 @@ impl<'m> Assembler<'m> {
                     &back.fixed_rows::<NV>(NV * side).into_owned(),
                 );
             }
+        }
+        for (element, (stiffness, damping)) in model.forces.iter().zip(&self.force_blocks) {
+            let y = gather(&element.pair, y_force);
+            scatter(eps_bar, &element.pair, &(stiffness.transpose() * y));
+            scatter(v_bar, &element.pair, &(damping.transpose() * y));
         }
     }
 
@@ -364,6 +426,37 @@ impl<'m> Assembler<'m> {
     }
 }
 
+/// A pair's twelve local numbers of a six-per-node vector (zero on the ground).
+fn gather(pair: &Pair, x: &[f64]) -> Local {
+    let mut local = Local::zeros();
+    for (side, node) in pair.local_nodes() {
+        local
+            .fixed_rows_mut::<NV>(NV * side)
+            .copy_from_slice(&six(x, node));
+    }
+    local
+}
+
+/// Adds a pair's twelve local numbers to its nodes' in `out`.
+fn scatter(out: &mut [f64], pair: &Pair, local: &Local) {
+    for (side, node) in pair.local_nodes() {
+        add_six(out, node, &local.fixed_rows::<NV>(NV * side).into_owned());
+    }
+}
+
+/// `diag(I, T_A, I, T_B)` on a pair's local unknowns for the step's increment (`None`: `I`).
+fn local_tangent(pair: &Pair, increment: Option<&[f64]>) -> Stiffness {
+    let mut t = Stiffness::identity();
+    if let Some(inc) = increment {
+        for (side, node) in pair.local_nodes() {
+            let d = six(inc, node);
+            t.fixed_view_mut::<3, 3>(NV * side + 3, NV * side + 3)
+                .copy_from(&tangent(&Vector3::new(d[3], d[4], d[5])));
+        }
+    }
+    t
+}
+
 /// Adds six numbers to node `node`'s in `out`.
 fn add_six(out: &mut [f64], node: usize, f: &Vector6<f64>) {
     out[NV * node..NV * node + NV]
@@ -383,10 +476,12 @@ fn multipliers(lambda: &[f64]) -> SVector<f64, MAX_ROWS> {
 mod tests {
     use super::*;
     use crate::group::{so3, Frame, NQ};
+    use crate::mechanism::load::TimeFunction;
     use crate::spatial::joint::{Anchor, JointKind};
 
     /// Two bodies, one hinged to the ground, joined to each other at one point by a joint of
-    /// every kind (far too many constraints to move, but each row's derivatives count).
+    /// every kind (far too many constraints to move, but each row's derivatives count), and
+    /// every force element.
     fn chain() -> SpatialModel {
         let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -9.81)).unwrap();
         let r1 = so3::exp(&Vector3::new(0.3, -0.5, 1.0));
@@ -445,6 +540,30 @@ mod tests {
             );
             m.add_joint(&format!("middle{k}"), kind, a, b).unwrap();
         }
+        // Every force element: a spring-damper off its rest length, a motor between the two
+        // bodies, a dead and a follower load varying in time.
+        let spring = (
+            Anchor::Body {
+                body: b1,
+                point: a1 * 0.5,
+            },
+            Anchor::Body {
+                body: b2,
+                point: -a2,
+            },
+        );
+        m.add_spring("spring", spring.0, spring.1, 300.0, 4.0, Some(0.2))
+            .unwrap();
+        let ramp = TimeFunction::Table {
+            t: vec![0.0, 1.0],
+            value: vec![0.5, 1.5],
+        };
+        m.add_motor("motor", 2, 7.0, ramp.clone()).unwrap();
+        let (f, moment) = (Vector3::new(3.0, -2.0, 5.0), Vector3::new(0.4, 0.1, -0.3));
+        m.add_load("dead", b2, a2 * 0.7, f, moment, ramp.clone(), false)
+            .unwrap();
+        m.add_load("follower", b2, -a2, f * 0.5, moment, ramp, true)
+            .unwrap();
         m
     }
 
@@ -482,7 +601,9 @@ mod tests {
                     .write(&mut q, node);
             }
             let mut r = vec![0.0; n];
-            Assembler::new(&model).residual(&q, &v, &vdot, &lam, 0.3, &mut r);
+            Assembler::new(&model)
+                .residual(&q, &v, &vdot, &lam, 0.3, &mut r)
+                .unwrap();
             r[n_v..].iter_mut().for_each(|x| *x *= scale);
             r
         };
@@ -502,7 +623,8 @@ mod tests {
                 scale,
                 tangent: Some((&inc, &lam)),
             },
-        );
+        )
+        .unwrap();
         let entry = |r: usize, c: usize| {
             let (s, e) = (asm.pattern.col_ptr[c], asm.pattern.col_ptr[c + 1]);
             asm.pattern.row_idx[s..e]

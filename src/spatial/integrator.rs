@@ -110,11 +110,12 @@ impl<'m> SpatialIntegrator<'m> {
                 scale,
                 tangent: None,
             },
-        );
+        )?;
         self.lu
             .factorize(&self.asm.values)
             .map_err(Self::singular(0.0))?;
-        self.asm.acceleration_rhs(&q, &v, 0.0, scale, &mut self.rhs);
+        self.asm
+            .acceleration_rhs(&q, &v, 0.0, scale, &mut self.rhs)?;
         self.lu
             .solve_in_place(&mut self.rhs, false)
             .map_err(Self::singular(0.0))?;
@@ -189,7 +190,7 @@ impl<'m> SpatialIntegrator<'m> {
         loop {
             let force = self
                 .asm
-                .residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut self.rhs);
+                .residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut self.rhs)?;
             let f_res = self.rhs[..n_v].iter().fold(0.0f64, |m, x| m.max(x.abs()))
                 / force.max(f64::MIN_POSITIVE);
             let c_res = self.rhs[n_v..].iter().fold(0.0f64, |m, x| m.max(x.abs())) / length;
@@ -218,7 +219,7 @@ impl<'m> SpatialIntegrator<'m> {
                     scale,
                     tangent: Some((&self.increment, &s.lam)),
                 },
-            );
+            )?;
             self.lu
                 .factorize(&self.asm.values)
                 .map_err(Self::singular(s.t))?;

@@ -4,18 +4,10 @@
 //! adjoint cannot — is part of the iteration matrix.
 //!
 //! A joint holds two anchors, each a point of a body (`p = x + R a`, `a` in the body's
-//! frame from its centre of mass) or of the ground. Every kind is a list of rows of one
-//! shape, the dot product of two *measures* `Φ = α · β` (as Chrono and MBDyn build theirs
-//! from primitives):
-//!
-//! | measure | value | gradient on its node `(u, θ)` | `∂(Jᵀc)/∂θ` | `α̈ − J v̇` |
-//! |---|---|---|---|---|
-//! | a constant `e` | `e` | — | — | 0 |
-//! | an axis `u` of a body | `R u` | `[0, −R ũ]` | `ũ (Rᵀc)~` | `R Ω̃Ω̃ u` |
-//! | a point `a` of a body | `x + R a` | `[I, −R ã]` | `ã (Rᵀc)~` | `R Ω̃Ω̃ a` |
-//! | the gap `p_B − p_A` | | the points' | the points' | the points' |
-//!
-//! so that a row's gradient is `J_αᵀβ + J_βᵀα`, its Hessian contracted with its multiplier
+//! frame from its centre of mass) or of the ground ([`crate::spatial::pair`]). Every kind is
+//! a list of rows of one shape, the dot product of two of the pair's *measures*
+//! `Φ = α · β` (as Chrono and MBDyn build theirs from primitives), so that a row's gradient
+//! is `J_αᵀβ + J_βᵀα`, its Hessian contracted with its multiplier
 //! `λ (H_α[β] + H_β[α] + J_αᵀJ_β + J_βᵀJ_α)`, and `Φ̈ = B v̇ + b` with
 //! `b = (α̈ − J_α v̇)·β + 2 α̇·β̇ + α·(β̈ − J_β v̇)`. The kinds:
 //!
@@ -33,21 +25,17 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::group::so3::hat;
-use crate::group::{six, split, Frame};
+pub(crate) use crate::spatial::pair::Stiffness;
+use crate::spatial::pair::{Measure, Pair, LOCAL};
+
+use crate::group::six;
 use crate::mechanism::motion::Motion;
 
 /// The most rows a joint has (the weld's).
 pub const MAX_ROWS: usize = 6;
 
-/// A joint's local unknowns: its two nodes' six each.
-const LOCAL: usize = 12;
-
-type Jacobian = SMatrix<f64, 3, LOCAL>;
 /// A joint's rows' gradients on its local unknowns.
 pub(crate) type Gradient = SMatrix<f64, MAX_ROWS, LOCAL>;
-/// A joint's constraint-force stiffness on its local unknowns.
-pub(crate) type Stiffness = SMatrix<f64, LOCAL, LOCAL>;
 
 /// A point a joint holds: of a body (by its index, the point in the body's frame from its
 /// centre of mass) or fixed in space.
@@ -110,56 +98,6 @@ impl JointKind {
     }
 }
 
-/// A node's configuration and rates as a joint reads them; the ground's is the identity at
-/// rest.
-#[derive(Debug, Clone, Copy)]
-struct Side {
-    x: Vector3<f64>,
-    r: Matrix3<f64>,
-    omega: Vector3<f64>,
-    /// The linear velocity, inertial frame.
-    u: Vector3<f64>,
-}
-
-impl Side {
-    fn read(node: Option<usize>, q: &[f64], v: Option<&[f64]>) -> Self {
-        let Some(n) = node else {
-            return Self {
-                x: Vector3::zeros(),
-                r: Matrix3::identity(),
-                omega: Vector3::zeros(),
-                u: Vector3::zeros(),
-            };
-        };
-        let f = Frame::read(q, n);
-        let (u, omega) = v.map_or((Vector3::zeros(), Vector3::zeros()), |v| split(&six(v, n)));
-        Self {
-            x: f.x,
-            r: f.rotation(),
-            omega,
-            u,
-        }
-    }
-}
-
-/// A vector of the joint (module docs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Measure {
-    Constant(Vector3<f64>),
-    /// An axis of side 0 (A) or 1 (B), in that side's frame.
-    Axis(usize, Vector3<f64>),
-    /// The gap `p_B − p_A`.
-    Gap,
-}
-
-/// A measure's value, Jacobian, velocity `J v` and `α̈ − J v̇`.
-struct Evaluated {
-    value: Vector3<f64>,
-    jacobian: Jacobian,
-    rate: Vector3<f64>,
-    term: Vector3<f64>,
-}
-
 /// A row `Φ = α · β` and what its breaking means, for errors.
 #[derive(Debug, Clone, PartialEq)]
 struct Row {
@@ -175,10 +113,8 @@ pub struct Joint {
     pub name: String,
     /// What it constrains.
     pub kind: JointKind,
-    /// The nodes of A and B (`None`: the ground).
-    pub(crate) nodes: [Option<usize>; 2],
-    /// The points of A and B, in their frames (the ground's in the inertial one).
-    arms: [Vector3<f64>; 2],
+    /// Its anchors.
+    pub(crate) pair: Pair,
     rows: Vec<Row>,
     /// The nodes' rotations in the initial configuration.
     initial: [Matrix3<f64>; 2],
@@ -310,8 +246,7 @@ impl Joint {
         Ok(Self {
             name: name.to_string(),
             kind,
-            nodes,
-            arms,
+            pair: Pair { nodes, arms },
             rows,
             drive: None,
             initial,
@@ -340,8 +275,9 @@ impl Joint {
             }
             JointKind::Prismatic { axis } => {
                 let axis = body(0, &axis.normalize());
-                let sides = self.sides(q, None);
+                let sides = self.pair.sides(q, None);
                 let start = self
+                    .pair
                     .product(&Measure::Axis(0, axis), &Measure::Gap, &sides)
                     .value;
                 Coordinate::Slide { axis, start }
@@ -364,123 +300,7 @@ impl Joint {
 
     /// The nodes the joint acts on, with their place (0: A, 1: B) among its local unknowns.
     pub(crate) fn local_nodes(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (0..2).filter_map(|s| self.nodes[s].map(|n| (s, n)))
-    }
-
-    fn sides(&self, q: &[f64], v: Option<&[f64]>) -> [Side; 2] {
-        [
-            Side::read(self.nodes[0], q, v),
-            Side::read(self.nodes[1], q, v),
-        ]
-    }
-
-    /// A point's value, Jacobian on its side's columns, velocity and `p̈ − J v̇`.
-    fn point(&self, sides: &[Side; 2], s: usize) -> Evaluated {
-        let (side, a) = (&sides[s], &self.arms[s]);
-        let ra = side.r * a;
-        let mut jacobian = Jacobian::zeros();
-        if self.nodes[s].is_some() {
-            jacobian
-                .fixed_view_mut::<3, 3>(0, 6 * s)
-                .copy_from(&Matrix3::identity());
-            jacobian
-                .fixed_view_mut::<3, 3>(0, 6 * s + 3)
-                .copy_from(&(-side.r * hat(a)));
-        }
-        Evaluated {
-            value: side.x + ra,
-            jacobian,
-            rate: side.u + side.r * side.omega.cross(a),
-            term: side.r * side.omega.cross(&side.omega.cross(a)),
-        }
-    }
-
-    fn evaluate(&self, m: &Measure, sides: &[Side; 2]) -> Evaluated {
-        match m {
-            Measure::Constant(e) => Evaluated {
-                value: *e,
-                jacobian: Jacobian::zeros(),
-                rate: Vector3::zeros(),
-                term: Vector3::zeros(),
-            },
-            Measure::Axis(s, u) => {
-                let side = &sides[*s];
-                let mut jacobian = Jacobian::zeros();
-                if self.nodes[*s].is_some() {
-                    jacobian
-                        .fixed_view_mut::<3, 3>(0, 6 * s + 3)
-                        .copy_from(&(-side.r * hat(u)));
-                }
-                Evaluated {
-                    value: side.r * u,
-                    jacobian,
-                    rate: side.r * side.omega.cross(u),
-                    term: side.r * side.omega.cross(&side.omega.cross(u)),
-                }
-            }
-            Measure::Gap => {
-                let (a, b) = (self.point(sides, 0), self.point(sides, 1));
-                Evaluated {
-                    value: b.value - a.value,
-                    jacobian: b.jacobian - a.jacobian,
-                    rate: b.rate - a.rate,
-                    term: b.term - a.term,
-                }
-            }
-        }
-    }
-
-    /// `∂(J_mᵀ c)/∂q` of measure `m` at fixed `c`, added into `k` times `scale`.
-    fn add_hessian(
-        &self,
-        m: &Measure,
-        sides: &[Side; 2],
-        c: &Vector3<f64>,
-        scale: f64,
-        k: &mut Stiffness,
-    ) {
-        let mut rotation = |s: usize, v: &Vector3<f64>, sign: f64| {
-            if self.nodes[s].is_some() {
-                let block = hat(v) * hat(&(sides[s].r.transpose() * c)) * (sign * scale);
-                let mut view = k.fixed_view_mut::<3, 3>(6 * s + 3, 6 * s + 3);
-                view += block;
-            }
-        };
-        match m {
-            Measure::Constant(_) => {}
-            Measure::Axis(s, u) => rotation(*s, u, 1.0),
-            Measure::Gap => {
-                rotation(1, &self.arms[1], 1.0);
-                rotation(0, &self.arms[0], -1.0);
-            }
-        }
-    }
-
-    /// The dot product `α · β` of two measures: its value, gradient `J_αᵀβ + J_βᵀα`, rate
-    /// and `b = (α̈ − J_α v̇)·β + 2 α̇·β̇ + α·(β̈ − J_β v̇)`.
-    fn product(&self, alpha: &Measure, beta: &Measure, sides: &[Side; 2]) -> Product {
-        let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
-        Product {
-            value: a.value.dot(&b.value),
-            gradient: a.jacobian.transpose() * b.value + b.jacobian.transpose() * a.value,
-            rate: a.rate.dot(&b.value) + a.value.dot(&b.rate),
-            term: a.term.dot(&b.value) + 2.0 * a.rate.dot(&b.rate) + a.value.dot(&b.term),
-        }
-    }
-
-    /// The Hessian of `α · β`, `H_α[β] + H_β[α] + J_αᵀJ_β + J_βᵀJ_α`, times `scale`, into `k`.
-    fn add_product_hessian(
-        &self,
-        alpha: &Measure,
-        beta: &Measure,
-        sides: &[Side; 2],
-        scale: f64,
-        k: &mut Stiffness,
-    ) {
-        let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
-        self.add_hessian(alpha, sides, &b.value, scale, k);
-        self.add_hessian(beta, sides, &a.value, scale, k);
-        *k += (a.jacobian.transpose() * b.jacobian + b.jacobian.transpose() * a.jacobian) * scale;
+        self.pair.local_nodes()
     }
 
     /// The drive's row as a combination of products `Σ cₖ (αₖ · βₖ) − g(t)` at time `t`:
@@ -529,9 +349,9 @@ impl Joint {
         t: f64,
         mut f: impl FnMut(usize, RowValue),
     ) {
-        let sides = self.sides(q, v);
+        let sides = self.pair.sides(q, v);
         for (k, row) in self.rows.iter().enumerate() {
-            let p = self.product(&row.alpha, &row.beta, &sides);
+            let p = self.pair.product(&row.alpha, &row.beta, &sides);
             f(
                 k,
                 RowValue {
@@ -556,7 +376,7 @@ impl Joint {
                 beta,
             } in products.iter().flatten()
             {
-                let p = self.product(alpha, beta, &sides);
+                let p = self.pair.product(alpha, beta, &sides);
                 row.value += c * p.value;
                 row.gradient += p.gradient * *c;
                 row.time_rate += cd * p.value;
@@ -599,15 +419,22 @@ impl Joint {
 
     /// `∂(Bᵀλ)/∂q` on the local unknowns at `(q, t)`: `Σ λₖ ∂²Φₖ/∂q²`.
     pub(crate) fn stiffness(&self, q: &[f64], t: f64, lambda: &[f64]) -> Stiffness {
-        let sides = self.sides(q, None);
+        let sides = self.pair.sides(q, None);
         let mut k = Stiffness::zeros();
         for (row, &l) in self.rows.iter().zip(lambda) {
-            self.add_product_hessian(&row.alpha, &row.beta, &sides, l, &mut k);
+            self.pair
+                .add_product_hessian(&row.alpha, &row.beta, &sides, l, &mut k);
         }
         if let Some(drive) = &self.drive {
             let l = lambda[self.rows.len()];
             for term in self.drive_row(drive, t).0.iter().flatten() {
-                self.add_product_hessian(&term.alpha, &term.beta, &sides, term.c[0] * l, &mut k);
+                self.pair.add_product_hessian(
+                    &term.alpha,
+                    &term.beta,
+                    &sides,
+                    term.c[0] * l,
+                    &mut k,
+                );
             }
         }
         k
@@ -653,18 +480,10 @@ struct RowValue {
     term: f64,
 }
 
-/// A product's value, gradient, rate and `b`.
-struct Product {
-    value: f64,
-    gradient: SVector<f64, LOCAL>,
-    rate: f64,
-    term: f64,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::group::{so3, NQ, NV};
+    use crate::group::{so3, Frame, NQ, NV};
     use crate::mechanism::motion::Table;
 
     /// The time at which rows are differentiated: inside the law's table, where its speed

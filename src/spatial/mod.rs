@@ -6,13 +6,16 @@
 //! `LU`.
 //!
 //! This is the first part of the spatial engine: rigid bodies, the joints (spherical,
-//! revolute, universal, cylindrical, prismatic, weld) and drives. Beams, springs, motors,
-//! statics, modes and the gradients come next, on the same group.
+//! revolute, universal, cylindrical, prismatic, weld), drives, force elements (springs,
+//! motors, loads, [`force`]) and their exact gradients ([`sensitivity`]). Beams, statics and
+//! modes come next, on the same group.
 
 pub mod body;
+pub mod force;
 pub mod integrator;
 pub mod joint;
 pub mod model;
 pub mod sensitivity;
 
 pub(crate) mod assembly;
+pub(crate) mod pair;

@@ -7,9 +7,12 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{short, SceneError};
 use crate::group::{six, split, Frame, NQ, NV};
+use crate::mechanism::load::TimeFunction;
 use crate::mechanism::motion::Motion;
 use crate::spatial::body::Body;
+use crate::spatial::force::{Force, ForceKind};
 use crate::spatial::joint::{Anchor, Joint, JointKind};
+use crate::spatial::pair::{Measure, Pair};
 
 /// Relative gap (of the mechanism's size) below which a joint's points meet, and relative
 /// rate (of the bodies' speeds) below which initial rates satisfy the joints.
@@ -39,6 +42,8 @@ pub struct SpatialModel {
     pub bodies: Vec<Body>,
     /// Joints, their rows numbered in this order.
     pub joints: Vec<Joint>,
+    /// Force elements: springs, motors, loads.
+    pub forces: Vec<Force>,
     /// Gravity (m/s²).
     pub gravity: Vector3<f64>,
 }
@@ -65,6 +70,7 @@ impl SpatialModel {
             nodes: Vec::new(),
             bodies: Vec::new(),
             joints: Vec::new(),
+            forces: Vec::new(),
             gravity,
         })
     }
@@ -205,6 +211,161 @@ impl SpatialModel {
             .map_err(|m| SceneError::new(format!("joints.{}.drive", j.name), m))
     }
 
+    fn new_force(&self, name: &str) -> Result<String, SceneError> {
+        let path = format!("forces.{name}");
+        if self.forces.iter().any(|f| f.name == name) {
+            return Err(SceneError::new(
+                path,
+                "a force element of this name exists already",
+            ));
+        }
+        Ok(path)
+    }
+
+    /// Adds a spring-damper of stiffness `k` (N/m) and damping `c` (N s/m) between anchors
+    /// `a` and `b`, at rest at length `rest` (m; `None`: their distance now); returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an unknown body, a negative or
+    /// non-finite `k`, `c` or `rest`, or points that coincide (the spring has no line).
+    pub fn add_spring(
+        &mut self,
+        name: &str,
+        a: Anchor,
+        b: Anchor,
+        k: f64,
+        c: f64,
+        rest: Option<f64>,
+    ) -> Result<usize, SceneError> {
+        let path = self.new_force(name)?;
+        for (what, value) in [("k", k), ("c", c), ("rest", rest.unwrap_or(0.0))] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SceneError::new(
+                    format!("{path}.{what}"),
+                    format!("{}: must be finite and not negative", short(value)),
+                ));
+            }
+        }
+        let pair = Pair {
+            nodes: [
+                self.resolve(&format!("{path}.a"), a)?.0,
+                self.resolve(&format!("{path}.b"), b)?.0,
+            ],
+            arms: [
+                self.resolve(&format!("{path}.a"), a)?.1,
+                self.resolve(&format!("{path}.b"), b)?.1,
+            ],
+        };
+        let q = self.initial_configuration();
+        let length = pair
+            .evaluate(&Measure::Gap, &pair.sides(&q, None))
+            .value
+            .norm();
+        if length <= MEET_TOLERANCE * self.size() {
+            return Err(SceneError::new(
+                path,
+                "its points coincide: a spring needs a line between them",
+            ));
+        }
+        let kind = ForceKind::Spring {
+            stiffness: k,
+            damping: c,
+            rest: rest.unwrap_or(length),
+        };
+        self.forces.push(Force {
+            name: name.to_string(),
+            kind,
+            pair,
+        });
+        Ok(self.forces.len() - 1)
+    }
+
+    /// Adds a motor on revolute joint `joint`: a torque `torque · g(t)` (N m) about its axis,
+    /// on its body B (the opposite on A); returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an unknown joint, a joint of
+    /// another kind or a non-finite torque.
+    pub fn add_motor(
+        &mut self,
+        name: &str,
+        joint: usize,
+        torque: f64,
+        time: TimeFunction,
+    ) -> Result<usize, SceneError> {
+        let path = self.new_force(name)?;
+        let j = self
+            .joints
+            .get(joint)
+            .ok_or_else(|| SceneError::new(format!("{path}.joint"), format!("no joint {joint}")))?;
+        let JointKind::Revolute { axis } = j.kind else {
+            return Err(SceneError::new(
+                format!("{path}.joint"),
+                format!(
+                    "joint '{}' is {}: a motor turns a revolute joint",
+                    j.name,
+                    j.kind.name()
+                ),
+            ));
+        };
+        if !torque.is_finite() {
+            return Err(SceneError::new(format!("{path}.torque"), "must be finite"));
+        }
+        let rotation =
+            j.pair.nodes[0].map_or_else(Matrix3::identity, |n| self.nodes[n].frame.rotation());
+        let kind = ForceKind::Motor {
+            torque,
+            time,
+            axis: rotation.transpose() * axis.normalize(),
+        };
+        self.forces.push(Force {
+            name: name.to_string(),
+            kind,
+            pair: j.pair.clone(),
+        });
+        Ok(self.forces.len() - 1)
+    }
+
+    /// Adds a load at body `body`'s `point` (m, body frame from its centre of mass): a force
+    /// (N) and a moment (N m) scaled by `g(t)`, fixed in space or, for a `follower`, in the
+    /// body; returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an unknown body or non-finite
+    /// values.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_load(
+        &mut self,
+        name: &str,
+        body: usize,
+        point: Vector3<f64>,
+        force: Vector3<f64>,
+        moment: Vector3<f64>,
+        time: TimeFunction,
+        follower: bool,
+    ) -> Result<usize, SceneError> {
+        let path = self.new_force(name)?;
+        let (node, arm) = self.resolve(&path, Anchor::Body { body, point })?;
+        finite(&format!("{path}.force"), &force)?;
+        finite(&format!("{path}.moment"), &moment)?;
+        let kind = ForceKind::Load {
+            force,
+            moment,
+            time,
+            follower,
+        };
+        let pair = Pair {
+            nodes: [node, None],
+            arms: [arm, Vector3::zeros()],
+        };
+        self.forces.push(Force {
+            name: name.to_string(),
+            kind,
+            pair,
+        });
+        Ok(self.forces.len() - 1)
+    }
+
     /// An anchor's node (`None`: the ground) and point.
     fn resolve(
         &self,
@@ -316,12 +477,15 @@ impl SpatialModel {
             .sum()
     }
 
-    /// Potential energy of gravity at `q`, zero at the origin (J).
+    /// Potential energy at `q` (J): of gravity, zero at the origin, of the springs and of
+    /// the constant dead forces ([`Force::potential`]).
     pub fn potential_energy(&self, q: &[f64]) -> f64 {
-        self.bodies
+        let gravity: f64 = self
+            .bodies
             .iter()
             .map(|b| -b.mass * self.gravity.dot(&Frame::read(q, b.node).x))
-            .sum()
+            .sum();
+        gravity + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
     }
 
     /// Angular momentum about the point `c` of the inertial frame (kg m²/s):
@@ -479,5 +643,86 @@ mod tests {
             err.path == "joints.pivot" && err.message.contains("break it at 1 "),
             "{err}"
         );
+    }
+
+    #[test]
+    fn bad_force_elements_are_named() {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let b = m
+            .add_body("bob", at(0.0, 1.0, 0.0), 1.0, Matrix3::identity())
+            .unwrap();
+        let (ground, bob) = (
+            Anchor::Ground(Vector3::zeros()),
+            Anchor::Body {
+                body: b,
+                point: Vector3::zeros(),
+            },
+        );
+        let err = m.add_spring("s", ground, bob, -1.0, 0.0, None).unwrap_err();
+        assert_eq!(err.path, "forces.s.k");
+        let err = m
+            .add_spring("s", ground, bob, 1.0, f64::NAN, None)
+            .unwrap_err();
+        assert_eq!(err.path, "forces.s.c");
+        let on_it = Anchor::Ground(Vector3::new(0.0, 1.0, 0.0));
+        assert!(m
+            .add_spring("s", on_it, bob, 1.0, 0.0, None)
+            .unwrap_err()
+            .message
+            .contains("coincide"));
+        m.add_spring("s", ground, bob, 1.0, 0.0, None).unwrap();
+        assert!(m
+            .add_spring("s", ground, bob, 1.0, 0.0, None)
+            .unwrap_err()
+            .message
+            .contains("exists"));
+        let pivot = m
+            .add_joint(
+                "pivot",
+                JointKind::Spherical,
+                Anchor::Body {
+                    body: b,
+                    point: Vector3::new(0.0, -1.0, 0.0),
+                },
+                ground,
+            )
+            .unwrap();
+        let err = m
+            .add_motor("m", pivot, 1.0, TimeFunction::Constant)
+            .unwrap_err();
+        assert!(
+            err.path == "forces.m.joint" && err.message.contains("is spherical"),
+            "{err}"
+        );
+        assert_eq!(
+            m.add_motor("m", 7, 1.0, TimeFunction::Constant)
+                .unwrap_err()
+                .path,
+            "forces.m.joint"
+        );
+        let nan = Vector3::new(f64::NAN, 0.0, 0.0);
+        let err = m
+            .add_load(
+                "l",
+                b,
+                Vector3::zeros(),
+                nan,
+                Vector3::zeros(),
+                TimeFunction::Constant,
+                false,
+            )
+            .unwrap_err();
+        assert_eq!(err.path, "forces.l.force");
+        assert!(m
+            .add_load(
+                "l",
+                3,
+                Vector3::zeros(),
+                Vector3::x(),
+                Vector3::zeros(),
+                TimeFunction::Constant,
+                true
+            )
+            .is_err());
     }
 }

@@ -32,6 +32,7 @@ use crate::settings::{DynamicSettings, Method};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::lu::Lu;
 use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::model::SpatialModel;
 use crate::TimeGrid;
@@ -52,6 +53,21 @@ pub enum Parameter {
         i: usize,
         /// Column.
         j: usize,
+    },
+    /// A spring's stiffness `k` (N/m).
+    SpringStiffness {
+        /// The force element.
+        force: usize,
+    },
+    /// A spring's damping `c` (N s/m).
+    SpringDamping {
+        /// The force element.
+        force: usize,
+    },
+    /// A motor's torque (N m).
+    MotorTorque {
+        /// The force element.
+        force: usize,
     },
 }
 
@@ -122,6 +138,28 @@ fn check(
     for (k, p) in parameters.iter().enumerate() {
         match *p {
             Parameter::Mass { body: b } => body(b, format!("parameters[{k}]"))?,
+            Parameter::SpringStiffness { force } | Parameter::SpringDamping { force } => {
+                if !matches!(
+                    model.forces.get(force).map(|f| &f.kind),
+                    Some(ForceKind::Spring { .. })
+                ) {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("force element {force} is not a spring"),
+                    ));
+                }
+            }
+            Parameter::MotorTorque { force } => {
+                if !matches!(
+                    model.forces.get(force).map(|f| &f.kind),
+                    Some(ForceKind::Motor { .. })
+                ) {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("force element {force} is not a motor"),
+                    ));
+                }
+            }
             Parameter::Inertia { body: b, i, j } => {
                 body(b, format!("parameters[{k}]"))?;
                 if i > 2 || j > 2 {
@@ -258,18 +296,21 @@ impl<'m> Sweep<'m> {
         }
     }
 
-    /// `∂r/∂p` at state `n`: its node and its six force rows there (no parameter here
-    /// reaches another node or the constraints).
-    fn parameter_load(&self, p: &Parameter, n: usize) -> (usize, [f64; NV]) {
+    /// `∂r/∂p` at state `n`: the nodes it reaches (at most two) and its force rows there
+    /// (no parameter here enters the constraints).
+    fn parameter_load(&self, p: &Parameter, n: usize) -> ([Option<usize>; 2], Local) {
         let s = &self.states[n];
         let model = self.model();
-        let mut local = [0.0; NV];
+        let mut local = Local::zeros();
+        let body_node = |body: usize| [Some(model.bodies[body].node), None];
         match *p {
             Parameter::Mass { body } => {
                 let node = model.bodies[body].node;
                 let (udot, _) = split(&six(&s.qddot, node));
-                local[..3].copy_from_slice((udot - model.gravity).as_slice());
-                (node, local)
+                local
+                    .fixed_rows_mut::<3>(0)
+                    .copy_from(&(udot - model.gravity));
+                (body_node(body), local)
             }
             Parameter::Inertia { body, i, j } => {
                 let node = model.bodies[body].node;
@@ -278,17 +319,54 @@ impl<'m> Sweep<'m> {
                 e[(j, i)] = 1.0;
                 let (_, omega) = split(&six(&s.qdot, node));
                 let (_, omegadot) = split(&six(&s.qddot, node));
-                let m = e * omegadot + omega.cross(&(e * omega));
-                local[3..].copy_from_slice(m.as_slice());
-                (node, local)
+                local
+                    .fixed_rows_mut::<3>(3)
+                    .copy_from(&(e * omegadot + omega.cross(&(e * omega))));
+                (body_node(body), local)
+            }
+            Parameter::SpringStiffness { force }
+            | Parameter::SpringDamping { force }
+            | Parameter::MotorTorque { force } => {
+                let which = match p {
+                    Parameter::SpringStiffness { .. } => ForceParameter::Stiffness,
+                    Parameter::SpringDamping { .. } => ForceParameter::Damping,
+                    _ => ForceParameter::Torque,
+                };
+                let element = &model.forces[force];
+                (
+                    element.pair.nodes,
+                    element.parameter_rate(which, &s.q, &s.qdot, s.t),
+                )
             }
         }
     }
 
     /// `(∂r/∂p) · y` at state `n`.
     fn parameter_dot(&self, p: &Parameter, n: usize, y: &[f64]) -> f64 {
-        let (node, local) = self.parameter_load(p, n);
-        dot(&local, &y[NV * node..NV * node + NV])
+        let (nodes, local) = self.parameter_load(p, n);
+        (0..2)
+            .filter_map(|side| {
+                nodes[side].map(|node| {
+                    dot(
+                        &local.as_slice()[NV * side..NV * side + NV],
+                        &y[NV * node..NV * node + NV],
+                    )
+                })
+            })
+            .sum()
+    }
+
+    /// Adds `∂r/∂p` at state `n` to the force rows `out`.
+    fn add_parameter_load(&self, p: &Parameter, n: usize, out: &mut [f64]) {
+        let (nodes, local) = self.parameter_load(p, n);
+        for (side, node) in nodes.iter().enumerate() {
+            if let Some(node) = *node {
+                out[NV * node..NV * node + NV]
+                    .iter_mut()
+                    .zip(&local.as_slice()[NV * side..NV * side + NV])
+                    .for_each(|(o, l)| *o += l);
+            }
+        }
     }
 
     /// The row scaling of the step into state `n` (`n > 0`) or of the start.
@@ -323,7 +401,7 @@ impl<'m> Sweep<'m> {
                 tangent: Some((&increment, &s.lam)),
             }
         };
-        self.asm.matrix(&s.q, &s.qdot, s.t, c);
+        self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
         self.lu
             .factorize(&self.asm.values)
             .map_err(|e| SolveError::Singular {
@@ -356,12 +434,9 @@ impl<'m> Sweep<'m> {
         let s0 = self.scale(0);
         let mut tangents = Vec::with_capacity(parameters.len());
         for p in parameters {
-            let (node, local) = self.parameter_load(p, 0);
             rhs.fill(0.0);
-            rhs[NV * node..NV * node + NV]
-                .iter_mut()
-                .zip(local)
-                .for_each(|(r, l)| *r = -l);
+            self.add_parameter_load(p, 0, &mut rhs[..n_v]);
+            rhs[..n_v].iter_mut().for_each(|r| *r = -*r);
             self.solve(&mut rhs, false, 0)?;
             tangents.push(Tangent {
                 eps: vec![0.0; n_v],
@@ -429,15 +504,11 @@ impl<'m> Sweep<'m> {
         // the step's matrix at its converged state.
         let scale = self.scale(n);
         let s = &self.states[n];
-        let (node, local) = self.parameter_load(p, n);
         rhs.fill(0.0);
         let (force, constraint) = rhs.split_at_mut(n_v);
         self.asm
             .linear_terms(&s.qdot, &eps_pred, &v_pred, force, constraint);
-        force[NV * node..NV * node + NV]
-            .iter_mut()
-            .zip(local)
-            .for_each(|(f, l)| *f += l);
+        self.add_parameter_load(p, n, force);
         force.iter_mut().for_each(|f| *f = -*f);
         constraint.iter_mut().for_each(|c| *c *= -scale);
         self.solve(rhs, false, n)?;

@@ -3,7 +3,9 @@
 //! mechanism with every joint kind and a drive.
 
 use flextop::group::Frame;
+use flextop::load::TimeFunction;
 use flextop::motion::{Motion, Table};
+use flextop::spatial::force::ForceKind;
 use flextop::spatial::joint::{Anchor, JointKind};
 use flextop::spatial::model::SpatialModel;
 use flextop::spatial::sensitivity::{sensitivities, Gradients, Parameter, Response};
@@ -23,17 +25,42 @@ fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
                 m.bodies[body].inertia[(j, i)] += e;
             }
         }
+        Parameter::SpringStiffness { force }
+        | Parameter::SpringDamping { force }
+        | Parameter::MotorTorque { force } => match (&mut m.forces[force].kind, p) {
+            (ForceKind::Spring { stiffness, .. }, Parameter::SpringStiffness { .. }) => {
+                *stiffness += e
+            }
+            (ForceKind::Spring { damping, .. }, Parameter::SpringDamping { .. }) => *damping += e,
+            (ForceKind::Motor { torque, .. }, _) => *torque += e,
+            _ => unreachable!("the parameters below name their elements' kinds"),
+        },
     }
     m
 }
 
-/// The differences' step: 1e-3 of a mass, 1e-2 of the body's mean principal moment for an
-/// inertia entry (an entry may be zero), where the fourth-order truncation stays below
+/// The differences' step: 1e-3 of a mass, a spring's constant or a torque, 1e-2 of the
+/// body's mean principal moment for an inertia entry (an entry may be zero), where the fourth-order truncation stays below
 /// 1e-8 and Newton's tolerance moves the values by less than 1e-12 of the step.
 fn step(model: &SpatialModel, p: &Parameter) -> f64 {
     match *p {
         Parameter::Mass { body } => 1e-3 * model.bodies[body].mass,
-        Parameter::Inertia { body, .. } => 1e-2 * model.bodies[body].inertia.trace() / 3.0,
+        Parameter::Inertia { body, .. } => 2e-3 * model.bodies[body].inertia.trace() / 3.0,
+        Parameter::SpringStiffness { force }
+        | Parameter::SpringDamping { force }
+        | Parameter::MotorTorque { force } => match model.forces[force].kind {
+            ForceKind::Spring {
+                stiffness, damping, ..
+            } => {
+                1e-3 * if matches!(p, Parameter::SpringStiffness { .. }) {
+                    stiffness
+                } else {
+                    damping
+                }
+            }
+            ForceKind::Motor { torque, .. } => 1e-3 * torque.abs(),
+            ForceKind::Load { .. } => unreachable!("loads have no parameter"),
+        },
     }
 }
 
@@ -143,9 +170,10 @@ fn heavy_top_gradients_are_exact() {
 }
 
 /// A slider-crank driven at its crank (revolute, spherical, universal, prismatic), a
-/// bracket welded to its slider and a sleeve on a cylindrical joint along the bracket: its
+/// bracket welded to its slider and a sleeve on a cylindrical joint along the bracket, a
+/// spring-damper, a motor and a load: its
 /// slider's and sleeve's places, the drive's effort `∫τ² dt` and the pin's `∫F_x² dt`, to
-/// three bodies' masses and two inertias.
+/// three bodies' masses, two inertias, the spring's constants and the motor's torque.
 #[test]
 fn every_joint_kind_has_exact_gradients() {
     let (r, l) = (0.15, 0.3);
@@ -240,6 +268,31 @@ fn every_joint_kind_has_exact_gradients() {
         )),
     )
     .unwrap();
+    // Force elements: a spring-damper from the sleeve to the ground, a motor helping the
+    // drive, a dead load on the bracket.
+    let anchor = Anchor::Ground(Vector3::new(r + l + 0.3, 0.3, 0.1));
+    m.add_spring(
+        "tether",
+        point(sleeve, 0.05, 0.0),
+        anchor,
+        40.0,
+        0.5,
+        Some(0.2),
+    )
+    .unwrap();
+    m.add_motor("motor", drive, 0.3, TimeFunction::Constant)
+        .unwrap();
+    let push = (Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.01, 0.0, 0.0));
+    m.add_load(
+        "push",
+        bracket,
+        Vector3::new(0.02, 0.0, 0.0),
+        push.0,
+        push.1,
+        TimeFunction::Constant,
+        false,
+    )
+    .unwrap();
     let responses = [
         Response::Position { body: 2, axis: 0 },
         Response::Position { body: 4, axis: 2 },
@@ -261,6 +314,9 @@ fn every_joint_kind_has_exact_gradients() {
             i: 0,
             j: 0,
         },
+        Parameter::SpringStiffness { force: 0 },
+        Parameter::SpringDamping { force: 0 },
+        Parameter::MotorTorque { force: 1 },
     ];
     check(
         &m,
