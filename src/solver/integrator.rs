@@ -71,6 +71,45 @@ impl AlphaParameters {
     pub fn gamma_prime(&self, h: f64) -> f64 {
         self.gamma / (h * self.beta)
     }
+
+    /// The predictor of one unknown for a step of size `h` from `(q̇ₙ, q̈ₙ, aₙ)` with `q̈ₙ₊₁`
+    /// guessed as `predicted` (Eq. 9–11): the increment `h q̇ₙ + h²((½ − β)aₙ + β aₙ₊₁)`,
+    /// `q̇ₙ₊₁` and `aₙ₊₁` without its part `(1 − α_f)/(1 − α_m) q̈ₙ₊₁`, which the converged
+    /// `q̈ₙ₊₁` adds at the end. Shared by the vector-space and the Lie-group steps and by
+    /// their sensitivities (with `predicted = 0`: the unknown `q̈'ₙ₊₁` is all correction).
+    pub(crate) fn predict(
+        &self,
+        h: f64,
+        qdot: f64,
+        qddot: f64,
+        a: f64,
+        predicted: f64,
+    ) -> Predicted {
+        let Self {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = *self;
+        let a_next = (alpha_f * qddot - alpha_m * a) / (1.0 - alpha_m);
+        let a_predicted = a_next + (1.0 - alpha_f) / (1.0 - alpha_m) * predicted;
+        Predicted {
+            increment: h * qdot + h * h * ((0.5 - beta) * a + beta * a_predicted),
+            qdot: qdot + h * ((1.0 - gamma) * a + gamma * a_predicted),
+            a_next,
+        }
+    }
+}
+
+/// What [`AlphaParameters::predict`] gives for one unknown.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Predicted {
+    /// `h q̇ₙ + h²((½ − β)aₙ + β aₙ₊₁)`: `qₙ₊₁ − qₙ`, or the Lie-group step's `Δ`.
+    pub increment: f64,
+    /// `q̇ₙ₊₁`.
+    pub qdot: f64,
+    /// `aₙ₊₁` without its part in `q̈ₙ₊₁`.
+    pub a_next: f64,
 }
 
 /// Dynamic state at one time.
@@ -241,10 +280,7 @@ impl<'m> Integrator<'m> {
     ) -> Result<NewtonReport, SolveError> {
         crate::interrupt::poll_at(s.t)?;
         let AlphaParameters {
-            alpha_m,
-            alpha_f,
-            beta,
-            gamma,
+            alpha_m, alpha_f, ..
         } = self.params;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
         self.restart = self.jump_at(&s.q, s.t, s.h)?;
@@ -256,15 +292,14 @@ impl<'m> Integrator<'m> {
         }
         s.h = h;
         self.start.copy_from_slice(&s.q);
-        // a_{n+1} without its part w q̈_{n+1}, which the converged q̈_{n+1} adds at the end.
-        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         for i in 0..s.q.len() {
-            let a_next = (alpha_f * s.qddot[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
             let predicted = if self.smooth[i] { s.qddot[i] } else { 0.0 };
-            let a_predicted = a_next + w * predicted;
-            s.q[i] += h * s.qdot[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_predicted);
-            s.qdot[i] += h * ((1.0 - gamma) * s.a[i] + gamma * a_predicted);
-            s.a[i] = a_next;
+            let p = self
+                .params
+                .predict(h, s.qdot[i], s.qddot[i], s.a[i], predicted);
+            s.q[i] += p.increment;
+            s.qdot[i] = p.qdot;
+            s.a[i] = p.a_next;
             s.qddot[i] = predicted;
         }
         s.t += h;
@@ -290,6 +325,7 @@ impl<'m> Integrator<'m> {
         let model = self.newton.assembler().model;
         model.plausible_step(&self.start, &s.q, || format!("t = {:.6} s", s.t))?;
         // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
+        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         s.a.iter_mut()
             .zip(&s.qddot)
             .for_each(|(a, acc)| *a += w * acc);

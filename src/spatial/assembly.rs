@@ -309,12 +309,7 @@ impl<'m> Assembler<'m> {
             .zip(&self.joint_blocks)
         {
             let n = j.n_rows();
-            let mut local = SVector::<f64, 12>::zeros();
-            for (side, node) in j.local_nodes() {
-                local
-                    .fixed_rows_mut::<NV>(NV * side)
-                    .copy_from_slice(&six(eps, node));
-            }
+            let local = gather(&j.pair, eps);
             let k = stiffness * local;
             for (side, node) in j.local_nodes() {
                 add_six(force, node, &k.fixed_rows::<NV>(NV * side).into_owned());
@@ -355,12 +350,7 @@ impl<'m> Assembler<'m> {
             .zip(&self.joint_blocks)
         {
             let n = j.n_rows();
-            let mut local = SVector::<f64, 12>::zeros();
-            for (side, node) in j.local_nodes() {
-                local
-                    .fixed_rows_mut::<NV>(NV * side)
-                    .copy_from_slice(&six(y_force, node));
-            }
+            let local = gather(&j.pair, y_force);
             let mut from_rows = multipliers(&y_constraint[row - n_v..row - n_v + n]);
             from_rows.rows_mut(n, MAX_ROWS - n).fill(0.0);
             let back = stiffness.transpose() * local + gradient.transpose() * from_rows;

@@ -1,4 +1,4 @@
-//! Force elements of a spatial mechanism, each on two anchors ([`crate::spatial::pair`]) and
+//! Force elements of a spatial mechanism, each on two anchors (`pair.rs`) and
 //! their nodes' twelve local unknowns, with the residual terms `f` (internal forces
 //! positive, applied ones negative), the exact stiffness `K = ∂f/∂q` (right-trivialized)
 //! and damping `C = ∂f/∂v`:

@@ -14,7 +14,7 @@
 //!
 //! Newton solves `f_inertia(v, v̇) + Bᵀλ = 0`, `Φ(qₙ₊₁) = 0` for the correction `δ` of `Δₙ`:
 //! `Δ += δ`, `v += γ' δ`, `v̇ += β' δ` (`β'`, `γ'` as in the vector-space scheme), with the
-//! iteration matrix of [`crate::spatial::assembly`] factored by sparse `LU`. On `ℝ³` (and the
+//! iteration matrix of `assembly.rs` factored by sparse `LU`. On `ℝ³` (and the
 //! planar engine's additive angle) `T = I` and this is the vector-space step.
 //!
 //! The start is consistent: `M v̇₀ + Bᵀλ₀ = −f(q₀, v₀)`, `B v̇₀ = −b(q₀, v₀)`, and `a₀ = v̇₀`.
@@ -142,10 +142,7 @@ impl<'m> SpatialIntegrator<'m> {
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
         crate::interrupt::poll_at(s.t)?;
         let AlphaParameters {
-            alpha_m,
-            alpha_f,
-            beta,
-            gamma,
+            alpha_m, alpha_f, ..
         } = self.params;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
         if let Some(ratio) = step_ratio(s.h, h) {
@@ -154,19 +151,19 @@ impl<'m> SpatialIntegrator<'m> {
         s.h = h;
         self.start.copy_from_slice(&s.q);
         // The predictor: v̇ₙ₊₁ = v̇ₙ (rigid bodies' accelerations are smooth).
-        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         for i in 0..s.qdot.len() {
-            let a_next = (alpha_f * s.qddot[i] - alpha_m * s.a[i]) / (1.0 - alpha_m);
-            let a_predicted = a_next + w * s.qddot[i];
-            self.increment[i] =
-                h * s.qdot[i] + h * h * ((0.5 - beta) * s.a[i] + beta * a_predicted);
-            s.qdot[i] += h * ((1.0 - gamma) * s.a[i] + gamma * a_predicted);
-            s.a[i] = a_next;
+            let p = self
+                .params
+                .predict(h, s.qdot[i], s.qddot[i], s.a[i], s.qddot[i]);
+            self.increment[i] = p.increment;
+            s.qdot[i] = p.qdot;
+            s.a[i] = p.a_next;
         }
         s.t += h;
         self.retract(&mut s.q);
         let report = self.newton(s, bp, gp)?;
         self.check_rotations(s.t)?;
+        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         s.a.iter_mut()
             .zip(&s.qddot)
             .for_each(|(a, acc)| *a += w * acc);

@@ -4,7 +4,7 @@
 //! adjoint cannot — is part of the iteration matrix.
 //!
 //! A joint holds two anchors, each a point of a body (`p = x + R a`, `a` in the body's
-//! frame from its centre of mass) or of the ground ([`crate::spatial::pair`]). Every kind is
+//! frame from its centre of mass) or of the ground (`pair.rs`). Every kind is
 //! a list of rows of one shape, the dot product of two of the pair's *measures*
 //! `Φ = α · β` (as Chrono and MBDyn build theirs from primitives), so that a row's gradient
 //! is `J_αᵀβ + J_βᵀα`, its Hessian contracted with its multiplier

@@ -2,14 +2,15 @@
 //! force element measures between them, with their derivatives on the two nodes' increments
 //! (right-trivialized, `δq = q ε̃`):
 //!
-//! | measure | value | gradient on its node `(u, θ)` | `∂(Jᵀc)/∂θ` | `α̈ − J v̇` | `∂(J v)/∂θ` |
-//! |---|---|---|---|---|---|
-//! | a constant `e` | `e` | — | — | 0 | — |
-//! | an axis `u` of a body | `R u` | `[0, −R ũ]` | `ũ (Rᵀc)~` | `R Ω̃Ω̃ u` | `−R (Ω × u)~` |
-//! | a point `a` of a body | `x + R a` | `[I, −R ã]` | `ã (Rᵀc)~` | `R Ω̃Ω̃ a` | `−R (Ω × a)~` |
-//! | the gap `p_B − p_A` | | the points' | the points' | the points' | the points' |
+//! | measure | value | gradient on its node `(u, θ)` | `∂(Jᵀc)/∂θ` | `α̈ − J v̇` |
+//! |---|---|---|---|---|
+//! | a constant `e` | `e` | — | — | 0 |
+//! | an axis `u` of a body | `R u` | `[0, −R ũ]` | `ũ (Rᵀc)~` | `R Ω̃Ω̃ u` |
+//! | a point `a` of a body | `x + R a` | `[I, −R ã]` | `ã (Rᵀc)~` | `R Ω̃Ω̃ a` |
+//! | the gap `p_B − p_A` | | the points' | the points' | the points' |
 //!
-//! and the dot product of two measures, whose gradient is `J_αᵀβ + J_βᵀα` and Hessian
+//! (and, for a damper along the gap, `∂(J v)/∂θ = −R (Ω × a)~` of each point), and the dot
+//! product of two measures, whose gradient is `J_αᵀβ + J_βᵀα` and Hessian
 //! `H_α[β] + H_β[α] + J_αᵀJ_β + J_βᵀJ_α`. Local unknowns are A's node's six then B's.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};

@@ -475,10 +475,7 @@ impl<'m> Sweep<'m> {
     ) -> Result<(), SolveError> {
         let (n_v, m) = (self.n_v, self.n_rows);
         let AlphaParameters {
-            alpha_m,
-            alpha_f,
-            beta,
-            gamma,
+            alpha_m, alpha_f, ..
         } = self.params;
         let h = self.states[n].h;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
@@ -493,9 +490,8 @@ impl<'m> Sweep<'m> {
         let mut delta_pred = vec![0.0; n_v];
         let mut v_pred = vec![0.0; n_v];
         for i in 0..n_v {
-            a_next[i] = (alpha_f * z.vdot[i] - alpha_m * z.a[i]) / (1.0 - alpha_m);
-            delta_pred[i] = h * z.v[i] + h * h * ((0.5 - beta) * z.a[i] + beta * a_next[i]);
-            v_pred[i] = z.v[i] + h * ((1.0 - gamma) * z.a[i] + gamma * a_next[i]);
+            let p = self.params.predict(h, z.v[i], z.vdot[i], z.a[i], 0.0);
+            (delta_pred[i], v_pred[i], a_next[i]) = (p.increment, p.qdot, p.a_next);
         }
         let mut eps_pred = transport(&increment, &z.eps, false);
         let t_delta = apply_tangent(&increment, &delta_pred, false);

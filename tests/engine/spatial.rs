@@ -32,10 +32,15 @@ pub fn settings(rho_inf: f64) -> DynamicSettings {
 /// The heavy top: centre of mass at `R₀ (0, 1, 0)` from a pivot at the origin, body angular
 /// velocity `omega`.
 fn top(r0: UnitQuaternion<f64>, omega: Vector3<f64>) -> SpatialModel {
+    top_of(top_inertia(), r0, omega)
+}
+
+/// A top of `inertia` about its centre of mass, otherwise as [`top`].
+pub fn top_of(inertia: Matrix3<f64>, r0: UnitQuaternion<f64>, omega: Vector3<f64>) -> SpatialModel {
     let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -GRAVITY)).unwrap();
     let arm = Vector3::new(0.0, 1.0, 0.0);
     let b = m
-        .add_body("top", Frame::new(r0 * arm, r0), MASS, top_inertia())
+        .add_body("top", Frame::new(r0 * arm, r0), MASS, inertia)
         .unwrap();
     m.add_joint(
         "pivot",
