@@ -11,7 +11,7 @@ use crate::error::SolveError;
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Densities, Model};
 use crate::settings::{NewtonMatrix, StaticSettings};
-use crate::solver::newton::{Newton, Point};
+use crate::solver::newton::{Newton, NewtonReport, Point};
 
 /// Smallest load-factor increment tried before the solve gives up.
 pub const MIN_LOAD_INCREMENT: f64 = 1e-6;
@@ -67,6 +67,54 @@ pub fn solve_static(
     load_stepping(&mut static_newton(model, densities, settings)?, settings)
 }
 
+/// One Newton solve of an equilibrium at a load factor: what load stepping drives, for
+/// planar and spatial mechanisms alike.
+pub(crate) trait Equilibrium {
+    /// Solves at load factor `load` from `(q, λ)` in place, and judges the result against
+    /// the previous equilibrium `q_prev` (a jump to another branch is a failure).
+    ///
+    /// # Errors
+    /// Newton's, or the judgement's.
+    fn solve_at(
+        &mut self,
+        load: f64,
+        q: &mut [f64],
+        lambda: &mut [f64],
+        q_prev: &[f64],
+    ) -> Result<NewtonReport, SolveError>;
+}
+
+/// The planar Newton at [`StaticSettings::time`], its steps judged by
+/// [`Model::plausible_step`].
+struct Planar<'a, 'm> {
+    newton: &'a mut Newton<'m>,
+    time: f64,
+}
+
+impl Equilibrium for Planar<'_, '_> {
+    fn solve_at(
+        &mut self,
+        load: f64,
+        q: &mut [f64],
+        lambda: &mut [f64],
+        q_prev: &[f64],
+    ) -> Result<NewtonReport, SolveError> {
+        let point = Point {
+            t: self.time,
+            load,
+            mass_coefficient: 0.0,
+            gamma_prime: 0.0,
+        };
+        let model = self.newton.assembler().model;
+        self.newton
+            .solve(point, q, lambda, None)
+            .and_then(|report| {
+                let at = || format!("load factor {load:.6}");
+                model.plausible_step(q_prev, q, at).map(|()| report)
+            })
+    }
+}
+
 /// Load-stepped Newton solve with the machinery of [`static_newton`].
 ///
 /// # Errors
@@ -76,8 +124,25 @@ pub(crate) fn load_stepping(
     settings: &StaticSettings,
 ) -> Result<StaticSolution, SolveError> {
     let model = newton.assembler().model;
-    let mut q = vec![0.0; model.n_dofs()];
-    let mut lambda = vec![0.0; model.n_constraints()];
+    let (q, lambda) = (vec![0.0; model.n_dofs()], vec![0.0; model.n_constraints()]);
+    let mut planar = Planar {
+        newton,
+        time: settings.time,
+    };
+    step_loads(&mut planar, q, lambda, settings)
+}
+
+/// Load stepping (module docs) of any [`Equilibrium`] from `(q, λ)` at no load.
+///
+/// # Errors
+/// The last [`SolveError`] once a load step has been halved `max_cuts` times in a row;
+/// [`SolveError::LoadStepping`] at the limits of the module's doc.
+pub(crate) fn step_loads(
+    equilibrium: &mut impl Equilibrium,
+    mut q: Vec<f64>,
+    mut lambda: Vec<f64>,
+    settings: &StaticSettings,
+) -> Result<StaticSolution, SolveError> {
     let (mut q_prev, mut l_prev) = (q.clone(), lambda.clone());
     let nominal = 1.0 / settings.load_steps as f64;
     let (mut load, mut step, mut cuts) = (0.0, nominal, 0);
@@ -87,18 +152,7 @@ pub(crate) fn load_stepping(
         let target = (load + step).min(1.0);
         q_prev.copy_from_slice(&q);
         l_prev.copy_from_slice(&lambda);
-        let point = Point {
-            t: settings.time,
-            load: target,
-            mass_coefficient: 0.0,
-            gamma_prime: 0.0,
-        };
-        let solved = newton
-            .solve(point, &mut q, &mut lambda, None)
-            .and_then(|report| {
-                let at = || format!("load factor {target:.6}");
-                model.plausible_step(&q_prev, &q, at).map(|()| report)
-            });
+        let solved = equilibrium.solve_at(target, &mut q, &mut lambda, &q_prev);
         match solved {
             Ok(report) => {
                 iterations += report.iterations;

@@ -64,6 +64,9 @@ impl Pattern {
 /// Forces and matrices of a spatial mechanism.
 pub(crate) struct Assembler<'m> {
     pub model: &'m SpatialModel,
+    /// The load factor on gravity, motors and loads: 1 in motion, climbing to 1 in a
+    /// static solve.
+    pub load: f64,
     pub pattern: Pattern,
     pub values: Vec<f64>,
     /// First row of each joint.
@@ -129,6 +132,7 @@ impl<'m> Assembler<'m> {
         let values = vec![0.0; pattern.row_idx.len()];
         Self {
             model,
+            load: 1.0,
             pattern,
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
@@ -157,9 +161,10 @@ impl<'m> Assembler<'m> {
         r.fill(0.0);
         let mut reference = 0.0f64;
         for b in &model.bodies {
-            let f = b.inertia_force(&six(v, b.node), &six(vdot, b.node), &model.gravity);
+            let gravity = model.gravity * self.load;
+            let f = b.inertia_force(&six(v, b.node), &six(vdot, b.node), &gravity);
             r[NV * b.node..NV * b.node + NV].copy_from_slice(&f);
-            let weight = b.mass * model.gravity.norm();
+            let weight = b.mass * gravity.norm();
             reference = f.iter().fold(reference.max(weight), |m, x| m.max(x.abs()));
         }
         for (j, &row) in model.joints.iter().zip(&self.first_row) {
@@ -177,7 +182,7 @@ impl<'m> Assembler<'m> {
             j.values(q, t, &mut r[row..row + n]);
         }
         for force in &model.forces {
-            let f = force.terms(q, v, t)?.force;
+            let f = force.terms(q, v, t, self.load)?.force;
             reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
             scatter(r, &force.pair, &f);
         }
@@ -202,7 +207,7 @@ impl<'m> Assembler<'m> {
         rhs.fill(0.0);
         let model = self.model;
         for b in &model.bodies {
-            let f = b.inertia_force(&six(v, b.node), &zero, &model.gravity);
+            let f = b.inertia_force(&six(v, b.node), &zero, &(model.gravity * self.load));
             rhs[NV * b.node..NV * b.node + NV]
                 .iter_mut()
                 .zip(f)
@@ -214,7 +219,7 @@ impl<'m> Assembler<'m> {
             out.iter_mut().for_each(|x| *x *= -scale);
         }
         for force in &model.forces {
-            let f = -force.terms(q, v, t)?.force;
+            let f = -force.terms(q, v, t, self.load)?.force;
             scatter(rhs, &force.pair, &f);
         }
         Ok(())
@@ -260,7 +265,7 @@ impl<'m> Assembler<'m> {
         }
         if let Some((inc, _)) = c.tangent {
             for (k, force) in model.forces.iter().enumerate() {
-                let terms = force.terms(q, v, time)?;
+                let terms = force.terms(q, v, time, self.load)?;
                 let t = local_tangent(&force.pair, Some(inc));
                 self.add_local(
                     &force.pair,

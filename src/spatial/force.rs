@@ -90,12 +90,19 @@ pub(crate) enum ForceParameter {
 }
 
 impl Force {
-    /// Its terms at `(q, v, t)`.
+    /// Its terms at `(q, v, t)`, motors and loads scaled by the load factor `load` (1 in
+    /// motion, climbing to 1 in a static solve).
     ///
     /// # Errors
     /// [`SolveError::SpringCollapsed`] where a spring's points meet (its line has no
     /// direction).
-    pub(crate) fn terms(&self, q: &[f64], v: &[f64], t: f64) -> Result<Terms, SolveError> {
+    pub(crate) fn terms(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+        load: f64,
+    ) -> Result<Terms, SolveError> {
         let sides = self.pair.sides(q, Some(v));
         let mut terms = Terms {
             force: Local::zeros(),
@@ -139,7 +146,7 @@ impl Force {
                 terms.damping = along * along.transpose() * *c;
             }
             ForceKind::Motor { torque, time, axis } => {
-                self.motor(&sides, axis, torque * time.at(t), &mut terms);
+                self.motor(&sides, axis, torque * time.at(t) * load, &mut terms);
             }
             ForceKind::Load {
                 force,
@@ -147,7 +154,7 @@ impl Force {
                 time,
                 follower,
             } => {
-                let g = time.at(t);
+                let g = time.at(t) * load;
                 let (side, a) = (&sides[0], &self.pair.arms[0]);
                 let (f, m) = (force * g, moment * g);
                 if *follower {

@@ -7,8 +7,8 @@
 //!
 //! This is the first part of the spatial engine: rigid bodies, the joints (spherical,
 //! revolute, universal, cylindrical, prismatic, weld), drives, force elements (springs,
-//! motors, loads, [`force`]) and their exact gradients ([`sensitivity`]). Beams, statics and
-//! modes come next, on the same group.
+//! motors, loads, [`force`]), static equilibria ([`statics`]) and the exact gradients of the
+//! motion ([`sensitivity`]). Beams and modes come next, on the same group.
 //!
 //! The heavy top of Brüls, Cardona & Arnold: a body pinned at a point off its centre of mass,
 //! spinning under gravity.
@@ -53,6 +53,7 @@ pub mod integrator;
 pub mod joint;
 pub mod model;
 pub mod sensitivity;
+pub mod statics;
 
 pub(crate) mod assembly;
 pub(crate) mod pair;

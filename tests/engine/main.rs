@@ -10,6 +10,7 @@ mod spatial;
 mod spatial_forces;
 mod spatial_joints;
 mod spatial_sensitivity;
+mod spatial_statics;
 mod statics;
 mod strain_energy;
 mod variable_steps;

@@ -1,0 +1,216 @@
+//! Static equilibrium of a spatial mechanism, `f(q) + Bᵀλ = 0`, `Φ(q, t) = 0`, by Newton's
+//! method on the group with the load stepping of the planar engine
+//! ([`crate::solve_static`]'s, shared): gravity, motors and loads scaled by a load factor
+//! climbing to 1; the drives hold their law at [`StaticSettings::time`].
+//!
+//! Each iteration solves `[K + εM, sBᵀ; sB, 0][δ; Δν] = −[r; sΦ]` with `K` the force
+//! elements' and the joints' constraint-force stiffness at `q` and updates `q ← q ∘ exp(δ)`
+//! node by node: the derivative of `r(q ∘ exp(δ))` at `δ = 0` is `K` itself, so the
+//! iteration is Newton's but for `εM`, [`REGULARIZATION`] of the mechanism's stiffness
+//! scale: a rigid body has directions nothing holds in statics (a body hung on a spring
+//! turns freely about its line; a pendulum at no load has no stiffness yet), where `K`
+//! alone is singular. It changes the iterations, not the equilibrium they converge to; an
+//! iteration that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened to
+//! it. A load step that turns a node by more than π is a jump to another branch and
+//! counts as failed.
+
+use crate::error::{Error, SettingsError, SolveError};
+use crate::group::so3::log;
+use crate::group::{Frame, NV};
+use crate::settings::{NewtonMatrix, StaticSettings};
+use crate::solver::lu::Lu;
+use crate::solver::newton::NewtonReport;
+use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
+use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::force::ForceKind;
+use crate::spatial::integrator::MAX_STEP_ROTATION;
+use crate::spatial::model::SpatialModel;
+
+/// `ε` of the module docs relative to the stiffness scale `k_ref / m_ref`: springs' `k`
+/// and weights and loads per length of the mechanism, per mass.
+pub const REGULARIZATION: f64 = 1e-9;
+
+/// The largest rotation one Newton iteration gives a node (rad); a longer step is shortened.
+pub const MAX_ITERATION_ROTATION: f64 = 0.25;
+
+/// The static equilibrium of `model` (module docs), from its initial configuration.
+///
+/// # Errors
+/// [`SettingsError`] for a modified Newton matrix (not built for spatial mechanisms);
+/// [`SolveError::Setup`] if the pattern cannot be analysed; the load stepping's errors
+/// ([`SolveError::LoadStepping`] where no equilibrium is found).
+pub fn solve_static_spatial(
+    model: &SpatialModel,
+    settings: &StaticSettings,
+) -> Result<StaticSolution, Error> {
+    if settings.newton == NewtonMatrix::Modified {
+        return Err(SettingsError::new(
+            "newton",
+            "the modified Newton matrix is not built for spatial mechanisms; use \"full\"",
+        )
+        .into());
+    }
+    let asm = Assembler::new(model);
+    let p = &asm.pattern;
+    let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
+        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    let n = p.n;
+    let mut equilibrium = Spatial {
+        asm,
+        lu,
+        settings: *settings,
+        rest: vec![0.0; model.n_v()],
+        rhs: vec![0.0; n],
+    };
+    let (q, lambda) = (model.initial_configuration(), vec![0.0; model.n_rows()]);
+    Ok(step_loads(&mut equilibrium, q, lambda, settings)?)
+}
+
+/// Newton's machinery of a spatial equilibrium.
+struct Spatial<'m> {
+    asm: Assembler<'m>,
+    lu: Lu,
+    settings: StaticSettings,
+    /// Zero velocities, accelerations and increment.
+    rest: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl Equilibrium for Spatial<'_> {
+    fn solve_at(
+        &mut self,
+        load: f64,
+        q: &mut [f64],
+        lambda: &mut [f64],
+        q_prev: &[f64],
+    ) -> Result<NewtonReport, SolveError> {
+        self.asm.load = load;
+        let report = self.newton(load, q, lambda)?;
+        let model = self.asm.model;
+        for (node, n) in model.nodes.iter().enumerate() {
+            let turned =
+                log(&(Frame::read(q_prev, node).r.inverse() * Frame::read(q, node).r)).norm();
+            if turned > MAX_STEP_ROTATION {
+                return Err(SolveError::Diverged {
+                    at: format!("load factor {load:.6}"),
+                    rotation: turned,
+                    node: n.name.clone(),
+                });
+            }
+        }
+        Ok(report)
+    }
+}
+
+impl Spatial<'_> {
+    fn newton(
+        &mut self,
+        load: f64,
+        q: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<NewtonReport, SolveError> {
+        let model = self.asm.model;
+        let (n_v, t) = (model.n_v(), self.settings.time);
+        let length = model.size();
+        // Constraint rows unscaled: there is no β' to balance, and the LU's row pivoting
+        // takes the joints' rows in whatever units the forces come.
+        let scale = 1.0;
+        let epsilon = REGULARIZATION * stiffness_scale(model) / self.asm.mean_mass();
+        let mut iterations = 0;
+        loop {
+            let force = self
+                .asm
+                .residual(q, &self.rest, &self.rest, lambda, t, &mut self.rhs)?;
+            let f_res = self.rhs[..n_v].iter().fold(0.0f64, |m, x| m.max(x.abs()))
+                / force.max(f64::MIN_POSITIVE);
+            let c_res = self.rhs[n_v..].iter().fold(0.0f64, |m, x| m.max(x.abs())) / length;
+            let residual = f_res.max(c_res);
+            if f_res <= self.settings.tol && c_res <= self.settings.tol {
+                return Ok(NewtonReport {
+                    iterations,
+                    residual,
+                });
+            }
+            if iterations == self.settings.max_iter || !residual.is_finite() {
+                return Err(SolveError::NewtonFailed {
+                    at: format!("load factor {load:.6}"),
+                    iterations,
+                    residual,
+                    tolerance: self.settings.tol,
+                });
+            }
+            let c = Coefficients {
+                beta_prime: epsilon,
+                gamma_prime: 0.0,
+                scale,
+                tangent: Some((&self.rest, lambda)),
+            };
+            self.asm.matrix(q, &self.rest, t, c)?;
+            let singular = |e| SolveError::Singular {
+                time: t,
+                detail: format!("{e:?} at load factor {load:.6}"),
+            };
+            self.lu.factorize(&self.asm.values).map_err(singular)?;
+            self.rhs.iter_mut().for_each(|x| *x = -*x);
+            self.rhs[n_v..].iter_mut().for_each(|x| *x *= scale);
+            self.lu
+                .solve_in_place(&mut self.rhs, false)
+                .map_err(singular)?;
+            iterations += 1;
+            // A step that would turn a node by more than MAX_ITERATION_ROTATION is shortened
+            // to it: where nothing holds a rotation yet (no load, multipliers still zero),
+            // εM alone would send it round. The multipliers take their whole step: with them
+            // the joints' stiffness that holds the rotation arrives.
+            let turn = self.rhs[..n_v]
+                .chunks(NV)
+                .map(|d| (d[3] * d[3] + d[4] * d[4] + d[5] * d[5]).sqrt())
+                .fold(0.0f64, f64::max);
+            if turn > MAX_ITERATION_ROTATION {
+                let shorten = MAX_ITERATION_ROTATION / turn;
+                self.rhs[..n_v].iter_mut().for_each(|x| *x *= shorten);
+            }
+            let (delta, dnu) = self.rhs.split_at(n_v);
+            for node in 0..model.nodes.len() {
+                Frame::read(q, node)
+                    .retract(&delta[NV * node..NV * node + NV])
+                    .write(q, node);
+            }
+            lambda
+                .iter_mut()
+                .zip(dnu)
+                .for_each(|(l, d)| *l += scale * d);
+            let q_max = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if delta_max <= 64.0 * f64::EPSILON * (length + q_max) {
+                return Ok(NewtonReport {
+                    iterations,
+                    residual,
+                });
+            }
+        }
+    }
+}
+
+/// The mechanism's stiffness scale (N/m): its springs' `k`, and its weights, loads and
+/// motors per its size.
+fn stiffness_scale(model: &SpatialModel) -> f64 {
+    let size = model.size();
+    let weights: f64 = model
+        .bodies
+        .iter()
+        .map(|b| b.mass * model.gravity.norm())
+        .sum::<f64>()
+        / size;
+    let forces: f64 = model
+        .forces
+        .iter()
+        .map(|f| match &f.kind {
+            ForceKind::Spring { stiffness, .. } => *stiffness,
+            ForceKind::Motor { torque, .. } => torque.abs() / (size * size),
+            ForceKind::Load { force, moment, .. } => {
+                force.norm() / size + moment.norm() / (size * size)
+            }
+        })
+        .sum();
+    (weights + forces).max(f64::MIN_POSITIVE)
+}
