@@ -18,6 +18,8 @@
 //! planar engine's additive angle) `T = I` and this is the vector-space step.
 //!
 //! The start is consistent: `M v̇₀ + Bᵀλ₀ = −f(q₀, v₀)`, `B v̇₀ = −b(q₀, v₀)`, and `a₀ = v̇₀`.
+//! A step that begins on a kink of a drive's law, where its acceleration jumps, first
+//! restarts the scheme there as the planar engine does.
 
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::{Frame, NV};
@@ -34,6 +36,23 @@ use crate::TimeGrid;
 /// the motion (the tangent operator is singular at 2π).
 pub const MAX_STEP_ROTATION: f64 = std::f64::consts::PI;
 
+/// A kink lies on a state when it is within this fraction of the step that reached it; a
+/// jump of `b` below this fraction of its size is none.
+const KINK_ON_NODE: f64 = 1e-9;
+
+/// The kinks of `model`'s drives after `t = 0`, sorted, without repeats.
+fn kinks(model: &SpatialModel) -> Vec<f64> {
+    let mut times: Vec<f64> = model
+        .joints
+        .iter()
+        .flat_map(|j| j.drive_kinks())
+        .filter(|&t| t > 0.0)
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    times
+}
+
 /// The Lie-group generalized-α integrator of a spatial mechanism.
 pub struct SpatialIntegrator<'m> {
     asm: Assembler<'m>,
@@ -48,6 +67,12 @@ pub struct SpatialIntegrator<'m> {
     increment: Vec<f64>,
     /// Residual, then Newton's correction.
     rhs: Vec<f64>,
+    /// Where the drives' laws are not smooth, after `t = 0`, sorted.
+    kinks: Vec<f64>,
+    /// The drives' acceleration terms `b` just before and just after a kink.
+    jump: [Vec<f64>; 2],
+    /// How many steps began with a restart at a kink.
+    restarts: usize,
 }
 
 impl<'m> SpatialIntegrator<'m> {
@@ -81,7 +106,68 @@ impl<'m> SpatialIntegrator<'m> {
             start: vec![0.0; model.n_q()],
             increment: vec![0.0; model.n_v()],
             rhs: vec![0.0; n],
+            kinks: kinks(model),
+            jump: [vec![0.0; model.n_rows()], vec![0.0; model.n_rows()]],
+            restarts: 0,
         })
+    }
+
+    /// Restarts the scheme where a step begins on a kink of a drive's law (reached by a
+    /// step, not at `t = 0`): the prescribed acceleration jumps there by `Δg̈`, and with it
+    /// the rows' `b` by `Δb`; positions, velocities and forces are continuous, so
+    /// `[M, sBᵀ; sB, 0][Δv̇; Δν] = [0; −s Δb]` and `v̇ += Δv̇`, `a += Δv̇` (the planar
+    /// engine's `solver/kink.rs`, on the group). Returns whether it restarted.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
+    fn restart_at_kink(&mut self, s: &mut State) -> Result<bool, SolveError> {
+        let on_node = |k: &f64| s.h > 0.0 && (k - s.t).abs() <= KINK_ON_NODE * s.h;
+        let Some(&kink) = self.kinks.iter().find(|k| on_node(k)) else {
+            return Ok(false);
+        };
+        let model = self.asm.model;
+        let mut row = 0;
+        for j in &model.joints {
+            let n = j.n_rows();
+            // The law's two pieces, read on either side of the kink itself (the state's time
+            // may lie a rounding off it, on either side).
+            for (side, t) in [kink.next_down(), kink.next_up()].into_iter().enumerate() {
+                j.acceleration_terms(&s.q, &s.qdot, t, &mut self.jump[side][row..row + n]);
+            }
+            row += n;
+        }
+        let n_v = model.n_v();
+        let scale = self.asm.mean_mass();
+        let [before, after] = &self.jump;
+        let mut jumps = false;
+        for (r, (b, a)) in self.rhs[n_v..].iter_mut().zip(before.iter().zip(after)) {
+            let negligible = (a - b).abs() <= KINK_ON_NODE * (a.abs() + b.abs());
+            *r = if negligible { 0.0 } else { -scale * (a - b) };
+            jumps |= !negligible;
+        }
+        if !jumps {
+            return Ok(false);
+        }
+        self.rhs[..n_v].fill(0.0);
+        let c = Coefficients {
+            beta_prime: 1.0,
+            gamma_prime: 0.0,
+            scale,
+            tangent: None,
+        };
+        self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
+        self.lu
+            .factorize(&self.asm.values)
+            .map_err(Self::singular(s.t))?;
+        self.lu
+            .solve_in_place(&mut self.rhs, false)
+            .map_err(Self::singular(s.t))?;
+        for ((acc, a), d) in s.qddot.iter_mut().zip(s.a.iter_mut()).zip(&self.rhs[..n_v]) {
+            *acc += d;
+            *a += d;
+        }
+        self.restarts += 1;
+        Ok(true)
     }
 
     fn singular(time: f64) -> impl Fn(FactorError) -> SolveError {
@@ -145,6 +231,7 @@ impl<'m> SpatialIntegrator<'m> {
             alpha_m, alpha_f, ..
         } = self.params;
         let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+        self.restart_at_kink(s)?;
         if let Some(ratio) = step_ratio(s.h, h) {
             rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
         }
@@ -270,6 +357,15 @@ pub fn simulate_spatial(
     settings: &DynamicSettings,
     grid: &TimeGrid,
 ) -> Result<Vec<State>, Error> {
+    Ok(run(model, settings, grid)?.0)
+}
+
+/// [`simulate_spatial`], and how many steps began with a restart at a drive's kink.
+pub(crate) fn run(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+) -> Result<(Vec<State>, usize), Error> {
     let mut integrator = SpatialIntegrator::new(model, settings)?;
     let mut state = integrator.initial_state()?;
     let mut states = Vec::with_capacity(grid.steps().len() + 1);
@@ -278,5 +374,5 @@ pub fn simulate_spatial(
         integrator.alpha_step(&mut state, h)?;
         states.push(state.clone());
     }
-    Ok(states)
+    Ok((states, integrator.restarts))
 }

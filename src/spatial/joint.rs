@@ -293,6 +293,11 @@ impl Joint {
         Ok(())
     }
 
+    /// Where the drive's law is not smooth (none without a drive).
+    pub(crate) fn drive_kinks(&self) -> Vec<f64> {
+        self.drive.as_ref().map_or_else(Vec::new, |d| d.law.kinks())
+    }
+
     /// Constraint rows, the drive's last.
     pub fn n_rows(&self) -> usize {
         self.rows.len() + usize::from(self.drive.is_some())

@@ -33,7 +33,7 @@ use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::lu::Lu;
 use crate::spatial::assembly::{Assembler, Coefficients};
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
-use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::integrator::run;
 use crate::spatial::model::SpatialModel;
 use crate::TimeGrid;
 
@@ -179,8 +179,9 @@ fn check(
 /// parameters).
 ///
 /// # Errors
-/// [`SettingsError`] for a response or parameter the mechanism does not have; the run's
-/// errors ([`simulate_spatial`]); [`SolveError::Singular`] for a singular step matrix.
+/// [`SettingsError`] for a response or parameter the mechanism does not have, or a grid
+/// that lands on a kink of a drive's law (the restart there is not differentiated yet);
+/// the run's errors ([`crate::spatial::integrator::simulate_spatial`]); [`SolveError::Singular`] for a singular step matrix.
 pub fn sensitivities(
     model: &SpatialModel,
     settings: &DynamicSettings,
@@ -190,7 +191,18 @@ pub fn sensitivities(
     method: Method,
 ) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
-    let states = simulate_spatial(model, settings, grid)?;
+    let (states, restarts) = run(model, settings, grid)?;
+    if restarts > 0 {
+        return Err(SettingsError::new(
+            "grid",
+            format!(
+                "it lands on {restarts} kink(s) of a drive's law, where the scheme restarts; gradients \
+                 through that restart are not built yet for spatial mechanisms: use a grid that steps \
+                 over the kinks, or a smooth law"
+            ),
+        )
+        .into());
+    }
     let mut sweep = Sweep::new(model, settings, &states)?;
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     let adjoint = match method {
