@@ -21,9 +21,9 @@
 //! A step that begins on a kink of a drive's law, where its acceleration jumps, first
 //! restarts the scheme there as the planar engine does.
 
-use crate::error::{Error, SettingsError, SolveError};
+use crate::error::{short, Error, SettingsError, SolveError};
 use crate::group::{Frame, NV};
-use crate::settings::{DynamicSettings, NewtonMatrix};
+use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
 use crate::solver::integrator::{rescale_pseudo_accelerations, step_ratio, AlphaParameters, State};
 use crate::solver::linsolve::FactorError;
 use crate::solver::lu::Lu;
@@ -80,10 +80,18 @@ impl<'m> SpatialIntegrator<'m> {
     /// runs step by step).
     ///
     /// # Errors
-    /// [`SettingsError`] for a modified Newton matrix (not built for spatial mechanisms);
+    /// [`SettingsError`] for `ρ∞` outside `[0, 1]`, a tolerance or iteration limit out of
+    /// range, or a modified Newton matrix (not built for spatial mechanisms);
     /// the model's initial rates that the joints forbid ([`SpatialModel::check_rates`]);
     /// [`SolveError::Setup`] if the pattern cannot be analysed.
     pub fn new(model: &'m SpatialModel, settings: &DynamicSettings) -> Result<Self, Error> {
+        RunOptions {
+            rho_inf: Some(settings.rho_inf),
+            tol: Some(settings.tol),
+            max_iter: Some(settings.max_iter),
+            ..RunOptions::default()
+        }
+        .validate()?;
         if settings.newton == NewtonMatrix::Modified {
             return Err(SettingsError::new(
                 "newton",
@@ -350,7 +358,8 @@ impl<'m> SpatialIntegrator<'m> {
 /// The motion of `model` over `grid` from its consistent start: every state.
 ///
 /// # Errors
-/// As [`SpatialIntegrator::new`], [`SpatialIntegrator::initial_state`] and
+/// [`SettingsError`] for a step of the grid that is not positive and finite; as
+/// [`SpatialIntegrator::new`], [`SpatialIntegrator::initial_state`] and
 /// [`SpatialIntegrator::alpha_step`].
 pub fn simulate_spatial(
     model: &SpatialModel,
@@ -366,6 +375,21 @@ pub(crate) fn run(
     settings: &DynamicSettings,
     grid: &TimeGrid,
 ) -> Result<(Vec<State>, usize), Error> {
+    if let Some((n, h)) = grid
+        .steps()
+        .iter()
+        .enumerate()
+        .find(|(_, h)| !(h.is_finite() && **h > 0.0))
+    {
+        return Err(SettingsError::new(
+            "grid",
+            format!(
+                "step {n} is {}: steps must be positive and finite",
+                short(*h)
+            ),
+        )
+        .into());
+    }
     let mut integrator = SpatialIntegrator::new(model, settings)?;
     let mut state = integrator.initial_state()?;
     let mut states = Vec::with_capacity(grid.steps().len() + 1);

@@ -36,13 +36,15 @@ pub const MAX_ITERATION_ROTATION: f64 = 0.25;
 /// The static equilibrium of `model` (module docs), from its initial configuration.
 ///
 /// # Errors
-/// [`SettingsError`] for a modified Newton matrix (not built for spatial mechanisms);
+/// [`SettingsError`] for settings out of range ([`StaticSettings::validate`]) or a
+/// modified Newton matrix (not built for spatial mechanisms);
 /// [`SolveError::Setup`] if the pattern cannot be analysed; the load stepping's errors
 /// ([`SolveError::LoadStepping`] where no equilibrium is found).
 pub fn solve_static_spatial(
     model: &SpatialModel,
     settings: &StaticSettings,
 ) -> Result<StaticSolution, Error> {
+    settings.validate()?;
     if settings.newton == NewtonMatrix::Modified {
         return Err(SettingsError::new(
             "newton",

@@ -377,3 +377,64 @@ fn many_turns_in_large_increments() {
     let x = Frame::read(&s.q, 0).x;
     assert!((x - Vector3::new(1.0 + 0.5 * t, 2.0 - 0.2 * t, 3.0 + 0.1 * t)).norm() < 1e-11);
 }
+
+/// Settings out of range and bad grids are named, for runs, statics and gradients alike.
+#[test]
+fn bad_settings_are_named() {
+    use flextop::spatial::sensitivity::{sensitivities, Parameter, Response};
+    use flextop::spatial::statics::solve_static_spatial;
+    use flextop::{Error, Method, StaticSettings};
+    let model = guide_top();
+    let name = |e: Error| match e {
+        Error::Settings(s) => s.name,
+        other => panic!("not a settings error: {other}"),
+    };
+    let grid = TimeGrid::uniform(1e-3, 3);
+    for (rho_inf, tol, max_iter, newton, culprit) in [
+        (2.0, 1e-10, 20, NewtonMatrix::Full, "rho_inf"),
+        (f64::NAN, 1e-10, 20, NewtonMatrix::Full, "rho_inf"),
+        (0.9, -1.0, 20, NewtonMatrix::Full, "tol"),
+        (0.9, 1e-10, 0, NewtonMatrix::Full, "max_iter"),
+        (0.9, 1e-10, 20, NewtonMatrix::Modified, "newton"),
+    ] {
+        let s = DynamicSettings {
+            rho_inf,
+            tol,
+            max_iter,
+            newton,
+            ..settings(0.9)
+        };
+        assert_eq!(
+            name(simulate_spatial(&model, &s, &grid).unwrap_err()),
+            culprit
+        );
+    }
+    for steps in [vec![1e-3, 0.0], vec![f64::NAN], vec![-1e-3]] {
+        let err =
+            simulate_spatial(&model, &settings(0.9), &TimeGrid::from_steps(steps)).unwrap_err();
+        assert_eq!(name(err), "grid");
+    }
+    let bad = TimeGrid::from_steps(vec![f64::INFINITY]);
+    let err = sensitivities(
+        &model,
+        &settings(0.9),
+        &bad,
+        &[Response::Position { body: 0, axis: 0 }],
+        &[Parameter::Mass { body: 0 }],
+        Method::Direct,
+    )
+    .unwrap_err();
+    assert_eq!(name(err), "grid");
+    let statics = StaticSettings {
+        load_steps: 1,
+        time: 0.0,
+        tol: f64::NAN,
+        max_iter: 10,
+        newton: NewtonMatrix::Full,
+        max_cuts: 4,
+    };
+    assert_eq!(
+        name(solve_static_spatial(&model, &statics).unwrap_err()),
+        "tol"
+    );
+}
