@@ -19,8 +19,8 @@
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
-/// Below this angle (rad) the coefficients are evaluated by their Taylor series: their
-/// truncation error there is below 1e-17, the closed forms' cancellation above it.
+/// Below this angle (rad) `T⁻¹`'s coefficient is evaluated by its Taylor series (truncation
+/// about 1e-15 relative there), where its closed form cancels.
 const SERIES_ANGLE: f64 = 1e-3;
 
 /// The skew matrix `ṽ` with `ṽ w = v × w`.
@@ -51,24 +51,28 @@ pub fn log(r: &UnitQuaternion<f64>) -> Vector3<f64> {
     };
     let v = q.imag();
     let s = v.norm();
-    // φ/s = 2 atan2(s, w)/s, its series near s = 0 where w → 1.
-    let ratio = if s < SERIES_ANGLE {
-        2.0 / q.w * (1.0 - s * s / (3.0 * q.w * q.w))
-    } else {
+    // φ/s = 2 atan2(s, w)/s, without cancellation for any s > 0; 2/w at s = 0.
+    let ratio = if s > 0.0 {
         2.0 * s.atan2(q.w) / s
+    } else {
+        2.0 / q.w
     };
     v * ratio
 }
 
-/// The coefficients `(a, b)` of `T(θ) = I − a θ̃ + b θ̃²`.
+/// The coefficients `(a, b)` of `T(θ) = I − a θ̃ + b θ̃²`: `a = (1 − cos φ)/φ² =
+/// ½ (sin(φ/2)/(φ/2))²`, without cancellation; `b = (φ − sin φ)/φ³`, by its series below
+/// 0.1 rad (four terms: truncation under 1e-16 relative) where the closed form cancels.
 fn tangent_coefficients(phi: f64) -> (f64, f64) {
-    if phi < SERIES_ANGLE {
-        let p2 = phi * phi;
-        (0.5 - p2 / 24.0, 1.0 / 6.0 - p2 / 120.0)
+    let half = 0.5 * phi;
+    let sinc = if half > 0.0 { half.sin() / half } else { 1.0 };
+    let p2 = phi * phi;
+    let b = if phi < 0.1 {
+        1.0 / 6.0 - p2 / 120.0 + p2 * p2 / 5040.0 - p2 * p2 * p2 / 362_880.0
     } else {
-        let p2 = phi * phi;
-        ((1.0 - phi.cos()) / p2, (phi - phi.sin()) / (p2 * phi))
-    }
+        (phi - phi.sin()) / (p2 * phi)
+    };
+    (0.5 * sinc * sinc, b)
 }
 
 /// The tangent operator `T(θ)` of the exponential (module docs).

@@ -18,7 +18,7 @@ mod section;
 mod simulation;
 pub mod spec;
 mod spring;
-mod validate;
+pub(crate) mod validate;
 
 pub use build::build;
 pub use spec::SceneSpec;

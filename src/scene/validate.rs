@@ -94,7 +94,7 @@ pub(super) fn angle(path: &str, rad: Option<f64>, deg: Option<f64>) -> Result<f6
 
 /// Samples `(t_k, v_k)` of a time history: at least two, as many `what` as times, all
 /// finite, times strictly increasing.
-pub(super) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {
+pub(crate) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {
     if t.len() < 2 || t.len() != values.len() {
         return Err(SceneError::new(
             path,

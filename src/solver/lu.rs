@@ -66,7 +66,8 @@ impl Lu {
     /// Numeric factorization of the matrix with CSC `values` on the analyzed pattern.
     ///
     /// # Errors
-    /// [`FactorError::Singular`] if a column has no pivot left.
+    /// [`FactorError::Singular`] if a column has no entry left to pivot on (structurally
+    /// singular); a numerically zero pivot shows in the solve instead.
     pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
         self.factorized = false;
         let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);

@@ -9,7 +9,8 @@
 //! [ s B T(Δ)                    0    ]
 //! ```
 //!
-//! with `K_t` the constraint-force stiffness `∂(Bᵀλ)/∂q` (bodies add none), `T(Δ)` the
+//! with `C_t` the bodies' gyroscopic and the force elements' damping, `K_t` the force
+//! elements' stiffness and the constraint-force stiffness `∂(Bᵀλ)/∂q` (bodies add none), `T(Δ)` the
 //! tangent operator of the step's increment `Δ` node by node and `s` the row scaling. The
 //! initial accelerations use the same pattern with `β' = 1`, `γ' = 0`, no `K_t` and `T = I`.
 //! The pattern is analysed once; values are written through [`Pattern::slot`], so an

@@ -12,7 +12,7 @@
 //! (1 − α_m) aₙ₊₁ + α_m aₙ = (1 − α_f) v̇ₙ₊₁ + α_f v̇ₙ
 //! ```
 //!
-//! Newton solves `f_inertia(v, v̇) + Bᵀλ = 0`, `Φ(qₙ₊₁) = 0` for the correction `δ` of `Δₙ`:
+//! Newton solves `f_inertia(v, v̇) + f_forces(q, v, t) + Bᵀλ = 0`, `Φ(qₙ₊₁) = 0` for the correction `δ` of `Δₙ`:
 //! `Δ += δ`, `v += γ' δ`, `v̇ += β' δ` (`β'`, `γ'` as in the vector-space scheme), with the
 //! iteration matrix of `assembly.rs` factored by sparse `LU`. On `ℝ³` (and the
 //! planar engine's additive angle) `T = I` and this is the vector-space step.

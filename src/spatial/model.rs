@@ -9,6 +9,7 @@ use crate::error::{short, SceneError};
 use crate::group::{six, split, Frame, NQ, NV};
 use crate::mechanism::load::TimeFunction;
 use crate::mechanism::motion::Motion;
+use crate::scene::validate::samples;
 use crate::spatial::body::Body;
 use crate::spatial::force::{Force, ForceKind};
 use crate::spatial::joint::{Anchor, Joint, JointKind};
@@ -94,6 +95,16 @@ impl SpatialModel {
             return Err(SceneError::new(path, "a body of this name exists already"));
         }
         finite(&format!("{path}.position"), &frame.x)?;
+        let r = frame.r.quaternion();
+        if !(r.coords.iter().all(|c| c.is_finite()) && (r.norm() - 1.0).abs() <= 1e-9) {
+            return Err(SceneError::new(
+                format!("{path}.rotation"),
+                format!(
+                    "({}, {}, {}, {}) is not a unit quaternion",
+                    r.w, r.i, r.j, r.k
+                ),
+            ));
+        }
         if !(mass.is_finite() && mass > 0.0) {
             return Err(SceneError::new(
                 format!("{path}.mass"),
@@ -211,6 +222,15 @@ impl SpatialModel {
             .map_err(|m| SceneError::new(format!("joints.{}.drive", j.name), m))
     }
 
+    /// Checks a time function's table: two samples at least, as many values as times,
+    /// finite, times strictly increasing.
+    fn check_time(path: &str, time: &TimeFunction) -> Result<(), SceneError> {
+        match time {
+            TimeFunction::Constant => Ok(()),
+            TimeFunction::Table { t, value } => samples(&format!("{path}.time"), t, value, "value"),
+        }
+    }
+
     fn new_force(&self, name: &str) -> Result<String, SceneError> {
         let path = format!("forces.{name}");
         if self.forces.iter().any(|f| f.name == name) {
@@ -311,6 +331,7 @@ impl SpatialModel {
         if !torque.is_finite() {
             return Err(SceneError::new(format!("{path}.torque"), "must be finite"));
         }
+        Self::check_time(&path, &time)?;
         let rotation =
             j.pair.nodes[0].map_or_else(Matrix3::identity, |n| self.nodes[n].frame.rotation());
         let kind = ForceKind::Motor {
@@ -348,6 +369,7 @@ impl SpatialModel {
         let (node, arm) = self.resolve(&path, Anchor::Body { body, point })?;
         finite(&format!("{path}.force"), &force)?;
         finite(&format!("{path}.moment"), &moment)?;
+        Self::check_time(&path, &time)?;
         let kind = ForceKind::Load {
             force,
             moment,
@@ -409,18 +431,37 @@ impl SpatialModel {
     /// point's rows is the force the joint exerts on A's point (N, its opposite on B's), of
     /// an angle's a moment (N m), of a drive's the generalized force it takes from the joint's
     /// coordinate (N m or N: the drive applies its opposite).
+    ///
+    /// # Panics
+    /// If the mechanism has no joint `joint`.
     pub fn joint_rows(&self, joint: usize) -> std::ops::Range<usize> {
         let start: usize = self.joints[..joint].iter().map(Joint::n_rows).sum();
         start..start + self.joints[joint].n_rows()
     }
 
-    /// The mechanism's size (m): the largest distance of a node from the origin, 1 m for a
-    /// mechanism at the origin: the reference of length tolerances.
+    /// The mechanism's size (m): the diagonal of the box around its nodes and the ground
+    /// points of its joints and force elements, 1 m for a single point: the reference of
+    /// length tolerances, wherever the mechanism sits.
     pub fn size(&self) -> f64 {
-        let nodes = self.nodes.iter().map(|n| n.frame.x.norm());
-        let size = nodes.fold(0.0, f64::max);
-        if size > 0.0 {
-            size
+        let nodes = self.nodes.iter().map(|n| n.frame.x);
+        let ground = self
+            .joints
+            .iter()
+            .map(|j| &j.pair)
+            .chain(self.forces.iter().map(|f| &f.pair))
+            .flat_map(|p| {
+                (0..2)
+                    .filter(|&s| p.nodes[s].is_none())
+                    .map(move |s| p.arms[s])
+            });
+        let mut points = nodes.chain(ground);
+        let Some(first) = points.next() else {
+            return 1.0;
+        };
+        let (lo, hi) = points.fold((first, first), |(lo, hi), p| (lo.inf(&p), hi.sup(&p)));
+        let diagonal = (hi - lo).norm();
+        if diagonal > 0.0 {
+            diagonal
         } else {
             1.0
         }

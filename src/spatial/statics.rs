@@ -11,8 +11,8 @@
 //! turns freely about its line; a pendulum at no load has no stiffness yet), where `K`
 //! alone is singular. It changes the iterations, not the equilibrium they converge to; an
 //! iteration that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened to
-//! it. A load step that turns a node by more than π is a jump to another branch and
-//! counts as failed.
+//! it. A load step that turns a node by more than [`MAX_LOAD_STEP_ROTATION`] is a jump to
+//! another branch and counts as failed.
 
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::so3::log;
@@ -23,12 +23,15 @@ use crate::solver::newton::NewtonReport;
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
 use crate::spatial::assembly::{Assembler, Coefficients};
 use crate::spatial::force::ForceKind;
-use crate::spatial::integrator::MAX_STEP_ROTATION;
 use crate::spatial::model::SpatialModel;
 
 /// `ε` of the module docs relative to the stiffness scale `k_ref / m_ref`: springs' `k`
 /// and weights and loads per length of the mechanism, per mass.
 pub const REGULARIZATION: f64 = 1e-9;
+
+/// The largest rotation a load step may give a node (rad), as in the planar engine: more is
+/// a jump to another branch, and the step is halved.
+pub const MAX_LOAD_STEP_ROTATION: f64 = std::f64::consts::FRAC_PI_2;
 
 /// The largest rotation one Newton iteration gives a node (rad); a longer step is shortened.
 pub const MAX_ITERATION_ROTATION: f64 = 0.25;
@@ -92,7 +95,7 @@ impl Equilibrium for Spatial<'_> {
         for (node, n) in model.nodes.iter().enumerate() {
             let turned =
                 log(&(Frame::read(q_prev, node).r.inverse() * Frame::read(q, node).r)).norm();
-            if turned > MAX_STEP_ROTATION {
+            if turned > MAX_LOAD_STEP_ROTATION {
                 return Err(SolveError::Diverged {
                     at: format!("load factor {load:.6}"),
                     rotation: turned,
