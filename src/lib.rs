@@ -21,6 +21,9 @@
 //!   ratios ([`Criterion`]) condensed by the p-mean or KS mean of [`Aggregation`].
 //! * `sensitivity` — [`of_motion`] / [`of_equilibrium`]: their exact gradients, by direct
 //!   differentiation (Algorithm 2) or the discrete adjoint.
+//! * [`spatial`] on [`group`] — spatial mechanisms on the Lie group `(ℝ³ × SO(3))ⁿ`: rigid
+//!   bodies, joints, drives, force elements, Lie-group generalized-α, statics and the exact
+//!   gradients of the motion (the first part of the spatial engine; Rust only for now).
 //!
 //! The mechanism's data ([`scene`], [`model`], [`element`], [`constraint`], [`motion`],
 //! [`load`], [`section`], [`interpolation`], [`spring`], [`motor`], [`parameter`]) are
