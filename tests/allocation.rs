@@ -332,8 +332,10 @@ fn lie_group_alpha_steps_do_not_allocate() {
     };
     m.add_load(
         "push",
-        one,
-        tip,
+        Anchor::Body {
+            body: one,
+            point: tip,
+        },
         Vector3::new(0.0, 0.0, 3.0),
         Vector3::zeros(),
         push,
@@ -344,6 +346,51 @@ fn lie_group_alpha_steps_do_not_allocate() {
         two,
         Vector3::new(0.0, 0.0, 0.0),
         Vector3::new(2.0, 0.0, 0.0),
+    )
+    .unwrap();
+    // A damped flexible tail of two beams welded to body two.
+    let start = m.nodes[m.bodies[two].node].frame.x + Vector3::new(0.5, 0.0, 0.0);
+    let tail: Vec<usize> = (0..3)
+        .map(|i| {
+            let at = start + Vector3::new(0.3 * i as f64, 0.0, 0.0);
+            let frame = Frame::new(at, nalgebra::UnitQuaternion::identity());
+            m.add_node(&format!("tail{i}"), frame).unwrap()
+        })
+        .collect();
+    let tube = flextop::spatial::section::Shape::HollowCircle {
+        outer: 0.02,
+        inner: 0.016,
+    }
+    .geometry(0.33)
+    .unwrap();
+    let section = flextop::spatial::section::Section::new(&tube, 7e10, 2.6e10, 2700.0)
+        .with_rayleigh(0.5, 1e-4);
+    for i in 0..2 {
+        m.add_beam(
+            &format!("tail{i}"),
+            tail[i],
+            tail[i + 1],
+            &section,
+            Vector3::z(),
+        )
+        .unwrap();
+    }
+    for &node in &tail {
+        // Turning with body two about the line they lie on.
+        m.set_node_rates(node, Vector3::zeros(), Vector3::new(2.0, 0.0, 0.0))
+            .unwrap();
+    }
+    m.add_joint(
+        "weld",
+        JointKind::Weld,
+        Anchor::Body {
+            body: two,
+            point: Vector3::new(0.5, 0.0, 0.0),
+        },
+        Anchor::Node {
+            node: tail[0],
+            point: Vector3::zeros(),
+        },
     )
     .unwrap();
     let settings = DynamicSettings {

@@ -77,6 +77,8 @@ pub(crate) struct Assembler<'m> {
     joint_blocks: Vec<(Stiffness, Gradient)>,
     /// Each force element's `K` and `C` at the last [`Assembler::matrix`], likewise.
     force_blocks: Vec<(Stiffness, Stiffness)>,
+    /// Each beam's, likewise.
+    beam_blocks: Vec<(Stiffness, Stiffness)>,
 }
 
 /// What the iteration matrix is made of at one iterate.
@@ -122,9 +124,10 @@ impl<'m> Assembler<'m> {
             }
             row += rows;
         }
-        for f in &model.forces {
-            for (_, n1) in f.pair.local_nodes() {
-                for (_, n2) in f.pair.local_nodes() {
+        let pairs = model.forces.iter().map(|f| &f.pair);
+        for pair in pairs.chain(model.beams.iter().map(|b| &b.pair)) {
+            for (_, n1) in pair.local_nodes() {
+                for (_, n2) in pair.local_nodes() {
                     block(NV * n1, NV * n2, NV, NV);
                 }
             }
@@ -138,6 +141,7 @@ impl<'m> Assembler<'m> {
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
             force_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.forces.len()],
+            beam_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.beams.len()],
             first_row,
         }
     }
@@ -187,6 +191,17 @@ impl<'m> Assembler<'m> {
             reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
             scatter(r, &force.pair, &f);
         }
+        let gravity = model.gravity * self.load;
+        for beam in &model.beams {
+            let terms = beam.terms(q, v, Some(vdot), &gravity, false);
+            let weight = 0.5 * beam.mass() * gravity.norm();
+            reference = terms
+                .internal
+                .iter()
+                .chain(terms.inertia.iter())
+                .fold(reference.max(weight), |m, x| m.max(x.abs()));
+            scatter(r, &beam.pair, &(terms.internal + terms.inertia));
+        }
         Ok(reference)
     }
 
@@ -222,6 +237,10 @@ impl<'m> Assembler<'m> {
         for force in &model.forces {
             let f = -force.terms(q, v, t, self.load)?.force;
             scatter(rhs, &force.pair, &f);
+        }
+        for beam in &model.beams {
+            let terms = beam.terms(q, v, None, &(model.gravity * self.load), false);
+            scatter(rhs, &beam.pair, &-(terms.internal + terms.inertia));
         }
         Ok(())
     }
@@ -275,6 +294,17 @@ impl<'m> Assembler<'m> {
                 self.force_blocks[k] = (terms.stiffness, terms.damping);
             }
         }
+        let gravity = model.gravity * self.load;
+        for (k, beam) in model.beams.iter().enumerate() {
+            let mut block = beam.mass_matrix() * c.beta_prime;
+            if let Some((inc, _)) = c.tangent {
+                let terms = beam.terms(q, v, None, &gravity, true);
+                block += terms.stiffness * local_tangent(&beam.pair, Some(inc))
+                    + terms.damping * c.gamma_prime;
+                self.beam_blocks[k] = (terms.stiffness, terms.damping);
+            }
+            self.add_local(&beam.pair, &block);
+        }
         Ok(())
     }
 
@@ -326,9 +356,13 @@ impl<'m> Assembler<'m> {
                 .zip(b.iter())
                 .for_each(|(c, x)| *c += x);
         }
-        for (element, (stiffness, damping)) in model.forces.iter().zip(&self.force_blocks) {
-            let f = stiffness * gather(&element.pair, eps) + damping * gather(&element.pair, vp);
-            scatter(force, &element.pair, &f);
+        let pairs = model.forces.iter().map(|f| &f.pair);
+        let blocks = self.force_blocks.iter().chain(&self.beam_blocks);
+        for (pair, (stiffness, damping)) in
+            pairs.chain(model.beams.iter().map(|b| &b.pair)).zip(blocks)
+        {
+            let f = stiffness * gather(pair, eps) + damping * gather(pair, vp);
+            scatter(force, pair, &f);
         }
     }
 
@@ -368,10 +402,14 @@ impl<'m> Assembler<'m> {
                 );
             }
         }
-        for (element, (stiffness, damping)) in model.forces.iter().zip(&self.force_blocks) {
-            let y = gather(&element.pair, y_force);
-            scatter(eps_bar, &element.pair, &(stiffness.transpose() * y));
-            scatter(v_bar, &element.pair, &(damping.transpose() * y));
+        let pairs = model.forces.iter().map(|f| &f.pair);
+        let blocks = self.force_blocks.iter().chain(&self.beam_blocks);
+        for (pair, (stiffness, damping)) in
+            pairs.chain(model.beams.iter().map(|b| &b.pair)).zip(blocks)
+        {
+            let y = gather(pair, y_force);
+            scatter(eps_bar, pair, &(stiffness.transpose() * y));
+            scatter(v_bar, pair, &(damping.transpose() * y));
         }
     }
 
@@ -410,15 +448,16 @@ impl<'m> Assembler<'m> {
     /// `mean(diag M)`, the scale of the multipliers' rows at `β' = 1`.
     pub fn mean_mass(&self) -> f64 {
         let model = self.model;
-        if model.bodies.is_empty() {
+        if model.nodes.is_empty() {
             return 1.0;
         }
-        let total: f64 = model
+        let bodies: f64 = model
             .bodies
             .iter()
             .map(|b| 3.0 * b.mass + b.inertia.trace())
             .sum();
-        total / (NV * model.bodies.len()) as f64
+        let beams: f64 = model.beams.iter().map(|b| b.mass_matrix().trace()).sum();
+        (bodies + beams) / model.n_v() as f64
     }
 }
 
@@ -556,9 +595,10 @@ mod tests {
         };
         m.add_motor("motor", 2, 7.0, ramp.clone()).unwrap();
         let (f, moment) = (Vector3::new(3.0, -2.0, 5.0), Vector3::new(0.4, 0.1, -0.3));
-        m.add_load("dead", b2, a2 * 0.7, f, moment, ramp.clone(), false)
+        let at = |point| Anchor::Body { body: b2, point };
+        m.add_load("dead", at(a2 * 0.7), f, moment, ramp.clone(), false)
             .unwrap();
-        m.add_load("follower", b2, -a2, f * 0.5, moment, ramp, true)
+        m.add_load("follower", at(-a2), f * 0.5, moment, ramp, true)
             .unwrap();
         m
     }

@@ -50,6 +50,13 @@ pub enum Anchor {
         /// The point in the body's frame, from its centre of mass (m).
         point: Vector3<f64>,
     },
+    /// A point of a node's frame: a beam's end (`SpatialModel::add_node`).
+    Node {
+        /// The node's index in the model.
+        node: usize,
+        /// The point in the node's frame, from its origin (m).
+        point: Vector3<f64>,
+    },
 }
 
 /// What a joint constrains, its axes in the inertial frame in the initial configuration.

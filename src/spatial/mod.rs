@@ -1,14 +1,16 @@
 //! **The spatial wing**: mechanisms in space on the Lie group `(ℝ³ × SO(3))ⁿ` of
-//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), joints and drives as
-//! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built entry by
-//! entry and checked ([`model`]), its residual and non-symmetric iteration matrix on a fixed
-//! pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by sparse
-//! `LU`.
+//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), geometrically exact
+//! beams between nodes ([`beam`], their sections in [`section`]), joints and drives as
+//! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built
+//! entry by entry and checked ([`model`]), its residual and non-symmetric iteration matrix on
+//! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by
+//! sparse `LU`.
 //!
-//! This is the first part of the spatial engine: rigid bodies, the joints (spherical,
-//! revolute, universal, cylindrical, prismatic, weld), drives, force elements (springs,
-//! motors, loads, [`force`]), static equilibria ([`statics`]) and the exact gradients of the
-//! motion ([`sensitivity`]). Beams and modes come next, on the same group.
+//! Built so far: rigid bodies, beams, the joints (spherical, revolute, universal,
+//! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,
+//! [`force`]), static equilibria ([`statics`]) and the exact gradients of the motion
+//! ([`sensitivity`]) to bodies', force elements' and beams' parameters. Modes, truss bars and
+//! scenes come next, on the same group.
 //!
 //! The heavy top of Brüls, Cardona & Arnold: a body pinned at a point off its centre of mass,
 //! spinning under gravity.
@@ -47,11 +49,13 @@
 //! # }
 //! ```
 
+pub mod beam;
 pub mod body;
 pub mod force;
 pub mod integrator;
 pub mod joint;
 pub mod model;
+pub mod section;
 pub mod sensitivity;
 pub mod statics;
 

@@ -10,10 +10,12 @@ use crate::group::{six, split, Frame, NQ, NV};
 use crate::mechanism::load::TimeFunction;
 use crate::mechanism::motion::Motion;
 use crate::scene::validate::samples;
+use crate::spatial::beam::Beam;
 use crate::spatial::body::Body;
 use crate::spatial::force::{Force, ForceKind};
 use crate::spatial::joint::{Anchor, Joint, JointKind};
 use crate::spatial::pair::{Measure, Pair};
+use crate::spatial::section::Section;
 
 /// Relative gap (of the mechanism's size) below which a joint's points meet, and relative
 /// rate (of the bodies' speeds) below which initial rates satisfy the joints.
@@ -41,6 +43,8 @@ pub struct SpatialModel {
     pub nodes: Vec<Node>,
     /// Rigid bodies.
     pub bodies: Vec<Body>,
+    /// Beams between nodes.
+    pub beams: Vec<Beam>,
     /// Joints, their rows numbered in this order.
     pub joints: Vec<Joint>,
     /// Force elements: springs, motors, loads.
@@ -70,6 +74,7 @@ impl SpatialModel {
         Ok(Self {
             nodes: Vec::new(),
             bodies: Vec::new(),
+            beams: Vec::new(),
             joints: Vec::new(),
             forces: Vec::new(),
             gravity,
@@ -91,20 +96,13 @@ impl SpatialModel {
         inertia: Matrix3<f64>,
     ) -> Result<usize, SceneError> {
         let path = format!("bodies.{name}");
-        if self.bodies.iter().any(|b| b.name == name) {
-            return Err(SceneError::new(path, "a body of this name exists already"));
-        }
-        finite(&format!("{path}.position"), &frame.x)?;
-        let r = frame.r.quaternion();
-        if !(r.coords.iter().all(|c| c.is_finite()) && (r.norm() - 1.0).abs() <= 1e-9) {
+        if self.nodes.iter().any(|n| n.name == name) {
             return Err(SceneError::new(
-                format!("{path}.rotation"),
-                format!(
-                    "({}, {}, {}, {}) is not a unit quaternion",
-                    r.w, r.i, r.j, r.k
-                ),
+                path,
+                "a node or body of this name exists already",
             ));
         }
+        check_frame(&path, &frame)?;
         if !(mass.is_finite() && mass > 0.0) {
             return Err(SceneError::new(
                 format!("{path}.mass"),
@@ -126,6 +124,73 @@ impl SpatialModel {
         Ok(self.bodies.len() - 1)
     }
 
+    /// Adds a node at `frame`, at rest, for beams' ends (its mass comes from them); returns
+    /// its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `nodes.NAME` for a duplicate name (bodies' included), a
+    /// non-finite position or a rotation that is not a unit quaternion.
+    pub fn add_node(&mut self, name: &str, frame: Frame) -> Result<usize, SceneError> {
+        let path = format!("nodes.{name}");
+        if self.nodes.iter().any(|n| n.name == name) {
+            return Err(SceneError::new(
+                path,
+                "a node or body of this name exists already",
+            ));
+        }
+        check_frame(&path, &frame)?;
+        self.nodes.push(Node {
+            name: name.to_string(),
+            frame,
+            velocity: [0.0; NV],
+        });
+        Ok(self.nodes.len() - 1)
+    }
+
+    /// Adds a beam of `section` (at full density) from node `a` to node `b`, its section's
+    /// `e₂` axis the component of `up` across the bar; returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `beams.NAME` for a duplicate name, an unknown node, a section no
+    /// beam has ([`Section::implausible`]), ends that coincide or `up` along the bar.
+    pub fn add_beam(
+        &mut self,
+        name: &str,
+        a: usize,
+        b: usize,
+        section: &Section,
+        up: Vector3<f64>,
+    ) -> Result<usize, SceneError> {
+        let path = format!("beams.{name}");
+        if self.beams.iter().any(|b| b.name == name) {
+            return Err(SceneError::new(path, "a beam of this name exists already"));
+        }
+        let node = |n: usize, end: &str| {
+            self.nodes.get(n).map(|node| &node.frame).ok_or_else(|| {
+                SceneError::new(
+                    format!("{path}.{end}"),
+                    format!("no node {n} (the mechanism has {})", self.nodes.len()),
+                )
+            })
+        };
+        let frames = [node(a, "a")?, node(b, "b")?];
+        if let Some(what) = section.implausible() {
+            return Err(SceneError::new(
+                format!("{path}.section"),
+                format!("its {what} must be positive and finite (damping not negative)"),
+            ));
+        }
+        finite(&format!("{path}.up"), &up)?;
+        let beam = Beam::new(name, [a, b], frames, &up, section).ok_or_else(|| {
+            SceneError::new(
+                &path,
+                "its ends coincide, or `up` lies along it: a beam needs a length and a section's axis across it",
+            )
+        })?;
+        self.beams.push(beam);
+        Ok(self.beams.len() - 1)
+    }
+
     /// Sets body `body`'s initial rates: the velocity of its centre of mass (m/s, inertial
     /// frame) and its angular velocity (rad/s, in its own frame).
     ///
@@ -141,12 +206,29 @@ impl SpatialModel {
             .bodies
             .get(body)
             .ok_or_else(|| SceneError::new(format!("bodies[{body}]"), "no such body"))?;
-        let path = format!("bodies.{}", b.name);
+        self.set_node_rates(b.node, velocity, angular_velocity)
+    }
+
+    /// Sets node `node`'s initial rates: the velocity of its origin (m/s, inertial frame)
+    /// and its angular velocity (rad/s, in its own frame).
+    ///
+    /// # Errors
+    /// A [`SceneError`] for an unknown node or non-finite rates.
+    pub fn set_node_rates(
+        &mut self,
+        node: usize,
+        velocity: Vector3<f64>,
+        angular_velocity: Vector3<f64>,
+    ) -> Result<(), SceneError> {
+        let n = self
+            .nodes
+            .get_mut(node)
+            .ok_or_else(|| SceneError::new(format!("nodes[{node}]"), "no such node"))?;
+        let path = format!("nodes.{}", n.name);
         finite(&format!("{path}.velocity"), &velocity)?;
         finite(&format!("{path}.angular_velocity"), &angular_velocity)?;
-        let v = &mut self.nodes[b.node].velocity;
-        v[..3].copy_from_slice(velocity.as_slice());
-        v[3..].copy_from_slice(angular_velocity.as_slice());
+        n.velocity[..3].copy_from_slice(velocity.as_slice());
+        n.velocity[3..].copy_from_slice(angular_velocity.as_slice());
         Ok(())
     }
 
@@ -347,26 +429,30 @@ impl SpatialModel {
         Ok(self.forces.len() - 1)
     }
 
-    /// Adds a load at body `body`'s `point` (m, body frame from its centre of mass): a force
-    /// (N) and a moment (N m) scaled by `g(t)`, fixed in space or, for a `follower`, in the
-    /// body; returns its index.
+    /// Adds a load at a body's or a node's point: a force (N) and a moment (N m) scaled by
+    /// `g(t)`, fixed in space or, for a `follower`, in the body; returns its index.
     ///
     /// # Errors
-    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an unknown body or non-finite
-    /// values.
-    #[allow(clippy::too_many_arguments)]
+    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an anchor on the ground, an
+    /// unknown body or node, or non-finite values.
     pub fn add_load(
         &mut self,
         name: &str,
-        body: usize,
-        point: Vector3<f64>,
+        at: Anchor,
         force: Vector3<f64>,
         moment: Vector3<f64>,
         time: TimeFunction,
         follower: bool,
     ) -> Result<usize, SceneError> {
         let path = self.new_force(name)?;
-        let (node, arm) = self.resolve(&path, Anchor::Body { body, point })?;
+        let (node, arm) = self.resolve(&path, at)?;
+        let Some(node) = node else {
+            return Err(SceneError::new(
+                path,
+                "a load acts on a body's or a node's point, not on the ground",
+            ));
+        };
+        let node = Some(node);
         finite(&format!("{path}.force"), &force)?;
         finite(&format!("{path}.moment"), &moment)?;
         Self::check_time(&path, &time)?;
@@ -408,6 +494,16 @@ impl SpatialModel {
                 })?;
                 finite(path, &point)?;
                 Ok((Some(b.node), point))
+            }
+            Anchor::Node { node, point } => {
+                if node >= self.nodes.len() {
+                    return Err(SceneError::new(
+                        path,
+                        format!("no node {node} (the mechanism has {})", self.nodes.len()),
+                    ));
+                }
+                finite(path, &point)?;
+                Ok((Some(node), point))
             }
         }
     }
@@ -512,35 +608,86 @@ impl SpatialModel {
 
     /// Kinetic energy at velocity `v` (J).
     pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
-        self.bodies
-            .iter()
-            .map(|b| b.kinetic_energy(&six(v, b.node)))
-            .sum()
-    }
-
-    /// Potential energy at `q` (J): of gravity, zero at the origin, of the springs and of
-    /// the constant dead forces ([`Force::potential`]).
-    pub fn potential_energy(&self, q: &[f64]) -> f64 {
-        let gravity: f64 = self
+        let bodies: f64 = self
             .bodies
             .iter()
-            .map(|b| -b.mass * self.gravity.dot(&Frame::read(q, b.node).x))
+            .map(|b| b.kinetic_energy(&six(v, b.node)))
             .sum();
-        gravity + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
+        bodies + self.beams.iter().map(|b| b.kinetic_energy(v)).sum::<f64>()
+    }
+
+    /// Potential energy at `q` (J): of gravity, zero at the origin, of the beams' strains,
+    /// of the springs and of the constant dead forces ([`Force::potential`]).
+    pub fn potential_energy(&self, q: &[f64]) -> f64 {
+        let height = |node: usize| -self.gravity.dot(&Frame::read(q, node).x);
+        let bodies: f64 = self.bodies.iter().map(|b| b.mass * height(b.node)).sum();
+        let beams: f64 = self
+            .beams
+            .iter()
+            .map(|b| {
+                let [n1, n2] = b.nodes();
+                0.5 * b.mass() * (height(n1) + height(n2)) + b.strain_energy(q)
+            })
+            .sum();
+        bodies + beams + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
     }
 
     /// Angular momentum about the point `c` of the inertial frame (kg m²/s):
-    /// `Σ m (x − c) × u̇ + R J Ω`.
+    /// `Σ (x − c) × p + R J Ω` over the nodes, `p` and `J Ω` their shares of the momenta
+    /// (`M v`).
     pub fn angular_momentum(&self, q: &[f64], v: &[f64], c: &Vector3<f64>) -> Vector3<f64> {
-        self.bodies
-            .iter()
-            .map(|b| {
-                let f = Frame::read(q, b.node);
-                let (u, omega) = split(&six(v, b.node));
-                (f.x - c).cross(&u) * b.mass + f.r * (b.inertia * omega)
+        let mut momenta = vec![0.0; self.n_v()];
+        for b in &self.bodies {
+            let p = b.mass_matrix() * nalgebra::Vector6::from(six(v, b.node));
+            momenta[NV * b.node..NV * b.node + NV].copy_from_slice(p.as_slice());
+        }
+        for b in &self.beams {
+            b.add_momenta(v, &mut momenta);
+        }
+        (0..self.nodes.len())
+            .map(|n| {
+                let f = Frame::read(q, n);
+                let (p, spin) = split(&six(&momenta, n));
+                (f.x - c).cross(&p) + f.r * spin
             })
             .sum()
     }
+
+    /// Checks that every node carries mass: a body's, or a beam's.
+    ///
+    /// # Errors
+    /// A [`SceneError`] naming the first node with none.
+    pub fn check_masses(&self) -> Result<(), SceneError> {
+        let mut carried = vec![false; self.nodes.len()];
+        self.bodies.iter().for_each(|b| carried[b.node] = true);
+        self.beams
+            .iter()
+            .flat_map(Beam::nodes)
+            .for_each(|n| carried[n] = true);
+        match carried.iter().position(|c| !c) {
+            Some(n) => Err(SceneError::new(
+                format!("nodes.{}", self.nodes[n].name),
+                "carries no mass: end a beam on it, or make it a body",
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A frame a node can have: a finite position, a unit quaternion.
+fn check_frame(path: &str, frame: &Frame) -> Result<(), SceneError> {
+    finite(&format!("{path}.position"), &frame.x)?;
+    let r = frame.r.quaternion();
+    if !(r.coords.iter().all(|c| c.is_finite()) && (r.norm() - 1.0).abs() <= 1e-9) {
+        return Err(SceneError::new(
+            format!("{path}.rotation"),
+            format!(
+                "({}, {}, {}, {}) is not a unit quaternion",
+                r.w, r.i, r.j, r.k
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// An inertia tensor a body can have: symmetric, its principal moments positive and each
@@ -745,8 +892,10 @@ mod tests {
         let err = m
             .add_load(
                 "l",
-                b,
-                Vector3::zeros(),
+                Anchor::Body {
+                    body: b,
+                    point: Vector3::zeros(),
+                },
                 nan,
                 Vector3::zeros(),
                 TimeFunction::Constant,
@@ -757,8 +906,10 @@ mod tests {
         assert!(m
             .add_load(
                 "l",
-                3,
-                Vector3::zeros(),
+                Anchor::Body {
+                    body: 3,
+                    point: Vector3::zeros(),
+                },
                 Vector3::x(),
                 Vector3::zeros(),
                 TimeFunction::Constant,

@@ -69,6 +69,18 @@ pub enum Parameter {
         /// The force element.
         force: usize,
     },
+    /// A factor `s` on a beam's section stiffnesses (`EA, κGA, GJ, EI` and with them its
+    /// Kelvin–Voigt damping), at `s = 1`: a density's derivative is `E'(x)/E(x)` times this.
+    BeamStiffness {
+        /// The beam.
+        beam: usize,
+    },
+    /// A factor on a beam's mass and rotary inertia per length (and with them its weight
+    /// and Rayleigh `α M` damping), at 1.
+    BeamMass {
+        /// The beam.
+        beam: usize,
+    },
 }
 
 /// A response of a spatial motion.
@@ -78,6 +90,13 @@ pub enum Response {
     Position {
         /// The body.
         body: usize,
+        /// 0, 1, 2 for x, y, z.
+        axis: usize,
+    },
+    /// A coordinate of a node's origin at the end of the run (m): a beam's end.
+    NodePosition {
+        /// The node.
+        node: usize,
         /// 0, 1, 2 for x, y, z.
         axis: usize,
     },
@@ -113,16 +132,25 @@ fn check(
             )
         })
     };
+    let axis = |axis: usize, k: usize| {
+        (axis <= 2).then_some(()).ok_or_else(|| {
+            SettingsError::new(format!("responses[{k}]"), format!("axis {axis}: 0, 1 or 2"))
+        })
+    };
     for (k, r) in responses.iter().enumerate() {
         match *r {
-            Response::Position { body: b, axis } => {
+            Response::Position { body: b, axis: a } => {
                 body(b, format!("responses[{k}]"))?;
-                if axis > 2 {
+                axis(a, k)?;
+            }
+            Response::NodePosition { node, axis: a } => {
+                if node >= model.nodes.len() {
                     return Err(SettingsError::new(
                         format!("responses[{k}]"),
-                        format!("axis {axis}: 0, 1 or 2"),
+                        format!("no node {node} (the mechanism has {})", model.nodes.len()),
                     ));
                 }
+                axis(a, k)?;
             }
             Response::Effort { joint, row } => {
                 let rows = model.joints.get(joint).map(|j| j.n_rows());
@@ -157,6 +185,14 @@ fn check(
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
                         format!("force element {force} is not a motor"),
+                    ));
+                }
+            }
+            Parameter::BeamStiffness { beam } | Parameter::BeamMass { beam } => {
+                if beam >= model.beams.len() {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("no beam {beam} (the mechanism has {})", model.beams.len()),
                     ));
                 }
             }
@@ -271,8 +307,8 @@ impl<'m> Sweep<'m> {
     /// The value of a response over the stored run.
     fn value(&self, r: &Response) -> f64 {
         match *r {
-            Response::Position { body, axis } => {
-                let node = self.model().bodies[body].node;
+            Response::Position { .. } | Response::NodePosition { .. } => {
+                let (node, axis) = self.position(r);
                 Frame::read(&self.states[self.states.len() - 1].q, node).x[axis]
             }
             Response::Effort { joint, row } => {
@@ -281,6 +317,15 @@ impl<'m> Sweep<'m> {
                     .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
                     .sum()
             }
+        }
+    }
+
+    /// A position response's node and axis.
+    fn position(&self, r: &Response) -> (usize, usize) {
+        match *r {
+            Response::Position { body, axis } => (self.model().bodies[body].node, axis),
+            Response::NodePosition { node, axis } => (node, axis),
+            Response::Effort { .. } => unreachable!("not a position"),
         }
     }
 
@@ -296,9 +341,10 @@ impl<'m> Sweep<'m> {
         eps.fill(0.0);
         lam.fill(0.0);
         match *r {
-            Response::Position { body, axis } => {
+            Response::Position { .. } | Response::NodePosition { .. } => {
                 if n + 1 == self.states.len() {
-                    eps[NV * self.model().bodies[body].node + axis] = 1.0;
+                    let (node, axis) = self.position(r);
+                    eps[NV * node + axis] = 1.0;
                 }
             }
             Response::Effort { joint, row } => {
@@ -349,6 +395,16 @@ impl<'m> Sweep<'m> {
                     element.pair.nodes,
                     element.parameter_rate(which, &s.q, &s.qdot, s.t),
                 )
+            }
+            Parameter::BeamStiffness { beam } | Parameter::BeamMass { beam } => {
+                // Both forces are linear in their factor: their derivative is themselves.
+                let b = &model.beams[beam];
+                let terms = b.terms(&s.q, &s.qdot, Some(&s.qddot), &model.gravity, false);
+                let local = match p {
+                    Parameter::BeamStiffness { .. } => terms.internal,
+                    _ => terms.inertia,
+                };
+                (b.pair.nodes, local)
             }
         }
     }

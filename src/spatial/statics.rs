@@ -55,6 +55,7 @@ pub fn solve_static_spatial(
         )
         .into());
     }
+    model.check_masses()?;
     let asm = Assembler::new(model);
     let p = &asm.pattern;
     let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
@@ -196,8 +197,9 @@ impl Spatial<'_> {
     }
 }
 
-/// The mechanism's stiffness scale (N/m): its springs' `k`, and its weights, loads and
-/// motors per its size.
+/// The mechanism's stiffness scale (N/m): its springs' `k`, and its weights (beams'
+/// included), loads and motors per its size. Not the beams' stiffness: an `εM` of it
+/// would slow Newton's convergence on their soft modes, which it does not need to hold.
 fn stiffness_scale(model: &SpatialModel) -> f64 {
     let size = model.size();
     let weights: f64 = model
@@ -206,6 +208,11 @@ fn stiffness_scale(model: &SpatialModel) -> f64 {
         .map(|b| b.mass * model.gravity.norm())
         .sum::<f64>()
         / size;
+    let beams: f64 = model
+        .beams
+        .iter()
+        .map(|b| b.mass() * model.gravity.norm() / size)
+        .sum();
     let forces: f64 = model
         .forces
         .iter()
@@ -217,5 +224,5 @@ fn stiffness_scale(model: &SpatialModel) -> f64 {
             }
         })
         .sum();
-    (weights + forces).max(f64::MIN_POSITIVE)
+    (weights + beams + forces).max(f64::MIN_POSITIVE)
 }

@@ -7,6 +7,7 @@ mod dynamics;
 mod guides;
 mod sensitivity;
 mod spatial;
+mod spatial_beams;
 mod spatial_forces;
 mod spatial_joints;
 mod spatial_sensitivity;

@@ -166,8 +166,10 @@ fn bodies_on_a_spring_under_a_dead_load_keep_their_energy() {
     .unwrap();
     m.add_load(
         "push",
-        a,
-        Vector3::new(0.0, 0.1, 0.05),
+        Anchor::Body {
+            body: a,
+            point: Vector3::new(0.0, 0.1, 0.05),
+        },
         Vector3::new(0.0, 0.0, 2.0),
         Vector3::zeros(),
         TimeFunction::Constant,

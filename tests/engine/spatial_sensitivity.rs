@@ -35,6 +35,18 @@ fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
             (ForceKind::Motor { torque, .. }, _) => *torque += e,
             _ => unreachable!("the parameters below name their elements' kinds"),
         },
+        Parameter::BeamStiffness { beam } => {
+            let s = &mut m.beams[beam].section;
+            s.c_n
+                .iter_mut()
+                .chain(&mut s.c_m)
+                .for_each(|c| *c *= 1.0 + e);
+        }
+        Parameter::BeamMass { beam } => {
+            let s = &mut m.beams[beam].section;
+            s.rho_a *= 1.0 + e;
+            s.rho_i.iter_mut().for_each(|c| *c *= 1.0 + e);
+        }
     }
     m
 }
@@ -61,11 +73,12 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
             ForceKind::Motor { torque, .. } => 1e-3 * torque.abs(),
             ForceKind::Load { .. } => unreachable!("loads have no parameter"),
         },
+        Parameter::BeamStiffness { .. } | Parameter::BeamMass { .. } => 1e-3,
     }
 }
 
 /// Checks both methods against fourth-order differences and each other.
-fn check(
+pub fn check(
     model: &SpatialModel,
     rho_inf: f64,
     grid: &TimeGrid,
@@ -276,8 +289,10 @@ fn every_joint_kind_has_exact_gradients() {
     let push = (Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.01, 0.0, 0.0));
     m.add_load(
         "push",
-        bracket,
-        Vector3::new(0.02, 0.0, 0.0),
+        Anchor::Body {
+            body: bracket,
+            point: Vector3::new(0.02, 0.0, 0.0),
+        },
         push.0,
         push.1,
         TimeFunction::Constant,

@@ -89,8 +89,10 @@ fn a_pushed_pendulum_leans_to_its_closed_form() {
     let side = n.cross(&Vector3::z());
     m.add_load(
         "push",
-        b,
-        Vector3::zeros(),
+        Anchor::Body {
+            body: b,
+            point: Vector3::zeros(),
+        },
         side * push,
         Vector3::zeros(),
         TimeFunction::Constant,

@@ -1,0 +1,557 @@
+//! The geometrically exact spatial beam (Simo–Reissner) on two nodes of `ℝ³ × SO(3)`,
+//! integrated at one point.
+//!
+//! Each node carries the element's frame through a constant offset, `Λ = R E` (`E` the
+//! element's axes `e₁` along the bar, `e₂, e₃` the section's, in the node's frame at the
+//! start). With `d = x_B − x_A`, `pᵢ = Λᵢᵀ d` and the relative rotation `ψ = log(Λ_Aᵀ Λ_B)`,
+//! the strains of the element of length `L` are
+//!
+//! ```text
+//! Γ = (p_A + p_B)/(2L) − Γ₀          (axial and shear: the chord in the mean of the end frames)
+//! κ = (ψ − ψ₀)/L                      (torsion and bending: a rotation of constant curvature)
+//! W = L/2 (Γᵀ C_N Γ + κᵀ C_M κ)       (section.rs; Γ₀, ψ₀ their values at the start)
+//! ```
+//!
+//! Both strains are unchanged by any rigid motion, so a rigid motion strains nothing at any
+//! rotation. Linearized about a straight bar they are the reduced-integration Timoshenko
+//! element's, with no shear locking; the shear stiffness carries MacNeal's residual bending
+//! flexibility, `1/(κGA)_eff = 1/(κGA) + L²/(12 EI)`, which makes the element's linear
+//! stiffness the exact one of a Timoshenko bar: one element per bar gives a cantilever's tip
+//! deflection `PL³/3EI + PL/κGA` and rotation exactly.
+//!
+//! Variations on the element's rotations `a = E_Aᵀ δθ_A`, `b = E_Bᵀ δθ_B` (right-trivialized):
+//!
+//! ```text
+//! δΓ = [p̃_A a + p̃_B b + (Λ_A + Λ_B)ᵀ (δx_B − δx_A)]/(2L)
+//! δψ = T⁻¹(ψ) b − T⁻¹(−ψ) a          (so3.rs: T⁻¹(ψ) exp(−ψ̃) = T⁻¹(−ψ))
+//! ```
+//!
+//! so `f = L Bᵀ σ`, `σ = [N; M] = C ε + β C ε̇` (Kelvin–Voigt), and the tangent
+//! `K = L Bᵀ C B + G(σ) + L Bᵀ β C R(v)` is exact: `G` the derivative of `Bᵀ` at fixed
+//! stresses, `R` of `B v` at fixed rates, both through `∂(T⁻¹(θ) w)/∂θ`.
+//!
+//! Inertia: the translational mass consistent with linear interpolation,
+//! `ρAL/6 [2I I; I 2I]`, and half the element's rotary inertia at each end, a rigid body's
+//! `J Ω̇ + Ω × JΩ` there; gravity as `ρAL/2` at each end; Rayleigh's `α M` on both.
+
+use nalgebra::{Matrix3, Matrix6, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
+
+use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
+use crate::group::{six, split, Frame, NV};
+use crate::spatial::force::Local;
+use crate::spatial::pair::{Pair, Stiffness};
+use crate::spatial::section::Section;
+
+/// The strain–displacement matrix `B` on the twelve local unknowns.
+type Strain = SMatrix<f64, 6, 12>;
+
+/// A two-node spatial beam (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Beam {
+    /// Its name in the scene.
+    pub name: String,
+    /// Its section, scaled as the element sees it (MacNeal's shear stiffness included).
+    pub section: Section,
+    /// Its length at the start `L` (m).
+    pub length: f64,
+    /// The element's axes in each node's frame, `E_A` and `E_B`.
+    pub(crate) offsets: [UnitQuaternion<f64>; 2],
+    /// `Γ₀` and `ψ₀`: the strains' values at the start.
+    pub(crate) reference: Vector6<f64>,
+    pub(crate) pair: Pair,
+}
+
+/// What the element's state gives, in its own axes.
+struct Kinematics {
+    /// `Λ_A, Λ_B` in the inertial frame.
+    frames: [Matrix3<f64>; 2],
+    /// `p_A, p_B`.
+    chord: [Vector3<f64>; 2],
+    psi: Vector3<f64>,
+    /// `T⁻¹(ψ)`, `T⁻¹(−ψ)`.
+    tinv: [Matrix3<f64>; 2],
+}
+
+/// A beam's terms at one state, on its twelve local unknowns.
+pub(crate) struct Terms {
+    /// Elastic and Kelvin–Voigt forces `L Bᵀ σ`.
+    pub internal: Local,
+    /// Inertia, weight and `α M v`.
+    pub inertia: Local,
+    /// `∂f/∂q`.
+    pub stiffness: Stiffness,
+    /// `∂f/∂v` but for the mass: Kelvin–Voigt's, `α M` and the gyroscopic matrix.
+    pub damping: Stiffness,
+}
+
+impl Beam {
+    /// The element between nodes `a` and `b` at `frames` (their initial frames), its
+    /// section's `e₂` axis the component of `up` across the bar, of `section` at full
+    /// density; `None` where the nodes coincide or `up` lies along the bar.
+    pub(crate) fn new(
+        name: &str,
+        nodes: [usize; 2],
+        frames: [&Frame; 2],
+        up: &Vector3<f64>,
+        section: &Section,
+    ) -> Option<Self> {
+        let d = frames[1].x - frames[0].x;
+        let length = d.norm();
+        if !length.is_finite() || length <= 0.0 {
+            return None;
+        }
+        let e1 = d / length;
+        let across = up - e1 * e1.dot(up);
+        if across.norm() <= 1e-9 * up.norm() || across.norm().is_nan() {
+            return None;
+        }
+        let e2 = across.normalize();
+        let axes = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
+            Matrix3::from_columns(&[e1, e2, e1.cross(&e2)]),
+        ));
+        let offsets = frames.map(|f| f.r.inverse() * axes);
+        let mut section = *section;
+        // MacNeal's residual bending flexibility: shear along e₂ bends about e₃, and so on.
+        for (k, bending) in [(1, 2), (2, 1)] {
+            let flexible = 1.0 / section.c_n[k] + length * length / (12.0 * section.c_m[bending]);
+            section.c_n[k] = 1.0 / flexible;
+        }
+        let mut beam = Self {
+            name: name.to_string(),
+            section,
+            length,
+            offsets,
+            reference: Vector6::zeros(),
+            pair: Pair {
+                nodes: [Some(nodes[0]), Some(nodes[1])],
+                arms: [Vector3::zeros(); 2],
+            },
+        };
+        beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
+        Some(beam)
+    }
+
+    /// The element's nodes.
+    pub fn nodes(&self) -> [usize; 2] {
+        self.pair.nodes.map(|n| n.expect("a beam's ends are nodes"))
+    }
+
+    fn kinematics(&self, q: &[f64]) -> Kinematics {
+        let [a, b] = self.nodes().map(|n| Frame::read(q, n));
+        self.kinematics_of(&a, &b)
+    }
+
+    fn kinematics_of(&self, a: &Frame, b: &Frame) -> Kinematics {
+        let (la, lb) = (a.r * self.offsets[0], b.r * self.offsets[1]);
+        let psi = log(&(la.inverse() * lb));
+        let frames = [la, lb].map(|r| r.to_rotation_matrix().into_inner());
+        let d = b.x - a.x;
+        Kinematics {
+            frames,
+            chord: frames.map(|f| f.transpose() * d),
+            psi,
+            tinv: [tangent_inverse(&psi), tangent_inverse(&-psi)],
+        }
+    }
+
+    /// `[(p_A + p_B)/(2L); ψ]`, the strains before their reference is taken off.
+    fn measures(&self, k: &Kinematics) -> Vector6<f64> {
+        let g = (k.chord[0] + k.chord[1]) / (2.0 * self.length);
+        Vector6::new(g.x, g.y, g.z, k.psi.x, k.psi.y, k.psi.z)
+    }
+
+    /// The strains `ε = [Γ; κ]` at `q`.
+    fn strains(&self, k: &Kinematics) -> Vector6<f64> {
+        let mut e = self.measures(k) - self.reference;
+        e.fixed_rows_mut::<3>(3).scale_mut(1.0 / self.length);
+        e
+    }
+
+    /// `diag(C_N, C_M)`.
+    fn elasticity(&self) -> Vector6<f64> {
+        let [n, m] = [self.section.c_n, self.section.c_m];
+        Vector6::new(n[0], n[1], n[2], m[0], m[1], m[2])
+    }
+
+    /// `B` on the element's unknowns `(δx_A, a, δx_B, b)` (module docs).
+    fn strain_matrix(&self, k: &Kinematics) -> Strain {
+        let l = self.length;
+        let mean = (k.frames[0] + k.frames[1]).transpose() / (2.0 * l);
+        let mut b = Strain::zeros();
+        b.fixed_view_mut::<3, 3>(0, 0).copy_from(&-mean);
+        b.fixed_view_mut::<3, 3>(0, 6).copy_from(&mean);
+        b.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(hat(&k.chord[0]) / (2.0 * l)));
+        b.fixed_view_mut::<3, 3>(0, 9)
+            .copy_from(&(hat(&k.chord[1]) / (2.0 * l)));
+        b.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-k.tinv[1] / l));
+        b.fixed_view_mut::<3, 3>(3, 9).copy_from(&(k.tinv[0] / l));
+        b
+    }
+
+    /// `G(σ)`: the derivative of `L Bᵀ σ` at fixed `σ = [N; M]`, element unknowns.
+    fn geometric(&self, k: &Kinematics, sigma: &Vector6<f64>) -> Stiffness {
+        let (n, m) = (
+            sigma.fixed_rows::<3>(0).into_owned(),
+            sigma.fixed_rows::<3>(3).into_owned(),
+        );
+        let nt = hat(&n);
+        let [la, lb] = k.frames;
+        // δψ = T⁻¹(ψ) b − T⁻¹(−ψ) a, and the moments' derivatives through it.
+        let (dpos, dneg) = (
+            tangent_inverse_derivative(&k.psi, &m),
+            tangent_inverse_derivative(&-k.psi, &m),
+        );
+        let mut g = Stiffness::zeros();
+        let mut put = |r: usize, c: usize, block: Matrix3<f64>| {
+            let mut v = g.fixed_view_mut::<3, 3>(r, c);
+            v += block;
+        };
+        // f_x = ∓ ½ (Λ_A + Λ_B) N.
+        for (row, sign) in [(0, 0.5), (6, -0.5)] {
+            put(row, 3, la * nt * sign);
+            put(row, 9, lb * nt * sign);
+        }
+        // f_a = ½ N × p_A − T⁻¹(ψ) M, f_b = ½ N × p_B + T⁻¹(−ψ) M.
+        for (row, frame, chord) in [(3, la, k.chord[0]), (9, lb, k.chord[1])] {
+            let across = nt * frame.transpose() * 0.5;
+            put(row, 0, -across);
+            put(row, 6, across);
+            put(row, row, nt * hat(&chord) * 0.5);
+        }
+        put(3, 3, dpos * k.tinv[1]);
+        put(3, 9, -dpos * k.tinv[0]);
+        put(9, 3, dneg * k.tinv[1]);
+        put(9, 9, -dneg * k.tinv[0]);
+        g
+    }
+
+    /// `R(v)`: the derivative of `B v` at fixed rates `v` (element unknowns).
+    fn rate_derivative(&self, k: &Kinematics, v: &Local) -> Strain {
+        let l = self.length;
+        let w = v.fixed_rows::<3>(6) - v.fixed_rows::<3>(0);
+        let omega = [
+            v.fixed_rows::<3>(3).into_owned(),
+            v.fixed_rows::<3>(9).into_owned(),
+        ];
+        let mut r = Strain::zeros();
+        for (side, rate) in omega.iter().enumerate() {
+            let (frame, chord) = (k.frames[side], k.chord[side]);
+            let turn = 3 + 6 * side;
+            // −ω̃ δp, δp = p̃ θ + Λᵀ (δx_B − δx_A); and δ(Λᵀ w) = (Λᵀw)~ θ.
+            let mut block = r.fixed_view_mut::<3, 3>(0, turn);
+            block += (-hat(rate) * hat(&chord) + hat(&(frame.transpose() * w))) / (2.0 * l);
+            let across = -hat(rate) * frame.transpose() / (2.0 * l);
+            let mut xa = r.fixed_view_mut::<3, 3>(0, 0);
+            xa -= across;
+            let mut xb = r.fixed_view_mut::<3, 3>(0, 6);
+            xb += across;
+        }
+        // κ̇ = [T⁻¹(ψ) ω_b − T⁻¹(−ψ) ω_a]/L.
+        let d = (tangent_inverse_derivative(&k.psi, &omega[1])
+            + tangent_inverse_derivative(&-k.psi, &omega[0]))
+            / l;
+        r.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-d * k.tinv[1]));
+        r.fixed_view_mut::<3, 3>(3, 9).copy_from(&(d * k.tinv[0]));
+        r
+    }
+
+    /// `P = diag(I, E_A, I, E_B)`: element unknowns from the nodes', `y = Pᵀ y_node`.
+    fn to_nodes(&self) -> Stiffness {
+        let mut p = Stiffness::identity();
+        for side in 0..2 {
+            p.fixed_view_mut::<3, 3>(6 * side + 3, 6 * side + 3)
+                .copy_from(self.offsets[side].to_rotation_matrix().matrix());
+        }
+        p
+    }
+
+    /// The two ends' mass matrices' rotary blocks `J` in the nodes' frames (kg m²).
+    fn rotary_inertia(&self) -> [Matrix3<f64>; 2] {
+        let j = Matrix3::from_diagonal(&Vector3::from(self.section.rho_i)) * (0.5 * self.length);
+        self.offsets.map(|e| {
+            let e = e.to_rotation_matrix().into_inner();
+            e * j * e.transpose()
+        })
+    }
+
+    /// The element's mass `ρAL` (kg).
+    pub fn mass(&self) -> f64 {
+        self.section.rho_a * self.length
+    }
+
+    /// `M` on the twelve local unknowns (module docs).
+    pub(crate) fn mass_matrix(&self) -> Stiffness {
+        let m = self.mass() / 6.0;
+        let mut out = Stiffness::zeros();
+        for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
+            out.fixed_view_mut::<3, 3>(r, c)
+                .copy_from(&(Matrix3::identity() * (m * w)));
+        }
+        for (side, j) in self.rotary_inertia().iter().enumerate() {
+            out.fixed_view_mut::<3, 3>(6 * side + 3, 6 * side + 3)
+                .copy_from(j);
+        }
+        out
+    }
+
+    /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` (module docs); their
+    /// derivatives too where `tangent`, else zeros there.
+    pub(crate) fn terms(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        vdot: Option<&[f64]>,
+        g: &Vector3<f64>,
+        tangent: bool,
+    ) -> Terms {
+        let k = self.kinematics(q);
+        let p = self.to_nodes();
+        let rates = self.local(v);
+        let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
+        let element_rates = p.transpose() * rates;
+        let b = self.strain_matrix(&k);
+        let c = Matrix6::from_diagonal(&self.elasticity());
+        let (l, beta, alpha) = (self.length, self.section.beta, self.section.alpha);
+        let sigma = c * (self.strains(&k) + b * element_rates * beta);
+        let mass = self.mass_matrix();
+        let mut inertia = mass * (accelerations + rates * alpha);
+        let j = self.rotary_inertia();
+        let spins = self.nodes().map(|n| split(&six(v, n)).1);
+        for side in 0..2 {
+            let mut f = inertia.fixed_rows_mut::<3>(6 * side);
+            f -= g * (0.5 * self.mass());
+            let mut moment = inertia.fixed_rows_mut::<3>(6 * side + 3);
+            moment += spins[side].cross(&(j[side] * spins[side]));
+        }
+        let mut terms = Terms {
+            internal: p * (b.transpose() * sigma * l),
+            inertia,
+            stiffness: Stiffness::zeros(),
+            damping: Stiffness::zeros(),
+        };
+        if tangent {
+            let material = b.transpose() * c * b * l;
+            let mut stiffness = material + self.geometric(&k, &sigma);
+            if beta > 0.0 {
+                stiffness +=
+                    b.transpose() * c * self.rate_derivative(&k, &element_rates) * (l * beta);
+            }
+            terms.stiffness = p * stiffness * p.transpose();
+            terms.damping = p * material * p.transpose() * beta + mass * alpha;
+            for side in 0..2 {
+                let (w, at) = (spins[side], 6 * side + 3);
+                let mut gyroscopic = terms.damping.fixed_view_mut::<3, 3>(at, at);
+                gyroscopic += hat(&w) * j[side] - hat(&(j[side] * w));
+            }
+        }
+        terms
+    }
+
+    /// Strain energy `L/2 εᵀ C ε` at `q` (J).
+    pub fn strain_energy(&self, q: &[f64]) -> f64 {
+        let e = self.strains(&self.kinematics(q));
+        0.5 * self.length * e.dot(&self.elasticity().component_mul(&e))
+    }
+
+    /// Kinetic energy `½ vᵀ M v` at `v` (J).
+    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+        let local = self.local(v);
+        0.5 * local.dot(&(self.mass_matrix() * local))
+    }
+
+    /// Adds the element's shares of the nodes' momenta `M v` to `out` (six per node).
+    pub(crate) fn add_momenta(&self, v: &[f64], out: &mut [f64]) {
+        let p = self.mass_matrix() * self.local(v);
+        for (side, node) in self.nodes().into_iter().enumerate() {
+            out[NV * node..NV * node + NV]
+                .iter_mut()
+                .zip(p.fixed_rows::<NV>(NV * side).iter())
+                .for_each(|(o, x)| *o += x);
+        }
+    }
+
+    /// The element's twelve local numbers of a six-per-node vector.
+    fn local(&self, x: &[f64]) -> Local {
+        let mut out = Local::zeros();
+        for (side, node) in self.nodes().into_iter().enumerate() {
+            out.fixed_rows_mut::<NV>(NV * side)
+                .copy_from_slice(&six(x, node));
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::group::so3::exp;
+    use crate::spatial::section::Shape;
+
+    fn section() -> Section {
+        let geometry = Shape::Rectangle { b: 0.03, h: 0.05 }.geometry(0.3).unwrap();
+        Section::new(&geometry, 7.0e10, 2.7e10, 2700.0).with_rayleigh(0.8, 2e-3)
+    }
+
+    /// A beam between two turned nodes, and a state well away from its start: the ends
+    /// turned by half a radian against each other, moving.
+    fn beam_and_state() -> (Beam, Vec<f64>, Vec<f64>, Vec<f64>) {
+        let a = Frame::new(
+            Vector3::new(0.1, -0.2, 0.3),
+            exp(&Vector3::new(0.4, -0.2, 1.1)),
+        );
+        let b = Frame::new(
+            Vector3::new(0.9, 0.3, 0.1),
+            exp(&Vector3::new(-0.7, 0.5, 0.2)),
+        );
+        let beam = Beam::new(
+            "bar",
+            [0, 1],
+            [&a, &b],
+            &Vector3::new(0.0, 0.3, 1.0),
+            &section(),
+        )
+        .unwrap();
+        let mut q = vec![0.0; 14];
+        a.retract(&[0.01, 0.02, -0.01, 0.3, -0.1, 0.2])
+            .write(&mut q, 0);
+        b.retract(&[-0.02, 0.05, 0.03, -0.2, 0.4, 0.1])
+            .write(&mut q, 1);
+        let v = (0..12).map(|i| ((i as f64) * 1.3).sin() * 30.0).collect();
+        let vdot = (0..12).map(|i| ((i as f64) * 0.7).cos() * 20.0).collect();
+        (beam, q, v, vdot)
+    }
+
+    fn force(beam: &Beam, q: &[f64], v: &[f64], vdot: &[f64]) -> Local {
+        let t = beam.terms(q, v, Some(vdot), &Vector3::new(0.0, 0.0, -9.81), false);
+        t.internal + t.inertia
+    }
+
+    /// `K = ∂f/∂q` (right-trivialized) and `C = ∂f/∂v` against central differences, with
+    /// Kelvin–Voigt and mass-proportional damping and the ends turned.
+    #[test]
+    fn tangent_and_damping_against_differences() {
+        let (beam, q, v, vdot) = beam_and_state();
+        let terms = beam.terms(&q, &v, Some(&vdot), &Vector3::new(0.0, 0.0, -9.81), true);
+        let scale = terms.stiffness.amax();
+        let eps = 1e-7;
+        for k in 0..12 {
+            let moved = |e: f64| {
+                let mut inc = [0.0; 12];
+                inc[k] = e;
+                let mut p = q.clone();
+                for node in 0..2 {
+                    Frame::read(&q, node)
+                        .retract(&inc[6 * node..6 * node + 6])
+                        .write(&mut p, node);
+                }
+                force(&beam, &p, &v, &vdot)
+            };
+            let fd = (moved(eps) - moved(-eps)) / (2.0 * eps);
+            let err = (fd - terms.stiffness.column(k)).amax();
+            assert!(err < 1e-8 * scale, "K column {k}: {err:e} of {scale:e}");
+            let rate = |e: f64| {
+                let mut w = v.clone();
+                w[k] += e;
+                force(&beam, &q, &w, &vdot)
+            };
+            let fd = (rate(1e-4) - rate(-1e-4)) / 2e-4;
+            let err = (fd - terms.damping.column(k)).amax();
+            assert!(err < 1e-7 * terms.damping.amax(), "C column {k}: {err:e}");
+        }
+    }
+
+    /// A rigid motion — any rotation, any translation, any rigid velocity — changes no
+    /// strain: the internal forces of a strained state turn with the motion (forces in
+    /// space, moments in the nodes' frames), the viscous ones add nothing, to round-off.
+    #[test]
+    fn rigid_motion_strains_nothing() {
+        let (beam, strained, _, _) = beam_and_state();
+        let rest = beam.terms(&strained, &[0.0; 12], None, &Vector3::zeros(), false);
+        let scale = rest.internal.amax();
+        assert!(scale > 1e6, "the state is strained: {scale:e}");
+        let turns = [
+            (0.3, Vector3::x()),
+            (2.9, Vector3::new(1.0, -2.0, 0.5)),
+            (3.1, Vector3::z()),
+        ];
+        for (angle, axis) in turns {
+            let turn = exp(&(axis.normalize() * angle));
+            let (spin, drift) = (Vector3::new(2.0, -5.0, 1.0), Vector3::new(0.3, 0.1, -0.2));
+            let (mut q, mut v) = (vec![0.0; 14], vec![0.0; 12]);
+            for n in 0..2 {
+                let f = Frame::read(&strained, n);
+                let moved = Frame::new(turn * f.x + Vector3::new(4.0, -3.0, 7.0), turn * f.r);
+                moved.write(&mut q, n);
+                let u = drift + spin.cross(&moved.x);
+                v[6 * n..6 * n + 3].copy_from_slice(u.as_slice());
+                v[6 * n + 3..6 * n + 6].copy_from_slice((moved.r.inverse() * spin).as_slice());
+            }
+            let moved = beam.terms(&q, &v, None, &Vector3::zeros(), false).internal;
+            for n in 0..2 {
+                let f0 = turn * rest.internal.fixed_rows::<3>(6 * n).into_owned();
+                let m0 = rest.internal.fixed_rows::<3>(6 * n + 3).into_owned();
+                let df = (moved.fixed_rows::<3>(6 * n) - f0).amax();
+                let dm = (moved.fixed_rows::<3>(6 * n + 3) - m0).amax();
+                assert!(df.max(dm) < 1e-12 * scale, "{angle} rad: {df:e}, {dm:e}");
+            }
+        }
+    }
+
+    /// Linearized at the start, one element is the exact Timoshenko cantilever: a tip force
+    /// across the bar deflects it by `PL³/3EI + PL/κGA` and turns it by `PL²/2EI`, in either
+    /// plane; an axial force stretches it by `PL/EA`, a torque twists it by `TL/GJ`.
+    #[test]
+    fn one_element_is_the_exact_linear_cantilever() {
+        let geometry = Shape::Rectangle { b: 0.03, h: 0.05 }.geometry(0.3).unwrap();
+        let section = Section::new(&geometry, 7.0e10, 2.7e10, 2700.0);
+        let length = 0.7;
+        let root = Frame::new(Vector3::zeros(), exp(&Vector3::new(0.2, 0.4, -0.3)));
+        let tip = Frame::new(
+            Vector3::new(0.3, 0.5, length * length - 0.34).normalize() * length,
+            exp(&Vector3::new(-1.0, 0.3, 0.2)),
+        );
+        let beam = Beam::new(
+            "bar",
+            [0, 1],
+            [&root, &tip],
+            &Vector3::new(0.0, 0.0, 1.0),
+            &section,
+        )
+        .unwrap();
+        let mut q = vec![0.0; 14];
+        root.write(&mut q, 0);
+        tip.write(&mut q, 1);
+        let k = beam
+            .terms(&q, &[0.0; 12], None, &Vector3::zeros(), true)
+            .stiffness;
+        let k_tip: Matrix6<f64> = k.fixed_view::<6, 6>(6, 6).into_owned();
+        let flexibility = k_tip.try_inverse().unwrap();
+        // The tip's unknowns in the element's axes: (δx in space, δθ in the tip's frame).
+        let axes = (tip.r * beam.offsets[1]).to_rotation_matrix().into_inner();
+        let e = beam.offsets[1].to_rotation_matrix().into_inner();
+        let load = |force: Vector3<f64>, moment: Vector3<f64>| {
+            let mut f = Vector6::zeros();
+            f.fixed_rows_mut::<3>(0).copy_from(&(axes * force));
+            f.fixed_rows_mut::<3>(3).copy_from(&(e * moment));
+            let u = flexibility * f;
+            (
+                axes.transpose() * u.fixed_rows::<3>(0),
+                e.transpose() * u.fixed_rows::<3>(3),
+            )
+        };
+        let [ea, ga2, ga3] = [section.c_n[0], section.c_n[1], section.c_n[2]];
+        let [gj, ei2, ei3] = section.c_m;
+        let close = |a: f64, b: f64| assert!((a / b - 1.0).abs() < 1e-9, "{a} against {b}");
+        let (u, _) = load(Vector3::x(), Vector3::zeros());
+        close(u.x, length / ea);
+        let (_, t) = load(Vector3::zeros(), Vector3::x());
+        close(t.x, length / gj);
+        let (u, t) = load(Vector3::y(), Vector3::zeros());
+        close(u.y, length.powi(3) / (3.0 * ei3) + length / ga2);
+        close(t.z, length * length / (2.0 * ei3));
+        let (u, t) = load(Vector3::z(), Vector3::zeros());
+        close(u.z, length.powi(3) / (3.0 * ei2) + length / ga3);
+        close(-t.y, length * length / (2.0 * ei2));
+    }
+}
