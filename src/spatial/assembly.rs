@@ -513,6 +513,7 @@ mod tests {
     use crate::group::{so3, Frame, NQ};
     use crate::mechanism::load::TimeFunction;
     use crate::spatial::joint::{Anchor, JointKind};
+    use crate::spatial::section::{Section, Shape};
 
     /// Two bodies, one hinged to the ground, joined to each other at one point by a joint of
     /// every kind (far too many constraints to move, but each row's derivatives count), and
@@ -599,6 +600,22 @@ mod tests {
         m.add_load("dead", at(a2 * 0.7), f, moment, ramp.clone(), false)
             .unwrap();
         m.add_load("follower", at(-a2), f * 0.5, moment, ramp, true)
+            .unwrap();
+        // A damped beam from body two's point to a free node, turned.
+        let tube = Shape::HollowCircle {
+            outer: 0.05,
+            inner: 0.04,
+        }
+        .geometry(0.3)
+        .unwrap();
+        let section = Section::new(&tube, 2e7, 8e6, 1200.0).with_rayleigh(0.7, 3e-2);
+        let start = m.nodes[1].frame.x;
+        let end = Frame::new(
+            start + Vector3::new(0.3, -0.2, 0.4),
+            so3::exp(&Vector3::new(0.2, 0.9, -0.4)),
+        );
+        let free = m.add_node("free", end).unwrap();
+        m.add_beam("beam", 1, free, &section, Vector3::new(0.0, 0.0, 1.0))
             .unwrap();
         m
     }
