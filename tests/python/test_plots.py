@@ -238,4 +238,4 @@ def test_plots_are_reached_from_the_package_as_the_readme_uses_them():
     code = ("import sys, flextop; assert 'matplotlib' not in sys.modules; "
             "assert callable(flextop.plots.plot_design) and 'matplotlib' in sys.modules; "
             "assert flextop.io.export.__name__ == 'flextop.io.export'")
-    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+    assert subprocess.run([sys.executable, "-c", code], timeout=120).returncode == 0
