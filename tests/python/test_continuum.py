@@ -3,6 +3,8 @@ a density per cell, inside the multibody motion. The element's own checks (rigid
 any angle, exact tangent, the 88-line code's KE, patch test, mass and polar inertia) are unit
 tests in ``src/mechanism/element/quad.rs``."""
 
+import itertools
+import re
 import warnings
 
 import numpy as np
@@ -298,8 +300,90 @@ def test_filters_refuse_what_they_cannot_filter():
     with pytest.raises(flextop.SettingsError, match="no designed cells"):
         DensityFilter(flextop.Simulation(s), 0.1)
     plate, _ = spun_strip(4, 2, omega=10.0, ramp=0.1, fixed=False)
-    with pytest.raises(flextop.SettingsError, match="positive length"):
+    with pytest.raises(flextop.SettingsError, match=r"SensitivityFilter: radius \(m\) must be > 0, got 0\.0"):
         SensitivityFilter(simulation(plate), 0.0)
+
+
+def strip_simulation() -> flextop.Simulation:
+    """The spun strip of 4 × 2 designed cells, 0.25 m × 0.05 m each."""
+    plate, _ = spun_strip(4, 2, omega=10.0, ramp=0.1, fixed=False)
+    return simulation(plate)
+
+
+@pytest.mark.parametrize(("make", "words"), [
+    (lambda sim: DensityFilter(sim, "1.5"), r"DensityFilter: radius \(m\) must be a finite number, got '1\.5'"),
+    (lambda sim: DensityFilter(sim, None), r"DensityFilter: radius \(m\) must be a finite number, got None"),
+    (lambda sim: DensityFilter(sim, float("nan")), r"DensityFilter: radius \(m\) must be a finite number, got nan"),
+    (lambda sim: DensityFilter(sim, -0.3), r"DensityFilter: radius \(m\) must be > 0, got -0\.3"),
+    (lambda sim: SensitivityFilter(sim, [1.5]), r"SensitivityFilter: radius \(m\) must be a finite number, got \[1\.5\]"),
+    (lambda sim: SensitivityFilter(sim, float("inf")), r"SensitivityFilter: radius \(m\) must be a finite number, got inf"),
+    (lambda sim: DensityFilter(sim, 0.3, beta="8"), r"DensityFilter: projection sharpness beta must be a finite number, got '8'"),
+    (lambda sim: DensityFilter(sim, 0.3, beta=0.0), r"DensityFilter: projection sharpness beta must be > 0, got 0\.0"),
+    (lambda sim: DensityFilter(sim, 0.3, eta=1.0), r"DensityFilter: projection threshold eta must be in \(0, 1\), got 1\.0"),
+    (lambda sim: DensityFilter(sim, 0.3, eta=None), r"DensityFilter: projection threshold eta must be a finite number, got None"),
+])
+def test_bad_filter_settings_are_named(make, words):
+    """A string, None or a list for the radius or β raised Python's TypeError; each setting
+    is now a SettingsError that names it."""
+    with pytest.raises(flextop.SettingsError, match=words):
+        make(strip_simulation())
+
+
+def test_a_radius_below_every_cell_leaves_each_cell_its_own_density():
+    """A radius of 5e-324 m made every density 1.0 and the chained gradient −inf, silently
+    (the weights r − d underflowed); the weights are now 1 − d/r, so it reaches no neighbour,
+    is warned about, and each cell keeps its own density and gradient."""
+    sim = strip_simulation()
+    x = np.random.default_rng(3).uniform(0.2, 1.0, sim.n_design)
+    gradient = np.random.default_rng(4).normal(size=sim.n_design)
+    with pytest.warns(flextop.errors.SettingsWarning, match="reaches no neighbouring cell"):
+        density, sensitivity = DensityFilter(sim, 5e-324), SensitivityFilter(sim, 5e-324)
+    np.testing.assert_array_equal(density.physical(x), x)
+    np.testing.assert_array_equal(density.chain(x, gradient), gradient)
+    np.testing.assert_allclose(sensitivity.filtered(x, gradient), gradient, rtol=1e-15)
+
+
+@pytest.mark.parametrize("value", [float("nan"), 3.0, -2.0])
+@pytest.mark.parametrize("call", ["physical", "chain", "filtered"])
+def test_the_filters_check_the_design_they_are_handed_as_a_run_does(call, value):
+    """NaN passed through ``physical``, ``chain`` and ``filtered``, and 3.0 was clipped to 1:
+    each now raises the DesignError ``sim.run`` raises, naming the variable."""
+    sim = strip_simulation()
+    x = np.full(sim.n_design, 0.5)
+    x[2] = value
+    with pytest.raises(flextop.DesignError) as run:
+        sim.run(x, t_end=0.1, h=0.01)
+    assert str(run.value).startswith("x[2] (strip/cell[2,0]) = ")
+    density, sensitivity = DensityFilter(sim, 0.3), SensitivityFilter(sim, 0.3)
+    calls = {"physical": lambda: density.physical(x), "chain": lambda: density.chain(x, np.ones(x.size)),
+             "filtered": lambda: sensitivity.filtered(x, np.ones(x.size))}
+    with pytest.raises(flextop.DesignError) as raised:
+        calls[call]()
+    assert str(raised.value) == str(run.value)
+
+
+def test_the_filters_refuse_gradients_that_are_not_finite_or_not_one_per_variable():
+    sim = strip_simulation()
+    x = np.full(sim.n_design, 0.5)
+    with pytest.raises(flextop.DesignError, match=r"dfdx holds nan at entry \[3\]: gradients must be finite"):
+        SensitivityFilter(sim, 0.3).filtered(x, np.where(np.arange(x.size) == 3, np.nan, 1.0))
+    with pytest.raises(flextop.DesignError, match=rf"dfdx_physical must be of shape \({x.size},\) or \(m, {x.size}\)"):
+        DensityFilter(sim, 0.3).chain(x, np.ones(x.size + 1))
+
+
+@pytest.mark.parametrize("filtered", [False, True])
+def test_a_topology_problem_takes_a_design_vector_within_its_bounds(filtered):
+    """``evaluate(0.5)`` raised scipy's ValueError, and ``evaluate`` of x = 3.0 through a
+    density filter ran the clipped design silently: both are DesignErrors that name the
+    design."""
+    sim = strip_simulation()
+    problem = TopologyProblem(sim, "strain_energy", volume_constraints(sim, 0.5, per_component=False),
+                              filter=DensityFilter(sim, 0.3) if filtered else None)
+    with pytest.raises(flextop.DesignError, match=rf"x must be a vector of {sim.n_design} real numbers, one per design variable, "
+                                                  r"got shape \(\)"):
+        problem.evaluate(0.5)
+    with pytest.raises(flextop.DesignError, match=r"x\[0\] = 3 is outside its bounds \[0\.01, 1\]"):
+        problem.evaluate(np.full(sim.n_design, 3.0))
 
 
 @pytest.mark.parametrize("beta", [1.0, 16.0])
