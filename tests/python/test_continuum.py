@@ -748,6 +748,50 @@ def test_bad_holes_and_solid_regions_are_named(key, value, culprit):
         flextop.Simulation(spec)
 
 
+@pytest.mark.parametrize("key", ["holes", "solid"])
+@pytest.mark.parametrize(("rectangles", "culprit"), [
+    ([[float("nan"), 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers \[i0, j0, i1, j1\], got \[nan, 0, 1, 1\]"),
+    ([["0", 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \['0', 0, 1, 1\]"),
+    ([[0, 0, 1, 1], [0.9, 0, 1.9, 1]], r"\[1\]: a rectangle of cells is four whole numbers .*got \[0\.9, 0, 1\.9, 1\]"),
+    ([[0, 0, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \[0, 0, 1\]"),
+    ([[True, 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \[True, 0, 1, 1\]"),
+    ("0011", r": expected a list of rectangles \[i0, j0, i1, j1\], got '0011'"),
+])
+def test_bad_rectangles_from_python_are_named(key, rectangles, culprit):
+    """NaN or a string raised int()'s ValueError, and [0.9, 0, 1.9, 1] was truncated to
+    [0, 0, 1, 1]; like a TOML file's, each entry must be whole numbers, else a SceneError
+    names it."""
+    s = Scene("bad", analysis="static")
+    with pytest.raises(SceneError, match=rf"members\[0\] \(plate\)\.{key}" + culprit):
+        s.member("plate", nx=6, ny=3, length=0.6, height=0.3, thickness=0.01, **STEEL, **{key: rectangles})
+
+
+def test_a_members_handle_names_only_the_nodes_and_cells_its_mesh_has():
+    """Rectangles are half-open: [1, 0, 3, 2] leaves out columns 1 and 2, and with them the
+    nodes of column 2, which only those cells touch; ``m.node`` and ``m.cell`` refuse what
+    the mesh does not have, by name, and give every name it has."""
+    s = Scene("holed", analysis="static")
+    m = s.member("plate", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, **STEEL, holes=np.array([[1, 0, 3, 2]]),
+                 solid_at_joints=False)
+    for i in (0, 4):
+        s.pin(f"bottom{i}", m.node(i, 0))
+        s.pin(f"top{i}", m.node(i, 2))
+    sim = simulation(s)
+    refused = set()
+    for i, j in itertools.product(range(5), range(3)):
+        try:
+            assert sim.node_names.count(m.node(i, j)) == 1
+        except SceneError as error:
+            assert str(error) == f"plate: node ({i}, {j}) touches only cells of its holes, and is left out with them"
+            refused.add((i, j))
+    assert refused == {(2, 0), (2, 1), (2, 2)} and len(sim.node_names) == 15 - 3
+    assert sorted(m.cell(i, j) for i, j in itertools.product((0, 3), range(2))) == sorted(sim.variable_names)
+    with pytest.raises(SceneError, match=r"plate: cell \(1, 0\) lies in a hole"):
+        m.cell(1, 0)
+    with pytest.raises(SceneError, match=r"plate has 5 × 3 nodes; \(5, 0\) is outside"):
+        m.node(5, 0)
+
+
 def plate_in_tension(nx: int = 6, ny: int = 2, traction: float = 5e6) -> tuple[flextop.Simulation, float]:
     """A 0.6 m × 0.2 m steel plate pulled along its length by a uniform end traction (Pa),
     on rollers at its fixed end, so that nothing restrains its contraction."""
