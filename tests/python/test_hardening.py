@@ -255,6 +255,18 @@ def test_a_slip_of_units_in_a_section_is_named_in_a_warning(key, value, words):
         flextop.Simulation(spec)
 
 
+@pytest.mark.parametrize("key, value, words", [("E", 70.0, r"members\[0\] \(rod\)\.E = 70 Pa is outside the plausible"),
+                                               ("rho", 2.7, r"members\[0\] \(rod\)\.rho = 2\.7 kg/m³"),
+                                               ("thickness", 5.0, r"members\[0\] \(rod\)\.thickness = 5 m is wider than the whole")])
+def test_a_slip_of_units_in_a_member_is_named_in_a_warning(key, value, words):
+    """A section with E = 70 and ρ = 2.7 was warned about twice, a continuum member with the
+    same values (and a thickness of 5 m) not at all."""
+    spec = flextop.scenes.continuum_slider_crank().to_dict()
+    spec["members"][0][key] = value
+    with pytest.warns(flextop.errors.PlausibilityWarning, match=words):
+        flextop.Simulation(spec)
+
+
 def test_the_reference_scenes_and_examples_are_plausible():
     import warnings
     from conftest import EXAMPLES
@@ -262,8 +274,8 @@ def test_the_reference_scenes_and_examples_are_plausible():
         warnings.simplefilter("error", flextop.errors.PlausibilityWarning)
         for path in sorted(EXAMPLES.glob("*.toml")):
             flextop.Simulation(path)
-        for name in ("robot_arm", "static_truss", "spun_beam", "ten_bar_truss"):
-            flextop.Simulation(getattr(flextop.scenes, name)())
+        for builder in flextop.scenes.BUILT_IN.values():
+            flextop.Simulation(builder())
 
 
 def test_a_drive_cut_off_by_t_end_is_named():
