@@ -17,7 +17,7 @@ use super::body;
 use super::mesh::Mesh;
 use super::spec::{JointSpec, RigidBodySpec, RingKind, RingSpec};
 use super::validate::{each, finite, positive, Listed, Result};
-use crate::error::SceneError;
+use crate::error::{short, SceneError};
 use crate::mechanism::averaging::{weighted_centre, Averaging};
 use crate::mechanism::model::PointMass;
 
@@ -87,7 +87,7 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<Ring> {
     if r.kind == RingKind::Averaging && (centre - mean).norm() > 1e-9 * spread {
         let msg = format!(
             "an averaging ring's centre is its nodes' weighted mean, ({}, {}): leave it out, or attach joints at a point of a body there",
-            mean.x, mean.y
+            short(mean.x), short(mean.y)
         );
         return Err(SceneError::new(format!("{path}.centre"), msg));
     }

@@ -696,6 +696,19 @@ def test_bad_rings_are_named(ring, culprit):
         flextop.Simulation(spec)
 
 
+def test_an_averaging_rings_centre_is_printed_short():
+    """The weighted mean of nodes at ±0.15 m and ±0.05 m is round-off off zero, which the
+    message printed with 35 decimals; it is printed as the shortest number that reads back."""
+    spec = {"name": "bad", "analysis": "static",
+            "members": [{"name": "plate", "nx": 6, "ny": 3, "length": 0.6, "height": 0.3, "thickness": 0.01, **STEEL}],
+            "rings": [{"name": "r", "nodes": [f"plate[0,{j}]" for j in range(4)], "kind": "averaging", "centre": [0.0, 1.0]}],
+            "joints": [{"kind": "clamp", "name": "a", "node": "r"}]}
+    with pytest.raises(SceneError, match=r"rings\[0\] \(r\)\.centre: an averaging ring's centre is its nodes' weighted mean") as raised:
+        flextop.Simulation(spec)
+    x, y = re.search(r"mean, \((\S+), (\S+)\):", str(raised.value)).groups()
+    assert float(x) == 0.0 and 0.0 < abs(float(y)) < 1e-15 and len(y) <= 24, y
+
+
 def test_an_averaging_ring_that_repeats_its_nodes_joints_is_named():
     """A plate pinned along its root edge, with an averaging ring on that edge pinned at its
     centre: the ring's mean repeats what the pins hold, named at the build (a rigid ring
@@ -791,6 +804,16 @@ def test_a_members_handle_names_only_the_nodes_and_cells_its_mesh_has():
         m.cell(1, 0)
     with pytest.raises(SceneError, match=r"plate has 5 × 3 nodes; \(5, 0\) is outside"):
         m.node(5, 0)
+
+
+def test_a_bar_stress_on_a_continuum_scene_points_at_von_mises():
+    """``stress`` on a scene of continuum members said their stresses were "not built yet";
+    it names ``von_mises``, which is."""
+    sim = flextop.Simulation(flextop.scenes.continuum_slider_crank())
+    with pytest.raises(flextop.SettingsError, match=r"response 'stress': the structure named has no bars .*`von_mises`") as raised:
+        sim.run_with_sensitivities(0.5, ["stress"])
+    assert "not built yet" not in str(raised.value)
+    assert sim.run_with_sensitivities(0.5, ["von_mises"]).values[0] > 0.0
 
 
 def plate_in_tension(nx: int = 6, ny: int = 2, traction: float = 5e6) -> tuple[flextop.Simulation, float]:
