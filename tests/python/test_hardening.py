@@ -298,7 +298,7 @@ def test_a_drive_cut_off_by_t_end_is_named():
         sim.run(0.4, t_end=0.8)  # cruising
 
 
-WRONG = [0, -1, float("nan"), float("inf"), True, "x", None, 10**9, 1e9, -0.0, 1e-300, (1, 2), [1], {"a": 1}, object()]
+WRONG = [0, -1, float("nan"), float("inf"), True, "x", None, 10**9, 1e9, 1e300, -0.0, 1e-300, (1, 2), [1], {"a": 1}, object()]
 """Values of the wrong type or range, as the fuzz campaign gave them."""
 
 
@@ -328,6 +328,8 @@ def test_the_example_builders_name_a_bad_argument():
         flextop.scenes.robot_arm(nx="5")
     with pytest.raises(SceneError, match="static_truss: force must be 2 numbers"):
         flextop.scenes.static_truss(force=(1.0,))
+    with pytest.raises(SceneError, match="continuum_slider_crank: crank = 1e[+]300 is too large: the scene made of it overflows a float"):
+        flextop.scenes.continuum_slider_crank(crank=1e300)  # an OverflowError of crank**2
 
 
 @pytest.mark.parametrize("builder, counts, words", [
