@@ -26,6 +26,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
+from .checks import real
 from .errors import PlausibilityWarning
 
 RANGES: dict[str, tuple[float, float, str]] = {
@@ -52,18 +53,14 @@ def _check_entry(path: str, entry: dict[str, Any], width: str, size: float) -> N
     """The material properties of the scene's entry at ``path`` in :data:`RANGES`, and its
     ``width`` (a section's diameter, a member's thickness) against the model's ``size``."""
     for key, (low, high, unit) in RANGES.items():
-        value = entry.get(key)
-        if _is_number(value) and not low <= value <= high:
+        value = real(entry.get(key))
+        if value is not None and not low <= value <= high:
             _warn(f"{path}.{key} = {value:g} {unit} is outside the plausible {low:g}–{high:g} {unit} of "
                   f"structural solids (SI units throughout: aluminium is E = 70e9 Pa, rho = 2700 kg/m³)")
-    value = entry.get(width)
-    if _is_number(value) and size > 0 and value > size:
+    value = real(entry.get(width))
+    if value is not None and size > 0 and value > size:
         _warn(f"{path}.{width} = {value:g} m is wider than the whole mechanism ({size:.3g} m across): "
               f"a {width} is in metres")
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def _warn(message: str) -> None:
