@@ -196,14 +196,16 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
             constraints.append((MIN_FREQUENCY, args.min_frequency))
         if args.max_stress is not None:
             constraints.append(("stress", args.max_stress))
+        if args.max_von_mises is not None:
+            constraints.append(("von_mises", args.max_von_mises))
         if args.max_buckling is not None:
             constraints.append(("buckling", args.max_buckling))
         return sim, TopologyProblem(sim, args.objective or sim._default_response(), constraints, settings=_settings(args), rtol=args.rtol,
                                     filter=_filter(sim, args))
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
-    for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling),
-                        ("--filter", args.filter), ("--projection", args.projection)):
+    for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-von-mises", args.max_von_mises),
+                        ("--max-buckling", args.max_buckling), ("--filter", args.filter), ("--projection", args.projection)):
         if value is not None:
             raise SettingsError(f"{flag} applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
@@ -383,7 +385,7 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
-             "--max-buckling": args.max_buckling, "--filter": args.filter, "--projection": args.projection}
+             "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter, "--projection": args.projection}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -521,6 +523,9 @@ def parser() -> argparse.ArgumentParser:
                    help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest two, to 1e-3)")
     o.add_argument("--max-stress", type=_positive(float), metavar="PA",
                    help="a limit on the peak fibre stress over the motion, relaxed as x^0.5 σ (p-mean normalized to the peak)")
+    o.add_argument("--max-von-mises", type=_positive(float), metavar="PA",
+                   help="a limit on the peak von Mises stress of the continuum members' cells over the motion, relaxed as "
+                   "x^0.5 σ (p-mean normalized to the peak)")
     o.add_argument("--max-buckling", type=_positive(float), metavar="RATIO",
                    help="a limit on the peak compression over the Euler load of the bars, relaxed as x^0.5 P/P_cr (1 = a solid bar buckles)")
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")

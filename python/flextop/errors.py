@@ -21,7 +21,8 @@ class SceneFileError(SceneError):
 
 class DesignError(FlextopError, ValueError):
     """A design vector of the wrong shape, length or type (not real numbers), non-finite, or
-    outside ``[x_min, 1]``."""
+    outside ``[x_min, 1]`` (an optimization problem's bounds); or gradients of a design,
+    handed to a filter, that are not finite or not one per variable."""
 
 
 class SettingsError(FlextopError, ValueError):

@@ -44,6 +44,7 @@ from contextlib import contextmanager
 from typing import Any, NamedTuple, TypeVar
 
 from . import _core
+from .checks import whole
 from .errors import ExecutionError, FlextopError, SettingsError
 
 T = TypeVar("T")
@@ -58,8 +59,7 @@ def run_all(perform: Callable[[T], R], tasks: Sequence[tuple[str, T]], executor:
     submission (fewer, larger tasks: what pays on a Dask cluster, whose scheduler spends
     about 2 ms per task). ``perform`` must be a module-level function and ``task``
     picklable for an executor of other processes."""
-    if not (isinstance(chunksize, int) and chunksize >= 1):
-        raise SettingsError(f"chunksize must be a whole number ≥ 1, got {chunksize!r}")
+    chunksize = whole("chunksize", chunksize)
     chunks = [list(tasks[k:k + chunksize]) for k in range(0, len(tasks), chunksize)]
     executor = usable(executor)
     if executor is None:

@@ -1,4 +1,5 @@
-"""Plausibility of a scene's sections: values that run but are almost surely a slip of units.
+"""Plausibility of a scene's sections and continuum members: values that run but are almost
+surely a slip of units.
 
 flextop works in SI units throughout (metres, kilograms, seconds, pascals). A value far
 outside what any structural material or member has — ``E = 70`` meant as 70 GPa, a
@@ -16,6 +17,7 @@ quantity                  plausible                      outside it
 ``G`` (when given)        3e5 Pa to 6e11 Pa              the same, over 2(1 + ν)
 ``rho``                   10 kg/m³ to 23,000 kg/m³       rigid foams to osmium
 ``diameter``              at most the model's size       a section wider than the mechanism
+``thickness`` (members)   at most the model's size       a plate thicker than the mechanism is wide
 ========================  =============================  ==========================================
 """
 
@@ -24,6 +26,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
+from .checks import real
 from .errors import PlausibilityWarning
 
 RANGES: dict[str, tuple[float, float, str]] = {
@@ -31,25 +34,34 @@ RANGES: dict[str, tuple[float, float, str]] = {
     "G": (3e5, 6e11, "Pa"),
     "rho": (10.0, 23000.0, "kg/m³"),
 }
-"""Per section property: the plausible ``(low, high, unit)``."""
+"""Per material property of a section or a member: the plausible ``(low, high, unit)``."""
 
 
 def check(spec: dict[str, Any], size: float) -> None:
-    """Warns about every section property of ``spec`` outside its plausible range, and
-    every solid circle wider than ``size`` (the model's extent, m)."""
+    """Warns about every section's and continuum member's material property of ``spec``
+    outside its plausible range, every solid circle wider than ``size`` (the model's
+    extent, m) and every member thicker than it."""
     for name, section in (spec.get("sections") or {}).items():
-        if not isinstance(section, dict):
-            continue
-        for key, (low, high, unit) in RANGES.items():
-            value = section.get(key)
-            if isinstance(value, (int, float)) and not low <= value <= high:
-                _warn(f"sections.{name}.{key} = {value:g} {unit} is outside the plausible {low:g}–{high:g} {unit} of "
-                      f"structural solids (SI units throughout: aluminium is E = 70e9 Pa, rho = 2700 kg/m³)")
-        diameter = section.get("diameter")
-        if isinstance(diameter, (int, float)) and size > 0 and diameter > size:
-            _warn(f"sections.{name}.diameter = {diameter:g} m is wider than the whole mechanism ({size:.3g} m across): "
-                  "diameters are in metres")
+        if isinstance(section, dict):
+            _check_entry(f"sections.{name}", section, "diameter", size)
+    for k, member in enumerate(spec.get("members") or []):
+        if isinstance(member, dict):
+            _check_entry(f"members[{k}] ({member.get('name')})", member, "thickness", size)
+
+
+def _check_entry(path: str, entry: dict[str, Any], width: str, size: float) -> None:
+    """The material properties of the scene's entry at ``path`` in :data:`RANGES`, and its
+    ``width`` (a section's diameter, a member's thickness) against the model's ``size``."""
+    for key, (low, high, unit) in RANGES.items():
+        value = real(entry.get(key))
+        if value is not None and not low <= value <= high:
+            _warn(f"{path}.{key} = {value:g} {unit} is outside the plausible {low:g}–{high:g} {unit} of "
+                  f"structural solids (SI units throughout: aluminium is E = 70e9 Pa, rho = 2700 kg/m³)")
+    value = real(entry.get(width))
+    if value is not None and size > 0 and value > size:
+        _warn(f"{path}.{width} = {value:g} m is wider than the whole mechanism ({size:.3g} m across): "
+              f"a {width} is in metres")
 
 
 def _warn(message: str) -> None:
-    warnings.warn(PlausibilityWarning(message), stacklevel=4)
+    warnings.warn(PlausibilityWarning(message), stacklevel=5)

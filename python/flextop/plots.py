@@ -23,6 +23,7 @@ from matplotlib.colors import Colormap, Normalize
 from matplotlib.figure import Figure
 
 from . import responses
+from .errors import SettingsError
 from .io.export import frame_indices
 from .results import Results
 from .simulation import Simulation
@@ -106,7 +107,7 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
     several = len(sim.components) > 1
     if by_component or (by_component is None and several and positions is None and ax is None):
         return _save(_design_by_component(sim, x, title, faint, cmap), path)
-    positions = sim.model.reference_positions if positions is None else np.asarray(positions)
+    positions = _positions(sim, positions)
     figsize, location = _design_layout(positions)
     if ax is None:
         fig = _new_figure(figsize=figsize, layout="constrained")
@@ -121,6 +122,22 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
     fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8,
                  aspect=30 if location == "bottom" else 20)
     return _save(fig, path)
+
+
+def _positions(sim: Simulation, positions: Any) -> np.ndarray:
+    """``positions`` as ``(n_nodes, 2)`` finite floats (``None``: the reference
+    configuration), or a SettingsError naming them and the shape expected."""
+    if positions is None:
+        return np.asarray(sim.model.reference_positions)
+    expected = f"finite numbers of shape ({len(sim.node_names)}, 2), one (x, y) per node"
+    try:
+        array = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        raise SettingsError(f"positions must be {expected}, got {type(positions).__name__}") from None
+    if array.shape != (len(sim.node_names), 2) or not np.isfinite(array).all():
+        raise SettingsError(f"positions must be {expected}, got an array of shape {array.shape}"
+                            + ("" if np.isfinite(array).all() else " with entries that are not finite"))
+    return array
 
 
 def _draw_bars(ax: Any, sim: Simulation, x: Any, segments: np.ndarray, shown: np.ndarray, faint: float | None,

@@ -201,9 +201,10 @@ class Simulation:
         return rebuilt, (self.spec, self.options)
 
     def bar_densities(self, x: DesignLike = None) -> np.ndarray:
-        """The density of every bar for design ``x`` (``None``: full density); bars that are
-        not designed (variable −1) are at 1."""
-        xv = self._design(x)
+        """The density of every bar for design ``x`` (``None``: full density), checked as
+        :meth:`run` checks it (:meth:`checked_design`); bars that are not designed
+        (variable −1) are at 1."""
+        xv = None if x is None else self.checked_design(x)
         variable = np.asarray(self.bars.variable, dtype=int)
         if xv is None:
             return np.ones(variable.size)
@@ -211,8 +212,9 @@ class Simulation:
 
     def cell_densities(self, x: DesignLike = None) -> np.ndarray:
         """The density of every cell of the continuum members for design ``x`` (``None``:
-        full density); cells that are not designed are at 1."""
-        xv = self._design(x)
+        full density), checked as :meth:`run` checks it; cells that are not designed are at
+        1."""
+        xv = None if x is None else self.checked_design(x)
         variable = np.asarray(self.model.cells()["variable"], dtype=int)
         if xv is None:
             return np.ones(variable.size)
@@ -554,6 +556,16 @@ class Simulation:
             except DesignError as error:
                 raise DesignError(f"design {k}: {error}") from None
         return out
+
+    def checked_design(self, x: DesignLike) -> np.ndarray:
+        """``x`` as a run reads it: one number for every variable or a vector of
+        :attr:`n_design` real numbers, each finite and in ``[x_min, 1]``; else the
+        :class:`DesignError` that :meth:`run` raises, naming the variable."""
+        xv = self._design(x)
+        if xv is None:
+            raise DesignError(f"a design is needed: one number or a vector of {self.n_design}")
+        self.model.check_design(xv)
+        return xv
 
     def _design(self, x: Any) -> np.ndarray | None:
         """``x`` as a vector of floats: a number means every variable; strings, complex

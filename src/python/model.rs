@@ -173,6 +173,12 @@ impl PyModel {
         Ok(vector(py, self.model.bar_frequencies(&self.at(x)?)))
     }
 
+    /// Checks design `x` as a run does (its length, every density finite and in
+    /// `[x_min, 1]`): a `DesignError` naming the first variable that is not.
+    fn check_design(&self, x: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
+        self.at(Some(x)).map(drop)
+    }
+
     /// Each bar's mass (kg) at design `x` (every bar solid if `None`).
     #[pyo3(signature = (x=None))]
     fn bar_masses<'py>(

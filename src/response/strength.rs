@@ -79,8 +79,7 @@ fn parse(
     let elements: Vec<usize> = members.elements(model).collect();
     if elements.is_empty() {
         return Err(
-            "the structure named has no bars (stresses of continuum cells are not built yet)"
-                .into(),
+            "the structure named has no bars (stress, shear and buckling are theirs): a continuum member's cells have `von_mises`".into(),
         );
     }
     let section = |e: usize| model.elements[e].kernel.section();

@@ -17,7 +17,7 @@ use super::body;
 use super::mesh::Mesh;
 use super::spec::{JointSpec, RigidBodySpec, RingKind, RingSpec};
 use super::validate::{each, finite, positive, Listed, Result};
-use crate::error::SceneError;
+use crate::error::{short, SceneError};
 use crate::mechanism::averaging::{weighted_centre, Averaging};
 use crate::mechanism::model::PointMass;
 
@@ -42,12 +42,29 @@ pub(super) fn add_all(mesh: &mut Mesh, specs: &[RingSpec]) -> Listed<Ring> {
     })
 }
 
+/// A ring's `name`: not empty, without a dot (its hinges are `NAME.0`, `NAME.1`, …, its
+/// points `NAME.n0`, …, and a body's points are read as `BODY.POINT`), and no member's or
+/// ground structure's (responses and volumes name those).
+fn name(mesh: &Mesh, path: &str, name: &str) -> Result<()> {
+    let msg = if name.is_empty() || name.contains('.') {
+        format!("'{name}' is no ring name: give one that is not empty and has no '.' (its hinges are NAME.0, NAME.1, …)")
+    } else if mesh.components.iter().any(|c| c == name) {
+        format!(
+            "a member or ground structure is called '{name}' too: give the ring a name of its own"
+        )
+    } else {
+        return Ok(());
+    };
+    Err(SceneError::new(format!("{path}.name"), msg))
+}
+
 /// The ring `r` at `path`.
 fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<Ring> {
     if r.nodes.len() < 2 {
         let msg = "a ring needs two nodes or more: its frame's angle follows from where they are";
         return Err(SceneError::new(format!("{path}.nodes"), msg));
     }
+    name(mesh, path, &r.name)?;
     if mesh.node("", &r.name).is_ok() {
         let msg = format!(
             "a node or body is already called '{}': a ring's centre is a node of its own",
@@ -87,7 +104,7 @@ fn add(mesh: &mut Mesh, path: &str, r: &RingSpec) -> Result<Ring> {
     if r.kind == RingKind::Averaging && (centre - mean).norm() > 1e-9 * spread {
         let msg = format!(
             "an averaging ring's centre is its nodes' weighted mean, ({}, {}): leave it out, or attach joints at a point of a body there",
-            mean.x, mean.y
+            short(mean.x), short(mean.y)
         );
         return Err(SceneError::new(format!("{path}.centre"), msg));
     }

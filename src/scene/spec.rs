@@ -340,8 +340,8 @@ pub struct MemberSpec {
     /// Cells at fixed full density (not design variables).
     #[serde(default)]
     pub fixed: bool,
-    /// Rectangles of cells `[i0, j0, i1, j1]` (columns `i0..i1`, rows `j0..j1`) left out:
-    /// holes; a node no remaining cell touches is left out too.
+    /// Rectangles of cells `[i0, j0, i1, j1]`, half-open (columns `i0 ≤ i < i1`, rows
+    /// `j0 ≤ j < j1`) left out: holes; a node no remaining cell touches is left out too.
     #[serde(default)]
     pub holes: Vec<[usize; 4]>,
     /// Rectangles of cells, as `holes`, at full density and not designed (passive solid,

@@ -1,9 +1,11 @@
 """Shared fixtures: paths, and small scenes used across the tests."""
 
 import math
+import queue
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -109,24 +111,62 @@ def slider_crank_with_force_elements() -> dict:
     return spec
 
 
-def seconds_to_interrupt(code: str, wait: float, exit_within: float) -> float:
-    """Runs the Python ``code`` in a subprocess — it prints ``ready``, works until a
-    ``KeyboardInterrupt`` and then prints ``interrupted <time.monotonic()>`` — sends it a
-    SIGINT ``wait`` s after ``ready``, and returns the seconds from the signal to the
-    interrupt; the process must then exit cleanly within ``exit_within`` s."""
-    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+HEARS_CTRL_C = "import signal\nsignal.signal(signal.SIGINT, signal.default_int_handler)\n"
+"""The first lines of a child process that is sent Ctrl-C. One started where SIGINT is ignored
+(a background job, ``nohup``) inherits it ignored, and Python then installs no
+``KeyboardInterrupt`` handler: the signal would go unheard and the test wait for ever."""
+
+
+def seconds_to_interrupt(code: str, wait: float, exit_within: float, start_within: float = 120.0) -> float:
+    """Runs the Python ``code`` in a subprocess that hears Ctrl-C (:data:`HEARS_CTRL_C`) — it
+    prints ``ready``, works until a ``KeyboardInterrupt`` and then prints ``interrupted
+    <time.monotonic()>`` —, sends it a SIGINT ``wait`` s after ``ready``, and returns the
+    seconds from the signal to the interrupt; the process must then exit cleanly within
+    ``exit_within`` s. Every wait has a deadline (``ready`` within ``start_within`` s, the
+    rest within ``exit_within`` s) that fails the test."""
+    process = subprocess.Popen([sys.executable, "-c", HEARS_CTRL_C + code], stdout=subprocess.PIPE, text=True)
     try:
-        assert process.stdout.readline().strip() == "ready"
+        lines = _lines(process)
+        assert _line(lines, start_within, "ready").strip() == "ready"
         time.sleep(wait)
         sent = time.monotonic()
         process.send_signal(signal.SIGINT)
-        word, at = process.stdout.readline().split()
+        word, at = _line(lines, exit_within, "interrupted").split()
         assert word == "interrupted"
-        assert process.wait(timeout=exit_within) == 0
+        try:
+            assert process.wait(timeout=exit_within) == 0
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"the child did not exit within {exit_within:g} s of its interrupt")
         return float(at) - sent
     finally:
         process.kill()
         process.wait()
+
+
+def _lines(process: subprocess.Popen) -> queue.Queue:
+    """The lines ``process`` prints, read on a thread of their own so that a wait for one
+    can have a deadline; ``""`` once it closes its output."""
+    lines: queue.Queue = queue.Queue()
+
+    def read() -> None:
+        for line in process.stdout:
+            lines.put(line)
+        lines.put("")
+
+    threading.Thread(target=read, daemon=True).start()
+    return lines
+
+
+def _line(lines: queue.Queue, within: float, what: str) -> str:
+    """The next of ``lines``, or a failed test if none comes within ``within`` s or the
+    child ends first."""
+    try:
+        line = lines.get(timeout=within)
+    except queue.Empty:
+        pytest.fail(f"the child printed no {what!r} line within {within:g} s")
+    if not line:
+        pytest.fail(f"the child ended before printing {what!r}")
+    return line
 
 
 def assert_exact_gradients(sim, x: np.ndarray, responses: list[str], columns) -> None:

@@ -8,7 +8,7 @@ import textwrap
 import warnings
 
 import pytest
-from conftest import seconds_to_interrupt
+from conftest import HEARS_CTRL_C, seconds_to_interrupt
 
 import flextop
 from flextop import SceneError
@@ -199,7 +199,7 @@ def test_ctrl_c_stops_the_build_of_two_hundred_thousand_bodies_within_half_a_sec
 def test_a_build_after_an_interrupted_one_is_whole():
     """The interrupted build's thread frees what it made on its own; the next build of the
     same scene is the same model."""
-    code = """
+    code = HEARS_CTRL_C + """
 import signal, threading, time, flextop
 spec = flextop.scenes.robot_arm().to_dict()
 threading.Timer(0.05, signal.raise_signal, (signal.SIGINT,)).start()

@@ -308,6 +308,20 @@ def test_stress_and_buckling_limits_from_the_command_line(tmp_path):
     assert mixed.stderr.strip() == "flextop: error: --max-buckling applies to one scene, not to --scenarios"
 
 
+def test_a_von_mises_limit_from_the_command_line(tmp_path):
+    """--max-stress on a scene of continuum members said their stresses were "not built
+    yet"; it names ``von_mises``, and --max-von-mises limits that peak, shown as <= with its
+    value."""
+    wrong = flextop_cli("optimize", "continuum_slider_crank", "--max-stress", "1e8", "--max-iter", 1, "--out", tmp_path / "s",
+                        "--no-plots", codes=(2,))
+    assert "`von_mises`" in wrong.stderr and "not built yet" not in wrong.stderr, wrong.stderr
+    run = flextop_cli("optimize", "continuum_slider_crank", "--max-von-mises", "1e8", "--max-iter", 1, "--out", tmp_path / "v",
+                      "--no-plots", codes=(0, 3))
+    assert re.search(r"^von_mises: \S+ \(<= 1e\+08\)$", run.stdout, re.M), run.stdout
+    resumed = flextop_cli("optimize", "--resume", "--max-von-mises", "1e7", "--out", tmp_path / "v", codes=(2,))
+    assert "--max-von-mises" in resumed.stderr
+
+
 def test_a_new_run_does_not_replace_an_earlier_checkpoint_without_force(tmp_path, capsys):
     """A new `flextop optimize` into a folder holding an interrupted, resumable run replaced
     its checkpoint."""

@@ -3,6 +3,8 @@ a density per cell, inside the multibody motion. The element's own checks (rigid
 any angle, exact tangent, the 88-line code's KE, patch test, mass and polar inertia) are unit
 tests in ``src/mechanism/element/quad.rs``."""
 
+import itertools
+import re
 import warnings
 
 import numpy as np
@@ -12,7 +14,7 @@ from top88 import ke88
 
 import flextop
 from flextop import Scene, SceneError, trapezoidal
-from flextop.errors import MechanismWarning
+from flextop.errors import MechanismWarning, PlausibilityWarning
 from flextop.problems import DensityFilter, SensitivityFilter, TopologyProblem, volume_constraints
 
 STEEL = {"E": 210e9, "nu": 0.3, "rho": 7800.0}
@@ -83,7 +85,8 @@ def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
         pinned_edge(s, m, ny)
         s.load(m.node(nx, 0), force=(0.0, -load))
         s.design(x_min=1e-3)
-        sim = simulation(s)
+        with pytest.warns(PlausibilityWarning, match=r"members\[0\] \(plate\)\.(E|rho) = 1 "):  # units of the 88-line code
+            sim = simulation(s)
         f, dfdx = sim.run_with_sensitivities(x, ["compliance"])
         computed = np.concatenate([f, dfdx[0]]) / load**2
         departure.append(np.abs(computed - linear).max() / np.abs(linear).max())
@@ -298,8 +301,90 @@ def test_filters_refuse_what_they_cannot_filter():
     with pytest.raises(flextop.SettingsError, match="no designed cells"):
         DensityFilter(flextop.Simulation(s), 0.1)
     plate, _ = spun_strip(4, 2, omega=10.0, ramp=0.1, fixed=False)
-    with pytest.raises(flextop.SettingsError, match="positive length"):
+    with pytest.raises(flextop.SettingsError, match=r"SensitivityFilter: radius \(m\) must be > 0, got 0\.0"):
         SensitivityFilter(simulation(plate), 0.0)
+
+
+def strip_simulation() -> flextop.Simulation:
+    """The spun strip of 4 × 2 designed cells, 0.25 m × 0.05 m each."""
+    plate, _ = spun_strip(4, 2, omega=10.0, ramp=0.1, fixed=False)
+    return simulation(plate)
+
+
+@pytest.mark.parametrize(("make", "words"), [
+    (lambda sim: DensityFilter(sim, "1.5"), r"DensityFilter: radius \(m\) must be a finite number, got '1\.5'"),
+    (lambda sim: DensityFilter(sim, None), r"DensityFilter: radius \(m\) must be a finite number, got None"),
+    (lambda sim: DensityFilter(sim, float("nan")), r"DensityFilter: radius \(m\) must be a finite number, got nan"),
+    (lambda sim: DensityFilter(sim, -0.3), r"DensityFilter: radius \(m\) must be > 0, got -0\.3"),
+    (lambda sim: SensitivityFilter(sim, [1.5]), r"SensitivityFilter: radius \(m\) must be a finite number, got \[1\.5\]"),
+    (lambda sim: SensitivityFilter(sim, float("inf")), r"SensitivityFilter: radius \(m\) must be a finite number, got inf"),
+    (lambda sim: DensityFilter(sim, 0.3, beta="8"), r"DensityFilter: projection sharpness beta must be a finite number, got '8'"),
+    (lambda sim: DensityFilter(sim, 0.3, beta=0.0), r"DensityFilter: projection sharpness beta must be > 0, got 0\.0"),
+    (lambda sim: DensityFilter(sim, 0.3, eta=1.0), r"DensityFilter: projection threshold eta must be in \(0, 1\), got 1\.0"),
+    (lambda sim: DensityFilter(sim, 0.3, eta=None), r"DensityFilter: projection threshold eta must be a finite number, got None"),
+])
+def test_bad_filter_settings_are_named(make, words):
+    """A string, None or a list for the radius or β raised Python's TypeError; each setting
+    is now a SettingsError that names it."""
+    with pytest.raises(flextop.SettingsError, match=words):
+        make(strip_simulation())
+
+
+def test_a_radius_below_every_cell_leaves_each_cell_its_own_density():
+    """A radius of 5e-324 m made every density 1.0 and the chained gradient −inf, silently
+    (the weights r − d underflowed); the weights are now 1 − d/r, so it reaches no neighbour,
+    is warned about, and each cell keeps its own density and gradient."""
+    sim = strip_simulation()
+    x = np.random.default_rng(3).uniform(0.2, 1.0, sim.n_design)
+    gradient = np.random.default_rng(4).normal(size=sim.n_design)
+    with pytest.warns(flextop.errors.SettingsWarning, match="reaches no neighbouring cell"):
+        density, sensitivity = DensityFilter(sim, 5e-324), SensitivityFilter(sim, 5e-324)
+    np.testing.assert_array_equal(density.physical(x), x)
+    np.testing.assert_array_equal(density.chain(x, gradient), gradient)
+    np.testing.assert_allclose(sensitivity.filtered(x, gradient), gradient, rtol=1e-15)
+
+
+@pytest.mark.parametrize("value", [float("nan"), 3.0, -2.0])
+@pytest.mark.parametrize("call", ["physical", "chain", "filtered"])
+def test_the_filters_check_the_design_they_are_handed_as_a_run_does(call, value):
+    """NaN passed through ``physical``, ``chain`` and ``filtered``, and 3.0 was clipped to 1:
+    each now raises the DesignError ``sim.run`` raises, naming the variable."""
+    sim = strip_simulation()
+    x = np.full(sim.n_design, 0.5)
+    x[2] = value
+    with pytest.raises(flextop.DesignError) as run:
+        sim.run(x, t_end=0.1, h=0.01)
+    assert str(run.value).startswith("x[2] (strip/cell[2,0]) = ")
+    density, sensitivity = DensityFilter(sim, 0.3), SensitivityFilter(sim, 0.3)
+    calls = {"physical": lambda: density.physical(x), "chain": lambda: density.chain(x, np.ones(x.size)),
+             "filtered": lambda: sensitivity.filtered(x, np.ones(x.size))}
+    with pytest.raises(flextop.DesignError) as raised:
+        calls[call]()
+    assert str(raised.value) == str(run.value)
+
+
+def test_the_filters_refuse_gradients_that_are_not_finite_or_not_one_per_variable():
+    sim = strip_simulation()
+    x = np.full(sim.n_design, 0.5)
+    with pytest.raises(flextop.DesignError, match=r"dfdx holds nan at entry \[3\]: gradients must be finite"):
+        SensitivityFilter(sim, 0.3).filtered(x, np.where(np.arange(x.size) == 3, np.nan, 1.0))
+    with pytest.raises(flextop.DesignError, match=rf"dfdx_physical must be of shape \({x.size},\) or \(m, {x.size}\)"):
+        DensityFilter(sim, 0.3).chain(x, np.ones(x.size + 1))
+
+
+@pytest.mark.parametrize("filtered", [False, True])
+def test_a_topology_problem_takes_a_design_vector_within_its_bounds(filtered):
+    """``evaluate(0.5)`` raised scipy's ValueError, and ``evaluate`` of x = 3.0 through a
+    density filter ran the clipped design silently: both are DesignErrors that name the
+    design."""
+    sim = strip_simulation()
+    problem = TopologyProblem(sim, "strain_energy", volume_constraints(sim, 0.5, per_component=False),
+                              filter=DensityFilter(sim, 0.3) if filtered else None)
+    with pytest.raises(flextop.DesignError, match=rf"x must be a vector of {sim.n_design} real numbers, one per design variable, "
+                                                  r"got shape \(\)"):
+        problem.evaluate(0.5)
+    with pytest.raises(flextop.DesignError, match=r"x\[0\] = 3 is outside its bounds \[0\.01, 1\]"):
+        problem.evaluate(np.full(sim.n_design, 3.0))
 
 
 @pytest.mark.parametrize("beta", [1.0, 16.0])
@@ -588,6 +673,10 @@ def test_a_ring_is_a_scene_entry_that_round_trips_through_toml(tmp_path):
     ({"name": "r", "nodes": ["plate[0,0]", "twin"]}, r"rings\[0\] \(r\)\.nodes: its nodes are all at one place"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]", "plate[0,0]"]}, r"rings\[0\] \(r\)\.nodes\[2\]: 'plate\[0,0\]' is listed twice"),
     ({"name": "twin", "nodes": ["plate[0,0]", "plate[0,1]"]}, r"rings\[0\] \(twin\)\.name: a node or body is already called 'twin'"),
+    ({"name": "", "nodes": ["plate[0,0]", "plate[0,1]"]}, r"rings\[0\] \(\)\.name: '' is no ring name: give one that is not empty"),
+    ({"name": "ring.x", "nodes": ["plate[0,0]", "plate[0,1]"]}, r"rings\[0\] \(ring\.x\)\.name: 'ring\.x' is no ring name.*no '\.'"),
+    ({"name": "plate", "nodes": ["plate[0,0]", "plate[0,1]"]},
+     r"rings\[0\] \(plate\)\.name: a member or ground structure is called 'plate' too"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "mass": 1.0}, r"rings.*unknown field `mass`"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "kind": "glued"}, r"rings\[0\]\.kind: unknown value `glued`, expected `rigid` or `averaging`"),
     ({"name": "r", "nodes": ["plate[0,0]", "plate[0,1]"], "weights": [1.0, 2.0]},
@@ -609,6 +698,19 @@ def test_bad_rings_are_named(ring, culprit):
             "rings": [ring], "joints": [{"kind": "clamp", "name": "a", "node": "r"}]}
     with pytest.raises(SceneError, match=culprit):
         flextop.Simulation(spec)
+
+
+def test_an_averaging_rings_centre_is_printed_short():
+    """The weighted mean of nodes at ±0.15 m and ±0.05 m is round-off off zero, which the
+    message printed with 35 decimals; it is printed as the shortest number that reads back."""
+    spec = {"name": "bad", "analysis": "static",
+            "members": [{"name": "plate", "nx": 6, "ny": 3, "length": 0.6, "height": 0.3, "thickness": 0.01, **STEEL}],
+            "rings": [{"name": "r", "nodes": [f"plate[0,{j}]" for j in range(4)], "kind": "averaging", "centre": [0.0, 1.0]}],
+            "joints": [{"kind": "clamp", "name": "a", "node": "r"}]}
+    with pytest.raises(SceneError, match=r"rings\[0\] \(r\)\.centre: an averaging ring's centre is its nodes' weighted mean") as raised:
+        flextop.Simulation(spec)
+    x, y = re.search(r"mean, \((\S+), (\S+)\):", str(raised.value)).groups()
+    assert float(x) == 0.0 and 0.0 < abs(float(y)) < 1e-15 and len(y) <= 24, y
 
 
 def test_an_averaging_ring_that_repeats_its_nodes_joints_is_named():
@@ -662,6 +764,60 @@ def test_bad_holes_and_solid_regions_are_named(key, value, culprit):
             "joints": [{"kind": "pin", "name": "a", "node": "plate[0,0]"}, {"kind": "pin", "name": "b", "node": "plate[0,3]"}]}
     with pytest.raises(SceneError, match=culprit):
         flextop.Simulation(spec)
+
+
+@pytest.mark.parametrize("key", ["holes", "solid"])
+@pytest.mark.parametrize(("rectangles", "culprit"), [
+    ([[float("nan"), 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers \[i0, j0, i1, j1\], got \[nan, 0, 1, 1\]"),
+    ([["0", 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \['0', 0, 1, 1\]"),
+    ([[0, 0, 1, 1], [0.9, 0, 1.9, 1]], r"\[1\]: a rectangle of cells is four whole numbers .*got \[0\.9, 0, 1\.9, 1\]"),
+    ([[0, 0, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \[0, 0, 1\]"),
+    ([[True, 0, 1, 1]], r"\[0\]: a rectangle of cells is four whole numbers .*got \[True, 0, 1, 1\]"),
+    ("0011", r": expected a list of rectangles \[i0, j0, i1, j1\], got '0011'"),
+])
+def test_bad_rectangles_from_python_are_named(key, rectangles, culprit):
+    """NaN or a string raised int()'s ValueError, and [0.9, 0, 1.9, 1] was truncated to
+    [0, 0, 1, 1]; like a TOML file's, each entry must be whole numbers, else a SceneError
+    names it."""
+    s = Scene("bad", analysis="static")
+    with pytest.raises(SceneError, match=rf"members\[0\] \(plate\)\.{key}" + culprit):
+        s.member("plate", nx=6, ny=3, length=0.6, height=0.3, thickness=0.01, **STEEL, **{key: rectangles})
+
+
+def test_a_members_handle_names_only_the_nodes_and_cells_its_mesh_has():
+    """Rectangles are half-open: [1, 0, 3, 2] leaves out columns 1 and 2, and with them the
+    nodes of column 2, which only those cells touch; ``m.node`` and ``m.cell`` refuse what
+    the mesh does not have, by name, and give every name it has."""
+    s = Scene("holed", analysis="static")
+    m = s.member("plate", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, **STEEL, holes=np.array([[1, 0, 3, 2]]),
+                 solid_at_joints=False)
+    for i in (0, 4):
+        s.pin(f"bottom{i}", m.node(i, 0))
+        s.pin(f"top{i}", m.node(i, 2))
+    sim = simulation(s)
+    refused = set()
+    for i, j in itertools.product(range(5), range(3)):
+        try:
+            assert sim.node_names.count(m.node(i, j)) == 1
+        except SceneError as error:
+            assert str(error) == f"plate: node ({i}, {j}) touches only cells of its holes, and is left out with them"
+            refused.add((i, j))
+    assert refused == {(2, 0), (2, 1), (2, 2)} and len(sim.node_names) == 15 - 3
+    assert sorted(m.cell(i, j) for i, j in itertools.product((0, 3), range(2))) == sorted(sim.variable_names)
+    with pytest.raises(SceneError, match=r"plate: cell \(1, 0\) lies in a hole"):
+        m.cell(1, 0)
+    with pytest.raises(SceneError, match=r"plate has 5 × 3 nodes; \(5, 0\) is outside"):
+        m.node(5, 0)
+
+
+def test_a_bar_stress_on_a_continuum_scene_points_at_von_mises():
+    """``stress`` on a scene of continuum members said their stresses were "not built yet";
+    it names ``von_mises``, which is."""
+    sim = flextop.Simulation(flextop.scenes.continuum_slider_crank())
+    with pytest.raises(flextop.SettingsError, match=r"response 'stress': the structure named has no bars .*`von_mises`") as raised:
+        sim.run_with_sensitivities(0.5, ["stress"])
+    assert "not built yet" not in str(raised.value)
+    assert sim.run_with_sensitivities(0.5, ["von_mises"]).values[0] > 0.0
 
 
 def plate_in_tension(nx: int = 6, ny: int = 2, traction: float = 5e6) -> tuple[flextop.Simulation, float]:

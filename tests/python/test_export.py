@@ -88,6 +88,22 @@ def test_a_design_and_a_static_result_export_as_one_file(tmp_path, arm):
         arm.run(0.4).to_vtk(tmp_path / "arm.vtu")
 
 
+@pytest.mark.parametrize("value", [float("nan"), 3.0, -2.0])
+@pytest.mark.parametrize("scene", ["robot_arm", "continuum_robot_arm"])
+def test_a_design_outside_its_bounds_is_refused_as_a_run_refuses_it(tmp_path, scene, value):
+    """write_design wrote densities NaN, 3.0 and −2.0 into the VTU where ``sim.run(x)``
+    raises: it raises the same DesignError, naming the variable, and writes nothing."""
+    sim = flextop.Simulation(getattr(flextop.scenes, scene)())
+    x = np.full(sim.n_design, 0.5)
+    x[7] = value
+    with pytest.raises(flextop.DesignError) as run:
+        sim.run(x)
+    assert str(run.value).startswith(f"x[7] ({sim.variable_names[7]}) = ")
+    with pytest.raises(flextop.DesignError) as written:
+        export.write_design(sim, x, tmp_path / "design.vtu")
+    assert str(written.value) == str(run.value) and not (tmp_path / "design.vtu").exists()
+
+
 def test_the_command_line_writes_paraview_files(tmp_path):
     import subprocess
     import sys

@@ -255,6 +255,18 @@ def test_a_slip_of_units_in_a_section_is_named_in_a_warning(key, value, words):
         flextop.Simulation(spec)
 
 
+@pytest.mark.parametrize("key, value, words", [("E", 70.0, r"members\[0\] \(rod\)\.E = 70 Pa is outside the plausible"),
+                                               ("rho", 2.7, r"members\[0\] \(rod\)\.rho = 2\.7 kg/m³"),
+                                               ("thickness", 5.0, r"members\[0\] \(rod\)\.thickness = 5 m is wider than the whole")])
+def test_a_slip_of_units_in_a_member_is_named_in_a_warning(key, value, words):
+    """A section with E = 70 and ρ = 2.7 was warned about twice, a continuum member with the
+    same values (and a thickness of 5 m) not at all."""
+    spec = flextop.scenes.continuum_slider_crank().to_dict()
+    spec["members"][0][key] = value
+    with pytest.warns(flextop.errors.PlausibilityWarning, match=words):
+        flextop.Simulation(spec)
+
+
 def test_the_reference_scenes_and_examples_are_plausible():
     import warnings
     from conftest import EXAMPLES
@@ -262,8 +274,8 @@ def test_the_reference_scenes_and_examples_are_plausible():
         warnings.simplefilter("error", flextop.errors.PlausibilityWarning)
         for path in sorted(EXAMPLES.glob("*.toml")):
             flextop.Simulation(path)
-        for name in ("robot_arm", "static_truss", "spun_beam", "ten_bar_truss"):
-            flextop.Simulation(getattr(flextop.scenes, name)())
+        for builder in flextop.scenes.BUILT_IN.values():
+            flextop.Simulation(builder())
 
 
 def test_a_drive_cut_off_by_t_end_is_named():
@@ -286,7 +298,7 @@ def test_a_drive_cut_off_by_t_end_is_named():
         sim.run(0.4, t_end=0.8)  # cruising
 
 
-WRONG = [0, -1, float("nan"), float("inf"), True, "x", None, 10**9, 1e9, -0.0, 1e-300, (1, 2), [1], {"a": 1}, object()]
+WRONG = [0, -1, float("nan"), float("inf"), True, "x", None, 10**9, 1e9, 1e300, -0.0, 1e-300, (1, 2), [1], {"a": 1}, object()]
 """Values of the wrong type or range, as the fuzz campaign gave them."""
 
 
@@ -316,6 +328,8 @@ def test_the_example_builders_name_a_bad_argument():
         flextop.scenes.robot_arm(nx="5")
     with pytest.raises(SceneError, match="static_truss: force must be 2 numbers"):
         flextop.scenes.static_truss(force=(1.0,))
+    with pytest.raises(SceneError, match="continuum_slider_crank: crank = 1e[+]300 is too large: the scene made of it overflows a float"):
+        flextop.scenes.continuum_slider_crank(crank=1e300)  # an OverflowError of crank**2
 
 
 @pytest.mark.parametrize("builder, counts, words", [

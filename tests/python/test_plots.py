@@ -81,6 +81,36 @@ def test_design_draws_bars_between_end_nodes_fixed_at_full_density():
         plots.plot_design(sim, [0.5, 0.5])
 
 
+@pytest.mark.parametrize("value", [float("nan"), 3.0, -2.0])
+@pytest.mark.parametrize("by_component", [False, True])
+def test_a_design_outside_its_bounds_is_refused_as_a_run_refuses_it(arm, value, by_component):
+    """plot_design drew densities NaN, 3.0 and −2.0: it raises the DesignError
+    ``sim.run(x)`` raises, naming the variable."""
+    x = np.full(arm.n_design, 0.5)
+    x[7] = value
+    with pytest.raises(flextop.DesignError) as run:
+        arm.run(x)
+    with pytest.raises(flextop.DesignError) as drawn:
+        plots.plot_design(arm, x, by_component=by_component)
+    assert str(drawn.value) == str(run.value) and str(run.value).startswith(f"x[7] ({arm.variable_names[7]}) = ")
+
+
+@pytest.mark.parametrize(("positions", "got"), [
+    ("three nodes", r"got an array of shape \(3, 2\)"),
+    ("reference", r"got an array of shape \(\d+, 3\)"),
+    ("nan", r"got an array of shape \(\d+, 2\) with entries that are not finite"),
+    ("positions", r"got str"),
+])
+def test_positions_of_the_wrong_shape_are_named_with_the_shape_expected(arm, positions, got):
+    """positions=<wrong shape> raised numpy's IndexError."""
+    reference = np.asarray(arm.model.reference_positions)
+    given = {"three nodes": np.zeros((3, 2)), "reference": np.column_stack([reference, reference[:, :1]]),
+             "nan": np.where(np.arange(len(reference))[:, None] == 2, np.nan, reference)}.get(positions, positions)
+    with pytest.raises(flextop.SettingsError, match=rf"positions must be finite numbers of shape \({len(reference)}, 2\), "
+                                                    r"one \(x, y\) per node, " + got):
+        plots.plot_design(arm, 0.5, positions=given)
+
+
 def test_design_png_written_at_150_dpi(arm, tmp_path):
     path = tmp_path / "design.png"
     fig = plots.plot_design(arm, 0.5, path=path, title="x = 0.5")
@@ -238,4 +268,4 @@ def test_plots_are_reached_from_the_package_as_the_readme_uses_them():
     code = ("import sys, flextop; assert 'matplotlib' not in sys.modules; "
             "assert callable(flextop.plots.plot_design) and 'matplotlib' in sys.modules; "
             "assert flextop.io.export.__name__ == 'flextop.io.export'")
-    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+    assert subprocess.run([sys.executable, "-c", code], timeout=120).returncode == 0

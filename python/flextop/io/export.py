@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import whole
 from ..errors import SettingsError
 
 
@@ -52,9 +53,7 @@ FRAMES = 100
 def frame_indices(n_times: int, every: int | None = None) -> np.ndarray:
     """Every ``every``-th of ``n_times`` states (default: about :data:`FRAMES` of them),
     always ending on the last one."""
-    every = -(-n_times // FRAMES) if every is None else every
-    if not (isinstance(every, (int, np.integer)) and every >= 1):
-        raise SettingsError(f"every must be a whole number ≥ 1, got {every!r}")
+    every = -(-n_times // FRAMES) if every is None else whole("every", every)
     indices = np.arange(0, n_times, every)
     return indices if indices[-1] == n_times - 1 else np.append(indices, n_times - 1)
 

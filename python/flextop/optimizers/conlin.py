@@ -28,6 +28,7 @@ direction, never exceeding ``move``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -77,7 +78,8 @@ class Conlin(Method):
     ``move_incr``, ``move_decr``: adaptation factors of the move limits
     (module doc); ``c``, ``d``: cost of the elastic variables y_i (linear and
     quadratic) that keep the subproblem feasible, as in MMA; c should be
-    large compared with the expected multipliers.
+    large compared with the expected multipliers. ``move_incr`` ≥ 1, ``move_decr`` in
+    (0, 1], ``c`` ≥ 0, ``d`` > 0.
     """
 
     move_incr: float = 1.2
@@ -85,6 +87,8 @@ class Conlin(Method):
     c: float = 1000.0
     d: float = 1.0
     name: ClassVar[str] = "conlin"
+    ranges: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "move_incr": (1.0, math.inf, "[)"), "move_decr": (0.0, 1.0, "(]"), "c": (0.0, math.inf, "[)"), "d": (0.0, math.inf, "()")}
 
     def check(self, problem: Problem) -> None:
         """CONLIN's reciprocal variables 1/x_j need x_j > 0: every lower bound positive."""

@@ -13,6 +13,7 @@ the last good design, halves the move limit and tries again, up to
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
@@ -21,6 +22,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from ..checks import number, whole
 from ..errors import DesignError, SettingsError
 from .conlin import Conlin
 from .kkt import kkt_estimate
@@ -137,6 +139,19 @@ class _CountingEvaluator:
         if not evaluation.is_finite():
             raise EvaluationError("evaluation returned non-finite values", x)
         return evaluation
+
+
+def _check_settings(*, move: float, kkt_tol: float, xtol: float | None, ftol: float | None, feas_tol: float,
+                    max_iter: int, max_retries: int) -> None:
+    """The settings of :func:`optimize` in their ranges: each refusal a SettingsError that
+    names the setting and its range (a tolerance of 0 never stops a run: it runs to
+    ``max_iter``)."""
+    number("move", move, 0.0, 1.0, "(]")
+    for name, value in (("kkt_tol", kkt_tol), ("xtol", xtol), ("ftol", ftol), ("feas_tol", feas_tol)):
+        if value is not None:
+            number(name, value, 0.0, math.inf, "[)")
+    whole("max_iter", max_iter, 0)
+    whole("max_retries", max_retries, 0)
 
 
 def _resolve_method(method: str | Method) -> Method:
@@ -366,7 +381,7 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     method : "mma", "gcmma", "conlin", "oc" or a configured :class:`Method`
         (e.g. ``MMA(asyincr=1.1)``).
     max_iter : total number of outer iterations, including those done before a resume.
-    move : largest step per iteration as a fraction of upper - lower.
+    move : largest step per iteration as a fraction of upper - lower, in (0, 1].
     kkt_tol : converged, and stop, when the KKT residual (:mod:`.kkt`: the projected
         gradient of the Lagrangian with the objective divided by max(1, |f0|),
         complementarity and infeasibility) falls below it at a feasible design; the only
@@ -375,12 +390,14 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below it. Off by default: MMA
         takes small steps wherever its asymptotes are close, far from an optimum too.
     ftol : if given, stop as stalled when |f0^k - f0^{k-1}| <= ftol max(1, |f0^k|).
-    feas_tol : a design is feasible when max(g) <= feas_tol.
+    feas_tol : a design is feasible when max(g) <= feas_tol (≥ 0).
     max_retries : consecutive evaluation failures tolerated; each one halves the move limit.
     callback : called after every iteration with its :class:`IterationRecord`, whose
         ``state`` attribute is a checkpoint (``record.state.to_dict()``); return True to stop.
     state : an :class:`OptimizerState` to resume from (then the state's move limit is used).
     """
+    _check_settings(move=move, kkt_tol=kkt_tol, xtol=xtol, ftol=ftol, feas_tol=feas_tol, max_iter=max_iter,
+                    max_retries=max_retries)
     method = _resolve_method(method)
     method.check(problem)
     evaluate = _CountingEvaluator(problem, calls=0 if state is None else state.nfev)

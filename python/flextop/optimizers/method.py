@@ -13,6 +13,7 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
+from ..checks import number
 from .problem import Evaluation, Problem, Trial
 from .state import OptimizerState
 
@@ -42,9 +43,17 @@ class Step:
 
 
 class Method(ABC):
-    """A sequential convex programming method (CONLIN, MMA, GCMMA)."""
+    """A sequential convex programming method (CONLIN, MMA, GCMMA, OC): a dataclass of
+    settings, each checked as it is made against its interval in ``ranges`` (name →
+    ``(low, high, brackets)``), a refusal a :class:`~flextop.errors.SettingsError` naming
+    the setting."""
 
     name: ClassVar[str]
+    ranges: ClassVar[dict[str, tuple[float, float, str]]] = {}
+
+    def __post_init__(self) -> None:
+        for setting, span in self.ranges.items():
+            number(f"{type(self).__name__}: {setting}", getattr(self, setting), *span)
 
     def check(self, problem: Problem) -> None:
         """Raise :class:`~flextop.errors.SettingsError` (a ValueError) if the method cannot

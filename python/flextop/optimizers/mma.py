@@ -34,12 +34,14 @@ kept within 0.01 .. 10 times (xmax_j - xmin_j) of x^k_j.
 
 from __future__ import annotations
 
+import math
 from copy import copy
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
+from ..checks import whole
 from .dual import DualSolution, SeparableApproximation, solve_dual
 from .method import Evaluator, Method, Step, move_limits, trend_factor
 from .problem import Evaluation, Problem, Values
@@ -130,7 +132,9 @@ class MMA(Method):
     ``asyinit``, ``asyincr``, ``asydecr``: asymptote rules (module doc);
     ``c``, ``d``: cost of the elastic variables (c should be large compared
     with the expected multipliers, so scale f0 to order 1..100);
-    ``rho``: the regularization rho_i of p_ij and q_ij.
+    ``rho``: the regularization rho_i of p_ij and q_ij. Each is checked as the method is
+    made: ``asyinit`` in [0.01, 10] (where the asymptotes are kept), ``asyincr`` ≥ 1,
+    ``asydecr`` in (0, 1], ``c`` ≥ 0, ``d`` and ``rho`` > 0.
 
     Plain MMA is not globally convergent. In particular, a variable whose
     optimum is interior and set by the objective alone (no active constraint
@@ -165,6 +169,9 @@ class MMA(Method):
     rho: float = 1e-5
     safeguard: bool = True
     name: ClassVar[str] = "mma"
+    ranges: ClassVar[dict[str, tuple[float, float, str]]] = {
+        "asyinit": (0.01, 10.0, "[]"), "asyincr": (1.0, math.inf, "[)"), "asydecr": (0.0, 1.0, "(]"),
+        "c": (0.0, math.inf, "[)"), "d": (0.0, math.inf, "()"), "rho": (0.0, math.inf, "()")}
 
     def approximation(self, problem: Problem, state: OptimizerState, move: float,
                       rho: np.ndarray) -> MMAApproximation:
@@ -258,12 +265,17 @@ class GCMMA(MMA):
     the rho_i of the violated ones,
         delta_i = (f_i(x^) - f~_i(x^)) / d(x^),   rho_i <- min(1.1 (rho_i + delta_i), 10 rho_i),
     (adding delta_i makes f~_i exact at x^, since f~_i grows by d(x) per unit
-    rho_i) and solve again, at most ``max_inner`` times.
+    rho_i) and solve again, at most ``max_inner`` times (a whole number ≥ 0; ``rho_min`` > 0).
     """
 
     rho_min: float = 1e-6
     max_inner: int = 15
     name: ClassVar[str] = "gcmma"
+    ranges: ClassVar[dict[str, tuple[float, float, str]]] = {**MMA.ranges, "rho_min": (0.0, math.inf, "()")}
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        whole("GCMMA: max_inner", self.max_inner, 0)
     # MMA's ``safeguard`` has nothing to do here: every GCMMA step is conservative.
 
     def step(self, problem: Problem, state: OptimizerState, move: float,

@@ -27,7 +27,9 @@ from .state import OptimizerState
 @dataclass
 class OptimalityCriteria(Method):
     """The optimality-criteria update with damping exponent ``eta`` (½ in the 88-line code)
-    and a bisection on λ to relative width ``tol``; the move limit is the driver's.
+    and a bisection on λ to relative width ``tol``; the move limit is the driver's. ``eta``
+    lies in (0, 1] (1: the undamped fixed point; beyond it the update overshoots), ``tol``
+    in (0, 1).
 
     Only for one constraint linear in the design (a volume, of filtered densities too) and
     an objective that falls as any variable grows (compliance): :meth:`check` refuses more
@@ -37,6 +39,7 @@ class OptimalityCriteria(Method):
     eta: float = 0.5
     tol: float = 1e-12
     name: ClassVar[str] = "oc"
+    ranges: ClassVar[dict[str, tuple[float, float, str]]] = {"eta": (0.0, 1.0, "(]"), "tol": (0.0, 1.0, "()")}
 
     def check(self, problem: Problem) -> None:
         if problem.m != 1:

@@ -15,11 +15,11 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import ClassVar, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from ..errors import FlextopError
+from ..errors import DesignError, FlextopError
 
 
 @dataclass
@@ -144,6 +144,22 @@ class Problem(ABC):
     def n(self) -> int:
         """Number of design variables."""
         return self.lower.size
+
+    def design(self, x: Any) -> np.ndarray:
+        """``x`` as a design of this problem: a vector of :attr:`n` real numbers, each
+        finite and within its bounds; else a :class:`~flextop.errors.DesignError` naming
+        the first that is not."""
+        try:
+            xv = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise DesignError(f"x must be a vector of {self.n} real numbers, got {type(x).__name__}") from None
+        if xv.shape != (self.n,):
+            raise DesignError(f"x must be a vector of {self.n} real numbers, one per design variable, got shape {xv.shape}")
+        outside = np.flatnonzero(~((self.lower <= xv) & (xv <= self.upper)))
+        if outside.size:
+            i = outside[0]
+            raise DesignError(f"x[{i}] = {xv[i]:g} is outside its bounds [{self.lower[i]:g}, {self.upper[i]:g}]")
+        return xv
 
     @abstractmethod
     def evaluate(self, x: np.ndarray) -> Evaluation:

@@ -2,10 +2,16 @@
 dependence (Sigmund 2007; the 88-line code, Andreassen et al. 2011).
 
 Both weigh a cell's neighbours within ``radius`` (m, so that the design's resolution does not
-change with the mesh) by ``Hₑᵢ = max(0, r − |cₑ − cᵢ|)`` between reference centres, within the
-same member, over the cells that are design variables; a bar's variable is left alone. A
-radius no longer than a member's cells reaches no neighbour in that direction: warned
-(:class:`~flextop.errors.SettingsWarning`), as the design there is then mesh-dependent.
+change with the mesh) by ``Hₑᵢ = max(0, 1 − |cₑ − cᵢ|/r)`` between reference centres (the
+88-line code's ``r − |cₑ − cᵢ|`` over ``r``: the same filters, and no underflow of a tiny
+radius), within the same member, over the cells that are design variables; a bar's variable is
+left alone. A radius no longer than a member's cells reaches no neighbour in that direction:
+warned (:class:`~flextop.errors.SettingsWarning`), as the design there is then mesh-dependent
+(a radius below every cell's size leaves each cell its own density).
+
+The designs they are handed are checked as the simulation checks one
+(:meth:`~flextop.Simulation.checked_design`): a :class:`~flextop.errors.DesignError` names a
+variable that is NaN or outside ``[x_min, 1]``.
 
 * :class:`DensityFilter` (Bruns and Tortorelli): the simulation sees the physical densities
   ``x̃ = W x``, ``W = diag(1/Σᵢ Hₑᵢ) H``, and the gradients follow by the chain rule
@@ -24,13 +30,13 @@ import numpy as np
 import scipy.sparse as sparse
 from scipy.spatial import cKDTree
 
-from ..errors import SettingsError, SettingsWarning
+from ..checks import number
+from ..errors import DesignError, SettingsError, SettingsWarning
 
 
 def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
-    """``H`` over the design variables (identity on those that are no cells)."""
-    if not (np.isfinite(radius) and radius > 0):
-        raise SettingsError(f"filter radius must be a positive length in m, got {radius}")
+    """``H`` over the design variables (identity on those that are no cells), ``radius``
+    checked by :func:`_radius` first."""
     cells = simulation.model.cells()
     variable = np.asarray(cells["variable"])
     designed = variable >= 0
@@ -39,10 +45,10 @@ def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
     centre, member, variable = cells["centre"][designed], np.asarray(cells["member"])[designed], variable[designed]
     pairs = cKDTree(centre).sparse_distance_matrix(cKDTree(centre), radius, output_type="coo_matrix")
     # Pairs of distinct cells of one member (the distance matrix may or may not hold a cell
-    # with itself), then each cell's own weight r.
+    # with itself), then each cell's own weight 1.
     same = (member[pairs.row] == member[pairs.col]) & (pairs.row != pairs.col)
     rows, cols = variable[pairs.row[same]], variable[pairs.col[same]]
-    weights = np.concatenate([radius - pairs.data[same], np.full(variable.size, radius)])
+    weights = np.concatenate([1.0 - pairs.data[same] / radius, np.ones(variable.size)])
     rows, cols = np.concatenate([rows, variable]), np.concatenate([cols, variable])
     _warn_if_unfiltered(simulation, radius)
     n = simulation.n_design
@@ -50,6 +56,26 @@ def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
     rows, cols = np.concatenate([rows, others]), np.concatenate([cols, others])
     weights = np.concatenate([weights, np.ones(others.size)])
     return sparse.csr_matrix((weights, (rows, cols)), shape=(n, n))
+
+
+def _radius(filter: str, radius: Any) -> float:
+    """The filter's ``radius`` as a positive length in m, or a SettingsError naming it."""
+    return number(f"{filter}: radius (m)", radius, 0.0)
+
+
+def _gradient(name: str, values: Any, n: int) -> np.ndarray:
+    """``values``, gradients of shape ``(n,)`` or ``(m, n)``, as a float array, or a
+    DesignError naming ``name``: real numbers of that shape, finite."""
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise DesignError(f"{name} must be real numbers, got {type(values).__name__}") from None
+    if array.ndim not in (1, 2) or array.shape[-1] != n:
+        raise DesignError(f"{name} must be of shape ({n},) or (m, {n}), one entry per design variable, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise DesignError(f"{name} holds {array[~np.isfinite(array)][0]} at entry {np.argwhere(~np.isfinite(array))[0].tolist()}: "
+                          "gradients must be finite")
+    return array
 
 
 def _warn_if_unfiltered(simulation: Any, radius: float) -> None:
@@ -75,16 +101,16 @@ class DensityFilter:
     for the β of each evaluation. A bar's variable passes unchanged."""
 
     def __init__(self, simulation: Any, radius: float, *, beta: float | None = None, eta: float = 0.5) -> None:
-        h = _neighbourhoods(simulation, radius)
-        self.radius = float(radius)
+        self.radius = _radius("DensityFilter", radius)
+        self.eta = number("DensityFilter: projection threshold eta", eta, 0.0, 1.0, "()")
+        self.beta = beta
+        h = _neighbourhoods(simulation, self.radius)
+        self.simulation = simulation
         self.weights = sparse.diags(1.0 / np.asarray(h.sum(axis=1)).ravel()) @ h
         self.x_min = simulation.x_min
         cells = np.asarray(simulation.model.cells()["variable"])
         self.cells = np.zeros(simulation.n_design, bool)
         self.cells[cells[cells >= 0]] = True
-        if not (0.0 < eta < 1.0):
-            raise SettingsError(f"projection threshold eta must lie in (0, 1), got {eta}")
-        self.beta, self.eta = beta, float(eta)
 
     @property
     def beta(self) -> float | None:
@@ -93,9 +119,7 @@ class DensityFilter:
 
     @beta.setter
     def beta(self, value: float | None) -> None:
-        if value is not None and not (np.isfinite(value) and value > 0):
-            raise SettingsError(f"projection sharpness beta must be positive, got {value}")
-        self._beta = None if value is None else float(value)
+        self._beta = None if value is None else number("DensityFilter: projection sharpness beta", value, 0.0)
 
     def _projected(self, filtered: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``x̄`` and ``dx̄/dx̃`` on the cells' variables (identity elsewhere)."""
@@ -112,7 +136,7 @@ class DensityFilter:
 
     def physical(self, x: np.ndarray) -> np.ndarray:
         """``x̄`` (or ``x̃`` without projection), kept in ``[x_min, 1]`` against round-off."""
-        projected, _ = self._projected(self.weights @ np.asarray(x, dtype=float))
+        projected, _ = self._projected(self.weights @ self.simulation.checked_design(x))
         return np.clip(projected, self.x_min, 1.0)
 
     def to_dict(self) -> dict[str, Any]:
@@ -122,16 +146,18 @@ class DensityFilter:
     def chain(self, x: np.ndarray, dfdx_physical: np.ndarray) -> np.ndarray:
         """``df/dx = (df/dx̄ ⊙ dx̄/dx̃) W`` at ``x``, for gradients of shape ``(n,)`` or
         ``(m, n)``."""
-        _, slope = self._projected(self.weights @ np.asarray(x, dtype=float))
-        return np.asarray((self.weights.T @ (np.asarray(dfdx_physical) * slope).T).T)
+        x = self.simulation.checked_design(x)
+        _, slope = self._projected(self.weights @ x)
+        return np.asarray((self.weights.T @ (_gradient("dfdx_physical", dfdx_physical, x.size) * slope).T).T)
 
 
 class SensitivityFilter:
     """Sigmund's filter of the objective's gradient (see the module), radius in m."""
 
     def __init__(self, simulation: Any, radius: float) -> None:
-        self.radius = float(radius)
-        self.h = _neighbourhoods(simulation, radius)
+        self.radius = _radius("SensitivityFilter", radius)
+        self.h = _neighbourhoods(simulation, self.radius)
+        self.simulation = simulation
         self.sums = np.asarray(self.h.sum(axis=1)).ravel()
 
     def to_dict(self) -> dict[str, Any]:
@@ -140,8 +166,8 @@ class SensitivityFilter:
 
     def filtered(self, x: np.ndarray, dfdx: np.ndarray) -> np.ndarray:
         """``H(x ⊙ ∂f/∂x) / (Σᵢ Hₑᵢ · max(10⁻³, x))``."""
-        x = np.asarray(x, dtype=float)
-        return (self.h @ (x * dfdx)) / self.sums / np.maximum(1e-3, x)
+        x = self.simulation.checked_design(x)
+        return (self.h @ (x * _gradient("dfdx", dfdx, x.size))) / self.sums / np.maximum(1e-3, x)
 
 
 def from_dict(simulation: Any, data: dict[str, Any] | None) -> DensityFilter | SensitivityFilter | None:

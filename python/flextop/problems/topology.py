@@ -384,9 +384,11 @@ class TopologyProblem(Problem):
         return list(self.constraints)
 
     def densities(self, x: np.ndarray) -> np.ndarray:
-        """The densities the scene is run with at design ``x``: the density filter's
-        physical ones where it stands between, ``x`` otherwise."""
-        return self.filter.physical(x) if isinstance(self.filter, DensityFilter) else np.asarray(x, dtype=float)
+        """The densities the scene is run with at design ``x`` (a vector within the bounds:
+        :meth:`~flextop.optimizers.Problem.design`): the density filter's physical ones where
+        it stands between, ``x`` otherwise."""
+        x = self.design(x)
+        return self.filter.physical(x) if isinstance(self.filter, DensityFilter) else x
 
     def start(self, x: Any) -> np.ndarray:
         """The design ``x`` of the scene (one number or one per variable) as a design of

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
+
 from ..errors import SceneError, SceneFileError
 
 if sys.version_info >= (3, 11):
@@ -48,6 +50,23 @@ def _name(what: str, value: Any) -> str:
     if not isinstance(value, str) or not value:
         raise SceneError(f"{what}: a name must be non-empty text, got {value!r}")
     return value
+
+
+def _rectangles(path: str, rectangles: Any) -> list[list[int]]:
+    """Rectangles of cells ``(i0, j0, i1, j1)`` as the scene holds them: each four whole
+    numbers (a float, a string or NaN refused, as in a TOML file), else a ``SceneError``
+    naming the entry; whether they fit the member the engine checks."""
+    entries = _listed(rectangles)
+    if not isinstance(entries, list):
+        raise SceneError(f"{path}: expected a list of rectangles [i0, j0, i1, j1], got {rectangles!r}")
+    out = []
+    for k, entry in enumerate(entries):
+        rectangle = _listed(entry)
+        if not (isinstance(rectangle, list) and len(rectangle) == 4
+                and all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)) for v in rectangle)):
+            raise SceneError(f"{path}[{k}]: a rectangle of cells is four whole numbers [i0, j0, i1, j1], got {entry!r}")
+        out.append([int(v) for v in rectangle])
+    return out
 
 
 def _scale_table(table: Any) -> dict[str, Any]:
@@ -86,29 +105,41 @@ class GroundStructure:
     def node(self, column: int, row: int) -> str:
         """Name of grid node (``column``, ``row``), row 0 at the bottom."""
         if not (0 <= column < self.nx and 0 <= row < self.ny):
-            raise IndexError(f"{self.name} has {self.nx} × {self.ny} nodes; ({column}, {row}) is outside")
+            raise SceneError(f"{self.name} has {self.nx} × {self.ny} nodes; ({column}, {row}) is outside")
         return f"{self.name}[{column},{row}]"
 
 
 @dataclass(frozen=True)
 class Member:
-    """Handle on a continuum member of a scene: its name and its cells along and across."""
+    """Handle on a continuum member of a scene: its name, its cells along and across and its
+    holes (rectangles ``(i0, j0, i1, j1)`` of cells left out)."""
 
     name: str
     nx: int
     ny: int
+    holes: tuple[tuple[int, int, int, int], ...] = ()
 
     def node(self, column: int, row: int) -> str:
-        """Name of mesh node (``column``, ``row``), ``0 ≤ column ≤ nx``, row 0 at the bottom."""
+        """Name of mesh node (``column``, ``row``), ``0 ≤ column ≤ nx``, row 0 at the bottom;
+        a node only cells of holes touch is left out of the mesh, and refused here."""
         if not (0 <= column <= self.nx and 0 <= row <= self.ny):
-            raise IndexError(f"{self.name} has {self.nx + 1} × {self.ny + 1} nodes; ({column}, {row}) is outside")
+            raise SceneError(f"{self.name} has {self.nx + 1} × {self.ny + 1} nodes; ({column}, {row}) is outside")
+        if not any(self._kept(i, j) for i in (column - 1, column) for j in (row - 1, row)):
+            raise SceneError(f"{self.name}: node ({column}, {row}) touches only cells of its holes, and is left out with them")
         return f"{self.name}[{column},{row}]"
 
     def cell(self, column: int, row: int) -> str:
         """Name of cell (``column``, ``row``): its design variable."""
         if not (0 <= column < self.nx and 0 <= row < self.ny):
-            raise IndexError(f"{self.name} has {self.nx} × {self.ny} cells; ({column}, {row}) is outside")
+            raise SceneError(f"{self.name} has {self.nx} × {self.ny} cells; ({column}, {row}) is outside")
+        if not self._kept(column, row):
+            raise SceneError(f"{self.name}: cell ({column}, {row}) lies in a hole")
         return f"{self.name}/cell[{column},{row}]"
+
+    def _kept(self, column: int, row: int) -> bool:
+        """Whether cell (``column``, ``row``) is in the member and in none of its holes."""
+        inside = 0 <= column < self.nx and 0 <= row < self.ny
+        return inside and not any(i0 <= column < i1 and j0 <= row < j1 for i0, j0, i1, j1 in self.holes)
 
 
 class Scene:
@@ -177,25 +208,26 @@ class Scene:
         quadrilaterals (total Lagrangian, St. Venant–Kirchhoff) of ``thickness`` (m), Young's
         modulus ``E`` (Pa), Poisson's ratio ``nu`` and density ``rho`` (kg/m³); one design
         variable per cell unless ``fixed``. ``holes`` and ``solid`` are rectangles of cells
-        ``(i0, j0, i1, j1)`` (columns ``i0..i1``, rows ``j0..j1``, from the bottom left) left out,
-        or kept at full density and not designed. Its nodes have no rotation: joints on them
-        pin. With ``solid_at_joints`` (default) the cells touching a node that a joint or a
+        ``(i0, j0, i1, j1)``, four whole numbers, half-open: columns ``i0 ≤ i < i1`` and rows
+        ``j0 ≤ j < j1`` from the bottom left (``(0, 0, 1, 1)`` is the corner cell alone), left
+        out — with the nodes only they touch — or kept at full density and not designed. Its
+        nodes have no rotation: joints on them pin. With ``solid_at_joints`` (default) the cells touching a node that a joint or a
         beam attaches to are kept solid too, so that an optimizer cannot detach the joint.
         ``rayleigh = (α, β)`` (1/s, s) damps the cells by ``C = αM + βK``, the stiffness part
         as a Kelvin–Voigt material on the Green–Lagrange strain rate (no damping of a rigid
         motion)."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
-        if holes:
-            entry["holes"] = [[int(v) for v in r] for r in holes]
-        if solid:
-            entry["solid"] = [[int(v) for v in r] for r in solid]
+        path = f"members[{len(self._spec.get('members', []))}] ({name})"
+        for key, rectangles in (("holes", holes), ("solid", solid)):
+            if listed := _rectangles(f"{path}.{key}", rectangles):
+                entry[key] = listed
         if not solid_at_joints:
             entry["solid_at_joints"] = False
         if rayleigh is not None:
             entry["rayleigh"] = _listed(rayleigh)
         self._spec.setdefault("members", []).append(entry)
-        return Member(name, nx, ny)
+        return Member(name, nx, ny, tuple(map(tuple, entry.get("holes", []))))
 
     def beam(self, a: str, b: str, *, section: str, split: int = 1, name: str | None = None,
              component: str | None = None, group: str | None = None, fixed: bool = False,

@@ -18,6 +18,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from .. import _core
+from ..checks import number, real, whole
 from ..errors import SceneError
 from .builder import Scene, motion_table, trapezoidal
 
@@ -40,7 +41,8 @@ def _checked(sizes: Callable[..., dict[str, int]], **ranges: tuple[float, float,
     whole numbers ≥ 1, other numbers finite reals in their range (``_RANGES``, or this
     builder's own ``ranges``), and the sizes they make (``sizes`` of the arguments: limit
     name → size) within :data:`LIMITS`. Each refusal is a ``SceneError`` naming the
-    builder's argument."""
+    builder's argument; so is a float the scene's arithmetic overflows (its largest
+    number, :func:`_largest`)."""
 
     def wrap(builder: _Builder) -> _Builder:
         signature = inspect.signature(builder)
@@ -60,34 +62,38 @@ def _checked(sizes: Callable[..., dict[str, int]], **ranges: tuple[float, float,
                 if size > LIMITS[limit]:
                     raise SceneError(f"{builder.__name__}: these arguments make {size:,} {limit.replace('_', ' ')}, "
                                      f"beyond the limit of {LIMITS[limit]:,}")
-            return builder(*args, **kwargs)
+            try:
+                return builder(*args, **kwargs)
+            except OverflowError:
+                raise SceneError(f"{builder.__name__}: {_largest(given)} is too large: the scene made of it "
+                                 "overflows a float") from None
 
         return checked  # type: ignore[return-value]
 
     return wrap
 
 
+def _largest(given: dict[str, Any]) -> str:
+    """``name = value`` of the argument of largest magnitude among ``given``'s numbers."""
+    numbers = {name: v for name, v in given.items() if real(v) is not None}
+    name = max(numbers, key=lambda k: abs(numbers[k]), default=None)
+    return "an argument" if name is None else f"{name} = {numbers[name]:g}"
+
+
 def _check_argument(builder: str, name: str, value: Any, annotation: str, span: tuple[float, float, str] | None) -> None:
     where = f"{builder}: {name}"
     if annotation == "int":
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise SceneError(f"{where} must be a whole number ≥ 1, got {value!r}")
+        whole(where, value, error=SceneError)
         return
     pair = annotation.startswith("tuple")
     if pair and (not isinstance(value, (tuple, list, np.ndarray)) or len(value) != annotation.count("float")):
         raise SceneError(f"{where} must be {annotation.count('float')} numbers, got {value!r}")
     numbers = list(value) if pair else [value] if annotation == "float" else []
     for v in numbers:
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
+        if real(v) is None:
             raise SceneError(f"{where} must be a finite number, got {value!r}")
         if span is not None:
-            low, high, brackets = span
-            above = low <= v if brackets[0] == "[" else low < v
-            below = v <= high if brackets[1] == "]" else v < high
-            if not (above and below):
-                bounds = f"{'≥' if brackets[0] == '[' else '>'} {low:g}"
-                bounds += f" and {'≤' if brackets[1] == ']' else '<'} {high:g}" if high < math.inf else ""
-                raise SceneError(f"{where} must be {bounds}, got {v!r}")
+            number(where, v, *span, error=SceneError)
 
 #: Aluminium (Pa, -, kg/m³) and the solid circular section diameter (m).
 ALUMINIUM = {"E": 70e9, "nu": 0.32, "rho": 2700.0}
