@@ -393,17 +393,24 @@ mod tests {
         Section::new(&geometry, 7.0e10, 2.7e10, 2700.0).with_rayleigh(0.8, 2e-3)
     }
 
+    /// Two turned nodes, where the beam of [`beam_and_state`] starts.
+    fn start() -> [Frame; 2] {
+        [
+            Frame::new(
+                Vector3::new(0.1, -0.2, 0.3),
+                exp(&Vector3::new(0.4, -0.2, 1.1)),
+            ),
+            Frame::new(
+                Vector3::new(0.9, 0.3, 0.1),
+                exp(&Vector3::new(-0.7, 0.5, 0.2)),
+            ),
+        ]
+    }
+
     /// A beam between two turned nodes, and a state well away from its start: the ends
     /// turned by half a radian against each other, moving.
     fn beam_and_state() -> (Beam, Vec<f64>, Vec<f64>, Vec<f64>) {
-        let a = Frame::new(
-            Vector3::new(0.1, -0.2, 0.3),
-            exp(&Vector3::new(0.4, -0.2, 1.1)),
-        );
-        let b = Frame::new(
-            Vector3::new(0.9, 0.3, 0.1),
-            exp(&Vector3::new(-0.7, 0.5, 0.2)),
-        );
+        let [a, b] = start();
         let beam = Beam::new(
             "bar",
             [0, 1],
@@ -495,6 +502,34 @@ mod tests {
                 let dm = (moved.fixed_rows::<3>(6 * n + 3) - m0).amax();
                 assert!(df.max(dm) < 1e-12 * scale, "{angle} rad: {df:e}, {dm:e}");
             }
+        }
+    }
+
+    /// An unstrained element moved rigidly — its nodes placed at any rotation of the start,
+    /// about random axes by angles up to 4π, and anywhere — has internal forces below 1e-12
+    /// of a unit-strain force (`EA`, and `EI/L` for moments).
+    #[test]
+    fn rigid_placements_give_no_force() {
+        let (beam, _, _, _) = beam_and_state();
+        let start = start();
+        let unit = beam.section.c_n[0].max(beam.section.c_m[1] / beam.length);
+        let mut seed = 0.37_f64;
+        let mut next = || {
+            seed = (seed * 9301.0 + 0.49297).fract();
+            seed
+        };
+        for _ in 0..50 {
+            let axis = Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let turn = exp(&(axis * (4.0 * std::f64::consts::PI * next())));
+            let shift = Vector3::new(next(), next(), next()) * 100.0;
+            let mut q = vec![0.0; 14];
+            for (n, f) in start.iter().enumerate() {
+                Frame::new(turn * f.x + shift, turn * f.r).write(&mut q, n);
+            }
+            let f = beam
+                .terms(&q, &[0.0; 12], None, &Vector3::zeros(), false)
+                .internal;
+            assert!(f.amax() < 1e-12 * unit, "{:e} of {unit:e}", f.amax());
         }
     }
 

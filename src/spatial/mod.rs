@@ -54,6 +54,7 @@ pub mod body;
 pub mod force;
 pub mod integrator;
 pub mod joint;
+pub mod modal;
 pub mod model;
 pub mod section;
 pub mod sensitivity;

@@ -10,6 +10,7 @@ mod spatial;
 mod spatial_beams;
 mod spatial_forces;
 mod spatial_joints;
+mod spatial_modes;
 mod spatial_sensitivity;
 mod spatial_statics;
 mod statics;
