@@ -2,17 +2,25 @@
 volume constraint (Bendsøe and Sigmund; the update of the 88-line code, Andreassen et al.
 2011, Eq. 3).
 
-At a design x with objective gradient ∂f₀/∂x ≤ 0 and one constraint g(x) ≤ 0 that is linear
-in x (a volume), the optimality condition ∂f₀/∂xₑ + λ ∂g/∂xₑ = 0 suggests the fixed point
+At a design x with one constraint g(x) ≤ 0 that is linear in x (a volume), the optimality
+condition ∂f₀/∂xₑ + λ ∂g/∂xₑ = 0 suggests the fixed point
 
-    xₑ ← clip(xₑ Bₑ^η, box),   Bₑ = −(∂f₀/∂xₑ) / (λ ∂g/∂xₑ),
+    xₑ ← clip(xₑ Bₑ^η, box),   Bₑ = max(0, −∂f₀/∂xₑ) / (λ ∂g/∂xₑ),
 
 inside the move-limited box; λ is found by bisection so that the constraint, linear in x, is
-active: g(x) + ∇g·(x_new − x) = 0 (or λ = 0 if the box alone satisfies it).
+active: g(x) + ∇g·(x_new − x) = 0. The classic Bₑ is only defined where the objective falls
+as xₑ grows; a variable whose objective gradient is positive or zero gains nothing from its
+volume, and Bₑ = 0 sends it to the lower side of its box at every λ (the update of
+Sigmund's compliant-mechanism version of the 99-line code, whose sensitivities take both
+signs: ``max(1e-10, -dc/lmid)``; Bendsøe and Sigmund 2003, on mechanism synthesis). λ = 0 only where that split box, every descent variable at its
+upper side and every other at its lower, satisfies the linearized constraint: from a
+feasible design the update never leaves it, and never raises a variable whose objective
+grows with it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -31,10 +39,10 @@ class OptimalityCriteria(Method):
     lies in (0, 1] (1: the undamped fixed point; beyond it the update overshoots), ``tol``
     in (0, 1).
 
-    Only for one constraint linear in the design (a volume, of filtered densities too) and
-    an objective that falls as any variable grows (compliance): :meth:`check` refuses more
-    constraints, and a variable whose objective gradient is positive stays put at its lower
-    bound side (``Bₑ`` clipped at 0)."""
+    Only for one constraint linear in the design (a volume, of filtered densities too):
+    :meth:`check` refuses more constraints. Made for an objective that falls as any variable
+    grows (compliance); a variable whose objective gradient is positive or zero moves to
+    the lower side of its box (``Bₑ`` = 0, module doc), never up."""
 
     eta: float = 0.5
     tol: float = 1e-12
@@ -62,16 +70,21 @@ class OptimalityCriteria(Method):
         def active(lam: float) -> float:
             return e.g[0] + dg @ (update(lam) - x)
 
+        if active(np.finfo(float).tiny) <= 0:  # the split box satisfies the constraint: λ = 0
+            lam, x_new = 0.0, np.where(descent > 0, high, low)
+        else:
+            lam = self.multiplier(active)
+            x_new = update(lam)
+        return Step(x_new, evaluate(x_new), np.array([lam]))
+
+    def multiplier(self, active: Callable[[float], float]) -> float:
+        """The λ > 0 that makes the linearized constraint ``active(λ)`` (decreasing in λ)
+        zero, by bisection to relative width ``tol``: the upper end of the final bracket,
+        where the constraint holds."""
         lam_low, lam_high = 0.0, 1.0
         while active(lam_high) > 0 and lam_high < 1e300:
             lam_high *= 10.0
-        if active(np.finfo(float).tiny) <= 0:  # the box satisfies the constraint: λ = 0
-            lam = 0.0
-            x_new = high.copy()
-        else:
-            while lam_high - lam_low > self.tol * (lam_low + lam_high):
-                lam = 0.5 * (lam_low + lam_high)
-                lam_low, lam_high = (lam, lam_high) if active(lam) > 0 else (lam_low, lam)
-            lam = lam_high
-            x_new = update(lam)
-        return Step(x_new, evaluate(x_new), np.array([lam]))
+        while lam_high - lam_low > self.tol * (lam_low + lam_high):
+            lam = 0.5 * (lam_low + lam_high)
+            lam_low, lam_high = (lam, lam_high) if active(lam) > 0 else (lam_low, lam)
+        return lam_high
