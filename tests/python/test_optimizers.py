@@ -598,6 +598,24 @@ def test_optimality_criteria_keep_variables_the_objective_grows_with_from_rising
     assert np.array_equal(result.x[4:], np.full(3, 1e-3)) and np.all(result.x[:4] > 0.2)
 
 
+def test_optimality_criteria_converge_on_their_design_change_only_off_the_move_limit():
+    """OC's update changes a design by its optimality residual: with ``xtol``, Σ cᵢ/xᵢ² under a
+    volume (the update contracts the error by half per iteration) stops converged (FIXED_POINT, a success) at the first change below it, long
+    before the KKT residual reaches kkt_tol; a change held at the move limit is no fixed
+    point (xtol above the move limit: stalled, XTOL); MMA's small step stays a stall."""
+    c = np.array([1.0, 4.0, 9.0, 0.25, 2.0])
+    problem = volume_bounded(lambda x: (np.sum(c / x**2), -2 * c / x**3), 5, 0.4)
+    result = optimize(problem, 0.4, method="oc", max_iter=80, xtol=1e-3)
+    changes = [record.change for record in result.history[1:]]
+    assert result.status is Status.FIXED_POINT and result.success and result.nit < 80
+    assert changes[-1] < 1e-3 <= min(changes[:-1]) and result.kkt > 1e-6
+    assert "max design change" in result.message and "no variable at its move limit" in result.message
+    held = optimize(problem, 0.4, method="oc", max_iter=80, move=0.1, xtol=0.5)
+    assert held.status is Status.XTOL and not held.success and held.nit == 1
+    mma = optimize(problem, 0.4, method="mma", max_iter=80, xtol=1e-3, kkt_tol=1e-12)
+    assert mma.status is Status.XTOL and not mma.success
+
+
 def test_optimality_criteria_take_one_constraint_that_grows_with_every_variable():
     two = FunctionProblem(lambda x: (np.sum(1 / x), -1 / x**2),
                           lambda x: (np.array([x.sum() - 1, x[0] - 0.5]), np.array([[1.0, 1.0], [1.0, 0.0]])),

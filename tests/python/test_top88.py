@@ -64,6 +64,7 @@ def test_the_88_line_codes_half_mbb(ft, kind):
     assert result.fun / LOAD**2 == pytest.approx(ours[-1])
     assert ours[-2] == pytest.approx(published[-1], rel=1e-3)
     assert abs(problem.evaluate(result.x).g[0]) < 1e-9
+    assert result.status is flextop.optimizers.Status.FIXED_POINT and result.success and result.nit < 400
 
 
 def test_every_update_of_the_half_mbb_is_the_classic_formula():

@@ -16,6 +16,11 @@ signs: ``max(1e-10, -dc/lmid)``; Bendsøe and Sigmund 2003, on mechanism synthes
 upper side and every other at its lower, satisfies the linearized constraint: from a
 feasible design the update never leaves it, and never raises a variable whose objective
 grows with it.
+
+The update's change is its optimality residual: xₑ (Bₑ^η − 1) vanishes where Bₑ = 1
+(stationarity, with λ the multiplier) or a bound holds xₑ on the side Bₑ points to, so a
+small change where the move limit held no variable is convergence (Status.FIXED_POINT of
+:func:`~flextop.optimizers.optimize` with ``xtol``: the 88-line code's change < 0.01).
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ class OptimalityCriteria(Method):
     eta: float = 0.5
     tol: float = 1e-12
     name: ClassVar[str] = "oc"
+    fixed_point: ClassVar[bool] = True
     ranges: ClassVar[dict[str, tuple[float, float, str]]] = {"eta": (0.0, 1.0, "(]"), "tol": (0.0, 1.0, "()")}
 
     def check(self, problem: Problem) -> None:
