@@ -12,10 +12,15 @@ active: g(x) + ∇g·(x_new − x) = 0. The classic Bₑ is only defined where t
 as xₑ grows; a variable whose objective gradient is positive or zero gains nothing from its
 volume, and Bₑ = 0 sends it to the lower side of its box at every λ (the update of
 Sigmund's compliant-mechanism version of the 99-line code, whose sensitivities take both
-signs: ``max(1e-10, -dc/lmid)``; Bendsøe and Sigmund 2003, on mechanism synthesis). λ = 0 only where that split box, every descent variable at its
-upper side and every other at its lower, satisfies the linearized constraint: from a
-feasible design the update never leaves it, and never raises a variable whose objective
-grows with it.
+signs: ``max(1e-10, -dc/lmid)``; Bendsøe and Sigmund 2003, on mechanism synthesis).
+λ = 0 only where that split box, every descent variable at its upper side and every other
+at its lower, satisfies the linearized constraint: from a feasible design the update never
+leaves it, and never raises a variable whose objective grows with it.
+
+A volume of projected densities is not quite linear, and the step can overshoot its
+linearization. From a feasible design, a trial (values only) over the bound by more than
+round-off has its update redone with the linearized constraint held at a target below zero
+(:func:`corrected_target`), at most ``CORRECTIONS`` times.
 
 The update's change is its optimality residual: xₑ (Bₑ^η − 1) vanishes where Bₑ = 1
 (stationarity, with λ the multiplier) or a bound holds xₑ on the side Bₑ points to, so a
@@ -36,6 +41,22 @@ from .method import Evaluator, Method, Step, move_limits
 from .problem import Problem
 from .state import OptimizerState
 
+CORRECTIONS = 3
+"""Updates redone, at most, where a trial overshoots a constraint not quite linear."""
+ROUND_OFF = 1e-9
+"""A trial's constraint value above zero by no more than this is the round-off of a linear one."""
+
+
+def corrected_target(targets: list[float], values: list[float], linearized: float) -> float:
+    """The next target of the linearized constraint where the trials (their constraint
+    ``values`` at the ``targets``) overshoot the bound: the secant through the last two
+    trials to zero (the trial's constraint grows with the target), or after the first, the
+    target at which the last trial's error against its linearization ``linearized`` would
+    leave it at zero."""
+    if len(values) == 1 or values[-1] == values[-2]:
+        return linearized - values[-1]
+    return targets[-1] - values[-1] * (targets[-1] - targets[-2]) / (values[-1] - values[-2])
+
 
 @dataclass
 class OptimalityCriteria(Method):
@@ -44,8 +65,9 @@ class OptimalityCriteria(Method):
     lies in (0, 1] (1: the undamped fixed point; beyond it the update overshoots), ``tol``
     in (0, 1).
 
-    Only for one constraint linear in the design (a volume, of filtered densities too):
-    :meth:`check` refuses more constraints. Made for an objective that falls as any variable
+    Only for one constraint linear in the design (a volume, of filtered densities too) or
+    nearly (of projected ones: the trials corrected, module doc): :meth:`check` refuses
+    more constraints. Made for an objective that falls as any variable
     grows (compliance); a variable whose objective gradient is positive or zero moves to
     the lower side of its box (``Bₑ`` = 0, module doc), never up."""
 
@@ -62,26 +84,38 @@ class OptimalityCriteria(Method):
 
     def step(self, problem: Problem, state: OptimizerState, move: float, evaluate: Evaluator) -> Step:
         x, e = state.x, state.evaluation
-        low, high = move_limits(x, problem.lower, problem.upper, move)
-        dg = e.dg[0]
-        if np.any(dg <= 0):
+        if np.any(e.dg[0] <= 0):
             raise SettingsError("the optimality-criteria method needs a constraint that grows with every "
                                 "variable (a volume); use MMA")
-        descent = np.maximum(-e.df0, 0.0)
+        box = move_limits(x, problem.lower, problem.upper, move)
+        lam, x_new = self.update(x, e.df0, e.g[0], e.dg[0], box, 0.0)
+        trial = evaluate.trial(x_new)
+        targets, values = [0.0], [trial.g[0]]
+        while e.g[0] <= ROUND_OFF and values[-1] > ROUND_OFF and len(values) <= CORRECTIONS:
+            targets.append(corrected_target(targets, values, e.g[0] + e.dg[0] @ (x_new - x)))
+            lam, x_new = self.update(x, e.df0, e.g[0], e.dg[0], box, targets[-1])
+            trial = evaluate.trial(x_new)
+            values.append(trial.g[0])
+        return Step(x_new, trial, np.array([lam]))
 
-        def update(lam: float) -> np.ndarray:
+    def update(self, x: np.ndarray, df0: np.ndarray, g: float, dg: np.ndarray,
+               box: tuple[np.ndarray, np.ndarray], target: float) -> tuple[float, np.ndarray]:
+        """λ and the update inside ``box`` (module doc) that bring the linearized constraint
+        g + dg·(x_new − x) to ``target`` (λ > 0), or below it (λ = 0: the split box)."""
+        low, high = box
+        descent = np.maximum(-df0, 0.0)
+
+        def at(lam: float) -> np.ndarray:
             with np.errstate(over="ignore"):  # λ → 0 sends Bₑ to inf: clipped to the box
                 return np.clip(x * (descent / (lam * dg)) ** self.eta, low, high)
 
         def active(lam: float) -> float:
-            return e.g[0] + dg @ (update(lam) - x)
+            return g + dg @ (at(lam) - x) - target
 
         if active(np.finfo(float).tiny) <= 0:  # the split box satisfies the constraint: λ = 0
-            lam, x_new = 0.0, np.where(descent > 0, high, low)
-        else:
-            lam = self.multiplier(active)
-            x_new = update(lam)
-        return Step(x_new, evaluate(x_new), np.array([lam]))
+            return 0.0, np.where(descent > 0, high, low)
+        lam = self.multiplier(active)
+        return lam, at(lam)
 
     def multiplier(self, active: Callable[[float], float]) -> float:
         """The λ > 0 that makes the linearized constraint ``active(λ)`` (decreasing in λ)
