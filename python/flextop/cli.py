@@ -533,7 +533,9 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
     o.add_argument("--move", type=_fraction, help="move limit as a fraction of the bounds (default 0.2)")
     o.add_argument("--kkt-tol", type=_positive(float), help="converged, and stop, when the KKT residual falls below it (default 1e-6)")
-    o.add_argument("--xtol", type=_positive(float), help="stop as stalled (not converged) when the largest design change falls below it (default: off)")
+    o.add_argument("--xtol", type=_positive(float), help="stop when the largest design change falls below it: converged for --method oc "
+                        "(its update's change is its optimality residual; 0.01 in the 88-line code), "
+                        "stalled (not converged) for the others (default: off)")
     o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=_positive(float))

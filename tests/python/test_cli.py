@@ -137,18 +137,24 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
 
 
-def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path):
-    """A cantilever plate of 12 × 4 cells, compliance under one volume constraint, the
-    density filter (60 mm) with a projection: the checkpoint holds the filter, and a run
-    stopped after 3 iterations and resumed to 6 is the uninterrupted one. densities.npy holds
-    the filtered, projected densities of design.npy; optimality criteria run it too."""
+def plate_toml(tmp_path):
+    """A cantilever plate of 12 × 4 cells pinned along its left edge, loaded down at its
+    lower right corner: its TOML file in ``tmp_path``."""
     scene = flextop.Scene("plate", analysis="static")
     plate = scene.member("plate", nx=12, ny=4, length=0.6, height=0.2, thickness=0.01, E=70e9, nu=0.3, rho=2700.0)
     for j in range(5):
         scene.pin(f"wall{j}", plate.node(0, j))
     scene.load(plate.node(12, 0), force=(0.0, -1e3))
     (tmp_path / "plate.toml").write_text(scene.to_toml())
-    common = [tmp_path / "plate.toml", "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--projection", 2, "--no-plots"]
+    return tmp_path / "plate.toml"
+
+
+def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path):
+    """A cantilever plate of 12 × 4 cells, compliance under one volume constraint, the
+    density filter (60 mm) with a projection: the checkpoint holds the filter, and a run
+    stopped after 3 iterations and resumed to 6 is the uninterrupted one. densities.npy holds
+    the filtered, projected densities of design.npy; optimality criteria run it too."""
+    common = [plate_toml(tmp_path), "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--projection", 2, "--no-plots"]
     straight, split = tmp_path / "straight", tmp_path / "split"
     flextop_cli("optimize", *common, "--max-iter", 6, "--out", straight, codes=(0, 3))
     flextop_cli("optimize", *common, "--max-iter", 3, "--out", split, codes=(0, 3))
@@ -162,6 +168,20 @@ def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path
     np.testing.assert_allclose(np.load(straight / "densities.npy"), physical, rtol=0, atol=1e-15)
     oc = flextop_cli("optimize", *common, "--method", "oc", "--max-iter", 3, "--out", tmp_path / "oc", codes=(0, 3))
     assert "(oc)" in oc.stdout and "compliance" in oc.stdout
+
+
+def test_optimality_criteria_converge_on_the_88_line_codes_stop_and_exit_0(tmp_path):
+    """OC on the plate's compliance with the 88-line code's stop (``--xtol 0.01``): converged
+    on its design change (FIXED_POINT) long before the iteration limit, exit 0, and a
+    converged run that a resume refuses; without the stop, the iteration limit and exit 3."""
+    common = [plate_toml(tmp_path), "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--method", "oc", "--no-plots"]
+    run = flextop_cli("optimize", *common, "--xtol", 0.01, "--max-iter", 150, "--out", tmp_path / "xtol")
+    assert "status: FIXED_POINT — converged: the update's max design change" in run.stdout and "did not converge" not in run.stderr
+    assert len(history(tmp_path / "xtol")) < 150
+    resumed = flextop_cli("optimize", "--resume", "--max-iter", 200, "--out", tmp_path / "xtol", codes=(2,))
+    assert "has converged (FIXED_POINT)" in resumed.stderr
+    limited = flextop_cli("optimize", *common, "--max-iter", 5, "--out", tmp_path / "limited", codes=(3,))
+    assert "did not converge: maximum number of iterations (5) reached" in limited.stderr
 
 
 def test_optimize_robot_arm_writes_the_pictures(tmp_path):

@@ -550,6 +550,72 @@ def test_optimality_criteria_reach_the_known_optimum_of_a_sum_of_reciprocals():
     assert result.multipliers[0] == pytest.approx(np.sqrt(c).sum() ** 2 / volume, rel=1e-6)
 
 
+def volume_bounded(objective, n, fraction):
+    """min objective(x) s.t. Σ x ≤ fraction n on 1e-3 ≤ x ≤ 1 (a volume)."""
+    return FunctionProblem(objective, lambda x: (np.array([x.sum() / (fraction * n) - 1.0]), np.full((1, n), 1.0 / (fraction * n))),
+                           np.full(n, 1e-3), np.ones(n), 1)
+
+
+def oc_steps(problem, x0, **options):
+    """The steps of an OC run, each as the evaluation it started from and the state it
+    made, and the run's result."""
+    states = []
+    result = optimize(problem, x0, method="oc", callback=lambda record: states.append(record.state), **options)
+    return [(problem.evaluate(state.x_prev1), state) for state in states], result
+
+
+def test_optimality_criteria_do_not_raise_a_sum_of_densities():
+    """f = Σx under Σx ≤ 0.4 n from the feasible x = 0.4: the volume's multiplier is zero, and
+    the update used to send every variable up its move limit (x = 0.6, 50 % over the bound,
+    f up). Every variable's objective grows with it: each iterate is feasible, f falls, and
+    the run ends at the lower bounds, a KKT point."""
+    n = 10
+    steps, result = oc_steps(volume_bounded(lambda x: (x.sum(), np.ones(x.size)), n, 0.4), 0.4, max_iter=20)
+    assert steps and steps[0][0].g[0] == 0
+    for before, after in steps:
+        assert after.evaluation.g[0] <= 1e-12 and after.evaluation.f0 < before.f0
+    assert result.status is Status.KKT and np.array_equal(result.x, np.full(n, 1e-3))
+
+
+def test_optimality_criteria_keep_variables_the_objective_grows_with_from_rising():
+    """Σ cᵢ/xᵢ over the first four variables (a compliance: its gradient negative) plus
+    Σ dⱼ xⱼ over the last three (a mass the objective pays for: positive), from x = 0.2
+    under Σx ≤ 0.5 n: the first steps leave the constraint inactive (λ = 0), the later ones
+    hold it active (λ > 0). No iterate leaves the feasible set, and no variable with a
+    positive gradient ever rises; the others gain the volume."""
+    c, d = np.array([1.0, 4.0, 9.0, 2.0]), np.array([0.5, 1.0, 3.0])
+
+    def objective(x):
+        return np.sum(c / x[:4]) + d @ x[4:], np.concatenate((-c / x[:4] ** 2, d))
+
+    steps, result = oc_steps(volume_bounded(objective, 7, 0.5), 0.2, max_iter=40)
+    multipliers = np.array([after.multipliers[0] for _, after in steps])
+    assert (multipliers == 0).any() and (multipliers > 0).any()
+    for before, after in steps:
+        assert before.g[0] <= 0 and after.evaluation.g[0] <= 1e-12
+        rising = before.df0 > 0
+        assert rising[4:].all() and np.all(after.x[rising] <= after.x_prev1[rising])
+    assert np.array_equal(result.x[4:], np.full(3, 1e-3)) and np.all(result.x[:4] > 0.2)
+
+
+def test_optimality_criteria_converge_on_their_design_change_only_off_the_move_limit():
+    """OC's update changes a design by its optimality residual: with ``xtol``, Σ cᵢ/xᵢ² under a
+    volume (the update contracts the error by half per iteration) stops converged (FIXED_POINT, a success) at the first change below it, long
+    before the KKT residual reaches kkt_tol; a change held at the move limit is no fixed
+    point (xtol above the move limit: stalled, XTOL); MMA's small step stays a stall."""
+    c = np.array([1.0, 4.0, 9.0, 0.25, 2.0])
+    problem = volume_bounded(lambda x: (np.sum(c / x**2), -2 * c / x**3), 5, 0.4)
+    result = optimize(problem, 0.4, method="oc", max_iter=80, xtol=1e-3)
+    changes = [record.change for record in result.history[1:]]
+    assert result.status is Status.FIXED_POINT and result.success and result.nit < 80
+    assert changes[-1] < 1e-3 <= min(changes[:-1]) and result.kkt > 1e-6
+    assert "max design change" in result.message and "no variable at its move limit" in result.message
+    held = optimize(problem, 0.4, method="oc", max_iter=80, move=0.1, xtol=0.5)
+    assert held.status is Status.XTOL and not held.success and held.nit == 1
+    mma = optimize(problem, 0.4, method="mma", max_iter=80, xtol=1e-3, kkt_tol=1e-12)
+    assert mma.status is Status.XTOL and not mma.success
+
+
 def test_optimality_criteria_take_one_constraint_that_grows_with_every_variable():
     two = FunctionProblem(lambda x: (np.sum(1 / x), -1 / x**2),
                           lambda x: (np.array([x.sum() - 1, x[0] - 0.5]), np.array([[1.0, 1.0], [1.0, 0.0]])),

@@ -64,3 +64,26 @@ def test_the_88_line_codes_half_mbb(ft, kind):
     assert result.fun / LOAD**2 == pytest.approx(ours[-1])
     assert ours[-2] == pytest.approx(published[-1], rel=1e-3)
     assert abs(problem.evaluate(result.x).g[0]) < 1e-9
+    assert result.status is flextop.optimizers.Status.FIXED_POINT and result.success and result.nit < 400
+
+
+def test_every_update_of_the_half_mbb_is_the_classic_formula():
+    """Compliance falls as every cell grows and the volume binds, the case the optimality
+    criteria were made for: each of 30 updates of the half-MBB with the density filter is
+    the classic one, clip(xₑ (−∂c/∂xₑ / (λ ∂V/∂xₑ))^½) to the move limit, bit for bit, with λ
+    the multiplier the run reports and the volume active at it."""
+    sim = half_mbb()
+    problem = TopologyProblem(sim, "compliance", volume_constraints(sim, VOLFRAC, per_component=False),
+                              filter=DensityFilter(sim, RMIN))
+    states = []
+    flextop.optimize(problem, np.full(sim.n_design, VOLFRAC), method="oc", move=0.2, max_iter=30,
+                     callback=lambda record: states.append(record.state))
+    assert len(states) == 30
+    for state in states:
+        x, before = state.x_prev1, problem.evaluate(state.x_prev1)
+        lam, dc, dv = state.multipliers[0], before.df0, before.dg[0]
+        assert lam > 0 and np.all(dc < 0)
+        step = 0.2 * (problem.upper - problem.lower)
+        low, high = np.maximum(problem.lower, x - step), np.minimum(problem.upper, x + step)
+        assert np.array_equal(state.x, np.clip(x * (-dc / (lam * dv)) ** 0.5, low, high))
+        assert abs(before.g[0] + dv @ (state.x - x)) < 1e-12

@@ -2,10 +2,12 @@
 
 Each iteration asks the method for one step (approximate, solve the convex
 subproblem, evaluate the new design), records it with its KKT residual
-(:mod:`.kkt`), and checks the stopping rules. Only the KKT residual says a run
-converged: a small step or a small change of the objective does not (MMA's steps
-are small wherever its asymptotes are close, converged or not), so ``xtol`` and
-``ftol``, when given, stop a run as stalled, unconverged. If the problem cannot
+(:mod:`.kkt`), and checks the stopping rules. The KKT residual says a run
+converged, and for a fixed-point method (OC, :attr:`Method.fixed_point`) so does its
+own residual, the design change, below ``xtol`` where the move limit held no variable.
+Otherwise a small step or a small change of the objective does not (MMA's steps are
+small wherever its asymptotes are close, converged or not), so ``xtol`` and ``ftol``,
+when given, stop a run as stalled, unconverged. If the problem cannot
 be evaluated at a proposed design (:class:`EvaluationError`), the loop stays at
 the last good design, halves the move limit and tries again, up to
 ``max_retries`` consecutive times.
@@ -47,9 +49,10 @@ class Status(IntEnum):
     CALLBACK = 4           #: the callback returned True
     EVALUATION_FAILED = 5  #: evaluation failed more than max_retries times in a row
     UNCONFIRMED = 6        #: a KKT point on the model held, not on the one measured at the returned design (or not measured)
+    FIXED_POINT = 7        #: converged (a fixed-point method, OC): design change below xtol, the move limit holding no variable, at a feasible design
 
 
-CONVERGED = (Status.KKT,)  # the one stop that is a success; XTOL and FTOL are stalls
+CONVERGED = (Status.KKT, Status.FIXED_POINT)  # the stops that are a success; XTOL and FTOL are stalls
 
 
 @dataclass
@@ -69,12 +72,15 @@ class OptimizeResult:
     ``status`` says why the run stopped (:class:`Status`) and ``message`` in words, with
     the KKT residual and ``kkt_tol``, any evaluation failures recovered and whether the
     design is infeasible. ``success`` is True only when the KKT residual of ``x`` is below
-    ``kkt_tol`` and ``x`` is feasible (status KKT): False after a small step or objective
+    ``kkt_tol`` and ``x`` is feasible (status KKT), or when a fixed-point method's update
+    (OC) changed the feasible ``x`` by less than ``xtol`` with no variable at its move limit
+    (status FIXED_POINT): False after a small step of another method or a small objective
     change (XTOL, FTOL), at the iteration limit, after repeated evaluation failures (the
     best feasible design is then returned), when the callback stopped the run unless
     ``x`` is a KKT point, and where a problem that held its model (a grid held to a
     tolerance) measured the returned design as the run ended (:meth:`Problem.conclude`)
-    and found no KKT point there, or could not measure it (status UNCONFIRMED); the values
+    and found no KKT point there (for FIXED_POINT: an infeasible one), or could not measure
+    it (status UNCONFIRMED); the values
     and gradients reported are that measurement's where it was made. ``state``: the final state, to resume with
     ``optimize(..., state=result.state)``.
     """
@@ -260,20 +266,29 @@ def _is_kkt_point(state: OptimizerState, kkt_tol: float, feas_tol: float) -> boo
     return state.kkt < kkt_tol and _is_feasible(state.evaluation.g, feas_tol)
 
 
-def _stopped(state: OptimizerState, kkt_tol: float, feas_tol: float, xtol: float | None,
+def _stopped(state: OptimizerState, method: Method, kkt_tol: float, feas_tol: float, xtol: float | None,
              ftol: float | None) -> Status | None:
-    """Stopping test after an iteration: converged (KKT), or stalled on a design change
-    below xtol or an objective change below ftol (not converged)."""
+    """Stopping test after an iteration: converged (KKT; FIXED_POINT, :func:`_is_fixed_point`),
+    or stalled on a design change below xtol or an objective change below ftol (not
+    converged)."""
     if _is_kkt_point(state, kkt_tol, feas_tol):
         return Status.KKT
     record = state.history[-1]
     if xtol is not None and record.change < xtol:
-        return Status.XTOL
+        return Status.FIXED_POINT if _is_fixed_point(state, method, feas_tol) else Status.XTOL
     if ftol is not None and len(state.history) > 1:
         previous = state.history[-2].f0
         if abs(record.f0 - previous) <= ftol * max(1.0, abs(record.f0)):
             return Status.FTOL
     return None
+
+
+def _is_fixed_point(state: OptimizerState, method: Method, feas_tol: float) -> bool:
+    """Whether a fixed-point method's last change is its residual: the move limit held no
+    variable (a variable it holds changes by the whole limit, so a change under half of it
+    says none was held) and the design is feasible."""
+    record = state.history[-1]
+    return method.fixed_point and record.change < 0.5 * record.move and _is_feasible(state.evaluation.g, feas_tol)
 
 
 def _stop_message(state: OptimizerState, status: Status, max_iter: int, max_retries: int,
@@ -289,6 +304,9 @@ def _stop_message(state: OptimizerState, status: Status, max_iter: int, max_retr
     if status is Status.KKT:
         return "converged"
     record = state.history[-1]
+    if status is Status.FIXED_POINT:
+        return (f"converged: the update's max design change {record.change:.3g} below xtol = {tolerances['xtol']:g}, "
+                f"no variable at its move limit")
     if status is Status.XTOL:
         return f"stalled: max design change {record.change:.3g} below xtol = {tolerances['xtol']:g}"
     return f"stalled: relative objective change below ftol = {tolerances['ftol']:g}"
@@ -305,8 +323,8 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     """Assemble the result; after evaluation failures return the best feasible design.
     The returned design's evaluation is the one the problem concludes (:func:`_concluded`);
     the KKT residual and multipliers are those of that evaluation; success only if it is a
-    KKT point there. The state keeps the concluded evaluation, so that a resume builds on
-    it."""
+    KKT point there, or, for a fixed point of OC's update, feasible there. The state keeps
+    the concluded evaluation, so that a resume builds on it."""
     x, evaluation, lam, remarks = state.x, state.evaluation, state.multipliers, ""
     if status is Status.EVALUATION_FAILED:
         if state.best is not None:
@@ -325,6 +343,8 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     feasible = _is_feasible(g, feas_tol)
     if status is Status.KKT and (unmeasured or not (kkt < kkt_tol and feasible)):
         status, message = Status.UNCONFIRMED, "a KKT point on the model held, not on the one measured at the returned design"
+    if status is Status.FIXED_POINT and (unmeasured or not feasible):
+        status, message = Status.UNCONFIRMED, "a fixed point on the model held, not feasible on the one measured at the returned design"
     message += remarks + unmeasured + f": {_optimality(kkt, kkt_tol)}"
     if x is state.x:
         state = replace(state, evaluation=evaluation, kkt=kkt)
@@ -334,7 +354,7 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     return OptimizeResult(x=x, fun=float(fun), constr=np.asarray(constr, dtype=float), jac=np.asarray(jac, dtype=float),
                           fun_scaled=evaluation.f0, constr_scaled=g, kkt=kkt, multipliers=lam, nit=state.iteration,
                           nfev=state.nfev, status=status, message=message,
-                          success=status is Status.KKT,
+                          success=status in CONVERGED,
                           history=list(state.history), state=state)
 
 
@@ -384,11 +404,15 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
     move : largest step per iteration as a fraction of upper - lower, in (0, 1].
     kkt_tol : converged, and stop, when the KKT residual (:mod:`.kkt`: the projected
         gradient of the Lagrangian with the objective divided by max(1, |f0|),
-        complementarity and infeasibility) falls below it at a feasible design; the only
-        stop that is a success. Default 1e-6.
-    xtol : if given, stop as stalled (not converged, unless the KKT test holds) when
-        max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below it. Off by default: MMA
-        takes small steps wherever its asymptotes are close, far from an optimum too.
+        complementarity and infeasibility) falls below it at a feasible design; the one
+        stop that is a success for every method (OC's FIXED_POINT under ``xtol`` is the
+        other). Default 1e-6.
+    xtol : if given, stop when max_i |x_i^k - x_i^{k-1}| / (upper_i - lower_i) falls below
+        it: converged (FIXED_POINT) for a fixed-point method (OC: the change is its optimality
+        residual; the 88-line code stops at 0.01) at a feasible design where the move limit
+        held no variable, stalled (not converged, unless the KKT test holds) otherwise. Off
+        by default: MMA takes small steps wherever its asymptotes are close, far from an
+        optimum too.
     ftol : if given, stop as stalled when |f0^k - f0^{k-1}| <= ftol max(1, |f0^k|).
     feas_tol : a design is feasible when max(g) <= feas_tol (≥ 0).
     max_retries : consecutive evaluation failures tolerated; each one halves the move limit.
@@ -422,7 +446,7 @@ def optimize(problem: Problem, x0=None, method: str | Method = "mma", *,
         if not succeeded:
             status = Status.EVALUATION_FAILED
             break
-        status = _stopped(state, kkt_tol, feas_tol, xtol, ftol)
+        status = _stopped(state, method, kkt_tol, feas_tol, xtol, ftol)
         if callback is not None and callback(replace(state.history[-1], state=state)) and status is None:
             status = Status.CALLBACK
     message = _stop_message(state, status, max_iter, max_retries, tolerances)

@@ -50,6 +50,11 @@ class Method(ABC):
 
     name: ClassVar[str]
     ranges: ClassVar[dict[str, tuple[float, float, str]]] = {}
+    fixed_point: ClassVar[bool] = False
+    """Whether a step's design change is the method's own optimality residual (a fixed-point
+    update, OC): then a change below ``xtol`` where the move limit held no variable is
+    convergence; for the approximation methods it is a stall (MMA's steps are small
+    wherever its asymptotes are close)."""
 
     def __post_init__(self) -> None:
         for setting, span in self.ranges.items():
