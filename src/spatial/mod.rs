@@ -8,9 +8,9 @@
 //!
 //! Built so far: rigid bodies, beams, the joints (spherical, revolute, universal,
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,
-//! [`force`]), static equilibria ([`statics`]) and the exact gradients of the motion
-//! ([`sensitivity`]) to bodies', force elements' and beams' parameters. Modes, truss bars and
-//! scenes come next, on the same group.
+//! [`force`]), static equilibria ([`statics`]), natural modes about them ([`modal`]) and
+//! the exact gradients of the motion ([`sensitivity`]) to bodies', force elements' and
+//! beams' parameters. Truss bars and scenes come next, on the same group.
 //!
 //! The heavy top of Brüls, Cardona & Arnold: a body pinned at a point off its centre of mass,
 //! spinning under gravity.
