@@ -166,7 +166,10 @@ fn planar(n: usize) -> flextop::Model {
         g.c_n[1] / (G * g.area)
     );
     for i in 0..=n {
-        toml += &format!("[[nodes]]\nname = \"n{i}\"\nx = {}\ny = 0.0\n", i as f64 / n as f64);
+        toml += &format!(
+            "[[nodes]]\nname = \"n{i}\"\nx = {}\ny = 0.0\n",
+            i as f64 / n as f64
+        );
     }
     for i in 0..n {
         toml += &format!(
@@ -190,8 +193,12 @@ fn element_steps(n: usize, settings: &DynamicSettings, steps: usize) -> (f64, f6
     let x = vec![1.0; plane.n_variables()];
     let mut times = [vec![], vec![]];
     for _ in 0..9 {
-        times[0].push(seconds(|| drop(simulate_spatial(&spatial, settings, &grid).unwrap())));
-        times[1].push(seconds(|| drop(simulate(&plane, Some(&x), &planar_settings).unwrap())));
+        times[0].push(seconds(|| {
+            drop(simulate_spatial(&spatial, settings, &grid).unwrap())
+        }));
+        times[1].push(seconds(|| {
+            drop(simulate(&plane, Some(&x), &planar_settings).unwrap())
+        }));
     }
     let ratio = median(times[0].iter().zip(&times[1]).map(|(s, p)| s / p).collect());
     let per = (n * steps) as f64;
@@ -226,11 +233,19 @@ fn main() {
                 body: n - 1,
                 axis: 2,
             };
-            ((0..n).map(|body| Parameter::Mass { body }).collect(), [response])
+            (
+                (0..n).map(|body| Parameter::Mass { body }).collect(),
+                [response],
+            )
         } else {
             let n = model.beams.len();
             let response = Response::NodePosition { node: n, axis: 1 };
-            ((0..n).map(|beam| Parameter::BeamStiffness { beam }).collect(), [response])
+            (
+                (0..n)
+                    .map(|beam| Parameter::BeamStiffness { beam })
+                    .collect(),
+                [response],
+            )
         };
         let n = model.bodies.len() + model.beams.len();
         // Plain, adjoint and direct runs one after the other, repeated: the median of each

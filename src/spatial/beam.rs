@@ -348,6 +348,14 @@ impl Beam {
         terms
     }
 
+    /// The elastic forces `L Bᵀ C ε` at `q`: the strain energy's derivative in the nodes'
+    /// algebra.
+    pub(crate) fn elastic_force(&self, q: &[f64]) -> Local {
+        let k = self.kinematics(q);
+        let sigma = self.elasticity().component_mul(&self.strains(&k));
+        self.to_nodes() * (self.strain_matrix(&k).transpose() * sigma * self.length)
+    }
+
     /// Strain energy `L/2 εᵀ C ε` at `q` (J).
     pub fn strain_energy(&self, q: &[f64]) -> f64 {
         let e = self.strains(&self.kinematics(q));

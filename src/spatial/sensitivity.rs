@@ -100,6 +100,9 @@ pub enum Response {
         /// 0, 1, 2 for x, y, z.
         axis: usize,
     },
+    /// `∫ U dt`, the beams' strain energy integrated over the run (J s; trapezoidal rule on
+    /// the run's grid): a dynamic compliance.
+    StrainEnergy,
     /// `∫ λ² dt` of one row of a joint (trapezoidal rule on the run's grid): of a drive's
     /// row, the effort `∫ τ² dt` a motor must deliver.
     Effort {
@@ -142,6 +145,14 @@ fn check(
             Response::Position { body: b, axis: a } => {
                 body(b, format!("responses[{k}]"))?;
                 axis(a, k)?;
+            }
+            Response::StrainEnergy => {
+                if model.beams.is_empty() {
+                    return Err(SettingsError::new(
+                        format!("responses[{k}]"),
+                        "the mechanism has no beams: no strain energy",
+                    ));
+                }
             }
             Response::NodePosition { node, axis: a } => {
                 if node >= model.nodes.len() {
@@ -246,7 +257,7 @@ pub fn sensitivities(
         Method::Adjoint => true,
         Method::Auto => responses.len() < parameters.len(),
     };
-    let gradient = if adjoint {
+    let mut gradient: Vec<Vec<f64>> = if adjoint {
         responses
             .iter()
             .map(|r| sweep.adjoint(r, parameters))
@@ -257,6 +268,11 @@ pub fn sensitivities(
             .map(|k| by_parameter.iter().map(|g| g[k]).collect())
             .collect()
     };
+    for (g, r) in gradient.iter_mut().zip(responses) {
+        for (gi, p) in g.iter_mut().zip(parameters) {
+            *gi += sweep.explicit(r, p);
+        }
+    }
     Ok(Gradients { values, gradient })
 }
 
@@ -317,6 +333,26 @@ impl<'m> Sweep<'m> {
                     .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
                     .sum()
             }
+            Response::StrainEnergy => (0..self.model().beams.len())
+                .map(|b| self.beam_energy(b))
+                .sum(),
+        }
+    }
+
+    /// `∫ U dt` of beam `beam` over the stored run.
+    fn beam_energy(&self, beam: usize) -> f64 {
+        let b = &self.model().beams[beam];
+        (0..self.states.len())
+            .map(|n| self.weight(n) * b.strain_energy(&self.states[n].q))
+            .sum()
+    }
+
+    /// A response's explicit partial derivative to a parameter (at fixed states): a beam's
+    /// stiffness factor scales its strain energy.
+    fn explicit(&self, r: &Response, p: &Parameter) -> f64 {
+        match (r, p) {
+            (Response::StrainEnergy, Parameter::BeamStiffness { beam }) => self.beam_energy(*beam),
+            _ => 0.0,
         }
     }
 
@@ -325,7 +361,7 @@ impl<'m> Sweep<'m> {
         match *r {
             Response::Position { body, axis } => (self.model().bodies[body].node, axis),
             Response::NodePosition { node, axis } => (node, axis),
-            Response::Effort { .. } => unreachable!("not a position"),
+            Response::Effort { .. } | Response::StrainEnergy => unreachable!("not a position"),
         }
     }
 
@@ -350,6 +386,18 @@ impl<'m> Sweep<'m> {
             Response::Effort { joint, row } => {
                 let k = self.model().joint_rows(joint).start + row;
                 lam[k] = 2.0 * self.weight(n) * self.states[n].lam[k];
+            }
+            Response::StrainEnergy => {
+                let w = self.weight(n);
+                for b in &self.model().beams {
+                    let f = b.elastic_force(&self.states[n].q);
+                    for (side, node) in b.nodes().into_iter().enumerate() {
+                        eps[NV * node..NV * node + NV]
+                            .iter_mut()
+                            .zip(&f.as_slice()[NV * side..NV * side + NV])
+                            .for_each(|(e, x)| *e += w * x);
+                    }
+                }
             }
         }
     }

@@ -253,7 +253,8 @@ fn a_cantilever_swings_at_its_first_frequency() {
 
 /// A flexible pendulum in space: an aluminium tube of three beams on a spherical joint,
 /// spinning about the vertical as it falls, damped (Kelvin–Voigt and `α M`). The tip's
-/// final height and the pivot's vertical effort `∫λ² dt`, differentiated to two beams'
+/// final height, the pivot's vertical effort `∫λ² dt` and the strain energy `∫U dt`,
+/// differentiated to two beams'
 /// stiffness and one's mass: direct and adjoint against fourth-order differences (1e-6)
 /// and each other (1e-9).
 #[test]
@@ -301,6 +302,7 @@ fn flexible_pendulum_gradients() {
     let responses = [
         Response::NodePosition { node: 3, axis: 2 },
         Response::Effort { joint: 0, row: 2 },
+        Response::StrainEnergy,
     ];
     let parameters = [
         Parameter::BeamStiffness { beam: 0 },
