@@ -18,7 +18,7 @@
 
 use std::collections::BTreeSet;
 
-use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
+use nalgebra::{SMatrix, SVector, Vector3, Vector6};
 
 use crate::error::SolveError;
 use crate::group::so3::tangent;
@@ -26,7 +26,7 @@ use crate::group::{six, NV};
 use crate::spatial::force::Local;
 use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
-use crate::spatial::pair::Pair;
+use crate::spatial::pair::{Pair, LOCAL};
 
 /// A CSC pattern with lookup of an entry's slot.
 pub(crate) struct Pattern {
@@ -79,6 +79,12 @@ pub(crate) struct Assembler<'m> {
     force_blocks: Vec<(Stiffness, Stiffness)>,
     /// Each beam's, likewise.
     beam_blocks: Vec<(Stiffness, Stiffness)>,
+    /// Where each body's, joint's, force element's and beam's local block is stored
+    /// ([`local_slots`]), found once.
+    body_slots: Vec<Vec<usize>>,
+    joint_slots: Vec<Vec<usize>>,
+    force_slots: Vec<Vec<usize>>,
+    beam_slots: Vec<Vec<usize>>,
 }
 
 /// What the iteration matrix is made of at one iterate.
@@ -134,7 +140,25 @@ impl<'m> Assembler<'m> {
         }
         let pattern = Pattern::from_entries(n, &entries);
         let values = vec![0.0; pattern.row_idx.len()];
+        let pair_slots = |pair: &Pair| local_slots(&pattern, pair);
+        let body_slots = model
+            .bodies
+            .iter()
+            .map(|b| {
+                pair_slots(&Pair {
+                    nodes: [Some(b.node), None],
+                    arms: [Vector3::zeros(); 2],
+                })
+            })
+            .collect();
+        let joint_slots = model.joints.iter().map(|j| pair_slots(&j.pair)).collect();
+        let force_slots = model.forces.iter().map(|f| pair_slots(&f.pair)).collect();
+        let beam_slots = model.beams.iter().map(|b| pair_slots(&b.pair)).collect();
         Self {
+            body_slots,
+            joint_slots,
+            force_slots,
+            beam_slots,
             model,
             load: 1.0,
             pattern,
@@ -259,9 +283,11 @@ impl<'m> Assembler<'m> {
         self.values.fill(0.0);
         let model = self.model;
         let n_v = model.n_v();
-        for b in &model.bodies {
+        for (b, slots) in model.bodies.iter().zip(&self.body_slots) {
             let block = b.iteration_block(&six(v, b.node), c.beta_prime, c.gamma_prime);
-            self.add(NV * b.node, NV * b.node, &block, NV);
+            let mut local = Stiffness::zeros();
+            local.fixed_view_mut::<NV, NV>(0, 0).copy_from(&block);
+            scatter_block(&mut self.values, slots, &local);
         }
         for (k, j) in model.joints.iter().enumerate() {
             let (row, n) = (self.first_row[k], j.n_rows());
@@ -270,7 +296,7 @@ impl<'m> Assembler<'m> {
             if let Some((_, lambda)) = c.tangent {
                 let stiffness = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]);
                 self.joint_blocks[k] = (stiffness, g);
-                self.add_local(&j.pair, &(stiffness * t));
+                scatter_block(&mut self.values, &self.joint_slots[k], &(stiffness * t));
             }
             let gt = g * t * c.scale;
             let gs = g.transpose() * c.scale;
@@ -287,8 +313,9 @@ impl<'m> Assembler<'m> {
             for (k, force) in model.forces.iter().enumerate() {
                 let terms = force.terms(q, v, time, self.load)?;
                 let t = local_tangent(&force.pair, Some(inc));
-                self.add_local(
-                    &force.pair,
+                scatter_block(
+                    &mut self.values,
+                    &self.force_slots[k],
                     &(terms.stiffness * t + terms.damping * c.gamma_prime),
                 );
                 self.force_blocks[k] = (terms.stiffness, terms.damping);
@@ -303,19 +330,9 @@ impl<'m> Assembler<'m> {
                     + terms.damping * c.gamma_prime;
                 self.beam_blocks[k] = (terms.stiffness, terms.damping);
             }
-            self.add_local(&beam.pair, &block);
+            scatter_block(&mut self.values, &self.beam_slots[k], &block);
         }
         Ok(())
-    }
-
-    /// Adds a pair's local `12 × 12` block on its nodes.
-    fn add_local(&mut self, pair: &Pair, block: &Stiffness) {
-        for (s1, n1) in pair.local_nodes() {
-            for (s2, n2) in pair.local_nodes() {
-                let b: Matrix6<f64> = block.fixed_view::<NV, NV>(NV * s1, NV * s2).into_owned();
-                self.add(NV * n1, NV * n2, &b, NV);
-            }
-        }
     }
 
     /// Adds `K ε + C v'` to `force` and `B ε` to `constraint`: the residual's change with
@@ -458,6 +475,31 @@ impl<'m> Assembler<'m> {
             .sum();
         let beams: f64 = model.beams.iter().map(|b| b.mass_matrix().trace()).sum();
         (bodies + beams) / model.n_v() as f64
+    }
+}
+
+/// Where each entry of a pair's local `12 × 12` block is stored, column by column
+/// ([`ABSENT`] on the ground's side): the order [`scatter_block`] reads.
+fn local_slots(pattern: &Pattern, pair: &Pair) -> Vec<usize> {
+    let node = |s: usize| pair.nodes[s];
+    (0..LOCAL)
+        .flat_map(|c| (0..LOCAL).map(move |r| (r, c)))
+        .map(|(r, c)| match (node(r / NV), node(c / NV)) {
+            (Some(a), Some(b)) => pattern.slot(NV * a + r % NV, NV * b + c % NV),
+            _ => ABSENT,
+        })
+        .collect()
+}
+
+/// A slot of a local block on the ground: not stored.
+const ABSENT: usize = usize::MAX;
+
+/// Adds a local `12 × 12` block at its [`local_slots`].
+fn scatter_block(values: &mut [f64], slots: &[usize], block: &Stiffness) {
+    for (&slot, &x) in slots.iter().zip(block.as_slice()) {
+        if slot != ABSENT {
+            values[slot] += x;
+        }
     }
 }
 

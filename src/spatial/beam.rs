@@ -34,7 +34,7 @@
 //! `ρAL/6 [2I I; I 2I]`, and half the element's rotary inertia at each end, a rigid body's
 //! `J Ω̇ + Ω × JΩ` there; gravity as `ρAL/2` at each end; Rayleigh's `α M` on both.
 
-use nalgebra::{Matrix3, Matrix6, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
 use crate::group::{six, split, Frame, NV};
@@ -256,14 +256,44 @@ impl Beam {
         r
     }
 
-    /// `P = diag(I, E_A, I, E_B)`: element unknowns from the nodes', `y = Pᵀ y_node`.
-    fn to_nodes(&self) -> Stiffness {
-        let mut p = Stiffness::identity();
+    /// `E_A`, `E_B` as matrices.
+    fn offset_matrices(&self) -> [Matrix3<f64>; 2] {
+        self.offsets.map(|e| e.to_rotation_matrix().into_inner())
+    }
+
+    /// `B Pᵀ`, `P = diag(I, E_A, I, E_B)`: a matrix on the element's unknowns `y = Pᵀ y_node`
+    /// read on the nodes' (its rotation columns turned).
+    fn on_nodes(&self, m: Strain, e: &[Matrix3<f64>; 2]) -> Strain {
+        let mut out = m;
         for side in 0..2 {
-            p.fixed_view_mut::<3, 3>(6 * side + 3, 6 * side + 3)
-                .copy_from(self.offsets[side].to_rotation_matrix().matrix());
+            let at = 6 * side + 3;
+            let turned = m.fixed_view::<6, 3>(0, at) * e[side].transpose();
+            out.fixed_view_mut::<6, 3>(0, at).copy_from(&turned);
         }
-        p
+        out
+    }
+
+    /// `P G Pᵀ` block by block: a derivative on the element's unknowns in the nodes'.
+    fn in_node_frames(g: &Stiffness, e: &[Matrix3<f64>; 2]) -> Stiffness {
+        let turn = |block: usize| (block % 2 == 1).then(|| e[block / 2]);
+        let mut out = *g;
+        for bi in 0..4 {
+            for bj in 0..4 {
+                let (ti, tj) = (turn(bi), turn(bj));
+                if ti.is_none() && tj.is_none() {
+                    continue;
+                }
+                let mut block = g.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
+                if let Some(t) = ti {
+                    block = t * block;
+                }
+                if let Some(t) = tj {
+                    block *= t.transpose();
+                }
+                out.fixed_view_mut::<3, 3>(3 * bi, 3 * bj).copy_from(&block);
+            }
+        }
+        out
     }
 
     /// The two ends' mass matrices' rotary blocks `J` in the nodes' frames (kg m²).
@@ -306,14 +336,13 @@ impl Beam {
         tangent: bool,
     ) -> Terms {
         let k = self.kinematics(q);
-        let p = self.to_nodes();
+        let e = self.offset_matrices();
         let rates = self.local(v);
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
-        let element_rates = p.transpose() * rates;
-        let b = self.strain_matrix(&k);
-        let c = Matrix6::from_diagonal(&self.elasticity());
+        let b = self.on_nodes(self.strain_matrix(&k), &e);
+        let c = self.elasticity();
         let (l, beta, alpha) = (self.length, self.section.beta, self.section.alpha);
-        let sigma = c * (self.strains(&k) + b * element_rates * beta);
+        let sigma = c.component_mul(&(self.strains(&k) + b * rates * beta));
         let mass = self.mass_matrix();
         let mut inertia = mass * (accelerations + rates * alpha);
         let j = self.rotary_inertia();
@@ -325,20 +354,28 @@ impl Beam {
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
         let mut terms = Terms {
-            internal: p * (b.transpose() * sigma * l),
+            internal: b.transpose() * sigma * l,
             inertia,
             stiffness: Stiffness::zeros(),
             damping: Stiffness::zeros(),
         };
         if tangent {
-            let material = b.transpose() * c * b * l;
-            let mut stiffness = material + self.geometric(&k, &sigma);
+            let cb = Strain::from_fn(|r, col| c[r] * b[(r, col)]);
+            let material = b.transpose() * cb * l;
+            terms.stiffness = material + Self::in_node_frames(&self.geometric(&k, &sigma), &e);
             if beta > 0.0 {
-                stiffness +=
-                    b.transpose() * c * self.rate_derivative(&k, &element_rates) * (l * beta);
+                // Kelvin–Voigt's `B v` moves with the configuration too.
+                let mut element_rates = rates;
+                for side in 0..2 {
+                    let turned = e[side].transpose() * rates.fixed_rows::<3>(6 * side + 3);
+                    element_rates
+                        .fixed_rows_mut::<3>(6 * side + 3)
+                        .copy_from(&turned);
+                }
+                let r = self.on_nodes(self.rate_derivative(&k, &element_rates), &e);
+                terms.stiffness += cb.transpose() * r * (l * beta);
             }
-            terms.stiffness = p * stiffness * p.transpose();
-            terms.damping = p * material * p.transpose() * beta + mass * alpha;
+            terms.damping = material * beta + mass * alpha;
             for side in 0..2 {
                 let (w, at) = (spins[side], 6 * side + 3);
                 let mut gyroscopic = terms.damping.fixed_view_mut::<3, 3>(at, at);
@@ -353,7 +390,8 @@ impl Beam {
     pub(crate) fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
         let sigma = self.elasticity().component_mul(&self.strains(&k));
-        self.to_nodes() * (self.strain_matrix(&k).transpose() * sigma * self.length)
+        let b = self.on_nodes(self.strain_matrix(&k), &self.offset_matrices());
+        b.transpose() * sigma * self.length
     }
 
     /// Strain energy `L/2 εᵀ C ε` at `q` (J).
@@ -395,6 +433,7 @@ mod tests {
     use super::*;
     use crate::group::so3::exp;
     use crate::spatial::section::Shape;
+    use nalgebra::Matrix6;
 
     fn section() -> Section {
         let geometry = Shape::Rectangle { b: 0.03, h: 0.05 }.geometry(0.3).unwrap();
