@@ -263,11 +263,11 @@ impl Beam {
 
     /// `B Pᵀ`, `P = diag(I, E_A, I, E_B)`: a matrix on the element's unknowns `y = Pᵀ y_node`
     /// read on the nodes' (its rotation columns turned).
-    fn on_nodes(&self, m: Strain, e: &[Matrix3<f64>; 2]) -> Strain {
+    fn on_nodes(m: Strain, e: &[Matrix3<f64>; 2]) -> Strain {
         let mut out = m;
-        for side in 0..2 {
+        for (side, e) in e.iter().enumerate() {
             let at = 6 * side + 3;
-            let turned = m.fixed_view::<6, 3>(0, at) * e[side].transpose();
+            let turned = m.fixed_view::<6, 3>(0, at) * e.transpose();
             out.fixed_view_mut::<6, 3>(0, at).copy_from(&turned);
         }
         out
@@ -339,7 +339,7 @@ impl Beam {
         let e = self.offset_matrices();
         let rates = self.local(v);
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
-        let b = self.on_nodes(self.strain_matrix(&k), &e);
+        let b = Self::on_nodes(self.strain_matrix(&k), &e);
         let c = self.elasticity();
         let (l, beta, alpha) = (self.length, self.section.beta, self.section.alpha);
         let sigma = c.component_mul(&(self.strains(&k) + b * rates * beta));
@@ -366,13 +366,13 @@ impl Beam {
             if beta > 0.0 {
                 // Kelvin–Voigt's `B v` moves with the configuration too.
                 let mut element_rates = rates;
-                for side in 0..2 {
-                    let turned = e[side].transpose() * rates.fixed_rows::<3>(6 * side + 3);
+                for (side, e) in e.iter().enumerate() {
+                    let turned = e.transpose() * rates.fixed_rows::<3>(6 * side + 3);
                     element_rates
                         .fixed_rows_mut::<3>(6 * side + 3)
                         .copy_from(&turned);
                 }
-                let r = self.on_nodes(self.rate_derivative(&k, &element_rates), &e);
+                let r = Self::on_nodes(self.rate_derivative(&k, &element_rates), &e);
                 terms.stiffness += cb.transpose() * r * (l * beta);
             }
             terms.damping = material * beta + mass * alpha;
@@ -390,7 +390,7 @@ impl Beam {
     pub(crate) fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
         let sigma = self.elasticity().component_mul(&self.strains(&k));
-        let b = self.on_nodes(self.strain_matrix(&k), &self.offset_matrices());
+        let b = Self::on_nodes(self.strain_matrix(&k), &self.offset_matrices());
         b.transpose() * sigma * self.length
     }
 
