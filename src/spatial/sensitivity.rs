@@ -28,13 +28,14 @@ use nalgebra::{Matrix3, Vector3};
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
-use crate::settings::{DynamicSettings, Method};
+use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::lu::Lu;
 use crate::spatial::assembly::{Assembler, Coefficients};
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::run;
 use crate::spatial::model::SpatialModel;
+use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
 
 /// A scene parameter of a spatial mechanism.
@@ -250,7 +251,7 @@ pub fn sensitivities(
         )
         .into());
     }
-    let mut sweep = Sweep::new(model, settings, &states)?;
+    let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     let adjoint = match method {
         Method::Direct => false,
@@ -276,6 +277,82 @@ pub fn sensitivities(
     Ok(Gradients { values, gradient })
 }
 
+/// The responses of the static equilibrium of `model` ([`solve_static_spatial`]) and their
+/// exact gradients to `parameters`: at the equilibrium `r(q, λ, p) = 0`, `Φ(q) = 0`,
+///
+/// ```text
+/// [K_t  Bᵀ; B  0] [ε'; λ'] = −[∂r/∂p; 0]          (direct)
+/// [K_t  Bᵀ; B  0]ᵀ y = [∂R/∂ε; ∂R/∂λ],  R' = −yᵀ[∂r/∂p; 0]   (adjoint)
+/// ```
+///
+/// with `K_t` the tangent of Newton's last iteration without its `εM` (exact). A time
+/// integral becomes its value at the equilibrium: [`Response::Effort`] is `λ²`,
+/// [`Response::StrainEnergy`] the strain energy `U` (J).
+///
+/// # Errors
+/// [`SettingsError`] for a response or parameter the mechanism does not have; the static
+/// solve's errors; [`SolveError::Singular`] where the equilibrium's tangent is singular (a
+/// direction nothing holds: its gradients are not defined).
+pub fn static_sensitivities(
+    model: &SpatialModel,
+    settings: &StaticSettings,
+    responses: &[Response],
+    parameters: &[Parameter],
+    method: Method,
+) -> Result<Gradients, Error> {
+    check(model, responses, parameters)?;
+    let eq = solve_static_spatial(model, settings)?;
+    let n_v = model.n_v();
+    let states = [State {
+        t: settings.time,
+        q: eq.q,
+        qdot: vec![0.0; n_v],
+        qddot: vec![0.0; n_v],
+        a: vec![0.0; n_v],
+        lam: eq.lambda,
+        h: 0.0,
+    }];
+    let mut sweep = Sweep::new(model, None, &states)?;
+    let values = responses.iter().map(|r| sweep.value(r)).collect();
+    sweep.factorize_equilibrium()?;
+    let adjoint = match method {
+        Method::Direct => false,
+        Method::Adjoint => true,
+        Method::Auto => responses.len() < parameters.len(),
+    };
+    let (mut eps, mut lam) = (vec![0.0; n_v], vec![0.0; model.n_rows()]);
+    let mut rhs = vec![0.0; n_v + model.n_rows()];
+    let mut gradient = vec![vec![0.0; parameters.len()]; responses.len()];
+    if adjoint {
+        for (g, r) in gradient.iter_mut().zip(responses) {
+            sweep.seed(r, 0, &mut eps, &mut lam);
+            rhs[..n_v].copy_from_slice(&eps);
+            rhs[n_v..].copy_from_slice(&lam);
+            sweep.solve(&mut rhs, true, 0)?;
+            for (gi, p) in g.iter_mut().zip(parameters) {
+                *gi = -sweep.parameter_dot(p, 0, &rhs[..n_v]);
+            }
+        }
+    } else {
+        for (i, p) in parameters.iter().enumerate() {
+            rhs.fill(0.0);
+            sweep.add_parameter_load(p, 0, &mut rhs[..n_v]);
+            rhs.iter_mut().for_each(|x| *x = -*x);
+            sweep.solve(&mut rhs, false, 0)?;
+            for (g, r) in gradient.iter_mut().zip(responses) {
+                sweep.seed(r, 0, &mut eps, &mut lam);
+                g[i] = dot(&eps, &rhs[..n_v]) + dot(&lam, &rhs[n_v..]);
+            }
+        }
+    }
+    for (g, r) in gradient.iter_mut().zip(responses) {
+        for (gi, p) in g.iter_mut().zip(parameters) {
+            *gi += sweep.explicit(r, p);
+        }
+    }
+    Ok(Gradients { values, gradient })
+}
+
 /// The stored run and the linear algebra its sweeps share.
 struct Sweep<'m> {
     asm: Assembler<'m>,
@@ -284,6 +361,8 @@ struct Sweep<'m> {
     states: &'m [State],
     n_v: usize,
     n_rows: usize,
+    /// Whether the one state is a static equilibrium: time integrals are their values.
+    equilibrium: bool,
 }
 
 /// A state's sensitivities to one parameter: `ε, v', v̇', a', λ'`.
@@ -297,9 +376,10 @@ struct Tangent {
 }
 
 impl<'m> Sweep<'m> {
+    /// The sweep of a run at `rho_inf`, or of an equilibrium (`None`).
     fn new(
         model: &'m SpatialModel,
-        settings: &DynamicSettings,
+        rho_inf: Option<f64>,
         states: &'m [State],
     ) -> Result<Self, Error> {
         let asm = Assembler::new(model);
@@ -309,10 +389,11 @@ impl<'m> Sweep<'m> {
         Ok(Self {
             asm,
             lu,
-            params: AlphaParameters::chung_hulbert(settings.rho_inf),
+            params: AlphaParameters::chung_hulbert(rho_inf.unwrap_or(1.0)),
             states,
             n_v: model.n_v(),
             n_rows: model.n_rows(),
+            equilibrium: rho_inf.is_none(),
         })
     }
 
@@ -365,8 +446,11 @@ impl<'m> Sweep<'m> {
         }
     }
 
-    /// The trapezoidal weight of state `n`.
+    /// The trapezoidal weight of state `n` (1 for an equilibrium).
     fn weight(&self, n: usize) -> f64 {
+        if self.equilibrium {
+            return 1.0;
+        }
         let before = if n > 0 { self.states[n].h } else { 0.0 };
         let after = self.states.get(n + 1).map_or(0.0, |s| s.h);
         0.5 * (before + after)
@@ -523,6 +607,28 @@ impl<'m> Sweep<'m> {
             .map_err(|e| SolveError::Singular {
                 time: s.t,
                 detail: format!("{e:?}"),
+            })
+    }
+
+    /// Factorizes the exact tangent `[K_t, Bᵀ; B, 0]` of the equilibrium (the one state).
+    fn factorize_equilibrium(&mut self) -> Result<(), SolveError> {
+        let s = &self.states[0];
+        let rest = vec![0.0; self.n_v];
+        let c = Coefficients {
+            beta_prime: 0.0,
+            gamma_prime: 0.0,
+            scale: 1.0,
+            tangent: Some((&rest, &s.lam)),
+        };
+        self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
+        self.lu
+            .factorize(&self.asm.values)
+            .map_err(|e| SolveError::Singular {
+                time: s.t,
+                detail: format!(
+                    "{e:?}: the equilibrium's tangent is singular (a direction nothing holds), \
+                     its gradients are not defined"
+                ),
             })
     }
 
