@@ -523,16 +523,15 @@ impl SpatialModel {
         self.joints.iter().map(Joint::n_rows).sum()
     }
 
-    /// The rows of joint `joint` among the multipliers `λ`, its drive's last: `λ` of a
-    /// point's rows is the force the joint exerts on A's point (N, its opposite on B's), of
-    /// an angle's a moment (N m), of a drive's the generalized force it takes from the joint's
-    /// coordinate (N m or N: the drive applies its opposite).
-    ///
-    /// # Panics
-    /// If the mechanism has no joint `joint`.
-    pub fn joint_rows(&self, joint: usize) -> std::ops::Range<usize> {
+    /// The rows of joint `joint` among the multipliers `λ`, its drive's last (`None` for a
+    /// joint the mechanism does not have): `λ` of a point's rows is the force the joint
+    /// exerts on A's point (N, its opposite on B's), of an angle's a moment (N m), of a
+    /// drive's the generalized force it takes from the joint's coordinate (N m or N: the
+    /// drive applies its opposite).
+    pub fn joint_rows(&self, joint: usize) -> Option<std::ops::Range<usize>> {
+        let this = self.joints.get(joint)?;
         let start: usize = self.joints[..joint].iter().map(Joint::n_rows).sum();
-        start..start + self.joints[joint].n_rows()
+        Some(start..start + this.n_rows())
     }
 
     /// The mechanism's size (m): the diagonal of the box around its nodes and the ground

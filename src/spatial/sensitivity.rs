@@ -409,7 +409,7 @@ impl<'m> Sweep<'m> {
                 Frame::read(&self.states[self.states.len() - 1].q, node).x[axis]
             }
             Response::Effort { joint, row } => {
-                let k = self.model().joint_rows(joint).start + row;
+                let k = self.row_of(joint, row);
                 (0..self.states.len())
                     .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
                     .sum()
@@ -446,6 +446,11 @@ impl<'m> Sweep<'m> {
         }
     }
 
+    /// The multiplier of a joint's row ([`check`] made sure it has it).
+    fn row_of(&self, joint: usize, row: usize) -> usize {
+        self.model().joint_rows(joint).map_or(0, |r| r.start) + row
+    }
+
     /// The trapezoidal weight of state `n` (1 for an equilibrium).
     fn weight(&self, n: usize) -> f64 {
         if self.equilibrium {
@@ -468,7 +473,7 @@ impl<'m> Sweep<'m> {
                 }
             }
             Response::Effort { joint, row } => {
-                let k = self.model().joint_rows(joint).start + row;
+                let k = self.row_of(joint, row);
                 lam[k] = 2.0 * self.weight(n) * self.states[n].lam[k];
             }
             Response::StrainEnergy => {

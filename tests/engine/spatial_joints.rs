@@ -203,7 +203,7 @@ fn the_drive_works_as_the_energy_changes() {
     let energy = |s: &State| m.kinetic_energy(&s.qdot) + m.potential_energy(&s.q);
     let mismatch = |h: f64| {
         let states = run(m, 0.8, h, (1.2 / h).round() as usize);
-        let drive_row = m.joint_rows(0).end - 1;
+        let drive_row = m.joint_rows(0).unwrap().end - 1;
         let power = |s: &State| -s.lam[drive_row] * sc.omega;
         let work: f64 = states
             .windows(2)
@@ -253,7 +253,7 @@ fn a_drive_restarts_at_its_kinks() {
     let law = Motion::Trapezoidal(Trapezoidal::new(0.0, 2.0, 10.0, 2.0, 0.1));
     m.add_drive(axle, law.clone()).unwrap();
     let i_n = n.dot(&(r0 * (j * (r0.inverse() * n))));
-    let row = m.joint_rows(axle).end - 1;
+    let row = m.joint_rows(axle).unwrap().end - 1;
     let worst = |steps: Vec<f64>| {
         let states = run_on(&m, 0.8, steps);
         states

@@ -106,7 +106,7 @@ fn a_pushed_pendulum_leans_to_its_closed_form() {
     assert!((x - expected).norm() < 1e-10, "{x:?} against {expected:?}");
     // The hinge's rows 0..3 are the force on the ground's point from the body's: it carries
     // the weight and the push.
-    let rows = m.joint_rows(hinge);
+    let rows = m.joint_rows(hinge).unwrap();
     let reaction = Vector3::new(
         eq.lambda[rows.start],
         eq.lambda[rows.start + 1],
