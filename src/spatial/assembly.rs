@@ -77,14 +77,17 @@ pub(crate) struct Assembler<'m> {
     joint_blocks: Vec<(Stiffness, Gradient)>,
     /// Each force element's `K` and `C` at the last [`Assembler::matrix`], likewise.
     force_blocks: Vec<(Stiffness, Stiffness)>,
-    /// Each beam's, likewise.
-    beam_blocks: Vec<(Stiffness, Stiffness)>,
+    /// Each structural element's (beams, then truss bars), likewise.
+    element_blocks: Vec<(Stiffness, Stiffness)>,
     /// Where each body's, joint's, force element's and beam's local block is stored
     /// ([`local_slots`]), found once.
     body_slots: Vec<Vec<usize>>,
     joint_slots: Vec<Vec<usize>>,
     force_slots: Vec<Vec<usize>>,
-    beam_slots: Vec<Vec<usize>>,
+    element_slots: Vec<Vec<usize>>,
+    /// The diagonal slots of the rotations of nodes that have none (only truss bars meet
+    /// there): a unit there keeps them still.
+    absent_slots: Vec<usize>,
 }
 
 /// What the iteration matrix is made of at one iterate.
@@ -130,8 +133,13 @@ impl<'m> Assembler<'m> {
             }
             row += rows;
         }
+        let absent: Vec<usize> = (model.rotation_absent().iter().enumerate())
+            .filter(|(_, a)| **a)
+            .flat_map(|(n, _)| (3..NV).map(move |k| NV * n + k))
+            .collect();
+        absent.iter().for_each(|&d| block(d, d, 1, 1));
         let pairs = model.forces.iter().map(|f| &f.pair);
-        for pair in pairs.chain(model.beams.iter().map(|b| &b.pair)) {
+        for pair in pairs.chain(model.elements().map(|e| e.pair())) {
             for (_, n1) in pair.local_nodes() {
                 for (_, n2) in pair.local_nodes() {
                     block(NV * n1, NV * n2, NV, NV);
@@ -153,19 +161,24 @@ impl<'m> Assembler<'m> {
             .collect();
         let joint_slots = model.joints.iter().map(|j| pair_slots(&j.pair)).collect();
         let force_slots = model.forces.iter().map(|f| pair_slots(&f.pair)).collect();
-        let beam_slots = model.beams.iter().map(|b| pair_slots(&b.pair)).collect();
+        let element_slots = model.elements().map(|e| pair_slots(e.pair())).collect();
+        let absent_slots = absent.iter().map(|&d| pattern.slot(d, d)).collect();
         Self {
+            absent_slots,
             body_slots,
             joint_slots,
             force_slots,
-            beam_slots,
+            element_slots,
             model,
             load: 1.0,
             pattern,
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
             force_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.forces.len()],
-            beam_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.beams.len()],
+            element_blocks: vec![
+                (Stiffness::zeros(), Stiffness::zeros());
+                model.beams.len() + model.trusses.len()
+            ],
             first_row,
         }
     }
@@ -216,15 +229,15 @@ impl<'m> Assembler<'m> {
             scatter(r, &force.pair, &f);
         }
         let gravity = model.gravity * self.load;
-        for beam in &model.beams {
-            let terms = beam.terms(q, v, Some(vdot), &gravity, false);
-            let weight = 0.5 * beam.mass() * gravity.norm();
+        for element in model.elements() {
+            let terms = element.terms(q, v, Some(vdot), &gravity, false);
+            let weight = 0.5 * element.mass() * gravity.norm();
             reference = terms
                 .internal
                 .iter()
                 .chain(terms.inertia.iter())
                 .fold(reference.max(weight), |m, x| m.max(x.abs()));
-            scatter(r, &beam.pair, &(terms.internal + terms.inertia));
+            scatter(r, element.pair(), &(terms.internal + terms.inertia));
         }
         Ok(reference)
     }
@@ -262,9 +275,9 @@ impl<'m> Assembler<'m> {
             let f = -force.terms(q, v, t, self.load)?.force;
             scatter(rhs, &force.pair, &f);
         }
-        for beam in &model.beams {
-            let terms = beam.terms(q, v, None, &(model.gravity * self.load), false);
-            scatter(rhs, &beam.pair, &-(terms.internal + terms.inertia));
+        for element in model.elements() {
+            let terms = element.terms(q, v, None, &(model.gravity * self.load), false);
+            scatter(rhs, element.pair(), &-(terms.internal + terms.inertia));
         }
         Ok(())
     }
@@ -322,15 +335,18 @@ impl<'m> Assembler<'m> {
             }
         }
         let gravity = model.gravity * self.load;
-        for (k, beam) in model.beams.iter().enumerate() {
-            let mut block = beam.mass_matrix() * c.beta_prime;
+        for (k, element) in model.elements().enumerate() {
+            let mut block = element.mass_matrix() * c.beta_prime;
             if let Some((inc, _)) = c.tangent {
-                let terms = beam.terms(q, v, None, &gravity, true);
-                block += terms.stiffness * local_tangent(&beam.pair, Some(inc))
+                let terms = element.terms(q, v, None, &gravity, true);
+                block += terms.stiffness * local_tangent(element.pair(), Some(inc))
                     + terms.damping * c.gamma_prime;
-                self.beam_blocks[k] = (terms.stiffness, terms.damping);
+                self.element_blocks[k] = (terms.stiffness, terms.damping);
             }
-            scatter_block(&mut self.values, &self.beam_slots[k], &block);
+            scatter_block(&mut self.values, &self.element_slots[k], &block);
+        }
+        for &slot in &self.absent_slots {
+            self.values[slot] = 1.0;
         }
         Ok(())
     }
@@ -374,9 +390,9 @@ impl<'m> Assembler<'m> {
                 .for_each(|(c, x)| *c += x);
         }
         let pairs = model.forces.iter().map(|f| &f.pair);
-        let blocks = self.force_blocks.iter().chain(&self.beam_blocks);
+        let blocks = self.force_blocks.iter().chain(&self.element_blocks);
         for (pair, (stiffness, damping)) in
-            pairs.chain(model.beams.iter().map(|b| &b.pair)).zip(blocks)
+            pairs.chain(model.elements().map(|e| e.pair())).zip(blocks)
         {
             let f = stiffness * gather(pair, eps) + damping * gather(pair, vp);
             scatter(force, pair, &f);
@@ -420,9 +436,9 @@ impl<'m> Assembler<'m> {
             }
         }
         let pairs = model.forces.iter().map(|f| &f.pair);
-        let blocks = self.force_blocks.iter().chain(&self.beam_blocks);
+        let blocks = self.force_blocks.iter().chain(&self.element_blocks);
         for (pair, (stiffness, damping)) in
-            pairs.chain(model.beams.iter().map(|b| &b.pair)).zip(blocks)
+            pairs.chain(model.elements().map(|e| e.pair())).zip(blocks)
         {
             let y = gather(pair, y_force);
             scatter(eps_bar, pair, &(stiffness.transpose() * y));
@@ -473,8 +489,8 @@ impl<'m> Assembler<'m> {
             .iter()
             .map(|b| 3.0 * b.mass + b.inertia.trace())
             .sum();
-        let beams: f64 = model.beams.iter().map(|b| b.mass_matrix().trace()).sum();
-        (bodies + beams) / model.n_v() as f64
+        let elements: f64 = model.elements().map(|e| e.mass_matrix().trace()).sum();
+        (bodies + elements) / model.n_v() as f64
     }
 }
 

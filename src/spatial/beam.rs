@@ -37,7 +37,8 @@
 use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
-use crate::group::{six, split, Frame, NV};
+use crate::group::{six, split, Frame};
+use crate::spatial::element::{Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::Section;
@@ -70,18 +71,6 @@ struct Kinematics {
     psi: Vector3<f64>,
     /// `T⁻¹(ψ)`, `T⁻¹(−ψ)`.
     tinv: [Matrix3<f64>; 2],
-}
-
-/// A beam's terms at one state, on its twelve local unknowns.
-pub(crate) struct Terms {
-    /// Elastic and Kelvin–Voigt forces `L Bᵀ σ`.
-    pub internal: Local,
-    /// Inertia, weight and `α M v`.
-    pub inertia: Local,
-    /// `∂f/∂q`.
-    pub stiffness: Stiffness,
-    /// `∂f/∂v` but for the mass: Kelvin–Voigt's, `α M` and the gyroscopic matrix.
-    pub damping: Stiffness,
 }
 
 impl Beam {
@@ -129,11 +118,6 @@ impl Beam {
         };
         beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
         Some(beam)
-    }
-
-    /// The element's nodes.
-    pub fn nodes(&self) -> [usize; 2] {
-        self.pair.nodes.map(|n| n.expect("a beam's ends are nodes"))
     }
 
     fn kinematics(&self, q: &[f64]) -> Kinematics {
@@ -304,14 +288,20 @@ impl Beam {
             e * j * e.transpose()
         })
     }
+}
+
+impl Element for Beam {
+    fn pair(&self) -> &Pair {
+        &self.pair
+    }
 
     /// The element's mass `ρAL` (kg).
-    pub fn mass(&self) -> f64 {
+    fn mass(&self) -> f64 {
         self.section.rho_a * self.length
     }
 
     /// `M` on the twelve local unknowns (module docs).
-    pub(crate) fn mass_matrix(&self) -> Stiffness {
+    fn mass_matrix(&self) -> Stiffness {
         let m = self.mass() / 6.0;
         let mut out = Stiffness::zeros();
         for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
@@ -327,7 +317,7 @@ impl Beam {
 
     /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` (module docs); their
     /// derivatives too where `tangent`, else zeros there.
-    pub(crate) fn terms(
+    fn terms(
         &self,
         q: &[f64],
         v: &[f64],
@@ -387,7 +377,7 @@ impl Beam {
 
     /// The elastic forces `L Bᵀ C ε` at `q`: the strain energy's derivative in the nodes'
     /// algebra.
-    pub(crate) fn elastic_force(&self, q: &[f64]) -> Local {
+    fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
         let sigma = self.elasticity().component_mul(&self.strains(&k));
         let b = Self::on_nodes(self.strain_matrix(&k), &self.offset_matrices());
@@ -395,36 +385,9 @@ impl Beam {
     }
 
     /// Strain energy `L/2 εᵀ C ε` at `q` (J).
-    pub fn strain_energy(&self, q: &[f64]) -> f64 {
+    fn strain_energy(&self, q: &[f64]) -> f64 {
         let e = self.strains(&self.kinematics(q));
         0.5 * self.length * e.dot(&self.elasticity().component_mul(&e))
-    }
-
-    /// Kinetic energy `½ vᵀ M v` at `v` (J).
-    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
-        let local = self.local(v);
-        0.5 * local.dot(&(self.mass_matrix() * local))
-    }
-
-    /// Adds the element's shares of the nodes' momenta `M v` to `out` (six per node).
-    pub(crate) fn add_momenta(&self, v: &[f64], out: &mut [f64]) {
-        let p = self.mass_matrix() * self.local(v);
-        for (side, node) in self.nodes().into_iter().enumerate() {
-            out[NV * node..NV * node + NV]
-                .iter_mut()
-                .zip(p.fixed_rows::<NV>(NV * side).iter())
-                .for_each(|(o, x)| *o += x);
-        }
-    }
-
-    /// The element's twelve local numbers of a six-per-node vector.
-    fn local(&self, x: &[f64]) -> Local {
-        let mut out = Local::zeros();
-        for (side, node) in self.nodes().into_iter().enumerate() {
-            out.fixed_rows_mut::<NV>(NV * side)
-                .copy_from_slice(&six(x, node));
-        }
-        out
     }
 }
 

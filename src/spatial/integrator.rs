@@ -99,7 +99,7 @@ impl<'m> SpatialIntegrator<'m> {
             )
             .into());
         }
-        model.check_masses()?;
+        model.check_nodes()?;
         model.check_rates()?;
         let asm = Assembler::new(model);
         let p = &asm.pattern;

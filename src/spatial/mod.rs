@@ -59,6 +59,8 @@ pub mod model;
 pub mod section;
 pub mod sensitivity;
 pub mod statics;
+pub mod truss;
 
 pub(crate) mod assembly;
+pub(crate) mod element;
 pub(crate) mod pair;

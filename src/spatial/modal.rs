@@ -87,7 +87,7 @@ pub fn natural_modes_spatial(
     t: f64,
 ) -> Result<SpatialModes, Error> {
     check(model, q, lambda)?;
-    model.check_masses()?;
+    model.check_nodes()?;
     let n_v = model.n_v();
     let mut asm = Assembler::new(model);
     let rest = vec![0.0; n_v];
@@ -102,7 +102,19 @@ pub fn natural_modes_spatial(
     let (stiffness, constraints) = dense(&asm, n_v);
     asm.matrix(q, &rest, t, at(1.0, None))?;
     let (mass, _) = dense(&asm, n_v);
-    let free = null_space(&constraints, n_v);
+    // The rotations of nodes only truss bars meet are not unknowns: held like joints' rows.
+    let absent: Vec<usize> = (model.rotation_absent().iter().enumerate())
+        .filter(|(_, a)| **a)
+        .flat_map(|(n, _)| (3..NV).map(move |k| NV * n + k))
+        .collect();
+    let held = DMatrix::from_fn(constraints.nrows() + absent.len(), n_v, |r, c| {
+        if r < constraints.nrows() {
+            constraints[(r, c)]
+        } else {
+            f64::from(u8::from(absent[r - constraints.nrows()] == c))
+        }
+    });
+    let free = null_space(&held, n_v);
     let k = free.transpose() * &stiffness * &free;
     let asymmetry = (&k - k.transpose()).amax();
     if asymmetry > SYMMETRY_TOLERANCE * k.amax().max(f64::MIN_POSITIVE) {

@@ -12,10 +12,12 @@ use crate::mechanism::motion::Motion;
 use crate::scene::validate::samples;
 use crate::spatial::beam::Beam;
 use crate::spatial::body::Body;
+use crate::spatial::element::Element;
 use crate::spatial::force::{Force, ForceKind};
 use crate::spatial::joint::{Anchor, Joint, JointKind};
 use crate::spatial::pair::{Measure, Pair};
 use crate::spatial::section::Section;
+use crate::spatial::truss::Truss;
 
 /// Relative gap (of the mechanism's size) below which a joint's points meet, and relative
 /// rate (of the bodies' speeds) below which initial rates satisfy the joints.
@@ -45,6 +47,8 @@ pub struct SpatialModel {
     pub bodies: Vec<Body>,
     /// Beams between nodes.
     pub beams: Vec<Beam>,
+    /// Truss bars between nodes.
+    pub trusses: Vec<Truss>,
     /// Joints, their rows numbered in this order.
     pub joints: Vec<Joint>,
     /// Force elements: springs, motors, loads.
@@ -75,6 +79,7 @@ impl SpatialModel {
             nodes: Vec::new(),
             bodies: Vec::new(),
             beams: Vec::new(),
+            trusses: Vec::new(),
             joints: Vec::new(),
             forces: Vec::new(),
             gravity,
@@ -189,6 +194,66 @@ impl SpatialModel {
         })?;
         self.beams.push(beam);
         Ok(self.beams.len() - 1)
+    }
+
+    /// Adds a truss bar of `section` (its `EA`, `ρA` and Rayleigh damping, at full density)
+    /// between the origins of nodes `a` and `b`; returns its index. A node that only bars
+    /// meet has no rotation: joints hold it at its origin (spherical), loads push it without
+    /// moments ([`SpatialModel::check_nodes`]).
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `trusses.NAME` for a duplicate name, an unknown node, a section no
+    /// bar has or ends that coincide.
+    pub fn add_truss(
+        &mut self,
+        name: &str,
+        a: usize,
+        b: usize,
+        section: &Section,
+    ) -> Result<usize, SceneError> {
+        let path = format!("trusses.{name}");
+        if self.trusses.iter().any(|t| t.name == name) {
+            return Err(SceneError::new(
+                path,
+                "a truss bar of this name exists already",
+            ));
+        }
+        let node = |n: usize, end: &str| {
+            self.nodes.get(n).map(|node| node.frame.x).ok_or_else(|| {
+                SceneError::new(
+                    format!("{path}.{end}"),
+                    format!("no node {n} (the mechanism has {})", self.nodes.len()),
+                )
+            })
+        };
+        let (xa, xb) = (node(a, "a")?, node(b, "b")?);
+        if let Some(what) = section.implausible() {
+            return Err(SceneError::new(
+                format!("{path}.section"),
+                format!("its {what} must be positive and finite (damping not negative)"),
+            ));
+        }
+        let bar = Truss::new(name, [a, b], &xa, &xb, section)
+            .ok_or_else(|| SceneError::new(&path, "its ends coincide: a bar needs a length"))?;
+        self.trusses.push(bar);
+        Ok(self.trusses.len() - 1)
+    }
+
+    /// The structural elements: beams, then truss bars.
+    pub(crate) fn elements(&self) -> impl Iterator<Item = &dyn Element> + '_ {
+        let beams = self.beams.iter().map(|b| b as &dyn Element);
+        beams.chain(self.trusses.iter().map(|t| t as &dyn Element))
+    }
+
+    /// Which nodes have no rotation: those only truss bars meet (no body, no beam).
+    pub(crate) fn rotation_absent(&self) -> Vec<bool> {
+        let mut turns = vec![false; self.nodes.len()];
+        self.bodies.iter().for_each(|b| turns[b.node] = true);
+        self.beams
+            .iter()
+            .flat_map(|b| b.nodes())
+            .for_each(|n| turns[n] = true);
+        turns.iter().map(|t| !t).collect()
     }
 
     /// Sets body `body`'s initial rates: the velocity of its centre of mass (m/s, inertial
@@ -612,7 +677,7 @@ impl SpatialModel {
             .iter()
             .map(|b| b.kinetic_energy(&six(v, b.node)))
             .sum();
-        bodies + self.beams.iter().map(|b| b.kinetic_energy(v)).sum::<f64>()
+        bodies + self.elements().map(|e| e.kinetic_energy(v)).sum::<f64>()
     }
 
     /// Potential energy at `q` (J): of gravity, zero at the origin, of the beams' strains,
@@ -620,15 +685,14 @@ impl SpatialModel {
     pub fn potential_energy(&self, q: &[f64]) -> f64 {
         let height = |node: usize| -self.gravity.dot(&Frame::read(q, node).x);
         let bodies: f64 = self.bodies.iter().map(|b| b.mass * height(b.node)).sum();
-        let beams: f64 = self
-            .beams
-            .iter()
-            .map(|b| {
-                let [n1, n2] = b.nodes();
-                0.5 * b.mass() * (height(n1) + height(n2)) + b.strain_energy(q)
+        let elements: f64 = self
+            .elements()
+            .map(|e| {
+                let [n1, n2] = e.nodes();
+                0.5 * e.mass() * (height(n1) + height(n2)) + e.strain_energy(q)
             })
             .sum();
-        bodies + beams + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
+        bodies + elements + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
     }
 
     /// Angular momentum about the point `c` of the inertial frame (kg m²/s):
@@ -640,8 +704,8 @@ impl SpatialModel {
             let p = b.mass_matrix() * nalgebra::Vector6::from(six(v, b.node));
             momenta[NV * b.node..NV * b.node + NV].copy_from_slice(p.as_slice());
         }
-        for b in &self.beams {
-            b.add_momenta(v, &mut momenta);
+        for e in self.elements() {
+            e.add_momenta(v, &mut momenta);
         }
         (0..self.nodes.len())
             .map(|n| {
@@ -652,24 +716,67 @@ impl SpatialModel {
             .sum()
     }
 
-    /// Checks that every node carries mass: a body's, or a beam's.
+    /// Checks the nodes: every one carries mass (a body's, a beam's or a bar's), and one
+    /// that only truss bars meet (no rotation) is held only at its origin by spherical
+    /// joints, springs and loads without moments.
     ///
     /// # Errors
-    /// A [`SceneError`] naming the first node with none.
-    pub fn check_masses(&self) -> Result<(), SceneError> {
+    /// A [`SceneError`] naming the first node with no mass, or the joint, force element
+    /// that would turn a node without rotation.
+    pub fn check_nodes(&self) -> Result<(), SceneError> {
         let mut carried = vec![false; self.nodes.len()];
         self.bodies.iter().for_each(|b| carried[b.node] = true);
-        self.beams
-            .iter()
-            .flat_map(Beam::nodes)
+        self.elements()
+            .flat_map(|e| e.nodes())
             .for_each(|n| carried[n] = true);
-        match carried.iter().position(|c| !c) {
-            Some(n) => Err(SceneError::new(
+        if let Some(n) = carried.iter().position(|c| !c) {
+            return Err(SceneError::new(
                 format!("nodes.{}", self.nodes[n].name),
-                "carries no mass: end a beam on it, or make it a body",
-            )),
-            None => Ok(()),
+                "carries no mass: end a beam or a bar on it, or make it a body",
+            ));
         }
+        let absent = self.rotation_absent();
+        let turns = |pair: &Pair| {
+            (0..2).any(|s| {
+                pair.nodes[s].is_some_and(|n| absent[n]) && pair.arms[s] != Vector3::zeros()
+            })
+        };
+        let on_absent = |pair: &Pair| pair.nodes.iter().flatten().copied().find(|&n| absent[n]);
+        for j in &self.joints {
+            if let Some(n) = on_absent(&j.pair) {
+                if j.kind != JointKind::Spherical || turns(&j.pair) {
+                    return Err(SceneError::new(
+                        format!("joints.{}", j.name),
+                        format!(
+                            "node '{}' only truss bars meet has no rotation: hold it at its origin by a spherical joint",
+                            self.nodes[n].name
+                        ),
+                    ));
+                }
+            }
+        }
+        for f in &self.forces {
+            let Some(n) = on_absent(&f.pair) else {
+                continue;
+            };
+            let moment = match &f.kind {
+                ForceKind::Load {
+                    moment, follower, ..
+                } => *follower || *moment != Vector3::zeros(),
+                ForceKind::Motor { .. } => true,
+                ForceKind::Spring { .. } => false,
+            };
+            if moment || turns(&f.pair) {
+                return Err(SceneError::new(
+                    format!("forces.{}", f.name),
+                    format!(
+                        "node '{}' only truss bars meet has no rotation: act on its origin, without moments or following it",
+                        self.nodes[n].name
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 

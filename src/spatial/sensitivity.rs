@@ -32,6 +32,7 @@ use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::lu::Lu;
 use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::run;
 use crate::spatial::model::SpatialModel;
@@ -82,6 +83,16 @@ pub enum Parameter {
         /// The beam.
         beam: usize,
     },
+    /// A factor on a truss bar's `EA` (and its Kelvin–Voigt damping), at 1.
+    TrussStiffness {
+        /// The bar.
+        truss: usize,
+    },
+    /// A factor on a truss bar's mass per length (its weight and `α M` damping), at 1.
+    TrussMass {
+        /// The bar.
+        truss: usize,
+    },
 }
 
 /// A response of a spatial motion.
@@ -101,8 +112,8 @@ pub enum Response {
         /// 0, 1, 2 for x, y, z.
         axis: usize,
     },
-    /// `∫ U dt`, the beams' strain energy integrated over the run (J s; trapezoidal rule on
-    /// the run's grid): a dynamic compliance.
+    /// `∫ U dt`, the beams' and bars' strain energy integrated over the run (J s;
+    /// trapezoidal rule on the run's grid): a dynamic compliance.
     StrainEnergy,
     /// `∫ λ² dt` of one row of a joint (trapezoidal rule on the run's grid): of a drive's
     /// row, the effort `∫ τ² dt` a motor must deliver.
@@ -148,10 +159,10 @@ fn check(
                 axis(a, k)?;
             }
             Response::StrainEnergy => {
-                if model.beams.is_empty() {
+                if model.elements().next().is_none() {
                     return Err(SettingsError::new(
                         format!("responses[{k}]"),
-                        "the mechanism has no beams: no strain energy",
+                        "the mechanism has no beams or bars: no strain energy",
                     ));
                 }
             }
@@ -205,6 +216,17 @@ fn check(
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
                         format!("no beam {beam} (the mechanism has {})", model.beams.len()),
+                    ));
+                }
+            }
+            Parameter::TrussStiffness { truss } | Parameter::TrussMass { truss } => {
+                if truss >= model.trusses.len() {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "no truss bar {truss} (the mechanism has {})",
+                            model.trusses.len()
+                        ),
                     ));
                 }
             }
@@ -414,25 +436,34 @@ impl<'m> Sweep<'m> {
                     .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
                     .sum()
             }
-            Response::StrainEnergy => (0..self.model().beams.len())
-                .map(|b| self.beam_energy(b))
-                .sum(),
+            Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
         }
     }
 
-    /// `∫ U dt` of beam `beam` over the stored run.
-    fn beam_energy(&self, beam: usize) -> f64 {
-        let b = &self.model().beams[beam];
+    /// `∫ U dt` of one element over the stored run.
+    fn energy(&self, element: &dyn Element) -> f64 {
         (0..self.states.len())
-            .map(|n| self.weight(n) * b.strain_energy(&self.states[n].q))
+            .map(|n| self.weight(n) * element.strain_energy(&self.states[n].q))
             .sum()
     }
 
-    /// A response's explicit partial derivative to a parameter (at fixed states): a beam's
-    /// stiffness factor scales its strain energy.
+    /// The element a beam's or a bar's parameter scales, and whether its stiffness.
+    fn element_of(&self, p: &Parameter) -> Option<(&'m dyn Element, bool)> {
+        let model = self.model();
+        match *p {
+            Parameter::BeamStiffness { beam } => Some((&model.beams[beam], true)),
+            Parameter::BeamMass { beam } => Some((&model.beams[beam], false)),
+            Parameter::TrussStiffness { truss } => Some((&model.trusses[truss], true)),
+            Parameter::TrussMass { truss } => Some((&model.trusses[truss], false)),
+            _ => None,
+        }
+    }
+
+    /// A response's explicit partial derivative to a parameter (at fixed states): an
+    /// element's stiffness factor scales its strain energy.
     fn explicit(&self, r: &Response, p: &Parameter) -> f64 {
-        match (r, p) {
-            (Response::StrainEnergy, Parameter::BeamStiffness { beam }) => self.beam_energy(*beam),
+        match (r, self.element_of(p)) {
+            (Response::StrainEnergy, Some((element, true))) => self.energy(element),
             _ => 0.0,
         }
     }
@@ -478,9 +509,9 @@ impl<'m> Sweep<'m> {
             }
             Response::StrainEnergy => {
                 let w = self.weight(n);
-                for b in &self.model().beams {
-                    let f = b.elastic_force(&self.states[n].q);
-                    for (side, node) in b.nodes().into_iter().enumerate() {
+                for e in self.model().elements() {
+                    let f = e.elastic_force(&self.states[n].q);
+                    for (side, node) in e.nodes().into_iter().enumerate() {
                         eps[NV * node..NV * node + NV]
                             .iter_mut()
                             .zip(&f.as_slice()[NV * side..NV * side + NV])
@@ -533,15 +564,19 @@ impl<'m> Sweep<'m> {
                     element.parameter_rate(which, &s.q, &s.qdot, s.t),
                 )
             }
-            Parameter::BeamStiffness { beam } | Parameter::BeamMass { beam } => {
+            Parameter::BeamStiffness { .. }
+            | Parameter::BeamMass { .. }
+            | Parameter::TrussStiffness { .. }
+            | Parameter::TrussMass { .. } => {
                 // Both forces are linear in their factor: their derivative is themselves.
-                let b = &model.beams[beam];
-                let terms = b.terms(&s.q, &s.qdot, Some(&s.qddot), &model.gravity, false);
-                let local = match p {
-                    Parameter::BeamStiffness { .. } => terms.internal,
-                    _ => terms.inertia,
+                let (element, stiffness) = self.element_of(p).expect("an element's parameter");
+                let terms = element.terms(&s.q, &s.qdot, Some(&s.qddot), &model.gravity, false);
+                let local = if stiffness {
+                    terms.internal
+                } else {
+                    terms.inertia
                 };
-                (b.pair.nodes, local)
+                (element.pair().nodes, local)
             }
         }
     }

@@ -55,7 +55,7 @@ pub fn solve_static_spatial(
         )
         .into());
     }
-    model.check_masses()?;
+    model.check_nodes()?;
     let asm = Assembler::new(model);
     let p = &asm.pattern;
     let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
@@ -209,9 +209,8 @@ fn stiffness_scale(model: &SpatialModel) -> f64 {
         .sum::<f64>()
         / size;
     let beams: f64 = model
-        .beams
-        .iter()
-        .map(|b| b.mass() * model.gravity.norm() / size)
+        .elements()
+        .map(|e| e.mass() * model.gravity.norm() / size)
         .sum();
     let forces: f64 = model
         .forces

@@ -47,6 +47,8 @@ fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
             s.rho_a *= 1.0 + e;
             s.rho_i.iter_mut().for_each(|c| *c *= 1.0 + e);
         }
+        Parameter::TrussStiffness { truss } => m.trusses[truss].ea *= 1.0 + e,
+        Parameter::TrussMass { truss } => m.trusses[truss].rho_a *= 1.0 + e,
     }
     m
 }
@@ -73,7 +75,10 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
             ForceKind::Motor { torque, .. } => 1e-3 * torque.abs(),
             ForceKind::Load { .. } => unreachable!("loads have no parameter"),
         },
-        Parameter::BeamStiffness { .. } | Parameter::BeamMass { .. } => 1e-3,
+        Parameter::BeamStiffness { .. }
+        | Parameter::BeamMass { .. }
+        | Parameter::TrussStiffness { .. }
+        | Parameter::TrussMass { .. } => 1e-3,
     }
 }
 

@@ -1,0 +1,214 @@
+//! A spatial truss bar: two nodes' origins joined by an axial member, pin-ended.
+//!
+//! With `d = x_B − x_A`, `l = |d|`, `n = d/l` and its length `L` at the start, the strain
+//! `ε = (l − L)/L` and its rate `ε̇ = nᵀ(u̇_B − u̇_A)/L` give the axial force
+//! `N = EA (ε + β ε̇)` (Kelvin–Voigt) and the forces `f_B = −f_A = N n`; energy `½ EA L ε²`.
+//! The exact tangent on B's position, the opposite on A's:
+//!
+//! ```text
+//! ∂f_B/∂x_B = EA/L n nᵀ + N/l (I − n nᵀ) + β EA/(L l) n wᵀ (I − n nᵀ),   w = u̇_B − u̇_A
+//! ∂f_B/∂u̇_B = β EA/L n nᵀ
+//! ```
+//!
+//! Mass consistent with linear interpolation, `ρAL/6 [2I I; I 2I]`, on positions only; weight
+//! `ρAL/2` at each end; Rayleigh's `α M`. A bar turns no node: a node only bars meet has
+//! no rotation ([`crate::spatial::model::SpatialModel::add_truss`]).
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::group::Frame;
+use crate::spatial::element::{Element, Terms};
+use crate::spatial::force::Local;
+use crate::spatial::pair::{Pair, Stiffness};
+use crate::spatial::section::Section;
+
+/// A truss bar (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Truss {
+    /// Its name in the scene.
+    pub name: String,
+    /// Axial stiffness `EA` (N).
+    pub ea: f64,
+    /// Mass per length `ρA` (kg/m).
+    pub rho_a: f64,
+    /// Rayleigh damping `C = α M + β K`: `α` (1/s), `β` (s).
+    pub rayleigh: [f64; 2],
+    /// Its length at the start `L` (m).
+    pub length: f64,
+    pub(crate) pair: Pair,
+}
+
+impl Truss {
+    /// The bar between nodes at `a` and `b` of `section` (its `EA`, `ρA` and Rayleigh
+    /// coefficients); `None` where they coincide.
+    pub(crate) fn new(
+        name: &str,
+        nodes: [usize; 2],
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        section: &Section,
+    ) -> Option<Self> {
+        let length = (b - a).norm();
+        (length.is_finite() && length > 0.0).then(|| Self {
+            name: name.to_string(),
+            ea: section.c_n[0],
+            rho_a: section.rho_a,
+            rayleigh: [section.alpha, section.beta],
+            length,
+            pair: Pair {
+                nodes: [Some(nodes[0]), Some(nodes[1])],
+                arms: [Vector3::zeros(); 2],
+            },
+        })
+    }
+
+    /// `(n, l, ε)` at `q`.
+    fn geometry(&self, q: &[f64]) -> (Vector3<f64>, f64, f64) {
+        let [a, b] = self.nodes().map(|n| Frame::read(q, n).x);
+        let d = b - a;
+        let l = d.norm();
+        (d / l, l, (l - self.length) / self.length)
+    }
+
+    /// Writes `block` into a local matrix on B's position, its opposite on A's.
+    fn on_positions(block: &Matrix3<f64>) -> Stiffness {
+        let mut out = Stiffness::zeros();
+        for (r, c, sign) in [(0, 0, 1.0), (0, 6, -1.0), (6, 0, -1.0), (6, 6, 1.0)] {
+            out.fixed_view_mut::<3, 3>(r, c).copy_from(&(block * sign));
+        }
+        out
+    }
+}
+
+impl Element for Truss {
+    fn pair(&self) -> &Pair {
+        &self.pair
+    }
+
+    fn terms(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        vdot: Option<&[f64]>,
+        g: &Vector3<f64>,
+        tangent: bool,
+    ) -> Terms {
+        let (n, l, strain) = self.geometry(q);
+        let rates = self.local(v);
+        let w = rates.fixed_rows::<3>(6) - rates.fixed_rows::<3>(0);
+        let [alpha, beta] = self.rayleigh;
+        let axial = self.ea * (strain + beta * n.dot(&w) / self.length);
+        let mut internal = Local::zeros();
+        internal.fixed_rows_mut::<3>(0).copy_from(&(-n * axial));
+        internal.fixed_rows_mut::<3>(6).copy_from(&(n * axial));
+        let mass = self.mass_matrix();
+        let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
+        let mut inertia = mass * (accelerations + rates * alpha);
+        for side in 0..2 {
+            let mut f = inertia.fixed_rows_mut::<3>(6 * side);
+            f -= g * (0.5 * self.mass());
+        }
+        let mut terms = Terms {
+            internal,
+            inertia,
+            stiffness: Stiffness::zeros(),
+            damping: Stiffness::zeros(),
+        };
+        if tangent {
+            let (along, across) = (n * n.transpose(), Matrix3::identity() - n * n.transpose());
+            let k = self.ea / self.length;
+            let stiffness =
+                along * k + across * (axial / l) + n * (w.transpose() * across) * (k * beta / l);
+            terms.stiffness = Self::on_positions(&stiffness);
+            terms.damping = Self::on_positions(&(along * (k * beta))) + mass * alpha;
+        }
+        terms
+    }
+
+    fn mass_matrix(&self) -> Stiffness {
+        let m = self.mass() / 6.0;
+        let mut out = Stiffness::zeros();
+        for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
+            out.fixed_view_mut::<3, 3>(r, c)
+                .copy_from(&(Matrix3::identity() * (m * w)));
+        }
+        out
+    }
+
+    fn mass(&self) -> f64 {
+        self.rho_a * self.length
+    }
+
+    fn strain_energy(&self, q: &[f64]) -> f64 {
+        let (_, _, strain) = self.geometry(q);
+        0.5 * self.ea * self.length * strain * strain
+    }
+
+    fn elastic_force(&self, q: &[f64]) -> Local {
+        let (n, _, strain) = self.geometry(q);
+        let mut out = Local::zeros();
+        out.fixed_rows_mut::<3>(0)
+            .copy_from(&(-n * (self.ea * strain)));
+        out.fixed_rows_mut::<3>(6)
+            .copy_from(&(n * (self.ea * strain)));
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spatial::section::Shape;
+    use nalgebra::UnitQuaternion;
+
+    /// `K` and `C` against central differences, the bar stretched, turned and damped.
+    #[test]
+    fn tangent_and_damping_against_differences() {
+        let circle = Shape::SolidCircle { d: 0.01 }.geometry(0.3).unwrap();
+        let section = Section::new(&circle, 2e11, 8e10, 7850.0).with_rayleigh(0.3, 1e-3);
+        let (a, b) = (Vector3::new(0.1, 0.2, -0.1), Vector3::new(0.8, -0.3, 0.4));
+        let bar = Truss::new("bar", [0, 1], &a, &b, &section).unwrap();
+        let mut q = vec![0.0; 14];
+        Frame::new(
+            a + Vector3::new(0.01, 0.0, 0.02),
+            UnitQuaternion::identity(),
+        )
+        .write(&mut q, 0);
+        Frame::new(
+            b - Vector3::new(0.0, 0.03, 0.01),
+            UnitQuaternion::identity(),
+        )
+        .write(&mut q, 1);
+        let v: Vec<f64> = (0..12).map(|i| ((i as f64) * 1.1).sin() * 5.0).collect();
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        let f = |q: &[f64], v: &[f64]| {
+            let t = bar.terms(q, v, None, &g, false);
+            t.internal + t.inertia
+        };
+        let terms = bar.terms(&q, &v, None, &g, true);
+        for k in 0..12 {
+            let moved = |e: f64| {
+                let mut inc = [0.0; 12];
+                inc[k] = e;
+                let mut p = q.clone();
+                for node in 0..2 {
+                    Frame::read(&q, node)
+                        .retract(&inc[6 * node..6 * node + 6])
+                        .write(&mut p, node);
+                }
+                f(&p, &v)
+            };
+            let fd = (moved(1e-7) - moved(-1e-7)) / 2e-7;
+            let err = (fd - terms.stiffness.column(k)).amax();
+            assert!(err < 1e-7 * terms.stiffness.amax(), "K column {k}: {err:e}");
+            let rate = |e: f64| {
+                let mut w = v.clone();
+                w[k] += e;
+                f(&q, &w)
+            };
+            let fd = (rate(1e-4) - rate(-1e-4)) / 2e-4;
+            let err = (fd - terms.damping.column(k)).amax();
+            assert!(err < 1e-7 * terms.damping.amax(), "C column {k}: {err:e}");
+        }
+    }
+}
