@@ -1,16 +1,17 @@
 //! **The spatial wing**: mechanisms in space on the Lie group `(ℝ³ × SO(3))ⁿ` of
 //! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), geometrically exact
-//! beams between nodes ([`beam`], their sections in [`section`]), joints and drives as
+//! beams and truss bars between nodes ([`beam`], [`truss`], their sections in [`section`],
+//! one `Element` interface for both), joints and drives as
 //! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built
 //! entry by entry and checked ([`model`]), its residual and non-symmetric iteration matrix on
 //! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by
 //! sparse `LU`.
 //!
-//! Built so far: rigid bodies, beams, the joints (spherical, revolute, universal,
+//! Built so far: rigid bodies, beams, truss bars, the joints (spherical, revolute, universal,
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,
 //! [`force`]), static equilibria ([`statics`]), natural modes about them ([`modal`]) and
-//! the exact gradients of the motion ([`sensitivity`]) to bodies', force elements' and
-//! beams' parameters. Truss bars and scenes come next, on the same group.
+//! the exact gradients of the motion and of equilibria ([`sensitivity`]) to bodies', force
+//! elements', beams' and bars' parameters. Scenes and the Python front come next.
 //!
 //! The heavy top of Brüls, Cardona & Arnold: a body pinned at a point off its centre of mass,
 //! spinning under gravity.

@@ -13,6 +13,7 @@ mod spatial_joints;
 mod spatial_modes;
 mod spatial_sensitivity;
 mod spatial_statics;
+mod spatial_trusses;
 mod statics;
 mod strain_energy;
 mod variable_steps;
