@@ -38,7 +38,7 @@ use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
 use crate::group::{six, split, Frame};
-use crate::spatial::element::{Element, Terms};
+use crate::spatial::element::{consistent_mass, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::Section;
@@ -302,12 +302,7 @@ impl Element for Beam {
 
     /// `M` on the twelve local unknowns (module docs).
     fn mass_matrix(&self) -> Stiffness {
-        let m = self.mass() / 6.0;
-        let mut out = Stiffness::zeros();
-        for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
-            out.fixed_view_mut::<3, 3>(r, c)
-                .copy_from(&(Matrix3::identity() * (m * w)));
-        }
+        let mut out = consistent_mass(self.mass());
         for (side, j) in self.rotary_inertia().iter().enumerate() {
             out.fixed_view_mut::<3, 3>(6 * side + 3, 6 * side + 3)
                 .copy_from(j);
@@ -439,43 +434,12 @@ mod tests {
         (beam, q, v, vdot)
     }
 
-    fn force(beam: &Beam, q: &[f64], v: &[f64], vdot: &[f64]) -> Local {
-        let t = beam.terms(q, v, Some(vdot), &Vector3::new(0.0, 0.0, -9.81), false);
-        t.internal + t.inertia
-    }
-
     /// `K = ∂f/∂q` (right-trivialized) and `C = ∂f/∂v` against central differences, with
     /// Kelvin–Voigt and mass-proportional damping and the ends turned.
     #[test]
     fn tangent_and_damping_against_differences() {
         let (beam, q, v, vdot) = beam_and_state();
-        let terms = beam.terms(&q, &v, Some(&vdot), &Vector3::new(0.0, 0.0, -9.81), true);
-        let scale = terms.stiffness.amax();
-        let eps = 1e-7;
-        for k in 0..12 {
-            let moved = |e: f64| {
-                let mut inc = [0.0; 12];
-                inc[k] = e;
-                let mut p = q.clone();
-                for node in 0..2 {
-                    Frame::read(&q, node)
-                        .retract(&inc[6 * node..6 * node + 6])
-                        .write(&mut p, node);
-                }
-                force(&beam, &p, &v, &vdot)
-            };
-            let fd = (moved(eps) - moved(-eps)) / (2.0 * eps);
-            let err = (fd - terms.stiffness.column(k)).amax();
-            assert!(err < 1e-8 * scale, "K column {k}: {err:e} of {scale:e}");
-            let rate = |e: f64| {
-                let mut w = v.clone();
-                w[k] += e;
-                force(&beam, &q, &w, &vdot)
-            };
-            let fd = (rate(1e-4) - rate(-1e-4)) / 2e-4;
-            let err = (fd - terms.damping.column(k)).amax();
-            assert!(err < 1e-7 * terms.damping.amax(), "C column {k}: {err:e}");
-        }
+        crate::spatial::element::check_derivatives(&beam, &q, &v, &vdot, 1e-8);
     }
 
     /// A rigid motion — any rotation, any translation, any rigid velocity — changes no

@@ -2,7 +2,7 @@
 //! ([`crate::spatial::beam`]) or a truss bar ([`crate::spatial::truss`]): its forces and their
 //! derivatives at a state, its mass, its strain energy.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use crate::group::{six, NV};
 use crate::spatial::force::Local;
@@ -80,5 +80,63 @@ pub(crate) trait Element {
                 .zip(p.fixed_rows::<NV>(NV * side).iter())
                 .for_each(|(o, x)| *o += x);
         }
+    }
+}
+
+/// The translational mass of `mass` consistent with linear interpolation between the two
+/// nodes, `m/6 [2I I; I 2I]` on their positions (rotations left zero).
+pub(crate) fn consistent_mass(mass: f64) -> Stiffness {
+    let mut out = Stiffness::zeros();
+    for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
+        out.fixed_view_mut::<3, 3>(r, c)
+            .copy_from(&(Matrix3::identity() * (mass * w / 6.0)));
+    }
+    out
+}
+
+/// Checks an element's `K = ∂f/∂q` (right-trivialized) and `C = ∂f/∂v` against central
+/// differences at `(q, v, v̇)` on nodes 0 and 1, to `tolerance` of their largest entries.
+#[cfg(test)]
+pub(crate) fn check_derivatives(
+    element: &dyn Element,
+    q: &[f64],
+    v: &[f64],
+    vdot: &[f64],
+    tolerance: f64,
+) {
+    use crate::group::Frame;
+    let g = Vector3::new(0.0, 0.0, -9.81);
+    let force = |q: &[f64], v: &[f64]| {
+        let t = element.terms(q, v, Some(vdot), &g, false);
+        t.internal + t.inertia
+    };
+    let terms = element.terms(q, v, Some(vdot), &g, true);
+    let (k_max, c_max) = (terms.stiffness.amax(), terms.damping.amax());
+    for k in 0..12 {
+        let moved = |e: f64| {
+            let mut inc = [0.0; 12];
+            inc[k] = e;
+            let mut p = q.to_vec();
+            for node in 0..2 {
+                Frame::read(q, node)
+                    .retract(&inc[NV * node..NV * node + NV])
+                    .write(&mut p, node);
+            }
+            force(&p, v)
+        };
+        let fd = (moved(1e-7) - moved(-1e-7)) / 2e-7;
+        let err = (fd - terms.stiffness.column(k)).amax();
+        assert!(
+            err < tolerance * k_max,
+            "K column {k}: {err:e} of {k_max:e}"
+        );
+        let rate = |e: f64| {
+            let mut w = v.to_vec();
+            w[k] += e;
+            force(q, &w)
+        };
+        let fd = (rate(1e-4) - rate(-1e-4)) / 2e-4;
+        let err = (fd - terms.damping.column(k)).amax();
+        assert!(err < 1e-7 * c_max, "C column {k}: {err:e} of {c_max:e}");
     }
 }

@@ -17,7 +17,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::group::Frame;
-use crate::spatial::element::{Element, Terms};
+use crate::spatial::element::{consistent_mass, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::Section;
@@ -126,13 +126,7 @@ impl Element for Truss {
     }
 
     fn mass_matrix(&self) -> Stiffness {
-        let m = self.mass() / 6.0;
-        let mut out = Stiffness::zeros();
-        for (r, c, w) in [(0, 0, 2.0), (0, 6, 1.0), (6, 0, 1.0), (6, 6, 2.0)] {
-            out.fixed_view_mut::<3, 3>(r, c)
-                .copy_from(&(Matrix3::identity() * (m * w)));
-        }
-        out
+        consistent_mass(self.mass())
     }
 
     fn mass(&self) -> f64 {
@@ -180,35 +174,7 @@ mod tests {
         )
         .write(&mut q, 1);
         let v: Vec<f64> = (0..12).map(|i| ((i as f64) * 1.1).sin() * 5.0).collect();
-        let g = Vector3::new(0.0, 0.0, -9.81);
-        let f = |q: &[f64], v: &[f64]| {
-            let t = bar.terms(q, v, None, &g, false);
-            t.internal + t.inertia
-        };
-        let terms = bar.terms(&q, &v, None, &g, true);
-        for k in 0..12 {
-            let moved = |e: f64| {
-                let mut inc = [0.0; 12];
-                inc[k] = e;
-                let mut p = q.clone();
-                for node in 0..2 {
-                    Frame::read(&q, node)
-                        .retract(&inc[6 * node..6 * node + 6])
-                        .write(&mut p, node);
-                }
-                f(&p, &v)
-            };
-            let fd = (moved(1e-7) - moved(-1e-7)) / 2e-7;
-            let err = (fd - terms.stiffness.column(k)).amax();
-            assert!(err < 1e-7 * terms.stiffness.amax(), "K column {k}: {err:e}");
-            let rate = |e: f64| {
-                let mut w = v.clone();
-                w[k] += e;
-                f(&q, &w)
-            };
-            let fd = (rate(1e-4) - rate(-1e-4)) / 2e-4;
-            let err = (fd - terms.damping.column(k)).amax();
-            assert!(err < 1e-7 * terms.damping.amax(), "C column {k}: {err:e}");
-        }
+        let vdot: Vec<f64> = (0..12).map(|i| ((i as f64) * 0.7).cos()).collect();
+        crate::spatial::element::check_derivatives(&bar, &q, &v, &vdot, 1e-7);
     }
 }
