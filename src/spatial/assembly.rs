@@ -205,7 +205,7 @@ impl<'m> Assembler<'m> {
         for b in &model.bodies {
             let gravity = model.gravity * self.load;
             let f = b.inertia_force(&six(v, b.node), &six(vdot, b.node), &gravity);
-            r[NV * b.node..NV * b.node + NV].copy_from_slice(&f);
+            add_six(r, b.node, &Vector6::from(f));
             let weight = b.mass * gravity.norm();
             reference = f.iter().fold(reference.max(weight), |m, x| m.max(x.abs()));
         }
@@ -264,7 +264,7 @@ impl<'m> Assembler<'m> {
             rhs[NV * b.node..NV * b.node + NV]
                 .iter_mut()
                 .zip(f)
-                .for_each(|(r, fi)| *r = -fi);
+                .for_each(|(r, fi)| *r -= fi);
         }
         for (j, &row) in model.joints.iter().zip(&self.first_row) {
             let out = &mut rhs[row..row + j.n_rows()];

@@ -245,15 +245,56 @@ impl SpatialModel {
         beams.chain(self.trusses.iter().map(|t| t as &dyn Element))
     }
 
-    /// Which nodes have no rotation: those only truss bars meet (no body, no beam).
+    /// Which nodes have no rotation: those only truss bars and point masses meet (no rigid
+    /// body, no beam).
     pub(crate) fn rotation_absent(&self) -> Vec<bool> {
         let mut turns = vec![false; self.nodes.len()];
-        self.bodies.iter().for_each(|b| turns[b.node] = true);
+        (self.bodies.iter())
+            .filter(|b| b.inertia != Matrix3::zeros())
+            .for_each(|b| turns[b.node] = true);
         self.beams
             .iter()
             .flat_map(|b| b.nodes())
             .for_each(|n| turns[n] = true);
         turns.iter().map(|t| !t).collect()
+    }
+
+    /// Adds a point mass of `mass` (kg) at node `node`'s origin — a beam's end, a bar's
+    /// joint —; returns its index among the bodies: a body of no rotary inertia, its mass a
+    /// [`crate::spatial::sensitivity::Parameter::Mass`], its position a response.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `bodies.NAME` for a duplicate name, an unknown node or a mass that
+    /// is not positive.
+    pub fn add_point_mass(
+        &mut self,
+        name: &str,
+        node: usize,
+        mass: f64,
+    ) -> Result<usize, SceneError> {
+        let path = format!("bodies.{name}");
+        if self.bodies.iter().any(|b| b.name == name) {
+            return Err(SceneError::new(path, "a body of this name exists already"));
+        }
+        if node >= self.nodes.len() {
+            return Err(SceneError::new(
+                format!("{path}.node"),
+                format!("no node {node} (the mechanism has {})", self.nodes.len()),
+            ));
+        }
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(SceneError::new(
+                format!("{path}.mass"),
+                format!("{} kg: must be positive", short(mass)),
+            ));
+        }
+        self.bodies.push(Body {
+            name: name.to_string(),
+            node,
+            mass,
+            inertia: Matrix3::zeros(),
+        });
+        Ok(self.bodies.len() - 1)
     }
 
     /// Sets body `body`'s initial rates: the velocity of its centre of mass (m/s, inertial
@@ -702,7 +743,10 @@ impl SpatialModel {
         let mut momenta = vec![0.0; self.n_v()];
         for b in &self.bodies {
             let p = b.mass_matrix() * nalgebra::Vector6::from(six(v, b.node));
-            momenta[NV * b.node..NV * b.node + NV].copy_from_slice(p.as_slice());
+            momenta[NV * b.node..NV * b.node + NV]
+                .iter_mut()
+                .zip(p.iter())
+                .for_each(|(m, x)| *m += x);
         }
         for e in self.elements() {
             e.add_momenta(v, &mut momenta);

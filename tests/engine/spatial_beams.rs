@@ -259,11 +259,13 @@ fn a_cantilever_swings_at_its_first_frequency() {
     }
 }
 
-/// A flexible pendulum in space: an aluminium tube of three beams on a spherical joint,
-/// spinning about the vertical as it falls, damped (Kelvin–Voigt and `α M`). The tip's
+/// A flexible pendulum in space: an aluminium tube of three beams on a spherical joint, a
+/// point mass at its tip, spinning about the vertical as it falls, damped (Kelvin–Voigt and
+/// `α M`). The tip's
 /// final height, the pivot's vertical effort `∫λ² dt` and the strain energy `∫U dt`,
 /// differentiated to two beams'
-/// stiffness and one's mass: direct and adjoint against fourth-order differences (1e-6)
+/// stiffness, one's mass and the point mass: direct and adjoint against fourth-order
+/// differences (1e-6)
 /// and each other (1e-9).
 #[test]
 fn flexible_pendulum_gradients() {
@@ -307,6 +309,7 @@ fn flexible_pendulum_gradients() {
     for (i, p) in points.iter().enumerate() {
         m.set_node_rates(i, spin.cross(p), spin).unwrap();
     }
+    let bob = m.add_point_mass("bob", 3, 0.2).unwrap();
     let responses = [
         Response::NodePosition { node: 3, axis: 2 },
         Response::Effort { joint: 0, row: 2 },
@@ -316,6 +319,7 @@ fn flexible_pendulum_gradients() {
         Parameter::BeamStiffness { beam: 0 },
         Parameter::BeamStiffness { beam: 2 },
         Parameter::BeamMass { beam: 1 },
+        Parameter::Mass { body: bob },
     ];
     check(
         &m,

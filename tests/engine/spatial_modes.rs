@@ -209,3 +209,42 @@ fn bad_states_are_named() {
     let err = natural_modes_spatial(&twisted, &eq.q, &eq.lambda, 0.0).unwrap_err();
     assert!(err.to_string().contains("not conservative"), "{err}");
 }
+
+/// A cantilever with a point mass five times its own at the tip swings at the root of
+/// `1 + cos β cosh β + μ β (cos β sinh β − sin β cosh β) = 0` (μ the mass ratio),
+/// `ω = β² √(EI/ρAL⁴)`, within 0.1 % at 16 elements; a point mass that is not positive, or
+/// on a node the mechanism lacks, is named.
+#[test]
+fn a_tip_mass_lowers_the_first_frequency() {
+    let rectangle = Shape::Rectangle { b: 0.02, h: 0.03 }.geometry(0.3).unwrap();
+    let section = Section::new(&rectangle, 2.1e11, 8e10, 7850.0);
+    let length: f64 = 1.0;
+    let mu = 5.0;
+    let mut m = cantilever(16, length, &section);
+    m.add_point_mass("tip", 16, mu * section.rho_a * length)
+        .unwrap();
+    let modes = natural_modes_spatial(&m, &m.initial_configuration(), &[0.0; 6], 0.0).unwrap();
+    let f = |b: f64| 1.0 + b.cos() * b.cosh() + mu * b * (b.cos() * b.sinh() - b.sin() * b.cosh());
+    let (mut lo, mut hi) = (0.1, 1.875);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if f(lo) * f(mid) <= 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let beta = 0.5 * (lo + hi);
+    let closed = beta * beta * (section.c_m[2] / (section.rho_a * length.powi(4))).sqrt();
+    let omega = modes.omega_squared[0].sqrt();
+    assert!(
+        (omega / closed - 1.0).abs() < 1e-3,
+        "{omega} against {closed}"
+    );
+    let err = m.add_point_mass("bad", 3, -1.0).unwrap_err();
+    assert_eq!(err.path, "bodies.bad.mass");
+    assert_eq!(
+        m.add_point_mass("far", 99, 1.0).unwrap_err().path,
+        "bodies.far.node"
+    );
+}
