@@ -16,7 +16,7 @@ use flextop::spatial::statics::solve_static_spatial;
 use flextop::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::spatial_sensitivity::check;
+use crate::spatial_sensitivity::{check, moved};
 
 fn statics(load_steps: usize) -> StaticSettings {
     StaticSettings {
@@ -462,21 +462,7 @@ fn static_gradients() {
     };
     let (direct, adjoint) = (run(&m, Method::Direct), run(&m, Method::Adjoint));
     for (i, p) in parameters.iter().enumerate() {
-        let moved = |e: f64| {
-            let mut m = m.clone();
-            match *p {
-                Parameter::BeamStiffness { beam } => {
-                    let s = &mut m.beams[beam].section;
-                    s.c_n
-                        .iter_mut()
-                        .chain(&mut s.c_m)
-                        .for_each(|c| *c *= 1.0 + e);
-                }
-                Parameter::BeamMass { beam } => m.beams[beam].section.rho_a *= 1.0 + e,
-                _ => unreachable!(),
-            }
-            run(&m, Method::Direct).values
-        };
+        let moved = |e: f64| run(&moved(&m, p, e), Method::Direct).values;
         let e = 1e-3;
         let (p2, p1, m1, m2) = (moved(2.0 * e), moved(e), moved(-e), moved(-2.0 * e));
         for k in 0..responses.len() {

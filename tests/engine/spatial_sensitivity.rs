@@ -15,7 +15,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use crate::spatial::{settings, top_of};
 
 /// `model` with parameter `p` moved by `e`.
-fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
+pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
     let mut m = model.clone();
     match *p {
         Parameter::Mass { body } => m.bodies[body].mass += e,
