@@ -23,6 +23,7 @@ use nalgebra::{SMatrix, SVector, Vector3, Vector6};
 use crate::error::SolveError;
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
+use crate::solver::lu::Lu;
 use crate::spatial::force::Local;
 use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
@@ -60,6 +61,18 @@ impl Pattern {
                 .binary_search(&row)
                 .expect("an entry outside the analysed pattern")
     }
+}
+
+/// The assembler of `model` and the sparse `LU` analysed once on its pattern.
+///
+/// # Errors
+/// [`SolveError::Setup`] if the pattern cannot be analysed.
+pub(crate) fn analysed(model: &SpatialModel) -> Result<(Assembler<'_>, Lu), SolveError> {
+    let asm = Assembler::new(model);
+    let p = &asm.pattern;
+    let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
+        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    Ok((asm, lu))
 }
 
 /// Forces and matrices of a spatial mechanism.

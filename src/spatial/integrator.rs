@@ -28,7 +28,7 @@ use crate::solver::integrator::{rescale_pseudo_accelerations, step_ratio, AlphaP
 use crate::solver::linsolve::FactorError;
 use crate::solver::lu::Lu;
 use crate::solver::newton::NewtonReport;
-use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::model::SpatialModel;
 use crate::TimeGrid;
 
@@ -101,11 +101,8 @@ impl<'m> SpatialIntegrator<'m> {
         }
         model.check_nodes()?;
         model.check_rates()?;
-        let asm = Assembler::new(model);
-        let p = &asm.pattern;
-        let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
-            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-        let n = p.n;
+        let (asm, lu) = analysed(model)?;
+        let n = asm.pattern.n;
         Ok(Self {
             asm,
             lu,

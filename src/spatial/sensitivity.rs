@@ -31,7 +31,7 @@ use crate::group::{six, split, Frame, NV};
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::lu::Lu;
-use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::run;
@@ -404,10 +404,7 @@ impl<'m> Sweep<'m> {
         rho_inf: Option<f64>,
         states: &'m [State],
     ) -> Result<Self, Error> {
-        let asm = Assembler::new(model);
-        let p = &asm.pattern;
-        let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
-            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+        let (asm, lu) = analysed(model)?;
         Ok(Self {
             asm,
             lu,
@@ -426,10 +423,10 @@ impl<'m> Sweep<'m> {
     /// The value of a response over the stored run.
     fn value(&self, r: &Response) -> f64 {
         match *r {
-            Response::Position { .. } | Response::NodePosition { .. } => {
-                let (node, axis) = self.position(r);
-                Frame::read(&self.states[self.states.len() - 1].q, node).x[axis]
+            Response::Position { body, axis } => {
+                self.final_coordinate(self.model().bodies[body].node, axis)
             }
+            Response::NodePosition { node, axis } => self.final_coordinate(node, axis),
             Response::Effort { joint, row } => {
                 let k = self.row_of(joint, row);
                 (0..self.states.len())
@@ -468,13 +465,9 @@ impl<'m> Sweep<'m> {
         }
     }
 
-    /// A position response's node and axis.
-    fn position(&self, r: &Response) -> (usize, usize) {
-        match *r {
-            Response::Position { body, axis } => (self.model().bodies[body].node, axis),
-            Response::NodePosition { node, axis } => (node, axis),
-            Response::Effort { .. } | Response::StrainEnergy => unreachable!("not a position"),
-        }
+    /// Coordinate `axis` of node `node`'s origin at the end of the run.
+    fn final_coordinate(&self, node: usize, axis: usize) -> f64 {
+        Frame::read(&self.states[self.states.len() - 1].q, node).x[axis]
     }
 
     /// The multiplier of a joint's row ([`check`] made sure it has it).
@@ -498,8 +491,12 @@ impl<'m> Sweep<'m> {
         lam.fill(0.0);
         match *r {
             Response::Position { .. } | Response::NodePosition { .. } => {
+                let (node, axis) = match *r {
+                    Response::Position { body, axis } => (self.model().bodies[body].node, axis),
+                    Response::NodePosition { node, axis } => (node, axis),
+                    _ => return,
+                };
                 if n + 1 == self.states.len() {
-                    let (node, axis) = self.position(r);
                     eps[NV * node + axis] = 1.0;
                 }
             }
@@ -564,21 +561,31 @@ impl<'m> Sweep<'m> {
                     element.parameter_rate(which, &s.q, &s.qdot, s.t),
                 )
             }
-            Parameter::BeamStiffness { .. }
-            | Parameter::BeamMass { .. }
-            | Parameter::TrussStiffness { .. }
-            | Parameter::TrussMass { .. } => {
-                // Both forces are linear in their factor: their derivative is themselves.
-                let (element, stiffness) = self.element_of(p).expect("an element's parameter");
-                let terms = element.terms(&s.q, &s.qdot, Some(&s.qddot), &model.gravity, false);
-                let local = if stiffness {
-                    terms.internal
-                } else {
-                    terms.inertia
-                };
-                (element.pair().nodes, local)
+            Parameter::BeamStiffness { beam } => self.element_load(&model.beams[beam], true, n),
+            Parameter::BeamMass { beam } => self.element_load(&model.beams[beam], false, n),
+            Parameter::TrussStiffness { truss } => {
+                self.element_load(&model.trusses[truss], true, n)
             }
+            Parameter::TrussMass { truss } => self.element_load(&model.trusses[truss], false, n),
         }
+    }
+
+    /// `∂r/∂p` at state `n` of a factor on an element's stiffness or its mass: its elastic
+    /// and viscous forces, or its inertia and weight — both linear in their factor.
+    fn element_load(
+        &self,
+        element: &dyn Element,
+        stiffness: bool,
+        n: usize,
+    ) -> ([Option<usize>; 2], Local) {
+        let s = &self.states[n];
+        let terms = element.terms(&s.q, &s.qdot, Some(&s.qddot), &self.model().gravity, false);
+        let local = if stiffness {
+            terms.internal
+        } else {
+            terms.inertia
+        };
+        (element.pair().nodes, local)
     }
 
     /// `(∂r/∂p) · y` at state `n`.

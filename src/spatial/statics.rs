@@ -21,7 +21,7 @@ use crate::settings::{NewtonMatrix, StaticSettings};
 use crate::solver::lu::Lu;
 use crate::solver::newton::NewtonReport;
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
-use crate::spatial::assembly::{Assembler, Coefficients};
+use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::force::ForceKind;
 use crate::spatial::model::SpatialModel;
 
@@ -56,11 +56,8 @@ pub fn solve_static_spatial(
         .into());
     }
     model.check_nodes()?;
-    let asm = Assembler::new(model);
-    let p = &asm.pattern;
-    let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
-        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-    let n = p.n;
+    let (asm, lu) = analysed(model)?;
+    let n = asm.pattern.n;
     let mut equilibrium = Spatial {
         asm,
         lu,
