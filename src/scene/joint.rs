@@ -220,7 +220,7 @@ pub(super) fn initial_rates(
 }
 
 /// The drive at `path`: a [`motion`] law at rest at `t = 0`.
-fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
+pub(super) fn drive(path: &str, d: &MotionSpec) -> Result<Motion> {
     let m = motion(path, d)?;
     let rate = m.at(0.0).velocity;
     if rate.abs() > 0.0 {

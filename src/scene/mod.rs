@@ -16,6 +16,7 @@ mod motor;
 mod ring;
 mod section;
 mod simulation;
+pub mod spatial;
 pub mod spec;
 mod spring;
 pub(crate) mod validate;
@@ -30,6 +31,11 @@ use crate::error::SceneError;
 /// # Errors
 /// A [`SceneError`] with the path of the offending key (syntax, unknown key, wrong type).
 pub fn parse_toml(text: &str) -> Result<SceneSpec, SceneError> {
+    parse_with_paths(text)
+}
+
+/// Parses TOML text into `T`, an error naming the key's path.
+fn parse_with_paths<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, SceneError> {
     let de = toml::de::Deserializer::parse(text)
         .map_err(|e| SceneError::new("scene file", e.to_string().trim().to_string()))?;
     serde_path_to_error::deserialize(de).map_err(|e| {

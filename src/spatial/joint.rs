@@ -260,6 +260,11 @@ impl Joint {
         })
     }
 
+    /// Whether a drive imposes its free coordinate (its last row).
+    pub fn is_driven(&self) -> bool {
+        self.drive.is_some()
+    }
+
     /// Imposes `law` on the joint's free coordinate from the initial configuration `q`:
     /// the angle of a revolute joint, the travel of a prismatic one, `f(t) − f(0)` from
     /// where they start.

@@ -1,0 +1,140 @@
+//! The names a user gives a spatial scene's responses and parameters, and what they are in
+//! the engine ([`crate::spatial::sensitivity`]).
+//!
+//! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
+//! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
+//! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
+//! motor must give, integrated).
+//!
+//! Parameters: `mass:BODY` (kg), `Ixx:BODY` … `Iyz:BODY` (an entry of its inertia tensor
+//! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING`, `torque:MOTOR`,
+//! `E:BEAM` and `rho:BEAM` (its material's Young's modulus at fixed Poisson's ratio and
+//! density, Pa and kg/m³, over every element of the beam).
+
+use super::SpatialScene;
+use crate::error::SettingsError;
+use crate::spatial::force::ForceKind;
+use crate::spatial::sensitivity::{Parameter, Response};
+
+type Result<T> = std::result::Result<T, SettingsError>;
+
+/// A parameter by name: engine parameters with the factors that turn their derivatives
+/// into the named one's (`∂f/∂E = Σ (∂f/∂s_e) / E` over a beam's elements).
+pub type Named = Vec<(Parameter, f64)>;
+
+/// The inertia entries by name.
+const INERTIA: [(&str, usize, usize); 6] = [
+    ("Ixx", 0, 0),
+    ("Iyy", 1, 1),
+    ("Izz", 2, 2),
+    ("Ixy", 0, 1),
+    ("Ixz", 0, 2),
+    ("Iyz", 1, 2),
+];
+
+impl SpatialScene {
+    /// The response called `name` (module docs).
+    ///
+    /// # Errors
+    /// A [`SettingsError`] at `responses` naming what is not in the scene.
+    pub fn response(&self, name: &str) -> Result<Response> {
+        let bad = |m: String| Err(SettingsError::new("responses", format!("'{name}': {m}")));
+        if name == "strain_energy" {
+            return Ok(Response::StrainEnergy);
+        }
+        let Some((kind, what)) = name.split_once(':') else {
+            return bad(
+                "responses are x:NAME, y:NAME, z:NAME, strain_energy or effort:JOINT".into(),
+            );
+        };
+        let m = &self.model;
+        match kind {
+            "x" | "y" | "z" => {
+                let axis = usize::from(kind == "y") + 2 * usize::from(kind == "z");
+                if let Some(body) = m.bodies.iter().position(|b| b.name == what) {
+                    return Ok(Response::Position { body, axis });
+                }
+                match m.nodes.iter().position(|n| n.name == what) {
+                    Some(node) => Ok(Response::NodePosition { node, axis }),
+                    None => bad(format!("'{what}' is no body or node of the scene")),
+                }
+            }
+            "effort" => {
+                let Some(joint) = m.joints.iter().position(|j| j.name == what) else {
+                    return bad(format!("'{what}' is no joint of the scene"));
+                };
+                if !m.joints[joint].is_driven() {
+                    return bad(format!(
+                        "joint '{what}' is not driven: only a drive's row has an effort"
+                    ));
+                }
+                let row = m.joints[joint].n_rows() - 1;
+                Ok(Response::Effort { joint, row })
+            }
+            _ => bad(format!(
+                "'{kind}' is not a response kind (x, y, z, strain_energy, effort)"
+            )),
+        }
+    }
+
+    /// The parameter called `name` (module docs).
+    ///
+    /// # Errors
+    /// A [`SettingsError`] at `parameters` naming what is not in the scene.
+    pub fn parameter(&self, name: &str) -> Result<Named> {
+        let bad = |m: String| Err(SettingsError::new("parameters", format!("'{name}': {m}")));
+        let Some((kind, what)) = name.split_once(':') else {
+            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho)".into());
+        };
+        let m = &self.model;
+        let body = || m.bodies.iter().position(|b| b.name == what);
+        let force = || m.forces.iter().position(|f| f.name == what);
+        let one = |p: Parameter| Ok(vec![(p, 1.0)]);
+        match kind {
+            "mass" => match body() {
+                Some(body) => one(Parameter::Mass { body }),
+                None => bad(format!("'{what}' is no body or point mass of the scene")),
+            },
+            "k" | "c" => match force().map(|f| (f, &m.forces[f].kind)) {
+                Some((force, ForceKind::Spring { .. })) if kind == "k" => {
+                    one(Parameter::SpringStiffness { force })
+                }
+                Some((force, ForceKind::Spring { .. })) => one(Parameter::SpringDamping { force }),
+                _ => bad(format!("'{what}' is no spring of the scene")),
+            },
+            "torque" => match force().map(|f| (f, &m.forces[f].kind)) {
+                Some((force, ForceKind::Motor { .. })) => one(Parameter::MotorTorque { force }),
+                _ => bad(format!("'{what}' is no motor of the scene")),
+            },
+            "E" | "rho" => {
+                let Some(beam) = self.beams.get(what) else {
+                    return bad(format!("'{what}' is no beam of the scene"));
+                };
+                let stiffness = kind == "E";
+                let value = beam.material[usize::from(!stiffness)];
+                let part = |e: usize| match (beam.truss, stiffness) {
+                    (false, true) => Parameter::BeamStiffness { beam: e },
+                    (false, false) => Parameter::BeamMass { beam: e },
+                    (true, true) => Parameter::TrussStiffness { truss: e },
+                    (true, false) => Parameter::TrussMass { truss: e },
+                };
+                Ok(beam
+                    .elements
+                    .iter()
+                    .map(|&e| (part(e), 1.0 / value))
+                    .collect())
+            }
+            _ => match INERTIA.iter().find(|(n, ..)| *n == kind) {
+                Some(&(_, i, j)) => match body() {
+                    Some(body) if m.bodies[body].inertia != nalgebra::Matrix3::zeros() => {
+                        one(Parameter::Inertia { body, i, j })
+                    }
+                    _ => bad(format!("'{what}' is no rigid body of the scene")),
+                },
+                None => bad(format!(
+                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho)"
+                )),
+            },
+        }
+    }
+}
