@@ -14,10 +14,12 @@ from .problems import Scenario, ScenarioProblem, TopologyProblem, robot_arm_prob
 from .scenes import GroundStructure, Member, Scene, motion_table, trapezoidal
 from .results import Bars, Joint, Results, Sensitivities, StaticResults
 from .simulation import Simulation, load
+from .spatial import SpatialSimulation
+from .scenes.spatial import SpatialScene, axis_angle
 
 __all__ = [
     "Bars", "CheckpointError", "DesignError", "ExecutionError", "FlextopError", "GroundStructure", "Joint", "Member", "OptimizeResult", "PlausibilityWarning", "Results", "Scenario", "ScenarioProblem", "Scene", "SceneError", "SceneFileError", "SettingsError",
-    "Sensitivities", "Simulation", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
+    "Sensitivities", "Simulation", "SpatialScene", "SpatialSimulation", "axis_angle", "SimulationError", "StaticResults", "TopologyProblem", "motion_table", "optimize", "robot_arm_problem",
     "load", "responses", "scenes", "static_truss_problem", "ToleranceError", "trapezoidal", "volume_constraints",
 ]
 __version__ = "0.1.0"

@@ -15,7 +15,7 @@ from typing import Callable, Any, TypedDict, final, type_check_only
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Model", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
+__all__ = ["Model", "SpatialModel", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
            "rigid_positions", "prolong", "bar_shares", "section_forces", "cell_fields", "response_kinds", "size_limits", "cancel_running"]
 
 _F = npt.NDArray[np.float64]
@@ -198,6 +198,72 @@ class Model:
     def cells(self) -> CellTable: ...
     def joints(self) -> list[JointInfo]: ...
     def mechanism(self) -> MechanismInfo: ...
+
+@type_check_only
+class SpatialTrajectory(TypedDict):
+    """``SpatialModel.simulate()``: a spatial motion (``n_n`` nodes, bodies' included)."""
+
+    time: _F  # (n_t,), s
+    q: _F  # (n_t, 7 n_n): each node's position (m) and unit quaternion (w, x, y, z)
+    v: _F  # (n_t, 6 n_n): each node's velocity in space (m/s), angular velocity in its axes (rad/s)
+    lam: _F  # (n_t, n_c) multipliers
+    kinetic: _F  # (n_t,) kinetic energy, J
+    potential: _F  # (n_t,) gravity's, springs', dead loads' and strain energy, J
+    strain: _F  # (n_t,) beams' and bars' strain energy, J
+
+@type_check_only
+class SpatialEquilibriumData(TypedDict):
+    """``SpatialModel.solve_static()``."""
+
+    q: _F  # (7 n_n,)
+    lam: _F  # (n_c,)
+    strain: float  # J
+    iterations: int  # Newton iterations over all load steps
+    load_steps: int
+
+@type_check_only
+class SpatialModeData(TypedDict):
+    """``SpatialModel.natural_modes()``: every mode about a configuration."""
+
+    omega_squared: _F  # (n_m,), rad²/s², ascending
+    shapes: _F  # (n_m, 6 n_n), mass-normalized
+
+@type_check_only
+class SpatialSensitivityData(TypedDict):
+    """``SpatialModel.sensitivities()``."""
+
+    values: _F  # (n_r,)
+    gradient: _F  # (n_r, n_p)
+
+@final
+class SpatialModel:
+    """A built and validated spatial scene."""
+
+    @staticmethod
+    def from_dict(spec: dict[str, Any]) -> SpatialModel: ...
+    @staticmethod
+    def from_toml(text: str) -> SpatialModel: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def analysis(self) -> str: ...
+    @property
+    def tip(self) -> str | None: ...
+    @property
+    def node_names(self) -> list[str]: ...
+    @property
+    def body_nodes(self) -> list[tuple[str, int]]: ...
+    @property
+    def joint_rows(self) -> list[tuple[str, int, int]]: ...
+    @property
+    def beams(self) -> list[tuple[str, list[list[int]]]]: ...
+    def options(self) -> dict[str, float]: ...
+    def simulate(self, settings: dict[str, Any] | None = None,
+                 progress: Callable[[float], object] | None = None) -> SpatialTrajectory: ...
+    def solve_static(self, settings: dict[str, Any] | None = None) -> SpatialEquilibriumData: ...
+    def natural_modes(self, q: list[float], lam: list[float], t: float = 0.0) -> SpatialModeData: ...
+    def sensitivities(self, responses: list[str], parameters: list[str], settings: dict[str, Any] | None = None,
+                      equilibrium: bool = False) -> SpatialSensitivityData: ...
 
 def simulate(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None, local_tol: float | None = None,
              steps: list[float] | None = None, guide: _F | None = None,

@@ -32,6 +32,7 @@ from .discretization import Levels, Refined, indicator, preset, refinement, tole
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .io import saved
 from .scenes import Scene
+from .scenes.spatial import is_spatial
 from .discretization.tolerance import Discretization
 from .results import Bars, Joint, Results, Sensitivities, StaticResults
 
@@ -109,10 +110,14 @@ def _warn_if_implausible_static(res: StaticResults) -> None:
 
 def _as_spec(scene: Scene | dict | str | os.PathLike) -> dict:
     if isinstance(scene, Scene):
-        return scene.to_dict()
-    if isinstance(scene, dict):
-        return scene
-    return Scene.from_toml(Path(scene)).to_dict()
+        spec = scene.to_dict()
+    elif isinstance(scene, dict):
+        spec = scene
+    else:
+        spec = Scene.from_toml(Path(scene)).to_dict()
+    if is_spatial(spec):
+        raise SceneError("dimension = 3: a spatial scene; run it with flextop.SpatialSimulation")
+    return spec
 
 
 REFINE = ("shares", "bars", "uniform")

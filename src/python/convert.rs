@@ -11,6 +11,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::de::DeserializeOwned;
 
 use crate::error::{Error, SceneError, SettingsError, SolveError};
+use crate::scene::spatial::SpatialSceneSpec;
 use crate::scene::SceneSpec;
 use crate::settings::RunOptions;
 use crate::solver::assembly::Csc;
@@ -237,6 +238,12 @@ pub fn scene_value(spec: &Bound<'_, PyAny>) -> Result<toml::Value, Error> {
 /// The scene of a [`scene_value`], read without Python; a wrong entry is a `SceneError`
 /// naming it.
 pub fn scene_spec(value: toml::Value) -> Result<SceneSpec, Error> {
+    deserialized(value, "scene").map_err(|(path, msg)| SceneError::new(path, msg).into())
+}
+
+/// The spatial scene of a [`scene_value`], read without Python; a wrong entry is a
+/// `SceneError` naming it.
+pub fn spatial_scene_spec(value: toml::Value) -> Result<SpatialSceneSpec, Error> {
     deserialized(value, "scene").map_err(|(path, msg)| SceneError::new(path, msg).into())
 }
 

@@ -2,8 +2,8 @@
 //!
 //! One file per concept: [`errors`] maps engine errors to the classes of `flextop.errors`,
 //! [`convert`] turns Python values into engine inputs and engine outputs into numpy arrays,
-//! [`model`] is the built mechanism and its description, [`runs`] the computations on it
-//! (each releases the GIL, and [`signals`] keeps Ctrl-C working meanwhile). The logic
+//! [`model`] is the built mechanism and its description, [`runs`] the computations on it,
+//! [`spatial`] a spatial scene with its runs (each releases the GIL, and [`signals`] keeps Ctrl-C working meanwhile). The logic
 //! lives in the engine; these files only translate.
 
 mod convert;
@@ -11,6 +11,7 @@ mod errors;
 mod model;
 mod runs;
 mod signals;
+mod spatial;
 
 use pyo3::prelude::*;
 
@@ -18,6 +19,7 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyModel>()?;
+    m.add_class::<spatial::PySpatialModel>()?;
     m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(runs::solve_static, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run_with_sensitivities, m)?)?;

@@ -736,6 +736,11 @@ impl SpatialModel {
         bodies + elements + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
     }
 
+    /// The beams' and bars' strain energy at `q` (J).
+    pub fn strain_energy(&self, q: &[f64]) -> f64 {
+        self.elements().map(|e| e.strain_energy(q)).sum()
+    }
+
     /// Angular momentum about the point `c` of the inertial frame (kg m²/s):
     /// `Σ (x − c) × p + R J Ω` over the nodes, `p` and `J Ω` their shares of the momenta
     /// (`M v`).

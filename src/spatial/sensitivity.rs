@@ -718,6 +718,7 @@ impl<'m> Sweep<'m> {
         let mut gradient = vec![vec![0.0; responses.len()]; parameters.len()];
         let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
         for n in 0..self.states.len() {
+            crate::interrupt::poll()?;
             if n > 0 {
                 self.factorize(n)?;
                 for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
@@ -809,6 +810,7 @@ impl<'m> Sweep<'m> {
         let mut rhs = vec![0.0; n_v + m];
         let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
         for n in (1..=last).rev() {
+            crate::interrupt::poll()?;
             let h = self.states[n].h;
             let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
             let increment = increments(self.model(), &self.states[n - 1].q, &self.states[n].q);

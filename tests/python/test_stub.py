@@ -142,6 +142,19 @@ def bar_shares(arm: _core.Model):
     return _core.bar_shares(arm, fine, x, ["tip_deflection"], {}, steps, run["q"], run["qdot"], run["qddot"], run["lam"])
 
 
+def spatial() -> _core.SpatialModel:
+    """A cantilever of two elements with a point mass at its tip, under gravity."""
+    scene = flextop.SpatialScene("rod", gravity=(0.0, 0.0, -9.81))
+    scene.section("steel", E=2e11, rho=7800.0, nu=0.3, diameter=0.01)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (1.0, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel", split=2)
+    scene.point_mass("tip", "end", 0.1)
+    scene.weld("clamp", "root")
+    scene.simulation(t_end=0.01, h=0.005)
+    return _core.SpatialModel.from_dict(scene.to_dict())
+
+
 CALLS = {
     "Model.bars": lambda arm, truss: arm.bars(),
     "Model.elements": lambda arm, truss: arm.elements(),
@@ -156,6 +169,11 @@ CALLS = {
     "linearize": lambda arm, truss: _core.linearize(arm),
     "natural_modes": lambda arm, truss: _core.natural_modes(truss, 2, np.full(truss.n_design, 0.5)),
     "bar_shares": lambda arm, truss: bar_shares(arm),
+    "SpatialModel.simulate": lambda arm, truss: spatial().simulate({"t_end": 0.01}),
+    "SpatialModel.solve_static": lambda arm, truss: spatial().solve_static(),
+    "SpatialModel.natural_modes": lambda arm, truss: spatial().natural_modes(
+        list(spatial().solve_static()["q"]), list(spatial().solve_static()["lam"])),
+    "SpatialModel.sensitivities": lambda arm, truss: spatial().sensitivities(["z:tip"], ["E:rod", "mass:tip"]),
 }
 """A call on a small scene of every function and method of the stub that returns a dict."""
 

@@ -1,0 +1,275 @@
+//! The spatial engine as Python sees it: a built spatial scene, its motion, its static
+//! equilibrium, its natural modes and the exact gradients of its responses. Each run takes
+//! settings as a dict (the keys of [`crate::settings::RunOptions`]), releases the GIL and
+//! hears Ctrl-C, and returns numpy arrays in a dict.
+
+use std::sync::Arc;
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::convert::{matrix, run_options, scene_value, spatial_scene_spec, vector};
+use super::signals::{abandonable, detached, heard, reporting};
+use crate::error::Error;
+use crate::mechanism::model::Analysis;
+use crate::scene::spatial::{build_spatial, parse_spatial_toml, SpatialScene};
+use crate::spatial::element::Element;
+use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::modal::natural_modes_spatial;
+use crate::spatial::sensitivity::{sensitivities, static_sensitivities, Parameter};
+use crate::spatial::statics::solve_static_spatial;
+
+/// A built and validated spatial scene.
+#[pyclass(name = "SpatialModel", module = "flextop._core", frozen)]
+pub struct PySpatialModel {
+    scene: Arc<SpatialScene>,
+}
+
+impl PySpatialModel {
+    /// The scene `spec` reads, built on a thread of its own, Ctrl-C heard.
+    fn built(
+        py: Python<'_>,
+        spec: impl FnOnce() -> Result<crate::scene::spatial::SpatialSceneSpec, Error> + Send + 'static,
+    ) -> PyResult<Self> {
+        let scene = abandonable(py, move || build_spatial(&spec()?))?;
+        Ok(Self {
+            scene: Arc::new(scene),
+        })
+    }
+
+    /// A list of `(rows, cols)` entries as a numpy matrix.
+    fn rows<'py>(py: Python<'py>, rows: Vec<Vec<f64>>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
+        let n = rows.len();
+        matrix(py, rows.concat(), n, cols)
+    }
+}
+
+#[pymethods]
+impl PySpatialModel {
+    /// Builds a spatial scene from a dict, read with Ctrl-C heard.
+    #[staticmethod]
+    fn from_dict(py: Python<'_>, spec: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let value = heard(None, || scene_value(spec))?;
+        Self::built(py, move || spatial_scene_spec(value))
+    }
+
+    /// Builds a spatial scene from TOML text.
+    #[staticmethod]
+    fn from_toml(py: Python<'_>, text: &str) -> PyResult<Self> {
+        let text = text.to_owned();
+        Self::built(py, move || Ok(parse_spatial_toml(&text)?))
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    #[getter]
+    fn analysis(&self) -> &'static str {
+        match self.scene.analysis {
+            Analysis::Dynamic => "dynamic",
+            Analysis::Static => "static",
+        }
+    }
+
+    #[getter]
+    fn tip(&self) -> Option<String> {
+        self.scene.tip.clone()
+    }
+
+    /// Names of the nodes, bodies' included (seven numbers each in `q`, six in `v`).
+    #[getter]
+    fn node_names(&self) -> Vec<String> {
+        self.scene
+            .model
+            .nodes
+            .iter()
+            .map(|n| n.name.clone())
+            .collect()
+    }
+
+    /// The node each body sits on, by the body's name.
+    #[getter]
+    fn body_nodes(&self) -> Vec<(String, usize)> {
+        let bodies = self.scene.model.bodies.iter();
+        bodies.map(|b| (b.name.clone(), b.node)).collect()
+    }
+
+    /// Each joint's name and its rows in `λ` (start, end).
+    #[getter]
+    fn joint_rows(&self) -> Vec<(String, usize, usize)> {
+        let m = &self.scene.model;
+        let rows = |k| m.joint_rows(k).map_or((0, 0), |r| (r.start, r.end));
+        (m.joints.iter().enumerate())
+            .map(|(k, j)| (j.name.clone(), rows(k).0, rows(k).1))
+            .collect()
+    }
+
+    /// Each scene beam's name and its elements' end nodes.
+    #[getter]
+    fn beams(&self) -> Vec<(String, Vec<[usize; 2]>)> {
+        let m = &self.scene.model;
+        let ends = |b: &crate::scene::spatial::BeamElements| {
+            b.elements
+                .iter()
+                .map(|&e| {
+                    if b.truss {
+                        m.trusses[e].nodes()
+                    } else {
+                        m.beams[e].nodes()
+                    }
+                })
+                .collect()
+        };
+        (self.scene.beams.iter())
+            .map(|(name, b)| (name.clone(), ends(b)))
+            .collect()
+    }
+
+    /// The scene's `[simulation]` defaults as a dict.
+    fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let o = &self.scene.options;
+        let d = PyDict::new(py);
+        for (key, value) in [
+            ("t_end", o.t_end),
+            ("h", o.h),
+            ("rho_inf", o.rho_inf),
+            ("tol", o.tol),
+        ] {
+            if let Some(v) = value {
+                d.set_item(key, v)?;
+            }
+        }
+        Ok(d)
+    }
+
+    /// The motion: `time`, `q`, `v` (velocities `(u̇, Ω)`), `lam`, and the `kinetic`,
+    /// `potential` (gravity, springs, dead loads and strains) and `strain` energies (J)
+    /// at each time. `progress`, if given, is called with the time reached (s).
+    #[pyo3(signature = (settings=None, progress=None))]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        settings: Option<&Bound<'py, PyAny>>,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = Arc::clone(&self.scene);
+        let settings = run_options(settings)?
+            .dynamic(&scene.options)
+            .map_err(Error::from)?;
+        let states = reporting(py, progress, move || {
+            settings.validate()?;
+            simulate_spatial(&scene.model, &settings, &settings.grid())
+        })?;
+        let m = &self.scene.model;
+        let d = PyDict::new(py);
+        let column = |f: &dyn Fn(&crate::solver::integrator::State) -> f64| {
+            vector(py, states.iter().map(f).collect())
+        };
+        d.set_item("time", column(&|s| s.t))?;
+        d.set_item("kinetic", column(&|s| m.kinetic_energy(&s.qdot)))?;
+        d.set_item("potential", column(&|s| m.potential_energy(&s.q)))?;
+        d.set_item("strain", column(&|s| m.strain_energy(&s.q)))?;
+        let n = states.len();
+        let flat = |f: &dyn Fn(&crate::solver::integrator::State) -> &Vec<f64>| {
+            states
+                .iter()
+                .flat_map(|s| f(s).iter().copied())
+                .collect::<Vec<_>>()
+        };
+        d.set_item("q", matrix(py, flat(&|s| &s.q), n, m.n_q())?)?;
+        d.set_item("v", matrix(py, flat(&|s| &s.qdot), n, m.n_v())?)?;
+        d.set_item("lam", matrix(py, flat(&|s| &s.lam), n, m.n_rows())?)?;
+        Ok(d)
+    }
+
+    /// The static equilibrium at the loads of `t_end` (0 by default): `q`, `lam`, Newton
+    /// `iterations` and `load_steps`, the `strain` energy (J).
+    #[pyo3(signature = (settings=None))]
+    fn solve_static<'py>(
+        &self,
+        py: Python<'py>,
+        settings: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = Arc::clone(&self.scene);
+        let settings = run_options(settings)?
+            .statics(&scene.options)
+            .map_err(Error::from)?;
+        let eq = detached(py, move || solve_static_spatial(&scene.model, &settings))?;
+        let d = PyDict::new(py);
+        d.set_item("strain", self.scene.model.strain_energy(&eq.q))?;
+        d.set_item("q", vector(py, eq.q))?;
+        d.set_item("lam", vector(py, eq.lambda))?;
+        d.set_item("iterations", eq.iterations)?;
+        d.set_item("load_steps", eq.load_steps)?;
+        Ok(d)
+    }
+
+    /// Every natural mode about configuration `q` with multipliers `lam` at time `t`:
+    /// `omega_squared` (rad²/s², ascending) and mass-normalized `shapes` (one row each,
+    /// six numbers per node).
+    #[pyo3(signature = (q, lam, t=0.0))]
+    fn natural_modes<'py>(
+        &self,
+        py: Python<'py>,
+        q: Vec<f64>,
+        lam: Vec<f64>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = Arc::clone(&self.scene);
+        let modes = detached(py, move || natural_modes_spatial(&scene.model, &q, &lam, t))?;
+        let d = PyDict::new(py);
+        let n_v = self.scene.model.n_v();
+        d.set_item("shapes", Self::rows(py, modes.shapes, n_v)?)?;
+        d.set_item("omega_squared", vector(py, modes.omega_squared))?;
+        Ok(d)
+    }
+
+    /// Responses by name and their exact gradients to parameters by name
+    /// ([`crate::scene::spatial::names`]), over the motion or, with `equilibrium`, at the
+    /// static equilibrium: `values` and `gradient` (one row per response).
+    #[pyo3(signature = (responses, parameters, settings=None, equilibrium=false))]
+    fn sensitivities<'py>(
+        &self,
+        py: Python<'py>,
+        responses: Vec<String>,
+        parameters: Vec<String>,
+        settings: Option<&Bound<'py, PyAny>>,
+        equilibrium: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = Arc::clone(&self.scene);
+        let options = run_options(settings)?;
+        let method = options.sensitivity(&scene.options).method;
+        let found = detached(py, move || {
+            let rs = (responses.iter())
+                .map(|r| scene.response(r))
+                .collect::<Result<Vec<_>, _>>()?;
+            let named = (parameters.iter())
+                .map(|p| scene.parameter(p))
+                .collect::<Result<Vec<_>, _>>()?;
+            let ps: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
+            let g = if equilibrium {
+                let settings = options.statics(&scene.options)?;
+                static_sensitivities(&scene.model, &settings, &rs, &ps, method)?
+            } else {
+                let settings = options.dynamic(&scene.options)?;
+                settings.validate()?;
+                sensitivities(&scene.model, &settings, &settings.grid(), &rs, &ps, method)?
+            };
+            let combined = g.gradient.iter().map(|row| {
+                let mut parts = row.iter();
+                (named.iter())
+                    .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
+                    .collect::<Vec<f64>>()
+            });
+            Ok::<_, Error>((g.values, combined.collect::<Vec<_>>()))
+        })?;
+        let (values, gradient) = found;
+        let d = PyDict::new(py);
+        let n_p = gradient.first().map_or(0, Vec::len);
+        d.set_item("values", vector(py, values))?;
+        d.set_item("gradient", Self::rows(py, gradient, n_p)?)?;
+        Ok(d)
+    }
+}

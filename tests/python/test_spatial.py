@@ -1,0 +1,175 @@
+"""Spatial scenes from Python and TOML: a compound pendulum against its elliptic period at
+order 2, a cantilever's static deflection and first frequency against closed forms, exact
+gradients at the seam against differences of rebuilt scenes and against ``δ ∝ 1/E``, the
+builder's TOML read back bit for bit, and bad input named."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+import flextop
+from flextop import SceneError, SettingsError, SimulationError, SpatialScene, SpatialSimulation, axis_angle
+
+G = 9.81
+
+
+def pendulum(mass: float = 1.0, length: float = 1.0, tilt: float = 0.0) -> SpatialScene:
+    """A uniform bar hinged at one end about an axis tilted by ``tilt`` (rad) from y in the
+    horizontal plane, released horizontally from rest under gravity along −z."""
+    scene = SpatialScene("compound pendulum", gravity=(0.0, 0.0, -G))
+    axis = (-math.sin(tilt), math.cos(tilt), 0.0)
+    along = np.array([math.cos(tilt), math.sin(tilt), 0.0])
+    inertia = mass * length**2 / 12.0
+    scene.rigid_body("bar", mass=mass, inertia=(1e-4 * inertia, inertia, inertia), position=tuple(along * length / 2),
+                     orientation=axis_angle((0.0, 0.0, 1.0), tilt), points={"pivot": (-length / 2, 0.0, 0.0)})
+    scene.revolute("hinge", "bar.pivot", axis=axis)
+    scene.tip = "bar"
+    return scene
+
+
+def quarter_period(length: float = 1.0) -> float:
+    """A quarter of the period of a uniform bar released horizontally: ``K(sin² 45°)/ω₀``,
+    ``ω₀² = m g (L/2) / (m L²/3)``: when it hangs straight down, at its fastest."""
+    omega0 = math.sqrt(1.5 * G / length)
+    return ellipk(0.5) / omega0
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.7])
+def test_a_compound_pendulum_hangs_down_at_its_elliptic_quarter_period_at_order_2(tilt):
+    scene = pendulum(tilt=tilt)
+    sim = SpatialSimulation(scene)
+    t_quarter = quarter_period()
+    down = np.array([0.0, 0.0, -0.5])
+    errors = []
+    for n in (100, 200, 400):
+        run = sim.simulate(t_end=t_quarter, h=t_quarter / n, rho_inf=1.0)
+        errors.append(np.linalg.norm(run.position("bar")[-1] - down))
+        energy = run.kinetic + run.potential
+        assert np.ptp(energy) < 1e-3 * run.kinetic.max()
+    assert errors[-1] < 1e-3
+    orders = np.log2(np.array(errors[:-1]) / errors[1:])
+    assert np.all((orders > 1.8) & (orders < 2.2)), (errors, orders)
+
+
+def test_gradients_match_differences_of_rebuilt_scenes_and_direct_equals_adjoint():
+    t_end = 0.3
+    responses = ["x:bar", "z:bar", "effort:hinge"]
+    scene = pendulum(tilt=0.3)
+    spec = scene.to_dict()
+    spec["joints"][0]["drive"] = flextop.trapezoidal(0.0, 0.4, acceleration=20.0, speed=3.0)
+    spec["springs"] = [{"name": "s", "a": "bar", "b": [0.5, 0.5, 0.5], "k": 30.0, "c": 0.5}]
+    settings = {"t_end": t_end, "h": 0.01}
+
+    def run(mass=1.0, k=30.0, method="direct"):
+        changed = {**spec, "rigid_bodies": [{**spec["rigid_bodies"][0], "mass": mass}],
+                   "springs": [{**spec["springs"][0], "k": k}]}
+        return SpatialSimulation(changed).run_with_sensitivities(responses, ["mass:bar", "k:s"], method=method, **settings)
+
+    direct, adjoint = run(), run(method="adjoint")
+    assert np.allclose(direct.gradient, adjoint.gradient, rtol=1e-9, atol=1e-12 * np.abs(direct.gradient).max())
+    for j, (name, value) in enumerate([("mass", 1.0), ("k", 30.0)]):
+        step = 1e-3 * value
+        at = [run(**{name: value + s * step}).values for s in (-2, -1, 1, 2)]
+        fd = (at[0] - 8 * at[1] + 8 * at[2] - at[3]) / (12 * step)
+        assert np.allclose(direct.gradient[:, j], fd, rtol=1e-6, atol=1e-9 * np.abs(fd).max()), (name, direct.gradient[:, j], fd)
+    assert direct["effort:hinge"] > 0.0
+
+
+def cantilever(split: int = 4, load: float = -1.0, length: float = 1.0) -> SpatialScene:
+    """A steel rod of 1 cm diameter clamped at one end, a dead load along z at the other."""
+    scene = SpatialScene("cantilever", analysis="static")
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, diameter=0.01)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (length, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel", split=split)
+    scene.weld("clamp", "root")
+    scene.load("push", "end", force=(0.0, 0.0, load))
+    scene.tip = "end"
+    return scene
+
+
+def test_a_cantilever_deflects_as_timoshenko_says_and_its_gradient_to_E_is_minus_delta_over_E():
+    E, nu, d, L, P = 2.1e11, 0.3, 0.01, 1.0, -1e-3
+    area, inertia = math.pi * d**2 / 4, math.pi * d**4 / 64
+    kappa = 6 * (1 + nu) / (7 + 6 * nu)
+    expected = P * L**3 / (3 * E * inertia) + P * L / (kappa * E / (2 * (1 + nu)) * area)
+    sim = SpatialSimulation(cantilever(split=1, load=P))
+    eq = sim.equilibrium()
+    assert eq.position("end")[2] == pytest.approx(expected, rel=1e-6)
+    g = sim.run_with_sensitivities(["z:end", "strain_energy"], ["E:rod"])
+    assert g["z:end"] == pytest.approx(eq.position("end")[2], rel=1e-12)
+    assert g.d("z:end", "E:rod") == pytest.approx(-expected / E, rel=1e-5)
+    assert g.d("strain_energy", "E:rod") == pytest.approx(-g["strain_energy"] / E, rel=1e-5)
+    # the equilibrium's strain energy is the work of the load, halved (Clapeyron)
+    assert eq.strain == pytest.approx(0.5 * P * eq.position("end")[2], rel=1e-5)
+
+
+def test_a_cantilevers_lowest_frequencies_are_euler_bernoullis_in_both_planes_and_its_torsion():
+    E, nu, rho, d, L = 2.1e11, 0.3, 7850.0, 0.01, 1.0
+    sim = SpatialSimulation(cantilever(split=16, load=0.0))
+    modes = sim.modes()
+    f = modes.frequencies
+    area, inertia = math.pi * d**2 / 4, math.pi * d**4 / 64
+    bending = 1.875104**2 * math.sqrt(E * inertia / (rho * area * L**4)) / (2 * math.pi)
+    assert f[0] == pytest.approx(bending, rel=2e-3) and f[1] == pytest.approx(bending, rel=2e-3)
+    torsion = math.sqrt(E / (2 * (1 + nu)) / rho) / (4 * L)
+    assert np.min(np.abs(f / torsion - 1.0)) < 2e-3
+    assert modes.shapes.shape == (len(f), 6 * 17)
+
+
+def test_an_unstable_equilibrium_has_no_frequencies():
+    scene = pendulum()
+    spec = scene.to_dict()
+    spec["rigid_bodies"][0]["position"] = [0.0, 0.0, 0.5]
+    spec["rigid_bodies"][0]["orientation"] = axis_angle((0.0, 1.0, 0.0), -math.pi / 2)
+    modes = SpatialSimulation(spec).modes()
+    assert modes.omega_squared[0] == pytest.approx(-1.5 * G, rel=1e-9)
+    with pytest.raises(SimulationError, match="unstable"):
+        modes.frequencies
+
+
+def test_a_scene_written_as_toml_reads_back_and_runs_bit_for_bit(tmp_path):
+    scene = pendulum(tilt=0.4)
+    scene.simulation(t_end=0.2, h=0.01)
+    path = tmp_path / "pendulum.toml"
+    path.write_text(scene.to_toml(header="a compound pendulum"))
+    assert SpatialScene.from_toml(path).to_dict() == scene.to_dict()
+    a, b = SpatialSimulation(scene).simulate(), SpatialSimulation(path).simulate()
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.lam, b.lam)
+    rotation = a.rotation("bar")
+    assert np.allclose(rotation @ rotation.transpose(0, 2, 1), np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize("change, culprit", [
+    (lambda s: s["joints"][0].update(axis=[0.0, 0.0, 0.0]), "joints.hinge"),
+    (lambda s: s["joints"][0].update(a="bar.tip"), "joints[0] (hinge).a: body 'bar' has no point 'tip'"),
+    (lambda s: s["rigid_bodies"][0].update(orientation={"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 2]]}),
+     "rigid_bodies[0] (bar).orientation.matrix: is not a rotation"),
+    (lambda s: s["rigid_bodies"][0].update(mass="heavy"), "rigid_bodies[0].mass"),
+    (lambda s: s.update(colour="red"), "unknown field `colour`"),
+])
+def test_bad_scenes_are_refused_naming_the_entry(change, culprit):
+    spec = pendulum().to_dict()
+    change(spec)
+    with pytest.raises(SceneError, match=culprit.replace("[", r"\[").replace("(", r"\(").replace(")", r"\)")):
+        SpatialSimulation(spec)
+
+
+def test_bad_requests_are_named():
+    sim = SpatialSimulation(pendulum())
+    with pytest.raises(SettingsError, match="'w:bar': 'w' is not a response kind"):
+        sim.run_with_sensitivities(["w:bar"], t_end=0.1, h=0.01)
+    with pytest.raises(SettingsError, match="'E:bar': 'bar' is no beam"):
+        sim.run_with_sensitivities(None, ["E:bar"], t_end=0.1, h=0.01)
+    with pytest.raises(SettingsError, match="t_end"):
+        sim.simulate()
+    with pytest.raises(SettingsError, match="'tip' is no body or node"):
+        sim.simulate(t_end=0.01, h=0.01).position("tip")
+    with pytest.raises(SceneError, match="SpatialSimulation"):
+        flextop.Simulation(pendulum().to_dict())
+    scene = SpatialScene()
+    scene.section("s", E=1.0, rho=1.0, nu=0.3, diameter=1.0)
+    with pytest.raises(SceneError, match="given twice"):
+        scene.section("s", E=1.0, rho=1.0, nu=0.3, diameter=1.0)
