@@ -20,9 +20,9 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from . import _core
-from .errors import SettingsError, SimulationError
+from .errors import SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
-from .scenes.spatial import SpatialScene
+from .scenes.spatial import SpatialScene, axis_angle
 
 NQ, NV = 7, 6
 """Numbers per node: in a configuration (position, unit quaternion w, x, y, z), in a
@@ -243,3 +243,89 @@ class SpatialSimulation:
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         r = self.model.sensitivities(list(rs), list(ps), settings, static)
         return SpatialSensitivities(rs, ps, np.asarray(r["values"]), np.asarray(r["gradient"]).reshape(len(rs), len(ps)))
+
+
+_PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}
+"""A planar joint's spatial kind (its axis z)."""
+
+
+def from_planar(scene: Any) -> SpatialScene:
+    """The spatial scene of a planar one (a :class:`~flextop.Scene`, its dict or TOML file,
+    or a :class:`~flextop.Simulation`) at full density: its nodes in the plane z = 0, each
+    bar a beam of as many elements, rigid bodies with the planar moment of inertia about
+    every axis, clamps, pins, hinges and welds (axes z) with their drives, point masses,
+    loads, gravity, the tip and the run settings. The motion stays in the plane; the beams'
+    out-of-plane bending and torsion are held by the joints.
+
+    Raises :class:`SceneError` naming what has no spatial counterpart yet: a section not a
+    solid circle, sliders and rollers, springs, motors, rings, continuum members, rotary
+    inertia of point masses, initial rates."""
+    from .simulation import Simulation
+
+    sim = scene if isinstance(scene, Simulation) else Simulation(scene)
+    spec, model = sim.spec, sim.model
+    for key in ("springs", "motors", "rings", "members", "initial_rates"):
+        if spec.get(key):
+            raise SceneError(f"{key}: a planar scene's {key} have no spatial counterpart in from_planar yet")
+    if spec.get("design", {}).get("e_min"):
+        raise SceneError("design.e_min: from_planar builds full density")
+    out = SpatialScene(spec.get("name", ""), analysis=spec.get("analysis", "dynamic"),
+                       gravity=None if spec.get("gravity") is None else (*spec["gravity"], 0.0))
+    for name, s in spec.get("sections", {}).items():
+        if "diameter" not in s:
+            raise SceneError(f"sections.{name}: from_planar converts solid circles (a diameter) only")
+        nu = s["nu"] if "nu" in s else s["E"] / (2.0 * s["G"]) - 1.0
+        out.section(name, E=s["E"], rho=s["rho"], nu=nu, diameter=s["diameter"], rayleigh=s.get("rayleigh"))
+    _planar_bodies(out, spec)
+    names, positions = model.node_names, np.asarray(model.reference_positions)
+    bars = model.bars()
+    grid = sorted({int(n) for ends in bars["nodes"] for n in ends})
+    for k in grid:
+        out.node(names[k], (*positions[k], 0.0))
+    for name, ends, split, component, kind in zip(bars["name"], bars["nodes"], bars["elements"], bars["component"],
+                                                  bars["kind"]):
+        a, b = (names[int(n)] for n in ends)
+        out.beam(name, a, b, section=_bar_section(spec, sim.components[component], name), split=split, kind=kind)
+    for k, p in enumerate(spec.get("point_masses", [])):
+        if p.get("inertia", 0.0):
+            raise SceneError(f"point_masses[{k}]: a point mass with rotary inertia has no spatial counterpart yet")
+        out.point_mass(f"mass at {p['node']}", p["node"], p["mass"])
+    for j in spec.get("joints", []):
+        _planar_joint(out, j)
+    for k, load in enumerate(spec.get("loads", [])):
+        fx, fy = load.get("force", (0.0, 0.0))
+        out.load(f"load{k}", load["node"], force=(fx, fy, 0.0), moment=(0.0, 0.0, load.get("moment", 0.0)),
+                 table=None if load.get("table") is None else (load["table"]["t"], load["table"]["scale"]))
+    if spec.get("tip") is not None:
+        out.tip = spec["tip"]
+    defaults = {k: v for k, v in spec.get("simulation", {}).items() if k in ("t_end", "h", "rho_inf", "tol", "max_iter", "load_steps")}
+    out.simulation(**defaults)
+    return out
+
+
+def _bar_section(spec: dict, component: str, bar: str) -> str:
+    """The section of a bar of ``component`` (a ground structure or a beam)."""
+    for entry in spec.get("ground_structures", []) + spec.get("beams", []):
+        if entry.get("name") in (component, bar):
+            return str(entry["section"])
+    raise SceneError(f"bars.{bar}: its section is not found")
+
+
+def _planar_bodies(out: SpatialScene, spec: dict) -> None:
+    for body in spec.get("rigid_bodies", []):
+        inertia = body.get("inertia", 0.0)
+        points = {k: (*v, 0.0) for k, v in body.get("points", {}).items()}
+        out.rigid_body(body["name"], mass=body["mass"], inertia=(inertia, inertia, inertia),
+                       position=(*body["position"], 0.0), orientation=axis_angle((0.0, 0.0, 1.0), body.get("angle", 0.0)),
+                       points=points)
+
+
+def _planar_joint(out: SpatialScene, j: dict) -> None:
+    kind = _PLANAR_JOINTS.get(j["kind"])
+    if kind is None:
+        raise SceneError(f"joints.{j['name']}: a planar {j['kind']} has no spatial counterpart in from_planar yet")
+    a, b = ("ground", j["node"]) if "node" in j else tuple(j["nodes"])
+    if kind == "weld":
+        out.weld(j["name"], a, b)
+    else:
+        out.revolute(j["name"], a, b, axis=(0.0, 0.0, 1.0), drive=j.get("drive"))
