@@ -33,7 +33,7 @@ from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
-from .io import checkpoint, export
+from .io import cad, checkpoint, export
 from .problems import MIN_FREQUENCY, DensityFilter, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
 from .scenes import Scene, read_toml
 from .results import Results
@@ -367,10 +367,27 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
         written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
         print(f"wrote {', '.join(map(str, written))} (open them in ParaView)")
+    if not args.no_cad and result.history and _designs_cells(sim):
+        _cad(sim, problem.densities(result.x[: sim.n_design]), out / "cad", args.cad_threshold)
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
     return 0
+
+
+def _designs_cells(sim: Simulation) -> bool:
+    """Whether the scene designs cells of a continuum member."""
+    return bool(np.asarray(sim.model.cells()["variable"]).max(initial=-1) >= 0)
+
+
+def _cad(sim: Simulation, densities: np.ndarray, folder: Path, threshold: float) -> None:
+    """The continuum members' shapes at ``threshold`` as DXF, SVG and STL in ``folder``, or a
+    one-line warning where the ``cad`` extra is not installed."""
+    if absent := cad.missing():
+        print(f"flextop: warning: no CAD files: they need {', '.join(absent)} (pip install \"flextop[cad]\")", file=sys.stderr)
+        return
+    written = cad.write(sim, densities, folder, threshold=threshold)
+    print(f"wrote {', '.join(map(str, written))} (the members' outlines at density {threshold:g}, in mm)")
 
 
 def _resume(args: argparse.Namespace, out: Path, workers: Workers):
@@ -550,6 +567,10 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--fps", type=_positive(float), default=20.0, help="with --animate: frames per second (default 20)")
     o.add_argument("--vtk", action="store_true", help="also write the optimized design (design.vtu) and its motion (motion.pvd) "
                    "for ParaView")
+    o.add_argument("--cad-threshold", type=_open_fraction, default=0.5, metavar="DENSITY",
+                   help="the density at which the continuum members' outlines are drawn into --out/cad "
+                   "(NAME.dxf, NAME.svg, NAME.stl extruded by the member's thickness, in mm; default 0.5)")
+    o.add_argument("--no-cad", action="store_true", help="do not write the continuum members' outlines")
     o.set_defaults(run=optimize_command)
     return p
 
@@ -605,6 +626,14 @@ def _fraction(text: str) -> float:
     value = _positive(float)(text)
     if value > 1:
         raise argparse.ArgumentTypeError(f"{text} must be in (0, 1]")
+    return value
+
+
+def _open_fraction(text: str) -> float:
+    """An argparse type: a number in (0, 1)."""
+    value = _fraction(text)
+    if value == 1:
+        raise argparse.ArgumentTypeError(f"{text} must be in (0, 1)")
     return value
 
 

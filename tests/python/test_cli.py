@@ -153,7 +153,9 @@ def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path
     """A cantilever plate of 12 × 4 cells, compliance under one volume constraint, the
     density filter (60 mm) with a projection: the checkpoint holds the filter, and a run
     stopped after 3 iterations and resumed to 6 is the uninterrupted one. densities.npy holds
-    the filtered, projected densities of design.npy; optimality criteria run it too."""
+    the filtered, projected densities of design.npy, cad/ the outline of those densities
+    at 0.5 (its STL's volume the outline's area times the thickness); optimality criteria
+    run it too."""
     common = [plate_toml(tmp_path), "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--projection", 2, "--no-plots"]
     straight, split = tmp_path / "straight", tmp_path / "split"
     flextop_cli("optimize", *common, "--max-iter", 6, "--out", straight, codes=(0, 3))
@@ -166,6 +168,11 @@ def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path
     sim = flextop.Simulation(flextop.Scene.from_toml(tmp_path / "plate.toml"))
     physical = flextop.problems.DensityFilter(sim, 0.06, beta=2.0).physical(np.load(straight / "design.npy"))
     np.testing.assert_allclose(np.load(straight / "densities.npy"), physical, rtol=0, atol=1e-15)
+    stl = pytest.importorskip("stl")
+    shape = flextop.io.cad.outline(sim, np.load(straight / "densities.npy"))
+    volume = stl.mesh.Mesh.from_file(straight / "cad" / "plate.stl").get_mass_properties()[0]
+    assert volume == pytest.approx(shape.area * 0.01 * 1e9, rel=1e-7) and shape.area > 0.1 * 0.6 * 0.2
+    assert (straight / "cad" / "plate.dxf").stat().st_size > 1000 and (straight / "cad" / "plate.svg").stat().st_size > 1000
     oc = flextop_cli("optimize", *common, "--method", "oc", "--max-iter", 3, "--out", tmp_path / "oc", codes=(0, 3))
     assert "(oc)" in oc.stdout and "compliance" in oc.stdout
 
@@ -207,6 +214,7 @@ USER_ERRORS = [
     (["optimize", "robot-arm"], "no such scene file, nor a built-in scene"),
     (["optimize", "static_truss", "--projection", "4"], "--projection sharpens the density filter's densities: give --filter RADIUS too"),
     (["optimize", "static_truss", "--filter", "0.1"], "--filter acts on continuum members' cells, and the scene designs none"),
+    (["optimize", "static_truss", "--cad-threshold", "1"], "argument --cad-threshold: 1 must be in (0, 1)"),
 ]
 
 
