@@ -33,7 +33,7 @@ from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
-from .io import checkpoint, export
+from .io import cad, checkpoint, export
 from .problems import MIN_FREQUENCY, DensityFilter, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
 from .scenes import Scene, read_toml
 from .results import Results
@@ -42,6 +42,11 @@ from .simulation import Simulation
 
 NOT_CONVERGED = 3
 """Exit code of an optimization that stopped without converging to a feasible design."""
+
+CONTINUUM = ("continuum_robot_arm", "continuum_slider_crank", "half_mbb", "continuum_cantilever")
+"""The built-in scenes of continuum members, whose ``nx × ny`` cells ``--cells`` sets."""
+
+CELLS_HELP = f"cells along and across each continuum member of a built-in scene ({', '.join(CONTINUUM)}), e.g. 20x6"
 
 
 def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray | None:
@@ -143,7 +148,7 @@ def _picture(sim: Simulation, res: Any, out: Path, label: str) -> Path:
 
 def simulate(args: argparse.Namespace) -> int:
     """Runs a scene file."""
-    sim = Simulation(_scene(args.scene), accuracy=args.accuracy, rtol=args.rtol)
+    sim = Simulation(_scene(args.scene, args.cells), accuracy=args.accuracy, rtol=args.rtol)
     settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass,
                                   "local_tol": args.local_tol}.items() if v is not None}
     if args.rtol is not None and args.h is not None:
@@ -177,8 +182,11 @@ def _vtk(res, out: Path) -> Path:
     return res.to_vtk(out / "state.vtu")
 
 
-def _scene(spec: str) -> Scene:
-    """A scene file, or the name of a built-in scene (:data:`scenes.BUILT_IN`)."""
+def _scene(spec: str, cells: tuple[int, int] | None = None) -> Scene:
+    """A scene file, or the name of a built-in scene (:data:`scenes.BUILT_IN`), its
+    continuum members of ``cells`` (``nx``, ``ny``) where given."""
+    if cells is not None:
+        return _sized(spec, cells)
     if not Path(spec).exists() and spec in scenes.BUILT_IN:
         return scenes.BUILT_IN[spec]()
     if not Path(spec).exists():
@@ -186,11 +194,21 @@ def _scene(spec: str) -> Scene:
     return Scene.from_toml(spec)
 
 
+def _sized(spec: str, cells: tuple[int, int]) -> Scene:
+    """The built-in scene ``spec`` with members of ``cells`` = (nx, ny) cells, or a
+    SettingsError: ``--cells`` sizes a built-in scene's continuum members."""
+    if Path(spec).exists() or spec not in CONTINUUM:
+        raise SettingsError(f"--cells sizes the members of a built-in continuum scene ({', '.join(CONTINUUM)}); "
+                            f"{spec} is none (a scene file gives its members' nx and ny itself)")
+    nx, ny = cells
+    return scenes.BUILT_IN[spec](nx=nx, ny=ny)
+
+
 def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, TopologyProblem | ScenarioProblem]:
     """The problem the arguments describe: one scene, or the scenarios of ``--scenarios``,
     with volume constraints per component (or on the whole) of the first scene."""
     if args.scenarios is None:
-        sim = Simulation(_scene(args.scene or "robot_arm"), accuracy=args.accuracy)
+        sim = Simulation(_scene(args.scene or "robot_arm", args.cells), accuracy=args.accuracy)
         constraints = volume_constraints(sim, args.volume_fraction or 0.4, per_component=not args.global_volume)
         if args.min_frequency is not None:
             constraints.append((MIN_FREQUENCY, args.min_frequency))
@@ -205,7 +223,8 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
     if args.scene is not None:
         raise SettingsError("give a scene or --scenarios, not both")
     for flag, value in (("--min-frequency", args.min_frequency), ("--max-stress", args.max_stress), ("--max-von-mises", args.max_von_mises),
-                        ("--max-buckling", args.max_buckling), ("--filter", args.filter), ("--projection", args.projection)):
+                        ("--max-buckling", args.max_buckling), ("--filter", args.filter), ("--filter-cells", args.filter_cells),
+                        ("--projection", args.projection), ("--cells", args.cells)):
         if value is not None:
             raise SettingsError(f"{flag} applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
@@ -218,15 +237,18 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
 
 
 def _filter(sim: Simulation, args: argparse.Namespace) -> DensityFilter | None:
-    """The density filter of ``--filter`` (radius in m) with the projection of
-    ``--projection`` (its sharpness β), or none."""
-    if args.filter is None:
+    """The density filter of ``--filter`` (radius in m) or ``--filter-cells`` (in cells)
+    with the projection of ``--projection`` (its sharpness β), or none."""
+    if args.filter is not None and args.filter_cells is not None:
+        raise SettingsError("give the filter's radius in m (--filter) or in cells (--filter-cells), not both")
+    flag = "--filter" if args.filter is not None else "--filter-cells" if args.filter_cells is not None else None
+    if flag is None:
         if args.projection is not None:
             raise SettingsError("--projection sharpens the density filter's densities: give --filter RADIUS too")
         return None
-    if not np.asarray(sim.model.cells()["variable"]).max(initial=-1) >= 0:
-        raise SettingsError("--filter acts on continuum members' cells, and the scene designs none")
-    return DensityFilter(sim, args.filter, beta=args.projection)
+    if not _designs_cells(sim):
+        raise SettingsError(f"{flag} acts on continuum members' cells, and the scene designs none")
+    return DensityFilter(sim, args.filter, radius_cells=args.filter_cells, beta=args.projection)
 
 
 def _scenario_file(spec: str) -> tuple[list[scenarios.Scenario], str]:
@@ -367,10 +389,27 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
         written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
         print(f"wrote {', '.join(map(str, written))} (open them in ParaView)")
+    if not args.no_cad and result.history and _designs_cells(sim):
+        _cad(sim, problem.densities(result.x[: sim.n_design]), out / "cad", args.cad_threshold)
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
     return 0
+
+
+def _designs_cells(sim: Simulation) -> bool:
+    """Whether the scene designs cells of a continuum member."""
+    return bool(np.asarray(sim.model.cells()["variable"]).max(initial=-1) >= 0)
+
+
+def _cad(sim: Simulation, densities: np.ndarray, folder: Path, threshold: float) -> None:
+    """The continuum members' shapes at ``threshold`` as DXF, SVG and STL in ``folder``, or a
+    one-line warning where the ``cad`` extra is not installed."""
+    if absent := cad.missing():
+        print(f"flextop: warning: no CAD files: they need {', '.join(absent)} (pip install \"flextop[cad]\")", file=sys.stderr)
+        return
+    written = cad.write(sim, densities, folder, threshold=threshold)
+    print(f"wrote {', '.join(map(str, written))} (the members' outlines at density {threshold:g}, in mm)")
 
 
 def _resume(args: argparse.Namespace, out: Path, workers: Workers):
@@ -385,7 +424,8 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
              "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
-             "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter, "--projection": args.projection}
+             "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter,
+             "--filter-cells": args.filter_cells, "--projection": args.projection, "--cells": args.cells}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
@@ -491,6 +531,7 @@ def parser() -> argparse.ArgumentParser:
     d.set_defaults(run=demo)
     s = sub.add_parser("simulate", help="run a scene file")
     s.add_argument("scene", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN))
+    s.add_argument("--cells", type=_cells, metavar="NXxNY", help=CELLS_HELP)
     s.add_argument("--x", type=float, default=0.4, help="uniform density of every bar (default 0.4, as demo and optimize)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
     s.add_argument("--t-end", type=_positive(float))
@@ -507,6 +548,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN) + " (default robot_arm)")
     o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight) "
                    "and aggregate = \"sum\" | \"worst\", or the built-in robust_robot_arm (3 motions x 3 payloads, worst case)")
+    o.add_argument("--cells", type=_cells, metavar="NXxNY", help=CELLS_HELP)
     o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")
     o.add_argument("--workers", type=_positive(int), help="run the scenarios of an evaluation on N threads")
     o.add_argument("--scheduler", help="run the scenarios on the Dask cluster whose scheduler is at ADDRESS (tcp://host:8786)")
@@ -516,6 +558,8 @@ def parser() -> argparse.ArgumentParser:
                    help="optimizer (default mma; oc: optimality criteria, for one volume constraint with --global-volume)")
     o.add_argument("--filter", type=_positive(float), metavar="RADIUS",
                    help="density filter on continuum members' cells, radius in m (design.npy then holds the variables, densities.npy the densities)")
+    o.add_argument("--filter-cells", type=_positive(float), metavar="CELLS",
+                   help="the density filter with its radius in cells (the 88-line code's rmin), instead of --filter's metres")
     o.add_argument("--projection", type=_positive(float), metavar="BETA", help="with --filter: tanh projection of sharpness BETA about 0.5")
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
@@ -550,6 +594,10 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--fps", type=_positive(float), default=20.0, help="with --animate: frames per second (default 20)")
     o.add_argument("--vtk", action="store_true", help="also write the optimized design (design.vtu) and its motion (motion.pvd) "
                    "for ParaView")
+    o.add_argument("--cad-threshold", type=_open_fraction, default=0.5, metavar="DENSITY",
+                   help="the density at which the continuum members' outlines are drawn into --out/cad "
+                   "(NAME.dxf, NAME.svg, NAME.stl extruded by the member's thickness, in mm; default 0.5)")
+    o.add_argument("--no-cad", action="store_true", help="do not write the continuum members' outlines")
     o.set_defaults(run=optimize_command)
     return p
 
@@ -605,6 +653,22 @@ def _fraction(text: str) -> float:
     value = _positive(float)(text)
     if value > 1:
         raise argparse.ArgumentTypeError(f"{text} must be in (0, 1]")
+    return value
+
+
+def _cells(text: str) -> tuple[int, int]:
+    """An argparse type: ``NXxNY``, two whole numbers above 0 (``20x6``)."""
+    parts = text.lower().split("x")
+    if len(parts) != 2 or not all(p.strip().isdigit() and int(p) > 0 for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not NXxNY, two whole numbers above 0 (e.g. 20x6)")
+    return int(parts[0]), int(parts[1])
+
+
+def _open_fraction(text: str) -> float:
+    """An argparse type: a number in (0, 1)."""
+    value = _fraction(text)
+    if value == 1:
+        raise argparse.ArgumentTypeError(f"{text} must be in (0, 1)")
     return value
 
 

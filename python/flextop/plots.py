@@ -30,8 +30,9 @@ from .simulation import Simulation
 
 __all__ = ["animate", "magnified_positions", "plot_deformed", "plot_design", "plot_history", "plot_paths", "plot_tip_error"]
 
-#: Colormap of the density maps: light for x_min, dark for full density.
-DEFAULT_CMAP = "viridis_r"
+#: Colormap of the density maps: white for x_min (void) to black for full density, as the
+#: topology-optimization literature draws them.
+DEFAULT_CMAP = "gray_r"
 #: Line widths (points) of a bar at density x_min and at full density: thin enough that the
 #: bars meeting at a node of a slender link stay apart.
 WIDTHS = (0.3, 2.5)

@@ -2,6 +2,7 @@
 
 import json
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import pytest
 import flextop
 import flextop.cli
 
-from conftest import EXAMPLES
+from conftest import EXAMPLES, ROOT
 
 
 def flextop_cli(*args, check=True, codes=(0,)):
@@ -153,7 +154,9 @@ def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path
     """A cantilever plate of 12 × 4 cells, compliance under one volume constraint, the
     density filter (60 mm) with a projection: the checkpoint holds the filter, and a run
     stopped after 3 iterations and resumed to 6 is the uninterrupted one. densities.npy holds
-    the filtered, projected densities of design.npy; optimality criteria run it too."""
+    the filtered, projected densities of design.npy, cad/ the outline of those densities
+    at 0.5 (its STL's volume the outline's area times the thickness); optimality criteria
+    run it too."""
     common = [plate_toml(tmp_path), "--global-volume", "--volume-fraction", 0.5, "--filter", 0.06, "--projection", 2, "--no-plots"]
     straight, split = tmp_path / "straight", tmp_path / "split"
     flextop_cli("optimize", *common, "--max-iter", 6, "--out", straight, codes=(0, 3))
@@ -166,6 +169,11 @@ def test_a_continuum_member_optimizes_with_a_filter_and_resumes_exactly(tmp_path
     sim = flextop.Simulation(flextop.Scene.from_toml(tmp_path / "plate.toml"))
     physical = flextop.problems.DensityFilter(sim, 0.06, beta=2.0).physical(np.load(straight / "design.npy"))
     np.testing.assert_allclose(np.load(straight / "densities.npy"), physical, rtol=0, atol=1e-15)
+    stl = pytest.importorskip("stl")
+    shape = flextop.io.cad.outline(sim, np.load(straight / "densities.npy"))
+    volume = stl.mesh.Mesh.from_file(straight / "cad" / "plate.stl").get_mass_properties()[0]
+    assert volume == pytest.approx(shape.area * 0.01 * 1e9, rel=1e-7) and shape.area > 0.1 * 0.6 * 0.2
+    assert (straight / "cad" / "plate.dxf").stat().st_size > 1000 and (straight / "cad" / "plate.svg").stat().st_size > 1000
     oc = flextop_cli("optimize", *common, "--method", "oc", "--max-iter", 3, "--out", tmp_path / "oc", codes=(0, 3))
     assert "(oc)" in oc.stdout and "compliance" in oc.stdout
 
@@ -193,12 +201,31 @@ def test_optimize_robot_arm_writes_the_pictures(tmp_path):
     assert "subproblem" in run.stdout and "simulation" in run.stdout
 
 
+def test_the_readme_s_continuum_commands_run_as_written(tmp_path):
+    """Every scene file the README's commands name exists, and its continuum optimizations
+    (the half-MBB, the cantilever, the continuum arm sized by --cells) run as written, cut
+    to two iterations into a folder of their own: a design and the members' CAD files."""
+    block = re.search(r"## Command line\n\n```bash\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)[1]
+    named = set(re.findall(r"examples/\S+\.toml", block))
+    assert named and all((ROOT / path).is_file() for path in named), named
+    commands = [shlex.split(line) for line in block.splitlines() if re.search(r"flextop optimize \S*(mbb|cantilever|continuum)", line)]
+    assert len(commands) == 3
+    for k, argv in enumerate(commands):
+        out = tmp_path / f"run{k}"
+        argv = [out if before == "--out" else 2 if before == "--max-iter" else a for before, a in zip(["", *argv], argv)]
+        run = subprocess.run([sys.executable, "-m", "flextop.cli", *map(str, argv[1:]), "--no-plots"], capture_output=True,
+                             text=True, timeout=600, cwd=ROOT)
+        assert run.returncode in (0, 3), run.stderr
+        assert len(history(out)) == 3 and np.load(out / "design.npy").size > 100  # the start and two iterations
+        assert list((out / "cad").glob("*.stl")), run.stdout
+
+
 USER_ERRORS = [
     (["simulate", "{tmp}/bad.toml"], "bad.toml: not valid TOML: Illegal character '\\n' (at line 1, column 10)"),
     (["simulate", "{tmp}/latin1.toml"], "latin1.toml: not UTF-8 text (byte 8)"),
     (["simulate", "{tmp}"], "cannot read: Is a directory"),
     (["simulate", "no-such-scene"], "nor a built-in scene (robot_arm, static_truss, spun_beam, ten_bar_truss, pendulum, slider_crank, four_bar, "
-                                           "continuum_robot_arm, continuum_slider_crank)"),
+                                           "continuum_robot_arm, continuum_slider_crank, half_mbb, continuum_cantilever)"),
     (["simulate", "robot_arm", "--design", "{tmp}/latin1.toml"], "cannot read a design vector"),
     (["simulate", "robot_arm", "--out", "{tmp}/bad.toml"], "a file of that name exists"),
     (["optimize", "static_truss", "--volume-fraction", "0"], "argument --volume-fraction: 0 must be above 0"),
@@ -207,6 +234,12 @@ USER_ERRORS = [
     (["optimize", "robot-arm"], "no such scene file, nor a built-in scene"),
     (["optimize", "static_truss", "--projection", "4"], "--projection sharpens the density filter's densities: give --filter RADIUS too"),
     (["optimize", "static_truss", "--filter", "0.1"], "--filter acts on continuum members' cells, and the scene designs none"),
+    (["optimize", "static_truss", "--cad-threshold", "1"], "argument --cad-threshold: 1 must be in (0, 1)"),
+    (["optimize", "static_truss", "--filter-cells", "2"], "--filter-cells acts on continuum members' cells, and the scene designs none"),
+    (["optimize", "half_mbb", "--filter", "0.02", "--filter-cells", "2"], "give the filter's radius in m (--filter) or in cells"),
+    (["optimize", "robot_arm", "--cells", "20x6"], "--cells sizes the members of a built-in continuum scene"),
+    (["simulate", "continuum_robot_arm", "--cells", "20x5"], "continuum_robot_arm: ny must be even"),
+    (["simulate", "continuum_robot_arm", "--cells", "20"], "argument --cells: '20' is not NXxNY"),
 ]
 
 

@@ -354,7 +354,10 @@ def strip_simulation() -> flextop.Simulation:
 
 @pytest.mark.parametrize(("make", "words"), [
     (lambda sim: DensityFilter(sim, "1.5"), r"DensityFilter: radius \(m\) must be a finite number, got '1\.5'"),
-    (lambda sim: DensityFilter(sim, None), r"DensityFilter: radius \(m\) must be a finite number, got None"),
+    (lambda sim: DensityFilter(sim, None), r"DensityFilter: give the radius in m \(radius\) or in cells \(radius_cells\), one of them"),
+    (lambda sim: DensityFilter(sim, 0.3, radius_cells=1.5), r"DensityFilter: give the radius in m \(radius\) or in cells"),
+    (lambda sim: SensitivityFilter(sim, radius_cells=0), r"SensitivityFilter: radius_cells must be > 0, got 0"),
+    (lambda sim: DensityFilter(sim, radius_cells="2"), r"DensityFilter: radius_cells must be a finite number, got '2'"),
     (lambda sim: DensityFilter(sim, float("nan")), r"DensityFilter: radius \(m\) must be a finite number, got nan"),
     (lambda sim: DensityFilter(sim, -0.3), r"DensityFilter: radius \(m\) must be > 0, got -0\.3"),
     (lambda sim: SensitivityFilter(sim, [1.5]), r"SensitivityFilter: radius \(m\) must be a finite number, got \[1\.5\]"),
@@ -369,6 +372,28 @@ def test_bad_filter_settings_are_named(make, words):
     is now a SettingsError that names it."""
     with pytest.raises(flextop.SettingsError, match=words):
         make(strip_simulation())
+
+
+def test_a_radius_in_cells_is_that_many_cells_sides():
+    """The half-MBB's cells are 10 mm squares: 2.4 cells is the filter of 24 mm, weight for
+    weight; the strip's cells are 0.25 m × 0.05 m: 1.5 cells is 0.375 m, the longer side's.
+    Members whose cells differ in size have no one cell to count in: refused by name."""
+    mbb = simulation(flextop.scenes.half_mbb())
+    in_cells, in_metres = DensityFilter(mbb, radius_cells=2.4), DensityFilter(mbb, 0.024)
+    assert in_cells.radius == pytest.approx(0.024, rel=1e-15)
+    assert abs(in_cells.weights - in_metres.weights).max() < 1e-15
+    assert SensitivityFilter(mbb, radius_cells=2.4).h.nnz == SensitivityFilter(mbb, 0.024).h.nnz
+    assert DensityFilter(strip_simulation(), radius_cells=1.5).radius == pytest.approx(0.375, rel=1e-15)
+    scene = Scene("two plates", analysis="static")
+    for k, nx in enumerate((4, 8)):
+        plate = scene.member(f"plate{k}", nx=nx, ny=2, length=0.4, height=0.1, thickness=0.01, E=2e11, nu=0.3, rho=7800.0,
+                             origin=(0.0, 0.2 * k))
+        for j in range(3):
+            scene.pin(f"wall{k}{j}", plate.node(0, j))
+        scene.load(plate.node(nx, 1), force=(0.0, -1.0))
+    with pytest.raises(flextop.SettingsError, match=r"radius_cells needs cells of one size, and the members' differ "
+                                                    r"\(plate0 0\.1 m, plate1 0\.05 m\): give radius in m"):
+        DensityFilter(simulation(scene), radius_cells=2)
 
 
 def test_a_radius_below_every_cell_leaves_each_cell_its_own_density():

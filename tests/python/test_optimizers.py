@@ -714,3 +714,61 @@ def test_the_returned_design_is_the_one_the_problem_concludes():
     result = optimize(Concludes(fails), np.full(5, 5.0), "mma")
     assert result.status is Status.UNCONFIRMED and not result.success and result.fun == plain.fun
     assert "could not be measured (the returned design's run to rtol did not converge)" in result.message
+
+
+def feasible_best(result):
+    """The smallest scaled objective of a run's feasible iterates and its iteration."""
+    return min((record.f0, record.iteration) for record in result.history if np.max(record.g, initial=-np.inf) <= 1e-6)
+
+
+def test_at_the_iteration_limit_the_best_feasible_iterate_is_returned_and_said_so():
+    """OC's update with η = ½ overshoots Σ cᵢ/xᵢ⁶ under a volume (its fixed-point map's
+    slope is 1 − 7/2): from x = 0.1 (feasible, far worse) f0 falls for three iterations,
+    then the iterates cycle between two feasible designs, both worse. Stopped in the cycle
+    (after 7 or 8 iterations), the result is the third iterate, its objective,
+    constraints and KKT residual that design's, and the message names it; stopped after 3,
+    that last iterate is returned as it is. Plain MMA on Rosenbrock from (−1.2, 1), not a
+    descent method, likewise."""
+    c = np.array([1.0, 4.0, 9.0, 0.25, 2.0])
+    problem = volume_bounded(lambda x: (np.sum(c / x**6), -6 * c / x**7), 5, 0.4)
+    for max_iter in (3, 7, 8):
+        result = optimize(problem, 0.1, method="oc", max_iter=max_iter)
+        last = result.history[-1]
+        f0, iteration = feasible_best(result)
+        assert result.status is Status.MAX_ITER and not result.success and iteration == 3
+        assert result.fun_scaled == f0 and problem.evaluate(result.x).f0 == f0
+        assert result.kkt == kkt_estimate(result.x, problem.evaluate(result.x), problem.lower, problem.upper,
+                                          result.multipliers)[0]
+        if max_iter == 3:
+            assert "best feasible" not in result.message and np.array_equal(result.x, result.state.x)
+            continue
+        assert last.f0 > f0 and np.max(last.g) <= 1e-6
+        assert f"returning the best feasible design, iteration 3's (f0 = {f0:.6g}; " \
+               f"the last, iteration {max_iter}: f0 = {last.f0:.6g})" in result.message
+        assert np.array_equal(result.x, result.state.best.x) and not np.array_equal(result.x, result.state.x)
+    rosenbrock_run = optimize(rosenbrock(False), np.array([-1.2, 1.0]), MMA(safeguard=False), max_iter=40)
+    assert rosenbrock_run.history[-1].f0 > feasible_best(rosenbrock_run)[0]
+    assert rosenbrock_run.fun_scaled == feasible_best(rosenbrock_run)[0] and "best feasible" in rosenbrock_run.message
+
+
+def test_at_the_iteration_limit_an_infeasible_last_iterate_gives_way_to_the_best_feasible_one():
+    """Σ cᵢ/xᵢ under a volume whose bound drops from 2 to 0.3 after the sixth evaluation (a
+    model changed under the run, as a problem held to a tolerance may see it): from x = 0.1
+    the last iterate is infeasible, and the result is the best of the feasible ones before
+    it, said so."""
+    c = np.array([1.0, 4.0, 9.0, 0.25, 2.0])
+    calls = []
+
+    def volume(x):
+        calls.append(x.copy())
+        bound = 2.0 if len(calls) <= 6 else 0.3
+        return np.array([x.sum() / bound - 1.0]), np.full((1, x.size), 1.0 / bound)
+
+    problem = FunctionProblem(lambda x: (np.sum(c / x), -c / x**2), volume, np.full(5, 1e-3), np.ones(5), 1)
+    result = optimize(problem, 0.1, method="mma", max_iter=7)
+    last = result.history[-1]
+    assert np.max(last.g) > 1e-6 and result.status is Status.MAX_ITER
+    f0, iteration = feasible_best(result)
+    assert result.fun_scaled == f0 and iteration < last.iteration
+    assert f"returning the best feasible design, iteration {iteration}'s (f0 = {f0:.6g}; the last, iteration 7: infeasible)" \
+        in result.message

@@ -62,6 +62,21 @@ def test_design_width_and_colour_follow_density(arm):
     assert fig.axes[0].get_aspect() == 1.0
 
 
+def test_a_member_s_void_cells_are_white_and_its_solid_ones_black():
+    """The continuum cantilever, its top half void and its bottom half solid: each cell
+    filled white at x_min, black at full density, grey in between by its density."""
+    sim = flextop.Simulation(flextop.scenes.continuum_cantilever(nx=8, ny=4))
+    centre = sim.model.cells()["centre"]
+    x = np.where(centre[:, 1] > 0, sim.x_min, 1.0)
+    x[0] = 0.5
+    fig = plots.plot_design(sim, x)
+    cells = next(c for c in fig.axes[0].collections if isinstance(c, matplotlib.collections.PolyCollection))
+    colors = cells.get_facecolors()
+    assert np.all(colors[(x == sim.x_min), :3] == 1.0) and np.all(colors[(x == 1.0), :3] == 0.0)
+    grey = 1.0 - (0.5 - sim.x_min) / (1.0 - sim.x_min)
+    np.testing.assert_allclose(colors[0, :3], grey, atol=1 / 255)
+
+
 def test_design_draws_bars_between_end_nodes_fixed_at_full_density():
     sim = two_bar_sim()
     fig = plots.plot_design(sim, [sim.x_min], min_density=0.5)

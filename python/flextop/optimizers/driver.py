@@ -10,7 +10,8 @@ small wherever its asymptotes are close, converged or not), so ``xtol`` and ``ft
 when given, stop a run as stalled, unconverged. If the problem cannot
 be evaluated at a proposed design (:class:`EvaluationError`), the loop stays at
 the last good design, halves the move limit and tries again, up to
-``max_retries`` consecutive times.
+``max_retries`` consecutive times. A run that ends at its iteration limit, or on repeated
+failures, returns the best feasible design it saw where its last is infeasible or worse.
 """
 
 from __future__ import annotations
@@ -71,7 +72,9 @@ class OptimizeResult:
 
     ``status`` says why the run stopped (:class:`Status`) and ``message`` in words, with
     the KKT residual and ``kkt_tol``, any evaluation failures recovered and whether the
-    design is infeasible. ``success`` is True only when the KKT residual of ``x`` is below
+    design is infeasible. At the iteration limit (MAX_ITER) ``x`` is the last iterate, or
+    the best feasible design seen where the last iterate is infeasible or has a larger
+    objective: the message then names its iteration and both objectives. ``success`` is True only when the KKT residual of ``x`` is below
     ``kkt_tol`` and ``x`` is feasible (status KKT), or when a fixed-point method's update
     (OC) changed the feasible ``x`` by less than ``xtol`` with no variable at its move limit
     (status FIXED_POINT): False after a small step of another method or a small objective
@@ -179,6 +182,15 @@ def _best_design(best: Design | None, state: OptimizerState, feas_tol: float) ->
     if not _is_feasible(evaluation.g, feas_tol) or (best is not None and best.f0 <= evaluation.f0):
         return best
     return Design(state.x, evaluation, state.kkt, state.multipliers, state.iteration)
+
+
+def _better_than_last(state: OptimizerState, feas_tol: float) -> Design | None:
+    """The best feasible design seen (``state.best``) where the last iterate is infeasible
+    or has a larger objective; ``None`` where the last iterate is that design."""
+    best, last = state.best, state.evaluation
+    if best is None or best.iteration == state.iteration:
+        return None
+    return best if not _is_feasible(last.g, feas_tol) or best.f0 < last.f0 else None
 
 
 def _start(problem: Problem, x0) -> np.ndarray:
@@ -320,7 +332,8 @@ def _optimality(kkt: float, kkt_tol: float) -> str:
 
 def _result(problem: Problem, state: OptimizerState, status: Status, message: str, kkt_tol: float,
             feas_tol: float) -> OptimizeResult:
-    """Assemble the result; after evaluation failures return the best feasible design.
+    """Assemble the result; after evaluation failures, and at the iteration limit where the
+    last iterate is infeasible or worse, return the best feasible design seen, and say so.
     The returned design's evaluation is the one the problem concludes (:func:`_concluded`);
     the KKT residual and multipliers are those of that evaluation; success only if it is a
     KKT point there, or, for a fixed point of OC's update, feasible there. The state keeps
@@ -337,6 +350,11 @@ def _result(problem: Problem, state: OptimizerState, status: Status, message: st
     elif state.failures:
         remarks += (f" ({state.failures} evaluation failure(s) recovered by halving the move "
                     f"limit, now {state.move:g}; last error: {state.last_error})")
+    if status is Status.MAX_ITER and (best := _better_than_last(state, feas_tol)) is not None:
+        x, evaluation, lam = best.x, best.evaluation, best.multipliers
+        last = "infeasible" if not _is_feasible(state.evaluation.g, feas_tol) else f"f0 = {state.evaluation.f0:.6g}"
+        remarks += (f"; returning the best feasible design, iteration {best.iteration}'s (f0 = {best.f0:.6g}; "
+                    f"the last, iteration {state.iteration}: {last})")
     evaluation, unmeasured = _concluded(problem, x, evaluation)
     kkt, lam = kkt_estimate(x, evaluation, problem.lower, problem.upper, lam)
     g = evaluation.g

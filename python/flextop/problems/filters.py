@@ -2,7 +2,7 @@
 dependence (Sigmund 2007; the 88-line code, Andreassen et al. 2011).
 
 Both weigh a cell's neighbours within ``radius`` (m, so that the design's resolution does not
-change with the mesh) by ``Hₑᵢ = max(0, 1 − |cₑ − cᵢ|/r)`` between reference centres (the
+change with the mesh; or ``radius_cells``, in cells as the 88-line code's ``rmin``) by ``Hₑᵢ = max(0, 1 − |cₑ − cᵢ|/r)`` between reference centres (the
 88-line code's ``r − |cₑ − cᵢ|`` over ``r``: the same filters, and no underflow of a tiny
 radius), within the same member, over the cells that are design variables; a bar's variable is
 left alone. A radius no longer than a member's cells reaches no neighbour in that direction:
@@ -58,9 +58,31 @@ def _neighbourhoods(simulation: Any, radius: float) -> sparse.csr_matrix:
     return sparse.csr_matrix((weights, (rows, cols)), shape=(n, n))
 
 
-def _radius(filter: str, radius: Any) -> float:
-    """The filter's ``radius`` as a positive length in m, or a SettingsError naming it."""
-    return number(f"{filter}: radius (m)", radius, 0.0)
+def _radius(filter: str, simulation: Any, radius: Any, radius_cells: Any) -> float:
+    """The filter's radius in m: ``radius`` (m) or ``radius_cells`` times the side of the
+    designed members' cells (the longer side, the same on every designed member), exactly
+    one of them given; a SettingsError naming what is wrong."""
+    if (radius is None) == (radius_cells is None):
+        raise SettingsError(f"{filter}: give the radius in m (radius) or in cells (radius_cells), one of them")
+    if radius is not None:
+        return number(f"{filter}: radius (m)", radius, 0.0)
+    cells = number(f"{filter}: radius_cells", radius_cells, 0.0)
+    return cells * _cell_size(filter, simulation)
+
+
+def _cell_size(filter: str, simulation: Any) -> float:
+    """The longer side (m) of the designed members' cells, or a SettingsError where they
+    differ from member to member (a radius in cells would then mean several lengths)."""
+    table = simulation.model.cells()
+    designed = {table["members"][m] for m, v in zip(table["member"], table["variable"]) if v >= 0}
+    sizes = {m["name"]: max(m["length"] / m["nx"], m["height"] / m["ny"]) for m in simulation.spec.get("members", [])
+             if m["name"] in designed}
+    if not sizes:
+        raise SettingsError("the scene has no designed cells of continuum members: nothing to filter")
+    if not np.allclose(list(sizes.values()), next(iter(sizes.values())), rtol=1e-12, atol=0.0):
+        listed = ", ".join(f"{name} {size:.4g} m" for name, size in sizes.items())
+        raise SettingsError(f"{filter}: radius_cells needs cells of one size, and the members' differ ({listed}): give radius in m")
+    return next(iter(sizes.values()))
 
 
 def _gradient(name: str, values: Any, n: int) -> np.ndarray:
@@ -93,15 +115,18 @@ def _warn_if_unfiltered(simulation: Any, radius: float) -> None:
 
 
 class DensityFilter:
-    """Physical densities of the cells (see the module), radius ``radius`` in m: ``x̃ = W x``,
+    """Physical densities of the cells (see the module), radius ``radius`` in m or
+    ``radius_cells`` in cells (times the side of the designed members' cells, the longer
+    side where they are not square; the 88-line code's ``rmin``): ``x̃ = W x``,
     or with a projection of sharpness ``beta`` about the threshold ``eta`` (Wang, Lazarov and
     Sigmund 2011), ``x̄ = (tanh βη + tanh β(x̃ − η)) / (tanh βη + tanh β(1 − η))`` mapped onto
     ``[x_min, 1]``, which pushes the filtered densities towards void and solid as β grows. ``beta`` may be raised between
     iterations (continuation, e.g. doubled every 50 from 1 to 16); the gradients are exact
     for the β of each evaluation. A bar's variable passes unchanged."""
 
-    def __init__(self, simulation: Any, radius: float, *, beta: float | None = None, eta: float = 0.5) -> None:
-        self.radius = _radius("DensityFilter", radius)
+    def __init__(self, simulation: Any, radius: float | None = None, *, radius_cells: float | None = None,
+                 beta: float | None = None, eta: float = 0.5) -> None:
+        self.radius = _radius("DensityFilter", simulation, radius, radius_cells)
         self.eta = number("DensityFilter: projection threshold eta", eta, 0.0, 1.0, "()")
         self.beta = beta
         h = _neighbourhoods(simulation, self.radius)
@@ -152,10 +177,11 @@ class DensityFilter:
 
 
 class SensitivityFilter:
-    """Sigmund's filter of the objective's gradient (see the module), radius in m."""
+    """Sigmund's filter of the objective's gradient (see the module), radius in m
+    (``radius``) or in cells (``radius_cells``, as :class:`DensityFilter`)."""
 
-    def __init__(self, simulation: Any, radius: float) -> None:
-        self.radius = _radius("SensitivityFilter", radius)
+    def __init__(self, simulation: Any, radius: float | None = None, *, radius_cells: float | None = None) -> None:
+        self.radius = _radius("SensitivityFilter", simulation, radius, radius_cells)
         self.h = _neighbourhoods(simulation, self.radius)
         self.simulation = simulation
         self.sums = np.asarray(self.h.sum(axis=1)).ravel()

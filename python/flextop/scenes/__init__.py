@@ -3,11 +3,11 @@ of examples (:mod:`.catalogue`: the paper's two, the mechanisms of multibody ben
 the literature's ten-bar truss), each builder's arguments checked before it builds."""
 
 from .builder import GroundStructure, Member, Scene, motion_table, read_toml, trapezoidal
-from .catalogue import (ALUMINIUM, BUILT_IN, DIAMETER, EXAMPLES, INCH, KIP, KSI, LIMITS, STEEL, continuum_robot_arm,
-                        continuum_slider_crank, example_toml, four_bar,
+from .catalogue import (ALUMINIUM, BUILT_IN, DIAMETER, EXAMPLES, INCH, KIP, KSI, LIMITS, STEEL, continuum_cantilever,
+                        continuum_robot_arm, continuum_slider_crank, example_toml, four_bar, half_mbb,
                         pendulum, pendulum_period, robot_arm, slider_crank, spun_beam, static_truss, stayed_frame,
                         ten_bar_truss)
 
 __all__ = ["ALUMINIUM", "BUILT_IN", "DIAMETER", "EXAMPLES", "GroundStructure", "INCH", "Member", "KIP", "KSI", "LIMITS", "STEEL",
-           "Scene", "continuum_robot_arm", "continuum_slider_crank", "example_toml", "four_bar", "motion_table", "pendulum", "pendulum_period", "read_toml", "robot_arm",
+           "Scene", "continuum_cantilever", "continuum_robot_arm", "continuum_slider_crank", "example_toml", "four_bar", "half_mbb", "motion_table", "pendulum", "pendulum_period", "read_toml", "robot_arm",
            "slider_crank", "spun_beam", "static_truss", "stayed_frame", "ten_bar_truss", "trapezoidal"]

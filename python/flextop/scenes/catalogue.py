@@ -99,6 +99,9 @@ def _check_argument(builder: str, name: str, value: Any, annotation: str, span: 
 ALUMINIUM = {"E": 70e9, "nu": 0.32, "rho": 2700.0}
 DIAMETER = 0.02
 
+STEEL = {"E": 200e9, "nu": 0.3, "rho": 7870.0}
+"""Steel (Pa, -, kg/m³), the slider-crank's."""
+
 
 def _linkage_section(scene: Scene, E: float, nu: float, rho: float, diameter: float) -> str:
     return scene.section("aluminium", E=E, nu=nu, rho=rho, diameter=diameter)
@@ -206,6 +209,56 @@ def static_truss(*, nx: int = 5, ny: int = 3, length: float = 1.0, height: float
     return scene
 
 
+@_checked(lambda nx, ny, **_: {"elements": nx * ny}, e_min=(0.0, 1.0, "[)"))
+def half_mbb(*, nx: int = 60, ny: int = 20, length: float = 0.6, height: float = 0.2, thickness: float = 0.01,
+             force: float = 1e3, E: float = STEEL["E"], nu: float = STEEL["nu"], rho: float = STEEL["rho"], p: float = 3.0,
+             x_min: float = 1e-3, e_min: float = 1e-9) -> Scene:
+    """The 88-line code's half-MBB beam (Andreassen et al. 2011): the right half of a
+    simply supported beam loaded at mid-span, a ``length × height`` steel member (m) of
+    ``nx × ny`` cells and ``thickness``, rollers along its left edge (the symmetry line,
+    free to move vertically) and at its bottom-right corner (free to move horizontally),
+    ``force`` (N) down at the top-left corner. Every cell is designed
+    (``solid_at_joints=False``), SIMP with the void's stiffness ``e_min`` (the code's 1e-9).
+
+    In steel and newtons, not the code's own units (E = 1, a unit load): the member is
+    geometrically nonlinear, and a unit load on E = 1 is no small deformation (flextop has
+    no linear analysis yet). At the defaults the solid beam's strains stay below 1e-4, where
+    the compliance is the linear one to well under 1 %; the design the optimality criteria
+    find is the code's, the compliance scaled by E and the load squared."""
+    scene = Scene("half_mbb", analysis="static")
+    member = scene.member("beam", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
+                          solid_at_joints=False)
+    for j in range(ny + 1):
+        scene.roller(f"symmetry{j}", member.node(0, j), axis=(0.0, 1.0))
+    scene.roller("support", member.node(nx, 0), axis=(1.0, 0.0))
+    scene.load(member.node(0, ny), force=(0.0, -force))
+    scene.design(interpolation="simp", p=p, x_min=x_min, e_min=e_min)
+    scene.simulation(load_steps=1)
+    return scene
+
+
+@_checked(lambda nx, ny, **_: {"elements": nx * ny}, e_min=(0.0, 1.0, "[)"))
+def continuum_cantilever(*, nx: int = 40, ny: int = 20, length: float = 0.4, height: float = 0.2, thickness: float = 0.01,
+                         force: float = 1e3, E: float = STEEL["E"], nu: float = STEEL["nu"], rho: float = STEEL["rho"],
+                         p: float = 3.0, x_min: float = 1e-3, e_min: float = 1e-9) -> Scene:
+    """The classic cantilever of topology optimization: a ``length × height`` steel member
+    (m) of ``nx × ny`` cells and ``thickness``, every node of its left edge pinned to the
+    wall, ``force`` (N) down at the middle of its right edge. Every cell is designed, SIMP
+    with the void's stiffness ``e_min``; steel and newtons for small strains, as in
+    :func:`half_mbb`. ``ny`` must be even, so that a node sits at the right edge's middle."""
+    if ny % 2:
+        raise SceneError(f"continuum_cantilever: ny must be even, so that a node sits at the right edge's middle (got {ny})")
+    scene = Scene("continuum_cantilever", analysis="static")
+    member = scene.member("plate", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
+                          solid_at_joints=False)
+    for j in range(ny + 1):
+        scene.pin(f"wall{j}", member.node(0, j))
+    scene.load(member.node(nx, ny // 2), force=(0.0, -force))
+    scene.design(interpolation="simp", p=p, x_min=x_min, e_min=e_min)
+    scene.simulation(load_steps=1)
+    return scene
+
+
 _GENERATED = "Generated from flextop.scenes.{}() by `python scripts/write_examples.py`:\nedit that, not this file."
 
 #: The example files: name → (builder, header, comments on table headers). Two Rust unit
@@ -299,9 +352,6 @@ def ten_bar_truss(*, bay: float = 360 * INCH, load: float = 100 * KIP, E: float 
     scene.design(interpolation="simp", p=1.0, x_min=x_min)
     return scene
 
-
-STEEL = {"E": 200e9, "nu": 0.3, "rho": 7870.0}
-"""Steel (Pa, -, kg/m³), the slider-crank's."""
 
 
 @_checked(lambda **_: {}, angle=(0.0, math.pi, "[)"))
@@ -444,7 +494,8 @@ def four_bar(*, crank: float = 0.1, coupler: float = 0.3, rocker: float = 0.25, 
 
 BUILT_IN = {"robot_arm": robot_arm, "static_truss": static_truss, "spun_beam": spun_beam, "ten_bar_truss": ten_bar_truss,
             "pendulum": pendulum, "slider_crank": slider_crank, "four_bar": four_bar,
-            "continuum_robot_arm": continuum_robot_arm, "continuum_slider_crank": continuum_slider_crank}
+            "continuum_robot_arm": continuum_robot_arm, "continuum_slider_crank": continuum_slider_crank,
+            "half_mbb": half_mbb, "continuum_cantilever": continuum_cantilever}
 """The scenes the command line knows by name."""
 
 
@@ -499,6 +550,42 @@ EXAMPLES = {
         {
             "joints[0]": "crank pinned at the origin and driven half a turn",
             "joints[3]": "rocker pinned to the ground",
+        },
+    ),
+    "half_mbb.toml": (
+        half_mbb,
+        "The 88-line code's half-MBB beam (Andreassen et al. 2011) in steel: 60 x 20 cells,\n"
+        "every one designed. SI units; small strains, as a linear analysis would assume.\n"
+        "  flextop optimize examples/half_mbb.toml --global-volume --volume-fraction 0.5 --filter-cells 2.4 --method oc --xtol 0.01\n"
+        + _GENERATED.format("half_mbb"),
+        {
+            "members[0]": "the right half of the beam, 0.6 m x 0.2 m, 10 mm thick",
+            "joints[0]": "rollers along the symmetry line (the left edge): free to move vertically",
+            "joints[21]": "roller at the bottom-right corner: free to move horizontally",
+            "loads[0]": "1 kN down at the top-left corner (half the mid-span load)",
+        },
+    ),
+    "continuum_cantilever.toml": (
+        continuum_cantilever,
+        "A cantilever plate: 40 x 20 steel cells pinned along the left edge, loaded at the\n"
+        "right edge's middle. SI units.\n"
+        "  flextop optimize examples/continuum_cantilever.toml --global-volume --volume-fraction 0.4 --filter-cells 1.5\n"
+        + _GENERATED.format("continuum_cantilever"),
+        {
+            "members[0]": "0.4 m x 0.2 m, 10 mm thick, every cell designed",
+            "joints[0]": "the left edge's nodes pinned to the wall",
+            "loads[0]": "1 kN down at the middle of the right edge",
+        },
+    ),
+    "continuum_slider_crank.toml": (
+        continuum_slider_crank,
+        "The flexible slider-crank with a continuum connecting rod (30 x 2 cells) joined to the\n"
+        "crank and the slider through rigid interface rings on its end edges. SI units.\n"
+        + _GENERATED.format("continuum_slider_crank"),
+        {
+            "members[0]": "the rod: 0.30 m x 10 mm of steel, 5 mm thick, a density per cell",
+            "rings[0]": "rigid ring on the rod's left edge: where the crank's pin attaches",
+            "rings[1]": "rigid ring on the rod's right edge: where the slider attaches",
         },
     ),
 }
