@@ -11,7 +11,8 @@
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,
 //! [`force`]), static equilibria ([`statics`]), natural modes about them ([`modal`]) and
 //! the exact gradients of the motion and of equilibria ([`sensitivity`]) to bodies', force
-//! elements', beams' and bars' parameters. Scenes and the Python front come next.
+//! elements', beams' and bars' parameters; scenes in [`crate::scene::spatial`], the
+//! Python front in `flextop.spatial`.
 //!
 //! The heavy top of Brüls, Cardona & Arnold: a body pinned at a point off its centre of mass,
 //! spinning under gravity.
