@@ -10,6 +10,7 @@ pub(crate) mod integrator;
 pub(crate) mod kink;
 pub(crate) mod linsolve;
 pub(crate) mod lu;
+pub(crate) mod nearly_symmetric;
 pub(crate) mod newton;
 pub(crate) mod prolongation;
 pub(crate) mod simulation;

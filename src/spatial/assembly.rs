@@ -23,7 +23,7 @@ use nalgebra::{SMatrix, SVector, Vector3, Vector6};
 use crate::error::SolveError;
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
-use crate::solver::lu::Lu;
+use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::force::Local;
 use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
@@ -63,14 +63,17 @@ impl Pattern {
     }
 }
 
-/// The assembler of `model` and the sparse `LU` analysed once on its pattern.
+/// The assembler of `model` and the solver of its iteration matrix analysed once on its
+/// pattern ([`NearlySymmetric`]).
 ///
 /// # Errors
 /// [`SolveError::Setup`] if the pattern cannot be analysed.
-pub(crate) fn analysed(model: &SpatialModel) -> Result<(Assembler<'_>, Lu), SolveError> {
+pub(crate) fn analysed(
+    model: &SpatialModel,
+) -> Result<(Assembler<'_>, NearlySymmetric), SolveError> {
     let asm = Assembler::new(model);
     let p = &asm.pattern;
-    let lu = Lu::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone())
+    let lu = NearlySymmetric::analyze(p.n, model.n_v(), p.col_ptr.clone(), p.row_idx.clone())
         .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
     Ok((asm, lu))
 }

@@ -14,7 +14,8 @@
 //!
 //! Newton solves `f_inertia(v, v̇) + f_forces(q, v, t) + Bᵀλ = 0`, `Φ(qₙ₊₁) = 0` for the correction `δ` of `Δₙ`:
 //! `Δ += δ`, `v += γ' δ`, `v̇ += β' δ` (`β'`, `γ'` as in the vector-space scheme), with the
-//! iteration matrix of `assembly.rs` factored by sparse `LU` at every iteration or, with the
+//! iteration matrix of `assembly.rs` factored ([`NearlySymmetric`]: its symmetric part's
+//! `LDLᵀ`, refinement, `LU` where that stalls) at every iteration or, with the
 //! modified Newton matrix, at a step's first and then only where the held factors contract the
 //! residual less than tenfold ([`KEPT_CONTRACTION`]; 1.7 times faster on the paper's arm). On `ℝ³` (and the
 //! planar engine's additive angle) `T = I` and this is the vector-space step.
@@ -28,7 +29,7 @@ use crate::group::{Frame, NV};
 use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
 use crate::solver::integrator::{rescale_pseudo_accelerations, step_ratio, AlphaParameters, State};
 use crate::solver::linsolve::FactorError;
-use crate::solver::lu::Lu;
+use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{NewtonReport, KEPT_CONTRACTION};
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::model::SpatialModel;
@@ -58,7 +59,7 @@ fn kinks(model: &SpatialModel) -> Vec<f64> {
 /// The Lie-group generalized-α integrator of a spatial mechanism.
 pub struct SpatialIntegrator<'m> {
     asm: Assembler<'m>,
-    lu: Lu,
+    lu: NearlySymmetric,
     /// Algorithmic parameters.
     pub params: AlphaParameters,
     tol: f64,

@@ -4,8 +4,8 @@
 //! one `Element` interface for both), joints and drives as
 //! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built
 //! entry by entry and checked ([`model`]), its residual and non-symmetric iteration matrix on
-//! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), factored by
-//! sparse `LU`.
+//! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), solved on
+//! the `LDLᵀ` of its symmetric part with refinement, sparse `LU` where that stalls.
 //!
 //! Built so far: rigid bodies, beams, truss bars, the joints (spherical, revolute, universal,
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,

@@ -30,7 +30,7 @@ use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
-use crate::solver::lu::Lu;
+use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
@@ -378,7 +378,7 @@ pub fn static_sensitivities(
 /// The stored run and the linear algebra its sweeps share.
 struct Sweep<'m> {
     asm: Assembler<'m>,
-    lu: Lu,
+    lu: NearlySymmetric,
     params: AlphaParameters,
     states: &'m [State],
     n_v: usize,

@@ -18,7 +18,7 @@ use crate::error::{Error, SettingsError, SolveError};
 use crate::group::so3::log;
 use crate::group::{Frame, NV};
 use crate::settings::{NewtonMatrix, StaticSettings};
-use crate::solver::lu::Lu;
+use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::NewtonReport;
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
@@ -72,7 +72,7 @@ pub fn solve_static_spatial(
 /// Newton's machinery of a spatial equilibrium.
 struct Spatial<'m> {
     asm: Assembler<'m>,
-    lu: Lu,
+    lu: NearlySymmetric,
     settings: StaticSettings,
     /// Zero velocities, accelerations and increment.
     rest: Vec<f64>,

@@ -395,7 +395,6 @@ fn bad_settings_are_named() {
         (f64::NAN, 1e-10, 20, NewtonMatrix::Full, "rho_inf"),
         (0.9, -1.0, 20, NewtonMatrix::Full, "tol"),
         (0.9, 1e-10, 0, NewtonMatrix::Full, "max_iter"),
-        (0.9, 1e-10, 20, NewtonMatrix::Modified, "newton"),
     ] {
         let s = DynamicSettings {
             rho_inf,
