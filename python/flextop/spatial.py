@@ -19,7 +19,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from . import _core
+from . import _core, plausibility
 from .errors import SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
@@ -189,6 +189,8 @@ class SpatialSimulation:
     def __init__(self, scene: SpatialScene | dict | str | os.PathLike) -> None:
         self.spec = _as_spec(scene)
         self.model = _core.SpatialModel.from_dict(self.spec)
+        points = [entry["position"] for key in ("rigid_bodies", "nodes") for entry in self.spec.get(key, [])]
+        plausibility.check(self.spec, float(np.linalg.norm(np.ptp(points, axis=0))) if points else 0.0)
         nodes = {name: k for k, name in enumerate(self.model.node_names)}
         nodes.update(dict(self.model.body_nodes))
         self.names = _Names(nodes, {name: range(a, b) for name, a, b in self.model.joint_rows})

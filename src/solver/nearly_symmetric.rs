@@ -121,6 +121,17 @@ impl NearlySymmetric {
         }
     }
 
+    /// Factors `A` of CSC `values` by `LU` alone: cheaper where many right-hand sides share
+    /// the factors (each refinement costs products and solves).
+    ///
+    /// # Errors
+    /// [`FactorError::Singular`] where the factorization fails.
+    pub fn factorize_lu(&mut self, values: &[f64]) -> Result<(), FactorError> {
+        self.values.copy_from_slice(values);
+        self.ldlt_ok = false;
+        self.factor_lu()
+    }
+
     /// How many solves since the analysis were made on `LU` factors.
     #[cfg(test)]
     pub fn fallbacks(&self) -> usize {

@@ -385,7 +385,15 @@ struct Sweep<'m> {
     n_rows: usize,
     /// Whether the one state is a static equilibrium: time integrals are their values.
     equilibrium: bool,
+    /// Whether each factorization serves more than [`REFINED_SOLVES`] right-hand sides:
+    /// then `LU` factors, else the symmetric part's with refinement.
+    many_solves: bool,
 }
+
+/// The most right-hand sides per factorization solved by refinement on the symmetric part's
+/// factors; more share one `LU` (`cargo bench --bench spatial`: direct sweeps of 20 to 80
+/// parameters).
+const REFINED_SOLVES: usize = 2;
 
 /// A state's sensitivities to one parameter: `ε, v', v̇', a', λ'`.
 #[derive(Clone)]
@@ -413,6 +421,7 @@ impl<'m> Sweep<'m> {
             n_v: model.n_v(),
             n_rows: model.n_rows(),
             equilibrium: rho_inf.is_none(),
+            many_solves: false,
         })
     }
 
@@ -649,12 +658,16 @@ impl<'m> Sweep<'m> {
             }
         };
         self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
-        self.lu
-            .factorize(&self.asm.values)
-            .map_err(|e| SolveError::Singular {
-                time: s.t,
-                detail: format!("{e:?}"),
-            })
+        let values = &self.asm.values;
+        if self.many_solves {
+            self.lu.factorize_lu(values)
+        } else {
+            self.lu.factorize(values)
+        }
+        .map_err(|e| SolveError::Singular {
+            time: s.t,
+            detail: format!("{e:?}"),
+        })
     }
 
     /// Factorizes the exact tangent `[K_t, Bᵀ; B, 0]` of the equilibrium (the one state).
@@ -696,6 +709,7 @@ impl<'m> Sweep<'m> {
         parameters: &[Parameter],
         responses: &[Response],
     ) -> Result<Vec<Vec<f64>>, SolveError> {
+        self.many_solves = parameters.len() > REFINED_SOLVES;
         let (n_v, m) = (self.n_v, self.n_rows);
         let mut rhs = vec![0.0; n_v + m];
         // The start: ε₀ = v₀' = 0.

@@ -273,7 +273,8 @@ def test_the_reference_scenes_and_examples_are_plausible():
     with warnings.catch_warnings():
         warnings.simplefilter("error", flextop.errors.PlausibilityWarning)
         for path in sorted(EXAMPLES.glob("*.toml")):
-            flextop.Simulation(path)
+            spatial = flextop.scenes.spatial.is_spatial(flextop.scenes.read_toml(path))
+            (flextop.SpatialSimulation if spatial else flextop.Simulation)(path)
         for builder in flextop.scenes.BUILT_IN.values():
             flextop.Simulation(builder())
 

@@ -21,6 +21,7 @@ from .. import _core
 from ..checks import number, real, whole
 from ..errors import SceneError
 from .builder import Scene, motion_table, trapezoidal
+from .spatial_catalogue import heavy_top, spatial_slider_crank
 
 #: The engine's limits on a model's size, by name (``grid_nodes``, ``split``, ``nodes``,
 #: ``elements``): the builders check their counts against them before building.
@@ -586,6 +587,25 @@ EXAMPLES = {
             "members[0]": "the rod: 0.30 m x 10 mm of steel, 5 mm thick, a density per cell",
             "rings[0]": "rigid ring on the rod's left edge: where the crank's pin attaches",
             "rings[1]": "rigid ring on the rod's right edge: where the slider attaches",
+        },
+    ),
+    "heavy_top.toml": (
+        heavy_top,
+        "The heavy symmetric top of Bruls, Cardona & Arnold (2012): a spatial scene (dimension 3),\n"
+        "run by flextop.SpatialSimulation. SI units.\n" + _GENERATED.format("heavy_top"),
+        {
+            "rigid_bodies[0]": "centre of mass 1 m from the pivot along its symmetry axis y; spun at 150 rad/s",
+            "joints[0]": "ball joint at the body's tip, the ground where it is",
+        },
+    ),
+    "spatial_slider_crank.toml": (
+        spatial_slider_crank,
+        "A slider-crank in space: the crank turns about an axis tilted 30 degrees from z, the rod\n"
+        "moves through space on a ball joint and a Cardan joint. SI units.\n" + _GENERATED.format("spatial_slider_crank"),
+        {
+            "joints[0]": "crank: revolute about the tilted axis, driven one turn",
+            "joints[2]": "Cardan joint: about y on the rod, about z on the slider",
+            "joints[3]": "the slider along x, from a point of the ground",
         },
     ),
 }

@@ -181,10 +181,11 @@ class SpatialScene:
         if it cannot be read)."""
         return cls.from_dict(read_toml(path))
 
-    def to_toml(self, *, header: str = "") -> str:
-        """The scene as TOML text that :meth:`from_toml` reads back into the same dict."""
+    def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
+        """The scene as TOML text that :meth:`from_toml` reads back into the same dict;
+        ``header`` its opening comment lines, ``comments`` a comment per table (``"joints[1]"``)."""
         lines = [f"# {line}".rstrip() for line in header.splitlines()]
-        _toml_table(lines, [], self._spec, {})
+        _toml_table(lines, [], self._spec, comments or {})
         return "\n".join(lines).strip("\n") + "\n"
 
     def __repr__(self) -> str:
