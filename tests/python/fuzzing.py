@@ -1,4 +1,4 @@
-"""Fuzzing flextop: hypothesis strategies for bad and extreme input (scene dicts, TOML
+"""Fuzzing flextop: hypothesis strategies for bad and extreme input (scene dicts, planar and spatial, TOML
 text, designs, settings, response names), and a worker process that runs each case, so
 that a crash or a hang is a finding rather than the end of the run.
 
@@ -48,7 +48,36 @@ def _small_beam() -> dict:
     return spec
 
 
-BASES = {"arm": _small_arm, "truss": lambda: flextop.scenes.static_truss().to_dict(), "beam": _small_beam}
+def _small_crank() -> dict:
+    spec = flextop.scenes.spatial_slider_crank().to_dict()
+    spec["simulation"].update(t_end=0.05, h=0.005)
+    return spec
+
+
+def _small_rod() -> dict:
+    """A spatial rod of four beams clamped at one end, a point mass and a follower load at the
+    other, swinging under gravity."""
+    scene = flextop.SpatialScene("rod", gravity=(0.0, 0.0, -9.81))
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.02, inner=0.016, rayleigh=(0.1, 1e-5))
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (1.0, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel", split=4)
+    scene.point_mass("bob", "end", 0.5)
+    scene.revolute("hinge", "root", axis=(0.0, 1.0, 0.0))
+    scene.spring("s", "end", (1.0, 0.0, 1.0), k=100.0, c=1.0)
+    scene.load("push", "end", force=(0.0, 1.0, 0.0), follower=True)
+    scene.simulation(t_end=0.05, h=0.005)
+    return scene.to_dict()
+
+
+BASES = {"arm": _small_arm, "truss": lambda: flextop.scenes.static_truss().to_dict(), "beam": _small_beam,
+         "spatial_crank": _small_crank, "spatial_rod": _small_rod}
+
+SPATIAL_RESPONSES = ["x:slider", "z:end", "strain_energy", "effort:crank", "y:rod[2]", "bogus", "z:nope", ":"]
+"""Response names for spatial scenes (a planar case's k-th name becomes the k-th of these)."""
+
+SPATIAL_PARAMETERS = ["mass:rod", "mass:bob", "E:rod", "rho:rod", "k:s", "c:s", "Izz:crank", "k:nope", "E:", "torque:m"]
+"""Parameter names for spatial scenes."""
 
 
 def _paths(value: Any, prefix: tuple = ()) -> list[tuple]:
@@ -174,6 +203,8 @@ def run_case(case: dict, tmp: str) -> str:
             with open(path, "w", encoding="utf-8", errors="surrogatepass") as f:
                 f.write(case["toml"])
             scene = path
+        if _spatial(case, scene):
+            return _spatial_case(case, scene, settings, method)
         sim = flextop.Simulation(scene)
         if case["responses"] and case["gradients"]:
             out = sim.run_with_sensitivities(case["x"], case["responses"], method=method, rtol=rtol, **settings)
@@ -187,6 +218,34 @@ def run_case(case: dict, tmp: str) -> str:
         if not isinstance(case["scene"], (dict, str)) and "toml" not in case:
             return "flextop"  # a scene that is neither a dict nor a path: TypeError is the contract
         return f"foreign TypeError: {error}"
+    except Exception as error:  # noqa: BLE001 — classifying is the point
+        return f"foreign {type(error).__name__}: {error}"
+    bad = [name for name, value in checks.items() if not _finite(value)]
+    return f"non-finite {', '.join(bad)}" if bad else "ok"
+
+
+def _spatial(case: dict, scene: Any) -> bool:
+    if "toml" in case:
+        return "dimension = 3" in case["toml"]
+    return isinstance(scene, dict) and scene.get("dimension") == 3
+
+
+def _spatial_case(case: dict, scene: Any, settings: dict, method: str) -> str:
+    """A spatial scene's case: its run, or responses and gradients by the spatial names the
+    planar ones map to."""
+    k = len(case["responses"])
+    responses = [SPATIAL_RESPONSES[RESPONSES.index(r) % len(SPATIAL_RESPONSES)] for r in case["responses"]]
+    parameters = [SPATIAL_PARAMETERS[(i * 7 + k) % len(SPATIAL_PARAMETERS)] for i in range(k)]
+    try:
+        sim = flextop.SpatialSimulation(scene)
+        if responses and case["gradients"]:
+            out = sim.run_with_sensitivities(responses, parameters, method=method, **settings)
+            checks = {"values": out.values, "gradients": out.gradient}
+        else:
+            res = sim.run(**settings)
+            checks = {"q": res.q}
+    except flextop.FlextopError:
+        return "flextop"
     except Exception as error:  # noqa: BLE001 — classifying is the point
         return f"foreign {type(error).__name__}: {error}"
     bad = [name for name, value in checks.items() if not _finite(value)]
