@@ -185,12 +185,13 @@ SPATIAL_OPTIONS = ("t_end", "h", "rho_inf")
 
 def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
     """Runs a spatial scene (``dimension = 3``) and prints its summary."""
-    planar = ("cells", "design", "mass", "accuracy", "rtol", "local_tol", "out", "vtk")
+    planar = ("cells", "design", "mass", "accuracy", "rtol", "local_tol")
     given = [k for k in planar if getattr(args, k) not in (None, False)] + (["x"] if args.x != 0.4 else [])
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
-        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --t-end, --h, --rho-inf)")
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --t-end, --h, --rho-inf, --out)")
     sim = SpatialSimulation(spec)
+    out = None if args.out is None else _folder(Path(args.out))
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     start = time.perf_counter()
     if sim.analysis == "static":
@@ -199,6 +200,8 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
               f"{eq.load_steps} load steps); strain energy {eq.strain:.6g} J")
         if sim.tip is not None:
             print(f"'{sim.tip}' at {np.array2string(eq.position(sim.tip), precision=6)} m")
+        if out is not None:
+            raise SettingsError("--out: a spatial equilibrium is not written to files yet")
         return 0
     with _progress_bar(float(settings.get("t_end", sim.model.options().get("t_end", 0.0)))) as report:
         res = sim.simulate(progress=report, **settings)
@@ -207,6 +210,8 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
     print(f"kinetic + potential energy {energy[0]:.6g} J at the start, {energy[-1]:.6g} J at the end")
     if sim.tip is not None:
         print(f"'{sim.tip}' at {np.array2string(res.position(sim.tip)[-1], precision=6)} m at the end")
+    if out is not None:
+        print(f"wrote {res.to_vtk(out / 'motion.pvd')} (open it in ParaView)")
     return 0
 
 

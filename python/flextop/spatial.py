@@ -29,7 +29,7 @@ NQ, NV = 7, 6
 velocity (velocity in space, angular velocity in the node's axes)."""
 
 
-def _rotations(quaternions: np.ndarray) -> np.ndarray:
+def rotations(quaternions: np.ndarray) -> np.ndarray:
     """Rotation matrices of unit quaternions ``(w, x, y, z)``, shape ``(..., 3, 3)``."""
     w, x, y, z = np.moveaxis(quaternions, -1, 0)
     return np.stack([
@@ -40,11 +40,17 @@ def _rotations(quaternions: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class _Names:
-    """Where a name's numbers are: nodes (bodies on theirs) and joints' rows."""
+class _Layout:
+    """Where a name's numbers are — nodes (bodies on theirs) and joints' rows — and the
+    structure's cells: each beam element's or bar's end nodes and its beam's index, each
+    body's node."""
 
     nodes: dict[str, int]
     joints: dict[str, range]
+    nodes_in_order: tuple[str, ...]
+    lines: tuple[tuple[int, int], ...]
+    line_beam: tuple[int, ...]
+    bodies: tuple[int, ...]
 
     def node(self, name: str) -> int:
         if name not in self.nodes:
@@ -70,22 +76,29 @@ class SpatialResults:
     kinetic: np.ndarray
     potential: np.ndarray
     strain: np.ndarray
-    names: _Names
+    layout: _Layout
 
     def position(self, name: str) -> np.ndarray:
         """A body's centre of mass or a node's origin at each time, shape ``(n, 3)`` (m)."""
-        k = self.names.node(name)
+        k = self.layout.node(name)
         return self.q[:, NQ * k:NQ * k + 3]
 
     def rotation(self, name: str) -> np.ndarray:
         """A body's or node's axes in space at each time, shape ``(n, 3, 3)``."""
-        k = self.names.node(name)
-        return _rotations(self.q[:, NQ * k + 3:NQ * k + 7])
+        k = self.layout.node(name)
+        return rotations(self.q[:, NQ * k + 3:NQ * k + 7])
+
+    def to_vtk(self, path: str | os.PathLike, *, every: int | None = None) -> Path:
+        """The motion for ParaView: a ``.pvd`` index and its ``.vtu`` frames, about 100 or
+        every ``every``-th step (:mod:`flextop.io.spatial_export`)."""
+        from .io.spatial_export import write_spatial_motion
+
+        return write_spatial_motion(self, path, every=every)
 
     def multipliers(self, joint: str) -> np.ndarray:
         """A joint's multipliers at each time, shape ``(n, rows)``: its constraint forces'
         measures (N, N m; a drive's row last)."""
-        return self.lam[:, self.names.rows(joint)]
+        return self.lam[:, self.layout.rows(joint)]
 
 
 @dataclass(frozen=True)
@@ -98,17 +111,17 @@ class SpatialEquilibrium:
     strain: float
     iterations: int
     load_steps: int
-    names: _Names
+    layout: _Layout
 
     def position(self, name: str) -> np.ndarray:
         """A body's centre of mass or a node's origin (m)."""
-        k = self.names.node(name)
+        k = self.layout.node(name)
         return self.q[NQ * k:NQ * k + 3]
 
     def rotation(self, name: str) -> np.ndarray:
         """A body's or node's axes in space."""
-        k = self.names.node(name)
-        return _rotations(self.q[NQ * k + 3:NQ * k + 7])
+        k = self.layout.node(name)
+        return rotations(self.q[NQ * k + 3:NQ * k + 7])
 
 
 @dataclass(frozen=True)
@@ -193,7 +206,11 @@ class SpatialSimulation:
         plausibility.check(self.spec, float(np.linalg.norm(np.ptp(points, axis=0))) if points else 0.0)
         nodes = {name: k for k, name in enumerate(self.model.node_names)}
         nodes.update(dict(self.model.body_nodes))
-        self.names = _Names(nodes, {name: range(a, b) for name, a, b in self.model.joint_rows})
+        beams = self.model.beams
+        self.layout = _Layout(nodes, {name: range(a, b) for name, a, b in self.model.joint_rows}, tuple(self.model.node_names),
+                              tuple((int(a), int(b)) for _, ends in beams for a, b in ends),
+                              tuple(k for k, (_, ends) in enumerate(beams) for _ in ends),
+                              tuple(node for _, node in self.model.body_nodes))
 
     @property
     def analysis(self) -> str:
@@ -215,14 +232,14 @@ class SpatialSimulation:
         ``progress`` is called with the time reached (s)."""
         r = self.model.simulate(settings, progress)
         return SpatialResults(np.asarray(r["time"]), np.asarray(r["q"]), np.asarray(r["v"]), np.asarray(r["lam"]),
-                              np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.names)
+                              np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.layout)
 
     def equilibrium(self, **settings: Any) -> SpatialEquilibrium:
         """The static equilibrium under the loads at ``t_end`` (0 by default), by Newton on the
         group with ``load_steps``."""
         r = self.model.solve_static(settings)
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
-                                  int(r["load_steps"]), self.names)
+                                  int(r["load_steps"]), self.layout)
 
     def modes(self, at: SpatialEquilibrium | None = None, **settings: Any) -> SpatialModes:
         """Every natural mode about the equilibrium ``at`` (the static equilibrium of the

@@ -237,3 +237,32 @@ def test_implausible_units_are_warned_about():
     spec["sections"]["steel"]["E"] = 210.0  # GPa typed as Pa
     with pytest.warns(flextop.PlausibilityWarning, match=r"sections.steel.E = 210 Pa"):
         SpatialSimulation(spec)
+
+
+def test_a_spatial_motion_for_paraview_reads_back_with_meshio(tmp_path):
+    """The rod's frames: points where the nodes are at each frame's time, one line per beam
+    element, the body's vertex, the nodes' axes orthonormal and turning with them."""
+    import xml.etree.ElementTree as ET
+
+    import meshio
+
+    scene = cantilever(split=4, load=-50.0)
+    spec = scene.to_dict()
+    spec["analysis"] = "dynamic"
+    spec["point_masses"] = [{"name": "bob", "node": "end", "mass": 0.2}]
+    spec["simulation"] = {"t_end": 0.02, "h": 0.001}
+    run = SpatialSimulation(spec).simulate()
+    index = run.to_vtk(tmp_path / "motion.pvd", every=5)
+    frames = ET.parse(index).getroot().find("Collection")
+    times = [float(d.get("timestep")) for d in frames]
+    assert times == pytest.approx(list(run.time[::5]))
+    for k, dataset in zip(range(0, len(run.time), 5), frames):
+        mesh = meshio.read(tmp_path / dataset.get("file"))
+        assert np.allclose(mesh.points, run.q[k].reshape(-1, 7)[:, :3], atol=1e-12)
+        lines = mesh.cells_dict["line"]
+        assert len(lines) == 4 and mesh.cells_dict["vertex"].ravel().tolist() == [1]
+        axes = np.stack([mesh.point_data[f"axis_{i}"] for i in (1, 2, 3)], axis=2)
+        assert np.allclose(axes @ axes.transpose(0, 2, 1), np.eye(3), atol=1e-12)
+    assert np.abs(mesh.point_data["axis_1"][1, 2]) > 1e-6  # the tip has turned by the end
+    with pytest.raises(SettingsError, match=r"\.pvd"):
+        run.to_vtk(tmp_path / "motion.vtu")

@@ -70,13 +70,21 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
     forces, fields = results.section_forces, results.cell_fields
     speeds = results.qdot.reshape(len(results.time), -1, 3)
     structure = _Structure.of(results.simulation, results.x)
-    collection = ET.Element("VTKFile", type="Collection", version="0.1")
-    datasets = ET.SubElement(collection, "Collection")
+    frames = []
     for k in steps:
         name = f"{path.stem}_{k:05d}.vtu"
         extra = {"velocity": _xyz(speeds[k, :, :2]), "angular_velocity": speeds[k, :, 2]}
         structure.mesh(results.q[k], forces[k], fields[k], extra, moved=True).write(path.parent / name, binary=True)
-        ET.SubElement(datasets, "DataSet", timestep=repr(float(results.time[k])), part="0", file=name)
+        frames.append((float(results.time[k]), name))
+    return write_index(path, frames)
+
+
+def write_index(path: Path, frames: list[tuple[float, str]]) -> Path:
+    """The PVD index ``path`` of a series: each frame's time (s) and VTU file (beside it)."""
+    collection = ET.Element("VTKFile", type="Collection", version="0.1")
+    datasets = ET.SubElement(collection, "Collection")
+    for time, name in frames:
+        ET.SubElement(datasets, "DataSet", timestep=repr(time), part="0", file=name)
     ET.ElementTree(collection).write(path, xml_declaration=True, encoding="utf-8")
     return path
 
