@@ -44,7 +44,7 @@ pub const MAX_STEP_ROTATION: f64 = std::f64::consts::PI;
 const KINK_ON_NODE: f64 = 1e-9;
 
 /// The kinks of `model`'s drives after `t = 0`, sorted, without repeats.
-fn kinks(model: &SpatialModel) -> Vec<f64> {
+pub(crate) fn kinks(model: &SpatialModel) -> Vec<f64> {
     let mut times: Vec<f64> = model
         .joints
         .iter()
@@ -54,6 +54,66 @@ fn kinks(model: &SpatialModel) -> Vec<f64> {
     times.sort_by(f64::total_cmp);
     times.dedup();
     times
+}
+
+/// The kink of `kinks` a step ending in state `s` landed on (not `t = 0`).
+pub(crate) fn kink_on_node(kinks: &[f64], s: &State) -> Option<f64> {
+    let on_node = |k: &&f64| s.h > 0.0 && (*k - s.t).abs() <= KINK_ON_NODE * s.h;
+    kinks.iter().find(on_node).copied()
+}
+
+/// The restart's jump at state `s` on `kink`: the rows' `b` read on either side of it into
+/// `jump`, and `[M, sBᵀ; sB, 0][Δv̇; Δν] = [0; −s Δb]` solved into `rhs` (`s` the mean mass,
+/// the matrix factored into `solver`); `false` where no row's `b` jumps.
+///
+/// # Errors
+/// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
+pub(crate) fn kink_jump(
+    asm: &mut Assembler<'_>,
+    solver: &mut NearlySymmetric,
+    s: &State,
+    kink: f64,
+    jump: &mut [Vec<f64>; 2],
+    rhs: &mut [f64],
+) -> Result<bool, SolveError> {
+    let model = asm.model;
+    let mut row = 0;
+    for j in &model.joints {
+        let n = j.n_rows();
+        // The law's two pieces, read on either side of the kink itself (the state's time
+        // may lie a rounding off it, on either side).
+        for (side, t) in [kink.next_down(), kink.next_up()].into_iter().enumerate() {
+            j.acceleration_terms(&s.q, &s.qdot, t, &mut jump[side][row..row + n]);
+        }
+        row += n;
+    }
+    let n_v = model.n_v();
+    let scale = asm.mean_mass();
+    let [before, after] = &*jump;
+    let mut jumps = false;
+    for (r, (b, a)) in rhs[n_v..].iter_mut().zip(before.iter().zip(after)) {
+        let negligible = (a - b).abs() <= KINK_ON_NODE * (a.abs() + b.abs());
+        *r = if negligible { 0.0 } else { -scale * (a - b) };
+        jumps |= !negligible;
+    }
+    if !jumps {
+        return Ok(false);
+    }
+    rhs[..n_v].fill(0.0);
+    let c = Coefficients {
+        beta_prime: 1.0,
+        gamma_prime: 0.0,
+        scale,
+        tangent: None,
+    };
+    asm.matrix(&s.q, &s.qdot, s.t, c)?;
+    let singular = |e: FactorError| SolveError::Singular {
+        time: s.t,
+        detail: format!("{e:?}"),
+    };
+    solver.factorize(&asm.values).map_err(singular)?;
+    solver.solve_in_place(rhs, false).map_err(singular)?;
+    Ok(true)
 }
 
 /// The Lie-group generalized-α integrator of a spatial mechanism.
@@ -125,47 +185,14 @@ impl<'m> SpatialIntegrator<'m> {
     /// # Errors
     /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
     fn restart_at_kink(&mut self, s: &mut State) -> Result<bool, SolveError> {
-        let on_node = |k: &f64| s.h > 0.0 && (k - s.t).abs() <= KINK_ON_NODE * s.h;
-        let Some(&kink) = self.kinks.iter().find(|k| on_node(k)) else {
+        let Some(kink) = kink_on_node(&self.kinks, s) else {
             return Ok(false);
         };
-        let model = self.asm.model;
-        let mut row = 0;
-        for j in &model.joints {
-            let n = j.n_rows();
-            // The law's two pieces, read on either side of the kink itself (the state's time
-            // may lie a rounding off it, on either side).
-            for (side, t) in [kink.next_down(), kink.next_up()].into_iter().enumerate() {
-                j.acceleration_terms(&s.q, &s.qdot, t, &mut self.jump[side][row..row + n]);
-            }
-            row += n;
-        }
-        let n_v = model.n_v();
-        let scale = self.asm.mean_mass();
-        let [before, after] = &self.jump;
-        let mut jumps = false;
-        for (r, (b, a)) in self.rhs[n_v..].iter_mut().zip(before.iter().zip(after)) {
-            let negligible = (a - b).abs() <= KINK_ON_NODE * (a.abs() + b.abs());
-            *r = if negligible { 0.0 } else { -scale * (a - b) };
-            jumps |= !negligible;
-        }
-        if !jumps {
+        let (asm, lu) = (&mut self.asm, &mut self.lu);
+        if !kink_jump(asm, lu, s, kink, &mut self.jump, &mut self.rhs)? {
             return Ok(false);
         }
-        self.rhs[..n_v].fill(0.0);
-        let c = Coefficients {
-            beta_prime: 1.0,
-            gamma_prime: 0.0,
-            scale,
-            tangent: None,
-        };
-        self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
-        self.lu
-            .factorize(&self.asm.values)
-            .map_err(Self::singular(s.t))?;
-        self.lu
-            .solve_in_place(&mut self.rhs, false)
-            .map_err(Self::singular(s.t))?;
+        let n_v = asm.model.n_v();
         for ((acc, a), d) in s.qddot.iter_mut().zip(s.a.iter_mut()).zip(&self.rhs[..n_v]) {
             *acc += d;
             *a += d;
@@ -377,12 +404,13 @@ pub fn simulate_spatial(
     Ok(run(model, settings, grid)?.0)
 }
 
-/// [`simulate_spatial`], and how many steps began with a restart at a drive's kink.
+/// [`simulate_spatial`], and whether each step (into state `n`, `n ≥ 1`; `false` at 0)
+/// began with a restart at a drive's kink.
 pub(crate) fn run(
     model: &SpatialModel,
     settings: &DynamicSettings,
     grid: &TimeGrid,
-) -> Result<(Vec<State>, usize), Error> {
+) -> Result<(Vec<State>, Vec<bool>), Error> {
     if let Some((n, h)) = grid
         .steps()
         .iter()
@@ -401,10 +429,14 @@ pub(crate) fn run(
     let mut integrator = SpatialIntegrator::new(model, settings)?;
     let mut state = integrator.initial_state()?;
     let mut states = Vec::with_capacity(grid.steps().len() + 1);
+    let mut restarted = Vec::with_capacity(grid.steps().len() + 1);
     states.push(state.clone());
+    restarted.push(false);
     for &h in grid.steps() {
+        let before = integrator.restarts;
         integrator.alpha_step(&mut state, h)?;
         states.push(state.clone());
+        restarted.push(integrator.restarts > before);
     }
-    Ok((states, integrator.restarts))
+    Ok((states, restarted))
 }

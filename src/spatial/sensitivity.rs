@@ -34,7 +34,7 @@ use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
-use crate::spatial::integrator::run;
+use crate::spatial::integrator::{kink_jump, kink_on_node, kinks, run};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
@@ -246,12 +246,13 @@ fn check(
 
 /// The responses of the motion of `model` on `grid` and their exact gradients to
 /// `parameters`, by `method` (`Auto`: the adjoint where there are fewer responses than
-/// parameters).
+/// parameters). A run that restarts at a drive's kink where the grid lands is
+/// differentiated directly, whatever the method (the restart's derivative is built in the
+/// direct sweep).
 ///
 /// # Errors
-/// [`SettingsError`] for a response or parameter the mechanism does not have, or a grid
-/// that lands on a kink of a drive's law (the restart there is not differentiated yet);
-/// the run's errors ([`crate::spatial::integrator::simulate_spatial`]); [`SolveError::Singular`] for a singular step matrix.
+/// [`SettingsError`] for a response or parameter the mechanism does not have; the run's
+/// errors ([`crate::spatial::integrator::simulate_spatial`]); [`SolveError::Singular`] for a singular step matrix.
 pub fn sensitivities(
     model: &SpatialModel,
     settings: &DynamicSettings,
@@ -261,25 +262,18 @@ pub fn sensitivities(
     method: Method,
 ) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
-    let (states, restarts) = run(model, settings, grid)?;
-    if restarts > 0 {
-        return Err(SettingsError::new(
-            "grid",
-            format!(
-                "it lands on {restarts} kink(s) of a drive's law, where the scheme restarts; gradients \
-                 through that restart are not built yet for spatial mechanisms: use a grid that steps \
-                 over the kinks, or a smooth law"
-            ),
-        )
-        .into());
-    }
+    let (states, restarted) = run(model, settings, grid)?;
     let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
+    sweep.restarted = restarted;
     let values = responses.iter().map(|r| sweep.value(r)).collect();
-    let adjoint = match method {
-        Method::Direct => false,
-        Method::Adjoint => true,
-        Method::Auto => responses.len() < parameters.len(),
-    };
+    // The restart at a drive's kink is differentiated in the direct sweep only: a run that
+    // restarts is differentiated directly, whatever the method asked.
+    let adjoint = !sweep.restarted.contains(&true)
+        && match method {
+            Method::Direct => false,
+            Method::Adjoint => true,
+            Method::Auto => responses.len() < parameters.len(),
+        };
     let mut gradient: Vec<Vec<f64>> = if adjoint {
         responses
             .iter()
@@ -388,6 +382,8 @@ struct Sweep<'m> {
     /// Whether each factorization serves more than [`REFINED_SOLVES`] right-hand sides:
     /// then `LU` factors, else the symmetric part's with refinement.
     many_solves: bool,
+    /// Whether the step into state `n` began with a restart at a drive's kink.
+    restarted: Vec<bool>,
 }
 
 /// The most right-hand sides per factorization solved by refinement on the symmetric part's
@@ -422,6 +418,7 @@ impl<'m> Sweep<'m> {
             n_rows: model.n_rows(),
             equilibrium: rho_inf.is_none(),
             many_solves: false,
+            restarted: vec![false; states.len()],
         })
     }
 
@@ -734,6 +731,9 @@ impl<'m> Sweep<'m> {
         for n in 0..self.states.len() {
             crate::interrupt::poll()?;
             if n > 0 {
+                if self.restarted[n] {
+                    self.restart_tangents(n - 1, parameters, &mut tangents)?;
+                }
                 self.factorize(n)?;
                 for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
                     self.direct_step(p, n, z, &mut rhs)?;
@@ -747,6 +747,116 @@ impl<'m> Sweep<'m> {
             }
         }
         Ok(gradient)
+    }
+
+    /// The restart at a drive's kink on state `n` differentiated: its jump
+    /// `[M, sBᵀ; sB, 0][Δv̇; Δν] = [0; −s Δb]` moves with the state and the parameters as
+    ///
+    /// ```text
+    /// M Δv̇' + s Bᵀ Δν' = −(∂M/∂p) Δv̇ − ∂(Bᵀ s Δν)/∂q ε
+    /// s B Δv̇'          = −s (∂(B Δv̇)/∂q ε + Δb')
+    /// ```
+    ///
+    /// (`M` is constant on the group: bodies' and beams' inertia in their own axes), and
+    /// `v̇' += Δv̇'`, `a' += Δv̇'` as the run's `v̇` and `a` moved. `Δb'` is left out: a
+    /// drive's jump in `b` is `−cos(φ − ψ) Δψ̈` (a constant `−Δψ̈` for a slide), whose
+    /// derivative `sin(φ − ψ) Δψ̈ φ'` vanishes with the constraint, to Newton's tolerance.
+    fn restart_tangents(
+        &mut self,
+        n: usize,
+        parameters: &[Parameter],
+        tangents: &mut [Tangent],
+    ) -> Result<(), SolveError> {
+        let model = self.model();
+        let (n_v, m) = (self.n_v, self.n_rows);
+        let s = &self.states[n];
+        let Some(kink) = kink_on_node(&kinks(model), s) else {
+            return Ok(());
+        };
+        let mut jump = [vec![0.0; m], vec![0.0; m]];
+        let mut forward = vec![0.0; n_v + m];
+        if !kink_jump(
+            &mut self.asm,
+            &mut self.lu,
+            s,
+            kink,
+            &mut jump,
+            &mut forward,
+        )? {
+            return Ok(());
+        }
+        let scale = self.asm.mean_mass();
+        let (dv, dnu) = forward.split_at(n_v);
+        let mut rhs = vec![0.0; n_v + m];
+        for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
+            rhs.fill(0.0);
+            self.add_mass_rate(p, dv, &mut rhs[..n_v]);
+            let mut row = 0;
+            for j in &model.joints {
+                let rows = j.n_rows();
+                let (mut eps, mut w) = (Local::zeros(), Local::zeros());
+                for (side, node) in j.local_nodes() {
+                    eps.fixed_rows_mut::<6>(6 * side)
+                        .copy_from_slice(&six(&z.eps, node));
+                    w.fixed_rows_mut::<6>(6 * side)
+                        .copy_from_slice(&six(dv, node));
+                }
+                let mu: Vec<f64> = dnu[row..row + rows].iter().map(|x| scale * x).collect();
+                let force = j.stiffness(&s.q, s.t, &mu) * eps;
+                for (side, node) in j.local_nodes() {
+                    for i in 0..6 {
+                        rhs[NV * node + i] += force[6 * side + i];
+                    }
+                }
+                for k in 0..rows {
+                    let mut unit = vec![0.0; rows];
+                    unit[k] = 1.0;
+                    rhs[n_v + row + k] = scale * w.dot(&(j.stiffness(&s.q, s.t, &unit) * eps));
+                }
+                row += rows;
+            }
+            rhs.iter_mut().for_each(|r| *r = -*r);
+            self.solve(&mut rhs, false, n)?;
+            for ((vdot, a), d) in z.vdot.iter_mut().zip(z.a.iter_mut()).zip(&rhs[..n_v]) {
+                *vdot += d;
+                *a += d;
+            }
+        }
+        Ok(())
+    }
+
+    /// `(∂M/∂p) w` of a parameter on an inertia (a body's mass or inertia, a beam's or a
+    /// bar's mass factor) into `out`; nothing for the others.
+    fn add_mass_rate(&self, p: &Parameter, w: &[f64], out: &mut [f64]) {
+        let model = self.model();
+        let element = |e: &dyn Element, out: &mut [f64]| {
+            let nodes = e.nodes();
+            let local = e.mass_matrix() * e.local(w);
+            for (side, node) in nodes.iter().enumerate() {
+                for i in 0..6 {
+                    out[NV * node + i] += local[6 * side + i];
+                }
+            }
+        };
+        match *p {
+            Parameter::Mass { body } => {
+                let node = model.bodies[body].node;
+                for i in 0..3 {
+                    out[NV * node + i] += w[NV * node + i];
+                }
+            }
+            Parameter::Inertia { body, i, j } => {
+                let node = model.bodies[body].node;
+                let r = NV * node + 3;
+                out[r + i] += w[r + j];
+                if i != j {
+                    out[r + j] += w[r + i];
+                }
+            }
+            Parameter::BeamMass { beam } => element(&model.beams[beam], out),
+            Parameter::TrussMass { truss } => element(&model.trusses[truss], out),
+            _ => {}
+        }
     }
 
     /// Carries the sensitivities `z` of state `n − 1` to state `n` (module docs).
