@@ -89,7 +89,7 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
             let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
                 .map(|(a, b)| node[b * columns + a]);
             let corners = nodes.map(|n| mesh.nodes[n].position);
-            let kernel = Quad::new(corners, material).map_err(|_| {
+            let kernel = Quad::new(corners, material, m.cell.into()).map_err(|_| {
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
             let at_joint = m.solid_at_joints

@@ -9,6 +9,7 @@ use std::fmt;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
+use crate::mechanism::element::quad::CellKind;
 use crate::mechanism::element::Kind;
 use crate::settings::RunOptions;
 
@@ -328,6 +329,9 @@ pub struct MemberSpec {
     /// part as Kelvin–Voigt on the Green–Lagrange strain rate.
     #[serde(default)]
     pub rayleigh: Option<[f64; 2]>,
+    /// Its cells' strain: `enhanced` (default) or `plain`.
+    #[serde(default)]
+    pub cell: CellSpec,
     /// Position of the local origin.
     #[serde(default)]
     pub origin: PointSpec,
@@ -352,6 +356,26 @@ pub struct MemberSpec {
     /// (default), so that an optimizer cannot detach the joint.
     #[serde(default = "yes")]
     pub solid_at_joints: bool,
+}
+
+/// Which strain a member's cells interpolate.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum CellSpec {
+    /// Enhanced by four condensed incompatible modes: no locking in bending.
+    #[default]
+    Enhanced,
+    /// The compatible bilinear strain alone (the 88-line code's element).
+    Plain,
+}
+
+impl From<CellSpec> for CellKind {
+    fn from(cell: CellSpec) -> Self {
+        match cell {
+            CellSpec::Enhanced => CellKind::Enhanced,
+            CellSpec::Plain => CellKind::Plain,
+        }
+    }
 }
 
 /// A beam between two named nodes.

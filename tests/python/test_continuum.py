@@ -33,28 +33,63 @@ def simulation(s: Scene) -> flextop.Simulation:
         return flextop.Simulation(s)
 
 
-def test_a_cantilever_member_converges_to_timoshenko_from_above_the_locking():
-    """Tip deflection of a 1 m × 0.1 m steel cantilever under an end shear, against
-    PL³/(3EI) + PL/(κGA): plain four-node cells lock in bending, so the coarse meshes are
-    too stiff, and the deflection grows towards the beam's as the mesh is refined."""
+def cantilever_tip_ratios(cell: str, meshes: list[tuple[int, int]]) -> list[float]:
+    """Tip deflection of a 1 m × 0.1 m steel cantilever member of ``cell``s, its root edge
+    pinned, under an end shear, over PL³/(3EI) + PL/(κGA), on each of ``meshes``."""
     length, height, t, load = 1.0, 0.1, 0.01, 1e-3
     inertia, area, shear = t * height**3 / 12, t * height, STEEL["E"] / (2 * (1 + STEEL["nu"]))
     exact = load * length**3 / (3 * STEEL["E"] * inertia) + load * length / (5 / 6 * shear * area)
     ratios = []
-    for nx, ny in [(10, 1), (20, 2), (40, 4), (80, 8)]:
+    for nx, ny in meshes:
         s = Scene("cantilever", analysis="static")
-        m = s.member("plate", nx=nx, ny=ny, length=length, height=height, thickness=t, **STEEL)
+        m = s.member("plate", nx=nx, ny=ny, length=length, height=height, thickness=t, **STEEL, cell=cell)
         pinned_edge(s, m, ny)
         for j in range(ny + 1):
             s.load(m.node(nx, j), force=(0.0, -load * (0.5 if j in (0, ny) else 1.0) / ny))
         tip = simulation(s).run().displacement(m.node(nx, ny // 2 if ny > 1 else 0))
         ratios.append(-tip[1] / exact)
+    return ratios
+
+
+def test_a_cantilever_member_converges_to_timoshenko_from_above_the_locking():
+    """Plain four-node cells lock in bending: the coarse meshes are too stiff, and the
+    deflection grows towards the beam's as the mesh is refined."""
+    ratios = cantilever_tip_ratios("plain", [(10, 1), (20, 2), (40, 4), (80, 8)])
     assert all(a < b for a, b in zip(ratios, ratios[1:])), ratios
     assert ratios[0] < 0.75 and 0.985 < ratios[-1] < 1.005, ratios
 
 
+def test_an_enhanced_cantilever_member_does_not_lock():
+    """The same cantilever of enhanced cells (the default): within 0.5 % of Timoshenko's
+    deflection from one cell through the height on (measured 0.996, 0.995, 0.997 at 10 × 1,
+    20 × 2, 40 × 4; the pinned root edge a little stiffer than the beam's clamp), where the
+    plain cells read 0.67 and 0.89 at one and two (the issue's "within 2 % at two, 0.5 % at
+    four")."""
+    enhanced = cantilever_tip_ratios("enhanced", [(10, 1), (20, 2), (40, 4)])
+    plain = cantilever_tip_ratios("plain", [(10, 1), (20, 2)])
+    assert all(abs(r - 1) < 0.005 for r in enhanced), enhanced
+    assert plain[0] < 0.75 and plain[1] < 0.9, plain
+
+
+def test_the_solid_continuum_arm_agrees_across_meshes_with_enhanced_cells():
+    """The continuum arm at x = 1 (a design no mesh changes: the rings' passive columns are
+    solid too), 100 steps of 26 ms: its tip deflection at 10 × 2 and 20 × 4 cells per link
+    within 2 % of 40 × 8 with enhanced cells (measured 1.7 % and 0.6 %), where plain cells
+    read a sixth and a half of it (BENCHMARKS.md, "Continuum cells": 0.8 % from 20 × 6 to
+    120 × 40, plain 33 %)."""
+    values = {}
+    for cell in ("plain", "enhanced"):
+        for nx, ny in [(10, 2), (20, 4), (40, 8)]:
+            sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=nx, ny=ny, h=0.026, cell=cell))
+            values[cell, nx] = sim.run(np.ones(sim.n_design)).response("tip_deflection")
+    fine = values["enhanced", 40]
+    assert all(abs(values["enhanced", nx] / fine - 1) < 0.02 for nx in (10, 20)), values
+    assert values["plain", 10] < 0.25 * fine and values["plain", 20] < 0.6 * fine, values
+    assert values["plain", 10] < values["plain", 20] < values["plain", 40] < fine, values
+
+
 def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
-    """A 12 × 4 cantilever of unit-square cells (E = 1, t = 1, ν = 0.3) with random densities
+    """A 12 × 4 cantilever of plain unit-square cells (E = 1, t = 1, ν = 0.3) with random densities
     under SIMP p = 3: as the load falls, compliance and its gradient tend to the linear
     ones, `Fᵀu` with `K = Σ x³ KE` assembled here from the 88-line code's KE, and
     `−3x² uₑᵀ KE uₑ`. The geometric nonlinearity departs from them at first order in the
@@ -81,7 +116,8 @@ def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
     departure = []
     for load in (1e-6, 1e-8):
         s = Scene("linear", analysis="static")
-        m = s.member("plate", nx=nx, ny=ny, length=nx, height=ny, thickness=1.0, E=1.0, nu=nu, rho=1.0, solid_at_joints=False)
+        m = s.member("plate", nx=nx, ny=ny, length=nx, height=ny, thickness=1.0, E=1.0, nu=nu, rho=1.0, solid_at_joints=False,
+                     cell="plain")
         pinned_edge(s, m, ny)
         s.load(m.node(nx, 0), force=(0.0, -load))
         s.design(x_min=1e-3)
@@ -94,7 +130,8 @@ def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
     assert departure[1] < 1e-5 and 50 < departure[0] / departure[1] < 200, departure
 
 
-def spun_strip(nx: int, ny: int, *, omega: float, ramp: float, fixed: bool = True, height: float = 0.1):
+def spun_strip(nx: int, ny: int, *, omega: float, ramp: float, fixed: bool = True, height: float = 0.1,
+               cell: str = "enhanced"):
     """A 1 m steel strip of ``height`` and 10 mm thickness whose root edge is hinged to a
     hub, the hub driven from rest at constant angular acceleration to ``omega`` (rad/s)
     over ``ramp`` (s), then at constant speed."""
@@ -102,7 +139,7 @@ def spun_strip(nx: int, ny: int, *, omega: float, ramp: float, fixed: bool = Tru
     rows = [height * (j / ny - 0.5) for j in range(ny + 1)]
     s.rigid_body("hub", mass=1.0, inertia=1e-3, position=(0.0, 0.0), points={f"p{j}": (0.0, y) for j, y in enumerate(rows)})
     s.pin("axle", "hub", drive=trapezoidal(0.0, 1e6, acceleration=omega / ramp, speed=omega))
-    m = s.member("strip", nx=nx, ny=ny, length=1.0, height=height, thickness=0.01, fixed=fixed, **STEEL,
+    m = s.member("strip", nx=nx, ny=ny, length=1.0, height=height, thickness=0.01, fixed=fixed, **STEEL, cell=cell,
                  solid_at_joints=False)
     for j in range(ny + 1):
         s.hinge(f"root{j}", f"hub.p{j}", m.node(0, j))
@@ -158,8 +195,9 @@ def test_optimality_criteria_keep_a_spun_strip_inside_its_volume():
     zero. The optimality criteria used to send every cell up its move limit (79 % over the
     bound on a spinning plate); now no iterate leaves the feasible set, no cell rises whose
     gradient is positive (the outward ones at the start, every one later), and the kinetic
-    energy ends below its start."""
-    s, m = spun_strip(6, 2, omega=60.0, ramp=0.02, fixed=False, height=0.05)
+    energy ends below its start. On plain cells, whose gradients have both signs at the start
+    (the enhanced strip's all have one: every cell goes down at once)."""
+    s, m = spun_strip(6, 2, omega=60.0, ramp=0.02, fixed=False, height=0.05, cell="plain")
     s.simulation(t_end=0.04, h=1e-3)
     sim = simulation(s)
     problem = TopologyProblem(sim, "kinetic_energy", volume_constraints(sim, 0.5, per_component=False))
@@ -193,19 +231,24 @@ def test_optimality_criteria_keep_a_projected_volume_within_its_bound():
     assert max(record.g[0] for record in result.history) <= 1e-9
 
 
-def test_natural_frequencies_of_a_member_converge_to_the_beams():
+@pytest.mark.parametrize("cell", ["plain", "enhanced"])
+def test_natural_frequencies_of_a_member_converge_to_the_beams(cell):
     """A slender cantilever member's first frequency, against Euler–Bernoulli's
-    1.875²/(2π) √(EI/(ρAL⁴)): too high on a coarse mesh (locking), within 2 % at 80 × 4."""
+    1.875²/(2π) √(EI/(ρAL⁴)): plain cells too high on a coarse mesh (locking), within 2 % at
+    80 × 4; enhanced cells within 1 % on every mesh from 20 × 4."""
     length, height, t = 1.0, 0.05, 0.01
     inertia, area = t * height**3 / 12, t * height
     exact = 1.875104**2 / (2 * np.pi) * np.sqrt(STEEL["E"] * inertia / (STEEL["rho"] * area * length**4))
     first = []
     for nx in (20, 40, 80):
         s = Scene("cantilever")
-        m = s.member("plate", nx=nx, ny=4, length=length, height=height, thickness=t, **STEEL)
+        m = s.member("plate", nx=nx, ny=4, length=length, height=height, thickness=t, **STEEL, cell=cell)
         pinned_edge(s, m, 4)
         first.append(simulation(s).natural_frequencies(1, rtol=None)[0] / exact)
-    assert first[0] > first[1] > first[2] > 1.0 and first[2] < 1.02, first
+    if cell == "plain":
+        assert first[0] > first[1] > first[2] > 1.0 and first[2] < 1.02, first
+    else:
+        assert all(abs(f - 1) < 0.01 for f in first), first
 
 
 def test_frequency_gradients_of_a_member_are_exact():
@@ -651,7 +694,8 @@ def test_an_averaging_ring_adds_no_stiffness():
     """The issue's RBE3 must-show: a cantilever plate's lowest four frequencies are those of
     the plate alone with an averaging ring on a 3 × 3 patch of its nodes (to 1e-5: the
     ring's light body, 1e-6 kg and kg m², is all it adds), while a rigid ring on the same
-    nodes stiffens the patch and raises each by more than 3 %."""
+    nodes stiffens the patch and raises each by more than 2 % (measured 2.9, 5.4, 7.1, 7.6 %
+    on enhanced cells; plain cells, stiffer in bending, read more)."""
     def plate(kind: str | None) -> np.ndarray:
         s = Scene("plate")
         m = s.member("plate", nx=12, ny=4, length=0.6, height=0.2, thickness=0.01, **STEEL, solid_at_joints=False)
@@ -663,7 +707,7 @@ def test_an_averaging_ring_adds_no_stiffness():
 
     alone, averaging, rigid = plate(None), plate("averaging"), plate("rigid")
     np.testing.assert_allclose(averaging, alone, rtol=1e-5)
-    assert (rigid > 1.03 * alone).all(), rigid / alone
+    assert (rigid > 1.02 * alone).all(), rigid / alone
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e-6])
@@ -963,9 +1007,12 @@ def mid_span(sim: flextop.Simulation, results, ends: tuple[str, str], middle: st
 def test_a_continuum_connecting_rod_moves_as_a_beam_rod_does():
     """The slider-crank with a 0.3 m × 10 mm × 5 mm continuum rod against the same with a
     Timoshenko beam rod of that section (16 elements), crank and slider alike: the slider
-    follows the same travel to 1e-6 of it at every state; the rod's largest mid-span
-    deflection is within 5 % of the beam's at 120 × 4 cells, and more than 15 % below it at
-    30 × 2 (four-node cells lock in bending). Gradients of the tip deflection and the von
+    follows the same travel to 1e-6 of it at every state. The rod's largest mid-span
+    deflection with enhanced cells is the same at 30 × 2 and 120 × 4 cells to 0.5 %
+    (measured 1.065 and 1.068 times the beam's: the continuum rod between rigid end rings
+    converges there, plain cells approaching it from below at 0.75, 1.036, 1.058 on 30 × 2,
+    120 × 4, 240 × 8) and within 8 % of the beam's; plain cells at 30 × 2 are more than 15 %
+    below it (four-node cells lock in bending). Gradients of the tip deflection and the von
     Mises stress through the rings: direct = adjoint to 1e-9."""
     height, thickness = 0.01, 0.005
     coarse = simulation(flextop.scenes.continuum_slider_crank(nx=30, ny=2))
@@ -978,12 +1025,14 @@ def test_a_continuum_connecting_rod_moves_as_a_beam_rod_does():
     travel = reference.positions[:, beam.node("slider"), 0]
     peak = np.abs(mid_span(beam, reference, ("rod0", "rod4"), "rod2")).max()
     ratios = []
-    for sim, (nx, ny) in ((coarse, (30, 2)), (simulation(flextop.scenes.continuum_slider_crank(nx=120, ny=4)), (120, 4))):
+    plain = simulation(flextop.scenes.continuum_slider_crank(nx=30, ny=2, cell="plain"))
+    fine = simulation(flextop.scenes.continuum_slider_crank(nx=120, ny=4))
+    for sim, (nx, ny) in ((coarse, (30, 2)), (fine, (120, 4)), (plain, (30, 2))):
         r = sim.run()
         assert np.abs(r.positions[:, sim.node("slider"), 0] - travel).max() < 1e-6 * np.ptp(travel)
         middle = f"rod[{nx // 2},{ny // 2}]"
         ratios.append(np.abs(mid_span(sim, r, (f"rod[0,{ny // 2}]", f"rod[{nx},{ny // 2}]"), middle)).max() / peak)
-    assert ratios[0] < 0.85 and abs(ratios[1] - 1) < 0.05, ratios
+    assert abs(ratios[0] / ratios[1] - 1) < 0.005 and abs(ratios[1] - 1) < 0.08 and ratios[2] < 0.85, ratios
     x = np.random.default_rng(8).uniform(0.4, 1.0, coarse.n_design)
     names = ["tip_deflection", "von_mises"]
     _, direct = coarse.run_with_sensitivities(x, names, method="direct")

@@ -201,7 +201,8 @@ class Scene:
     def member(self, name: str, *, nx: int, ny: int, length: float, height: float, thickness: float, E: float,
                nu: float, rho: float, origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0,
                fixed: bool = False, holes: Sequence[Sequence[int]] = (), solid: Sequence[Sequence[int]] = (),
-               solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None) -> Member:
+               solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None,
+               cell: str = "enhanced") -> Member:
         """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
         at ``origin`` (coordinates or a node name) rotated by ``angle`` (rad), from ``x = 0``
         to ``length`` and centred on the local x axis, meshed by ``nx × ny`` four-node
@@ -215,7 +216,10 @@ class Scene:
         beam attaches to are kept solid too, so that an optimizer cannot detach the joint.
         ``rayleigh = (α, β)`` (1/s, s) damps the cells by ``C = αM + βK``, the stiffness part
         as a Kelvin–Voigt material on the Green–Lagrange strain rate (no damping of a rigid
-        motion)."""
+        motion). ``cell = "enhanced"`` (default) enhances each cell's strain by four
+        incompatible modes condensed in the cell (Simo & Rifai): no locking in bending, exact
+        in pure bending on rectangular cells; ``cell = "plain"`` is the compatible four-node
+        cell, the 88-line code's element (too stiff in bending on coarse meshes)."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
         path = f"members[{len(self._spec.get('members', []))}] ({name})"
@@ -226,6 +230,8 @@ class Scene:
             entry["solid_at_joints"] = False
         if rayleigh is not None:
             entry["rayleigh"] = _listed(rayleigh)
+        if cell != "enhanced":
+            entry["cell"] = cell
         self._spec.setdefault("members", []).append(entry)
         return Member(name, nx, ny, tuple(map(tuple, entry.get("holes", []))))
 

@@ -148,9 +148,10 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
                         acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                         rho: float = ALUMINIUM["rho"], p: float = 3.0, x_min: float = 0.01, t_end: float = 1.3,
-                        h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid") -> Scene:
+                        h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid", cell: str = "enhanced") -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
-    height`` member of ``nx × ny`` cells and ``thickness`` (m), a density per cell. The
+    height`` member of ``nx × ny`` cells of kind ``cell`` (:meth:`Scene.member`) and
+    ``thickness`` (m), a density per cell. The
     shoulder drives a ring (:meth:`Scene.ring`, of kind ``rings``: ``"rigid"`` or
     ``"averaging"``) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
@@ -164,7 +165,7 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     origin = (0.0, 0.0)
     for k, angle in enumerate((theta_start, 2 * theta_start)):
         links.append(scene.member(f"link{k + 1}", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E,
-                                  nu=nu, rho=rho, origin=origin, angle=angle))
+                                  nu=nu, rho=rho, origin=origin, angle=angle, cell=cell))
         origin = (origin[0] + length * math.cos(angle), origin[1] + length * math.sin(angle))
     link1, link2 = links
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
@@ -219,7 +220,8 @@ def half_mbb(*, nx: int = 60, ny: int = 20, length: float = 0.6, height: float =
     ``nx × ny`` cells and ``thickness``, rollers along its left edge (the symmetry line,
     free to move vertically) and at its bottom-right corner (free to move horizontally),
     ``force`` (N) down at the top-left corner. Every cell is designed
-    (``solid_at_joints=False``), SIMP with the void's stiffness ``e_min`` (the code's 1e-9).
+    (``solid_at_joints=False``), SIMP with the void's stiffness ``e_min`` (the code's 1e-9),
+    on the code's own element (``cell="plain"``).
 
     In steel and newtons, not the code's own units (E = 1, a unit load): the member is
     geometrically nonlinear, and a unit load on E = 1 is no small deformation (flextop has
@@ -228,7 +230,7 @@ def half_mbb(*, nx: int = 60, ny: int = 20, length: float = 0.6, height: float =
     find is the code's, the compliance scaled by E and the load squared."""
     scene = Scene("half_mbb", analysis="static")
     member = scene.member("beam", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
-                          solid_at_joints=False)
+                          solid_at_joints=False, cell="plain")
     for j in range(ny + 1):
         scene.roller(f"symmetry{j}", member.node(0, j), axis=(0.0, 1.0))
     scene.roller("support", member.node(nx, 0), axis=(1.0, 0.0))
@@ -245,13 +247,14 @@ def continuum_cantilever(*, nx: int = 40, ny: int = 20, length: float = 0.4, hei
     """The classic cantilever of topology optimization: a ``length × height`` steel member
     (m) of ``nx × ny`` cells and ``thickness``, every node of its left edge pinned to the
     wall, ``force`` (N) down at the middle of its right edge. Every cell is designed, SIMP
-    with the void's stiffness ``e_min``; steel and newtons for small strains, as in
+    with the void's stiffness ``e_min``, on the 88-line code's element (``cell="plain"``);
+    steel and newtons for small strains, as in
     :func:`half_mbb`. ``ny`` must be even, so that a node sits at the right edge's middle."""
     if ny % 2:
         raise SceneError(f"continuum_cantilever: ny must be even, so that a node sits at the right edge's middle (got {ny})")
     scene = Scene("continuum_cantilever", analysis="static")
     member = scene.member("plate", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
-                          solid_at_joints=False)
+                          solid_at_joints=False, cell="plain")
     for j in range(ny + 1):
         scene.pin(f"wall{j}", member.node(0, j))
     scene.load(member.node(nx, ny // 2), force=(0.0, -force))
@@ -424,9 +427,10 @@ def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: fl
                            nx: int = 30, ny: int = 2, E: float = STEEL["E"], nu: float = STEEL["nu"],
                            rho: float = STEEL["rho"], speed: float = 150.0, time_constant: float = 0.167,
                            t_end: float = 0.1, h: float = 2.5e-4, rho_inf: float = 0.8, p: float = 3.0,
-                           x_min: float = 0.01) -> Scene:
+                           x_min: float = 0.01, cell: str = "enhanced") -> Scene:
     """The slider-crank of :func:`slider_crank` with a continuum connecting rod: a ``rod ×
-    height`` steel member of ``thickness`` meshed by ``nx × ny`` cells (a density each),
+    height`` steel member of ``thickness`` meshed by ``nx × ny`` cells of kind ``cell``
+    (:meth:`Scene.member`; a density each),
     joined to the crank and the slider through rigid rings (:meth:`Scene.ring`) on its end
     edges. Crank, drive and slider as there (the crank a uniform bar of the rod's section, the
     slider half the rod's mass). The ``tip`` is the rod's middle node. ``nx`` and ``ny`` must
@@ -439,7 +443,7 @@ def continuum_slider_crank(*, crank: float = 0.15, rod: float = 0.30, height: fl
     scene.rigid_body("crank", mass=m_crank, inertia=m_crank * crank**2 / 12, position=(crank / 2, 0.0),
                      points={"pivot": (-crank / 2, 0.0), "pin": (crank / 2, 0.0)})
     member = scene.member("rod", nx=nx, ny=ny, length=rod, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
-                          origin=(crank, 0.0))
+                          origin=(crank, 0.0), cell=cell)
     left = scene.ring("ring_A", [member.node(0, j) for j in range(ny + 1)])
     right = scene.ring("ring_B", [member.node(nx, j) for j in range(ny + 1)])
     scene.rigid_body("slider", mass=m_rod / 2, position=(crank + rod, 0.0))

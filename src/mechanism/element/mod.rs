@@ -19,6 +19,7 @@
 //! responses and the modes read its force, tangent, energy and mass beside the bars'.
 
 pub mod beam;
+pub mod enhanced;
 pub mod quad;
 pub mod truss;
 

@@ -1,5 +1,8 @@
 //! Four-node plane-stress quadrilateral of a continuum member: total Lagrangian, a
-//! St. Venant–Kirchhoff law, 2 × 2 Gauss points.
+//! St. Venant–Kirchhoff law, 2 × 2 Gauss points; plain (compatible strain, [`CellKind::Plain`])
+//! or enhanced by four condensed incompatible modes ([`CellKind::Enhanced`], the members'
+//! default: [`super::enhanced`], where `E` below is `E_c + Γ α(u)` and `B` in the tangent
+//! and the damping is `B̄ = B + Γ ∂α/∂u`).
 //!
 //! Its unknowns are the translations of its four nodes, `u = [u₁, v₁, …, u₄, v₄]`, counted
 //! anticlockwise; it has no rotations (its nodes' rotations are no unknowns unless something
@@ -29,6 +32,7 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
+use super::enhanced::{enhanced_operator, Condensed, Enhancement};
 use crate::mechanism::element::beam::Damping;
 use crate::settings::MassKind;
 
@@ -87,6 +91,28 @@ struct GaussPoint {
     volume: f64,
 }
 
+/// Which strain a cell interpolates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum CellKind {
+    /// The compatible bilinear strain alone: the 88-line code's element at small strain,
+    /// locking in bending.
+    Plain,
+    /// Enhanced by four condensed incompatible modes ([`super::enhanced`]): exact in pure
+    /// bending on rectangles, the members' default.
+    #[default]
+    Enhanced,
+}
+
+impl CellKind {
+    /// The kind's name in a scene.
+    pub fn name(self) -> &'static str {
+        match self {
+            CellKind::Plain => "plain",
+            CellKind::Enhanced => "enhanced",
+        }
+    }
+}
+
 /// A four-node plane-stress quadrilateral at full density.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Quad {
@@ -96,6 +122,8 @@ pub struct Quad {
     pub area: f64,
     points: [GaussPoint; 4],
     elasticity: SMatrix<f64, 3, 3>,
+    /// The condensed incompatible modes of an enhanced cell.
+    enhancement: Option<Enhancement>,
 }
 
 /// Why a quadrilateral cannot be built.
@@ -105,39 +133,83 @@ pub enum QuadDefect {
     Inverted,
 }
 
+/// A cell's kinematics at displacements `u`, per Gauss point: the compatible strain's
+/// derivative `B`, and the strain `E` (enhanced where the
+/// cell is), with `A = ∂α/∂u` where asked for.
+struct Kinematics {
+    operator: [SMatrix<f64, 3, 8>; 4],
+    strain: [Vector3<f64>; 4],
+    rate: Option<Condensed>,
+}
+
 impl Quad {
-    /// The quadrilateral with reference corners `x` (anticlockwise).
+    /// The quadrilateral of `kind` with reference corners `x` (anticlockwise).
     ///
     /// # Errors
     /// [`QuadDefect::Inverted`] if the corners are clockwise, crossed or not convex.
-    pub fn new(x: [Vector2<f64>; 4], material: PlaneMaterial) -> Result<Self, QuadDefect> {
+    pub fn new(
+        x: [Vector2<f64>; 4],
+        material: PlaneMaterial,
+        kind: CellKind,
+    ) -> Result<Self, QuadDefect> {
         let g = 1.0 / 3.0_f64.sqrt();
+        let natural = [(-g, -g), (g, -g), (g, g), (-g, g)];
         let mut points = [GaussPoint {
             shape: [0.0; 4],
             gradient: [Vector2::zeros(); 4],
             volume: 0.0,
         }; 4];
-        for (point, (xi, eta)) in points.iter_mut().zip([(-g, -g), (g, -g), (g, g), (-g, g)]) {
+        let mut dets = [0.0; 4];
+        for ((point, det), &(xi, eta)) in points.iter_mut().zip(&mut dets).zip(&natural) {
             let shape = CORNERS.map(|(a, b)| 0.25 * (1.0 + a * xi) * (1.0 + b * eta));
-            let natural = CORNERS
-                .map(|(a, b)| Vector2::new(0.25 * a * (1.0 + b * eta), 0.25 * b * (1.0 + a * xi)));
-            // J_ij = ∂X_i/∂ξ_j.
-            let jacobian: Matrix2<f64> = (0..4).map(|k| x[k] * natural[k].transpose()).sum();
-            let det = jacobian.determinant();
-            let inverse = jacobian.try_inverse().filter(|_| det > 0.0);
+            let jacobian = Self::jacobian(&x, xi, eta);
+            *det = jacobian.determinant();
+            let inverse = jacobian.try_inverse().filter(|_| *det > 0.0);
             let inverse = inverse.ok_or(QuadDefect::Inverted)?;
             *point = GaussPoint {
                 shape,
-                gradient: natural.map(|n| inverse.transpose() * n),
-                volume: det * material.thickness,
+                gradient: Self::natural_gradients(xi, eta).map(|n| inverse.transpose() * n),
+                volume: *det * material.thickness,
             };
         }
+        let elasticity = material.elasticity();
+        let enhancement = match kind {
+            CellKind::Plain => None,
+            CellKind::Enhanced => {
+                let at = std::array::from_fn(|p| {
+                    (natural[p].0, natural[p].1, dets[p], points[p].volume)
+                });
+                let centre = Self::jacobian(&x, 0.0, 0.0);
+                Some(Enhancement::new(&centre, at, &elasticity).map_err(|_| QuadDefect::Inverted)?)
+            }
+        };
         Ok(Self {
             material,
             area: points.iter().map(|p| p.volume).sum::<f64>() / material.thickness,
             points,
-            elasticity: material.elasticity(),
+            elasticity,
+            enhancement,
         })
+    }
+
+    /// `∂N_a/∂(ξ, η)` of the four shape functions.
+    fn natural_gradients(xi: f64, eta: f64) -> [Vector2<f64>; 4] {
+        CORNERS.map(|(a, b)| Vector2::new(0.25 * a * (1.0 + b * eta), 0.25 * b * (1.0 + a * xi)))
+    }
+
+    /// The reference Jacobian `J_ij = ∂X_i/∂ξ_j` at `(ξ, η)`.
+    fn jacobian(x: &[Vector2<f64>; 4], xi: f64, eta: f64) -> Matrix2<f64> {
+        let natural = Self::natural_gradients(xi, eta);
+        (0..4).map(|k| x[k] * natural[k].transpose()).sum()
+    }
+
+    /// Which strain the cell interpolates.
+    pub fn kind(&self) -> CellKind {
+        if self.enhancement.is_some() {
+            CellKind::Enhanced
+        } else {
+            CellKind::Plain
+        }
     }
 
     /// The displacement gradient `H = F − I = Σ_a u_a g_aᵀ` at a Gauss point.
@@ -179,84 +251,129 @@ impl Quad {
         b
     }
 
-    /// Green–Lagrange strains `[E₁₁, E₂₂, 2E₁₂]` at the four Gauss points.
+    /// The geometric stiffness `(g_aᵀ s g_b) I₂` of the stress `s` (times a volume) at a
+    /// Gauss point, added to `k`: `∂(Bᵀ s)/∂u` at fixed `s`.
+    fn add_geometric(point: &GaussPoint, s: &Vector3<f64>, k: &mut Matrix8) {
+        let s = Matrix2::new(s[0], s[2], s[2], s[1]);
+        for (a, ga) in point.gradient.iter().enumerate() {
+            for (c, gc) in point.gradient.iter().enumerate() {
+                let v = ga.dot(&(s * gc));
+                k[(2 * a, 2 * c)] += v;
+                k[(2 * a + 1, 2 * c + 1)] += v;
+            }
+        }
+    }
+
+    /// The kinematics at `u`, with `A = ∂α/∂u` if `rate` (and the cell is enhanced).
+    fn kinematics(&self, u: &Vector8, rate: bool) -> Kinematics {
+        let h = self.points.map(|p| Self::displacement_gradient(&p, u));
+        let deformation = h.map(|h| h + Matrix2::identity());
+        let operator =
+            std::array::from_fn(|p| Self::strain_operator(&self.points[p], &deformation[p]));
+        let mut strain = h.map(|h| Self::strain(&h));
+        let mut condensed = None;
+        if let Some(enhancement) = &self.enhancement {
+            enhancement.enhance(&mut strain);
+            condensed = rate.then(|| enhancement.rate(&enhancement.coupling(&operator)));
+        }
+        Kinematics {
+            operator,
+            strain,
+            rate: condensed,
+        }
+    }
+
+    /// `B̄ = ∂E/∂u` at Gauss point `p`: `B`, plus `Γ A` where the cell is enhanced.
+    fn total_operator(&self, k: &Kinematics, p: usize) -> SMatrix<f64, 3, 8> {
+        match (&self.enhancement, &k.rate) {
+            (Some(e), Some(a)) => enhanced_operator(&k.operator[p], e.modes(p), a),
+            _ => k.operator[p],
+        }
+    }
+
+    /// Green–Lagrange strains `[E₁₁, E₂₂, 2E₁₂]` at the four Gauss points (enhanced where
+    /// the cell is).
     pub fn strains(&self, u: &Vector8) -> [Vector3<f64>; 4] {
-        self.points
-            .map(|p| Self::strain(&Self::displacement_gradient(&p, u)))
+        self.kinematics(u, false).strain
     }
 
     /// Strain energy `U(u)` (J), zero in any rigid motion.
     pub fn strain_energy(&self, u: &Vector8) -> f64 {
-        self.points
-            .iter()
+        let k = self.kinematics(u, false);
+        (0..4)
             .map(|p| {
-                let e = Self::strain(&Self::displacement_gradient(p, u));
-                0.5 * p.volume * e.dot(&(self.elasticity * e))
+                let e = k.strain[p];
+                0.5 * self.points[p].volume * e.dot(&(self.elasticity * e))
             })
             .sum()
     }
 
     /// Internal force `f(u) = ∂U/∂u` (N).
     pub fn internal_force(&self, u: &Vector8) -> Vector8 {
-        let mut force = Vector8::zeros();
-        for p in &self.points {
-            let h = Self::displacement_gradient(p, u);
-            let stress = self.elasticity * Self::strain(&h);
-            let f = h + Matrix2::identity();
-            force += Self::strain_operator(p, &f).transpose() * (stress * p.volume);
-        }
-        force
+        let k = self.kinematics(u, false);
+        (0..4)
+            .map(|p| {
+                let stress = self.elasticity * k.strain[p] * self.points[p].volume;
+                k.operator[p].transpose() * stress
+            })
+            .sum()
     }
 
-    /// Internal force and its exact tangent `K = ∂f/∂u` (material and geometric parts).
+    /// Internal force and its exact tangent `K = ∂f/∂u` (material and geometric parts;
+    /// an enhanced cell's condensed, `K_uu − K_uα K_αα⁻¹ K_αu`).
     pub fn internal_force_and_tangent(&self, u: &Vector8) -> (Vector8, Matrix8) {
+        let k = self.kinematics(u, true);
         let (mut force, mut tangent) = (Vector8::zeros(), Matrix8::zeros());
-        for p in &self.points {
-            let h = Self::displacement_gradient(p, u);
-            let stress = self.elasticity * Self::strain(&h) * p.volume;
-            let f = h + Matrix2::identity();
-            let b = Self::strain_operator(p, &f);
+        for (p, point) in self.points.iter().enumerate() {
+            let stress = self.elasticity * k.strain[p] * point.volume;
+            let b = &k.operator[p];
             force += b.transpose() * stress;
-            tangent += b.transpose() * self.elasticity * b * p.volume;
-            // Geometric part: (g_aᵀ S g_b) I₂, S = [[S₁₁, S₁₂], [S₁₂, S₂₂]] times the volume.
-            let s = Matrix2::new(stress[0], stress[2], stress[2], stress[1]);
-            for (a, ga) in p.gradient.iter().enumerate() {
-                for (c, gc) in p.gradient.iter().enumerate() {
-                    let k = ga.dot(&(s * gc));
-                    tangent[(2 * a, 2 * c)] += k;
-                    tangent[(2 * a + 1, 2 * c + 1)] += k;
-                }
-            }
+            tangent += b.transpose() * self.elasticity * self.total_operator(&k, p) * point.volume;
+            Self::add_geometric(point, &stress, &mut tangent);
         }
         (force, tangent)
     }
 
     /// Kelvin–Voigt damping `β K` at displacements `u` and velocities `v` (module
-    /// documentation), at full density.
+    /// documentation), at full density: on the rate `Ė = B̄ v` of the strain, enhanced
+    /// where the cell is (`α̇ = A v`), from the dissipation `½ Σ V Ėᵀ β C Ė`.
     pub fn damping(&self, u: &Vector8, v: &Vector8) -> Damping<8> {
         let beta = self.material.beta;
+        let k = self.kinematics(u, true);
+        let h_v = self.points.map(|p| Self::displacement_gradient(&p, v));
+        // D_p = B(H(v)): δ(B v) = D_p δu, since B is linear in F.
+        let d_op: [SMatrix<f64, 3, 8>; 4] =
+            std::array::from_fn(|p| Self::strain_operator(&self.points[p], &h_v[p]));
+        let d_rate = self
+            .enhancement
+            .as_ref()
+            .map(|e| e.rate(&e.coupling(&d_op)));
         let mut d = Damping {
             force: Vector8::zeros(),
             rate: Matrix8::zeros(),
             symmetric: Matrix8::zeros(),
             skew: Matrix8::zeros(),
         };
-        for p in &self.points {
-            let f = Self::displacement_gradient(p, u) + Matrix2::identity();
-            let b = Self::strain_operator(p, &f);
-            let c = self.elasticity * (beta * p.volume);
+        let mut stresses = [Vector3::zeros(); 4];
+        for (p, point) in self.points.iter().enumerate() {
+            let b = self.total_operator(&k, p);
+            let c = self.elasticity * (beta * point.volume);
             let stress = c * (b * v);
             d.force += b.transpose() * stress;
             d.rate += b.transpose() * c * b;
-            d.skew +=
-                b.transpose() * c * Self::strain_operator(p, &Self::displacement_gradient(p, v));
-            let s = Matrix2::new(stress[0], stress[2], stress[2], stress[1]);
-            for (a, ga) in p.gradient.iter().enumerate() {
-                for (e, ge) in p.gradient.iter().enumerate() {
-                    let k = ga.dot(&(s * ge));
-                    d.symmetric[(2 * a, 2 * e)] += k;
-                    d.symmetric[(2 * a + 1, 2 * e + 1)] += k;
-                }
+            let db = match (&self.enhancement, &d_rate) {
+                (Some(e), Some(a)) => enhanced_operator(&d_op[p], e.modes(p), a),
+                _ => d_op[p],
+            };
+            d.skew += b.transpose() * c * db;
+            Self::add_geometric(point, &stress, &mut d.symmetric);
+            stresses[p] = stress / point.volume;
+        }
+        if let Some(e) = &self.enhancement {
+            // δAᵀ r with r = Σ V Γᵀ S_d: the geometric stiffness of −V C Γ K_αα⁻¹ r.
+            let r = e.residual(&stresses, self.points.map(|p| p.volume));
+            for (p, point) in self.points.iter().enumerate() {
+                Self::add_geometric(point, &-e.back_stress(p, &r), &mut d.symmetric);
             }
         }
         d
@@ -297,9 +414,10 @@ impl Quad {
     /// with each point's share of the element's volume.
     pub fn von_mises(&self, u: &Vector8) -> [(f64, f64); 4] {
         let volume = self.volume();
-        self.points.map(|p| {
-            let e = Self::strain(&Self::displacement_gradient(&p, u));
-            (von_mises(&(self.elasticity * e)), p.volume / volume)
+        let k = self.kinematics(u, false);
+        std::array::from_fn(|p| {
+            let stress = self.elasticity * k.strain[p];
+            (von_mises(&stress), self.points[p].volume / volume)
         })
     }
 
@@ -307,9 +425,9 @@ impl Quad {
     /// stress is) and the point's share of the element's volume.
     pub fn von_mises_and_gradient(&self, u: &Vector8) -> [(f64, Vector8, f64); 4] {
         let volume = self.volume();
-        self.points.map(|p| {
-            let h = Self::displacement_gradient(&p, u);
-            let stress = self.elasticity * Self::strain(&h);
+        let k = self.kinematics(u, true);
+        std::array::from_fn(|p| {
+            let stress = self.elasticity * k.strain[p];
             let sigma = von_mises(&stress);
             // σ² = sᵀ P s with P = [[1, −½, 0], [−½, 1, 0], [0, 0, 3]]: ∂σ/∂s = P s / σ.
             let d_sigma = Vector3::new(
@@ -317,13 +435,13 @@ impl Quad {
                 stress[1] - 0.5 * stress[0],
                 3.0 * stress[2],
             );
-            let b = Self::strain_operator(&p, &(h + Matrix2::identity()));
+            let b = self.total_operator(&k, p);
             let gradient = if sigma > 0.0 {
                 b.transpose() * (self.elasticity * d_sigma) / sigma
             } else {
                 Vector8::zeros()
             };
-            (sigma, gradient, p.volume / volume)
+            (sigma, gradient, self.points[p].volume / volume)
         })
     }
 }
@@ -378,7 +496,7 @@ mod tests {
     #[test]
     fn the_area_ratio_is_one_in_rigid_motion_and_negative_once_turned_inside_out() {
         let x = corners();
-        let quad = Quad::new(x, steel(0.01)).unwrap();
+        let quad = Quad::new(x, steel(0.01), CellKind::Plain).unwrap();
         let ratio = quad.smallest_area_ratio(&rotated(&x, 2.0, Vector2::new(1.0, 4.0)));
         assert!((ratio - 1.0).abs() < 1e-14, "{ratio}");
         // Stretched by 2 along x and 1.5 along y: det F = 3 everywhere.
@@ -392,7 +510,7 @@ mod tests {
     #[test]
     fn rigid_motion_gives_no_force_at_any_angle() {
         let (x, material) = (corners(), steel(0.01));
-        let quad = Quad::new(x, material).unwrap();
+        let quad = Quad::new(x, material, CellKind::Plain).unwrap();
         // A unit-strain force: E t times the element's size.
         let unit = material.young * material.thickness * 0.1;
         for k in 0..=64 {
@@ -413,7 +531,7 @@ mod tests {
     /// the reference.
     #[test]
     fn damping_derivatives_are_exact_and_rigid_motion_is_not_damped() {
-        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        let quad = Quad::new(corners(), steel(0.01), CellKind::Plain).unwrap();
         let (u, v) = (strained(0.2), strained(3.0).map(|x| x.sin()));
         let d = quad.damping(&u, &v);
         let h = 1e-7;
@@ -457,7 +575,7 @@ mod tests {
 
     #[test]
     fn tangent_and_force_are_exact_derivatives() {
-        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        let quad = Quad::new(corners(), steel(0.01), CellKind::Plain).unwrap();
         for scale in [1e-3, 0.2] {
             let u = strained(scale);
             let (f, k) = quad.internal_force_and_tangent(&u);
@@ -493,7 +611,7 @@ mod tests {
             beta: 0.0,
         };
         let x = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(a, b)| Vector2::new(a, b));
-        let (_, k) = Quad::new(x, material)
+        let (_, k) = Quad::new(x, material, CellKind::Plain)
             .unwrap()
             .internal_force_and_tangent(&Vector8::zeros());
         let a11 = [
@@ -527,7 +645,7 @@ mod tests {
     fn a_constant_strain_field_is_reproduced_exactly() {
         // The patch test: a linear displacement gives its strain at every Gauss point.
         let x = corners();
-        let quad = Quad::new(x, steel(0.01)).unwrap();
+        let quad = Quad::new(x, steel(0.01), CellKind::Plain).unwrap();
         let grad = Matrix2::new(1e-4, 3e-5, -2e-5, 2e-4);
         let mut u = Vector8::zeros();
         for (a, p) in x.iter().enumerate() {
@@ -550,7 +668,7 @@ mod tests {
     #[test]
     fn mass_carries_the_element_and_its_inertia() {
         let (x, material) = (corners(), steel(0.01));
-        let quad = Quad::new(x, material).unwrap();
+        let quad = Quad::new(x, material, CellKind::Plain).unwrap();
         let m = quad.mass_matrix(MassKind::Consistent);
         let lumped = quad.mass_matrix(MassKind::Lumped);
         assert!(
@@ -584,7 +702,7 @@ mod tests {
 
     #[test]
     fn von_mises_gradients_are_exact() {
-        let quad = Quad::new(corners(), steel(0.01)).unwrap();
+        let quad = Quad::new(corners(), steel(0.01), CellKind::Plain).unwrap();
         let u = strained(1e-3);
         let h = 1e-9;
         for (k, (sigma, gradient, share)) in quad.von_mises_and_gradient(&u).into_iter().enumerate()
@@ -605,6 +723,9 @@ mod tests {
     fn inverted_corners_are_refused() {
         let mut x = corners();
         x.swap(1, 3);
-        assert_eq!(Quad::new(x, steel(0.01)), Err(QuadDefect::Inverted));
+        assert_eq!(
+            Quad::new(x, steel(0.01), CellKind::Plain),
+            Err(QuadDefect::Inverted)
+        );
     }
 }
