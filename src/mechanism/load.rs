@@ -1,5 +1,7 @@
 //! Applied nodal loads: forces and moments, constant or scaled by a time table.
 
+use crate::error::SceneError;
+
 /// A time history `g(t)` scaling a load.
 #[derive(Debug, Clone, PartialEq)]
 pub enum TimeFunction {
@@ -52,6 +54,38 @@ pub struct NodalLoad {
     pub value: [f64; 3],
     /// Time scaling.
     pub time: TimeFunction,
+}
+
+/// Samples `(t_k, v_k)` of a time history: at least two, as many `what` as times, all
+/// finite, times strictly increasing.
+pub(crate) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<(), SceneError> {
+    if t.len() < 2 || t.len() != values.len() {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "needs at least two samples and as many {what} as times ({} vs {})",
+                values.len(),
+                t.len()
+            ),
+        ));
+    }
+    for (k, (&ti, &vi)) in t.iter().zip(values).enumerate() {
+        for (name, v) in [
+            (format!("{path}.t[{k}]"), ti),
+            (format!("{path}.{what}[{k}]"), vi),
+        ] {
+            if !v.is_finite() {
+                return Err(SceneError::new(name, format!("must be finite, got {v}")));
+            }
+        }
+    }
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(SceneError::new(
+            format!("{path}.t[{}]", k + 1),
+            "times must be strictly increasing",
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -92,31 +92,7 @@ pub(super) fn angle(path: &str, rad: Option<f64>, deg: Option<f64>) -> Result<f6
     }
 }
 
-/// Samples `(t_k, v_k)` of a time history: at least two, as many `what` as times, all
-/// finite, times strictly increasing.
-pub(crate) fn samples(path: &str, t: &[f64], values: &[f64], what: &str) -> Result<()> {
-    if t.len() < 2 || t.len() != values.len() {
-        return Err(SceneError::new(
-            path,
-            format!(
-                "needs at least two samples and as many {what} as times ({} vs {})",
-                values.len(),
-                t.len()
-            ),
-        ));
-    }
-    for (k, (&ti, &vi)) in t.iter().zip(values).enumerate() {
-        finite(&format!("{path}.t[{k}]"), ti)?;
-        finite(&format!("{path}.{what}[{k}]"), vi)?;
-    }
-    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(SceneError::new(
-            format!("{path}.t[{}]", k + 1),
-            "times must be strictly increasing",
-        ));
-    }
-    Ok(())
-}
+pub(crate) use crate::mechanism::load::samples;
 
 /// The error of a name that refers to no `what` (`node`, `section`) of the scene.
 pub(super) fn unknown(path: impl Into<String>, what: &str, name: &str) -> SceneError {

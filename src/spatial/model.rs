@@ -7,9 +7,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{short, SceneError};
 use crate::group::{six, split, Frame, NQ, NV};
-use crate::mechanism::load::TimeFunction;
+use crate::mechanism::load::{samples, TimeFunction};
 use crate::mechanism::motion::Motion;
-use crate::scene::validate::samples;
 use crate::spatial::beam::Beam;
 use crate::spatial::body::Body;
 use crate::spatial::element::Element;

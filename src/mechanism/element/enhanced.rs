@@ -158,35 +158,10 @@ mod tests {
     use nalgebra::{DMatrix, DVector, Rotation2};
 
     use super::*;
+    use crate::mechanism::element::quad::tests::{corners, steel, strained};
     use crate::mechanism::element::quad::{CellKind, PlaneMaterial, Quad, Vector8};
 
     const KINDS: [CellKind; 2] = [CellKind::Plain, CellKind::Enhanced];
-
-    fn steel(thickness: f64) -> PlaneMaterial {
-        PlaneMaterial {
-            young: 210e9,
-            poisson: 0.3,
-            density: 7800.0,
-            thickness,
-            alpha: 0.0,
-            beta: 1e-4,
-        }
-    }
-
-    /// A distorted (convex, not a parallelogram) quadrilateral, about 0.1 m across.
-    fn corners() -> [Vector2<f64>; 4] {
-        [
-            Vector2::new(0.01, -0.005),
-            Vector2::new(0.12, 0.0),
-            Vector2::new(0.1, 0.09),
-            Vector2::new(-0.01, 0.08),
-        ]
-    }
-
-    /// A displacement of the corners that strains the element by about `scale`.
-    fn strained(scale: f64) -> Vector8 {
-        Vector8::from_fn(|i, _| scale * 0.1 * ((i as f64 * 1.7).sin() + 0.3))
-    }
 
     /// The displacement of the field `X ↦ (R(angle) − I) X + shift + H X` at corners `x`.
     fn field(x: &[Vector2<f64>], angle: f64, h: &Matrix2<f64>) -> Vec<f64> {

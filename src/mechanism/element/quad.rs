@@ -452,11 +452,12 @@ fn von_mises(s: &Vector3<f64>) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::f64::consts::PI;
 
-    fn steel(thickness: f64) -> PlaneMaterial {
+    /// Steel of `thickness` (m), damped by `β = 1e-4` s.
+    pub(crate) fn steel(thickness: f64) -> PlaneMaterial {
         PlaneMaterial {
             young: 210e9,
             poisson: 0.3,
@@ -467,8 +468,8 @@ mod tests {
         }
     }
 
-    /// A distorted (convex) quadrilateral, about 0.1 m across.
-    fn corners() -> [Vector2<f64>; 4] {
+    /// A distorted (convex, not a parallelogram) quadrilateral, about 0.1 m across.
+    pub(crate) fn corners() -> [Vector2<f64>; 4] {
         [
             Vector2::new(0.01, -0.005),
             Vector2::new(0.12, 0.0),
@@ -478,7 +479,7 @@ mod tests {
     }
 
     /// A displacement of the corners that strains the element by about `scale`.
-    fn strained(scale: f64) -> Vector8 {
+    pub(crate) fn strained(scale: f64) -> Vector8 {
         Vector8::from_fn(|i, _| scale * 0.1 * ((i as f64 * 1.7).sin() + 0.3))
     }
 
