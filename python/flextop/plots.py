@@ -255,7 +255,7 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
     axis, the maximum design change.
     """
     if len(history) == 0:
-        raise ValueError("empty history")
+        raise SettingsError("plot_history: the history is empty (an optimization's records, iteration 0 first)")
     it = np.array([_field(r, "iteration") for r in history], dtype=float)
     f0 = np.array([_field(r, "f0") for r in history], dtype=float)
     g = np.array([np.atleast_1d(np.asarray(_field(r, "g"), dtype=float)) for r in history])
@@ -263,7 +263,7 @@ def plot_history(history: Sequence[Any], *, path: str | os.PathLike | None = Non
     change[it == 0] = np.nan  # the start design has not moved
     labels = list(constraint_labels) if constraint_labels is not None else [f"g{j + 1}" for j in range(g.shape[1])]
     if len(labels) != g.shape[1]:
-        raise ValueError(f"{len(labels)} constraint labels for {g.shape[1]} constraints")
+        raise SettingsError(f"plot_history: {len(labels)} constraint labels for {g.shape[1]} constraints")
 
     fig = _new_figure(figsize=(7.0, 6.0), layout="constrained")
     top, bottom = fig.subplots(2, 1, sharex=True)

@@ -189,9 +189,9 @@ def test_history_plots_one_point_per_iteration(kind):
 
 
 def test_history_rejects_bad_input():
-    with pytest.raises(ValueError, match="empty"):
+    with pytest.raises(flextop.SettingsError, match="plot_history: the history is empty"):
         plots.plot_history([])
-    with pytest.raises(ValueError, match="labels"):
+    with pytest.raises(flextop.SettingsError, match="1 constraint labels for 2 constraints"):
         plots.plot_history(history_dicts(), constraint_labels=["only one"])
 
 
