@@ -2,13 +2,18 @@
 //!
 //! One file per concept: [`errors`] maps engine errors to the classes of `flextop.errors`,
 //! [`convert`] turns Python values into engine inputs and engine outputs into numpy arrays,
-//! [`model`] is the built mechanism and its description, [`runs`] the computations on it,
-//! [`spatial`] a spatial scene with its runs (each releases the GIL, and [`signals`] keeps Ctrl-C working meanwhile). The logic
-//! lives in the engine; these files only translate.
+//! [`model`] is the built mechanism and its description, [`runs`] its runs, [`modes`] its
+//! linearization and modes, [`refinement`] what a run to a tolerance asks of a pair of
+//! models, [`fields`] fields of recorded states, [`spatial`] a spatial scene with its runs
+//! (each releases the GIL, and [`signals`] keeps Ctrl-C working meanwhile). The logic lives
+//! in the engine; these files only translate.
 
 mod convert;
 mod errors;
+mod fields;
 mod model;
+mod modes;
+mod refinement;
 mod runs;
 mod signals;
 mod spatial;
@@ -24,13 +29,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::solve_static, m)?)?;
     m.add_function(wrap_pyfunction!(runs::run_with_sensitivities, m)?)?;
     m.add_function(wrap_pyfunction!(runs::evaluate_responses, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::linearize, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::natural_modes, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::rigid_positions, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::prolong, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::bar_shares, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::section_forces, m)?)?;
-    m.add_function(wrap_pyfunction!(runs::cell_fields, m)?)?;
+    m.add_function(wrap_pyfunction!(modes::linearize, m)?)?;
+    m.add_function(wrap_pyfunction!(modes::natural_modes, m)?)?;
+    m.add_function(wrap_pyfunction!(fields::rigid_positions, m)?)?;
+    m.add_function(wrap_pyfunction!(refinement::prolong, m)?)?;
+    m.add_function(wrap_pyfunction!(refinement::bar_shares, m)?)?;
+    m.add_function(wrap_pyfunction!(fields::section_forces, m)?)?;
+    m.add_function(wrap_pyfunction!(fields::cell_fields, m)?)?;
     m.add_function(wrap_pyfunction!(model::response_kinds, m)?)?;
     m.add_function(wrap_pyfunction!(model::size_limits, m)?)?;
     m.add_function(wrap_pyfunction!(signals::cancel_running, m)?)?;
