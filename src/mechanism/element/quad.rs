@@ -124,6 +124,8 @@ pub struct Quad {
     elasticity: SMatrix<f64, 3, 3>,
     /// The condensed incompatible modes of an enhanced cell.
     enhancement: Option<Enhancement>,
+    /// The small-strain stiffness `K₀`, the tangent at `u = 0` (condensed where enhanced).
+    small_strain: Matrix8,
 }
 
 /// Why a quadrilateral cannot be built.
@@ -183,13 +185,22 @@ impl Quad {
                 Some(Enhancement::new(&centre, at, &elasticity).map_err(|_| QuadDefect::Inverted)?)
             }
         };
-        Ok(Self {
+        let mut quad = Self {
             material,
             area: points.iter().map(|p| p.volume).sum::<f64>() / material.thickness,
             points,
             elasticity,
             enhancement,
-        })
+            small_strain: Matrix8::zeros(),
+        };
+        quad.small_strain = quad.internal_force_and_tangent(&Vector8::zeros()).1;
+        Ok(quad)
+    }
+
+    /// The small-strain (linear) stiffness `K₀ = K(0)` (N/m): the linear cell's energy is
+    /// `½ uᵀ K₀ u`, an enhanced cell's condensed exactly at `u = 0`.
+    pub fn small_strain_stiffness(&self) -> &Matrix8 {
+        &self.small_strain
     }
 
     /// `∂N_a/∂(ξ, η)` of the four shape functions.
