@@ -1,7 +1,8 @@
 """Void cells of linear energy (issue 53): the continuum arm's designs with every cell
 nonlinear (``void = "nonlinear"``) and with each cell's energy blended between its nonlinear
 and its linear form by its density (``void = "linear_energy"``, the default; Wang, Lazarov
-& Sigmund 2014, γ(x) a smoothed step at η₁ = 0.05 of sharpness β₁ = 500).
+& Sigmund 2014, γ(x) a smoothed step at η₁ = 0.05 of sharpness β₁ = 500, on each cell's co-rotated
+displacement).
 
 The robot arm of the paper with 60 × 20 cells per link (:func:`flextop.scenes.continuum_robot_arm`),
 over its 1.3 s motion in 100 steps, on BENCHMARKS' designs (uniform 0.5, random in
@@ -9,9 +10,9 @@ over its 1.3 s motion in 100 steps, on BENCHMARKS' designs (uniform 0.5, random 
 draws them): whether the run ends, a run with the adjoint gradients of the tip deflection
 and the strain energy (s), the tip deflection d (Eq. 40), and the void cells' share of the
 cells' strain energy over the motion (their largest share at a step; void: x < 0.12, where
-γ < 1). The void cells turn with their link by up to the shoulder's and elbow's rotation
-θ; the linear energy, not objective, loads a rigidly turned void cell by the contraction
-(1 − cos θ) times s(x_min) = 1e-6 of the solid's stiffness (the `void.rs` tests).
+γ < 1). The void cells turn with their link; in the paper's fixed frame the linear energy,
+not objective, loads a rigidly turned void cell by the contraction (1 − cos θ) times
+s(x_min) = 1e-6 of the solid's stiffness (the `void.rs` tests); co-rotated, not at all.
 
     python benches/void.py   # → benches/results/void.md (about 2 minutes)
 """

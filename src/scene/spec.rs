@@ -334,7 +334,7 @@ pub struct MemberSpec {
     pub cell: CellSpec,
     /// Its void cells' energy: `linear_energy` (default; each cell's energy blended
     /// between its nonlinear and its linear form by its density, Wang, Lazarov & Sigmund
-    /// 2014) or `nonlinear` (every cell fully nonlinear).
+    /// 2014, on its co-rotated displacement) or `nonlinear` (every cell fully nonlinear).
     #[serde(default)]
     pub void: VoidSpec,
     /// The density `η₁` about which the blend steps from linear to nonlinear (0.05 if not

@@ -223,9 +223,10 @@ class Scene:
         cell, the 88-line code's element (too stiff in bending on coarse meshes).
         ``void = "linear_energy"`` (default) blends each cell's energy between its nonlinear
         and its linear (small-strain) form by its density (Wang, Lazarov & Sigmund 2014:
-        ``γ(x)`` a smoothed step at ``void_threshold``, 0.05 if not given, sharpness 500), so
-        that void cells cannot turn inside out and stop a run; cells above about 0.12 are
-        fully nonlinear. ``void = "nonlinear"`` keeps every cell nonlinear."""
+        ``γ(x)`` a smoothed step at ``void_threshold``, 0.05 if not given, sharpness 500), on
+        the cell's co-rotated displacement so that a turning link's void cells store no
+        energy, so that void cells cannot turn inside out and stop a run; cells above about
+        0.12 are fully nonlinear. ``void = "nonlinear"`` keeps every cell nonlinear."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
         path = f"members[{len(self._spec.get('members', []))}] ({name})"

@@ -126,6 +126,8 @@ pub struct Quad {
     enhancement: Option<Enhancement>,
     /// The small-strain stiffness `K₀`, the tangent at `u = 0` (condensed where enhanced).
     small_strain: Matrix8,
+    /// Reference corners `X_a` (m), relative to their centroid.
+    centred: [Vector2<f64>; 4],
 }
 
 /// Why a quadrilateral cannot be built.
@@ -192,6 +194,7 @@ impl Quad {
             elasticity,
             enhancement,
             small_strain: Matrix8::zeros(),
+            centred: x.map(|p| p - x.iter().sum::<Vector2<f64>>() / 4.0),
         };
         quad.small_strain = quad.internal_force_and_tangent(&Vector8::zeros()).1;
         Ok(quad)
@@ -201,6 +204,11 @@ impl Quad {
     /// `½ uᵀ K₀ u`, an enhanced cell's condensed exactly at `u = 0`.
     pub fn small_strain_stiffness(&self) -> &Matrix8 {
         &self.small_strain
+    }
+
+    /// The reference corners relative to their centroid, `X_a − X̄` (m).
+    pub fn centred_corners(&self) -> &[Vector2<f64>; 4] {
+        &self.centred
     }
 
     /// `∂N_a/∂(ξ, η)` of the four shape functions.
