@@ -13,6 +13,7 @@ use crate::mechanism::averaging::Averaging;
 use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::constraint::{ConstraintRow, Joint};
 use crate::mechanism::element::quad::{Quad, Vector8};
+use crate::mechanism::element::void::EnergyInterpolation;
 use crate::mechanism::element::{Formulation, Kind, Vector6};
 use crate::mechanism::interpolation::{Interpolation, MassLaw};
 use crate::mechanism::load::NodalLoad;
@@ -72,6 +73,9 @@ pub struct Cell {
     pub member: usize,
     /// Design variable, `None` for a cell of fixed full density.
     pub variable: Option<usize>,
+    /// Its energy blended between the nonlinear and the linear form by its density
+    /// ([`crate::mechanism::element::void`]), or `None`: nonlinear at every density.
+    pub void: Option<EnergyInterpolation>,
 }
 
 impl Cell {
@@ -88,13 +92,20 @@ impl Cell {
     /// What the cell carries at displacements `q` with stiffness factor `s(x)`: the von
     /// Mises stress (Pa), the volume mean over its Gauss points of `s(x)` times the solid's
     /// at the cell's strain, and its strain energy `s(x) U` (J).
-    pub fn stress_and_energy(&self, stiffness: f64, q: &[f64]) -> [f64; 2] {
+    pub fn stress_and_energy(&self, stiffness: f64, blend: f64, q: &[f64]) -> [f64; 2] {
         let u = self.gather(q);
         let stress: f64 = self.kernel.von_mises(&u).iter().map(|(s, w)| s * w).sum();
         [
             stiffness * stress,
-            stiffness * self.kernel.strain_energy(&u),
+            stiffness * self.kernel.blended(blend).strain_energy(&u),
         ]
+    }
+
+    /// The blend `γ(x)` of its energy and its rate `γ'(x)` at density `x` (`(1, 0)` for a
+    /// cell whose energy is not interpolated).
+    pub fn blend(&self, x: f64) -> (f64, f64) {
+        self.void
+            .map_or((1.0, 0.0), |law| (law.blend(x), law.blend_rate(x)))
     }
 }
 
@@ -267,6 +278,11 @@ pub struct Densities {
     pub stiffness: Vec<f64>,
     /// `ds/dx` at `x_e`.
     pub stiffness_rate: Vec<f64>,
+    /// The blend `γ(x_e)` of a cell's nonlinear and linear energies (1 for a bar's element
+    /// and a cell not interpolated: [`Cell::blend`]).
+    pub blend: Vec<f64>,
+    /// `dγ/dx` at `x_e`.
+    pub blend_rate: Vec<f64>,
 }
 
 /// Shortest length of a spring between points, as a fraction of its length in the scene,
@@ -288,7 +304,9 @@ impl Model {
     /// one that ends with a spring between points shorter than [`COLLAPSED_SPRING`] of its
     /// length in the scene, or turned about through zero length; and one that turns a
     /// continuum cell inside out (`det F ≤ 0` at a Gauss point), as finite-element codes
-    /// refuse a negative Jacobian: no material passes through zero volume.
+    /// refuse a negative Jacobian: no material passes through zero volume. A cell whose
+    /// energy is blended by `γ` (`densities.blend`) is checked where its nonlinear part
+    /// acts, `det(I + γH)`: a void cell's linear energy has no inside out.
     ///
     /// # Errors
     /// [`SolveError::Diverged`] naming the node and `at`, where the step ends;
@@ -296,6 +314,7 @@ impl Model {
     /// naming the first cell turned inside out.
     pub fn plausible_step(
         &self,
+        densities: &Densities,
         before: &[f64],
         after: &[f64],
         at: impl Fn() -> String,
@@ -331,8 +350,9 @@ impl Model {
                 });
             }
         }
-        let inverted = self.cells.iter().find_map(|cell| {
-            let ratio = cell.kernel.smallest_area_ratio(&cell.gather(after));
+        let blends = &densities.blend[self.elements.len()..];
+        let inverted = self.cells.iter().zip(blends).find_map(|(cell, &blend)| {
+            let ratio = (cell.kernel.blended(blend)).smallest_area_ratio(&cell.gather(after));
             (ratio.is_nan() || ratio <= 0.0).then_some((cell, ratio))
         });
         if let Some((cell, ratio)) = inverted {
@@ -504,7 +524,16 @@ impl Model {
         let xe: Vec<f64> = (0..self.elements.len() + self.cells.len())
             .map(value)
             .collect();
+        let n_e = self.elements.len();
+        let blends: Vec<(f64, f64)> = (xe.iter().enumerate())
+            .map(|(e, &v)| {
+                e.checked_sub(n_e)
+                    .map_or((1.0, 0.0), |k| self.cells[k].blend(v))
+            })
+            .collect();
         Ok(Densities {
+            blend: blends.iter().map(|b| b.0).collect(),
+            blend_rate: blends.iter().map(|b| b.1).collect(),
             stiffness: xe.iter().map(|&v| law.stiffness(v)).collect(),
             stiffness_rate: xe.iter().map(|&v| law.stiffness_derivative(v)).collect(),
             mass: xe.iter().map(|&v| mass.mass(v)).collect(),

@@ -363,12 +363,17 @@ impl<'m> Pencil<'m> {
             let Some(v) = cell.variable else {
                 continue;
             };
-            let (_, k) = cell.kernel.internal_force_and_tangent(&cell.gather(q));
+            let (e, u) = (n_e + c, cell.gather(q));
+            let kernel = cell.kernel.blended(d.blend[e]);
+            // d(s K)/dx = s' K + s γ' ∂K/∂γ.
+            let mut k = kernel.internal_force_and_tangent(&u).1 * d.stiffness_rate[e];
+            if d.blend_rate[e] != 0.0 {
+                k += kernel.tangent_rate(&u) * (d.stiffness[e] * d.blend_rate[e]);
+            }
             let m = cell.kernel.mass_matrix(kind);
             for (j, (lambda, phi)) in lambdas.iter().zip(shapes).enumerate() {
                 let p = cell.gather(phi);
-                let dlambda = d.stiffness_rate[n_e + c] * p.dot(&(k * p))
-                    - lambda * d.mass_rate[n_e + c] * p.dot(&(m * p));
+                let dlambda = p.dot(&(k * p)) - lambda * d.mass_rate[n_e + c] * p.dot(&(m * p));
                 let f = lambda.max(0.0).sqrt() / TAU;
                 out[j * n_var + v] += dlambda / (2.0 * TAU * TAU * f).max(1e-300);
             }

@@ -10,7 +10,7 @@ use super::convert::design;
 use super::model::PyModel;
 use super::signals::detached;
 use crate::error::{Error, SettingsError};
-use crate::mechanism::model::Model;
+use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::rigid::rigid_positions as rigid;
 
 /// Positions of every node at `times` when every frame is rigid and the joints follow
@@ -46,8 +46,8 @@ pub fn section_forces<'py>(
         x,
         &q,
         [m.elements.len(), 3],
-        |stiffness, row, out| {
-            for (el, &s) in m.elements.iter().zip(stiffness) {
+        |densities, row, out| {
+            for (el, &s) in m.elements.iter().zip(&densities.stiffness) {
                 out.extend(el.section_forces(s, row));
             }
         },
@@ -67,10 +67,11 @@ pub fn cell_fields<'py>(
     q: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let m = &model.model;
-    per_state(py, m, x, &q, [m.cells.len(), 2], |stiffness, row, out| {
-        let cells = &stiffness[m.elements.len()..];
-        for (cell, &s) in m.cells.iter().zip(cells) {
-            out.extend(cell.stress_and_energy(s, row));
+    per_state(py, m, x, &q, [m.cells.len(), 2], |densities, row, out| {
+        let n_e = m.elements.len();
+        for (k, cell) in m.cells.iter().enumerate() {
+            let (s, blend) = (densities.stiffness[n_e + k], densities.blend[n_e + k]);
+            out.extend(cell.stress_and_energy(s, blend, row));
         }
     })
 }
@@ -83,7 +84,7 @@ fn per_state<'py>(
     x: Option<PyReadonlyArray1<'py, f64>>,
     q: &PyReadonlyArray2<'py, f64>,
     shape: [usize; 2],
-    fill: impl Fn(&[f64], &[f64], &mut Vec<f64>),
+    fill: impl Fn(&Densities, &[f64], &mut Vec<f64>),
 ) -> PyResult<Bound<'py, PyAny>> {
     let densities = m.densities(design(x)?.as_deref()).map_err(Error::from)?;
     let (states, n) = (q.shape()[0], m.n_dofs());
@@ -96,7 +97,7 @@ fn per_state<'py>(
     }
     let mut flat = Vec::with_capacity(states * shape[0] * shape[1]);
     for row in q.as_slice()?.chunks(n.max(1)) {
-        fill(&densities.stiffness, row, &mut flat);
+        fill(&densities, row, &mut flat);
     }
     Ok(numpy::PyArray1::from_vec(py, flat)
         .reshape([states, shape[0], shape[1]])?

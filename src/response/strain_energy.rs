@@ -50,7 +50,8 @@ impl Family for StrainEnergy {
         let cells: f64 = cells_of(m, self.component)
             .map(|k| {
                 let cell = &m.cells[k];
-                ctx.densities.stiffness[n_e + k] * cell.kernel.strain_energy(&cell.gather(at.q))
+                let kernel = cell.kernel.blended(ctx.densities.blend[n_e + k]);
+                ctx.densities.stiffness[n_e + k] * kernel.strain_energy(&cell.gather(at.q))
             })
             .sum();
         beams + cells
@@ -77,15 +78,24 @@ impl Family for StrainEnergy {
         for k in cells_of(m, self.component) {
             let cell = &m.cells[k];
             let u = cell.gather(at.q);
-            let f = cell.kernel.internal_force(&u);
+            let kernel = cell.kernel.blended(ctx.densities.blend[n_e + k]);
+            let f = kernel.internal_force(&u);
             let s = ctx.densities.stiffness[n_e + k];
             cell.dofs()
                 .iter()
                 .zip(f.iter())
                 .for_each(|(&d, fi)| g.q[d] += scale * s * fi);
             if let Some(v) = cell.variable {
-                let rate = ctx.densities.stiffness_rate[n_e + k];
-                g.x[v] += scale * rate * cell.kernel.strain_energy(&u);
+                // s' Ψ + s γ' ∂Ψ/∂γ.
+                let (rate, blend_rate) = (
+                    ctx.densities.stiffness_rate[n_e + k],
+                    ctx.densities.blend_rate[n_e + k],
+                );
+                let mut dx = rate * kernel.strain_energy(&u);
+                if blend_rate != 0.0 {
+                    dx += s * blend_rate * kernel.energy_rate(&u);
+                }
+                g.x[v] += scale * dx;
             }
         }
     }

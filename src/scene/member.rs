@@ -13,11 +13,12 @@ use std::collections::HashSet;
 
 use super::ground_structure::{local_coordinates, Placement};
 use super::mesh::Mesh;
-use super::spec::MemberSpec;
+use super::spec::{MemberSpec, VoidSpec};
 use super::validate::{finite, non_negative, positive, Result};
 use crate::error::SceneError;
 use crate::limits::MAX_ELEMENTS;
 use crate::mechanism::element::quad::{PlaneMaterial, Quad};
+use crate::mechanism::element::void::EnergyInterpolation;
 use crate::mechanism::model::{Cell, Member};
 
 /// Adds the scene's continuum members to `mesh`; `attached`: the names of the nodes that
@@ -84,6 +85,7 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
     let component = mesh.component(&m.name);
     let member = mesh.members.len();
     let first = mesh.cells.len();
+    let void = energy_interpolation(m, path)?;
     for j in 0..m.ny {
         for i in (0..m.nx).filter(|&i| kept[j * m.nx + i]) {
             let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
@@ -104,6 +106,7 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
                 nodes,
                 member,
                 variable,
+                void,
             });
         }
     }
@@ -151,4 +154,31 @@ fn material(path: &str, m: &MemberSpec) -> Result<PlaneMaterial> {
         alpha: non_negative(&format!("{path}.rayleigh[0]"), alpha)?,
         beta: non_negative(&format!("{path}.rayleigh[1]"), beta)?,
     })
+}
+
+/// The energy interpolation of member `m`'s cells at `path`, `None` where its void cells
+/// stay nonlinear.
+///
+/// # Errors
+/// [`SceneError`] if `void_threshold` is outside (0, 1) or given with `void = "nonlinear"`.
+fn energy_interpolation(m: &MemberSpec, path: &str) -> Result<Option<EnergyInterpolation>> {
+    let threshold = m.void_threshold;
+    match m.void {
+        VoidSpec::Nonlinear if threshold.is_some() => Err(SceneError::new(
+            format!("{path}.void_threshold"),
+            "is the blend's threshold of void = \"linear_energy\"; the member's void = \"nonlinear\" has none",
+        )),
+        VoidSpec::Nonlinear => Ok(None),
+        VoidSpec::LinearEnergy => {
+            let default = EnergyInterpolation::DEFAULT;
+            let threshold = threshold.unwrap_or(default.threshold);
+            if !(threshold > 0.0 && threshold < 1.0) {
+                return Err(SceneError::new(
+                    format!("{path}.void_threshold"),
+                    format!("must lie in (0, 1), got {threshold}"),
+                ));
+            }
+            Ok(Some(EnergyInterpolation { threshold, ..default }))
+        }
+    }
 }

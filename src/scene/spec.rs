@@ -332,6 +332,15 @@ pub struct MemberSpec {
     /// Its cells' strain: `enhanced` (default) or `plain`.
     #[serde(default)]
     pub cell: CellSpec,
+    /// Its void cells' energy: `linear_energy` (default; each cell's energy blended
+    /// between its nonlinear and its linear form by its density, Wang, Lazarov & Sigmund
+    /// 2014, on its co-rotated displacement) or `nonlinear` (every cell fully nonlinear).
+    #[serde(default)]
+    pub void: VoidSpec,
+    /// The density `η₁` about which the blend steps from linear to nonlinear (0.05 if not
+    /// given), in (0, 1); with `void = "linear_energy"` only.
+    #[serde(default)]
+    pub void_threshold: Option<f64>,
     /// Position of the local origin.
     #[serde(default)]
     pub origin: PointSpec,
@@ -356,6 +365,17 @@ pub struct MemberSpec {
     /// (default), so that an optimizer cannot detach the joint.
     #[serde(default = "yes")]
     pub solid_at_joints: bool,
+}
+
+/// How a member's void cells store energy.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum VoidSpec {
+    /// Blended towards the linear energy as the density falls: they cannot turn inside out.
+    #[default]
+    LinearEnergy,
+    /// Fully nonlinear at every density.
+    Nonlinear,
 }
 
 /// Which strain a member's cells interpolate.

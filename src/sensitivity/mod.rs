@@ -201,27 +201,41 @@ impl PseudoLoads {
         std::array::from_fn(|i| rate * (a[i] + alpha * b[i]))
     }
 
-    /// `m'(x_c) M_c (q̈_c − ĝ_c + α q̇_c) + s'(x_c) (f_c(q_c) + f_d,c(q_c, q̇_c))` of cell
-    /// `k`, with its member's Rayleigh damping (`q̈ = q̇ = 0` for statics).
+    /// `m'(x_c) M_c (q̈_c − ĝ_c + α q̇_c) + s'(x_c) (f_c + f_d,c) + s(x_c) γ'(x_c) ∂(f_c +
+    /// f_d,c)/∂γ` of cell `k` (its energy blended by `γ`:
+    /// [`crate::mechanism::element::void`]), with its member's Rayleigh damping (`q̈ = q̇ =
+    /// 0` for statics).
     fn cell(&self, asm: &Assembler, k: usize, at: &At) -> Vector8 {
         let cell = &asm.model.cells[k];
+        let e = asm.model.elements.len() + k;
+        let d = &asm.densities;
+        let (kernel, blend_rate) = (cell.kernel.blended(d.blend[e]), d.blend_rate[e]);
         let dofs = cell.dofs();
         let u = cell.gather(at.q);
         let (alpha, beta) = (cell.kernel.material.alpha, cell.kernel.material.beta);
         let mut inertia = Vector8::from_fn(|i, _| -asm.gravity[dofs[i]]);
-        let mut stiffness = cell.kernel.internal_force(&u);
+        let mut stiffness = kernel.internal_force(&u);
+        let mut blending = if blend_rate != 0.0 {
+            kernel.force_rate(&u)
+        } else {
+            Vector8::zeros()
+        };
         if let Some((v, acc)) = at.rates {
             inertia += Vector8::from_fn(|i, _| acc[dofs[i]]);
             if alpha > 0.0 {
                 inertia += cell.gather(v) * alpha;
             }
             if beta > 0.0 {
-                stiffness += cell.kernel.damping(&u, &cell.gather(v)).force;
+                let v = cell.gather(v);
+                stiffness += kernel.damping(&u, &v).force;
+                if blend_rate != 0.0 {
+                    blending += kernel.damping_rate(&u, &v);
+                }
             }
         }
-        let e = asm.model.elements.len() + k;
-        self.cell_masses[k] * inertia * asm.densities.mass_rate[e]
-            + stiffness * asm.densities.stiffness_rate[e]
+        self.cell_masses[k] * inertia * d.mass_rate[e]
+            + stiffness * d.stiffness_rate[e]
+            + blending * (d.stiffness[e] * blend_rate)
     }
 
     /// Subtracts column `j` of the pseudo-loads from column `j` of the column-major block

@@ -607,7 +607,7 @@ impl<'m> Assembler<'m> {
         let damped =
             (self.model.cells.iter().enumerate()).filter(|(_, c)| c.kernel.material.beta > 0.0);
         for (k, cell) in damped {
-            let d = (cell.kernel)
+            let d = (cell.kernel.blended(self.densities.blend[n_e + k]))
                 .damping(&cell.gather(q), &cell.gather(v))
                 .scaled(self.densities.stiffness[n_e + k]);
             let dofs = cell.dofs();
@@ -693,15 +693,16 @@ impl<'m> Assembler<'m> {
         for (k, cell) in self.model.cells.iter().enumerate() {
             let u = cell.gather(q);
             let s = self.densities.stiffness[n_e + k];
+            let kernel = cell.kernel.blended(self.densities.blend[n_e + k]);
             let fe = match tangent.as_deref_mut() {
                 Some(values) => {
-                    let (fe, ke) = cell.kernel.internal_force_and_tangent(&u);
+                    let (fe, ke) = kernel.internal_force_and_tangent(&u);
                     for (i, &slot) in self.pattern.cell_slots[k].iter().enumerate() {
                         values[slot] += s * ke[(i % 8, i / 8)];
                     }
                     fe
                 }
-                None => cell.kernel.internal_force(&u),
+                None => kernel.internal_force(&u),
             };
             cell.dofs()
                 .iter()
@@ -917,7 +918,10 @@ impl<'m> Assembler<'m> {
             .sum();
         let n_e = self.model.elements.len();
         let cells: f64 = (self.model.cells.iter().enumerate())
-            .map(|(k, c)| self.densities.stiffness[n_e + k] * c.kernel.strain_energy(&c.gather(q)))
+            .map(|(k, c)| {
+                let kernel = c.kernel.blended(self.densities.blend[n_e + k]);
+                self.densities.stiffness[n_e + k] * kernel.strain_energy(&c.gather(q))
+            })
             .sum();
         beams + cells + self.model.springs.iter().map(|s| s.energy(q)).sum::<f64>()
     }

@@ -322,8 +322,9 @@ impl<'m> Integrator<'m> {
             &mut s.lam,
             Some((&mut s.qdot, &mut s.qddot)),
         )?;
-        let model = self.newton.assembler().model;
-        model.plausible_step(&self.start, &s.q, || format!("t = {:.6} s", s.t))?;
+        let asm = self.newton.assembler();
+        let at = || format!("t = {:.6} s", s.t);
+        (asm.model).plausible_step(&asm.densities, &self.start, &s.q, at)?;
         // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
         let w = (1.0 - alpha_f) / (1.0 - alpha_m);
         s.a.iter_mut()

@@ -105,13 +105,11 @@ impl Equilibrium for Planar<'_, '_> {
             mass_coefficient: 0.0,
             gamma_prime: 0.0,
         };
-        let model = self.newton.assembler().model;
-        self.newton
-            .solve(point, q, lambda, None)
-            .and_then(|report| {
-                let at = || format!("load factor {load:.6}");
-                model.plausible_step(q_prev, q, at).map(|()| report)
-            })
+        let report = self.newton.solve(point, q, lambda, None)?;
+        let asm = self.newton.assembler();
+        let at = || format!("load factor {load:.6}");
+        (asm.model).plausible_step(&asm.densities, q_prev, q, at)?;
+        Ok(report)
     }
 }
 

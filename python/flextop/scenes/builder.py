@@ -202,7 +202,8 @@ class Scene:
                nu: float, rho: float, origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0,
                fixed: bool = False, holes: Sequence[Sequence[int]] = (), solid: Sequence[Sequence[int]] = (),
                solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None,
-               cell: str = "enhanced") -> Member:
+               cell: str = "enhanced", void: str = "linear_energy",
+               void_threshold: float | None = None) -> Member:
         """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
         at ``origin`` (coordinates or a node name) rotated by ``angle`` (rad), from ``x = 0``
         to ``length`` and centred on the local x axis, meshed by ``nx × ny`` four-node
@@ -219,7 +220,13 @@ class Scene:
         motion). ``cell = "enhanced"`` (default) enhances each cell's strain by four
         incompatible modes condensed in the cell (Simo & Rifai): no locking in bending, exact
         in pure bending on rectangular cells; ``cell = "plain"`` is the compatible four-node
-        cell, the 88-line code's element (too stiff in bending on coarse meshes)."""
+        cell, the 88-line code's element (too stiff in bending on coarse meshes).
+        ``void = "linear_energy"`` (default) blends each cell's energy between its nonlinear
+        and its linear (small-strain) form by its density (Wang, Lazarov & Sigmund 2014:
+        ``γ(x)`` a smoothed step at ``void_threshold``, 0.05 if not given, sharpness 500), on
+        the cell's co-rotated displacement so that a turning link's void cells store no
+        energy, so that void cells cannot turn inside out and stop a run; cells above about
+        0.12 are fully nonlinear. ``void = "nonlinear"`` keeps every cell nonlinear."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
         path = f"members[{len(self._spec.get('members', []))}] ({name})"
@@ -232,6 +239,10 @@ class Scene:
             entry["rayleigh"] = _listed(rayleigh)
         if cell != "enhanced":
             entry["cell"] = cell
+        if void != "linear_energy":
+            entry["void"] = void
+        if void_threshold is not None:
+            entry["void_threshold"] = void_threshold
         self._spec.setdefault("members", []).append(entry)
         return Member(name, nx, ny, tuple(map(tuple, entry.get("holes", []))))
 

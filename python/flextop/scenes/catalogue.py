@@ -148,7 +148,8 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         tip_mass: float = 5.0, theta_start: float = math.pi / 3, theta_end: float = math.pi / 2,
                         acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                         rho: float = ALUMINIUM["rho"], p: float = 3.0, x_min: float = 0.01, t_end: float = 1.3,
-                        h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid", cell: str = "enhanced") -> Scene:
+                        h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid", cell: str = "enhanced",
+                        void: str = "linear_energy") -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
     height`` member of ``nx × ny`` cells of kind ``cell`` (:meth:`Scene.member`) and
     ``thickness`` (m), a density per cell. The
@@ -156,8 +157,9 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     ``"averaging"``) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
     payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
-    hold are passive solid (a member's ``solid_at_joints``). ``ny`` must be even, for a row
-    of nodes on each link's axis."""
+    hold are passive solid (a member's ``solid_at_joints``). ``void`` is the members' void
+    cells' energy (:meth:`Scene.member`). ``ny`` must be even, for a row of nodes on each
+    link's axis."""
     if ny % 2:
         raise SceneError(f"continuum_robot_arm: ny must be even, so that a row of nodes lies on each link's axis (got {ny})")
     scene = Scene("continuum_robot_arm")
@@ -165,7 +167,7 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     origin = (0.0, 0.0)
     for k, angle in enumerate((theta_start, 2 * theta_start)):
         links.append(scene.member(f"link{k + 1}", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E,
-                                  nu=nu, rho=rho, origin=origin, angle=angle, cell=cell))
+                                  nu=nu, rho=rho, origin=origin, angle=angle, cell=cell, void=void))
         origin = (origin[0] + length * math.cos(angle), origin[1] + length * math.sin(angle))
     link1, link2 = links
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)

@@ -22,6 +22,7 @@ pub mod beam;
 pub mod enhanced;
 pub mod quad;
 pub mod truss;
+pub mod void;
 
 use std::ops::Deref;
 
