@@ -130,6 +130,21 @@ pub enum SolveError {
         /// Its length (m).
         length: f64,
     },
+    /// A torsion spring's joint turned half a turn from where it was built, where its angle,
+    /// read within one turn, jumps.
+    #[error(
+        "at {at} torsion spring '{spring}' has turned its joint by {angle:.4} rad from where \
+         it was built: its angle is read within half a turn either way; keep the joint's \
+         rotation under π (a stiffer spring, a stop, a drive)"
+    )]
+    SpringWound {
+        /// Where the step ends: `t = … s` or `load factor …`.
+        at: String,
+        /// The spring's name.
+        spring: String,
+        /// Its angle (rad).
+        angle: f64,
+    },
     /// A converged step turned a continuum cell inside out: its deformed area passed
     /// through zero at a Gauss point.
     #[error(

@@ -124,6 +124,25 @@ REFINE = ("shares", "bars", "uniform")
 """How a run to a tolerance may refine a scene's bars (``Simulation(..., refine=...)``)."""
 
 
+def design_vector(x: Any, n_design: int) -> np.ndarray | None:
+    """``x`` as a vector of ``n_design`` floats: a number means every variable; strings,
+    complex numbers, arrays of more than one dimension and vectors of another length are
+    refused with a DesignError (values outside ``[x_min, 1]`` by the engine)."""
+    if x is None:
+        return None
+    xv = np.asarray(x)
+    if xv.dtype.kind not in "biuf":
+        raise DesignError(f"the design must be real numbers, got {type(x).__name__} of {xv.dtype}")
+    if xv.ndim > 1:
+        raise DesignError(f"the design must be one number or a vector of {n_design}, got an array of shape {xv.shape}")
+    xv = xv.astype(float)
+    if xv.ndim == 0:
+        return np.full(n_design, float(xv))
+    if xv.shape != (n_design,):
+        raise DesignError(f"the design has {xv.size} entries; the scene has {n_design} design variables")
+    return np.ascontiguousarray(xv)
+
+
 class Simulation:
     """A validated scene, ready to run for any design.
 
@@ -573,22 +592,7 @@ class Simulation:
         return xv
 
     def _design(self, x: Any) -> np.ndarray | None:
-        """``x`` as a vector of floats: a number means every variable; strings, complex
-        numbers, arrays of more than one dimension and vectors of another length are refused
-        with a DesignError (values outside ``[x_min, 1]`` by the engine)."""
-        if x is None:
-            return None
-        xv = np.asarray(x)
-        if xv.dtype.kind not in "biuf":
-            raise DesignError(f"the design must be real numbers, got {type(x).__name__} of {xv.dtype}")
-        if xv.ndim > 1:
-            raise DesignError(f"the design must be one number or a vector of {self.n_design}, got an array of shape {xv.shape}")
-        xv = xv.astype(float)
-        if xv.ndim == 0:
-            return np.full(self.n_design, float(xv))
-        if xv.shape != (self.n_design,):
-            raise DesignError(f"the design has {xv.size} entries; the scene has {self.n_design} design variables")
-        return np.ascontiguousarray(xv)
+        return design_vector(x, self.n_design)
 
     def linearize(self, x: Any = None, q: Any = None, *, mass: str | None = None) -> tuple[sp.csc_matrix, sp.csc_matrix, sp.csc_matrix]:
         """Mass ``M``, tangent stiffness ``K_t(q)`` (at the reference state by default) and

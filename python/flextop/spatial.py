@@ -1,7 +1,10 @@
 """Running a spatial scene: :class:`SpatialSimulation`, built once, runs its motion
 (generalized-α on the Lie group ℝ³ × SO(3) of each node), its static equilibrium, its
 natural modes about an equilibrium, and the exact gradients of its responses to its
-parameters, direct or adjoint, over the motion or at the equilibrium.
+densities and parameters, direct or adjoint, over the motion or at the equilibrium. Every run
+takes a design ``x`` first: the density of each beam (or design group) not ``fixed``, in
+``[x_min, 1]`` (one number for all; full density by default), its stiffness scaled by the
+scene's ``[design]`` interpolation and its mass by its mass law.
 
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
@@ -13,9 +16,9 @@ Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -23,6 +26,7 @@ from . import _core, plausibility
 from .errors import SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
+from .simulation import DesignLike, design_vector
 
 NQ, NV = 7, 6
 """Numbers per node: in a configuration (position, unit quaternion w, x, y, z), in a
@@ -146,13 +150,18 @@ class SpatialModes:
 
 @dataclass(frozen=True)
 class SpatialSensitivities:
-    """Responses' ``values`` and their exact ``gradient`` to the parameters (one row per
-    response), by name."""
+    """Responses' ``values``, their exact ``gradient`` to the parameters and ``dfdx`` to the
+    design's densities (one row per response), by name; unpacks as ``values, dfdx``."""
 
     responses: tuple[str, ...]
     parameters: tuple[str, ...]
     values: np.ndarray
     gradient: np.ndarray
+    variables: tuple[str, ...] = ()
+    dfdx: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        return iter((self.values, self.dfdx))
 
     def __getitem__(self, response: str) -> float:
         return float(self.values[self._row(response)])
@@ -222,46 +231,73 @@ class SpatialSimulation:
         """The body or node whose final position is the default response."""
         return self.model.tip
 
-    def run(self, **settings: Any) -> SpatialResults | SpatialEquilibrium:
-        """The scene's analysis: :meth:`simulate` or :meth:`equilibrium`."""
-        return self.simulate(**settings) if self.analysis == "dynamic" else self.equilibrium(**settings)
+    def _design(self, x: DesignLike) -> list[float] | None:
+        xv = design_vector(x, self.n_design)
+        return None if xv is None else xv.tolist()
 
-    def simulate(self, *, progress: Callable[[float], None] | None = None, **settings: Any) -> SpatialResults:
-        """The motion over ``t_end`` in steps ``h`` (the scene's ``[simulation]`` defaults
-        overridden by ``settings``: ``t_end``, ``h``, ``rho_inf``, ``tol``, ``max_iter``);
-        ``progress`` is called with the time reached (s)."""
-        r = self.model.simulate(settings, progress)
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """The design variables' names: each beam's (or design group's) density, in the
+        order of ``x``."""
+        return tuple(self.model.variables)
+
+    @property
+    def n_design(self) -> int:
+        """The number of design variables."""
+        return len(self.model.variables)
+
+    @property
+    def x_min(self) -> float:
+        """The lower bound on the densities."""
+        return float(self.model.x_min)
+
+    def run(self, x: DesignLike = None, **settings: Any) -> SpatialResults | SpatialEquilibrium:
+        """The scene's analysis at design ``x``: :meth:`simulate` or :meth:`equilibrium`."""
+        return self.simulate(x, **settings) if self.analysis == "dynamic" else self.equilibrium(x, **settings)
+
+    def simulate(self, x: DesignLike = None, *, progress: Callable[[float], None] | None = None,
+                 **settings: Any) -> SpatialResults:
+        """The motion at design ``x`` (densities of :attr:`variables`, each in
+        ``[x_min, 1]``; full density by default) over ``t_end`` in steps ``h`` (the scene's
+        ``[simulation]`` defaults overridden by ``settings``: ``t_end``, ``h``, ``rho_inf``,
+        ``tol``, ``max_iter``); ``progress`` is called with the time reached (s)."""
+        r = self.model.simulate(settings, progress, self._design(x))
         return SpatialResults(np.asarray(r["time"]), np.asarray(r["q"]), np.asarray(r["v"]), np.asarray(r["lam"]),
                               np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.layout)
 
-    def equilibrium(self, **settings: Any) -> SpatialEquilibrium:
-        """The static equilibrium under the loads at ``t_end`` (0 by default), by Newton on the
-        group with ``load_steps``."""
-        r = self.model.solve_static(settings)
+    def equilibrium(self, x: DesignLike = None, **settings: Any) -> SpatialEquilibrium:
+        """The static equilibrium at design ``x`` under the loads at ``t_end`` (0 by default),
+        by Newton on the group with ``load_steps``."""
+        r = self.model.solve_static(settings, self._design(x))
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
                                   int(r["load_steps"]), self.layout)
 
-    def modes(self, at: SpatialEquilibrium | None = None, **settings: Any) -> SpatialModes:
-        """Every natural mode about the equilibrium ``at`` (the static equilibrium of the
-        scene's loads at ``t_end`` by default)."""
-        eq = self.equilibrium(**settings) if at is None else at
-        r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)))
+    def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, **settings: Any) -> SpatialModes:
+        """Every natural mode at design ``x`` about the equilibrium ``at`` (the static
+        equilibrium of the scene's loads at ``t_end`` by default)."""
+        eq = self.equilibrium(x, **settings) if at is None else at
+        r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)), self._design(x))
         return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]))
 
-    def run_with_sensitivities(self, responses: Sequence[str] | str | None = None, parameters: Sequence[str] | str = (), *,
-                               equilibrium: bool | None = None, **settings: Any) -> SpatialSensitivities:
-        """The ``responses`` (the tip's x, y, z by default) and their exact gradients to the
-        ``parameters`` (module docs), over the motion or, with ``equilibrium`` (the default
-        of a static scene), at the static equilibrium; ``method`` ``"direct"``,
-        ``"adjoint"`` or ``"auto"`` among the settings."""
+    def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
+                               parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
+                               **settings: Any) -> SpatialSensitivities:
+        """The ``responses`` at design ``x`` (full density by default; the tip's x, y, z by
+        default) and their exact gradients to the densities (``dfdx``, one column per design
+        variable) and to the ``parameters`` (module docs), over the motion or, with
+        ``equilibrium`` (the default of a static scene), at the static equilibrium;
+        ``method`` ``"direct"``, ``"adjoint"`` or ``"auto"`` among the settings. The result
+        unpacks as ``f, dfdx``."""
         if responses is None:
             if self.tip is None:
                 raise SettingsError("no responses given, and the scene names no tip")
             responses = [f"{axis}:{self.tip}" for axis in "xyz"]
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
-        r = self.model.sensitivities(list(rs), list(ps), settings, static)
-        return SpatialSensitivities(rs, ps, np.asarray(r["values"]), np.asarray(r["gradient"]).reshape(len(rs), len(ps)))
+        r = self.model.sensitivities(list(rs), list(ps), settings, static, self._design(x))
+        gradient = np.asarray(r["gradient"]).reshape(len(rs), len(ps) + self.n_design)
+        return SpatialSensitivities(rs, ps, np.asarray(r["values"]), gradient[:, :len(ps)], self.variables,
+                                    gradient[:, len(ps):])
 
 
 _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}
@@ -270,8 +306,10 @@ _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld
 
 def from_planar(scene: Any) -> SpatialScene:
     """The spatial scene of a planar one (a :class:`~flextop.Scene`, its dict or TOML file,
-    or a :class:`~flextop.Simulation`) at full density: its nodes in the plane z = 0, each
-    bar a beam of as many elements, rigid bodies with the planar moment of inertia about
+    or a :class:`~flextop.Simulation`): its nodes in the plane z = 0, each bar a beam of as
+    many elements in the design group of the bar's variable (fixed where the bar is), so that
+    the spatial scene's design variables are the planar one's, in order, with its design laws;
+    rigid bodies with the planar moment of inertia about
     every axis, clamps, pins, hinges and welds (axes z) with their drives, point masses,
     loads, gravity, the tip and the run settings. The motion stays in the plane; the beams'
     out-of-plane bending and torsion are held by the joints.
@@ -286,8 +324,6 @@ def from_planar(scene: Any) -> SpatialScene:
     for key in ("springs", "motors", "rings", "members", "initial_rates"):
         if spec.get(key):
             raise SceneError(f"{key}: a planar scene's {key} have no spatial counterpart in from_planar yet")
-    if spec.get("design", {}).get("e_min"):
-        raise SceneError("design.e_min: from_planar builds full density")
     out = SpatialScene(spec.get("name", ""), analysis=spec.get("analysis", "dynamic"),
                        gravity=None if spec.get("gravity") is None else (*spec["gravity"], 0.0))
     for name, s in spec.get("sections", {}).items():
@@ -301,10 +337,14 @@ def from_planar(scene: Any) -> SpatialScene:
     grid = sorted({int(n) for ends in bars["nodes"] for n in ends})
     for k in grid:
         out.node(names[k], (*positions[k], 0.0))
-    for name, ends, split, component, kind in zip(bars["name"], bars["nodes"], bars["elements"], bars["component"],
-                                                  bars["kind"]):
+    variables = sim.variable_names
+    for name, ends, split, component, kind, v in zip(bars["name"], bars["nodes"], bars["elements"], bars["component"],
+                                                     bars["kind"], bars["variable"]):
         a, b = (names[int(n)] for n in ends)
-        out.beam(name, a, b, section=_bar_section(spec, sim.components[component], name), split=split, kind=kind)
+        out.beam(name, a, b, section=_bar_section(spec, sim.components[component], name), split=split, kind=kind,
+                 group=variables[v] if v >= 0 else None, fixed=v < 0)
+    if "design" in spec:
+        out.design(**spec["design"])
     for k, p in enumerate(spec.get("point_masses", [])):
         if p.get("inertia", 0.0):
             raise SceneError(f"point_masses[{k}]: a point mass with rotary inertia has no spatial counterpart yet")

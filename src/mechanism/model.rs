@@ -200,6 +200,35 @@ pub struct Design {
     pub variables: Vec<String>,
 }
 
+impl Design {
+    /// Whether `x` is a design of these variables: one finite entry in `[x_min, 1]` each.
+    ///
+    /// # Errors
+    /// [`DesignError`] naming the length or the first entry that is not.
+    pub fn check(&self, x: &[f64]) -> Result<(), DesignError> {
+        let n = self.variables.len();
+        if x.len() != n {
+            return Err(DesignError::Length {
+                expected: n,
+                got: x.len(),
+            });
+        }
+        let lower = self.x_min;
+        match x
+            .iter()
+            .position(|&v| !(v.is_finite() && v >= lower && v <= 1.0))
+        {
+            Some(i) => Err(DesignError::OutOfBounds {
+                index: i,
+                name: self.variables[i].clone(),
+                value: x[i],
+                lower,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
 /// A built mechanism.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -494,27 +523,8 @@ impl Model {
     /// Checks `x` (length, finiteness, bounds) and returns the element scalings.
     /// `None` means every bar at full density.
     pub fn densities(&self, x: Option<&[f64]>) -> Result<Densities, DesignError> {
-        let n = self.n_variables();
         if let Some(x) = x {
-            if x.len() != n {
-                return Err(DesignError::Length {
-                    expected: n,
-                    got: x.len(),
-                });
-            }
-            let lower = self.design.x_min;
-            if let Some(i) = x
-                .iter()
-                .position(|&v| !(v.is_finite() && v >= lower && v <= 1.0))
-            {
-                let name = self.design.variables[i].clone();
-                return Err(DesignError::OutOfBounds {
-                    index: i,
-                    name,
-                    value: x[i],
-                    lower,
-                });
-            }
+            self.design.check(x)?;
         }
         let (law, mass) = (self.design.interpolation, self.design.mass);
         let value = |e: usize| match (self.variable_of(e), x) {

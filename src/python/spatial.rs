@@ -73,6 +73,18 @@ impl PySpatialModel {
         }
     }
 
+    /// The design variables' names: each beam's or design group's.
+    #[getter]
+    fn variables(&self) -> Vec<String> {
+        self.scene.design.variables.clone()
+    }
+
+    /// The lower bound on the densities.
+    #[getter]
+    fn x_min(&self) -> f64 {
+        self.scene.design.x_min
+    }
+
     #[getter]
     fn tip(&self) -> Option<String> {
         self.scene.tip.clone()
@@ -147,12 +159,13 @@ impl PySpatialModel {
     /// The motion: `time`, `q`, `v` (velocities `(u̇, Ω)`), `lam`, and the `kinetic`,
     /// `potential` (gravity, springs, dead loads and strains) and `strain` energies (J)
     /// at each time. `progress`, if given, is called with the time reached (s).
-    #[pyo3(signature = (settings=None, progress=None))]
+    #[pyo3(signature = (settings=None, progress=None, x=None))]
     fn simulate<'py>(
         &self,
         py: Python<'py>,
         settings: Option<&Bound<'py, PyAny>>,
         progress: Option<Py<PyAny>>,
+        x: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
         let settings = run_options(settings)?
@@ -160,7 +173,8 @@ impl PySpatialModel {
             .map_err(Error::from)?;
         let states = reporting(py, progress, move || {
             settings.validate()?;
-            simulate_spatial(&scene.model, &settings, &settings.grid())
+            let model = scene.model_at(x.as_deref())?;
+            simulate_spatial(&model, &settings, &settings.grid())
         })?;
         let m = &self.scene.model;
         let d = PyDict::new(py);
@@ -186,17 +200,21 @@ impl PySpatialModel {
 
     /// The static equilibrium at the loads of `t_end` (0 by default): `q`, `lam`, Newton
     /// `iterations` and `load_steps`, the `strain` energy (J).
-    #[pyo3(signature = (settings=None))]
+    #[pyo3(signature = (settings=None, x=None))]
     fn solve_static<'py>(
         &self,
         py: Python<'py>,
         settings: Option<&Bound<'py, PyAny>>,
+        x: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
         let settings = run_options(settings)?
             .statics(&scene.options)
             .map_err(Error::from)?;
-        let eq = detached(py, move || solve_static_spatial(&scene.model, &settings))?;
+        let eq = detached(py, move || {
+            let model = scene.model_at(x.as_deref())?;
+            solve_static_spatial(&model, &settings)
+        })?;
         let d = PyDict::new(py);
         d.set_item("strain", self.scene.model.strain_energy(&eq.q))?;
         d.set_item("q", vector(py, eq.q))?;
@@ -209,16 +227,20 @@ impl PySpatialModel {
     /// Every natural mode about configuration `q` with multipliers `lam` at time `t`:
     /// `omega_squared` (rad²/s², ascending) and mass-normalized `shapes` (one row each,
     /// six numbers per node).
-    #[pyo3(signature = (q, lam, t=0.0))]
+    #[pyo3(signature = (q, lam, t=0.0, x=None))]
     fn natural_modes<'py>(
         &self,
         py: Python<'py>,
         q: Vec<f64>,
         lam: Vec<f64>,
         t: f64,
+        x: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
-        let modes = detached(py, move || natural_modes_spatial(&scene.model, &q, &lam, t))?;
+        let modes = detached(py, move || {
+            let model = scene.model_at(x.as_deref())?;
+            natural_modes_spatial(&model, &q, &lam, t)
+        })?;
         let d = PyDict::new(py);
         let n_v = self.scene.model.n_v();
         d.set_item("shapes", Self::rows(py, modes.shapes, n_v)?)?;
@@ -227,9 +249,10 @@ impl PySpatialModel {
     }
 
     /// Responses by name and their exact gradients to parameters by name
-    /// ([`crate::scene::spatial::names`]), over the motion or, with `equilibrium`, at the
+    /// ([`crate::scene::spatial::names`]) and to the design's densities (after them), at
+    /// design `x` (full density by default), over the motion or, with `equilibrium`, at the
     /// static equilibrium: `values` and `gradient` (one row per response).
-    #[pyo3(signature = (responses, parameters, settings=None, equilibrium=false))]
+    #[pyo3(signature = (responses, parameters, settings=None, equilibrium=false, x=None))]
     fn sensitivities<'py>(
         &self,
         py: Python<'py>,
@@ -237,6 +260,7 @@ impl PySpatialModel {
         parameters: Vec<String>,
         settings: Option<&Bound<'py, PyAny>>,
         equilibrium: bool,
+        x: Option<Vec<f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
         let options = run_options(settings)?;
@@ -245,17 +269,20 @@ impl PySpatialModel {
             let rs = (responses.iter())
                 .map(|r| scene.response(r))
                 .collect::<Result<Vec<_>, _>>()?;
-            let named = (parameters.iter())
+            let mut named = (parameters.iter())
                 .map(|p| scene.parameter(p))
                 .collect::<Result<Vec<_>, _>>()?;
+            let model = scene.model_at(x.as_deref())?;
+            let full = vec![1.0; scene.n_variables()];
+            named.extend(scene.densities(x.as_deref().unwrap_or(&full)));
             let ps: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
             let g = if equilibrium {
                 let settings = options.statics(&scene.options)?;
-                static_sensitivities(&scene.model, &settings, &rs, &ps, method)?
+                static_sensitivities(&model, &settings, &rs, &ps, method)?
             } else {
                 let settings = options.dynamic(&scene.options)?;
                 settings.validate()?;
-                sensitivities(&scene.model, &settings, &settings.grid(), &rs, &ps, method)?
+                sensitivities(&model, &settings, &settings.grid(), &rs, &ps, method)?
             };
             let combined = g.gradient.iter().map(|row| {
                 let mut parts = row.iter();

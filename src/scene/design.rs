@@ -35,7 +35,19 @@ impl Variables {
         name: &str,
         b: &BeamSpec,
     ) -> Result<Option<usize>> {
-        match (&b.group, b.fixed) {
+        self.of(path, name, b.group.as_deref(), b.fixed)
+    }
+
+    /// The variable of a beam at `path` in design `group`, or `fixed` at full density, called
+    /// `name` when it has one of its own.
+    pub(super) fn of(
+        &mut self,
+        path: &str,
+        name: &str,
+        group: Option<&str>,
+        fixed: bool,
+    ) -> Result<Option<usize>> {
+        match (group, fixed) {
             (Some(_), true) => Err(SceneError::new(
                 path,
                 "a fixed beam cannot belong to a design group",

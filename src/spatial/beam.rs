@@ -120,6 +120,19 @@ impl Beam {
         Some(beam)
     }
 
+    /// Its section's stiffnesses scaled by `stiffness` (its Kelvin–Voigt damping with them)
+    /// and its mass and rotary inertia by `mass` (its weight and `α M` damping with them): a
+    /// density's `s(x)` and `m(x)` (paper Eq. 1).
+    pub(crate) fn scale(&mut self, stiffness: f64, mass: f64) {
+        let s = &mut self.section;
+        s.c_n
+            .iter_mut()
+            .chain(&mut s.c_m)
+            .for_each(|c| *c *= stiffness);
+        s.rho_a *= mass;
+        s.rho_i.iter_mut().for_each(|r| *r *= mass);
+    }
+
     fn kinematics(&self, q: &[f64]) -> Kinematics {
         let [a, b] = self.nodes().map(|n| Frame::read(q, n));
         self.kinematics_of(&a, &b)

@@ -265,6 +265,18 @@ impl Joint {
         self.drive.is_some()
     }
 
+    /// A revolute or cylindrical joint's angle axes: `e₁, e₂` normal to the axis in A's
+    /// frame and `b₁` the first in B's, so that `cos φ = e₁·b₁`, `sin φ = e₂·b₁` (A's and
+    /// B's axes in space) with `φ = 0` as built; `None` for a joint of another kind.
+    pub(crate) fn angle_axes(&self) -> Option<[Vector3<f64>; 3]> {
+        let (JointKind::Revolute { axis } | JointKind::Cylindrical { axis }) = self.kind else {
+            return None;
+        };
+        let (e1, e2) = normals(&axis.normalize());
+        let body = |s: usize, v: &Vector3<f64>| self.initial[s].transpose() * v;
+        Some([body(0, &e1), body(0, &e2), body(1, &e1)])
+    }
+
     /// Imposes `law` on the joint's free coordinate from the initial configuration `q`:
     /// the angle of a revolute joint, the travel of a prismatic one, `f(t) − f(0)` from
     /// where they start.

@@ -487,6 +487,68 @@ impl SpatialModel {
         Ok(self.forces.len() - 1)
     }
 
+    /// Adds a torsion spring-damper of stiffness `k` (N m/rad) and damping `c` (N m s/rad)
+    /// on revolute or cylindrical joint `joint`'s angle, at rest at `rest` (rad from where
+    /// the joint is built; 0 by default); returns its index.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `forces.NAME` for a duplicate name, an unknown joint, a joint of
+    /// another kind, a negative or non-finite `k` or `c`, or a rest angle not within half a
+    /// turn.
+    pub fn add_torsion(
+        &mut self,
+        name: &str,
+        joint: usize,
+        k: f64,
+        c: f64,
+        rest: Option<f64>,
+    ) -> Result<usize, SceneError> {
+        let path = self.new_force(name)?;
+        let j = self
+            .joints
+            .get(joint)
+            .ok_or_else(|| SceneError::new(format!("{path}.joint"), format!("no joint {joint}")))?;
+        let axes = j.angle_axes().ok_or_else(|| {
+            SceneError::new(
+                format!("{path}.joint"),
+                format!(
+                    "joint '{}' is {}: a torsion spring turns with a revolute or cylindrical joint",
+                    j.name,
+                    j.kind.name()
+                ),
+            )
+        })?;
+        for (what, value) in [("k", k), ("c", c)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SceneError::new(
+                    format!("{path}.{what}"),
+                    format!("{}: must be finite and not negative", short(value)),
+                ));
+            }
+        }
+        let rest = rest.unwrap_or(0.0);
+        if rest.is_nan() || rest.abs() >= std::f64::consts::PI {
+            return Err(SceneError::new(
+                format!("{path}.rest"),
+                format!(
+                    "{}: a rest angle lies within half a turn (rad)",
+                    short(rest)
+                ),
+            ));
+        }
+        self.forces.push(Force {
+            name: name.to_string(),
+            kind: ForceKind::Torsion {
+                stiffness: k,
+                damping: c,
+                rest,
+                axes,
+            },
+            pair: j.pair.clone(),
+        });
+        Ok(self.forces.len() - 1)
+    }
+
     /// Adds a motor on revolute joint `joint`: a torque `torque · g(t)` (N m) about its axis,
     /// on its body B (the opposite on A); returns its index.
     ///
@@ -811,7 +873,7 @@ impl SpatialModel {
                 ForceKind::Load {
                     moment, follower, ..
                 } => *follower || *moment != Vector3::zeros(),
-                ForceKind::Motor { .. } => true,
+                ForceKind::Motor { .. } | ForceKind::Torsion { .. } => true,
                 ForceKind::Spring { .. } => false,
             };
             if moment || turns(&f.pair) {

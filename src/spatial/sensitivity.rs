@@ -20,8 +20,8 @@
 //!
 //! The adjoint runs the transposes of the same operations backwards, with `Sᵀ` on the same
 //! `LU`. The start is differentiated too: `[M, sBᵀ; sB, 0][v̇₀'; ν₀'] = −[∂r/∂p; 0]`.
-//! A change of step size, which carries the pseudo-accelerations to the new step, is
-//! differentiated as it runs.
+//! A change of step size, which carries the pseudo-accelerations to the new step, and the
+//! restart at a drive's kink are differentiated as they run.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -35,7 +35,9 @@ use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::{kink_jump, kink_on_node, kinks, run};
+use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
+use crate::spatial::pair::Stiffness;
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
 
@@ -56,12 +58,12 @@ pub enum Parameter {
         /// Column.
         j: usize,
     },
-    /// A spring's stiffness `k` (N/m).
+    /// A spring's stiffness `k` (N/m; a torsion spring's N m/rad).
     SpringStiffness {
         /// The force element.
         force: usize,
     },
-    /// A spring's damping `c` (N s/m).
+    /// A spring's damping `c` (N s/m; a torsion spring's N m s/rad).
     SpringDamping {
         /// The force element.
         force: usize,
@@ -192,7 +194,7 @@ fn check(
             Parameter::SpringStiffness { force } | Parameter::SpringDamping { force } => {
                 if !matches!(
                     model.forces.get(force).map(|f| &f.kind),
-                    Some(ForceKind::Spring { .. })
+                    Some(ForceKind::Spring { .. } | ForceKind::Torsion { .. })
                 ) {
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
@@ -246,9 +248,9 @@ fn check(
 
 /// The responses of the motion of `model` on `grid` and their exact gradients to
 /// `parameters`, by `method` (`Auto`: the adjoint where there are fewer responses than
-/// parameters). A run that restarts at a drive's kink where the grid lands is
-/// differentiated directly, whatever the method (the restart's derivative is built in the
-/// direct sweep).
+/// parameters). A run that restarts at a drive's kink where the grid lands has the
+/// restart differentiated in either sweep ([`Sweep::restart_tangents`],
+/// [`Sweep::restart_adjoint`]).
 ///
 /// # Errors
 /// [`SettingsError`] for a response or parameter the mechanism does not have; the run's
@@ -266,14 +268,11 @@ pub fn sensitivities(
     let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
     sweep.restarted = restarted;
     let values = responses.iter().map(|r| sweep.value(r)).collect();
-    // The restart at a drive's kink is differentiated in the direct sweep only: a run that
-    // restarts is differentiated directly, whatever the method asked.
-    let adjoint = !sweep.restarted.contains(&true)
-        && match method {
-            Method::Direct => false,
-            Method::Adjoint => true,
-            Method::Auto => responses.len() < parameters.len(),
-        };
+    let adjoint = match method {
+        Method::Direct => false,
+        Method::Adjoint => true,
+        Method::Auto => responses.len() < parameters.len(),
+    };
     let mut gradient: Vec<Vec<f64>> = if adjoint {
         responses
             .iter()
@@ -399,6 +398,80 @@ struct Tangent {
     vdot: Vec<f64>,
     a: Vec<f64>,
     lam: Vec<f64>,
+}
+
+/// The restart at a drive's kink on a state, as its derivative needs it
+/// ([`Sweep::restart_tangents`]).
+struct Restart {
+    /// The jump `Δv̇`.
+    dv: Vec<f64>,
+    /// The rows' scaling `s`.
+    scale: f64,
+    /// Each joint's share, in the model's order.
+    joints: Vec<RestartJoint>,
+}
+
+/// A joint's share in the restart's derivative, on its local unknowns.
+struct RestartJoint {
+    /// `∂(Bᵀ s Δν)/∂q`: the Hessians weighted by the jump's multipliers.
+    force: Stiffness,
+    /// `H_kᵀ Δv̇` of each row `k`, so that `∂(B Δv̇)/∂q ε` is `(H_kᵀ Δv̇) · ε` row by row.
+    rows: Vec<Local>,
+    /// Its first row among the multipliers.
+    first: usize,
+}
+
+impl Restart {
+    /// Adds the terms in the state's variation `ε` to the restart's right-hand side:
+    /// `∂(Bᵀ s Δν)/∂q ε` to the force rows, `s ∂(B Δv̇)/∂q ε` to the constraint rows.
+    fn add_state_terms(&self, model: &SpatialModel, eps: &[f64], rhs: &mut [f64]) {
+        let n_v = model.n_v();
+        for (joint, share) in model.joints.iter().zip(&self.joints) {
+            let local = gather(joint, eps);
+            let force = share.force * local;
+            scatter(joint, &force, &mut rhs[..n_v]);
+            for (k, row) in share.rows.iter().enumerate() {
+                rhs[n_v + share.first + k] = self.scale * row.dot(&local);
+            }
+        }
+    }
+
+    /// Subtracts the transpose of [`Restart::add_state_terms`] applied to `y` from `ε̄`.
+    fn subtract_state_terms_transposed(
+        &self,
+        model: &SpatialModel,
+        y: &[f64],
+        eps_bar: &mut [f64],
+    ) {
+        let n_v = model.n_v();
+        for (joint, share) in model.joints.iter().zip(&self.joints) {
+            let mut back = share.force.transpose() * gather(joint, &y[..n_v]);
+            for (k, row) in share.rows.iter().enumerate() {
+                back += row * (self.scale * y[n_v + share.first + k]);
+            }
+            scatter(joint, &(-back), eps_bar);
+        }
+    }
+}
+
+/// A joint's local unknowns read from a six-per-node vector.
+fn gather(joint: &Joint, v: &[f64]) -> Local {
+    let mut local = Local::zeros();
+    for (side, node) in joint.local_nodes() {
+        local
+            .fixed_rows_mut::<6>(6 * side)
+            .copy_from_slice(&six(v, node));
+    }
+    local
+}
+
+/// Adds a joint's local forces to a six-per-node vector.
+fn scatter(joint: &Joint, local: &Local, out: &mut [f64]) {
+    for (side, node) in joint.local_nodes() {
+        for i in 0..6 {
+            out[NV * node + i] += local[6 * side + i];
+        }
+    }
 }
 
 impl<'m> Sweep<'m> {
@@ -767,11 +840,64 @@ impl<'m> Sweep<'m> {
         parameters: &[Parameter],
         tangents: &mut [Tangent],
     ) -> Result<(), SolveError> {
+        let Some(restart) = self.restart(n)? else {
+            return Ok(());
+        };
+        let n_v = self.n_v;
+        let mut rhs = vec![0.0; n_v + self.n_rows];
+        for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
+            rhs.fill(0.0);
+            self.add_mass_rate(p, &restart.dv, &mut rhs[..n_v]);
+            restart.add_state_terms(self.model(), &z.eps, &mut rhs);
+            rhs.iter_mut().for_each(|r| *r = -*r);
+            self.solve(&mut rhs, false, n)?;
+            for ((vdot, a), d) in z.vdot.iter_mut().zip(z.a.iter_mut()).zip(&rhs[..n_v]) {
+                *vdot += d;
+                *a += d;
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Sweep::restart_tangents`] transposed, for the adjoint sweep: with `d̄ = v̇̄ + ā`
+    /// (the restart adds `Δv̇'` to both) and `y` from `[M, sBᵀ; sB, 0]ᵀ y = [d̄; 0]`,
+    /// `ε̄ −= (∂(Bᵀ s Δν)/∂q)ᵀ y_v + s (∂(B Δv̇)/∂q)ᵀ y_ν` and each parameter's gradient
+    /// `−= y_v · (∂M/∂p) Δv̇`.
+    fn restart_adjoint(
+        &mut self,
+        n: usize,
+        parameters: &[Parameter],
+        bars: (&[f64], &[f64], &mut [f64]),
+        gradient: &mut [f64],
+    ) -> Result<(), SolveError> {
+        let Some(restart) = self.restart(n)? else {
+            return Ok(());
+        };
+        let (vdot_bar, a_bar, eps_bar) = bars;
+        let n_v = self.n_v;
+        let mut y = vec![0.0; n_v + self.n_rows];
+        for ((y, v), a) in y.iter_mut().zip(vdot_bar).zip(a_bar) {
+            *y = v + a;
+        }
+        self.solve(&mut y, true, n)?;
+        restart.subtract_state_terms_transposed(self.model(), &y, eps_bar);
+        let mut rate = vec![0.0; n_v];
+        for (g, p) in gradient.iter_mut().zip(parameters) {
+            rate.fill(0.0);
+            self.add_mass_rate(p, &restart.dv, &mut rate);
+            *g -= dot(&rate, &y[..n_v]);
+        }
+        Ok(())
+    }
+
+    /// The restart's jump at state `n`, its matrix factored, or `None` where no drive's
+    /// law has a kink on it.
+    fn restart(&mut self, n: usize) -> Result<Option<Restart>, SolveError> {
         let model = self.model();
         let (n_v, m) = (self.n_v, self.n_rows);
         let s = &self.states[n];
         let Some(kink) = kink_on_node(&kinks(model), s) else {
-            return Ok(());
+            return Ok(None);
         };
         let mut jump = [vec![0.0; m], vec![0.0; m]];
         let mut forward = vec![0.0; n_v + m];
@@ -783,46 +909,39 @@ impl<'m> Sweep<'m> {
             &mut jump,
             &mut forward,
         )? {
-            return Ok(());
+            return Ok(None);
         }
         let scale = self.asm.mean_mass();
         let (dv, dnu) = forward.split_at(n_v);
-        let mut rhs = vec![0.0; n_v + m];
-        for (p, z) in parameters.iter().zip(tangents.iter_mut()) {
-            rhs.fill(0.0);
-            self.add_mass_rate(p, dv, &mut rhs[..n_v]);
-            let mut row = 0;
-            for j in &model.joints {
-                let rows = j.n_rows();
-                let (mut eps, mut w) = (Local::zeros(), Local::zeros());
+        let mut row = 0;
+        let joints = (model.joints.iter())
+            .map(|j| {
+                let rows = row..row + j.n_rows();
+                row = rows.end;
+                let mu: Vec<f64> = dnu[rows.clone()].iter().map(|x| scale * x).collect();
+                let mut w = Local::zeros();
                 for (side, node) in j.local_nodes() {
-                    eps.fixed_rows_mut::<6>(6 * side)
-                        .copy_from_slice(&six(&z.eps, node));
                     w.fixed_rows_mut::<6>(6 * side)
                         .copy_from_slice(&six(dv, node));
                 }
-                let mu: Vec<f64> = dnu[row..row + rows].iter().map(|x| scale * x).collect();
-                let force = j.stiffness(&s.q, s.t, &mu) * eps;
-                for (side, node) in j.local_nodes() {
-                    for i in 0..6 {
-                        rhs[NV * node + i] += force[6 * side + i];
-                    }
+                // `∂(B Δv̇)/∂q` row by row: `(H_k ε) · w = (H_kᵀ w) · ε`.
+                let unit = |k: usize| {
+                    let mut e = vec![0.0; rows.len()];
+                    e[k] = 1.0;
+                    j.stiffness(&s.q, s.t, &e).transpose() * w
+                };
+                RestartJoint {
+                    force: j.stiffness(&s.q, s.t, &mu),
+                    rows: (0..rows.len()).map(unit).collect(),
+                    first: rows.start,
                 }
-                for k in 0..rows {
-                    let mut unit = vec![0.0; rows];
-                    unit[k] = 1.0;
-                    rhs[n_v + row + k] = scale * w.dot(&(j.stiffness(&s.q, s.t, &unit) * eps));
-                }
-                row += rows;
-            }
-            rhs.iter_mut().for_each(|r| *r = -*r);
-            self.solve(&mut rhs, false, n)?;
-            for ((vdot, a), d) in z.vdot.iter_mut().zip(z.a.iter_mut()).zip(&rhs[..n_v]) {
-                *vdot += d;
-                *a += d;
-            }
-        }
-        Ok(())
+            })
+            .collect();
+        Ok(Some(Restart {
+            dv: dv.to_vec(),
+            scale,
+            joints,
+        }))
     }
 
     /// `(∂M/∂p) w` of a parameter on an inertia (a body's mass or inertia, a beam's or a
@@ -984,6 +1103,10 @@ impl<'m> Sweep<'m> {
                     vdot_bar[i] += (1.0 - ratio) * a_bar[i];
                     a_bar[i] *= ratio;
                 }
+            }
+            if self.restarted[n] {
+                let bars = (&vdot_bar[..], &a_bar[..], &mut eps_bar[..]);
+                self.restart_adjoint(n - 1, parameters, bars, &mut gradient)?;
             }
             self.seed(r, n - 1, &mut g_eps, &mut g_lam);
             eps_bar.iter_mut().zip(&g_eps).for_each(|(e, g)| *e += g);

@@ -214,6 +214,7 @@ fn stiffness_scale(model: &SpatialModel) -> f64 {
         .iter()
         .map(|f| match &f.kind {
             ForceKind::Spring { stiffness, .. } => *stiffness,
+            ForceKind::Torsion { stiffness, .. } => stiffness / (size * size),
             ForceKind::Motor { torque, .. } => torque.abs() / (size * size),
             ForceKind::Load { force, moment, .. } => {
                 force.norm() / size + moment.norm() / (size * size)

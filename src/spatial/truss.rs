@@ -62,6 +62,13 @@ impl Truss {
         })
     }
 
+    /// Its `EA` scaled by `stiffness` (its Kelvin–Voigt damping with it) and its mass by
+    /// `mass` (its weight and `α M` damping with it): a density's `s(x)` and `m(x)`.
+    pub(crate) fn scale(&mut self, stiffness: f64, mass: f64) {
+        self.ea *= stiffness;
+        self.rho_a *= mass;
+    }
+
     /// `(n, l, ε)` at `q`.
     fn geometry(&self, q: &[f64]) -> (Vector3<f64>, f64, f64) {
         let [a, b] = self.nodes().map(|n| Frame::read(q, n).x);

@@ -204,3 +204,53 @@ fn bodies_on_a_spring_under_a_dead_load_keep_their_energy() {
         "the energy drifts: {long:.3e} against {first:.3e}"
     );
 }
+
+/// A wheel on an oblique axle held by a torsion spring-damper whose rest angle is `−φ₀`
+/// from where the wheel is built and released, no gravity: its turn from rest `φ(t)` is the
+/// damped oscillator's closed form with `ω² = k/I_n`, `ζ = c/(2√(k I_n))`, undamped and
+/// damped; the error at the end falls at order 2 in h.
+#[test]
+fn a_torsion_spring_swings_a_wheel_as_its_closed_form() {
+    let n = Vector3::new(0.3, -0.4, 1.0).normalize();
+    let r0 = so3::exp(&Vector3::new(0.5, 0.1, -0.7));
+    let j = Matrix3::new(0.3, 0.02, 0.01, 0.02, 0.2, -0.03, 0.01, -0.03, 0.25);
+    let i_n = n.dot(&(r0 * (j * (r0.inverse() * n))));
+    let (k, phi0) = (40.0, 0.6);
+    for zeta in [0.0, 0.1] {
+        let c = 2.0 * zeta * (k * i_n).sqrt();
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let wheel = m
+            .add_body("wheel", Frame::new(Vector3::zeros(), r0), 4.0, j)
+            .unwrap();
+        let axle = m
+            .add_joint(
+                "axle",
+                JointKind::Revolute { axis: n },
+                Anchor::Ground(Vector3::zeros()),
+                Anchor::Body {
+                    body: wheel,
+                    point: Vector3::zeros(),
+                },
+            )
+            .unwrap();
+        m.add_torsion("coil", axle, k, c, Some(-phi0)).unwrap();
+        let omega = (k / i_n).sqrt();
+        let wd = omega * (1.0 - zeta * zeta).sqrt();
+        let exact = |t: f64| {
+            phi0 * (-zeta * omega * t).exp() * ((wd * t).cos() + zeta * omega / wd * (wd * t).sin())
+        };
+        let t_end = 0.5;
+        let error = |steps: usize| {
+            let states = run(&m, 0.9, t_end / steps as f64, steps);
+            let last = states.last().unwrap();
+            // the wheel's turn about n from where it was built: φ − φ₀
+            let turned = Frame::read(&last.q, 0).r * r0.inverse();
+            let angle = turned.scaled_axis().dot(&n);
+            (angle - (exact(last.t) - phi0)).abs()
+        };
+        let (coarse, fine) = (error(200), error(400));
+        let order = (coarse / fine).log2();
+        println!("ζ = {zeta}: errors {coarse:.3e}, {fine:.3e}, order {order:.2}");
+        assert!(fine < 1e-3 * phi0 && (order - 2.0).abs() < 0.15, "{order}");
+    }
+}

@@ -28,10 +28,14 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         Parameter::SpringStiffness { force }
         | Parameter::SpringDamping { force }
         | Parameter::MotorTorque { force } => match (&mut m.forces[force].kind, p) {
-            (ForceKind::Spring { stiffness, .. }, Parameter::SpringStiffness { .. }) => {
-                *stiffness += e
-            }
-            (ForceKind::Spring { damping, .. }, Parameter::SpringDamping { .. }) => *damping += e,
+            (
+                ForceKind::Spring { stiffness, .. } | ForceKind::Torsion { stiffness, .. },
+                Parameter::SpringStiffness { .. },
+            ) => *stiffness += e,
+            (
+                ForceKind::Spring { damping, .. } | ForceKind::Torsion { damping, .. },
+                Parameter::SpringDamping { .. },
+            ) => *damping += e,
             (ForceKind::Motor { torque, .. }, _) => *torque += e,
             _ => unreachable!("the parameters below name their elements' kinds"),
         },
@@ -64,6 +68,9 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
         | Parameter::SpringDamping { force }
         | Parameter::MotorTorque { force } => match model.forces[force].kind {
             ForceKind::Spring {
+                stiffness, damping, ..
+            }
+            | ForceKind::Torsion {
                 stiffness, damping, ..
             } => {
                 1e-3 * if matches!(p, Parameter::SpringStiffness { .. }) {
@@ -278,7 +285,7 @@ fn every_joint_kind_has_exact_gradients() {
     )
     .unwrap();
     // Force elements: a spring-damper from the sleeve to the ground, a motor helping the
-    // drive, a dead load on the bracket.
+    // drive, a dead load on the bracket, a torsion spring on the sleeve.
     let anchor = Anchor::Ground(Vector3::new(r + l + 0.3, 0.3, 0.1));
     m.add_spring(
         "tether",
@@ -304,6 +311,8 @@ fn every_joint_kind_has_exact_gradients() {
         false,
     )
     .unwrap();
+    // A torsion spring-damper on the sleeve's turn, at rest 0.2 rad from where it is built.
+    m.add_torsion("coil", 5, 0.02, 2e-4, Some(0.2)).unwrap();
     let responses = [
         Response::Position { body: 2, axis: 0 },
         Response::Position { body: 4, axis: 2 },
@@ -328,6 +337,8 @@ fn every_joint_kind_has_exact_gradients() {
         Parameter::SpringStiffness { force: 0 },
         Parameter::SpringDamping { force: 0 },
         Parameter::MotorTorque { force: 1 },
+        Parameter::SpringStiffness { force: 3 },
+        Parameter::SpringDamping { force: 3 },
     ];
     check(
         &m,

@@ -170,3 +170,44 @@ fn a_motor_holds_a_pendulum_up_or_cannot() {
     );
     assert!(err.to_string().contains("load factor"), "{err}");
 }
+
+/// A motor's torque `τ` on a hinge held by a torsion spring `k` turns it by `τ/k` from the
+/// spring's rest angle, about an oblique axis; a spring turned past half a turn is named.
+#[test]
+fn a_torsion_spring_balances_a_motor() {
+    let n = Vector3::new(1.0, 2.0, -0.5).normalize();
+    let build = |tau: f64| {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let b = m
+            .add_body(
+                "disc",
+                at(Vector3::new(0.0, 0.0, 0.0)),
+                1.0,
+                Matrix3::identity() * 0.01,
+            )
+            .unwrap();
+        let hinge = m
+            .add_joint(
+                "hinge",
+                JointKind::Revolute { axis: n },
+                Anchor::Ground(Vector3::zeros()),
+                Anchor::Body {
+                    body: b,
+                    point: Vector3::zeros(),
+                },
+            )
+            .unwrap();
+        m.add_torsion("coil", hinge, 5.0, 0.0, Some(0.25)).unwrap();
+        m.add_motor("motor", hinge, tau, TimeFunction::Constant)
+            .unwrap();
+        m
+    };
+    let eq = solve_static_spatial(&build(2.0), &settings(4)).unwrap();
+    let turned = Frame::read(&eq.q, 0).r.scaled_axis();
+    assert!(
+        (turned - n * (0.25 + 2.0 / 5.0)).norm() < 1e-10,
+        "{turned:?}"
+    );
+    let err = solve_static_spatial(&build(20.0), &settings(4)).unwrap_err();
+    assert!(err.to_string().contains("torsion spring 'coil'"), "{err}");
+}

@@ -25,7 +25,7 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, TypeVar
 
 import numpy as np
 
@@ -142,7 +142,79 @@ class Member:
         return inside and not any(i0 <= column < i1 and j0 <= row < j1 for i0, j0, i1, j1 in self.holes)
 
 
-class Scene:
+_S = TypeVar("_S", bound="SceneDict")
+
+
+class SceneDict:
+    """What the planar and the spatial builders share: the scene dict, its design laws, its
+    default tip, and its conversions to and from dicts and TOML."""
+
+    _spec: dict[str, Any]
+
+    def design(self, *, interpolation: str = "simp", p: float | None = None, q: float | None = None,
+               x_min: float = 0.01, mass: str | None = None, mass_threshold: float | None = None,
+               mass_floor: float | None = None, e_min: float | None = None) -> None:
+        """Design parametrization: SIMP exponent ``p`` (default 3) with the stiffness of
+        void ``e_min`` = E_min/E in ``E_min + (E − E_min) xᵖ`` (default 0; the 88-line
+        code's 1e-9), or RAMP parameter ``q`` (default 8), the lower bound ``x_min`` on
+        densities, and the inertia law ``mass``:
+        ``"du_olhoff"`` (default of dynamic scenes: below ``mass_threshold``, 0.1, the mass
+        falls like ``x⁶`` down to ``mass_floor · x``, 1e-3, so that thin bars have no
+        spurious low modes) or ``"linear"`` (the paper's law, valid at one element per bar;
+        default of static scenes)."""
+        entry = {"interpolation": interpolation, "p": p, "q": q, "x_min": x_min, "mass": mass,
+                 "mass_threshold": mass_threshold, "mass_floor": mass_floor, "e_min": e_min}
+        self._spec["design"] = {k: v for k, v in entry.items() if v is not None}
+
+    @property
+    def tip(self) -> str | None:
+        """The node (or body) of the default response: the tip deflection's, or the final
+        position's of a spatial scene."""
+        return self._spec.get("tip")
+
+    @tip.setter
+    def tip(self, name: str) -> None:
+        self._spec["tip"] = name
+
+    # -- conversion ---------------------------------------------------------------------
+
+    def to_dict(self) -> dict:
+        """A deep copy of the scene dict."""
+        return copy.deepcopy(self._spec)
+
+    @classmethod
+    def from_dict(cls: type[_S], spec: Mapping[str, Any]) -> _S:
+        """A scene from a dict (copied)."""
+        scene = cls()
+        try:
+            scene._spec = copy.deepcopy(dict(spec))
+        except RecursionError:
+            raise SceneError("scene: nested too deeply to be a scene") from None
+        return scene
+
+    @classmethod
+    def from_toml(cls: type[_S], path: str | Path) -> _S:
+        """A scene from a TOML file (UTF-8, a byte-order mark allowed).
+
+        Raises :class:`~flextop.errors.SceneFileError` naming the file when it cannot be
+        read or parsed (with the line and column of a syntax error)."""
+        return cls.from_dict(read_toml(path))
+
+    def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
+        """The scene as TOML text, which :meth:`from_toml` reads back into the same dict
+        (``None`` values are left out). ``header`` becomes the opening comment lines;
+        ``comments`` maps a table (``"sections.aluminium"``, ``"joints[1]"``) to a comment
+        on its header line."""
+        lines = [f"# {line}".rstrip() for line in header.splitlines()]
+        _toml_table(lines, [], self._spec, comments or {})
+        return "\n".join(lines).strip("\n") + "\n"
+
+    def __repr__(self) -> str:
+        counts = {k: len(v) for k, v in self._spec.items() if isinstance(v, (list, dict)) and k != "design"}
+        return f"{type(self).__name__}({self._spec.get('name', '')!r}, {counts})"
+
+
+class Scene(SceneDict):
     """Builder of a scene dict; every method appends one entry and returns a handle."""
 
     def __init__(self, name: str = "", *, analysis: str = "dynamic", gravity: Sequence[float] | None = None,
@@ -390,21 +462,6 @@ class Scene:
     def _joint(self, entry: dict) -> None:
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})
 
-    def design(self, *, interpolation: str = "simp", p: float | None = None, q: float | None = None,
-               x_min: float = 0.01, mass: str | None = None, mass_threshold: float | None = None,
-               mass_floor: float | None = None, e_min: float | None = None) -> None:
-        """Design parametrization: SIMP exponent ``p`` (default 3) with the stiffness of
-        void ``e_min`` = E_min/E in ``E_min + (E − E_min) xᵖ`` (default 0; the 88-line
-        code's 1e-9), or RAMP parameter ``q`` (default 8), the lower bound ``x_min`` on
-        densities, and the inertia law ``mass``:
-        ``"du_olhoff"`` (default of dynamic scenes: below ``mass_threshold``, 0.1, the mass
-        falls like ``x⁶`` down to ``mass_floor · x``, 1e-3, so that thin bars have no
-        spurious low modes) or ``"linear"`` (the paper's law, valid at one element per bar;
-        default of static scenes)."""
-        entry = {"interpolation": interpolation, "p": p, "q": q, "x_min": x_min, "mass": mass,
-                 "mass_threshold": mass_threshold, "mass_floor": mass_floor, "e_min": e_min}
-        self._spec["design"] = {k: v for k, v in entry.items() if v is not None}
-
     def simulation(self, **defaults: Any) -> None:
         """Default run settings: ``t_end``, ``h``, ``rho_inf``, ``mass``, ``load_steps``."""
         self._spec["simulation"] = dict(defaults)
@@ -417,44 +474,6 @@ class Scene:
     @tip.setter
     def tip(self, node: str) -> None:
         self._spec["tip"] = node
-
-    # -- conversion ---------------------------------------------------------------------
-
-    def to_dict(self) -> dict:
-        """A deep copy of the scene dict."""
-        return copy.deepcopy(self._spec)
-
-    @classmethod
-    def from_dict(cls, spec: dict) -> Scene:
-        """A scene from a dict (copied)."""
-        scene = cls()
-        try:
-            scene._spec = copy.deepcopy(dict(spec))
-        except RecursionError:
-            raise SceneError("scene: nested too deeply to be a scene") from None
-        return scene
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> Scene:
-        """A scene from a TOML file (UTF-8, a byte-order mark allowed).
-
-        Raises :class:`~flextop.errors.SceneFileError` naming the file when it cannot be
-        read or parsed (with the line and column of a syntax error)."""
-        return cls.from_dict(read_toml(path))
-
-    def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
-        """The scene as TOML text, which :meth:`from_toml` reads back into the same dict
-        (``None`` values are left out). ``header`` becomes the opening comment lines;
-        ``comments`` maps a table (``"sections.aluminium"``, ``"joints[1]"``) to a comment
-        on its header line."""
-        lines = [f"# {line}".rstrip() for line in header.splitlines()]
-        _toml_table(lines, [], self._spec, comments or {})
-        return "\n".join(lines).strip("\n") + "\n"
-
-    def __repr__(self) -> str:
-        counts = {k: len(v) for k, v in self._spec.items() if isinstance(v, (list, dict)) and k != "design"}
-        return f"Scene({self._spec.get('name', '')!r}, {counts})"
-
 
 # -- TOML writing -----------------------------------------------------------------------
 

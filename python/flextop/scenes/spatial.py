@@ -18,12 +18,10 @@ Example (a bar hinged at the origin about y, swinging under gravity)::
 
 from __future__ import annotations
 
-import copy
-from pathlib import Path
 from typing import Any, Mapping, Sequence, Union
 
 from ..errors import SceneError
-from .builder import _listed, _name, _scale_table, _toml_table, read_toml
+from .builder import SceneDict, _listed, _name, _scale_table
 
 Anchor = Union[str, Sequence[float]]
 """Where an entry acts (module docs)."""
@@ -46,7 +44,7 @@ def _anchor(anchor: Anchor) -> Any:
     return anchor if isinstance(anchor, str) else _listed(anchor)
 
 
-class SpatialScene:
+class SpatialScene(SceneDict):
     """Builder of a spatial scene dict; each method appends one entry and returns its name."""
 
     def __init__(self, name: str = "", *, analysis: str = "dynamic", gravity: Sequence[float] | None = None) -> None:
@@ -90,12 +88,14 @@ class SpatialScene:
                            velocity=_maybe(velocity), angular_velocity=_maybe(angular_velocity))
 
     def beam(self, name: str, a: str, b: str, *, section: str, split: int = 1, up: Sequence[float] | None = None,
-             kind: str = "frame") -> str:
+             kind: str = "frame", group: str | None = None, fixed: bool = False) -> str:
         """A beam from node ``a`` to ``b`` in ``split`` elements (inner nodes ``NAME[k]``), its
         section's e₂ axis the part of ``up`` across it (default: z, or y for a beam along z);
-        ``kind = "truss"``: one pin-ended bar."""
+        ``kind = "truss"``: one pin-ended bar. Its density is a design variable of its own, or
+        its design ``group``'s, or none where it is ``fixed`` at full density (:meth:`design`
+        sets the laws)."""
         return self._entry("beams", name, nodes=[a, b], section=section, split=None if split == 1 else split,
-                           up=_maybe(up), kind=None if kind == "frame" else kind)
+                           up=_maybe(up), kind=None if kind == "frame" else kind, group=group, fixed=fixed or None)
 
     def point_mass(self, name: str, node: str, mass: float) -> str:
         """A point mass (kg) at ``node``'s origin."""
@@ -130,6 +130,12 @@ class SpatialScene:
         initial distance by default)."""
         return self._entry("springs", name, a=_anchor(a), b=_anchor(b), k=k, c=c, length=length)
 
+    def torsion(self, name: str, joint: str, *, k: float = 0.0, c: float = 0.0, rest: float | None = None) -> str:
+        """A torsion spring-damper (N m/rad, N m s/rad) on a revolute or cylindrical ``joint``'s
+        angle (its ``b``'s turn from its ``a``'s about the axis), at rest ``rest`` rad from where
+        the joint is built (0 by default); the angle is read within half a turn either way."""
+        return self._entry("springs", name, joint=joint, k=k, c=c, rest=rest)
+
     def motor(self, name: str, joint: str, *, torque: float, table: tuple | None = None) -> str:
         """A torque (N m) about the revolute ``joint``'s axis on its ``b``, scaled in time by
         ``table = (t, scale)`` (piecewise linear) if given."""
@@ -146,15 +152,6 @@ class SpatialScene:
         """Default run settings: ``t_end``, ``h``, ``rho_inf``, ``tol``, ``max_iter``, ``load_steps``."""
         self._spec["simulation"] = dict(defaults)
 
-    @property
-    def tip(self) -> str | None:
-        """The body or node whose final position is the default response."""
-        return self._spec.get("tip")
-
-    @tip.setter
-    def tip(self, name: str) -> None:
-        self._spec["tip"] = name
-
     def _joint(self, name: str, kind: str, a: Anchor, b: Anchor, **keys: Any) -> str:
         return self._entry("joints", name, kind=kind, a=_anchor(a), b=None if b == "ground" else _anchor(b), **keys)
 
@@ -163,34 +160,6 @@ class SpatialScene:
         entries.append({"name": _name(list_.rstrip("s").replace("_", " "), name),
                         **{k: v for k, v in keys.items() if v is not None}})
         return name
-
-    def to_dict(self) -> dict:
-        """A deep copy of the scene dict."""
-        return copy.deepcopy(self._spec)
-
-    @classmethod
-    def from_dict(cls, spec: Mapping[str, Any]) -> SpatialScene:
-        """A scene from a dict (copied)."""
-        scene = cls()
-        scene._spec = copy.deepcopy(dict(spec))
-        return scene
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> SpatialScene:
-        """A scene from a TOML file (:class:`~flextop.errors.SceneFileError` naming the file
-        if it cannot be read)."""
-        return cls.from_dict(read_toml(path))
-
-    def to_toml(self, *, header: str = "", comments: Mapping[str, str] | None = None) -> str:
-        """The scene as TOML text that :meth:`from_toml` reads back into the same dict;
-        ``header`` its opening comment lines, ``comments`` a comment per table (``"joints[1]"``)."""
-        lines = [f"# {line}".rstrip() for line in header.splitlines()]
-        _toml_table(lines, [], self._spec, comments or {})
-        return "\n".join(lines).strip("\n") + "\n"
-
-    def __repr__(self) -> str:
-        counts = {k: len(v) for k, v in self._spec.items() if isinstance(v, (list, dict))}
-        return f"SpatialScene({self._spec.get('name', '')!r}, {counts})"
 
 
 def _maybe(vector: Sequence[float] | None) -> list | None:

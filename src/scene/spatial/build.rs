@@ -16,7 +16,8 @@ use super::{BeamElements, SpatialScene};
 use crate::error::{short, Error, SceneError};
 use crate::group::Frame;
 use crate::limits::{MAX_NODES, MAX_SPLIT};
-use crate::mechanism::model::Analysis;
+use crate::mechanism::model::{Analysis, Design};
+use crate::scene::design::{self, Variables};
 use crate::scene::joint::drive;
 use crate::scene::load::time;
 use crate::scene::spec::{AnalysisSpec, KindSpec};
@@ -60,6 +61,9 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
         model.set_node_rates(node, vector(&path, n.velocity)?, omega)?;
     }
     unique("beams", spec.beams.iter().map(|b| b.name.as_str()))?;
+    let (interpolation, x_min) = design::law(&spec.design)?;
+    let mass = design::mass_law(&spec.design, spec.analysis)?;
+    let mut variables = Variables::default();
     let mut beams = BTreeMap::new();
     for (k, b) in spec.beams.iter().enumerate() {
         crate::poll()?;
@@ -71,7 +75,8 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
             )
             .into());
         }
-        let elements = beam(&mut model, &path, b, &sections)?;
+        let mut elements = beam(&mut model, &path, b, &sections)?;
+        elements.variable = variables.of(&path, &b.name, b.group.as_deref(), b.fixed)?;
         beams.insert(b.name.clone(), elements);
     }
     for (k, p) in spec.point_masses.iter().enumerate() {
@@ -109,6 +114,12 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
         options: spec.simulation,
         tip: spec.tip.clone(),
         beams,
+        design: Design {
+            interpolation,
+            mass,
+            x_min,
+            variables: variables.names,
+        },
     })
 }
 
@@ -321,6 +332,7 @@ fn beam(
             truss: true,
             elements: vec![k],
             material: *material,
+            variable: None,
         });
     }
     let [a, z] = [&model.nodes[ends[0]], &model.nodes[ends[1]]];
@@ -362,6 +374,7 @@ fn beam(
         truss: false,
         elements,
         material: *material,
+        variable: None,
     })
 }
 
@@ -525,20 +538,38 @@ fn joint(
 }
 
 /// Springs, motors and loads.
+/// The joint called `name`, for the entry at `path`.
+fn joint_named(model: &SpatialModel, path: &str, name: &str) -> Result<usize> {
+    (model.joints.iter().position(|j| j.name == name)).ok_or_else(|| {
+        SceneError::new(format!("{path}.joint"), format!("no joint called '{name}'"))
+    })
+}
+
 fn forces(model: &mut SpatialModel, points: &Points, spec: &SpatialSceneSpec) -> Result<()> {
     for (k, s) in spec.springs.iter().enumerate() {
         let path = format!("springs[{k}] ({})", s.name);
-        let [a, b] = anchors(model, points, &path, [&s.a, &s.b])?;
-        model.add_spring(&s.name, a, b, s.k, s.c, s.length)?;
+        match (&s.joint, &s.a, &s.b, s.length, s.rest) {
+            (Some(j), None, None, None, rest) => {
+                let joint = joint_named(model, &path, j)?;
+                model.add_torsion(&s.name, joint, s.k, s.c, rest)?;
+            }
+            (None, Some(a), b, length, None) => {
+                let ground = AnchorSpec::default();
+                let [a, b] = anchors(model, points, &path, [a, b.as_ref().unwrap_or(&ground)])?;
+                model.add_spring(&s.name, a, b, s.k, s.c, length)?;
+            }
+            _ => {
+                return Err(SceneError::new(
+                    path,
+                    "a spring joins `a` and `b` (a `length` at rest) or turns with a `joint` \
+                     (a `rest` angle), not both",
+                ))
+            }
+        }
     }
     for (k, m) in spec.motors.iter().enumerate() {
         let path = format!("motors[{k}] ({})", m.name);
-        let joint = (model.joints.iter().position(|j| j.name == m.joint)).ok_or_else(|| {
-            SceneError::new(
-                format!("{path}.joint"),
-                format!("no joint called '{}'", m.joint),
-            )
-        })?;
+        let joint = joint_named(model, &path, &m.joint)?;
         let table = time(&path, m.table.as_ref())?;
         model.add_motor(&m.name, joint, m.torque, table)?;
     }

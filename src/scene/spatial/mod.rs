@@ -26,6 +26,7 @@
 //! ```
 
 mod build;
+mod design;
 pub mod names;
 pub mod spec;
 
@@ -35,7 +36,7 @@ pub use build::{build_spatial, ORTHONORMAL_TOLERANCE};
 pub use spec::SpatialSceneSpec;
 
 use crate::error::SceneError;
-use crate::mechanism::model::Analysis;
+use crate::mechanism::model::{Analysis, Design};
 use crate::settings::RunOptions;
 use crate::spatial::model::SpatialModel;
 
@@ -54,6 +55,8 @@ pub struct SpatialScene {
     pub tip: Option<String>,
     /// Each beam of the scene by name: its elements in the model.
     pub beams: BTreeMap<String, BeamElements>,
+    /// The design variables (each a beam's or a group's) and their laws.
+    pub design: Design,
 }
 
 /// A scene's beam in the model: its elements, beams or one truss bar.
@@ -65,6 +68,8 @@ pub struct BeamElements {
     pub elements: Vec<usize>,
     /// Its material's Young's modulus (Pa) and density (kg/m³).
     pub material: [f64; 2],
+    /// Its design variable; `None` where it is fixed at full density.
+    pub variable: Option<usize>,
 }
 
 /// Parses a spatial TOML scene.

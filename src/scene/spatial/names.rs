@@ -7,7 +7,8 @@
 //! motor must give, integrated).
 //!
 //! Parameters: `mass:BODY` (kg), `Ixx:BODY` … `Iyz:BODY` (an entry of its inertia tensor
-//! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING`, `torque:MOTOR`,
+//! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING` (a torsion spring's in
+//! N m/rad, N m s/rad), `torque:MOTOR`,
 //! `E:BEAM` and `rho:BEAM` (its material's Young's modulus at fixed Poisson's ratio and
 //! density, Pa and kg/m³, over every element of the beam).
 
@@ -96,10 +97,12 @@ impl SpatialScene {
                 None => bad(format!("'{what}' is no body or point mass of the scene")),
             },
             "k" | "c" => match force().map(|f| (f, &m.forces[f].kind)) {
-                Some((force, ForceKind::Spring { .. })) if kind == "k" => {
-                    one(Parameter::SpringStiffness { force })
+                Some((force, ForceKind::Spring { .. } | ForceKind::Torsion { .. })) => {
+                    one(match kind {
+                        "k" => Parameter::SpringStiffness { force },
+                        _ => Parameter::SpringDamping { force },
+                    })
                 }
-                Some((force, ForceKind::Spring { .. })) => one(Parameter::SpringDamping { force }),
                 _ => bad(format!("'{what}' is no spring of the scene")),
             },
             "torque" => match force().map(|f| (f, &m.forces[f].kind)) {

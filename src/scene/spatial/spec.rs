@@ -9,7 +9,7 @@ use std::fmt;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
-use crate::scene::spec::{AnalysisSpec, KindSpec, LoadTableSpec, MotionSpec};
+use crate::scene::spec::{AnalysisSpec, DesignSpec, KindSpec, LoadTableSpec, MotionSpec};
 use crate::settings::RunOptions;
 
 /// A whole spatial scene.
@@ -54,6 +54,9 @@ pub struct SpatialSceneSpec {
     /// Loads at anchors.
     #[serde(default)]
     pub loads: Vec<SpatialLoadSpec>,
+    /// The design: one density per beam (or group of beams) unless `fixed`, its laws.
+    #[serde(default)]
+    pub design: DesignSpec,
     /// The body or node whose final position is the default response.
     #[serde(default)]
     pub tip: Option<String>,
@@ -184,6 +187,11 @@ pub struct SpatialBeamSpec {
     /// A direction across the beam: its section's `e₂` is the part of `up` normal to the
     /// beam (default: the inertial `z`, or `y` for a beam along `z`).
     pub up: Option<[f64; 3]>,
+    /// Design group shared with other beams (default: a variable of its own).
+    pub group: Option<String>,
+    /// At full density, not designed.
+    #[serde(default)]
+    pub fixed: bool,
 }
 
 fn one() -> usize {
@@ -293,24 +301,29 @@ pub struct SpatialJointSpec {
     pub drive: Option<MotionSpec>,
 }
 
-/// A spring-damper between two anchors.
+/// A spring-damper between two anchors, or a torsion spring-damper on a revolute or
+/// cylindrical `joint`'s angle.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SpatialSpringSpec {
     /// Name.
     pub name: String,
     /// First anchor.
-    pub a: AnchorSpec,
+    pub a: Option<AnchorSpec>,
     /// Second anchor.
-    pub b: AnchorSpec,
-    /// Stiffness (N/m).
+    pub b: Option<AnchorSpec>,
+    /// The joint whose angle a torsion spring resists (instead of `a` and `b`).
+    pub joint: Option<String>,
+    /// Stiffness (N/m, or N m/rad on a joint).
     #[serde(default)]
     pub k: f64,
-    /// Damping (N s/m).
+    /// Damping (N s/m, or N m s/rad on a joint).
     #[serde(default)]
     pub c: f64,
     /// Rest length (m); the initial distance by default.
     pub length: Option<f64>,
+    /// A torsion spring's rest angle from where the joint is built (rad, 0 by default).
+    pub rest: Option<f64>,
 }
 
 /// A motor on a revolute joint.

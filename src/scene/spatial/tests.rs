@@ -5,6 +5,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use super::{build_spatial, parse_spatial_toml, SpatialScene};
 use crate::error::Error;
 use crate::group::Frame;
+use crate::spatial::force::ForceKind;
 use crate::spatial::joint::{Anchor, JointKind};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::sensitivity::{Parameter, Response};
@@ -354,4 +355,233 @@ fn names_of_responses_and_parameters() {
         let e = scene.parameter(name).unwrap_err().to_string();
         assert!(e.contains(words), "{name}: {e}");
     }
+}
+
+/// A flexible pendulum in space: two beams of two elements, on a tilted hinge, a point mass
+/// at the end, a truss bar from a point of the hinge's axis bracing the elbow.
+const PENDULUM: &str = r#"
+dimension = 3
+gravity = [0.0, 0.0, -9.81]
+[sections.alu]
+E = 7.0e10
+rho = 2700.0
+nu = 0.33
+shape = "tube"
+outer = 0.02
+inner = 0.016
+
+[[nodes]]
+name = "a"
+position = [0.0, 0.0, 0.0]
+[[nodes]]
+name = "b"
+position = [0.5, 0.0, 0.0]
+[[nodes]]
+name = "c"
+position = [0.5, 0.4, -0.1]
+[[nodes]]
+name = "d"
+position = [0.0, 0.5, 0.15]
+
+[[beams]]
+name = "upper"
+nodes = ["a", "b"]
+section = "alu"
+split = 2
+[[beams]]
+name = "lower"
+nodes = ["b", "c"]
+section = "alu"
+split = 2
+[[beams]]
+name = "brace"
+nodes = ["d", "b"]
+section = "alu"
+kind = "truss"
+
+[[point_masses]]
+name = "payload"
+node = "c"
+mass = 0.5
+
+[[joints]]
+name = "hinge"
+kind = "revolute"
+a = "a"
+axis = [0.0, 1.0, 0.3]
+[[joints]]
+name = "pin"
+kind = "spherical"
+a = "d"
+
+[simulation]
+t_end = 0.1
+h = 0.005
+"#;
+
+/// Densities scale each beam's and bar's stiffness by `s(x)` and mass by `m(x)`; groups and
+/// fixed beams share or have no variable; a design of the wrong length or outside
+/// `[x_min, 1]` is named.
+#[test]
+fn a_design_scales_its_beams() {
+    let scene = built(PENDULUM).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.design.variables, ["upper", "lower", "brace"]);
+    assert_eq!(*scene.model_at(Some(&[1.0; 3])).unwrap(), scene.model);
+    let x = [0.5, 0.2, 0.05];
+    let at = scene.model_at(Some(&x)).unwrap();
+    let (law, mass) = (scene.design.interpolation, scene.design.mass);
+    for (b, x) in [(0, 0.5), (1, 0.5), (2, 0.2), (3, 0.2)] {
+        let (built, scaled) = (&scene.model.beams[b].section, &at.beams[b].section);
+        assert_eq!(scaled.c_m[1], built.c_m[1] * law.stiffness(x));
+        assert_eq!(scaled.c_n[2], built.c_n[2] * law.stiffness(x));
+        assert_eq!(scaled.rho_i[0], built.rho_i[0] * mass.mass(x));
+    }
+    assert_eq!(
+        at.trusses[0].ea,
+        scene.model.trusses[0].ea * 0.05f64.powi(3)
+    );
+    let grouped = PENDULUM
+        .replace(
+            "split = 2\n[[beams]]",
+            "split = 2\ngroup = \"arm\"\n[[beams]]",
+        )
+        .replace("kind = \"truss\"", "kind = \"truss\"\nfixed = true");
+    let grouped = built(&grouped).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(grouped.design.variables, ["arm"]);
+    let e = grouped.model_at(Some(&[0.5, 0.5])).unwrap_err().to_string();
+    assert!(
+        e.contains("2 entries") && e.contains("1 design variables"),
+        "{e}"
+    );
+    let e = scene
+        .model_at(Some(&[0.5, 0.001, 0.5]))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("x[1] (lower)") && e.contains("[0.01, 1]"), "{e}");
+    let e = refused(&PENDULUM.replace(
+        "kind = \"truss\"",
+        "kind = \"truss\"\nfixed = true\ngroup = \"g\"",
+    ));
+    assert!(e.contains("beams[2]") && e.contains("fixed beam"), "{e}");
+}
+
+/// The gradient to the densities, read off the elements' stiffness and mass factors, against
+/// fourth-order differences of runs at shifted designs, and direct against adjoint.
+#[test]
+fn density_gradients_match_differences() {
+    use crate::settings::{Method, RunOptions};
+    use crate::spatial::sensitivity::sensitivities;
+    let scene = built(PENDULUM).unwrap_or_else(|e| panic!("{e}"));
+    let settings = RunOptions {
+        tol: Some(1e-11),
+        ..RunOptions::default()
+    }
+    .dynamic(&scene.options)
+    .unwrap();
+    let grid = settings.grid();
+    let responses = [
+        scene.response("z:c").unwrap(),
+        scene.response("strain_energy").unwrap(),
+    ];
+    let x = [0.7, 0.4, 0.3];
+    let named = scene.densities(&x);
+    let parameters: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
+    let model = scene.model_at(Some(&x)).unwrap();
+    let gradient = |method| {
+        let g = sensitivities(&model, &settings, &grid, &responses, &parameters, method).unwrap();
+        let per_variable = |row: &[f64]| {
+            let mut parts = row.iter();
+            (named.iter())
+                .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
+                .collect::<Vec<f64>>()
+        };
+        (
+            g.values,
+            g.gradient
+                .iter()
+                .map(|r| per_variable(r))
+                .collect::<Vec<_>>(),
+        )
+    };
+    let (values, direct) = gradient(Method::Direct);
+    let (_, adjoint) = gradient(Method::Adjoint);
+    let value = |x: &[f64]| {
+        let model = scene.model_at(Some(x)).unwrap();
+        sensitivities(&model, &settings, &grid, &responses, &[], Method::Direct)
+            .unwrap()
+            .values
+    };
+    let h = 1e-3;
+    for i in 0..3 {
+        let shifted = |k: f64| {
+            let mut y = x;
+            y[i] += k * h;
+            value(&y)
+        };
+        let (m2, m1, p1, p2) = (shifted(-2.0), shifted(-1.0), shifted(1.0), shifted(2.0));
+        for r in 0..2 {
+            let fd = (m2[r] - 8.0 * m1[r] + 8.0 * p1[r] - p2[r]) / (12.0 * h);
+            let scale = direct[r].iter().map(|g| g.abs()).fold(0.0, f64::max);
+            assert!(scale > 0.0 && values[r].is_finite());
+            assert!(
+                (direct[r][i] - fd).abs() < 1e-6 * scale,
+                "{r} {i}: {} vs {fd}",
+                direct[r][i]
+            );
+            assert!(
+                (direct[r][i] - adjoint[r][i]).abs() < 1e-9 * scale,
+                "{r} {i}"
+            );
+        }
+    }
+}
+
+/// A torsion spring on a joint by name: its `k:` and `c:` parameters, and the mistakes
+/// named (both anchors and a joint, a joint that does not turn, a rest angle past half a
+/// turn, a negative stiffness).
+#[test]
+fn torsion_springs_on_joints() {
+    let coil = |keys: &str| {
+        HINGED_BAR.replace(
+            "[simulation]",
+            &format!("[[springs]]\nname = \"coil\"\n{keys}\n\n[simulation]"),
+        )
+    };
+    let scene = built(&coil("joint = \"hinge\"\nk = 3.0\nc = 0.1\nrest = 0.2")).unwrap();
+    assert!(matches!(
+        scene.model.forces[0].kind,
+        ForceKind::Torsion { stiffness, damping, rest, .. } if (stiffness, damping, rest) == (3.0, 0.1, 0.2)
+    ));
+    assert_eq!(
+        scene.parameter("c:coil").unwrap(),
+        vec![(Parameter::SpringDamping { force: 0 }, 1.0)]
+    );
+    for (keys, words) in [
+        ("joint = \"hinge\"\na = \"bar\"", "not both"),
+        ("joint = \"hinge\"\nlength = 1.0", "not both"),
+        ("a = \"bar\"\nrest = 0.1", "not both"),
+        (
+            "joint = \"elbow\"",
+            "springs[0] (coil).joint: no joint called 'elbow'",
+        ),
+        (
+            "joint = \"hinge\"\nrest = 3.5",
+            "forces.coil.rest: 3.5: a rest angle lies within half a turn",
+        ),
+        (
+            "joint = \"hinge\"\nk = -1.0",
+            "forces.coil.k: -1: must be finite and not negative",
+        ),
+    ] {
+        let e = refused(&coil(keys));
+        assert!(e.contains(words), "{keys}: {e}");
+    }
+    let welded = coil("joint = \"hinge\"")
+        .replace("kind = \"revolute\"", "kind = \"spherical\"")
+        .replace("axis = [0.0, 1.0, 0.0]\n", "");
+    let e = refused(&welded);
+    assert!(
+        e.contains("a torsion spring turns with a revolute or cylindrical joint"),
+        "{e}"
+    );
 }

@@ -1,0 +1,74 @@
+//! A spatial scene's design (paper Eq. 1, 33, 34): one density `x_i ∈ [x_min, 1]` per beam
+//! or per group of beams (a `fixed` beam has none), each of its elements' stiffnesses scaled
+//! by the interpolation `s(x_i)` and its mass by the mass law `m(x_i)`, as on a planar
+//! scene. The mechanism at `x` is the built one so scaled, and a response's derivative to a
+//! density is read off the engine's factors on an element's stiffness `σ_e` and mass `μ_e`
+//! (at 1, [`Parameter::BeamStiffness`] …):
+//!
+//! `∂f/∂x_i = Σ_e (s'(x_i)/s(x_i)) ∂f/∂σ_e + (m'(x_i)/m(x_i)) ∂f/∂μ_e` over the variable's
+//! elements.
+
+use std::borrow::Cow;
+
+use super::names::Named;
+use super::SpatialScene;
+use crate::error::DesignError;
+use crate::spatial::model::SpatialModel;
+use crate::spatial::sensitivity::Parameter;
+
+impl SpatialScene {
+    /// The number of design variables.
+    pub fn n_variables(&self) -> usize {
+        self.design.variables.len()
+    }
+
+    /// The mechanism at design `x` (as built, at full density, where `None`).
+    ///
+    /// # Errors
+    /// [`DesignError`] naming a wrong length or the first entry outside `[x_min, 1]`.
+    pub fn model_at(&self, x: Option<&[f64]>) -> Result<Cow<'_, SpatialModel>, DesignError> {
+        let Some(x) = x else {
+            return Ok(Cow::Borrowed(&self.model));
+        };
+        self.design.check(x)?;
+        let mut model = self.model.clone();
+        let (law, mass) = (self.design.interpolation, self.design.mass);
+        for beam in self.beams.values() {
+            let Some(i) = beam.variable else { continue };
+            let (s, m) = (law.stiffness(x[i]), mass.mass(x[i]));
+            for &e in &beam.elements {
+                match beam.truss {
+                    true => model.trusses[e].scale(s, m),
+                    false => model.beams[e].scale(s, m),
+                }
+            }
+        }
+        Ok(Cow::Owned(model))
+    }
+
+    /// For each design variable, the engine parameters whose derivatives make its own at `x`
+    /// (module docs); `x` checked by [`SpatialScene::model_at`].
+    pub fn densities(&self, x: &[f64]) -> Vec<Named> {
+        let mut named = vec![Named::new(); self.n_variables()];
+        let (law, mass) = (self.design.interpolation, self.design.mass);
+        for beam in self.beams.values() {
+            let Some(i) = beam.variable else { continue };
+            let ds = law.stiffness_derivative(x[i]) / law.stiffness(x[i]);
+            let dm = mass.mass_derivative(x[i]) / mass.mass(x[i]);
+            for &e in &beam.elements {
+                let (stiffness, inertia) = match beam.truss {
+                    true => (
+                        Parameter::TrussStiffness { truss: e },
+                        Parameter::TrussMass { truss: e },
+                    ),
+                    false => (
+                        Parameter::BeamStiffness { beam: e },
+                        Parameter::BeamMass { beam: e },
+                    ),
+                };
+                named[i].extend([(stiffness, ds), (inertia, dm)]);
+            }
+        }
+        named
+    }
+}
