@@ -226,6 +226,7 @@ class SpatialModeData(TypedDict):
     """``SpatialModel.natural_modes()``: every mode about a configuration."""
 
     omega_squared: _F  # (n_m,), rad²/s², ascending
+    frequencies: _F | None  # (n_m,), Hz; None where the state is unstable
     shapes: _F  # (n_m, 6 n_n), mass-normalized
 
 @type_check_only

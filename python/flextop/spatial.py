@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import _core, plausibility
 from .errors import SceneError, SettingsError, SimulationError
@@ -35,12 +36,9 @@ velocity (velocity in space, angular velocity in the node's axes)."""
 
 def rotations(quaternions: np.ndarray) -> np.ndarray:
     """Rotation matrices of unit quaternions ``(w, x, y, z)``, shape ``(..., 3, 3)``."""
-    w, x, y, z = np.moveaxis(quaternions, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+    q = np.asarray(quaternions, dtype=float)
+    flat = Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]]).as_matrix()  # scipy's (x, y, z, w)
+    return flat.reshape(*q.shape[:-1], 3, 3)
 
 
 @dataclass(frozen=True)
@@ -136,16 +134,17 @@ class SpatialModes:
 
     omega_squared: np.ndarray
     shapes: np.ndarray
+    stable_frequencies: np.ndarray | None = None
 
     @property
     def frequencies(self) -> np.ndarray:
         """The natural frequencies (Hz), ascending. Raises :class:`SimulationError` where the
-        configuration is unstable (an ``ω²`` below round-off of the largest)."""
-        round_off = 1e-12 * float(np.max(np.abs(self.omega_squared), initial=0.0))
-        if np.any(self.omega_squared < -round_off):
+        configuration is unstable (an ``ω²`` below round-off of the largest, as the engine
+        judges)."""
+        if self.stable_frequencies is None:
             raise SimulationError(f"the configuration is unstable (ω² down to {self.omega_squared.min():.4g} rad²/s²): "
                                   "it has no natural frequencies")
-        return np.sqrt(np.maximum(self.omega_squared, 0.0)) / (2.0 * np.pi)
+        return self.stable_frequencies
 
 
 @dataclass(frozen=True)
@@ -277,7 +276,8 @@ class SpatialSimulation:
         equilibrium of the scene's loads at ``t_end`` by default)."""
         eq = self.equilibrium(x, **settings) if at is None else at
         r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)), self._design(x))
-        return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]))
+        frequencies = None if r["frequencies"] is None else np.asarray(r["frequencies"])
+        return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies)
 
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,

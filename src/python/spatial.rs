@@ -225,8 +225,8 @@ impl PySpatialModel {
     }
 
     /// Every natural mode about configuration `q` with multipliers `lam` at time `t`:
-    /// `omega_squared` (rad²/s², ascending) and mass-normalized `shapes` (one row each,
-    /// six numbers per node).
+    /// `omega_squared` (rad²/s², ascending), the `frequencies` (Hz; `None` where the state is
+    /// unstable) and mass-normalized `shapes` (one row each, six numbers per node).
     #[pyo3(signature = (q, lam, t=0.0, x=None))]
     fn natural_modes<'py>(
         &self,
@@ -243,6 +243,8 @@ impl PySpatialModel {
         })?;
         let d = PyDict::new(py);
         let n_v = self.scene.model.n_v();
+        let frequencies = modes.frequencies().map(|f| vector(py, f));
+        d.set_item("frequencies", frequencies)?;
         d.set_item("shapes", Self::rows(py, modes.shapes, n_v)?)?;
         d.set_item("omega_squared", vector(py, modes.omega_squared))?;
         Ok(d)

@@ -445,14 +445,7 @@ impl SpatialModel {
         rest: Option<f64>,
     ) -> Result<usize, SceneError> {
         let path = self.new_force(name)?;
-        for (what, value) in [("k", k), ("c", c), ("rest", rest.unwrap_or(0.0))] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SceneError::new(
-                    format!("{path}.{what}"),
-                    format!("{}: must be finite and not negative", short(value)),
-                ));
-            }
-        }
+        not_negative(&path, [("k", k), ("c", c), ("rest", rest.unwrap_or(0.0))])?;
         let pair = Pair {
             nodes: [
                 self.resolve(&format!("{path}.a"), a)?.0,
@@ -487,6 +480,12 @@ impl SpatialModel {
         Ok(self.forces.len() - 1)
     }
 
+    /// Joint `joint`, for the force element at `path`.
+    fn joint_at(&self, path: &str, joint: usize) -> Result<&Joint, SceneError> {
+        (self.joints.get(joint))
+            .ok_or_else(|| SceneError::new(format!("{path}.joint"), format!("no joint {joint}")))
+    }
+
     /// Adds a torsion spring-damper of stiffness `k` (N m/rad) and damping `c` (N m s/rad)
     /// on revolute or cylindrical joint `joint`'s angle, at rest at `rest` (rad from where
     /// the joint is built; 0 by default); returns its index.
@@ -504,10 +503,7 @@ impl SpatialModel {
         rest: Option<f64>,
     ) -> Result<usize, SceneError> {
         let path = self.new_force(name)?;
-        let j = self
-            .joints
-            .get(joint)
-            .ok_or_else(|| SceneError::new(format!("{path}.joint"), format!("no joint {joint}")))?;
+        let j = self.joint_at(&path, joint)?;
         let axes = j.angle_axes().ok_or_else(|| {
             SceneError::new(
                 format!("{path}.joint"),
@@ -518,14 +514,7 @@ impl SpatialModel {
                 ),
             )
         })?;
-        for (what, value) in [("k", k), ("c", c)] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SceneError::new(
-                    format!("{path}.{what}"),
-                    format!("{}: must be finite and not negative", short(value)),
-                ));
-            }
-        }
+        not_negative(&path, [("k", k), ("c", c)])?;
         let rest = rest.unwrap_or(0.0);
         if rest.is_nan() || rest.abs() >= std::f64::consts::PI {
             return Err(SceneError::new(
@@ -563,10 +552,7 @@ impl SpatialModel {
         time: TimeFunction,
     ) -> Result<usize, SceneError> {
         let path = self.new_force(name)?;
-        let j = self
-            .joints
-            .get(joint)
-            .ok_or_else(|| SceneError::new(format!("{path}.joint"), format!("no joint {joint}")))?;
+        let j = self.joint_at(&path, joint)?;
         let JointKind::Revolute { axis } = j.kind else {
             return Err(SceneError::new(
                 format!("{path}.joint"),
@@ -887,6 +873,20 @@ impl SpatialModel {
             }
         }
         Ok(())
+    }
+}
+
+/// Each named constant of the force element at `path` finite and not negative.
+fn not_negative<const N: usize>(path: &str, values: [(&str, f64); N]) -> Result<(), SceneError> {
+    match values
+        .into_iter()
+        .find(|(_, v)| !(v.is_finite() && *v >= 0.0))
+    {
+        Some((what, value)) => Err(SceneError::new(
+            format!("{path}.{what}"),
+            format!("{}: must be finite and not negative", short(value)),
+        )),
+        None => Ok(()),
     }
 }
 
