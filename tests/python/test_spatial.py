@@ -306,6 +306,39 @@ def test_a_torsion_spring_from_the_builder_swings_at_its_closed_form_period_with
     assert g["direct"].gradient[0, 0] == pytest.approx(g["adjoint"].gradient[0, 0], rel=1e-9)
 
 
+def test_a_lattice_from_the_builder_reads_back_and_its_single_layer_is_the_planar_ground_structure(tmp_path):
+    """``SpatialScene.ground_structure``: a 5 × 3 single layer has the planar ground
+    structure's bars (every pair of grid nodes with ``gcd(Δi, Δj) = 1``), a 4 × 2 × 2 lattice
+    with face diagonals its closed-form count; written as TOML and read back, clamped
+    lattices under tip loads give the same equilibrium, with direct = adjoint density
+    gradients."""
+    grid = [(i, j) for i in range(5) for j in range(3)]
+    planar = sum(math.gcd(abs(a[0] - b[0]), abs(a[1] - b[1])) == 1 for n, a in enumerate(grid) for b in grid[n + 1:])
+    scene = SpatialScene("lattice", analysis="static")
+    scene.section("s", E=7e10, rho=2700.0, nu=0.33, diameter=0.01)
+    scene.ground_structure("g", nx=5, ny=3, length=0.5, height=0.2, section="s")
+    scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.3, height=0.05, width=0.05, section="s",
+                           connectivity="faces", origin=(0.0, 0.0, 1.0))
+    for k in range(2):
+        for j in range(2):
+            scene.weld(f"clamp{j}{k}", f"box[0,{j},{k}]")
+    scene.weld("clamp", "g[0,0,0]")
+    scene.weld("clamp2", "g[0,2,0]")
+    scene.load("push", "box[3,1,1]", force=(0.0, -5.0, -20.0))
+    scene.load("pull", "g[4,1,0]", force=(0.0, -10.0, 0.0))
+    path = tmp_path / "lattice.toml"
+    path.write_text(scene.to_toml())
+    sim = SpatialSimulation(path)
+    edges, faces = 3 * 2 * 2 + 4 * 1 * 2 + 4 * 2 * 1, 2 * (3 * 1 * 2 + 3 * 2 * 1 + 4 * 1 * 1)
+    assert sim.n_design == planar + edges + faces
+    x = np.linspace(0.3, 1.0, sim.n_design)
+    a, b = sim.equilibrium(x), SpatialSimulation(scene).equilibrium(x)
+    assert np.array_equal(a.q, b.q) and a.position("box[3,1,1]")[2] < 1.025  # built at z = 1 + width/2
+    direct = sim.run_with_sensitivities(x, ["strain_energy", "z:box[3,1,1]"], method="direct").dfdx
+    adjoint = sim.run_with_sensitivities(x, ["strain_energy", "z:box[3,1,1]"], method="adjoint").dfdx
+    assert np.all(np.abs(direct - adjoint) <= 1e-9 * np.abs(direct).max(axis=1, keepdims=True))
+
+
 def test_planar_entries_without_a_spatial_counterpart_are_named():
     scene = flextop.scenes.slider_crank()
     with pytest.raises(SceneError, match="joints.slide: a planar prismatic has no spatial counterpart"):

@@ -97,6 +97,20 @@ class SpatialScene(SceneDict):
         return self._entry("beams", name, nodes=[a, b], section=section, split=None if split == 1 else split,
                            up=_maybe(up), kind=None if kind == "frame" else kind, group=group, fixed=fixed or None)
 
+    def ground_structure(self, name: str, *, nx: int, ny: int, nz: int = 1, length: float, height: float,
+                         width: float = 0.0, section: str, connectivity: str = "full", origin: Sequence[float] | None = None,
+                         orientation: Any = None, kind: str = "frame", split: int = 1, fixed: bool = False) -> str:
+        """A box lattice of ``nx × ny × nz`` nodes (``NAME[i,j,k]``) over a link of ``length ×
+        height × width`` (m), its ``x = 0`` face centred at ``origin`` with axes at
+        ``orientation``, and the bars ``NAME/bar{m}`` its ``connectivity`` joins: ``"full"``
+        (every bar no third node lies on), ``"diagonals"``, ``"faces"`` or ``"edges"``; each
+        a beam of ``section`` (or a truss bar) with a density of its own unless ``fixed``."""
+        return self._entry("ground_structures", name, nx=nx, ny=ny, nz=None if nz == 1 else nz, length=length,
+                           height=height, width=width or None, section=section,
+                           connectivity=None if connectivity == "full" else connectivity, origin=_maybe(origin),
+                           orientation=_orientation(orientation), kind=None if kind == "frame" else kind,
+                           split=None if split == 1 else split, fixed=fixed or None)
+
     def point_mass(self, name: str, node: str, mass: float) -> str:
         """A point mass (kg) at ``node``'s origin."""
         return self._entry("point_masses", name, node=node, mass=mass)

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
+use super::lattice::expand;
 use super::spec::{
     AnchorSpec, JointKindSpec, OrientationSpec, ShapeSpec, SpatialBeamSpec, SpatialBodySpec,
     SpatialJointSpec, SpatialSceneSpec, SpatialSectionSpec,
@@ -52,22 +53,40 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
         crate::poll()?;
         body(&mut model, &format!("rigid_bodies[{k}] ({})", b.name), b)?;
     }
-    for (k, n) in spec.nodes.iter().enumerate() {
+    let lattices = (spec.ground_structures.iter().enumerate())
+        .map(|(k, g)| {
+            let path = format!("ground_structures[{k}] ({})", g.name);
+            expand(&path, g).map(|(nodes, beams)| (path, nodes, beams))
+        })
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let named = |what: &str, k: usize, name: &str| format!("{what}[{k}] ({name})");
+    let nodes = (spec.nodes.iter().enumerate())
+        .map(|(k, n)| (named("nodes", k, &n.name), n))
+        .chain(lattices.iter().flat_map(|(path, nodes, _)| {
+            (nodes.iter().enumerate())
+                .map(move |(k, n)| (named(&format!("{path}.nodes"), k, &n.name), n))
+        }));
+    for (path, n) in nodes {
         crate::poll()?;
-        let path = format!("nodes[{k}] ({})", n.name);
         let frame = frame(&path, &n.position, n.orientation.as_ref())?;
         let node = model.add_node(&n.name, frame)?;
         let omega = frame.rotation().transpose() * vector(&path, n.angular_velocity)?;
         model.set_node_rates(node, vector(&path, n.velocity)?, omega)?;
     }
-    unique("beams", spec.beams.iter().map(|b| b.name.as_str()))?;
+    let all_beams: Vec<(String, &SpatialBeamSpec)> = (spec.beams.iter().enumerate())
+        .map(|(k, b)| (named("beams", k, &b.name), b))
+        .chain(lattices.iter().flat_map(|(path, _, beams)| {
+            (beams.iter().enumerate())
+                .map(move |(k, b)| (named(&format!("{path}.bars"), k, &b.name), b))
+        }))
+        .collect();
+    unique("beams", all_beams.iter().map(|(_, b)| b.name.as_str()))?;
     let (interpolation, x_min) = design::law(&spec.design)?;
     let mass = design::mass_law(&spec.design, spec.analysis)?;
     let mut variables = Variables::default();
     let mut beams = BTreeMap::new();
-    for (k, b) in spec.beams.iter().enumerate() {
+    for (path, b) in all_beams {
         crate::poll()?;
-        let path = format!("beams[{k}] ({})", b.name);
         if model.bodies.iter().any(|body| body.name == b.name) {
             return Err(SceneError::new(
                 path,

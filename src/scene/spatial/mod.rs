@@ -27,6 +27,7 @@
 
 mod build;
 mod design;
+pub mod lattice;
 pub mod names;
 pub mod spec;
 

@@ -9,6 +9,7 @@ use std::fmt;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
+use super::lattice::SpatialGroundStructureSpec;
 use crate::scene::spec::{AnalysisSpec, DesignSpec, KindSpec, LoadTableSpec, MotionSpec};
 use crate::settings::RunOptions;
 
@@ -39,6 +40,9 @@ pub struct SpatialSceneSpec {
     /// Beams and truss bars between nodes.
     #[serde(default)]
     pub beams: Vec<SpatialBeamSpec>,
+    /// Box lattices of bars over links ([`super::lattice`]).
+    #[serde(default)]
+    pub ground_structures: Vec<SpatialGroundStructureSpec>,
     /// Point masses on nodes.
     #[serde(default)]
     pub point_masses: Vec<SpatialPointMassSpec>,

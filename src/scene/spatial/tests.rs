@@ -585,3 +585,189 @@ fn torsion_springs_on_joints() {
         "{e}"
     );
 }
+
+/// A box lattice's bars: a single layer is the planar ground structure's, in its order;
+/// the counts of edges, faces and diagonals are the lattice's; every "full" bar holds no
+/// third node and every pair left out holds one.
+#[test]
+fn lattices_join_what_their_connectivity_says() {
+    use super::lattice::{lattice_bars, Connectivity};
+    use crate::scene::ground_structure::bars;
+    for (nx, ny) in [(5, 3), (4, 4), (2, 1)] {
+        let full = lattice_bars("g", [nx, ny, 1], Connectivity::Full).unwrap();
+        assert_eq!(full, bars(nx, ny));
+    }
+    let (nx, ny, nz) = (4usize, 3usize, 2usize);
+    let edges = (nx - 1) * ny * nz + nx * (ny - 1) * nz + nx * ny * (nz - 1);
+    let faces =
+        2 * ((nx - 1) * (ny - 1) * nz + (nx - 1) * ny * (nz - 1) + nx * (ny - 1) * (nz - 1));
+    let bodies = 4 * (nx - 1) * (ny - 1) * (nz - 1);
+    let count = |c| lattice_bars("g", [nx, ny, nz], c).unwrap().len();
+    assert_eq!(count(Connectivity::Edges), edges);
+    assert_eq!(count(Connectivity::Faces), edges + faces);
+    assert_eq!(count(Connectivity::Diagonals), edges + faces + bodies);
+    let at = |n: usize| [n / (ny * nz), (n / nz) % ny, n % nz].map(|c| c as i64);
+    let full = lattice_bars("g", [nx, ny, nz], Connectivity::Full).unwrap();
+    let n = nx * ny * nz;
+    for a in 0..n {
+        for b in a + 1..n {
+            let (pa, pb) = (at(a), at(b));
+            let inside = (0..n).filter(|&c| c != a && c != b).any(|c| {
+                let pc = at(c);
+                let (d, e) = (
+                    [0, 1, 2].map(|i| pb[i] - pa[i]),
+                    [0, 1, 2].map(|i| pc[i] - pa[i]),
+                );
+                let cross = [
+                    d[1] * e[2] - d[2] * e[1],
+                    d[2] * e[0] - d[0] * e[2],
+                    d[0] * e[1] - d[1] * e[0],
+                ];
+                let along: i64 = (0..3).map(|i| d[i] * e[i]).sum();
+                cross == [0, 0, 0] && along > 0 && along < (0..3).map(|i| d[i] * d[i]).sum()
+            });
+            assert_eq!(full.contains(&(a, b)), !inside, "{a}-{b}");
+        }
+    }
+}
+
+/// A lattice cantilever of frame bars: placed by its frame, a density per bar (none where
+/// fixed), mistakes named; its static strain energy's gradient to the densities against
+/// fourth-order differences and direct against adjoint.
+#[test]
+fn a_lattice_cantilever_has_exact_density_gradients() {
+    use crate::settings::{Method, RunOptions};
+    use crate::spatial::sensitivity::static_sensitivities;
+    let text = r#"
+dimension = 3
+analysis = "static"
+[sections.steel]
+E = 2.1e11
+rho = 7850.0
+nu = 0.3
+shape = "circle"
+diameter = 0.01
+[[ground_structures]]
+name = "box"
+nx = 3
+ny = 2
+nz = 2
+length = 0.4
+height = 0.1
+width = 0.08
+connectivity = "edges"
+origin = [1.0, 0.0, 0.5]
+orientation = { axis = [0.0, 0.0, 1.0], angle_deg = 90.0 }
+section = "steel"
+[[joints]]
+name = "c0"
+kind = "weld"
+a = "box[0,0,0]"
+[[joints]]
+name = "c1"
+kind = "weld"
+a = "box[0,1,1]"
+[[loads]]
+name = "push"
+at = "box[2,1,1]"
+force = [30.0, 0.0, -50.0]
+"#;
+    let scene = built(text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.model.beams.len(), 20);
+    assert_eq!(scene.design.variables.len(), 20);
+    assert_eq!(scene.design.variables[0], "box/bar0");
+    let tip = scene
+        .model
+        .nodes
+        .iter()
+        .find(|n| n.name == "box[2,1,1]")
+        .unwrap();
+    assert!((tip.frame.x - Vector3::new(1.0 - 0.05, 0.4, 0.5 + 0.04)).norm() < 1e-15);
+    let settings = RunOptions {
+        load_steps: Some(1),
+        ..RunOptions::default()
+    }
+    .statics(&scene.options)
+    .unwrap();
+    let responses = [
+        scene.response("strain_energy").unwrap(),
+        scene.response("z:box[2,1,1]").unwrap(),
+    ];
+    let x: Vec<f64> = (0..20).map(|i| 0.3 + 0.03 * i as f64).collect();
+    let named = scene.densities(&x);
+    let parameters: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
+    let model = scene.model_at(Some(&x)).unwrap();
+    let per_variable = |row: &[f64]| {
+        let mut parts = row.iter();
+        (named.iter())
+            .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
+            .collect::<Vec<f64>>()
+    };
+    let gradient = |method| {
+        let g = static_sensitivities(&model, &settings, &responses, &parameters, method).unwrap();
+        g.gradient
+            .iter()
+            .map(|r| per_variable(r))
+            .collect::<Vec<_>>()
+    };
+    let (direct, adjoint) = (gradient(Method::Direct), gradient(Method::Adjoint));
+    let value = |x: &[f64]| {
+        let model = scene.model_at(Some(x)).unwrap();
+        static_sensitivities(&model, &settings, &responses, &[], Method::Direct)
+            .unwrap()
+            .values
+    };
+    let h = 1e-4;
+    for i in [0, 7, 19] {
+        let shifted = |k: f64| {
+            let mut y = x.clone();
+            y[i] += k * h;
+            value(&y)
+        };
+        let (m2, m1, p1, p2) = (shifted(-2.0), shifted(-1.0), shifted(1.0), shifted(2.0));
+        for r in 0..2 {
+            let fd = (m2[r] - 8.0 * m1[r] + 8.0 * p1[r] - p2[r]) / (12.0 * h);
+            let scale = direct[r].iter().map(|g| g.abs()).fold(0.0, f64::max);
+            assert!(
+                (direct[r][i] - fd).abs() < 1e-6 * scale,
+                "{r} {i}: {} vs {fd}",
+                direct[r][i]
+            );
+            assert!(
+                (direct[r][i] - adjoint[r][i]).abs() < 1e-9 * scale,
+                "{r} {i}"
+            );
+        }
+    }
+    let fixed = built(&text.replace(
+        "section = \"steel\"\n[[joints]]",
+        "section = \"steel\"\nfixed = true\n[[joints]]",
+    ))
+    .unwrap();
+    assert!(fixed.design.variables.is_empty());
+    for (from, to, words) in [
+        (
+            "nz = 2",
+            "nz = 0",
+            "ground_structures[0] (box): 3 × 2 × 0 nodes",
+        ),
+        (
+            "connectivity = \"edges\"",
+            "connectivity = \"some\"",
+            "connectivity",
+        ),
+        (
+            "width = 0.08",
+            "width = -0.08",
+            "ground_structures[0] (box).width",
+        ),
+        (
+            "section = \"steel\"\n[[joints]]",
+            "section = \"iron\"\n[[joints]]",
+            "ground_structures[0] (box).bars[0] (box/bar0).section",
+        ),
+    ] {
+        let e = refused(&text.replace(from, to));
+        assert!(e.contains(words), "{to}: {e}");
+    }
+}
