@@ -193,7 +193,7 @@ pub enum SolveError {
         last: String,
     },
     /// A nonlinear static solve failed where the linear solution moves a node by a large
-    /// share of the model's size ([`crate::solver::linear::LARGE_DISPLACEMENT`]): the load
+    /// share of the model's size ([`crate::LARGE_DISPLACEMENT`]): the load
     /// is large for the stiffness, and the small-displacement problem may be what is meant.
     #[error(
         "{failure}. The linear solution moves node '{node}' by {ratio:.3} times the model's \
