@@ -2,10 +2,11 @@
 //!
 //! A scene's `[simulation]` table and a caller's overrides are both [`RunOptions`], checked
 //! by the same [`RunOptions::validate`]. A run merges the two over the engine's defaults
-//! into [`DynamicSettings`] (time integration), [`StaticSettings`] (equilibrium) and
-//! [`SensitivitySettings`] (how gradients are computed). Defaults: `ρ∞ = 0.8` (the paper's
-//! choice), relative Newton tolerance `1e-10`, 20 Newton iterations per step, consistent
-//! mass, one load step, gradients by the method that suits the problem. Times in s.
+//! into [`DynamicSettings`] (time integration), [`StaticSettings`] (equilibrium, of the
+//! [`StaticAnalysis`] asked for) and [`SensitivitySettings`] (how gradients are computed).
+//! Defaults: `ρ∞ = 0.8` (the paper's choice), relative Newton tolerance `1e-10`, 20 Newton
+//! iterations per step, consistent mass, one load step, the nonlinear static analysis,
+//! gradients by the method that suits the problem. Times in s.
 
 use std::str::FromStr;
 
@@ -428,7 +429,7 @@ impl RunOptions {
 }
 
 /// The error of a linear analysis asked of a dynamic run.
-pub fn linear_is_static() -> SettingsError {
+pub(crate) fn linear_is_static() -> SettingsError {
     SettingsError::new(
         "analysis",
         "'linear' is a static analysis (K₀u = f about the reference configuration); a \
