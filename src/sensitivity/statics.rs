@@ -45,10 +45,10 @@ pub(crate) fn differentiate_equilibrium(
     };
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    // The tangent at the equilibrium; the linear analysis's, at the unloaded reference.
-    let reference = (linear.is_some()).then(|| (vec![0.0; q.len()], vec![0.0; lambda.len()]));
-    let (q_t, lambda_t) = reference.as_ref().map_or((&q, &lambda), |(q, l)| (q, l));
-    newton.factorize(q_t, Some(lambda_t), None, 0.0, 0.0, settings.time)?;
+    // The tangent at the equilibrium; the linear step's factors are already K₀'s.
+    if linear.is_none() {
+        newton.factorize(&q, Some(&lambda), None, 0.0, 0.0, settings.time)?;
+    }
     let grid = TimeGrid::single();
     let at = Sample {
         q: &q,
