@@ -183,6 +183,8 @@ def test_bad_input_is_named():
     spec["simulation"]["analysis"] = "linear"
     with pytest.raises(flextop.SceneError, match=r"^simulation\.analysis: 'linear' is a static analysis"):
         flextop.Simulation(Scene.from_dict(spec))
+    with pytest.raises(flextop.SceneError, match=r"^half_mbb: analysis must be 'nonlinear' or 'linear', got 'lin'$"):
+        flextop.scenes.half_mbb(analysis="lin")
     spatial = from_planar(flextop.scenes.static_truss()).to_dict()
     spatial["simulation"] = {"analysis": "linear"}
     with pytest.raises(flextop.SettingsError, match=r"^analysis: the linear analysis is built for planar scenes"):

@@ -231,6 +231,8 @@ def half_mbb(*, nx: int = 60, ny: int = 20, length: float = 0.6, height: float =
     one to well under 1 %; the design the optimality criteria find is the code's, the
     compliance scaled by E and the load squared. ``analysis="linear"`` solves the code's own
     small-displacement problem ``K₀ u = f`` (:func:`half_mbb_unit`, in its units)."""
+    if analysis not in ("nonlinear", "linear"):
+        raise SceneError(f"half_mbb: analysis must be 'nonlinear' or 'linear', got {analysis!r}")
     scene = Scene("half_mbb", analysis="static")
     member = scene.member("beam", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E, nu=nu, rho=rho,
                           solid_at_joints=False, cell="plain")
@@ -239,10 +241,10 @@ def half_mbb(*, nx: int = 60, ny: int = 20, length: float = 0.6, height: float =
     scene.roller("support", member.node(nx, 0), axis=(1.0, 0.0))
     scene.load(member.node(0, ny), force=(0.0, -force))
     scene.design(interpolation="simp", p=p, x_min=x_min, e_min=e_min)
-    if analysis == "nonlinear":
-        scene.simulation(load_steps=1)
+    if analysis == "linear":
+        scene.simulation(analysis="linear")
     else:
-        scene.simulation(analysis=analysis)
+        scene.simulation(load_steps=1)
     return scene
 
 
