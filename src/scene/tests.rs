@@ -124,6 +124,19 @@ fn a_linear_analysis_is_a_static_scenes_and_named_by_its_values() {
             .contains("must be one of 'nonlinear', 'linear', got 'linearised'"),
         "{e}"
     );
+    let e = error_of(&TRUSS.replace("analysis = \"static\"", "analysis = \"linear\""));
+    assert_eq!(e.path, "analysis");
+    assert!(
+        e.message
+            .contains("analysis = \"linear\" in its [simulation] table"),
+        "{e}"
+    );
+    let e = error_of(&TRUSS.replace("analysis = \"static\"", "analysis = \"modal\""));
+    assert!(
+        e.message
+            .contains("unknown variant `modal`, expected `dynamic` or `static`"),
+        "{e}"
+    );
     let mut truss = parse_toml(TRUSS).unwrap();
     truss.simulation.analysis = Some(crate::settings::StaticAnalysis::Linear);
     assert!(build(&truss).is_ok());

@@ -163,8 +163,9 @@ def test_a_nonlinear_failure_under_a_large_load_points_to_the_linear_analysis():
 
 def test_bad_input_is_named():
     """An unknown analysis, the linear analysis of a dynamic scene (asked for by a run or in
-    its [simulation] table), a response it does not offer, scene parameters and a spatial
-    scene's equilibrium (not built there): each a SettingsError or SceneError that names it."""
+    its [simulation] table) or given as the scene's kind, a response it does not offer, scene
+    parameters and a spatial scene's equilibrium (not built there): each a SettingsError or
+    SceneError that names it."""
     sim = braced_plate()
     x = design(sim)
     with pytest.raises(flextop.SettingsError, match=r"^analysis: must be one of 'nonlinear', 'linear', got 'Linear'$"):
@@ -182,6 +183,10 @@ def test_bad_input_is_named():
     spec = flextop.scenes.robot_arm().to_dict()
     spec["simulation"]["analysis"] = "linear"
     with pytest.raises(flextop.SceneError, match=r"^simulation\.analysis: 'linear' is a static analysis"):
+        flextop.Simulation(Scene.from_dict(spec))
+    spec = flextop.scenes.half_mbb(nx=4, ny=2).to_dict() | {"analysis": "linear"}
+    with pytest.raises(flextop.SceneError, match=r'^analysis: unknown value `linear`, expected `dynamic` or `static`: a static '
+                                                 r'scene\'s linear analysis is analysis = "static" here and analysis = "linear" in its'):
         flextop.Simulation(Scene.from_dict(spec))
     with pytest.raises(flextop.SceneError, match=r"^half_mbb: analysis must be 'nonlinear' or 'linear', got 'lin'$"):
         flextop.scenes.half_mbb(analysis="lin")
