@@ -8,8 +8,9 @@
 //!
 //! `K₀` the tangent of the elements, cells and springs at the reference, `Φ₀ = Φ_q(0)` the
 //! joints' rows linear about it (no constraint Hessian: `λ = 0` there), the whole load `F`
-//! at once. It is exactly one Newton step of the static equilibrium (paper Eq. 5 without
-//! inertia) from the unloaded reference at the full load; its sensitivities differentiate
+//! at once. It is exactly one Newton step of the static equilibrium (the equations of
+//! motion without inertia, the constraints of paper Eq. 2–3) from the unloaded reference at
+//! the full load; its sensitivities differentiate
 //! it on the same factors (`sensitivity/statics.rs`, with the elements of
 //! [`crate::mechanism::linear`]). [`crate::solve_linear`] solves it with a static solve's
 //! machinery (`statics.rs`). No load stepping, no plausibility judgement: the energy is
