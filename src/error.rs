@@ -207,6 +207,24 @@ pub enum SolveError {
         /// The last Newton failure, as its message.
         last: String,
     },
+    /// A nonlinear static solve failed where the linear solution moves a node by a large
+    /// share of the model's size ([`crate::LARGE_DISPLACEMENT`]): the load
+    /// is large for the stiffness, and the small-displacement problem may be what is meant.
+    #[error(
+        "{failure}. The linear solution moves node '{node}' by {ratio:.3} times the model's \
+         size: the load is large for the stiffness. For the small-displacement problem (K₀u = \
+         f, as in the 88-line code's units) select the linear analysis: analysis = \"linear\" \
+         in the scene's [simulation] table, analysis=\"linear\" in Python, or --analysis \
+         linear on the command line"
+    )]
+    LargeLoad {
+        /// The nonlinear solve's failure.
+        failure: Box<SolveError>,
+        /// The node the linear solution moves farthest.
+        node: String,
+        /// Its displacement over the model's size.
+        ratio: f64,
+    },
     /// The sparse pattern or the symbolic factorization could not be set up: a defect of
     /// the engine, not of the input, reported instead of a panic.
     #[error("internal error setting up the linear solver ({0}); please report it with the scene")]

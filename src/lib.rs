@@ -75,19 +75,20 @@ pub use response::{Kind as ResponseKind, Response};
 pub use sensitivity::adjoint::Path;
 pub use sensitivity::shares::{bar_shares, Shares};
 pub use sensitivity::{
-    evaluate, of_equilibrium, of_motion, of_motion_about, of_motion_on, parse_parameters,
-    parse_responses, Evaluated, Recorded, Sensitivities, Timings,
+    evaluate, of_equilibrium, of_linear_equilibrium, of_motion, of_motion_about, of_motion_on,
+    parse_parameters, parse_responses, Evaluated, Recorded, Sensitivities, Timings,
 };
 pub use settings::{
-    DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticSettings,
-    MAX_STEPS,
+    DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticAnalysis,
+    StaticSettings, MAX_STEPS,
 };
 pub use solver::assembly::{linearize, Csc, Linearization};
 pub use solver::integrator::{AlphaParameters, Integrator, State};
+pub use solver::linear::LARGE_DISPLACEMENT;
 pub use solver::prolongation::Prolongation;
 pub use solver::simulation::{
     simulate, simulate_adaptive, simulate_guided, simulate_on, Trajectory, MAX_TRAJECTORY_BYTES,
 };
-pub use solver::statics::{solve_static, StaticSolution};
+pub use solver::statics::{solve_linear, solve_static, StaticSolution};
 pub use solver::step_control::StepControl;
 pub use time_grid::TimeGrid;

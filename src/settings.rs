@@ -2,10 +2,11 @@
 //!
 //! A scene's `[simulation]` table and a caller's overrides are both [`RunOptions`], checked
 //! by the same [`RunOptions::validate`]. A run merges the two over the engine's defaults
-//! into [`DynamicSettings`] (time integration), [`StaticSettings`] (equilibrium) and
-//! [`SensitivitySettings`] (how gradients are computed). Defaults: `ρ∞ = 0.8` (the paper's
-//! choice), relative Newton tolerance `1e-10`, 20 Newton iterations per step, consistent
-//! mass, one load step, gradients by the method that suits the problem. Times in s.
+//! into [`DynamicSettings`] (time integration), [`StaticSettings`] (equilibrium, of the
+//! [`StaticAnalysis`] asked for) and [`SensitivitySettings`] (how gradients are computed).
+//! Defaults: `ρ∞ = 0.8` (the paper's choice), relative Newton tolerance `1e-10`, 20 Newton
+//! iterations per step, consistent mass, one load step, the nonlinear static analysis,
+//! gradients by the method that suits the problem. Times in s.
 
 use std::str::FromStr;
 
@@ -85,6 +86,18 @@ pub enum NewtonMatrix {
     Modified,
 }
 
+/// Which static problem a run solves (`analysis`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StaticAnalysis {
+    /// The geometrically nonlinear equilibrium, by Newton's method with load stepping.
+    #[default]
+    Nonlinear,
+    /// The small-displacement problem about the reference configuration, `K₀ u = f`, the
+    /// joints' constraints linear about it and the load applied at once
+    /// ([`crate::solve_linear`]): the 88-line code's analysis.
+    Linear,
+}
+
 /// Parses a lowercase name among `allowed`, for the `FromStr` of the setting enums.
 fn parse_name<T: Copy>(
     setting: &str,
@@ -112,6 +125,18 @@ impl FromStr for Method {
             "method",
             s,
             &[("auto", Auto), ("direct", Direct), ("adjoint", Adjoint)],
+        )
+    }
+}
+
+impl FromStr for StaticAnalysis {
+    type Err = SettingsError;
+    fn from_str(s: &str) -> Result<Self, SettingsError> {
+        use StaticAnalysis::*;
+        parse_name(
+            "analysis",
+            s,
+            &[("nonlinear", Nonlinear), ("linear", Linear)],
         )
     }
 }
@@ -158,6 +183,7 @@ macro_rules! deserialize_by_name {
 deserialize_by_name!(Method);
 deserialize_by_name!(Memory);
 deserialize_by_name!(NewtonMatrix);
+deserialize_by_name!(StaticAnalysis);
 
 impl Method {
     /// The lowercase name, as parsed.
@@ -190,6 +216,8 @@ pub struct RunOptions {
     pub mass: Option<MassKind>,
     /// Initial load steps of a static analysis.
     pub load_steps: Option<usize>,
+    /// The static problem: `"nonlinear"` (the default) or `"linear"`.
+    pub analysis: Option<StaticAnalysis>,
     /// Gradient method: `"auto"`, `"direct"` or `"adjoint"`.
     pub method: Option<Method>,
     /// What the adjoint stores: `"auto"`, `"store"` or `"checkpoints"`.
@@ -317,6 +345,7 @@ impl RunOptions {
             newton: self.newton.or(d.newton),
             mass: self.mass.or(d.mass),
             load_steps: self.load_steps.or(d.load_steps),
+            analysis: self.analysis.or(d.analysis),
             method: self.method.or(d.method),
             memory: self.memory.or(d.memory),
         }
@@ -329,6 +358,9 @@ impl RunOptions {
     pub fn dynamic(&self, defaults: &RunOptions) -> Result<DynamicSettings, SettingsError> {
         let o = self.over(defaults);
         o.validate()?;
+        if o.analysis == Some(StaticAnalysis::Linear) {
+            return Err(linear_is_static());
+        }
         let missing = |n: &str| {
             SettingsError::new(
                 n,
@@ -346,21 +378,44 @@ impl RunOptions {
         })
     }
 
-    /// Settings of a static solve, `self` over the scene's `defaults`.
+    /// Settings of a nonlinear static solve, `self` over the scene's `defaults`, for a
+    /// solver that offers no other ([`RunOptions::equilibrium`] where the linear analysis is
+    /// built).
+    ///
+    /// # Errors
+    /// A [`SettingsError`] for a value out of range, or for `analysis = "linear"`.
+    pub fn statics(&self, defaults: &RunOptions) -> Result<StaticSettings, SettingsError> {
+        match self.equilibrium(defaults)? {
+            (StaticAnalysis::Nonlinear, settings) => Ok(settings),
+            (StaticAnalysis::Linear, _) => Err(SettingsError::new(
+                "analysis",
+                "the linear analysis is built for planar scenes; this solver is nonlinear",
+            )),
+        }
+    }
+
+    /// The static problem and the settings of its solve, `self` over the scene's
+    /// `defaults`.
     ///
     /// # Errors
     /// A [`SettingsError`] for a value out of range.
-    pub fn statics(&self, defaults: &RunOptions) -> Result<StaticSettings, SettingsError> {
+    pub fn equilibrium(
+        &self,
+        defaults: &RunOptions,
+    ) -> Result<(StaticAnalysis, StaticSettings), SettingsError> {
         let o = self.over(defaults);
         o.validate()?;
-        Ok(StaticSettings {
-            load_steps: o.load_steps.unwrap_or(1),
-            time: o.t_end.unwrap_or(0.0),
-            tol: o.tol.unwrap_or(TOL),
-            max_iter: o.max_iter.unwrap_or(MAX_ITER),
-            newton: o.newton.unwrap_or_default(),
-            max_cuts: MAX_CUTS,
-        })
+        Ok((
+            o.analysis.unwrap_or_default(),
+            StaticSettings {
+                load_steps: o.load_steps.unwrap_or(1),
+                time: o.t_end.unwrap_or(0.0),
+                tol: o.tol.unwrap_or(TOL),
+                max_iter: o.max_iter.unwrap_or(MAX_ITER),
+                newton: o.newton.unwrap_or_default(),
+                max_cuts: MAX_CUTS,
+            },
+        ))
     }
 
     /// How gradients are computed, `self` over the scene's `defaults`.
@@ -371,6 +426,16 @@ impl RunOptions {
             memory: o.memory.unwrap_or_default(),
         }
     }
+}
+
+/// The error of a linear analysis asked of a dynamic run.
+pub(crate) fn linear_is_static() -> SettingsError {
+    SettingsError::new(
+        "analysis",
+        "'linear' is a static analysis (K₀u = f about the reference configuration); a \
+         dynamic run follows the motion's large rotations, geometrically nonlinear: drop \
+         it, or make the scene static (analysis = \"static\")",
+    )
 }
 
 impl DynamicSettings {
@@ -445,6 +510,31 @@ mod tests {
         let e = "bogus".parse::<Method>().unwrap_err();
         assert_eq!(e.name, "method");
         assert!(e.message.contains("'auto', 'direct', 'adjoint'"), "{e}");
+    }
+
+    #[test]
+    fn the_linear_analysis_is_static_and_offered_where_it_is_built() {
+        let linear = RunOptions {
+            analysis: Some(StaticAnalysis::Linear),
+            ..Default::default()
+        };
+        let timed = RunOptions {
+            t_end: Some(1.0),
+            h: Some(0.1),
+            ..Default::default()
+        };
+        assert_eq!(linear.dynamic(&timed).unwrap_err().name, "analysis");
+        assert_eq!(timed.dynamic(&linear).unwrap_err().name, "analysis");
+        assert_eq!(linear.statics(&timed).unwrap_err().name, "analysis");
+        let (analysis, settings) = linear.equilibrium(&timed).unwrap();
+        assert_eq!((analysis, settings.time), (StaticAnalysis::Linear, 1.0));
+        assert_eq!(
+            timed.equilibrium(&timed).unwrap().0,
+            StaticAnalysis::Nonlinear
+        );
+        let e = "Linear".parse::<StaticAnalysis>().unwrap_err();
+        assert_eq!(e.name, "analysis");
+        assert!(e.message.contains("'nonlinear', 'linear'"), "{e}");
     }
 
     #[test]

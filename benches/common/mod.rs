@@ -83,6 +83,7 @@ pub fn tip_deflection(
             times: &traj.time,
             load_time: 0.0,
             mass: settings.mass,
+            analysis: flextop::StaticAnalysis::Nonlinear,
         };
         d = evaluate(model, Some(&design), &recorded, &responses)
             .unwrap()

@@ -49,6 +49,8 @@ CONTINUUM = ("continuum_robot_arm", "continuum_slider_crank", "half_mbb", "conti
 """The built-in scenes of continuum members, whose ``nx × ny`` cells ``--cells`` sets."""
 
 CELLS_HELP = f"cells along and across each continuum member of a built-in scene ({', '.join(CONTINUUM)}), e.g. 20x6"
+ANALYSIS_HELP = ("static scenes: linear (K0 u = f about the reference, the load at once: the 88-line code's analysis) or "
+                 "nonlinear (the default, or the scene's [simulation] analysis)")
 
 
 def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray | None:
@@ -82,6 +84,9 @@ def _summarize(sim: Simulation, res, elapsed: float) -> None:
             print(f"tip '{sim.node_names[sim.tip]}': max |r - r_rigid| = {error.max() * 1e3:.3f} mm, "
                   f"mean squared tip deflection d = {res.tip_deflection():.6e} m^2{_estimate(res, 'tip_deflection')}")
         print(f"mean compliance = {res.response('compliance'):.6g} J{_estimate(res, 'compliance')}")
+    elif res.analysis == "linear":
+        print(f"linear static analysis (K0 u = f) in {elapsed * 1e3:.1f} ms; compliance F^T u = "
+              f"{res.response('compliance'):.6g} J{_estimate(res, 'compliance')}")
     else:
         print(f"static equilibrium in {elapsed * 1e3:.1f} ms ({res.newton['total']} Newton iterations, "
               f"{res.newton['load_steps']} load steps); compliance F^T u = {res.response('compliance'):.6g} J"
@@ -155,11 +160,11 @@ def simulate(args: argparse.Namespace) -> int:
         return _simulate_spatial(scene.to_dict(), args)
     sim = Simulation(scene, accuracy=args.accuracy, rtol=args.rtol)
     settings = {k: v for k, v in {"t_end": args.t_end, "h": args.h, "rho_inf": args.rho_inf, "mass": args.mass,
-                                  "local_tol": args.local_tol}.items() if v is not None}
+                                  "local_tol": args.local_tol, "analysis": args.analysis}.items() if v is not None}
     if args.rtol is not None and args.h is not None:
         raise SettingsError("give --h (a fixed step) or --rtol (steps chosen to meet it), not both")
     if sim.analysis == "static":
-        settings = {k: v for k, v in settings.items() if k in ("t_end", "local_tol")}
+        settings = {k: v for k, v in settings.items() if k in ("t_end", "local_tol", "analysis")}
     if args.vtk and args.out is None:
         raise SettingsError("--vtk writes into the --out folder; give --out")
     out = None if args.out is None else _folder(Path(args.out))
@@ -185,7 +190,7 @@ SPATIAL_OPTIONS = ("t_end", "h", "rho_inf")
 
 def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
     """Runs a spatial scene (``dimension = 3``) and prints its summary."""
-    planar = ("cells", "design", "mass", "accuracy", "rtol", "local_tol")
+    planar = ("cells", "design", "mass", "accuracy", "rtol", "local_tol", "analysis")
     given = [k for k in planar if getattr(args, k) not in (None, False)] + (["x"] if args.x != 0.4 else [])
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
@@ -333,7 +338,8 @@ def _title(sim: Simulation, problem) -> str:
 
 
 def _settings(args: argparse.Namespace) -> dict:
-    return {k: v for k, v in {"h": args.h, "rho_inf": args.rho_inf, "t_end": args.t_end}.items() if v is not None}
+    given = {"h": args.h, "rho_inf": args.rho_inf, "t_end": args.t_end, "analysis": args.analysis}
+    return {k: v for k, v in given.items() if v is not None}
 
 
 def _keep_earlier_run(out: Path, force: bool) -> None:
@@ -462,7 +468,7 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     if args.scenarios is not None or args.scene is not None:
         raise SettingsError("--resume takes the scene or scenarios from the checkpoint; give neither")
     fixed = {"--volume-fraction": args.volume_fraction, "--global-volume": args.global_volume or None, "--x0": args.x0,
-             "--start": args.start, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
+             "--start": args.start, "--analysis": args.analysis, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
              "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter,
@@ -579,6 +585,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--h", type=_positive(float))
     s.add_argument("--rho-inf", type=float)
     s.add_argument("--mass", choices=["consistent", "lumped", "bar_lumped"])
+    s.add_argument("--analysis", choices=["nonlinear", "linear"], help=ANALYSIS_HELP)
     s.add_argument("--accuracy", choices=["fast", "balanced", "accurate"], help="accuracy preset (see flextop.discretization.accuracy)")
     s.add_argument("--rtol", type=_fraction, help="relative tolerance on d (or compliance): steps and elements per bar chosen to meet it")
     s.add_argument("--local-tol", type=_positive(float), help="variable steps by local error control (relative to the model's size)")
@@ -621,6 +628,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--xtol", type=_positive(float), help="stop when the largest design change falls below it: converged for --method oc "
                         "(its update's change is its optimality residual; 0.01 in the 88-line code), "
                         "stalled (not converged) for the others (default: off)")
+    o.add_argument("--analysis", choices=["nonlinear", "linear"], help=ANALYSIS_HELP)
     o.add_argument("--h", type=_positive(float))
     o.add_argument("--rho-inf", type=float)
     o.add_argument("--t-end", type=_positive(float))

@@ -6,7 +6,10 @@ outside what any structural material or member has — ``E = 70`` meant as 70 GP
 diameter of 20 meant in millimetres — builds and runs, and gives absurd answers quietly
 (the arm with ``E = 70`` deflects 1.2 m at the tip of a 2 m arm). :func:`check` warns about
 each such value with a :class:`~flextop.errors.PlausibilityWarning` naming the entry, its
-value and the plausible range; the run goes on, since a study may mean it.
+value and the plausible range; the run goes on, since a study may mean it. A static scene
+of the linear analysis (``analysis = "linear"`` in its ``[simulation]`` table) is the same
+in any consistent units (its displacements scale as F/E): its material properties are not
+judged, so the 88-line code's E = 1 under a unit load is no slip.
 
 The ranges (the plausible span of solids used in structures, with a margin):
 
@@ -40,19 +43,23 @@ RANGES: dict[str, tuple[float, float, str]] = {
 def check(spec: dict[str, Any], size: float) -> None:
     """Warns about every section's and continuum member's material property of ``spec``
     outside its plausible range, every solid circle wider than ``size`` (the model's
-    extent, m) and every member thicker than it."""
+    extent, m) and every member thicker than it; the properties not in a scene of the linear
+    analysis, which has no units of its own."""
+    simulation = spec.get("simulation")
+    linear = spec.get("analysis") == "static" and isinstance(simulation, dict) and simulation.get("analysis") == "linear"
+    ranges = {} if linear else RANGES
     for name, section in (spec.get("sections") or {}).items():
         if isinstance(section, dict):
-            _check_entry(f"sections.{name}", section, "diameter", size)
+            _check_entry(f"sections.{name}", section, "diameter", size, ranges)
     for k, member in enumerate(spec.get("members") or []):
         if isinstance(member, dict):
-            _check_entry(f"members[{k}] ({member.get('name')})", member, "thickness", size)
+            _check_entry(f"members[{k}] ({member.get('name')})", member, "thickness", size, ranges)
 
 
-def _check_entry(path: str, entry: dict[str, Any], width: str, size: float) -> None:
-    """The material properties of the scene's entry at ``path`` in :data:`RANGES`, and its
+def _check_entry(path: str, entry: dict[str, Any], width: str, size: float, ranges: dict[str, tuple[float, float, str]]) -> None:
+    """The material properties of the scene's entry at ``path`` in ``ranges``, and its
     ``width`` (a section's diameter, a member's thickness) against the model's ``size``."""
-    for key, (low, high, unit) in RANGES.items():
+    for key, (low, high, unit) in ranges.items():
         value = real(entry.get(key))
         if value is not None and not low <= value <= high:
             _warn(f"{path}.{key} = {value:g} {unit} is outside the plausible {low:g}–{high:g} {unit} of "

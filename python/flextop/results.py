@@ -200,7 +200,8 @@ class _Run:
         times, load_time = (np.zeros(1), float(time[0])) if self.simulation.analysis == "static" else (time, 0.0)
         qdot = getattr(self, "qdot", None)
         kind = self.settings.get("mass") or self.simulation.spec.get("simulation", {}).get("mass")
-        mass = {"mass": kind} if kind else None
+        given = {"mass": kind, "analysis": self.settings.get("analysis")}
+        mass = {k: v for k, v in given.items() if v is not None} or None
         out = _core.evaluate_responses(self.simulation.model, self.x, np.atleast_2d(self.q), np.atleast_2d(self.lam),
                                        list(map(float, times)), load_time, list(names),
                                        None if qdot is None else np.atleast_2d(qdot), mass)
@@ -378,6 +379,11 @@ class StaticResults(_Run):
     @property
     def newton(self) -> dict[str, Any]:
         return {"total": self.raw["iterations"], "load_steps": self.raw["load_steps"]}
+
+    @property
+    def analysis(self) -> str:
+        """The static problem solved: ``"linear"`` or ``"nonlinear"`` (the run's setting, or the scene's)."""
+        return str(self.settings.get("analysis") or self.simulation.spec.get("simulation", {}).get("analysis", "nonlinear"))
 
     def displacement(self, node: int | str) -> np.ndarray:
         """Displacement ``(u, v, φ)`` of ``node``."""

@@ -309,7 +309,8 @@ class Simulation:
     def run(self, x: DesignLike = None, *, rtol: float | None = None, atol: float | None = None, responses: Sequence[str] | str | None = None,
             local_tol: float | None = None, t_end: float | None = None, h: float | None = None, rho_inf: float | None = None,
             tol: float | None = None, max_iter: int | None = None, newton: str | None = None, mass: str | None = None,
-            load_steps: int | None = None, progress: Callable[[float], object] | None = None) -> Results | StaticResults:
+            load_steps: int | None = None, analysis: str | None = None,
+            progress: Callable[[float], object] | None = None) -> Results | StaticResults:
         """Runs the scene for design ``x`` (``None``: every bar at full density).
 
         Dynamic scenes integrate to ``t_end`` with step ``h`` — at most ``t_end``, and
@@ -326,7 +327,10 @@ class Simulation:
         bar of one element, and on a split bar its own bending modes converge at fourth
         order in its elements rather than the second; BENCHMARKS.md "Mass of a split
         bar"). Static scenes solve the
-        equilibrium with ``load_steps`` initial load increments.
+        equilibrium with ``load_steps`` initial load increments; ``analysis="linear"`` solves
+        the small-displacement problem ``K₀ u = f`` instead (the tangent at the reference,
+        the joints linear about it, the load at once: the 88-line code's analysis, exact
+        gradients too), ``"nonlinear"`` (the default) the geometrically nonlinear one.
 
         With a tolerance (``rtol`` here or on the :class:`Simulation`) and no ``h``, the
         elements per bar and the step are chosen so that the estimated error of
@@ -348,7 +352,7 @@ class Simulation:
         residual and iteration count of a failed Newton step) or ``ToleranceError``.
         """
         xv = self._design(x)
-        given = {"t_end": t_end, "tol": tol, "max_iter": max_iter, "newton": newton}
+        given = {"t_end": t_end, "tol": tol, "max_iter": max_iter, "newton": newton, "analysis": analysis}
         given |= {"load_steps": load_steps} if self.analysis == "static" else {"h": h, "rho_inf": rho_inf, "mass": mass}
         settings = self._settings(**given)
         if local_tol is not None:

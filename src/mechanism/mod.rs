@@ -2,7 +2,7 @@
 //! elements grouped in bars, rigid bodies, joints and their rows, loads, design
 //! variables), its finite [`element`]s, [`section`]s and their material [`interpolation`],
 //! joints as [`constraint`]s driven by [`motion`] laws, nodal [`load`]s, [`spring`]s and
-//! [`motor`]s, the rigid clusters and kinematics of `rigid` and the rank analysis of the
+//! [`motor`]s, the elements [`linear`]ized about the reference, the rigid clusters and kinematics of `rigid` and the rank analysis of the
 //! joints' Jacobian (`rank`), and the scene [`parameter`]s with their pseudo-loads.
 
 pub mod averaging;
@@ -11,6 +11,7 @@ pub mod bar_mass;
 pub mod constraint;
 pub mod element;
 pub mod interpolation;
+pub mod linear;
 pub mod load;
 pub mod model;
 pub mod motion;

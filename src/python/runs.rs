@@ -17,11 +17,11 @@ use crate::mechanism::element::MassKind;
 use crate::mechanism::model::Analysis;
 use crate::sensitivity::adjoint::Path;
 use crate::sensitivity::{self, parse_parameters, parse_responses};
-use crate::settings::Method;
+use crate::settings::{Method, StaticAnalysis};
 use crate::solver::simulation::{
     simulate as integrate, simulate_adaptive, simulate_guided, simulate_on,
 };
-use crate::solver::statics::solve_static as equilibrium;
+use crate::solver::statics::{solve_linear, solve_static as equilibrium};
 use crate::solver::step_control::StepControl;
 use crate::time_grid::TimeGrid;
 
@@ -126,12 +126,16 @@ pub fn solve_static<'py>(
     settings: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let m = Arc::clone(&model.model);
-    let settings = run_options(settings)?
-        .statics(&m.defaults)
+    let (analysis, settings) = run_options(settings)?
+        .equilibrium(&m.defaults)
         .map_err(Error::from)?;
     let x = design(x)?;
     let sol = detached(py, move || -> Result<_, Error> {
-        Ok(equilibrium(&m, m.densities(x.as_deref())?, &settings)?)
+        let densities = m.densities(x.as_deref())?;
+        Ok(match analysis {
+            StaticAnalysis::Nonlinear => equilibrium(&m, densities, &settings)?,
+            StaticAnalysis::Linear => solve_linear(&m, densities, &settings)?,
+        })
     })?;
     let d = PyDict::new(py);
     d.set_item("q", vector(py, sol.q))?;
@@ -199,9 +203,13 @@ pub fn run_with_sensitivities<'py>(
             })?
         }
         Analysis::Static => {
-            let settings = options.statics(&m.defaults).map_err(Error::from)?;
+            let (analysis, settings) = options.equilibrium(&m.defaults).map_err(Error::from)?;
+            let solve = match analysis {
+                StaticAnalysis::Nonlinear => sensitivity::of_equilibrium,
+                StaticAnalysis::Linear => sensitivity::of_linear_equilibrium,
+            };
             detached(py, move || {
-                sensitivity::of_equilibrium(&m, &x, &settings, &parsed, &wanted, how.method)
+                solve(&m, &x, &settings, &parsed, &wanted, how.method)
             })?
         }
     };
@@ -257,7 +265,9 @@ pub fn evaluate_responses<'py>(
     let qdot = qdot
         .map(|v| v.as_slice().map(<[f64]>::to_vec))
         .transpose()?;
-    let mass = run_options(settings)?.mass.unwrap_or(MassKind::Consistent);
+    let options = run_options(settings)?;
+    let mass = options.mass.unwrap_or(MassKind::Consistent);
+    let analysis = options.over(&m.defaults).analysis.unwrap_or_default();
     let x = design(x)?;
     let out = detached(py, move || {
         let recorded = sensitivity::Recorded {
@@ -267,6 +277,7 @@ pub fn evaluate_responses<'py>(
             times: &times,
             load_time,
             mass,
+            analysis,
         };
         sensitivity::evaluate(&m, x.as_deref(), &recorded, &parsed)
     })?;

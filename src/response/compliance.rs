@@ -16,6 +16,7 @@ pub(super) const KIND: Kind = Kind {
           Eq. 39); a static scene's Fᵀu (J), global",
     peak: false,
     unit: "J",
+    linear: true,
     parse,
 };
 

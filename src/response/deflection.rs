@@ -11,6 +11,7 @@ pub(super) const KIND: Kind = Kind {
           from its rigid trajectory (m², paper Eq. 40)",
     peak: false,
     unit: "m²",
+    linear: false,
     parse,
 };
 

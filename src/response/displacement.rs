@@ -12,6 +12,7 @@ pub(super) const FINAL: Kind = Kind {
           or the static equilibrium (m)",
     peak: false,
     unit: "m",
+    linear: true,
     parse: |model, rest| parse(model, rest, Weighting::Final),
 };
 
@@ -22,6 +23,7 @@ pub(super) const INTEGRATED: Kind = Kind {
           normalized (m s)",
     peak: false,
     unit: "m s",
+    linear: true,
     parse: |model, rest| parse(model, rest, Weighting::Integral),
 };
 

@@ -16,6 +16,7 @@ pub(super) const TORQUE: Kind = Kind {
           peak",
     peak: true,
     unit: "N m",
+    linear: false,
     parse: |model, rest| parse_torque(model, rest, false),
 };
 
@@ -25,6 +26,7 @@ pub(super) const TORQUE_RMS: Kind = Kind {
     doc: "a drive's RMS torque over the motion (N m): torque with p=2",
     peak: false,
     unit: "N m",
+    linear: false,
     parse: |model, rest| parse_torque(model, rest, true),
 };
 
@@ -34,6 +36,7 @@ pub(super) const TORQUE_SQUARED: Kind = Kind {
     doc: "∫ τ² dt of a drive (N² m² s): the copper losses a motor is sized by",
     peak: false,
     unit: "N² m² s",
+    linear: false,
     parse: |model, rest| parse_row(model, rest, "torque_squared", Drive::TorqueSquared),
 };
 
@@ -44,6 +47,7 @@ pub(super) const WORK: Kind = Kind {
           negative where it brakes",
     peak: false,
     unit: "J",
+    linear: false,
     parse: |model, rest| parse_row(model, rest, "drive_work", Drive::Work),
 };
 
@@ -54,6 +58,7 @@ pub(super) const ENERGY_DRAWN: Kind = Kind {
           its gradient is exact wherever the power does not pass through zero at a step",
     peak: false,
     unit: "J",
+    linear: false,
     parse: |model, rest| parse_row(model, rest, "energy_drawn", Drive::EnergyDrawn),
 };
 

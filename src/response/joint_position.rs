@@ -14,6 +14,7 @@ pub(super) const KIND: Kind = Kind {
           reference (rad), a slider's travel (m)",
     peak: false,
     unit: "rad (m on a slider)",
+    linear: false,
     parse,
 };
 

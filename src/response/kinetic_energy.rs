@@ -12,6 +12,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "the time integral ∫ ½ q̇ᵀ M q̇ dt of the kinetic energy over the motion (J s)",
     peak: false,
     unit: "J s",
+    linear: false,
     parse,
 };
 

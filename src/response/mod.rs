@@ -34,6 +34,7 @@ use std::fmt;
 
 use crate::error::SettingsError;
 use crate::mechanism::element::MassKind;
+use crate::mechanism::linear::Linearized;
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::parameter::{Designed, Parameter};
 use crate::response::aggregation::Aggregation;
@@ -56,6 +57,9 @@ pub struct Kind {
     pub peak: bool,
     /// Its unit in SI ("1" for a ratio), for labels.
     pub unit: &'static str,
+    /// Whether it is built for the states of a linear analysis: linear in them, explicit,
+    /// or read on the linearized elements ([`Context::linear`]).
+    pub linear: bool,
     /// Builds the response from the model and the text after the name's `:` (if any).
     parse: Parser,
 }
@@ -146,6 +150,9 @@ pub struct Context<'a> {
     pub static_load: &'a [f64],
     /// Inertia discretization (the gravity part of `F` depends on the densities through `M`).
     pub mass_kind: MassKind,
+    /// The elements linearized about the reference, where the states are a linear
+    /// analysis's (their energy is then the linear one).
+    pub linear: Option<&'a Linearized>,
 }
 
 impl<'a> Context<'a> {
@@ -165,6 +172,7 @@ impl<'a> Context<'a> {
             densities,
             static_load: &[],
             mass_kind,
+            linear: None,
         }
     }
 }
@@ -224,13 +232,19 @@ pub trait Family: fmt::Debug + Send + Sync {
 
 /// A response: one of the [`KINDS`], parsed against a model; it reads as its [`Family`].
 #[derive(Debug)]
-pub struct Response(Box<dyn Family>);
+pub struct Response {
+    family: Box<dyn Family>,
+    /// The text it was parsed from, `name[:argument]`.
+    text: String,
+    /// Whether its kind is built for a linear analysis ([`Kind::linear`]).
+    linear: bool,
+}
 
 impl std::ops::Deref for Response {
     type Target = dyn Family;
 
     fn deref(&self) -> &Self::Target {
-        self.0.as_ref()
+        self.family.as_ref()
     }
 }
 
@@ -248,7 +262,12 @@ impl Response {
             let names: Vec<&str> = KINDS.iter().map(|k| k.name).collect();
             return Err(err(format!("unknown response; use {}", names.join(", "))));
         };
-        (kind.parse)(model, rest).map(Self).map_err(err)
+        let family = (kind.parse)(model, rest).map_err(err)?;
+        Ok(Self {
+            family,
+            text: text.to_string(),
+            linear: kind.linear,
+        })
     }
 
     /// Every kind of response, by name: the table the bindings and the documentation read.
@@ -259,7 +278,7 @@ impl Response {
     /// Weight `wₙ` of state `n` of `grid` (a grid without steps: a static state): the
     /// trapezoidal rule on the step times, divided by the duration for a mean.
     pub fn weight(&self, analysis: Analysis, n: usize, grid: &TimeGrid) -> f64 {
-        let weighting = match self.0.weighting() {
+        let weighting = match self.family.weighting() {
             Weighting::Explicit => Weighting::Explicit,
             _ if analysis == Analysis::Static => Weighting::Final,
             w => w,
@@ -274,16 +293,36 @@ impl Response {
 
     /// Whether the response depends on the states at all.
     pub fn depends_on_states(&self) -> bool {
-        self.0.weighting() != Weighting::Explicit
+        self.family.weighting() != Weighting::Explicit
+    }
+
+    /// The response for a linear analysis, or a [`SettingsError`] naming it where it is not
+    /// built for one ([`Kind::linear`]).
+    ///
+    /// # Errors
+    /// As above.
+    pub fn check_linear(&self) -> Result<(), SettingsError> {
+        if self.linear {
+            return Ok(());
+        }
+        let built: Vec<&str> = KINDS.iter().filter(|k| k.linear).map(|k| k.name).collect();
+        Err(SettingsError::new(
+            format!("response '{}'", self.text),
+            format!(
+                "not built for the linear analysis (it reads the nonlinear elements or a \
+                 motion); the linear analysis offers {}",
+                built.join(", ")
+            ),
+        ))
     }
 
     /// Whether the response reads the velocities `q̇`.
     pub fn reads_velocities(&self) -> bool {
-        self.0.reads_velocities()
+        self.family.reads_velocities()
     }
 
     /// The node whose rigid trajectory the response needs.
     pub fn rigid_node(&self) -> Option<usize> {
-        self.0.rigid_node()
+        self.family.rigid_node()
     }
 }

@@ -17,6 +17,7 @@ pub(super) const KIND: Kind = Kind {
           as torque, its peak reported",
     peak: true,
     unit: "N",
+    linear: false,
     parse,
 };
 

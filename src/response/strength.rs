@@ -28,6 +28,7 @@ pub(super) const STRESS: Kind = Kind {
           relaxation (0.5 by default, 0 gives the solid material's stress)",
     peak: true,
     unit: "Pa",
+    linear: false,
     parse: |model, rest| parse(model, rest, Criterion::Stress),
 };
 
@@ -38,6 +39,7 @@ pub(super) const SHEAR: Kind = Kind {
           options (Pa)",
     peak: true,
     unit: "Pa",
+    linear: false,
     parse: |model, rest| parse(model, rest, Criterion::Shear),
 };
 
@@ -48,6 +50,7 @@ pub(super) const BUCKLING: Kind = Kind {
           as stress, with its options (dimensionless)",
     peak: true,
     unit: "1",
+    linear: false,
     parse: |model, rest| parse(model, rest, Criterion::Buckling),
 };
 

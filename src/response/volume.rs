@@ -12,6 +12,7 @@ pub(super) const KIND: Kind = Kind {
     doc: "material volume Σ x_e V_e of the bars and cells of one component or all (m³, paper Eq. 38, 41)",
     peak: false,
     unit: "m³",
+    linear: true,
     parse,
 };
 

@@ -21,6 +21,7 @@ pub(super) const KIND: Kind = Kind {
           default) or ks=RHO,scale=S, q=Q the relaxation (0.5 by default)",
     peak: true,
     unit: "Pa",
+    linear: false,
     parse,
 };
 

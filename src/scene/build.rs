@@ -122,7 +122,7 @@ pub fn build(spec: &SceneSpec) -> Result<Model, Error> {
             variables: mesh.variables.names,
         },
         tip,
-        defaults: simulation::defaults(&spec.simulation)?,
+        defaults: simulation::defaults(&spec.simulation, spec.analysis)?,
         absent_rotations: Vec::new(),
         bar_couplings: Vec::new(),
     };

@@ -127,15 +127,31 @@ pub enum InitialSpec {
     Equilibrium,
 }
 
-/// Kind of analysis.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
+/// Kind of analysis; `"linear"` here, a static analysis's own kind, is pointed to where it
+/// belongs (`[simulation] analysis`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum AnalysisSpec {
     /// Time integration.
     #[default]
     Dynamic,
     /// Static equilibrium.
     Static,
+}
+
+impl<'de> Deserialize<'de> for AnalysisSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        match name.as_str() {
+            "dynamic" => Ok(Self::Dynamic),
+            "static" => Ok(Self::Static),
+            "linear" | "nonlinear" => Err(de::Error::custom(format!(
+                "unknown value `{name}`, expected `dynamic` or `static`: a static scene's \
+                 {name} analysis is analysis = \"static\" here and analysis = \"{name}\" in \
+                 its [simulation] table"
+            ))),
+            _ => Err(de::Error::unknown_variant(&name, &["dynamic", "static"])),
+        }
+    }
 }
 
 /// What a ground structure's or a beam's bars are made of.

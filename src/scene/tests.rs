@@ -114,6 +114,35 @@ fn unknown_keys_are_named_with_their_path() {
 }
 
 #[test]
+fn a_linear_analysis_is_a_static_scenes_and_named_by_its_values() {
+    let e = arm_error(|s| s.simulation.analysis = Some(crate::settings::StaticAnalysis::Linear));
+    assert_eq!(e.path, "simulation.analysis");
+    assert!(e.message.contains("'linear' is a static analysis"), "{e}");
+    let e = error_of(&TRUSS.replace("[simulation]", "[simulation]\nanalysis = \"linearised\""));
+    assert!(
+        e.to_string()
+            .contains("must be one of 'nonlinear', 'linear', got 'linearised'"),
+        "{e}"
+    );
+    let e = error_of(&TRUSS.replace("analysis = \"static\"", "analysis = \"linear\""));
+    assert_eq!(e.path, "analysis");
+    assert!(
+        e.message
+            .contains("analysis = \"linear\" in its [simulation] table"),
+        "{e}"
+    );
+    let e = error_of(&TRUSS.replace("analysis = \"static\"", "analysis = \"modal\""));
+    assert!(
+        e.message
+            .contains("unknown variant `modal`, expected `dynamic` or `static`"),
+        "{e}"
+    );
+    let mut truss = parse_toml(TRUSS).unwrap();
+    truss.simulation.analysis = Some(crate::settings::StaticAnalysis::Linear);
+    assert!(build(&truss).is_ok());
+}
+
+#[test]
 fn non_physical_values_are_named() {
     let section = |s: &mut SceneSpec| s.sections.values_mut().next().unwrap().E = -1.0;
     assert_eq!(arm_error(section).path, "sections.aluminium.E");

@@ -13,7 +13,9 @@
 //! through its inertia (`m(x)`, linear in the paper's Eq. 33) and its stiffness (`s(x)`,
 //! Eq. 34), so `∂r/∂x_e = m'(x_e) M_e (q̈_e − ĝ_e) + s'(x_e) f_e(q_e)` with full-density
 //! element quantities.
-//! Static scenes use the same pieces on the equilibrium `K_t u' = −r_x` ([`statics`]).
+//! Static scenes use the same pieces on the equilibrium `K_t u' = −r_x` ([`statics`]), and
+//! on the linear analysis's `K₀ u' = −r_x` with `∂r/∂x_e = s'(x_e) (f₀ + K₀ u_e)`
+//! ([`crate::mechanism::linear`]).
 
 pub mod adjoint;
 pub mod direct;
@@ -26,10 +28,13 @@ use crate::error::{Error, SettingsError};
 use crate::mechanism::bar_mass::BarMass;
 use crate::mechanism::element::quad::{Matrix8, Vector8};
 use crate::mechanism::element::{MassKind, Matrix6, Vector6};
+use crate::mechanism::linear::Linearized;
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::parameter::{At, Designed, Parameter};
 use crate::response::{Context, Objectives, Response, Sample};
-use crate::settings::{DynamicSettings, Memory, Method, SensitivitySettings, StaticSettings};
+use crate::settings::{
+    DynamicSettings, Memory, Method, SensitivitySettings, StaticAnalysis, StaticSettings,
+};
 use crate::solver::assembly::Assembler;
 use crate::time_grid::TimeGrid;
 
@@ -103,6 +108,9 @@ pub(crate) struct PseudoLoads {
     pub(super) parameters: Vec<Parameter>,
     /// Whether damping reads the velocities ([`Model::damping_reads_velocities`]).
     damped: bool,
+    /// The elements linearized about the reference, for the pseudo-loads of a linear
+    /// analysis: `s'(x_e) (f₀ + K₀ u_e)`.
+    linear: Option<Linearized>,
 }
 
 impl PseudoLoads {
@@ -121,7 +129,14 @@ impl PseudoLoads {
             n_x: model.n_variables(),
             parameters: parameters.to_vec(),
             damped: model.damping_reads_velocities(),
+            linear: None,
         }
+    }
+
+    /// The pseudo-loads of a linear analysis: the elements' forces those of `linear`.
+    pub(crate) fn of_linear(mut self, linear: Linearized) -> Self {
+        self.linear = Some(linear);
+        self
     }
 
     /// Design variables and parameters: the columns of the sensitivities.
@@ -149,7 +164,8 @@ impl PseudoLoads {
     }
 
     /// `m M_e (q̈_e − ĝ_e + α q̇_e) + s (f_e(q_e) + f_d,e(q_e, q̇_e))`: element `e`'s terms
-    /// of the residual with its mass scaled by `m` and its stiffness by `s` (the densities'
+    /// of the residual (`f_e = f₀ + K₀ u_e` in a linear analysis) with its mass scaled by `m`
+    /// and its stiffness by `s` (the densities'
     /// `m(x)` and `s(x)` give its share of the residual, their rates its pseudo-load).
     pub(crate) fn element_residual(
         &self,
@@ -164,7 +180,10 @@ impl PseudoLoads {
         let u = el.gather(at.q);
         let (alpha, beta) = (el.kernel.section().alpha, el.kernel.section().beta);
         let mut inertia = Vector6::from_fn(|i, _| -asm.gravity[dofs[i]]);
-        let mut stiffness = el.kernel.internal_force(&u);
+        let mut stiffness = match &self.linear {
+            Some(linear) => linear.element_force(e, &u),
+            None => el.kernel.internal_force(&u),
+        };
         if let Some((v, acc)) = at.rates {
             inertia += Vector6::from_fn(|i, _| acc[dofs[i]]);
             if alpha > 0.0 {
@@ -204,7 +223,7 @@ impl PseudoLoads {
     /// `m'(x_c) M_c (q̈_c − ĝ_c + α q̇_c) + s'(x_c) (f_c + f_d,c) + s(x_c) γ'(x_c) ∂(f_c +
     /// f_d,c)/∂γ` of cell `k` (its energy blended by `γ`:
     /// [`crate::mechanism::element::void`]), with its member's Rayleigh damping (`q̈ = q̇ =
-    /// 0` for statics).
+    /// 0` for statics); `s'(x_c) K₀ u_c` in a linear analysis, whose `K₀` has no blend.
     fn cell(&self, asm: &Assembler, k: usize, at: &At) -> Vector8 {
         let cell = &asm.model.cells[k];
         let e = asm.model.elements.len() + k;
@@ -214,11 +233,14 @@ impl PseudoLoads {
         let u = cell.gather(at.q);
         let (alpha, beta) = (cell.kernel.material.alpha, cell.kernel.material.beta);
         let mut inertia = Vector8::from_fn(|i, _| -asm.gravity[dofs[i]]);
-        let mut stiffness = kernel.internal_force(&u);
-        let mut blending = if blend_rate != 0.0 {
-            kernel.force_rate(&u)
-        } else {
-            Vector8::zeros()
+        let (mut stiffness, mut blending) = match self.linear {
+            // The linear cell's K₀ does not depend on the blend.
+            Some(_) => (
+                Linearized::cell_force(cell.kernel.small_strain_stiffness(), &u),
+                Vector8::zeros(),
+            ),
+            None if blend_rate != 0.0 => (kernel.internal_force(&u), kernel.force_rate(&u)),
+            None => (kernel.internal_force(&u), Vector8::zeros()),
         };
         if let Some((v, acc)) = at.rates {
             inertia += Vector8::from_fn(|i, _| acc[dofs[i]]);
@@ -600,7 +622,51 @@ pub fn of_equilibrium(
         return explicit(model, &densities, responses, parameters);
     }
     let method = resolve(method, responses, model);
-    statics::differentiate_equilibrium(model, densities, settings, responses, parameters, method)
+    let analysis = StaticAnalysis::Nonlinear;
+    statics::differentiate_equilibrium(
+        model, densities, settings, analysis, responses, parameters, method,
+    )
+}
+
+/// Responses and gradients of the linear static analysis ([`crate::solve_linear`]):
+/// exact for `K₀ u = f`, direct or adjoint.
+///
+/// # Errors
+/// A [`SettingsError`] naming a response that is not built for the linear analysis
+/// ([`Response::check_linear`]) or `parameters` (not built); design, settings and solve
+/// errors.
+pub fn of_linear_equilibrium(
+    model: &Model,
+    x: &[f64],
+    settings: &StaticSettings,
+    responses: &[Response],
+    parameters: &[Parameter],
+    method: Method,
+) -> Result<Sensitivities, Error> {
+    check_linear(responses, parameters)?;
+    settings.validate()?;
+    let densities = model.densities(Some(x))?;
+    if !responses.iter().any(Response::depends_on_states) {
+        return explicit(model, &densities, responses, parameters);
+    }
+    let method = resolve(method, responses, model);
+    let analysis = StaticAnalysis::Linear;
+    statics::differentiate_equilibrium(model, densities, settings, analysis, responses, &[], method)
+}
+
+/// The responses and parameters of a linear analysis: each response's kind built for it, no
+/// parameters.
+///
+/// # Errors
+/// A [`SettingsError`] naming the first that is not.
+fn check_linear(responses: &[Response], parameters: &[Parameter]) -> Result<(), SettingsError> {
+    responses.iter().try_for_each(Response::check_linear)?;
+    if parameters.is_empty() {
+        Ok(())
+    } else {
+        let msg = "the scene parameters' gradients are not built for the linear analysis";
+        Err(SettingsError::new("parameters", msg))
+    }
 }
 
 /// Responses evaluated on recorded states: their values and, per aggregate, its peak.
@@ -630,6 +696,8 @@ pub struct Recorded<'a> {
     pub load_time: f64,
     /// The run's inertia discretization.
     pub mass: MassKind,
+    /// The static problem the states solve (a dynamic run's: nonlinear).
+    pub analysis: StaticAnalysis,
 }
 
 /// Values of `responses` on `recorded` states for design `x` (`None`: full density), with
@@ -651,7 +719,11 @@ pub fn evaluate(
         times,
         load_time,
         mass,
+        analysis,
     } = *recorded;
+    if analysis == StaticAnalysis::Linear {
+        responses.iter().try_for_each(Response::check_linear)?;
+    }
     let n_q = model.n_dofs();
     let states = q.len() / n_q;
     if states == 0 || states * n_q != q.len() {
@@ -692,11 +764,13 @@ pub fn evaluate(
     if model.analysis == Analysis::Static {
         Assembler::new(model, densities.clone(), mass)?.applied_loads(load_time, 1.0, &mut load);
     }
+    let linear = (analysis == StaticAnalysis::Linear).then(|| Linearized::new(model));
     let ctx = Context {
         model,
         densities: &densities,
         static_load: &load,
         mass_kind: mass,
+        linear: linear.as_ref(),
     };
     let mut objectives = Objectives::new(model, responses, &[], &grid)?;
     let mut values = vec![0.0; responses.len()];

@@ -1,49 +1,71 @@
 //! Sensitivities of a static equilibrium `r(u, x) = f_int − F + Φ_qᵀλ = 0`:
 //! `K_t u' = −∂r/∂x` (direct, one column per design variable) or `K_t μ = G_q`,
 //! `f' = G_x − (∂r/∂x)ᵀ μ` (adjoint, one column per response), with `K_t` the augmented
-//! stiffness at the equilibrium.
+//! stiffness at the equilibrium; for the linear analysis (`solver/linear.rs`) `K₀` at the
+//! reference, the pseudo-loads and the responses on the linearized elements.
 
 use std::time::Instant;
 
 use super::{Method, Objectives, PseudoLoads, Sensitivities, Timings};
 use crate::error::Error;
 use crate::mechanism::element::MassKind;
+use crate::mechanism::linear::Linearized;
 use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
-use crate::settings::StaticSettings;
+use crate::settings::{StaticAnalysis, StaticSettings};
+use crate::solver::linear::{explain, linear_step};
 use crate::solver::newton::Newton;
 use crate::solver::statics::{load_stepping, static_newton};
 use crate::time_grid::TimeGrid;
 
-/// Solves the equilibrium, then its sensitivities by `method` (direct or adjoint, resolved).
+/// Solves the equilibrium (nonlinear or linear), then its sensitivities by `method` (direct
+/// or adjoint, resolved).
 pub(crate) fn differentiate_equilibrium(
     model: &Model,
     densities: Densities,
     settings: &StaticSettings,
+    analysis: StaticAnalysis,
     responses: &[Response],
     parameters: &[Parameter],
     method: Method,
 ) -> Result<Sensitivities, Error> {
     let clock = Instant::now();
     let mut newton = static_newton(model, densities, settings)?;
-    let sol = load_stepping(&mut newton, settings)?;
+    let ((q, lambda), linear) = match analysis {
+        StaticAnalysis::Nonlinear => {
+            let sol = load_stepping(&mut newton, settings)
+                .map_err(|e| explain(&mut newton, settings.time, e))?;
+            ((sol.q, sol.lambda), None)
+        }
+        StaticAnalysis::Linear => (
+            linear_step(&mut newton, settings.time)?,
+            Some(Linearized::new(model)),
+        ),
+    };
     let simulation = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
-    newton.factorize(&sol.q, Some(&sol.lambda), None, 0.0, 0.0, settings.time)?;
+    // The tangent at the equilibrium; the linear step's factors are already K₀'s.
+    if linear.is_none() {
+        newton.factorize(&q, Some(&lambda), None, 0.0, 0.0, settings.time)?;
+    }
     let grid = TimeGrid::single();
     let at = Sample {
-        q: &sol.q,
+        q: &q,
         v: &[],
-        lam: &sol.lambda,
+        lam: &lambda,
         t: settings.time,
     };
     let pseudo = PseudoLoads::new(model, MassKind::Consistent, parameters);
+    let pseudo = match linear {
+        Some(linear) => pseudo.of_linear(linear),
+        None => pseudo,
+    };
     let (local, objectives) = Local::at(&newton, settings.time, responses, &pseudo, &grid, at)?;
     let state = At {
-        q: &sol.q,
+        q: &q,
         rates: None,
-        lam: &sol.lambda,
+        lam: &lambda,
         t: settings.time,
         level: Level::Position,
     };
@@ -92,6 +114,7 @@ impl Local {
             densities: &asm.densities,
             static_load: &load,
             mass_kind: MassKind::Consistent,
+            linear: pseudo.linear.as_ref(),
         };
         let mut objectives = Objectives::new(model, responses, &pseudo.parameters, grid)?;
         let mut local = Self {

@@ -1,13 +1,15 @@
 //! The solver: the residual and iteration matrix on a fixed sparse pattern (`assembly`),
 //! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α
 //! (`integrator`, paper Algorithm 1) with its local error control (`step_control`) and its
-//! restart at a drive's kink (`kink`), static equilibrium by load stepping (`statics`), the
+//! restart at a drive's kink (`kink`), static equilibrium by load stepping (`statics`) and the linear static analysis
+//! (`linear`), the
 //! time loop (`simulation`) and a state carried to twice the elements per bar
 //! (`prolongation`).
 
 pub(crate) mod assembly;
 pub(crate) mod integrator;
 pub(crate) mod kink;
+pub(crate) mod linear;
 pub(crate) mod linsolve;
 pub(crate) mod lu;
 pub(crate) mod nearly_symmetric;

@@ -400,6 +400,37 @@ impl<'m> Newton<'m> {
         }
     }
 
+    /// One Newton step of a static solve at `point` from `(q, λ)`, updated in place, on a
+    /// fresh factorization: from the unloaded reference, the linear analysis
+    /// ([`crate::solve_linear`]).
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] for a singular iteration matrix or a non-finite step.
+    pub(crate) fn static_step(
+        &mut self,
+        point: Point,
+        q: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<(), SolveError> {
+        self.scale = self.scaling(point.mass_coefficient, true);
+        self.assemble(q, None, lambda, &point, true);
+        self.solve_increment(point.t, true)?;
+        if self.rhs.iter().any(|v| !v.is_finite()) {
+            let detail = "the step is not finite".to_string();
+            return Err(SolveError::Singular {
+                time: point.t,
+                detail,
+            });
+        }
+        let (dq, dmu) = self.rhs.split_at(q.len());
+        q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
+        lambda
+            .iter_mut()
+            .zip(dmu)
+            .for_each(|(l, d)| *l += self.scale * d);
+        Ok(())
+    }
+
     /// Assembles and factorizes the augmented iteration matrix at state `q`, time `t`, for
     /// the linear solves of the sensitivity analysis, with the scaling `s` of a Newton solve
     /// of the same mass coefficient `c`: `c M + d C + K_t(q) + Σ λₖ ∂²Φₖ/∂q²` and `Φ_q(q)`

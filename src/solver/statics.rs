@@ -11,6 +11,7 @@ use crate::error::SolveError;
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Densities, Model};
 use crate::settings::{NewtonMatrix, StaticSettings};
+use crate::solver::linear::{explain, linear_step};
 use crate::solver::newton::{Newton, NewtonReport, Point};
 
 /// Smallest load-factor increment tried before the solve gives up.
@@ -58,13 +59,37 @@ pub(crate) fn static_newton<'m>(
 /// Solves for the equilibrium of `model` with element scalings `densities`.
 ///
 /// # Errors
-/// The last [`SolveError`] once a load step has been halved `max_cuts` times in a row.
+/// The last [`SolveError`] once a load step has been halved `max_cuts` times in a row,
+/// [`SolveError::LargeLoad`] around it where the linear solution says the load is large
+/// for the stiffness ([`crate::solver::linear::explain`]).
 pub fn solve_static(
     model: &Model,
     densities: Densities,
     settings: &StaticSettings,
 ) -> Result<StaticSolution, SolveError> {
-    load_stepping(&mut static_newton(model, densities, settings)?, settings)
+    let mut newton = static_newton(model, densities, settings)?;
+    load_stepping(&mut newton, settings).map_err(|e| explain(&mut newton, settings.time, e))
+}
+
+/// Solves the linear static problem ([`crate::solver::linear`]) of `model` with element
+/// scalings `densities`, the loads at [`StaticSettings::time`]: the small-displacement
+/// problem `K₀ u = f` about the reference, at once.
+///
+/// # Errors
+/// [`SolveError::Singular`] where `K₀` with the joints' rows is singular (a mechanism).
+pub fn solve_linear(
+    model: &Model,
+    densities: Densities,
+    settings: &StaticSettings,
+) -> Result<StaticSolution, SolveError> {
+    let mut newton = static_newton(model, densities, settings)?;
+    let (q, lambda) = linear_step(&mut newton, settings.time)?;
+    Ok(StaticSolution {
+        q,
+        lambda,
+        iterations: 1,
+        load_steps: 1,
+    })
 }
 
 /// One Newton solve of an equilibrium at a load factor: what load stepping drives, for

@@ -22,6 +22,7 @@ fn values_at(model: &Model, x: &[f64], q: &[f64], names: &[&str]) -> Vec<f64> {
         times: &times,
         load_time: 0.0,
         mass: flextop::MassKind::Consistent,
+        analysis: flextop::StaticAnalysis::Nonlinear,
     };
     evaluate(model, Some(x), &recorded, &responses(model, names))
         .unwrap()

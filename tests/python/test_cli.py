@@ -203,13 +203,14 @@ def test_optimize_robot_arm_writes_the_pictures(tmp_path):
 
 def test_the_readme_s_continuum_commands_run_as_written(tmp_path):
     """Every scene file the README's commands name exists, and its continuum optimizations
-    (the half-MBB, the cantilever, the continuum arm sized by --cells) run as written, cut
+    (the half-MBB in steel and in the 88-line code's units, the cantilever, the continuum arm
+    sized by --cells) run as written, cut
     to two iterations into a folder of their own: a design and the members' CAD files."""
     block = re.search(r"## Command line\n\n```bash\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)[1]
     named = set(re.findall(r"examples/\S+\.toml", block))
     assert named and all((ROOT / path).is_file() for path in named), named
     commands = [shlex.split(line) for line in block.splitlines() if re.search(r"flextop optimize \S*(mbb|cantilever|continuum)", line)]
-    assert len(commands) == 3
+    assert len(commands) == 4
     for k, argv in enumerate(commands):
         out = tmp_path / f"run{k}"
         argv = [out if before == "--out" else 2 if before == "--max-iter" else a for before, a in zip(["", *argv], argv)]

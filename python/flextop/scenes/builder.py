@@ -463,7 +463,9 @@ class Scene(SceneDict):
         self._spec.setdefault("joints", []).append({k: v for k, v in entry.items() if v is not None})
 
     def simulation(self, **defaults: Any) -> None:
-        """Default run settings: ``t_end``, ``h``, ``rho_inf``, ``mass``, ``load_steps``."""
+        """Default run settings: ``t_end``, ``h``, ``rho_inf``, ``mass``, ``load_steps``, and for a
+        static scene ``analysis``, ``"nonlinear"`` (the default) or ``"linear"`` (``K₀ u = f``
+        about the reference, the 88-line code's analysis)."""
         self._spec["simulation"] = dict(defaults)
 
     @property
