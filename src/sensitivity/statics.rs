@@ -85,11 +85,12 @@ pub(crate) fn differentiate_equilibrium(
 }
 
 /// The responses at the equilibrium and their partial derivatives: `G_q` (row-major
-/// `n_r × n_q`) and `G_x` (`n_r × (n_x + n_p)`, the design variables' then the
-/// parameters').
+/// `n_r × n_q`), `G_λ` (`n_r × n_c`: a reaction's) and `G_x` (`n_r × (n_x + n_p)`, the
+/// design variables' then the parameters').
 struct Local {
     values: Vec<f64>,
     g_q: Vec<f64>,
+    g_lam: Vec<f64>,
     g_x: Vec<f64>,
 }
 
@@ -117,15 +118,15 @@ impl Local {
             linear: pseudo.linear.as_ref(),
         };
         let mut objectives = Objectives::new(model, responses, &pseudo.parameters, grid)?;
+        let n_c = model.n_constraints();
         let mut local = Self {
             values: vec![0.0; n_r],
             g_q: vec![0.0; n_q * n_r],
+            g_lam: vec![0.0; n_c * n_r],
             g_x: vec![0.0; n_x * n_r],
         };
         objectives.observe(&ctx, at, &mut local.values, &mut []);
         objectives.add_values(&ctx, 0, at, &mut local.values);
-        // No static response reads the multipliers (a torque needs a motion).
-        let mut g_lam = vec![0.0; model.n_constraints()];
         for k in 0..n_r {
             objectives.add_partials(
                 &ctx,
@@ -133,7 +134,7 @@ impl Local {
                 0,
                 at,
                 &mut local.g_q[k * n_q..(k + 1) * n_q],
-                &mut g_lam,
+                &mut local.g_lam[k * n_c..(k + 1) * n_c],
                 &mut local.g_x[k * n_x..(k + 1) * n_x],
                 &mut [],
             );
@@ -142,8 +143,8 @@ impl Local {
     }
 }
 
-/// Direct: `K_t u'_j = −∂r/∂x_j` for every design variable and parameter, then
-/// `f' = G_x + G_q u'`.
+/// Direct: `K_t [u'_j; μ'_j] = −∂r/∂x_j` for every design variable and parameter, then
+/// `f' = G_x + G_q u' + G_λ λ'` with `λ' = s μ'`.
 fn direct(
     newton: &Newton,
     at: &At,
@@ -156,8 +157,10 @@ fn direct(
     let Local {
         values,
         g_q,
+        g_lam,
         mut g_x,
     } = local;
+    let n_c = n - n_q;
     let mut rhs = vec![0.0; n * n_x];
     let scale = newton.multiplier_scale();
     pseudo.subtract_columns(asm, at, scale, &mut rhs, n, 0..n_x);
@@ -165,19 +168,19 @@ fn direct(
         newton.augment(&mut rhs);
     }
     newton.solve_block(&mut rhs, n_x, &mut newton.scratch(n_x.max(1)))?;
-    for (g_x, g_q) in g_x.chunks_mut(n_x.max(1)).zip(g_q.chunks(n_q)) {
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+    for (k, g_x) in g_x.chunks_mut(n_x.max(1)).enumerate().take(values.len()) {
+        let (g_q, g_lam) = (&g_q[k * n_q..(k + 1) * n_q], &g_lam[k * n_c..(k + 1) * n_c]);
         for (j, g) in g_x.iter_mut().enumerate() {
-            *g += g_q
-                .iter()
-                .zip(&rhs[j * n..j * n + n_q])
-                .map(|(a, b)| a * b)
-                .sum::<f64>();
+            let column = &rhs[j * n..(j + 1) * n];
+            *g += dot(g_q, &column[..n_q]) + scale * dot(g_lam, &column[n_q..]);
         }
     }
     Ok((values, g_x))
 }
 
-/// Adjoint: `K_t μ_k = G_q,k` for every response, then `f' = G_x − (∂r/∂x)ᵀ μ`.
+/// Adjoint: `K_t μ_k = [G_q,k; s G_λ,k]` for every response (the direct method's
+/// `λ' = s μ'` transposed), then `f' = G_x − (∂r/∂x)ᵀ μ`.
 fn adjoint(
     newton: &Newton,
     at: &At,
@@ -191,15 +194,23 @@ fn adjoint(
     let Local {
         values,
         g_q,
+        g_lam,
         mut g_x,
     } = local;
+    let n_c = n - n_q;
+    let scale = newton.multiplier_scale();
     let mut rhs = vec![0.0; n * n_r];
     for k in 0..n_r {
         rhs[k * n..k * n + n_q].copy_from_slice(&g_q[k * n_q..(k + 1) * n_q]);
+        for (o, l) in rhs[k * n + n_q..(k + 1) * n]
+            .iter_mut()
+            .zip(&g_lam[k * n_c..(k + 1) * n_c])
+        {
+            *o = scale * l;
+        }
     }
     newton.solve_block(&mut rhs, n_r, &mut newton.scratch(n_r))?;
     newton.unaugment(&mut rhs);
-    let scale = newton.multiplier_scale();
     for k in 0..n_r {
         let mu = &rhs[k * n..(k + 1) * n];
         pseudo.subtract_transposed(asm, at, scale, mu, &mut g_x[k * n_x..(k + 1) * n_x]);
