@@ -8,7 +8,8 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
-an equilibrium, J), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row).
+an equilibrium, J), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
+(the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³).
 Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), ``k:SPRING``,
 ``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³).
 """
@@ -294,10 +295,25 @@ class SpatialSimulation:
             responses = [f"{axis}:{self.tip}" for axis in "xyz"]
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
-        r = self.model.sensitivities(list(rs), list(ps), settings, static, self._design(x))
-        gradient = np.asarray(r["gradient"]).reshape(len(rs), len(ps) + self.n_design)
-        return SpatialSensitivities(rs, ps, np.asarray(r["values"]), gradient[:, :len(ps)], self.variables,
-                                    gradient[:, len(ps):])
+        design = self._design(x)
+        engine = [r for r in rs if r != "volume"]
+        values, gradient = np.zeros(len(rs)), np.zeros((len(rs), len(ps) + self.n_design))
+        if engine or not rs:
+            r = self.model.sensitivities(engine, list(ps), settings, static, design)
+            rows = [k for k, name in enumerate(rs) if name != "volume"]
+            values[rows] = np.asarray(r["values"])
+            gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
+        for k in (k for k, name in enumerate(rs) if name == "volume"):
+            values[k] = self.volume(x)
+            gradient[k, len(ps):] = self.model.volumes[0]
+        return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):])
+
+    def volume(self, x: DesignLike = None) -> float:
+        """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density
+        by default), the fixed ones' at full density (m³; paper Eq. 38)."""
+        designed, fixed = self.model.volumes
+        xv = self._design(x)
+        return fixed + float(np.dot(np.ones(self.n_design) if xv is None else xv, designed))
 
 
 _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}

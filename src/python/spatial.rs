@@ -85,6 +85,13 @@ impl PySpatialModel {
         self.scene.design.x_min
     }
 
+    /// The material volume (m³) of each design variable at full density, and of the fixed
+    /// beams.
+    #[getter]
+    fn volumes(&self) -> (Vec<f64>, f64) {
+        self.scene.volumes()
+    }
+
     #[getter]
     fn tip(&self) -> Option<String> {
         self.scene.tip.clone()

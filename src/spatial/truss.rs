@@ -27,6 +27,8 @@ use crate::spatial::section::Section;
 pub struct Truss {
     /// Its name in the scene.
     pub name: String,
+    /// Cross-section area `A` (m²), for volumes.
+    pub area: f64,
     /// Axial stiffness `EA` (N).
     pub ea: f64,
     /// Mass per length `ρA` (kg/m).
@@ -51,6 +53,7 @@ impl Truss {
         let length = (b - a).norm();
         (length.is_finite() && length > 0.0).then(|| Self {
             name: name.to_string(),
+            area: section.area,
             ea: section.c_n[0],
             rho_a: section.rho_a,
             rayleigh: [section.alpha, section.beta],

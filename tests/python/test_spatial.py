@@ -339,6 +339,44 @@ def test_a_lattice_from_the_builder_reads_back_and_its_single_layer_is_the_plana
     assert np.all(np.abs(direct - adjoint) <= 1e-9 * np.abs(direct).max(axis=1, keepdims=True))
 
 
+def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
+    """A 4 × 2 × 2 lattice cantilever of 72 steel tubes (edges, face and body diagonals),
+    clamped at one face, pushed down and sideways at the other: its static strain energy
+    minimized by MMA at 30 % of the full volume from the uniform design, on the exact
+    density gradients. Measured: a KKT point (residual 9.1e-5 < 1e-4) in 18 iterations,
+    the energy 0.045 of the uniform design's, the volume bound active."""
+    scene = SpatialScene("lattice cantilever", analysis="static")
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.012, inner=0.010)
+    scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.6, height=0.15, width=0.15, section="steel",
+                           connectivity="diagonals")
+    for j in range(2):
+        for k in range(2):
+            scene.weld(f"wall{j}{k}", f"box[0,{j},{k}]")
+    scene.load("down", "box[3,0,0]", force=(0.0, -200.0, 0.0))
+    scene.load("side", "box[3,1,1]", force=(0.0, 0.0, 100.0))
+    scene.design(x_min=1e-3)
+    sim = SpatialSimulation(scene)
+    assert sim.n_design == 72
+    budget = 0.3 * sim.volume(1.0)
+    volumes = np.asarray(sim.model.volumes[0])
+    x0 = np.full(sim.n_design, 0.3)
+    start = sim.run_with_sensitivities(x0, ["strain_energy", "volume"], method="adjoint")
+    assert start.values[1] == pytest.approx(budget, rel=1e-12) and np.array_equal(start.dfdx[1], volumes)
+
+    def objective(x):
+        g = sim.run_with_sensitivities(x, "strain_energy", method="adjoint")
+        return g.values[0] / start.values[0], g.dfdx[0] / start.values[0]
+
+    def constraints(x):
+        return np.array([sim.volume(x) / budget - 1.0]), (volumes / budget)[None, :]
+
+    problem = flextop.optimizers.FunctionProblem(objective, constraints, np.full(sim.n_design, sim.x_min),
+                                                 np.ones(sim.n_design), 1)
+    result = flextop.optimize(problem, x0, method="mma", max_iter=100, kkt_tol=1e-4)
+    assert result.success and result.kkt < 1e-4, result.message
+    assert result.fun < 0.1 and sim.volume(result.x) == pytest.approx(budget, rel=1e-3)
+
+
 def test_planar_entries_without_a_spatial_counterpart_are_named():
     scene = flextop.scenes.slider_crank()
     with pytest.raises(SceneError, match="joints.slide: a planar prismatic has no spatial counterpart"):

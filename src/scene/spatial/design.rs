@@ -46,6 +46,26 @@ impl SpatialScene {
         Ok(Cow::Owned(model))
     }
 
+    /// The material volume `Σ A_e L_e` (m³) of each design variable's elements at full
+    /// density, and of the fixed ones: the volume at `x` is `fixed + Σ x_i V_i` (paper
+    /// Eq. 38), its gradient `V`.
+    pub fn volumes(&self) -> (Vec<f64>, f64) {
+        let (mut designed, mut fixed) = (vec![0.0; self.n_variables()], 0.0);
+        for beam in self.beams.values() {
+            let volume: f64 = (beam.elements.iter())
+                .map(|&e| match beam.truss {
+                    true => self.model.trusses[e].area * self.model.trusses[e].length,
+                    false => self.model.beams[e].section.area * self.model.beams[e].length,
+                })
+                .sum();
+            match beam.variable {
+                Some(i) => designed[i] += volume,
+                None => fixed += volume,
+            }
+        }
+        (designed, fixed)
+    }
+
     /// For each design variable, the engine parameters whose derivatives make its own at `x`
     /// (module docs); `x` checked by [`SpatialScene::model_at`].
     pub fn densities(&self, x: &[f64]) -> Vec<Named> {
