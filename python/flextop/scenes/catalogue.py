@@ -21,7 +21,7 @@ from .. import _core
 from ..checks import number, real, whole
 from ..errors import SceneError
 from .builder import Scene, motion_table, trapezoidal
-from .spatial_catalogue import heavy_top, spatial_slider_crank
+from .spatial_catalogue import heavy_top, spatial_robot_arm, spatial_slider_crank
 
 #: The engine's limits on a model's size, by name (``grid_nodes``, ``split``, ``nodes``,
 #: ``elements``): the builders check their counts against them before building.
@@ -648,6 +648,17 @@ EXAMPLES = {
             "joints[0]": "crank: revolute about the tilted axis, driven one turn",
             "joints[2]": "Cardan joint: about y on the rod, about z on the slider",
             "joints[3]": "the slider along x, from a point of the ground",
+        },
+    ),
+    "spatial_robot_arm.toml": (
+        spatial_robot_arm,
+        "A robot arm in space: a base turning about z, a shoulder and an elbow pitching, two lattice\n"
+        "links of 5 x 2 x 2 nodes (188 aluminium tubes, a density each) welded to the joints' hubs,\n"
+        "a 2 kg payload. SI units.\n" + _GENERATED.format("spatial_robot_arm"),
+        {
+            "ground_structures[0]": "the upper arm: 0.6 m, edges, face and body diagonals",
+            "ground_structures[1]": "the forearm: 0.5 m",
+            "joints[0]": "the base turns 1 rad about the vertical",
         },
     ),
 }

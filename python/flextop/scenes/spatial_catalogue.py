@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import SceneError
 from .builder import trapezoidal
-from .spatial import SpatialScene
+from .spatial import SpatialScene, axis_angle
 
 TOP_MASS = 15.0
 """The top's mass (kg)."""
@@ -68,5 +68,55 @@ def spatial_slider_crank(*, crank: float = 0.15, rod: float = 0.3, tilt_deg: flo
     scene.universal("wrist", "rod.small_end", "slider", axes=((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
     scene.prismatic("slide", (crank + rod, 0.0, 0.0), "slider", axis=(1.0, 0.0, 0.0))
     scene.tip = "slider"
+    scene.simulation(t_end=t_end, h=h, rho_inf=0.8)
+    return scene
+
+
+def spatial_robot_arm(*, nx: int = 5, ny: int = 2, nz: int = 2, connectivity: str = "diagonals",
+                      t_end: float = 1.0, h: float = 0.01) -> SpatialScene:
+    """A robot arm in space: a base turning about the vertical z, a shoulder and an elbow
+    pitching about horizontal axes, each driven by a trapezoidal law, two aluminium lattice
+    links (``nx × ny × nz`` nodes of tubes joined by ``connectivity``; 0.6 m and 0.5 m long,
+    0.1 m high, 0.08 m wide), each welded face by face to the joints' hubs, and a 2 kg
+    payload welded to the second link's end. The base turns 1 rad while the shoulder lifts
+    0.4 rad and the elbow folds 0.8 rad: the payload moves out of every plane. Each bar's
+    density is a design variable."""
+    scene = SpatialScene("spatial_robot_arm", gravity=(0.0, 0.0, -9.81))
+    scene.section("alu", E=7e10, rho=2700.0, nu=0.33, shape="tube", outer=0.012, inner=0.009)
+    height, width, shoulder = 0.1, 0.08, np.array([0.0, 0.0, 0.2])
+    upright = axis_angle((1.0, 0.0, 0.0), math.pi / 2)  # the links' height along z, their width along −y
+
+    def face(origin: np.ndarray, x: float) -> dict[str, tuple[float, float, float]]:
+        """The points of a link's face at ``x`` (from ``origin``), by lattice row and layer."""
+        frac = lambda i, n: i / (n - 1) - 0.5 if n > 1 else 0.0  # noqa: E731
+        return {f"p{j}{k}": (x, -width * frac(k, nz), height * frac(j, ny)) for j in range(ny) for k in range(nz)}
+
+    def hub(name: str, at: np.ndarray, mass: float, links: list[tuple[str, int]]) -> None:
+        """A rigid hub at ``at`` welded to each ``(link, column)`` face of lattice nodes."""
+        points = {f"{link}{key}": p for link, _ in links for key, p in face(at, 0.0).items()}
+        scene.rigid_body(name, mass=mass, inertia=(mass * 1e-3,) * 3, position=tuple(at), points=points)
+        for link, column in links:
+            for j in range(ny):
+                for k in range(nz):
+                    scene.weld(f"{name}_{link}{j}{k}", f"{name}.{link}p{j}{k}", f"{link}[{column},{j},{k}]")
+
+    lengths = {"link1": 0.6, "link2": 0.5}
+    elbow, tip = shoulder + [lengths["link1"], 0.0, 0.0], shoulder + [lengths["link1"] + lengths["link2"], 0.0, 0.0]
+    for link, origin in (("link1", shoulder), ("link2", elbow)):
+        scene.ground_structure(link, nx=nx, ny=ny, nz=nz, length=lengths[link], height=height, width=width,
+                               section="alu", connectivity=connectivity, origin=tuple(origin), orientation=upright)
+    scene.rigid_body("base", mass=5.0, inertia=(0.02, 0.02, 0.02), position=(0.0, 0.0, 0.1),
+                     points={"floor": (0.0, 0.0, -0.1), "shoulder": (0.0, 0.0, 0.1)})
+    scene.revolute("turn", "ground", "base.floor", axis=(0.0, 0.0, 1.0),
+                   drive=trapezoidal(0.0, 1.0, acceleration=12.0, speed=2.0))
+    hub("shoulder", shoulder, 0.3, [("link1", 0)])
+    scene.revolute("lift", "base.shoulder", "shoulder", axis=(0.0, 1.0, 0.0),
+                   drive=trapezoidal(0.0, -0.4, acceleration=8.0, speed=1.0))
+    hub("elbow_a", elbow, 0.2, [("link1", nx - 1)])
+    hub("elbow_b", elbow, 0.2, [("link2", 0)])
+    scene.revolute("fold", "elbow_a", "elbow_b", axis=(0.0, 1.0, 0.0),
+                   drive=trapezoidal(0.0, 0.8, acceleration=10.0, speed=1.5))
+    hub("payload", tip, 2.0, [("link2", nx - 1)])
+    scene.tip = "payload"
     scene.simulation(t_end=t_end, h=h, rho_inf=0.8)
     return scene
