@@ -53,7 +53,7 @@ ANALYSIS_HELP = ("static scenes: linear (K0 u = f about the reference, the load 
                  "nonlinear (the default, or the scene's [simulation] analysis)")
 
 
-def _design(sim: Simulation, x: float | None, design: Path | None) -> np.ndarray | None:
+def _design(sim: Simulation | SpatialSimulation, x: float | None, design: Path | None) -> np.ndarray | None:
     if design is not None:
         try:
             return np.load(design) if design.suffix == ".npy" else np.loadtxt(design, ndmin=1)
@@ -190,17 +190,18 @@ SPATIAL_OPTIONS = ("t_end", "h", "rho_inf")
 
 def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
     """Runs a spatial scene (``dimension = 3``) and prints its summary."""
-    planar = ("cells", "design", "mass", "accuracy", "rtol", "local_tol", "analysis")
-    given = [k for k in planar if getattr(args, k) not in (None, False)] + (["x"] if args.x != 0.4 else [])
+    planar = ("cells", "mass", "accuracy", "rtol", "local_tol", "analysis")
+    given = [k for k in planar if getattr(args, k) not in (None, False)]
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
-        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --t-end, --h, --rho-inf, --out)")
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --x, --design, --t-end, --h, --rho-inf, --out)")
     sim = SpatialSimulation(spec)
+    x = _design(sim, None if args.x == 0.4 else args.x, args.design)  # full density unless a design is given
     out = None if args.out is None else _folder(Path(args.out))
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     start = time.perf_counter()
     if sim.analysis == "static":
-        eq = sim.equilibrium(**settings)
+        eq = sim.equilibrium(x, **settings)
         print(f"static equilibrium in {(time.perf_counter() - start) * 1e3:.1f} ms ({eq.iterations} Newton iterations, "
               f"{eq.load_steps} load steps); strain energy {eq.strain:.6g} J")
         if sim.tip is not None:
@@ -209,7 +210,7 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
             raise SettingsError("--out: a spatial equilibrium is not written to files yet")
         return 0
     with _progress_bar(float(settings.get("t_end", sim.model.options().get("t_end", 0.0)))) as report:
-        res = sim.simulate(progress=report, **settings)
+        res = sim.simulate(x, progress=report, **settings)
     print(f"{len(res.time) - 1} steps to t = {res.time[-1]:.4g} s in {(time.perf_counter() - start) * 1e3:.1f} ms")
     energy = res.kinetic + res.potential
     print(f"kinetic + potential energy {energy[0]:.6g} J at the start, {energy[-1]:.6g} J at the end")
@@ -579,7 +580,7 @@ def parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="run a scene file")
     s.add_argument("scene", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN))
     s.add_argument("--cells", type=_cells, metavar="NXxNY", help=CELLS_HELP)
-    s.add_argument("--x", type=float, default=0.4, help="uniform density of every bar (default 0.4, as demo and optimize)")
+    s.add_argument("--x", type=float, default=0.4, help="uniform density of every bar (default 0.4, as demo and optimize; a spatial scene runs at full density unless given)")
     s.add_argument("--design", type=Path, help="design vector file (.npy or text)")
     s.add_argument("--t-end", type=_positive(float))
     s.add_argument("--h", type=_positive(float))

@@ -400,4 +400,13 @@ def test_simulate_runs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_pat
     slider = [float(v) for v in re.search(r"'slider' at \[([^\]]*)\] m", out.stdout).group(1).split()]
     assert 0.15 < slider[0] < 0.45 and max(map(abs, slider[1:])) < 1e-12
     refused = flextop_cli("simulate", str(EXAMPLES / "heavy_top.toml"), "--rtol", "0.01", codes=(2,))
-    assert refused.stderr.strip() == "flextop: error: --rtol: not built for spatial scenes yet (they take --t-end, --h, --rho-inf, --out)"
+    assert refused.stderr.strip() == ("flextop: error: --rtol: not built for spatial scenes yet "
+                                      "(they take --x, --design, --t-end, --h, --rho-inf, --out)")
+    # a design: every bar of the spatial robot arm at one density, or a vector from a file
+    arm = str(EXAMPLES / "spatial_robot_arm.toml")
+    light, full = (flextop_cli("simulate", arm, "--t-end", "0.1", *x).stdout for x in (["--x", "0.2"], []))
+    assert light.split("\n")[1:] != full.split("\n")[1:] and "10 steps to t = 0.1 s" in light  # lighter: other energies
+    np.savetxt(tmp_path / "x.txt", np.full(188, 0.2))
+    assert flextop_cli("simulate", arm, "--t-end", "0.1", "--design", tmp_path / "x.txt").stdout.split("\n")[1:] == light.split("\n")[1:]
+    bad = flextop_cli("simulate", arm, "--t-end", "0.1", "--x", "1.5", codes=(2,))
+    assert bad.stderr.count("\n") == 1 and "is outside [0.01, 1]" in bad.stderr
