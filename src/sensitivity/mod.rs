@@ -616,16 +616,8 @@ pub fn of_equilibrium(
     parameters: &[Parameter],
     method: Method,
 ) -> Result<Sensitivities, Error> {
-    settings.validate()?;
-    let densities = model.densities(Some(x))?;
-    if !responses.iter().any(Response::depends_on_states) {
-        return explicit(model, &densities, responses, parameters);
-    }
-    let method = resolve(method, responses, model);
     let analysis = StaticAnalysis::Nonlinear;
-    statics::differentiate_equilibrium(
-        model, densities, settings, analysis, responses, parameters, method,
-    )
+    equilibrium(model, x, settings, analysis, responses, parameters, method)
 }
 
 /// Responses and gradients of the linear static analysis ([`crate::solve_linear`]):
@@ -644,14 +636,30 @@ pub fn of_linear_equilibrium(
     method: Method,
 ) -> Result<Sensitivities, Error> {
     check_linear(responses, parameters)?;
+    let analysis = StaticAnalysis::Linear;
+    equilibrium(model, x, settings, analysis, responses, parameters, method)
+}
+
+/// The equilibrium of `analysis` and its sensitivities; the responses that do not depend on
+/// the state explicit.
+fn equilibrium(
+    model: &Model,
+    x: &[f64],
+    settings: &StaticSettings,
+    analysis: StaticAnalysis,
+    responses: &[Response],
+    parameters: &[Parameter],
+    method: Method,
+) -> Result<Sensitivities, Error> {
     settings.validate()?;
     let densities = model.densities(Some(x))?;
     if !responses.iter().any(Response::depends_on_states) {
         return explicit(model, &densities, responses, parameters);
     }
     let method = resolve(method, responses, model);
-    let analysis = StaticAnalysis::Linear;
-    statics::differentiate_equilibrium(model, densities, settings, analysis, responses, &[], method)
+    statics::differentiate_equilibrium(
+        model, densities, settings, analysis, responses, parameters, method,
+    )
 }
 
 /// The responses and parameters of a linear analysis: each response's kind built for it, no
