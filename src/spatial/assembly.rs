@@ -18,12 +18,13 @@
 
 use std::collections::BTreeSet;
 
-use nalgebra::{SMatrix, SVector, Vector3, Vector6};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
 use crate::error::SolveError;
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
 use crate::solver::nearly_symmetric::NearlySymmetric;
+use crate::spatial::element::Derivatives;
 use crate::spatial::force::Local;
 use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
@@ -92,9 +93,9 @@ pub(crate) struct Assembler<'m> {
     /// for the sensitivities' [`Assembler::linear_terms`] at the same state.
     joint_blocks: Vec<(Stiffness, Gradient)>,
     /// Each force element's `K` and `C` at the last [`Assembler::matrix`], likewise.
-    force_blocks: Vec<(Stiffness, Stiffness)>,
+    force_blocks: Vec<Derivatives>,
     /// Each structural element's (beams, then truss bars), likewise.
-    element_blocks: Vec<(Stiffness, Stiffness)>,
+    element_blocks: Vec<Derivatives>,
     /// Where each body's, joint's, force element's and beam's local block is stored
     /// ([`local_slots`]), found once.
     body_slots: Vec<Vec<usize>>,
@@ -190,11 +191,8 @@ impl<'m> Assembler<'m> {
             pattern,
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
-            force_blocks: vec![(Stiffness::zeros(), Stiffness::zeros()); model.forces.len()],
-            element_blocks: vec![
-                (Stiffness::zeros(), Stiffness::zeros());
-                model.beams.len() + model.trusses.len()
-            ],
+            force_blocks: vec![Derivatives::zeros(); model.forces.len()],
+            element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
             first_row,
         }
     }
@@ -246,7 +244,7 @@ impl<'m> Assembler<'m> {
         }
         let gravity = model.gravity * self.load;
         for element in model.elements() {
-            let terms = element.terms(q, v, Some(vdot), &gravity, false);
+            let terms = element.terms(q, v, Some(vdot), &gravity, None);
             let weight = 0.5 * element.mass() * gravity.norm();
             reference = terms
                 .internal
@@ -292,7 +290,7 @@ impl<'m> Assembler<'m> {
             scatter(rhs, &force.pair, &f);
         }
         for element in model.elements() {
-            let terms = element.terms(q, v, None, &(model.gravity * self.load), false);
+            let terms = element.terms(q, v, None, &(model.gravity * self.load), None);
             scatter(rhs, element.pair(), &-(terms.internal + terms.inertia));
         }
         Ok(())
@@ -320,14 +318,15 @@ impl<'m> Assembler<'m> {
         }
         for (k, j) in model.joints.iter().enumerate() {
             let (row, n) = (self.first_row[k], j.n_rows());
-            let t = local_tangent(&j.pair, c.tangent.map(|(inc, _)| inc));
+            let increment = c.tangent.map(|(inc, _)| inc);
             let g = j.gradient(q, time);
             if let Some((_, lambda)) = c.tangent {
                 let stiffness = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]);
                 self.joint_blocks[k] = (stiffness, g);
-                scatter_block(&mut self.values, &self.joint_slots[k], &(stiffness * t));
+                let kt = times_tangent(&stiffness, &j.pair, increment);
+                scatter_block(&mut self.values, &self.joint_slots[k], &kt);
             }
-            let gt = g * t * c.scale;
+            let gt = times_tangent(&g, &j.pair, increment) * c.scale;
             let gs = g.transpose() * c.scale;
             for (side, node) in j.local_nodes() {
                 let bt: SMatrix<f64, MAX_ROWS, NV> =
@@ -341,23 +340,27 @@ impl<'m> Assembler<'m> {
         if let Some((inc, _)) = c.tangent {
             for (k, force) in model.forces.iter().enumerate() {
                 let terms = force.terms(q, v, time, self.load)?;
-                let t = local_tangent(&force.pair, Some(inc));
+                let kt = times_tangent(&terms.stiffness, &force.pair, Some(inc));
                 scatter_block(
                     &mut self.values,
                     &self.force_slots[k],
-                    &(terms.stiffness * t + terms.damping * c.gamma_prime),
+                    &(kt + terms.damping * c.gamma_prime),
                 );
-                self.force_blocks[k] = (terms.stiffness, terms.damping);
+                self.force_blocks[k] = Derivatives {
+                    stiffness: terms.stiffness,
+                    damping: terms.damping,
+                };
             }
         }
-        let gravity = model.gravity * self.load;
+        let (gravity, c_gamma) = (model.gravity * self.load, c.gamma_prime);
         for (k, element) in model.elements().enumerate() {
-            let mut block = element.mass_matrix() * c.beta_prime;
+            let mut block = element.mass_matrix();
+            block *= c.beta_prime;
             if let Some((inc, _)) = c.tangent {
-                let terms = element.terms(q, v, None, &gravity, true);
-                block += terms.stiffness * local_tangent(element.pair(), Some(inc))
-                    + terms.damping * c.gamma_prime;
-                self.element_blocks[k] = (terms.stiffness, terms.damping);
+                let d = &mut self.element_blocks[k];
+                element.terms(q, v, None, &gravity, Some(d));
+                add_times_tangent(&mut block, &d.stiffness, element.pair(), Some(inc));
+                block.zip_apply(&d.damping, |b, c| *b += c * c_gamma);
             }
             scatter_block(&mut self.values, &self.element_slots[k], &block);
         }
@@ -407,10 +410,8 @@ impl<'m> Assembler<'m> {
         }
         let pairs = model.forces.iter().map(|f| &f.pair);
         let blocks = self.force_blocks.iter().chain(&self.element_blocks);
-        for (pair, (stiffness, damping)) in
-            pairs.chain(model.elements().map(|e| e.pair())).zip(blocks)
-        {
-            let f = stiffness * gather(pair, eps) + damping * gather(pair, vp);
+        for (pair, d) in pairs.chain(model.elements().map(|e| e.pair())).zip(blocks) {
+            let f = d.stiffness * gather(pair, eps) + d.damping * gather(pair, vp);
             scatter(force, pair, &f);
         }
     }
@@ -453,12 +454,10 @@ impl<'m> Assembler<'m> {
         }
         let pairs = model.forces.iter().map(|f| &f.pair);
         let blocks = self.force_blocks.iter().chain(&self.element_blocks);
-        for (pair, (stiffness, damping)) in
-            pairs.chain(model.elements().map(|e| e.pair())).zip(blocks)
-        {
+        for (pair, d) in pairs.chain(model.elements().map(|e| e.pair())).zip(blocks) {
             let y = gather(pair, y_force);
-            scatter(eps_bar, pair, &(stiffness.transpose() * y));
-            scatter(v_bar, pair, &(damping.transpose() * y));
+            scatter(eps_bar, pair, &(d.stiffness.transpose() * y));
+            scatter(v_bar, pair, &(d.damping.transpose() * y));
         }
     }
 
@@ -553,17 +552,35 @@ fn scatter(out: &mut [f64], pair: &Pair, local: &Local) {
     }
 }
 
-/// `diag(I, T_A, I, T_B)` on a pair's local unknowns for the step's increment (`None`: `I`).
-fn local_tangent(pair: &Pair, increment: Option<&[f64]>) -> Stiffness {
-    let mut t = Stiffness::identity();
-    if let Some(inc) = increment {
-        for (side, node) in pair.local_nodes() {
-            let d = six(inc, node);
-            t.fixed_view_mut::<3, 3>(NV * side + 3, NV * side + 3)
-                .copy_from(&tangent(&Vector3::new(d[3], d[4], d[5])));
-        }
+/// `m diag(I, T_A, I, T_B)`: `m` on a pair's local unknowns times the tangent operators of
+/// the step's increment at its nodes (`None`: `m`).
+fn times_tangent<const R: usize>(
+    m: &SMatrix<f64, R, 12>,
+    pair: &Pair,
+    increment: Option<&[f64]>,
+) -> SMatrix<f64, R, 12> {
+    let mut out = SMatrix::zeros();
+    add_times_tangent(&mut out, m, pair, increment);
+    out
+}
+
+/// Adds [`times_tangent`] to `out`, only the rotation columns turned.
+fn add_times_tangent<const R: usize>(
+    out: &mut SMatrix<f64, R, 12>,
+    m: &SMatrix<f64, R, 12>,
+    pair: &Pair,
+    increment: Option<&[f64]>,
+) {
+    *out += m;
+    let Some(inc) = increment else { return };
+    for (side, node) in pair.local_nodes() {
+        let d = six(inc, node);
+        let at = NV * side + 3;
+        let columns = m.fixed_view::<R, 3>(0, at);
+        let turned = columns * (tangent(&Vector3::new(d[3], d[4], d[5])) - Matrix3::identity());
+        let mut target = out.fixed_view_mut::<R, 3>(0, at);
+        target += turned;
     }
-    t
 }
 
 /// Adds six numbers to node `node`'s in `out`.

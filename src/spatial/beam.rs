@@ -38,7 +38,7 @@ use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
 use crate::group::{six, split, Frame};
-use crate::spatial::element::{consistent_mass, Element, Terms};
+use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::Section;
@@ -60,6 +60,8 @@ pub struct Beam {
     /// `Γ₀` and `ψ₀`: the strains' values at the start.
     pub(crate) reference: Vector6<f64>,
     pub(crate) pair: Pair,
+    /// `E_A`, `E_B` as matrices, kept with the offsets.
+    axes: [Matrix3<f64>; 2],
 }
 
 /// What the element's state gives, in its own axes.
@@ -115,6 +117,7 @@ impl Beam {
                 nodes: [Some(nodes[0]), Some(nodes[1])],
                 arms: [Vector3::zeros(); 2],
             },
+            axes: offsets.map(|e| e.to_rotation_matrix().into_inner()),
         };
         beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
         Some(beam)
@@ -253,11 +256,6 @@ impl Beam {
         r
     }
 
-    /// `E_A`, `E_B` as matrices.
-    fn offset_matrices(&self) -> [Matrix3<f64>; 2] {
-        self.offsets.map(|e| e.to_rotation_matrix().into_inner())
-    }
-
     /// `B Pᵀ`, `P = diag(I, E_A, I, E_B)`: a matrix on the element's unknowns `y = Pᵀ y_node`
     /// read on the nodes' (its rotation columns turned).
     fn on_nodes(m: Strain, e: &[Matrix3<f64>; 2]) -> Strain {
@@ -296,10 +294,23 @@ impl Beam {
     /// The two ends' mass matrices' rotary blocks `J` in the nodes' frames (kg m²).
     fn rotary_inertia(&self) -> [Matrix3<f64>; 2] {
         let j = Matrix3::from_diagonal(&Vector3::from(self.section.rho_i)) * (0.5 * self.length);
-        self.offsets.map(|e| {
-            let e = e.to_rotation_matrix().into_inner();
-            e * j * e.transpose()
-        })
+        self.axes.map(|e| e * j * e.transpose())
+    }
+
+    /// `M w` on the twelve local unknowns, block by block (`M` as [`Element::mass_matrix`],
+    /// `j` the ends' [`Beam::rotary_inertia`]).
+    fn mass_times(&self, j: &[Matrix3<f64>; 2], w: &Local) -> Local {
+        let m = self.mass() / 6.0;
+        let (xa, xb) = (w.fixed_rows::<3>(0), w.fixed_rows::<3>(6));
+        let mut out = Local::zeros();
+        out.fixed_rows_mut::<3>(0).copy_from(&((xa * 2.0 + xb) * m));
+        out.fixed_rows_mut::<3>(6).copy_from(&((xa + xb * 2.0) * m));
+        for (side, j) in j.iter().enumerate() {
+            let at = 6 * side + 3;
+            out.fixed_rows_mut::<3>(at)
+                .copy_from(&(j * w.fixed_rows::<3>(at)));
+        }
+        out
     }
 }
 
@@ -324,26 +335,25 @@ impl Element for Beam {
     }
 
     /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` (module docs); their
-    /// derivatives too where `tangent`, else zeros there.
+    /// derivatives into `tangent` where given.
     fn terms(
         &self,
         q: &[f64],
         v: &[f64],
         vdot: Option<&[f64]>,
         g: &Vector3<f64>,
-        tangent: bool,
+        tangent: Option<&mut Derivatives>,
     ) -> Terms {
         let k = self.kinematics(q);
-        let e = self.offset_matrices();
+        let e = &self.axes;
         let rates = self.local(v);
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
-        let b = Self::on_nodes(self.strain_matrix(&k), &e);
+        let b = Self::on_nodes(self.strain_matrix(&k), e);
         let c = self.elasticity();
         let (l, beta, alpha) = (self.length, self.section.beta, self.section.alpha);
         let sigma = c.component_mul(&(self.strains(&k) + b * rates * beta));
-        let mass = self.mass_matrix();
-        let mut inertia = mass * (accelerations + rates * alpha);
         let j = self.rotary_inertia();
+        let mut inertia = self.mass_times(&j, &(accelerations + rates * alpha));
         let spins = self.nodes().map(|n| split(&six(v, n)).1);
         for side in 0..2 {
             let mut f = inertia.fixed_rows_mut::<3>(6 * side);
@@ -351,16 +361,10 @@ impl Element for Beam {
             let mut moment = inertia.fixed_rows_mut::<3>(6 * side + 3);
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
-        let mut terms = Terms {
-            internal: b.transpose() * sigma * l,
-            inertia,
-            stiffness: Stiffness::zeros(),
-            damping: Stiffness::zeros(),
-        };
-        if tangent {
+        if let Some(out) = tangent {
             let cb = Strain::from_fn(|r, col| c[r] * b[(r, col)]);
             let material = b.transpose() * cb * l;
-            terms.stiffness = material + Self::in_node_frames(&self.geometric(&k, &sigma), &e);
+            out.stiffness = material + Self::in_node_frames(&self.geometric(&k, &sigma), e);
             if beta > 0.0 {
                 // Kelvin–Voigt's `B v` moves with the configuration too.
                 let mut element_rates = rates;
@@ -370,17 +374,23 @@ impl Element for Beam {
                         .fixed_rows_mut::<3>(6 * side + 3)
                         .copy_from(&turned);
                 }
-                let r = Self::on_nodes(self.rate_derivative(&k, &element_rates), &e);
-                terms.stiffness += cb.transpose() * r * (l * beta);
+                let r = Self::on_nodes(self.rate_derivative(&k, &element_rates), e);
+                out.stiffness += cb.transpose() * r * (l * beta);
             }
-            terms.damping = material * beta + mass * alpha;
+            out.damping = material * beta;
+            if alpha != 0.0 {
+                out.damping += self.mass_matrix() * alpha;
+            }
             for side in 0..2 {
-                let (w, at) = (spins[side], 6 * side + 3);
-                let mut gyroscopic = terms.damping.fixed_view_mut::<3, 3>(at, at);
-                gyroscopic += hat(&w) * j[side] - hat(&(j[side] * w));
+                let (w, j, at) = (spins[side], j[side], 6 * side + 3);
+                let mut gyroscopic = out.damping.fixed_view_mut::<3, 3>(at, at);
+                gyroscopic += hat(&w) * j - hat(&(j * w));
             }
         }
-        terms
+        Terms {
+            internal: b.transpose() * sigma * l,
+            inertia,
+        }
     }
 
     /// The elastic forces `L Bᵀ C ε` at `q`: the strain energy's derivative in the nodes'
@@ -388,7 +398,7 @@ impl Element for Beam {
     fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
         let sigma = self.elasticity().component_mul(&self.strains(&k));
-        let b = Self::on_nodes(self.strain_matrix(&k), &self.offset_matrices());
+        let b = Self::on_nodes(self.strain_matrix(&k), &self.axes);
         b.transpose() * sigma * self.length
     }
 
@@ -461,7 +471,7 @@ mod tests {
     #[test]
     fn rigid_motion_strains_nothing() {
         let (beam, strained, _, _) = beam_and_state();
-        let rest = beam.terms(&strained, &[0.0; 12], None, &Vector3::zeros(), false);
+        let rest = beam.terms(&strained, &[0.0; 12], None, &Vector3::zeros(), None);
         let scale = rest.internal.amax();
         assert!(scale > 1e6, "the state is strained: {scale:e}");
         let turns = [
@@ -481,7 +491,7 @@ mod tests {
                 v[6 * n..6 * n + 3].copy_from_slice(u.as_slice());
                 v[6 * n + 3..6 * n + 6].copy_from_slice((moved.r.inverse() * spin).as_slice());
             }
-            let moved = beam.terms(&q, &v, None, &Vector3::zeros(), false).internal;
+            let moved = beam.terms(&q, &v, None, &Vector3::zeros(), None).internal;
             for n in 0..2 {
                 let f0 = turn * rest.internal.fixed_rows::<3>(6 * n).into_owned();
                 let m0 = rest.internal.fixed_rows::<3>(6 * n + 3).into_owned();
@@ -514,7 +524,7 @@ mod tests {
                 Frame::new(turn * f.x + shift, turn * f.r).write(&mut q, n);
             }
             let f = beam
-                .terms(&q, &[0.0; 12], None, &Vector3::zeros(), false)
+                .terms(&q, &[0.0; 12], None, &Vector3::zeros(), None)
                 .internal;
             assert!(f.amax() < 1e-12 * unit, "{:e} of {unit:e}", f.amax());
         }
@@ -544,9 +554,9 @@ mod tests {
         let mut q = vec![0.0; 14];
         root.write(&mut q, 0);
         tip.write(&mut q, 1);
-        let k = beam
-            .terms(&q, &[0.0; 12], None, &Vector3::zeros(), true)
-            .stiffness;
+        let mut d = Derivatives::zeros();
+        beam.terms(&q, &[0.0; 12], None, &Vector3::zeros(), Some(&mut d));
+        let k = d.stiffness;
         let k_tip: Matrix6<f64> = k.fixed_view::<6, 6>(6, 6).into_owned();
         let flexibility = k_tip.try_inverse().unwrap();
         // The tip's unknowns in the element's axes: (δx in space, δθ in the tip's frame).

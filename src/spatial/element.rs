@@ -8,16 +8,32 @@ use crate::group::{six, NV};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 
-/// An element's terms at one state, on its twelve local unknowns.
+/// An element's forces at one state, on its twelve local unknowns.
 pub(crate) struct Terms {
     /// Elastic and Kelvin–Voigt forces.
     pub internal: Local,
     /// Inertia, weight and `α M v`.
     pub inertia: Local,
+}
+
+/// An element's force derivatives at one state, on its twelve local unknowns: what the
+/// iteration matrix and the sensitivities read (written in place, where the assembly keeps
+/// them).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Derivatives {
     /// `∂f/∂q` (right-trivialized).
     pub stiffness: Stiffness,
     /// `∂f/∂v` but for the mass: Kelvin–Voigt's, `α M` and the gyroscopic matrix.
     pub damping: Stiffness,
+}
+
+impl Derivatives {
+    pub(crate) fn zeros() -> Self {
+        Self {
+            stiffness: Stiffness::zeros(),
+            damping: Stiffness::zeros(),
+        }
+    }
 }
 
 /// A structural element between two nodes.
@@ -25,15 +41,15 @@ pub(crate) trait Element {
     /// Its two nodes, as a pair with no arms.
     fn pair(&self) -> &Pair;
 
-    /// Its forces at `(q, v, v̇)` (`None`: at rest) under gravity `g`; their derivatives too
-    /// where `tangent`, else zeros there.
+    /// Its forces at `(q, v, v̇)` (`None`: at rest) under gravity `g`; their derivatives
+    /// written into `tangent` where given.
     fn terms(
         &self,
         q: &[f64],
         v: &[f64],
         vdot: Option<&[f64]>,
         g: &Vector3<f64>,
-        tangent: bool,
+        tangent: Option<&mut Derivatives>,
     ) -> Terms;
 
     /// Its mass matrix on the twelve local unknowns (constant).
@@ -107,10 +123,11 @@ pub(crate) fn check_derivatives(
     use crate::group::Frame;
     let g = Vector3::new(0.0, 0.0, -9.81);
     let force = |q: &[f64], v: &[f64]| {
-        let t = element.terms(q, v, Some(vdot), &g, false);
+        let t = element.terms(q, v, Some(vdot), &g, None);
         t.internal + t.inertia
     };
-    let terms = element.terms(q, v, Some(vdot), &g, true);
+    let mut terms = Derivatives::zeros();
+    element.terms(q, v, Some(vdot), &g, Some(&mut terms));
     let (k_max, c_max) = (terms.stiffness.amax(), terms.damping.amax());
     for k in 0..12 {
         let moved = |e: f64| {

@@ -658,7 +658,7 @@ impl<'m> Sweep<'m> {
         n: usize,
     ) -> ([Option<usize>; 2], Local) {
         let s = &self.states[n];
-        let terms = element.terms(&s.q, &s.qdot, Some(&s.qddot), &self.model().gravity, false);
+        let terms = element.terms(&s.q, &s.qdot, Some(&s.qddot), &self.model().gravity, None);
         let local = if stiffness {
             terms.internal
         } else {

@@ -17,7 +17,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::group::Frame;
-use crate::spatial::element::{consistent_mass, Element, Terms};
+use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::Section;
@@ -101,7 +101,7 @@ impl Element for Truss {
         v: &[f64],
         vdot: Option<&[f64]>,
         g: &Vector3<f64>,
-        tangent: bool,
+        tangent: Option<&mut Derivatives>,
     ) -> Terms {
         let (n, l, strain) = self.geometry(q);
         let rates = self.local(v);
@@ -118,21 +118,15 @@ impl Element for Truss {
             let mut f = inertia.fixed_rows_mut::<3>(6 * side);
             f -= g * (0.5 * self.mass());
         }
-        let mut terms = Terms {
-            internal,
-            inertia,
-            stiffness: Stiffness::zeros(),
-            damping: Stiffness::zeros(),
-        };
-        if tangent {
+        if let Some(out) = tangent {
             let (along, across) = (n * n.transpose(), Matrix3::identity() - n * n.transpose());
             let k = self.ea / self.length;
             let stiffness =
                 along * k + across * (axial / l) + n * (w.transpose() * across) * (k * beta / l);
-            terms.stiffness = Self::on_positions(&stiffness);
-            terms.damping = Self::on_positions(&(along * (k * beta))) + mass * alpha;
+            out.stiffness = Self::on_positions(&stiffness);
+            out.damping = Self::on_positions(&(along * (k * beta))) + mass * alpha;
         }
-        terms
+        Terms { internal, inertia }
     }
 
     fn mass_matrix(&self) -> Stiffness {
