@@ -9,7 +9,11 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
 an equilibrium, J), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
-(the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³).
+(the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³), ``tip_deflection`` or
+``tip_deflection:NAME`` (the mean squared deflection ``(1/t_f) ∫ |r − r_rigid|² dt`` of the
+scene's tip, or a body or node, from its rigid trajectory, m², paper Eq. 40: the motion of the
+mechanism with each link one rigid body on its joints and drives, every freedom of which the
+drives must hold).
 Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), ``k:SPRING``,
 ``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³).
 """

@@ -208,15 +208,15 @@ fn rank_of(sigma: &[f64], scale: f64) -> usize {
 }
 
 /// Disjoint sets (union–find with path halving).
-struct Sets(Vec<usize>);
+pub(crate) struct Sets(Vec<usize>);
 
 impl Sets {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         Self((0..n).collect())
     }
 
     /// The representative of `i`'s set.
-    fn find(&mut self, mut i: usize) -> usize {
+    pub(crate) fn find(&mut self, mut i: usize) -> usize {
         while self.0[i] != i {
             self.0[i] = self.0[self.0[i]];
             i = self.0[i];
@@ -225,7 +225,7 @@ impl Sets {
     }
 
     /// Joins the sets of `a` and `b`; the representative of the union.
-    fn union(&mut self, a: usize, b: usize) -> usize {
+    pub(crate) fn union(&mut self, a: usize, b: usize) -> usize {
         let (a, b) = (self.find(a), self.find(b));
         self.0[b] = a;
         a

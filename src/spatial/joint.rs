@@ -317,6 +317,11 @@ impl Joint {
         Ok(())
     }
 
+    /// The drive's law, if driven.
+    pub(crate) fn drive_law(&self) -> Option<&Motion> {
+        self.drive.as_ref().map(|d| &d.law)
+    }
+
     /// Where the drive's law is not smooth (none without a drive).
     pub(crate) fn drive_kinks(&self) -> Vec<f64> {
         self.drive.as_ref().map_or_else(Vec::new, |d| d.law.kinks())

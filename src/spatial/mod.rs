@@ -58,6 +58,7 @@ pub mod integrator;
 pub mod joint;
 pub mod modal;
 pub mod model;
+pub mod rigid;
 pub mod section;
 pub mod sensitivity;
 pub mod statics;

@@ -38,6 +38,7 @@ use crate::spatial::integrator::{kink_jump, kink_on_node, kinks, run};
 use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::Stiffness;
+use crate::spatial::rigid::rigid_trajectories;
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
 
@@ -125,6 +126,13 @@ pub enum Response {
         /// Its row, the drive's last.
         row: usize,
     },
+    /// The mean squared deflection `(1/t_f) ∫ |r − r_rigid|² dt` of a node's origin from its
+    /// rigid trajectory (m², paper Eq. 40; trapezoidal rule on the run's grid; `r_rigid`
+    /// from [`crate::spatial::rigid`], which needs every freedom driven). A motion's only.
+    Deflection {
+        /// The node: the tip.
+        node: usize,
+    },
 }
 
 /// Responses and their gradients: `gradient[k][i]` is `∂f_k/∂p_i`.
@@ -134,6 +142,17 @@ pub struct Gradients {
     pub values: Vec<f64>,
     /// Their derivatives to the parameters.
     pub gradient: Vec<Vec<f64>>,
+}
+
+/// Checks that node `node` of response `k` exists.
+fn node(model: &SpatialModel, node: usize, k: usize) -> Result<(), SettingsError> {
+    if node >= model.nodes.len() {
+        return Err(SettingsError::new(
+            format!("responses[{k}]"),
+            format!("no node {node} (the mechanism has {})", model.nodes.len()),
+        ));
+    }
+    Ok(())
 }
 
 fn check(
@@ -169,14 +188,10 @@ fn check(
                 }
             }
             Response::NodePosition { node, axis: a } => {
-                if node >= model.nodes.len() {
-                    return Err(SettingsError::new(
-                        format!("responses[{k}]"),
-                        format!("no node {node} (the mechanism has {})", model.nodes.len()),
-                    ));
-                }
+                self::node(model, node, k)?;
                 axis(a, k)?;
             }
+            Response::Deflection { node } => self::node(model, node, k)?,
             Response::Effort { joint, row } => {
                 let rows = model.joints.get(joint).map(|j| j.n_rows());
                 if rows.is_none_or(|n| row >= n) {
@@ -267,6 +282,16 @@ pub fn sensitivities(
     let (states, restarted) = run(model, settings, grid)?;
     let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
     sweep.restarted = restarted;
+    let tips: Vec<usize> = (responses.iter())
+        .filter_map(|r| match *r {
+            Response::Deflection { node } => Some(node),
+            _ => None,
+        })
+        .collect();
+    if !tips.is_empty() {
+        let paths = rigid_trajectories(model, settings, grid, &tips)?;
+        sweep.rigid = tips.into_iter().zip(paths).collect();
+    }
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     let adjoint = match method {
         Method::Direct => false,
@@ -316,6 +341,13 @@ pub fn static_sensitivities(
     method: Method,
 ) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
+    if let Some(k) = (responses.iter()).position(|r| matches!(r, Response::Deflection { .. })) {
+        return Err(SettingsError::new(
+            format!("responses[{k}]"),
+            "a deflection from the rigid trajectory is a motion's: an equilibrium has none",
+        )
+        .into());
+    }
     let eq = solve_static_spatial(model, settings)?;
     let n_v = model.n_v();
     let states = [State {
@@ -383,6 +415,9 @@ struct Sweep<'m> {
     many_solves: bool,
     /// Whether the step into state `n` began with a restart at a drive's kink.
     restarted: Vec<bool>,
+    /// The rigid trajectory of each node a [`Response::Deflection`] names, a position per
+    /// state.
+    rigid: Vec<(usize, Vec<Vector3<f64>>)>,
 }
 
 /// The most right-hand sides per factorization solved by refinement on the symmetric part's
@@ -492,6 +527,7 @@ impl<'m> Sweep<'m> {
             equilibrium: rho_inf.is_none(),
             many_solves: false,
             restarted: vec![false; states.len()],
+            rigid: Vec::new(),
         })
     }
 
@@ -513,7 +549,29 @@ impl<'m> Sweep<'m> {
                     .sum()
             }
             Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::Deflection { node } => {
+                (0..self.states.len())
+                    .map(|n| self.weight(n) * self.deflection(node, n).norm_squared())
+                    .sum::<f64>()
+                    / self.duration()
+            }
         }
+    }
+
+    /// `r − r_rigid` of node `node` at state `n` (a deflection's rigid trajectory made).
+    fn deflection(&self, node: usize, n: usize) -> Vector3<f64> {
+        let rigid = (self.rigid.iter())
+            .find(|(k, _)| *k == node)
+            .map_or_else(Vector3::zeros, |(_, path)| path[n]);
+        Frame::read(&self.states[n].q, node).x - rigid
+    }
+
+    /// The run's duration `t_f` (s).
+    fn duration(&self) -> f64 {
+        let [first, .., last] = self.states else {
+            return 1.0;
+        };
+        last.t - first.t
     }
 
     /// `∫ U dt` of one element over the stored run.
@@ -582,6 +640,10 @@ impl<'m> Sweep<'m> {
             Response::Effort { joint, row } => {
                 let k = self.row_of(joint, row);
                 lam[k] = 2.0 * self.weight(n) * self.states[n].lam[k];
+            }
+            Response::Deflection { node } => {
+                let gap = self.deflection(node, n) * (2.0 * self.weight(n) / self.duration());
+                eps[NV * node..NV * node + 3].copy_from_slice(gap.as_slice());
             }
             Response::StrainEnergy => {
                 let w = self.weight(n);

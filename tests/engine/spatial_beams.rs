@@ -394,6 +394,98 @@ fn gradients_through_a_drives_restarts() {
     );
 }
 
+/// The arm of [`gradients_through_a_drives_restarts`] on its drive, without the point mass.
+fn driven_arm() -> (SpatialModel, usize, flextop::motion::Motion, Vector3<f64>) {
+    use flextop::motion::{Motion, Trapezoidal};
+    let (mut m, _) = tube_arm([0.0, 0.0], Vector3::z());
+    let offset = Vector3::new(-0.05, 0.0, 0.0);
+    let root = Anchor::Node {
+        node: 0,
+        point: offset,
+    };
+    let axis = Vector3::new(0.0, 0.3, 1.0);
+    let hinge = m
+        .add_joint(
+            "hinge",
+            JointKind::Revolute { axis },
+            Anchor::Ground(offset),
+            root,
+        )
+        .unwrap();
+    let law = Motion::Trapezoidal(Trapezoidal::new(0.0, 0.3, 100.0, 2.0, 0.0));
+    m.add_drive(hinge, law.clone()).unwrap();
+    (m, hinge, law, offset)
+}
+
+/// The tip deflection of paper Eq. 40 in space: the rigid trajectory of the driven arm's tip
+/// is its start turned about the hinge's oblique axis by the law's angle (to 1e-10 m, the
+/// companion's three welds and hinge run on the engine's integrator); its mean squared
+/// deflection from it has exact gradients (differences 1e-6, direct = adjoint 1e-9) through
+/// the drive's restart; an undriven pendulum has no rigid trajectory and says so, as does an
+/// equilibrium.
+#[test]
+fn tip_deflection_from_the_rigid_trajectory() {
+    use flextop::spatial::rigid::rigid_trajectories;
+    use flextop::spatial::sensitivity::{sensitivities, static_sensitivities};
+    let (mut m, hinge, law, offset) = driven_arm();
+    let grid = TimeGrid::uniform(4e-3, 25);
+    let paths = rigid_trajectories(&m, &crate::spatial::settings(0.8), &grid, &[3]).unwrap();
+    let axis = nalgebra::Unit::new_normalize(Vector3::new(0.0, 0.3, 1.0));
+    let tip = Vector3::new(1.2, 0.0, 0.0);
+    let mut turned = 0.0f64;
+    for (t, r) in grid.times().iter().zip(&paths[0]) {
+        let angle = law.at(*t).angle - law.at(0.0).angle;
+        let exact = offset + UnitQuaternion::from_axis_angle(&axis, angle) * (tip - offset);
+        assert!((r - exact).norm() < 1e-10, "t = {t}: {r} against {exact}");
+        turned = turned.max(angle);
+    }
+    assert!(turned > 0.05, "the arm turns: {turned} rad");
+    let bob = m.add_point_mass("bob", 3, 0.2).unwrap();
+    let deflection = [Response::Deflection { node: 3 }];
+    let parameters = [
+        Parameter::BeamStiffness { beam: 1 },
+        Parameter::BeamMass { beam: 0 },
+        Parameter::Mass { body: bob },
+    ];
+    check(&m, 0.8, &grid, &deflection, &parameters);
+    // The deflection is the flexible tip's: a stiffer arm follows its rigid path closer.
+    let s = crate::spatial::settings(0.8);
+    let d = |m: &SpatialModel| {
+        sensitivities(m, &s, &grid, &deflection, &[], flextop::Method::Adjoint)
+            .unwrap()
+            .values[0]
+    };
+    let stiffer = moved(&m, &Parameter::BeamStiffness { beam: 0 }, 9.0);
+    let (soft, stiff) = (d(&m), d(&stiffer));
+    assert!(soft > 0.0 && stiff < soft, "{stiff} against {soft}");
+    // Undriven, the rigid arm is a pendulum whose swing its masses set.
+    let (mut free, ..) = driven_arm();
+    free.joints[hinge] = {
+        let (mut bare, _) = tube_arm([0.0, 0.0], Vector3::z());
+        let root = Anchor::Node {
+            node: 0,
+            point: offset,
+        };
+        let kind = JointKind::Revolute {
+            axis: Vector3::new(0.0, 1.0, 0.2),
+        };
+        bare.add_joint("hinge", kind, Anchor::Ground(offset), root)
+            .unwrap();
+        bare.joints.remove(0)
+    };
+    let err = sensitivities(&free, &s, &grid, &deflection, &[], flextop::Method::Adjoint)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("tip_deflection") && err.contains("freedom"),
+        "{err}"
+    );
+    let err = static_sensitivities(&m, &statics(1), &deflection, &[], flextop::Method::Adjoint)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("motion's"), "{err}");
+}
+
 /// Modified Newton (the step's first factorization kept while the residual falls tenfold
 /// per iteration) ends each step on the full Newton's solution: the spinning pendulum's
 /// motion the same to the Newton tolerance.

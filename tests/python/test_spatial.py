@@ -226,6 +226,13 @@ def test_bad_requests_are_named():
         sim.run_with_sensitivities(None, None, ["E:bar"], t_end=0.1, h=0.01)
     with pytest.raises(SettingsError, match="t_end"):
         sim.simulate()
+    # The pendulum swings freely: its rigid mechanism has a freedom no drive holds.
+    with pytest.raises(SettingsError, match="tip_deflection: the drives leave the rigid mechanism a freedom"):
+        sim.run_with_sensitivities(None, ["tip_deflection:bar"], t_end=0.1, h=0.01)
+    with pytest.raises(SettingsError, match="'tip_deflection:nowhere': 'nowhere' is no body or node"):
+        sim.run_with_sensitivities(None, ["tip_deflection:nowhere"], t_end=0.1, h=0.01)
+    with pytest.raises(SettingsError, match="an equilibrium has none"):
+        sim.run_with_sensitivities(None, ["tip_deflection:bar"], equilibrium=True)
     with pytest.raises(SettingsError, match="'tip' is no body or node"):
         sim.simulate(t_end=0.01, h=0.01).position("tip")
     with pytest.raises(SceneError, match="SpatialSimulation"):
@@ -240,7 +247,9 @@ def test_the_papers_arm_built_as_a_spatial_mechanism_gives_the_planar_tip_deflec
     """The arm's Eq. 40 from the spatial engine's tip against the planar rigid trajectory:
     within 0.1 % of the planar engine's at one and two elements per bar (measured 3.5e-4
     and 9.6e-5: the elements differ, the Simo–Reissner beam's rotary inertia lumped), the
-    difference falling as both refine, the motion in its plane to round-off."""
+    difference falling as both refine, the motion in its plane to round-off. The spatial
+    engine's own ``tip_deflection`` (its rigid companion: each link one body on the joints
+    and drives) is that number to 1e-9: its rigid trajectory is the planar one."""
     differences = []
     for split, h in [(1, 0.02), (2, 0.01)]:
         sim = flextop.Simulation(flextop.scenes.robot_arm(split=split, h=h))
@@ -253,6 +262,9 @@ def test_the_papers_arm_built_as_a_spatial_mechanism_gives_the_planar_tip_deflec
         error = tip[:, :2] - sim.rigid_trajectory(sim.tip, run.time)
         spatial = np.trapezoid(np.sum(error**2, axis=1), run.time) / run.time[-1]
         differences.append(abs(spatial / planar - 1.0))
+        if split == 1:
+            own = SpatialSimulation(scene).run_with_sensitivities(None, "tip_deflection").values[0]
+            assert abs(own / spatial - 1.0) < 1e-9, (own, spatial)
     assert differences[0] < 1e-3 and differences[1] < differences[0] / 2, differences
 
 
@@ -380,15 +392,16 @@ def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
 def test_the_spatial_robot_arm_moves_its_payload_out_of_every_plane_with_exact_density_gradients():
     """The spatial robot arm (188 lattice bars): the payload's path spans all three
     directions (its positions' third singular value 0.1 m over the run, of 3.8 and 0.63), the
-    links stay whole; over its first 0.2 s the payload's height and the strain energy have
-    direct = adjoint gradients to the 188 densities through three drives' restarts."""
+    links stay whole; over its first 0.2 s the payload's height, the strain energy and its
+    deflection from the rigid trajectory (Eq. 40) have direct = adjoint gradients to the 188
+    densities through three drives' restarts."""
     sim = SpatialSimulation(flextop.scenes.spatial_robot_arm())
     assert sim.n_design == 188
     path = sim.simulate().position("payload")
     spread = np.linalg.svd(path - path.mean(axis=0), compute_uv=False)
     assert spread[2] > 0.05, spread
     x = np.random.default_rng(3).uniform(0.2, 1.0, sim.n_design)
-    responses = ["z:payload", "strain_energy"]
+    responses = ["z:payload", "strain_energy", "tip_deflection"]
     direct = sim.run_with_sensitivities(x, responses, method="direct", t_end=0.2).dfdx
     adjoint = sim.run_with_sensitivities(x, responses, method="adjoint", t_end=0.2).dfdx
     scale = np.abs(direct).max(axis=1, keepdims=True)

@@ -4,7 +4,9 @@
 //! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
 //! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
-//! motor must give, integrated).
+//! motor must give, integrated), `tip_deflection` and `tip_deflection:NAME` (the mean squared
+//! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
+//! trajectory, m², paper Eq. 40).
 //!
 //! Parameters: `mass:BODY` (kg), `Ixx:BODY` … `Iyz:BODY` (an entry of its inertia tensor
 //! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING` (a torsion spring's in
@@ -40,16 +42,36 @@ impl SpatialScene {
     /// A [`SettingsError`] at `responses` naming what is not in the scene.
     pub fn response(&self, name: &str) -> Result<Response> {
         let bad = |m: String| Err(SettingsError::new("responses", format!("'{name}': {m}")));
-        if name == "strain_energy" {
-            return Ok(Response::StrainEnergy);
+        let m = &self.model;
+        let node_of = |what: &str| {
+            let body = m.bodies.iter().find(|b| b.name == what).map(|b| b.node);
+            body.or_else(|| m.nodes.iter().position(|n| n.name == what))
+        };
+        match name {
+            "strain_energy" => return Ok(Response::StrainEnergy),
+            "tip_deflection" => {
+                let Some(tip) = &self.tip else {
+                    return bad("the scene has no `tip`; write tip_deflection:NAME".into());
+                };
+                return match node_of(tip) {
+                    Some(node) => Ok(Response::Deflection { node }),
+                    None => bad(format!("the tip '{tip}' is no body or node of the scene")),
+                };
+            }
+            _ => {}
         }
         let Some((kind, what)) = name.split_once(':') else {
             return bad(
-                "responses are x:NAME, y:NAME, z:NAME, strain_energy or effort:JOINT".into(),
+                "responses are x:NAME, y:NAME, z:NAME, strain_energy, effort:JOINT or \
+                 tip_deflection[:NAME]"
+                    .into(),
             );
         };
-        let m = &self.model;
         match kind {
+            "tip_deflection" => match node_of(what) {
+                Some(node) => Ok(Response::Deflection { node }),
+                None => bad(format!("'{what}' is no body or node of the scene")),
+            },
             "x" | "y" | "z" => {
                 let axis = usize::from(kind == "y") + 2 * usize::from(kind == "z");
                 if let Some(body) = m.bodies.iter().position(|b| b.name == what) {
@@ -73,7 +95,7 @@ impl SpatialScene {
                 Ok(Response::Effort { joint, row })
             }
             _ => bad(format!(
-                "'{kind}' is not a response kind (x, y, z, strain_energy, effort)"
+                "'{kind}' is not a response kind (x, y, z, strain_energy, effort, tip_deflection)"
             )),
         }
     }

@@ -1,0 +1,203 @@
+//! The rigid trajectory of a spatial mechanism: where its nodes would go were every link
+//! rigid — the `r_rigid(t)` of the tip deflection (paper Eq. 40, "the tip position of the
+//! undeformed mechanism … computed from the joint trajectory using the rigid kinematic
+//! relations").
+//!
+//! **Links.** The beams, the truss bars and the welds between two nodes are the edges of a
+//! graph on the nodes; its connected components are the links. The **rigid companion** has
+//! one node per link, at its first node's initial frame, carrying a nominal mass and
+//! inertia; every other joint of the mechanism acts on the links' nodes, its anchors carried
+//! into their frames, with its drive; welds to the ground stay; force elements go (the
+//! rigid motion is the drives', not the loads'). It runs on the engine's integrator, on the
+//! run's grid, and a node's rigid trajectory is its link's pose applied to its initial
+//! place in the link: `r(t) = x_L(t) + R_L(t) R_L(0)ᵀ (x₀ − x_L(0))`.
+//!
+//! Its motion is the rigid trajectory only where the drives determine it: with every
+//! freedom driven, the constraints `Φ(q, tₙ) = 0` fix each state whatever the masses. That
+//! is checked, not assumed: the companion runs twice with two different distributions of
+//! its nominal masses, and trajectories that differ by more than [`DETERMINED_TOLERANCE`]
+//! of the mechanism's size show a freedom no drive holds ([`SettingsError`] naming it).
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::error::{Error, SettingsError};
+use crate::group::Frame;
+use crate::mechanism::rank::Sets;
+use crate::settings::DynamicSettings;
+use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::time_grid::TimeGrid;
+
+/// Largest difference (of the mechanism's size) between the companion's two runs for its
+/// motion to count as determined by the drives: Newton's tolerance is 1e-10 or tighter, a
+/// free freedom moves by a share of the motion.
+pub const DETERMINED_TOLERANCE: f64 = 1e-7;
+
+/// The links of a mechanism: each node's link, and each link's first node.
+struct Links {
+    of_node: Vec<usize>,
+    first: Vec<usize>,
+}
+
+impl Links {
+    fn new(model: &SpatialModel) -> Self {
+        let mut sets = Sets::new(model.nodes.len());
+        let welds = (model.joints.iter())
+            .filter(|j| j.kind == JointKind::Weld)
+            .map(|j| j.pair.nodes);
+        let elements = model.elements().map(|e| e.pair().nodes);
+        for nodes in welds.chain(elements) {
+            if let [Some(a), Some(b)] = nodes {
+                sets.union(a, b);
+            }
+        }
+        let mut link_of_root = vec![usize::MAX; model.nodes.len()];
+        let (mut of_node, mut first) = (Vec::new(), Vec::new());
+        for node in 0..model.nodes.len() {
+            let root = sets.find(node);
+            if link_of_root[root] == usize::MAX {
+                link_of_root[root] = first.len();
+                first.push(node);
+            }
+            of_node.push(link_of_root[root]);
+        }
+        Self { of_node, first }
+    }
+
+    /// A node's anchor point `arm` (in its frame) as an anchor on its link's node.
+    fn anchor(&self, model: &SpatialModel, node: Option<usize>, arm: Vector3<f64>) -> Anchor {
+        let Some(node) = node else {
+            return Anchor::Ground(arm);
+        };
+        let link = self.of_node[node];
+        let (at, of) = (
+            &model.nodes[node].frame,
+            &model.nodes[self.first[link]].frame,
+        );
+        let point = of.r.inverse() * (at.x + at.r * arm - of.x);
+        Anchor::Node { node: link, point }
+    }
+}
+
+/// The rigid companion of `model` over `links` (module docs), its links' nominal masses
+/// spread by `spread` (the second run's differ from the first's).
+///
+/// # Errors
+/// A [`SettingsError`] at `tip_deflection` for a drive within one link; the model's own
+/// errors where a carried joint cannot be built.
+fn companion(model: &SpatialModel, links: &Links, spread: bool) -> Result<SpatialModel, Error> {
+    let mut rigid = SpatialModel::new(model.gravity)?;
+    let (mass, length) = nominal(model, links.first.len());
+    for (k, &node) in links.first.iter().enumerate() {
+        // The second run changes each link's mass and the shape and size of its inertia.
+        let (factor, moments) = if spread {
+            (1.0 + (k % 3) as f64, Vector3::new(6.0, 3.0, 4.5))
+        } else {
+            (1.0, Vector3::new(1.0, 1.5, 2.0))
+        };
+        let inertia = Matrix3::from_diagonal(&moments);
+        let n = &model.nodes[node];
+        let body = rigid.add_body(
+            &n.name,
+            n.frame,
+            mass * factor,
+            inertia * (mass * factor * length * length),
+        )?;
+        let [u, w] = [&n.velocity[..3], &n.velocity[3..]].map(Vector3::from_column_slice);
+        rigid.set_rates(body, u, w)?;
+    }
+    for joint in &model.joints {
+        let [a, b] = [0, 1].map(|s| links.anchor(model, joint.pair.nodes[s], joint.pair.arms[s]));
+        let same_link = matches!((&a, &b), (Anchor::Node { node: x, .. }, Anchor::Node { node: y, .. }) if x == y);
+        if same_link {
+            if joint.is_driven() {
+                return Err(SettingsError::new(
+                    "tip_deflection",
+                    format!(
+                        "joint '{}' is driven within one link (its beams join its two sides): \
+                         the rigid mechanism cannot move it",
+                        joint.name
+                    ),
+                )
+                .into());
+            }
+            continue;
+        }
+        let carried = rigid.add_joint(&joint.name, joint.kind, a, b)?;
+        if let Some(law) = joint.drive_law() {
+            rigid.add_drive(carried, law.clone())?;
+        }
+    }
+    Ok(rigid)
+}
+
+/// A nominal mass (kg, the mechanism's mean per link) and length (m, its size over its
+/// links) for the companion's links.
+fn nominal(model: &SpatialModel, links: usize) -> (f64, f64) {
+    let total: f64 = model.bodies.iter().map(|b| b.mass).sum::<f64>()
+        + model.elements().map(|e| e.mass()).sum::<f64>();
+    let n = links.max(1) as f64;
+    let mass = if total > 0.0 { total / n } else { 1.0 };
+    (mass, model.size().max(f64::MIN_POSITIVE))
+}
+
+/// The rigid trajectories of `nodes`' origins over `grid` (module docs): one position per
+/// state of the grid, for each node in order.
+///
+/// # Errors
+/// [`SettingsError`] at `tip_deflection` where the drives leave a freedom of the rigid
+/// mechanism free, its initial rates are not a rigid motion of the links, or a drive acts
+/// within one link; the companion's run errors (a singular matrix where the rigid
+/// mechanism's joints repeat one another).
+pub fn rigid_trajectories(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    nodes: &[usize],
+) -> Result<Vec<Vec<Vector3<f64>>>, Error> {
+    let links = Links::new(model);
+    let run = |spread| -> Result<Vec<Vec<Vector3<f64>>>, Error> {
+        let rigid = companion(model, &links, spread)?;
+        rigid.check_rates().map_err(|e| {
+            SettingsError::new(
+                "tip_deflection",
+                format!("the initial rates are not a rigid motion of the links: {e}"),
+            )
+        })?;
+        let states = simulate_spatial(&rigid, settings, grid)?;
+        Ok(nodes
+            .iter()
+            .map(|&n| {
+                let link = links.of_node[n];
+                let (at, of) = (&model.nodes[n].frame, &model.nodes[links.first[link]].frame);
+                let place = of.r.inverse() * (at.x - of.x);
+                let frame = |s: &crate::solver::integrator::State| {
+                    let f = Frame::read(&s.q, link);
+                    f.x + f.r * place
+                };
+                states.iter().map(frame).collect()
+            })
+            .collect())
+    };
+    let (first, second) = (run(false)?, run(true)?);
+    let size = model.size();
+    for (k, (a, b)) in first.iter().zip(&second).enumerate() {
+        let gap = (a.iter().zip(b))
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0f64, f64::max);
+        if gap.is_nan() || gap > DETERMINED_TOLERANCE * size {
+            return Err(SettingsError::new(
+                "tip_deflection",
+                format!(
+                    "the drives leave the rigid mechanism a freedom: node '{}' moves by {:.1e} m \
+                     more or less as its links' masses change, so it has no rigid trajectory \
+                     (drive every freedom of the mechanism with its links rigid)",
+                    model.nodes[nodes[k]].name, gap
+                ),
+            )
+            .into());
+        }
+    }
+    Ok(first)
+}
