@@ -28,7 +28,8 @@ from .io.export import frame_indices
 from .results import Results
 from .simulation import Simulation
 
-__all__ = ["animate", "magnified_positions", "plot_deformed", "plot_design", "plot_history", "plot_paths", "plot_tip_error"]
+__all__ = ["animate", "magnified_positions", "plot_deformed", "plot_design", "plot_history", "plot_paths", "plot_spatial_design",
+           "plot_tip_error"]
 
 #: Colormap of the density maps: white for x_min (void) to black for full density, as the
 #: topology-optimization literature draws them.
@@ -122,6 +123,51 @@ def plot_design(sim: Simulation, x: Any, *, positions: np.ndarray | None = None,
         ax.set_title(title)
     fig.colorbar(mappable, ax=ax, label="Density", location=location, shrink=0.8,
                  aspect=30 if location == "bottom" else 20)
+    return _save(fig, path)
+
+
+def plot_spatial_design(sim: Any, x: Any, *, q: Any = None, view: tuple[float, float] = (25.0, -60.0),
+                        min_density: float | None = None, cmap: str | Colormap = DEFAULT_CMAP,
+                        title: str | None = None, path: str | os.PathLike | None = None) -> Figure:
+    """Density map of design ``x`` of a :class:`~flextop.spatial.SpatialSimulation`'s beams
+    and bars in 3D, seen from ``view`` (elevation and azimuth, degrees).
+
+    As :func:`plot_design`: each beam element or bar a line whose width grows with its density
+    and whose colour follows ``cmap`` from ``x_min`` to 1 (fixed ones at 1), those below
+    ``min_density`` faint (default 1.5 ``x_min``; 0 draws all alike); bodies as black dots.
+    At configuration ``q`` (seven numbers per node, e.g. a row of ``SpatialResults.q``; the
+    initial one by default). Equal axes in metres."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    layout = sim.layout
+    rho = layout.line_densities(sim.design(x))
+    config = np.asarray(sim.model.initial_q if q is None else q, dtype=float)
+    if config.shape != (7 * len(layout.nodes_in_order),) or not np.all(np.isfinite(config)):
+        raise SettingsError(f"q: expected {7 * len(layout.nodes_in_order)} finite numbers (seven per node), "
+                            f"got shape {config.shape}")
+    points = config.reshape(-1, 7)[:, :3]
+    segments = points[np.asarray(layout.lines, dtype=int).reshape(-1, 2)]
+    colormap = matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap
+    mappable = ScalarMappable(Normalize(vmin=sim.x_min, vmax=1.0), colormap)
+    colors = mappable.to_rgba(rho)
+    faint = 1.5 * sim.x_min if min_density is None else min_density
+    colors[rho < faint, 3] = FAINT_ALPHA
+    widths = WIDTHS[0] + (WIDTHS[1] - WIDTHS[0]) * np.clip(mappable.norm(rho), 0.0, 1.0)
+    fig = _new_figure(figsize=(8.0, 6.5), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    ax.add_collection3d(Line3DCollection(segments, colors=colors, linewidths=widths))
+    bodies = points[np.asarray(layout.bodies, dtype=int)]
+    if len(bodies):
+        ax.scatter(*bodies.T, color="black", s=12, depthshade=False)
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre, half = (low + high) / 2, max(float(np.max(high - low)) / 2, 1e-12)
+    ax.set(xlim=(centre[0] - half, centre[0] + half), ylim=(centre[1] - half, centre[1] + half),
+           zlim=(centre[2] - half, centre[2] + half), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=view[0], azim=view[1])
+    if title is not None:
+        ax.set_title(title)
+    fig.colorbar(mappable, ax=ax, label="Density", shrink=0.7)
     return _save(fig, path)
 
 

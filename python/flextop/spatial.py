@@ -29,7 +29,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from . import _core, plausibility
-from .errors import SceneError, SettingsError, SimulationError
+from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
 from .simulation import DesignLike, design_vector
@@ -49,8 +49,8 @@ def rotations(quaternions: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class _Layout:
     """Where a name's numbers are — nodes (bodies on theirs) and joints' rows — and the
-    structure's cells: each beam element's or bar's end nodes and its beam's index, each
-    body's node."""
+    structure's cells: each beam element's or bar's end nodes, its beam's index and its
+    design variable's (−1 where fixed), each body's node."""
 
     nodes: dict[str, int]
     joints: dict[str, range]
@@ -58,6 +58,14 @@ class _Layout:
     lines: tuple[tuple[int, int], ...]
     line_beam: tuple[int, ...]
     bodies: tuple[int, ...]
+    line_variable: tuple[int, ...] = ()
+
+    def line_densities(self, x: np.ndarray | None) -> np.ndarray:
+        """Each line's density at design ``x`` (1 where fixed or at full density)."""
+        variable = np.asarray(self.line_variable, dtype=int)
+        if x is None:
+            return np.ones(len(variable))
+        return np.where(variable >= 0, np.asarray(x, dtype=float)[np.maximum(variable, 0)], 1.0)
 
     def node(self, name: str) -> int:
         if name not in self.nodes:
@@ -84,6 +92,8 @@ class SpatialResults:
     potential: np.ndarray
     strain: np.ndarray
     layout: _Layout
+    #: The design it ran at (``None``: full density).
+    x: np.ndarray | None = None
 
     def position(self, name: str) -> np.ndarray:
         """A body's centre of mass or a node's origin at each time, shape ``(n, 3)`` (m)."""
@@ -219,11 +229,12 @@ class SpatialSimulation:
         plausibility.check(self.spec, float(np.linalg.norm(np.ptp(points, axis=0))) if points else 0.0)
         nodes = {name: k for k, name in enumerate(self.model.node_names)}
         nodes.update(dict(self.model.body_nodes))
-        beams = self.model.beams
+        beams, variables = self.model.beams, self.model.beam_variables
         self.layout = _Layout(nodes, {name: range(a, b) for name, a, b in self.model.joint_rows}, tuple(self.model.node_names),
                               tuple((int(a), int(b)) for _, ends in beams for a, b in ends),
                               tuple(k for k, (_, ends) in enumerate(beams) for _ in ends),
-                              tuple(node for _, node in self.model.body_nodes))
+                              tuple(node for _, node in self.model.body_nodes),
+                              tuple(-1 if v is None else v for (_, ends), v in zip(beams, variables) for _ in ends))
 
     @property
     def analysis(self) -> str:
@@ -238,6 +249,17 @@ class SpatialSimulation:
     def _design(self, x: DesignLike) -> list[float] | None:
         xv = design_vector(x, self.n_design)
         return None if xv is None else xv.tolist()
+
+    def design(self, x: DesignLike) -> np.ndarray | None:
+        """Design ``x`` as a vector of :attr:`variables` (``None``: full density), each in
+        ``[x_min, 1]``, or the :class:`~flextop.errors.DesignError` a run would raise."""
+        xv = design_vector(x, self.n_design)
+        if xv is not None:
+            outside = np.flatnonzero(~((xv >= self.x_min) & (xv <= 1.0)))
+            if outside.size:
+                k = int(outside[0])
+                raise DesignError(f"x[{k}] ({self.variables[k]}) = {xv[k]} is outside [{self.x_min}, 1]")
+        return xv
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -265,9 +287,11 @@ class SpatialSimulation:
         ``[x_min, 1]``; full density by default) over ``t_end`` in steps ``h`` (the scene's
         ``[simulation]`` defaults overridden by ``settings``: ``t_end``, ``h``, ``rho_inf``,
         ``tol``, ``max_iter``); ``progress`` is called with the time reached (s)."""
-        r = self.model.simulate(settings, progress, self._design(x))
+        design = self._design(x)
+        r = self.model.simulate(settings, progress, design)
         return SpatialResults(np.asarray(r["time"]), np.asarray(r["q"]), np.asarray(r["v"]), np.asarray(r["lam"]),
-                              np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.layout)
+                              np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.layout,
+                              None if design is None else np.asarray(design))
 
     def equilibrium(self, x: DesignLike = None, **settings: Any) -> SpatialEquilibrium:
         """The static equilibrium at design ``x`` under the loads at ``t_end`` (0 by default),

@@ -146,6 +146,18 @@ impl PySpatialModel {
             .collect()
     }
 
+    /// The initial configuration: seven numbers per node (position, unit quaternion `w, x, y, z`).
+    #[getter]
+    fn initial_q(&self) -> Vec<f64> {
+        self.scene.model.initial_configuration()
+    }
+
+    /// Each scene beam's design variable (in the order of `beams`); `None` where it is fixed.
+    #[getter]
+    fn beam_variables(&self) -> Vec<Option<usize>> {
+        self.scene.beams.values().map(|b| b.variable).collect()
+    }
+
     /// The scene's `[simulation]` defaults as a dict.
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let o = &self.scene.options;

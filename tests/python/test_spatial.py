@@ -477,5 +477,40 @@ def test_a_spatial_motion_for_paraview_reads_back_with_meshio(tmp_path):
         axes = np.stack([mesh.point_data[f"axis_{i}"] for i in (1, 2, 3)], axis=2)
         assert np.allclose(axes @ axes.transpose(0, 2, 1), np.eye(3), atol=1e-12)
     assert np.abs(mesh.point_data["axis_1"][1, 2]) > 1e-6  # the tip has turned by the end
+    assert np.all(mesh.cell_data["density"][0] == 1.0)  # at full density
     with pytest.raises(SettingsError, match=r"\.pvd"):
         run.to_vtk(tmp_path / "motion.vtu")
+
+
+def test_a_spatial_design_is_seen_in_paraview_and_in_a_3d_figure(tmp_path):
+    """The spatial robot arm at a random design: each line of the ParaView frames carries its
+    bar's density; the 3D figure draws one line per bar, each as wide as its density says
+    (widths linear in the density) and the faint ones below 1.5 x_min; bad designs and
+    configurations are named."""
+    import meshio
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    from flextop.errors import DesignError
+    from flextop.plots import WIDTHS, plot_spatial_design
+
+    sim = SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    x = np.random.default_rng(5).uniform(sim.x_min, 1.0, sim.n_design)
+    x[:10] = sim.x_min
+    run = sim.simulate(x, t_end=0.01)
+    index = run.to_vtk(tmp_path / "arm.pvd")
+    mesh = meshio.read(index.parent / "arm_00000.vtu")
+    variable = np.asarray(sim.layout.line_variable)
+    density = mesh.cell_data["density"][0]
+    assert len(density) == sim.n_design and np.array_equal(density, x[variable])
+    fig = plot_spatial_design(sim, x, q=run.q[-1], view=(10, 30), path=tmp_path / "arm.png")
+    (lines,) = [c for c in fig.axes[0].collections if isinstance(c, Line3DCollection)]
+    widths = np.asarray(lines.get_linewidths())
+    expected = WIDTHS[0] + (WIDTHS[1] - WIDTHS[0]) * (x[variable] - sim.x_min) / (1 - sim.x_min)
+    assert np.allclose(widths, expected)
+    alpha, void = lines.get_colors()[:, 3], x[variable] < 1.5 * sim.x_min
+    assert void.sum() >= 10 and np.all(alpha[void] < 0.5) and np.all(alpha[~void] == 1.0)
+    assert (tmp_path / "arm.png").stat().st_size > 10_000
+    with pytest.raises(DesignError):
+        plot_spatial_design(sim, np.full(sim.n_design, 2.0))
+    with pytest.raises(SettingsError, match="q: expected"):
+        plot_spatial_design(sim, x, q=run.q[-1][:-1])

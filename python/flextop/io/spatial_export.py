@@ -6,7 +6,9 @@ opened). Cells: every beam element and truss bar as a line, every body's centre 
 vertex. Point data: ``velocity`` (m/s) and ``angular_velocity`` (rad/s), both in space, and
 the node's axes ``axis_1``, ``axis_2``, ``axis_3`` (unit vectors in space: glyphs show how
 each node turns). Cell data: ``beam`` (the index of the scene's beam a line belongs to, −1
-for a vertex) and ``vertex`` (3 for a body's centre, 0 for a line), as the planar files'."""
+for a vertex), ``vertex`` (3 for a body's centre, 0 for a line), as the planar files', and
+``density`` (each line's at the design the motion ran at, 1 where fixed; 1 for a body):
+threshold on it to see a design."""
 
 from __future__ import annotations
 
@@ -32,13 +34,16 @@ def write_spatial_motion(results: Any, path: str | os.PathLike, *, every: int | 
     layout = results.layout
     lines = np.array([ends for ends in layout.lines], dtype=int).reshape(-1, 2)
     bodies = np.array(layout.bodies, dtype=int).reshape(-1, 1)
-    blocks = [("line", lines, np.asarray(layout.line_beam, dtype=float), 0.0), ("vertex", bodies, -1.0, float(BODY))]
-    kept = [(kind, cells, beam, vertex) for kind, cells, beam, vertex in blocks if len(cells)]  # meshio refuses empty blocks
+    density = layout.line_densities(results.x)
+    blocks = [("line", lines, np.asarray(layout.line_beam, dtype=float), 0.0, density),
+              ("vertex", bodies, -1.0, float(BODY), 1.0)]
+    kept = [block for block in blocks if len(block[1])]  # meshio refuses empty blocks
     if not kept:
         raise SettingsError("the scene has no beams, bars or bodies to draw")
-    cells = [(kind, c) for kind, c, _, _ in kept]
-    cell_data = {"beam": [np.broadcast_to(beam, len(c)).astype(float) for _, c, beam, _ in kept],
-                 "vertex": [np.full(len(c), vertex) for _, c, _, vertex in kept]}
+    cells = [(kind, c) for kind, c, *_ in kept]
+    cell_data = {"beam": [np.broadcast_to(beam, len(c)).astype(float) for _, c, beam, _, _ in kept],
+                 "vertex": [np.full(len(c), vertex) for _, c, _, vertex, _ in kept],
+                 "density": [np.broadcast_to(rho, len(c)).astype(float) for _, c, _, _, rho in kept]}
     n = len(layout.nodes_in_order)
     frames = []
     for k in frame_indices(len(results.time), every):
