@@ -218,6 +218,11 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
         print(f"'{sim.tip}' at {np.array2string(res.position(sim.tip)[-1], precision=6)} m at the end")
     if out is not None:
         print(f"wrote {res.to_vtk(out / 'motion.pvd')} (open it in ParaView)")
+        if sim.n_design:
+            from .plots import plot_spatial_design
+
+            plot_spatial_design(sim, x, title=f"{sim.model.name}: design", path=out / "design.png")
+            print(f"wrote {out / 'design.png'}")
     return 0
 
 

@@ -407,6 +407,8 @@ def test_simulate_runs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_pat
     light, full = (flextop_cli("simulate", arm, "--t-end", "0.1", *x).stdout for x in (["--x", "0.2"], []))
     assert light.split("\n")[1:] != full.split("\n")[1:] and "10 steps to t = 0.1 s" in light  # lighter: other energies
     np.savetxt(tmp_path / "x.txt", np.full(188, 0.2))
-    assert flextop_cli("simulate", arm, "--t-end", "0.1", "--design", tmp_path / "x.txt").stdout.split("\n")[1:] == light.split("\n")[1:]
+    designed = flextop_cli("simulate", arm, "--t-end", "0.1", "--design", tmp_path / "x.txt", "--out", tmp_path / "arm")
+    assert designed.stdout.split("\n")[1:3] == light.split("\n")[1:3]
+    assert (tmp_path / "arm" / "design.png").stat().st_size > 10_000 and "design.png" in designed.stdout
     bad = flextop_cli("simulate", arm, "--t-end", "0.1", "--x", "1.5", codes=(2,))
     assert bad.stderr.count("\n") == 1 and "is outside [0.01, 1]" in bad.stderr

@@ -356,7 +356,8 @@ def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
     clamped at one face, pushed down and sideways at the other: its static strain energy
     minimized by MMA at 30 % of the full volume from the uniform design, on the exact
     density gradients. Measured: a KKT point (residual 9.1e-5 < 1e-4) in 18 iterations,
-    the energy 0.045 of the uniform design's, the volume bound active."""
+    the energy 0.045 of the uniform design's, the volume bound active. A problem's bad
+    bounds are named."""
     scene = SpatialScene("lattice cantilever", analysis="static")
     scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.012, inner=0.010)
     scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.6, height=0.15, width=0.15, section="steel",
@@ -375,18 +376,15 @@ def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
     start = sim.run_with_sensitivities(x0, ["strain_energy", "volume"], method="adjoint")
     assert start.values[1] == pytest.approx(budget, rel=1e-12) and np.array_equal(start.dfdx[1], volumes)
 
-    def objective(x):
-        g = sim.run_with_sensitivities(x, "strain_energy", method="adjoint")
-        return g.values[0] / start.values[0], g.dfdx[0] / start.values[0]
-
-    def constraints(x):
-        return np.array([sim.volume(x) / budget - 1.0]), (volumes / budget)[None, :]
-
-    problem = flextop.optimizers.FunctionProblem(objective, constraints, np.full(sim.n_design, sim.x_min),
-                                                 np.ones(sim.n_design), 1)
+    problem = flextop.problems.SpatialProblem(sim, "strain_energy", volume=0.3)
     result = flextop.optimize(problem, x0, method="mma", max_iter=100, kkt_tol=1e-4)
     assert result.success and result.kkt < 1e-4, result.message
     assert result.fun < 0.1 and sim.volume(result.x) == pytest.approx(budget, rel=1e-3)
+    assert problem.reference == pytest.approx(start.values[0], rel=1e-12)
+    for bad, culprit in [({"volume": 1.5}, "volume: 1.5"), ({"constraints": [("z:box[3,0,0]", -1.0)]}, "the bound -1.0"),
+                         ({"reference": float("nan")}, "reference: nan")]:
+        with pytest.raises(SettingsError, match=culprit):
+            flextop.problems.SpatialProblem(sim, "strain_energy", **bad)
 
 
 def test_the_spatial_robot_arm_moves_its_payload_out_of_every_plane_with_exact_density_gradients():

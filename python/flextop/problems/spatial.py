@@ -1,0 +1,70 @@
+"""Design problems on a spatial scene (:class:`~flextop.spatial.SpatialSimulation`): one
+response of its motion or equilibrium minimized over the densities of its beams and bars,
+subject to upper bounds on others, with ``x_min ≤ x ≤ 1`` (paper Section 3):
+
+    minimize f(x)   s.t.   r_j(x) ≤ b_j,
+
+seen by the optimizers as ``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1 ≤ 0``, so every
+function is of order one; ``f_ref`` is the objective at the first design evaluated unless
+given. Responses are those of :meth:`SpatialSimulation.run_with_sensitivities` by name
+(``tip_deflection``, ``strain_energy``, ``z:NODE``, ``effort:JOINT``, ``volume`` …); each
+evaluation is one run with its adjoint gradients of every response. A run that fails (a trial
+design too weak to carry its motion) becomes an :class:`~flextop.optimizers.EvaluationError`,
+which the optimizer recovers from by stepping back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import SettingsError, SimulationError
+from ..optimizers import Evaluation, EvaluationError, Problem
+from ..spatial import SpatialSimulation
+
+
+class SpatialProblem(Problem):
+    """Minimize the response ``objective`` of ``sim`` subject to ``constraints``, each a
+    ``(response, upper bound)``; ``volume`` (a fraction of the full material volume) adds
+    ``("volume", volume · V_full)``. ``settings`` go to every run (``t_end``, ``h``, …).
+
+    Raises
+    ------
+    SettingsError
+        For a volume fraction outside (0, 1], a bound that is not positive and finite, or a
+        reference that is not.
+    """
+
+    def __init__(self, sim: SpatialSimulation, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
+                 volume: float | None = None, reference: float | None = None, **settings: Any) -> None:
+        bounds = list(constraints)
+        if volume is not None:
+            if not (isinstance(volume, (int, float)) and 0.0 < volume <= 1.0):
+                raise SettingsError(f"volume: {volume!r} is not a fraction in (0, 1] of the full volume")
+            bounds.append(("volume", volume * sim.volume(1.0)))
+        for name, bound in bounds:
+            if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
+                raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
+        if reference is not None and not (np.isfinite(reference) and reference > 0.0):
+            raise SettingsError(f"reference: {reference!r} must be positive and finite")
+        super().__init__(np.full(sim.n_design, sim.x_min), np.ones(sim.n_design), len(bounds),
+                         [f"{name} ≤ {bound:.4g}" for name, bound in bounds])
+        self.sim, self.objective, self.settings = sim, objective, settings
+        self.responses = [objective, *(name for name, _ in bounds)]
+        self.bounds = np.array([bound for _, bound in bounds], dtype=float)
+        self.reference = reference
+
+    def evaluate(self, x: np.ndarray) -> Evaluation:
+        try:
+            run = self.sim.run_with_sensitivities(x, self.responses, method="adjoint", **self.settings)
+        except SimulationError as error:  # a trial the optimizer steps back from
+            raise EvaluationError(str(error), np.asarray(x)) from error
+        if self.reference is None:
+            if not run.values[0] > 0.0:
+                raise SettingsError(f"{self.objective} is {run.values[0]:.3g} at the start: give a positive reference")
+            self.reference = float(run.values[0])
+        g = run.values[1:] / self.bounds - 1.0
+        dg = run.dfdx[1:] / self.bounds[:, None]
+        return Evaluation(run.values[0] / self.reference, g, run.dfdx[0] / self.reference, dg)
