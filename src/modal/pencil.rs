@@ -149,7 +149,11 @@ impl Pencil {
             let crowded = want >= CROWD * count;
             let (bound, expected) = match sturm_bound(&pairs, count) {
                 Some(found) => found,
-                None if exhaustive => (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len()),
+                // Every mode asked for and fewer than sought: perhaps all there are (a
+                // mechanism of few free directions); the count says.
+                None if exhaustive || pairs.len() < want => {
+                    (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len())
+                }
                 None if crowded => match cluster_floor(&pairs, count) {
                     Some(found) => found,
                     None => break,

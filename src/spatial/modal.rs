@@ -56,7 +56,7 @@ pub const EQUILIBRIUM_TOLERANCE: f64 = 1e-6;
 
 /// Most tenfold steps of the shift below zero that look for one under every `ω²` of an
 /// unstable state, from `10⁻⁴` of `mean diag K / mean diag M`.
-const DESCENTS: i32 = 8;
+const DESCENTS: i32 = 9;
 
 /// Every natural mode of a spatial mechanism at a configuration, or its lowest.
 #[derive(Debug, Clone, PartialEq)]
@@ -205,8 +205,89 @@ fn lowest_modes(
     count: usize,
 ) -> Result<SpatialModes, Error> {
     let (n_v, n_rows) = (model.n_v(), model.n_rows());
+    let (mut k, mut m, penalty) = split(pattern, stiffness, mass, n_v)?;
+    let absent = absent_rotations(model);
+    let held: Vec<usize> = (0..n_v)
+        .filter(|d| absent.binary_search(d).is_err())
+        .collect();
+    let factor = spatial_mass_factor(model);
+    let available = factor.columns.min(held.len()).saturating_sub(n_rows);
+    if count > available {
+        return Err(SettingsError::new(
+            "count",
+            format!("is {count}: the mechanism has {available} free directions"),
+        )
+        .into());
+    }
+    let mean_diagonal = |values: &[f64]| {
+        let sum: f64 = held.iter().map(|&d| values[pattern.slot(d, d)].abs()).sum();
+        sum / held.len().max(1) as f64
+    };
+    // Scales: the penalty's and the shift's (`ω²` of the order of the stiffest element's
+    // frequency); a mechanism of rigid bodies held by gravity alone may have no stiffness
+    // on the diagonal.
+    let mean_m = mean_diagonal(&m);
+    let mean_k = Some(mean_diagonal(&k))
+        .filter(|&k| k > 0.0)
+        .unwrap_or(mean_m);
+    // Absent rotations: held by a unit of the mean stiffness, no mass (of the mean mass
+    // while the mass's inertia is counted).
+    for &d in &absent {
+        let slot = pattern.slot(d, d);
+        (k[slot], m[slot]) = (mean_k, mean_m);
+    }
+    let mut ldlt = Ldlt::analyze_saddle_point(
+        pattern.n,
+        n_v,
+        pattern.col_ptr.clone(),
+        pattern.row_idx.clone(),
+    )
+    .map_err(factor_error)?;
+    let holding: Vec<f64> = (m.iter().zip(&penalty))
+        .map(|(m, g)| m + mean_m * g)
+        .collect();
+    let holds = match ldlt.factorize(&holding) {
+        Ok(()) => ldlt.negative_pivots().map_err(factor_error)? == n_rows,
+        Err(FactorError::ZeroPivot { .. }) => false,
+        Err(e) => return Err(factor_error(e)),
+    };
+    if !holds {
+        return Err(SolveError::Eigen(
+            "the mass leaves a free direction without inertia, or the joints' rows are not \
+             independent (every mode, without a count, takes redundant rows)"
+                .into(),
+        )
+        .into());
+    }
+    for &d in &absent {
+        m[pattern.slot(d, d)] = 0.0;
+    }
+    let constraints = penalty.iter().map(|g| mean_k * g).collect();
+    let scale = mean_k / mean_m;
+    let mut pencil = Pencil::new([k, m, constraints], ldlt, [n_v, n_rows], -1e-8 * scale);
+    below_every_mode(&mut pencil, scale)?;
+    let lowest = pencil.lowest(&factor, count)?;
+    Ok(SpatialModes {
+        omega_squared: lowest.omega_squared,
+        shapes: lowest.shapes,
+        sturm: Some(SturmCount {
+            bound: lowest.bound,
+            below: lowest.below,
+        }),
+    })
+}
+
+/// The symmetric part of the force block's `K_t` (refused where it is not symmetric to
+/// [`SYMMETRY_TOLERANCE`] of its largest entry), `M` and the constraints' penalty
+/// ([`with_gram`]), each as values on the pattern.
+#[allow(clippy::type_complexity)]
+fn split(
+    pattern: &Pattern,
+    stiffness: &[f64],
+    mass: &[f64],
+    n_v: usize,
+) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), Error> {
     let mirror = mirror(&pattern.col_ptr, &pattern.row_idx).map_err(factor_error)?;
-    // The force block's `K_t` and `M`, and the constraint blocks `B`, `Bᵀ`.
     let (mut k, mut m, mut b) = (
         vec![0.0; mirror.len()],
         mass.to_vec(),
@@ -226,88 +307,26 @@ fn lowest_modes(
     if asymmetry > SYMMETRY_TOLERANCE * largest.max(f64::MIN_POSITIVE) {
         return Err(not_conservative("entry by entry", asymmetry / largest));
     }
-    let k: Vec<f64> = k
-        .iter()
-        .zip(&mirror)
+    let symmetric = (k.iter().zip(&mirror))
         .map(|(v, &s)| 0.5 * (v + k[s]))
         .collect();
-    let absent = absent_rotations(model);
-    let held: Vec<usize> = (0..n_v)
-        .filter(|d| absent.binary_search(d).is_err())
-        .collect();
-    let mean_diagonal = |values: &[f64]| {
-        let sum: f64 = held.iter().map(|&d| values[pattern.slot(d, d)].abs()).sum();
-        sum / held.len().max(1) as f64
-    };
-    let (mean_m, mean_k) = (mean_diagonal(&m), mean_diagonal(&k));
-    // Scales: the penalty's and the shift's (`ω²` of the order of the stiffest element's
-    // frequency); a mechanism of rigid bodies held by gravity alone may have no stiffness
-    // on the diagonal.
-    let mean_k = if mean_k > 0.0 { mean_k } else { mean_m };
-    let penalty = with_gram(pattern, &b, n_v);
-    let factor = spatial_mass_factor(model);
-    let available = factor.columns.min(held.len()).saturating_sub(n_rows);
-    if count > available {
-        return Err(SettingsError::new(
-            "count",
-            format!("is {count}: the mechanism has {available} free directions"),
-        )
-        .into());
-    }
-    let mut ldlt = Ldlt::analyze_saddle_point(
-        pattern.n,
-        n_v,
-        pattern.col_ptr.clone(),
-        pattern.row_idx.clone(),
-    )
-    .map_err(factor_error)?;
-    // The mass holds every free direction: `[M + c BᵀB, c Bᵀ; c B, 0]` has one negative
-    // pivot per row and no zero one (absent rotations held by a unit of the mean).
-    let (mut k, mut m) = (k, m);
-    for &d in &absent {
-        let slot = pattern.slot(d, d);
-        (k[slot], m[slot]) = (mean_k, mean_m);
-    }
-    let holding: Vec<f64> = m
-        .iter()
-        .zip(&penalty)
-        .map(|(m, g)| m + mean_m * g)
-        .collect();
-    let negative = match ldlt.factorize(&holding) {
-        Ok(()) => ldlt.negative_pivots().map_err(factor_error)?,
-        Err(FactorError::ZeroPivot { .. }) => usize::MAX,
-        Err(e) => return Err(factor_error(e)),
-    };
-    if negative != n_rows {
-        return Err(massless());
-    }
-    for &d in &absent {
-        m[pattern.slot(d, d)] = 0.0;
-    }
-    let constraints = penalty.iter().map(|g| mean_k * g).collect();
-    let scale = mean_k / mean_m;
-    let mut pencil = Pencil::new([k, m, constraints], ldlt, [n_v, n_rows], -1e-8 * scale);
-    let mut descent = -4;
+    Ok((symmetric, m, with_gram(pattern, &b, n_v)))
+}
+
+/// Moves the shift of an unstable state (a negative `ω²` below it, counted) below every
+/// `ω²`: `−10ᵏ` of `scale` (`mean diag K / mean diag M`) for `k` from −4 up, tenfold
+/// steps, each counted.
+fn below_every_mode(pencil: &mut Pencil, scale: f64) -> Result<(), Error> {
+    let mut shifts = (0..DESCENTS).map(|k| -scale * 10f64.powi(k - 4));
     while pencil.count_below(pencil.shift)? > 0 {
-        if descent > DESCENTS - 4 {
-            return Err(SolveError::Eigen(format!(
+        pencil.shift = shifts.next().ok_or_else(|| {
+            SolveError::Eigen(format!(
                 "no shift down to {:.3e} rad²/s² lies below every ω²",
                 pencil.shift
             ))
-            .into());
-        }
-        pencil.shift = -scale * 10f64.powi(descent);
-        descent += 1;
+        })?;
     }
-    let lowest = pencil.lowest(&factor, count)?;
-    Ok(SpatialModes {
-        omega_squared: lowest.omega_squared,
-        shapes: lowest.shapes,
-        sturm: Some(SturmCount {
-            bound: lowest.bound,
-            below: lowest.below,
-        }),
-    })
+    Ok(())
 }
 
 /// `B` and `Bᵀ` of the constraint blocks `b` with `BᵀB` added to the force block: the
