@@ -205,7 +205,7 @@ fn lowest_modes(
     count: usize,
 ) -> Result<SpatialModes, Error> {
     let (n_v, n_rows) = (model.n_v(), model.n_rows());
-    let (mut k, mut m, penalty) = split(pattern, stiffness, mass, n_v)?;
+    let [mut k, mut m, penalty] = split(pattern, stiffness, mass, n_v)?;
     let absent = absent_rotations(model);
     let held: Vec<usize> = (0..n_v)
         .filter(|d| absent.binary_search(d).is_err())
@@ -280,13 +280,12 @@ fn lowest_modes(
 /// The symmetric part of the force block's `K_t` (refused where it is not symmetric to
 /// [`SYMMETRY_TOLERANCE`] of its largest entry), `M` and the constraints' penalty
 /// ([`with_gram`]), each as values on the pattern.
-#[allow(clippy::type_complexity)]
 fn split(
     pattern: &Pattern,
     stiffness: &[f64],
     mass: &[f64],
     n_v: usize,
-) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), Error> {
+) -> Result<[Vec<f64>; 3], Error> {
     let mirror = mirror(&pattern.col_ptr, &pattern.row_idx).map_err(factor_error)?;
     let (mut k, mut m, mut b) = (
         vec![0.0; mirror.len()],
@@ -310,7 +309,7 @@ fn split(
     let symmetric = (k.iter().zip(&mirror))
         .map(|(v, &s)| 0.5 * (v + k[s]))
         .collect();
-    Ok((symmetric, m, with_gram(pattern, &b, n_v)))
+    Ok([symmetric, m, with_gram(pattern, &b, n_v)])
 }
 
 /// Moves the shift of an unstable state (a negative `ω²` below it, counted) below every
@@ -469,12 +468,12 @@ fn dense(p: &Pattern, values: &[f64], n_v: usize) -> (DMatrix<f64>, DMatrix<f64>
     let mut force = DMatrix::zeros(n_v, n_v);
     let mut rows = DMatrix::zeros(p.n - n_v, n_v);
     for c in 0..n_v {
-        for k in p.col_ptr[c]..p.col_ptr[c + 1] {
-            let r = p.row_idx[k];
+        let range = p.col_ptr[c]..p.col_ptr[c + 1];
+        for (&r, &v) in p.row_idx[range.clone()].iter().zip(&values[range]) {
             if r < n_v {
-                force[(r, c)] = values[k];
+                force[(r, c)] = v;
             } else {
-                rows[(r - n_v, c)] = values[k];
+                rows[(r - n_v, c)] = v;
             }
         }
     }
