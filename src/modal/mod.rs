@@ -50,7 +50,7 @@ pub struct Modes {
 ///
 /// # Errors
 /// [`SettingsError`] for `count = 0` or more modes than the structure has;
-/// [`SolveError::Eigen`] when the structure is unstable at `q`, the eigensolver cannot
+/// [`crate::error::SolveError::Eigen`] when the structure is unstable at `q`, the eigensolver cannot
 /// account for every mode below its bound, or the factorization fails.
 pub fn natural_modes(
     model: &Model,

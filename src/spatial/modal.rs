@@ -16,10 +16,10 @@
 //! [`MAX_DENSE_UNKNOWNS`].
 //!
 //! **The lowest `count`**: the planar engine's shift-invert Lanczos on the sparse pencil
-//! ([`crate::modal::pencil`]), any size. `K_t` is symmetric to round-off at an equilibrium
+//! (`modal/pencil.rs`), any size. `K_t` is symmetric to round-off at an equilibrium
 //! under conservative loads (checked entry by entry on the pattern, [`SYMMETRY_TOLERANCE`]),
 //! so its symmetric part is factorized, `[K_s − σM + c BᵀB, c Bᵀ; c B, 0]` with the planar
-//! `LDLᵀ` (as [`crate::solver::nearly_symmetric`] factorizes the motion's), the symbolic
+//! `LDLᵀ` (as `solver/nearly_symmetric.rs` factorizes the motion's), the symbolic
 //! analysis kept for the Sturm count at the bound; `M = R Rᵀ` from the bodies' and the
 //! elements' mass matrices. The count of negative pivots less the constraint rows proves
 //! that no mode below the bound was skipped ([`SturmCount`]); that of `[M + c BᵀB, c Bᵀ;
