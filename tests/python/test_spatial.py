@@ -200,6 +200,24 @@ def test_the_lowest_modes_by_count_are_the_dense_ones_and_pass_the_dense_limit()
     assert f[0] == pytest.approx(f[1], rel=1e-8) and f[2] == pytest.approx(f[3], rel=1e-8)
 
 
+@pytest.mark.parametrize("kind", ["truss", "frame"])
+def test_a_lattices_lowest_modes_by_count_are_the_dense_ones(kind):
+    # a 6 × 3 × 3 lattice of diagonals pinned at one face: as truss bars its nodes have no
+    # rotation (not unknowns of either path), as beams they do
+    scene = SpatialScene("lattice", analysis="static")
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, diameter=0.01)
+    scene.ground_structure("g", nx=6, ny=3, nz=3, length=1.0, height=0.4, width=0.4, section="steel",
+                           connectivity="diagonals", kind=kind)
+    for j in range(3):
+        for k in range(3):
+            scene.spherical(f"pin{j}{k}", f"g[0,{j},{k}]")
+    sim = SpatialSimulation(scene)
+    eq = sim.equilibrium()
+    every, lowest = sim.modes(at=eq), sim.modes(at=eq, count=8)
+    assert lowest.frequencies == pytest.approx(every.frequencies[:8], rel=1e-10)
+    assert lowest.below >= 8 and every.omega_squared[lowest.below - 1] < lowest.bound < every.omega_squared[lowest.below]
+
+
 @pytest.mark.parametrize("count, words", [(0, "count must be a whole number ≥ 1, got 0"), (2.5, "count must be"),
                                           (True, "count must be"), ("3", "count must be"),
                                           (97, "count: is 97: the mechanism has 96 free directions")])
