@@ -147,17 +147,19 @@ impl Pencil {
                 continue;
             }
             let crowded = want >= CROWD * count;
+            // Fewer found than sought: perhaps all there are (a mechanism of few free
+            // directions); the count says.
+            let fewer_than_sought = pairs.len() < want;
+            let every = (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len());
             let (bound, expected) = match sturm_bound(&pairs, count) {
                 Some(found) => found,
-                // Every mode asked for and fewer than sought: perhaps all there are (a
-                // mechanism of few free directions); the count says.
-                None if exhaustive || pairs.len() < want => {
-                    (2.0 * pairs[pairs.len() - 1].0.abs() + 1.0, pairs.len())
-                }
+                None if exhaustive => every,
                 None if crowded => match cluster_floor(&pairs, count) {
                     Some(found) => found,
+                    None if fewer_than_sought => every,
                     None => break,
                 },
+                None if fewer_than_sought => every,
                 None => {
                     want = (2 * want).min(factor.columns);
                     continue;
