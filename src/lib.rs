@@ -16,7 +16,8 @@
 //!   (generalized-α, Algorithm 1, on any [`TimeGrid`]), [`solve_static`] and [`simulate`],
 //!   with run settings validated in one place ([`RunOptions`], [`DynamicSettings`],
 //!   [`StaticSettings`]).
-//! * `modal` — [`natural_modes`] by shift-invert Lanczos with a Sturm count.
+//! * `modal` — [`natural_modes`] by shift-invert Lanczos with a Sturm count, on a pencil the
+//!   spatial engine's lowest modes share.
 //! * `response` — [`Response`]s of paper Eq. 8, one file per family; stresses and buckling
 //!   ratios ([`Criterion`]) condensed by the p-mean or KS mean of [`Aggregation`].
 //! * `sensitivity` — [`of_motion`] / [`of_equilibrium`]: their exact gradients, by direct

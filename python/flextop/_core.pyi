@@ -223,11 +223,14 @@ class SpatialEquilibriumData(TypedDict):
 
 @type_check_only
 class SpatialModeData(TypedDict):
-    """``SpatialModel.natural_modes()``: every mode about a configuration."""
+    """``SpatialModel.natural_modes()``: every mode about a configuration, or the lowest
+    ``count``."""
 
     omega_squared: _F  # (n_m,), rad²/s², ascending
     frequencies: _F | None  # (n_m,), Hz; None where the state is unstable
     shapes: _F  # (n_m, 6 n_n), mass-normalized
+    bound: float | None  # rad²/s², the Sturm bound of a count; None for every mode
+    below: int | None  # the ω² below bound (every one returned); None for every mode
 
 @type_check_only
 class SpatialSensitivityData(TypedDict):
@@ -273,7 +276,7 @@ class SpatialModel:
                  progress: Callable[[float], object] | None = None, x: list[float] | None = None) -> SpatialTrajectory: ...
     def solve_static(self, settings: dict[str, Any] | None = None, x: list[float] | None = None) -> SpatialEquilibriumData: ...
     def natural_modes(self, q: list[float], lam: list[float], t: float = 0.0,
-                      x: list[float] | None = None) -> SpatialModeData: ...
+                      x: list[float] | None = None, count: int | None = None) -> SpatialModeData: ...
     def sensitivities(self, responses: list[str], parameters: list[str], settings: dict[str, Any] | None = None,
                       equilibrium: bool = False, x: list[float] | None = None) -> SpatialSensitivityData: ...
 

@@ -29,6 +29,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from . import _core, plausibility
+from .checks import whole
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
@@ -143,13 +144,17 @@ class SpatialEquilibrium:
 
 @dataclass(frozen=True)
 class SpatialModes:
-    """Every natural mode about a configuration: ``omega_squared`` (rad²/s², ascending;
-    negative where it is unstable) and mass-normalized ``shapes`` (one row per mode, six
-    numbers per node: displacement in space, rotation in the node's axes)."""
+    """Every natural mode about a configuration, or the lowest ``count``: ``omega_squared``
+    (rad²/s², ascending; negative where it is unstable) and mass-normalized ``shapes`` (one
+    row per mode, six numbers per node: displacement in space, rotation in the node's axes);
+    for the lowest, the Sturm ``bound`` (rad²/s²) and the count ``below`` it that proves
+    none was skipped (``None`` for every mode)."""
 
     omega_squared: np.ndarray
     shapes: np.ndarray
     stable_frequencies: np.ndarray | None = None
+    bound: float | None = None
+    below: int | None = None
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -300,13 +305,20 @@ class SpatialSimulation:
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
                                   int(r["load_steps"]), self.layout)
 
-    def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, **settings: Any) -> SpatialModes:
-        """Every natural mode at design ``x`` about the equilibrium ``at`` (the static
-        equilibrium of the scene's loads at ``t_end`` by default)."""
+    def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, count: int | None = None,
+              **settings: Any) -> SpatialModes:
+        """The natural modes at design ``x`` about the equilibrium ``at`` (the static
+        equilibrium of the scene's loads at ``t_end`` by default): every one (a dense
+        solve, at most 1500 unknowns), or with ``count`` the lowest ``count`` by
+        shift-invert Lanczos on the sparse matrices, any size, with the Sturm count that
+        proves none was skipped (``bound``, ``below``)."""
+        wanted = None if count is None else whole("count", count)
         eq = self.equilibrium(x, **settings) if at is None else at
-        r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)), self._design(x))
+        r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)), self._design(x),
+                                     wanted)
         frequencies = None if r["frequencies"] is None else np.asarray(r["frequencies"])
-        return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies)
+        return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"],
+                            r["below"])
 
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,

@@ -243,10 +243,12 @@ impl PySpatialModel {
         Ok(d)
     }
 
-    /// Every natural mode about configuration `q` with multipliers `lam` at time `t`:
+    /// The natural modes about configuration `q` with multipliers `lam` at time `t`: every
+    /// one without `count`, the lowest `count` (shift-invert Lanczos, any size) with it —
     /// `omega_squared` (rad²/s², ascending), the `frequencies` (Hz; `None` where the state is
-    /// unstable) and mass-normalized `shapes` (one row each, six numbers per node).
-    #[pyo3(signature = (q, lam, t=0.0, x=None))]
+    /// unstable), mass-normalized `shapes` (one row each, six numbers per node) and, for a
+    /// count, the Sturm `bound` (rad²/s²) and the count `below` it (`None` without).
+    #[pyo3(signature = (q, lam, t=0.0, x=None, count=None))]
     fn natural_modes<'py>(
         &self,
         py: Python<'py>,
@@ -254,11 +256,12 @@ impl PySpatialModel {
         lam: Vec<f64>,
         t: f64,
         x: Option<Vec<f64>>,
+        count: Option<usize>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
         let modes = detached(py, move || {
             let model = scene.model_at(x.as_deref())?;
-            natural_modes_spatial(&model, &q, &lam, t)
+            natural_modes_spatial(&model, &q, &lam, t, count)
         })?;
         let d = PyDict::new(py);
         let n_v = self.scene.model.n_v();
@@ -266,6 +269,8 @@ impl PySpatialModel {
         d.set_item("frequencies", frequencies)?;
         d.set_item("shapes", Self::rows(py, modes.shapes, n_v)?)?;
         d.set_item("omega_squared", vector(py, modes.omega_squared))?;
+        d.set_item("bound", modes.sturm.map(|s| s.bound))?;
+        d.set_item("below", modes.sturm.map(|s| s.below))?;
         Ok(d)
     }
 

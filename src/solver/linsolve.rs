@@ -132,6 +132,26 @@ impl Ldlt {
         Self::analyze_with(None, n, col_ptr, row_idx, n_q, multiplier_dofs)
     }
 
+    /// [`Ldlt::analyze`] of a pattern whose unknowns from `n_q` on are multipliers, each
+    /// acting on the DOFs its column holds.
+    ///
+    /// # Errors
+    /// As [`Ldlt::analyze`].
+    pub fn analyze_saddle_point(
+        n: usize,
+        n_q: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+    ) -> Result<Self, FactorError> {
+        let multiplier_dofs: Vec<Vec<usize>> = (n_q..n)
+            .map(|c| {
+                let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+                rows.iter().copied().filter(|&r| r < n_q).collect()
+            })
+            .collect();
+        Self::analyze(n, col_ptr, row_idx, n_q, &multiplier_dofs)
+    }
+
     /// [`Ldlt::analyze`] with the factors stored as asked.
     ///
     /// # Errors

@@ -72,19 +72,7 @@ impl NearlySymmetric {
         row_idx: Vec<usize>,
     ) -> Result<Self, FactorError> {
         let mirror = mirror(&col_ptr, &row_idx)?;
-        let multiplier_dofs: Vec<Vec<usize>> = (n_dofs..n)
-            .map(|c| {
-                let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
-                rows.iter().copied().filter(|&r| r < n_dofs).collect()
-            })
-            .collect();
-        let ldlt = Ldlt::analyze(
-            n,
-            col_ptr.clone(),
-            row_idx.clone(),
-            n_dofs,
-            &multiplier_dofs,
-        )?;
+        let ldlt = Ldlt::analyze_saddle_point(n, n_dofs, col_ptr.clone(), row_idx.clone())?;
         let lu = Lu::analyze(n, col_ptr.clone(), row_idx.clone())?;
         let nnz = row_idx.len();
         Ok(Self {
@@ -217,7 +205,7 @@ fn max_abs(v: &[f64]) -> f64 {
 
 /// Each slot's mirror slot `(j, i)`, or an error for a pattern that is not structurally
 /// symmetric.
-fn mirror(col_ptr: &[usize], row_idx: &[usize]) -> Result<Vec<usize>, FactorError> {
+pub(crate) fn mirror(col_ptr: &[usize], row_idx: &[usize]) -> Result<Vec<usize>, FactorError> {
     let mut mirror = vec![0; row_idx.len()];
     for c in 0..col_ptr.len() - 1 {
         for k in col_ptr[c]..col_ptr[c + 1] {

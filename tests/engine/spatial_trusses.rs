@@ -40,7 +40,7 @@ fn pinned(m: &mut SpatialModel, name: &str, n: usize) {
 
 /// Three bars from an apex at height `h` to feet pinned on a circle of radius `r`, the
 /// apex loaded downwards by `p`.
-fn tripod(h: f64, r: f64, p: f64) -> (SpatialModel, usize) {
+pub(crate) fn tripod(h: f64, r: f64, p: f64) -> (SpatialModel, usize) {
     let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
     let apex = node(&mut m, "apex", Vector3::new(0.0, 0.0, h));
     for k in 0..3 {
@@ -70,7 +70,7 @@ fn tripod(h: f64, r: f64, p: f64) -> (SpatialModel, usize) {
     (m, apex)
 }
 
-fn statics() -> StaticSettings {
+pub(crate) fn statics() -> StaticSettings {
     StaticSettings {
         load_steps: 1,
         time: 0.0,
@@ -118,7 +118,7 @@ fn a_tripod_against_its_closed_forms() {
     }
     let (free, _) = tripod(h, r, 0.0);
     let modes =
-        natural_modes_spatial(&free, &free.initial_configuration(), &[0.0; 9], 0.0).unwrap();
+        natural_modes_spatial(&free, &free.initial_configuration(), &[0.0; 9], 0.0, None).unwrap();
     assert_eq!(modes.omega_squared.len(), 3, "{:?}", modes.omega_squared);
     let vertical = 3.0 * ea * h * h / (length.powi(3) * section.rho_a * length);
     let found = modes

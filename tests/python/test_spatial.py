@@ -180,15 +180,62 @@ def test_a_cantilevers_lowest_frequencies_are_euler_bernoullis_in_both_planes_an
     assert modes.shapes.shape == (len(f), 6 * 17)
 
 
+def test_the_lowest_modes_by_count_are_the_dense_ones_and_pass_the_dense_limit():
+    sim = SpatialSimulation(cantilever(split=16, load=0.0))
+    every, lowest = sim.modes(), sim.modes(count=6)
+    assert every.bound is None and every.below is None
+    # to 1e-10 of the largest: the dense solve splits the round rod's equal pair by 3e-10
+    assert lowest.frequencies == pytest.approx(every.frequencies[:6], abs=1e-10 * every.frequencies[5])
+    assert lowest.shapes.shape == (6, 6 * 17)
+    assert lowest.below == 6 and every.omega_squared[5] < lowest.bound < every.omega_squared[6]
+    # 300 elements, 1806 unknowns: every mode is refused, naming the way out; the lowest are
+    # the closed form's pairs of equal bending frequencies (a round rod)
+    E, rho, d, L = 2.1e11, 7850.0, 0.01, 1.0
+    long = SpatialSimulation(cantilever(split=300, load=0.0))
+    with pytest.raises(SettingsError, match="pass a count"):
+        long.modes()
+    f = long.modes(count=4).frequencies
+    bending = 1.875104**2 * math.sqrt(E * math.pi * d**4 / 64 / (rho * math.pi * d**2 / 4 * L**4)) / (2 * math.pi)
+    assert f[:2] == pytest.approx([bending, bending], rel=1e-3)
+    assert f[0] == pytest.approx(f[1], rel=1e-8) and f[2] == pytest.approx(f[3], rel=1e-8)
+
+
+@pytest.mark.parametrize("kind", ["truss", "frame"])
+def test_a_lattices_lowest_modes_by_count_are_the_dense_ones(kind):
+    # a 6 × 3 × 3 lattice of diagonals pinned at one face: as truss bars its nodes have no
+    # rotation (not unknowns of either path), as beams they do
+    scene = SpatialScene("lattice", analysis="static")
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, diameter=0.01)
+    scene.ground_structure("g", nx=6, ny=3, nz=3, length=1.0, height=0.4, width=0.4, section="steel",
+                           connectivity="diagonals", kind=kind)
+    for j in range(3):
+        for k in range(3):
+            scene.spherical(f"pin{j}{k}", f"g[0,{j},{k}]")
+    sim = SpatialSimulation(scene)
+    eq = sim.equilibrium()
+    every, lowest = sim.modes(at=eq), sim.modes(at=eq, count=8)
+    assert lowest.frequencies == pytest.approx(every.frequencies[:8], rel=1e-10)
+    assert lowest.below >= 8 and every.omega_squared[lowest.below - 1] < lowest.bound < every.omega_squared[lowest.below]
+
+
+@pytest.mark.parametrize("count, words", [(0, "count must be a whole number ≥ 1, got 0"), (2.5, "count must be"),
+                                          (True, "count must be"), ("3", "count must be"),
+                                          (97, "count: is 97: the mechanism has 96 free directions")])
+def test_a_bad_count_is_named(count, words):
+    with pytest.raises(SettingsError, match=words):
+        SpatialSimulation(cantilever(split=16, load=0.0)).modes(count=count)
+
+
 def test_an_unstable_equilibrium_has_no_frequencies():
     scene = pendulum()
     spec = scene.to_dict()
     spec["rigid_bodies"][0]["position"] = [0.0, 0.0, 0.5]
     spec["rigid_bodies"][0]["orientation"] = axis_angle((0.0, 1.0, 0.0), -math.pi / 2)
-    modes = SpatialSimulation(spec).modes()
-    assert modes.omega_squared[0] == pytest.approx(-1.5 * G, rel=1e-9)
-    with pytest.raises(SimulationError, match="unstable"):
-        modes.frequencies
+    sim = SpatialSimulation(spec)
+    for modes in (sim.modes(), sim.modes(count=1)):
+        assert modes.omega_squared[0] == pytest.approx(-1.5 * G, rel=1e-9)
+        with pytest.raises(SimulationError, match="unstable"):
+            modes.frequencies
 
 
 def test_a_scene_written_as_toml_reads_back_and_runs_bit_for_bit(tmp_path):
