@@ -34,7 +34,8 @@ from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
 from .io import cad, checkpoint, export
-from .problems import MIN_FREQUENCY, DensityFilter, ScenarioProblem, TopologyProblem, relation, scenarios, volume_constraints
+from .problems import (MIN_FREQUENCY, DensityFilter, ScenarioProblem, SpatialProblem, TopologyProblem, relation, scenarios,
+                       volume_constraints)
 from .scenes import Scene, read_toml
 from .results import Results
 from .simulation import Simulation
@@ -375,6 +376,10 @@ def optimize_command(args: argparse.Namespace) -> int:
 
 def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     out = Path(args.out)
+    if args.scene is not None and args.scenarios is None and not args.resume:
+        spec = _scene(args.scene).to_dict()
+        if is_spatial(spec):
+            return _optimize_spatial(spec, args, out)
     if args.scenarios is None and not args.resume:
         alone = [flag for flag, value in (("--aggregate", args.aggregate), ("--workers", args.workers), ("--scheduler", args.scheduler))
                  if value is not None]
@@ -444,6 +449,76 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         print(f"wrote {', '.join(map(str, written))} (open them in ParaView)")
     if not args.no_cad and result.history and _designs_cells(sim):
         _cad(sim, problem.densities(result.x[: sim.n_design]), out / "cad", args.cad_threshold)
+    if not result.success:
+        print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
+        return NOT_CONVERGED
+    return 0
+
+
+SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
+                   "global_volume", "min_frequency", "max_stress", "max_von_mises", "max_buckling", "start", "analysis",
+                   "accuracy", "rtol", "animate", "every")
+"""The options of ``optimize`` a spatial scene does not take yet."""
+
+
+def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
+    """Minimizes a spatial scene's response (``--objective``; its tip's deflection from the
+    rigid trajectory where it names a tip, else its strain energy) over its beams' densities
+    at ``--volume-fraction`` of the full volume (:class:`~flextop.problems.SpatialProblem`);
+    writes design.npy, history.json, the design's figure and, with ``--vtk``, its motion."""
+    given = [k for k in SPATIAL_REFUSED if getattr(args, k) not in (None, False)]
+    if given:
+        names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, --x0, "
+                            "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
+                            "--no-plots, --vtk)")
+    sim = SpatialSimulation(spec)
+    if sim.n_design == 0:
+        raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
+    settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
+    objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
+    fraction = args.volume_fraction or 0.4
+    problem = SpatialProblem(sim, objective, volume=fraction, **settings)
+    x0 = 0.4 if args.x0 is None else args.x0
+    if not sim.x_min <= x0 <= 1.0:
+        raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
+    _keep_earlier_run(out, args.force)
+    _folder(out)
+    method, max_iter = args.method or "mma", args.max_iter or 30
+    print(f"{sim.model.name}: minimize {objective} over {sim.n_design} densities subject to volume ≤ {fraction:g} "
+          f"of the full volume ({method})")
+    bar = tqdm(total=max_iter, unit="it", desc="optimize", file=sys.stderr)
+
+    def on_iteration(record) -> None:
+        bar.update(1)
+        bar.set_postfix(f=f"{record.f0:.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", kkt=f"{record.kkt:.2e}")
+
+    start = time.perf_counter()
+    try:
+        result = optimize(problem, np.full(sim.n_design, x0), method, max_iter=max_iter, move=args.move or 0.2,
+                          kkt_tol=args.kkt_tol or 1e-6, xtol=args.xtol, callback=on_iteration)
+    except KeyboardInterrupt:
+        print("interrupted: a spatial optimization is not checkpointed yet, nothing to resume")
+        return 130
+    finally:
+        bar.close()
+    elapsed = time.perf_counter() - start
+    print(f"\nstatus: {result.status.name} — {result.message}")
+    if result.history:
+        print(f"{objective}: {problem.reference:.6g} at the start → {result.fun * problem.reference:.6g} "
+              f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
+              f"KKT residual {result.kkt:.2e}; volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full; {elapsed:.1f} s")
+    np.save(out / "design.npy", result.x)
+    checkpoint.write_atomically(out / "history.json", json.dumps({
+        "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
+        "objective_scale": problem.reference}))
+    if not args.no_plots and result.history:
+        from .plots import plot_history, plot_spatial_design
+
+        plot_spatial_design(sim, result.x, title=f"{sim.model.name}: {objective}, optimized", path=out / "design.png")
+        plot_history(result.history, path=out / "history.png", objective_label=f"{objective} / start")
+    if args.vtk and result.history and sim.analysis == "dynamic":
+        print(f"wrote {sim.simulate(result.x, **settings).to_vtk(out / 'motion.pvd')} (open it in ParaView)")
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
