@@ -354,27 +354,7 @@ fn flexible_pendulum_gradients() {
 /// beam's mass is 1.7 % off; without it in the adjoint sweep alone, direct and adjoint part).
 #[test]
 fn gradients_through_a_drives_restarts() {
-    use flextop::motion::{Motion, Trapezoidal};
-    let (mut m, _) = tube_arm([0.0, 0.0], Vector3::z());
-    // The hinge 5 cm behind the root node: the drive's jump moves the node's translations,
-    // which the beams' consistent mass couples to the next node's.
-    let offset = Vector3::new(-0.05, 0.0, 0.0);
-    let root = Anchor::Node {
-        node: 0,
-        point: offset,
-    };
-    let axis = Vector3::new(0.0, 0.3, 1.0);
-    let hinge = m
-        .add_joint(
-            "hinge",
-            JointKind::Revolute { axis },
-            Anchor::Ground(offset),
-            root,
-        )
-        .unwrap();
-    // Kinks at 0.02 s (on the grid of 4 ms), 0.15 and 0.17 s (after it).
-    let law = Motion::Trapezoidal(Trapezoidal::new(0.0, 0.3, 100.0, 2.0, 0.0));
-    m.add_drive(hinge, law).unwrap();
+    let (mut m, hinge, ..) = driven_arm();
     let bob = m.add_point_mass("bob", 3, 0.2).unwrap();
     let grid = TimeGrid::uniform(4e-3, 25);
     let row = m.joint_rows(hinge).unwrap().len() - 1;
@@ -394,10 +374,14 @@ fn gradients_through_a_drives_restarts() {
     );
 }
 
-/// The arm of [`gradients_through_a_drives_restarts`] on its drive, without the point mass.
+/// The flexible arm of three beams on an oblique hinge driven by a trapezoidal law with kinks
+/// at 0.02 s (on a grid of 4 ms), 0.15 and 0.17 s: the model, the hinge, the law and the
+/// hinge's point.
 fn driven_arm() -> (SpatialModel, usize, flextop::motion::Motion, Vector3<f64>) {
     use flextop::motion::{Motion, Trapezoidal};
     let (mut m, _) = tube_arm([0.0, 0.0], Vector3::z());
+    // The hinge 5 cm behind the root node: the drive's jump moves the node's translations,
+    // which the beams' consistent mass couples to the next node's.
     let offset = Vector3::new(-0.05, 0.0, 0.0);
     let root = Anchor::Node {
         node: 0,

@@ -50,6 +50,23 @@ def cantilever(length: float = 1.0, split: int = 8, *, analysis: str = "dynamic"
     return scene
 
 
+def lattice_cantilever() -> flextop.SpatialScene:
+    """A 4 × 2 × 2 lattice cantilever of 72 steel tubes (edges, face and body diagonals),
+    0.6 m long, clamped at one face, pushed down (200 N) and sideways (100 N) at the other:
+    static, x_min = 1e-3."""
+    scene = flextop.SpatialScene("lattice cantilever", analysis="static")
+    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.012, inner=0.010)
+    scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.6, height=0.15, width=0.15, section="steel",
+                           connectivity="diagonals")
+    for j in range(2):
+        for k in range(2):
+            scene.weld(f"wall{j}{k}", f"box[0,{j},{k}]")
+    scene.load("down", "box[3,0,0]", force=(0.0, -200.0, 0.0))
+    scene.load("side", "box[3,1,1]", force=(0.0, 0.0, 100.0))
+    scene.design(x_min=1e-3)
+    return scene
+
+
 @pytest.fixture(scope="session")
 def arm() -> flextop.Simulation:
     return flextop.Simulation(flextop.scenes.robot_arm())

@@ -13,7 +13,7 @@ import pytest
 import flextop
 import flextop.cli
 
-from conftest import EXAMPLES, ROOT
+from conftest import EXAMPLES, ROOT, lattice_cantilever
 
 
 def flextop_cli(*args, check=True, codes=(0,)):
@@ -420,16 +420,7 @@ def test_optimize_designs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_
     1e-4, the energy 0.045 of the start's) and writes the design, its history and figures;
     the spatial robot arm's default objective is its tip's deflection from the rigid
     trajectory, a run stopped at --max-iter exits 3; planar-only options are named."""
-    scene = flextop.SpatialScene("lattice cantilever", analysis="static")
-    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.012, inner=0.010)
-    scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.6, height=0.15, width=0.15, section="steel",
-                           connectivity="diagonals")
-    for j in range(2):
-        for k in range(2):
-            scene.weld(f"wall{j}{k}", f"box[0,{j},{k}]")
-    scene.load("down", "box[3,0,0]", force=(0.0, -200.0, 0.0))
-    scene.load("side", "box[3,1,1]", force=(0.0, 0.0, 100.0))
-    scene.design(x_min=1e-3)
+    scene = lattice_cantilever()
     (tmp_path / "lattice.toml").write_text(scene.to_toml())
     out = tmp_path / "lattice"
     run = flextop_cli("optimize", tmp_path / "lattice.toml", "--volume-fraction", "0.3", "--x0", "0.3", "--max-iter", "100",

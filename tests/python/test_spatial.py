@@ -10,7 +10,7 @@ import pytest
 from scipy.special import ellipk
 
 import flextop
-from conftest import EXAMPLES, trapezoid
+from conftest import EXAMPLES, lattice_cantilever, trapezoid
 from flextop import SceneError, SettingsError, SimulationError, SpatialScene, SpatialSimulation, axis_angle
 
 G = 9.81
@@ -405,16 +405,7 @@ def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
     density gradients. Measured: a KKT point (residual 9.1e-5 < 1e-4) in 18 iterations,
     the energy 0.045 of the uniform design's, the volume bound active. A problem's bad
     bounds are named."""
-    scene = SpatialScene("lattice cantilever", analysis="static")
-    scene.section("steel", E=2.1e11, rho=7850.0, nu=0.3, shape="tube", outer=0.012, inner=0.010)
-    scene.ground_structure("box", nx=4, ny=2, nz=2, length=0.6, height=0.15, width=0.15, section="steel",
-                           connectivity="diagonals")
-    for j in range(2):
-        for k in range(2):
-            scene.weld(f"wall{j}{k}", f"box[0,{j},{k}]")
-    scene.load("down", "box[3,0,0]", force=(0.0, -200.0, 0.0))
-    scene.load("side", "box[3,1,1]", force=(0.0, 0.0, 100.0))
-    scene.design(x_min=1e-3)
+    scene = lattice_cantilever()
     sim = SpatialSimulation(scene)
     assert sim.n_design == 72
     budget = 0.3 * sim.volume(1.0)
