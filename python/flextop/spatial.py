@@ -122,7 +122,8 @@ class SpatialResults:
 @dataclass(frozen=True)
 class SpatialEquilibrium:
     """A static equilibrium: configuration ``q``, multipliers ``lam``, the ``strain`` energy
-    (J), Newton ``iterations`` over ``load_steps``."""
+    (J), Newton ``iterations`` over ``load_steps``, at ``time`` (s) of the drives' laws and
+    the loads."""
 
     q: np.ndarray
     lam: np.ndarray
@@ -130,6 +131,7 @@ class SpatialEquilibrium:
     iterations: int
     load_steps: int
     layout: _Layout
+    time: float = 0.0
 
     def position(self, name: str) -> np.ndarray:
         """A body's centre of mass or a node's origin (m)."""
@@ -299,23 +301,26 @@ class SpatialSimulation:
                               None if design is None else np.asarray(design))
 
     def equilibrium(self, x: DesignLike = None, **settings: Any) -> SpatialEquilibrium:
-        """The static equilibrium at design ``x`` under the loads at ``t_end`` (0 by default),
-        by Newton on the group with ``load_steps``."""
+        """The static equilibrium at design ``x`` under the loads and with the drives at
+        ``t_end`` (the scene's ``[simulation]`` one by default, else 0), by Newton on the
+        group with ``load_steps``: the drives move with the load factor, so that a mechanism
+        they carry far from its start is reached step by step."""
         r = self.model.solve_static(settings, self._design(x))
+        time = float(settings.get("t_end", self.model.options().get("t_end", 0.0)))
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
-                                  int(r["load_steps"]), self.layout)
+                                  int(r["load_steps"]), self.layout, time)
 
     def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, count: int | None = None,
               **settings: Any) -> SpatialModes:
         """The natural modes at design ``x`` about the equilibrium ``at`` (the static
-        equilibrium of the scene's loads at ``t_end`` by default): every one (a dense
+        equilibrium at ``t_end`` by default, :meth:`equilibrium`), drives locked at its time:
+        every one (a dense
         solve, at most 1500 unknowns), or with ``count`` the lowest ``count`` by
         shift-invert Lanczos on the sparse matrices, any size, with the Sturm count that
         proves none was skipped (``bound``, ``below``)."""
         wanted = None if count is None else whole("count", count)
         eq = self.equilibrium(x, **settings) if at is None else at
-        r = self.model.natural_modes(list(eq.q), list(eq.lam), float(settings.get("t_end", 0.0)), self._design(x),
-                                     wanted)
+        r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted)
         frequencies = None if r["frequencies"] is None else np.asarray(r["frequencies"])
         return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"],
                             r["below"])

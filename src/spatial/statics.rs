@@ -1,7 +1,11 @@
 //! Static equilibrium of a spatial mechanism, `f(q) + Bᵀλ = 0`, `Φ(q, t) = 0`, by Newton's
 //! method on the group with the load stepping of the planar engine
 //! ([`crate::solve_static`]'s, shared): gravity, motors and loads scaled by a load factor
-//! climbing to 1; the drives hold their law at [`StaticSettings::time`].
+//! climbing to 1; the drives hold their law at [`StaticSettings::time`]. The drives move with
+//! the load factor: at a factor `f` every law (and load) is read at `f · time`, so that a
+//! mechanism the drives carry far from its initial configuration (the spatial robot arm at
+//! the end of its motion, turned by a radian) is reached by the load steps from there, not in
+//! one Newton solve; at the full load the equilibrium is the one at `time`.
 //!
 //! Each iteration solves `[K + εM, sBᵀ; sB, 0][δ; Δν] = −[r; sΦ]` with `K` the force
 //! elements' and the joints' constraint-force stiffness at `q` and updates `q ← q ∘ exp(δ)`
@@ -113,7 +117,7 @@ impl Spatial<'_> {
         lambda: &mut [f64],
     ) -> Result<NewtonReport, SolveError> {
         let model = self.asm.model;
-        let (n_v, t) = (model.n_v(), self.settings.time);
+        let (n_v, t) = (model.n_v(), load * self.settings.time);
         let length = model.size();
         // Constraint rows unscaled: there is no β' to balance, and the LU's row pivoting
         // takes the joints' rows in whatever units the forces come.

@@ -550,3 +550,20 @@ def test_a_spatial_design_is_seen_in_paraview_and_in_a_3d_figure(tmp_path):
         plot_spatial_design(sim, np.full(sim.n_design, 2.0))
     with pytest.raises(SettingsError, match="q: expected"):
         plot_spatial_design(sim, x, q=run.q[-1][:-1])
+
+
+def test_the_spatial_robot_arm_at_rest_where_its_drives_end():
+    """The arm's equilibrium at the end of its motion (t = 1 s, the scene's t_end): the drives
+    move with the load steps from the start, so that the base's radian is reached; the arm
+    stays in its vertical plane, turned by the base drive's end (1 rad, to 1e-9), its payload
+    where the motion leaves it within 5 mm (the motion's own vibration); its lowest modes
+    about that state, by count, with the Sturm count."""
+    sim = SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    eq = sim.equilibrium()
+    assert eq.time == 1.0 and eq.load_steps > 1
+    payload = eq.position("payload")
+    assert abs(math.atan2(payload[1], payload[0]) - 1.0) < 1e-9
+    moved = sim.simulate(t_end=1.0).position("payload")[-1]
+    assert np.linalg.norm(payload - moved) < 5e-3, (payload, moved)
+    modes = sim.modes(count=4)
+    assert modes.below == 4 and np.all(np.diff(modes.frequencies) > 0) and 10.0 < modes.frequencies[0] < 50.0
