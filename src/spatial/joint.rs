@@ -317,6 +317,26 @@ impl Joint {
         Ok(())
     }
 
+    /// `cos(φ − ψ(t))` of an angle drive at `q`: 1 on its law, negative where its row
+    /// `sin(φ − ψ) = 0` holds half a turn away (the other root, which a long step can reach);
+    /// `None` without an angle drive.
+    pub(crate) fn drive_alignment(&self, q: &[f64], t: f64) -> Option<f64> {
+        let drive = self.drive.as_ref()?;
+        let Coordinate::Angle { e1, e2, b1 } = drive.coordinate else {
+            return None;
+        };
+        let psi = drive.law.at(t).angle - drive.law.at(0.0).angle;
+        let sides = self.pair.sides(q, None);
+        let along = |e| {
+            let p = self
+                .pair
+                .product(&Measure::Axis(0, e), &Measure::Axis(1, b1), &sides);
+            p.value
+        };
+        let (cos_phi, sin_phi) = (along(e1), along(e2));
+        Some(cos_phi * psi.cos() + sin_phi * psi.sin())
+    }
+
     /// The drive's law, if driven.
     pub(crate) fn drive_law(&self) -> Option<&Motion> {
         self.drive.as_ref().map(|d| &d.law)

@@ -5,7 +5,9 @@
 //! the load factor: at a factor `f` every law (and load) is read at `f · time`, so that a
 //! mechanism the drives carry far from its initial configuration (the spatial robot arm at
 //! the end of its motion, turned by a radian) is reached by the load steps from there, not in
-//! one Newton solve; at the full load the equilibrium is the one at `time`.
+//! one Newton solve; at the full load the equilibrium is the one at `time`. A step that lands
+//! a revolute drive half a turn off its law (its row `sin(φ − ψ)` vanishes there too) fails
+//! and is cut, as a jump to another branch.
 //!
 //! Each iteration solves `[K + εM, sBᵀ; sB, 0][δ; Δν] = −[r; sΦ]` with `K` the force
 //! elements' and the joints' constraint-force stiffness at `q` and updates `q ← q ∘ exp(δ)`
@@ -94,6 +96,16 @@ impl Equilibrium for Spatial<'_> {
         self.asm.load = load;
         let report = self.newton(load, q, lambda)?;
         let model = self.asm.model;
+        let t = load * self.settings.time;
+        for joint in &model.joints {
+            if joint.drive_alignment(q, t).is_some_and(|c| c < 0.0) {
+                return Err(SolveError::Diverged {
+                    at: format!("load factor {load:.6}"),
+                    rotation: std::f64::consts::PI,
+                    node: format!("{} (its drive half a turn off its law)", joint.name),
+                });
+            }
+        }
         for (node, n) in model.nodes.iter().enumerate() {
             let turned =
                 log(&(Frame::read(q_prev, node).r.inverse() * Frame::read(q, node).r)).norm();

@@ -211,3 +211,49 @@ fn a_torsion_spring_balances_a_motor() {
     let err = solve_static_spatial(&build(20.0), &settings(4)).unwrap_err();
     assert!(err.to_string().contains("torsion spring 'coil'"), "{err}");
 }
+
+/// A body on a hinge about the vertical, its drive turning it 2.5 rad by the time asked:
+/// the drive moves with the load steps (more than the π/2 one load step may turn a node,
+/// so the steps are cut), and the body rests turned by the law's angle, to round-off.
+#[test]
+fn a_drive_carries_a_body_far_from_its_start() {
+    use flextop::motion::{Motion, Trapezoidal};
+    let d = 0.7;
+    let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -G)).unwrap();
+    let b = m
+        .add_body(
+            "arm",
+            at(Vector3::new(d, 0.0, 0.0)),
+            2.0,
+            Matrix3::from_diagonal(&Vector3::new(0.01, 0.02, 0.03)),
+        )
+        .unwrap();
+    let hinge = m
+        .add_joint(
+            "hinge",
+            JointKind::Revolute { axis: Vector3::z() },
+            Anchor::Ground(Vector3::zeros()),
+            Anchor::Body {
+                body: b,
+                point: Vector3::new(-d, 0.0, 0.0),
+            },
+        )
+        .unwrap();
+    let law = Motion::Trapezoidal(Trapezoidal::new(0.0, 2.5, 10.0, 2.0, 0.0));
+    m.add_drive(hinge, law.clone()).unwrap();
+    let time = 2.0;
+    let angle = law.at(time).angle - law.at(0.0).angle;
+    assert!((angle - 2.5).abs() < 1e-12, "the law has ended: {angle}");
+    let eq = solve_static_spatial(
+        &m,
+        &StaticSettings {
+            time,
+            ..settings(1)
+        },
+    )
+    .unwrap();
+    let x = Frame::read(&eq.q, 0).x;
+    let expected = Vector3::new(angle.cos(), angle.sin(), 0.0) * d;
+    assert!((x - expected).norm() < 1e-10, "{x:?} against {expected:?}");
+    assert!(eq.load_steps > 1, "{} load steps", eq.load_steps);
+}
