@@ -29,7 +29,7 @@ from .results import Results
 from .simulation import Simulation
 
 __all__ = ["animate", "magnified_positions", "plot_deformed", "plot_design", "plot_history", "plot_paths", "plot_spatial_design",
-           "plot_tip_error"]
+           "plot_spatial_paths", "plot_tip_error"]
 
 #: Colormap of the density maps: white for x_min (void) to black for full density, as the
 #: topology-optimization literature draws them.
@@ -168,6 +168,32 @@ def plot_spatial_design(sim: Any, x: Any, *, q: Any = None, view: tuple[float, f
     if title is not None:
         ax.set_title(title)
     fig.colorbar(mappable, ax=ax, label="Density", shrink=0.7)
+    return _save(fig, path)
+
+
+def plot_spatial_paths(results: Any, rigid: Any, name: str, *, view: tuple[float, float] = (25.0, -60.0),
+                       title: str | None = None, path: str | os.PathLike | None = None) -> Figure:
+    """The path of ``name`` (a body or node) in spatial ``results`` against its ``rigid``
+    trajectory (``SpatialSimulation.rigid_trajectory`` on the same grid), in 3D from ``view``,
+    and their distance ``|r − r_rigid|`` (mm) over time, whose mean square is Eq. 40's."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection  # noqa: F401 (registers the 3d projection)
+
+    moved, rigid = results.position(name), np.asarray(rigid, dtype=float)
+    if rigid.shape != moved.shape or not np.all(np.isfinite(rigid)):
+        raise SettingsError(f"rigid: expected {moved.shape} finite positions (one per state of the results), "
+                            f"got shape {rigid.shape}")
+    fig = _new_figure(figsize=(11.0, 5.0), layout="constrained")
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    ax.plot(*rigid.T, color="0.5", linestyle="--", label="rigid")
+    ax.plot(*moved.T, color="C0", label=name)
+    ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
+    ax.view_init(elev=view[0], azim=view[1])
+    ax.legend()
+    gap = fig.add_subplot(1, 2, 2)
+    gap.plot(results.time, 1e3 * np.linalg.norm(moved - rigid, axis=1), color="C0")
+    gap.set(xlabel="time (s)", ylabel=f"|r − r_rigid| of {name} (mm)")
+    if title is not None:
+        fig.suptitle(title)
     return _save(fig, path)
 
 

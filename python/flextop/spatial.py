@@ -325,6 +325,16 @@ class SpatialSimulation:
         return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"],
                             r["below"])
 
+    def rigid_trajectory(self, name: str | None = None, **settings: Any) -> np.ndarray:
+        """The rigid trajectory of a body's centre or a node's origin (the scene's tip by
+        default) on the grid :meth:`simulate` runs with ``settings``: where it goes with every
+        link rigid on its joints and drives (paper Eq. 40's ``r_rigid``), shape ``(n, 3)`` (m);
+        a :class:`SettingsError` where the drives leave the rigid mechanism a freedom."""
+        name = self.tip if name is None else name
+        if name is None:
+            raise SettingsError("no name given, and the scene names no tip")
+        return np.asarray(self.model.rigid_trajectory(self.layout.node(name), settings))
+
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
                                **settings: Any) -> SpatialSensitivities:

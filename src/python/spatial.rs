@@ -10,12 +10,13 @@ use pyo3::types::PyDict;
 
 use super::convert::{matrix, run_options, scene_value, spatial_scene_spec, vector};
 use super::signals::{abandonable, detached, heard, reporting};
-use crate::error::Error;
+use crate::error::{Error, SettingsError};
 use crate::mechanism::model::Analysis;
 use crate::scene::spatial::{build_spatial, parse_spatial_toml, SpatialScene};
 use crate::spatial::element::Element;
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::modal::natural_modes_spatial;
+use crate::spatial::rigid::rigid_trajectories;
 use crate::spatial::sensitivity::{sensitivities, static_sensitivities, Parameter};
 use crate::spatial::statics::solve_static_spatial;
 
@@ -215,6 +216,36 @@ impl PySpatialModel {
         d.set_item("v", matrix(py, flat(&|s| &s.qdot), n, m.n_v())?)?;
         d.set_item("lam", matrix(py, flat(&|s| &s.lam), n, m.n_rows())?)?;
         Ok(d)
+    }
+
+    /// The rigid trajectory of node `node` (paper Eq. 40's `r_rigid`: the mechanism with each
+    /// link one rigid body on its joints and drives, [`crate::spatial::rigid`]) on the grid
+    /// `settings` give a run: one position per state, `(n_t, 3)` (m).
+    #[pyo3(signature = (node, settings=None))]
+    fn rigid_trajectory<'py>(
+        &self,
+        py: Python<'py>,
+        node: usize,
+        settings: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let scene = Arc::clone(&self.scene);
+        let settings = run_options(settings)?
+            .dynamic(&scene.options)
+            .map_err(Error::from)?;
+        if node >= scene.model.nodes.len() {
+            return Err(Error::from(SettingsError::new(
+                "node",
+                format!("no node {node} (the scene has {})", scene.model.nodes.len()),
+            ))
+            .into());
+        }
+        let path = detached(py, move || {
+            settings.validate()?;
+            let grid = settings.grid();
+            Ok(rigid_trajectories(&scene.model, &settings, &grid, &[node])?.remove(0))
+        })?;
+        let n = path.len();
+        matrix(py, path.iter().flat_map(|p| p.iter().copied()).collect(), n, 3)
     }
 
     /// The static equilibrium at the loads of `t_end` (0 by default): `q`, `lam`, Newton

@@ -567,3 +567,27 @@ def test_the_spatial_robot_arm_at_rest_where_its_drives_end():
     assert np.linalg.norm(payload - moved) < 5e-3, (payload, moved)
     modes = sim.modes(count=4)
     assert modes.below == 4 and np.all(np.diff(modes.frequencies) > 0) and 10.0 < modes.frequencies[0] < 50.0
+
+
+def test_the_rigid_trajectory_from_python_makes_the_engines_tip_deflection(tmp_path):
+    """The spatial robot arm at x = 0.4: the payload's rigid trajectory on the run's grid,
+    integrated against its path by the trapezoidal rule over t_f, is the engine's
+    tip_deflection to 1e-12; the figure of the two paths is drawn; wrong shapes, unknown names
+    and an undriven pendulum are named."""
+    from flextop.plots import plot_spatial_paths
+
+    sim = SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    run = sim.simulate(0.4, t_end=0.5)
+    rigid = sim.rigid_trajectory(t_end=0.5)
+    assert rigid.shape == (len(run.time), 3) and np.array_equal(rigid[0], run.position("payload")[0])
+    gap = np.sum((run.position("payload") - rigid) ** 2, axis=1)
+    d = sim.run_with_sensitivities(0.4, "tip_deflection", t_end=0.5).values[0]
+    assert np.trapezoid(gap, run.time) / run.time[-1] == pytest.approx(d, rel=1e-12)
+    plot_spatial_paths(run, rigid, "payload", path=tmp_path / "paths.png")
+    assert (tmp_path / "paths.png").stat().st_size > 10_000
+    with pytest.raises(SettingsError, match="rigid: expected"):
+        plot_spatial_paths(run, rigid[1:], "payload")
+    with pytest.raises(SettingsError, match="'nowhere' is no body or node"):
+        sim.rigid_trajectory("nowhere", t_end=0.1)
+    with pytest.raises(SettingsError, match="freedom"):
+        SpatialSimulation(pendulum()).rigid_trajectory(t_end=0.1, h=0.01)
