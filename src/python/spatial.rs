@@ -245,7 +245,12 @@ impl PySpatialModel {
             Ok(rigid_trajectories(&scene.model, &settings, &grid, &[node])?.remove(0))
         })?;
         let n = path.len();
-        matrix(py, path.iter().flat_map(|p| p.iter().copied()).collect(), n, 3)
+        matrix(
+            py,
+            path.iter().flat_map(|p| p.iter().copied()).collect(),
+            n,
+            3,
+        )
     }
 
     /// The static equilibrium at the loads of `t_end` (0 by default): `q`, `lam`, Newton
