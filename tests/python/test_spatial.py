@@ -467,12 +467,14 @@ def test_the_spatial_slider_crank_follows_its_closed_form_through_space():
     assert T < run.time[-1]
 
 
-@pytest.mark.parametrize("name", ["heavy_top.toml", "spatial_slider_crank.toml", "spatial_robot_arm.toml"])
+@pytest.mark.parametrize("name", ["heavy_top.toml", "spatial_slider_crank.toml", "spatial_robot_arm.toml",
+                                  "spatial_paper_arm.toml"])
 def test_the_spatial_examples_run_as_their_builders_say(name):
     path = EXAMPLES / name
     run = SpatialSimulation(path).simulate()
     builder = {"heavy_top.toml": flextop.scenes.heavy_top, "spatial_slider_crank.toml": flextop.scenes.spatial_slider_crank,
-               "spatial_robot_arm.toml": flextop.scenes.spatial_robot_arm}
+               "spatial_robot_arm.toml": flextop.scenes.spatial_robot_arm,
+               "spatial_paper_arm.toml": flextop.scenes.spatial_paper_arm}
     again = SpatialSimulation(builder[name]()).simulate()
     assert np.array_equal(run.q, again.q)
     if name == "heavy_top.toml":  # its centre of mass stays 1 m from the pivot; its energy, with ρ∞ = 0.9, barely falls
@@ -591,3 +593,28 @@ def test_the_rigid_trajectory_from_python_makes_the_engines_tip_deflection(tmp_p
         sim.rigid_trajectory("nowhere", t_end=0.1)
     with pytest.raises(SettingsError, match="freedom"):
         SpatialSimulation(pendulum()).rigid_trajectory(t_end=0.1, h=0.01)
+
+
+def test_the_papers_arm_as_a_3d_lattice_needs_depth_only_with_its_payload_off_its_plane():
+    """The paper's arm as lattices of 5 × 3 × 2 nodes (746 bars): with the payload in the
+    links' mid-plane it moves in its plane to round-off; 5 cm out of it, the payload leaves
+    its plane (by more than 0.1 mm). Its rigid trajectory ends where the reference scenes'
+    closed form puts the tip, L(cos θ₁, sin θ₁) + L(cos(θ₁+θ₂), sin(θ₁+θ₂)) at θ = π/2,
+    plus the offset; its tip deflection's adjoint gradient to two densities matches central
+    differences (1e-5)."""
+    flat = SpatialSimulation(flextop.scenes.spatial_paper_arm(offset=0.0))
+    assert flat.n_design == 746
+    z = flat.simulate(0.4, t_end=0.4).position("payload")[:, 2]
+    assert np.abs(z).max() < 1e-12
+    sim = SpatialSimulation(flextop.scenes.spatial_paper_arm())
+    run = sim.simulate(0.4, t_end=0.4)
+    assert np.abs(run.position("payload")[:, 2] - 0.05).max() > 1e-4
+    rigid = sim.rigid_trajectory()
+    assert np.abs(rigid[-1] - [-1.0, 1.0, 0.05]).max() < 1e-9
+    x = np.full(sim.n_design, 0.4)
+    g = sim.run_with_sensitivities(x, "tip_deflection", method="adjoint", t_end=0.4)
+    for i in (0, 400):
+        e = 1e-4
+        moved = [sim.run_with_sensitivities(x + s * e * np.eye(sim.n_design)[i], "tip_deflection", t_end=0.4).values[0]
+                 for s in (1.0, -1.0)]
+        assert (moved[0] - moved[1]) / (2 * e) == pytest.approx(g.dfdx[0, i], rel=1e-5)

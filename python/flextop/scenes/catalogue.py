@@ -21,7 +21,7 @@ from .. import _core
 from ..checks import number, real, whole
 from ..errors import SceneError
 from .builder import Scene, motion_table, trapezoidal
-from .spatial_catalogue import heavy_top, spatial_robot_arm, spatial_slider_crank
+from .spatial_catalogue import heavy_top, spatial_paper_arm, spatial_robot_arm, spatial_slider_crank
 
 #: The engine's limits on a model's size, by name (``grid_nodes``, ``split``, ``nodes``,
 #: ``elements``): the builders check their counts against them before building.
@@ -659,6 +659,16 @@ EXAMPLES = {
             "ground_structures[0]": "the upper arm: 0.6 m, edges, face and body diagonals",
             "ground_structures[1]": "the forearm: 0.5 m",
             "joints[0]": "the base turns 1 rad about the vertical",
+        },
+    ),
+    "spatial_paper_arm.toml": (
+        spatial_paper_arm,
+        "The paper's two-link arm as 3D lattices of 5 x 3 x 2 nodes (746 solid aluminium bars, a\n"
+        "density each) in the horizontal plane, its 5 kg payload 5 cm out of the links' mid-plane.\n"
+        "SI units.\n" + _GENERATED.format("spatial_paper_arm"),
+        {
+            "ground_structures[0]": "link 1: 1 m by 0.1 m by 0.1 m deep, every bar no third node lies on",
+            "joints[6]": "the shoulder: theta1 from pi/3 to pi/2 on a trapezoidal law",
         },
     ),
 }

@@ -120,3 +120,48 @@ def spatial_robot_arm(*, nx: int = 5, ny: int = 2, nz: int = 2, connectivity: st
     scene.tip = "payload"
     scene.simulation(t_end=t_end, h=h, rho_inf=0.8)
     return scene
+
+
+def spatial_paper_arm(*, nz: int = 2, depth: float = 0.1, offset: float = 0.05, connectivity: str = "full",
+                      t_end: float = 1.3, h: float = 0.02) -> SpatialScene:
+    """The paper's two-link arm (reference scenes: horizontal plane, no gravity, links of
+    1 m by 0.1 m, solid aluminium bars of 20 mm, θ₁ and θ₂ from π/3 to π/2 on trapezoidal
+    laws, a 5 kg payload at the tip) built as 3D lattices of ``5 × 3 × nz`` nodes, ``depth``
+    deep (along z) with the bars of ``connectivity``, each link welded face by face to its
+    joints' hubs (0.1 kg); the payload sits ``offset`` out of the links' mid-plane, so that
+    its inertia twists and bends them out of their plane and the design needs depth. At
+    ``offset = 0`` the arm moves in its plane. Each bar's density is a design variable."""
+    if not (isinstance(nz, int) and nz >= 1):
+        raise SceneError(f"nz: {nz!r} must be a whole number of layers, at least 1")
+    scene = SpatialScene("spatial_paper_arm", gravity=(0.0, 0.0, 0.0))
+    scene.section("al", E=7e10, rho=2700.0, nu=0.32, diameter=0.02)
+    length, height, theta = 1.0, 0.1, math.pi / 3
+    frac = lambda i, n: i / (n - 1) - 0.5 if n > 1 else 0.0  # noqa: E731
+    face = {f"p{j}{k}": (0.0, height * frac(j, 3), depth * frac(k, nz)) for j in range(3) for k in range(nz)}
+    links = {"link1": (np.zeros(3), theta), "link2": (length * np.array([math.cos(theta), math.sin(theta), 0.0]), 2 * theta)}
+    for name, (origin, angle) in links.items():
+        scene.ground_structure(name, nx=5, ny=3, nz=nz, length=length, height=height, width=depth, section="al",
+                               connectivity=connectivity, origin=tuple(origin),
+                               orientation=axis_angle((0.0, 0.0, 1.0), angle))
+
+    def hub(name: str, link: str, column: int, mass: float, lateral: float = 0.0) -> None:
+        """A hub on ``link``'s face ``column``, welded to its nodes, ``lateral`` out of plane."""
+        origin, angle = links[link]
+        at = origin + column / 4 * length * np.array([math.cos(angle), math.sin(angle), 0.0])
+        points = {key: (x, y, z - lateral) for key, (x, y, z) in face.items()}
+        scene.rigid_body(name, mass=mass, inertia=(mass * 1e-4,) * 3, position=tuple(at + [0.0, 0.0, lateral]),
+                         orientation=axis_angle((0.0, 0.0, 1.0), angle), points=points)
+        for j in range(3):
+            for k in range(nz):
+                scene.weld(f"{name}_{j}{k}", f"{name}.p{j}{k}", f"{link}[{column},{j},{k}]")
+
+    law = trapezoidal(math.pi / 3, math.pi / 2, acceleration=2.0, speed=0.5)
+    hub("shoulder", "link1", 0, 0.1)
+    scene.revolute("shoulder_drive", "ground", "shoulder", axis=(0.0, 0.0, 1.0), drive=law)
+    hub("elbow_a", "link1", 4, 0.1)
+    hub("elbow_b", "link2", 0, 0.1)
+    scene.revolute("elbow_drive", "elbow_a", "elbow_b", axis=(0.0, 0.0, 1.0), drive=law)
+    hub("payload", "link2", 4, 5.0, lateral=offset)
+    scene.tip = "payload"
+    scene.simulation(t_end=t_end, h=h, rho_inf=0.8)
+    return scene
