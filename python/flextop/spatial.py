@@ -9,7 +9,8 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
 an equilibrium, J), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
-(the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³), ``tip_deflection`` or
+(the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³) and ``volume:NAME`` (a ground
+structure's designed bars', paper Eq. 41 per link), ``tip_deflection`` or
 ``tip_deflection:NAME`` (the mean squared deflection ``(1/t_f) ∫ |r − r_rigid|² dt`` of the
 scene's tip, or a body or node, from its rigid trajectory, m², paper Eq. 40: the motion of the
 mechanism with each link one rigid body on its joints and drives, every freedom of which the
@@ -351,24 +352,39 @@ class SpatialSimulation:
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         design = self._design(x)
-        engine = [r for r in rs if r != "volume"]
+        volumes = {k: self._volume_weights(name) for k, name in enumerate(rs) if name.split(":")[0] == "volume"}
+        engine = [name for k, name in enumerate(rs) if k not in volumes]
         values, gradient = np.zeros(len(rs)), np.zeros((len(rs), len(ps) + self.n_design))
         if engine or not rs:
             r = self.model.sensitivities(engine, list(ps), settings, static, design)
-            rows = [k for k, name in enumerate(rs) if name != "volume"]
+            rows = [k for k in range(len(rs)) if k not in volumes]
             values[rows] = np.asarray(r["values"])
             gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
-        for k in (k for k, name in enumerate(rs) if name == "volume"):
-            values[k] = self.volume(x)
-            gradient[k, len(ps):] = self.model.volumes[0]
+        xv = np.ones(self.n_design) if design is None else np.asarray(design)
+        for k, (weights, fixed) in volumes.items():
+            values[k] = fixed + float(weights @ xv)
+            gradient[k, len(ps):] = weights
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):])
 
-    def volume(self, x: DesignLike = None) -> float:
+    def volume(self, x: DesignLike = None, structure: str | None = None) -> float:
         """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density
-        by default), the fixed ones' at full density (m³; paper Eq. 38)."""
-        designed, fixed = self.model.volumes
+        by default), the fixed ones' at full density (m³; paper Eq. 38); of one ground
+        structure's designed bars with ``structure`` (its name; Eq. 41's per link)."""
+        weights, fixed = self._volume_weights("volume" if structure is None else f"volume:{structure}")
         xv = self._design(x)
-        return fixed + float(np.dot(np.ones(self.n_design) if xv is None else xv, designed))
+        return fixed + float(np.dot(np.ones(self.n_design) if xv is None else xv, weights))
+
+    def _volume_weights(self, response: str) -> tuple[np.ndarray, float]:
+        """``(V, fixed)`` of the response ``volume`` (every beam and bar) or ``volume:NAME``
+        (the designed bars of ground structure ``NAME``, no fixed part)."""
+        designed, fixed = self.model.volumes
+        if response == "volume":
+            return np.asarray(designed), fixed
+        name = response.split(":", 1)[1]
+        mine = np.array([v.startswith(f"{name}/") for v in self.variables])
+        if not mine.any():
+            raise SettingsError(f"{response!r}: '{name}' is no ground structure with designed bars")
+        return np.where(mine, designed, 0.0), 0.0
 
 
 _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}

@@ -28,7 +28,9 @@ from ..spatial import SpatialSimulation
 class SpatialProblem(Problem):
     """Minimize the response ``objective`` of ``sim`` subject to ``constraints``, each a
     ``(response, upper bound)``; ``volume`` (a fraction of the full material volume) adds
-    ``("volume", volume · V_full)``. ``settings`` go to every run (``t_end``, ``h``, …).
+    ``("volume", volume · V_full)`` or, ``per_structure``, one ``("volume:NAME", volume ·
+    V_full,NAME)`` per ground structure (paper Eq. 41, per link). ``settings`` go to every run
+    (``t_end``, ``h``, …).
 
     Raises
     ------
@@ -38,12 +40,17 @@ class SpatialProblem(Problem):
     """
 
     def __init__(self, sim: SpatialSimulation, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
-                 volume: float | None = None, reference: float | None = None, **settings: Any) -> None:
+                 volume: float | None = None, per_structure: bool = False, reference: float | None = None,
+                 **settings: Any) -> None:
         bounds = list(constraints)
         if volume is not None:
             if not (isinstance(volume, (int, float)) and 0.0 < volume <= 1.0):
                 raise SettingsError(f"volume: {volume!r} is not a fraction in (0, 1] of the full volume")
-            bounds.append(("volume", volume * sim.volume(1.0)))
+            structures = dict.fromkeys(v.split("/")[0] for v in sim.variables if "/" in v) if per_structure else {}
+            if per_structure and not structures:
+                raise SettingsError("per_structure: the scene has no ground structure with designed bars")
+            bounds += ([(f"volume:{name}", volume * sim.volume(1.0, name)) for name in structures] if per_structure
+                       else [("volume", volume * sim.volume(1.0))])
         for name, bound in bounds:
             if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
                 raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
