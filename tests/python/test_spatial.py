@@ -419,6 +419,11 @@ def test_a_spatial_lattice_is_designed_by_mma_to_a_kkt_point():
     assert result.success and result.kkt < 1e-4, result.message
     assert result.fun < 0.1 and sim.volume(result.x) == pytest.approx(budget, rel=1e-3)
     assert problem.reference == pytest.approx(start.values[0], rel=1e-12)
+    per = flextop.problems.SpatialProblem(sim, "strain_energy", volume=0.3, per_structure=True)
+    assert per.names == [f"volume:box ≤ {budget:.4g}"]
+    assert sim.volume(x0, "box") == pytest.approx(budget, rel=1e-12)
+    with pytest.raises(SettingsError, match="'volume:nowhere': 'nowhere' is no ground structure"):
+        sim.run_with_sensitivities(x0, "volume:nowhere")
     for bad, culprit in [({"volume": 1.5}, "volume: 1.5"), ({"constraints": [("z:box[3,0,0]", -1.0)]}, "the bound -1.0"),
                          ({"reference": float("nan")}, "reference: nan")]:
         with pytest.raises(SettingsError, match=culprit):
