@@ -456,7 +456,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
 
 
 SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
-                   "global_volume", "min_frequency", "max_stress", "max_von_mises", "max_buckling", "start", "analysis",
+                   "min_frequency", "max_stress", "max_von_mises", "max_buckling", "start", "analysis",
                    "accuracy", "rtol", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
@@ -464,12 +464,14 @@ SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "f
 def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
     """Minimizes a spatial scene's response (``--objective``; its tip's deflection from the
     rigid trajectory where it names a tip, else its strain energy) over its beams' densities
-    at ``--volume-fraction`` of the full volume (:class:`~flextop.problems.SpatialProblem`);
+    at ``--volume-fraction`` of each ground structure's volume (paper Eq. 41; of the whole
+    with ``--global-volume`` or where the scene has none) (:class:`~flextop.problems.SpatialProblem`);
     writes design.npy, history.json, the design's figure and, with ``--vtk``, its motion."""
     given = [k for k in SPATIAL_REFUSED if getattr(args, k) not in (None, False)]
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
-        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, --x0, "
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
+                            "--global-volume, --x0, "
                             "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
                             "--no-plots, --vtk)")
     sim = SpatialSimulation(spec)
@@ -478,15 +480,16 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
     fraction = args.volume_fraction or 0.4
-    problem = SpatialProblem(sim, objective, volume=fraction, **settings)
+    per_structure = not args.global_volume and any("/" in v for v in sim.variables)
+    problem = SpatialProblem(sim, objective, volume=fraction, per_structure=per_structure, **settings)
     x0 = 0.4 if args.x0 is None else args.x0
     if not sim.x_min <= x0 <= 1.0:
         raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
     _keep_earlier_run(out, args.force)
     _folder(out)
     method, max_iter = args.method or "mma", args.max_iter or 30
-    print(f"{sim.model.name}: minimize {objective} over {sim.n_design} densities subject to volume ≤ {fraction:g} "
-          f"of the full volume ({method})")
+    print(f"{sim.model.name}: minimize {objective} over {sim.n_design} densities subject to "
+          f"{', '.join(problem.names or [])} ({method})")
     bar = tqdm(total=max_iter, unit="it", desc="optimize", file=sys.stderr)
 
     def on_iteration(record) -> None:
