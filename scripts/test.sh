@@ -4,10 +4,15 @@
 # bindings), the Rust suite (cargo test) and the Python suite (pytest).
 # Each stage's wall time is printed as it ends ("test.sh: N s: COMMAND").
 #
-# The lints run while pip builds the extension. They only check (no code is generated, so
-# they share no artifact with a build) and do so in a target directory of their own
-# (TARGET/lints), since cargo locks a target directory for the whole of a build: pip's
-# build of the crate itself runs on one core (codegen-units = 1) and leaves the other idle.
+# The Rust checks (cargo fmt, the lints, cargo test) run while pip builds the extension, in a
+# target directory of their own (TARGET/rust): cargo locks a target directory for the whole
+# of a build, and cargo test would compile most of its dependencies again after pip's build
+# anyway: the bindings' dependencies (pyo3, numpy) and cargo test's dev-dependencies
+# (criterion) turn on different features of common crates (num-traits, either, syn, ...),
+# which changes the hash of every crate above them, faer and nalgebra included; what the
+# Rust checks share (build scripts, proc-macros) they share among themselves. pip's build of
+# the crate itself runs on one core (codegen-units = 1) and would leave the other idle.
+# pytest runs last, alone: some of its tests time how fast a run hears Ctrl-C.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -21,21 +26,21 @@ stage() {
     fi
     return "$status"
 }
-lints() {
+rust() {
     stage cargo fmt --check
     stage cargo clippy --release --all-targets -- -D warnings
     stage cargo clippy --release --lib --features python -- -D warnings
+    stage cargo test --release
 }
 stage "$PYTHON" -m pip install --quiet --upgrade "pip>=23" "maturin>=1.9.4,<2"
-CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/lints" lints &
-lints_pid=$!
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/rust" rust &
+rust_pid=$!
 installed=0
 stage "$PYTHON" -m pip install --quiet -e ".[test]" || installed=$?
-start=$SECONDS linted=0
-wait "$lints_pid" || linted=$?
-echo "test.sh: $((SECONDS - start)) s: waiting for the lints after the install"
-if ((installed || linted)); then
+start=$SECONDS checked=0
+wait "$rust_pid" || checked=$?
+echo "test.sh: $((SECONDS - start)) s: waiting for the Rust checks after the install"
+if ((installed || checked)); then
     exit 1
 fi
-stage cargo test --release
 stage "$PYTHON" -m pytest -q
