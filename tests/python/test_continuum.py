@@ -1094,6 +1094,7 @@ def test_gradients_through_void_cells_of_linear_energy_are_exact():
         def value(dx, j=j):
             y = x.copy()
             y[j] += dx
-            return sim.run_with_sensitivities(y, names, method="direct")[0]
+            # The values alone: the adjoint's run, bit for bit the direct one's at 1/50 the cost.
+            return sim.run_with_sensitivities(y, names, method="adjoint")[0]
         difference = fourth_order(value, h)
         assert np.all(np.abs(direct[:, j] - difference) <= 1e-6 * scale), (j, direct[:, j], difference)

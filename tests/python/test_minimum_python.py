@@ -64,7 +64,8 @@ def test_lowest_declared_python_imports_flextop_and_simulates_a_toml_scene(tmp_p
     venv = tmp_path / "venv"
     subprocess.run([python, "-m", "venv", venv], check=True, capture_output=True, timeout=120, env=env)
     venv_python = venv / ("Scripts/python.exe" if sys.platform == "win32" else "bin/python")
-    pip = subprocess.run([venv_python, "-m", "pip", "install", "--quiet", "--only-binary=:all:", *PROJECT["dependencies"]],
+    pip = subprocess.run([venv_python, "-m", "pip", "install", "--quiet", "--only-binary=:all:", "--no-compile",
+                          "--disable-pip-version-check", *PROJECT["dependencies"]],
                          capture_output=True, text=True, timeout=600, env=env)
     assert pip.returncode == 0, pip.stdout + pip.stderr
 

@@ -4,6 +4,8 @@ numpy and scipy, line for line: the half-MBB beam, modified SIMP with E_min, the
 (ft = 1) or density (ft = 2) filter and the optimality-criteria update. The reference that
 flextop's own element, filters and optimizer are held to in ``test_top88.py``."""
 
+import functools
+
 import numpy as np
 import scipy.sparse as sparse
 from scipy.sparse.linalg import spsolve
@@ -23,7 +25,15 @@ def top88(nelx: int, nely: int, volfrac: float, penal: float, rmin: float, ft: i
           bisection: float = 1e-3):
     """Runs the code; returns the compliance at every iteration and the final ``xPhys``
     (nely × nelx, row 0 at the top). ``bisection`` is the relative width at which the
-    bisection on the volume's multiplier stops (the code's 1e-3)."""
+    bisection on the volume's multiplier stops (the code's 1e-3). A run is made once per
+    session (``test_linear.py`` and ``test_top88.py`` hold flextop to the same ones); each
+    call gets copies of it."""
+    history, x_phys = _top88(nelx, nely, volfrac, penal, rmin, ft, max_iter, bisection)
+    return list(history), x_phys.copy()
+
+
+@functools.cache
+def _top88(nelx: int, nely: int, volfrac: float, penal: float, rmin: float, ft: int, max_iter: int, bisection: float):
     e0, emin, nu = 1.0, 1e-9, 0.3
     ke = ke88(nu)
     nodenrs = np.arange((1 + nelx) * (1 + nely)).reshape(1 + nelx, 1 + nely).T  # column-major, from the top
