@@ -9,22 +9,13 @@ the paper's arm as 3D lattices (``spatial_paper_arm``) designed for its tip defl
     python benches/spatial_design.py
 """
 
-import statistics
 import time
 
 import numpy as np
 
 import flextop
 from flextop.problems import SpatialProblem
-
-
-def seconds(run) -> float:
-    times = []
-    for _ in range(3):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+from spatial_arm import seconds  # medians of three, as that bench times its runs
 
 
 def costs() -> None:
