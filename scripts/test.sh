@@ -12,7 +12,9 @@
 # which changes the hash of every crate above them, faer and nalgebra included; what the
 # Rust checks share (build scripts, proc-macros) they share among themselves. pip's build of
 # the crate itself runs on one core (codegen-units = 1) and would leave the other idle.
-# pytest runs last, alone: some of its tests time how fast a run hears Ctrl-C.
+# pytest runs last, after both, on two workers (pytest-xdist): its tests run Python, mostly
+# on one core each (measured on 2 cores: 215 s against 290 s on one worker). The tests that
+# time how fast a run hears Ctrl-C (marked `timed`) then run alone, on one worker.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -43,4 +45,5 @@ echo "test.sh: $((SECONDS - start)) s: waiting for the Rust checks after the ins
 if ((installed || checked)); then
     exit 1
 fi
-stage "$PYTHON" -m pytest -q
+stage "$PYTHON" -m pytest -q -n 2 -m "not timed"
+stage "$PYTHON" -m pytest -q -m timed

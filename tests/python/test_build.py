@@ -186,6 +186,7 @@ except KeyboardInterrupt:
     return seconds_to_interrupt(code, wait, exit_within=60)
 
 
+@pytest.mark.timed
 @pytest.mark.parametrize(("call", "wait"), [("flextop._core.Model.from_dict(spec)", 1.0),
                                             ("flextop._core.Model.from_dict(spec)", 4.0),
                                             ("flextop.Simulation(spec)", 9.0)])

@@ -134,12 +134,14 @@ except KeyboardInterrupt:
     return seconds_to_interrupt(code, wait, exit_within=30)
 
 
+@pytest.mark.timed
 @pytest.mark.parametrize("call", ["sim.run(0.4, h=1e-4)", "sim.run_with_sensitivities(0.4, 'tip_deflection', h=2e-4, method='adjoint')",
                                   "sim.run_with_sensitivities(0.4, 'tip_deflection', h=2e-4, method='direct')"])
 def test_ctrl_c_interrupts_a_long_run_within_half_a_second(call):
     assert interrupted_within(call, 0.5) < 0.5
 
 
+@pytest.mark.timed
 def test_ctrl_c_stops_the_runs_on_a_thread_pool_too():
     """Python hears signals in its main thread only: the runs on the pool's threads stop at
     their next step when Ctrl-C reaches the main thread (11.8 s of waiting before)."""
