@@ -96,15 +96,15 @@ pub(super) fn drive_rate(model: &Model, row: usize, t: f64) -> f64 {
 }
 
 /// `key=value` options of a response, in the order given.
-pub(super) type Options = Vec<(String, f64)>;
+pub(crate) type Options = Vec<(String, f64)>;
 
 /// The value of option `key`, if given.
-pub(super) fn option(options: &Options, key: &str) -> Option<f64> {
+pub(crate) fn option(options: &Options, key: &str) -> Option<f64> {
     options.iter().find(|(k, _)| k == key).map(|&(_, v)| v)
 }
 
 /// An error for the first option not in `allowed`.
-pub(super) fn only(options: &Options, allowed: &[&str]) -> Result<(), String> {
+pub(crate) fn only(options: &Options, allowed: &[&str]) -> Result<(), String> {
     match options.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
         None => Ok(()),
         Some((k, _)) if allowed.is_empty() => Err(format!("unknown option '{k}' (options: none)")),
@@ -117,7 +117,7 @@ pub(super) fn only(options: &Options, allowed: &[&str]) -> Result<(), String> {
 
 /// `COMPONENT` and `key=value,...` options of a response argument `[COMPONENT][:OPTIONS]`
 /// (the part with `=` is the options).
-pub(super) fn component_and_options(rest: Option<&str>) -> Result<(Option<&str>, Options), String> {
+pub(crate) fn component_and_options(rest: Option<&str>) -> Result<(Option<&str>, Options), String> {
     let mut component = None;
     let mut options = Vec::new();
     for part in rest.into_iter().flat_map(|r| r.split(':')) {

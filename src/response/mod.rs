@@ -30,6 +30,9 @@ mod strength;
 mod volume;
 mod von_mises;
 
+pub(crate) use arguments::component_and_options;
+pub(crate) use strength::aggregation_and_relaxation;
+
 use std::fmt;
 
 use crate::error::SettingsError;

@@ -56,7 +56,7 @@ pub(super) const BUCKLING: Kind = Kind {
 
 /// The options of an aggregate: `p=P` or `ks=RHO,scale=S` ([`Aggregation::parse`]) and the
 /// relaxation `q=Q` in `[0, 1]` ([`DEFAULT_RELAXATION`] if not given).
-pub(super) fn aggregation_and_relaxation(options: &Options) -> Result<(Aggregation, f64), String> {
+pub(crate) fn aggregation_and_relaxation(options: &Options) -> Result<(Aggregation, f64), String> {
     only(options, &["p", "ks", "scale", "q"])?;
     let aggregation = Aggregation::parse(
         option(options, "p"),

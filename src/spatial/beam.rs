@@ -41,7 +41,8 @@ use crate::group::{six, split, Frame};
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
-use crate::spatial::section::Section;
+use crate::spatial::section::{Section, MAX_FIBRES};
+use crate::spatial::stress::von_mises;
 
 /// The strain–displacement matrix `B` on the twelve local unknowns.
 type Strain = SMatrix<f64, 6, 12>;
@@ -60,6 +61,9 @@ pub struct Beam {
     /// `Γ₀` and `ψ₀`: the strains' values at the start.
     pub(crate) reference: Vector6<f64>,
     pub(crate) pair: Pair,
+    /// The density its design variable gives it, 1 where none does (the stresses'
+    /// relaxation reads it).
+    pub density: f64,
     /// `E_A`, `E_B` as matrices, kept with the offsets.
     axes: [Matrix3<f64>; 2],
 }
@@ -117,6 +121,7 @@ impl Beam {
                 nodes: [Some(nodes[0]), Some(nodes[1])],
                 arms: [Vector3::zeros(); 2],
             },
+            density: 1.0,
             axes: offsets.map(|e| e.to_rotation_matrix().into_inner()),
         };
         beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
@@ -406,6 +411,35 @@ impl Element for Beam {
     fn strain_energy(&self, q: &[f64]) -> f64 {
         let e = self.strains(&self.kinematics(q));
         0.5 * self.length * e.dot(&self.elasticity().component_mul(&e))
+    }
+
+    fn length(&self) -> f64 {
+        self.length
+    }
+
+    fn density(&self) -> f64 {
+        self.density
+    }
+
+    /// The von Mises stresses at the section's fibres ([`crate::spatial::stress`]).
+    fn stresses(&self, q: &[f64], out: &mut [f64; MAX_FIBRES]) -> usize {
+        let eps = self.strains(&self.kinematics(q));
+        let fibres = &self.section.fibres;
+        for (o, fibre) in out.iter_mut().zip(fibres.iter()) {
+            *o = von_mises(&eps, fibre, self.section.moduli).0;
+        }
+        fibres.len()
+    }
+
+    /// `Bᵀ Σ_k w_k ∂σ_k/∂ε`.
+    fn stress_gradient(&self, q: &[f64], weights: &[f64]) -> Local {
+        let k = self.kinematics(q);
+        let eps = self.strains(&k);
+        let slope: Vector6<f64> = (weights.iter())
+            .zip(self.section.fibres.iter())
+            .map(|(w, fibre)| von_mises(&eps, fibre, self.section.moduli).1 * *w)
+            .sum();
+        Self::on_nodes(self.strain_matrix(&k), &self.axes).transpose() * slope
     }
 }
 

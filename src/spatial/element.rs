@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::group::{six, NV};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
+use crate::spatial::section::MAX_FIBRES;
 
 /// An element's forces at one state, on its twelve local unknowns.
 pub(crate) struct Terms {
@@ -63,6 +64,20 @@ pub(crate) trait Element {
 
     /// The strain energy's derivative in the nodes' algebra at `q`: the elastic forces.
     fn elastic_force(&self, q: &[f64]) -> Local;
+
+    /// Its length at the start (m).
+    fn length(&self) -> f64;
+
+    /// The density its design variable gives it (1 where none does): what a stress
+    /// criterion's relaxation `x^q` reads ([`crate::spatial::stress`]).
+    fn density(&self) -> f64;
+
+    /// The solid material's stresses at its fibres at `q` (Pa) — a beam's von Mises
+    /// stresses, a bar's axial stress — into `out`; how many there are.
+    fn stresses(&self, q: &[f64], out: &mut [f64; MAX_FIBRES]) -> usize;
+
+    /// `Σ_k w_k ∂σ_k/∂q` in the nodes' algebra at `q`, a weight `w_k` per fibre.
+    fn stress_gradient(&self, q: &[f64], weights: &[f64]) -> Local;
 
     /// Its nodes.
     fn nodes(&self) -> [usize; 2] {

@@ -67,3 +67,4 @@ pub mod truss;
 pub(crate) mod assembly;
 pub(crate) mod element;
 pub(crate) mod pair;
+pub(crate) mod stress;

@@ -10,6 +10,14 @@
 //! `I₂ = ∫ x₃² dA` and `I₃ = ∫ x₂² dA` are the second moments about `e₂` and `e₃`, `J` the
 //! torsion constant (the polar moment for a circle, less for a rectangle), `κ` Cowper's
 //! shear coefficients. Units SI.
+//!
+//! A section also names the points where its stresses are read ([`Fibre`]): the solid and
+//! hollow circles' outer edge every 45°, where bending about any axis peaks and the torsion's
+//! shear `τ = T r/J` is largest; a rectangle's corners, where biaxial bending peaks and the
+//! torsion's shear vanishes, and the middles of its long sides (all four of a square's),
+//! where the torsion's shear peaks at Roark's
+//! `τ_max = 3T/(8ab²) (1 + 0.6095 r + 0.8865 r² − 1.8023 r³ + 0.9100 r⁴)`, `2a ≥ 2b` the
+//! sides, `r = b/a` (Roark's *Formulas for Stress and Strain*, table 10.7; within 1 %).
 
 use std::f64::consts::PI;
 
@@ -37,7 +45,98 @@ pub enum Shape {
     },
 }
 
-/// A section's geometry: area, second moments, torsion constant, shear coefficients.
+/// The most points a section's stresses are read at.
+pub const MAX_FIBRES: usize = 8;
+
+/// A point of a section where its stresses are read: `σ = E (Γ₁ + κ₂ z − κ₃ y)` from the
+/// stretch and the bending, `τ = G κ₁ c` from the torsion.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Fibre {
+    /// Its coordinate along `e₂` (m).
+    pub y: f64,
+    /// Its coordinate along `e₃` (m).
+    pub z: f64,
+    /// `c`, the torsion's shear stress there per `G κ₁` (m): a circle's radius.
+    pub torsion: f64,
+}
+
+/// The points of a section where its stresses are read (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fibres {
+    points: [Fibre; MAX_FIBRES],
+    count: usize,
+}
+
+impl Fibres {
+    fn new(points: &[Fibre]) -> Self {
+        let mut all = [Fibre::default(); MAX_FIBRES];
+        all[..points.len()].copy_from_slice(points);
+        Self {
+            points: all,
+            count: points.len(),
+        }
+    }
+
+    /// A circle's edge of radius `r` every 45°, its torsion's shear `G κ₁ r` there.
+    fn circle(r: f64) -> Self {
+        let at = |k: usize| {
+            let phi = k as f64 * PI / 4.0;
+            Fibre {
+                y: r * phi.cos(),
+                z: r * phi.sin(),
+                torsion: r,
+            }
+        };
+        Self::new(&std::array::from_fn::<_, MAX_FIBRES, _>(at))
+    }
+
+    /// A rectangle `b` along `e₂` by `h` along `e₃` of torsion constant `j`: its corners
+    /// and the middles of its long sides (module docs).
+    fn rectangle(b: f64, h: f64, j: f64) -> Self {
+        let (a, t) = (0.5 * b.max(h), 0.5 * b.min(h));
+        let r = t / a;
+        // τ_max = T c / J with T = G J κ₁: c = J τ_max / T.
+        let c = j * 3.0 / (8.0 * a * t * t)
+            * (1.0 + 0.6095 * r + 0.8865 * r.powi(2) - 1.8023 * r.powi(3) + 0.91 * r.powi(4));
+        let corner = |sy: f64, sz: f64| Fibre {
+            y: sy * 0.5 * b,
+            z: sz * 0.5 * h,
+            torsion: 0.0,
+        };
+        let mut points = vec![
+            corner(1.0, 1.0),
+            corner(-1.0, 1.0),
+            corner(-1.0, -1.0),
+            corner(1.0, -1.0),
+        ];
+        let middle = |y: f64, z: f64| Fibre { y, z, torsion: c };
+        if h >= b {
+            points.extend([middle(0.5 * b, 0.0), middle(-0.5 * b, 0.0)]);
+        }
+        if b >= h {
+            points.extend([middle(0.0, 0.5 * h), middle(0.0, -0.5 * h)]);
+        }
+        Self::new(&points)
+    }
+
+    /// The points.
+    pub fn iter(&self) -> impl Iterator<Item = &Fibre> {
+        self.points[..self.count].iter()
+    }
+
+    /// How many there are.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+}
+
+/// A section's geometry: area, second moments, torsion constant, shear coefficients, the
+/// points its stresses are read at.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Geometry {
     /// Area `A` (m²).
@@ -50,6 +149,8 @@ pub struct Geometry {
     pub torsion: f64,
     /// Shear coefficients `κ₂, κ₃` (shear along `e₂`, along `e₃`).
     pub shear: [f64; 2],
+    /// Where its stresses are read.
+    pub fibres: Fibres,
 }
 
 impl Shape {
@@ -67,6 +168,7 @@ impl Shape {
                     i3: i,
                     torsion: 2.0 * i,
                     shear: [kappa; 2],
+                    fibres: Fibres::circle(0.5 * d),
                 })
             }
             Shape::HollowCircle { outer, inner } => {
@@ -82,6 +184,7 @@ impl Shape {
                     i3: i,
                     torsion: 2.0 * i,
                     shear: [kappa; 2],
+                    fibres: Fibres::circle(0.5 * outer),
                 })
             }
             Shape::Rectangle { b, h } => {
@@ -91,12 +194,14 @@ impl Shape {
                 // J = a t³ (1/3 − 0.21 (t/a)(1 − t⁴/(12 a⁴))), a ≥ t the long and short sides.
                 let (a, t) = (b.max(h), b.min(h));
                 let r = t / a;
+                let torsion = a * t.powi(3) * (1.0 / 3.0 - 0.21 * r * (1.0 - r.powi(4) / 12.0));
                 Some(Geometry {
                     area: b * h,
                     i2: b * h.powi(3) / 12.0,
                     i3: h * b.powi(3) / 12.0,
-                    torsion: a * t.powi(3) * (1.0 / 3.0 - 0.21 * r * (1.0 - r.powi(4) / 12.0)),
+                    torsion,
                     shear: [kappa; 2],
+                    fibres: Fibres::rectangle(b, h, torsion),
                 })
             }
         }
@@ -127,6 +232,11 @@ pub struct Section {
     pub alpha: f64,
     /// `β` (s): Kelvin–Voigt damping of the strains.
     pub beta: f64,
+    /// The solid material's Young's and shear moduli `E`, `G` (Pa): what its stresses are
+    /// read with at any density.
+    pub moduli: [f64; 2],
+    /// Where its stresses are read.
+    pub fibres: Fibres,
 }
 
 impl Section {
@@ -139,6 +249,7 @@ impl Section {
             i3,
             torsion,
             shear,
+            fibres,
         } = *geometry;
         Self {
             area,
@@ -148,6 +259,8 @@ impl Section {
             rho_i: [rho * (i2 + i3), rho * i2, rho * i3],
             alpha: 0.0,
             beta: 0.0,
+            moduli: [e, g],
+            fibres,
         }
     }
 
@@ -226,5 +339,36 @@ mod tests {
         }
         .geometry(0.3)
         .is_none());
+    }
+
+    /// The torsion's peak shear `T c/J` against Timoshenko & Goodier's `T/(α h b²)` for
+    /// rectangles `h/b` = 1, 2, 10 (α = 0.208, 0.246, 0.312), within 1 %, on the long sides'
+    /// middles; a circle's `16T/(πd³)` exactly; the corners' none; the fibres on the edge.
+    #[test]
+    fn fibres_carry_the_torsions_textbook_peak_shear() {
+        for (ratio, alpha) in [(1.0, 0.208), (2.0, 0.246), (10.0, 0.312)] {
+            let (b, h) = (0.01, 0.01 * ratio);
+            let g = Shape::Rectangle { b, h }.geometry(0.3).unwrap();
+            let peak = g.fibres.iter().map(|f| f.torsion).fold(0.0, f64::max) / g.torsion;
+            assert!(
+                (peak * alpha * h * b * b - 1.0).abs() < 0.01,
+                "{ratio}: {peak}"
+            );
+            for f in g.fibres.iter() {
+                let corner = f.y.abs() == 0.5 * b && f.z.abs() == 0.5 * h;
+                let edge = f.y.abs() == 0.5 * b || f.z.abs() == 0.5 * h;
+                assert!(corner == (f.torsion == 0.0) && edge);
+            }
+            let square = ratio == 1.0;
+            assert_eq!(g.fibres.len(), if square { 8 } else { 6 });
+        }
+        let d = 0.03;
+        let circle = Shape::SolidCircle { d }.geometry(0.3).unwrap();
+        for f in circle.fibres.iter() {
+            assert!(
+                (f.torsion / circle.torsion - 16.0 / (PI * d.powi(3))).abs() < 1e-9 / d.powi(3)
+            );
+            assert!(((f.y * f.y + f.z * f.z).sqrt() - d / 2.0).abs() < 1e-15);
+        }
     }
 }

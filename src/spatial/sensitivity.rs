@@ -28,6 +28,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
+use crate::response::aggregation::Aggregation;
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::nearly_symmetric::NearlySymmetric;
@@ -39,6 +40,7 @@ use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::Stiffness;
 use crate::spatial::rigid::rigid_trajectories;
+use crate::spatial::section::MAX_FIBRES;
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
 
@@ -96,10 +98,30 @@ pub enum Parameter {
         /// The bar.
         truss: usize,
     },
+    /// A beam's density `x` as a stress response's relaxation `x^q` reads it, at its value:
+    /// the mechanism does not read it (its stiffness and mass factors above carry the
+    /// density's laws), so it enters responses only, explicitly.
+    BeamDensity {
+        /// The beam.
+        beam: usize,
+    },
+    /// A truss bar's density as a stress response's relaxation reads it.
+    TrussDensity {
+        /// The bar.
+        truss: usize,
+    },
+}
+
+impl Parameter {
+    /// Whether only responses read it (no force or constraint does): its derivative is
+    /// the explicit one, with no sweep.
+    fn explicit_only(&self) -> bool {
+        matches!(self, Self::BeamDensity { .. } | Self::TrussDensity { .. })
+    }
 }
 
 /// A response of a spatial motion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Response {
     /// A coordinate of a body's centre of mass at the end of the run (m).
     Position {
@@ -132,6 +154,15 @@ pub enum Response {
     Deflection {
         /// The node: the tip.
         node: usize,
+    },
+    /// The relaxed stresses `x^q σ` of every beam's fibres and every bar (Pa), condensed over
+    /// the run, the elements and their fibres by a p-mean or KS mean
+    /// ([`crate::spatial::stress`]).
+    Stress {
+        /// The mean.
+        aggregation: Aggregation,
+        /// The relaxation exponent `q` in `[0, 1]`.
+        relaxation: f64,
     },
 }
 
@@ -179,11 +210,11 @@ fn check(
                 body(b, format!("responses[{k}]"))?;
                 axis(a, k)?;
             }
-            Response::StrainEnergy => {
+            Response::StrainEnergy | Response::Stress { .. } => {
                 if model.elements().next().is_none() {
                     return Err(SettingsError::new(
                         format!("responses[{k}]"),
-                        "the mechanism has no beams or bars: no strain energy",
+                        "the mechanism has no beams or bars: no strain energy or stresses",
                     ));
                 }
             }
@@ -228,7 +259,9 @@ fn check(
                     ));
                 }
             }
-            Parameter::BeamStiffness { beam } | Parameter::BeamMass { beam } => {
+            Parameter::BeamStiffness { beam }
+            | Parameter::BeamMass { beam }
+            | Parameter::BeamDensity { beam } => {
                 if beam >= model.beams.len() {
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
@@ -236,7 +269,9 @@ fn check(
                     ));
                 }
             }
-            Parameter::TrussStiffness { truss } | Parameter::TrussMass { truss } => {
+            Parameter::TrussStiffness { truss }
+            | Parameter::TrussMass { truss }
+            | Parameter::TrussDensity { truss } => {
                 if truss >= model.trusses.len() {
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
@@ -292,29 +327,35 @@ pub fn sensitivities(
         let paths = rigid_trajectories(model, settings, grid, &tips)?;
         sweep.rigid = tips.into_iter().zip(paths).collect();
     }
+    sweep.prepare_stresses(responses);
     let values = responses.iter().map(|r| sweep.value(r)).collect();
+    let swept = swept(parameters);
     let adjoint = match method {
         Method::Direct => false,
         Method::Adjoint => true,
-        Method::Auto => responses.len() < parameters.len(),
+        Method::Auto => responses.len() < swept.len(),
     };
-    let mut gradient: Vec<Vec<f64>> = if adjoint {
+    let gradient: Vec<Vec<f64>> = if adjoint {
         responses
             .iter()
-            .map(|r| sweep.adjoint(r, parameters))
+            .map(|r| sweep.adjoint(r, &swept))
             .collect::<Result<_, _>>()?
     } else {
-        let by_parameter = sweep.direct(parameters, responses)?;
+        let by_parameter = sweep.direct(&swept, responses)?;
         (0..responses.len())
             .map(|k| by_parameter.iter().map(|g| g[k]).collect())
             .collect()
     };
-    for (g, r) in gradient.iter_mut().zip(responses) {
-        for (gi, p) in g.iter_mut().zip(parameters) {
-            *gi += sweep.explicit(r, p);
-        }
-    }
+    let gradient = sweep.with_explicit(responses, parameters, &gradient);
     Ok(Gradients { values, gradient })
+}
+
+/// The parameters a sweep carries: those the mechanism reads.
+fn swept(parameters: &[Parameter]) -> Vec<Parameter> {
+    (parameters.iter())
+        .filter(|p| !p.explicit_only())
+        .copied()
+        .collect()
 }
 
 /// The responses of the static equilibrium of `model` ([`solve_static_spatial`]) and their
@@ -360,8 +401,11 @@ pub fn static_sensitivities(
         h: 0.0,
     }];
     let mut sweep = Sweep::new(model, None, &states)?;
+    sweep.prepare_stresses(responses);
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     sweep.factorize_equilibrium()?;
+    let (all, swept) = (parameters, swept(parameters));
+    let parameters = &swept[..];
     let adjoint = match method {
         Method::Direct => false,
         Method::Adjoint => true,
@@ -392,11 +436,7 @@ pub fn static_sensitivities(
             }
         }
     }
-    for (g, r) in gradient.iter_mut().zip(responses) {
-        for (gi, p) in g.iter_mut().zip(parameters) {
-            *gi += sweep.explicit(r, p);
-        }
-    }
+    let gradient = sweep.with_explicit(responses, all, &gradient);
     Ok(Gradients { values, gradient })
 }
 
@@ -418,6 +458,18 @@ struct Sweep<'m> {
     /// The rigid trajectory of each node a [`Response::Deflection`] names, a position per
     /// state.
     rigid: Vec<(usize, Vec<Vector3<f64>>)>,
+    /// Each [`Response::Stress`]'s mean over the run.
+    means: Vec<(Response, StressMean)>,
+}
+
+/// A stress response's mean over the run and what its derivatives read: the reference `r`
+/// its sum is kept relative to (the peak) and `d mean/dS`
+/// ([`crate::response::aggregation`]).
+#[derive(Debug, Clone, Copy)]
+struct StressMean {
+    mean: f64,
+    peak: f64,
+    slope: f64,
 }
 
 /// The most right-hand sides per factorization solved by refinement on the symmetric part's
@@ -500,6 +552,16 @@ fn gather(joint: &Joint, v: &[f64]) -> Local {
     local
 }
 
+/// Adds an element's local forces to a six-per-node vector.
+fn add_element_local(e: &dyn Element, local: &Local, out: &mut [f64]) {
+    for (side, node) in e.nodes().into_iter().enumerate() {
+        out[NV * node..NV * node + NV]
+            .iter_mut()
+            .zip(&local.as_slice()[NV * side..NV * side + NV])
+            .for_each(|(o, x)| *o += x);
+    }
+}
+
 /// Adds a joint's local forces to a six-per-node vector.
 fn scatter(joint: &Joint, local: &Local, out: &mut [f64]) {
     for (side, node) in joint.local_nodes() {
@@ -528,7 +590,145 @@ impl<'m> Sweep<'m> {
             many_solves: false,
             restarted: vec![false; states.len()],
             rigid: Vec::new(),
+            means: Vec::new(),
         })
+    }
+
+    /// Each stress response's mean over the run, made once for its value and its seeds.
+    fn prepare_stresses(&mut self, responses: &[Response]) {
+        for r in responses {
+            if let Response::Stress {
+                aggregation,
+                relaxation,
+            } = *r
+            {
+                if !self.means.iter().any(|(known, _)| known == r) {
+                    let mean = self.stress_mean(&aggregation, relaxation);
+                    self.means.push((*r, mean));
+                }
+            }
+        }
+    }
+
+    /// The mean of a stress response ([`Sweep::prepare_stresses`] made it).
+    fn mean_of(&self, r: &Response) -> StressMean {
+        let found = self.means.iter().find(|(known, _)| known == r);
+        found.expect("stress means are prepared first").1
+    }
+
+    /// Element `e`'s stresses at state `n` into `out`, how many, and their weight each in a
+    /// stress mean (module docs of [`crate::spatial::stress`]; `total` the elements' length).
+    fn element_stresses(
+        &self,
+        n: usize,
+        e: &dyn Element,
+        total: f64,
+        out: &mut [f64; MAX_FIBRES],
+    ) -> (usize, f64) {
+        let count = e.stresses(&self.states[n].q, out);
+        let time = self.weight(n) / self.duration();
+        (count, time * e.length() / (total * count as f64))
+    }
+
+    /// The elements' length (m), the stress means' measure.
+    fn total_length(&self) -> f64 {
+        self.model().elements().map(|e| e.length()).sum()
+    }
+
+    /// The p-mean or KS mean of `x^q σ` over the run, the elements and their fibres: its
+    /// peak first, then the sum relative to it.
+    fn stress_mean(&self, a: &Aggregation, relaxation: f64) -> StressMean {
+        let total = self.total_length();
+        let mut out = [0.0; MAX_FIBRES];
+        let (mut peak, mut sum) = (0.0f64, 0.0);
+        for pass in 0..2 {
+            for n in 0..self.states.len() {
+                for e in self.model().elements() {
+                    let (count, w) = self.element_stresses(n, e, total, &mut out);
+                    let x = e.density().powf(relaxation);
+                    for sigma in &out[..count] {
+                        match pass {
+                            0 => peak = peak.max((x * sigma).abs()),
+                            _ => sum += w * a.point(x * sigma, peak).0,
+                        }
+                    }
+                }
+            }
+        }
+        let (mean, slope) = a.mean(sum, peak);
+        StressMean { mean, peak, slope }
+    }
+
+    /// A stress mean's derivative to the states at state `n`, added to `eps`.
+    fn add_stress_seed(&self, r: &Response, n: usize, eps: &mut [f64]) {
+        let Response::Stress {
+            aggregation,
+            relaxation,
+        } = *r
+        else {
+            return;
+        };
+        let (m, total) = (self.mean_of(r), self.total_length());
+        let (mut out, mut weights) = ([0.0; MAX_FIBRES], [0.0; MAX_FIBRES]);
+        for e in self.model().elements() {
+            let (count, w) = self.element_stresses(n, e, total, &mut out);
+            let x = e.density().powf(relaxation);
+            for (weight, sigma) in weights.iter_mut().zip(&out[..count]) {
+                *weight = m.slope * w * aggregation.point(x * sigma, m.peak).1 * x;
+            }
+            let local = e.stress_gradient(&self.states[n].q, &weights[..count]);
+            add_element_local(e, &local, eps);
+        }
+    }
+
+    /// A stress mean's explicit derivative to element `e`'s density: its relaxation's,
+    /// `Σ ∂mean/∂(x^q σ) q x^{q−1} σ`.
+    fn relaxation_rate(&self, r: &Response, e: &dyn Element) -> f64 {
+        let Response::Stress {
+            aggregation,
+            relaxation,
+        } = *r
+        else {
+            return 0.0;
+        };
+        if relaxation == 0.0 {
+            return 0.0;
+        }
+        let (m, total) = (self.mean_of(r), self.total_length());
+        let (x, mut out) = (e.density(), [0.0; MAX_FIBRES]);
+        let (relaxed, rate) = (x.powf(relaxation), relaxation * x.powf(relaxation - 1.0));
+        let mut sum = 0.0;
+        for n in 0..self.states.len() {
+            let (count, w) = self.element_stresses(n, e, total, &mut out);
+            for sigma in &out[..count] {
+                sum += w * aggregation.point(relaxed * sigma, m.peak).1 * rate * sigma;
+            }
+        }
+        m.slope * sum
+    }
+
+    /// The gradients of the swept parameters spread over `parameters` (zero where a
+    /// parameter was not swept), each with its explicit part added.
+    fn with_explicit(
+        &self,
+        responses: &[Response],
+        parameters: &[Parameter],
+        swept: &[Vec<f64>],
+    ) -> Vec<Vec<f64>> {
+        (responses.iter().zip(swept))
+            .map(|(r, g)| {
+                let mut carried = g.iter();
+                (parameters.iter())
+                    .map(|p| {
+                        let implicit = match p.explicit_only() {
+                            true => 0.0,
+                            false => *carried.next().expect("one per swept parameter"),
+                        };
+                        implicit + self.explicit(r, p)
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     fn model(&self) -> &'m SpatialModel {
@@ -549,6 +749,7 @@ impl<'m> Sweep<'m> {
                     .sum()
             }
             Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::Stress { .. } => self.mean_of(r).mean,
             Response::Deflection { node } => {
                 (0..self.states.len())
                     .map(|n| self.weight(n) * self.deflection(node, n).norm_squared())
@@ -596,8 +797,18 @@ impl<'m> Sweep<'m> {
     /// A response's explicit partial derivative to a parameter (at fixed states): an
     /// element's stiffness factor scales its strain energy.
     fn explicit(&self, r: &Response, p: &Parameter) -> f64 {
-        match (r, self.element_of(p)) {
-            (Response::StrainEnergy, Some((element, true))) => self.energy(element),
+        let model = self.model();
+        match (r, p) {
+            (Response::Stress { .. }, Parameter::BeamDensity { beam }) => {
+                self.relaxation_rate(r, &model.beams[*beam])
+            }
+            (Response::Stress { .. }, Parameter::TrussDensity { truss }) => {
+                self.relaxation_rate(r, &model.trusses[*truss])
+            }
+            (Response::StrainEnergy, _) => match self.element_of(p) {
+                Some((element, true)) => self.energy(element),
+                _ => 0.0,
+            },
             _ => 0.0,
         }
     }
@@ -648,15 +859,10 @@ impl<'m> Sweep<'m> {
             Response::StrainEnergy => {
                 let w = self.weight(n);
                 for e in self.model().elements() {
-                    let f = e.elastic_force(&self.states[n].q);
-                    for (side, node) in e.nodes().into_iter().enumerate() {
-                        eps[NV * node..NV * node + NV]
-                            .iter_mut()
-                            .zip(&f.as_slice()[NV * side..NV * side + NV])
-                            .for_each(|(e, x)| *e += w * x);
-                    }
+                    add_element_local(e, &(e.elastic_force(&self.states[n].q) * w), eps);
                 }
             }
+            Response::Stress { .. } => self.add_stress_seed(r, n, eps),
         }
     }
 
@@ -708,6 +914,7 @@ impl<'m> Sweep<'m> {
                 self.element_load(&model.trusses[truss], true, n)
             }
             Parameter::TrussMass { truss } => self.element_load(&model.trusses[truss], false, n),
+            Parameter::BeamDensity { .. } | Parameter::TrussDensity { .. } => ([None, None], local),
         }
     }
 

@@ -20,7 +20,7 @@ use crate::group::Frame;
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
-use crate::spatial::section::Section;
+use crate::spatial::section::{Section, MAX_FIBRES};
 
 /// A truss bar (module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +37,11 @@ pub struct Truss {
     pub rayleigh: [f64; 2],
     /// Its length at the start `L` (m).
     pub length: f64,
+    /// The solid material's Young's modulus `E` (Pa): its stress at any density.
+    pub modulus: f64,
+    /// The density its design variable gives it, 1 where none does (the stress's
+    /// relaxation reads it).
+    pub density: f64,
     pub(crate) pair: Pair,
 }
 
@@ -58,6 +63,8 @@ impl Truss {
             rho_a: section.rho_a,
             rayleigh: [section.alpha, section.beta],
             length,
+            modulus: section.moduli[0],
+            density: 1.0,
             pair: Pair {
                 nodes: [Some(nodes[0]), Some(nodes[1])],
                 arms: [Vector3::zeros(); 2],
@@ -78,6 +85,14 @@ impl Truss {
         let d = b - a;
         let l = d.norm();
         (d / l, l, (l - self.length) / self.length)
+    }
+
+    /// A pair of forces `∓ n t` on A's and B's positions.
+    fn along(n: &Vector3<f64>, t: f64) -> Local {
+        let mut out = Local::zeros();
+        out.fixed_rows_mut::<3>(0).copy_from(&(-n * t));
+        out.fixed_rows_mut::<3>(6).copy_from(&(n * t));
+        out
     }
 
     /// Writes `block` into a local matrix on B's position, its opposite on A's.
@@ -108,9 +123,7 @@ impl Element for Truss {
         let w = rates.fixed_rows::<3>(6) - rates.fixed_rows::<3>(0);
         let [alpha, beta] = self.rayleigh;
         let axial = self.ea * (strain + beta * n.dot(&w) / self.length);
-        let mut internal = Local::zeros();
-        internal.fixed_rows_mut::<3>(0).copy_from(&(-n * axial));
-        internal.fixed_rows_mut::<3>(6).copy_from(&(n * axial));
+        let internal = Self::along(&n, axial);
         let mass = self.mass_matrix();
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
         let mut inertia = mass * (accelerations + rates * alpha);
@@ -144,12 +157,26 @@ impl Element for Truss {
 
     fn elastic_force(&self, q: &[f64]) -> Local {
         let (n, _, strain) = self.geometry(q);
-        let mut out = Local::zeros();
-        out.fixed_rows_mut::<3>(0)
-            .copy_from(&(-n * (self.ea * strain)));
-        out.fixed_rows_mut::<3>(6)
-            .copy_from(&(n * (self.ea * strain)));
-        out
+        Self::along(&n, self.ea * strain)
+    }
+
+    fn length(&self) -> f64 {
+        self.length
+    }
+
+    fn density(&self) -> f64 {
+        self.density
+    }
+
+    /// Its axial stress `E (l − L)/L`, signed.
+    fn stresses(&self, q: &[f64], out: &mut [f64; MAX_FIBRES]) -> usize {
+        out[0] = self.modulus * self.geometry(q).2;
+        1
+    }
+
+    fn stress_gradient(&self, q: &[f64], weights: &[f64]) -> Local {
+        let (n, ..) = self.geometry(q);
+        Self::along(&n, weights[0] * self.modulus / self.length)
     }
 }
 

@@ -13,6 +13,7 @@ use flextop::spatial::model::SpatialModel;
 use flextop::spatial::section::{Geometry, Section, Shape};
 use flextop::spatial::sensitivity::{Parameter, Response};
 use flextop::spatial::statics::solve_static_spatial;
+use flextop::Aggregation;
 use flextop::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -69,6 +70,10 @@ fn bend(elements: usize, gravity: f64, load: f64) -> (SpatialModel, usize) {
         i3: 1.0 / 12.0,
         torsion: 1.0 / 6.0,
         shear: [1.0, 1.0],
+        fibres: Shape::Rectangle { b: 1.0, h: 1.0 }
+            .geometry(0.0)
+            .expect("a unit square")
+            .fibres,
     };
     let section = Section::new(&square, 1e7, 5e6, 1.0);
     let points: Vec<Vector3<f64>> = (0..=elements)
@@ -330,12 +335,17 @@ fn flexible_pendulum_gradients() {
         Response::NodePosition { node: 3, axis: 2 },
         Response::Effort { joint: 0, row: 2 },
         Response::StrainEnergy,
+        Response::Stress {
+            aggregation: Aggregation::PMean { p: 8.0 },
+            relaxation: 0.5,
+        },
     ];
     let parameters = [
         Parameter::BeamStiffness { beam: 0 },
         Parameter::BeamStiffness { beam: 2 },
         Parameter::BeamMass { beam: 1 },
         Parameter::Mass { body: bob },
+        Parameter::BeamDensity { beam: 1 },
     ];
     check(
         &m,

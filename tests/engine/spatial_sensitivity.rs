@@ -53,6 +53,8 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         }
         Parameter::TrussStiffness { truss } => m.trusses[truss].ea *= 1.0 + e,
         Parameter::TrussMass { truss } => m.trusses[truss].rho_a *= 1.0 + e,
+        Parameter::BeamDensity { beam } => m.beams[beam].density += e,
+        Parameter::TrussDensity { truss } => m.trusses[truss].density += e,
     }
     m
 }
@@ -85,7 +87,9 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
         Parameter::BeamStiffness { .. }
         | Parameter::BeamMass { .. }
         | Parameter::TrussStiffness { .. }
-        | Parameter::TrussMass { .. } => 1e-3,
+        | Parameter::TrussMass { .. }
+        | Parameter::BeamDensity { .. }
+        | Parameter::TrussDensity { .. } => 1e-3,
     }
 }
 

@@ -5,8 +5,9 @@
 //! density is read off the engine's factors on an element's stiffness `σ_e` and mass `μ_e`
 //! (at 1, [`Parameter::BeamStiffness`] …):
 //!
-//! `∂f/∂x_i = Σ_e (s'(x_i)/s(x_i)) ∂f/∂σ_e + (m'(x_i)/m(x_i)) ∂f/∂μ_e` over the variable's
-//! elements.
+//! `∂f/∂x_i = Σ_e (s'(x_i)/s(x_i)) ∂f/∂σ_e + (m'(x_i)/m(x_i)) ∂f/∂μ_e + ∂f/∂x_e` over the
+//! variable's elements, the last the explicit derivative of a stress response's relaxation
+//! `x_e^q` ([`Parameter::BeamDensity`]).
 
 use std::borrow::Cow;
 
@@ -38,8 +39,14 @@ impl SpatialScene {
             let (s, m) = (law.stiffness(x[i]), mass.mass(x[i]));
             for &e in &beam.elements {
                 match beam.truss {
-                    true => model.trusses[e].scale(s, m),
-                    false => model.beams[e].scale(s, m),
+                    true => {
+                        model.trusses[e].scale(s, m);
+                        model.trusses[e].density = x[i];
+                    }
+                    false => {
+                        model.beams[e].scale(s, m);
+                        model.beams[e].density = x[i];
+                    }
                 }
             }
         }
@@ -76,17 +83,19 @@ impl SpatialScene {
             let ds = law.stiffness_derivative(x[i]) / law.stiffness(x[i]);
             let dm = mass.mass_derivative(x[i]) / mass.mass(x[i]);
             for &e in &beam.elements {
-                let (stiffness, inertia) = match beam.truss {
+                let (stiffness, inertia, density) = match beam.truss {
                     true => (
                         Parameter::TrussStiffness { truss: e },
                         Parameter::TrussMass { truss: e },
+                        Parameter::TrussDensity { truss: e },
                     ),
                     false => (
                         Parameter::BeamStiffness { beam: e },
                         Parameter::BeamMass { beam: e },
+                        Parameter::BeamDensity { beam: e },
                     ),
                 };
-                named[i].extend([(stiffness, ds), (inertia, dm)]);
+                named[i].extend([(stiffness, ds), (inertia, dm), (density, 1.0)]);
             }
         }
         named

@@ -6,7 +6,11 @@
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
 //! motor must give, integrated), `tip_deflection` and `tip_deflection:NAME` (the mean squared
 //! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
-//! trajectory, m², paper Eq. 40).
+//! trajectory, m², paper Eq. 40), `stress[:OPTIONS]` (the relaxed stresses `x^q σ` of every
+//! beam's section points and every bar, von Mises, condensed over the run and the structure,
+//! Pa, [`crate::spatial::stress`]; OPTIONS as a planar scene's: `p=P` a p-mean, 8 by
+//! default, or `ks=RHO,scale=S` a KS mean; `q=Q` the relaxation, 0.5 by default, 0 the solid
+//! material's stress).
 //!
 //! Parameters: `mass:BODY` (kg), `Ixx:BODY` … `Iyz:BODY` (an entry of its inertia tensor
 //! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING` (a torsion spring's in
@@ -16,6 +20,7 @@
 
 use super::SpatialScene;
 use crate::error::SettingsError;
+use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::sensitivity::{Parameter, Response};
 
@@ -35,6 +40,21 @@ const INERTIA: [(&str, usize, usize); 6] = [
     ("Iyz", 1, 2),
 ];
 
+/// `stress[:OPTIONS]` from what follows `stress:` (module docs).
+fn stress(rest: Option<&str>) -> std::result::Result<Response, String> {
+    let (component, options) = component_and_options(rest)?;
+    if let Some(c) = component {
+        return Err(format!(
+            "a spatial stress is the whole structure's; '{c}' is not an option (p=, ks=, scale=, q=)"
+        ));
+    }
+    let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
+    Ok(Response::Stress {
+        aggregation,
+        relaxation,
+    })
+}
+
 impl SpatialScene {
     /// The response called `name` (module docs).
     ///
@@ -47,6 +67,11 @@ impl SpatialScene {
             let body = m.bodies.iter().find(|b| b.name == what).map(|b| b.node);
             body.or_else(|| m.nodes.iter().position(|n| n.name == what))
         };
+        if let Some(rest) = name.strip_prefix("stress") {
+            if rest.is_empty() || rest.starts_with(':') {
+                return stress(rest.strip_prefix(':')).or_else(&bad);
+            }
+        }
         match name {
             "strain_energy" => return Ok(Response::StrainEnergy),
             "tip_deflection" => {
@@ -62,8 +87,8 @@ impl SpatialScene {
         }
         let Some((kind, what)) = name.split_once(':') else {
             return bad(
-                "responses are x:NAME, y:NAME, z:NAME, strain_energy, effort:JOINT or \
-                 tip_deflection[:NAME]"
+                "responses are x:NAME, y:NAME, z:NAME, strain_energy, effort:JOINT, \
+                 tip_deflection[:NAME] or stress[:OPTIONS]"
                     .into(),
             );
         };
@@ -95,7 +120,7 @@ impl SpatialScene {
                 Ok(Response::Effort { joint, row })
             }
             _ => bad(format!(
-                "'{kind}' is not a response kind (x, y, z, strain_energy, effort, tip_deflection)"
+                "'{kind}' is not a response kind (x, y, z, strain_energy, effort, tip_deflection, stress)"
             )),
         }
     }

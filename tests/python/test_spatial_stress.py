@@ -1,0 +1,114 @@
+"""Stresses of spatial beams and bars (``stress[:OPTIONS]``): a rectangular cantilever's bending
+and a tube's torsion against their closed forms, the mean below its peak and growing to it,
+exact gradients through a motion and an equilibrium (beams and truss bars, the relaxation
+``x^q`` included) against fourth-order differences and direct against adjoint, bad options
+named."""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import lattice_cantilever
+from flextop import SettingsError, SpatialScene, SpatialSimulation
+from test_spatial import flexible_pendulum
+
+E, NU = 2.1e11, 0.3
+
+
+def cantilever(section: dict, *, force=(0.0, 0.0, 0.0), moment=(0.0, 0.0, 0.0), split: int = 4) -> SpatialSimulation:
+    """A 1 m steel beam along x clamped at its root, loaded at its end (small loads: linear)."""
+    scene = SpatialScene("cantilever", analysis="static")
+    scene.section("steel", E=E, rho=7850.0, nu=NU, **section)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (1.0, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel", split=split)
+    scene.weld("clamp", "root")
+    scene.load("push", "end", force=force, moment=moment)
+    return SpatialSimulation(scene)
+
+
+def test_a_bent_rectangle_has_the_beam_theory_stress_at_each_elements_middle():
+    """A tip load P along the section's e₂ (its width b) bends the rectangle about e₃: every
+    fibre read (corners, long sides' middles) lies at |y| = b/2, where σ = M b/(2 I₃) with M
+    the moment at the element's middle (one point per element: its curvature is the mean of
+    M/EI over it, exact for the linear moment). The p-mean over four equal elements is
+    (¼ Σ σₑᵖ)^(1/p), at every p."""
+    b, h, split, P = 0.01, 0.02, 4, 1e-3
+    sim = cantilever({"shape": "rectangle", "width": b, "height": h}, force=(0.0, 0.0, P), split=split)
+    middles = (np.arange(split) + 0.5) / split
+    sigma = P * (1.0 - middles) * b / 2 / (h * b**3 / 12)
+    for p in (2.0, 8.0, 32.0):
+        expected = np.mean(sigma**p) ** (1 / p)
+        value = sim.run_with_sensitivities(None, f"stress:p={p:g},q=0").values[0]
+        assert value == pytest.approx(expected, rel=1e-7), p
+
+
+def test_a_twisted_tube_has_the_torsion_shear_everywhere_on_its_edge():
+    """A torque T: τ = T (D/2)/J on the whole outer edge, σ_vM = √3 τ at every fibre of every
+    element, so every p-mean is that, and the KS mean (s/ρ) ln cosh(ρσ/s)."""
+    outer, inner, T = 0.012, 0.010, 1e-3
+    sim = cantilever({"shape": "tube", "outer": outer, "inner": inner}, moment=(T, 0.0, 0.0))
+    sigma = math.sqrt(3) * T * outer / 2 / (math.pi * (outer**4 - inner**4) / 32)
+    for name in ("stress", "stress:p=3,q=0"):
+        assert sim.run_with_sensitivities(None, name).values[0] == pytest.approx(sigma, rel=1e-7), name
+    ks = sim.run_with_sensitivities(None, "stress:ks=50,scale=1e5").values[0]
+    assert ks == pytest.approx(1e5 / 50 * math.log(math.cosh(50 * sigma / 1e5)), rel=1e-7)
+
+
+def test_the_mean_stays_below_its_peak_and_grows_towards_it():
+    """Over a motion: p-means grow with p, never above the KS mean's limit, the peak; the
+    relaxation x^q lowers a light design's stresses."""
+    sim = SpatialSimulation(flexible_pendulum())
+    x = np.array([0.7, 0.3])
+    means = [sim.run_with_sensitivities(x, f"stress:p={p},q=0").values[0] for p in (2, 4, 8, 16, 64, 256)]
+    assert np.all(np.diff(means) > 0), means
+    assert 1 - means[-2] / means[-1] < 0.1
+    relaxed = sim.run_with_sensitivities(x, "stress:p=8,q=1").values[0]
+    assert relaxed < means[2]
+
+
+def assert_gradients(sim: SpatialSimulation, x: np.ndarray, responses: list[str], columns, step: float) -> None:
+    """Direct = adjoint to 1e-9 of the largest entry, fourth-order differences within 1e-6
+    of each response's largest entry."""
+    direct = sim.run_with_sensitivities(x, responses, method="direct")
+    f, adjoint = sim.run_with_sensitivities(x, responses, method="adjoint")
+    scale = np.abs(adjoint).max(axis=1)
+    assert np.all(scale > 0) and np.array_equal(direct.values, f)
+    assert np.all(np.abs(direct.dfdx - adjoint) <= 1e-9 * scale[:, None])
+    for i in columns:
+        def at(k: float) -> np.ndarray:
+            shifted = x.copy()
+            shifted[i] += k * step
+            return sim.run_with_sensitivities(shifted, responses).values
+        fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * step)
+        assert np.all(np.abs(adjoint[:, i] - fd) <= 1e-6 * scale), (i, adjoint[:, i], fd)
+
+
+def test_stress_gradients_over_a_motion_are_exact():
+    sim = SpatialSimulation(flexible_pendulum())
+    responses = ["stress", "stress:p=4,q=0", "stress:ks=20,scale=1e7,q=1"]
+    assert_gradients(sim, np.array([0.7, 0.08]), responses, range(2), 1e-4)
+
+
+@pytest.mark.parametrize("kind", ["frame", "truss"])
+def test_stress_gradients_of_a_lattice_in_equilibrium_are_exact(kind):
+    scene = lattice_cantilever()
+    if kind == "truss":
+        spec = scene.to_dict()
+        spec["ground_structures"][0]["kind"] = "truss"
+        for joint in spec["joints"]:
+            joint["kind"] = "spherical"
+        scene = SpatialScene.from_dict(spec)
+    sim = SpatialSimulation(scene)
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.2, 1.0, sim.n_design)
+    assert_gradients(sim, x, ["stress", "stress:p=16,q=0.3"], rng.choice(sim.n_design, 4, replace=False), 1e-4)
+
+
+@pytest.mark.parametrize(("name", "culprit"), [("stress:p=1", "p=1"), ("stress:q=2", "q=2"), ("stress:box", "box"),
+                                               ("stress:ks=10", "scale"), ("stress:t=3", "'t'"), ("stresses", "stresses")])
+def test_bad_stress_options_are_named(name, culprit):
+    sim = SpatialSimulation(flexible_pendulum())
+    with pytest.raises(SettingsError, match=culprit):
+        sim.run_with_sensitivities(None, name)
