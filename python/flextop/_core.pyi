@@ -238,6 +238,7 @@ class SpatialSensitivityData(TypedDict):
 
     values: _F  # (n_r,)
     gradient: _F  # (n_r, n_p)
+    peaks: list[float | None]  # (n_r,): a stress mean's peak
 
 @final
 class SpatialModel:

@@ -456,7 +456,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
 
 
 SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
-                   "min_frequency", "max_stress", "max_von_mises", "max_buckling", "start", "analysis",
+                   "min_frequency", "max_von_mises", "max_buckling", "start", "analysis",
                    "accuracy", "rtol", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
@@ -471,7 +471,7 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --x0, "
+                            "--global-volume, --max-stress, --x0, "
                             "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
                             "--no-plots, --vtk)")
     sim = SpatialSimulation(spec)
@@ -481,7 +481,8 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
     objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
     fraction = args.volume_fraction or 0.4
     per_structure = not args.global_volume and any("/" in v for v in sim.variables)
-    problem = SpatialProblem(sim, objective, volume=fraction, per_structure=per_structure, **settings)
+    limits = [] if args.max_stress is None else [("stress", args.max_stress)]
+    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, **settings)
     x0 = 0.4 if args.x0 is None else args.x0
     if not sim.x_min <= x0 <= 1.0:
         raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
@@ -698,7 +699,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",
                    help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest two, to 1e-3)")
     o.add_argument("--max-stress", type=_positive(float), metavar="PA",
-                   help="a limit on the peak fibre stress over the motion, relaxed as x^0.5 σ (p-mean normalized to the peak)")
+                   help="a limit on the peak fibre stress over the motion, relaxed as x^0.5 σ (p-mean normalized to the peak); "
+                   "on a spatial scene, the beams' von Mises stress at their sections' edges and the bars' axial stress")
     o.add_argument("--max-von-mises", type=_positive(float), metavar="PA",
                    help="a limit on the peak von Mises stress of the continuum members' cells over the motion, relaxed as "
                    "x^0.5 σ (p-mean normalized to the peak)")

@@ -8,7 +8,7 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
-an equilibrium, J), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
+an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
 (the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³) and ``volume:NAME`` (a ground
 structure's designed bars', paper Eq. 41 per link), ``tip_deflection`` or
 ``tip_deflection:NAME`` (the mean squared deflection ``(1/t_f) ∫ |r − r_rigid|² dt`` of the
@@ -184,6 +184,8 @@ class SpatialSensitivities:
     gradient: np.ndarray
     variables: tuple[str, ...] = ()
     dfdx: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    #: The peak ``max |x^q σ|`` behind each ``stress`` response's mean, by name.
+    peaks: dict[str, float] = field(default_factory=dict)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.dfdx))
@@ -363,11 +365,14 @@ class SpatialSimulation:
             rows = [k for k in range(len(rs)) if k not in volumes]
             values[rows] = np.asarray(r["values"])
             gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
+        peaks: dict[str, float] = {}
+        if engine or not rs:
+            peaks = {name: peak for name, peak in zip(engine, r["peaks"]) if peak is not None}
         xv = np.ones(self.n_design) if design is None else np.asarray(design)
         for k, (weights, fixed) in volumes.items():
             values[k] = fixed + float(weights @ xv)
             gradient[k, len(ps):] = weights
-        return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):])
+        return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
 
     def volume(self, x: DesignLike = None, structure: str | None = None) -> float:
         """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density

@@ -191,12 +191,18 @@ impl PySpatialModel {
         let settings = run_options(settings)?
             .dynamic(&scene.options)
             .map_err(Error::from)?;
+        let design = x.clone();
         let states = reporting(py, progress, move || {
             settings.validate()?;
             let model = scene.model_at(x.as_deref())?;
             simulate_spatial(&model, &settings, &settings.grid())
         })?;
-        let m = &self.scene.model;
+        // The energies of the mechanism at the design it ran at.
+        let model = self
+            .scene
+            .model_at(design.as_deref())
+            .map_err(Error::from)?;
+        let m = &*model;
         let d = PyDict::new(py);
         let column = |f: &dyn Fn(&crate::solver::integrator::State) -> f64| {
             vector(py, states.iter().map(f).collect())
@@ -266,12 +272,17 @@ impl PySpatialModel {
         let settings = run_options(settings)?
             .statics(&scene.options)
             .map_err(Error::from)?;
+        let design = x.clone();
         let eq = detached(py, move || {
             let model = scene.model_at(x.as_deref())?;
             solve_static_spatial(&model, &settings)
         })?;
+        let model = self
+            .scene
+            .model_at(design.as_deref())
+            .map_err(Error::from)?;
         let d = PyDict::new(py);
-        d.set_item("strain", self.scene.model.strain_energy(&eq.q))?;
+        d.set_item("strain", model.strain_energy(&eq.q))?;
         d.set_item("q", vector(py, eq.q))?;
         d.set_item("lam", vector(py, eq.lambda))?;
         d.set_item("iterations", eq.iterations)?;
@@ -313,7 +324,8 @@ impl PySpatialModel {
     /// Responses by name and their exact gradients to parameters by name
     /// ([`crate::scene::spatial::names`]) and to the design's densities (after them), at
     /// design `x` (full density by default), over the motion or, with `equilibrium`, at the
-    /// static equilibrium: `values` and `gradient` (one row per response).
+    /// static equilibrium: `values`, `gradient` (one row per response) and `peaks` (a stress
+    /// mean's peak, `None` for the others).
     #[pyo3(signature = (responses, parameters, settings=None, equilibrium=false, x=None))]
     fn sensitivities<'py>(
         &self,
@@ -352,13 +364,14 @@ impl PySpatialModel {
                     .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
                     .collect::<Vec<f64>>()
             });
-            Ok::<_, Error>((g.values, combined.collect::<Vec<_>>()))
+            Ok::<_, Error>((g.values, combined.collect::<Vec<_>>(), g.peaks))
         })?;
-        let (values, gradient) = found;
+        let (values, gradient, peaks) = found;
         let d = PyDict::new(py);
         let n_p = gradient.first().map_or(0, Vec::len);
         d.set_item("values", vector(py, values))?;
         d.set_item("gradient", Self::rows(py, gradient, n_p)?)?;
+        d.set_item("peaks", peaks)?;
         Ok(d)
     }
 }

@@ -102,14 +102,14 @@ pub(crate) trait Element {
         0.5 * local.dot(&(self.mass_matrix() * local))
     }
 
-    /// Adds its shares of the nodes' momenta `M v` to `out` (six per node).
-    fn add_momenta(&self, v: &[f64], out: &mut [f64]) {
+    /// Adds its shares of the nodes' momenta `M v`, scaled by `w`, to `out` (six per node).
+    fn add_momenta(&self, v: &[f64], w: f64, out: &mut [f64]) {
         let p = self.mass_matrix() * self.local(v);
         for (side, node) in self.nodes().into_iter().enumerate() {
             out[NV * node..NV * node + NV]
                 .iter_mut()
                 .zip(p.fixed_rows::<NV>(NV * side).iter())
-                .for_each(|(o, x)| *o += x);
+                .for_each(|(o, x)| *o += w * x);
         }
     }
 }

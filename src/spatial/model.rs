@@ -768,6 +768,21 @@ impl SpatialModel {
         bodies + self.elements().map(|e| e.kinetic_energy(v)).sum::<f64>()
     }
 
+    /// Adds the momenta `M v` scaled by `w` to `out` (six per node): the kinetic energy's
+    /// derivative to the velocities.
+    pub(crate) fn add_momenta(&self, v: &[f64], w: f64, out: &mut [f64]) {
+        for b in &self.bodies {
+            let p = b.mass_matrix() * nalgebra::Vector6::from(six(v, b.node));
+            out[NV * b.node..NV * b.node + NV]
+                .iter_mut()
+                .zip(p.iter())
+                .for_each(|(m, x)| *m += w * x);
+        }
+        for e in self.elements() {
+            e.add_momenta(v, w, out);
+        }
+    }
+
     /// Potential energy at `q` (J): of gravity, zero at the origin, of the beams' strains,
     /// of the springs and of the constant dead forces ([`Force::potential`]).
     pub fn potential_energy(&self, q: &[f64]) -> f64 {
@@ -793,16 +808,7 @@ impl SpatialModel {
     /// (`M v`).
     pub fn angular_momentum(&self, q: &[f64], v: &[f64], c: &Vector3<f64>) -> Vector3<f64> {
         let mut momenta = vec![0.0; self.n_v()];
-        for b in &self.bodies {
-            let p = b.mass_matrix() * nalgebra::Vector6::from(six(v, b.node));
-            momenta[NV * b.node..NV * b.node + NV]
-                .iter_mut()
-                .zip(p.iter())
-                .for_each(|(m, x)| *m += x);
-        }
-        for e in self.elements() {
-            e.add_momenta(v, &mut momenta);
-        }
+        self.add_momenta(v, 1.0, &mut momenta);
         (0..self.nodes.len())
             .map(|n| {
                 let f = Frame::read(q, n);

@@ -140,6 +140,9 @@ pub enum Response {
     /// `∫ U dt`, the beams' and bars' strain energy integrated over the run (J s;
     /// trapezoidal rule on the run's grid): a dynamic compliance.
     StrainEnergy,
+    /// `∫ T dt`, the kinetic energy `½ vᵀ M v` of the bodies, beams and bars integrated over
+    /// the run (J s; trapezoidal rule on the run's grid). A motion's only.
+    KineticEnergy,
     /// `∫ λ² dt` of one row of a joint (trapezoidal rule on the run's grid): of a drive's
     /// row, the effort `∫ τ² dt` a motor must deliver.
     Effort {
@@ -173,6 +176,10 @@ pub struct Gradients {
     pub values: Vec<f64>,
     /// Their derivatives to the parameters.
     pub gradient: Vec<Vec<f64>>,
+    /// The peak `max |x^q σ|` over the run and the structure behind each
+    /// [`Response::Stress`]'s mean (`None` for the others): what a limit on the peak
+    /// normalizes the mean by (Le et al. 2010).
+    pub peaks: Vec<Option<f64>>,
 }
 
 /// Checks that node `node` of response `k` exists.
@@ -223,6 +230,7 @@ fn check(
                 axis(a, k)?;
             }
             Response::Deflection { node } => self::node(model, node, k)?,
+            Response::KineticEnergy => {}
             Response::Effort { joint, row } => {
                 let rows = model.joints.get(joint).map(|j| j.n_rows());
                 if rows.is_none_or(|n| row >= n) {
@@ -347,7 +355,12 @@ pub fn sensitivities(
             .collect()
     };
     let gradient = sweep.with_explicit(responses, parameters, &gradient);
-    Ok(Gradients { values, gradient })
+    let peaks = sweep.peaks(responses);
+    Ok(Gradients {
+        values,
+        gradient,
+        peaks,
+    })
 }
 
 /// The parameters a sweep carries: those the mechanism reads.
@@ -382,12 +395,19 @@ pub fn static_sensitivities(
     method: Method,
 ) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
-    if let Some(k) = (responses.iter()).position(|r| matches!(r, Response::Deflection { .. })) {
-        return Err(SettingsError::new(
-            format!("responses[{k}]"),
-            "a deflection from the rigid trajectory is a motion's: an equilibrium has none",
-        )
-        .into());
+    let motion_only = |r: &Response| match r {
+        Response::Deflection { .. } => {
+            Some("a deflection from the rigid trajectory is a motion's: an equilibrium has none")
+        }
+        Response::KineticEnergy => {
+            Some("the kinetic energy is a motion's: an equilibrium has none")
+        }
+        _ => None,
+    };
+    if let Some((k, why)) =
+        (responses.iter().enumerate()).find_map(|(k, r)| Some((k, motion_only(r)?)))
+    {
+        return Err(SettingsError::new(format!("responses[{k}]"), why).into());
     }
     let eq = solve_static_spatial(model, settings)?;
     let n_v = model.n_v();
@@ -437,7 +457,12 @@ pub fn static_sensitivities(
         }
     }
     let gradient = sweep.with_explicit(responses, all, &gradient);
-    Ok(Gradients { values, gradient })
+    let peaks = sweep.peaks(responses);
+    Ok(Gradients {
+        values,
+        gradient,
+        peaks,
+    })
 }
 
 /// The stored run and the linear algebra its sweeps share.
@@ -610,6 +635,13 @@ impl<'m> Sweep<'m> {
         }
     }
 
+    /// Each response's peak, a stress mean's (`None` for the others).
+    fn peaks(&self, responses: &[Response]) -> Vec<Option<f64>> {
+        (responses.iter())
+            .map(|r| matches!(r, Response::Stress { .. }).then(|| self.mean_of(r).peak))
+            .collect()
+    }
+
     /// The mean of a stress response ([`Sweep::prepare_stresses`] made it).
     fn mean_of(&self, r: &Response) -> StressMean {
         let found = self.means.iter().find(|(known, _)| known == r);
@@ -749,6 +781,9 @@ impl<'m> Sweep<'m> {
                     .sum()
             }
             Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::KineticEnergy => (0..self.states.len())
+                .map(|n| self.weight(n) * self.model().kinetic_energy(&self.states[n].qdot))
+                .sum(),
             Response::Stress { .. } => self.mean_of(r).mean,
             Response::Deflection { node } => {
                 (0..self.states.len())
@@ -809,8 +844,45 @@ impl<'m> Sweep<'m> {
                 Some((element, true)) => self.energy(element),
                 _ => 0.0,
             },
+            (Response::KineticEnergy, _) => self.kinetic_rate(p),
             _ => 0.0,
         }
+    }
+
+    /// `∫ T dt`'s explicit derivative to a parameter on an inertia, `T` being linear in each:
+    /// an element's mass factor's `∫ T_e dt`, a body's mass's `∫ ½|u̇|² dt`, an inertia
+    /// entry's `∫ ½ Ωᵀ(e_ij + e_ji)Ω dt` (halved on the diagonal).
+    fn kinetic_rate(&self, p: &Parameter) -> f64 {
+        let model = self.model();
+        let rate = |n: usize| -> f64 {
+            let v = &self.states[n].qdot;
+            match *p {
+                Parameter::BeamMass { beam } => model.beams[beam].kinetic_energy(v),
+                Parameter::TrussMass { truss } => model.trusses[truss].kinetic_energy(v),
+                Parameter::Mass { body } => {
+                    0.5 * split(&six(v, model.bodies[body].node)).0.norm_squared()
+                }
+                Parameter::Inertia { body, i, j } => {
+                    let omega = split(&six(v, model.bodies[body].node)).1;
+                    omega[i] * omega[j] * if i == j { 0.5 } else { 1.0 }
+                }
+                _ => 0.0,
+            }
+        };
+        (0..self.states.len())
+            .map(|n| self.weight(n) * rate(n))
+            .sum()
+    }
+
+    /// A response's partial derivative to the velocities `v` at state `n` into `out`;
+    /// `false` (and `out` untouched) where it reads none.
+    fn velocity_seed(&self, r: &Response, n: usize, out: &mut [f64]) -> bool {
+        if *r != Response::KineticEnergy {
+            return false;
+        }
+        out.fill(0.0);
+        (self.model()).add_momenta(&self.states[n].qdot, self.weight(n), out);
+        true
     }
 
     /// Coordinate `axis` of node `node`'s origin at the end of the run.
@@ -863,6 +935,8 @@ impl<'m> Sweep<'m> {
                 }
             }
             Response::Stress { .. } => self.add_stress_seed(r, n, eps),
+            // It reads the velocities only ([`Sweep::velocity_seed`]).
+            Response::KineticEnergy => {}
         }
     }
 
@@ -1069,7 +1143,7 @@ impl<'m> Sweep<'m> {
             });
         }
         let mut gradient = vec![vec![0.0; responses.len()]; parameters.len()];
-        let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
+        let (mut g_eps, mut g_lam, mut g_v) = (vec![0.0; n_v], vec![0.0; m], vec![0.0; n_v]);
         for n in 0..self.states.len() {
             crate::interrupt::poll()?;
             if n > 0 {
@@ -1083,8 +1157,12 @@ impl<'m> Sweep<'m> {
             }
             for (k, r) in responses.iter().enumerate() {
                 self.seed(r, n, &mut g_eps, &mut g_lam);
+                let fast = self.velocity_seed(r, n, &mut g_v);
                 for (g, z) in gradient.iter_mut().zip(&tangents) {
                     g[k] += dot(&g_eps, &z.eps) + dot(&g_lam, &z.lam);
+                    if fast {
+                        g[k] += dot(&g_v, &z.v);
+                    }
                 }
             }
         }
@@ -1319,6 +1397,8 @@ impl<'m> Sweep<'m> {
         let (mut eps_bar, mut lam_bar) = (vec![0.0; n_v], vec![0.0; m]);
         self.seed(r, last, &mut eps_bar, &mut lam_bar);
         let (mut v_bar, mut vdot_bar, mut a_bar) = (vec![0.0; n_v], vec![0.0; n_v], vec![0.0; n_v]);
+        self.velocity_seed(r, last, &mut v_bar);
+        let mut g_v = vec![0.0; n_v];
         let mut rhs = vec![0.0; n_v + m];
         let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
         for n in (1..=last).rev() {
@@ -1380,6 +1460,9 @@ impl<'m> Sweep<'m> {
             self.seed(r, n - 1, &mut g_eps, &mut g_lam);
             eps_bar.iter_mut().zip(&g_eps).for_each(|(e, g)| *e += g);
             lam_bar.copy_from_slice(&g_lam);
+            if self.velocity_seed(r, n - 1, &mut g_v) {
+                v_bar.iter_mut().zip(&g_v).for_each(|(v, g)| *v += g);
+            }
         }
         // The start: ε₀ and v₀ do not depend on p; v̇₀' = a₀' and λ₀' from its solve.
         let s0 = self.scale(0);

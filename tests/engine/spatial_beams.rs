@@ -335,6 +335,7 @@ fn flexible_pendulum_gradients() {
         Response::NodePosition { node: 3, axis: 2 },
         Response::Effort { joint: 0, row: 2 },
         Response::StrainEnergy,
+        Response::KineticEnergy,
         Response::Stress {
             aggregation: Aggregation::PMean { p: 8.0 },
             relaxation: 0.5,

@@ -152,7 +152,7 @@ fn heavy_top_gradients_are_exact() {
         UnitQuaternion::identity(),
         Vector3::new(0.0, 150.0, -4.61538),
     );
-    // Positions only: at 150 rad/s the gyroscopic moments are 10⁴ N m, and what Newton's
+    // Positions and the kinetic energy: at 150 rad/s the gyroscopic moments are 10⁴ N m, and what Newton's
     // tolerance leaves in the multipliers, differences of ∫λ² dt amplify as the step falls
     // (measured over 120 steps: 7e-7 from the exact value with a step of 1e-3, 6e-6 with
     // 1e-4, 4e-4 with 1e-5 — noise, while the positions agree to 1e-11). The reactions'
@@ -160,6 +160,7 @@ fn heavy_top_gradients_are_exact() {
     let responses = [
         Response::Position { body: 0, axis: 0 },
         Response::Position { body: 0, axis: 2 },
+        Response::KineticEnergy,
     ];
     let parameters = [
         Parameter::Mass { body: 0 },
@@ -323,6 +324,7 @@ fn every_joint_kind_has_exact_gradients() {
         Response::Effort { joint: 0, row: 5 },
         // A reaction: the pin's force along x.
         Response::Effort { joint: 1, row: 0 },
+        Response::KineticEnergy,
     ];
     let parameters = [
         Parameter::Mass { body: 0 },

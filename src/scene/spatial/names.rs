@@ -3,6 +3,7 @@
 //!
 //! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
 //! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
+//! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only),
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
 //! motor must give, integrated), `tip_deflection` and `tip_deflection:NAME` (the mean squared
 //! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
@@ -74,6 +75,7 @@ impl SpatialScene {
         }
         match name {
             "strain_energy" => return Ok(Response::StrainEnergy),
+            "kinetic_energy" => return Ok(Response::KineticEnergy),
             "tip_deflection" => {
                 let Some(tip) = &self.tip else {
                     return bad("the scene has no `tip`; write tip_deflection:NAME".into());
@@ -87,8 +89,8 @@ impl SpatialScene {
         }
         let Some((kind, what)) = name.split_once(':') else {
             return bad(
-                "responses are x:NAME, y:NAME, z:NAME, strain_energy, effort:JOINT, \
-                 tip_deflection[:NAME] or stress[:OPTIONS]"
+                "responses are x:NAME, y:NAME, z:NAME, strain_energy, kinetic_energy, \
+                 effort:JOINT, tip_deflection[:NAME] or stress[:OPTIONS]"
                     .into(),
             );
         };
@@ -120,7 +122,7 @@ impl SpatialScene {
                 Ok(Response::Effort { joint, row })
             }
             _ => bad(format!(
-                "'{kind}' is not a response kind (x, y, z, strain_energy, effort, tip_deflection, stress)"
+                "'{kind}' is not a response kind (x, y, z, strain_energy, kinetic_energy, effort, tip_deflection, stress)"
             )),
         }
     }
