@@ -354,13 +354,7 @@ pub fn sensitivities(
             .map(|k| by_parameter.iter().map(|g| g[k]).collect())
             .collect()
     };
-    let gradient = sweep.with_explicit(responses, parameters, &gradient);
-    let peaks = sweep.peaks(responses);
-    Ok(Gradients {
-        values,
-        gradient,
-        peaks,
-    })
+    Ok(sweep.gradients(values, responses, parameters, &gradient))
 }
 
 /// The parameters a sweep carries: those the mechanism reads.
@@ -456,13 +450,7 @@ pub fn static_sensitivities(
             }
         }
     }
-    let gradient = sweep.with_explicit(responses, all, &gradient);
-    let peaks = sweep.peaks(responses);
-    Ok(Gradients {
-        values,
-        gradient,
-        peaks,
-    })
+    Ok(sweep.gradients(values, responses, all, &gradient))
 }
 
 /// The stored run and the linear algebra its sweeps share.
@@ -737,6 +725,22 @@ impl<'m> Sweep<'m> {
             }
         }
         m.slope * sum
+    }
+
+    /// The responses' `values` with their gradients (those of the `swept` parameters
+    /// spread over `parameters`, their explicit parts added) and peaks.
+    fn gradients(
+        &self,
+        values: Vec<f64>,
+        responses: &[Response],
+        parameters: &[Parameter],
+        swept: &[Vec<f64>],
+    ) -> Gradients {
+        Gradients {
+            values,
+            gradient: self.with_explicit(responses, parameters, swept),
+            peaks: self.peaks(responses),
+        }
     }
 
     /// The gradients of the swept parameters spread over `parameters` (zero where a

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..spatial import SpatialSimulation
-from .topology import KEPT_RATIOS, NORMALIZATION_DAMPING
+from .topology import normalized, renormalized
 
 
 class SpatialProblem(Problem):
@@ -83,33 +83,16 @@ class SpatialProblem(Problem):
             if not run.values[0] > 0.0:
                 raise SettingsError(f"{self.objective} is {run.values[0]:.3g} at the start: give a positive reference")
             self.reference = float(run.values[0])
-        factors = np.array([self._normalized(x, name, value, run.peaks[name]) if name in run.peaks else 1.0
-                            for name, value in zip(self.responses[1:], run.values[1:])])
+        key = np.asarray(x, dtype=float).tobytes()
+        factors = np.array([normalized(self.normalization, self._ratios, key, name, value, run.peaks[name])
+                            if name in run.peaks else 1.0 for name, value in zip(self.responses[1:], run.values[1:])])
         g = factors * run.values[1:] / self.bounds - 1.0
         dg = (factors / self.bounds)[:, None] * run.dfdx[1:]
         return Evaluation(run.values[0] / self.reference, g, run.dfdx[0] / self.reference, dg)
-
-    def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
-        """A stress bound's factor ``c`` (set by the first evaluation), with the ratio
-        peak/P at ``x`` kept for :meth:`accept`."""
-        ratio = peak / mean if mean > 0 else 1.0
-        key = np.asarray(x, dtype=float).tobytes()
-        if key not in self._ratios and len(self._ratios) >= KEPT_RATIOS:
-            del self._ratios[next(iter(self._ratios))]
-        self._ratios.setdefault(key, {})[name] = ratio
-        return self.normalization.setdefault(name, ratio)
 
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Each stress bound's ``c`` moves towards the ratio peak/P at the accepted design
         and its constraint is rescaled to it (module docs)."""
         ratios = self._ratios.get(np.asarray(x, dtype=float).tobytes(), {})
         self._ratios = {}
-        g, dg = evaluation.g.copy(), evaluation.dg.copy()
-        for j, name in enumerate(self.responses[1:]):
-            if name in ratios:
-                old = self.normalization[name]
-                new = NORMALIZATION_DAMPING * ratios[name] + (1 - NORMALIZATION_DAMPING) * old
-                self.normalization[name] = new
-                g[j] = new / old * (g[j] + 1.0) - 1.0
-                dg[j] *= new / old
-        return Evaluation(evaluation.f0, g, evaluation.df0, dg)
+        return renormalized(self.normalization, ratios, self.responses[1:], evaluation)

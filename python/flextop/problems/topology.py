@@ -80,6 +80,34 @@ NORMALIZATION_DAMPING = 0.5
 """α of the normalization update ``c ← α peak/P + (1 − α) c`` (Le et al. 2010)."""
 
 
+def normalized(normalization: dict[str, float], ratios: dict[bytes, dict[str, float]], key: bytes, name: str,
+               mean: float, peak: float) -> float:
+    """An aggregate limit's factor ``c`` in ``normalization`` (set by the first evaluation),
+    the ratio peak/P of the design ``key`` kept in ``ratios`` (at most :data:`KEPT_RATIOS`
+    designs) for :func:`renormalized`."""
+    ratio = peak / mean if mean > 0 else 1.0
+    if key not in ratios and len(ratios) >= KEPT_RATIOS:
+        del ratios[next(iter(ratios))]
+    ratios.setdefault(key, {})[name] = ratio
+    return normalization.setdefault(name, ratio)
+
+
+def renormalized(normalization: dict[str, float], ratios: Mapping[str, float], names: Sequence[str],
+                 evaluation: Evaluation) -> Evaluation:
+    """``evaluation`` of the accepted design with each aggregate constraint's ``c`` (the
+    constraints ``names``, in order) moved towards the design's ratio peak/P in ``ratios``,
+    damped by :data:`NORMALIZATION_DAMPING`, and the constraint rescaled to it."""
+    g, dg = evaluation.g.copy(), evaluation.dg.copy()
+    for j, name in enumerate(names):
+        if name in ratios:
+            old = normalization[name]
+            new = NORMALIZATION_DAMPING * ratios[name] + (1 - NORMALIZATION_DAMPING) * old
+            normalization[name] = new
+            g[j] = new / old * (g[j] + 1.0) - 1.0
+            dg[j] *= new / old
+    return Evaluation(evaluation.f0, g, evaluation.df0, dg)
+
+
 def is_aggregate(name: str) -> bool:
     """Whether the response ``name`` is a p-mean or KS mean with a peak (stress, shear,
     buckling, a drive's torque, a joint's reaction; not ``torque_rms``, a mean by definition)."""
@@ -306,12 +334,7 @@ class TopologyProblem(Problem):
     def _normalized(self, x: np.ndarray, name: str, mean: float, peak: float) -> float:
         """The factor ``c`` of an aggregate's limit (set by the first evaluation), with the
         ratio peak/P of these densities (the physical ones) kept for :meth:`accept`."""
-        ratio = peak / mean if mean > 0 else 1.0
-        key = x.tobytes()
-        if key not in self._ratios and len(self._ratios) >= KEPT_RATIOS:
-            del self._ratios[next(iter(self._ratios))]
-        self._ratios.setdefault(key, {})[name] = ratio
-        return self.normalization.setdefault(name, ratio)
+        return normalized(self.normalization, self._ratios, x.tobytes(), name, mean, peak)
 
     accepts_trials = True
 
@@ -329,15 +352,7 @@ class TopologyProblem(Problem):
         elif isinstance(evaluation, Trial):
             evaluation = evaluation.evaluation()
         ratios, self._ratios = self._ratios.get(self.densities(x).tobytes(), {}), {}
-        g, dg = evaluation.g.copy(), evaluation.dg.copy()
-        for j, (name, _) in enumerate(self.constraints):
-            if name in ratios:
-                old = self.normalization[name]
-                new = NORMALIZATION_DAMPING * ratios[name] + (1 - NORMALIZATION_DAMPING) * old
-                self.normalization[name] = new
-                g[j] = new / old * (g[j] + 1.0) - 1.0
-                dg[j] *= new / old
-        return Evaluation(evaluation.f0, g, evaluation.df0, dg)
+        return renormalized(self.normalization, ratios, [name for name, _ in self.constraints], evaluation)
 
     def conclude(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """The evaluation a run reports at the design ``x`` it returns. Held to a
