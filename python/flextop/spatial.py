@@ -10,7 +10,8 @@ Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass o
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
 an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
 (the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³) and ``volume:NAME`` (a ground
-structure's designed bars', paper Eq. 41 per link), ``tip_deflection`` or
+structure's designed bars', paper Eq. 41 per link), ``mass`` and ``mass:NAME`` (``Σ m(xᵢ) Mᵢ``
+by the scene's mass law, kg), ``tip_deflection`` or
 ``tip_deflection:NAME`` (the mean squared deflection ``(1/t_f) ∫ |r − r_rigid|² dt`` of the
 scene's tip, or a body or node, from its rigid trajectory, m², paper Eq. 40: the motion of the
 mechanism with each link one rigid body on its joints and drives, every freedom of which the
@@ -357,43 +358,56 @@ class SpatialSimulation:
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         design = self._design(x)
-        volumes = {k: self._volume_weights(name) for k, name in enumerate(rs) if name.split(":")[0] == "volume"}
-        engine = [name for k, name in enumerate(rs) if k not in volumes]
+        measured = {k: self._measure(name, design) for k, name in enumerate(rs) if name.split(":")[0] in MEASURES}
+        engine = [name for k, name in enumerate(rs) if k not in measured]
         values, gradient = np.zeros(len(rs)), np.zeros((len(rs), len(ps) + self.n_design))
         if engine or not rs:
             r = self.model.sensitivities(engine, list(ps), settings, static, design)
-            rows = [k for k in range(len(rs)) if k not in volumes]
+            rows = [k for k in range(len(rs)) if k not in measured]
             values[rows] = np.asarray(r["values"])
             gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
         peaks: dict[str, float] = {}
         if engine or not rs:
             peaks = {name: peak for name, peak in zip(engine, r["peaks"]) if peak is not None}
-        xv = np.ones(self.n_design) if design is None else np.asarray(design)
-        for k, (weights, fixed) in volumes.items():
-            values[k] = fixed + float(weights @ xv)
-            gradient[k, len(ps):] = weights
+        for k, (value, slope) in measured.items():
+            values[k], gradient[k, len(ps):] = value, slope
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
 
     def volume(self, x: DesignLike = None, structure: str | None = None) -> float:
         """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density
         by default), the fixed ones' at full density (m³; paper Eq. 38); of one ground
         structure's designed bars with ``structure`` (its name; Eq. 41's per link)."""
-        weights, fixed = self._volume_weights("volume" if structure is None else f"volume:{structure}")
-        xv = self._design(x)
-        return fixed + float(np.dot(np.ones(self.n_design) if xv is None else xv, weights))
+        return self._measure("volume" if structure is None else f"volume:{structure}", self._design(x))[0]
 
-    def _volume_weights(self, response: str) -> tuple[np.ndarray, float]:
-        """``(V, fixed)`` of the response ``volume`` (every beam and bar) or ``volume:NAME``
-        (the designed bars of ground structure ``NAME``, no fixed part)."""
-        designed, fixed = self.model.volumes
-        if response == "volume":
-            return np.asarray(designed), fixed
-        name = response.split(":", 1)[1]
-        mine = np.array([v.startswith(f"{name}/") for v in self.variables])
+    def mass(self, x: DesignLike = None, structure: str | None = None) -> float:
+        """The mass ``Σ m(xᵢ) Mᵢ`` of the beams and bars at design ``x`` (full density by
+        default; ``m`` the scene's mass law, ``Mᵢ`` a variable's bars' solid mass), the fixed
+        ones' at full density (kg); of one ground structure's designed bars with
+        ``structure``."""
+        return self._measure("mass" if structure is None else f"mass:{structure}", self._design(x))[0]
+
+    def _measure(self, response: str, design: list[float] | None) -> tuple[float, np.ndarray]:
+        """The value and density gradient of ``volume`` or ``mass`` (every beam and bar)
+        or ``volume:NAME``, ``mass:NAME`` (the designed bars of ground structure ``NAME``,
+        no fixed part), explicit in the design checked before."""
+        kind, _, name = response.partition(":")
+        x = np.ones(self.n_design) if design is None else np.asarray(design, dtype=float)
+        if kind == "volume":
+            full, fixed = self.model.volumes
+            values, slopes = x * np.asarray(full), np.asarray(full)
+        else:
+            masses, rates, fixed = self.model.masses(None if design is None else list(design))
+            values, slopes = np.asarray(masses), np.asarray(rates)
+        if not name:
+            return fixed + float(values.sum()), slopes
+        mine = np.array([v.startswith(f"{name}/") for v in self.variables], dtype=bool)
         if not mine.any():
             raise SettingsError(f"{response!r}: '{name}' is no ground structure with designed bars")
-        return np.where(mine, designed, 0.0), 0.0
+        return float(values[mine].sum()), np.where(mine, slopes, 0.0)
 
+
+MEASURES = ("volume", "mass")
+"""Responses explicit in the design, measured here rather than by a run."""
 
 _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}
 """A planar joint's spatial kind (its axis z)."""

@@ -93,6 +93,14 @@ impl PySpatialModel {
         self.scene.volumes()
     }
 
+    /// The mass (kg) of each design variable's elements at design `x` (full density by
+    /// default), its derivative to the variable, and the fixed beams' mass.
+    #[pyo3(signature = (x=None))]
+    fn masses(&self, x: Option<Vec<f64>>) -> PyResult<(Vec<f64>, Vec<f64>, f64)> {
+        let x = x.unwrap_or_else(|| vec![1.0; self.scene.n_variables()]);
+        Ok(self.scene.masses(&x).map_err(Error::from)?)
+    }
+
     #[getter]
     fn tip(&self) -> Option<String> {
         self.scene.tip.clone()

@@ -157,3 +157,25 @@ def test_a_lattice_of_least_volume_under_a_peak_stress_limit(tmp_path):
                           f"{limit:.6g}", "--max-iter", "2", "--out", str(tmp_path / "out")], capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 3 and "subject to stress ≤ 3.168e+07, volume:box ≤" in run.stdout, run.stdout + run.stderr
+
+
+def test_the_mass_follows_the_mass_law_with_its_gradient():
+    """One material: the solid lattice's mass is ρ times its volume; with the linear mass law
+    it is ρ Σ xᵢVᵢ at any design; with the default law (Du–Olhoff's) its gradient matches
+    central differences; per ground structure it is the same here (one structure), and a
+    structure that is not there is named."""
+    scene = lattice_cantilever()
+    sim = SpatialSimulation(scene)
+    assert sim.mass(1.0) == pytest.approx(7850.0 * sim.volume(1.0), rel=1e-12)
+    x = np.random.default_rng(9).uniform(0.05, 1.0, sim.n_design)
+    scene.design(x_min=1e-3, mass="linear")
+    linear = SpatialSimulation(scene)
+    assert linear.mass(x) == pytest.approx(7850.0 * linear.volume(x), rel=1e-12)
+    f, dfdx = sim.run_with_sensitivities(x, ["mass", "mass:box"])
+    assert f[0] == pytest.approx(sim.mass(x), rel=1e-14) and f[1] == pytest.approx(f[0], rel=1e-12)
+    for i in (0, 7, 40):
+        step = 1e-6 * np.eye(sim.n_design)[i]
+        fd = (sim.mass(x + step) - sim.mass(x - step)) / 2e-6
+        assert dfdx[0, i] == pytest.approx(fd, rel=1e-6)
+    with pytest.raises(SettingsError, match="'arm' is no ground structure"):
+        sim.run_with_sensitivities(x, "mass:arm")

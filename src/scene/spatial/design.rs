@@ -14,6 +14,7 @@ use std::borrow::Cow;
 use super::names::Named;
 use super::SpatialScene;
 use crate::error::DesignError;
+use crate::mechanism::interpolation::MassLaw;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::sensitivity::Parameter;
 
@@ -57,17 +58,40 @@ impl SpatialScene {
     /// density, and of the fixed ones: the volume at `x` is `fixed + Σ x_i V_i` (paper
     /// Eq. 38), its gradient `V`.
     pub fn volumes(&self) -> (Vec<f64>, f64) {
+        self.per_variable(|m, truss, e| match truss {
+            true => m.trusses[e].area * m.trusses[e].length,
+            false => m.beams[e].section.area * m.beams[e].length,
+        })
+    }
+
+    /// The mass (kg) of each design variable's elements at `x`, `m(x_i) M_i` (its mass law
+    /// times their full-density mass `Σ ρA_e L_e`), its derivative `m'(x_i) M_i`, and the
+    /// fixed ones' mass; `x` checked as [`SpatialScene::model_at`] checks it.
+    ///
+    /// # Errors
+    /// [`DesignError`] naming a wrong length or the first entry outside `[x_min, 1]`.
+    pub fn masses(&self, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>, f64), DesignError> {
+        self.design.check(x)?;
+        let (full, fixed) = self.per_variable(|m, truss, e| match truss {
+            true => m.trusses[e].rho_a * m.trusses[e].length,
+            false => m.beams[e].section.rho_a * m.beams[e].length,
+        });
+        let law = self.design.mass;
+        let at = |f: fn(_, f64) -> f64| full.iter().zip(x).map(|(m, &xi)| m * f(law, xi)).collect();
+        Ok((at(MassLaw::mass), at(MassLaw::mass_derivative), fixed))
+    }
+
+    /// `measure(model, truss, element)` summed over each design variable's elements at full
+    /// density, and over the fixed ones.
+    fn per_variable(&self, measure: impl Fn(&SpatialModel, bool, usize) -> f64) -> (Vec<f64>, f64) {
         let (mut designed, mut fixed) = (vec![0.0; self.n_variables()], 0.0);
         for beam in self.beams.values() {
-            let volume: f64 = (beam.elements.iter())
-                .map(|&e| match beam.truss {
-                    true => self.model.trusses[e].area * self.model.trusses[e].length,
-                    false => self.model.beams[e].section.area * self.model.beams[e].length,
-                })
+            let total: f64 = (beam.elements.iter())
+                .map(|&e| measure(&self.model, beam.truss, e))
                 .sum();
             match beam.variable {
-                Some(i) => designed[i] += volume,
-                None => fixed += volume,
+                Some(i) => designed[i] += total,
+                None => fixed += total,
             }
         }
         (designed, fixed)
