@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the tests need (Python deps, the extension built in release mode) and runs
-# every test: lints (cargo fmt, clippy with warnings as errors, with and without the Python
-# bindings), the Rust suite (cargo test) and the Python suite (pytest).
+# every test: lints (cargo fmt, clippy with warnings as errors, the Python bindings
+# included), the Rust suite (cargo test) and the Python suite (pytest).
 # Each stage's wall time is printed as it ends ("test.sh: N s: COMMAND").
 #
 # The Rust checks (cargo fmt, the lints, cargo test) run while pip builds the extension, in a
@@ -12,6 +12,10 @@
 # which changes the hash of every crate above them, faer and nalgebra included; what the
 # Rust checks share (build scripts, proc-macros) they share among themselves. pip's build of
 # the crate itself runs on one core (codegen-units = 1) and would leave the other idle.
+# The Rust checks build in the `ci` profile (Cargo.toml: release, the crate in 16 codegen
+# units, so that it compiles on both cores); one clippy pass with the bindings' feature
+# lints the crate with and without its Python side, the tests and the benchmarks (a check
+# links nothing); cargo test builds the crate without them, its warnings errors too.
 # pytest runs last, after both, on two workers (pytest-xdist): its tests run Python, mostly
 # on one core each (measured on 2 cores: 215 s against 290 s on one worker). The tests that
 # time how fast a run hears Ctrl-C (marked `timed`) then run alone, on one worker.
@@ -30,9 +34,8 @@ stage() {
 }
 rust() {
     stage cargo fmt --check
-    stage cargo clippy --release --all-targets -- -D warnings
-    stage cargo clippy --release --lib --features python -- -D warnings
-    stage cargo test --release
+    stage cargo clippy --profile ci --all-targets --features python -- -D warnings
+    RUSTFLAGS="-D warnings" stage cargo test --profile ci
 }
 stage "$PYTHON" -m pip install --quiet --upgrade "pip>=23" "maturin>=1.9.4,<2"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/rust" rust &

@@ -359,6 +359,11 @@ class SpatialSimulation:
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         design = self._design(x)
         measured = {k: self._measure(name, design) for k, name in enumerate(rs) if name.split(":")[0] in MEASURES}
+        densities = [p for p in ps if p.startswith("rho:")]
+        masses = [rs[k] for k in measured if rs[k].split(":")[0] == "mass"]
+        if densities and masses:  # the only parameters a measured response reads
+            raise SettingsError(f"{masses[0]!r} to {densities[0]!r}: a mass's derivative to a material density is not "
+                                "built; ask for them in two calls")
         engine = [name for k, name in enumerate(rs) if k not in measured]
         values, gradient = np.zeros(len(rs)), np.zeros((len(rs), len(ps) + self.n_design))
         if engine or not rs:

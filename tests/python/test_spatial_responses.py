@@ -179,3 +179,7 @@ def test_the_mass_follows_the_mass_law_with_its_gradient():
         assert dfdx[0, i] == pytest.approx(fd, rel=1e-6)
     with pytest.raises(SettingsError, match="'arm' is no ground structure"):
         sim.run_with_sensitivities(x, "mass:arm")
+    # the volume reads no parameter; the mass reads a beam's ρ, whose share is not built
+    assert sim.run_with_sensitivities(x, ["volume"], ["E:box/bar0"]).gradient[0, 0] == 0.0
+    with pytest.raises(SettingsError, match="'mass' to 'rho:box/bar0'"):
+        sim.run_with_sensitivities(x, ["mass"], ["rho:box/bar0"])
