@@ -12,13 +12,15 @@
 # which changes the hash of every crate above them, faer and nalgebra included; what the
 # Rust checks share (build scripts, proc-macros) they share among themselves. pip's build of
 # the crate itself runs on one core (codegen-units = 1) and would leave the other idle.
-# The Rust checks build in the `ci` profile (Cargo.toml: release, the crate in 16 codegen
-# units, so that it compiles on both cores); one clippy pass with the bindings' feature
-# lints the crate with and without its Python side, the tests and the benchmarks (a check
-# links nothing); cargo test builds the crate without them, its warnings errors too.
-# pytest runs last, after both, on two workers (pytest-xdist): its tests run Python, mostly
-# on one core each (measured on 2 cores: 215 s against 290 s on one worker). The tests that
-# time how fast a run hears Ctrl-C (marked `timed`) then run alone, on one worker.
+# One clippy pass with the bindings' feature lints the crate with its Python side, the tests
+# and the benchmarks (a check links nothing; two passes took 206 s against 156 s); cargo
+# test builds the crate without the bindings, its warnings errors too. (Building the tests
+# in 16 codegen units instead of one was slower here, 318 s against 258 s: beside pip's
+# build, both cores are busy anyway, and more units do more work.)
+# pytest runs once the extension is installed, beside what remains of the Rust checks, on
+# two workers (pytest-xdist): its tests run Python, mostly on one core each (measured on 2
+# cores: 215 s against 290 s on one worker). The tests that time how fast a run hears
+# Ctrl-C (marked `timed`) run last, alone, on one worker.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -34,19 +36,21 @@ stage() {
 }
 rust() {
     stage cargo fmt --check
-    stage cargo clippy --profile ci --all-targets --features python -- -D warnings
-    RUSTFLAGS="-D warnings" stage cargo test --profile ci
+    stage cargo clippy --release --all-targets --features python -- -D warnings
+    RUSTFLAGS="-D warnings" stage cargo test --release
 }
 stage "$PYTHON" -m pip install --quiet --upgrade "pip>=23" "maturin>=1.9.4,<2"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/rust" rust &
 rust_pid=$!
-installed=0
+installed=0 tested=0 checked=0
 stage "$PYTHON" -m pip install --quiet -e ".[test]" || installed=$?
-start=$SECONDS checked=0
+if ((!installed)); then
+    stage "$PYTHON" -m pytest -q -n 2 -m "not timed" || tested=$?
+fi
+start=$SECONDS
 wait "$rust_pid" || checked=$?
-echo "test.sh: $((SECONDS - start)) s: waiting for the Rust checks after the install"
-if ((installed || checked)); then
+echo "test.sh: $((SECONDS - start)) s: waiting for the Rust checks after pytest"
+if ((installed || tested || checked)); then
     exit 1
 fi
-stage "$PYTHON" -m pytest -q -n 2 -m "not timed"
 stage "$PYTHON" -m pytest -q -m timed
