@@ -15,7 +15,8 @@ by the scene's mass law, kg), ``tip_deflection`` or
 ``tip_deflection:NAME`` (the mean squared deflection ``(1/t_f) ∫ |r − r_rigid|² dt`` of the
 scene's tip, or a body or node, from its rigid trajectory, m², paper Eq. 40: the motion of the
 mechanism with each link one rigid body on its joints and drives, every freedom of which the
-drives must hold), ``stress[:OPTIONS]`` (the relaxed stresses ``x^q σ`` of the solid material,
+drives must hold), ``stress[:NAME][:OPTIONS]`` (of every beam and bar, or of one beam or ground
+structure ``NAME``: the relaxed stresses ``x^q σ`` of the solid material,
 von Mises at each beam section's edge points — stretch, both bendings and torsion — and axial
 in each truss bar, condensed over the run and the structure by a p-mean, ``p=8`` by default,
 or a KS mean, ``ks=RHO,scale=S``; ``q=`` the relaxation, 0.5 by default, Pa).

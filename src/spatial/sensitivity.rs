@@ -166,7 +166,19 @@ pub enum Response {
         aggregation: Aggregation,
         /// The relaxation exponent `q` in `[0, 1]`.
         relaxation: f64,
+        /// The elements it reads: every one where `None`.
+        within: Option<Elements>,
     },
+}
+
+/// Consecutive beams and truss bars of a mechanism, `[first, end)` of each: a scene's beam
+/// or ground structure, whose stresses a response reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Elements {
+    /// Of `model.beams`.
+    pub beams: [usize; 2],
+    /// Of `model.trusses`.
+    pub trusses: [usize; 2],
 }
 
 /// Responses and their gradients: `gradient[k][i]` is `∂f_k/∂p_i`.
@@ -216,6 +228,21 @@ fn check(
             Response::Position { body: b, axis: a } => {
                 body(b, format!("responses[{k}]"))?;
                 axis(a, k)?;
+            }
+            Response::Stress {
+                within: Some(e), ..
+            } => {
+                let fits = |[a, b]: [usize; 2], n: usize| a <= b && b <= n;
+                let empty = e.beams[0] == e.beams[1] && e.trusses[0] == e.trusses[1];
+                if empty
+                    || !fits(e.beams, model.beams.len())
+                    || !fits(e.trusses, model.trusses.len())
+                {
+                    return Err(SettingsError::new(
+                        format!("responses[{k}]"),
+                        format!("no elements {e:?} in the mechanism"),
+                    ));
+                }
             }
             Response::StrainEnergy | Response::Stress { .. } => {
                 if model.elements().next().is_none() {
@@ -613,10 +640,11 @@ impl<'m> Sweep<'m> {
             if let Response::Stress {
                 aggregation,
                 relaxation,
+                within,
             } = *r
             {
                 if !self.means.iter().any(|(known, _)| known == r) {
-                    let mean = self.stress_mean(&aggregation, relaxation);
+                    let mean = self.stress_mean(&aggregation, relaxation, within);
                     self.means.push((*r, mean));
                 }
             }
@@ -650,20 +678,43 @@ impl<'m> Sweep<'m> {
         (count, time * e.length() / (total * count as f64))
     }
 
-    /// The elements' length (m), the stress means' measure.
-    fn total_length(&self) -> f64 {
-        self.model().elements().map(|e| e.length()).sum()
+    /// The elements a stress response reads (every one where `within` is `None`).
+    fn stressed(&self, within: Option<Elements>) -> impl Iterator<Item = &'m dyn Element> {
+        let m = self.model();
+        let all = Elements {
+            beams: [0, m.beams.len()],
+            trusses: [0, m.trusses.len()],
+        };
+        let Elements { beams, trusses } = within.unwrap_or(all);
+        let beams = m.beams[beams[0]..beams[1]]
+            .iter()
+            .map(|e| e as &dyn Element);
+        beams.chain(
+            m.trusses[trusses[0]..trusses[1]]
+                .iter()
+                .map(|e| e as &dyn Element),
+        )
+    }
+
+    /// Their length (m), the stress means' measure.
+    fn total_length(&self, within: Option<Elements>) -> f64 {
+        self.stressed(within).map(|e| e.length()).sum()
     }
 
     /// The p-mean or KS mean of `x^q σ` over the run, the elements and their fibres: its
     /// peak first, then the sum relative to it.
-    fn stress_mean(&self, a: &Aggregation, relaxation: f64) -> StressMean {
-        let total = self.total_length();
+    fn stress_mean(
+        &self,
+        a: &Aggregation,
+        relaxation: f64,
+        within: Option<Elements>,
+    ) -> StressMean {
+        let total = self.total_length(within);
         let mut out = [0.0; MAX_FIBRES];
         let (mut peak, mut sum) = (0.0f64, 0.0);
         for pass in 0..2 {
             for n in 0..self.states.len() {
-                for e in self.model().elements() {
+                for e in self.stressed(within) {
                     let (count, w) = self.element_stresses(n, e, total, &mut out);
                     let x = e.density().powf(relaxation);
                     for sigma in &out[..count] {
@@ -684,13 +735,14 @@ impl<'m> Sweep<'m> {
         let Response::Stress {
             aggregation,
             relaxation,
+            within,
         } = *r
         else {
             return;
         };
-        let (m, total) = (self.mean_of(r), self.total_length());
+        let (m, total) = (self.mean_of(r), self.total_length(within));
         let (mut out, mut weights) = ([0.0; MAX_FIBRES], [0.0; MAX_FIBRES]);
-        for e in self.model().elements() {
+        for e in self.stressed(within) {
             let (count, w) = self.element_stresses(n, e, total, &mut out);
             let x = e.density().powf(relaxation);
             for (weight, sigma) in weights.iter_mut().zip(&out[..count]) {
@@ -701,20 +753,26 @@ impl<'m> Sweep<'m> {
         }
     }
 
-    /// A stress mean's explicit derivative to element `e`'s density: its relaxation's,
-    /// `Σ ∂mean/∂(x^q σ) q x^{q−1} σ`.
-    fn relaxation_rate(&self, r: &Response, e: &dyn Element) -> f64 {
+    /// A stress mean's explicit derivative to the density of element `e` (a beam, or a
+    /// truss bar, number `index` of its kind): its relaxation's,
+    /// `Σ ∂mean/∂(x^q σ) q x^{q−1} σ`; zero for an element the mean does not read.
+    fn relaxation_rate(&self, r: &Response, e: &dyn Element, truss: bool, index: usize) -> f64 {
         let Response::Stress {
             aggregation,
             relaxation,
+            within,
         } = *r
         else {
             return 0.0;
         };
-        if relaxation == 0.0 {
+        let read = within.is_none_or(|w| {
+            let [a, b] = if truss { w.trusses } else { w.beams };
+            (a..b).contains(&index)
+        });
+        if relaxation == 0.0 || !read {
             return 0.0;
         }
-        let (m, total) = (self.mean_of(r), self.total_length());
+        let (m, total) = (self.mean_of(r), self.total_length(within));
         let (x, mut out) = (e.density(), [0.0; MAX_FIBRES]);
         let (relaxed, rate) = (x.powf(relaxation), relaxation * x.powf(relaxation - 1.0));
         let mut sum = 0.0;
@@ -839,10 +897,10 @@ impl<'m> Sweep<'m> {
         let model = self.model();
         match (r, p) {
             (Response::Stress { .. }, Parameter::BeamDensity { beam }) => {
-                self.relaxation_rate(r, &model.beams[*beam])
+                self.relaxation_rate(r, &model.beams[*beam], false, *beam)
             }
             (Response::Stress { .. }, Parameter::TrussDensity { truss }) => {
-                self.relaxation_rate(r, &model.trusses[*truss])
+                self.relaxation_rate(r, &model.trusses[*truss], true, *truss)
             }
             (Response::StrainEnergy, _) => match self.element_of(p) {
                 Some((element, true)) => self.energy(element),

@@ -11,7 +11,7 @@ use flextop::spatial::integrator::simulate_spatial;
 use flextop::spatial::joint::{Anchor, JointKind};
 use flextop::spatial::model::SpatialModel;
 use flextop::spatial::section::{Geometry, Section, Shape};
-use flextop::spatial::sensitivity::{Parameter, Response};
+use flextop::spatial::sensitivity::{Elements, Parameter, Response};
 use flextop::spatial::statics::solve_static_spatial;
 use flextop::Aggregation;
 use flextop::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
@@ -339,6 +339,16 @@ fn flexible_pendulum_gradients() {
         Response::Stress {
             aggregation: Aggregation::PMean { p: 8.0 },
             relaxation: 0.5,
+            within: None,
+        },
+        // The middle beam's alone: the others' densities do not relax it.
+        Response::Stress {
+            aggregation: Aggregation::PMean { p: 4.0 },
+            relaxation: 1.0,
+            within: Some(Elements {
+                beams: [1, 2],
+                trusses: [0, 0],
+            }),
         },
     ];
     let parameters = [
@@ -347,6 +357,7 @@ fn flexible_pendulum_gradients() {
         Parameter::BeamMass { beam: 1 },
         Parameter::Mass { body: bob },
         Parameter::BeamDensity { beam: 1 },
+        Parameter::BeamDensity { beam: 2 },
     ];
     check(
         &m,

@@ -46,8 +46,8 @@ def test_a_bent_rectangle_has_the_beam_theory_stress_at_each_elements_middle():
     sigma = P * (1.0 - middles) * b / 2 / (h * b**3 / 12)
     for p in (2.0, 8.0, 32.0):
         expected = np.mean(sigma**p) ** (1 / p)
-        value = sim.run_with_sensitivities(None, f"stress:p={p:g},q=0").values[0]
-        assert value == pytest.approx(expected, rel=1e-7), p
+        value, rod = sim.run_with_sensitivities(None, [f"stress:p={p:g},q=0", f"stress:rod:p={p:g},q=0"]).values
+        assert value == pytest.approx(expected, rel=1e-7) and rod == value, p
 
 
 def test_a_twisted_tube_has_the_torsion_shear_everywhere_on_its_edge():
@@ -93,7 +93,7 @@ def assert_gradients(sim: SpatialSimulation, x: np.ndarray, responses: list[str]
 
 def test_stress_gradients_over_a_motion_are_exact():
     sim = SpatialSimulation(flexible_pendulum())
-    responses = ["stress", "stress:p=4,q=0", "stress:ks=20,scale=1e7,q=1"]
+    responses = ["stress", "stress:p=4,q=0", "stress:ks=20,scale=1e7,q=1", "stress:lower:q=1"]
     assert_gradients(sim, np.array([0.7, 0.08]), responses, range(2), 1e-4)
 
 

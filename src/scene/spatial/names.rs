@@ -7,8 +7,9 @@
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
 //! motor must give, integrated), `tip_deflection` and `tip_deflection:NAME` (the mean squared
 //! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
-//! trajectory, m², paper Eq. 40), `stress[:OPTIONS]` (the relaxed stresses `x^q σ` of every
-//! beam's section points and every bar, von Mises, condensed over the run and the structure,
+//! trajectory, m², paper Eq. 40), `stress[:NAME][:OPTIONS]` (the relaxed stresses `x^q σ` of
+//! every beam's section points and every bar, or of beam or ground structure NAME's, von
+//! Mises, condensed over the run and the structure,
 //! Pa, [`crate::spatial::stress`]; OPTIONS as a planar scene's: `p=P` a p-mean, 8 by
 //! default, or `ks=RHO,scale=S` a KS mean; `q=Q` the relaxation, 0.5 by default, 0 the solid
 //! material's stress).
@@ -23,7 +24,7 @@ use super::SpatialScene;
 use crate::error::SettingsError;
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
-use crate::spatial::sensitivity::{Parameter, Response};
+use crate::spatial::sensitivity::{Elements, Parameter, Response};
 
 type Result<T> = std::result::Result<T, SettingsError>;
 
@@ -41,22 +42,52 @@ const INERTIA: [(&str, usize, usize); 6] = [
     ("Iyz", 1, 2),
 ];
 
-/// `stress[:OPTIONS]` from what follows `stress:` (module docs).
-fn stress(rest: Option<&str>) -> std::result::Result<Response, String> {
-    let (component, options) = component_and_options(rest)?;
-    if let Some(c) = component {
-        return Err(format!(
-            "a spatial stress is the whole structure's; '{c}' is not an option (p=, ks=, scale=, q=)"
-        ));
-    }
-    let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
-    Ok(Response::Stress {
-        aggregation,
-        relaxation,
-    })
-}
-
 impl SpatialScene {
+    /// `stress[:NAME][:OPTIONS]` from what follows `stress:` (module docs).
+    fn stress(&self, rest: Option<&str>) -> std::result::Result<Response, String> {
+        let (component, options) = component_and_options(rest)?;
+        let within = component.map(|c| self.elements_of(c)).transpose()?;
+        let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
+        Ok(Response::Stress {
+            aggregation,
+            relaxation,
+            within,
+        })
+    }
+
+    /// The elements of the beam `name`, or of the ground structure `name` (its beams
+    /// `name/…`): consecutive beams and truss bars of the model.
+    fn elements_of(&self, name: &str) -> std::result::Result<Elements, String> {
+        let prefix = format!("{name}/");
+        let mine: Vec<_> = (self.beams.iter())
+            .filter(|(beam, _)| *beam == name || beam.starts_with(&prefix))
+            .map(|(_, b)| b)
+            .collect();
+        if mine.is_empty() {
+            return Err(format!(
+                "'{name}' is no beam or ground structure of the scene (write stress:NAME:OPTIONS)"
+            ));
+        }
+        let range = |truss: bool| -> std::result::Result<[usize; 2], String> {
+            let mut all: Vec<usize> = (mine.iter())
+                .filter(|b| b.truss == truss)
+                .flat_map(|b| b.elements.iter().copied())
+                .collect();
+            all.sort_unstable();
+            match (all.first(), all.last()) {
+                (Some(&a), Some(&b)) if b - a + 1 == all.len() => Ok([a, b + 1]),
+                (None, None) => Ok([0, 0]),
+                _ => Err(format!(
+                    "the elements of '{name}' are not consecutive in the model"
+                )),
+            }
+        };
+        Ok(Elements {
+            beams: range(false)?,
+            trusses: range(true)?,
+        })
+    }
+
     /// The response called `name` (module docs).
     ///
     /// # Errors
@@ -70,7 +101,7 @@ impl SpatialScene {
         };
         if let Some(rest) = name.strip_prefix("stress") {
             if rest.is_empty() || rest.starts_with(':') {
-                return stress(rest.strip_prefix(':')).or_else(&bad);
+                return self.stress(rest.strip_prefix(':')).or_else(&bad);
             }
         }
         match name {
