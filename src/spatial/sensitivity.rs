@@ -171,6 +171,20 @@ pub enum Response {
     },
 }
 
+impl Response {
+    /// A stress mean's aggregation, relaxation and elements; `None` for the others.
+    fn stress(&self) -> Option<(Aggregation, f64, Option<Elements>)> {
+        match *self {
+            Self::Stress {
+                aggregation,
+                relaxation,
+                within,
+            } => Some((aggregation, relaxation, within)),
+            _ => None,
+        }
+    }
+}
+
 /// Consecutive beams and truss bars of a mechanism, `[first, end)` of each: a scene's beam
 /// or ground structure, whose stresses a response reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -637,12 +651,7 @@ impl<'m> Sweep<'m> {
     /// Each stress response's mean over the run, made once for its value and its seeds.
     fn prepare_stresses(&mut self, responses: &[Response]) {
         for r in responses {
-            if let Response::Stress {
-                aggregation,
-                relaxation,
-                within,
-            } = *r
-            {
+            if let Some((aggregation, relaxation, within)) = r.stress() {
                 if !self.means.iter().any(|(known, _)| known == r) {
                     let mean = self.stress_mean(&aggregation, relaxation, within);
                     self.means.push((*r, mean));
@@ -732,12 +741,7 @@ impl<'m> Sweep<'m> {
 
     /// A stress mean's derivative to the states at state `n`, added to `eps`.
     fn add_stress_seed(&self, r: &Response, n: usize, eps: &mut [f64]) {
-        let Response::Stress {
-            aggregation,
-            relaxation,
-            within,
-        } = *r
-        else {
+        let Some((aggregation, relaxation, within)) = r.stress() else {
             return;
         };
         let (m, total) = (self.mean_of(r), self.total_length(within));
@@ -757,12 +761,7 @@ impl<'m> Sweep<'m> {
     /// truss bar, number `index` of its kind): its relaxation's,
     /// `Σ ∂mean/∂(x^q σ) q x^{q−1} σ`; zero for an element the mean does not read.
     fn relaxation_rate(&self, r: &Response, e: &dyn Element, truss: bool, index: usize) -> f64 {
-        let Response::Stress {
-            aggregation,
-            relaxation,
-            within,
-        } = *r
-        else {
+        let Some((aggregation, relaxation, within)) = r.stress() else {
             return 0.0;
         };
         let read = within.is_none_or(|w| {
