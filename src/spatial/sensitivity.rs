@@ -667,10 +667,18 @@ impl<'m> Sweep<'m> {
             .collect()
     }
 
-    /// The mean of a stress response ([`Sweep::prepare_stresses`] made it).
+    /// The mean of a stress response: the one [`Sweep::prepare_stresses`] made, or made
+    /// now.
     fn mean_of(&self, r: &Response) -> StressMean {
-        let found = self.means.iter().find(|(known, _)| known == r);
-        found.expect("stress means are prepared first").1
+        match self.means.iter().find(|(known, _)| known == r) {
+            Some(&(_, mean)) => mean,
+            None => {
+                let (aggregation, relaxation, within) =
+                    r.stress()
+                        .unwrap_or((Aggregation::PMean { p: 2.0 }, 0.0, None));
+                self.stress_mean(&aggregation, relaxation, within)
+            }
+        }
     }
 
     /// Element `e`'s stresses at state `n` into `out`, how many, and their weight each in a
