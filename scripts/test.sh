@@ -4,23 +4,19 @@
 # included), the Rust suite (cargo test) and the Python suite (pytest).
 # Each stage's wall time is printed as it ends ("test.sh: N s: COMMAND").
 #
-# The Rust checks (cargo fmt, the lints, cargo test) run while pip builds the extension, in a
-# target directory of their own (TARGET/rust): cargo locks a target directory for the whole
-# of a build, and cargo test would compile most of its dependencies again after pip's build
-# anyway: the bindings' dependencies (pyo3, numpy) and cargo test's dev-dependencies
-# (criterion) turn on different features of common crates (num-traits, either, syn, ...),
-# which changes the hash of every crate above them, faer and nalgebra included; what the
-# Rust checks share (build scripts, proc-macros) they share among themselves. pip's build of
-# the crate itself runs on one core (codegen-units = 1) and would leave the other idle.
-# One clippy pass with the bindings' feature lints the crate with its Python side, the tests
-# and the benchmarks (a check links nothing; two passes took 206 s against 156 s); cargo
-# test builds the crate without the bindings, its warnings errors too. (Building the tests
-# in 16 codegen units instead of one was slower here, 318 s against 258 s: beside pip's
-# build, both cores are busy anyway, and more units do more work.)
-# pytest runs after both, on two workers (pytest-xdist): its tests run Python, mostly on one
-# core each (measured on 2 cores: 215 s against 290 s on one worker); started beside the
-# Rust checks' tail instead, both slowed and the whole took longer (735 s against 672 s).
-# The tests that time how fast a run hears Ctrl-C (marked `timed`) run last, alone.
+# The order is what two cores do best with (measured on a 2-core machine, README):
+# - pip builds the extension in release mode (the crate itself on one core: codegen-units = 1)
+#   while the lints run beside it in a target directory of their own (TARGET/clippy; cargo
+#   locks a target directory for a whole build): cargo fmt, then one clippy pass with the
+#   bindings' feature over the crate, the tests and the benchmarks, warnings as errors (a
+#   check links nothing).
+# - cargo test then builds in pip's target directory and reuses the dependencies pip
+#   compiled: Cargo.toml turns on in every build the features the test build would add (a
+#   crate's features enter the hash of every crate above it), and no RUSTFLAGS are set (they
+#   would too). Warnings are errors here as well: the build's output is searched for them.
+# - pytest runs on two workers (pytest-xdist): its tests run Python, mostly on one core each
+#   (215 s against 290 s on one worker). The tests that time how fast a run hears Ctrl-C
+#   (marked `timed`) run last, alone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -34,21 +30,27 @@ stage() {
     fi
     return "$status"
 }
-rust() {
+lints() {
     stage cargo fmt --check
     stage cargo clippy --release --all-targets --features python -- -D warnings
-    RUSTFLAGS="-D warnings" stage cargo test --release
+}
+rust_tests() {
+    local log="${CARGO_TARGET_DIR:-target}/test-build.log"
+    mkdir -p "$(dirname "$log")"
+    cargo test --release --no-run 2>&1 | tee "$log"
+    if grep -q "^warning" "$log"; then
+        echo "cargo test: the build warned (warnings are errors)"
+        return 1
+    fi
+    cargo test --release
 }
 stage "$PYTHON" -m pip install --quiet --upgrade "pip>=23" "maturin>=1.9.4,<2"
-CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/rust" rust &
-rust_pid=$!
-installed=0
-stage "$PYTHON" -m pip install --quiet -e ".[test]" || installed=$?
-start=$SECONDS checked=0
-wait "$rust_pid" || checked=$?
-echo "test.sh: $((SECONDS - start)) s: waiting for the Rust checks after the install"
-if ((installed || checked)); then
-    exit 1
-fi
+CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/clippy" lints &
+lints_pid=$!
+stage "$PYTHON" -m pip install --quiet -e ".[test]"
+start=$SECONDS
+wait "$lints_pid"
+echo "test.sh: $((SECONDS - start)) s: waiting for the lints after the install"
+stage rust_tests
 stage "$PYTHON" -m pytest -q -n 2 -m "not timed"
 stage "$PYTHON" -m pytest -q -m timed
