@@ -62,6 +62,12 @@ pub(crate) fn kink_on_node(kinks: &[f64], s: &State) -> Option<f64> {
     kinks.iter().find(on_node).copied()
 }
 
+/// Whether a row's `b` jumps from `before` to `after` (by more than a negligible fraction of
+/// its size).
+pub(crate) fn jumps(before: f64, after: f64) -> bool {
+    (after - before).abs() > KINK_ON_NODE * (after.abs() + before.abs())
+}
+
 /// The restart's jump at state `s` on `kink`: the rows' `b` read on either side of it into
 /// `jump`, and `[M, sBᵀ; sB, 0][Δv̇; Δν] = [0; −s Δb]` solved into `rhs` (`s` the mean mass,
 /// the matrix factored into `solver`); `false` where no row's `b` jumps.
@@ -90,13 +96,13 @@ pub(crate) fn kink_jump(
     let n_v = model.n_v();
     let scale = asm.mean_mass();
     let [before, after] = &*jump;
-    let mut jumps = false;
+    let mut any = false;
     for (r, (b, a)) in rhs[n_v..].iter_mut().zip(before.iter().zip(after)) {
-        let negligible = (a - b).abs() <= KINK_ON_NODE * (a.abs() + b.abs());
-        *r = if negligible { 0.0 } else { -scale * (a - b) };
-        jumps |= !negligible;
+        let jumped = jumps(*b, *a);
+        *r = if jumped { -scale * (a - b) } else { 0.0 };
+        any |= jumped;
     }
-    if !jumps {
+    if !any {
         return Ok(false);
     }
     rhs[..n_v].fill(0.0);

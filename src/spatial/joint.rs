@@ -26,10 +26,10 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 pub(crate) use crate::spatial::pair::Stiffness;
-use crate::spatial::pair::{Measure, Pair, LOCAL};
+use crate::spatial::pair::{Measure, Pair, Side, LOCAL};
 
 use crate::group::six;
-use crate::mechanism::motion::Motion;
+use crate::mechanism::motion::{LawParameter, Motion};
 
 /// The most rows a joint has (the weld's).
 pub const MAX_ROWS: usize = 6;
@@ -364,34 +364,69 @@ impl Joint {
     fn drive_row(&self, drive: &Drive, t: f64) -> (Vec2<Term>, [f64; 3]) {
         let law = drive.law.at(t);
         let psi = law.angle - drive.law.at(0.0).angle;
-        match drive.coordinate {
-            Coordinate::Angle { e1, e2, b1 } => {
-                let (sn, cs) = psi.sin_cos();
-                let (w, acc) = (law.velocity, law.acceleration);
-                let cosine = Term {
-                    c: [cs, -sn * w, -cs * w * w - sn * acc],
-                    alpha: Measure::Axis(0, e2),
-                    beta: Measure::Axis(1, b1),
-                };
-                let sine = Term {
-                    c: [-sn, -cs * w, sn * w * w - cs * acc],
-                    alpha: Measure::Axis(0, e1),
-                    beta: Measure::Axis(1, b1),
-                };
-                ([Some(cosine), Some(sine)], [0.0; 3])
-            }
-            Coordinate::Slide { axis, start } => {
-                let travel = Term {
-                    c: [1.0, 0.0, 0.0],
-                    alpha: Measure::Axis(0, axis),
-                    beta: Measure::Gap,
-                };
-                (
-                    [Some(travel), None],
-                    [start + psi, law.velocity, law.acceleration],
-                )
-            }
+        drive_terms(
+            drive.coordinate,
+            [psi, law.velocity, law.acceleration],
+            None,
+        )
+    }
+
+    /// The drive row's derivatives to a parameter `p` of its trapezoidal law at `(q, v, t)`
+    /// (with `v = None`, `b` at rest): `∂Φ/∂p`, `∂B/∂p` and `∂b/∂p` as a row's value,
+    /// gradient and term, and the row's index among the joint's; `None` without a
+    /// trapezoidal drive.
+    pub(crate) fn drive_rate(
+        &self,
+        q: &[f64],
+        v: Option<&[f64]>,
+        t: f64,
+        p: LawParameter,
+    ) -> Option<(usize, DriveRate)> {
+        let drive = self.drive.as_ref()?;
+        let Motion::Trapezoidal(law) = &drive.law else {
+            return None;
+        };
+        let state = drive.law.at(t);
+        let (rate, rate0) = (law.rate(t, p), law.rate(0.0, p));
+        let psi = state.angle - drive.law.at(0.0).angle;
+        let (products, g) = drive_terms(
+            drive.coordinate,
+            [psi, state.velocity, state.acceleration],
+            Some([rate.angle - rate0.angle, rate.velocity, rate.acceleration]),
+        );
+        let row = self.drive_value(&products, g, &self.pair.sides(q, v));
+        Some((
+            self.rows.len(),
+            DriveRate {
+                value: row.value,
+                gradient: row.gradient,
+                term: row.term,
+            },
+        ))
+    }
+
+    /// The drive's row from its terms and `(g, ġ, g̈)` at the nodes' `sides`.
+    fn drive_value(&self, products: &Vec2<Term>, g: [f64; 3], sides: &[Side; 2]) -> RowValue {
+        let [g, gd, gdd] = g;
+        let mut row = RowValue {
+            value: -g,
+            gradient: SVector::zeros(),
+            time_rate: -gd,
+            term: -gdd,
+        };
+        for Term {
+            c: [c, cd, cdd],
+            alpha,
+            beta,
+        } in products.iter().flatten()
+        {
+            let p = self.pair.product(alpha, beta, sides);
+            row.value += c * p.value;
+            row.gradient += p.gradient * *c;
+            row.time_rate += cd * p.value;
+            row.term += c * p.term + 2.0 * cd * p.rate + cdd * p.value;
         }
+        row
     }
 
     /// Every row at `(q, v, t)`: its value, gradient, `∂Φ/∂t` and `b` of
@@ -417,25 +452,8 @@ impl Joint {
             );
         }
         if let Some(drive) = &self.drive {
-            let (products, [g, gd, gdd]) = self.drive_row(drive, t);
-            let mut row = RowValue {
-                value: -g,
-                gradient: SVector::zeros(),
-                time_rate: -gd,
-                term: -gdd,
-            };
-            for Term {
-                c: [c, cd, cdd],
-                alpha,
-                beta,
-            } in products.iter().flatten()
-            {
-                let p = self.pair.product(alpha, beta, &sides);
-                row.value += c * p.value;
-                row.gradient += p.gradient * *c;
-                row.time_rate += cd * p.value;
-                row.term += c * p.term + 2.0 * cd * p.rate + cdd * p.value;
-            }
+            let (products, g) = self.drive_row(drive, t);
+            let row = self.drive_value(&products, g, &sides);
             f(self.rows.len(), row);
         }
     }
@@ -515,6 +533,59 @@ impl Joint {
 
 /// Up to two of a kind.
 type Vec2<T> = [Option<T>; 2];
+
+/// A drive row's terms and `(g, ġ, g̈)` at its law's state `(ψ, ψ̇, ψ̈)` ([`Joint::drive_row`]),
+/// or with `rate = Some((ψ', ψ̇', ψ̈'))` their derivatives to a parameter that moves the
+/// state so: an angle's coefficients turn with `ψ` (`∂(cos ψ, −sin ψ)/∂ψ = (−sin ψ,
+/// −cos ψ)`, the sine term's), a slide's `g` is the state itself.
+fn drive_terms(
+    coordinate: Coordinate,
+    [psi, w, acc]: [f64; 3],
+    rate: Option<[f64; 3]>,
+) -> (Vec2<Term>, [f64; 3]) {
+    match coordinate {
+        Coordinate::Angle { e1, e2, b1 } => {
+            let (sn, cs) = psi.sin_cos();
+            // `c(cs, sn)` of the cosine term; the sine term's is `c(−sn, cs)`.
+            let c = |cs: f64, sn: f64| match rate {
+                None => [cs, -sn * w, -cs * w * w - sn * acc],
+                Some([dpsi, dw, dacc]) => [
+                    -sn * dpsi,
+                    -cs * w * dpsi - sn * dw,
+                    (sn * w * w - cs * acc) * dpsi - 2.0 * cs * w * dw - sn * dacc,
+                ],
+            };
+            let term = |c, e| Term {
+                c,
+                alpha: Measure::Axis(0, e),
+                beta: Measure::Axis(1, b1),
+            };
+            (
+                [Some(term(c(cs, sn), e2)), Some(term(c(-sn, cs), e1))],
+                [0.0; 3],
+            )
+        }
+        Coordinate::Slide { axis, start } => {
+            let travel = Term {
+                c: [f64::from(u8::from(rate.is_none())), 0.0, 0.0],
+                alpha: Measure::Axis(0, axis),
+                beta: Measure::Gap,
+            };
+            let g = rate.unwrap_or([start + psi, w, acc]);
+            ([Some(travel), None], g)
+        }
+    }
+}
+
+/// A drive row's derivatives to a parameter of its law ([`Joint::drive_rate`]).
+pub(crate) struct DriveRate {
+    /// `∂Φ/∂p` at the state.
+    pub value: f64,
+    /// `∂B/∂p` on the joint's local unknowns.
+    pub gradient: SVector<f64, LOCAL>,
+    /// `∂b/∂p` of `Φ̈ = B v̇ + b`.
+    pub term: f64,
+}
 
 /// A term `c(t) (α · β)` of a drive's row: the coefficient with its first two time
 /// derivatives, and the product's measures.
@@ -611,6 +682,95 @@ mod tests {
             moved.write(&mut q, n);
         }
         (joint, q)
+    }
+
+    /// A trapezoidal drive's row moves with its law's end, acceleration and speed as
+    /// `drive_rate` says: the row's value, gradient and `b` against central differences of
+    /// the row under laws with the parameter moved, in each phase of the law (accelerating,
+    /// at speed, braking, done) and on a triangular profile, angles and slides.
+    #[test]
+    fn drive_rates_against_differences() {
+        use crate::mechanism::motion::Trapezoidal;
+        let v: Vec<f64> = (0..2 * NV).map(|i| 0.3 - 0.1 * i as f64).collect();
+        let laws = [[0.3, 1.5, 4.0, 1.2], [0.0, -0.4, 3.0, 5.0]]; // trapezoid, triangle
+        let param = [
+            LawParameter::End,
+            LawParameter::Acceleration,
+            LawParameter::Speed,
+        ];
+        // How many rates the differences saw move: the laws' phases must move them.
+        let mut moving = 0;
+        for kind in [
+            JointKind::Revolute {
+                axis: Vector3::new(0.3, -0.5, 0.8),
+            },
+            JointKind::Prismatic {
+                axis: Vector3::new(0.3, -0.5, 0.8),
+            },
+        ] {
+            for [start, end, acc, speed] in laws {
+                let build = |d: [f64; 3]| {
+                    let (mut joint, q0) = setup_initial(kind, false);
+                    let law = Trapezoidal::new(start, end + d[0], acc + d[1], speed + d[2], 0.1);
+                    joint.drive(Motion::Trapezoidal(law), &q0).unwrap();
+                    joint
+                };
+                let joint = build([0.0; 3]);
+                let (_, q) = setup(kind, false);
+                let law = joint.drive_law().cloned().unwrap();
+                let Motion::Trapezoidal(trapezoid) = &law else {
+                    unreachable!()
+                };
+                let duration = trapezoid.duration();
+                for t in [
+                    0.05,
+                    0.15,
+                    0.1 + 0.4 * duration,
+                    0.1 + 0.97 * duration,
+                    0.2 + duration,
+                ] {
+                    for (k, &p) in param.iter().enumerate() {
+                        let (row, rate) = joint.drive_rate(&q, Some(&v), t, p).unwrap();
+                        let eps = 1e-6;
+                        let mut d = [0.0; 3];
+                        d[k] = eps;
+                        let (jp, jm) = (build(d), build(d.map(|x| -x)));
+                        let fd = |f: &dyn Fn(&Joint) -> f64| (f(&jp) - f(&jm)) / (2.0 * eps);
+                        let value = fd(&|j: &Joint| {
+                            let mut out = [0.0; MAX_ROWS];
+                            j.values(&q, t, &mut out);
+                            out[row]
+                        });
+                        let term = fd(&|j: &Joint| {
+                            let mut out = [0.0; MAX_ROWS];
+                            j.acceleration_terms(&q, &v, t, &mut out);
+                            out[row]
+                        });
+                        moving += usize::from(value.abs() > 1e-3 && term.abs() > 1e-3);
+                        let what = (kind.name(), start, t, p);
+                        assert!(
+                            (value - rate.value).abs() < 1e-7,
+                            "{what:?}: value {} against {value}",
+                            rate.value
+                        );
+                        assert!(
+                            (term - rate.term).abs() < 1e-6 * (1.0 + term.abs()),
+                            "{what:?}: b {} against {term}",
+                            rate.term
+                        );
+                        for c in 0..LOCAL {
+                            let g = fd(&|j: &Joint| j.gradient(&q, t)[(row, c)]);
+                            assert!(
+                                (g - rate.gradient[c]).abs() < 1e-7,
+                                "{what:?}: B[{c}] {} against {g}",
+                                rate.gradient[c]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(moving >= 12, "{moving} rates moved");
     }
 
     fn perturbed(q: &[f64], node: usize, k: usize, e: f64) -> Vec<f64> {

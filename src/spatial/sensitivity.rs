@@ -28,6 +28,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
+use crate::mechanism::motion::{LawParameter, Motion};
 use crate::response::aggregation::Aggregation;
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
@@ -35,7 +36,7 @@ use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
-use crate::spatial::integrator::{kink_jump, kink_on_node, kinks, run};
+use crate::spatial::integrator::{jumps, kink_jump, kink_on_node, kinks, run};
 use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::Stiffness;
@@ -109,6 +110,16 @@ pub enum Parameter {
     TrussDensity {
         /// The bar.
         truss: usize,
+    },
+    /// A parameter of a joint's trapezoidal drive (its end, acceleration or speed, in rad,
+    /// rad/s², rad/s on a revolute joint, m, m/s², m/s on a prismatic one): it moves the
+    /// driven row `Φ = h(q) − g(t)` at every step, `g̈(0)` in the initial accelerations and
+    /// the jumps of `g̈` where the run restarts.
+    Drive {
+        /// The joint.
+        joint: usize,
+        /// Which.
+        law: LawParameter,
     },
 }
 
@@ -331,6 +342,25 @@ fn check(
                     ));
                 }
             }
+            Parameter::Drive { joint, .. } => {
+                let law = model.joints.get(joint).and_then(Joint::drive_law);
+                if !matches!(law, Some(Motion::Trapezoidal(_))) {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("joint {joint} has no trapezoidal drive"),
+                    ));
+                }
+                if responses
+                    .iter()
+                    .any(|r| matches!(r, Response::Deflection { .. }))
+                {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        "a deflection's rigid trajectory moves with the drives' laws, and its \
+                         derivative to them is not built: ask for a position or an effort",
+                    ));
+                }
+            }
             Parameter::Inertia { body: b, i, j } => {
                 body(b, format!("parameters[{k}]"))?;
                 if i > 2 || j > 2 {
@@ -476,13 +506,15 @@ pub fn static_sensitivities(
             rhs[n_v..].copy_from_slice(&lam);
             sweep.solve(&mut rhs, true, 0)?;
             for (gi, p) in g.iter_mut().zip(parameters) {
-                *gi = -sweep.parameter_dot(p, 0, &rhs[..n_v]);
+                *gi = -sweep.parameter_dot(p, 0, &rhs[..n_v])
+                    - sweep.constraint_dot(p, 0, Level::Position, 1.0, &rhs[n_v..]);
             }
         }
     } else {
         for (i, p) in parameters.iter().enumerate() {
             rhs.fill(0.0);
             sweep.add_parameter_load(p, 0, &mut rhs[..n_v]);
+            sweep.add_constraint_load(p, 0, Level::Position, 1.0, &mut rhs[n_v..]);
             rhs.iter_mut().for_each(|x| *x = -*x);
             sweep.solve(&mut rhs, false, 0)?;
             for (g, r) in gradient.iter_mut().zip(responses) {
@@ -541,15 +573,42 @@ struct Tangent {
     lam: Vec<f64>,
 }
 
+/// Which form of a driven row a parameter's derivative enters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Level {
+    /// `Φ(q, t) = 0`: a step, an equilibrium.
+    Position,
+    /// `B v̇ + b = 0`: the initial accelerations.
+    Acceleration,
+}
+
 /// The restart at a drive's kink on a state, as its derivative needs it
 /// ([`Sweep::restart_tangents`]).
 struct Restart {
+    /// The kink's time (s).
+    kink: f64,
     /// The jump `Δv̇`.
     dv: Vec<f64>,
+    /// The jump of the multipliers `Δλ = s Δν`.
+    mu: Vec<f64>,
+    /// Whether each row's `b` jumped (the others' jumps are held at zero).
+    jumped: Vec<bool>,
     /// The rows' scaling `s`.
     scale: f64,
     /// Each joint's share, in the model's order.
     joints: Vec<RestartJoint>,
+}
+
+/// A drive parameter's share in a restart's right-hand side ([`Sweep::restart_load`]).
+struct RestartLoad {
+    /// The driven joint.
+    joint: usize,
+    /// On its local unknowns' force rows.
+    force: Local,
+    /// Its driven row among the multipliers.
+    row: usize,
+    /// On that row.
+    constraint: f64,
 }
 
 /// A joint's share in the restart's derivative, on its local unknowns.
@@ -1057,8 +1116,55 @@ impl<'m> Sweep<'m> {
                 self.element_load(&model.trusses[truss], true, n)
             }
             Parameter::TrussMass { truss } => self.element_load(&model.trusses[truss], false, n),
+            Parameter::Drive { joint, law } => {
+                let j = &model.joints[joint];
+                match j.drive_rate(&s.q, None, s.t, law) {
+                    Some((row, rate)) => {
+                        let lambda = s.lam[self.row_of(joint, row)];
+                        (j.pair.nodes, rate.gradient * lambda)
+                    }
+                    None => ([None, None], local),
+                }
+            }
             Parameter::BeamDensity { .. } | Parameter::TrussDensity { .. } => ([None, None], local),
         }
+    }
+
+    /// A drive parameter's `∂Φ/∂p` (`level` position: at a step, an equilibrium) or `∂b/∂p`
+    /// (acceleration: the start) at state `n`, on the driven row: the row among the
+    /// multipliers and its value; `None` for the other parameters.
+    fn constraint_load(&self, p: &Parameter, n: usize, level: Level) -> Option<(usize, f64)> {
+        let Parameter::Drive { joint, law } = *p else {
+            return None;
+        };
+        let s = &self.states[n];
+        let v = (level == Level::Acceleration).then_some(&s.qdot[..]);
+        let (row, rate) = self.model().joints[joint].drive_rate(&s.q, v, s.t, law)?;
+        let value = match level {
+            Level::Position => rate.value,
+            Level::Acceleration => rate.term,
+        };
+        Some((self.row_of(joint, row), value))
+    }
+
+    /// Adds `scale` times [`Sweep::constraint_load`] to the constraint rows `out`.
+    fn add_constraint_load(
+        &self,
+        p: &Parameter,
+        n: usize,
+        level: Level,
+        scale: f64,
+        out: &mut [f64],
+    ) {
+        if let Some((row, value)) = self.constraint_load(p, n, level) {
+            out[row] += scale * value;
+        }
+    }
+
+    /// `scale` times [`Sweep::constraint_load`] dotted with the constraint rows `y`.
+    fn constraint_dot(&self, p: &Parameter, n: usize, level: Level, scale: f64, y: &[f64]) -> f64 {
+        self.constraint_load(p, n, level)
+            .map_or(0.0, |(row, value)| scale * value * y[row])
     }
 
     /// `∂r/∂p` at state `n` of a factor on an element's stiffness or its mass: its elastic
@@ -1201,7 +1307,8 @@ impl<'m> Sweep<'m> {
         for p in parameters {
             rhs.fill(0.0);
             self.add_parameter_load(p, 0, &mut rhs[..n_v]);
-            rhs[..n_v].iter_mut().for_each(|r| *r = -*r);
+            self.add_constraint_load(p, 0, Level::Acceleration, s0, &mut rhs[n_v..]);
+            rhs.iter_mut().for_each(|r| *r = -*r);
             self.solve(&mut rhs, false, 0)?;
             tangents.push(Tangent {
                 eps: vec![0.0; n_v],
@@ -1265,6 +1372,11 @@ impl<'m> Sweep<'m> {
             rhs.fill(0.0);
             self.add_mass_rate(p, &restart.dv, &mut rhs[..n_v]);
             restart.add_state_terms(self.model(), &z.eps, &mut rhs);
+            if let Some(load) = self.restart_load(p, &restart, n) {
+                let (force, constraint) = rhs.split_at_mut(n_v);
+                scatter(&self.model().joints[load.joint], &load.force, force);
+                constraint[load.row] += load.constraint;
+            }
             rhs.iter_mut().for_each(|r| *r = -*r);
             self.solve(&mut rhs, false, n)?;
             for ((vdot, a), d) in z.vdot.iter_mut().zip(z.a.iter_mut()).zip(&rhs[..n_v]) {
@@ -1302,6 +1414,11 @@ impl<'m> Sweep<'m> {
             rate.fill(0.0);
             self.add_mass_rate(p, &restart.dv, &mut rate);
             *g -= dot(&rate, &y[..n_v]);
+            if let Some(load) = self.restart_load(p, &restart, n) {
+                let joint = &self.model().joints[load.joint];
+                *g -=
+                    load.force.dot(&gather(joint, &y[..n_v])) + load.constraint * y[n_v + load.row];
+            }
         }
         Ok(())
     }
@@ -1328,6 +1445,11 @@ impl<'m> Sweep<'m> {
             return Ok(None);
         }
         let scale = self.asm.mean_mass();
+        let jumped = jump[0]
+            .iter()
+            .zip(&jump[1])
+            .map(|(b, a)| jumps(*b, *a))
+            .collect();
         let (dv, dnu) = forward.split_at(n_v);
         let mut row = 0;
         let joints = (model.joints.iter())
@@ -1354,10 +1476,40 @@ impl<'m> Sweep<'m> {
             })
             .collect();
         Ok(Some(Restart {
+            kink,
             dv: dv.to_vec(),
+            mu: dnu.iter().map(|x| scale * x).collect(),
+            jumped,
             scale,
             joints,
         }))
+    }
+
+    /// A drive parameter's share in the right-hand side of the restart on state `n`:
+    /// `Δλ ∂B/∂p` on the force rows, `s (∂B/∂p Δv̇ + ∂Δb/∂p)` on the driven row (`Δb'`
+    /// where its `b` jumped); `None` for the other parameters.
+    fn restart_load(&self, p: &Parameter, restart: &Restart, n: usize) -> Option<RestartLoad> {
+        let Parameter::Drive { joint, law } = *p else {
+            return None;
+        };
+        let s = &self.states[n];
+        let j = &self.model().joints[joint];
+        let term = |t: f64| {
+            j.drive_rate(&s.q, Some(&s.qdot), t, law)
+                .map(|(_, r)| r.term)
+        };
+        let (local_row, rate) = j.drive_rate(&s.q, Some(&s.qdot), s.t, law)?;
+        let row = self.row_of(joint, local_row);
+        let mut constraint = rate.gradient.dot(&gather(j, &restart.dv));
+        if restart.jumped[row] {
+            constraint += term(restart.kink.next_up())? - term(restart.kink.next_down())?;
+        }
+        Some(RestartLoad {
+            joint,
+            force: rate.gradient * restart.mu[row],
+            row,
+            constraint: restart.scale * constraint,
+        })
     }
 
     /// `(∂M/∂p) w` of a parameter on an inertia (a body's mass or inertia, a beam's or a
@@ -1434,6 +1586,7 @@ impl<'m> Sweep<'m> {
         self.asm
             .linear_terms(&s.qdot, &eps_pred, &v_pred, force, constraint);
         self.add_parameter_load(p, n, force);
+        self.add_constraint_load(p, n, Level::Position, 1.0, constraint);
         force.iter_mut().for_each(|f| *f = -*f);
         constraint.iter_mut().for_each(|c| *c *= -scale);
         self.solve(rhs, false, n)?;
@@ -1489,7 +1642,8 @@ impl<'m> Sweep<'m> {
             self.solve(&mut rhs, true, n)?;
             // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
             for (g, p) in gradient.iter_mut().zip(parameters) {
-                *g -= self.parameter_dot(p, n, &rhs[..n_v]);
+                *g -= self.parameter_dot(p, n, &rhs[..n_v])
+                    + self.constraint_dot(p, n, Level::Position, scale, &rhs[n_v..]);
             }
             let (y_force, y_constraint) = rhs.split_at_mut(n_v);
             y_force.iter_mut().for_each(|y| *y = -*y);
@@ -1545,7 +1699,8 @@ impl<'m> Sweep<'m> {
         self.factorize(0)?;
         self.solve(&mut rhs, true, 0)?;
         for (g, p) in gradient.iter_mut().zip(parameters) {
-            *g -= self.parameter_dot(p, 0, &rhs[..n_v]);
+            *g -= self.parameter_dot(p, 0, &rhs[..n_v])
+                + self.constraint_dot(p, 0, Level::Acceleration, s0, &rhs[n_v..]);
         }
         Ok(gradient)
     }

@@ -18,10 +18,14 @@
 //! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING` (a torsion spring's in
 //! N m/rad, N m s/rad), `torque:MOTOR`,
 //! `E:BEAM` and `rho:BEAM` (its material's Young's modulus at fixed Poisson's ratio and
-//! density, Pa and kg/m³, over every element of the beam).
+//! density, Pa and kg/m³, over every element of the beam), `end:JOINT`,
+//! `acceleration:JOINT`, `speed:JOINT` (of a joint's trapezoidal drive: rad, rad/s², rad/s
+//! on a revolute joint, m, m/s², m/s on a prismatic one; not with a deflection, whose rigid
+//! trajectory they move).
 
 use super::SpatialScene;
 use crate::error::SettingsError;
+use crate::mechanism::motion::{LawParameter, Motion};
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::sensitivity::{Elements, Parameter, Response};
@@ -165,7 +169,7 @@ impl SpatialScene {
     pub fn parameter(&self, name: &str) -> Result<Named> {
         let bad = |m: String| Err(SettingsError::new("parameters", format!("'{name}': {m}")));
         let Some((kind, what)) = name.split_once(':') else {
-            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho)".into());
+            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho, end, acceleration, speed)".into());
         };
         let m = &self.model;
         let body = || m.bodies.iter().position(|b| b.name == what);
@@ -189,6 +193,28 @@ impl SpatialScene {
                 Some((force, ForceKind::Motor { .. })) => one(Parameter::MotorTorque { force }),
                 _ => bad(format!("'{what}' is no motor of the scene")),
             },
+            "end" | "acceleration" | "speed" => {
+                let Some(joint) = m.joints.iter().position(|j| j.name == what) else {
+                    return bad(format!("'{what}' is no joint of the scene"));
+                };
+                let law = match kind {
+                    "end" => LawParameter::End,
+                    "acceleration" => LawParameter::Acceleration,
+                    _ => LawParameter::Speed,
+                };
+                match m.joints[joint].drive_law() {
+                    Some(Motion::Trapezoidal(t)) if t.duration() > 0.0 => {
+                        one(Parameter::Drive { joint, law })
+                    }
+                    Some(Motion::Trapezoidal(_)) => bad(format!(
+                        "'{what}' is held (its drive starts where it ends): its law has no rate to a parameter"
+                    )),
+                    Some(Motion::Table(_)) => bad(format!(
+                        "'{what}' has a table: only a trapezoidal drive has an end, acceleration and speed"
+                    )),
+                    None => bad(format!("'{what}' has no drive")),
+                }
+            }
             "E" | "rho" => {
                 let Some(beam) = self.beams.get(what) else {
                     return bad(format!("'{what}' is no beam of the scene"));
@@ -215,7 +241,7 @@ impl SpatialScene {
                     _ => bad(format!("'{what}' is no rigid body of the scene")),
                 },
                 None => bad(format!(
-                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho)"
+                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho, end, acceleration, speed)"
                 )),
             },
         }
