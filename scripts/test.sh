@@ -14,10 +14,9 @@
 #   compiled: Cargo.toml turns on in every build the features the test build would add (a
 #   crate's features enter the hash of every crate above it), and no RUSTFLAGS are set (they
 #   would too). Warnings are errors here as well: the build's output is searched for them.
-# - pytest runs on two workers (pytest-xdist) as soon as the extension is installed, beside
-#   cargo test (whose output is printed when both are done): its tests run Python, mostly on
-#   one core each (215 s against 290 s on one worker). The tests that time how fast a run
-#   hears Ctrl-C (marked `timed`) run last, alone.
+# - pytest runs on two workers (pytest-xdist): its tests run Python, mostly on one core each
+#   (215 s against 290 s on one worker). The tests that time how fast a run hears Ctrl-C
+#   (marked `timed`) run last, alone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -52,17 +51,6 @@ stage "$PYTHON" -m pip install --quiet -e ".[test]"
 start=$SECONDS
 wait "$lints_pid"
 echo "test.sh: $((SECONDS - start)) s: waiting for the lints after the install"
-rust_log="${CARGO_TARGET_DIR:-target}/rust-tests.log"
-mkdir -p "$(dirname "$rust_log")"
-stage rust_tests >"$rust_log" 2>&1 &
-rust_pid=$!
-tested=0
-stage "$PYTHON" -m pytest -q -n 2 -m "not timed" || tested=$?
-start=$SECONDS checked=0
-wait "$rust_pid" || checked=$?
-cat "$rust_log"
-echo "test.sh: $((SECONDS - start)) s: waiting for cargo test after pytest"
-if ((tested || checked)); then
-    exit 1
-fi
+stage rust_tests
+stage "$PYTHON" -m pytest -q -n 2 -m "not timed"
 stage "$PYTHON" -m pytest -q -m timed
