@@ -5,7 +5,8 @@
 # Each stage's wall time is printed as it ends ("test.sh: N s: COMMAND").
 #
 # The order is what two cores do best with (measured on a 2-core machine, README):
-# - pip builds the extension in release mode (the crate itself on one core: codegen-units = 1)
+# - pip builds the extension in release mode (with the maturin just installed: no isolated
+#   build environment to make) (the crate itself on one core: codegen-units = 1)
 #   while the lints run beside it in a target directory of their own (TARGET/clippy; cargo
 #   locks a target directory for a whole build): cargo fmt, then one clippy pass with the
 #   bindings' feature over the crate, the tests and the benchmarks, warnings as errors (a
@@ -14,9 +15,10 @@
 #   compiled: Cargo.toml turns on in every build the features the test build would add (a
 #   crate's features enter the hash of every crate above it), and no RUSTFLAGS are set (they
 #   would too). Warnings are errors here as well: the build's output is searched for them.
-# - pytest runs on two workers (pytest-xdist): its tests run Python, mostly on one core each
-#   (215 s against 290 s on one worker). The tests that time how fast a run hears Ctrl-C
-#   (marked `timed`) run last, alone.
+# - pytest then runs on two workers (pytest-xdist): its tests run Python, mostly on one core
+#   each (215 s against 290 s on one worker). Started beside cargo test instead, both took
+#   longer than one after the other (317 s and 271 s against 163 s and 111 s). The tests
+#   that time how fast a run hears Ctrl-C (marked `timed`) run last, alone.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PYTHON="${PYTHON:-python3}"
@@ -47,7 +49,7 @@ rust_tests() {
 stage "$PYTHON" -m pip install --quiet --upgrade "pip>=23" "maturin>=1.9.4,<2"
 CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-target}/clippy" lints &
 lints_pid=$!
-stage "$PYTHON" -m pip install --quiet -e ".[test]"
+stage "$PYTHON" -m pip install --quiet --no-build-isolation -e ".[test]"
 start=$SECONDS
 wait "$lints_pid"
 echo "test.sh: $((SECONDS - start)) s: waiting for the lints after the install"
