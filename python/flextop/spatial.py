@@ -23,8 +23,8 @@ or a KS mean, ``ks=RHO,scale=S``; ``q=`` the relaxation, 0.5 by default, Pa).
 Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), ``k:SPRING``,
 ``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³), ``end:JOINT``,
 ``acceleration:JOINT`` and ``speed:JOINT`` (a trapezoidal drive's law: rad, rad/s², rad/s on
-a revolute joint, m, m/s², m/s on a prismatic one; not with ``tip_deflection``, whose rigid
-trajectory they move).
+a revolute joint, m, m/s², m/s on a prismatic one; ``tip_deflection``'s rigid trajectory
+moves with them too).
 """
 
 from __future__ import annotations

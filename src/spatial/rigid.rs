@@ -17,13 +17,22 @@
 //! is checked, not assumed: the companion runs twice with two different distributions of
 //! its nominal masses, and trajectories that differ by more than [`DETERMINED_TOLERANCE`]
 //! of the mechanism's size show a freedom no drive holds ([`SettingsError`] naming it).
+//!
+//! **Rates.** A parameter `p` of a drive's law moves the rigid trajectory as the
+//! constraints say: `B(qₙ) εₙ = −∂Φ/∂p` at each state (`εₙ` the links' variation, `B` of
+//! full column rank where the drives hold every freedom, the rows possibly redundant: a
+//! least-squares solve), and a node at `place` in its link moves by
+//! `u' + R_L (θ' × place)` ([`rigid_trajectory_rates`]).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::error::{Error, SettingsError};
 use crate::group::Frame;
+use crate::group::NV;
+use crate::mechanism::motion::LawParameter;
 use crate::mechanism::rank::Sets;
 use crate::settings::DynamicSettings;
+use crate::solver::integrator::State;
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::joint::{Anchor, JointKind};
 use crate::spatial::model::SpatialModel;
@@ -81,12 +90,17 @@ impl Links {
 }
 
 /// The rigid companion of `model` over `links` (module docs), its links' nominal masses
-/// spread by `spread` (the second run's differ from the first's).
+/// spread by `spread` (the second run's differ from the first's), with each of the
+/// model's joints' index in it (`None` for a joint within one link).
 ///
 /// # Errors
 /// A [`SettingsError`] at `tip_deflection` for a drive within one link; the model's own
 /// errors where a carried joint cannot be built.
-fn companion(model: &SpatialModel, links: &Links, spread: bool) -> Result<SpatialModel, Error> {
+fn companion(
+    model: &SpatialModel,
+    links: &Links,
+    spread: bool,
+) -> Result<(SpatialModel, Vec<Option<usize>>), Error> {
     let mut rigid = SpatialModel::new(model.gravity)?;
     let (mass, length) = nominal(model, links.first.len());
     for (k, &node) in links.first.iter().enumerate() {
@@ -107,7 +121,9 @@ fn companion(model: &SpatialModel, links: &Links, spread: bool) -> Result<Spatia
         let [u, w] = [&n.velocity[..3], &n.velocity[3..]].map(Vector3::from_column_slice);
         rigid.set_rates(body, u, w)?;
     }
+    let mut carried_as = Vec::with_capacity(model.joints.len());
     for joint in &model.joints {
+        carried_as.push(None);
         let [a, b] = [0, 1].map(|s| links.anchor(model, joint.pair.nodes[s], joint.pair.arms[s]));
         let same_link = matches!((&a, &b), (Anchor::Node { node: x, .. }, Anchor::Node { node: y, .. }) if x == y);
         if same_link {
@@ -128,8 +144,52 @@ fn companion(model: &SpatialModel, links: &Links, spread: bool) -> Result<Spatia
         if let Some(law) = joint.drive_law() {
             rigid.add_drive(carried, law.clone())?;
         }
+        if let Some(last) = carried_as.last_mut() {
+            *last = Some(carried);
+        }
     }
-    Ok(rigid)
+    Ok((rigid, carried_as))
+}
+
+/// The rigid companion and its run.
+struct Companion {
+    model: SpatialModel,
+    /// Each of the mechanism's joints' index in the companion.
+    carried_as: Vec<Option<usize>>,
+    states: Vec<State>,
+}
+
+/// The companion's run (its rates checked to be a rigid motion of the links).
+///
+/// # Errors
+/// As [`rigid_trajectories`].
+fn companion_run(
+    model: &SpatialModel,
+    links: &Links,
+    spread: bool,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+) -> Result<Companion, Error> {
+    let (rigid, carried_as) = companion(model, links, spread)?;
+    rigid.check_rates().map_err(|e| {
+        SettingsError::new(
+            "tip_deflection",
+            format!("the initial rates are not a rigid motion of the links: {e}"),
+        )
+    })?;
+    let states = simulate_spatial(&rigid, settings, grid)?;
+    Ok(Companion {
+        model: rigid,
+        carried_as,
+        states,
+    })
+}
+
+/// Where node `n` sits in its link's frame, with the link.
+fn place(model: &SpatialModel, links: &Links, n: usize) -> (usize, Vector3<f64>) {
+    let link = links.of_node[n];
+    let (at, of) = (&model.nodes[n].frame, &model.nodes[links.first[link]].frame);
+    (link, of.r.inverse() * (at.x - of.x))
 }
 
 /// A nominal mass (kg, the mechanism's mean per link) and length (m, its size over its
@@ -158,21 +218,12 @@ pub fn rigid_trajectories(
 ) -> Result<Vec<Vec<Vector3<f64>>>, Error> {
     let links = Links::new(model);
     let run = |spread| -> Result<Vec<Vec<Vector3<f64>>>, Error> {
-        let rigid = companion(model, &links, spread)?;
-        rigid.check_rates().map_err(|e| {
-            SettingsError::new(
-                "tip_deflection",
-                format!("the initial rates are not a rigid motion of the links: {e}"),
-            )
-        })?;
-        let states = simulate_spatial(&rigid, settings, grid)?;
+        let states = companion_run(model, &links, spread, settings, grid)?.states;
         Ok(nodes
             .iter()
             .map(|&n| {
-                let link = links.of_node[n];
-                let (at, of) = (&model.nodes[n].frame, &model.nodes[links.first[link]].frame);
-                let place = of.r.inverse() * (at.x - of.x);
-                let frame = |s: &crate::solver::integrator::State| {
+                let (link, place) = place(model, &links, n);
+                let frame = |s: &State| {
                     let f = Frame::read(&s.q, link);
                     f.x + f.r * place
                 };
@@ -200,4 +251,79 @@ pub fn rigid_trajectories(
         }
     }
     Ok(first)
+}
+
+/// The rates `∂r_rigid/∂p` of `nodes`' rigid trajectories over `grid` to each of `drives`
+/// (a joint of `model` and a parameter of its trapezoidal law), indexed
+/// `[drive][node][state]` (module docs: the constraints solved for the links' variation
+/// at each state of the companion's run).
+///
+/// # Errors
+/// As [`rigid_trajectories`]; a [`SettingsError`] at `parameters` for a drive within one
+/// link, which the rigid mechanism does not carry.
+pub(crate) fn rigid_trajectory_rates(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    nodes: &[usize],
+    drives: &[(usize, LawParameter)],
+) -> Result<Vec<Vec<Vec<Vector3<f64>>>>, Error> {
+    let links = Links::new(model);
+    let Companion {
+        model: rigid,
+        carried_as,
+        states,
+    } = companion_run(model, &links, false, settings, grid)?;
+    let carried = (drives.iter())
+        .map(|&(joint, law)| {
+            carried_as[joint].map(|c| (c, law)).ok_or_else(|| {
+                SettingsError::new(
+                    "parameters",
+                    format!("joint '{}' lies within one link", model.joints[joint].name),
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let places: Vec<_> = nodes.iter().map(|&n| place(model, &links, n)).collect();
+    let mut rates = vec![vec![Vec::with_capacity(states.len()); nodes.len()]; drives.len()];
+    for s in &states {
+        let b = constraint_gradient(&rigid, s);
+        let svd = b.clone().svd(true, true);
+        for (&(joint, law), out) in carried.iter().zip(&mut rates) {
+            let mut rhs = DVector::zeros(b.nrows());
+            let j = &rigid.joints[joint];
+            if let (Some(rows), Some((row, rate))) =
+                (rigid.joint_rows(joint), j.drive_rate(&s.q, None, s.t, law))
+            {
+                rhs[rows.start + row] = -rate.value;
+            }
+            let eps = svd
+                .solve(&rhs, 1e-12 * svd.singular_values.max())
+                .expect("the SVD was asked for both factors");
+            for (&(link, place), path) in places.iter().zip(out.iter_mut()) {
+                let e = eps.fixed_rows::<NV>(NV * link);
+                let (u, theta) = (e.fixed_rows::<3>(0), e.fixed_rows::<3>(3));
+                let r = Frame::read(&s.q, link).rotation();
+                path.push(u + r * theta.cross(&place));
+            }
+        }
+    }
+    Ok(rates)
+}
+
+/// The constraints' gradient `B` of `model` at state `s`, dense.
+fn constraint_gradient(model: &SpatialModel, s: &State) -> DMatrix<f64> {
+    let mut b = DMatrix::zeros(model.n_rows(), model.n_v());
+    for (k, joint) in model.joints.iter().enumerate() {
+        let rows = model.joint_rows(k).expect("a joint of the model");
+        let g = joint.gradient(&s.q, s.t);
+        for (side, node) in joint.local_nodes() {
+            for r in 0..rows.len() {
+                for c in 0..NV {
+                    b[(rows.start + r, NV * node + c)] = g[(r, NV * side + c)];
+                }
+            }
+        }
+    }
+    b
 }

@@ -40,7 +40,7 @@ use crate::spatial::integrator::{jumps, kink_jump, kink_on_node, kinks, run};
 use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::Stiffness;
-use crate::spatial::rigid::rigid_trajectories;
+use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
 use crate::spatial::section::MAX_FIBRES;
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
@@ -350,16 +350,6 @@ fn check(
                         format!("joint {joint} has no trapezoidal drive"),
                     ));
                 }
-                if responses
-                    .iter()
-                    .any(|r| matches!(r, Response::Deflection { .. }))
-                {
-                    return Err(SettingsError::new(
-                        format!("parameters[{k}]"),
-                        "a deflection's rigid trajectory moves with the drives' laws, and its \
-                         derivative to them is not built: ask for a position or an effort",
-                    ));
-                }
             }
             Parameter::Inertia { body: b, i, j } => {
                 body(b, format!("parameters[{k}]"))?;
@@ -404,7 +394,21 @@ pub fn sensitivities(
         .collect();
     if !tips.is_empty() {
         let paths = rigid_trajectories(model, settings, grid, &tips)?;
-        sweep.rigid = tips.into_iter().zip(paths).collect();
+        sweep.rigid = tips.iter().copied().zip(paths).collect();
+        let drives: Vec<(usize, LawParameter)> = (parameters.iter())
+            .filter_map(|p| match *p {
+                Parameter::Drive { joint, law } => Some((joint, law)),
+                _ => None,
+            })
+            .collect();
+        let rates = rigid_trajectory_rates(model, settings, grid, &tips, &drives)?;
+        for (&(joint, law), by_node) in drives.iter().zip(rates) {
+            for (&node, path) in tips.iter().zip(by_node) {
+                sweep
+                    .rigid_rates
+                    .push((node, Parameter::Drive { joint, law }, path));
+            }
+        }
     }
     sweep.prepare_stresses(responses);
     let values = responses.iter().map(|r| sweep.value(r)).collect();
@@ -544,6 +548,9 @@ struct Sweep<'m> {
     /// The rigid trajectory of each node a [`Response::Deflection`] names, a position per
     /// state.
     rigid: Vec<(usize, Vec<Vector3<f64>>)>,
+    /// The rates of those trajectories to each drive parameter asked for
+    /// ([`rigid_trajectory_rates`]): a node, the parameter, a rate per state.
+    rigid_rates: Vec<(usize, Parameter, Vec<Vector3<f64>>)>,
     /// Each [`Response::Stress`]'s mean over the run.
     means: Vec<(Response, StressMean)>,
 }
@@ -703,6 +710,7 @@ impl<'m> Sweep<'m> {
             many_solves: false,
             restarted: vec![false; states.len()],
             rigid: Vec::new(),
+            rigid_rates: Vec::new(),
             means: Vec::new(),
         })
     }
@@ -922,6 +930,19 @@ impl<'m> Sweep<'m> {
         }
     }
 
+    /// A deflection's explicit derivative to a drive parameter, through its rigid
+    /// trajectory: `−(2/t_f) Σ wₙ (r − r_rigid)ₙ · ∂r_rigid,ₙ/∂p`.
+    fn rigid_share(&self, node: usize, p: &Parameter) -> f64 {
+        let Some((.., rates)) = (self.rigid_rates.iter()).find(|(n, q, _)| *n == node && q == p)
+        else {
+            return 0.0;
+        };
+        let share: f64 = (rates.iter().enumerate())
+            .map(|(n, rate)| self.weight(n) * self.deflection(node, n).dot(rate))
+            .sum();
+        -2.0 * share / self.duration()
+    }
+
     /// `r − r_rigid` of node `node` at state `n` (a deflection's rigid trajectory made).
     fn deflection(&self, node: usize, n: usize) -> Vector3<f64> {
         let rigid = (self.rigid.iter())
@@ -973,6 +994,7 @@ impl<'m> Sweep<'m> {
                 _ => 0.0,
             },
             (Response::KineticEnergy, _) => self.kinetic_rate(p),
+            (Response::Deflection { node }, Parameter::Drive { .. }) => self.rigid_share(*node, p),
             _ => 0.0,
         }
     }

@@ -20,8 +20,8 @@
 //! `E:BEAM` and `rho:BEAM` (its material's Young's modulus at fixed Poisson's ratio and
 //! density, Pa and kg/m³, over every element of the beam), `end:JOINT`,
 //! `acceleration:JOINT`, `speed:JOINT` (of a joint's trapezoidal drive: rad, rad/s², rad/s
-//! on a revolute joint, m, m/s², m/s on a prismatic one; not with a deflection, whose rigid
-//! trajectory they move).
+//! on a revolute joint, m, m/s², m/s on a prismatic one; a deflection's rigid trajectory
+//! moves with them too).
 
 use super::SpatialScene;
 use crate::error::SettingsError;
