@@ -43,6 +43,10 @@ use crate::time_grid::TimeGrid;
 /// free freedom moves by a share of the motion.
 pub const DETERMINED_TOLERANCE: f64 = 1e-7;
 
+/// Largest residual of `B ε = −∂Φ/∂p` (of `‖∂Φ/∂p‖`) for a drive's law to move the rigid
+/// trajectory: a driven row the other rows repeat leaves a residual of its own size.
+const REDUNDANT_DRIVE: f64 = 1e-6;
+
 /// The links of a mechanism: each node's link, and each link's first node.
 struct Links {
     of_node: Vec<usize>,
@@ -268,6 +272,9 @@ pub(crate) fn rigid_trajectory_rates(
     nodes: &[usize],
     drives: &[(usize, LawParameter)],
 ) -> Result<Vec<Vec<Vec<Vector3<f64>>>>, Error> {
+    if drives.is_empty() {
+        return Ok(Vec::new());
+    }
     let links = Links::new(model);
     let Companion {
         model: rigid,
@@ -300,6 +307,19 @@ pub(crate) fn rigid_trajectory_rates(
             let eps = svd
                 .solve(&rhs, 1e-12 * svd.singular_values.max())
                 .expect("the SVD was asked for both factors");
+            // The driven row must be independent of the others for the law to move them.
+            let miss = (&b * &eps - &rhs).amax();
+            if miss > REDUNDANT_DRIVE * rhs.amax() {
+                return Err(SettingsError::new(
+                    "parameters",
+                    format!(
+                        "joint '{}': the rigid mechanism's other joints already fix what its \
+                         drive imposes, so its law cannot move the rigid trajectory",
+                        rigid.joints[joint].name
+                    ),
+                )
+                .into());
+            }
             for (&(link, place), path) in places.iter().zip(out.iter_mut()) {
                 let e = eps.fixed_rows::<NV>(NV * link);
                 let (u, theta) = (e.fixed_rows::<3>(0), e.fixed_rows::<3>(3));

@@ -344,10 +344,19 @@ fn check(
             }
             Parameter::Drive { joint, .. } => {
                 let law = model.joints.get(joint).and_then(Joint::drive_law);
-                if !matches!(law, Some(Motion::Trapezoidal(_))) {
+                let Some(Motion::Trapezoidal(law)) = law else {
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
                         format!("joint {joint} has no trapezoidal drive"),
+                    ));
+                };
+                if law.duration() == 0.0 {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "joint {joint}'s drive is held (it starts where it ends): its law \
+                             has no rate to a parameter"
+                        ),
                     ));
                 }
             }
@@ -401,7 +410,10 @@ pub fn sensitivities(
                 _ => None,
             })
             .collect();
-        let rates = rigid_trajectory_rates(model, settings, grid, &tips, &drives)?;
+        let rates = match drives.is_empty() {
+            true => Vec::new(),
+            false => rigid_trajectory_rates(model, settings, grid, &tips, &drives)?,
+        };
         for (&(joint, law), by_node) in drives.iter().zip(rates) {
             for (&node, path) in tips.iter().zip(by_node) {
                 sweep
