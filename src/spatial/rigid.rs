@@ -26,7 +26,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::error::{Error, SettingsError};
+use crate::error::{Error, SettingsError, SolveError};
 use crate::group::Frame;
 use crate::group::NV;
 use crate::mechanism::motion::LawParameter;
@@ -306,7 +306,10 @@ pub(crate) fn rigid_trajectory_rates(
             }
             let eps = svd
                 .solve(&rhs, 1e-12 * svd.singular_values.max())
-                .expect("the SVD was asked for both factors");
+                .map_err(|e| SolveError::Singular {
+                    time: s.t,
+                    detail: format!("the rigid mechanism's constraints: {e}"),
+                })?;
             // The driven row must be independent of the others for the law to move them.
             let miss = (&b * &eps - &rhs).amax();
             if miss > REDUNDANT_DRIVE * rhs.amax() {
@@ -334,16 +337,17 @@ pub(crate) fn rigid_trajectory_rates(
 /// The constraints' gradient `B` of `model` at state `s`, dense.
 fn constraint_gradient(model: &SpatialModel, s: &State) -> DMatrix<f64> {
     let mut b = DMatrix::zeros(model.n_rows(), model.n_v());
-    for (k, joint) in model.joints.iter().enumerate() {
-        let rows = model.joint_rows(k).expect("a joint of the model");
+    let mut first = 0;
+    for joint in &model.joints {
         let g = joint.gradient(&s.q, s.t);
         for (side, node) in joint.local_nodes() {
-            for r in 0..rows.len() {
+            for r in 0..joint.n_rows() {
                 for c in 0..NV {
-                    b[(rows.start + r, NV * node + c)] = g[(r, NV * side + c)];
+                    b[(first + r, NV * node + c)] = g[(r, NV * side + c)];
                 }
             }
         }
+        first += joint.n_rows();
     }
     b
 }
