@@ -21,7 +21,9 @@ von Mises at each beam section's edge points — stretch, both bendings and tors
 in each truss bar, condensed over the run and the structure by a p-mean, ``p=8`` by default,
 or a KS mean, ``ks=RHO,scale=S``; ``q=`` the relaxation, 0.5 by default, Pa).
 Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), ``k:SPRING``,
-``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³), ``end:JOINT``,
+``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³), a dimension of
+a beam's section ``diameter:BEAM``, ``outer:BEAM``, ``inner:BEAM``, ``width:BEAM``,
+``height:BEAM`` (m: its stiffnesses, inertias and stress points move with it), ``end:JOINT``,
 ``acceleration:JOINT`` and ``speed:JOINT`` (a trapezoidal drive's law: rad, rad/s², rad/s on
 a revolute joint, m, m/s², m/s on a prismatic one; ``tip_deflection``'s rigid trajectory
 moves with them too).

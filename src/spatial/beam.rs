@@ -41,8 +41,8 @@ use crate::group::{six, split, Frame};
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::pair::{Pair, Stiffness};
-use crate::spatial::section::{Section, MAX_FIBRES};
-use crate::spatial::stress::von_mises;
+use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
+use crate::spatial::stress::{von_mises, von_mises_rate};
 
 /// The strain–displacement matrix `B` on the twelve local unknowns.
 type Strain = SMatrix<f64, 6, 12>;
@@ -66,6 +66,8 @@ pub struct Beam {
     pub density: f64,
     /// `E_A`, `E_B` as matrices, kept with the offsets.
     axes: [Matrix3<f64>; 2],
+    /// `κ₂GA, κ₃GA` as its section gives them, scaled with it: before MacNeal's flexibility.
+    shear: [f64; 2],
 }
 
 /// What the element's state gives, in its own axes.
@@ -106,6 +108,7 @@ impl Beam {
         ));
         let offsets = frames.map(|f| f.r.inverse() * axes);
         let mut section = *section;
+        let shear = [section.c_n[1], section.c_n[2]];
         // MacNeal's residual bending flexibility: shear along e₂ bends about e₃, and so on.
         for (k, bending) in [(1, 2), (2, 1)] {
             let flexible = 1.0 / section.c_n[k] + length * length / (12.0 * section.c_m[bending]);
@@ -123,6 +126,7 @@ impl Beam {
             },
             density: 1.0,
             axes: offsets.map(|e| e.to_rotation_matrix().into_inner()),
+            shear,
         };
         beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
         Some(beam)
@@ -139,6 +143,50 @@ impl Beam {
             .for_each(|c| *c *= stiffness);
         s.rho_a *= mass;
         s.rho_i.iter_mut().for_each(|r| *r *= mass);
+        self.shear.iter_mut().for_each(|c| *c *= stiffness);
+    }
+
+    /// The derivative of its section, as the element sees it (scaled, MacNeal's shear
+    /// stiffness included), to a `dimension` of its shape: a [`Section`] whose stiffnesses,
+    /// inertias, area and fibres are rates (N/m, kg/m², …), its damping and moduli as they
+    /// are; `None` where its section has no shape or the shape no such dimension.
+    ///
+    /// Each stiffness and inertia is a material constant times the design's factor times a
+    /// property of the shape, so its rate is itself times the property's relative rate;
+    /// MacNeal's `1/c = 1/(κGA) + L²/(12 EI)` then gives
+    /// `c' = c² ((κGA)'/(κGA)² + L² (EI)'/(12 (EI)²))`.
+    pub(crate) fn section_rate(&self, dimension: Dimension) -> Option<Section> {
+        let s = &self.section;
+        let (g, r) = s.geometry_rate(dimension)?;
+        let area = r.area / g.area;
+        let bending = [r.i2 / g.i2, r.i3 / g.i3];
+        let raw = [0, 1].map(|k| self.shear[k] * (r.shear[k] / g.shear[k] + area));
+        let c_m = [
+            s.c_m[0] * r.torsion / g.torsion,
+            s.c_m[1] * bending[0],
+            s.c_m[2] * bending[1],
+        ];
+        let l2 = self.length * self.length;
+        // Shear along e₂ bends about e₃ and the other way round (`Beam::new`).
+        let macneal = |k: usize, about: usize| {
+            let c = s.c_n[k];
+            c * c
+                * (raw[k - 1] / self.shear[k - 1].powi(2)
+                    + l2 * c_m[about] / (12.0 * s.c_m[about].powi(2)))
+        };
+        Some(Section {
+            area: r.area,
+            c_n: [s.c_n[0] * area, macneal(1, 2), macneal(2, 1)],
+            c_m,
+            rho_a: s.rho_a * area,
+            rho_i: [
+                s.rho_i[0] * (r.i2 + r.i3) / (g.i2 + g.i3),
+                s.rho_i[1] * bending[0],
+                s.rho_i[2] * bending[1],
+            ],
+            fibres: r.fibres,
+            ..*s
+        })
     }
 
     fn kinematics(&self, q: &[f64]) -> Kinematics {
@@ -172,9 +220,53 @@ impl Beam {
         e
     }
 
-    /// `diag(C_N, C_M)`.
-    fn elasticity(&self) -> Vector6<f64> {
-        let [n, m] = [self.section.c_n, self.section.c_m];
+    /// `∂r/∂p` at `(q, v, v̇)` under gravity `g` of a dimension whose section rate is
+    /// `rate` ([`Beam::section_rate`]): the forces of an element with that section.
+    pub(crate) fn section_load(
+        &self,
+        rate: &Section,
+        q: &[f64],
+        v: &[f64],
+        vdot: &[f64],
+        g: &Vector3<f64>,
+    ) -> Local {
+        let terms = self.terms_of(rate, q, v, Some(vdot), g, None);
+        terms.internal + terms.inertia
+    }
+
+    /// `L/2 εᵀ C ε` at `q` with `section`'s `C`: with a section rate, the strain energy's
+    /// explicit rate.
+    pub(crate) fn strain_energy_of(&self, section: &Section, q: &[f64]) -> f64 {
+        let e = self.strains(&self.kinematics(q));
+        0.5 * self.length * e.dot(&Self::elasticity(section).component_mul(&e))
+    }
+
+    /// `½ vᵀ M v` with `section`'s inertias: with a section rate, the kinetic energy's
+    /// explicit rate.
+    pub(crate) fn kinetic_energy_of(&self, section: &Section, v: &[f64]) -> f64 {
+        let local = self.local(v);
+        0.5 * local.dot(&(self.mass_matrix_of(section) * local))
+    }
+
+    /// The von Mises stresses' rates at the section's fibres at `q`, the strains held, as
+    /// the fibres move with a dimension whose section rate is `rate` (Pa per unit of it).
+    pub(crate) fn stress_rates(
+        &self,
+        rate: &Section,
+        q: &[f64],
+        out: &mut [f64; MAX_FIBRES],
+    ) -> usize {
+        let eps = self.strains(&self.kinematics(q));
+        let fibres = self.section.fibres.iter().zip(rate.fibres.iter());
+        for (o, (fibre, moved)) in out.iter_mut().zip(fibres) {
+            *o = von_mises_rate(&eps, fibre, moved, self.section.moduli);
+        }
+        self.section.fibres.len()
+    }
+
+    /// `diag(C_N, C_M)` of `section`.
+    fn elasticity(section: &Section) -> Vector6<f64> {
+        let [n, m] = [section.c_n, section.c_m];
         Vector6::new(n[0], n[1], n[2], m[0], m[1], m[2])
     }
 
@@ -296,16 +388,17 @@ impl Beam {
         out
     }
 
-    /// The two ends' mass matrices' rotary blocks `J` in the nodes' frames (kg m²).
-    fn rotary_inertia(&self) -> [Matrix3<f64>; 2] {
-        let j = Matrix3::from_diagonal(&Vector3::from(self.section.rho_i)) * (0.5 * self.length);
+    /// The two ends' mass matrices' rotary blocks `J` in the nodes' frames of `section`
+    /// (kg m²).
+    fn rotary_inertia(&self, section: &Section) -> [Matrix3<f64>; 2] {
+        let j = Matrix3::from_diagonal(&Vector3::from(section.rho_i)) * (0.5 * self.length);
         self.axes.map(|e| e * j * e.transpose())
     }
 
-    /// `M w` on the twelve local unknowns, block by block (`M` as [`Element::mass_matrix`],
-    /// `j` the ends' [`Beam::rotary_inertia`]).
-    fn mass_times(&self, j: &[Matrix3<f64>; 2], w: &Local) -> Local {
-        let m = self.mass() / 6.0;
+    /// `M w` on the twelve local unknowns, block by block (`M` as [`Element::mass_matrix`]
+    /// of mass `mass`, `j` the ends' [`Beam::rotary_inertia`]).
+    fn mass_times(mass: f64, j: &[Matrix3<f64>; 2], w: &Local) -> Local {
+        let m = mass / 6.0;
         let (xa, xb) = (w.fixed_rows::<3>(0), w.fixed_rows::<3>(6));
         let mut out = Local::zeros();
         out.fixed_rows_mut::<3>(0).copy_from(&((xa * 2.0 + xb) * m));
@@ -317,32 +410,24 @@ impl Beam {
         }
         out
     }
-}
 
-impl Element for Beam {
-    fn pair(&self) -> &Pair {
-        &self.pair
-    }
-
-    /// The element's mass `ρAL` (kg).
-    fn mass(&self) -> f64 {
-        self.section.rho_a * self.length
-    }
-
-    /// `M` on the twelve local unknowns (module docs).
-    fn mass_matrix(&self) -> Stiffness {
-        let mut out = consistent_mass(self.mass());
-        for (side, j) in self.rotary_inertia().iter().enumerate() {
+    /// `M` of the element with `section` on the twelve local unknowns (module docs).
+    pub(crate) fn mass_matrix_of(&self, section: &Section) -> Stiffness {
+        let mut out = consistent_mass(section.rho_a * self.length);
+        for (side, j) in self.rotary_inertia(section).iter().enumerate() {
             out.fixed_view_mut::<3, 3>(6 * side + 3, 6 * side + 3)
                 .copy_from(j);
         }
         out
     }
 
-    /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` (module docs); their
-    /// derivatives into `tangent` where given.
-    fn terms(
+    /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` of the element with
+    /// `section` (module docs); their derivatives into `tangent` where given. Both are
+    /// linear in the section's stiffnesses and inertias: with a [`Beam::section_rate`] they
+    /// are the forces' rates to the dimension.
+    fn terms_of(
         &self,
+        section: &Section,
         q: &[f64],
         v: &[f64],
         vdot: Option<&[f64]>,
@@ -354,15 +439,16 @@ impl Element for Beam {
         let rates = self.local(v);
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
         let b = Self::on_nodes(self.strain_matrix(&k), e);
-        let c = self.elasticity();
-        let (l, beta, alpha) = (self.length, self.section.beta, self.section.alpha);
+        let c = Self::elasticity(section);
+        let (l, beta, alpha) = (self.length, section.beta, section.alpha);
         let sigma = c.component_mul(&(self.strains(&k) + b * rates * beta));
-        let j = self.rotary_inertia();
-        let mut inertia = self.mass_times(&j, &(accelerations + rates * alpha));
+        let mass = section.rho_a * l;
+        let j = self.rotary_inertia(section);
+        let mut inertia = Self::mass_times(mass, &j, &(accelerations + rates * alpha));
         let spins = self.nodes().map(|n| split(&six(v, n)).1);
         for side in 0..2 {
             let mut f = inertia.fixed_rows_mut::<3>(6 * side);
-            f -= g * (0.5 * self.mass());
+            f -= g * (0.5 * mass);
             let mut moment = inertia.fixed_rows_mut::<3>(6 * side + 3);
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
@@ -384,7 +470,7 @@ impl Element for Beam {
             }
             out.damping = material * beta;
             if alpha != 0.0 {
-                out.damping += self.mass_matrix() * alpha;
+                out.damping += self.mass_matrix_of(section) * alpha;
             }
             for side in 0..2 {
                 let (w, j, at) = (spins[side], j[side], 6 * side + 3);
@@ -397,12 +483,41 @@ impl Element for Beam {
             inertia,
         }
     }
+}
+
+impl Element for Beam {
+    fn pair(&self) -> &Pair {
+        &self.pair
+    }
+
+    /// The element's mass `ρAL` (kg).
+    fn mass(&self) -> f64 {
+        self.section.rho_a * self.length
+    }
+
+    /// `M` on the twelve local unknowns (module docs).
+    fn mass_matrix(&self) -> Stiffness {
+        self.mass_matrix_of(&self.section)
+    }
+
+    /// The forces at `(q, v, v̇)` (`None`: at rest) under gravity `g` (module docs); their
+    /// derivatives into `tangent` where given.
+    fn terms(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        vdot: Option<&[f64]>,
+        g: &Vector3<f64>,
+        tangent: Option<&mut Derivatives>,
+    ) -> Terms {
+        self.terms_of(&self.section, q, v, vdot, g, tangent)
+    }
 
     /// The elastic forces `L Bᵀ C ε` at `q`: the strain energy's derivative in the nodes'
     /// algebra.
     fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
-        let sigma = self.elasticity().component_mul(&self.strains(&k));
+        let sigma = Self::elasticity(&self.section).component_mul(&self.strains(&k));
         let b = Self::on_nodes(self.strain_matrix(&k), &self.axes);
         b.transpose() * sigma * self.length
     }
@@ -410,7 +525,7 @@ impl Element for Beam {
     /// Strain energy `L/2 εᵀ C ε` at `q` (J).
     fn strain_energy(&self, q: &[f64]) -> f64 {
         let e = self.strains(&self.kinematics(q));
-        0.5 * self.length * e.dot(&self.elasticity().component_mul(&e))
+        0.5 * self.length * e.dot(&Self::elasticity(&self.section).component_mul(&e))
     }
 
     fn length(&self) -> f64 {
@@ -497,6 +612,94 @@ mod tests {
     fn tangent_and_damping_against_differences() {
         let (beam, q, v, vdot) = beam_and_state();
         crate::spatial::element::check_derivatives(&beam, &q, &v, &vdot, 1e-8);
+    }
+
+    /// A section size's rates — the forces (elastic, viscous, inertial, gyroscopic, weight),
+    /// the strain and kinetic energies, the stresses at the moving fibres — against central
+    /// differences of beams of the resized section, for every shape and dimension, a
+    /// design's factors on it and MacNeal's shear stiffness included.
+    #[test]
+    fn section_rates_against_differences() {
+        use crate::spatial::section::Dimension;
+        fn tube(outer: f64, inner: f64) -> Shape {
+            Shape::HollowCircle { outer, inner }
+        }
+        type Resized = fn(f64) -> Shape;
+        let cases: [(Resized, f64, Dimension); 5] = [
+            (|d| Shape::SolidCircle { d }, 0.04, Dimension::Diameter),
+            (|o| tube(o, 0.03), 0.04, Dimension::Outer),
+            (|i| tube(0.04, i), 0.03, Dimension::Inner),
+            (|b| Shape::Rectangle { b, h: 0.05 }, 0.03, Dimension::Width),
+            (|h| Shape::Rectangle { b: 0.03, h }, 0.05, Dimension::Height),
+        ];
+        let (_, q, v, vdot) = beam_and_state();
+        let g = Vector3::new(0.0, -3.0, -9.81);
+        let [a, b] = start();
+        let beam_of = |shape: Shape| {
+            let geometry = shape.geometry(0.3).unwrap();
+            let section = Section::new(&geometry, 7.0e10, 7.0e10 / 2.6, 2700.0)
+                .with_rayleigh(0.8, 2e-3)
+                .with_shape(shape);
+            let mut beam = Beam::new(
+                "bar",
+                [0, 1],
+                [&a, &b],
+                &Vector3::new(0.0, 0.3, 1.0),
+                &section,
+            )
+            .unwrap();
+            beam.scale(0.3, 0.5);
+            beam
+        };
+        let step = 1e-6;
+        for (shape, size, dimension) in cases {
+            let beam = beam_of(shape(size));
+            let rate = beam.section_rate(dimension).unwrap();
+            let [up, down] = [step, -step].map(|by| beam_of(shape(size + by)));
+            let load = |beam: &Beam| {
+                let t = beam.terms(&q, &v, Some(&vdot), &g, None);
+                t.internal + t.inertia
+            };
+            let fd = (load(&up) - load(&down)) / (2.0 * step);
+            let exact = beam.section_load(&rate, &q, &v, &vdot, &g);
+            assert!(
+                (fd - exact).amax() <= 1e-6 * fd.amax(),
+                "{dimension:?}: {}",
+                (fd - exact).amax() / fd.amax()
+            );
+            let pairs = [
+                (
+                    (up.strain_energy(&q) - down.strain_energy(&q)) / (2.0 * step),
+                    beam.strain_energy_of(&rate, &q),
+                ),
+                (
+                    (up.kinetic_energy(&v) - down.kinetic_energy(&v)) / (2.0 * step),
+                    beam.kinetic_energy_of(&rate, &v),
+                ),
+            ];
+            for (fd, exact) in pairs {
+                assert!(
+                    (fd - exact).abs() <= 1e-6 * fd.abs(),
+                    "{dimension:?}: {fd} {exact}"
+                );
+            }
+            let stresses = |beam: &Beam| {
+                let mut out = [0.0; MAX_FIBRES];
+                let count = beam.stresses(&q, &mut out);
+                (out, count)
+            };
+            let ((su, count), (sd, _)) = (stresses(&up), stresses(&down));
+            let mut rates = [0.0; MAX_FIBRES];
+            assert_eq!(beam.stress_rates(&rate, &q, &mut rates), count);
+            for k in 0..count {
+                let fd = (su[k] - sd[k]) / (2.0 * step);
+                assert!(
+                    (fd - rates[k]).abs() <= 1e-6 * su[k].abs() / size,
+                    "{dimension:?} [{k}]: {fd} {}",
+                    rates[k]
+                );
+            }
+        }
     }
 
     /// A rigid motion — any rotation, any translation, any rigid velocity — changes no

@@ -208,6 +208,158 @@ impl Shape {
     }
 }
 
+/// A dimension of a section's shape, by the name a scene gives it: what a section-size
+/// parameter moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dimension {
+    /// A solid circle's diameter.
+    Diameter,
+    /// A tube's outer diameter.
+    Outer,
+    /// A tube's inner diameter.
+    Inner,
+    /// A rectangle's width along `e₂`.
+    Width,
+    /// A rectangle's height along `e₃`.
+    Height,
+}
+
+impl Dimension {
+    /// Every dimension with its name in a scene.
+    pub const NAMES: [(&'static str, Dimension); 5] = [
+        ("diameter", Dimension::Diameter),
+        ("outer", Dimension::Outer),
+        ("inner", Dimension::Inner),
+        ("width", Dimension::Width),
+        ("height", Dimension::Height),
+    ];
+}
+
+/// The derivative of a section's [`Geometry`] to one of its dimensions (m, m³, …): its
+/// fibres' coordinates and torsion lengths too, in the same order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeometryRate {
+    /// `A'`.
+    pub area: f64,
+    /// `I₂'`.
+    pub i2: f64,
+    /// `I₃'`.
+    pub i3: f64,
+    /// `J'`.
+    pub torsion: f64,
+    /// `κ₂'`, `κ₃'`.
+    pub shear: [f64; 2],
+    /// Each fibre's `(y', z', c')`.
+    pub fibres: Fibres,
+}
+
+impl Shape {
+    /// The derivative of [`Shape::geometry`] to `dimension` (`None` where the shape has no
+    /// such dimension or no geometry). A rectangle's torsion constant and peak shear follow
+    /// its longer side as `a`: at a square (`b = h`) the rate is the one of `b` as the longer.
+    pub fn rate(&self, nu: f64, dimension: Dimension) -> Option<GeometryRate> {
+        let geometry = self.geometry(nu)?;
+        let scaled = |fibres: &Fibres, by: [f64; 3]| {
+            let mut out = *fibres;
+            for f in &mut out.points[..out.count] {
+                *f = Fibre {
+                    y: f.y * by[0],
+                    z: f.z * by[1],
+                    torsion: f.torsion * by[2],
+                };
+            }
+            out
+        };
+        match (*self, dimension) {
+            (Shape::SolidCircle { d }, Dimension::Diameter) => {
+                let i = PI * d.powi(3) / 16.0;
+                Some(GeometryRate {
+                    area: PI * d / 2.0,
+                    i2: i,
+                    i3: i,
+                    torsion: 2.0 * i,
+                    shear: [0.0; 2],
+                    fibres: scaled(&geometry.fibres, [1.0 / d; 3]),
+                })
+            }
+            (Shape::HollowCircle { outer, inner }, Dimension::Outer | Dimension::Inner) => {
+                let is_outer = dimension == Dimension::Outer;
+                let (side, sign) = if is_outer {
+                    (outer, 1.0)
+                } else {
+                    (inner, -1.0)
+                };
+                // κ(m²), m² = (inner/outer)²: κ = N/D as in `geometry`.
+                let m2 = (inner / outer).powi(2);
+                let u = (1.0 + m2).powi(2);
+                let (n, d) = (
+                    6.0 * (1.0 + nu) * u,
+                    (7.0 + 6.0 * nu) * u + (20.0 + 12.0 * nu) * m2,
+                );
+                let (dn, dd) = (
+                    12.0 * (1.0 + nu) * (1.0 + m2),
+                    2.0 * (7.0 + 6.0 * nu) * (1.0 + m2) + 20.0 + 12.0 * nu,
+                );
+                let dm2 = if is_outer {
+                    -2.0 * inner * inner / outer.powi(3)
+                } else {
+                    2.0 * inner / (outer * outer)
+                };
+                let kappa = (dn * d - n * dd) / (d * d) * dm2;
+                let i = sign * PI * side.powi(3) / 16.0;
+                let moves = if is_outer { 1.0 / outer } else { 0.0 };
+                Some(GeometryRate {
+                    area: sign * PI * side / 2.0,
+                    i2: i,
+                    i3: i,
+                    torsion: 2.0 * i,
+                    shear: [kappa; 2],
+                    fibres: scaled(&geometry.fibres, [moves; 3]),
+                })
+            }
+            (Shape::Rectangle { b, h }, Dimension::Width | Dimension::Height) => {
+                let width = dimension == Dimension::Width;
+                let (a, t) = (b.max(h), b.min(h));
+                // Which of the long side `a` and the short `t` the dimension is.
+                let along_a = width == (b >= h);
+                let (da, dt) = if along_a { (1.0, 0.0) } else { (0.0, 1.0) };
+                // J = a t³/3 − 0.21 t⁴ + 0.0175 t⁸/a⁴ (`geometry`'s fit).
+                let torsion = da * (t.powi(3) / 3.0 - 0.07 * t.powi(8) / a.powi(5))
+                    + dt * (a * t * t - 0.84 * t.powi(3) + 0.14 * t.powi(7) / a.powi(4));
+                // The long sides' middles: c = 3 J P(r)/(a t²), r = t/a.
+                let r = t / a;
+                let p =
+                    1.0 + 0.6095 * r + 0.8865 * r.powi(2) - 1.8023 * r.powi(3) + 0.91 * r.powi(4);
+                let dp = 0.6095 + 1.773 * r - 5.4069 * r.powi(2) + 3.64 * r.powi(3);
+                let dr = dt / a - da * t / (a * a);
+                let c_rate = torsion / geometry.torsion - da / a - 2.0 * dt / t + dp * dr / p;
+                let (by_y, by_z) = if width {
+                    (1.0 / b, 0.0)
+                } else {
+                    (0.0, 1.0 / h)
+                };
+                Some(GeometryRate {
+                    area: if width { h } else { b },
+                    i2: if width {
+                        h.powi(3) / 12.0
+                    } else {
+                        b * h * h / 4.0
+                    },
+                    i3: if width {
+                        h * b * b / 4.0
+                    } else {
+                        b.powi(3) / 12.0
+                    },
+                    torsion,
+                    shear: [0.0; 2],
+                    fibres: scaled(&geometry.fibres, [by_y, by_z, c_rate]),
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
 fn positive(values: &[f64]) -> Option<()> {
     values
         .iter()
@@ -237,6 +389,8 @@ pub struct Section {
     pub moduli: [f64; 2],
     /// Where its stresses are read.
     pub fibres: Fibres,
+    /// The shape it was made of, where a scene gave one: what its size parameters move.
+    pub shape: Option<Shape>,
 }
 
 impl Section {
@@ -261,6 +415,24 @@ impl Section {
             beta: 0.0,
             moduli: [e, g],
             fibres,
+            shape: None,
+        }
+    }
+
+    /// Its shape's geometry at full density and that geometry's rate to `dimension`
+    /// (Poisson's ratio from the moduli); `None` where it has no shape or the shape no such
+    /// dimension.
+    pub fn geometry_rate(&self, dimension: Dimension) -> Option<(Geometry, GeometryRate)> {
+        let shape = self.shape?;
+        let nu = self.moduli[0] / (2.0 * self.moduli[1]) - 1.0;
+        Some((shape.geometry(nu)?, shape.rate(nu, dimension)?))
+    }
+
+    /// The section made of `shape` (its size parameters move it).
+    pub fn with_shape(self, shape: Shape) -> Self {
+        Self {
+            shape: Some(shape),
+            ..self
         }
     }
 
@@ -339,6 +511,77 @@ mod tests {
         }
         .geometry(0.3)
         .is_none());
+    }
+
+    /// Every shape's geometry rate against central differences of its geometry, each
+    /// dimension, a rectangle standing and lying; fibres in the same order.
+    #[test]
+    fn geometry_rates_against_differences() {
+        let cases = [
+            (Shape::SolidCircle { d: 0.03 }, Dimension::Diameter),
+            (
+                Shape::HollowCircle {
+                    outer: 0.05,
+                    inner: 0.04,
+                },
+                Dimension::Outer,
+            ),
+            (
+                Shape::HollowCircle {
+                    outer: 0.05,
+                    inner: 0.04,
+                },
+                Dimension::Inner,
+            ),
+            (Shape::Rectangle { b: 0.02, h: 0.05 }, Dimension::Width),
+            (Shape::Rectangle { b: 0.02, h: 0.05 }, Dimension::Height),
+            (Shape::Rectangle { b: 0.06, h: 0.01 }, Dimension::Width),
+            (Shape::Rectangle { b: 0.06, h: 0.01 }, Dimension::Height),
+        ];
+        let moved = |shape: Shape, dimension: Dimension, by: f64| match (shape, dimension) {
+            (Shape::SolidCircle { d }, _) => Shape::SolidCircle { d: d + by },
+            (Shape::HollowCircle { outer, inner }, Dimension::Outer) => Shape::HollowCircle {
+                outer: outer + by,
+                inner,
+            },
+            (Shape::HollowCircle { outer, inner }, _) => Shape::HollowCircle {
+                outer,
+                inner: inner + by,
+            },
+            (Shape::Rectangle { b, h }, Dimension::Width) => Shape::Rectangle { b: b + by, h },
+            (Shape::Rectangle { b, h }, _) => Shape::Rectangle { b, h: h + by },
+        };
+        let flat = |g: &Geometry| -> Vec<f64> {
+            let mut v = vec![g.area, g.i2, g.i3, g.torsion, g.shear[0], g.shear[1]];
+            v.extend(g.fibres.iter().flat_map(|f| [f.y, f.z, f.torsion]));
+            v
+        };
+        for (shape, dimension) in cases {
+            let rate = shape.rate(0.3, dimension).unwrap();
+            let exact = flat(&Geometry {
+                area: rate.area,
+                i2: rate.i2,
+                i3: rate.i3,
+                torsion: rate.torsion,
+                shear: rate.shear,
+                fibres: rate.fibres,
+            });
+            let step = 1e-6;
+            let at = |by: f64| flat(&moved(shape, dimension, by).geometry(0.3).unwrap());
+            let (up, down) = (at(step), at(-step));
+            let scale = flat(&shape.geometry(0.3).unwrap());
+            for (k, e) in exact.iter().enumerate() {
+                let fd = (up[k] - down[k]) / (2.0 * step);
+                let tolerance = 1e-7 * (fd.abs() + scale[k].abs() / 0.01);
+                assert!(
+                    (fd - e).abs() <= tolerance,
+                    "{shape:?} {dimension:?} [{k}]: {e} against {fd}"
+                );
+            }
+        }
+        assert!(Shape::SolidCircle { d: 0.1 }
+            .rate(0.3, Dimension::Width)
+            .is_none());
     }
 
     /// The torsion's peak shear `T c/J` against Timoshenko & Goodier's `T/(α h b²)` for

@@ -34,6 +34,7 @@ use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::integrator::{step_ratio, AlphaParameters, State};
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
+use crate::spatial::beam::Beam;
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::{jumps, kink_jump, kink_on_node, kinks, run};
@@ -41,7 +42,7 @@ use crate::spatial::joint::Joint;
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::Stiffness;
 use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
-use crate::spatial::section::MAX_FIBRES;
+use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
 use crate::spatial::statics::solve_static_spatial;
 use crate::TimeGrid;
 
@@ -88,6 +89,16 @@ pub enum Parameter {
     BeamMass {
         /// The beam.
         beam: usize,
+    },
+    /// A dimension of a beam's section (m): its stiffnesses (MacNeal's shear stiffness
+    /// included), its mass and rotary inertia (its weight, its damping with them) and where
+    /// its stresses are read, as the section's shape gives them
+    /// ([`crate::spatial::section::Shape::rate`]).
+    BeamSize {
+        /// The beam.
+        beam: usize,
+        /// Which of its shape's dimensions.
+        dimension: Dimension,
     },
     /// A factor on a truss bar's `EA` (and its Kelvin–Voigt damping), at 1.
     TrussStiffness {
@@ -329,6 +340,24 @@ fn check(
                     ));
                 }
             }
+            Parameter::BeamSize { beam, dimension } => match model.beams.get(beam) {
+                None => {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!("no beam {beam} (the mechanism has {})", model.beams.len()),
+                    ))
+                }
+                Some(b) if b.section_rate(dimension).is_none() => {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "beam {beam}'s section ({:?}) has no {dimension:?}",
+                            b.section.shape
+                        ),
+                    ))
+                }
+                Some(_) => {}
+            },
             Parameter::TrussStiffness { truss }
             | Parameter::TrussMass { truss }
             | Parameter::TrussDensity { truss } => {
@@ -871,6 +900,38 @@ impl<'m> Sweep<'m> {
         m.slope * sum
     }
 
+    /// A beam and its section's rate to one of its dimensions ([`check`] made sure it has
+    /// it).
+    fn size_rate(&self, beam: usize, dimension: Dimension) -> (&'m Beam, Section) {
+        let beam = &self.model().beams[beam];
+        let rate = beam.section_rate(dimension).unwrap_or(beam.section);
+        (beam, rate)
+    }
+
+    /// A stress response's explicit derivative to a beam's section size: its fibres moved,
+    /// `Σ ∂mean/∂(x^q σ) x^q ∂σ/∂p` at fixed strains; zero for a beam the mean does not read.
+    fn fibre_rate(&self, r: &Response, index: usize, dimension: Dimension) -> f64 {
+        let Some((aggregation, relaxation, within)) = r.stress() else {
+            return 0.0;
+        };
+        if !within.is_none_or(|w| (w.beams[0]..w.beams[1]).contains(&index)) {
+            return 0.0;
+        }
+        let (beam, rate) = self.size_rate(index, dimension);
+        let (m, total) = (self.mean_of(r), self.total_length(within));
+        let relaxed = beam.density().powf(relaxation);
+        let (mut out, mut moved) = ([0.0; MAX_FIBRES], [0.0; MAX_FIBRES]);
+        let mut sum = 0.0;
+        for n in 0..self.states.len() {
+            let (count, w) = self.element_stresses(n, beam, total, &mut out);
+            beam.stress_rates(&rate, &self.states[n].q, &mut moved);
+            for (sigma, sigma_rate) in out[..count].iter().zip(&moved) {
+                sum += w * aggregation.point(relaxed * sigma, m.peak).1 * relaxed * sigma_rate;
+            }
+        }
+        m.slope * sum
+    }
+
     /// The responses' `values` with their gradients (those of the `swept` parameters
     /// spread over `parameters`, their explicit parts added) and peaks.
     fn gradients(
@@ -1001,6 +1062,15 @@ impl<'m> Sweep<'m> {
             (Response::Stress { .. }, Parameter::TrussDensity { truss }) => {
                 self.relaxation_rate(r, &model.trusses[*truss], true, *truss)
             }
+            (Response::StrainEnergy, Parameter::BeamSize { beam, dimension }) => {
+                let (beam, rate) = self.size_rate(*beam, *dimension);
+                (0..self.states.len())
+                    .map(|n| self.weight(n) * beam.strain_energy_of(&rate, &self.states[n].q))
+                    .sum()
+            }
+            (Response::Stress { .. }, Parameter::BeamSize { beam, dimension }) => {
+                self.fibre_rate(r, *beam, *dimension)
+            }
             (Response::StrainEnergy, _) => match self.element_of(p) {
                 Some((element, true)) => self.energy(element),
                 _ => 0.0,
@@ -1020,6 +1090,10 @@ impl<'m> Sweep<'m> {
             let v = &self.states[n].qdot;
             match *p {
                 Parameter::BeamMass { beam } => model.beams[beam].kinetic_energy(v),
+                Parameter::BeamSize { beam, dimension } => {
+                    let (beam, rate) = self.size_rate(beam, dimension);
+                    beam.kinetic_energy_of(&rate, v)
+                }
                 Parameter::TrussMass { truss } => model.trusses[truss].kinetic_energy(v),
                 Parameter::Mass { body } => {
                     0.5 * split(&six(v, model.bodies[body].node)).0.norm_squared()
@@ -1150,6 +1224,11 @@ impl<'m> Sweep<'m> {
                 self.element_load(&model.trusses[truss], true, n)
             }
             Parameter::TrussMass { truss } => self.element_load(&model.trusses[truss], false, n),
+            Parameter::BeamSize { beam, dimension } => {
+                let (beam, rate) = self.size_rate(beam, dimension);
+                let load = beam.section_load(&rate, &s.q, &s.qdot, &s.qddot, &model.gravity);
+                (beam.pair().nodes, load)
+            }
             Parameter::Drive { joint, law } => {
                 let j = &model.joints[joint];
                 match j.drive_rate(&s.q, None, s.t, law) {
@@ -1551,13 +1630,7 @@ impl<'m> Sweep<'m> {
     fn add_mass_rate(&self, p: &Parameter, w: &[f64], out: &mut [f64]) {
         let model = self.model();
         let element = |e: &dyn Element, out: &mut [f64]| {
-            let nodes = e.nodes();
-            let local = e.mass_matrix() * e.local(w);
-            for (side, node) in nodes.iter().enumerate() {
-                for i in 0..6 {
-                    out[NV * node + i] += local[6 * side + i];
-                }
-            }
+            add_element_local(e, &(e.mass_matrix() * e.local(w)), out);
         };
         match *p {
             Parameter::Mass { body } => {
@@ -1576,6 +1649,10 @@ impl<'m> Sweep<'m> {
             }
             Parameter::BeamMass { beam } => element(&model.beams[beam], out),
             Parameter::TrussMass { truss } => element(&model.trusses[truss], out),
+            Parameter::BeamSize { beam, dimension } => {
+                let (beam, rate) = self.size_rate(beam, dimension);
+                add_element_local(beam, &(beam.mass_matrix_of(&rate) * beam.local(w)), out);
+            }
             _ => {}
         }
     }

@@ -42,6 +42,24 @@ pub(crate) fn von_mises(
     (stress, slope)
 }
 
+/// The von Mises stress's rate at fixed strains as the fibre moves at `rate` (its `y'`,
+/// `z'`, `c'`): `(σ E (κ₂ z' − κ₃ y') + 3 τ G κ₁ c')/σ_vm`, 0 where the stress is.
+pub(crate) fn von_mises_rate(
+    eps: &Vector6<f64>,
+    fibre: &Fibre,
+    rate: &Fibre,
+    [e, g]: [f64; 2],
+) -> f64 {
+    let sigma = e * (eps[0] + eps[4] * fibre.z - eps[5] * fibre.y);
+    let tau = g * eps[3] * fibre.torsion;
+    let stress = (sigma * sigma + 3.0 * tau * tau).sqrt();
+    if stress == 0.0 {
+        return 0.0;
+    }
+    let moved = e * (eps[4] * rate.z - eps[5] * rate.y);
+    (sigma * moved + 3.0 * tau * g * eps[3] * rate.torsion) / stress
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -68,6 +86,21 @@ mod tests {
                 slope[i]
             );
         }
+        let rate = Fibre {
+            y: 0.3,
+            z: -0.7,
+            torsion: 0.5,
+        };
+        let moved = |by: f64| Fibre {
+            y: fibre.y + by * rate.y,
+            z: fibre.z + by * rate.z,
+            torsion: fibre.torsion + by * rate.torsion,
+        };
+        let fd = (von_mises(&eps, &moved(1e-7), moduli).0
+            - von_mises(&eps, &moved(-1e-7), moduli).0)
+            / 2e-7;
+        let exact = von_mises_rate(&eps, &fibre, &rate, moduli);
+        assert!((fd - exact).abs() <= 1e-6 * exact.abs(), "{fd} {exact}");
         let twist = Vector6::new(0.0, 0.0, 0.0, 0.02, 0.0, 0.0);
         let (stress, _) = von_mises(&twist, &fibre, moduli);
         assert!((stress - 3f64.sqrt() * 8.1e10 * 0.02 * 0.015).abs() < 1e-6 * stress);

@@ -55,8 +55,9 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         Parameter::TrussMass { truss } => m.trusses[truss].rho_a *= 1.0 + e,
         Parameter::BeamDensity { beam } => m.beams[beam].density += e,
         Parameter::TrussDensity { truss } => m.trusses[truss].density += e,
-        Parameter::Drive { .. } => unreachable!(
-            "a drive's law is moved by rebuilding its scene (tests/python/test_spatial_drives.py)"
+        Parameter::Drive { .. } | Parameter::BeamSize { .. } => unreachable!(
+            "a drive's law and a section's size are moved by rebuilding their scene \
+             (tests/python/test_spatial_drives.py, test_spatial_sizes.py)"
         ),
     }
     m
@@ -93,7 +94,7 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
         | Parameter::TrussMass { .. }
         | Parameter::BeamDensity { .. }
         | Parameter::TrussDensity { .. } => 1e-3,
-        Parameter::Drive { .. } => unreachable!("see `moved`"),
+        Parameter::Drive { .. } | Parameter::BeamSize { .. } => unreachable!("see `moved`"),
     }
 }
 

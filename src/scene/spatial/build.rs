@@ -285,7 +285,9 @@ fn section(path: &str, s: &SpatialSectionSpec) -> Result<Section> {
         non_negative(&format!("{path}.rayleigh[0]"), alpha)?,
         non_negative(&format!("{path}.rayleigh[1]"), beta)?,
     );
-    Ok(Section::new(&geometry, e, e / (2.0 * (1.0 + s.nu)), rho).with_rayleigh(alpha, beta))
+    Ok(Section::new(&geometry, e, e / (2.0 * (1.0 + s.nu)), rho)
+        .with_rayleigh(alpha, beta)
+        .with_shape(shape))
 }
 
 /// A rigid body with its rates (its angular velocity given in the inertial frame).
@@ -351,6 +353,7 @@ fn beam(
             truss: true,
             elements: vec![k],
             material: *material,
+            section: *section,
             variable: None,
         });
     }
@@ -393,6 +396,7 @@ fn beam(
         truss: false,
         elements,
         material: *material,
+        section: *section,
         variable: None,
     })
 }

@@ -40,6 +40,7 @@ use crate::error::SceneError;
 use crate::mechanism::model::{Analysis, Design};
 use crate::settings::RunOptions;
 use crate::spatial::model::SpatialModel;
+use crate::spatial::section::Section;
 
 /// A built spatial scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +70,8 @@ pub struct BeamElements {
     pub elements: Vec<usize>,
     /// Its material's Young's modulus (Pa) and density (kg/m³).
     pub material: [f64; 2],
+    /// Its section at full density (its shape: what a size parameter moves).
+    pub section: Section,
     /// Its design variable; `None` where it is fixed at full density.
     pub variable: Option<usize>,
 }

@@ -18,7 +18,9 @@
 //! in its axes with its symmetric one, kg m²), `k:SPRING`, `c:SPRING` (a torsion spring's in
 //! N m/rad, N m s/rad), `torque:MOTOR`,
 //! `E:BEAM` and `rho:BEAM` (its material's Young's modulus at fixed Poisson's ratio and
-//! density, Pa and kg/m³, over every element of the beam), `end:JOINT`,
+//! density, Pa and kg/m³, over every element of the beam), `diameter:BEAM`, `outer:BEAM`,
+//! `inner:BEAM`, `width:BEAM`, `height:BEAM` (a dimension of its section's shape, m: its
+//! stiffnesses, inertias and stress points move with it), `end:JOINT`,
 //! `acceleration:JOINT`, `speed:JOINT` (of a joint's trapezoidal drive: rad, rad/s², rad/s
 //! on a revolute joint, m, m/s², m/s on a prismatic one; a deflection's rigid trajectory
 //! moves with them too).
@@ -28,6 +30,7 @@ use crate::error::SettingsError;
 use crate::mechanism::motion::{LawParameter, Motion};
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
+use crate::spatial::section::{Dimension, Shape};
 use crate::spatial::sensitivity::{Elements, Parameter, Response};
 
 type Result<T> = std::result::Result<T, SettingsError>;
@@ -47,6 +50,45 @@ const INERTIA: [(&str, usize, usize); 6] = [
 ];
 
 impl SpatialScene {
+    /// `KIND:BEAM` for a dimension of a beam's section (module docs): each of a frame
+    /// beam's elements' [`Parameter::BeamSize`]; a truss bar's stiffness and mass factors
+    /// by `A'/A`, all its section's size does to a pin-jointed bar.
+    fn size(&self, kind: &str, what: &str) -> Result<Named> {
+        let bad = |m: String| {
+            Err(SettingsError::new(
+                "parameters",
+                format!("'{kind}:{what}': {m}"),
+            ))
+        };
+        let Some(beam) = self.beams.get(what) else {
+            return bad(format!("'{what}' is no beam of the scene"));
+        };
+        let Some(&(_, dimension)) = Dimension::NAMES.iter().find(|(n, _)| *n == kind) else {
+            return bad(format!("'{kind}' is not a section dimension"));
+        };
+        let Some((geometry, rate)) = beam.section.geometry_rate(dimension) else {
+            let has = match beam.section.shape {
+                Some(Shape::SolidCircle { .. }) => "a circle's diameter",
+                Some(Shape::HollowCircle { .. }) => "a tube's outer and inner diameters",
+                Some(Shape::Rectangle { .. }) => "a rectangle's width and height",
+                None => "no shape",
+            };
+            return bad(format!("'{what}'s section has {has}, no {kind}"));
+        };
+        let area = rate.area / geometry.area;
+        Ok(beam
+            .elements
+            .iter()
+            .flat_map(|&e| match beam.truss {
+                true => vec![
+                    (Parameter::TrussStiffness { truss: e }, area),
+                    (Parameter::TrussMass { truss: e }, area),
+                ],
+                false => vec![(Parameter::BeamSize { beam: e, dimension }, 1.0)],
+            })
+            .collect())
+    }
+
     /// `stress[:NAME][:OPTIONS]` from what follows `stress:` (module docs).
     fn stress(&self, rest: Option<&str>) -> std::result::Result<Response, String> {
         let (component, options) = component_and_options(rest)?;
@@ -169,7 +211,7 @@ impl SpatialScene {
     pub fn parameter(&self, name: &str) -> Result<Named> {
         let bad = |m: String| Err(SettingsError::new("parameters", format!("'{name}': {m}")));
         let Some((kind, what)) = name.split_once(':') else {
-            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho, end, acceleration, speed)".into());
+            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)".into());
         };
         let m = &self.model;
         let body = || m.bodies.iter().position(|b| b.name == what);
@@ -233,6 +275,7 @@ impl SpatialScene {
                     .map(|&e| (part(e), 1.0 / value))
                     .collect())
             }
+            _ if Dimension::NAMES.iter().any(|(n, _)| *n == kind) => self.size(kind, what),
             _ => match INERTIA.iter().find(|(n, ..)| *n == kind) {
                 Some(&(_, i, j)) => match body() {
                     Some(body) if m.bodies[body].inertia != nalgebra::Matrix3::zeros() => {
@@ -241,7 +284,7 @@ impl SpatialScene {
                     _ => bad(format!("'{what}' is no rigid body of the scene")),
                 },
                 None => bad(format!(
-                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho, end, acceleration, speed)"
+                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)"
                 )),
             },
         }

@@ -1,0 +1,124 @@
+"""Gradients of spatial mechanisms to the sizes of their beams' sections: a circle's
+``diameter``, a tube's ``outer`` and ``inner`` diameters, a rectangle's ``width`` and
+``height``, on frame beams and on a truss bar. Over a driven motion (every response,
+the tip's deflection from its rigid trajectory and the stresses whose points move with
+the section included) and at an equilibrium, against fourth-order differences of scenes
+rebuilt with the size changed and direct against adjoint; a cantilever's tip deflection
+against Timoshenko's closed form's derivative. Sizes a section does not have are refused."""
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from flextop import SettingsError, SpatialScene, SpatialSimulation
+from flextop.scenes import trapezoidal
+
+# Each beam's section, by the beam: (section name, its dimensions).
+SIZES = {
+    "upper": ("tube", {"outer": 0.02, "inner": 0.016}),
+    "fore": ("blade", {"width": 0.004, "height": 0.012}),
+    "tail": ("rod", {"diameter": 0.006}),
+    "stay": ("wire", {"diameter": 0.003}),
+}
+
+RESPONSES = ["strain_energy", "kinetic_energy", "x:end", "z:end", "tip_deflection", "stress", "stress:fore:q=0"]
+
+
+def arm() -> dict:
+    """A driven hinge on an oblique axis swinging a frame of a tube and a blade, a truss
+    stay across them and a solid tail carrying 0.2 kg, under gravity: the tip leaves
+    every plane, every beam bends, twists and stretches."""
+    scene = SpatialScene("sizes", gravity=(0.0, 0.0, -9.81))
+    scene.section("tube", E=7e10, rho=2700.0, nu=0.33, shape="tube", **SIZES["upper"][1])
+    scene.section("blade", E=2.1e11, rho=7850.0, nu=0.3, shape="rectangle", **SIZES["fore"][1])
+    scene.section("rod", E=2.1e11, rho=7850.0, nu=0.3, **SIZES["tail"][1])
+    scene.section("wire", E=2.1e11, rho=7850.0, nu=0.3, **SIZES["stay"][1])
+    for name, at in [("root", (0.0, 0.0, 0.0)), ("elbow", (0.3, 0.0, 0.0)), ("tip", (0.5, 0.1, 0.05)),
+                     ("end", (0.6, 0.1, -0.05))]:
+        scene.node(name, at)
+    scene.beam("upper", "root", "elbow", section="tube", split=2)
+    scene.beam("fore", "elbow", "tip", section="blade", split=2, up=(0.0, 0.3, 1.0))
+    scene.beam("tail", "tip", "end", section="rod")
+    scene.beam("stay", "root", "tip", section="wire", kind="truss")
+    scene.point_mass("load", "end", 0.2)
+    scene.revolute("hinge", "ground", "root", axis=(0.2, 0.3, 1.0),
+                   drive=trapezoidal(0.0, 1.0, acceleration=30.0, speed=5.0))
+    scene.tip = "end"
+    scene.simulation(t_end=0.3, h=0.005, rho_inf=0.8)
+    return scene.to_dict()
+
+
+def resized(spec: dict, beam: str, kind: str, by: float) -> dict:
+    changed = copy.deepcopy(spec)
+    changed["sections"][SIZES[beam][0]][kind] += by
+    return changed
+
+
+def assert_exact(spec: dict, responses: list[str], step: float = 1e-3) -> None:
+    """Direct = adjoint to 1e-9, fourth-order differences (a step of ``step`` of each size)
+    to 1e-6 beside their noise (values reproducible to 1e-10 over the step)."""
+    parameters = [(beam, kind) for beam, (_, dims) in SIZES.items() for kind in dims]
+    names = [f"{kind}:{beam}" for beam, kind in parameters]
+    sim = SpatialSimulation(spec)
+    direct = sim.run_with_sensitivities(None, responses, names, method="direct")
+    adjoint = sim.run_with_sensitivities(None, responses, names, method="adjoint")
+    g, values = direct.gradient, np.abs(direct.values)
+    for j, (beam, kind) in enumerate(parameters):
+        delta = step * SIZES[beam][1][kind]
+        noise = 1e-10 * values / delta
+        assert np.all(np.abs(adjoint.gradient[:, j] - g[:, j]) <= 1e-9 * np.abs(g[:, j]) + noise), names[j]
+        runs = [SpatialSimulation(resized(spec, beam, kind, k * delta)).run_with_sensitivities(None, responses, [])
+                for k in (-2, -1, 1, 2)]
+        v = [r.values for r in runs]
+        fd = (v[0] - 8 * v[1] + 8 * v[2] - v[3]) / (12 * delta)
+        assert np.all(np.abs(g[:, j] - fd) <= 1e-6 * np.abs(fd) + noise), (names[j], g[:, j], fd)
+        assert np.any(np.abs(fd) > 1e3 * noise), names[j]
+
+
+def test_section_sizes_over_a_motion():
+    assert_exact(arm(), RESPONSES)
+
+
+def test_section_sizes_at_an_equilibrium():
+    spec = arm()
+    spec["analysis"] = "static"
+    spec["joints"][0].pop("drive")
+    spec["joints"][0]["kind"] = "weld"
+    spec["joints"][0].pop("axis")
+    spec.setdefault("loads", []).append({"name": "push", "at": "end", "force": [0.0, 5.0, -20.0],
+                                         "moment": [0.3, 0.0, 0.0]})
+    assert_exact(spec, ["strain_energy", "x:end", "y:end", "z:end", "stress"])
+
+
+def test_cantilever_against_timoshenko():
+    """A steel rod clamped at one end, a small load P across its tip: the tip moves by
+    ``δ = PL³/3EI + PL/κGA`` (one element per bar is exact), so ``dδ/dd = −(4δ_b + 2δ_s)/d``
+    (``I ∝ d⁴``, ``A ∝ d²``), within the load's nonlinearity (``(δ/L)² ~ 1e-8``)."""
+    E, nu, d, L, P = 2.1e11, 0.3, 0.02, 1.0, -1.0
+    scene = SpatialScene("cantilever", analysis="static")
+    scene.section("steel", E=E, rho=7850.0, nu=nu, diameter=d)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (L, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel")
+    scene.weld("clamp", "ground", "root")
+    scene.load("push", "end", force=(0.0, 0.0, P))
+    I, A, kappa, G = math.pi * d**4 / 64, math.pi * d**2 / 4, 6 * (1 + nu) / (7 + 6 * nu), E / (2 * (1 + nu))
+    bending, shear = P * L**3 / (3 * E * I), P * L / (kappa * G * A)
+    s = SpatialSimulation(scene.to_dict()).run_with_sensitivities(None, ["z:end"], ["diameter:rod"])
+    assert s.values[0] == pytest.approx(bending + shear, rel=1e-6)
+    assert s.gradient[0, 0] == pytest.approx(-(4 * bending + 2 * shear) / d, rel=1e-6)
+
+
+@pytest.mark.parametrize(("name", "culprit"), [
+    ("diameter:upper", "upper"),       # a tube has outer and inner diameters
+    ("outer:fore", "fore"),            # a rectangle has a width and a height
+    ("height:tail", "tail"),           # a circle has a diameter
+    ("width:nothing", "nothing"),      # no such beam
+    ("inner:stay", "stay"),            # a truss bar's circle
+])
+def test_sizes_a_section_lacks_are_named(name, culprit):
+    sim = SpatialSimulation(arm())
+    with pytest.raises(SettingsError, match=culprit):
+        sim.run_with_sensitivities(None, ["strain_energy"], [name])
