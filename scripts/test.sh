@@ -6,7 +6,7 @@
 #
 # The order is what two cores do best with (measured on a 2-core machine, README):
 # - pip builds the extension in release mode (with the maturin just installed: no isolated
-#   build environment to make) (the crate itself on one core: codegen-units = 1)
+#   build environment to make) (the crate itself in four codegen units, Cargo.toml)
 #   while the lints run beside it in a target directory of their own (TARGET/clippy; cargo
 #   locks a target directory for a whole build): cargo fmt, then one clippy pass with the
 #   bindings' feature over the crate, the tests and the benchmarks, warnings as errors (a
