@@ -387,6 +387,8 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
             raise SettingsError(f"{', '.join(alone)}: for several scenarios; give --scenarios")
     if args.resume:
         sim, problem, options, x0, state, animate = _resume(args, out, workers)
+        if isinstance(problem, SpatialProblem):
+            return _optimize_spatial(sim.spec, args, out, resumed=(sim, problem, options, x0, state))
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     else:
         if args.rtol is not None and args.h is not None:
@@ -461,52 +463,57 @@ SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "f
 """The options of ``optimize`` a spatial scene does not take yet."""
 
 
-def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
+def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: tuple | None = None) -> int:
     """Minimizes a spatial scene's response (``--objective``; its tip's deflection from the
     rigid trajectory where it names a tip, else its strain energy) over its beams' densities
     at ``--volume-fraction`` of each ground structure's volume (paper Eq. 41; of the whole
-    with ``--global-volume`` or where the scene has none) (:class:`~flextop.problems.SpatialProblem`);
-    writes design.npy, history.json, the design's figure and, with ``--vtk``, its motion."""
-    given = [k for k in SPATIAL_REFUSED if getattr(args, k) not in (None, False)]
-    if given:
-        names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
-        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --x0, "
-                            "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
-                            "--no-plots, --vtk)")
-    sim = SpatialSimulation(spec)
-    if sim.n_design == 0:
-        raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
-    settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
-    objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
-    fraction = args.volume_fraction or 0.4
-    per_structure = not args.global_volume and any("/" in v for v in sim.variables)
-    limits = [] if args.max_stress is None else [("stress", args.max_stress)]
-    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, **settings)
-    x0 = 0.4 if args.x0 is None else args.x0
-    if not sim.x_min <= x0 <= 1.0:
-        raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
-    _keep_earlier_run(out, args.force)
-    _folder(out)
-    method, max_iter = args.method or "mma", args.max_iter or 30
+    with ``--global-volume`` or where the scene has none) (:class:`~flextop.problems.SpatialProblem`),
+    or goes on with the run ``resumed`` from its checkpoint; a checkpoint after every
+    iteration; writes design.npy, history.json, the design's figure and, with ``--vtk``, its
+    motion."""
+    if resumed is None:
+        sim, problem, options, x0 = _spatial_problem(spec, args)
+        start, state = np.full(sim.n_design, x0), None
+        _keep_earlier_run(out, args.force)
+        _folder(out)
+    else:
+        sim, problem, options, start, state = resumed
+        print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
+    objective, settings, method = problem.objective, problem.settings, options["method"]
     print(f"{sim.model.name}: minimize {objective} over {sim.n_design} densities subject to "
           f"{', '.join(problem.names or [])} ({method})")
-    bar = tqdm(total=max_iter, unit="it", desc="optimize", file=sys.stderr)
+
+    def save(state_dict: dict, finished: str | None = None) -> None:
+        checkpoint.save(out / "checkpoint.json", {"spatial": True, "scene": sim.spec, "accuracy": None,
+                                                  "problem": problem.to_dict(),
+                                                  "optimizer": options, "x0": start.tolist(), "state": state_dict,
+                                                  "finished": finished})
+
+    bar = tqdm(total=options["max_iter"], initial=0 if state is None else state.iteration, unit="it", desc="optimize",
+               file=sys.stderr)
+    latest: dict[str, dict] = {}
 
     def on_iteration(record) -> None:
+        latest["state"] = record.state.to_dict()
+        save(latest["state"])
         bar.update(1)
         bar.set_postfix(f=f"{record.f0:.4g}", g=f"{np.max(record.g, initial=-np.inf):+.2e}", kkt=f"{record.kkt:.2e}")
 
-    start = time.perf_counter()
+    begun = time.perf_counter()
     try:
-        result = optimize(problem, np.full(sim.n_design, x0), method, max_iter=max_iter, move=args.move or 0.2,
-                          kkt_tol=args.kkt_tol or 1e-6, xtol=args.xtol, callback=on_iteration)
+        result = optimize(problem, start, method, max_iter=options["max_iter"], move=options["move"],
+                          kkt_tol=options["kkt_tol"], xtol=options["xtol"], callback=on_iteration, state=state)
     except KeyboardInterrupt:
-        print("interrupted: a spatial optimization is not checkpointed yet, nothing to resume")
+        if latest or state is not None:
+            print(f"interrupted; the last iteration is saved: resume with `flextop optimize --resume --out {out}`")
+        else:
+            print("interrupted before the first iteration ended: nothing to resume")
         return 130
     finally:
         bar.close()
-    elapsed = time.perf_counter() - start
+    if latest:
+        save(result.state.to_dict() if result.state is not None else latest["state"], finished=result.status.name)
+    elapsed = time.perf_counter() - begun
     print(f"\nstatus: {result.status.name} — {result.message}")
     if result.history:
         print(f"{objective}: {problem.reference:.6g} at the start → {result.fun * problem.reference:.6g} "
@@ -527,6 +534,33 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path) -> int:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
     return 0
+
+
+def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimulation, SpatialProblem, dict, float]:
+    """The spatial scene's simulation, problem, optimizer options and uniform start from
+    the command line's options, those it does not take named."""
+    given = [k for k in SPATIAL_REFUSED if getattr(args, k) not in (None, False)]
+    if given:
+        names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
+                            "--global-volume, --max-stress, --x0, "
+                            "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
+                            "--resume, --no-plots, --vtk)")
+    sim = SpatialSimulation(spec)
+    if sim.n_design == 0:
+        raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
+    settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
+    objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
+    fraction = args.volume_fraction or 0.4
+    per_structure = not args.global_volume and any("/" in v for v in sim.variables)
+    limits = [] if args.max_stress is None else [("stress", args.max_stress)]
+    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, **settings)
+    x0 = 0.4 if args.x0 is None else args.x0
+    if not sim.x_min <= x0 <= 1.0:
+        raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
+    options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
+               "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
+    return sim, problem, options, x0
 
 
 def _designs_cells(sim: Simulation) -> bool:
@@ -562,7 +596,10 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
     try:
-        if "scenarios" in saved["problem"]:
+        if saved.get("spatial"):
+            sim = SpatialSimulation(saved["scene"])
+            problem = SpatialProblem.from_dict(sim, saved["problem"])
+        elif "scenarios" in saved["problem"]:
             n = len(saved["problem"]["scenarios"])
             problem = ScenarioProblem.from_dict(saved["problem"], workers.executor, workers.chunksize(n))
             sim = problem.simulations[0]

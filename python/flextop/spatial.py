@@ -32,7 +32,7 @@ moves with them too).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
@@ -161,13 +161,20 @@ class SpatialModes:
     (rad²/s², ascending; negative where it is unstable) and mass-normalized ``shapes`` (one
     row per mode, six numbers per node: displacement in space, rotation in the node's axes);
     for the lowest, the Sturm ``bound`` (rad²/s²) and the count ``below`` it that proves
-    none was skipped (``None`` for every mode)."""
+    none was skipped (``None`` for every mode); the rates of ``omega_squared`` where
+    :meth:`SpatialSimulation.modes` was given parameters."""
 
     omega_squared: np.ndarray
     shapes: np.ndarray
     stable_frequencies: np.ndarray | None = None
     bound: float | None = None
     below: int | None = None
+    #: The parameters ``omega_squared_gradient`` is to, by name.
+    parameters: tuple[str, ...] = ()
+    #: ``∂ω²/∂p`` (rad²/s² per unit), one row per mode, the configuration held.
+    omega_squared_gradient: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    #: ``∂ω²/∂x`` to the design's densities, one row per mode, the configuration held.
+    omega_squared_dfdx: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -324,19 +331,33 @@ class SpatialSimulation:
                                   int(r["load_steps"]), self.layout, time)
 
     def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, count: int | None = None,
-              **settings: Any) -> SpatialModes:
+              parameters: Sequence[str] | str | None = None, **settings: Any) -> SpatialModes:
         """The natural modes at design ``x`` about the equilibrium ``at`` (the static
         equilibrium at ``t_end`` by default, :meth:`equilibrium`), drives locked at its time:
         every one (a dense
         solve, at most 1500 unknowns), or with ``count`` the lowest ``count`` by
         shift-invert Lanczos on the sparse matrices, any size, with the Sturm count that
-        proves none was skipped (``bound``, ``below``)."""
+        proves none was skipped (``bound``, ``below``).
+
+        Given ``parameters`` (``[]`` for the densities alone), their rates ``∂ω²/∂p`` to them by name (a body's ``mass:`` and ``Ixx:`` …,
+        a beam's ``E:``, ``rho:`` and section sizes ``diameter:`` …) and ``∂ω²/∂x`` to the
+        densities, with the configuration held (``omega_squared_gradient``,
+        ``omega_squared_dfdx``): exact about an unloaded state, where the state does not
+        move with them; about a loaded equilibrium the prestress's own change is left out.
+        Within a cluster of equal frequencies only the cluster's sum has a rate (the sum of
+        these)."""
         wanted = None if count is None else whole("count", count)
         eq = self.equilibrium(x, **settings) if at is None else at
-        r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted)
+        names = None if parameters is None else _names(parameters, "parameters")
+        r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted,
+                                     None if names is None else list(names))
         frequencies = None if r["frequencies"] is None else np.asarray(r["frequencies"])
-        return SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"],
-                            r["below"])
+        modes = SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"], r["below"])
+        if names is None or r["omega_squared_rates"] is None:
+            return modes
+        rates = np.asarray(r["omega_squared_rates"]).reshape(len(modes.omega_squared), -1)
+        return replace(modes, parameters=names, omega_squared_gradient=rates[:, :len(names)],
+                       omega_squared_dfdx=rates[:, len(names):])
 
     def rigid_trajectory(self, name: str | None = None, **settings: Any) -> np.ndarray:
         """The rigid trajectory of a body's centre or a node's origin (the scene's tip by

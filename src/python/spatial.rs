@@ -12,10 +12,12 @@ use super::convert::{matrix, run_options, scene_value, spatial_scene_spec, vecto
 use super::signals::{abandonable, detached, heard, reporting};
 use crate::error::{Error, SettingsError};
 use crate::mechanism::model::Analysis;
+use crate::scene::spatial::names::Named;
 use crate::scene::spatial::{build_spatial, parse_spatial_toml, SpatialScene};
 use crate::spatial::element::Element;
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::modal::natural_modes_spatial;
+use crate::spatial::modal_rates::omega_squared_rates;
 use crate::spatial::rigid::rigid_trajectories;
 use crate::spatial::sensitivity::{sensitivities, static_sensitivities, Parameter};
 use crate::spatial::statics::solve_static_spatial;
@@ -303,7 +305,8 @@ impl PySpatialModel {
     /// `omega_squared` (rad²/s², ascending), the `frequencies` (Hz; `None` where the state is
     /// unstable), mass-normalized `shapes` (one row each, six numbers per node) and, for a
     /// count, the Sturm `bound` (rad²/s²) and the count `below` it (`None` without).
-    #[pyo3(signature = (q, lam, t=0.0, x=None, count=None))]
+    #[pyo3(signature = (q, lam, t=0.0, x=None, count=None, parameters=None))]
+    #[allow(clippy::too_many_arguments)]
     fn natural_modes<'py>(
         &self,
         py: Python<'py>,
@@ -312,14 +315,33 @@ impl PySpatialModel {
         t: f64,
         x: Option<Vec<f64>>,
         count: Option<usize>,
+        parameters: Option<Vec<String>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
-        let modes = detached(py, move || {
+        let (modes, rates) = detached(py, move || {
             let model = scene.model_at(x.as_deref())?;
-            natural_modes_spatial(&model, &q, &lam, t, count)
+            let modes = natural_modes_spatial(&model, &q, &lam, t, count)?;
+            let rates = match parameters {
+                None => None,
+                Some(names) => {
+                    let mut named = (names.iter())
+                        .map(|p| scene.parameter(p))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    let full = vec![1.0; scene.n_variables()];
+                    named.extend(scene.densities(x.as_deref().unwrap_or(&full)));
+                    let ps: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
+                    let rates =
+                        omega_squared_rates(&model, &q, &modes.omega_squared, &modes.shapes, &ps)?;
+                    Some(combined(&named, &rates))
+                }
+            };
+            Ok::<_, Error>((modes, rates))
         })?;
         let d = PyDict::new(py);
         let n_v = self.scene.model.n_v();
+        let n_p = rates.as_ref().and_then(|r| r.first()).map_or(0, Vec::len);
+        let rates = rates.map(|r| Self::rows(py, r, n_p)).transpose()?;
+        d.set_item("omega_squared_rates", rates)?;
         let frequencies = modes.frequencies().map(|f| vector(py, f));
         d.set_item("frequencies", frequencies)?;
         d.set_item("shapes", Self::rows(py, modes.shapes, n_v)?)?;
@@ -366,13 +388,7 @@ impl PySpatialModel {
                 settings.validate()?;
                 sensitivities(&model, &settings, &settings.grid(), &rs, &ps, method)?
             };
-            let combined = g.gradient.iter().map(|row| {
-                let mut parts = row.iter();
-                (named.iter())
-                    .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
-                    .collect::<Vec<f64>>()
-            });
-            Ok::<_, Error>((g.values, combined.collect::<Vec<_>>(), g.peaks))
+            Ok::<_, Error>((g.values, combined(&named, &g.gradient), g.peaks))
         })?;
         let (values, gradient, peaks) = found;
         let d = PyDict::new(py);
@@ -382,4 +398,17 @@ impl PySpatialModel {
         d.set_item("peaks", peaks)?;
         Ok(d)
     }
+}
+
+/// Gradients to the engine's parameters combined into those to the named ones (each named
+/// one a sum of engine parameters times factors, in order).
+fn combined(named: &[Named], gradient: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    (gradient.iter())
+        .map(|row| {
+            let mut parts = row.iter();
+            (named.iter())
+                .map(|n| n.iter().zip(&mut parts).map(|((_, f), d)| f * d).sum())
+                .collect()
+        })
+        .collect()
 }

@@ -234,6 +234,14 @@ impl Beam {
         terms.internal + terms.inertia
     }
 
+    /// The tangent `∂f/∂q` at `q` at rest (`rest` the zero velocities) of the element with
+    /// `section`: with a section rate, the tangent's rate.
+    pub(crate) fn tangent_of(&self, section: &Section, q: &[f64], rest: &[f64]) -> Stiffness {
+        let mut d = Derivatives::zeros();
+        self.terms_of(section, q, rest, None, &Vector3::zeros(), Some(&mut d));
+        d.stiffness
+    }
+
     /// `L/2 εᵀ C ε` at `q` with `section`'s `C`: with a section rate, the strain energy's
     /// explicit rate.
     pub(crate) fn strain_energy_of(&self, section: &Section, q: &[f64]) -> f64 {

@@ -9,7 +9,8 @@
 //!
 //! Built so far: rigid bodies, beams, truss bars, the joints (spherical, revolute, universal,
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,
-//! [`force`]), static equilibria ([`statics`]), natural modes about them ([`modal`]) and
+//! [`force`]), static equilibria ([`statics`]), natural modes about them ([`modal`]) with their rates
+//! to the parameters ([`modal_rates`]) and
 //! the exact gradients of the motion and of equilibria ([`sensitivity`]) to bodies', force
 //! elements', beams' and bars' parameters; scenes in [`crate::scene::spatial`], the
 //! Python front in `flextop.spatial`.
@@ -57,6 +58,7 @@ pub mod force;
 pub mod integrator;
 pub mod joint;
 pub mod modal;
+pub mod modal_rates;
 pub mod model;
 pub mod rigid;
 pub mod section;

@@ -164,7 +164,7 @@ fn every_mode(
             f64::from(u8::from(absent[r - constraints.nrows()] == c))
         }
     });
-    let free = null_space(&held, n_v);
+    let free = null_space(&held, n_v)?;
     let k = free.transpose() * &stiffness * &free;
     let asymmetry = (&k - k.transpose()).amax();
     if asymmetry > SYMMETRY_TOLERANCE * k.amax().max(f64::MIN_POSITIVE) {
@@ -480,16 +480,26 @@ fn dense(p: &Pattern, values: &[f64], n_v: usize) -> (DMatrix<f64>, DMatrix<f64>
     (force, rows)
 }
 
-/// An orthonormal basis of `{φ : B φ = 0}`: the eigenvectors of `BᵀB` whose eigenvalues are
-/// zero to [`RANK_TOLERANCE`] of the largest (squared).
-fn null_space(b: &DMatrix<f64>, n_v: usize) -> DMatrix<f64> {
+/// An orthonormal basis of `{φ : B φ = 0}`: the right singular vectors of `B` whose singular
+/// values are zero to [`RANK_TOLERANCE`] of the largest. `B` is padded with zero rows to at
+/// least `n_v` so that its SVD's `V` is complete. (Not the eigenvectors of `BᵀB`: their
+/// zero eigenvalues come out at round-off of the largest, `1e-16 σ²_max`, above a squared
+/// tolerance, and free directions were lost — a body welded to a beam held its rotation.)
+fn null_space(b: &DMatrix<f64>, n_v: usize) -> Result<DMatrix<f64>, Error> {
     if b.nrows() == 0 {
-        return DMatrix::identity(n_v, n_v);
+        return Ok(DMatrix::identity(n_v, n_v));
     }
-    let eigen = SymmetricEigen::new(b.transpose() * b);
-    let largest = eigen.eigenvalues.amax();
+    let mut padded = DMatrix::zeros(b.nrows().max(n_v), n_v);
+    padded.rows_mut(0, b.nrows()).copy_from(b);
+    let svd = padded.svd(false, true);
+    let v_t = (svd.v_t).ok_or_else(|| {
+        Error::from(SolveError::Eigen(
+            "the joints' null space: the SVD gave no right singular vectors".into(),
+        ))
+    })?;
+    let largest = svd.singular_values.amax();
     let free: Vec<usize> = (0..n_v)
-        .filter(|&i| eigen.eigenvalues[i] <= RANK_TOLERANCE.powi(2) * largest)
+        .filter(|&i| svd.singular_values[i] <= RANK_TOLERANCE * largest)
         .collect();
-    DMatrix::from_fn(n_v, free.len(), |r, c| eigen.eigenvectors[(r, free[c])])
+    Ok(DMatrix::from_fn(n_v, free.len(), |r, c| v_t[(free[c], r)]))
 }

@@ -138,6 +138,26 @@ def test_optimize_checkpoints_and_resumes_exactly(tmp_path):
     assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
 
 
+def test_a_spatial_optimization_checkpoints_and_resumes_exactly(tmp_path):
+    """The lattice cantilever's energy at 30 % of its volume under a peak stress limit (its
+    normalization moves at every iteration and travels in the checkpoint): 8 iterations in
+    one run and 4 + 4 resumed give the same history and design to round-off."""
+    (tmp_path / "lattice.toml").write_text(lattice_cantilever().to_toml())
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    options = ("--volume-fraction", "0.3", "--x0", "0.3", "--max-stress", "5e7", "--no-plots")
+    flextop_cli("optimize", tmp_path / "lattice.toml", *options, "--max-iter", 8, "--out", straight, codes=(0, 3))
+    flextop_cli("optimize", tmp_path / "lattice.toml", *options, "--max-iter", 4, "--out", split, codes=(0, 3))
+    saved = json.loads((split / "checkpoint.json").read_text())["data"]
+    assert saved["spatial"] and saved["state"]["iteration"] == 4 and saved["problem"]["normalization"]
+    run = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, "--no-plots", codes=(0, 3))
+    assert "resuming" in run.stdout and "minimize strain_energy over 72 densities" in run.stdout
+    assert [h["iteration"] for h in history(split)] == list(range(0, 9))
+    np.testing.assert_allclose(np.load(split / "design.npy"), np.load(straight / "design.npy"), rtol=0, atol=1e-12)
+    assert [h["f0"] for h in history(split)] == pytest.approx([h["f0"] for h in history(straight)], rel=1e-12)
+    done = flextop_cli("optimize", "--resume", "--max-iter", 8, "--out", split, codes=(1, 2))
+    assert done.stderr.count("\n") == 1 and "has done its 8 iterations" in done.stderr
+
+
 def plate_toml(tmp_path):
     """A cantilever plate of 12 × 4 cells pinned along its left edge, loaded down at its
     lower right corner: its TOML file in ``tmp_path``."""

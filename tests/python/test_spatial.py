@@ -218,6 +218,41 @@ def test_a_lattices_lowest_modes_by_count_are_the_dense_ones(kind):
     assert lowest.below >= 8 and every.omega_squared[lowest.below - 1] < lowest.bound < every.omega_squared[lowest.below]
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.1])
+def test_a_body_welded_to_a_beam_turns_with_it_in_every_mode(offset):
+    """A 2 kg body welded to a cantilever's tip, its centre at the tip or 0.1 m off it, has
+    the lowest frequencies of the same mass there (a point mass, or its inertia about the
+    tip), every mode densely as by Lanczos, its equal pair in both planes where the body sits
+    on the axis; and they are its motion's (a free swing's period under gravity at 6.96 Hz
+    with the body at the tip). The dense null space of the joints once lost free directions
+    to round-off (an eigen-decomposition of BᵀB at a squared tolerance): the tip was held
+    from turning, at 12.2 and 13.5 Hz."""
+    def rod(body: bool) -> SpatialScene:
+        scene = SpatialScene("tip", analysis="static")
+        scene.section("s", E=2.1e11, rho=7850.0, nu=0.3, diameter=0.02)
+        scene.node("root", (0.0, 0.0, 0.0))
+        scene.node("end", (1.0, 0.0, 0.0))
+        scene.beam("rod", "root", "end", section="s", split=8)
+        scene.weld("clamp", "ground", "root")
+        if body:
+            scene.rigid_body("w", mass=2.0, inertia=(1e-6, 1e-6, 1e-6), position=(1.0, 0.0, offset),
+                             points={"hub": (0.0, 0.0, -offset)})
+            scene.weld("mount", "end", "w.hub")
+        else:
+            scene.point_mass("m", "end", 2.0)
+        return scene
+
+    welded = SpatialSimulation(rod(True))
+    every, lowest = welded.modes(), welded.modes(count=4)
+    assert lowest.frequencies == pytest.approx(every.frequencies[:4], rel=1e-9)
+    if offset == 0.0:
+        point = SpatialSimulation(rod(False)).modes().frequencies[:4]
+        assert every.frequencies[:4] == pytest.approx(point, rel=1e-5)  # the body's 1e-6 kg m² aside
+        assert every.frequencies[0] == pytest.approx(6.9596, rel=1e-4)
+    else:
+        assert every.frequencies[0] < 6.9596  # the mass's inertia about the tip lowers it
+
+
 @pytest.mark.parametrize("count, words", [(0, "count must be a whole number ≥ 1, got 0"), (2.5, "count must be"),
                                           (True, "count must be"), ("3", "count must be"),
                                           (97, "count: is 97: the mechanism has 96 free directions")])

@@ -154,6 +154,9 @@ def test_sizing_problem_gradients_against_differences():
         fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * delta)
         exact = np.concatenate([[e.df0[k]], e.dg[:, k]])
         assert np.allclose(exact, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max()), (k, exact, fd)
+    lightest = SizingProblem(arm(), "mass", sizes=BOUNDS)  # the mass alone: no run of the engine
+    alone = lightest.evaluate(z)
+    assert alone.f0 == 1.0 and np.allclose(alone.df0 * lightest.reference, e.dg[0], rtol=1e-12)
 
 
 def test_sizing_by_mma_reaches_a_kkt_point():

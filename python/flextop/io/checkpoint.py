@@ -5,7 +5,7 @@ another version, holding a design outside its bounds, or of a run that has conve
 The file is JSON: ``{"flextop_checkpoint": VERSION, "sha256": ..., "data": {...}}`` with
 ``data`` holding the scene, the accuracy, the problem, the optimizer's options, the start
 design, its state after the last iteration, and ``finished`` (the status the run stopped
-with, once it has stopped).
+with, once it has stopped); a spatial scene's has ``spatial`` true and no accuracy (``None``).
 """
 
 from __future__ import annotations

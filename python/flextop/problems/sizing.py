@@ -157,13 +157,9 @@ class SizingProblem(Problem):
         engine = [r for r in self.responses if r != "mass"]
         try:
             sim = SpatialSimulation(self.spec_at(z))
-            run = sim.run_with_sensitivities(self.x, engine, self.parameters, method="adjoint", **self.settings)
+            values, gradients = self._engine(sim, engine)
         except (SceneError, SimulationError) as error:
             raise EvaluationError(str(error), np.asarray(z)) from error
-        # Each size's gradient: its section's beams' columns summed.
-        columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes])
-        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1) if run.gradient.size else run.gradient
-        values, gradients = dict(zip(engine, run.values)), dict(zip(engine, summed))
         if "mass" in self.responses:
             values["mass"], gradients["mass"] = self.mass(sim)
         f, df = values[self.objective], gradients[self.objective]
@@ -174,6 +170,16 @@ class SizingProblem(Problem):
         r = np.array([values[name] for name in self.responses[1:]])
         dr = np.array([gradients[name] for name in self.responses[1:]]).reshape(self.m, self.n)
         return Evaluation(f / self.reference, r / self.bounds - 1.0, df / self.reference, dr / self.bounds[:, None])
+
+    def _engine(self, sim: SpatialSimulation, responses: list[str]) -> tuple[dict, dict]:
+        """The engine's ``responses`` of ``sim`` and their gradients to the sizes, each its
+        section's beams' columns summed."""
+        if not responses:
+            return {}, {}
+        run = sim.run_with_sensitivities(self.x, responses, self.parameters, method="adjoint", **self.settings)
+        columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes])
+        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1)
+        return dict(zip(responses, run.values)), dict(zip(responses, summed))
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
         """The objective, the constrained responses and the objective's gradient in their

@@ -74,6 +74,22 @@ class SpatialProblem(Problem):
         self.normalization: dict[str, float] = {}
         self._ratios: dict[bytes, dict[str, float]] = {}
 
+    def to_dict(self) -> dict:
+        """What rebuilds this problem on the same scene (for checkpoints): its responses,
+        every bound (a volume fraction's as its volume), the reference and each stress
+        bound's factor as they stand."""
+        return {"objective": self.objective, "constraints": [[name, float(bound)] for name, bound in
+                                                            zip(self.responses[1:], self.bounds)],
+                "reference": self.reference, "settings": dict(self.settings), "normalization": dict(self.normalization)}
+
+    @classmethod
+    def from_dict(cls, sim: SpatialSimulation, data: dict) -> SpatialProblem:
+        """The problem :meth:`to_dict` describes, on ``sim``."""
+        problem = cls(sim, data["objective"], [(name, bound) for name, bound in data["constraints"]],
+                      reference=data["reference"], **data["settings"])
+        problem.normalization = {str(k): float(v) for k, v in data["normalization"].items()}
+        return problem
+
     def evaluate(self, x: np.ndarray) -> Evaluation:
         try:
             run = self.sim.run_with_sensitivities(x, self.responses, method="adjoint", **self.settings)
