@@ -458,7 +458,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
 
 
 SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
-                   "min_frequency", "max_von_mises", "max_buckling", "start", "analysis",
+                   "max_von_mises", "max_buckling", "start", "analysis",
                    "accuracy", "rtol", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
@@ -543,7 +543,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --x0, "
+                            "--global-volume, --max-stress, --min-frequency, --x0, "
                             "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
                             "--resume, --no-plots, --vtk)")
     sim = SpatialSimulation(spec)
@@ -554,6 +554,8 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     fraction = args.volume_fraction or 0.4
     per_structure = not args.global_volume and any("/" in v for v in sim.variables)
     limits = [] if args.max_stress is None else [("stress", args.max_stress)]
+    if args.min_frequency is not None:
+        limits.append((MIN_FREQUENCY, args.min_frequency))
     problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, **settings)
     x0 = 0.4 if args.x0 is None else args.x0
     if not sim.x_min <= x0 <= 1.0:
@@ -734,7 +736,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--volume-fraction", type=_fraction, help="V <= fraction * V_full (default 0.4)")
     o.add_argument("--global-volume", action="store_true", help="one volume constraint instead of one per component")
     o.add_argument("--min-frequency", type=_positive(float), metavar="HZ",
-                   help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest two, to 1e-3)")
+                   help="a floor on the lowest natural frequency at rest, drives locked (KS over the lowest two, to 1e-3; "
+                   "on a spatial scene, of the mesh as built, its loads, motors and gravity taken away)")
     o.add_argument("--max-stress", type=_positive(float), metavar="PA",
                    help="a limit on the peak fibre stress over the motion, relaxed as x^0.5 σ (p-mean normalized to the peak); "
                    "on a spatial scene, the beams' von Mises stress at their sections' edges and the bars' axial stress")

@@ -122,9 +122,13 @@ def ks_lowest(modes: Modes, scale: float, rho: float = 50.0) -> tuple[float, np.
     floor of a constraint), and its gradient (Hz per unit of x). A symmetric function of
     the frequencies: differentiable where the lowest ones coincide, where each one alone is
     not. ``f_1 − s ln(n)/ρ ≤ KS ≤ f_1``."""
+    return ks_lowest_of(modes.frequencies, modes.gradients, scale, rho)
+
+
+def ks_lowest_of(f: np.ndarray, g: np.ndarray, scale: float, rho: float = 50.0) -> tuple[float, np.ndarray]:
+    """:func:`ks_lowest` of frequencies ``f`` (Hz) with their gradients ``g`` (one row each)."""
     if not (scale > 0 and rho > 0):
         raise SettingsError(f"ks_lowest: scale and rho must be positive, got {scale!r}, {rho!r}")
-    f, g = modes.frequencies, modes.gradients
     z = -rho * f / scale
     w = np.exp(z - z.max())
     ks = -scale / rho * (np.log(w.sum()) + z.max())

@@ -330,10 +330,12 @@ class SpatialSimulation:
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
                                   int(r["load_steps"]), self.layout, time)
 
-    def modes(self, x: DesignLike = None, at: SpatialEquilibrium | None = None, count: int | None = None,
+    def modes(self, x: DesignLike = None, at: SpatialEquilibrium | str | None = None, count: int | None = None,
               parameters: Sequence[str] | str | None = None, **settings: Any) -> SpatialModes:
         """The natural modes at design ``x`` about the equilibrium ``at`` (the static
-        equilibrium at ``t_end`` by default, :meth:`equilibrium`), drives locked at its time:
+        equilibrium at ``t_end`` by default, :meth:`equilibrium`; ``"rest"``: the structure at
+        rest, its initial configuration with its loads, motors and gravity taken away), drives
+        locked at its time:
         every one (a dense
         solve, at most 1500 unknowns), or with ``count`` the lowest ``count`` by
         shift-invert Lanczos on the sparse matrices, any size, with the Sturm count that
@@ -342,15 +344,20 @@ class SpatialSimulation:
         Given ``parameters`` (``[]`` for the densities alone), their rates ``∂ω²/∂p`` to them by name (a body's ``mass:`` and ``Ixx:`` …,
         a beam's ``E:``, ``rho:`` and section sizes ``diameter:`` …) and ``∂ω²/∂x`` to the
         densities, with the configuration held (``omega_squared_gradient``,
-        ``omega_squared_dfdx``): exact about an unloaded state, where the state does not
-        move with them; about a loaded equilibrium the prestress's own change is left out.
+        ``omega_squared_dfdx``): exact about an unloaded state (``at="rest"``), where the
+        state does not move with them; about a loaded equilibrium the prestress's own change is left out.
         Within a cluster of equal frequencies only the cluster's sum has a rate (the sum of
         these)."""
         wanted = None if count is None else whole("count", count)
-        eq = self.equilibrium(x, **settings) if at is None else at
         names = None if parameters is None else _names(parameters, "parameters")
-        r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted,
-                                     None if names is None else list(names))
+        wanted_names = None if names is None else list(names)
+        if isinstance(at, str):
+            if at != "rest":
+                raise SettingsError(f"at: {at!r} is neither an equilibrium nor \"rest\"")
+            r = self.model.natural_modes(None, None, 0.0, self._design(x), wanted, wanted_names)
+        else:
+            eq = self.equilibrium(x, **settings) if at is None else at
+            r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted, wanted_names)
         frequencies = None if r["frequencies"] is None else np.asarray(r["frequencies"])
         modes = SpatialModes(np.asarray(r["omega_squared"]), np.asarray(r["shapes"]), frequencies, r["bound"], r["below"])
         if names is None or r["omega_squared_rates"] is None:

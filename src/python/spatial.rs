@@ -300,18 +300,20 @@ impl PySpatialModel {
         Ok(d)
     }
 
-    /// The natural modes about configuration `q` with multipliers `lam` at time `t`: every
+    /// The natural modes about configuration `q` with multipliers `lam` at time `t` (without
+    /// them, at rest: the initial configuration, the loads, motors and gravity taken away,
+    /// [`crate::spatial::model::SpatialModel::at_rest`]): every
     /// one without `count`, the lowest `count` (shift-invert Lanczos, any size) with it —
     /// `omega_squared` (rad²/s², ascending), the `frequencies` (Hz; `None` where the state is
     /// unstable), mass-normalized `shapes` (one row each, six numbers per node) and, for a
     /// count, the Sturm `bound` (rad²/s²) and the count `below` it (`None` without).
-    #[pyo3(signature = (q, lam, t=0.0, x=None, count=None, parameters=None))]
+    #[pyo3(signature = (q=None, lam=None, t=0.0, x=None, count=None, parameters=None))]
     #[allow(clippy::too_many_arguments)]
     fn natural_modes<'py>(
         &self,
         py: Python<'py>,
-        q: Vec<f64>,
-        lam: Vec<f64>,
+        q: Option<Vec<f64>>,
+        lam: Option<Vec<f64>>,
         t: f64,
         x: Option<Vec<f64>>,
         count: Option<usize>,
@@ -319,7 +321,20 @@ impl PySpatialModel {
     ) -> PyResult<Bound<'py, PyDict>> {
         let scene = Arc::clone(&self.scene);
         let (modes, rates) = detached(py, move || {
-            let model = scene.model_at(x.as_deref())?;
+            let mut model = scene.model_at(x.as_deref())?;
+            let (q, lam) = match (q, lam) {
+                (Some(q), Some(lam)) => (q, lam),
+                (None, None) => {
+                    model = std::borrow::Cow::Owned(model.at_rest());
+                    (model.initial_configuration(), vec![0.0; model.n_rows()])
+                }
+                _ => {
+                    return Err(Error::from(SettingsError::new(
+                        "natural_modes",
+                        "give both q and lam (a configuration), or neither (at rest)",
+                    )))
+                }
+            };
             let modes = natural_modes_spatial(&model, &q, &lam, t, count)?;
             let rates = match parameters {
                 None => None,

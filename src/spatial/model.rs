@@ -715,6 +715,26 @@ impl SpatialModel {
         }
     }
 
+    /// The mechanism at rest: its loads and motors at zero and no gravity, so that its
+    /// initial configuration without constraint forces is an equilibrium wherever no spring
+    /// is preloaded; what its structural modes are taken about (each entry where it was,
+    /// its parameters numbered as in `self`).
+    pub fn at_rest(&self) -> SpatialModel {
+        let mut m = self.clone();
+        for f in &mut m.forces {
+            match &mut f.kind {
+                ForceKind::Load { force, moment, .. } => {
+                    *force = Vector3::zeros();
+                    *moment = Vector3::zeros();
+                }
+                ForceKind::Motor { torque, .. } => *torque = 0.0,
+                ForceKind::Spring { .. } | ForceKind::Torsion { .. } => {}
+            }
+        }
+        m.gravity = Vector3::zeros();
+        m
+    }
+
     /// The initial configuration.
     pub fn initial_configuration(&self) -> Vec<f64> {
         let mut q = vec![0.0; self.n_q()];

@@ -28,14 +28,16 @@ from typing import Any
 import numpy as np
 
 from ..errors import SettingsError, SimulationError
+from ..modal import ks_lowest_of
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..spatial import SpatialSimulation
-from .topology import normalized, renormalized
+from .topology import FLOOR_MODES, FLOOR_RHO, MIN_FREQUENCY, normalized, relation, renormalized
 
 
 class SpatialProblem(Problem):
     """Minimize the response ``objective`` of ``sim`` subject to ``constraints``, each a
-    ``(response, upper bound)``; ``volume`` (a fraction of the full material volume) adds
+    ``(response, upper bound)`` or ``("min_frequency", f_min)``, a floor (Hz) on the lowest
+    natural frequency of the structure at rest (KS over its lowest two, exact gradients); ``volume`` (a fraction of the full material volume) adds
     ``("volume", volume · V_full)`` or, ``per_structure``, one ``("volume:NAME", volume ·
     V_full,NAME)`` per ground structure (paper Eq. 41, per link). ``settings`` go to every run
     (``t_end``, ``h``, …).
@@ -65,10 +67,11 @@ class SpatialProblem(Problem):
         if reference is not None and not (np.isfinite(reference) and reference > 0.0):
             raise SettingsError(f"reference: {reference!r} must be positive and finite")
         super().__init__(np.full(sim.n_design, sim.x_min), np.ones(sim.n_design), len(bounds),
-                         [f"{name} ≤ {bound:.4g}" for name, bound in bounds])
+                         [f"{name} {'≥' if relation(name) == '>=' else '≤'} {bound:.4g}" for name, bound in bounds])
         self.sim, self.objective, self.settings = sim, objective, settings
-        self.responses = [objective, *(name for name, _ in bounds)]
-        self.bounds = np.array([bound for _, bound in bounds], dtype=float)
+        self.constraints = [(name, float(bound)) for name, bound in bounds]
+        self.responses = [objective, *(name for name, _ in bounds if name != MIN_FREQUENCY)]
+        self.bounds = np.array([bound for name, bound in bounds if name != MIN_FREQUENCY], dtype=float)
         self.reference = reference
         #: Each stress bound's factor ``c`` (module docs), set by the first evaluation.
         self.normalization: dict[str, float] = {}
@@ -78,8 +81,7 @@ class SpatialProblem(Problem):
         """What rebuilds this problem on the same scene (for checkpoints): its responses,
         every bound (a volume fraction's as its volume), the reference and each stress
         bound's factor as they stand."""
-        return {"objective": self.objective, "constraints": [[name, float(bound)] for name, bound in
-                                                            zip(self.responses[1:], self.bounds)],
+        return {"objective": self.objective, "constraints": [[name, bound] for name, bound in self.constraints],
                 "reference": self.reference, "settings": dict(self.settings), "normalization": dict(self.normalization)}
 
     @classmethod
@@ -104,11 +106,36 @@ class SpatialProblem(Problem):
                             if name in run.peaks else 1.0 for name, value in zip(self.responses[1:], run.values[1:])])
         g = factors * run.values[1:] / self.bounds - 1.0
         dg = (factors / self.bounds)[:, None] * run.dfdx[1:]
+        if len(self.responses) <= self.m:  # a frequency floor among the constraints
+            g, dg = self._with_floor(x, g, dg)
         return Evaluation(run.values[0] / self.reference, g, run.dfdx[0] / self.reference, dg)
+
+    def _with_floor(self, x: np.ndarray, g: np.ndarray, dg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The constraints with the frequency floor's in its place: ``1 − KS/f_min``, KS over
+        the lowest :data:`~flextop.problems.topology.FLOOR_MODES` natural frequencies of the
+        structure at rest (its loads, motors and gravity taken away, where their rates are
+        exact), as on planar scenes."""
+        try:
+            modes = self.sim.modes(x, at="rest", count=FLOOR_MODES, parameters=[])
+        except SimulationError as error:
+            raise EvaluationError(str(error), np.asarray(x)) from error
+        f = modes.frequencies
+        df = modes.omega_squared_dfdx / (8.0 * np.pi**2 * np.maximum(f, 1e-300))[:, None]
+        rows, values, k = [], [], 0
+        for name, bound in self.constraints:
+            if name == MIN_FREQUENCY:
+                ks, dks = ks_lowest_of(f, df, bound, FLOOR_RHO)
+                values.append(1.0 - ks / bound)
+                rows.append(-dks / bound)
+            else:
+                values.append(g[k])
+                rows.append(dg[k])
+                k += 1
+        return np.array(values), np.array(rows).reshape(self.m, self.n)
 
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Each stress bound's ``c`` moves towards the ratio peak/P at the accepted design
         and its constraint is rescaled to it (module docs)."""
         ratios = self._ratios.get(np.asarray(x, dtype=float).tobytes(), {})
         self._ratios = {}
-        return renormalized(self.normalization, ratios, self.responses[1:], evaluation)
+        return renormalized(self.normalization, ratios, [name for name, _ in self.constraints], evaluation)
