@@ -235,29 +235,12 @@ impl Dimension {
     ];
 }
 
-/// The derivative of a section's [`Geometry`] to one of its dimensions (m, m³, …): its
-/// fibres' coordinates and torsion lengths too, in the same order.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GeometryRate {
-    /// `A'`.
-    pub area: f64,
-    /// `I₂'`.
-    pub i2: f64,
-    /// `I₃'`.
-    pub i3: f64,
-    /// `J'`.
-    pub torsion: f64,
-    /// `κ₂'`, `κ₃'`.
-    pub shear: [f64; 2],
-    /// Each fibre's `(y', z', c')`.
-    pub fibres: Fibres,
-}
-
 impl Shape {
-    /// The derivative of [`Shape::geometry`] to `dimension` (`None` where the shape has no
-    /// such dimension or no geometry). A rectangle's torsion constant and peak shear follow
+    /// The derivative of [`Shape::geometry`] to `dimension`, as a [`Geometry`] of rates (m,
+    /// m³, …; each fibre's `y'`, `z'`, `c'` in the same order); `None` where the shape has no
+    /// such dimension or no geometry. A rectangle's torsion constant and peak shear follow
     /// its longer side as `a`: at a square (`b = h`) the rate is the one of `b` as the longer.
-    pub fn rate(&self, nu: f64, dimension: Dimension) -> Option<GeometryRate> {
+    pub fn rate(&self, nu: f64, dimension: Dimension) -> Option<Geometry> {
         let geometry = self.geometry(nu)?;
         let scaled = |fibres: &Fibres, by: [f64; 3]| {
             let mut out = *fibres;
@@ -273,7 +256,7 @@ impl Shape {
         match (*self, dimension) {
             (Shape::SolidCircle { d }, Dimension::Diameter) => {
                 let i = PI * d.powi(3) / 16.0;
-                Some(GeometryRate {
+                Some(Geometry {
                     area: PI * d / 2.0,
                     i2: i,
                     i3: i,
@@ -308,7 +291,7 @@ impl Shape {
                 let kappa = (dn * d - n * dd) / (d * d) * dm2;
                 let i = sign * PI * side.powi(3) / 16.0;
                 let moves = if is_outer { 1.0 / outer } else { 0.0 };
-                Some(GeometryRate {
+                Some(Geometry {
                     area: sign * PI * side / 2.0,
                     i2: i,
                     i3: i,
@@ -338,7 +321,7 @@ impl Shape {
                 } else {
                     (0.0, 1.0 / h)
                 };
-                Some(GeometryRate {
+                Some(Geometry {
                     area: if width { h } else { b },
                     i2: if width {
                         h.powi(3) / 12.0
@@ -422,7 +405,7 @@ impl Section {
     /// Its shape's geometry at full density and that geometry's rate to `dimension`
     /// (Poisson's ratio from the moduli); `None` where it has no shape or the shape no such
     /// dimension.
-    pub fn geometry_rate(&self, dimension: Dimension) -> Option<(Geometry, GeometryRate)> {
+    pub fn geometry_rate(&self, dimension: Dimension) -> Option<(Geometry, Geometry)> {
         let shape = self.shape?;
         let nu = self.moduli[0] / (2.0 * self.moduli[1]) - 1.0;
         Some((shape.geometry(nu)?, shape.rate(nu, dimension)?))
@@ -557,15 +540,7 @@ mod tests {
             v
         };
         for (shape, dimension) in cases {
-            let rate = shape.rate(0.3, dimension).unwrap();
-            let exact = flat(&Geometry {
-                area: rate.area,
-                i2: rate.i2,
-                i3: rate.i3,
-                torsion: rate.torsion,
-                shear: rate.shear,
-                fibres: rate.fibres,
-            });
+            let exact = flat(&shape.rate(0.3, dimension).unwrap());
             let step = 1e-6;
             let at = |by: f64| flat(&moved(shape, dimension, by).geometry(0.3).unwrap());
             let (up, down) = (at(step), at(-step));
