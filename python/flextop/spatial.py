@@ -354,7 +354,11 @@ class SpatialSimulation:
         if isinstance(at, str):
             if at != "rest":
                 raise SettingsError(f"at: {at!r} is neither an equilibrium nor \"rest\"")
-            r = self.model.natural_modes(None, None, 0.0, self._design(x), wanted, wanted_names)
+            try:
+                r = self.model.natural_modes(None, None, 0.0, self._design(x), wanted, wanted_names)
+            except SimulationError as error:
+                raise type(error)(f"at rest (the initial configuration, its loads, motors and gravity taken away, "
+                                  f"no constraint force; a preloaded spring holds it elsewhere): {error}") from None
         else:
             eq = self.equilibrium(x, **settings) if at is None else at
             r = self.model.natural_modes(list(eq.q), list(eq.lam), eq.time, self._design(x), wanted, wanted_names)

@@ -10,7 +10,7 @@ import copy
 import numpy as np
 import pytest
 
-from flextop import SettingsError, SpatialScene, SpatialSimulation
+from flextop import SettingsError, SimulationError, SpatialScene, SpatialSimulation
 
 MODES = 6
 
@@ -112,6 +112,12 @@ def test_rates_a_mode_lacks_are_named():
         SpatialSimulation(frame(stay=True)).modes(parameters=["k:stay"])
     with pytest.raises(SettingsError, match="nothing"):
         SpatialSimulation(frame()).modes(parameters=["width:nothing"])
+    with pytest.raises(SettingsError, match="'rst' is neither an equilibrium nor \"rest\""):
+        SpatialSimulation(frame()).modes(at="rst")
+    preloaded = frame(stay=True)
+    preloaded["springs"][0]["length"] = 0.1
+    with pytest.raises(SimulationError, match="at rest .* a preloaded spring holds it elsewhere.*not an equilibrium"):
+        SpatialSimulation(preloaded).modes(at="rest")
 
 
 def test_a_frequency_floor_at_rest_has_exact_gradients_and_holds_after_mma():
