@@ -19,7 +19,7 @@ use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::modal::natural_modes_spatial;
 use crate::spatial::modal_rates::omega_squared_rates;
 use crate::spatial::rigid::rigid_trajectories;
-use crate::spatial::sensitivity::{sensitivities, static_sensitivities, Parameter};
+use crate::spatial::sensitivity::{sensitivities, static_sensitivities};
 use crate::spatial::statics::solve_static_spatial;
 
 /// A built and validated spatial scene.
@@ -339,12 +339,7 @@ impl PySpatialModel {
             let rates = match parameters {
                 None => None,
                 Some(names) => {
-                    let mut named = (names.iter())
-                        .map(|p| scene.parameter(p))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    let full = vec![1.0; scene.n_variables()];
-                    named.extend(scene.densities(x.as_deref().unwrap_or(&full)));
-                    let ps: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
+                    let (named, ps) = scene.named_and_densities(&names, x.as_deref())?;
                     let rates =
                         omega_squared_rates(&model, &q, &modes.omega_squared, &modes.shapes, &ps)?;
                     Some(combined(&named, &rates))
@@ -388,13 +383,8 @@ impl PySpatialModel {
             let rs = (responses.iter())
                 .map(|r| scene.response(r))
                 .collect::<Result<Vec<_>, _>>()?;
-            let mut named = (parameters.iter())
-                .map(|p| scene.parameter(p))
-                .collect::<Result<Vec<_>, _>>()?;
+            let (named, ps) = scene.named_and_densities(&parameters, x.as_deref())?;
             let model = scene.model_at(x.as_deref())?;
-            let full = vec![1.0; scene.n_variables()];
-            named.extend(scene.densities(x.as_deref().unwrap_or(&full)));
-            let ps: Vec<Parameter> = named.iter().flatten().map(|(p, _)| *p).collect();
             let g = if equilibrium {
                 let settings = options.statics(&scene.options)?;
                 static_sensitivities(&model, &settings, &rs, &ps, method)?

@@ -47,10 +47,11 @@ pub fn omega_squared_rates(
             ),
         ));
     }
+    let rest = vec![0.0; n_v];
     let rates = parameters
         .iter()
         .enumerate()
-        .map(|(k, p)| Rate::of(model, q, p, k))
+        .map(|(k, p)| Rate::of(model, q, &rest, p, k))
         .collect::<Result<Vec<_>, _>>()?;
     Ok((omega_squared.iter().zip(shapes))
         .map(|(&w2, phi)| rates.iter().map(|r| r.of_mode(w2, phi)).collect())
@@ -70,7 +71,14 @@ enum Rate {
 }
 
 impl Rate {
-    fn of(model: &SpatialModel, q: &[f64], p: &Parameter, k: usize) -> Result<Self, SettingsError> {
+    /// What `p` (parameter `k`) moves at `q`, at rest (`rest` the zero velocities).
+    fn of(
+        model: &SpatialModel,
+        q: &[f64],
+        rest: &[f64],
+        p: &Parameter,
+        k: usize,
+    ) -> Result<Self, SettingsError> {
         let missing = |what: &str, index: usize, count: usize| {
             SettingsError::new(
                 format!("parameters[{k}]"),
@@ -87,10 +95,9 @@ impl Rate {
                 .map(|body| body.node)
                 .ok_or_else(|| missing("body", b, model.bodies.len()))
         };
-        let rest = vec![0.0; model.n_v()];
         let element = |e: &dyn Element, stiffness: bool| {
             let (k, m) = match stiffness {
-                true => (tangent(e, q, &rest), Stiffness::zeros()),
+                true => (tangent(e, q, rest), Stiffness::zeros()),
                 false => (Stiffness::zeros(), e.mass_matrix()),
             };
             Rate::Element(e.nodes(), Box::new(k), Box::new(m))
@@ -118,7 +125,7 @@ impl Rate {
                         format!("beam {b}'s section has no {dimension:?}"),
                     )
                 })?;
-                let k = beam.tangent_of(&rate, q, &rest);
+                let k = beam.tangent_of(&rate, q, rest);
                 Rate::Element(
                     beam.nodes(),
                     Box::new(k),

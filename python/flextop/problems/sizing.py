@@ -96,6 +96,10 @@ class SizingProblem(Problem):
             if not self.beams[section]:
                 raise SettingsError(f"sizes: no beam is made of section {section!r}")
         self.parameters = [f"{d}:{beam}" for s, d, _ in self.sizes for beam in self.beams[s]]
+        q = np.asarray(sim.model.initial_q)
+        #: Each beam's length (m) and design variable (``None``: fixed), which no size moves.
+        self.lengths = {name: (sum(float(np.linalg.norm(q[NQ * b:NQ * b + 3] - q[NQ * a:NQ * a + 3])) for a, b in ends), v)
+                        for (name, ends), v in zip(sim.model.beams, sim.model.beam_variables)}
 
     @staticmethod
     def _size(sections: Mapping[str, Any], name: str, bounds: tuple[float, float]) -> tuple[str, str, tuple[float, float]]:
@@ -139,17 +143,12 @@ class SizingProblem(Problem):
         masses, _, _ = sim.model.masses(None if self.x is None else list(self.x))
         full, _, _ = sim.model.masses(None)
         factor = [m / f if f > 0 else 1.0 for m, f in zip(masses, full)]
-        q = np.asarray(sim.model.initial_q)
-        lengths = [sum(float(np.linalg.norm(q[NQ * b:NQ * b + 3] - q[NQ * a:NQ * a + 3])) for a, b in ends)
-                   for _, ends in sim.model.beams]
-        variables = sim.model.beam_variables
-        index = {name: k for k, (name, _) in enumerate(sim.model.beams)}
         sections = sim.spec["sections"]
         rate = np.zeros(self.n)
         for k, (section, dimension, _) in enumerate(self.sizes):
             s = sections[section]
-            made = sum(lengths[index[b]] * (1.0 if variables[index[b]] is None else factor[variables[index[b]]])
-                       for b in self.beams[section])
+            made = sum(length * (1.0 if v is None else factor[v])
+                       for length, v in (self.lengths[b] for b in self.beams[section]))
             rate[k] = area_rate(s, dimension) * s["rho"] * area(s) * made
         return sim.mass(self.x), rate
 

@@ -89,6 +89,26 @@ impl SpatialScene {
             .collect())
     }
 
+    /// The parameters called `names` followed by the densities' at `x` (full density where
+    /// `None`): each as named (engine parameters with their factors), and the engine's
+    /// parameters in the same order, flattened.
+    ///
+    /// # Errors
+    /// A [`SettingsError`] at `parameters` for a name the scene does not have.
+    pub fn named_and_densities(
+        &self,
+        names: &[String],
+        x: Option<&[f64]>,
+    ) -> Result<(Vec<Named>, Vec<Parameter>)> {
+        let mut named = (names.iter())
+            .map(|p| self.parameter(p))
+            .collect::<Result<Vec<_>>>()?;
+        let full = vec![1.0; self.n_variables()];
+        named.extend(self.densities(x.unwrap_or(&full)));
+        let engine = named.iter().flatten().map(|(p, _)| *p).collect();
+        Ok((named, engine))
+    }
+
     /// `stress[:NAME][:OPTIONS]` from what follows `stress:` (module docs).
     fn stress(&self, rest: Option<&str>) -> std::result::Result<Response, String> {
         let (component, options) = component_and_options(rest)?;
