@@ -191,16 +191,19 @@ SPATIAL_OPTIONS = ("t_end", "h", "rho_inf")
 
 def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
     """Runs a spatial scene (``dimension = 3``) and prints its summary."""
-    planar = ("cells", "mass", "accuracy", "rtol", "local_tol", "analysis")
+    planar = ("cells", "mass", "local_tol", "analysis")
     given = [k for k in planar if getattr(args, k) not in (None, False)]
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
-        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --x, --design, --t-end, --h, --rho-inf, --out)")
-    sim = SpatialSimulation(spec)
+        raise SettingsError(f"{names}: not built for spatial scenes yet (they take --x, --design, --t-end, --h, --rho-inf, "
+                            "--accuracy, --rtol, --out)")
+    sim = SpatialSimulation(spec, accuracy=args.accuracy, rtol=args.rtol)
     x = _design(sim, None if args.x == 0.4 else args.x, args.design)  # full density unless a design is given
     out = None if args.out is None else _folder(Path(args.out))
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     start = time.perf_counter()
+    if sim.rtol is not None:
+        return _spatial_to_tolerance(sim, x, settings, out, start)
     if sim.analysis == "static":
         eq = sim.equilibrium(x, **settings)
         print(f"static equilibrium in {(time.perf_counter() - start) * 1e3:.1f} ms ({eq.iterations} Newton iterations, "
@@ -224,6 +227,22 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
 
             plot_spatial_design(sim, x, title=f"{sim.model.name}: design", path=out / "design.png")
             print(f"wrote {out / 'design.png'}")
+    return 0
+
+
+def _spatial_to_tolerance(sim: SpatialSimulation, x: np.ndarray | None, settings: dict, out: Path | None,
+                          start: float) -> int:
+    """A spatial scene's tip deflection (dynamic, with a tip) or strain energy to the
+    simulation's tolerance: its value, the grid chosen and the estimated error."""
+    if "h" in settings:
+        raise SettingsError("give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both")
+    if out is not None:
+        raise SettingsError("--out: the motion of a spatial run to a tolerance is not written to files yet")
+    response = "tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy"
+    run = sim.run_with_sensitivities(x, response, **settings)
+    unit = "m²" if response == "tip_deflection" else ("J s" if sim.analysis == "dynamic" else "J")
+    print(f"{response} = {run.values[0]:.6g} {unit} to rtol = {sim.rtol:g} in {time.perf_counter() - start:.1f} s: "
+          f"{run.discretization}; estimated relative error {run.errors[response]:.2%}")
     return 0
 
 

@@ -41,6 +41,10 @@ from scipy.spatial.transform import Rotation
 
 from . import _core, plausibility
 from .checks import whole
+from .discretization import spatial as spatial_tolerance
+from .discretization import tolerance
+from .discretization.accuracy import preset
+from .discretization.tolerance import Discretization
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
@@ -200,6 +204,12 @@ class SpatialSensitivities:
     dfdx: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     #: The peak ``max |x^q σ|`` behind each ``stress`` response's mean, by name.
     peaks: dict[str, float] = field(default_factory=dict)
+    #: The grid that ran, where it was chosen to meet a tolerance (``None``: the scene's).
+    discretization: Discretization | None = None
+    #: Estimated relative errors of the values and of their gradients (2-norm over the
+    #: parameters and densities), by name, where a tolerance chose the grid.
+    errors: dict[str, float] = field(default_factory=dict)
+    gradient_errors: dict[str, float] = field(default_factory=dict)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.dfdx))
@@ -242,14 +252,31 @@ class SpatialSimulation:
     scene:
         A :class:`~flextop.scenes.spatial.SpatialScene`, a scene dict (``dimension = 3``) or
         the path of a TOML scene file.
+    accuracy, rtol, atol:
+        A tolerance for :meth:`run_with_sensitivities` (a preset's name of
+        :mod:`flextop.discretization.accuracy`, or ``rtol`` and ``atol``): the elements of
+        every frame beam and the steps chosen so that every response's estimated error is
+        within ``rtol·|f| + atol`` and its gradients' within ``5·rtol``
+        (:mod:`flextop.discretization.spatial`); ``None``: the scene's grid.
 
     Raises
     ------
     SceneError
         If the scene cannot be built; the message names the entry.
+    SettingsError
+        If ``rtol`` is not in [1e-6, 1), ``atol`` is negative, ``accuracy`` is not a preset's
+        name, or both ``accuracy`` and ``rtol`` are given.
     """
 
-    def __init__(self, scene: SpatialScene | dict | str | os.PathLike) -> None:
+    def __init__(self, scene: SpatialScene | dict | str | os.PathLike, *, accuracy: str | None = None,
+                 rtol: float | None = None, atol: float = 0.0) -> None:
+        if accuracy is not None:
+            if rtol is not None:
+                raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
+            rtol = preset(accuracy)
+        if rtol is not None:
+            tolerance.check_tolerance(rtol, atol)
+        self.accuracy, self.rtol, self.atol = accuracy, rtol, atol
         self.spec = _as_spec(scene)
         self.model = _core.SpatialModel.from_dict(self.spec)
         points = [entry["position"] for key in ("rigid_bodies", "nodes") for entry in self.spec.get(key, [])]
@@ -382,19 +409,31 @@ class SpatialSimulation:
 
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
+                               rtol: float | None = None, atol: float | None = None,
                                **settings: Any) -> SpatialSensitivities:
         """The ``responses`` at design ``x`` (full density by default; the tip's x, y, z by
         default) and their exact gradients to the densities (``dfdx``, one column per design
         variable) and to the ``parameters`` (module docs), over the motion or, with
         ``equilibrium`` (the default of a static scene), at the static equilibrium;
         ``method`` ``"direct"``, ``"adjoint"`` or ``"auto"`` among the settings. The result
-        unpacks as ``f, dfdx``."""
+        unpacks as ``f, dfdx``.
+
+        With a tolerance (``rtol`` and ``atol``, or the simulation's), the elements of every
+        frame beam and the steps are chosen to meet it (:mod:`flextop.discretization.spatial`;
+        an explicit ``h`` runs the scene's grid instead, and cannot be given with ``rtol``):
+        the gradients are exact for the grid that ran, and the result carries its
+        ``discretization`` and the estimated relative ``errors`` and ``gradient_errors``."""
         if responses is None:
             if self.tip is None:
                 raise SettingsError("no responses given, and the scene names no tip")
             responses = [f"{axis}:{self.tip}" for axis in "xyz"]
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
+        wanted = self._tolerance(rtol, atol, settings.get("h"))
+        if wanted is not None:
+            accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings)
+            return replace(accepted.sensitivities, responses=rs, discretization=accepted.discretization,
+                           errors=accepted.errors, gradient_errors=accepted.gradient_errors)
         design = self._design(x)
         measured = {k: self._measure(name, design) for k, name in enumerate(rs) if name.split(":")[0] in MEASURES}
         densities = [p for p in ps if p.startswith("rho:")]
@@ -415,6 +454,19 @@ class SpatialSimulation:
         for k, (value, slope) in measured.items():
             values[k], gradient[k, len(ps):] = value, slope
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
+
+    def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
+        """The tolerance a run is made to, or ``None`` for a run on the scene's grid: an
+        explicit ``h`` wins over the simulation's tolerance, and cannot be given with a run's
+        own."""
+        if h is not None and rtol is not None:
+            raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+        wanted = self.rtol if rtol is None else rtol
+        if h is not None or wanted is None:
+            return None
+        atol = self.atol if atol is None else atol
+        tolerance.check_tolerance(wanted, atol)
+        return wanted, atol
 
     def volume(self, x: DesignLike = None, structure: str | None = None) -> float:
         """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density

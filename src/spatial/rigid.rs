@@ -31,7 +31,7 @@ use crate::group::Frame;
 use crate::group::NV;
 use crate::mechanism::motion::LawParameter;
 use crate::mechanism::rank::Sets;
-use crate::settings::DynamicSettings;
+use crate::settings::{DynamicSettings, TOL};
 use crate::solver::integrator::State;
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::joint::{Anchor, JointKind};
@@ -39,8 +39,9 @@ use crate::spatial::model::SpatialModel;
 use crate::time_grid::TimeGrid;
 
 /// Largest difference (of the mechanism's size) between the companion's two runs for its
-/// motion to count as determined by the drives: Newton's tolerance is 1e-10 or tighter, a
-/// free freedom moves by a share of the motion.
+/// motion to count as determined by the drives: the companion's Newton tolerance is 1e-10
+/// or tighter (whatever the run's, [`companion_run`]), a free freedom moves by a share of
+/// the motion.
 pub const DETERMINED_TOLERANCE: f64 = 1e-7;
 
 /// Largest residual of `B ε = −∂Φ/∂p` (of `‖∂Φ/∂p‖`) for a drive's law to move the rigid
@@ -181,7 +182,14 @@ fn companion_run(
             format!("the initial rates are not a rigid motion of the links: {e}"),
         )
     })?;
-    let states = simulate_spatial(&rigid, settings, grid)?;
+    // At Newton's default tolerance or the run's tighter one: a looser one (a companion run
+    // of a run to a tolerance stops at 1e-6) moves the two runs' trajectories apart by more
+    // than DETERMINED_TOLERANCE, which would pass for a freedom no drive holds.
+    let tight = DynamicSettings {
+        tol: settings.tol.min(TOL),
+        ..*settings
+    };
+    let states = simulate_spatial(&rigid, &tight, grid)?;
     Ok(Companion {
         model: rigid,
         carried_as,

@@ -419,9 +419,9 @@ def test_simulate_runs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_pat
     assert "200 steps to t = 0.2 s" in out.stdout
     slider = [float(v) for v in re.search(r"'slider' at \[([^\]]*)\] m", out.stdout).group(1).split()]
     assert 0.15 < slider[0] < 0.45 and max(map(abs, slider[1:])) < 1e-12
-    refused = flextop_cli("simulate", str(EXAMPLES / "heavy_top.toml"), "--rtol", "0.01", codes=(2,))
-    assert refused.stderr.strip() == ("flextop: error: --rtol: not built for spatial scenes yet "
-                                      "(they take --x, --design, --t-end, --h, --rho-inf, --out)")
+    refused = flextop_cli("simulate", str(EXAMPLES / "heavy_top.toml"), "--local-tol", "0.01", codes=(2,))
+    assert refused.stderr.strip() == ("flextop: error: --local-tol: not built for spatial scenes yet "
+                                      "(they take --x, --design, --t-end, --h, --rho-inf, --accuracy, --rtol, --out)")
     # a design: every bar of the spatial robot arm at one density, or a vector from a file
     arm = str(EXAMPLES / "spatial_robot_arm.toml")
     light, full = (flextop_cli("simulate", arm, "--t-end", "0.1", *x).stdout for x in (["--x", "0.2"], []))
@@ -432,6 +432,12 @@ def test_simulate_runs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_pat
     assert (tmp_path / "arm" / "design.png").stat().st_size > 10_000 and "design.png" in designed.stdout
     bad = flextop_cli("simulate", arm, "--t-end", "0.1", "--x", "1.5", codes=(2,))
     assert bad.stderr.count("\n") == 1 and "is outside [0.01, 1]" in bad.stderr
+    # to a tolerance: the tip's deflection with the grid chosen and its estimated error, within it
+    tol = flextop_cli("simulate", arm, "--t-end", "0.2", "--rtol", "0.1").stdout
+    found = re.search(r"tip_deflection = (\S+) m² to rtol = 0.1 in \S+ s: .* and (\d+) steps; estimated relative error (\S+)%", tol)
+    assert found and int(found.group(2)) > 20 and float(found.group(3)) <= 10.0, tol
+    both = flextop_cli("simulate", arm, "--rtol", "0.1", "--h", "0.01", codes=(2,))
+    assert both.stderr.strip() == "flextop: error: give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both"
 
 
 def test_optimize_designs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_path):

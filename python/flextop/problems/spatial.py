@@ -12,6 +12,13 @@ evaluation is one run with its adjoint gradients of every response. A run that f
 design too weak to carry its motion) becomes an :class:`~flextop.optimizers.EvaluationError`,
 which the optimizer recovers from by stepping back.
 
+Held to a tolerance (``rtol``, or the simulation's), the problem follows the planar
+problems' rule (:mod:`.held`): a design the optimizer accepts that moved by more than
+``readapt`` from the one measured last is measured — the grid refined from the one held
+until every response and its gradient meet ``rtol``
+(:func:`flextop.discretization.spatial.to_tolerance`) — and every other evaluation runs on
+the grid held; the design a run returns is measured as it ends.
+
 A bound on a ``stress`` response bounds its peak, as on a planar scene
 (:class:`~flextop.problems.TopologyProblem`): the optimizer sees ``g = c P/b − 1``, ``P`` the
 p-mean or KS mean, ``c`` the ratio peak/P of the start design, moved once per iteration
@@ -23,14 +30,19 @@ towards the ratio at the accepted design (damped by
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import astuple
 from typing import Any
 
 import numpy as np
 
+from ..discretization import spatial as spatial_tolerance
+from ..discretization import tolerance
+from ..discretization.tolerance import Discretization
 from ..errors import SettingsError, SimulationError
 from ..modal import ks_lowest_of
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..spatial import SpatialSimulation
+from .held import READAPT, Readapt
 from .topology import FLOOR_MODES, FLOOR_RHO, MIN_FREQUENCY, normalized, relation, renormalized
 
 
@@ -40,17 +52,20 @@ class SpatialProblem(Problem):
     natural frequency of the structure at rest (KS over its lowest two, exact gradients); ``volume`` (a fraction of the full material volume) adds
     ``("volume", volume · V_full)`` or, ``per_structure``, one ``("volume:NAME", volume ·
     V_full,NAME)`` per ground structure (paper Eq. 41, per link). ``settings`` go to every run
-    (``t_end``, ``h``, …).
+    (``t_end``, ``h``, …). ``rtol``, ``atol`` (default: the simulation's) and ``readapt``: the
+    tolerance every value and its gradient are held to and the rule that holds it (module
+    docs).
 
     Raises
     ------
     SettingsError
-        For a volume fraction outside (0, 1], a bound that is not positive and finite, or a
-        reference that is not.
+        For a volume fraction outside (0, 1], a bound that is not positive and finite, a
+        reference that is not, a tolerance out of range, or ``h`` with a tolerance.
     """
 
     def __init__(self, sim: SpatialSimulation, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
                  volume: float | None = None, per_structure: bool = False, reference: float | None = None,
+                 rtol: float | None = None, atol: float | None = None, readapt: float = READAPT,
                  **settings: Any) -> None:
         bounds = list(constraints)
         if volume is not None:
@@ -76,25 +91,62 @@ class SpatialProblem(Problem):
         #: Each stress bound's factor ``c`` (module docs), set by the first evaluation.
         self.normalization: dict[str, float] = {}
         self._ratios: dict[bytes, dict[str, float]] = {}
+        rtol = sim.rtol if rtol is None else rtol
+        atol = sim.atol if atol is None else atol
+        if rtol is not None:
+            tolerance.check_tolerance(rtol, atol)
+            if "h" in settings:
+                raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+        self.rtol, self.atol = rtol, atol
+        self.tolerance = None if rtol is None else (float(rtol), float(atol))
+        #: Where the error is measured, and the grid held since (``None`` before the first).
+        self.rule, self.held = Readapt(readapt), None  # type: Readapt, Discretization | None
 
     def to_dict(self) -> dict:
         """What rebuilds this problem on the same scene (for checkpoints): its responses,
         every bound (a volume fraction's as its volume), the reference and each stress
         bound's factor as they stand."""
+        held = None if self.held is None else [*astuple(self.held)[:5], list(self.held.factors)]
         return {"objective": self.objective, "constraints": [[name, bound] for name, bound in self.constraints],
-                "reference": self.reference, "settings": dict(self.settings), "normalization": dict(self.normalization)}
+                "reference": self.reference, "settings": dict(self.settings), "normalization": dict(self.normalization),
+                "rtol": self.rtol, "atol": self.atol, "rule": self.rule.to_dict(), "held": held}
 
     @classmethod
     def from_dict(cls, sim: SpatialSimulation, data: dict) -> SpatialProblem:
         """The problem :meth:`to_dict` describes, on ``sim``."""
         problem = cls(sim, data["objective"], [(name, bound) for name, bound in data["constraints"]],
-                      reference=data["reference"], **data["settings"])
+                      reference=data["reference"], rtol=data.get("rtol"), atol=data.get("atol"), **data["settings"])
         problem.normalization = {str(k): float(v) for k, v in data["normalization"].items()}
+        if data.get("rule") is not None:
+            problem.rule = Readapt.from_dict(data["rule"])
+        problem.held = None if data.get("held") is None else Discretization(*data["held"])
         return problem
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
+        """The responses at ``x``: on the scene's grid, or held to the tolerance — measured
+        where no grid is held yet (or the caller never accepts and ``x`` moved), else on the
+        grid held."""
+        return self._evaluated(x, self.rtol is not None and self.rule.in_evaluate(x, self.held is not None))
+
+    def _run(self, x: np.ndarray, measure: bool) -> Any:
+        """The run of every response at ``x`` with its adjoint gradients: measured to the
+        tolerance (the grid held from then on), on the grid held, or on the scene's grid."""
+        static = self.sim.analysis == "static"
+        settings = {**self.settings, "method": "adjoint"}
+        design = self.sim._design(x)
+        if measure and self.tolerance is not None:
+            accepted = spatial_tolerance.to_tolerance(self.sim, design, self.responses, [], static,
+                                                      self.tolerance, settings, start=self.held)
+            self.held = accepted.discretization
+            self.rule.measured(x)
+            return accepted.sensitivities
+        if self.held is not None:
+            return spatial_tolerance.on_grid(self.sim, self.held, design, self.responses, [], static, settings)
+        return self.sim.run_with_sensitivities(x, self.responses, **settings)
+
+    def _evaluated(self, x: np.ndarray, measure: bool) -> Evaluation:
         try:
-            run = self.sim.run_with_sensitivities(x, self.responses, method="adjoint", **self.settings)
+            run = self._run(x, measure)
         except SimulationError as error:  # a trial the optimizer steps back from
             raise EvaluationError(str(error), np.asarray(x)) from error
         if self.reference is None:
@@ -134,8 +186,19 @@ class SpatialProblem(Problem):
         return np.array(values), np.array(rows).reshape(self.m, self.n)
 
     def accept(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
-        """Each stress bound's ``c`` moves towards the ratio peak/P at the accepted design
-        and its constraint is rescaled to it (module docs)."""
+        """Held to a tolerance, the accepted design is measured where it moved by more than
+        ``readapt`` (its evaluation replaced); each stress bound's ``c`` moves towards the
+        ratio peak/P at the accepted design and its constraint is rescaled to it (module
+        docs)."""
+        if self.rtol is not None and self.rule.in_accept(x):
+            evaluation = self._evaluated(x, True)
         ratios = self._ratios.get(np.asarray(x, dtype=float).tobytes(), {})
         self._ratios = {}
         return renormalized(self.normalization, ratios, [name for name, _ in self.constraints], evaluation)
+
+    def conclude(self, x: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Held to a tolerance, the design a run returns is measured unless it was the last
+        measured: what the result reports meets the tolerance there."""
+        if self.rtol is not None and self.rule.in_conclude(x):
+            return self._evaluated(x, True)
+        return evaluation

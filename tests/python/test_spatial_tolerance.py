@@ -1,0 +1,173 @@
+"""Spatial runs to a tolerance (``rtol``): every frame beam's elements and the steps chosen by
+step doubling. Against references on far finer grids: the values within ``rtol``, the
+gradients within ``5·rtol``, the estimates never below the true error by more than 2×; over
+a motion and at an equilibrium. A node inside a beam is the same point on every grid. Bad
+tolerances named; a tolerance past the limits a ToleranceError."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop import SettingsError, SpatialScene, SpatialSimulation, ToleranceError
+from flextop.problems import SpatialProblem
+from flextop.discretization.spatial import refined_spec, renamed
+from flextop.scenes.spatial_catalogue import spatial_robot_arm
+from test_spatial import flexible_pendulum
+
+
+def bent_cantilever(split: int = 1) -> SpatialScene:
+    """A 1 m aluminium tube clamped at its root, its end pushed sideways and down far into
+    the nonlinear range (about a quarter of its length), a load at its middle too."""
+    scene = SpatialScene("bent cantilever", analysis="static")
+    scene.section("alu", E=7e10, rho=2700.0, nu=0.33, shape="tube", outer=0.02, inner=0.016)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (1.0, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="alu", split=2 * split)
+    scene.weld("clamp", "root")
+    scene.load("push", "end", force=(0.0, 150.0, -100.0))
+    scene.load("middle", f"rod[{split}]", force=(0.0, 0.0, -100.0))
+    return scene
+
+
+def relative(a, b) -> float:
+    return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
+
+
+def assert_honest(run, reference, rtol: float) -> None:
+    """Each value within ``rtol`` of the reference and its gradient within ``5·rtol`` (the
+    2-norm over parameters and densities), each estimate at least half the true error."""
+    full = np.hstack([run.gradient, run.dfdx])
+    truth = np.hstack([reference.gradient, reference.dfdx])
+    for k, name in enumerate(run.responses):
+        value_error = abs(run.values[k] - reference.values[k]) / abs(reference.values[k])
+        gradient_error = relative(full[k], truth[k])
+        assert value_error <= rtol and gradient_error <= 5 * rtol, (name, value_error, gradient_error, run.discretization)
+        assert run.errors[name] >= value_error / 2 and run.gradient_errors[name] >= gradient_error / 2, \
+            (name, run.errors[name], value_error, run.gradient_errors[name], gradient_error)
+
+
+def test_an_equilibrium_to_a_tolerance_is_within_it():
+    """The bent tube from two elements: refined until the end's and the middle's positions
+    and their gradients to E and the density meet rtol 1e-3, against 64 elements. The middle
+    node, ``rod[1]`` on the scene's two elements, is ``rod[r]`` on ``2r``."""
+    rtol, responses, parameters = 1e-3, ["y:end", "z:end", "z:rod[1]"], ["E:rod"]
+    sim = SpatialSimulation(bent_cantilever())
+    x = np.array([0.6])
+    run = sim.run_with_sensitivities(x, responses, parameters, rtol=rtol)
+    assert run.responses == tuple(responses) and run.discretization.refinement > 1
+    reference = SpatialSimulation(bent_cantilever(32)).run_with_sensitivities(
+        x, ["y:end", "z:end", "z:rod[32]"], parameters)
+    assert abs(reference.values[1]) > 0.1  # far into the nonlinear range
+    assert_honest(run, reference, rtol)
+
+
+@pytest.mark.parametrize("x", [[1.0, 1.0], [0.3, 0.5], [0.05, 0.02]], ids=["full", "light", "nearly void"])
+def test_a_motion_to_a_tolerance_is_within_it(x):
+    """The flexible pendulum's ∫U dt and the end's position at full, light and nearly void
+    designs, rtol 1e-2, against 8× its elements on 32× its steps with the time error removed
+    by Richardson's extrapolation. The full design needs more than the scene's grid."""
+    rtol, responses, x = 1e-2, ["strain_energy", "z:end", "x:end"], np.array(x)
+    sim = SpatialSimulation(flexible_pendulum(), rtol=rtol)
+    run = sim.run_with_sensitivities(x, responses)
+    assert run.discretization is not None and run.discretization.steps >= 20
+    if x[0] == 1.0:
+        assert run.discretization.refinement > 1 and run.discretization.steps > 20
+    fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 8))
+    at = [fine.run_with_sensitivities(x, responses, h=0.005 / k) for k in (32, 16)]
+    reference = replace(at[0], **{key: (4 * getattr(at[0], key) - getattr(at[1], key)) / 3
+                                  for key in ("values", "gradient", "dfdx")})
+    assert relative(at[0].values, reference.values) < 0.1 * rtol  # the reference's own error is small
+    assert_honest(run, reference, rtol)
+
+
+def test_the_scenes_grid_is_kept_where_no_tolerance_is_asked_for_or_h_is_given():
+    sim = SpatialSimulation(flexible_pendulum(), rtol=1e-2)
+    plain = SpatialSimulation(flexible_pendulum())
+    fixed = sim.run_with_sensitivities(0.5, "strain_energy", h=0.005)
+    assert fixed.discretization is None and fixed.values[0] == plain.run_with_sensitivities(0.5, "strain_energy").values[0]
+
+
+def test_a_node_inside_a_beam_is_the_same_point_on_every_grid():
+    scene = bent_cantilever().to_dict()
+    assert renamed("rod[1]", 4, {"rod"}) == "rod[4]" and renamed("box[1,0,0]", 4, {"box/bar"}) == "box[1,0,0]"
+    assert renamed("box/bar7[1]", 2, {"box/bar"}) == "box/bar7[2]" and renamed("other[1]", 2, {"rod"}) == "other[1]"
+    refined = refined_spec(scene, 4)
+    assert refined["beams"][0]["split"] == 8 and refined["loads"][1]["at"] == "rod[4]"
+    coarse, fine = (SpatialSimulation(s).simulate(t_end=1e-3, h=1e-3) for s in (scene, refined))
+    assert np.array_equal(coarse.position("rod[1]")[0], [0.5, 0.0, 0.0])
+    assert np.allclose(fine.position("rod[4]")[0], [0.5, 0.0, 0.0], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("options, culprit", [
+    ({"rtol": 0.0}, "rtol"),
+    ({"rtol": 1.5}, "rtol"),
+    ({"rtol": float("nan")}, "rtol"),
+    ({"rtol": 1e-2, "atol": -1.0}, "atol"),
+    ({"accuracy": "best"}, "accuracy"),
+    ({"accuracy": "fast", "rtol": 1e-2}, "accuracy"),
+])
+def test_bad_tolerances_are_named(options, culprit):
+    with pytest.raises(SettingsError, match=culprit):
+        SpatialSimulation(flexible_pendulum(), **options)
+
+
+def test_a_tolerance_and_a_step_together_are_refused():
+    with pytest.raises(SettingsError, match="h .* or rtol"):
+        SpatialSimulation(flexible_pendulum()).run_with_sensitivities(0.5, "strain_energy", rtol=1e-2, h=0.01)
+
+
+def test_a_tolerance_past_the_limits_is_a_tolerance_error():
+    """rtol 1e-6 on the bent tube needs more than 16× the scene's elements: a ToleranceError
+    naming the response and the error reached, not a run without end."""
+    with pytest.raises(ToleranceError, match="z:end"):
+        SpatialSimulation(bent_cantilever()).run_with_sensitivities(0.6, "z:end", rtol=1e-6)
+
+
+@pytest.mark.parametrize("tol", [1e-4, 1e-5])
+def test_a_loose_newton_tolerance_leaves_the_rigid_trajectory_determined(tol):
+    """The tip deflection's rigid companion runs at Newton's default tolerance whatever the
+    run's: at a looser one (a run to a tolerance's companions stop at 1e-6) its two runs had
+    moved apart by 7.4e-7 m on the robot arm, read as a freedom no drive holds."""
+    sim = SpatialSimulation(spatial_robot_arm())
+    loose, tight = (sim.run_with_sensitivities(1.0, "tip_deflection", tol=t).values[0] for t in (tol, 1e-10))
+    assert loose == pytest.approx(tight, rel=10 * tol)
+
+
+def test_a_simulation_held_to_a_tolerance_runs_its_refined_grids_without_it():
+    """A static scene's simulation with its own rtol: its candidates run on grids of their
+    own (no run to a tolerance within a run to a tolerance), the same as a call's rtol."""
+    x = np.array([0.6])
+    held = SpatialSimulation(bent_cantilever(), rtol=1e-3).run_with_sensitivities(x, "z:end")
+    asked = SpatialSimulation(bent_cantilever()).run_with_sensitivities(x, "z:end", rtol=1e-3)
+    assert held.discretization == asked.discretization and held.values[0] == asked.values[0]
+
+
+def test_an_optimization_held_to_a_tolerance_meets_it_where_it_ends():
+    """The flexible pendulum's ∫U dt under a volume bound by MMA at rtol 1e-2: accepted designs
+    that moved by more than ``readapt`` are measured, the others run on the grid held, the
+    grid only grows, and the design returned meets the tolerance on that grid (its estimate
+    within rtol there, the objective against 32× the scene's elements on 16× its steps: the
+    design's nearly void lower beam needs many elements, 2.56, 2.41, 2.375 and 2.367e-5 J s
+    at 4×, 8×, 16× and 32× them)."""
+    sim = SpatialSimulation(flexible_pendulum())
+    problem = SpatialProblem(sim, "strain_energy", volume=0.6, rtol=1e-2, readapt=0.5)
+    grids, on_held, measure = [], [], problem._run
+
+    def counted(x, measured):
+        (grids if measured else on_held).append(problem.held)
+        return measure(x, measured)
+
+    problem._run = counted
+    result = flextop.optimize(problem, 0.6, method="mma", max_iter=30, kkt_tol=1e-4)
+    assert result.status.name == "KKT" and grids and on_held and None not in on_held, (len(grids), on_held)
+    held = [g for g in grids if g is not None] + [problem.held]
+    assert all(b.refinement >= a.refinement and b.steps >= a.steps for a, b in zip(held, held[1:]))
+    restored = SpatialProblem.from_dict(sim, problem.to_dict())  # a checkpoint keeps the grid held and the rule
+    assert restored.held == problem.held and np.array_equal(restored.rule.at, problem.rule.at) and restored.rtol == 1e-2
+    again = SpatialSimulation(flexible_pendulum()).run_with_sensitivities(result.x, "strain_energy", rtol=1e-2)
+    assert again.errors["strain_energy"] <= 1e-2
+    fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 32))
+    reference = fine.run_with_sensitivities(result.x, "strain_energy", h=0.005 / 16).values[0]
+    assert abs(result.fun * problem.reference - reference) <= 1e-2 * reference
