@@ -85,6 +85,17 @@ def renamed_response(response: str, factor: int, beams: set[str]) -> str:
     return f"{kind}:{renamed(rest, factor, beams)}" if sep and kind in NAMED_NODE else response
 
 
+@dataclass(frozen=True, order=True)
+class EveryBeam(Discretization):
+    """A spatial candidate: ``refinement · uniform`` times the elements of every frame beam
+    and ``steps`` uniform steps (:class:`~.tolerance.Discretization`'s fields; no floor or
+    factors: the beams are not graded)."""
+
+    def __str__(self) -> str:
+        steps = f" and {self.steps} steps" if self.steps else ""
+        return f"{self.refinement * self.uniform}× the scene's elements of every frame beam{steps}"
+
+
 @dataclass(frozen=True)
 class Accepted:
     """What a run to a tolerance returns: the sensitivities of the grid accepted, the
@@ -126,7 +137,7 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
         return [*out.values[:, None], *np.hstack([out.gradient, out.dfdx])]
 
     if start is None:
-        start = Discretization(1, 0) if static else tolerance.start(_scene_steps(sim, settings))
+        start = EveryBeam(1, 0) if static else EveryBeam(1, tolerance.start(_scene_steps(sim, settings)).steps)
     tol = tolerance.tolerance_of(list(responses), *wanted, True)
     d, est = tolerance.resolve(values, start, tol, lambda d: float(d.refinement * d.uniform))
     relative = list(map(float, est.relative))
@@ -174,4 +185,4 @@ def _scene_steps(sim: Any, settings: dict[str, Any]) -> int:
     return math.ceil(duration / float(h) - 1e-9) if h else 16
 
 
-__all__ = ["Accepted", "ErrorEstimate", "frame_beams", "on_grid", "refined_spec", "renamed", "to_tolerance"]
+__all__ = ["Accepted", "ErrorEstimate", "EveryBeam", "frame_beams", "on_grid", "refined_spec", "renamed", "to_tolerance"]

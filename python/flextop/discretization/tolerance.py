@@ -599,7 +599,7 @@ def _refine(d: Discretization, verdict: Verdict, everywhere: bool = False) -> Di
             floor *= 2
         else:
             refinement, floor = 2 * refinement, 2 * floor
-    return Discretization(refinement, steps, d.uniform, floor, factors=d.factors)
+    return replace(d, refinement=refinement, steps=steps, floor=floor, extrapolated=False)  # of d's kind
 
 
 def _more_steps(steps: int, verdict: Verdict) -> int:

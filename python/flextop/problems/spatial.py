@@ -37,6 +37,7 @@ import numpy as np
 
 from ..discretization import spatial as spatial_tolerance
 from ..discretization import tolerance
+from ..discretization.spatial import EveryBeam
 from ..discretization.tolerance import Discretization
 from ..errors import SettingsError, SimulationError
 from ..modal import ks_lowest_of
@@ -119,7 +120,7 @@ class SpatialProblem(Problem):
         problem.normalization = {str(k): float(v) for k, v in data["normalization"].items()}
         if data.get("rule") is not None:
             problem.rule = Readapt.from_dict(data["rule"])
-        problem.held = None if data.get("held") is None else Discretization(*data["held"])
+        problem.held = None if data.get("held") is None else EveryBeam(*data["held"])
         return problem
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
