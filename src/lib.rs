@@ -9,7 +9,7 @@
 //! * `mechanism` — what a scene builds: nodes with absolute coordinates, co-rotational
 //!   Timoshenko [`element::beam`]s grouped in bars with one density each
 //!   ([`interpolation`]: SIMP or RAMP), point masses, [`load`]s, [`spring`]s, [`motor`]s,
-//!   joints as algebraic [`constraint`]s driven by [`motion`] laws, scene [`parameter`]s;
+//!   scene [`parameter`]s;
 //!   its rigid clusters check the mechanism and give its rigid trajectory.
 //! * `solver` — the residual and the iteration matrix on a fixed sparse pattern,
 //!   factorized by a symbolic-once, numeric-per-iteration `LDLᵀ`; Newton, [`Integrator`]
@@ -22,6 +22,8 @@
 //!   ratios ([`Criterion`]) condensed by the p-mean or KS mean of [`Aggregation`].
 //! * `sensitivity` — [`of_motion`] / [`of_equilibrium`]: their exact gradients, by direct
 //!   differentiation (Algorithm 2) or the discrete adjoint.
+//! * [`joint`] — the joints of both dimensions as algebraic constraints (planar rows,
+//!   the Lie group's spatial ones) and the [`motion`] laws that drive them.
 //! * [`spatial`] on [`group`] — spatial mechanisms on the Lie group `(ℝ³ × SO(3))ⁿ`: rigid
 //!   bodies, joints, drives, force elements, Lie-group generalized-α, statics and the exact
 //!   gradients of the motion (the first part of the spatial engine; Rust only for now).
@@ -38,6 +40,7 @@
 
 // The wings, each a folder behind the re-exports below.
 pub mod group;
+pub mod joint;
 mod mechanism;
 mod modal;
 mod response;
@@ -62,13 +65,12 @@ mod python;
 
 pub use error::{DesignError, Error, SceneError, SettingsError, SolveError};
 pub use interrupt::{poll, with_checker};
+pub use joint::{motion, planar as constraint};
 pub use limits::{MAX_ELEMENTS, MAX_GRID_NODES, MAX_LOAD_STEPS, MAX_NODES, MAX_SPLIT};
 pub use mechanism::element::MassKind;
 pub use mechanism::model::{Densities, Model};
 pub use mechanism::rigid::rigid_positions;
-pub use mechanism::{
-    constraint, element, interpolation, load, model, motion, motor, parameter, section, spring,
-};
+pub use mechanism::{element, interpolation, load, model, motor, parameter, section, spring};
 pub use modal::{natural_modes, Modes};
 pub use response::aggregation::Aggregation;
 pub use response::criterion::Criterion;

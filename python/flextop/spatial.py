@@ -37,10 +37,10 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from . import _core, plausibility
 from .checks import whole
+from .quaternion import rotations
 from .discretization import spatial as spatial_tolerance
 from .discretization import tolerance
 from .discretization.accuracy import preset
@@ -53,13 +53,6 @@ from .simulation import DesignLike, design_vector
 NQ, NV = 7, 6
 """Numbers per node: in a configuration (position, unit quaternion w, x, y, z), in a
 velocity (velocity in space, angular velocity in the node's axes)."""
-
-
-def rotations(quaternions: np.ndarray) -> np.ndarray:
-    """Rotation matrices of unit quaternions ``(w, x, y, z)``, shape ``(..., 3, 3)``."""
-    q = np.asarray(quaternions, dtype=float)
-    flat = Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]]).as_matrix()  # scipy's (x, y, z, w)
-    return flat.reshape(*q.shape[:-1], 3, 3)
 
 
 @dataclass(frozen=True)

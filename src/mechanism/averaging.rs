@@ -22,7 +22,7 @@
 
 use nalgebra::Vector2;
 
-use crate::mechanism::constraint::{dof, perp};
+use crate::joint::planar::{dof, perp};
 
 /// An averaging ring: its reference node, its nodes, their weights and offsets.
 #[derive(Debug, Clone, PartialEq)]

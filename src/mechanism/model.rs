@@ -9,9 +9,9 @@
 use nalgebra::Vector2;
 
 use crate::error::{DesignError, SolveError};
+use crate::joint::planar::{ConstraintRow, Joint};
 use crate::mechanism::averaging::Averaging;
 use crate::mechanism::bar_mass::BarMass;
-use crate::mechanism::constraint::{ConstraintRow, Joint};
 use crate::mechanism::element::quad::{Quad, Vector8};
 use crate::mechanism::element::void::EnergyInterpolation;
 use crate::mechanism::element::{Formulation, Kind, Vector6};

@@ -1,5 +1,5 @@
 //! Motors: a torque (a slider's force) applied on a joint's own coordinate `s`
-//! ([`crate::mechanism::constraint::Joint::coordinate`]), constant, scaled by a time table, or a PD
+//! ([`crate::joint::planar::Joint::coordinate`]), constant, scaled by a time table, or a PD
 //! servo following a motion law.
 //!
 //! A motor acts where `s` is linear in `q` (a pin, a hinge, a slider on a ground axis), so
@@ -9,8 +9,8 @@
 //! with `θ_r(t) − θ_r(0)` from the scene's configuration. Units: N m and rad at a pin or
 //! hinge, N and m along a slider.
 
+use crate::joint::motion::Motion;
 use crate::mechanism::load::TimeFunction;
-use crate::mechanism::motion::Motion;
 
 /// How a motor's applied torque follows time.
 #[derive(Debug, Clone, PartialEq)]

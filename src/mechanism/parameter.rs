@@ -20,11 +20,11 @@
 use nalgebra::{Vector2, Vector4};
 
 use crate::error::SettingsError;
+use crate::joint::motion::{LawParameter, Motion, MotionState, Trapezoidal};
+use crate::joint::planar::{dof, perp, turn, turned_minus, JointKind, Law};
 use crate::mechanism::bar_mass::BarMass;
-use crate::mechanism::constraint::{dof, perp, turn, turned_minus, JointKind, Law};
 use crate::mechanism::element::{MassKind, Vector6};
 use crate::mechanism::model::{Analysis, Densities, Model};
-use crate::mechanism::motion::{LawParameter, Motion, MotionState, Trapezoidal};
 use crate::mechanism::motor::MotorLaw;
 use crate::mechanism::section::{Section, SectionProperty};
 use crate::mechanism::spring::Measure;
@@ -650,7 +650,7 @@ fn arm(model: &Model, entry: &str, axis: usize) -> Result<Parameter, String> {
     if b.points.iter().filter(|(_, a)| *a == arm).count() > 1 {
         return Err(format!("another point of '{body}' lies at '{point}'"));
     }
-    let here = |a: &crate::mechanism::constraint::Anchor| a.node == b.node && a.arm == arm;
+    let here = |a: &crate::joint::planar::Anchor| a.node == b.node && a.arm == arm;
     let mut held = false;
     for j in &model.joints {
         let anchors: Vec<_> = match j.kind {

@@ -25,7 +25,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector2, SVD};
 
 use crate::error::{Error, SceneError, SolveError};
 use crate::interrupt::poll;
-use crate::mechanism::constraint::ConstraintRow;
+use crate::joint::planar::ConstraintRow;
 use crate::mechanism::model::{Analysis, Initial, Model};
 use crate::mechanism::rank::{repeated_rows, Link, Rank};
 use crate::mechanism::rows::Row;

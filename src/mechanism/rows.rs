@@ -6,8 +6,8 @@
 
 use std::ops::Range;
 
+use crate::joint::planar::{ConstraintRow, Joint, Turns};
 use crate::mechanism::averaging::{Averaging, Component};
-use crate::mechanism::constraint::{ConstraintRow, Joint, Turns};
 
 /// A model's constraint rows, as [`crate::mechanism::model::Model::constraints`] lends
 /// them: the joints with their rows, then the averaging rings, and every row's DOFs.

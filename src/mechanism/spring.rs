@@ -12,11 +12,11 @@
 //! that is not symmetric, which the iteration matrix leaves out and the gradients' exact
 //! solves take back ([`crate::mechanism::element::Damping`], as for the beams').
 //!
-//! [`Joint::coordinate`]: crate::mechanism::constraint::Joint::coordinate
+//! [`Joint::coordinate`]: crate::joint::planar::Joint::coordinate
 
 use nalgebra::Vector2;
 
-use crate::mechanism::constraint::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
+use crate::joint::planar::{dof, perp, turn, turned_minus, Anchor, ConstraintRow};
 use crate::mechanism::element::{Damping, Matrix6, Vector6};
 
 /// What a spring measures.
@@ -196,7 +196,7 @@ fn distance(at: [Anchor; 2], reference: Vector2<f64>, q: &[f64]) -> Local {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::constraint::Law;
+    use crate::joint::planar::Law;
 
     /// A damper on a distance between arms: `∂f/∂q` (symmetric part and rest) and `∂f/∂q̇`
     /// against central differences of its force.

@@ -1,10 +1,10 @@
-//! A joint's own coordinate at the final time ([`crate::mechanism::constraint::Joint::coordinate`]): a
+//! A joint's own coordinate at the final time ([`crate::joint::planar::Joint::coordinate`]): a
 //! pin's rotation or a hinge's relative rotation from the reference (rad), a slider's
 //! travel (m).
 
 use super::arguments::joint_index;
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::mechanism::constraint::ConstraintRow;
+use crate::joint::planar::ConstraintRow;
 use crate::mechanism::model::Model;
 
 pub(super) const KIND: Kind = Kind {

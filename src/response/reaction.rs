@@ -5,7 +5,7 @@
 use super::aggregation::Aggregation;
 use super::arguments::{component_and_options, joint_index, only, option};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
-use crate::mechanism::constraint::Law;
+use crate::joint::planar::Law;
 use crate::mechanism::model::Model;
 
 pub(super) const KIND: Kind = Kind {

@@ -19,8 +19,8 @@ use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
 use super::validate::{angle, finite, non_negative, positive, Result};
 use crate::error::SceneError;
+use crate::joint::planar::Anchor;
 use crate::limits::MAX_GRID_NODES;
-use crate::mechanism::constraint::Anchor;
 use crate::mechanism::model::{PointMass, RigidBody};
 use crate::mechanism::section::Section;
 

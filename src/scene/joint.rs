@@ -1,8 +1,8 @@
 //! Joints and their drives: clamps, pins, hinges, welds, sliders (prismatic joints) and
 //! rollers (a point on a ground axis, its rotation free),
-//! written as algebraic constraints ([`crate::mechanism::constraint`]) on nodes or rigid-body points,
+//! written as algebraic constraints ([`crate::joint::planar`]) on nodes or rigid-body points,
 //! the rotation of a pin or hinge, or a slider's travel, optionally prescribed by a motion
-//! law ([`crate::mechanism::motion`]).
+//! law ([`crate::joint::motion`]).
 //!
 //! A hinge or weld joins two distinct nodes or bodies at points that coincide, within 1e-9
 //! of the scene's size. Drives start at rest; a scene starts moving only through its
@@ -14,8 +14,8 @@ use nalgebra::Vector2;
 
 use super::validate::{each, finite, non_negative, positive, samples, unknown, Listed, Result};
 use crate::error::SceneError;
-use crate::mechanism::constraint::{Anchor, ConstraintRow, Joint, JointKind};
-use crate::mechanism::motion::{Motion, Table, Trapezoidal};
+use crate::joint::motion::{Motion, Table, Trapezoidal};
+use crate::joint::planar::{Anchor, ConstraintRow, Joint, JointKind};
 
 /// The scene's joints, on the nodes of `mesh`, in a scene of size `size`.
 pub(super) fn joints(specs: &[JointSpec], mesh: &Mesh, size: f64) -> Listed<Joint> {

@@ -7,7 +7,7 @@ use super::spec::MotorSpec;
 use super::validate::{finite, non_negative, Result};
 use crate::error::{Error, SceneError};
 use crate::interrupt::poll;
-use crate::mechanism::constraint::{ConstraintRow, Joint, JointKind};
+use crate::joint::planar::{ConstraintRow, Joint, JointKind};
 use crate::mechanism::motor::{Motor, MotorLaw};
 use crate::mechanism::spring::{Measure, Spring};
 

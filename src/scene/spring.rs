@@ -5,7 +5,7 @@ use super::mesh::Mesh;
 use super::spec::SpringSpec;
 use super::validate::{each, finite, non_negative, Listed, Result};
 use crate::error::SceneError;
-use crate::mechanism::constraint::Joint;
+use crate::joint::planar::Joint;
 use crate::mechanism::spring::{Measure, Spring};
 
 /// The scene's springs, on the anchors of `mesh` or the `joints`, in a scene of `size`.

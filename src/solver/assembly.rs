@@ -29,8 +29,8 @@
 use std::ops::Range;
 
 use crate::error::SolveError;
+use crate::joint::planar::Turns;
 use crate::mechanism::bar_mass::BarMass;
-use crate::mechanism::constraint::Turns;
 use crate::mechanism::element::quad::{Matrix8, Vector8};
 use crate::mechanism::element::{Damping, MassKind};
 use crate::mechanism::model::{Analysis, Densities, Model};

@@ -16,7 +16,7 @@
 use faer::dyn_stack::MemBuffer;
 
 use crate::error::SolveError;
-use crate::mechanism::constraint::Turns;
+use crate::joint::planar::Turns;
 use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Densities, Model};
 use crate::solver::assembly::{Assembler, DampingBlock, Jacobian};

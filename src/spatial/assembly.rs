@@ -23,10 +23,10 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 use crate::error::SolveError;
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
+use crate::joint::spatial::{Gradient, Stiffness, MAX_ROWS};
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::element::Derivatives;
 use crate::spatial::force::Local;
-use crate::spatial::joint::{Gradient, Stiffness, MAX_ROWS};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::pair::{Pair, LOCAL};
 
@@ -602,8 +602,8 @@ fn multipliers(lambda: &[f64]) -> SVector<f64, MAX_ROWS> {
 mod tests {
     use super::*;
     use crate::group::{so3, Frame, NQ};
+    use crate::joint::spatial::{Anchor, JointKind};
     use crate::mechanism::load::TimeFunction;
-    use crate::spatial::joint::{Anchor, JointKind};
     use crate::spatial::section::{Section, Shape};
 
     /// Two bodies, one hinged to the ground, joined to each other at one point by a joint of

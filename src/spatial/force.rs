@@ -48,7 +48,7 @@ pub enum ForceKind {
         damping: f64,
         /// Rest angle `φ₀` from where the joint was built (rad).
         rest: f64,
-        /// The joint's angle axes ([`crate::spatial::joint::Joint::angle_axes`]).
+        /// The joint's angle axes ([`crate::joint::spatial::Joint::angle_axes`]).
         axes: [Vector3<f64>; 3],
     },
     /// A torque about a revolute joint's axis, on B.
@@ -396,7 +396,7 @@ mod tests {
 
     use super::*;
     use crate::group::{Frame, NV};
-    use crate::spatial::joint::{Anchor, JointKind};
+    use crate::joint::spatial::{Anchor, JointKind};
     use crate::spatial::model::SpatialModel;
 
     /// A torsion spring-damper's `K` and `C` against central differences of its force, its

@@ -2,7 +2,8 @@
 //! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), geometrically exact
 //! beams and truss bars between nodes ([`beam`], [`truss`], their sections in [`section`],
 //! one `Element` interface for both), joints and drives as
-//! index-3 constraints with their constraint-force stiffness ([`joint`]), the mechanism built
+//! index-3 constraints with their constraint-force stiffness ([`joint`], in the joints' room
+//! [`crate::joint`]), the mechanism built
 //! entry by entry and checked ([`model`]), its residual and non-symmetric iteration matrix on
 //! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), solved on
 //! the `LDLᵀ` of its symmetric part with refinement, sparse `LU` where that stalls.
@@ -56,7 +57,6 @@ pub mod beam;
 pub mod body;
 pub mod force;
 pub mod integrator;
-pub mod joint;
 pub mod modal;
 pub mod modal_rates;
 pub mod model;
@@ -65,6 +65,9 @@ pub mod section;
 pub mod sensitivity;
 pub mod statics;
 pub mod truss;
+
+/// The spatial joints, in the joints' room ([`crate::joint::spatial`]).
+pub use crate::joint::spatial as joint;
 
 pub(crate) mod assembly;
 pub(crate) mod element;

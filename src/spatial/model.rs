@@ -7,13 +7,13 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{short, SceneError};
 use crate::group::{six, split, Frame, NQ, NV};
+use crate::joint::motion::Motion;
+use crate::joint::spatial::{Anchor, Joint, JointKind};
 use crate::mechanism::load::{samples, TimeFunction};
-use crate::mechanism::motion::Motion;
 use crate::spatial::beam::Beam;
 use crate::spatial::body::Body;
 use crate::spatial::element::Element;
 use crate::spatial::force::{Force, ForceKind};
-use crate::spatial::joint::{Anchor, Joint, JointKind};
 use crate::spatial::pair::{Measure, Pair};
 use crate::spatial::section::Section;
 use crate::spatial::truss::Truss;

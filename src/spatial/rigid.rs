@@ -29,12 +29,12 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::Frame;
 use crate::group::NV;
-use crate::mechanism::motion::LawParameter;
+use crate::joint::motion::LawParameter;
+use crate::joint::spatial::{Anchor, JointKind};
 use crate::mechanism::rank::Sets;
 use crate::settings::{DynamicSettings, TOL};
 use crate::solver::integrator::State;
 use crate::spatial::integrator::simulate_spatial;
-use crate::spatial::joint::{Anchor, JointKind};
 use crate::spatial::model::SpatialModel;
 use crate::time_grid::TimeGrid;
 

@@ -20,7 +20,7 @@ import meshio
 import numpy as np
 
 from ..errors import SettingsError
-from ..spatial import rotations
+from ..quaternion import rotations
 from .export import BODY, frame_indices, write_index
 
 

@@ -6,9 +6,10 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use super::lattice::expand;
+use super::orientation::{rotation, vector};
 use super::spec::{
     AnchorSpec, JointKindSpec, OrientationSpec, ShapeSpec, SpatialBeamSpec, SpatialBodySpec,
     SpatialJointSpec, SpatialSceneSpec, SpatialSectionSpec,
@@ -16,22 +17,18 @@ use super::spec::{
 use super::{BeamElements, SpatialScene};
 use crate::error::{short, Error, SceneError};
 use crate::group::Frame;
+use crate::joint::spatial::{Anchor, JointKind};
 use crate::limits::{MAX_NODES, MAX_SPLIT};
 use crate::mechanism::model::{Analysis, Design};
 use crate::scene::design::{self, Variables};
 use crate::scene::joint::drive;
 use crate::scene::load::time;
 use crate::scene::spec::{AnalysisSpec, KindSpec};
-use crate::scene::validate::{angle, finite, non_negative, positive, unique};
-use crate::spatial::joint::{Anchor, JointKind};
+use crate::scene::validate::{non_negative, positive, unique};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::section::{Section, Shape};
 
 type Result<T> = std::result::Result<T, SceneError>;
-
-/// How far a rotation matrix may be from orthonormal (`‖RᵀR − I‖` entrywise): six decimals
-/// typed by hand.
-pub const ORTHONORMAL_TOLERANCE: f64 = 1e-6;
 
 /// Builds the spatial scene `spec` describes (module docs).
 ///
@@ -142,13 +139,6 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
     })
 }
 
-fn vector(path: &str, v: [f64; 3]) -> Result<Vector3<f64>> {
-    for (i, c) in v.iter().enumerate() {
-        finite(&format!("{path}[{i}]"), *c)?;
-    }
-    Ok(Vector3::from(v))
-}
-
 /// A frame at `position` with the axes of `orientation` (identity if none).
 fn frame(path: &str, position: &[f64; 3], orientation: Option<&OrientationSpec>) -> Result<Frame> {
     let x = vector(&format!("{path}.position"), *position)?;
@@ -156,50 +146,6 @@ fn frame(path: &str, position: &[f64; 3], orientation: Option<&OrientationSpec>)
         rotation(&format!("{path}.orientation"), o)
     })?;
     Ok(Frame::new(x, r))
-}
-
-/// The rotation an orientation gives: by axis and angle, or by an orthonormal matrix.
-pub(super) fn rotation(path: &str, o: &OrientationSpec) -> Result<UnitQuaternion<f64>> {
-    match (o.axis, o.matrix) {
-        (Some(axis), None) => {
-            let axis = vector(&format!("{path}.axis"), axis)?;
-            let angle = angle(path, o.angle, o.angle_deg)?;
-            let unit = nalgebra::Unit::try_new(axis, 0.0).ok_or_else(|| {
-                SceneError::new(format!("{path}.axis"), "is zero: a rotation needs an axis")
-            })?;
-            Ok(UnitQuaternion::from_axis_angle(&unit, angle))
-        }
-        (None, Some(rows)) => {
-            if o.angle.is_some() || o.angle_deg.is_some() {
-                return Err(SceneError::new(
-                    path,
-                    "an angle goes with an `axis`, not with a `matrix`",
-                ));
-            }
-            let m = Matrix3::from_fn(|i, j| rows[i][j]);
-            if !m.iter().all(|v| v.is_finite()) {
-                return Err(SceneError::new(format!("{path}.matrix"), "is not finite"));
-            }
-            let off = (m.transpose() * m - Matrix3::identity()).amax();
-            if off > ORTHONORMAL_TOLERANCE || m.determinant() <= 0.0 {
-                return Err(SceneError::new(
-                    format!("{path}.matrix"),
-                    format!(
-                        "is not a rotation: RᵀR differs from I by {} (at most {ORTHONORMAL_TOLERANCE}), determinant {}",
-                        short(off),
-                        short(m.determinant())
-                    ),
-                ));
-            }
-            Ok(UnitQuaternion::from_rotation_matrix(
-                &Rotation3::from_matrix(&m),
-            ))
-        }
-        _ => Err(SceneError::new(
-            path,
-            "give an `axis` with an `angle` (or `angle_deg`), or a `matrix`, exactly one",
-        )),
-    }
 }
 
 /// The sections by name.

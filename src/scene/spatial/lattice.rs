@@ -19,85 +19,10 @@
 //! frame: `origin` and `orientation`. A ground structure expands into the scene's nodes and
 //! beams, which are built and checked as the rest.
 
-use std::fmt;
-
-use serde::Deserialize;
-
-use super::spec::{OrientationSpec, SpatialBeamSpec, SpatialNodeSpec};
+use super::orientation::rotation;
+use super::spec::{Connectivity, SpatialBeamSpec, SpatialGroundStructureSpec, SpatialNodeSpec};
 use crate::error::SceneError;
 use crate::limits::{MAX_ELEMENTS, MAX_GRID_NODES};
-use crate::scene::spec::KindSpec;
-
-/// Which lattice pairs a ground structure joins (module docs).
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Connectivity {
-    /// Every bar that overlaps no other.
-    #[default]
-    Full,
-    /// Edges, face and body diagonals.
-    Diagonals,
-    /// Edges and face diagonals.
-    Faces,
-    /// Edges.
-    Edges,
-}
-
-impl fmt::Display for Connectivity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::Full => "full",
-            Self::Diagonals => "diagonals",
-            Self::Faces => "faces",
-            Self::Edges => "edges",
-        })
-    }
-}
-
-/// A box lattice of bars over a link (module docs).
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SpatialGroundStructureSpec {
-    /// Name: the component, its nodes' and bars' prefix.
-    pub name: String,
-    /// Nodes along the length.
-    pub nx: usize,
-    /// Nodes across the height.
-    pub ny: usize,
-    /// Nodes across the width (1: a planar lattice).
-    #[serde(default = "one")]
-    pub nz: usize,
-    /// Length along the local x (m).
-    pub length: f64,
-    /// Height along the local y (m).
-    pub height: f64,
-    /// Width along the local z (m); 0 for a single layer.
-    #[serde(default)]
-    pub width: f64,
-    /// Which pairs are joined.
-    #[serde(default)]
-    pub connectivity: Connectivity,
-    /// The local frame's origin: the lattice's `x = 0` face centre (m).
-    #[serde(default)]
-    pub origin: [f64; 3],
-    /// The local frame's axes (identity by default).
-    pub orientation: Option<OrientationSpec>,
-    /// Every bar's section.
-    pub section: String,
-    /// `"frame"` (default) or `"truss"`.
-    #[serde(default)]
-    pub kind: KindSpec,
-    /// Elements per frame bar.
-    #[serde(default = "one")]
-    pub split: usize,
-    /// At full density, not designed.
-    #[serde(default)]
-    pub fixed: bool,
-}
-
-fn one() -> usize {
-    1
-}
 
 /// Lattice node `n` as `(i, j, k)`.
 fn position(n: usize, ny: usize, nz: usize) -> [usize; 3] {
@@ -191,7 +116,7 @@ pub fn expand(
         }
     }
     let rotation = match &g.orientation {
-        Some(o) => super::build::rotation(&format!("{path}.orientation"), o)?,
+        Some(o) => rotation(&format!("{path}.orientation"), o)?,
         None => nalgebra::UnitQuaternion::identity(),
     };
     let origin = nalgebra::Vector3::from(g.origin);

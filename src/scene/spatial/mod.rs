@@ -29,11 +29,13 @@ mod build;
 mod design;
 pub mod lattice;
 pub mod names;
+mod orientation;
 pub mod spec;
 
 use std::collections::BTreeMap;
 
-pub use build::{build_spatial, ORTHONORMAL_TOLERANCE};
+pub use build::build_spatial;
+pub use orientation::ORTHONORMAL_TOLERANCE;
 pub use spec::SpatialSceneSpec;
 
 use crate::error::SceneError;

@@ -27,7 +27,7 @@
 
 use super::SpatialScene;
 use crate::error::SettingsError;
-use crate::mechanism::motion::{LawParameter, Motion};
+use crate::joint::motion::{LawParameter, Motion};
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::section::{Dimension, Shape};

@@ -9,7 +9,6 @@ use std::fmt;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
-use super::lattice::SpatialGroundStructureSpec;
 use crate::scene::spec::{AnalysisSpec, DesignSpec, KindSpec, LoadTableSpec, MotionSpec};
 use crate::settings::RunOptions;
 
@@ -193,6 +192,73 @@ pub struct SpatialBeamSpec {
     pub up: Option<[f64; 3]>,
     /// Design group shared with other beams (default: a variable of its own).
     pub group: Option<String>,
+    /// At full density, not designed.
+    #[serde(default)]
+    pub fixed: bool,
+}
+
+/// Which lattice pairs a ground structure joins (`lattice`'s docs).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Connectivity {
+    /// Every bar that overlaps no other.
+    #[default]
+    Full,
+    /// Edges, face and body diagonals.
+    Diagonals,
+    /// Edges and face diagonals.
+    Faces,
+    /// Edges.
+    Edges,
+}
+
+impl fmt::Display for Connectivity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Full => "full",
+            Self::Diagonals => "diagonals",
+            Self::Faces => "faces",
+            Self::Edges => "edges",
+        })
+    }
+}
+
+/// A box lattice of bars over a link (`lattice`'s docs).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SpatialGroundStructureSpec {
+    /// Name: the component, its nodes' and bars' prefix.
+    pub name: String,
+    /// Nodes along the length.
+    pub nx: usize,
+    /// Nodes across the height.
+    pub ny: usize,
+    /// Nodes across the width (1: a planar lattice).
+    #[serde(default = "one")]
+    pub nz: usize,
+    /// Length along the local x (m).
+    pub length: f64,
+    /// Height along the local y (m).
+    pub height: f64,
+    /// Width along the local z (m); 0 for a single layer.
+    #[serde(default)]
+    pub width: f64,
+    /// Which pairs are joined.
+    #[serde(default)]
+    pub connectivity: Connectivity,
+    /// The local frame's origin: the lattice's `x = 0` face centre (m).
+    #[serde(default)]
+    pub origin: [f64; 3],
+    /// The local frame's axes (identity by default).
+    pub orientation: Option<OrientationSpec>,
+    /// Every bar's section.
+    pub section: String,
+    /// `"frame"` (default) or `"truss"`.
+    #[serde(default)]
+    pub kind: KindSpec,
+    /// Elements per frame bar.
+    #[serde(default = "one")]
+    pub split: usize,
     /// At full density, not designed.
     #[serde(default)]
     pub fixed: bool,

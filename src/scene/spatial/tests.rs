@@ -5,8 +5,8 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use super::{build_spatial, parse_spatial_toml, SpatialScene};
 use crate::error::Error;
 use crate::group::Frame;
+use crate::joint::spatial::{Anchor, JointKind};
 use crate::spatial::force::ForceKind;
-use crate::spatial::joint::{Anchor, JointKind};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::sensitivity::{Parameter, Response};
 
@@ -591,7 +591,8 @@ fn torsion_springs_on_joints() {
 /// third node and every pair left out holds one.
 #[test]
 fn lattices_join_what_their_connectivity_says() {
-    use super::lattice::{lattice_bars, Connectivity};
+    use super::lattice::lattice_bars;
+    use super::spec::Connectivity;
     use crate::scene::ground_structure::bars;
     for (nx, ny) in [(5, 3), (4, 4), (2, 1)] {
         let full = lattice_bars("g", [nx, ny, 1], Connectivity::Full).unwrap();

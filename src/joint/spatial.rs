@@ -29,7 +29,7 @@ pub(crate) use crate::spatial::pair::Stiffness;
 use crate::spatial::pair::{Measure, Pair, Side, LOCAL};
 
 use crate::group::six;
-use crate::mechanism::motion::{LawParameter, Motion};
+use crate::joint::motion::{LawParameter, Motion};
 
 /// The most rows a joint has (the weld's).
 pub const MAX_ROWS: usize = 6;
@@ -609,7 +609,7 @@ struct RowValue {
 mod tests {
     use super::*;
     use crate::group::{so3, Frame, NQ, NV};
-    use crate::mechanism::motion::Table;
+    use crate::joint::motion::Table;
 
     /// The time at which rows are differentiated: inside the law's table, where its speed
     /// and acceleration are not zero.
@@ -690,7 +690,7 @@ mod tests {
     /// at speed, braking, done) and on a triangular profile, angles and slides.
     #[test]
     fn drive_rates_against_differences() {
-        use crate::mechanism::motion::Trapezoidal;
+        use crate::joint::motion::Trapezoidal;
         let v: Vec<f64> = (0..2 * NV).map(|i| 0.3 - 0.1 * i as f64).collect();
         let laws = [[0.3, 1.5, 4.0, 1.2], [0.0, -0.4, 3.0, 5.0]]; // trapezoid, triangle
         let param = [

@@ -21,7 +21,7 @@
 
 use nalgebra::Vector2;
 
-use crate::mechanism::motion::Motion;
+use crate::joint::motion::Motion;
 
 /// Where a joint acts: a node, or a point of a rigid body at `arm` from its centre.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -581,7 +581,7 @@ impl Separation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::motion::Trapezoidal;
+    use crate::joint::motion::Trapezoidal;
 
     #[test]
     fn driven_hinge_prescribes_relative_rotation_from_its_start() {
