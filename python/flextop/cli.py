@@ -29,6 +29,7 @@ from tqdm import tqdm
 
 from . import __version__, responses, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
+from .discretization.accuracy import preset
 from .discretization.refinement import t_end
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
@@ -477,8 +478,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
 
 
 SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
-                   "max_von_mises", "max_buckling", "start", "analysis",
-                   "accuracy", "rtol", "animate", "every")
+                   "max_von_mises", "max_buckling", "start", "analysis", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
 
@@ -538,6 +538,8 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
         print(f"{objective}: {problem.reference:.6g} at the start → {result.fun * problem.reference:.6g} "
               f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
               f"KKT residual {result.kkt:.2e}; volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full; {elapsed:.1f} s")
+    if problem.rtol is not None and problem.held is not None:
+        print(f"to rtol = {problem.rtol:g}: the design returned measured on {problem.held}")
     np.save(out / "design.npy", result.x)
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
@@ -562,7 +564,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --min-frequency, --x0, "
+                            "--global-volume, --max-stress, --min-frequency, --x0, --accuracy, --rtol, "
                             "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
                             "--resume, --no-plots, --vtk)")
     sim = SpatialSimulation(spec)
@@ -575,7 +577,12 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     limits = [] if args.max_stress is None else [("stress", args.max_stress)]
     if args.min_frequency is not None:
         limits.append((MIN_FREQUENCY, args.min_frequency))
-    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, **settings)
+    if args.accuracy is not None and args.rtol is not None:
+        raise SettingsError("give --accuracy (a named tolerance) or --rtol, not both")
+    rtol = preset(args.accuracy) if args.accuracy is not None else args.rtol
+    if rtol is not None and "h" in settings:
+        raise SettingsError("give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both")
+    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, rtol=rtol, **settings)
     x0 = 0.4 if args.x0 is None else args.x0
     if not sim.x_min <= x0 <= 1.0:
         raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")

@@ -461,5 +461,12 @@ def test_optimize_designs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_
     arm = flextop_cli("optimize", EXAMPLES / "spatial_robot_arm.toml", "--max-iter", "1", "--t-end", "0.2",
                       "--out", tmp_path / "arm", codes=(3,))
     assert "minimize tip_deflection over 188 densities" in arm.stdout and "after 1 iterations" in arm.stdout
-    refused = flextop_cli("optimize", tmp_path / "lattice.toml", "--rtol", "0.01", "--out", tmp_path / "x", codes=(2,))
-    assert refused.stderr.count("\n") == 1 and refused.stderr.startswith("flextop: error: --rtol: not built for spatial scenes yet")
+    refused = flextop_cli("optimize", tmp_path / "lattice.toml", "--filter", "0.01", "--out", tmp_path / "x", codes=(2,))
+    assert refused.stderr.count("\n") == 1 and refused.stderr.startswith("flextop: error: --filter: not built for spatial scenes yet")
+    # held to a tolerance: the same KKT point, the design returned measured to it
+    held = flextop_cli("optimize", tmp_path / "lattice.toml", "--volume-fraction", "0.3", "--x0", "0.3", "--max-iter", "100",
+                       "--kkt-tol", "1e-4", "--rtol", "0.01", "--out", tmp_path / "held")
+    assert "status: KKT" in held.stdout and "to rtol = 0.01: the design returned measured on" in held.stdout
+    assert sim.run_with_sensitivities(np.load(tmp_path / "held" / "design.npy"), "strain_energy", rtol=0.01).errors["strain_energy"] <= 0.01
+    both = flextop_cli("optimize", tmp_path / "lattice.toml", "--rtol", "0.01", "--h", "0.01", "--out", tmp_path / "y", codes=(2,))
+    assert "give --h (a fixed step) or --rtol/--accuracy" in both.stderr
