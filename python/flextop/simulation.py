@@ -28,7 +28,8 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from . import _core, execution, modal, plausibility, responses
-from .discretization import Levels, Refined, indicator, preset, refinement, tolerance
+from .discretization import Levels, Refined, indicator, refinement
+from .discretization.accuracy import rtol_of, run_tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .io import saved
 from .scenes import Scene
@@ -190,13 +191,7 @@ class Simulation:
         except RecursionError:
             raise SceneError("scene: nested too deeply to be a scene") from None
         self.accuracy = accuracy
-        if accuracy is not None:
-            if rtol is not None:
-                raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
-            rtol = preset(accuracy)
-        if rtol is not None:
-            tolerance.check_tolerance(rtol, atol)
-        self.rtol, self.atol = rtol, atol
+        self.rtol, self.atol = rtol_of(accuracy, rtol, atol), atol
         if refine not in REFINE:
             raise SettingsError(f"refine must be one of {', '.join(map(repr, REFINE))}, got {refine!r}")
         self.refine = refine
@@ -536,16 +531,8 @@ class Simulation:
     # -- runs to a tolerance ------------------------------------------------------------
 
     def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
-        """The tolerance a run is made to, or ``None`` for a fixed-step run: an explicit
-        ``h`` wins over the Simulation's tolerance, and cannot be given with a run's own."""
-        if h is not None and rtol is not None:
-            raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
-        if h is not None or (rtol is None and self.rtol is None):
-            return None
-        rtol = self.rtol if rtol is None else rtol
-        atol = self.atol if atol is None else atol
-        tolerance.check_tolerance(rtol, atol)
-        return rtol, atol
+        """The tolerance a run is made to, or ``None`` for a fixed-step run (:func:`~flextop.discretization.accuracy.run_tolerance`)."""
+        return run_tolerance((self.rtol, self.atol), rtol, atol, h)
 
     def _default_response(self) -> str:
         return "tip_deflection" if self.tip is not None and self.analysis == "dynamic" else "compliance"

@@ -42,8 +42,7 @@ from . import _core, plausibility
 from .checks import whole
 from .quaternion import rotations
 from .discretization import spatial as spatial_tolerance
-from .discretization import tolerance
-from .discretization.accuracy import preset
+from .discretization.accuracy import rtol_of, run_tolerance
 from .discretization.tolerance import Discretization
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
@@ -263,13 +262,7 @@ class SpatialSimulation:
 
     def __init__(self, scene: SpatialScene | dict | str | os.PathLike, *, accuracy: str | None = None,
                  rtol: float | None = None, atol: float = 0.0) -> None:
-        if accuracy is not None:
-            if rtol is not None:
-                raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
-            rtol = preset(accuracy)
-        if rtol is not None:
-            tolerance.check_tolerance(rtol, atol)
-        self.accuracy, self.rtol, self.atol = accuracy, rtol, atol
+        self.accuracy, self.rtol, self.atol = accuracy, rtol_of(accuracy, rtol, atol), atol
         self.spec = _as_spec(scene)
         self.model = _core.SpatialModel.from_dict(self.spec)
         points = [entry["position"] for key in ("rigid_bodies", "nodes") for entry in self.spec.get(key, [])]
@@ -449,17 +442,9 @@ class SpatialSimulation:
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
 
     def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
-        """The tolerance a run is made to, or ``None`` for a run on the scene's grid: an
-        explicit ``h`` wins over the simulation's tolerance, and cannot be given with a run's
-        own."""
-        if h is not None and rtol is not None:
-            raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
-        wanted = self.rtol if rtol is None else rtol
-        if h is not None or wanted is None:
-            return None
-        atol = self.atol if atol is None else atol
-        tolerance.check_tolerance(wanted, atol)
-        return wanted, atol
+        """The tolerance a run is made to, or ``None`` for a run on the scene's grid
+        (:func:`~flextop.discretization.accuracy.run_tolerance`)."""
+        return run_tolerance((self.rtol, self.atol), rtol, atol, h)
 
     def volume(self, x: DesignLike = None, structure: str | None = None) -> float:
         """The material volume ``Σ xᵢ Vᵢ`` of the beams and bars at design ``x`` (full density

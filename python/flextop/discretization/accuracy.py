@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 
 from ..errors import SettingsError
+from .tolerance import check_tolerance
 
 PRESETS: dict[str, float] = {"fast": 3e-2, "balanced": 1e-2, "accurate": 3e-3}
 """Preset name → ``rtol``."""
@@ -23,6 +24,33 @@ def preset(name: str) -> float:
         return PRESETS[name]
     except KeyError:
         raise SettingsError(f"accuracy must be one of {', '.join(PRESETS)}; got {name!r}") from None
+
+
+def rtol_of(accuracy: str | None, rtol: float | None, atol: float) -> float | None:
+    """The ``rtol`` a simulation holds: a preset's by name, ``rtol`` as given (checked with
+    ``atol``), or ``None``; a :class:`SettingsError` where both are given."""
+    if accuracy is not None:
+        if rtol is not None:
+            raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
+        rtol = preset(accuracy)
+    if rtol is not None:
+        check_tolerance(rtol, atol)
+    return rtol
+
+
+def run_tolerance(own: tuple[float | None, float], rtol: float | None, atol: float | None,
+                  h: float | None) -> tuple[float, float] | None:
+    """The tolerance ``(rtol, atol)`` a run is made to, given the simulation's ``own``, or
+    ``None`` for a run on a fixed step: an explicit ``h`` wins over the simulation's
+    tolerance, and cannot be given with a run's own."""
+    if h is not None and rtol is not None:
+        raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+    wanted = own[0] if rtol is None else rtol
+    if h is not None or wanted is None:
+        return None
+    atol = own[1] if atol is None else atol
+    check_tolerance(wanted, atol)
+    return wanted, atol
 
 
 def split_by(spec: dict, factor: int) -> dict:
