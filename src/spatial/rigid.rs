@@ -164,6 +164,44 @@ struct Companion {
     states: Vec<State>,
 }
 
+/// Largest singular value of the companion's constraint gradient (of its largest) below
+/// which a direction of its links' motion counts as free: round-off of unit-sized rows.
+const FREE_DIRECTION: f64 = 1e-9;
+
+/// The freedoms the companion's joints and drives leave its links at the start: the null
+/// space of their gradient `B` (rows × six per link, each column the rows' rate `Φ̇ − ∂Φ/∂t`
+/// at a unit velocity of one link), its dimension by the singular values of `B` below
+/// [`FREE_DIRECTION`] of the largest. The two runs of [`rigid_trajectories`] cannot see a
+/// freedom that neither moves (a link hinged at its own first node, where its nominal mass
+/// sits, feels no weight); the rank does.
+fn free_motions(rigid: &SpatialModel) -> usize {
+    let (q, n) = (rigid.initial_configuration(), NV * rigid.nodes.len());
+    let rows: usize = rigid.joints.iter().map(|j| j.n_rows()).sum();
+    if rows == 0 {
+        return n;
+    }
+    let mut b = DMatrix::<f64>::zeros(rows, n);
+    let still = vec![0.0; n];
+    for column in 0..n {
+        let mut v = vec![0.0; n];
+        v[column] = 1.0;
+        let mut row = 0;
+        for j in &rigid.joints {
+            let rate = j.rates(&q, &v, 0.0) - j.rates(&q, &still, 0.0);
+            for k in 0..j.n_rows() {
+                b[(row + k, column)] = rate[k];
+            }
+            row += j.n_rows();
+        }
+    }
+    let sigma = b.singular_values();
+    let largest = sigma.max();
+    n - sigma
+        .iter()
+        .filter(|&&s| s > FREE_DIRECTION * largest)
+        .count()
+}
+
 /// The companion's run (its rates checked to be a rigid motion of the links).
 ///
 /// # Errors
@@ -176,6 +214,22 @@ fn companion_run(
     grid: &TimeGrid,
 ) -> Result<Companion, Error> {
     let (rigid, carried_as) = companion(model, links, spread)?;
+    let free = free_motions(&rigid);
+    if free > 0 {
+        return Err(SettingsError::new(
+            "tip_deflection",
+            format!(
+                "the drives leave the rigid mechanism {}, so it has no rigid trajectory (drive \
+                 every freedom of the mechanism with its links rigid)",
+                if free == 1 {
+                    "a freedom".to_string()
+                } else {
+                    format!("{free} freedoms")
+                }
+            ),
+        )
+        .into());
+    }
     rigid.check_rates().map_err(|e| {
         SettingsError::new(
             "tip_deflection",

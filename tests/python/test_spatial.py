@@ -311,6 +311,10 @@ def test_bad_requests_are_named():
     # The pendulum swings freely: its rigid mechanism has a freedom no drive holds.
     with pytest.raises(SettingsError, match="tip_deflection: the drives leave the rigid mechanism a freedom"):
         sim.run_with_sensitivities(None, ["tip_deflection:bar"], t_end=0.1, h=0.01)
+    # So does the flexible pendulum, hinged at the node where its link's nominal mass sits: no
+    # weight turns it in either of the companion's runs, and only the rank of its joints sees it.
+    with pytest.raises(SettingsError, match="tip_deflection: the drives leave the rigid mechanism a freedom"):
+        SpatialSimulation(flexible_pendulum()).run_with_sensitivities(0.5, "tip_deflection")
     with pytest.raises(SettingsError, match="'tip_deflection:nowhere': 'nowhere' is no body or node"):
         sim.run_with_sensitivities(None, ["tip_deflection:nowhere"], t_end=0.1, h=0.01)
     with pytest.raises(SettingsError, match="an equilibrium has none"):
