@@ -263,6 +263,9 @@ class SpatialSimulation:
     def __init__(self, scene: SpatialScene | dict | str | os.PathLike, *, accuracy: str | None = None,
                  rtol: float | None = None, atol: float = 0.0) -> None:
         self.accuracy, self.rtol, self.atol = accuracy, rtol_of(accuracy, rtol, atol), atol
+        #: The scene with every frame beam's elements times a factor, by factor, each built on
+        #: first use by a run to a tolerance (:mod:`flextop.discretization.spatial`).
+        self.refined: dict[int, SpatialSimulation] = {}
         self.spec = _as_spec(scene)
         self.model = _core.SpatialModel.from_dict(self.spec)
         points = [entry["position"] for key in ("rigid_bodies", "nodes") for entry in self.spec.get(key, [])]

@@ -165,7 +165,7 @@ def _level(sim: Any, factor: int) -> Any:
     kept on ``sim``; without a tolerance of its own, so that it runs its own grid."""
     if factor == 1 and sim.rtol is None:
         return sim
-    refined = sim.__dict__.setdefault("_refined_levels", {})
+    refined = sim.refined
     if factor not in refined:
         try:
             refined[factor] = type(sim)(refined_spec(sim.spec, factor))
