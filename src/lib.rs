@@ -22,6 +22,7 @@
 //!   ratios ([`Criterion`]) condensed by the p-mean or KS mean of [`Aggregation`].
 //! * `sensitivity` — [`of_motion`] / [`of_equilibrium`]: their exact gradients, by direct
 //!   differentiation (Algorithm 2) or the discrete adjoint.
+//! * [`body`] — the rigid bodies and point masses of both dimensions.
 //! * [`joint`] — the joints of both dimensions as algebraic constraints (planar rows,
 //!   the Lie group's spatial ones) and the [`motion`] laws that drive them.
 //! * [`spatial`] on [`group`] — spatial mechanisms on the Lie group `(ℝ³ × SO(3))ⁿ`: rigid
@@ -39,6 +40,7 @@
 #![warn(missing_docs)]
 
 // The wings, each a folder behind the re-exports below.
+pub mod body;
 pub mod group;
 pub mod joint;
 mod mechanism;

@@ -7,8 +7,8 @@ use nalgebra::{Rotation2, Vector2};
 use super::mesh::Mesh;
 use super::spec::RigidBodySpec;
 use super::validate::{angle, each, finite, non_negative, positive, Listed, Result};
+use crate::body::planar::{PointMass, RigidBody};
 use crate::joint::planar::Anchor;
-use crate::mechanism::model::{PointMass, RigidBody};
 
 /// Adds the scene's rigid bodies to `mesh` (their nodes and points) and returns their
 /// masses.

@@ -18,10 +18,10 @@ use super::mesh::{BarSpec, Mesh};
 use super::section::{self, Sections};
 use super::spec::{GroundStructureSpec, PointSpec};
 use super::validate::{angle, finite, non_negative, positive, Result};
+use crate::body::planar::{PointMass, RigidBody};
 use crate::error::SceneError;
 use crate::joint::planar::Anchor;
 use crate::limits::MAX_GRID_NODES;
-use crate::mechanism::model::{PointMass, RigidBody};
 use crate::mechanism::section::Section;
 
 /// Grid node `k` as `(column, row)`.

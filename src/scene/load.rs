@@ -6,8 +6,8 @@ use nalgebra::Vector2;
 use super::mesh::Mesh;
 use super::spec::{LoadSpec, LoadTableSpec, PointMassSpec};
 use super::validate::{each, finite, non_negative, positive, samples, Listed, Result};
+use crate::body::planar::PointMass;
 use crate::mechanism::load::{NodalLoad, TimeFunction};
-use crate::mechanism::model::PointMass;
 
 /// The scene's point masses: mass `m > 0` and rotary inertia `J ≥ 0` on a node.
 pub(super) fn point_masses(specs: &[PointMassSpec], mesh: &Mesh) -> Listed<PointMass> {

@@ -16,11 +16,12 @@ use super::design::Variables;
 use super::section::{self, Sections};
 use super::spec::{BeamSpec, NodeSpec};
 use super::validate::{each, finite, unknown, Listed, Result};
+use crate::body::planar::RigidBody;
 use crate::error::SceneError;
 use crate::joint::planar::Anchor;
 use crate::limits::{MAX_ELEMENTS, MAX_NODES, MAX_SPLIT};
 use crate::mechanism::element::Kind;
-use crate::mechanism::model::{size_of, Bar, Cell, Element, Member, Node, RigidBody};
+use crate::mechanism::model::{size_of, Bar, Cell, Element, Member, Node};
 use crate::mechanism::section::Section;
 
 /// Mesh under construction.

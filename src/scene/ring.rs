@@ -17,9 +17,9 @@ use super::body;
 use super::mesh::Mesh;
 use super::spec::{JointSpec, RigidBodySpec, RingKind, RingSpec};
 use super::validate::{each, finite, positive, Listed, Result};
+use crate::body::planar::PointMass;
 use crate::error::{short, SceneError};
 use crate::mechanism::averaging::{weighted_centre, Averaging};
-use crate::mechanism::model::PointMass;
 
 /// The mass (kg) and rotary inertia (kg m²) of a ring's body.
 const RING_MASS: f64 = 1e-6;

@@ -1,5 +1,6 @@
 //! **The spatial wing**: mechanisms in space on the Lie group `(ℝ³ × SO(3))ⁿ` of
-//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`]), geometrically exact
+//! [`crate::group`]. Rigid bodies with a full inertia tensor ([`body`], in the bodies' room
+//! [`crate::body`]), geometrically exact
 //! beams and truss bars between nodes ([`beam`], [`truss`], their sections in [`section`],
 //! one `Element` interface for both), joints and drives as
 //! index-3 constraints with their constraint-force stiffness ([`joint`], in the joints' room
@@ -54,7 +55,6 @@
 //! ```
 
 pub mod beam;
-pub mod body;
 pub mod force;
 pub mod integrator;
 pub mod modal;
@@ -66,6 +66,8 @@ pub mod sensitivity;
 pub mod statics;
 pub mod truss;
 
+/// The spatial bodies, in the bodies' room ([`crate::body::spatial`]).
+pub use crate::body::spatial as body;
 /// The spatial joints, in the joints' room ([`crate::joint::spatial`]).
 pub use crate::joint::spatial as joint;
 
