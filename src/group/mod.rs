@@ -9,7 +9,11 @@
 //! `(x, R) ⊕ (u, θ) = (x + u, R exp(θ̃))` ([`Frame::retract`]). The tangent operator of that
 //! map is `diag(I, T(θ))` ([`tangent_block`]). The planar engine's `ℝ² × SO(2)` with an
 //! additive angle is the abelian case of the same structure, where `T = I`.
+//!
+//! Two anchors on it — points of two nodes' frames or of the ground — and what a joint or a
+//! force element measures between them, with their derivatives: `pair`.
 
+pub(crate) mod pair;
 pub mod so3;
 
 use nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector3};

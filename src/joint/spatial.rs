@@ -25,8 +25,8 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-pub(crate) use crate::spatial::pair::Stiffness;
-use crate::spatial::pair::{Measure, Pair, Side, LOCAL};
+pub(crate) use crate::group::pair::Stiffness;
+use crate::group::pair::{Measure, Pair, Side, LOCAL};
 
 use crate::group::six;
 use crate::joint::motion::{LawParameter, Motion};

@@ -21,6 +21,7 @@ use std::collections::BTreeSet;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
 use crate::error::SolveError;
+use crate::group::pair::{Pair, LOCAL};
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
 use crate::joint::spatial::{Gradient, Stiffness, MAX_ROWS};
@@ -28,7 +29,6 @@ use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::element::Derivatives;
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
-use crate::spatial::pair::{Pair, LOCAL};
 
 /// A CSC pattern with lookup of an entry's slot.
 pub(crate) struct Pattern {

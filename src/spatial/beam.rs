@@ -36,11 +36,11 @@
 
 use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
+use crate::group::pair::{Pair, Stiffness};
 use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
 use crate::group::{six, split, Frame};
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
-use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
 use crate::spatial::stress::{von_mises, von_mises_rate};
 

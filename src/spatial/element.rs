@@ -4,9 +4,9 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::group::pair::{Pair, Stiffness};
 use crate::group::{six, NV};
 use crate::spatial::force::Local;
-use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::MAX_FIBRES;
 
 /// An element's forces at one state, on its twelve local unknowns.

@@ -21,9 +21,9 @@
 use nalgebra::{Matrix3, SVector, Vector3};
 
 use crate::error::SolveError;
+use crate::group::pair::{Measure, Pair, Side, Stiffness, LOCAL};
 use crate::group::so3::hat;
 use crate::mechanism::load::TimeFunction;
-use crate::spatial::pair::{Measure, Pair, Side, Stiffness, LOCAL};
 
 /// Generalized forces on a force element's twelve local unknowns.
 pub(crate) type Local = SVector<f64, LOCAL>;
@@ -374,7 +374,7 @@ impl Angle {
 fn product_rate_gradient(pair: &Pair, alpha: &Measure, beta: &Measure, sides: &[Side; 2]) -> Local {
     let (a, b) = (pair.evaluate(alpha, sides), pair.evaluate(beta, sides));
     let rate_jacobian = |m: &Measure| {
-        let mut j = crate::spatial::pair::Jacobian::zeros();
+        let mut j = crate::group::pair::Jacobian::zeros();
         if let Measure::Axis(s, u) = m {
             if pair.nodes[*s].is_some() {
                 let side = &sides[*s];

@@ -73,5 +73,5 @@ pub use crate::joint::spatial as joint;
 
 pub(crate) mod assembly;
 pub(crate) mod element;
-pub(crate) mod pair;
+
 pub(crate) mod stress;

@@ -17,11 +17,11 @@
 use nalgebra::Vector3;
 
 use crate::error::SettingsError;
+use crate::group::pair::Stiffness;
 use crate::group::{six, split, NV};
 use crate::spatial::element::{Derivatives, Element};
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
-use crate::spatial::pair::Stiffness;
 use crate::spatial::sensitivity::Parameter;
 
 /// `∂ω²_k/∂p_j` (rad²/s² per unit of the parameter) of each mode `(ω²_k, φ_k)` about

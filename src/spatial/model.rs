@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::body::spatial::Body;
 use crate::error::{short, SceneError};
+use crate::group::pair::{Measure, Pair};
 use crate::group::{six, split, Frame, NQ, NV};
 use crate::joint::motion::Motion;
 use crate::joint::spatial::{Anchor, Joint, JointKind};
@@ -14,7 +15,6 @@ use crate::mechanism::load::{samples, TimeFunction};
 use crate::spatial::beam::Beam;
 use crate::spatial::element::Element;
 use crate::spatial::force::{Force, ForceKind};
-use crate::spatial::pair::{Measure, Pair};
 use crate::spatial::section::Section;
 use crate::spatial::truss::Truss;
 

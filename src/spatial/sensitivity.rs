@@ -26,6 +26,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{Error, SettingsError, SolveError};
+use crate::group::pair::Stiffness;
 use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
 use crate::joint::motion::{LawParameter, Motion};
@@ -40,7 +41,6 @@ use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::{jumps, kink_jump, kink_on_node, kinks, run};
 use crate::spatial::model::SpatialModel;
-use crate::spatial::pair::Stiffness;
 use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
 use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
 use crate::spatial::statics::solve_static_spatial;

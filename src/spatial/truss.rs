@@ -16,10 +16,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::group::pair::{Pair, Stiffness};
 use crate::group::Frame;
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
-use crate::spatial::pair::{Pair, Stiffness};
 use crate::spatial::section::{Section, MAX_FIBRES};
 
 /// A truss bar (module docs).
