@@ -539,7 +539,10 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
               f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
               f"KKT residual {result.kkt:.2e}; volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full; {elapsed:.1f} s")
     if problem.rtol is not None and problem.held is not None:
-        print(f"to rtol = {problem.rtol:g}: the design returned measured on {problem.held}")
+        measured = problem.rule.at is not None and np.array_equal(problem.rule.at, result.x)
+        print(f"to rtol = {problem.rtol:g}: the design returned measured on {problem.held}" if measured else
+              f"to rtol = {problem.rtol:g}: the design returned could not be measured; its values are those of "
+              f"{problem.held}, held")
     np.save(out / "design.npy", result.x)
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,

@@ -181,18 +181,20 @@ fn free_motions(rigid: &SpatialModel) -> usize {
         return n;
     }
     let mut b = DMatrix::<f64>::zeros(rows, n);
-    let still = vec![0.0; n];
+    let mut v = vec![0.0; n];
+    // `∂Φ/∂t` of each joint, taken once: what its rates read at rest.
+    let at_rest: Vec<_> = rigid.joints.iter().map(|j| j.rates(&q, &v, 0.0)).collect();
     for column in 0..n {
-        let mut v = vec![0.0; n];
         v[column] = 1.0;
         let mut row = 0;
-        for j in &rigid.joints {
-            let rate = j.rates(&q, &v, 0.0) - j.rates(&q, &still, 0.0);
+        for (j, still) in rigid.joints.iter().zip(&at_rest) {
+            let rate = j.rates(&q, &v, 0.0) - still;
             for k in 0..j.n_rows() {
                 b[(row + k, column)] = rate[k];
             }
             row += j.n_rows();
         }
+        v[column] = 0.0;
     }
     let sigma = b.singular_values();
     let largest = sigma.max();
