@@ -2,7 +2,7 @@
 //! the elements per bar m and the step size h, with errors against a converged reference.
 //! Prints Markdown tables (one core: the solver runs sequentially).
 //!
-//! `cargo bench --bench convergence`
+//! `cargo bench --features bench --bench convergence`
 
 mod common;
 
@@ -10,7 +10,7 @@ use common::{robot_arm, settings, tip_deflection};
 
 fn main() {
     if std::env::args().any(|a| a == "--list") {
-        return; // `cargo bench -- --list` asks benchmarks for their names
+        return; // `cargo bench --features bench -- --list` asks benchmarks for their names
     }
     // Reference: h → 0 at m = 16, then Richardson in m (d converges at second order in 1/m).
     let fine_h = 0.00125;

@@ -3,7 +3,7 @@
 //! one run with the adjoint gradients of four responses (every response family's partials
 //! at every state).
 //!
-//! `cargo bench --bench engine`
+//! `cargo bench --features bench --bench engine`
 
 mod common;
 

@@ -5,7 +5,7 @@
 //! batches, one core. Prints Markdown tables; `DENSE_FILL`, `DENSE_LIMIT` and
 //! `SUPERNODAL_RATIO` are where the engine switches.
 //!
-//! `cargo bench --bench ldlt`
+//! `cargo bench --features bench --bench ldlt`
 
 mod common;
 

@@ -2,7 +2,7 @@
 //! for the robot arm on ground structures from 5 × 3 (148 design variables) to 21 × 5.
 //! Prints a Markdown table. The adjoint ratio should stay flat; the direct one grows with n.
 //!
-//! `cargo bench --bench sensitivity`
+//! `cargo bench --features bench --bench sensitivity`
 
 mod common;
 

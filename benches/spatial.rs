@@ -7,7 +7,7 @@
 //! swinging in its plane. Prints Markdown tables: medians of nine repetitions, the ratios
 //! the medians of each repetition's.
 //!
-//! `cargo bench --bench spatial`
+//! `cargo bench --features bench --bench spatial`
 
 use std::time::Instant;
 

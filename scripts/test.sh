@@ -9,12 +9,15 @@
 #   build environment to make) (the crate itself in four codegen units, Cargo.toml)
 #   while the lints run beside it in a target directory of their own (TARGET/clippy; cargo
 #   locks a target directory for a whole build): cargo fmt, then one clippy pass with the
-#   bindings' feature over the crate, the tests and the benchmarks, warnings as errors (a
-#   check links nothing).
+#   bindings' and the benchmarks' features over the crate, its tests and the benchmarks,
+#   warnings as errors (a check links nothing).
 # - cargo test then builds in pip's target directory and reuses the dependencies pip
-#   compiled: Cargo.toml turns on in every build the features the test build would add (a
-#   crate's features enter the hash of every crate above it), and no RUSTFLAGS are set (they
-#   would too). Warnings are errors here as well: the build's output is searched for them.
+#   compiled: the test build resolves the features pip's build does (the bindings'
+#   dependencies are dev-dependencies; criterion is behind the `bench` feature), and no
+#   RUSTFLAGS are set (a crate's features and flags enter the hash of every crate above it).
+#   Every Rust test sits in the library's own test binary (src/tests/, no doctests): one
+#   compilation of the crate, not a second one for an rlib the tests would link. Warnings
+#   are errors here as well: the build's output is searched for them.
 # - pytest then runs on two workers (pytest-xdist): its tests run Python, mostly on one core
 #   each (215 s against 290 s on one worker). Started beside cargo test instead, both took
 #   longer than one after the other (317 s and 271 s against 163 s and 111 s). The tests
@@ -34,7 +37,7 @@ stage() {
 }
 lints() {
     stage cargo fmt --check
-    stage cargo clippy --release --all-targets --features python -- -D warnings
+    stage cargo clippy --release --all-targets --features python,bench -- -D warnings
 }
 rust_tests() {
     local log="${CARGO_TARGET_DIR:-target}/test-build.log"

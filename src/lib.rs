@@ -97,3 +97,6 @@ pub use solver::simulation::{
 pub use solver::statics::{solve_linear, solve_static, StaticSolution};
 pub use solver::step_control::StepControl;
 pub use time_grid::TimeGrid;
+
+#[cfg(test)]
+mod tests;

@@ -6,16 +6,16 @@
 
 use std::f64::consts::PI;
 
-use flextop::group::{Frame, NV};
-use flextop::load::TimeFunction;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::modal::natural_modes_spatial;
-use flextop::spatial::model::SpatialModel;
-use flextop::spatial::section::{Geometry, Section, Shape};
-use flextop::spatial::statics::solve_static_spatial;
+use crate::group::{Frame, NV};
+use crate::load::TimeFunction;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::modal::natural_modes_spatial;
+use crate::spatial::model::SpatialModel;
+use crate::spatial::section::{Geometry, Section, Shape};
+use crate::spatial::statics::solve_static_spatial;
 
-use crate::spatial_trusses::{statics as trusses_statics, tripod};
-use flextop::{NewtonMatrix, StaticSettings};
+use super::spatial_trusses::{statics as trusses_statics, tripod};
+use crate::{NewtonMatrix, StaticSettings};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
 /// A cantilever of `elements` beams along x, clamped at the origin, sections' `e₂` along y.

@@ -1,10 +1,10 @@
 //! Variable steps: second order and stability where the step size changes abruptly, and
 //! exact gradients on an uneven grid.
 
-use flextop::{of_motion_on, simulate_on, DynamicSettings, Memory, Method, Model, TimeGrid};
+use crate::{of_motion_on, simulate_on, DynamicSettings, Memory, Method, Model, TimeGrid};
 
-use crate::common::*;
-use crate::sensitivity::{check, how, random_design, responses, DYNAMIC};
+use super::common::*;
+use super::sensitivity::{check, how, random_design, responses, DYNAMIC};
 
 /// Steps in the ratios 1 : 2 : ½ : 1.5 (abrupt changes by factors up to 4), `n` per
 /// segment between the stops (kinks of the motion law and `t_end`), each segment filled

@@ -3,13 +3,13 @@
 //! stability at every ρ∞, recovery from Newton failures, and exact gradients on the
 //! adapted grid.
 
-use flextop::{
+use crate::{
     of_motion_on, simulate_adaptive, simulate_on, DynamicSettings, Error, Integrator, Memory,
     Method, Model, SolveError, StepControl, TimeGrid, Trajectory,
 };
 
-use crate::common::*;
-use crate::sensitivity::{check, how, random_design, responses, DYNAMIC};
+use super::common::*;
+use super::sensitivity::{check, how, random_design, responses, DYNAMIC};
 
 fn final_q(traj: &Trajectory) -> &[f64] {
     &traj.q[traj.q.len() - traj.n_q..]

@@ -2,9 +2,9 @@
 
 use std::f64::consts::PI;
 
-use flextop::solve_static;
+use crate::solve_static;
 
-use crate::common::*;
+use super::common::*;
 
 #[test]
 fn small_tip_load_matches_timoshenko_theory() {

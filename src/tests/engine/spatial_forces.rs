@@ -2,14 +2,14 @@
 //! damped decay, a motor spinning a wheel about an oblique axis, the energy of bodies joined
 //! by a spring under a dead load.
 
-use flextop::group::{so3, Frame};
-use flextop::load::TimeFunction;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::State;
+use crate::group::{so3, Frame};
+use crate::load::TimeFunction;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::State;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use crate::spatial::run;
+use super::spatial::run;
 
 /// A body on a spring along the oblique line `n` from a ground point, released `s₀` from
 /// its rest length: `s(t) = s₀ e^{−ζωt}(cos ω_d t + (ζω/ω_d) sin ω_d t)`, `ω² = k/m`,

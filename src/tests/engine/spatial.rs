@@ -3,11 +3,11 @@
 //! equations, its invariants, its steady precession; a free body's stable and unstable
 //! principal axes; many turns in large increments.
 
-use flextop::group::{so3, Frame};
-use flextop::spatial::integrator::{simulate_spatial, SpatialIntegrator};
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::{DynamicSettings, MassKind, NewtonMatrix, State, TimeGrid};
+use crate::group::{so3, Frame};
+use crate::spatial::integrator::{simulate_spatial, SpatialIntegrator};
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::{DynamicSettings, MassKind, NewtonMatrix, State, TimeGrid};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 const MASS: f64 = 15.0;
@@ -381,9 +381,9 @@ fn many_turns_in_large_increments() {
 /// Settings out of range and bad grids are named, for runs, statics and gradients alike.
 #[test]
 fn bad_settings_are_named() {
-    use flextop::spatial::sensitivity::{sensitivities, Parameter, Response};
-    use flextop::spatial::statics::solve_static_spatial;
-    use flextop::{Error, Method, StaticSettings};
+    use crate::spatial::sensitivity::{sensitivities, Parameter, Response};
+    use crate::spatial::statics::solve_static_spatial;
+    use crate::{Error, Method, StaticSettings};
     let model = guide_top();
     let name = |e: Error| match e {
         Error::Settings(s) => s.name,

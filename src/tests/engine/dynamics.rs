@@ -1,9 +1,9 @@
 //! Dynamic benchmarks: convergence order, energy, numerical dissipation, rigid limit.
 
-use flextop::{simulate, DynamicSettings, MassKind, Model, Trajectory};
+use crate::{simulate, DynamicSettings, MassKind, Model, Trajectory};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
-use crate::common::*;
+use super::common::*;
 
 /// Largest tip distance between two robot-arm runs at the times of the coarser one.
 fn tip_gap(model: &Model, coarse: &Trajectory, fine: &Trajectory) -> f64 {
@@ -126,14 +126,14 @@ fn numerical_dissipation_acts_on_high_frequencies_only() {
     let text = cantilever(1.0, 8, "[[loads]]\nnode = \"b\"\nforce = [300.0, 5.0]\nmoment = 1.0\ntable = { t = [0.0, 0.002, 0.004], scale = [0.0, 1.0, 0.0] }\n");
     let model = model(&text);
     let n = model.n_dofs();
-    let lin = flextop::linearize(
+    let lin = crate::linearize(
         &model,
         model.densities(None).unwrap(),
         MassKind::Consistent,
         &vec![0.0; n],
     )
     .unwrap();
-    let dense = |m: &flextop::Csc| {
+    let dense = |m: &crate::Csc| {
         let mut d = DMatrix::zeros(n, n);
         for j in 0..n {
             for k in m.indptr[j]..m.indptr[j + 1] {

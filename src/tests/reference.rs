@@ -2,7 +2,7 @@
 //! docs/reference-scenes.md) as typed data, for a test to change before `scene::build`.
 #![allow(dead_code)]
 
-use flextop::scene::{self, SceneSpec};
+use crate::scene::{self, SceneSpec};
 
 /// The robot arm of examples/robot_arm.toml with `split` elements per bar.
 pub fn robot_arm(split: usize) -> SceneSpec {

@@ -2,12 +2,12 @@
 //! (`Prolongation`), runs guided by a nearby run's states, and modified Newton. Each must
 //! reach the states an ordinary run reaches, to Newton's tolerance.
 
-use flextop::{
+use crate::{
     simulate, simulate_guided, simulate_on, DynamicSettings, Error, Model, NewtonMatrix,
     Prolongation, Trajectory,
 };
 
-use crate::common::*;
+use super::common::*;
 
 /// `q` of a rigid motion of `model`: turned by `angle` about the origin, then moved by `shift`.
 fn rigid_motion(model: &Model, angle: f64, shift: [f64; 2]) -> Vec<f64> {
@@ -123,19 +123,18 @@ fn the_bars_shares_add_up_to_the_change_of_splitting_every_bar() {
     let (coarse, fine) = (robot_arm(1, 70e9), robot_arm(2, 70e9));
     let x = vec![0.4; coarse.n_variables()];
     let s = arm_run(136, NewtonMatrix::Full);
-    let responses = flextop::parse_responses(&coarse, &["tip_deflection".into()]).unwrap();
+    let responses = crate::parse_responses(&coarse, &["tip_deflection".into()]).unwrap();
     let run = simulate(&fine, Some(&x), &s).unwrap();
-    let states = flextop::Path {
+    let states = crate::Path {
         q: &run.q,
         qdot: &run.qdot,
         qddot: &run.qddot,
         lam: &run.lam,
     };
-    let shares =
-        flextop::bar_shares(&coarse, &fine, &x, &s, &s.grid(), &responses, states).unwrap();
+    let shares = crate::bar_shares(&coarse, &fine, &x, &s, &s.grid(), &responses, states).unwrap();
     let value = |m: &Model| {
-        let tip = flextop::parse_responses(m, &["tip_deflection".into()]).unwrap();
-        flextop::of_motion(m, &x, &s, &tip, &[], Default::default())
+        let tip = crate::parse_responses(m, &["tip_deflection".into()]).unwrap();
+        crate::of_motion(m, &x, &s, &tip, &[], Default::default())
             .unwrap()
             .values[0]
     };
@@ -151,6 +150,6 @@ fn the_bars_shares_add_up_to_the_change_of_splitting_every_bar() {
         (first / change - 1.0).abs() > 2e-2,
         "first order {first:e}, change {change:e}"
     );
-    let refused = flextop::bar_shares(&coarse, &coarse, &x, &s, &s.grid(), &responses, states);
+    let refused = crate::bar_shares(&coarse, &coarse, &x, &s, &s.grid(), &responses, states);
     assert!(matches!(refused, Err(Error::Settings(_))));
 }

@@ -1,11 +1,11 @@
 //! Design sensitivities: direct and adjoint against central finite differences of the same
 //! discrete simulation, and against each other.
 
-use flextop::scene::{
+use crate::scene::{
     self,
     spec::{DesignSpec, InterpolationSpec},
 };
-use flextop::{
+use crate::{
     of_equilibrium, of_motion, parse_responses, DynamicSettings, Error, Memory, Method, Model,
     Response, Sensitivities, SensitivitySettings, StaticSettings,
 };
@@ -14,7 +14,7 @@ pub(crate) fn how(method: Method, memory: Memory) -> SensitivitySettings {
     SensitivitySettings { method, memory }
 }
 
-use crate::common::*;
+use super::common::*;
 
 pub(crate) fn random_design(model: &Model, seed: u64) -> Vec<f64> {
     let mut s = seed;
@@ -162,7 +162,7 @@ fn agreement_holds_for_other_p_h_rho_and_split() {
     dynamic_case(
         1,
         DynamicSettings {
-            mass: flextop::MassKind::Lumped,
+            mass: crate::MassKind::Lumped,
             ..short(0.02, 0.8)
         },
         DesignSpec {
@@ -318,21 +318,21 @@ fn checkpointed_adjoint_is_bitwise_the_stored_one() {
 fn the_adjoint_about_a_runs_states_is_that_runs_bit_for_bit() {
     let arm = robot_arm(1, 70e9);
     let rs = responses(&arm, &["tip_deflection", "torque_rms:shoulder"]);
-    let parameters = flextop::parse_parameters(&arm, &["E:aluminium".into()], &rs).unwrap();
+    let parameters = crate::parse_parameters(&arm, &["E:aluminium".into()], &rs).unwrap();
     let x = random_design(&arm, 3);
     let s = DynamicSettings {
-        newton: flextop::NewtonMatrix::Modified,
+        newton: crate::NewtonMatrix::Modified,
         ..settings(1.3, 0.02, 0.8)
     };
     let grid = s.grid();
-    let run = flextop::simulate(&arm, Some(&x), &s).unwrap();
-    let path = flextop::Path {
+    let run = crate::simulate(&arm, Some(&x), &s).unwrap();
+    let path = crate::Path {
         q: &run.q,
         qdot: &run.qdot,
         qddot: &run.qddot,
         lam: &run.lam,
     };
-    let about = flextop::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, path).unwrap();
+    let about = crate::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, path).unwrap();
     let own = of_motion(
         &arm,
         &x,
@@ -345,11 +345,11 @@ fn the_adjoint_about_a_runs_states_is_that_runs_bit_for_bit() {
     assert_eq!(about.values, own.values);
     assert_eq!(about.gradients, own.gradients);
     assert_eq!(about.parameter_gradients, own.parameter_gradients);
-    let short = flextop::Path {
+    let short = crate::Path {
         q: &run.q[arm.n_dofs()..],
         ..path
     };
-    let refused = flextop::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, short);
+    let refused = crate::of_motion_about(&arm, &x, &s, &grid, &rs, &parameters, short);
     assert!(
         matches!(&refused, Err(Error::Settings(e)) if e.name == "path"),
         "{refused:?}"

@@ -8,11 +8,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use flextop::scene;
-use flextop::{DynamicSettings, Integrator, MassKind, NewtonMatrix};
+use crate::scene;
+use crate::{DynamicSettings, Integrator, MassKind, NewtonMatrix};
 
-#[path = "support/reference.rs"]
-mod reference;
+use super::reference;
 
 struct Counting;
 
@@ -48,7 +47,7 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn alpha_steps_do_not_allocate() {
     let runs = [1, 3].map(|split| (split, NewtonMatrix::Full, MassKind::Consistent));
-    let slider_crank = include_str!("../examples/slider_crank.toml");
+    let slider_crank = include_str!("../../examples/slider_crank.toml");
     let arms = runs
         .into_iter()
         .chain([(3, NewtonMatrix::Modified, MassKind::Consistent)])
@@ -74,7 +73,7 @@ fn alpha_steps_do_not_allocate() {
     // Dense factors: the four-bar's flexible coupler fills more than half the triangle.
     let four_bar = (
         "four-bar".to_string(),
-        scene::parse_toml(include_str!("../examples/four_bar.toml")).unwrap(),
+        scene::parse_toml(include_str!("../../examples/four_bar.toml")).unwrap(),
         NewtonMatrix::Full,
         1e-3,
         MassKind::Consistent,
@@ -266,10 +265,10 @@ weights = [1.0, 2.0, 1.0]
 /// gravity, a spring-damper and a follower load.
 #[test]
 fn lie_group_alpha_steps_do_not_allocate() {
-    use flextop::group::{so3, Frame};
-    use flextop::spatial::integrator::SpatialIntegrator;
-    use flextop::spatial::joint::{Anchor, JointKind};
-    use flextop::spatial::model::SpatialModel;
+    use crate::group::{so3, Frame};
+    use crate::spatial::integrator::SpatialIntegrator;
+    use crate::spatial::joint::{Anchor, JointKind};
+    use crate::spatial::model::SpatialModel;
     use nalgebra::{Matrix3, Vector3};
 
     let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -9.81)).unwrap();
@@ -304,8 +303,8 @@ fn lie_group_alpha_steps_do_not_allocate() {
             Anchor::Ground(Vector3::zeros()),
         )
         .unwrap();
-    let law = flextop::motion::Table::new(vec![0.0, 0.02, 0.05], vec![0.0, 0.01, 0.05], [0.0, 2.0]);
-    m.add_drive(root, flextop::motion::Motion::Table(law))
+    let law = crate::motion::Table::new(vec![0.0, 0.02, 0.05], vec![0.0, 0.01, 0.05], [0.0, 2.0]);
+    m.add_drive(root, crate::motion::Motion::Table(law))
         .unwrap();
     m.add_joint(
         "middle",
@@ -336,7 +335,7 @@ fn lie_group_alpha_steps_do_not_allocate() {
         None,
     )
     .unwrap();
-    let push = flextop::load::TimeFunction::Table {
+    let push = crate::load::TimeFunction::Table {
         t: vec![0.0, 0.05],
         value: vec![0.0, 1.0],
     };
@@ -367,14 +366,14 @@ fn lie_group_alpha_steps_do_not_allocate() {
             m.add_node(&format!("tail{i}"), frame).unwrap()
         })
         .collect();
-    let tube = flextop::spatial::section::Shape::HollowCircle {
+    let tube = crate::spatial::section::Shape::HollowCircle {
         outer: 0.02,
         inner: 0.016,
     }
     .geometry(0.33)
     .unwrap();
-    let section = flextop::spatial::section::Section::new(&tube, 7e10, 2.6e10, 2700.0)
-        .with_rayleigh(0.5, 1e-4);
+    let section =
+        crate::spatial::section::Section::new(&tube, 7e10, 2.6e10, 2700.0).with_rayleigh(0.5, 1e-4);
     for i in 0..2 {
         m.add_beam(
             &format!("tail{i}"),

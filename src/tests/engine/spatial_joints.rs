@@ -2,14 +2,14 @@
 //! period, a slider-crank built in space against its closed-form kinematics and the drive's
 //! work against the energy it gives.
 
-use flextop::group::{so3, Frame};
-use flextop::motion::{Motion, Table};
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::State;
+use crate::group::{so3, Frame};
+use crate::motion::{Motion, Table};
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::State;
 use nalgebra::{Matrix3, Vector3};
 
-use crate::spatial::run;
+use super::spatial::run;
 
 const G: f64 = 9.81;
 
@@ -229,7 +229,7 @@ fn the_drive_works_as_the_energy_changes() {
 /// it, on a grid that steps over the kinks by a hair, it would ring after each.
 #[test]
 fn a_drive_restarts_at_its_kinks() {
-    use flextop::motion::Trapezoidal;
+    use crate::motion::Trapezoidal;
     let n = Vector3::new(0.3, -0.2, 1.0).normalize();
     let r0 = so3::exp(&Vector3::new(0.2, 0.4, -0.1));
     let j = Matrix3::new(0.3, 0.02, 0.0, 0.02, 0.2, 0.01, 0.0, 0.01, 0.25);
@@ -281,10 +281,10 @@ fn a_drive_restarts_at_its_kinks() {
 }
 
 fn run_on(model: &SpatialModel, rho_inf: f64, steps: Vec<f64>) -> Vec<State> {
-    flextop::spatial::integrator::simulate_spatial(
+    crate::spatial::integrator::simulate_spatial(
         model,
-        &crate::spatial::settings(rho_inf),
-        &flextop::TimeGrid::from_steps(steps),
+        &super::spatial::settings(rho_inf),
+        &crate::TimeGrid::from_steps(steps),
     )
     .unwrap()
 }

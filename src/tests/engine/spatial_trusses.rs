@@ -4,19 +4,19 @@
 
 use std::f64::consts::PI;
 
-use flextop::group::{Frame, NV};
-use flextop::load::TimeFunction;
-use flextop::spatial::integrator::simulate_spatial;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::modal::natural_modes_spatial;
-use flextop::spatial::model::SpatialModel;
-use flextop::spatial::section::{Section, Shape};
-use flextop::spatial::sensitivity::{static_sensitivities, Parameter, Response};
-use flextop::spatial::statics::solve_static_spatial;
-use flextop::{DynamicSettings, MassKind, Method, NewtonMatrix, StaticSettings, TimeGrid};
+use crate::group::{Frame, NV};
+use crate::load::TimeFunction;
+use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::modal::natural_modes_spatial;
+use crate::spatial::model::SpatialModel;
+use crate::spatial::section::{Section, Shape};
+use crate::spatial::sensitivity::{static_sensitivities, Parameter, Response};
+use crate::spatial::statics::solve_static_spatial;
+use crate::{DynamicSettings, MassKind, Method, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::spatial_sensitivity::check;
+use super::spatial_sensitivity::check;
 
 fn steel_rod() -> Section {
     let circle = Shape::SolidCircle { d: 0.02 }.geometry(0.3).unwrap();

@@ -2,17 +2,17 @@
 //! of re-run simulations (1e-6), direct against adjoint (1e-9), on the heavy top and on a
 //! mechanism with every joint kind and a drive.
 
-use flextop::group::Frame;
-use flextop::load::TimeFunction;
-use flextop::motion::{Motion, Table};
-use flextop::spatial::force::ForceKind;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::spatial::sensitivity::{sensitivities, Gradients, Parameter, Response};
-use flextop::{Method, TimeGrid};
+use crate::group::Frame;
+use crate::load::TimeFunction;
+use crate::motion::{Motion, Table};
+use crate::spatial::force::ForceKind;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::spatial::sensitivity::{sensitivities, Gradients, Parameter, Response};
+use crate::{Method, TimeGrid};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use crate::spatial::{settings, top_of};
+use super::spatial::{settings, top_of};
 
 /// `model` with parameter `p` moved by `e`.
 pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {

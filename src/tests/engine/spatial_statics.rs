@@ -2,12 +2,12 @@
 //! pendulum on an oblique hinge pushed sideways by a dead force, a motor holding a pendulum
 //! up; a motor too weak for any equilibrium named.
 
-use flextop::group::Frame;
-use flextop::load::TimeFunction;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::spatial::statics::solve_static_spatial;
-use flextop::{Error, NewtonMatrix, SolveError, StaticSettings};
+use crate::group::Frame;
+use crate::load::TimeFunction;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::spatial::statics::solve_static_spatial;
+use crate::{Error, NewtonMatrix, SolveError, StaticSettings};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 const G: f64 = 9.81;
@@ -217,7 +217,7 @@ fn a_torsion_spring_balances_a_motor() {
 /// so the steps are cut), and the body rests turned by the law's angle, to round-off.
 #[test]
 fn a_drive_carries_a_body_far_from_its_start() {
-    use flextop::motion::{Motion, Trapezoidal};
+    use crate::motion::{Motion, Trapezoidal};
     let d = 0.7;
     let mut m = SpatialModel::new(Vector3::new(0.0, 0.0, -G)).unwrap();
     let b = m

@@ -2,11 +2,11 @@
 //! dynamic compliance of paper Eq. 39, half of `Fᵀu` in a linear static solve (Clapeyron),
 //! with exact gradients.
 
-use flextop::scene;
-use flextop::{evaluate, of_equilibrium, of_motion, Memory, Method, Model, Recorded};
+use crate::scene;
+use crate::{evaluate, of_equilibrium, of_motion, Memory, Method, Model, Recorded};
 
-use crate::common::*;
-use crate::sensitivity::{check, check_gravity_truss, how, random_design, responses};
+use super::common::*;
+use super::sensitivity::{check, check_gravity_truss, how, random_design, responses};
 
 /// Values of `names` on state `q` of `model` at density `x`, held at rest for 0.1 s (a
 /// mean over the motion is then the state's value).
@@ -21,8 +21,8 @@ fn values_at(model: &Model, x: &[f64], q: &[f64], names: &[&str]) -> Vec<f64> {
         lam: &lam,
         times: &times,
         load_time: 0.0,
-        mass: flextop::MassKind::Consistent,
-        analysis: flextop::StaticAnalysis::Nonlinear,
+        mass: crate::MassKind::Consistent,
+        analysis: crate::StaticAnalysis::Nonlinear,
     };
     evaluate(model, Some(x), &recorded, &responses(model, names))
         .unwrap()
@@ -117,7 +117,7 @@ fn static_strain_energy_is_half_the_load_work_when_linear() {
 fn strain_energy_gradients_match_differences_and_each_other() {
     let arm = robot_arm(1, 70e9);
     let rs = responses(&arm, &["strain_energy", "strain_energy:link1"]);
-    let run = flextop::DynamicSettings {
+    let run = crate::DynamicSettings {
         tol: 1e-12,
         ..settings(0.6, 0.02, 0.8)
     };

@@ -5,19 +5,19 @@
 
 use std::f64::consts::PI;
 
-use flextop::group::{so3, Frame};
-use flextop::load::TimeFunction;
-use flextop::spatial::integrator::simulate_spatial;
-use flextop::spatial::joint::{Anchor, JointKind};
-use flextop::spatial::model::SpatialModel;
-use flextop::spatial::section::{Geometry, Section, Shape};
-use flextop::spatial::sensitivity::{Elements, Parameter, Response};
-use flextop::spatial::statics::solve_static_spatial;
-use flextop::Aggregation;
-use flextop::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
+use crate::group::{so3, Frame};
+use crate::load::TimeFunction;
+use crate::spatial::integrator::simulate_spatial;
+use crate::spatial::joint::{Anchor, JointKind};
+use crate::spatial::model::SpatialModel;
+use crate::spatial::section::{Geometry, Section, Shape};
+use crate::spatial::sensitivity::{Elements, Parameter, Response};
+use crate::spatial::statics::solve_static_spatial;
+use crate::Aggregation;
+use crate::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::spatial_sensitivity::{check, moved};
+use super::spatial_sensitivity::{check, moved};
 
 fn statics(load_steps: usize) -> StaticSettings {
     StaticSettings {
@@ -399,8 +399,8 @@ fn gradients_through_a_drives_restarts() {
 /// The flexible arm of three beams on an oblique hinge driven by a trapezoidal law with kinks
 /// at 0.02 s (on a grid of 4 ms), 0.15 and 0.17 s: the model, the hinge, the law and the
 /// hinge's point.
-fn driven_arm() -> (SpatialModel, usize, flextop::motion::Motion, Vector3<f64>) {
-    use flextop::motion::{Motion, Trapezoidal};
+fn driven_arm() -> (SpatialModel, usize, crate::motion::Motion, Vector3<f64>) {
+    use crate::motion::{Motion, Trapezoidal};
     let (mut m, _) = tube_arm([0.0, 0.0], Vector3::z());
     // The hinge 5 cm behind the root node: the drive's jump moves the node's translations,
     // which the beams' consistent mass couples to the next node's.
@@ -431,11 +431,11 @@ fn driven_arm() -> (SpatialModel, usize, flextop::motion::Motion, Vector3<f64>) 
 /// equilibrium.
 #[test]
 fn tip_deflection_from_the_rigid_trajectory() {
-    use flextop::spatial::rigid::rigid_trajectories;
-    use flextop::spatial::sensitivity::{sensitivities, static_sensitivities};
+    use crate::spatial::rigid::rigid_trajectories;
+    use crate::spatial::sensitivity::{sensitivities, static_sensitivities};
     let (mut m, hinge, law, offset) = driven_arm();
     let grid = TimeGrid::uniform(4e-3, 25);
-    let paths = rigid_trajectories(&m, &crate::spatial::settings(0.8), &grid, &[3]).unwrap();
+    let paths = rigid_trajectories(&m, &super::spatial::settings(0.8), &grid, &[3]).unwrap();
     let axis = nalgebra::Unit::new_normalize(Vector3::new(0.0, 0.3, 1.0));
     let tip = Vector3::new(1.2, 0.0, 0.0);
     let mut turned = 0.0f64;
@@ -455,9 +455,9 @@ fn tip_deflection_from_the_rigid_trajectory() {
     ];
     check(&m, 0.8, &grid, &deflection, &parameters);
     // The deflection is the flexible tip's: a stiffer arm follows its rigid path closer.
-    let s = crate::spatial::settings(0.8);
+    let s = super::spatial::settings(0.8);
     let d = |m: &SpatialModel| {
-        sensitivities(m, &s, &grid, &deflection, &[], flextop::Method::Adjoint)
+        sensitivities(m, &s, &grid, &deflection, &[], crate::Method::Adjoint)
             .unwrap()
             .values[0]
     };
@@ -479,14 +479,14 @@ fn tip_deflection_from_the_rigid_trajectory() {
             .unwrap();
         bare.joints.remove(0)
     };
-    let err = sensitivities(&free, &s, &grid, &deflection, &[], flextop::Method::Adjoint)
+    let err = sensitivities(&free, &s, &grid, &deflection, &[], crate::Method::Adjoint)
         .unwrap_err()
         .to_string();
     assert!(
         err.contains("tip_deflection") && err.contains("freedom"),
         "{err}"
     );
-    let err = static_sensitivities(&m, &statics(1), &deflection, &[], flextop::Method::Adjoint)
+    let err = static_sensitivities(&m, &statics(1), &deflection, &[], crate::Method::Adjoint)
         .unwrap_err()
         .to_string();
     assert!(err.contains("motion's"), "{err}");
@@ -591,8 +591,8 @@ fn a_free_rod_keeps_its_invariants() {
 /// whatever the stiffness).
 #[test]
 fn static_gradients() {
-    use flextop::spatial::sensitivity::static_sensitivities;
-    use flextop::Method;
+    use crate::spatial::sensitivity::static_sensitivities;
+    use crate::Method;
     let rectangle = Shape::Rectangle { b: 0.02, h: 0.03 }.geometry(0.3).unwrap();
     let section = Section::new(&rectangle, 2.1e11, 8e10, 7850.0);
     let points: Vec<Vector3<f64>> = (0..=6)

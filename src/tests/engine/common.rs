@@ -1,10 +1,9 @@
 //! Scenes and helpers shared by the engine tests.
 
-use flextop::scene;
-use flextop::{DynamicSettings, MassKind, Model, NewtonMatrix, StaticSettings, Trajectory};
+use crate::scene;
+use crate::{DynamicSettings, MassKind, Model, NewtonMatrix, StaticSettings, Trajectory};
 
-#[path = "../support/reference.rs"]
-pub mod reference;
+pub(crate) use crate::tests::reference;
 
 /// Aluminium, solid circle d = 20 mm (docs/reference-scenes.md).
 pub const ALUMINIUM: &str = "[sections.al]\nE = 70e9\nnu = 0.32\nrho = 2700.0\ndiameter = 0.02\n";
@@ -77,7 +76,7 @@ pub fn position(model: &Model, traj: &Trajectory, node: usize, k: usize) -> [f64
 
 /// Rigid tip position of the robot arm from the prescribed joint angles.
 pub fn rigid_tip(t: f64) -> [f64; 2] {
-    use flextop::motion::{Motion, Trapezoidal};
+    use crate::motion::{Motion, Trapezoidal};
     use std::f64::consts::PI;
     let law = Motion::Trapezoidal(Trapezoidal::new(PI / 3.0, PI / 2.0, 2.0, 0.5, 0.0));
     let th = law.at(t).angle;
