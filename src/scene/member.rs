@@ -8,6 +8,11 @@
 //! component `NAME`. Cells in `holes` are left out, with the nodes only they touched. Cells
 //! in `solid`, and by default those touching a node a joint or a beam attaches to (a ring
 //! around the joint that an optimizer cannot take away), are passive solid.
+//!
+//! With `split = s`, each cell is meshed by `s × s` elements sharing its density: the
+//! nodes between the cells' corners are named by their fractional place, `NAME[7/2,2]`
+//! (column 3½, row 2), and the corners keep their names, so that a scene's joints, loads
+//! and rings read the same nodes at every `s`.
 
 use std::collections::HashSet;
 
@@ -16,7 +21,7 @@ use super::mesh::Mesh;
 use super::spec::{MemberSpec, VoidSpec};
 use super::validate::{finite, non_negative, positive, Result};
 use crate::error::SceneError;
-use crate::limits::MAX_ELEMENTS;
+use crate::limits::{MAX_ELEMENTS, MAX_SPLIT};
 use crate::mechanism::element::quad::{PlaneMaterial, Quad};
 use crate::mechanism::element::void::EnergyInterpolation;
 use crate::mechanism::model::{Cell, Member};
@@ -34,23 +39,12 @@ pub(super) fn add_all(
     Ok(())
 }
 
-/// The member `m` at `path`: its grid nodes, then its cells row by row from the bottom,
-/// passive solid where `m.solid` says or, with `m.solid_at_joints`, where they touch a node
-/// in `attached`.
+/// The member `m` at `path`: its grid nodes, then its elements row by row from the bottom,
+/// `m.split × m.split` to a cell, passive solid where `m.solid` says or, with
+/// `m.solid_at_joints`, where one of the cell's elements touches a node in `attached`.
 fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) -> Result<()> {
     let material = material(path, m)?;
-    if m.nx == 0 || m.ny == 0 {
-        let msg = format!("needs nx >= 1 and ny >= 1 cells, got {} × {}", m.nx, m.ny);
-        return Err(SceneError::new(path, msg));
-    }
-    let cells = m.nx.checked_mul(m.ny);
-    if cells.is_none_or(|n| n > MAX_ELEMENTS.saturating_sub(mesh.cells.len())) {
-        let msg = format!(
-            "{} × {} cells: the model would have more than {MAX_ELEMENTS} elements",
-            m.nx, m.ny
-        );
-        return Err(SceneError::new(path, msg));
-    }
+    let grid = Grid::of(path, m, mesh.cells.len())?;
     let length = positive(&format!("{path}.length"), m.length)?;
     let height = positive(&format!("{path}.height"), m.height)?;
     let placement = Placement::of(mesh, path, &m.origin, m.angle, m.angle_deg)?;
@@ -65,50 +59,52 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
             "leave out every cell",
         ));
     }
-    let (columns, rows) = (m.nx + 1, m.ny + 1);
+    let (columns, rows) = (grid.nx + 1, grid.ny + 1);
     let mut touched = vec![false; columns * rows];
-    for (j, i) in (0..m.ny).flat_map(|j| (0..m.nx).map(move |i| (j, i))) {
-        if kept[j * m.nx + i] {
-            for (a, b) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
-                touched[b * columns + a] = true;
-            }
+    for (i, j) in grid.elements().filter(|&e| kept[grid.cell(e)]) {
+        for (a, b) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+            touched[b * columns + a] = true;
         }
     }
     let mut node = vec![usize::MAX; columns * rows];
     for j in 0..rows {
         for i in (0..columns).filter(|&i| touched[j * columns + i]) {
             let p = placement.position(local_coordinates(i, j, columns, rows, length, height));
-            node[j * columns + i] =
-                mesh.add_node(path, &format!("{}[{i},{j}]", m.name), p.x, p.y)?;
+            let name = format!("{}[{},{}]", m.name, grid.place(i), grid.place(j));
+            node[j * columns + i] = mesh.add_node(path, &name, p.x, p.y)?;
+        }
+    }
+    let corners = |(i, j): (usize, usize)| [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+    let mut at_joint = vec![false; m.nx * m.ny];
+    if m.solid_at_joints {
+        for e in grid.elements().filter(|&e| kept[grid.cell(e)]) {
+            let names = corners(e).map(|(a, b)| mesh.nodes[node[b * columns + a]].name.as_str());
+            at_joint[grid.cell(e)] |= names.iter().any(|n| attached.contains(n));
         }
     }
     let component = mesh.component(&m.name);
     let member = mesh.members.len();
     let first = mesh.cells.len();
     let void = energy_interpolation(m, path)?;
-    for j in 0..m.ny {
-        for i in (0..m.nx).filter(|&i| kept[j * m.nx + i]) {
-            let nodes = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
-                .map(|(a, b)| node[b * columns + a]);
-            let corners = nodes.map(|n| mesh.nodes[n].position);
-            let kernel = Quad::new(corners, material, m.cell.into()).map_err(|_| {
+    let mut variables = vec![None; m.nx * m.ny];
+    for e in grid.elements().filter(|&e| kept[grid.cell(e)]) {
+        let nodes = corners(e).map(|(a, b)| node[b * columns + a]);
+        let kernel = Quad::new(nodes.map(|n| mesh.nodes[n].position), material, m.cell.into())
+            .map_err(|_| {
                 SceneError::new(path, "a cell is too thin to mesh: length and height are below the round-off of the origin")
             })?;
-            let at_joint = m.solid_at_joints
-                && nodes
-                    .iter()
-                    .any(|&n| attached.contains(mesh.nodes[n].name.as_str()));
-            let designed = !(m.fixed || solid[j * m.nx + i] || at_joint);
-            let variable =
-                designed.then(|| mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
-            mesh.cells.push(Cell {
-                kernel,
-                nodes,
-                member,
-                variable,
-                void,
-            });
+        let c = grid.cell(e);
+        if variables[c].is_none() && !(m.fixed || solid[c] || at_joint[c]) {
+            let (i, j) = (c % m.nx, c / m.nx);
+            variables[c] = Some(mesh.variables.add(&format!("{}/cell[{i},{j}]", m.name)));
         }
+        mesh.cells.push(Cell {
+            kernel,
+            nodes,
+            member,
+            variable: variables[c],
+            void,
+        });
     }
     mesh.members.push(Member {
         name: m.name.clone(),
@@ -116,6 +112,79 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
         cells: first..mesh.cells.len(),
     });
     Ok(())
+}
+
+/// A member's mesh: `nx × ny` elements, `split × split` to each of its cells.
+struct Grid {
+    nx: usize,
+    ny: usize,
+    split: usize,
+    cells_x: usize,
+}
+
+impl Grid {
+    /// The mesh of member `m` at `path`, checked against the elements the model already
+    /// holds (`before`) and [`MAX_ELEMENTS`].
+    fn of(path: &str, m: &MemberSpec, before: usize) -> Result<Self> {
+        if m.nx == 0 || m.ny == 0 {
+            let msg = format!("needs nx >= 1 and ny >= 1 cells, got {} × {}", m.nx, m.ny);
+            return Err(SceneError::new(path, msg));
+        }
+        if !(1..=MAX_SPLIT).contains(&m.split) {
+            let msg = format!(
+                "must be a whole number of elements per cell in 1..={MAX_SPLIT}, got {}",
+                m.split
+            );
+            return Err(SceneError::new(format!("{path}.split"), msg));
+        }
+        let elements = [m.nx, m.ny, m.split, m.split]
+            .iter()
+            .try_fold(1usize, |n, &k| n.checked_mul(k));
+        if elements.is_none_or(|n| n > MAX_ELEMENTS.saturating_sub(before)) {
+            let msg = format!(
+                "{} × {} cells of {} × {} elements: the model would have more than {MAX_ELEMENTS} elements",
+                m.nx, m.ny, m.split, m.split
+            );
+            return Err(SceneError::new(path, msg));
+        }
+        Ok(Self {
+            nx: m.nx * m.split,
+            ny: m.ny * m.split,
+            split: m.split,
+            cells_x: m.nx,
+        })
+    }
+
+    /// The elements `(i, j)`, row by row from the bottom.
+    fn elements(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.ny).flat_map(move |j| (0..self.nx).map(move |i| (i, j)))
+    }
+
+    /// The index, row by row, of the cell element `(i, j)` lies in.
+    fn cell(&self, (i, j): (usize, usize)) -> usize {
+        (j / self.split) * self.cells_x + i / self.split
+    }
+
+    /// Grid line `k` of the mesh in cells: `k / split` whole, or as the reduced fraction
+    /// (`2/4` reads `1/2`: the same point has the same name at every split).
+    fn place(&self, k: usize) -> String {
+        let common = gcd(k, self.split);
+        let (numerator, denominator) = (k / common, self.split / common);
+        if denominator == 1 {
+            numerator.to_string()
+        } else {
+            format!("{numerator}/{denominator}")
+        }
+    }
+}
+
+/// The greatest common divisor of `a` and `b` (Euclid); `gcd(0, b) = b`.
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
 }
 
 /// The cells of member `m` that the rectangles `[i0, j0, i1, j1]` at `path` cover, row by
@@ -180,5 +249,34 @@ fn energy_interpolation(m: &MemberSpec, path: &str) -> Result<Option<EnergyInter
             }
             Ok(Some(EnergyInterpolation { threshold, ..default }))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_split_cell_names_its_inner_nodes_by_their_place_and_maps_its_elements() {
+        let m = MemberSpec {
+            nx: 3,
+            ny: 2,
+            split: 4,
+            ..Default::default()
+        };
+        let grid = Grid::of("members[0] (plate)", &m, 0).unwrap();
+        assert_eq!((grid.nx, grid.ny), (12, 8));
+        let places: Vec<String> = (0..=4).map(|k| grid.place(k)).collect();
+        assert_eq!(places, ["0", "1/4", "1/2", "3/4", "1"]);
+        assert_eq!(grid.place(10), "5/2");
+        // Element (5, 6) lies in cell (1, 1), the fifth row by row.
+        assert_eq!(grid.cell((5, 6)), 4);
+        assert_eq!(grid.elements().filter(|&e| grid.cell(e) == 4).count(), 16);
+        let zero = MemberSpec { split: 0, ..m };
+        let err = Grid::of("members[0] (plate)", &zero, 0).err().unwrap();
+        assert!(
+            err.to_string().contains("members[0] (plate).split"),
+            "{err}"
+        );
     }
 }

@@ -329,6 +329,11 @@ pub struct MemberSpec {
     pub nx: usize,
     /// Cells along the local y axis.
     pub ny: usize,
+    /// Elements per cell along each axis (1 if not given): each cell, one density, meshed
+    /// by `split × split` elements, as a bar's `split` meshes it; a run to a tolerance
+    /// refines a member by it.
+    #[serde(default = "one")]
+    pub split: usize,
     /// Extent along local x (m).
     pub length: f64,
     /// Extent along local y (m), centred on the axis.

@@ -270,6 +270,53 @@ def test_frequency_gradients_of_a_member_are_exact():
         assert np.abs(gradients[:, j] - difference).max() < 1e-8 * np.abs(gradients).max(), (j, difference)
 
 
+
+def split_cantilever(nx: int, ny: int, split: int, x: float) -> tuple[flextop.Simulation, np.ndarray]:
+    """A static steel cantilever member of ``nx × ny`` cells, ``split × split`` elements to a
+    cell, every node of its left edge pinned, a shear at its top right corner: the
+    simulation and the corner's displacement and gradient to the cells' densities at the
+    uniform design ``x``."""
+    s = Scene("cantilever", analysis="static")
+    s.member("plate", nx=nx, ny=ny, length=1.0, height=0.2, thickness=0.01, **STEEL, split=split,
+             solid_at_joints=False)
+    for k in range(ny * split + 1):
+        place = k // split if k % split == 0 else f"{k // np.gcd(k, split)}/{split // np.gcd(k, split)}"
+        s.pin(f"wall{k}", f"plate[0,{place}]")
+    s.load(f"plate[{nx},{ny}]", force=(0.0, -1e3))
+    sim = simulation(s)
+    response = f"displacement:plate[{nx},{ny}]:0,1"
+    return sim, sim.run_with_sensitivities(x, [response])
+
+
+@pytest.mark.parametrize("x", [1.0, 0.4])
+def test_a_split_member_is_the_finer_mesh_with_a_density_per_cell(x):
+    """A member of 4 × 2 cells split 2 × 2 is the member of 8 × 4 cells with each of its
+    cells' densities shared by the four elements in it: the same displacement to
+    round-off, and its gradient to a cell's density the sum of the finer member's to its
+    four; the cells' corners keep their names, the nodes between them are named by their
+    place."""
+    split, value = split_cantilever(4, 2, 2, x)
+    fine, fine_value = split_cantilever(8, 4, 1, x)
+    assert split.n_design == 8 and fine.n_design == 32
+    assert "plate[7/2,1/2]" in split.model.node_names and "plate[4,2]" in split.model.node_names
+    assert split.model.node_names[-1] == "plate[4,2]"
+    assert value.values[0] == pytest.approx(fine_value.values[0], rel=1e-12)
+    children = fine_value.gradients[0].reshape(4, 8)  # rows of the 8 × 4 cells
+    summed = children.reshape(2, 2, 4, 2).sum(axis=(1, 3)).ravel()
+    assert np.abs(value.gradients[0] - summed).max() <= 1e-10 * np.abs(summed).max()
+
+
+def test_an_error_estimate_of_a_scene_with_members_is_refused_by_name():
+    """An error estimate refines bars and steps, not a member's cells: a run to a tolerance
+    or a fixed run's estimate on the continuum arm is refused, naming its links, before
+    any run."""
+    sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=10, ny=4))
+    for run in (lambda: sim.run_with_sensitivities(0.5, ["tip_deflection"], rtol=1e-2),
+                lambda: flextop.Simulation(sim.spec, accuracy="fast").run(0.5),
+                lambda: sim.run(0.5).error_estimate("tip_deflection")):
+        with pytest.raises(flextop.SettingsError, match=r"continuum members \(link1, link2\).*split="):
+            run()
+
 @pytest.mark.parametrize(("change", "culprit"), [
     ({"nu": 0.5}, r"members\[0\] \(plate\)\.nu"),
     ({"thickness": 0.0}, r"members\[0\] \(plate\)\.thickness"),
@@ -278,6 +325,9 @@ def test_frequency_gradients_of_a_member_are_exact():
     ({"void_threshold": 1.5}, r"members\[0\] \(plate\)\.void_threshold: must lie in \(0, 1\)"),
     ({"void": "nonlinear", "void_threshold": 0.1}, r"members\[0\] \(plate\)\.void_threshold: .* none"),
     ({"void": "hollow"}, r"members\[0\]\.void: unknown value `hollow`, expected `linear_energy` or `nonlinear`"),
+    ({"split": 0}, r"members\[0\] \(plate\)\.split: must be a whole number of elements per cell in 1\.\.=1000, got 0"),
+    ({"split": 2000, "nx": 1, "ny": 1}, r"members\[0\] \(plate\)\.split: .* got 2000"),
+    ({"split": 400, "nx": 40, "ny": 20}, r"members\[0\] \(plate\): 40 × 20 cells of 400 × 400 elements: .* more than"),
 ])
 def test_bad_members_are_named(change, culprit):
     spec = {"name": "bad", "analysis": "static",

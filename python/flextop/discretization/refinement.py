@@ -173,11 +173,25 @@ def merged(steps: np.ndarray, k: int) -> np.ndarray:
     return np.add.reduceat(steps, np.arange(0, len(steps), k))
 
 
+def refined_alike(simulation: Simulation) -> None:
+    """Refuses an error estimate of a scene with continuum members: it refines bars and
+    steps, never a member's cells, and would leave their mesh's error out.
+
+    Raises :class:`SettingsError` naming the members."""
+    members = [m["name"] for m in simulation.spec.get("members", [])]
+    if members:
+        raise SettingsError(f"an error estimate (rtol, accuracy or a run's error) refines bars and steps, not the cells of "
+                            f"continuum members ({', '.join(members)}), whose mesh's error it would leave out: run on a "
+                            f"fixed step, each member's cells meshed as finely as wanted (split=)")
+
+
 def companions_of(run: _Run) -> tuple[_Run | None, _Run | None, _Run]:
     """The runs an error estimate of ``run`` compares with, made on first use: its steps
     merged in pairs and in fours, and twice the elements per bar on the steps merged in
-    pairs (a static scene: twice the elements per bar only)."""
+    pairs (a static scene: twice the elements per bar only). A scene with continuum members
+    is refused (:func:`refined_alike`)."""
     if run.companions is None:
+        refined_alike(run.simulation)
         steps, half, quarter = None, None, None
         simulation = run.simulation
         if simulation.analysis == "dynamic":
@@ -361,7 +375,9 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
     any run made at their discretization; a candidate reuses only a candidate's run. Judged on
     the values alone, a grid and steps one of the runs ``made`` already ran (of ``xv``: an
-    optimization's trial on the grid held) are read from it, not run again."""
+    optimization's trial on the grid held) are read from it, not run again. A scene with
+    continuum members is refused (:func:`refined_alike`)."""
+    refined_alike(simulation)
     duration = None if simulation.analysis == "static" else t_end(simulation, settings)
     if any(run.x is None or not np.array_equal(run.x, xv) for run in made):
         raise SettingsError("made: every run given must be of the design being run")

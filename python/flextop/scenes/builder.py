@@ -275,7 +275,7 @@ class Scene(SceneDict):
                fixed: bool = False, holes: Sequence[Sequence[int]] = (), solid: Sequence[Sequence[int]] = (),
                solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None,
                cell: str = "enhanced", void: str = "linear_energy",
-               void_threshold: float | None = None) -> Member:
+               void_threshold: float | None = None, split: int = 1) -> Member:
         """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
         at ``origin`` (coordinates or a node name) rotated by ``angle`` (rad), from ``x = 0``
         to ``length`` and centred on the local x axis, meshed by ``nx × ny`` four-node
@@ -298,7 +298,10 @@ class Scene(SceneDict):
         ``γ(x)`` a smoothed step at ``void_threshold``, 0.05 if not given, sharpness 500), on
         the cell's co-rotated displacement so that a turning link's void cells store no
         energy, so that void cells cannot turn inside out and stop a run; cells above about
-        0.12 are fully nonlinear. ``void = "nonlinear"`` keeps every cell nonlinear."""
+        0.12 are fully nonlinear. ``void = "nonlinear"`` keeps every cell nonlinear.
+        ``split`` meshes each cell, one density, by ``split × split`` elements: the cells'
+        corners keep their names ``NAME[i,j]``, the nodes between them are named by their
+        place in cells (``NAME[7/2,2]``: column 3½, row 2)."""
         entry = {"name": name, "nx": nx, "ny": ny, "length": length, "height": height, "thickness": thickness,
                  "E": E, "nu": nu, "rho": rho, "origin": _listed(origin), "angle": angle, "fixed": fixed}
         path = f"members[{len(self._spec.get('members', []))}] ({name})"
@@ -315,6 +318,8 @@ class Scene(SceneDict):
             entry["void"] = void
         if void_threshold is not None:
             entry["void_threshold"] = void_threshold
+        if split != 1:
+            entry["split"] = split
         self._spec.setdefault("members", []).append(entry)
         return Member(name, nx, ny, tuple(map(tuple, entry.get("holes", []))))
 
