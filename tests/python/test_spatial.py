@@ -384,8 +384,8 @@ def test_each_engines_optimum_of_the_papers_arm_is_an_optimum_of_the_other():
     scene ``from_planar``: the nz = 1 lattice, moving in its plane): each optimum, started
     from in the other engine's problem, is a KKT point there at once (no iteration), the two
     engines' objectives there within 0.3 % on the scene's grid (8e-4 and 2.4e-3 measured;
-    converged, ``benches/spatial_planar_optimum.py``). From the same start the two runs end at
-    different KKT points (d 1.1 % apart, max |Δx| 0.39): the problem has many, and the
+    converged, to rtol 1e-3, 3e-5 and 4e-4: BENCHMARKS.md). From the same start the two runs
+    end at different KKT points (d 1.3 % apart, max |Δx| 0.39): the problem has many, and the
     engines' small differences on the scene's grid steer MMA to different ones."""
     from flextop.problems import SpatialProblem, robot_arm_problem
 
