@@ -1,7 +1,9 @@
 //! A state of a model carried to the same scene with twice the elements per frame bar (a
-//! truss bar stays one element): each coarse node keeps its coordinates, and the node that
-//! splits a coarse element in two takes the element's own deformed shape at its middle
-//! ([`crate::mechanism::element::Kernel::middle`]: a beam's co-rotated cubic).
+//! truss bar stays one element) and per side of a member's cell: each coarse node keeps its
+//! coordinates, the node that splits a coarse element in two takes the element's own
+//! deformed shape at its middle ([`crate::mechanism::element::Kernel::middle`]: a beam's
+//! co-rotated cubic), and a node inside or on the side of a coarse cell the cell's
+//! bilinear interpolation of its corners.
 //!
 //! It serves as a guess, not as a result: a run on the refined model starts each step's
 //! Newton iterations from the prolonged coarse state ([`crate::simulate_guided`]).
@@ -21,6 +23,8 @@ enum Source {
     Node(usize),
     /// The middle of a coarse element.
     Middle(usize),
+    /// A point of a coarse member's cell, with the bilinear weights of its corners.
+    Cell(usize, [f64; 4]),
 }
 
 /// The map from a model's coordinates to those of the same scene with twice the elements
@@ -32,8 +36,9 @@ pub struct Prolongation {
 
 impl Prolongation {
     /// The prolongation from `coarse` to `fine`: bars are matched by name, the `k`-th
-    /// element of a coarse bar by the fine bar's elements `2k` and `2k + 1`, and nodes in
-    /// no bar by name.
+    /// element of a coarse bar by the fine bar's elements `2k` and `2k + 1`, members by
+    /// name, each fine member node a coarse one of its name or a point of the coarse cell
+    /// it lies in, and the other nodes by name.
     ///
     /// # Errors
     /// A [`SettingsError`] naming the bar or node where `fine` is not `coarse` with each
@@ -57,17 +62,19 @@ impl Prolongation {
                 fine_bars.get(bar.name.as_str()).map(|&k| &fine.bars[k]),
             )?;
         }
+        m.members()?;
         m.outside_bars()?;
         Ok(Self {
             sources: m.sources.into_iter().flatten().collect(),
         })
     }
 
-    /// The coarse node that fine node `node` is, or `None` for an element's middle.
+    /// The coarse node that fine node `node` is, or `None` for an element's middle or a
+    /// point of a cell.
     pub fn coarse_node(&self, node: usize) -> Option<usize> {
         match self.sources[node] {
             Source::Node(c) => Some(c),
-            Source::Middle(_) => None,
+            Source::Middle(_) | Source::Cell(..) => None,
         }
     }
 
@@ -79,6 +86,15 @@ impl Prolongation {
                 Source::Middle(e) => {
                     let el = &coarse.elements[e];
                     el.kernel.middle(&el.gather(q))
+                }
+                Source::Cell(c, weights) => {
+                    let mut value = [0.0; 3];
+                    for (&corner, w) in coarse.cells[c].nodes.iter().zip(weights) {
+                        for (v, &qi) in value.iter_mut().zip(&q[3 * corner..3 * corner + 3]) {
+                            *v += w * qi;
+                        }
+                    }
+                    value
                 }
             };
             out[3 * node..3 * node + 3].copy_from_slice(&value);
@@ -152,6 +168,81 @@ impl Matching<'_> {
             self.assign(last.nodes[1], Source::Node(b), pb)?;
         }
         Ok(())
+    }
+
+    /// The nodes of each member of `fine`, whose cells are the coarse member's split in two
+    /// along each side: a node of a coarse node's name is that node, any other the point of
+    /// the coarse cell it lies in.
+    fn members(&mut self) -> Result<(), SettingsError> {
+        let (coarse, fine) = (self.coarse, self.fine);
+        for member in &fine.members {
+            let Some(parent) = coarse.members.iter().find(|m| m.name == member.name) else {
+                return Err(mismatch(format!(
+                    "member {} is not in the coarse model",
+                    member.name
+                )));
+            };
+            if member.cells.len() != 4 * parent.cells.len() {
+                return Err(mismatch(format!(
+                    "member {} has {} cells, not four times the coarse {}",
+                    member.name,
+                    member.cells.len(),
+                    parent.cells.len()
+                )));
+            }
+            for node in member.cells.clone().flat_map(|c| fine.cells[c].nodes) {
+                if self.sources[node].is_some() {
+                    continue;
+                }
+                let at = fine.nodes[node].position;
+                if let Some(c) = coarse.node_index(&fine.nodes[node].name) {
+                    self.assign(node, Source::Node(c), coarse.nodes[c].position)?;
+                    continue;
+                }
+                let Some((cell, weights)) = self.locate(parent.cells.clone(), at) else {
+                    let name = &fine.nodes[node].name;
+                    return Err(mismatch(format!(
+                        "node {name} lies in no cell of member {}",
+                        member.name
+                    )));
+                };
+                let corners = coarse.cells[cell].nodes.map(|n| coarse.nodes[n].position);
+                let mapped = corners
+                    .iter()
+                    .zip(weights)
+                    .map(|(p, w)| w * p)
+                    .sum::<Vector2<f64>>();
+                self.assign(node, Source::Cell(cell, weights), mapped)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The coarse cell among `cells` that the point `at` lies in (on its sides too), and
+    /// the bilinear weights of its corners there: a member's cells are parallelograms, whose
+    /// map from `(ξ, η)` in the unit square is affine and inverted exactly.
+    fn locate(&self, cells: std::ops::Range<usize>, at: Vector2<f64>) -> Option<(usize, [f64; 4])> {
+        let slack = self.tol / self.coarse.size().max(f64::MIN_POSITIVE);
+        cells.into_iter().find_map(|c| {
+            let [p0, p1, _, p3] = self.coarse.cells[c]
+                .nodes
+                .map(|n| self.coarse.nodes[n].position);
+            let sides = nalgebra::Matrix2::from_columns(&[p1 - p0, p3 - p0]);
+            let local = sides.try_inverse()? * (at - p0);
+            let inside = |t: f64| (-slack..=1.0 + slack).contains(&t);
+            (inside(local.x) && inside(local.y)).then(|| {
+                let (xi, eta) = (local.x.clamp(0.0, 1.0), local.y.clamp(0.0, 1.0));
+                (
+                    c,
+                    [
+                        (1.0 - xi) * (1.0 - eta),
+                        xi * (1.0 - eta),
+                        xi * eta,
+                        (1.0 - xi) * eta,
+                    ],
+                )
+            })
+        })
     }
 
     /// The nodes in no bar (rigid bodies' centres), matched by name.

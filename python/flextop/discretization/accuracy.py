@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 
 from ..errors import SettingsError
+from .members import split_members
 from .tolerance import check_tolerance
 
 PRESETS: dict[str, float] = {"fast": 3e-2, "balanced": 1e-2, "accurate": 3e-3}
@@ -57,8 +58,11 @@ def split_by(spec: dict, factor: int) -> dict:
     """A copy of the scene dict with ``factor`` times the elements of every frame bar: the
     ``split`` of every ground structure and beam, and of every bar given its own in
     ``splits``. A truss bar stays one element (its axial behaviour is exact with one, and
-    more would be a mechanism)."""
+    more would be a mechanism). Every continuum member's cells ``factor × factor`` times
+    the elements, its rings and edge supports carried along
+    (:func:`~flextop.discretization.members.split_members`)."""
     spec = copy.deepcopy(spec)
+    split_members(spec, factor)
     trusses = set()
     for k, beam in enumerate(spec.get("beams", [])):
         if beam.get("kind") == "truss":

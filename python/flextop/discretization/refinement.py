@@ -1,5 +1,6 @@
 """Where a run's discretization comes from: the scene's own, copies of the scene with bars
-refined (levels: every bar alike, or graded bar by bar by :mod:`.indicator`), the companion
+refined (levels: every bar alike, or graded bar by bar by :mod:`.indicator`) and members'
+cells split (:mod:`.members`, every member alike), the companion
 runs of step doubling, and the loop that refines until the estimate of :mod:`.tolerance`
 meets the tolerance asked for.
 
@@ -26,6 +27,7 @@ from ..execution import side_by_side
 from ..responses import PEAK_LIMITED
 from . import indicator, tolerance
 from .accuracy import split_by
+from .members import split_members
 from .tolerance import Discretization
 
 class Simulation(Protocol):
@@ -96,15 +98,20 @@ class Levels:
         """The engine model at ``refinement``."""
         return self[refinement].model
 
-    def graded(self, factors: np.ndarray) -> Simulation:
-        """The scene with each bar's elements times its entry of ``factors``."""
-        if np.all(factors == factors[0]):
-            return self[int(factors[0])]
-        key = tuple(int(f) for f in factors)
+    def graded(self, factors: np.ndarray, cells: int = 1) -> Simulation:
+        """The scene with each bar's elements times its entry of ``factors`` and every
+        continuum member's cells ``cells × cells`` times
+        (:func:`~flextop.discretization.members.split_members`)."""
+        members = bool(self.base.spec.get("members"))
+        if np.all(factors == (cells if members or len(factors) == 0 else factors[0])):
+            return self[cells if members or len(factors) == 0 else int(factors[0])]
+        key = (cells if members else 1, *(int(f) for f in factors))
         made = self._refined.graded
         if key not in made:
             simulation: Any = type(self.base)
-            made[key] = simulation(indicator.refined_spec(self.base.spec, self.base.model.bars(), factors))
+            spec = indicator.refined_spec(self.base.spec, self.base.model.bars(), factors)
+            split_members(spec, cells)
+            made[key] = simulation(spec)
             while len(made) > GRADED_KEPT:
                 made.popitem(last=False)
         made.move_to_end(key)
@@ -122,12 +129,21 @@ class Levels:
 
     def at(self, d: Discretization, x: np.ndarray | None) -> Simulation:
         """The scene refined as ``d`` says for the design ``x``."""
-        return self.graded(self.factors(d, x))
+        return self.graded(self.factors(d, x), self.cells(d))
+
+    @staticmethod
+    def cells(d: Discretization) -> int:
+        """The factor on the elements along each side of every member's cell as ``d`` says:
+        its ``refinement`` (members are graded by no indicator), times ``d.uniform``."""
+        return d.uniform * d.refinement
 
     def elements(self, d: Discretization, x: np.ndarray | None) -> float:
-        """The elements of the scene refined as ``d`` says, over the scene's."""
+        """The elements of the scene refined as ``d`` says, over the scene's (bars'
+        elements and members' cells alike)."""
         elements = self.base.model.bars()["elements"]
-        return float(np.dot(elements, self.factors(d, x)) / max(1, sum(elements)))
+        cells = len(self.base.model.cells()["variable"]) if self.base.spec.get("members") else 0
+        refined = np.dot(elements, self.factors(d, x)) + cells * self.cells(d) ** 2
+        return float(refined / max(1, sum(elements) + cells))
 
 
 def t_end(simulation: Simulation, settings: dict[str, Any]) -> float:
@@ -173,25 +189,12 @@ def merged(steps: np.ndarray, k: int) -> np.ndarray:
     return np.add.reduceat(steps, np.arange(0, len(steps), k))
 
 
-def refined_alike(simulation: Simulation) -> None:
-    """Refuses an error estimate of a scene with continuum members: it refines bars and
-    steps, never a member's cells, and would leave their mesh's error out.
-
-    Raises :class:`SettingsError` naming the members."""
-    members = [m["name"] for m in simulation.spec.get("members", [])]
-    if members:
-        raise SettingsError(f"an error estimate (rtol, accuracy or a run's error) refines bars and steps, not the cells of "
-                            f"continuum members ({', '.join(members)}), whose mesh's error it would leave out: run on a "
-                            f"fixed step, each member's cells meshed as finely as wanted (split=)")
-
-
 def companions_of(run: _Run) -> tuple[_Run | None, _Run | None, _Run]:
     """The runs an error estimate of ``run`` compares with, made on first use: its steps
     merged in pairs and in fours, and twice the elements per bar on the steps merged in
-    pairs (a static scene: twice the elements per bar only). A scene with continuum members
-    is refused (:func:`refined_alike`)."""
+    pairs (a static scene: twice the elements per bar only), a continuum member's cells
+    split in two along each side."""
     if run.companions is None:
-        refined_alike(run.simulation)
         steps, half, quarter = None, None, None
         simulation = run.simulation
         if simulation.analysis == "dynamic":
@@ -375,9 +378,7 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
     any run made at their discretization; a candidate reuses only a candidate's run. Judged on
     the values alone, a grid and steps one of the runs ``made`` already ran (of ``xv``: an
-    optimization's trial on the grid held) are read from it, not run again. A scene with
-    continuum members is refused (:func:`refined_alike`)."""
-    refined_alike(simulation)
+    optimization's trial on the grid held) are read from it, not run again."""
     duration = None if simulation.analysis == "static" else t_end(simulation, settings)
     if any(run.x is None or not np.array_equal(run.x, xv) for run in made):
         raise SettingsError("made: every run given must be of the design being run")

@@ -45,6 +45,35 @@ fn prolongation_carries_rigid_motions_exactly() {
     }
 }
 
+/// A member of 3 × 2 cells, `split × split` elements to a cell, pinned at two corners,
+/// turned by 0.3 rad.
+fn member(split: usize) -> Model {
+    model(&format!(
+        "joints = [{{ kind = \"pin\", name = \"a\", node = \"plate[0,0]\" }}, \
+         {{ kind = \"pin\", name = \"b\", node = \"plate[0,2]\" }}]\n\
+         [[members]]\nname = \"plate\"\nnx = 3\nny = 2\nsplit = {split}\nlength = 0.3\n\
+         height = 0.2\nthickness = 0.01\nE = 70e9\nnu = 0.3\nrho = 2700.0\nangle = 0.3\n"
+    ))
+}
+
+#[test]
+fn prolongation_carries_a_members_rigid_motions_exactly_and_refuses_a_split_not_in_two() {
+    for (coarse, fine) in [(member(1), member(2)), (member(2), member(4))] {
+        let map = Prolongation::between(&coarse, &fine).unwrap();
+        let mut out = vec![f64::NAN; fine.n_dofs()];
+        map.apply(&coarse, &rigid_motion(&coarse, 2.5, [0.2, -0.1]), &mut out);
+        let want = rigid_motion(&fine, 2.5, [0.2, -0.1]);
+        let worst = out
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-12, "off by {worst:e}");
+    }
+    let err = Prolongation::between(&member(1), &member(3)).unwrap_err();
+    assert!(err.message.contains("not four times"), "{err}");
+}
+
 #[test]
 fn prolongation_refuses_a_model_that_is_not_split_in_two() {
     let err = Prolongation::between(&robot_arm(1, 70e9), &robot_arm(3, 70e9)).unwrap_err();
