@@ -60,9 +60,10 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
         ));
     }
     let (columns, rows) = (grid.nx + 1, grid.ny + 1);
+    let corners = |(i, j): (usize, usize)| [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
     let mut touched = vec![false; columns * rows];
-    for (i, j) in grid.elements().filter(|&e| kept[grid.cell(e)]) {
-        for (a, b) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+    for e in grid.elements().filter(|&e| kept[grid.cell(e)]) {
+        for (a, b) in corners(e) {
             touched[b * columns + a] = true;
         }
     }
@@ -74,7 +75,6 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
             node[j * columns + i] = mesh.add_node(path, &name, p.x, p.y)?;
         }
     }
-    let corners = |(i, j): (usize, usize)| [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
     let mut at_joint = vec![false; m.nx * m.ny];
     if m.solid_at_joints {
         for e in grid.elements().filter(|&e| kept[grid.cell(e)]) {

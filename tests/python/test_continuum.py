@@ -344,7 +344,7 @@ def test_a_member_is_refined_to_a_tolerance_and_its_estimate_is_honest():
 
 def test_a_refined_members_rings_and_edge_supports_reach_the_new_nodes():
     """Splitting a member's cells in two puts a node between each two neighbours of a
-    ring's list and between two neighbouring nodes pinned alike; nodes that are no
+    ring's list (a loop's last and first too) and between two neighbouring nodes pinned alike; nodes that are no
     neighbours, a driven pin and a different roller axis are left as they are."""
     s = Scene("edges", analysis="static")
     m = s.member("plate", nx=4, ny=2, length=0.4, height=0.2, thickness=0.01, **STEEL)
@@ -353,12 +353,15 @@ def test_a_refined_members_rings_and_edge_supports_reach_the_new_nodes():
     s.roller("r1", m.node(3, 0), axis=(0.0, 1.0))
     s.ring("end", [m.node(4, 0), m.node(4, 1), m.node(4, 2)], kind="averaging", weights=[1.0, 2.0, 4.0])
     s.ring("corners", [m.node(0, 0), m.node(4, 2)])
+    s.ring("around", [m.node(1, 0), m.node(2, 0), m.node(2, 1), m.node(1, 1)])
     refined = split_by(s.to_dict(), 2)
     assert refined["members"][0]["split"] == 2
     rings = {r["name"]: r for r in refined["rings"]}
     assert rings["end"]["nodes"] == ["plate[4,0]", "plate[4,1/2]", "plate[4,1]", "plate[4,3/2]", "plate[4,2]"]
     assert rings["end"]["weights"] == [1.0, 1.5, 2.0, 3.0, 4.0]
     assert rings["corners"]["nodes"] == ["plate[0,0]", "plate[4,2]"]
+    assert rings["around"]["nodes"] == ["plate[1,0]", "plate[3/2,0]", "plate[2,0]", "plate[2,1/2]", "plate[2,1]",
+                                        "plate[3/2,1]", "plate[1,1]", "plate[1,1/2]"]
     added = {j["name"]: j["node"] for j in refined["joints"][len(s.to_dict()["joints"]):]}
     assert added == {"wall0@plate[0,1/2]": "plate[0,1/2]", "wall1@plate[0,3/2]": "plate[0,3/2]"}
     twice = split_by(refined, 2)

@@ -66,28 +66,23 @@ def _between(a: str, b: str, splits: dict[str, int], factor: int) -> list[str]:
 
 def _refine_ring(ring: dict, splits: dict[str, int], factor: int) -> None:
     """The ring's nodes with those the split puts between neighbours listed one after the
-    other (a closed loop's last and first too where they are neighbours), and their
-    weights interpolated linearly."""
-    nodes = list(ring["nodes"])
-    weights = ring.get("weights")
-    pairs = list(zip(nodes, nodes[1:]))
-    if len(nodes) > 2:
-        pairs.append((nodes[-1], nodes[0]))
+    other (a loop of three or more nodes: its last and first too), and their weights
+    interpolated linearly."""
+    nodes, weights = list(ring["nodes"]), ring.get("weights")
+    closed = len(nodes) > 2
     refined_nodes, refined_weights = [], []
-    for k, (a, b) in enumerate(pairs):
-        if k < len(nodes):
-            refined_nodes.append(a)
-            if weights is not None:
-                refined_weights.append(weights[k])
-        inner = _between(a, b, splits, factor)
+    for k, a in enumerate(nodes):
+        refined_nodes.append(a)
+        if weights is not None:
+            refined_weights.append(weights[k])
+        if k + 1 == len(nodes) and not closed:
+            break
+        following = (k + 1) % len(nodes)
+        inner = _between(a, nodes[following], splits, factor)
         refined_nodes += inner
         if weights is not None and inner:
-            wa, wb = weights[k], weights[(k + 1) % len(nodes)]
+            wa, wb = weights[k], weights[following]
             refined_weights += [wa + (wb - wa) * t / factor for t in range(1, factor)]
-    if len(nodes) == 2:  # the loop of pairs left the last node out
-        refined_nodes.append(nodes[1])
-        if weights is not None:
-            refined_weights.append(weights[1])
     ring["nodes"] = refined_nodes
     if weights is not None:
         ring["weights"] = refined_weights

@@ -16,6 +16,7 @@ import math
 from time import perf_counter
 from collections import OrderedDict
 from dataclasses import replace
+from functools import cached_property
 from collections.abc import Sequence
 from typing import Any, Protocol
 
@@ -102,9 +103,10 @@ class Levels:
         """The scene with each bar's elements times its entry of ``factors`` and every
         continuum member's cells ``cells × cells`` times
         (:func:`~flextop.discretization.members.split_members`)."""
-        members = bool(self.base.spec.get("members"))
-        if np.all(factors == (cells if members or len(factors) == 0 else factors[0])):
-            return self[cells if members or len(factors) == 0 else int(factors[0])]
+        members = self.cell_count > 0
+        uniform = cells if members or len(factors) == 0 else int(factors[0])
+        if np.all(factors == uniform):
+            return self[uniform]
         key = (cells if members else 1, *(int(f) for f in factors))
         made = self._refined.graded
         if key not in made:
@@ -141,9 +143,13 @@ class Levels:
         """The elements of the scene refined as ``d`` says, over the scene's (bars'
         elements and members' cells alike)."""
         elements = self.base.model.bars()["elements"]
-        cells = len(self.base.model.cells()["variable"]) if self.base.spec.get("members") else 0
-        refined = np.dot(elements, self.factors(d, x)) + cells * self.cells(d) ** 2
-        return float(refined / max(1, sum(elements) + cells))
+        refined = np.dot(elements, self.factors(d, x)) + self.cell_count * self.cells(d) ** 2
+        return float(refined / max(1, sum(elements) + self.cell_count))
+
+    @cached_property
+    def cell_count(self) -> int:
+        """The scene's elements in continuum members."""
+        return len(self.base.model.cells()["variable"]) if self.base.spec.get("members") else 0
 
 
 def t_end(simulation: Simulation, settings: dict[str, Any]) -> float:
