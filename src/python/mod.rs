@@ -23,6 +23,10 @@ use pyo3::prelude::*;
 /// The extension module.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // NumPy's C API, loaded now rather than on the first array returned: loaded then, a
+    // Ctrl-C arriving during NumPy's import made rust-numpy panic (a `PanicException`)
+    // instead of raising `KeyboardInterrupt`.
+    numpy::PyArray1::<f64>::zeros(m.py(), 0, false);
     m.add_class::<model::PyModel>()?;
     m.add_class::<spatial::PySpatialModel>()?;
     m.add_function(wrap_pyfunction!(runs::simulate, m)?)?;
