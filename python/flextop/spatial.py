@@ -8,7 +8,13 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
-an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``effort:JOINT`` (``∫λ² dt`` of a driven joint's drive row), ``volume``
+an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``compliance`` (the mean strain energy
+``(1/t_f) ∫U dt`` over the motion, J, paper Eq. 39), ``effort:JOINT`` (``∫λ² dt`` of a driven
+joint's drive row), ``reaction:JOINT[:OPTIONS]`` (the force ``|F|`` the joint transmits, N: its
+rows that hold its points together, not a locked rotation's moment; at an equilibrium ``|F|``,
+over a motion a p-mean, ``p=8`` by default, or a KS mean, ``ks=RHO,scale=S``, its peak
+reported), ``torque:JOINT[:OPTIONS]`` (a drive's torque, N m, or a slide drive's force, N,
+condensed likewise), ``volume``
 (the beams' and bars' material volume ``Σ xᵢ Vᵢ``, m³) and ``volume:NAME`` (a ground
 structure's designed bars', paper Eq. 41 per link), ``mass`` and ``mass:NAME`` (``Σ m(xᵢ) Mᵢ``
 by the scene's mass law, kg), ``tip_deflection`` or
@@ -194,7 +200,8 @@ class SpatialSensitivities:
     gradient: np.ndarray
     variables: tuple[str, ...] = ()
     dfdx: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    #: The peak ``max |x^q σ|`` behind each ``stress`` response's mean, by name.
+    #: The peak behind each aggregated response's mean, by name: ``max |x^q σ|`` of a
+    #: ``stress``, ``max |F|`` of a ``reaction``, ``max |τ|`` of a ``torque``.
     peaks: dict[str, float] = field(default_factory=dict)
     #: The grid that ran, where it was chosen to meet a tolerance (``None``: the scene's).
     discretization: Discretization | None = None

@@ -347,6 +347,21 @@ impl Joint {
         self.drive.as_ref().map_or_else(Vec::new, |d| d.law.kinks())
     }
 
+    /// The rows that hold the points together, whose multipliers are the components of the
+    /// force the joint transmits (N) along orthonormal directions — the gap's three
+    /// components, or its two normal to a sliding joint's axis — not a locked rotation's
+    /// moments or the drive's row.
+    pub(crate) fn force_rows(&self) -> impl Iterator<Item = usize> + '_ {
+        (self.rows.iter().enumerate())
+            .filter(|(_, row)| row.alpha == Measure::Gap || row.beta == Measure::Gap)
+            .map(|(k, _)| k)
+    }
+
+    /// The drive's row among the joint's (the last), if driven.
+    pub fn drive_row_index(&self) -> Option<usize> {
+        self.drive.as_ref().map(|_| self.rows.len())
+    }
+
     /// Constraint rows, the drive's last.
     pub fn n_rows(&self) -> usize {
         self.rows.len() + usize::from(self.drive.is_some())

@@ -21,6 +21,8 @@
 //! the form used once `kr ≥ 1`): the `− 1` keeps the digits of a KS mean far below `s/ρ`,
 //! which `log Σ w cosh` would cancel away. When `r` grows, `S` is rescaled exactly.
 
+use super::arguments::{only, option, Options};
+
 /// How point values are condensed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Aggregation {
@@ -92,6 +94,17 @@ impl Aggregation {
                 (mean, 1.0 / (k * (sum + floor)))
             }
         }
+    }
+
+    /// The mean a response's options `p=P` or `ks=RHO,scale=S` name (none: a p-mean at the
+    /// default exponent), no other option accepted.
+    pub(crate) fn from_options(options: &Options) -> Result<Self, String> {
+        only(options, &["p", "ks", "scale"])?;
+        Self::parse(
+            option(options, "p"),
+            option(options, "ks"),
+            option(options, "scale"),
+        )
     }
 
     /// Parses `p=P` or `ks=RHO` with `scale=S` from `key=value` options.

@@ -2,7 +2,7 @@
 //! force, N) condensed over the motion, its squared integral, its work and the energy it
 //! draws.
 
-use super::arguments::{component_and_options, drive_rate, drive_row, only, option};
+use super::arguments::{component_and_options, drive_rate, drive_row, only};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::mechanism::model::Model;
 use crate::mechanism::parameter::Parameter;
@@ -66,17 +66,13 @@ pub(super) const ENERGY_DRAWN: Kind = Kind {
 fn parse_torque(model: &Model, rest: Option<&str>, rms: bool) -> Result<Box<dyn Family>, String> {
     let (joint, options) = component_and_options(rest)?;
     let joint = joint.ok_or("name the driven joint: torque:JOINT")?;
-    only(&options, if rms { &[] } else { &["p", "ks", "scale"] })?;
-    let row = drive_row(model, joint)?;
     let aggregation = if rms {
+        only(&options, &[])?;
         Aggregation::PMean { p: 2.0 }
     } else {
-        Aggregation::parse(
-            option(&options, "p"),
-            option(&options, "ks"),
-            option(&options, "scale"),
-        )?
+        Aggregation::from_options(&options)?
     };
+    let row = drive_row(model, joint)?;
     Ok(Box::new(Torque { row, aggregation }))
 }
 

@@ -3,7 +3,7 @@
 //! motion like a drive's torque, with its peak: what a bearing is sized by.
 
 use super::aggregation::Aggregation;
-use super::arguments::{component_and_options, joint_index, only, option};
+use super::arguments::{component_and_options, joint_index};
 use super::{Context, Family, Kind, Known, Partials, Sample, Weighting};
 use crate::joint::planar::Law;
 use crate::mechanism::model::Model;
@@ -24,7 +24,6 @@ pub(super) const KIND: Kind = Kind {
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
     let (name, options) = component_and_options(rest)?;
     let name = name.ok_or("name the joint: reaction:JOINT")?;
-    only(&options, &["p", "ks", "scale"])?;
     let j = joint_index(model, name)?;
     let rows: Vec<usize> = model
         .joint_rows(j)
@@ -33,11 +32,7 @@ fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {
     if rows.is_empty() {
         return Err(format!("joint '{name}' holds no position: it has no force"));
     }
-    let aggregation = Aggregation::parse(
-        option(&options, "p"),
-        option(&options, "ks"),
-        option(&options, "scale"),
-    )?;
+    let aggregation = Aggregation::from_options(&options)?;
     Ok(Box::new(Reaction { rows, aggregation }))
 }
 

@@ -191,6 +191,28 @@ pub enum Response {
         /// The elements it reads: every one where `None`.
         within: Option<Elements>,
     },
+    /// The force a joint transmits (N): `|F| = |(λₖ)|` over the rows that hold its points
+    /// together ([`Joint::force_rows`]: not a locked rotation's moment, not a drive's
+    /// torque), condensed over the run by a p-mean or KS mean (the trapezoidal weights over
+    /// `t_f`), its peak reported: what a bearing is sized by. At an equilibrium, `|F|`.
+    Reaction {
+        /// The joint.
+        joint: usize,
+        /// The mean over the run.
+        aggregation: Aggregation,
+    },
+    /// The torque (N m) or force (N) a drive applies, `τ = −λ` of its row, condensed over
+    /// the run as [`Response::Reaction`], its peak reported: what a motor is sized by.
+    Torque {
+        /// The driven joint.
+        joint: usize,
+        /// The mean over the run.
+        aggregation: Aggregation,
+    },
+    /// The mean compliance `(1/t_f) ∫ U dt` over the run (J, paper Eq. 39; the trapezoidal
+    /// rule on the run's grid). A motion's: at an equilibrium, the strain energy is
+    /// [`Response::StrainEnergy`].
+    Compliance,
 }
 
 impl Response {
@@ -202,6 +224,17 @@ impl Response {
                 relaxation,
                 within,
             } => Some((aggregation, relaxation, within)),
+            _ => None,
+        }
+    }
+
+    /// The mean a response condenses its point values by, with a peak reported: a
+    /// stress's, a reaction's, a torque's; `None` for the others.
+    fn aggregation(&self) -> Option<Aggregation> {
+        match *self {
+            Self::Stress { aggregation, .. }
+            | Self::Reaction { aggregation, .. }
+            | Self::Torque { aggregation, .. } => Some(aggregation),
             _ => None,
         }
     }
@@ -280,7 +313,7 @@ fn check(
                     ));
                 }
             }
-            Response::StrainEnergy | Response::Stress { .. } => {
+            Response::StrainEnergy | Response::Compliance | Response::Stress { .. } => {
                 if model.elements().next().is_none() {
                     return Err(SettingsError::new(
                         format!("responses[{k}]"),
@@ -302,6 +335,25 @@ fn check(
                         format!("joint {joint} has no row {row}"),
                     ));
                 }
+            }
+            Response::Reaction { joint, .. } | Response::Torque { joint, .. } => {
+                let why = match (model.joints.get(joint), r) {
+                    (None, _) => format!(
+                        "no joint {joint} (the mechanism has {})",
+                        model.joints.len()
+                    ),
+                    (Some(j), Response::Torque { .. }) if !j.is_driven() => {
+                        format!(
+                            "joint '{}' is not driven: only a drive has a torque",
+                            j.name
+                        )
+                    }
+                    (Some(j), Response::Reaction { .. }) if j.force_rows().next().is_none() => {
+                        format!("joint '{}' holds no point: it transmits no force", j.name)
+                    }
+                    _ => continue,
+                };
+                return Err(SettingsError::new(format!("responses[{k}]"), why));
             }
         }
     }
@@ -451,7 +503,7 @@ pub fn sensitivities(
             }
         }
     }
-    sweep.prepare_stresses(responses);
+    sweep.prepare_means(responses);
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     let swept = swept(parameters);
     let adjoint = match method {
@@ -512,6 +564,9 @@ pub fn static_sensitivities(
         Response::KineticEnergy => {
             Some("the kinetic energy is a motion's: an equilibrium has none")
         }
+        Response::Compliance => {
+            Some("the mean compliance is a motion's: at an equilibrium, use the strain energy U")
+        }
         _ => None,
     };
     if let Some((k, why)) =
@@ -531,7 +586,7 @@ pub fn static_sensitivities(
         h: 0.0,
     }];
     let mut sweep = Sweep::new(model, None, &states)?;
-    sweep.prepare_stresses(responses);
+    sweep.prepare_means(responses);
     let values = responses.iter().map(|r| sweep.value(r)).collect();
     sweep.factorize_equilibrium()?;
     let (all, swept) = (parameters, swept(parameters));
@@ -592,15 +647,15 @@ struct Sweep<'m> {
     /// The rates of those trajectories to each drive parameter asked for
     /// ([`rigid_trajectory_rates`]): a node, the parameter, a rate per state.
     rigid_rates: Vec<(usize, Parameter, Vec<Vector3<f64>>)>,
-    /// Each [`Response::Stress`]'s mean over the run.
-    means: Vec<(Response, StressMean)>,
+    /// Each aggregated response's mean over the run ([`Response::aggregation`]).
+    means: Vec<(Response, Mean)>,
 }
 
-/// A stress response's mean over the run and what its derivatives read: the reference `r`
-/// its sum is kept relative to (the peak) and `d mean/dS`
+/// An aggregated response's mean over the run and what its derivatives read: the
+/// reference `r` its sum is kept relative to (the peak) and `d mean/dS`
 /// ([`crate::response::aggregation`]).
 #[derive(Debug, Clone, Copy)]
-struct StressMean {
+struct Mean {
     mean: f64,
     peak: f64,
     slope: f64,
@@ -756,37 +811,119 @@ impl<'m> Sweep<'m> {
         })
     }
 
-    /// Each stress response's mean over the run, made once for its value and its seeds.
-    fn prepare_stresses(&mut self, responses: &[Response]) {
+    /// Each aggregated response's mean over the run, made once for its value and its
+    /// seeds.
+    fn prepare_means(&mut self, responses: &[Response]) {
         for r in responses {
-            if let Some((aggregation, relaxation, within)) = r.stress() {
-                if !self.means.iter().any(|(known, _)| known == r) {
-                    let mean = self.stress_mean(&aggregation, relaxation, within);
-                    self.means.push((*r, mean));
-                }
+            if r.aggregation().is_some() && !self.means.iter().any(|(known, _)| known == r) {
+                let mean = self.make_mean(r);
+                self.means.push((*r, mean));
             }
         }
     }
 
-    /// Each response's peak, a stress mean's (`None` for the others).
+    /// Each response's peak, an aggregated one's (`None` for the others).
     fn peaks(&self, responses: &[Response]) -> Vec<Option<f64>> {
         (responses.iter())
-            .map(|r| matches!(r, Response::Stress { .. }).then(|| self.mean_of(r).peak))
+            .map(|r| r.aggregation().map(|_| self.mean_of(r).peak))
             .collect()
     }
 
-    /// The mean of a stress response: the one [`Sweep::prepare_stresses`] made, or made
+    /// The mean of an aggregated response: the one [`Sweep::prepare_means`] made, or made
     /// now.
-    fn mean_of(&self, r: &Response) -> StressMean {
+    fn mean_of(&self, r: &Response) -> Mean {
         match self.means.iter().find(|(known, _)| known == r) {
             Some(&(_, mean)) => mean,
-            None => {
-                let (aggregation, relaxation, within) =
-                    r.stress()
-                        .unwrap_or((Aggregation::PMean { p: 2.0 }, 0.0, None));
-                self.stress_mean(&aggregation, relaxation, within)
+            None => self.make_mean(r),
+        }
+    }
+
+    /// The mean of an aggregated response over the run.
+    fn make_mean(&self, r: &Response) -> Mean {
+        match *r {
+            Response::Stress {
+                aggregation,
+                relaxation,
+                within,
+            } => self.stress_mean(&aggregation, relaxation, within),
+            Response::Reaction { joint, aggregation } => {
+                self.point_mean(&aggregation, |n| self.reaction(joint, n))
+            }
+            Response::Torque { joint, aggregation } => {
+                let k = self.drive_multiplier(joint);
+                self.point_mean(&aggregation, |n| self.states[n].lam[k])
+            }
+            _ => Mean {
+                mean: 0.0,
+                peak: 0.0,
+                slope: 0.0,
+            },
+        }
+    }
+
+    /// The p-mean or KS mean over the run of one value per state (the trapezoidal weights
+    /// over `t_f`; an equilibrium's one value): its peak first, then the sum relative to it.
+    fn point_mean(&self, a: &Aggregation, value: impl Fn(usize) -> f64) -> Mean {
+        let states = 0..self.states.len();
+        let peak = states.clone().map(|n| value(n).abs()).fold(0.0, f64::max);
+        let sum: f64 = states
+            .map(|n| self.weight(n) / self.duration() * a.point(value(n), peak).0)
+            .sum();
+        let (mean, slope) = a.mean(sum, peak);
+        Mean { mean, peak, slope }
+    }
+
+    /// A reaction's or a torque's mean's derivative to the multipliers at state `n`,
+    /// added to `lam`.
+    fn add_point_mean_seed(&self, r: &Response, n: usize, lam: &mut [f64]) {
+        let (Response::Reaction { joint, aggregation } | Response::Torque { joint, aggregation }) =
+            *r
+        else {
+            return;
+        };
+        let m = self.mean_of(r);
+        let w = m.slope * self.weight(n) / self.duration();
+        let at = &self.states[n].lam;
+        match *r {
+            Response::Reaction { joint, .. } => {
+                let force = self.reaction(joint, n);
+                if force == 0.0 {
+                    return;
+                }
+                let slope = w * aggregation.point(force, m.peak).1 / force;
+                for k in self.force_multipliers(joint) {
+                    lam[k] += slope * at[k];
+                }
+            }
+            _ => {
+                let k = self.drive_multiplier(joint);
+                lam[k] += w * aggregation.point(at[k], m.peak).1;
             }
         }
+    }
+
+    /// The multipliers of a joint's rows that hold its points together
+    /// ([`Joint::force_rows`]).
+    fn force_multipliers(&self, joint: usize) -> impl Iterator<Item = usize> + 'm {
+        let start = self.row_of(joint, 0);
+        self.model().joints[joint]
+            .force_rows()
+            .map(move |k| start + k)
+    }
+
+    /// The multiplier of a driven joint's drive row ([`check`] made sure it is driven).
+    fn drive_multiplier(&self, joint: usize) -> usize {
+        let row = self.model().joints[joint].drive_row_index().unwrap_or(0);
+        self.row_of(joint, row)
+    }
+
+    /// The magnitude of the force joint `joint` transmits at state `n` (N).
+    fn reaction(&self, joint: usize, n: usize) -> f64 {
+        let lam = &self.states[n].lam;
+        (self.force_multipliers(joint))
+            .map(|k| lam[k] * lam[k])
+            .sum::<f64>()
+            .sqrt()
     }
 
     /// Element `e`'s stresses at state `n` into `out`, how many, and their weight each in a
@@ -828,12 +965,7 @@ impl<'m> Sweep<'m> {
 
     /// The p-mean or KS mean of `x^q σ` over the run, the elements and their fibres: its
     /// peak first, then the sum relative to it.
-    fn stress_mean(
-        &self,
-        a: &Aggregation,
-        relaxation: f64,
-        within: Option<Elements>,
-    ) -> StressMean {
+    fn stress_mean(&self, a: &Aggregation, relaxation: f64, within: Option<Elements>) -> Mean {
         let total = self.total_length(within);
         let mut out = [0.0; MAX_FIBRES];
         let (mut peak, mut sum) = (0.0f64, 0.0);
@@ -852,7 +984,7 @@ impl<'m> Sweep<'m> {
             }
         }
         let (mean, slope) = a.mean(sum, peak);
-        StressMean { mean, peak, slope }
+        Mean { mean, peak, slope }
     }
 
     /// A stress mean's derivative to the states at state `n`, added to `eps`.
@@ -990,6 +1122,8 @@ impl<'m> Sweep<'m> {
                     .sum()
             }
             Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::Compliance => self.value(&Response::StrainEnergy) / self.duration(),
+            Response::Reaction { .. } | Response::Torque { .. } => self.mean_of(r).mean,
             Response::KineticEnergy => (0..self.states.len())
                 .map(|n| self.weight(n) * self.model().kinetic_energy(&self.states[n].qdot))
                 .sum(),
@@ -1075,6 +1209,9 @@ impl<'m> Sweep<'m> {
                 Some((element, true)) => self.energy(element),
                 _ => 0.0,
             },
+            (Response::Compliance, _) => {
+                self.explicit(&Response::StrainEnergy, p) / self.duration()
+            }
             (Response::KineticEnergy, _) => self.kinetic_rate(p),
             (Response::Deflection { node }, Parameter::Drive { .. }) => self.rigid_share(*node, p),
             _ => 0.0,
@@ -1164,13 +1301,17 @@ impl<'m> Sweep<'m> {
                 let gap = self.deflection(node, n) * (2.0 * self.weight(n) / self.duration());
                 eps[NV * node..NV * node + 3].copy_from_slice(gap.as_slice());
             }
-            Response::StrainEnergy => {
-                let w = self.weight(n);
+            Response::StrainEnergy | Response::Compliance => {
+                let mean = *r == Response::Compliance;
+                let w = self.weight(n) / if mean { self.duration() } else { 1.0 };
                 for e in self.model().elements() {
                     add_element_local(e, &(e.elastic_force(&self.states[n].q) * w), eps);
                 }
             }
             Response::Stress { .. } => self.add_stress_seed(r, n, eps),
+            Response::Reaction { .. } | Response::Torque { .. } => {
+                self.add_point_mean_seed(r, n, lam);
+            }
             // It reads the velocities only ([`Sweep::velocity_seed`]).
             Response::KineticEnergy => {}
         }

@@ -17,7 +17,8 @@ from conftest import lattice_cantilever
 import flextop
 from flextop import SettingsError, SpatialScene, SpatialSimulation
 from flextop.problems import SpatialProblem
-from test_spatial import flexible_pendulum
+from flextop.scenes import spatial_robot_arm, trapezoidal
+from test_spatial import G, flexible_pendulum
 
 E, NU = 2.1e11, 0.3
 
@@ -184,3 +185,61 @@ def test_the_mass_follows_the_mass_law_with_its_gradient():
     assert sim.run_with_sensitivities(x, ["volume"], ["E:box/bar0"]).gradient[0, 0] == 0.0
     with pytest.raises(SettingsError, match="'mass' to 'rho:box/bar0'"):
         sim.run_with_sensitivities(x, ["mass"], ["rho:box/bar0"])
+
+
+def spun_arm(*, omega: float, analysis: str = "dynamic", drive: dict | None = None) -> SpatialScene:
+    """A 2 kg body whose centre lies 0.3 m from a hinge about z, under gravity along −z,
+    turning at ``omega`` rad/s (or held by ``drive``), hinged to the ground at its ``pivot``."""
+    scene = SpatialScene("spun arm", gravity=(0.0, 0.0, -G), analysis=analysis)
+    scene.rigid_body("arm", mass=2.0, inertia=(0.01, 0.05, 0.05), position=(0.3, 0.0, 0.0),
+                     points={"pivot": (-0.3, 0.0, 0.0)}, velocity=(0.0, 0.3 * omega, 0.0),
+                     angular_velocity=(0.0, 0.0, omega))
+    scene.revolute("hinge", "ground", "arm.pivot", axis=(0.0, 0.0, 1.0), drive=drive)
+    scene.simulation(t_end=0.5, h=1e-3, rho_inf=0.9)
+    return scene
+
+
+def test_a_spun_body_loads_its_hinge_with_its_centripetal_force_and_its_weight():
+    """Turning freely at ω about a vertical hinge, the body pulls on it by m ω² r and
+    hangs on it by m g: |F| = m √((ω² r)² + g²), constant, which every p-mean of it is (a
+    KS mean is (s/ρ) ln cosh(ρ|F|/s)); the hinge's moments (its locked tilt) are not part of
+    the force. The peak is the largest value at a step: within 1e-3 (the scheme's first
+    steps, at ωh = 0.006)."""
+    sim = SpatialSimulation(spun_arm(omega=6.0))
+    run = sim.run_with_sensitivities(None, ["reaction:hinge", "reaction:hinge:p=2", "reaction:hinge:ks=50,scale=100"])
+    force = 2.0 * math.hypot(36.0 * 0.3, G)
+    expected = [force, force, 2.0 * math.log(math.cosh(force / 2.0))]
+    assert run.values == pytest.approx(expected, rel=1e-5)
+    assert run.peaks["reaction:hinge"] == pytest.approx(force, rel=1e-3)
+
+
+def test_a_drive_holding_an_arm_out_bears_its_weight_and_its_moment():
+    """Held level by its drive about a horizontal hinge, the arm's weight loads the hinge
+    with m g and the drive with the torque m g r: the equilibrium's closed forms, to
+    Newton's tolerance, with exact gradients to the arm's mass (g and g r)."""
+    scene = spun_arm(omega=0.0, analysis="static", drive=trapezoidal(0.0, 0.0, acceleration=1.0, speed=1.0))
+    spec = scene.to_dict()
+    spec["joints"][0]["axis"] = [0.0, 1.0, 0.0]
+    sim = SpatialSimulation(spec)
+    run = sim.run_with_sensitivities(None, ["reaction:hinge", "torque:hinge"], ["mass:arm"])
+    assert run.values == pytest.approx([2.0 * G, 2.0 * G * 0.3], rel=1e-9)
+    assert run.gradient[:, 0] == pytest.approx([G, G * 0.3], rel=1e-9)
+
+
+def test_reaction_and_torque_gradients_over_a_motion_are_exact():
+    """The spatial robot arm's shoulder and elbow reactions and its drives' torques (p-means
+    and a KS mean) to its bars' densities, direct against adjoint and against differences."""
+    sim = SpatialSimulation(spatial_robot_arm(nx=3, t_end=0.2, h=0.01))
+    rng = np.random.default_rng(5)
+    x = rng.uniform(0.3, 1.0, sim.n_design)
+    responses = ["reaction:lift", "reaction:fold:p=2", "torque:turn", "torque:lift:ks=20,scale=10", "compliance"]
+    assert_gradients(sim, x, responses, rng.choice(sim.n_design, 3, replace=False), 1e-4)
+
+
+@pytest.mark.parametrize(("name", "culprit"), [("reaction:nope", "nope"), ("torque:hinge", "not driven"),
+                                               ("reaction:hinge:q=1", "'q'"), ("reaction", "reaction"),
+                                               ("reaction:hinge:p=1", "p=1")])
+def test_bad_reactions_and_torques_are_named(name, culprit):
+    sim = SpatialSimulation(spun_arm(omega=1.0))
+    with pytest.raises(SettingsError, match=culprit):
+        sim.run_with_sensitivities(None, name)

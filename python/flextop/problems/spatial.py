@@ -7,7 +7,8 @@ subject to upper bounds on others, with ``x_min ≤ x ≤ 1`` (paper Section 3):
 seen by the optimizers as ``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1 ≤ 0``, so every
 function is of order one; ``f_ref`` is the objective at the first design evaluated unless
 given. Responses are those of :meth:`SpatialSimulation.run_with_sensitivities` by name
-(``tip_deflection``, ``strain_energy``, ``z:NODE``, ``effort:JOINT``, ``volume`` …); each
+(``tip_deflection``, ``strain_energy``, ``compliance``, ``z:NODE``, ``reaction:JOINT``,
+``torque:JOINT``, ``volume`` …); each
 evaluation is one run with its adjoint gradients of every response. A run that fails (a trial
 design too weak to carry its motion) becomes an :class:`~flextop.optimizers.EvaluationError`,
 which the optimizer recovers from by stepping back.
@@ -19,7 +20,7 @@ until every response and its gradient meet ``rtol``
 (:func:`flextop.discretization.spatial.to_tolerance`) — and every other evaluation runs on
 the grid held; the design a run returns is measured as it ends.
 
-A bound on a ``stress`` response bounds its peak, as on a planar scene
+A bound on a ``stress``, ``reaction`` or ``torque`` response bounds its peak, as on a planar scene
 (:class:`~flextop.problems.TopologyProblem`): the optimizer sees ``g = c P/b − 1``, ``P`` the
 p-mean or KS mean, ``c`` the ratio peak/P of the start design, moved once per iteration
 towards the ratio at the accepted design (damped by

@@ -3,9 +3,14 @@
 //!
 //! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
 //! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
-//! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only),
+//! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only), `compliance` (the mean
+//! strain energy `(1/t_f) ∫U dt`, J, paper Eq. 39; a motion's only),
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
-//! motor must give, integrated), `tip_deflection` and `tip_deflection:NAME` (the mean squared
+//! motor must give, integrated), `reaction:JOINT[:OPTIONS]` (the force the joint transmits,
+//! N, `|F|` over its rows that hold its points together, not a locked rotation's moment:
+//! a p-mean (`p=P`, 8 by default) or KS mean (`ks=RHO,scale=S`) over the run, its peak
+//! reported; at an equilibrium `|F|`), `torque:JOINT[:OPTIONS]` (a drive's torque, N m, or
+//! force, N, condensed likewise), `tip_deflection` and `tip_deflection:NAME` (the mean squared
 //! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
 //! trajectory, m², paper Eq. 40), `stress[:NAME][:OPTIONS]` (the relaxed stresses `x^q σ` of
 //! every beam's section points and every bar, or of beam or ground structure NAME's, von
@@ -28,6 +33,7 @@
 use super::SpatialScene;
 use crate::error::SettingsError;
 use crate::joint::motion::{LawParameter, Motion};
+use crate::response::aggregation::Aggregation;
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::section::{Dimension, Shape};
@@ -109,6 +115,33 @@ impl SpatialScene {
         Ok((named, engine))
     }
 
+    /// `reaction:JOINT[:OPTIONS]` or `torque:JOINT[:OPTIONS]` from their `kind` and what
+    /// follows it (module docs).
+    fn joint_mean(&self, kind: &str, rest: &str) -> std::result::Result<Response, String> {
+        let (name, options) = component_and_options(Some(rest))?;
+        let name = name.ok_or_else(|| format!("name the joint: {kind}:JOINT"))?;
+        let Some(joint) = self.model.joints.iter().position(|j| j.name == name) else {
+            return Err(format!("'{name}' is no joint of the scene"));
+        };
+        let aggregation = Aggregation::from_options(&options)?;
+        let this = &self.model.joints[joint];
+        if kind == "torque" {
+            if !this.is_driven() {
+                return Err(format!(
+                    "joint '{name}' is not driven: only a drive has a torque"
+                ));
+            }
+            return Ok(Response::Torque { joint, aggregation });
+        }
+        if this.force_rows().next().is_none() {
+            return Err(format!(
+                "joint '{name}' is {}: it holds no point, so it transmits no force",
+                this.kind.name()
+            ));
+        }
+        Ok(Response::Reaction { joint, aggregation })
+    }
+
     /// `stress[:NAME][:OPTIONS]` from what follows `stress:` (module docs).
     fn stress(&self, rest: Option<&str>) -> std::result::Result<Response, String> {
         let (component, options) = component_and_options(rest)?;
@@ -173,6 +206,7 @@ impl SpatialScene {
         match name {
             "strain_energy" => return Ok(Response::StrainEnergy),
             "kinetic_energy" => return Ok(Response::KineticEnergy),
+            "compliance" => return Ok(Response::Compliance),
             "tip_deflection" => {
                 let Some(tip) = &self.tip else {
                     return bad("the scene has no `tip`; write tip_deflection:NAME".into());
@@ -186,8 +220,9 @@ impl SpatialScene {
         }
         let Some((kind, what)) = name.split_once(':') else {
             return bad(
-                "responses are x:NAME, y:NAME, z:NAME, strain_energy, kinetic_energy, \
-                 effort:JOINT, tip_deflection[:NAME] or stress[:OPTIONS]"
+                "responses are x:NAME, y:NAME, z:NAME, strain_energy, compliance, \
+                 kinetic_energy, effort:JOINT, reaction:JOINT[:OPTIONS], \
+                 torque:JOINT[:OPTIONS], tip_deflection[:NAME] or stress[:OPTIONS]"
                     .into(),
             );
         };
@@ -218,8 +253,10 @@ impl SpatialScene {
                 let row = m.joints[joint].n_rows() - 1;
                 Ok(Response::Effort { joint, row })
             }
+            "reaction" | "torque" => self.joint_mean(kind, what).or_else(bad),
             _ => bad(format!(
-                "'{kind}' is not a response kind (x, y, z, strain_energy, kinetic_energy, effort, tip_deflection, stress)"
+                "'{kind}' is not a response kind (x, y, z, strain_energy, compliance, \
+                 kinetic_energy, effort, reaction, torque, tip_deflection, stress)"
             )),
         }
     }

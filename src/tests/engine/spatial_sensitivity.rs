@@ -5,6 +5,7 @@
 use crate::group::Frame;
 use crate::load::TimeFunction;
 use crate::motion::{Motion, Table};
+use crate::response::aggregation::Aggregation;
 use crate::spatial::force::ForceKind;
 use crate::spatial::joint::{Anchor, JointKind};
 use crate::spatial::model::SpatialModel;
@@ -327,9 +328,35 @@ fn every_joint_kind_has_exact_gradients() {
         Response::Position { body: 2, axis: 0 },
         Response::Position { body: 4, axis: 2 },
         Response::Effort { joint: 0, row: 5 },
-        // A reaction: the pin's force along x.
+        // A reaction's component: the pin's force along x.
         Response::Effort { joint: 1, row: 0 },
         Response::KineticEnergy,
+        // The forces the spherical pin, the prismatic slide (normal to its axis), the weld
+        // and the cylindrical sleeve transmit, and the drive's torque, condensed over the
+        // motion: p-means and a KS mean.
+        Response::Reaction {
+            joint: 1,
+            aggregation: Aggregation::PMean { p: 8.0 },
+        },
+        Response::Reaction {
+            joint: 3,
+            aggregation: Aggregation::PMean { p: 2.0 },
+        },
+        Response::Reaction {
+            joint: 4,
+            aggregation: Aggregation::KsMean {
+                rho: 20.0,
+                scale: 5.0,
+            },
+        },
+        Response::Reaction {
+            joint: 5,
+            aggregation: Aggregation::PMean { p: 4.0 },
+        },
+        Response::Torque {
+            joint: 0,
+            aggregation: Aggregation::PMean { p: 8.0 },
+        },
     ];
     let parameters = [
         Parameter::Mass { body: 0 },
