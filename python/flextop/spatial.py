@@ -25,7 +25,10 @@ drives must hold), ``stress[:NAME][:OPTIONS]`` (of every beam and bar, or of one
 structure ``NAME``: the relaxed stresses ``x^q σ`` of the solid material,
 von Mises at each beam section's edge points — stretch, both bendings and torsion — and axial
 in each truss bar, condensed over the run and the structure by a p-mean, ``p=8`` by default,
-or a KS mean, ``ks=RHO,scale=S``; ``q=`` the relaxation, 0.5 by default, Pa).
+or a KS mean, ``ks=RHO,scale=S``; ``q=`` the relaxation, 0.5 by default, Pa),
+``buckling[:NAME][:OPTIONS]`` (the same of the buckling ratios ``x^q b``, each element's
+compression over the Euler load ``π² E I_min / L²`` of its bar pin-ended, ``L`` the whole
+bar's length, of the solid section; zero in tension; dimensionless).
 Parameters by name: ``mass:BODY`` (kg), ``Ixx:BODY`` … ``Iyz:BODY`` (kg m²), ``k:SPRING``,
 ``c:SPRING``, ``torque:MOTOR``, ``E:BEAM`` and ``rho:BEAM`` (Pa, kg/m³), a dimension of
 a beam's section ``diameter:BEAM``, ``outer:BEAM``, ``inner:BEAM``, ``width:BEAM``,

@@ -34,6 +34,8 @@
 //! `ρAL/6 [2I I; I 2I]`, and half the element's rotary inertia at each end, a rigid body's
 //! `J Ω̇ + Ω × JΩ` there; gravity as `ρAL/2` at each end; Rayleigh's `α M` on both.
 
+use std::f64::consts::PI;
+
 use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::pair::{Pair, Stiffness};
@@ -64,6 +66,11 @@ pub struct Beam {
     /// The density its design variable gives it, 1 where none does (the stresses'
     /// relaxation reads it).
     pub density: f64,
+    /// The length of the bar it is part of (m), what its Euler load reads: its own unless
+    /// [`Beam::set_bar_length`] gave another.
+    pub bar_length: f64,
+    /// The solid section's smaller second moment `min(I₂, I₃)` (m⁴).
+    i_min: f64,
     /// `E_A`, `E_B` as matrices, kept with the offsets.
     axes: [Matrix3<f64>; 2],
     /// `κ₂GA, κ₃GA` as its section gives them, scaled with it: before MacNeal's flexibility.
@@ -125,11 +132,32 @@ impl Beam {
                 arms: [Vector3::zeros(); 2],
             },
             density: 1.0,
+            bar_length: length,
+            i_min: section.c_m[1].min(section.c_m[2]) / section.moduli[0],
             axes: offsets.map(|e| e.to_rotation_matrix().into_inner()),
             shear,
         };
         beam.reference = beam.measures(&beam.kinematics_of(frames[0], frames[1]));
         Some(beam)
+    }
+
+    /// Makes it part of a bar of `length` (m): what its Euler load reads.
+    pub(crate) fn set_bar_length(&mut self, length: f64) {
+        self.bar_length = length;
+    }
+
+    /// The compressive strain `π² I_min/(A L_b²)` at which its bar buckles pin-ended.
+    pub(crate) fn euler_strain(&self) -> f64 {
+        PI * PI * self.i_min / (self.section.area * self.bar_length.powi(2))
+    }
+
+    /// The buckling ratio's rate at fixed strains as its section's size moves at `rate`
+    /// ([`Beam::section_rate`]): `∂ ln b = A'/A − I_min'/I_min`, the smaller moment's
+    /// rate (of the first where the two are equal).
+    pub(crate) fn buckling_log_rate(&self, rate: &Section) -> f64 {
+        let c = &self.section.c_m;
+        let smaller = if c[1] <= c[2] { 1 } else { 2 };
+        rate.area / self.section.area - rate.c_m[smaller] / c[smaller]
     }
 
     /// Its section's stiffnesses scaled by `stiffness` (its Kelvin–Voigt damping with them)
@@ -563,6 +591,18 @@ impl Element for Beam {
             .map(|(w, fibre)| von_mises(&eps, fibre, self.section.moduli).1 * *w)
             .sum();
         Self::on_nodes(self.strain_matrix(&k), &self.axes).transpose() * slope
+    }
+
+    /// `max(−Γ₁, 0)/ε_E` of the stretch `Γ₁` (module docs), `ε_E` from [`Beam::euler_strain`].
+    fn buckling(&self, q: &[f64]) -> (f64, Local) {
+        let k = self.kinematics(q);
+        let stretch = self.strains(&k)[0];
+        if stretch >= 0.0 {
+            return (0.0, Local::zeros());
+        }
+        let per = 1.0 / self.euler_strain();
+        let b = Self::on_nodes(self.strain_matrix(&k), &self.axes);
+        (-stretch * per, -b.row(0).transpose() * per)
     }
 }
 

@@ -79,6 +79,13 @@ pub(crate) trait Element {
     /// `Σ_k w_k ∂σ_k/∂q` in the nodes' algebra at `q`, a weight `w_k` per fibre.
     fn stress_gradient(&self, q: &[f64], weights: &[f64]) -> Local;
 
+    /// Its buckling ratio at `q`, the compression over the Euler load `π² E I_min / L_b²`
+    /// of its bar pin-ended, of the solid section (`L_b` the bar's length, `I_min` its
+    /// section's smaller second moment; a bar clamped at its ends is stronger, so this is the
+    /// safe side): `max(−ε, 0)/ε_E`, `ε` its axial strain and `ε_E = π² I_min/(A L_b²)`. With
+    /// its derivative in the nodes' algebra (zero in tension).
+    fn buckling(&self, q: &[f64]) -> (f64, Local);
+
     /// Its nodes.
     fn nodes(&self) -> [usize; 2] {
         self.pair()

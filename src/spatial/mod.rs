@@ -45,3 +45,6 @@ pub(crate) mod assembly;
 pub(crate) mod element;
 
 pub(crate) mod stress;
+
+/// What a stress-like response reads at an element's points.
+pub use stress::Criterion;

@@ -44,6 +44,7 @@ use crate::spatial::model::SpatialModel;
 use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
 use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
 use crate::spatial::statics::solve_static_spatial;
+use crate::spatial::stress::Criterion;
 use crate::TimeGrid;
 
 /// A scene parameter of a spatial mechanism.
@@ -122,6 +123,13 @@ pub enum Parameter {
         /// The bar.
         truss: usize,
     },
+    /// A factor on a truss bar's buckling ratio, at 1: what a change of its section's size
+    /// does to it at fixed strain (`A'/A − I_min'/I_min`, the named size's factor), which
+    /// its stiffness and mass factors do not carry. Read by buckling responses alone.
+    TrussBuckling {
+        /// The bar.
+        truss: usize,
+    },
     /// A parameter of a joint's trapezoidal drive (its end, acceleration or speed, in rad,
     /// rad/s², rad/s on a revolute joint, m, m/s², m/s on a prismatic one): it moves the
     /// driven row `Φ = h(q) − g(t)` at every step, `g̈(0)` in the initial accelerations and
@@ -138,7 +146,10 @@ impl Parameter {
     /// Whether only responses read it (no force or constraint does): its derivative is
     /// the explicit one, with no sweep.
     fn explicit_only(&self) -> bool {
-        matches!(self, Self::BeamDensity { .. } | Self::TrussDensity { .. })
+        matches!(
+            self,
+            Self::BeamDensity { .. } | Self::TrussDensity { .. } | Self::TrussBuckling { .. }
+        )
     }
 }
 
@@ -180,10 +191,12 @@ pub enum Response {
         /// The node: the tip.
         node: usize,
     },
-    /// The relaxed stresses `x^q σ` of every beam's fibres and every bar (Pa), condensed over
-    /// the run, the elements and their fibres by a p-mean or KS mean
-    /// ([`crate::spatial::stress`]).
+    /// The relaxed stresses `x^q σ` of every beam's fibres and every bar (Pa), or their
+    /// buckling ratios `x^q b` (one per element), condensed over the run, the elements and
+    /// their points by a p-mean or KS mean ([`crate::spatial::stress`]).
     Stress {
+        /// What it reads at an element's points.
+        criterion: Criterion,
         /// The mean.
         aggregation: Aggregation,
         /// The relaxation exponent `q` in `[0, 1]`.
@@ -216,14 +229,16 @@ pub enum Response {
 }
 
 impl Response {
-    /// A stress mean's aggregation, relaxation and elements; `None` for the others.
-    fn stress(&self) -> Option<(Aggregation, f64, Option<Elements>)> {
+    /// A stress mean's criterion, aggregation, relaxation and elements; `None` for the
+    /// others.
+    fn stress(&self) -> Option<(Criterion, Aggregation, f64, Option<Elements>)> {
         match *self {
             Self::Stress {
+                criterion,
                 aggregation,
                 relaxation,
                 within,
-            } => Some((aggregation, relaxation, within)),
+            } => Some((criterion, aggregation, relaxation, within)),
             _ => None,
         }
     }
@@ -412,7 +427,8 @@ fn check(
             },
             Parameter::TrussStiffness { truss }
             | Parameter::TrussMass { truss }
-            | Parameter::TrussDensity { truss } => {
+            | Parameter::TrussDensity { truss }
+            | Parameter::TrussBuckling { truss } => {
                 if truss >= model.trusses.len() {
                     return Err(SettingsError::new(
                         format!("parameters[{k}]"),
@@ -842,10 +858,11 @@ impl<'m> Sweep<'m> {
     fn make_mean(&self, r: &Response) -> Mean {
         match *r {
             Response::Stress {
+                criterion,
                 aggregation,
                 relaxation,
                 within,
-            } => self.stress_mean(&aggregation, relaxation, within),
+            } => self.stress_mean(criterion, &aggregation, relaxation, within),
             Response::Reaction { joint, aggregation } => {
                 self.point_mean(&aggregation, |n| self.reaction(joint, n))
             }
@@ -926,16 +943,25 @@ impl<'m> Sweep<'m> {
             .sqrt()
     }
 
-    /// Element `e`'s stresses at state `n` into `out`, how many, and their weight each in a
-    /// stress mean (module docs of [`crate::spatial::stress`]; `total` the elements' length).
+    /// Element `e`'s values of `criterion` at state `n` into `out` (its fibres' stresses,
+    /// or its buckling ratio), how many, and their weight each in a stress mean (module docs
+    /// of [`crate::spatial::stress`]; `total` the elements' length).
     fn element_stresses(
         &self,
+        criterion: Criterion,
         n: usize,
         e: &dyn Element,
         total: f64,
         out: &mut [f64; MAX_FIBRES],
     ) -> (usize, f64) {
-        let count = e.stresses(&self.states[n].q, out);
+        let q = &self.states[n].q;
+        let count = match criterion {
+            Criterion::VonMises => e.stresses(q, out),
+            Criterion::Buckling => {
+                out[0] = e.buckling(q).0;
+                1
+            }
+        };
         let time = self.weight(n) / self.duration();
         (count, time * e.length() / (total * count as f64))
     }
@@ -965,14 +991,20 @@ impl<'m> Sweep<'m> {
 
     /// The p-mean or KS mean of `x^q σ` over the run, the elements and their fibres: its
     /// peak first, then the sum relative to it.
-    fn stress_mean(&self, a: &Aggregation, relaxation: f64, within: Option<Elements>) -> Mean {
+    fn stress_mean(
+        &self,
+        criterion: Criterion,
+        a: &Aggregation,
+        relaxation: f64,
+        within: Option<Elements>,
+    ) -> Mean {
         let total = self.total_length(within);
         let mut out = [0.0; MAX_FIBRES];
         let (mut peak, mut sum) = (0.0f64, 0.0);
         for pass in 0..2 {
             for n in 0..self.states.len() {
                 for e in self.stressed(within) {
-                    let (count, w) = self.element_stresses(n, e, total, &mut out);
+                    let (count, w) = self.element_stresses(criterion, n, e, total, &mut out);
                     let x = e.density().powf(relaxation);
                     for sigma in &out[..count] {
                         match pass {
@@ -989,18 +1021,22 @@ impl<'m> Sweep<'m> {
 
     /// A stress mean's derivative to the states at state `n`, added to `eps`.
     fn add_stress_seed(&self, r: &Response, n: usize, eps: &mut [f64]) {
-        let Some((aggregation, relaxation, within)) = r.stress() else {
+        let Some((criterion, aggregation, relaxation, within)) = r.stress() else {
             return;
         };
         let (m, total) = (self.mean_of(r), self.total_length(within));
         let (mut out, mut weights) = ([0.0; MAX_FIBRES], [0.0; MAX_FIBRES]);
+        let q = &self.states[n].q;
         for e in self.stressed(within) {
-            let (count, w) = self.element_stresses(n, e, total, &mut out);
+            let (count, w) = self.element_stresses(criterion, n, e, total, &mut out);
             let x = e.density().powf(relaxation);
             for (weight, sigma) in weights.iter_mut().zip(&out[..count]) {
                 *weight = m.slope * w * aggregation.point(x * sigma, m.peak).1 * x;
             }
-            let local = e.stress_gradient(&self.states[n].q, &weights[..count]);
+            let local = match criterion {
+                Criterion::VonMises => e.stress_gradient(q, &weights[..count]),
+                Criterion::Buckling => e.buckling(q).1 * weights[0],
+            };
             add_element_local(e, &local, eps);
         }
     }
@@ -1009,24 +1045,58 @@ impl<'m> Sweep<'m> {
     /// truss bar, number `index` of its kind): its relaxation's,
     /// `Σ ∂mean/∂(x^q σ) q x^{q−1} σ`; zero for an element the mean does not read.
     fn relaxation_rate(&self, r: &Response, e: &dyn Element, truss: bool, index: usize) -> f64 {
-        let Some((aggregation, relaxation, within)) = r.stress() else {
+        let Some((_, _, relaxation, _)) = r.stress() else {
+            return 0.0;
+        };
+        if relaxation == 0.0 {
+            return 0.0;
+        }
+        let x = e.density();
+        let rate = relaxation * x.powf(relaxation - 1.0);
+        self.point_sum(r, e, truss, index, |sigma| rate * sigma)
+    }
+
+    /// `∂mean/∂ ln b` of a buckling mean to a factor on one element's buckling ratios
+    /// (a beam, or a truss bar, number `index` of its kind): `Σ ∂mean/∂(x^q b) x^q b`;
+    /// zero for a von Mises mean or an element the mean does not read.
+    fn buckling_share(&self, r: &Response, e: &dyn Element, truss: bool, index: usize) -> f64 {
+        match r.stress() {
+            Some((Criterion::Buckling, _, relaxation, _)) => {
+                let relaxed = e.density().powf(relaxation);
+                self.point_sum(r, e, truss, index, |b| relaxed * b)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// `Σ ∂mean/∂(x^q σ) · f(σ)` over one element's points and the run, the element a beam
+    /// or a truss bar, number `index` of its kind; zero where the mean does not read it.
+    fn point_sum(
+        &self,
+        r: &Response,
+        e: &dyn Element,
+        truss: bool,
+        index: usize,
+        f: impl Fn(f64) -> f64,
+    ) -> f64 {
+        let Some((criterion, aggregation, relaxation, within)) = r.stress() else {
             return 0.0;
         };
         let read = within.is_none_or(|w| {
             let [a, b] = if truss { w.trusses } else { w.beams };
             (a..b).contains(&index)
         });
-        if relaxation == 0.0 || !read {
+        if !read {
             return 0.0;
         }
         let (m, total) = (self.mean_of(r), self.total_length(within));
-        let (x, mut out) = (e.density(), [0.0; MAX_FIBRES]);
-        let (relaxed, rate) = (x.powf(relaxation), relaxation * x.powf(relaxation - 1.0));
+        let relaxed = e.density().powf(relaxation);
+        let mut out = [0.0; MAX_FIBRES];
         let mut sum = 0.0;
         for n in 0..self.states.len() {
-            let (count, w) = self.element_stresses(n, e, total, &mut out);
+            let (count, w) = self.element_stresses(criterion, n, e, total, &mut out);
             for sigma in &out[..count] {
-                sum += w * aggregation.point(relaxed * sigma, m.peak).1 * rate * sigma;
+                sum += w * aggregation.point(relaxed * sigma, m.peak).1 * f(*sigma);
             }
         }
         m.slope * sum
@@ -1043,9 +1113,13 @@ impl<'m> Sweep<'m> {
     /// A stress response's explicit derivative to a beam's section size: its fibres moved,
     /// `Σ ∂mean/∂(x^q σ) x^q ∂σ/∂p` at fixed strains; zero for a beam the mean does not read.
     fn fibre_rate(&self, r: &Response, index: usize, dimension: Dimension) -> f64 {
-        let Some((aggregation, relaxation, within)) = r.stress() else {
+        let Some((criterion, aggregation, relaxation, within)) = r.stress() else {
             return 0.0;
         };
+        if criterion == Criterion::Buckling {
+            let (beam, rate) = self.size_rate(index, dimension);
+            return beam.buckling_log_rate(&rate) * self.buckling_share(r, beam, false, index);
+        }
         if !within.is_none_or(|w| (w.beams[0]..w.beams[1]).contains(&index)) {
             return 0.0;
         }
@@ -1055,7 +1129,7 @@ impl<'m> Sweep<'m> {
         let (mut out, mut moved) = ([0.0; MAX_FIBRES], [0.0; MAX_FIBRES]);
         let mut sum = 0.0;
         for n in 0..self.states.len() {
-            let (count, w) = self.element_stresses(n, beam, total, &mut out);
+            let (count, w) = self.element_stresses(criterion, n, beam, total, &mut out);
             beam.stress_rates(&rate, &self.states[n].q, &mut moved);
             for (sigma, sigma_rate) in out[..count].iter().zip(&moved) {
                 sum += w * aggregation.point(relaxed * sigma, m.peak).1 * relaxed * sigma_rate;
@@ -1195,6 +1269,9 @@ impl<'m> Sweep<'m> {
             }
             (Response::Stress { .. }, Parameter::TrussDensity { truss }) => {
                 self.relaxation_rate(r, &model.trusses[*truss], true, *truss)
+            }
+            (Response::Stress { .. }, Parameter::TrussBuckling { truss }) => {
+                self.buckling_share(r, &model.trusses[*truss], true, *truss)
             }
             (Response::StrainEnergy, Parameter::BeamSize { beam, dimension }) => {
                 let (beam, rate) = self.size_rate(*beam, *dimension);
@@ -1380,7 +1457,9 @@ impl<'m> Sweep<'m> {
                     None => ([None, None], local),
                 }
             }
-            Parameter::BeamDensity { .. } | Parameter::TrussDensity { .. } => ([None, None], local),
+            Parameter::BeamDensity { .. }
+            | Parameter::TrussDensity { .. }
+            | Parameter::TrussBuckling { .. } => ([None, None], local),
         }
     }
 

@@ -21,6 +21,17 @@
 
 use nalgebra::Vector6;
 
+/// What a stress-like response reads at an element's points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Criterion {
+    /// The von Mises stress at each fibre of a beam's section, a truss bar's axial stress
+    /// (Pa).
+    VonMises,
+    /// The buckling ratio, compression over its bar's Euler load (dimensionless, one point
+    /// per element; [`crate::spatial::element::Element::buckling`]).
+    Buckling,
+}
+
 use crate::spatial::section::Fibre;
 
 /// The von Mises stress at `fibre` of strains `eps = [Γ; κ]` in a material of moduli

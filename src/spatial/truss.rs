@@ -14,6 +14,8 @@
 //! `ρAL/2` at each end; Rayleigh's `α M`. A bar turns no node: a node only bars meet has
 //! no rotation ([`crate::spatial::model::SpatialModel::add_truss`]).
 
+use std::f64::consts::PI;
+
 use nalgebra::{Matrix3, Vector3};
 
 use crate::group::pair::{Pair, Stiffness};
@@ -42,6 +44,9 @@ pub struct Truss {
     /// The density its design variable gives it, 1 where none does (the stress's
     /// relaxation reads it).
     pub density: f64,
+    /// The compressive strain `π² I_min/(A L²)` at which it buckles, pin-ended, of the
+    /// solid section (`I_min` its smaller second moment).
+    pub euler_strain: f64,
     pub(crate) pair: Pair,
 }
 
@@ -65,6 +70,8 @@ impl Truss {
             length,
             modulus: section.moduli[0],
             density: 1.0,
+            euler_strain: PI * PI * section.c_m[1].min(section.c_m[2])
+                / (section.moduli[0] * section.area * length * length),
             pair: Pair {
                 nodes: [Some(nodes[0]), Some(nodes[1])],
                 arms: [Vector3::zeros(); 2],
@@ -177,6 +184,16 @@ impl Element for Truss {
     fn stress_gradient(&self, q: &[f64], weights: &[f64]) -> Local {
         let (n, ..) = self.geometry(q);
         Self::along(&n, weights[0] * self.modulus / self.length)
+    }
+
+    /// `max(−ε, 0)/ε_E` (module docs of [`Element::buckling`]).
+    fn buckling(&self, q: &[f64]) -> (f64, Local) {
+        let (n, _, strain) = self.geometry(q);
+        if strain >= 0.0 {
+            return (0.0, Local::zeros());
+        }
+        let per = 1.0 / self.euler_strain;
+        (-strain * per, Self::along(&n, -per / self.length))
     }
 }
 

@@ -111,7 +111,8 @@ def test_stress_gradients_of_a_lattice_in_equilibrium_are_exact(kind):
     sim = SpatialSimulation(scene)
     rng = np.random.default_rng(3)
     x = rng.uniform(0.2, 1.0, sim.n_design)
-    assert_gradients(sim, x, ["stress", "stress:p=16,q=0.3"], rng.choice(sim.n_design, 4, replace=False), 1e-4)
+    assert_gradients(sim, x, ["stress", "stress:p=16,q=0.3", "buckling", "buckling:ks=30,scale=0.01,q=0"],
+                     rng.choice(sim.n_design, 4, replace=False), 1e-4)
 
 
 @pytest.mark.parametrize(("name", "culprit"), [("stress:p=1", "p=1"), ("stress:q=2", "q=2"), ("stress:box", "box"),
@@ -243,3 +244,20 @@ def test_bad_reactions_and_torques_are_named(name, culprit):
     sim = SpatialSimulation(spun_arm(omega=1.0))
     with pytest.raises(SettingsError, match=culprit):
         sim.run_with_sensitivities(None, name)
+
+
+def test_a_compressed_column_reads_its_euler_ratio_and_its_sizes_rates():
+    """A 1 m steel column of a 12 × 30 mm rectangle in four elements, clamped and pushed
+    along its axis by P = 2 kN: every element reads the bar's ratio b = P L²/(π² E I_min),
+    L the whole bar's length and I_min = h w³/12 about the weak axis, so each mean and the
+    peak are b; its rates to the width and height are −3b/w and −b/h (N = P whatever the
+    size), through the strains and the Euler load together; in tension it reads zero."""
+    section = {"shape": "rectangle", "width": 0.012, "height": 0.03}
+    sim = cantilever(section, force=(-2000.0, 0.0, 0.0))
+    run = sim.run_with_sensitivities(None, ["buckling", "buckling:p=2,q=0"], ["width:rod", "height:rod"])
+    b = 2000.0 / (math.pi**2 * E * 0.03 * 0.012**3 / 12.0)
+    assert run.values == pytest.approx([b, b], rel=1e-9)
+    assert run.peaks["buckling"] == pytest.approx(b, rel=1e-9)
+    assert run.gradient[0] == pytest.approx([-3.0 * b / 0.012, -b / 0.03], rel=1e-6)
+    pulled = cantilever(section, force=(2000.0, 0.0, 0.0)).run_with_sensitivities(None, ["buckling"])
+    assert pulled.values[0] == 0.0

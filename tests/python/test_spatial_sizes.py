@@ -1,8 +1,8 @@
 """Gradients of spatial mechanisms to the sizes of their beams' sections: a circle's
 ``diameter``, a tube's ``outer`` and ``inner`` diameters, a rectangle's ``width`` and
 ``height``, on frame beams and on a truss bar. Over a driven motion (every response,
-the tip's deflection from its rigid trajectory and the stresses whose points move with
-the section included) and at an equilibrium, against fourth-order differences of scenes
+the tip's deflection from its rigid trajectory, the stresses whose points move with the
+section and the buckling ratios whose Euler loads do included) and at an equilibrium, against fourth-order differences of scenes
 rebuilt with the size changed and direct against adjoint; a cantilever's tip deflection
 against Timoshenko's closed form's derivative. Sizes a section does not have are refused."""
 
@@ -86,6 +86,13 @@ def test_section_sizes_over_a_motion(design):
     assert_exact(arm(), RESPONSES, x=x)
 
 
+def test_buckling_to_section_sizes_over_a_motion():
+    """The buckling means (the wire stay's compression dominates them) vary fast with the
+    upper tube's size: differences of steps of 1e-3 of each size are 3e-5 off the limit
+    that steps of 1e-4 reach to 4e-9, so they are taken at 1e-4."""
+    assert_exact(arm(), ["buckling", "buckling:stay:q=0", "buckling:fore"], step=1e-4)
+
+
 def test_section_sizes_at_an_equilibrium():
     spec = arm()
     spec["analysis"] = "static"
@@ -94,7 +101,7 @@ def test_section_sizes_at_an_equilibrium():
     spec["joints"][0].pop("axis")
     spec.setdefault("loads", []).append({"name": "push", "at": "end", "force": [0.0, 5.0, -20.0],
                                          "moment": [0.3, 0.0, 0.0]})
-    assert_exact(spec, ["strain_energy", "x:end", "y:end", "z:end", "stress"])
+    assert_exact(spec, ["strain_energy", "x:end", "y:end", "z:end", "stress", "buckling"])
 
 
 def test_cantilever_against_timoshenko():

@@ -337,7 +337,10 @@ fn beam(
             };
             model.add_beam(&name, pair[0], pair[1], section, up)
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<Vec<_>>>()?;
+    for &e in &elements {
+        model.beams[e].set_bar_length((xz - xa).norm());
+    }
     Ok(BeamElements {
         truss: false,
         elements,

@@ -14,7 +14,9 @@
 //! deflection of the scene's `tip`, or of a body's centre or a node, from its rigid
 //! trajectory, m², paper Eq. 40), `stress[:NAME][:OPTIONS]` (the relaxed stresses `x^q σ` of
 //! every beam's section points and every bar, or of beam or ground structure NAME's, von
-//! Mises, condensed over the run and the structure,
+//! Mises, condensed over the run and the structure; `buckling[:NAME][:OPTIONS]` the same of
+//! the buckling ratios `x^q b`, each element's compression over its bar's Euler load
+//! pin-ended (dimensionless, [`crate::spatial::element::Element::buckling`]),
 //! Pa, [`crate::spatial::stress`]; OPTIONS as a planar scene's: `p=P` a p-mean, 8 by
 //! default, or `ks=RHO,scale=S` a KS mean; `q=Q` the relaxation, 0.5 by default, 0 the solid
 //! material's stress).
@@ -38,6 +40,7 @@ use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::section::{Dimension, Shape};
 use crate::spatial::sensitivity::{Elements, Parameter, Response};
+use crate::spatial::stress::Criterion;
 
 type Result<T> = std::result::Result<T, SettingsError>;
 
@@ -82,6 +85,12 @@ impl SpatialScene {
             return bad(format!("'{what}'s section has {has}, no {kind}"));
         };
         let area = rate.area / geometry.area;
+        // The smaller second moment's rate (the first's where they are equal), for the
+        // Euler load of a truss bar's buckling ratio.
+        let moment = match geometry.i2 <= geometry.i3 {
+            true => rate.i2 / geometry.i2,
+            false => rate.i3 / geometry.i3,
+        };
         Ok(beam
             .elements
             .iter()
@@ -89,6 +98,7 @@ impl SpatialScene {
                 true => vec![
                     (Parameter::TrussStiffness { truss: e }, area),
                     (Parameter::TrussMass { truss: e }, area),
+                    (Parameter::TrussBuckling { truss: e }, area - moment),
                 ],
                 false => vec![(Parameter::BeamSize { beam: e, dimension }, 1.0)],
             })
@@ -142,12 +152,18 @@ impl SpatialScene {
         Ok(Response::Reaction { joint, aggregation })
     }
 
-    /// `stress[:NAME][:OPTIONS]` from what follows `stress:` (module docs).
-    fn stress(&self, rest: Option<&str>) -> std::result::Result<Response, String> {
+    /// `stress[:NAME][:OPTIONS]` or `buckling[:NAME][:OPTIONS]` from what follows their
+    /// kind's name (module docs).
+    fn stress(
+        &self,
+        criterion: Criterion,
+        rest: Option<&str>,
+    ) -> std::result::Result<Response, String> {
         let (component, options) = component_and_options(rest)?;
         let within = component.map(|c| self.elements_of(c)).transpose()?;
         let (aggregation, relaxation) = aggregation_and_relaxation(&options)?;
         Ok(Response::Stress {
+            criterion,
             aggregation,
             relaxation,
             within,
@@ -198,9 +214,14 @@ impl SpatialScene {
             let body = m.bodies.iter().find(|b| b.name == what).map(|b| b.node);
             body.or_else(|| m.nodes.iter().position(|n| n.name == what))
         };
-        if let Some(rest) = name.strip_prefix("stress") {
-            if rest.is_empty() || rest.starts_with(':') {
-                return self.stress(rest.strip_prefix(':')).or_else(&bad);
+        for (kind, criterion) in [
+            ("stress", Criterion::VonMises),
+            ("buckling", Criterion::Buckling),
+        ] {
+            if let Some(rest) = name.strip_prefix(kind) {
+                if rest.is_empty() || rest.starts_with(':') {
+                    return self.stress(criterion, rest.strip_prefix(':')).or_else(&bad);
+                }
             }
         }
         match name {
@@ -222,7 +243,8 @@ impl SpatialScene {
             return bad(
                 "responses are x:NAME, y:NAME, z:NAME, strain_energy, compliance, \
                  kinetic_energy, effort:JOINT, reaction:JOINT[:OPTIONS], \
-                 torque:JOINT[:OPTIONS], tip_deflection[:NAME] or stress[:OPTIONS]"
+                 torque:JOINT[:OPTIONS], tip_deflection[:NAME], stress[:OPTIONS] or \
+                 buckling[:OPTIONS]"
                     .into(),
             );
         };
@@ -256,7 +278,7 @@ impl SpatialScene {
             "reaction" | "torque" => self.joint_mean(kind, what).or_else(bad),
             _ => bad(format!(
                 "'{kind}' is not a response kind (x, y, z, strain_energy, compliance, \
-                 kinetic_energy, effort, reaction, torque, tip_deflection, stress)"
+                 kinetic_energy, effort, reaction, torque, tip_deflection, stress, buckling)"
             )),
         }
     }

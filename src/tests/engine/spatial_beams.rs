@@ -13,6 +13,7 @@ use crate::spatial::model::SpatialModel;
 use crate::spatial::section::{Geometry, Section, Shape};
 use crate::spatial::sensitivity::{Elements, Parameter, Response};
 use crate::spatial::statics::solve_static_spatial;
+use crate::spatial::stress::Criterion;
 use crate::Aggregation;
 use crate::{DynamicSettings, MassKind, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -342,12 +343,14 @@ fn flexible_pendulum_gradients() {
             aggregation: Aggregation::PMean { p: 8.0 },
         },
         Response::Stress {
+            criterion: Criterion::VonMises,
             aggregation: Aggregation::PMean { p: 8.0 },
             relaxation: 0.5,
             within: None,
         },
         // The middle beam's alone: the others' densities do not relax it.
         Response::Stress {
+            criterion: Criterion::VonMises,
             aggregation: Aggregation::PMean { p: 4.0 },
             relaxation: 1.0,
             within: Some(Elements {

@@ -56,6 +56,8 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         Parameter::TrussMass { truss } => m.trusses[truss].rho_a *= 1.0 + e,
         Parameter::BeamDensity { beam } => m.beams[beam].density += e,
         Parameter::TrussDensity { truss } => m.trusses[truss].density += e,
+        // A factor on its buckling ratio `−ε/ε_E`.
+        Parameter::TrussBuckling { truss } => m.trusses[truss].euler_strain /= 1.0 + e,
         Parameter::Drive { .. } | Parameter::BeamSize { .. } => unreachable!(
             "a drive's law and a section's size are moved by rebuilding their scene \
              (tests/python/test_spatial_drives.py, test_spatial_sizes.py)"
@@ -94,7 +96,8 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
         | Parameter::TrussStiffness { .. }
         | Parameter::TrussMass { .. }
         | Parameter::BeamDensity { .. }
-        | Parameter::TrussDensity { .. } => 1e-3,
+        | Parameter::TrussDensity { .. }
+        | Parameter::TrussBuckling { .. } => 1e-3,
         Parameter::Drive { .. } | Parameter::BeamSize { .. } => unreachable!("see `moved`"),
     }
 }

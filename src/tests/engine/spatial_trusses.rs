@@ -13,6 +13,8 @@ use crate::spatial::model::SpatialModel;
 use crate::spatial::section::{Section, Shape};
 use crate::spatial::sensitivity::{static_sensitivities, Parameter, Response};
 use crate::spatial::statics::solve_static_spatial;
+use crate::spatial::stress::Criterion;
+use crate::Aggregation;
 use crate::{DynamicSettings, MassKind, Method, NewtonMatrix, StaticSettings, TimeGrid};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -115,6 +117,31 @@ fn a_tripod_against_its_closed_forms() {
                 sink / 3.0
             );
         }
+    }
+    // Each leg carries `N = P L/(3h)` in compression: its buckling ratio `N L²/(π² E I)`,
+    // the mean of three equal ones, each a third of its rate to a factor on a leg's ratio.
+    let buckling = [Response::Stress {
+        criterion: Criterion::Buckling,
+        aggregation: Aggregation::PMean { p: 8.0 },
+        relaxation: 0.5,
+        within: None,
+    }];
+    let factors: Vec<Parameter> = (0..3)
+        .map(|truss| Parameter::TrussBuckling { truss })
+        .collect();
+    let g = static_sensitivities(&m, &statics(), &buckling, &factors, Method::Adjoint).unwrap();
+    let euler = PI * PI * section.c_m[1] / length.powi(2);
+    let ratio = p * length / (3.0 * h) / euler;
+    assert!(
+        (g.values[0] / ratio - 1.0).abs() < 1e-5,
+        "{} against {ratio}",
+        g.values[0]
+    );
+    for d in &g.gradient[0] {
+        assert!(
+            (d / (ratio / 3.0) - 1.0).abs() < 1e-5,
+            "{d} against {ratio}/3"
+        );
     }
     let (free, _) = tripod(h, r, 0.0);
     let modes =
