@@ -9,7 +9,8 @@ scene's ``[design]`` interpolation and its mass by its mass law.
 Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
 origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
 an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``compliance`` (the mean strain energy
-``(1/t_f) ∫U dt`` over the motion, J, paper Eq. 39), ``effort:JOINT`` (``∫λ² dt`` of a driven
+``(1/t_f) ∫U dt`` over the motion, J, paper Eq. 39; at an equilibrium ``Fᵀu``, the work of the
+dead forces and gravity, J, refused where a follower load, a moment or a motor acts), ``effort:JOINT`` (``∫λ² dt`` of a driven
 joint's drive row), ``reaction:JOINT[:OPTIONS]`` (the force ``|F|`` the joint transmits, N: its
 rows that hold its points together, not a locked rotation's moment; at an equilibrium ``|F|``,
 over a motion a p-mean, ``p=8`` by default, or a KS mean, ``ks=RHO,scale=S``, its peak

@@ -3,6 +3,8 @@
 //! physical, a joint whose points do not meet, initial rates the joints forbid — a
 //! [`SceneError`] naming it.
 
+use std::collections::{HashMap, HashSet};
+
 use nalgebra::{Matrix3, Vector3};
 
 use crate::body::spatial::Body;
@@ -54,6 +56,37 @@ pub struct SpatialModel {
     pub forces: Vec<Force>,
     /// Gravity (m/s²).
     pub gravity: Vector3<f64>,
+    /// The names its entries were added under.
+    names: Names,
+}
+
+/// The names each kind of entry was added under, and each node's index by its name (a
+/// body's node's too): duplicates checked and nodes found in constant time, so that a
+/// lattice of tens of thousands of bars builds in time proportional to its size.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Names {
+    nodes: HashMap<String, usize>,
+    taken: HashSet<(Entry, String)>,
+}
+
+/// A kind of named entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Entry {
+    Body,
+    Beam,
+    Truss,
+    Joint,
+    Force,
+}
+
+impl Names {
+    fn has(&self, entry: Entry, name: &str) -> bool {
+        self.taken.contains(&(entry, name.to_string()))
+    }
+
+    fn take(&mut self, entry: Entry, name: &str) {
+        self.taken.insert((entry, name.to_string()));
+    }
 }
 
 fn finite(path: &str, v: &Vector3<f64>) -> Result<(), SceneError> {
@@ -82,6 +115,7 @@ impl SpatialModel {
             joints: Vec::new(),
             forces: Vec::new(),
             gravity,
+            names: Names::default(),
         })
     }
 
@@ -100,7 +134,7 @@ impl SpatialModel {
         inertia: Matrix3<f64>,
     ) -> Result<usize, SceneError> {
         let path = format!("bodies.{name}");
-        if self.nodes.iter().any(|n| n.name == name) {
+        if self.names.nodes.contains_key(name) {
             return Err(SceneError::new(
                 path,
                 "a node or body of this name exists already",
@@ -114,11 +148,8 @@ impl SpatialModel {
             ));
         }
         check_inertia(&format!("{path}.inertia"), &inertia)?;
-        self.nodes.push(Node {
-            name: name.to_string(),
-            frame,
-            velocity: [0.0; NV],
-        });
+        self.push_node(name, frame);
+        self.names.take(Entry::Body, name);
         self.bodies.push(Body {
             name: name.to_string(),
             node: self.nodes.len() - 1,
@@ -136,19 +167,30 @@ impl SpatialModel {
     /// non-finite position or a rotation that is not a unit quaternion.
     pub fn add_node(&mut self, name: &str, frame: Frame) -> Result<usize, SceneError> {
         let path = format!("nodes.{name}");
-        if self.nodes.iter().any(|n| n.name == name) {
+        if self.names.nodes.contains_key(name) {
             return Err(SceneError::new(
                 path,
                 "a node or body of this name exists already",
             ));
         }
         check_frame(&path, &frame)?;
+        Ok(self.push_node(name, frame))
+    }
+
+    /// Adds a node at rest, its name indexed; returns its index.
+    fn push_node(&mut self, name: &str, frame: Frame) -> usize {
+        self.names.nodes.insert(name.to_string(), self.nodes.len());
         self.nodes.push(Node {
             name: name.to_string(),
             frame,
             velocity: [0.0; NV],
         });
-        Ok(self.nodes.len() - 1)
+        self.nodes.len() - 1
+    }
+
+    /// The node called `name` (a body's node by the body's name).
+    pub fn node_named(&self, name: &str) -> Option<usize> {
+        self.names.nodes.get(name).copied()
     }
 
     /// Adds a beam of `section` (at full density) from node `a` to node `b`, its section's
@@ -166,7 +208,7 @@ impl SpatialModel {
         up: Vector3<f64>,
     ) -> Result<usize, SceneError> {
         let path = format!("beams.{name}");
-        if self.beams.iter().any(|b| b.name == name) {
+        if self.names.has(Entry::Beam, name) {
             return Err(SceneError::new(path, "a beam of this name exists already"));
         }
         let node = |n: usize, end: &str| {
@@ -191,6 +233,7 @@ impl SpatialModel {
                 "its ends coincide, or `up` lies along it: a beam needs a length and a section's axis across it",
             )
         })?;
+        self.names.take(Entry::Beam, name);
         self.beams.push(beam);
         Ok(self.beams.len() - 1)
     }
@@ -211,7 +254,7 @@ impl SpatialModel {
         section: &Section,
     ) -> Result<usize, SceneError> {
         let path = format!("trusses.{name}");
-        if self.trusses.iter().any(|t| t.name == name) {
+        if self.names.has(Entry::Truss, name) {
             return Err(SceneError::new(
                 path,
                 "a truss bar of this name exists already",
@@ -234,6 +277,7 @@ impl SpatialModel {
         }
         let bar = Truss::new(name, [a, b], &xa, &xb, section)
             .ok_or_else(|| SceneError::new(&path, "its ends coincide: a bar needs a length"))?;
+        self.names.take(Entry::Truss, name);
         self.trusses.push(bar);
         Ok(self.trusses.len() - 1)
     }
@@ -272,7 +316,7 @@ impl SpatialModel {
         mass: f64,
     ) -> Result<usize, SceneError> {
         let path = format!("bodies.{name}");
-        if self.bodies.iter().any(|b| b.name == name) {
+        if self.names.has(Entry::Body, name) {
             return Err(SceneError::new(path, "a body of this name exists already"));
         }
         if node >= self.nodes.len() {
@@ -287,6 +331,7 @@ impl SpatialModel {
                 format!("{} kg: must be positive", short(mass)),
             ));
         }
+        self.names.take(Entry::Body, name);
         self.bodies.push(Body {
             name: name.to_string(),
             node,
@@ -353,7 +398,7 @@ impl SpatialModel {
         b: Anchor,
     ) -> Result<usize, SceneError> {
         let path = format!("joints.{name}");
-        if self.joints.iter().any(|j| j.name == name) {
+        if self.names.has(Entry::Joint, name) {
             return Err(SceneError::new(path, "a joint of this name exists already"));
         }
         let (node_a, arm_a) = self.resolve(&format!("{path}.a"), a)?;
@@ -389,6 +434,7 @@ impl SpatialModel {
                 format!("{what} in the initial configuration (by {}); place its bodies so that it holds", short(value)),
             ));
         }
+        self.names.take(Entry::Joint, name);
         self.joints.push(joint);
         Ok(self.joints.len() - 1)
     }
@@ -418,9 +464,15 @@ impl SpatialModel {
         }
     }
 
+    /// Adds a force element, its name taken.
+    fn push_force(&mut self, force: Force) {
+        self.names.take(Entry::Force, &force.name);
+        self.forces.push(force);
+    }
+
     fn new_force(&self, name: &str) -> Result<String, SceneError> {
         let path = format!("forces.{name}");
-        if self.forces.iter().any(|f| f.name == name) {
+        if self.names.has(Entry::Force, name) {
             return Err(SceneError::new(
                 path,
                 "a force element of this name exists already",
@@ -472,7 +524,7 @@ impl SpatialModel {
             damping: c,
             rest: rest.unwrap_or(length),
         };
-        self.forces.push(Force {
+        self.push_force(Force {
             name: name.to_string(),
             kind,
             pair,
@@ -525,7 +577,7 @@ impl SpatialModel {
                 ),
             ));
         }
-        self.forces.push(Force {
+        self.push_force(Force {
             name: name.to_string(),
             kind: ForceKind::Torsion {
                 stiffness: k,
@@ -574,7 +626,7 @@ impl SpatialModel {
             time,
             axis: rotation.transpose() * axis.normalize(),
         };
-        self.forces.push(Force {
+        self.push_force(Force {
             name: name.to_string(),
             kind,
             pair: j.pair.clone(),
@@ -619,7 +671,7 @@ impl SpatialModel {
             nodes: [node, None],
             arms: [arm, Vector3::zeros()],
         };
-        self.forces.push(Force {
+        self.push_force(Force {
             name: name.to_string(),
             kind,
             pair,
@@ -818,6 +870,68 @@ impl SpatialModel {
         bodies + elements + self.forces.iter().map(|f| f.potential(q)).sum::<f64>()
     }
 
+    /// Every dead force on a node at time `t`, as (node, its point in the node's frame,
+    /// the force): the loads' without moment (a ground point's left out) and each weight — a
+    /// body's `m g` at its centre, an element's `ρAL g/2` at each end.
+    fn dead_forces(
+        &self,
+        t: f64,
+    ) -> impl Iterator<Item = (usize, Vector3<f64>, Vector3<f64>)> + '_ {
+        let g = self.gravity;
+        let bodies = (self.bodies.iter()).map(move |b| (b.node, Vector3::zeros(), g * b.mass));
+        let elements = self.elements().flat_map(move |e| {
+            e.nodes()
+                .map(|n| (n, Vector3::zeros(), g * (0.5 * e.mass())))
+        });
+        let loads = self
+            .forces
+            .iter()
+            .filter_map(move |f| match (&f.kind, f.pair.nodes[0]) {
+                (ForceKind::Load { force, time, .. }, Some(node)) => {
+                    Some((node, f.pair.arms[0], force * time.at(t)))
+                }
+                _ => None,
+            });
+        bodies.chain(elements).chain(loads)
+    }
+
+    /// The force element a static compliance `Fᵀu` cannot count, by name: a follower load,
+    /// a load with a moment, a motor (`Fᵀu` is the work of dead forces).
+    pub(crate) fn beyond_load_work(&self) -> Option<&str> {
+        self.forces.iter().find_map(|f| match &f.kind {
+            ForceKind::Load {
+                moment, follower, ..
+            } if *follower || moment.norm() > 0.0 => Some(f.name.as_str()),
+            ForceKind::Motor { .. } => Some(f.name.as_str()),
+            _ => None,
+        })
+    }
+
+    /// The work `Fᵀu` the dead forces at time `t` do from the initial configuration to `q`
+    /// (J): each on its point's displacement ([`SpatialModel::dead_forces`]).
+    pub(crate) fn load_work(&self, q: &[f64], t: f64) -> f64 {
+        let q0 = self.initial_configuration();
+        let point = |q: &[f64], node: usize, arm: &Vector3<f64>| {
+            let f = Frame::read(q, node);
+            f.x + f.r * arm
+        };
+        (self.dead_forces(t))
+            .map(|(node, arm, force)| force.dot(&(point(q, node, &arm) - point(&q0, node, &arm))))
+            .sum()
+    }
+
+    /// Adds `w` times [`SpatialModel::load_work`]'s derivative at `q` in the nodes' algebra
+    /// to `out`: `F` on a node's translation, `a × RᵀF` on its rotation.
+    pub(crate) fn add_load_work_gradient(&self, q: &[f64], t: f64, w: f64, out: &mut [f64]) {
+        for (node, arm, force) in self.dead_forces(t) {
+            let turned = arm.cross(&(Frame::read(q, node).r.inverse() * force));
+            for i in 0..3 {
+                out[NV * node + i] += w * force[i];
+                out[NV * node + 3 + i] += w * turned[i];
+            }
+        }
+    }
+
     /// The beams' and bars' strain energy at `q` (J).
     pub fn strain_energy(&self, q: &[f64]) -> f64 {
         self.elements().map(|e| e.strain_energy(q)).sum()
@@ -974,6 +1088,85 @@ mod tests {
 
     fn at(x: f64, y: f64, z: f64) -> Frame {
         Frame::new(Vector3::new(x, y, z), UnitQuaternion::identity())
+    }
+
+    /// Every kind of entry refuses a name it has, a node a body's name and the other way
+    /// round, and a failed entry leaves its name free; nodes are found by name.
+    #[test]
+    fn names_are_taken_once() {
+        let mut m = SpatialModel::new(Vector3::zeros()).unwrap();
+        let j = Matrix3::identity();
+        let section = Section::new(
+            &crate::spatial::section::Shape::SolidCircle { d: 0.01 }
+                .geometry(0.3)
+                .unwrap(),
+            2e11,
+            8e10,
+            7850.0,
+        );
+        m.add_body("hub", at(0.0, 0.0, 0.0), 1.0, j).unwrap();
+        let clash = |e: SceneError| assert!(e.to_string().contains("exists already"), "{e}");
+        clash(m.add_node("hub", at(1.0, 0.0, 0.0)).unwrap_err());
+        clash(m.add_body("hub", at(1.0, 0.0, 0.0), 1.0, j).unwrap_err());
+        assert!(m.add_node("end", at(f64::NAN, 0.0, 0.0)).is_err());
+        let end = m.add_node("end", at(1.0, 0.0, 0.0)).unwrap();
+        let tip = m.add_node("tip", at(2.0, 0.0, 0.0)).unwrap();
+        clash(m.add_body("end", at(1.0, 0.0, 0.0), 1.0, j).unwrap_err());
+        assert_eq!(
+            (m.node_named("hub"), m.node_named("end")),
+            (Some(0), Some(end))
+        );
+        assert_eq!(m.node_named("nowhere"), None);
+        m.add_beam("rod", end, tip, &section, Vector3::z()).unwrap();
+        clash(
+            m.add_beam("rod", end, tip, &section, Vector3::z())
+                .unwrap_err(),
+        );
+        m.add_truss("rod", end, tip, &section).unwrap();
+        clash(m.add_truss("rod", end, tip, &section).unwrap_err());
+        m.add_point_mass("bob", tip, 0.1).unwrap();
+        clash(m.add_point_mass("bob", end, 0.1).unwrap_err());
+        let pin = |node| Anchor::Node {
+            node,
+            point: Vector3::zeros(),
+        };
+        m.add_joint(
+            "ball",
+            JointKind::Spherical,
+            pin(end),
+            Anchor::Ground(Vector3::x()),
+        )
+        .unwrap();
+        clash(
+            m.add_joint(
+                "ball",
+                JointKind::Spherical,
+                pin(tip),
+                Anchor::Ground(2.0 * Vector3::x()),
+            )
+            .unwrap_err(),
+        );
+        let (force, moment) = (Vector3::z(), Vector3::zeros());
+        m.add_load(
+            "push",
+            pin(tip),
+            force,
+            moment,
+            TimeFunction::Constant,
+            false,
+        )
+        .unwrap();
+        clash(
+            m.add_load(
+                "push",
+                pin(tip),
+                force,
+                moment,
+                TimeFunction::Constant,
+                false,
+            )
+            .unwrap_err(),
+        );
     }
 
     #[test]

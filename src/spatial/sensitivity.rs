@@ -223,8 +223,9 @@ pub enum Response {
         aggregation: Aggregation,
     },
     /// The mean compliance `(1/t_f) ∫ U dt` over the run (J, paper Eq. 39; the trapezoidal
-    /// rule on the run's grid). A motion's: at an equilibrium, the strain energy is
-    /// [`Response::StrainEnergy`].
+    /// rule on the run's grid); at an equilibrium, the work `Fᵀu` of the dead forces and
+    /// gravity from the initial configuration (J; refused where a follower load, a moment or
+    /// a motor acts).
     Compliance,
 }
 
@@ -580,9 +581,11 @@ pub fn static_sensitivities(
         Response::KineticEnergy => {
             Some("the kinetic energy is a motion's: an equilibrium has none")
         }
-        Response::Compliance => {
-            Some("the mean compliance is a motion's: at an equilibrium, use the strain energy U")
-        }
+        Response::Compliance => model.beyond_load_work().map(|_| {
+            "compliance at an equilibrium is Fᵀu, the work of dead forces and gravity: a \
+             follower load, a moment or a motor has none (the strain energy U is the \
+             equilibrium's)"
+        }),
         _ => None,
     };
     if let Some((k, why)) =
@@ -1196,6 +1199,10 @@ impl<'m> Sweep<'m> {
                     .sum()
             }
             Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::Compliance if self.equilibrium => {
+                let s = &self.states[0];
+                self.model().load_work(&s.q, s.t)
+            }
             Response::Compliance => self.value(&Response::StrainEnergy) / self.duration(),
             Response::Reaction { .. } | Response::Torque { .. } => self.mean_of(r).mean,
             Response::KineticEnergy => (0..self.states.len())
@@ -1286,11 +1293,37 @@ impl<'m> Sweep<'m> {
                 Some((element, true)) => self.energy(element),
                 _ => 0.0,
             },
+            (Response::Compliance, _) if self.equilibrium => self.weight_work_rate(p),
             (Response::Compliance, _) => {
                 self.explicit(&Response::StrainEnergy, p) / self.duration()
             }
             (Response::KineticEnergy, _) => self.kinetic_rate(p),
             (Response::Deflection { node }, Parameter::Drive { .. }) => self.rigid_share(*node, p),
+            _ => 0.0,
+        }
+    }
+
+    /// A static compliance's explicit derivative to a parameter on a mass, `Fᵀu` being
+    /// linear in each weight: a body's `g·u`, an element's mass factor's or section size's
+    /// `(m'/2) g·(u_A + u_B)` at its nodes.
+    fn weight_work_rate(&self, p: &Parameter) -> f64 {
+        let model = self.model();
+        let q = &self.states[0].q;
+        let q0 = model.initial_configuration();
+        let moved = |node: usize| {
+            model
+                .gravity
+                .dot(&(Frame::read(q, node).x - Frame::read(&q0, node).x))
+        };
+        let ends = |e: &dyn Element| e.nodes().map(moved).iter().sum::<f64>() * 0.5 * e.mass();
+        match *p {
+            Parameter::Mass { body } => moved(model.bodies[body].node),
+            Parameter::BeamMass { beam } => ends(&model.beams[beam]),
+            Parameter::TrussMass { truss } => ends(&model.trusses[truss]),
+            Parameter::BeamSize { beam, dimension } => {
+                let (beam, rate) = self.size_rate(beam, dimension);
+                ends(beam) * rate.rho_a / beam.section.rho_a
+            }
             _ => 0.0,
         }
     }
@@ -1377,6 +1410,10 @@ impl<'m> Sweep<'m> {
             Response::Deflection { node } => {
                 let gap = self.deflection(node, n) * (2.0 * self.weight(n) / self.duration());
                 eps[NV * node..NV * node + 3].copy_from_slice(gap.as_slice());
+            }
+            Response::Compliance if self.equilibrium => {
+                let s = &self.states[n];
+                self.model().add_load_work_gradient(&s.q, s.t, 1.0, eps);
             }
             Response::StrainEnergy | Response::Compliance => {
                 let mean = *r == Response::Compliance;

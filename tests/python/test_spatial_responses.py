@@ -111,7 +111,7 @@ def test_stress_gradients_of_a_lattice_in_equilibrium_are_exact(kind):
     sim = SpatialSimulation(scene)
     rng = np.random.default_rng(3)
     x = rng.uniform(0.2, 1.0, sim.n_design)
-    assert_gradients(sim, x, ["stress", "stress:p=16,q=0.3", "buckling", "buckling:ks=30,scale=0.01,q=0"],
+    assert_gradients(sim, x, ["stress", "stress:p=16,q=0.3", "buckling", "buckling:ks=30,scale=0.01,q=0", "compliance"],
                      rng.choice(sim.n_design, 4, replace=False), 1e-4)
 
 
@@ -261,3 +261,39 @@ def test_a_compressed_column_reads_its_euler_ratio_and_its_sizes_rates():
     assert run.gradient[0] == pytest.approx([-3.0 * b / 0.012, -b / 0.03], rel=1e-6)
     pulled = cantilever(section, force=(2000.0, 0.0, 0.0)).run_with_sensitivities(None, ["buckling"])
     assert pulled.values[0] == 0.0
+
+
+def test_static_compliance_is_the_work_of_the_loads_and_the_weights():
+    """A cantilever bent by a tip load P and its own weight: its compliance is Fᵀu = P·u_tip
+    plus the weights' work, every node's half of each element's ρAL g on its sinking; in the
+    linear range twice the strain energy (Clapeyron); with gradients to the mass (a body's
+    weight, explicitly) exact; a moment, which Fᵀu cannot count, refused."""
+    scene = SpatialScene("bent", analysis="static", gravity=(0.0, 0.0, -G))
+    scene.section("steel", E=E, rho=7850.0, nu=NU, diameter=0.02)
+    scene.node("root", (0.0, 0.0, 0.0))
+    scene.node("end", (1.0, 0.0, 0.0))
+    scene.beam("rod", "root", "end", section="steel", split=4)
+    scene.point_mass("bob", "end", 0.5)
+    scene.weld("clamp", "root")
+    scene.load("push", "end", force=(0.0, 3.0, -20.0))
+    sim = SpatialSimulation(scene)
+    names = ["compliance", "strain_energy", "y:end", "z:end"] + [f"z:rod[{k}]" for k in (1, 2, 3)]
+    run = sim.run_with_sensitivities(None, names, ["mass:bob"])
+    c, u, y, z = run.values[:4]
+    element = 7850.0 * math.pi * 0.01**2 * 0.25
+    weights = element * G * (0.5 * z + sum(run.values[4:]))  # the root does not sink
+    assert c == pytest.approx(3.0 * y - 20.0 * z - 0.5 * G * z - weights, rel=1e-9)
+    assert c == pytest.approx(2.0 * u, rel=1e-4)  # to the nonlinearity's (δ/L)² ≈ 2e-5
+    f = lambda m: SpatialSimulation(_with_mass(scene, m)).run_with_sensitivities(None, "compliance").values[0]  # noqa: E731
+    fd = (f(0.5 - 2e-3) - 8 * f(0.5 - 1e-3) + 8 * f(0.5 + 1e-3) - f(0.5 + 2e-3)) / 12e-3
+    assert run.gradient[0, 0] == pytest.approx(fd, rel=1e-6)
+    spec = scene.to_dict()
+    spec["loads"][0]["moment"] = [0.0, 1.0, 0.0]
+    with pytest.raises(SettingsError, match="Fᵀu"):
+        SpatialSimulation(spec).run_with_sensitivities(None, "compliance")
+
+
+def _with_mass(scene: SpatialScene, mass: float) -> dict:
+    spec = scene.to_dict()
+    spec["point_masses"][0]["mass"] = mass
+    return spec

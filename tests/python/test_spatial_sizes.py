@@ -102,6 +102,10 @@ def test_section_sizes_at_an_equilibrium():
     spec.setdefault("loads", []).append({"name": "push", "at": "end", "force": [0.0, 5.0, -20.0],
                                          "moment": [0.3, 0.0, 0.0]})
     assert_exact(spec, ["strain_energy", "x:end", "y:end", "z:end", "stress", "buckling"])
+    # Its compliance Fᵀu, the push's and gravity's work (the point mass's and the beams'
+    # weights): without the push's moment, which Fᵀu cannot count.
+    spec["loads"][-1]["moment"] = [0.0, 0.0, 0.0]
+    assert_exact(spec, ["compliance", "strain_energy"])
 
 
 def test_cantilever_against_timoshenko():

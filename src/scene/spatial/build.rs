@@ -254,9 +254,7 @@ fn body(model: &mut SpatialModel, path: &str, b: &SpatialBodySpec) -> Result<()>
 /// A node's index by name.
 fn node(model: &SpatialModel, path: &str, name: &str) -> Result<usize> {
     model
-        .nodes
-        .iter()
-        .position(|n| n.name == name)
+        .node_named(name)
         .ok_or_else(|| SceneError::new(path, format!("no node or body called '{name}'")))
 }
 
@@ -378,7 +376,7 @@ fn anchor(
             point: Vector3::zeros(),
         });
     }
-    if let Some(node) = model.nodes.iter().position(|n| &n.name == name) {
+    if let Some(node) = model.node_named(name) {
         return Ok(Anchor::Node {
             node,
             point: Vector3::zeros(),

@@ -4,7 +4,8 @@
 //! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
 //! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
 //! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only), `compliance` (the mean
-//! strain energy `(1/t_f) ∫U dt`, J, paper Eq. 39; a motion's only),
+//! strain energy `(1/t_f) ∫U dt`, J, paper Eq. 39; at an equilibrium `Fᵀu`, the dead forces'
+//! and gravity's work, J),
 //! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
 //! motor must give, integrated), `reaction:JOINT[:OPTIONS]` (the force the joint transmits,
 //! N, `|F|` over its rows that hold its points together, not a locked rotation's moment:
