@@ -297,3 +297,4 @@ def _with_mass(scene: SpatialScene, mass: float) -> dict:
     spec = scene.to_dict()
     spec["point_masses"][0]["mass"] = mass
     return spec
+
