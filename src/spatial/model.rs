@@ -1147,16 +1147,7 @@ mod tests {
             .unwrap_err(),
         );
         let (force, moment) = (Vector3::z(), Vector3::zeros());
-        m.add_load(
-            "push",
-            pin(tip),
-            force,
-            moment,
-            TimeFunction::Constant,
-            false,
-        )
-        .unwrap();
-        clash(
+        let mut push = || {
             m.add_load(
                 "push",
                 pin(tip),
@@ -1165,8 +1156,9 @@ mod tests {
                 TimeFunction::Constant,
                 false,
             )
-            .unwrap_err(),
-        );
+        };
+        push().unwrap();
+        clash(push().unwrap_err());
     }
 
     #[test]

@@ -324,8 +324,8 @@ def test_a_member_is_refined_to_a_tolerance_and_its_estimate_is_honest():
     (its pinned edge and its ring carried along the new nodes): at rtol 1e-2 the value
     within rtol of the scene refined so 16 times (each cell 16 × 16 elements), its gradient
     to the cells' densities within 5·rtol, the estimate at least half the true error
-    (measured: 4 × 4 elements to a cell, true error 4.2e-3, estimate 6.3e-3); a tolerance
-    past the limits on elements is refused by name."""
+    (measured: 4 × 4 elements to a cell, true error 4.2e-3, estimate 6.3e-3), the grid
+    described per member cell; a tolerance past the limits on elements is refused by name."""
     sim = ring_cantilever()
     x = np.random.default_rng(3).uniform(0.3, 1.0, sim.n_design)
     response = ["displacement:end:0,1"]
@@ -336,6 +336,8 @@ def test_a_member_is_refined_to_a_tolerance_and_its_estimate_is_honest():
     assert true <= rtol and run.errors["displacement:end:0,1"] >= true / 2, (true, run.errors)
     gradient = np.linalg.norm(run.gradients[0] - reference.gradients[0]) / np.linalg.norm(reference.gradients[0])
     assert gradient <= 5 * rtol and run.discretization.refinement >= 2, (gradient, run.discretization)
+    # The ring's bodies are no bars: the grid is described by the member's cells.
+    assert "elements per member cell" in str(run.discretization), str(run.discretization)
     # The pinned edge's corners slow the convergence (order 1.5 from 4 to 32 elements to a
     # cell): 1e-3 needs 8 × 8 elements to a cell, 64 times the cells, past the limit.
     with pytest.raises(flextop.ToleranceError, match=r"rtol = 0.001 .* 16× the scene's elements"):

@@ -163,15 +163,17 @@ def t_end(simulation: Simulation, settings: dict[str, Any]) -> float:
 
 
 def first(simulation: Simulation, settings: dict[str, Any]) -> Discretization:
-    """The scene's own discretization: its elements per bar and step (16 steps if the
-    scene gives none)."""
+    """The scene's own discretization: its elements per bar (or member cell) and step (16
+    steps if the scene gives none)."""
+    members, bars = bool(simulation.spec.get("members")), len(simulation.model.bars()["elements"]) > 0
+    unit = "bar and member cell" if members and bars else "member cell" if members else "bar"
     if simulation.analysis == "static":
-        return Discretization(1, 0)
+        return Discretization(1, 0, unit=unit)
     duration = t_end(simulation, settings)
     h = simulation.spec.get("simulation", {}).get("h") or duration / 16
     if not (isinstance(h, (int, float)) and math.isfinite(h) and 0 < h <= duration):
         raise SettingsError(f"simulation.h: must be a step in (0, t_end], got {h!r}")
-    return tolerance.start(math.ceil(duration / h - 1e-9))
+    return replace(tolerance.start(math.ceil(duration / h - 1e-9)), unit=unit)
 
 
 def companion(fine: Simulation, xv: np.ndarray | None, settings: dict[str, Any], plain: dict[str, Any],

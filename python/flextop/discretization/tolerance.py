@@ -80,7 +80,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -194,6 +194,10 @@ class Discretization:
     """Each bar's factor on its elements where measured shares of the error set them
     (``refine="shares"``, :func:`flextop.discretization.refinement.marks`); empty: graded
     by the a-priori need."""
+    unit: str = field(default="bar", compare=False)
+    """What the scene's elements are refined per, in the description: ``"bar"``, ``"member
+    cell"`` (a continuum member's cells, split along each side) or both; not part of the
+    grid's identity."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "factors", tuple(int(f) for f in self.factors))  # a list from a checkpoint
@@ -235,15 +239,15 @@ class Discretization:
         steps = f" and {self.steps} steps" if self.steps else ""
         if self.factors:
             refined = sum(f > 1 for f in self.factors)
-            every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
+            every = f", times {self.uniform} on every {self.unit}" if self.uniform != 1 else ""
             extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
             return (f"up to {max(self.factors)}× the scene's elements on the {refined} of {len(self.factors)} bars that "
                     f"measured shares of the error refined{every}{steps}{extrapolated}")
         most = "up to " if self.refinement > self.floor else ""  # graded: the bars that need them most
         least = f" (at least {self.floor}×)" if 1 < self.floor < self.refinement else ""
-        every = f", times {self.uniform} on every bar" if self.uniform != 1 else ""
+        every = f", times {self.uniform} on every {self.unit}" if self.uniform != 1 else ""
         extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
-        return f"{most}{self.refinement}× the scene's elements per bar{least}{every}{steps}{extrapolated}"
+        return f"{most}{self.refinement}× the scene's elements per {self.unit}{least}{every}{steps}{extrapolated}"
 
 
 def start(steps: int) -> Discretization:

@@ -327,40 +327,29 @@ fn every_joint_kind_has_exact_gradients() {
     .unwrap();
     // A torsion spring-damper on the sleeve's turn, at rest 0.2 rad from where it is built.
     m.add_torsion("coil", 5, 0.02, 2e-4, Some(0.2)).unwrap();
-    let responses = [
+    // The forces the spherical pin, the prismatic slide (normal to its axis), the weld and
+    // the cylindrical sleeve transmit, condensed over the motion: p-means and a KS mean.
+    let ks = Aggregation::KsMean {
+        rho: 20.0,
+        scale: 5.0,
+    };
+    let p = |p: f64| Aggregation::PMean { p };
+    let reactions = [(1, p(8.0)), (3, p(2.0)), (4, ks), (5, p(4.0))]
+        .map(|(joint, aggregation)| Response::Reaction { joint, aggregation });
+    let mut responses = vec![
         Response::Position { body: 2, axis: 0 },
         Response::Position { body: 4, axis: 2 },
         Response::Effort { joint: 0, row: 5 },
         // A reaction's component: the pin's force along x.
         Response::Effort { joint: 1, row: 0 },
         Response::KineticEnergy,
-        // The forces the spherical pin, the prismatic slide (normal to its axis), the weld
-        // and the cylindrical sleeve transmit, and the drive's torque, condensed over the
-        // motion: p-means and a KS mean.
-        Response::Reaction {
-            joint: 1,
-            aggregation: Aggregation::PMean { p: 8.0 },
-        },
-        Response::Reaction {
-            joint: 3,
-            aggregation: Aggregation::PMean { p: 2.0 },
-        },
-        Response::Reaction {
-            joint: 4,
-            aggregation: Aggregation::KsMean {
-                rho: 20.0,
-                scale: 5.0,
-            },
-        },
-        Response::Reaction {
-            joint: 5,
-            aggregation: Aggregation::PMean { p: 4.0 },
-        },
+        // The drive's torque, condensed likewise.
         Response::Torque {
             joint: 0,
-            aggregation: Aggregation::PMean { p: 8.0 },
+            aggregation: p(8.0),
         },
     ];
+    responses.extend(reactions);
     let parameters = [
         Parameter::Mass { body: 0 },
         Parameter::Mass { body: 1 },
