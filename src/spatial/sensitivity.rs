@@ -574,22 +574,23 @@ pub fn static_sensitivities(
     method: Method,
 ) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
-    let motion_only = |r: &Response| match r {
-        Response::Deflection { .. } => {
-            Some("a deflection from the rigid trajectory is a motion's: an equilibrium has none")
-        }
+    let refused = |r: &Response| match r {
+        Response::Deflection { .. } => Some(
+            "a deflection from the rigid trajectory is a motion's: an equilibrium has none".into(),
+        ),
         Response::KineticEnergy => {
-            Some("the kinetic energy is a motion's: an equilibrium has none")
+            Some("the kinetic energy is a motion's: an equilibrium has none".into())
         }
-        Response::Compliance => model.beyond_load_work().map(|_| {
-            "compliance at an equilibrium is Fᵀu, the work of dead forces and gravity: a \
-             follower load, a moment or a motor has none (the strain energy U is the \
-             equilibrium's)"
+        Response::Compliance => model.beyond_load_work().map(|name| {
+            format!(
+                "compliance at an equilibrium is Fᵀu, the work of dead forces and gravity: \
+                 '{name}' is a follower load, a moment or a motor, which it cannot count (the \
+                 strain energy U is the equilibrium's)"
+            )
         }),
         _ => None,
     };
-    if let Some((k, why)) =
-        (responses.iter().enumerate()).find_map(|(k, r)| Some((k, motion_only(r)?)))
+    if let Some((k, why)) = (responses.iter().enumerate()).find_map(|(k, r)| Some((k, refused(r)?)))
     {
         return Err(SettingsError::new(format!("responses[{k}]"), why).into());
     }

@@ -289,7 +289,7 @@ def test_static_compliance_is_the_work_of_the_loads_and_the_weights():
     assert run.gradient[0, 0] == pytest.approx(fd, rel=1e-6)
     spec = scene.to_dict()
     spec["loads"][0]["moment"] = [0.0, 1.0, 0.0]
-    with pytest.raises(SettingsError, match="Fᵀu"):
+    with pytest.raises(SettingsError, match="'push' is a follower load, a moment or a motor"):
         SpatialSimulation(spec).run_with_sensitivities(None, "compliance")
 
 
