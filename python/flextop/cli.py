@@ -478,7 +478,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
 
 
 SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
-                   "max_von_mises", "max_buckling", "start", "analysis", "animate", "every")
+                   "max_von_mises", "start", "analysis", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
 
@@ -567,7 +567,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --min-frequency, --x0, --accuracy, --rtol, "
+                            "--global-volume, --max-stress, --max-buckling, --min-frequency, --x0, --accuracy, --rtol, "
                             "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
                             "--resume, --no-plots, --vtk)")
     sim = SpatialSimulation(spec)
@@ -577,7 +577,8 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
     fraction = args.volume_fraction or 0.4
     per_structure = not args.global_volume and any("/" in v for v in sim.variables)
-    limits = [] if args.max_stress is None else [("stress", args.max_stress)]
+    limits = [(name, value) for name, value in (("stress", args.max_stress), ("buckling", args.max_buckling))
+              if value is not None]
     if args.min_frequency is not None:
         limits.append((MIN_FREQUENCY, args.min_frequency))
     if args.accuracy is not None and args.rtol is not None:

@@ -160,6 +160,11 @@ def test_a_lattice_of_least_volume_under_a_peak_stress_limit(tmp_path):
                           f"{limit:.6g}", "--max-iter", "2", "--out", str(tmp_path / "out")], capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 3 and "subject to stress ≤ 3.168e+07, volume:box ≤" in run.stdout, run.stdout + run.stderr
+    # --max-buckling bounds the bars' peak buckling ratio in the same way.
+    run = subprocess.run([sys.executable, "-m", "flextop.cli", "optimize", str(tmp_path / "lattice.toml"), "--max-buckling",
+                          "0.05", "--max-iter", "1", "--out", str(tmp_path / "buckling")], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 3 and "subject to buckling ≤ 0.05, volume:box ≤" in run.stdout, run.stdout + run.stderr
 
 
 def test_the_mass_follows_the_mass_law_with_its_gradient():
