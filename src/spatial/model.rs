@@ -910,13 +910,12 @@ impl SpatialModel {
     /// The work `Fᵀu` the dead forces at time `t` do from the initial configuration to `q`
     /// (J): each on its point's displacement ([`SpatialModel::dead_forces`]).
     pub(crate) fn load_work(&self, q: &[f64], t: f64) -> f64 {
-        let q0 = self.initial_configuration();
-        let point = |q: &[f64], node: usize, arm: &Vector3<f64>| {
-            let f = Frame::read(q, node);
-            f.x + f.r * arm
-        };
+        let point = |f: Frame, arm: &Vector3<f64>| f.x + f.r * arm;
         (self.dead_forces(t))
-            .map(|(node, arm, force)| force.dot(&(point(q, node, &arm) - point(&q0, node, &arm))))
+            .map(|(node, arm, force)| {
+                let start = point(self.nodes[node].frame, &arm);
+                force.dot(&(point(Frame::read(q, node), &arm) - start))
+            })
             .sum()
     }
 

@@ -1310,11 +1310,9 @@ impl<'m> Sweep<'m> {
     fn weight_work_rate(&self, p: &Parameter) -> f64 {
         let model = self.model();
         let q = &self.states[0].q;
-        let q0 = model.initial_configuration();
         let moved = |node: usize| {
-            model
-                .gravity
-                .dot(&(Frame::read(q, node).x - Frame::read(&q0, node).x))
+            let start = model.nodes[node].frame.x;
+            model.gravity.dot(&(Frame::read(q, node).x - start))
         };
         let ends = |e: &dyn Element| e.nodes().map(moved).iter().sum::<f64>() * 0.5 * e.mass();
         match *p {

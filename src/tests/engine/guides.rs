@@ -27,22 +27,22 @@ fn rigid_motion(model: &Model, angle: f64, shift: [f64; 2]) -> Vec<f64> {
 #[test]
 fn prolongation_carries_rigid_motions_exactly() {
     let (coarse, fine) = (robot_arm(1, 70e9), robot_arm(2, 70e9));
-    let map = Prolongation::between(&coarse, &fine).unwrap();
     for angle in [0.3, 2.5, -3.0] {
-        let mut out = vec![f64::NAN; fine.n_dofs()];
-        map.apply(
-            &coarse,
-            &rigid_motion(&coarse, angle, [0.2, -0.1]),
-            &mut out,
-        );
-        let want = rigid_motion(&fine, angle, [0.2, -0.1]);
-        let worst = out
-            .iter()
-            .zip(&want)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let worst = rigid_motion_error(&coarse, &fine, angle);
         assert!(worst < 1e-12, "angle {angle}: off by {worst:e}");
     }
+}
+
+/// The largest difference between the prolongation of `coarse`'s rigid motion (turned by
+/// `angle`, moved by (0.2, −0.1)) onto `fine` and `fine`'s own.
+fn rigid_motion_error(coarse: &Model, fine: &Model, angle: f64) -> f64 {
+    let map = Prolongation::between(coarse, fine).unwrap();
+    let mut out = vec![f64::NAN; fine.n_dofs()];
+    map.apply(coarse, &rigid_motion(coarse, angle, [0.2, -0.1]), &mut out);
+    let want = rigid_motion(fine, angle, [0.2, -0.1]);
+    (out.iter().zip(&want))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
 }
 
 /// A member of 3 × 2 cells, `split × split` elements to a cell, pinned at two corners,
@@ -59,15 +59,7 @@ fn member(split: usize) -> Model {
 #[test]
 fn prolongation_carries_a_members_rigid_motions_exactly_and_refuses_a_split_not_in_two() {
     for (coarse, fine) in [(member(1), member(2)), (member(2), member(4))] {
-        let map = Prolongation::between(&coarse, &fine).unwrap();
-        let mut out = vec![f64::NAN; fine.n_dofs()];
-        map.apply(&coarse, &rigid_motion(&coarse, 2.5, [0.2, -0.1]), &mut out);
-        let want = rigid_motion(&fine, 2.5, [0.2, -0.1]);
-        let worst = out
-            .iter()
-            .zip(&want)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let worst = rigid_motion_error(&coarse, &fine, 2.5);
         assert!(worst < 1e-12, "off by {worst:e}");
     }
     let err = Prolongation::between(&member(1), &member(3)).unwrap_err();
