@@ -87,8 +87,9 @@ pub use settings::{
     DynamicSettings, Memory, Method, NewtonMatrix, RunOptions, SensitivitySettings, StaticAnalysis,
     StaticSettings, MAX_STEPS,
 };
+pub use solver::alpha::{AlphaParameters, State};
 pub use solver::assembly::{linearize, Csc, Linearization};
-pub use solver::integrator::{AlphaParameters, Integrator, State};
+pub use solver::integrator::Integrator;
 pub use solver::linear::LARGE_DISPLACEMENT;
 pub use solver::prolongation::Prolongation;
 pub use solver::simulation::{

@@ -1,6 +1,8 @@
-//! **The configuration space of spatial nodes**: `ℝ³ × SO(3)`, a position and a rotation per
-//! node, on which the Lie-group generalized-α method moves (Brüls, Cardona & Arnold,
-//! *Mech. Mach. Theory* 48, 2012).
+//! **The configuration spaces**, behind one interface ([`ConfigurationSpace`]): the planar
+//! engine's nodes, `(x, y, φ)` with an additive angle ([`Additive`]), and the spatial
+//! engine's, `ℝ³ × SO(3)`, a position and a rotation per node ([`Frames`]), on which the
+//! Lie-group generalized-α method moves (Brüls, Cardona & Arnold, *Mech. Mach. Theory* 48,
+//! 2012). [`crate::solver::alpha::step`] moves on either.
 //!
 //! A node's configuration is stored as seven numbers `(x, y, z, w, i, j, k)`: its position in
 //! the inertial frame and the unit quaternion of its rotation. Its velocity, acceleration
@@ -68,6 +70,43 @@ impl Frame {
     /// The rotation matrix.
     pub fn rotation(&self) -> Matrix3<f64> {
         *self.r.to_rotation_matrix().matrix()
+    }
+}
+
+/// Where a mechanism's configuration lives, and how an increment moves it:
+/// `q = q₀ ⊕ Δ` (Algorithm 1's position update on a Lie group).
+pub trait ConfigurationSpace {
+    /// `q = q₀ ⊕ Δ`, `Δ` one number per velocity coordinate.
+    fn retract(&self, q0: &[f64], increment: &[f64], q: &mut [f64]);
+}
+
+/// `ℝⁿ`: `q₀ + Δ`. The planar engine's nodes `(x, y, φ)`: `SE(2)` taken as `ℝ² × SO(2)`, the
+/// abelian `SO(2)` as its additive angle, where the tangent operator is the identity.
+#[derive(Debug, Clone, Copy)]
+pub struct Additive;
+
+impl ConfigurationSpace for Additive {
+    fn retract(&self, q0: &[f64], increment: &[f64], q: &mut [f64]) {
+        for ((q, q0), d) in q.iter_mut().zip(q0).zip(increment) {
+            *q = q0 + d;
+        }
+    }
+}
+
+/// `(ℝ³ × SO(3))ⁿ`: `n` spatial nodes, [`Frame::retract`] node by node.
+#[derive(Debug, Clone, Copy)]
+pub struct Frames {
+    /// The nodes.
+    pub nodes: usize,
+}
+
+impl ConfigurationSpace for Frames {
+    fn retract(&self, q0: &[f64], increment: &[f64], q: &mut [f64]) {
+        for node in 0..self.nodes {
+            Frame::read(q0, node)
+                .retract(&increment[NV * node..NV * node + NV])
+                .write(q, node);
+        }
     }
 }
 

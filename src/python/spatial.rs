@@ -214,7 +214,7 @@ impl PySpatialModel {
             .map_err(Error::from)?;
         let m = &*model;
         let d = PyDict::new(py);
-        let column = |f: &dyn Fn(&crate::solver::integrator::State) -> f64| {
+        let column = |f: &dyn Fn(&crate::solver::alpha::State) -> f64| {
             vector(py, states.iter().map(f).collect())
         };
         d.set_item("time", column(&|s| s.t))?;
@@ -222,7 +222,7 @@ impl PySpatialModel {
         d.set_item("potential", column(&|s| m.potential_energy(&s.q)))?;
         d.set_item("strain", column(&|s| m.strain_energy(&s.q)))?;
         let n = states.len();
-        let flat = |f: &dyn Fn(&crate::solver::integrator::State) -> &Vec<f64>| {
+        let flat = |f: &dyn Fn(&crate::solver::alpha::State) -> &Vec<f64>| {
             states
                 .iter()
                 .flat_map(|s| f(s).iter().copied())

@@ -31,7 +31,8 @@ use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
-use crate::solver::integrator::{step_ratio, AlphaParameters, Integrator, State};
+use crate::solver::alpha::{step_ratio, AlphaParameters, State};
+use crate::solver::integrator::Integrator;
 use crate::solver::kink::Jump;
 use crate::time_grid::TimeGrid;
 

@@ -30,9 +30,8 @@ use crate::mechanism::model::{Densities, Model};
 use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::DynamicSettings;
-use crate::solver::integrator::{
-    rescale_pseudo_accelerations, step_ratio, AlphaParameters, Integrator, State,
-};
+use crate::solver::alpha::{rescale_pseudo_accelerations, step_ratio, AlphaParameters, State};
+use crate::solver::integrator::Integrator;
 use crate::solver::kink::Jump;
 use crate::time_grid::TimeGrid;
 

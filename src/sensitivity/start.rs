@@ -14,7 +14,8 @@
 use super::{Curvature, PseudoLoads};
 use crate::error::SolveError;
 use crate::mechanism::parameter::{At, Level};
-use crate::solver::integrator::{Integrator, State};
+use crate::solver::alpha::State;
+use crate::solver::integrator::Integrator;
 use crate::solver::statics::StaticSolution;
 
 /// Direct: the columns `q₀'` (`n_q × n_x`, column-major) of the static sensitivity.

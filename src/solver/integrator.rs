@@ -1,135 +1,30 @@
-//! The generalized-α method on the index-3 equations of motion (paper §2.3, Algorithm 1).
+//! The planar engine's generalized-α integrator (paper §2.3, Algorithm 1, whose phases are
+//! [`crate::solver::alpha::step`]'s) on the index-3 equations of motion.
 //!
-//! With pseudo-accelerations `a` (Eq. 9) and the Newmark formulae (Eq. 10–11),
-//!
-//! ```text
-//! (1 − α_m) a_{n+1} + α_m a_n = (1 − α_f) q̈_{n+1} + α_f q̈_n,     a_0 = q̈_0
-//! q_{n+1} = q_n + h q̇_n + h²(½ − β) a_n + h² β a_{n+1}
-//! q̇_{n+1} = q̇_n + h(1 − γ) a_n + h γ a_{n+1}
-//! ```
-//!
-//! each step solves the dynamic equilibrium `r = M(q̈ − ĝ) + f_int(q) − f_ext(t) + Φ_qᵀλ = 0`
-//! and `Φ(q, t) = 0` at `t_{n+1}` by Newton's method with the exact iteration matrix
-//! `[β'M + K_t, Φ_qᵀ; Φ_q, 0]` (Eq. 12–13), `β' = (1 − α_m)/(h² β (1 − α_f))`,
-//! `γ' = γ/(h β)`. Parameters come from the spectral radius at infinite frequency `ρ∞`
-//! (Chung & Hulbert 1993). Gravity `ĝ` enters as a DOF-wise acceleration, so `M ĝ` is
+//! Each step solves the dynamic equilibrium `r = M(q̈ − ĝ) + f_int(q) − f_ext(t) + Φ_qᵀλ = 0`
+//! and `Φ(q, t) = 0` at `tₙ₊₁` by Newton's method with the exact iteration matrix
+//! `[β'M + K_t, Φ_qᵀ; Φ_q, 0]` (Eq. 12–13) on the additive configuration space
+//! ([`crate::group::Additive`]). Gravity `ĝ` enters as a DOF-wise acceleration, so `M ĝ` is
 //! the consistent gravity load.
 //!
 //! A step that starts on a kink of a drive's law first restarts the scheme there: the
 //! accelerations and pseudo-accelerations take the jump the new law's acceleration causes
 //! ([`crate::solver::kink`]).
 //!
-//! Newton starts each step from `λ_{n+1} = λₙ`, and a rigid body's from `q̈_{n+1} = q̈ₙ`,
+//! Newton starts each step from `λₙ₊₁ = λₙ`, and a rigid body's from `q̈ₙ₊₁ = q̈ₙ`,
 //! where Algorithm 1 starts from zero: the same solution, in fewer iterations (1.5 instead
 //! of 2.4 per step on the rigid four-bar of BENCHMARKS.md, "Mechanisms"). A beam node's
 //! accelerations carry the mesh's high frequencies: extrapolated over a large step they sent
 //! the robot arm to another branch, so they start from zero.
 
 use crate::error::SolveError;
+use crate::group::{Additive, ConfigurationSpace};
 use crate::mechanism::model::{Densities, Initial, Model};
 use crate::settings::{DynamicSettings, NewtonMatrix, StaticSettings, MAX_CUTS};
+use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{Jump, Kinks};
 use crate::solver::newton::{Newton, NewtonReport, Point};
 use crate::solver::statics::{solve_static, StaticSolution};
-
-/// Algorithmic parameters `α_m, α_f, β, γ`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AlphaParameters {
-    /// `α_m`.
-    pub alpha_m: f64,
-    /// `α_f`.
-    pub alpha_f: f64,
-    /// `β`.
-    pub beta: f64,
-    /// `γ`.
-    pub gamma: f64,
-}
-
-impl AlphaParameters {
-    /// Chung–Hulbert parameters for spectral radius `ρ∞ ∈ [0, 1]`:
-    /// `α_m = (2ρ∞ − 1)/(ρ∞ + 1)`, `α_f = ρ∞/(ρ∞ + 1)`, `γ = ½ + α_f − α_m`, `β = ¼(γ + ½)²`.
-    /// Second order, unconditionally stable for linear problems, with maximal
-    /// high-frequency dissipation for the given `ρ∞`.
-    pub fn chung_hulbert(rho_inf: f64) -> Self {
-        let alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);
-        let alpha_f = rho_inf / (rho_inf + 1.0);
-        let gamma = 0.5 + alpha_f - alpha_m;
-        Self {
-            alpha_m,
-            alpha_f,
-            beta: 0.25 * (gamma + 0.5).powi(2),
-            gamma,
-        }
-    }
-
-    /// `β' = (1 − α_m)/(h² β (1 − α_f))`, the derivative `∂q̈_{n+1}/∂q_{n+1}`.
-    pub fn beta_prime(&self, h: f64) -> f64 {
-        (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
-    }
-
-    /// `γ' = γ/(h β)`, the derivative `∂q̇_{n+1}/∂q_{n+1}`.
-    pub fn gamma_prime(&self, h: f64) -> f64 {
-        self.gamma / (h * self.beta)
-    }
-
-    /// The predictor of one unknown for a step of size `h` from `(q̇ₙ, q̈ₙ, aₙ)` with `q̈ₙ₊₁`
-    /// guessed as `predicted` (Eq. 9–11): the increment `h q̇ₙ + h²((½ − β)aₙ + β aₙ₊₁)`,
-    /// `q̇ₙ₊₁` and `aₙ₊₁` without its part `(1 − α_f)/(1 − α_m) q̈ₙ₊₁`, which the converged
-    /// `q̈ₙ₊₁` adds at the end. Shared by the vector-space and the Lie-group steps and by
-    /// their sensitivities (with `predicted = 0`: the unknown `q̈'ₙ₊₁` is all correction).
-    pub(crate) fn predict(
-        &self,
-        h: f64,
-        qdot: f64,
-        qddot: f64,
-        a: f64,
-        predicted: f64,
-    ) -> Predicted {
-        let Self {
-            alpha_m,
-            alpha_f,
-            beta,
-            gamma,
-        } = *self;
-        let a_next = (alpha_f * qddot - alpha_m * a) / (1.0 - alpha_m);
-        let a_predicted = a_next + (1.0 - alpha_f) / (1.0 - alpha_m) * predicted;
-        Predicted {
-            increment: h * qdot + h * h * ((0.5 - beta) * a + beta * a_predicted),
-            qdot: qdot + h * ((1.0 - gamma) * a + gamma * a_predicted),
-            a_next,
-        }
-    }
-}
-
-/// What [`AlphaParameters::predict`] gives for one unknown.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Predicted {
-    /// `h q̇ₙ + h²((½ − β)aₙ + β aₙ₊₁)`: `qₙ₊₁ − qₙ`, or the Lie-group step's `Δ`.
-    pub increment: f64,
-    /// `q̇ₙ₊₁`.
-    pub qdot: f64,
-    /// `aₙ₊₁` without its part in `q̈ₙ₊₁`.
-    pub a_next: f64,
-}
-
-/// Dynamic state at one time.
-#[derive(Debug, Clone, PartialEq)]
-pub struct State {
-    /// Time (s).
-    pub t: f64,
-    /// Nodal coordinates `q` (displacements and rotations).
-    pub q: Vec<f64>,
-    /// Velocities `q̇`.
-    pub qdot: Vec<f64>,
-    /// Accelerations `q̈`.
-    pub qddot: Vec<f64>,
-    /// Pseudo-accelerations `a` (Eq. 9).
-    pub a: Vec<f64>,
-    /// Lagrange multipliers `λ`.
-    pub lam: Vec<f64>,
-    /// Size of the step that reached this state (0 at `t = 0`).
-    pub h: f64,
-}
 
 /// The generalized-α integrator of one design. The step size is an argument of each step,
 /// so a run may follow any [`crate::time_grid::TimeGrid`].
@@ -140,6 +35,8 @@ pub struct Integrator<'m> {
     pub params: AlphaParameters,
     /// `qₙ` of the step under way, to judge its rotations.
     start: Vec<f64>,
+    /// The step's increment `qₙ₊₁ − qₙ` as predicted.
+    increment: Vec<f64>,
     /// The DOFs whose Newton iterations start from `q̈ₙ`: the rigid bodies'.
     smooth: Vec<bool>,
     /// How the static equilibrium of an [`Initial::Equilibrium`] start is solved.
@@ -184,6 +81,7 @@ impl<'m> Integrator<'m> {
             newton,
             params,
             start: vec![0.0; model.n_dofs()],
+            increment: vec![0.0; model.n_dofs()],
             smooth: rigid_dofs(model),
             statics,
             equilibrium: None,
@@ -254,7 +152,7 @@ impl<'m> Integrator<'m> {
 
     /// One step of Algorithm 1 from `s` (time `t_n`) to `t_{n+1} = t_n + h`, in place.
     /// `β'` and `γ'`, and with them the constraint scaling, follow `h`; after a change of
-    /// step size `a` is first carried to the new step ([`rescale_pseudo_accelerations`]).
+    /// step size `a` is first carried to the new step ([`crate::solver::alpha::rescale_pseudo_accelerations`]).
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] with time, residual and iterations when Newton does not
@@ -278,59 +176,65 @@ impl<'m> Integrator<'m> {
         h: f64,
         guess: Option<&[f64]>,
     ) -> Result<NewtonReport, SolveError> {
-        crate::interrupt::poll_at(s.t)?;
-        let AlphaParameters {
-            alpha_m, alpha_f, ..
-        } = self.params;
-        let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
-        self.restart = self.jump_at(&s.q, s.t, s.h)?;
-        if let Some(jump) = &self.restart {
+        alpha::step(&mut Guided { it: self, guess }, s, h)
+    }
+}
+
+/// A planar step's equations, Newton started from a guess where one is given.
+struct Guided<'a, 'm> {
+    it: &'a mut Integrator<'m>,
+    guess: Option<&'a [f64]>,
+}
+
+impl Equations for Guided<'_, '_> {
+    fn parameters(&self) -> AlphaParameters {
+        self.it.params
+    }
+
+    fn restart_at_kink(&mut self, s: &mut State) -> Result<(), SolveError> {
+        self.it.restart = self.it.jump_at(&s.q, s.t, s.h)?;
+        if let Some(jump) = &self.it.restart {
             jump.apply(&mut s.qddot, &mut s.a);
         }
-        if let Some(ratio) = step_ratio(s.h, h) {
-            rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
+        Ok(())
+    }
+
+    fn begin(&mut self, q: &[f64]) -> Predictor<'_> {
+        self.it.start.copy_from_slice(q);
+        Predictor {
+            increment: &mut self.it.increment,
+            smooth: Some(&self.it.smooth),
         }
-        s.h = h;
-        self.start.copy_from_slice(&s.q);
-        for i in 0..s.q.len() {
-            let predicted = if self.smooth[i] { s.qddot[i] } else { 0.0 };
-            let p = self
-                .params
-                .predict(h, s.qdot[i], s.qddot[i], s.a[i], predicted);
-            s.q[i] += p.increment;
-            s.qdot[i] = p.qdot;
-            s.a[i] = p.a_next;
-            s.qddot[i] = predicted;
-        }
-        s.t += h;
-        let point = Point {
-            t: s.t,
-            load: 1.0,
-            mass_coefficient: bp,
-            gamma_prime: gp,
-        };
-        if let Some(guess) = guess {
+    }
+
+    fn retract(&self, q: &mut [f64]) {
+        Additive.retract(&self.it.start, &self.it.increment, q);
+    }
+
+    fn correct(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
+        if let Some(guess) = self.guess {
             for (i, (q, g)) in s.q.iter_mut().zip(guess).enumerate() {
                 s.qdot[i] += gp * (g - *q);
                 s.qddot[i] += bp * (g - *q);
                 *q = *g;
             }
         }
-        let report = self.newton.solve(
-            point,
-            &mut s.q,
-            &mut s.lam,
-            Some((&mut s.qdot, &mut s.qddot)),
-        )?;
-        let asm = self.newton.assembler();
+        let point = Point {
+            t: s.t,
+            load: 1.0,
+            mass_coefficient: bp,
+            gamma_prime: gp,
+        };
+        let velocities = Some((&mut s.qdot[..], &mut s.qddot[..]));
+        self.it
+            .newton
+            .solve(point, &mut s.q, &mut s.lam, velocities)
+    }
+
+    fn check_step(&self, s: &State) -> Result<(), SolveError> {
+        let asm = self.it.newton.assembler();
         let at = || format!("t = {:.6} s", s.t);
-        (asm.model).plausible_step(&asm.densities, &self.start, &s.q, at)?;
-        // Last line of Algorithm 1: a_{n+1} += (1 − α_f)/(1 − α_m) q̈_{n+1}.
-        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
-        s.a.iter_mut()
-            .zip(&s.qddot)
-            .for_each(|(a, acc)| *a += w * acc);
-        Ok(report)
+        (asm.model).plausible_step(&asm.densities, &self.it.start, &s.q, at)
     }
 }
 
@@ -341,20 +245,4 @@ fn rigid_dofs(model: &Model) -> Vec<bool> {
         rigid[3 * b.node..3 * b.node + 3].fill(true);
     }
     rigid
-}
-
-/// `hₙ/hₙ₋₁` when the step size changes (`None` for the first step or an unchanged one).
-pub(crate) fn step_ratio(previous: f64, h: f64) -> Option<f64> {
-    (previous > 0.0 && h != previous).then(|| h / previous)
-}
-
-/// Carries the pseudo-accelerations to a new step size: `aₙ ← q̈ₙ + (hₙ/hₙ₋₁)(aₙ − q̈ₙ)`.
-///
-/// `aₙ` approximates `q̈(tₙ + Δ_α hₙ₋₁)`, `Δ_α = α_m − α_f`, so `aₙ − q̈ₙ ≈ Δ_α hₙ₋₁ q⃛`;
-/// the next step needs `q̈(tₙ + Δ_α hₙ)`. Without this the scheme drops to first order
-/// wherever the step size changes by a finite ratio (for `Δ_α ≠ 0`, i.e. `ρ∞ < 1`).
-pub(crate) fn rescale_pseudo_accelerations(a: &mut [f64], qddot: &[f64], ratio: f64) {
-    a.iter_mut()
-        .zip(qddot)
-        .for_each(|(a, acc)| *a = acc + ratio * (*a - acc));
 }

@@ -14,15 +14,18 @@
 //! steps and `q̈` and `λ` answer with an algorithmic oscillation that decays by about `ρ∞`
 //! per step: joint reactions alternate in sign after the kink, by an amount that does not
 //! fall with `h`. Adding the jump to `a` keeps what `a − q̈ ≈ Δ_α h q⃛` carries of the
-//! smooth motion on the old side ([`crate::solver::integrator::rescale_pseudo_accelerations`]).
+//! smooth motion on the old side ([`crate::solver::alpha::rescale_pseudo_accelerations`]).
 //!
-//! The sensitivities differentiate `Δq̈(qₖ, x)` ([`crate::sensitivity`]'s `kink`).
+//! The sensitivities differentiate `Δq̈(qₖ, x)` ([`crate::sensitivity`]'s `kink`). Where the
+//! kinks lie and whether a row's acceleration jumps is the same in both engines ([`Kinks`],
+//! [`jumps`]); the spatial engine solves its jump on the group (`spatial::integrator`).
 
 use crate::error::SolveError;
 use crate::mechanism::model::Model;
 use crate::solver::newton::Newton;
 
-/// A kink lies on a node when it is within this fraction of the step that reached the node.
+/// A kink lies on a node when it is within this fraction of the step that reached the node;
+/// a jump below this fraction of its size is none.
 const ON_NODE: f64 = 1e-9;
 
 /// The times where a drive's prescribed acceleration may jump.
@@ -36,13 +39,13 @@ impl Kinks {
     /// The kinks of `model`'s drives (not those of loads or motors: forces are continuous
     /// at theirs, so the accelerations are too).
     pub fn of(model: &Model) -> Self {
-        let mut times: Vec<f64> = model
-            .joints
-            .iter()
-            .filter_map(|j| j.drive.as_ref())
-            .flat_map(|m| m.kinks())
-            .filter(|&t| t > 0.0)
-            .collect();
+        let drives = model.joints.iter().filter_map(|j| j.drive.as_ref());
+        Self::from_times(drives.flat_map(|m| m.kinks()))
+    }
+
+    /// The kinks among `times` (those after `t = 0`), sorted, without repeats.
+    pub(crate) fn from_times(times: impl IntoIterator<Item = f64>) -> Self {
+        let mut times: Vec<f64> = times.into_iter().filter(|&t| t > 0.0).collect();
         times.sort_by(f64::total_cmp);
         times.dedup();
         Self { times }
@@ -50,7 +53,7 @@ impl Kinks {
 
     /// The kink at `t`, reached by a step of size `h`, if one lies there (`h = 0`, the
     /// initial state, has none: the initial accelerations are consistent already).
-    fn at(&self, t: f64, h: f64) -> Option<f64> {
+    pub(crate) fn at(&self, t: f64, h: f64) -> Option<f64> {
         let near = |k: f64| (k - t).abs() <= ON_NODE * h;
         let i = self.times.partition_point(|&k| k < t - ON_NODE * h);
         self.times.get(i).copied().filter(|&k| h > 0.0 && near(k))
@@ -64,11 +67,10 @@ impl Kinks {
         let jump = |k: usize| {
             let before = model.constraints().prescribed(k, kink.next_down())[2];
             let after = model.constraints().prescribed(k, kink.next_up())[2];
-            let negligible = (after - before).abs() <= ON_NODE * (before.abs() + after.abs());
-            if negligible {
-                0.0
-            } else {
+            if jumps(before, after) {
                 after - before
+            } else {
+                0.0
             }
         };
         // Allocates only where the scheme restarts: a table's knots pass without.
@@ -77,6 +79,12 @@ impl Kinks {
             .any(|k| jump(k) != 0.0)
             .then(|| (kink, rows.map(jump).collect()))
     }
+}
+
+/// Whether a prescribed acceleration (or a row's `b`) jumps from `before` to `after`: by more
+/// than a negligible fraction of its size.
+pub(crate) fn jumps(before: f64, after: f64) -> bool {
+    (after - before).abs() > ON_NODE * (after.abs() + before.abs())
 }
 
 /// The jump of accelerations and multipliers at a kink.

@@ -1,11 +1,13 @@
 //! The solver: the residual and iteration matrix on a fixed sparse pattern (`assembly`),
-//! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α
-//! (`integrator`, paper Algorithm 1) with its local error control (`step_control`) and its
+//! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α (`alpha`,
+//! paper Algorithm 1, the phases of a step on either engine's configuration space; `integrator`,
+//! the planar engine's equations) with its local error control (`step_control`) and its
 //! restart at a drive's kink (`kink`), static equilibrium by load stepping (`statics`) and the linear static analysis
 //! (`linear`), the
 //! time loop (`simulation`) and a state carried to twice the elements per bar
 //! (`prolongation`).
 
+pub(crate) mod alpha;
 pub(crate) mod assembly;
 pub(crate) mod integrator;
 pub(crate) mod kink;

@@ -13,7 +13,8 @@
 use crate::error::{Error, SettingsError, SolveError};
 use crate::mechanism::model::Model;
 use crate::settings::DynamicSettings;
-use crate::solver::integrator::{Integrator, State};
+use crate::solver::alpha::State;
+use crate::solver::integrator::Integrator;
 use crate::solver::step_control::{self, Controller, StepControl, Verdict};
 use crate::time_grid::TimeGrid;
 

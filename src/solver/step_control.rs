@@ -19,7 +19,7 @@
 
 use crate::error::SettingsError;
 use crate::mechanism::model::Model;
-use crate::solver::integrator::AlphaParameters;
+use crate::solver::alpha::AlphaParameters;
 
 /// Safety factor on the proposed step.
 const SAFETY: f64 = 0.9;

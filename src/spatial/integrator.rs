@@ -25,9 +25,10 @@
 //! restarts the scheme there as the planar engine does.
 
 use crate::error::{short, Error, SettingsError, SolveError};
-use crate::group::{Frame, NV};
+use crate::group::{ConfigurationSpace, Frames, NV};
 use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
-use crate::solver::integrator::{rescale_pseudo_accelerations, step_ratio, AlphaParameters, State};
+use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
+use crate::solver::kink::{jumps, Kinks};
 use crate::solver::linsolve::FactorError;
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{NewtonReport, KEPT_CONTRACTION};
@@ -39,33 +40,9 @@ use crate::TimeGrid;
 /// the motion (the tangent operator is singular at 2π).
 pub const MAX_STEP_ROTATION: f64 = std::f64::consts::PI;
 
-/// A kink lies on a state when it is within this fraction of the step that reached it; a
-/// jump of `b` below this fraction of its size is none.
-const KINK_ON_NODE: f64 = 1e-9;
-
-/// The kinks of `model`'s drives after `t = 0`, sorted, without repeats.
-pub(crate) fn kinks(model: &SpatialModel) -> Vec<f64> {
-    let mut times: Vec<f64> = model
-        .joints
-        .iter()
-        .flat_map(|j| j.drive_kinks())
-        .filter(|&t| t > 0.0)
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times.dedup();
-    times
-}
-
-/// The kink of `kinks` a step ending in state `s` landed on (not `t = 0`).
-pub(crate) fn kink_on_node(kinks: &[f64], s: &State) -> Option<f64> {
-    let on_node = |k: &&f64| s.h > 0.0 && (*k - s.t).abs() <= KINK_ON_NODE * s.h;
-    kinks.iter().find(on_node).copied()
-}
-
-/// Whether a row's `b` jumps from `before` to `after` (by more than a negligible fraction of
-/// its size).
-pub(crate) fn jumps(before: f64, after: f64) -> bool {
-    (after - before).abs() > KINK_ON_NODE * (after.abs() + before.abs())
+/// The kinks of `model`'s drives.
+pub(crate) fn kinks(model: &SpatialModel) -> Kinks {
+    Kinks::from_times(model.joints.iter().flat_map(|j| j.drive_kinks()))
 }
 
 /// The restart's jump at state `s` on `kink`: the rows' `b` read on either side of it into
@@ -138,8 +115,8 @@ pub struct SpatialIntegrator<'m> {
     increment: Vec<f64>,
     /// Residual, then Newton's correction.
     rhs: Vec<f64>,
-    /// Where the drives' laws are not smooth, after `t = 0`, sorted.
-    kinks: Vec<f64>,
+    /// Where the drives' laws are not smooth.
+    kinks: Kinks,
     /// The drives' acceleration terms `b` just before and just after a kink.
     jump: [Vec<f64>; 2],
     /// How many steps began with a restart at a kink.
@@ -190,8 +167,8 @@ impl<'m> SpatialIntegrator<'m> {
     ///
     /// # Errors
     /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
-    fn restart_at_kink(&mut self, s: &mut State) -> Result<bool, SolveError> {
-        let Some(kink) = kink_on_node(&self.kinks, s) else {
+    fn restart(&mut self, s: &mut State) -> Result<bool, SolveError> {
+        let Some(kink) = self.kinks.at(s.t, s.h) else {
             return Ok(false);
         };
         let (asm, lu) = (&mut self.asm, &mut self.lu);
@@ -263,46 +240,17 @@ impl<'m> SpatialIntegrator<'m> {
     /// when a node turns by more than [`MAX_STEP_ROTATION`] in the step;
     /// [`SolveError::Singular`] for a singular iteration matrix; [`SolveError::Interrupted`].
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
-        crate::interrupt::poll_at(s.t)?;
-        let AlphaParameters {
-            alpha_m, alpha_f, ..
-        } = self.params;
-        let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
-        self.restart_at_kink(s)?;
-        if let Some(ratio) = step_ratio(s.h, h) {
-            rescale_pseudo_accelerations(&mut s.a, &s.qddot, ratio);
-        }
-        s.h = h;
-        self.start.copy_from_slice(&s.q);
-        // The predictor: v̇ₙ₊₁ = v̇ₙ (rigid bodies' accelerations are smooth).
-        for i in 0..s.qdot.len() {
-            let p = self
-                .params
-                .predict(h, s.qdot[i], s.qddot[i], s.a[i], s.qddot[i]);
-            self.increment[i] = p.increment;
-            s.qdot[i] = p.qdot;
-            s.a[i] = p.a_next;
-        }
-        s.t += h;
-        self.retract(&mut s.q);
-        let report = self.newton(s, bp, gp)?;
-        self.check_rotations(s.t)?;
-        let w = (1.0 - alpha_f) / (1.0 - alpha_m);
-        s.a.iter_mut()
-            .zip(&s.qddot)
-            .for_each(|(a, acc)| *a += w * acc);
-        Ok(report)
+        alpha::step(self, s, h)
     }
 
-    /// `q = qₙ ∘ exp(Δ)` node by node.
-    fn retract(&self, q: &mut [f64]) {
-        for node in 0..self.asm.model.nodes.len() {
-            Frame::read(&self.start, node)
-                .retract(&self.increment[NV * node..NV * node + NV])
-                .write(q, node);
+    /// The configuration space of the model's nodes.
+    fn space(&self) -> Frames {
+        Frames {
+            nodes: self.asm.model.nodes.len(),
         }
     }
 
+    /// Newton on the correction `δ` of `Δ` (module docs).
     fn newton(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
         let n_v = self.asm.model.n_v();
         let scale = bp * self.asm.mean_mass();
@@ -393,6 +341,38 @@ impl<'m> SpatialIntegrator<'m> {
             }
         }
         Ok(())
+    }
+}
+
+impl Equations for SpatialIntegrator<'_> {
+    fn parameters(&self) -> AlphaParameters {
+        self.params
+    }
+
+    fn restart_at_kink(&mut self, s: &mut State) -> Result<(), SolveError> {
+        self.restart(s).map(|_| ())
+    }
+
+    /// Every velocity coordinate's `v̇ₙ₊₁` starts at `v̇ₙ` (rigid bodies' accelerations are
+    /// smooth).
+    fn begin(&mut self, q: &[f64]) -> Predictor<'_> {
+        self.start.copy_from_slice(q);
+        Predictor {
+            increment: &mut self.increment,
+            smooth: None,
+        }
+    }
+
+    fn retract(&self, q: &mut [f64]) {
+        self.space().retract(&self.start, &self.increment, q);
+    }
+
+    fn correct(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
+        self.newton(s, bp, gp)
+    }
+
+    fn check_step(&self, s: &State) -> Result<(), SolveError> {
+        self.check_rotations(s.t)
     }
 }
 

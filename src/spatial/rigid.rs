@@ -33,7 +33,7 @@ use crate::joint::motion::LawParameter;
 use crate::joint::spatial::{Anchor, JointKind};
 use crate::mechanism::rank::Sets;
 use crate::settings::{DynamicSettings, TOL};
-use crate::solver::integrator::State;
+use crate::solver::alpha::State;
 use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::model::SpatialModel;
 use crate::time_grid::TimeGrid;

@@ -33,13 +33,14 @@ use crate::joint::motion::{LawParameter, Motion};
 use crate::joint::spatial::Joint;
 use crate::response::aggregation::Aggregation;
 use crate::settings::{DynamicSettings, Method, StaticSettings};
-use crate::solver::integrator::{step_ratio, AlphaParameters, State};
+use crate::solver::alpha::{step_ratio, AlphaParameters, State};
+use crate::solver::kink::jumps;
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::beam::Beam;
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
-use crate::spatial::integrator::{jumps, kink_jump, kink_on_node, kinks, run};
+use crate::spatial::integrator::{kink_jump, kinks, run};
 use crate::spatial::model::SpatialModel;
 use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
 use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
@@ -1798,7 +1799,7 @@ impl<'m> Sweep<'m> {
         let model = self.model();
         let (n_v, m) = (self.n_v, self.n_rows);
         let s = &self.states[n];
-        let Some(kink) = kink_on_node(&kinks(model), s) else {
+        let Some(kink) = kinks(model).at(s.t, s.h) else {
             return Ok(None);
         };
         let mut jump = [vec![0.0; m], vec![0.0; m]];
