@@ -1,5 +1,6 @@
-//! Newton's method with the exact iteration matrix, shared by the generalized-α step, the
-//! consistent initial accelerations and the static solver; and the small interface the
+//! Newton's method: its iterations ([`iterate`]) over a [`System`] — the planar engine's
+//! (a [`Newton`] at a [`Point`]: the generalized-α step and the static solver), a spatial
+//! step's and a spatial equilibrium's — and the planar system with the small interface the
 //! sensitivity analyses use: factorize the iteration matrix at a point, solve a block of
 //! right-hand sides, read the assembler.
 //!
@@ -45,8 +46,81 @@ pub(crate) struct Residual {
 }
 
 impl Residual {
+    /// The larger of the two, NaN if either is.
     pub fn value(&self) -> f64 {
-        self.force.max(self.constraint)
+        nan_max(self.force, self.constraint)
+    }
+}
+
+/// A nonlinear system under Newton's method ([`iterate`]).
+pub(crate) trait System {
+    /// The residual at the iterate, kept as the next solve's right-hand side; the
+    /// iteration matrix with it where `with_matrix` and the system builds both in one pass.
+    ///
+    /// # Errors
+    /// [`SolveError`] where a force cannot be evaluated at the iterate.
+    fn residual(&mut self, with_matrix: bool) -> Result<Residual, SolveError>;
+
+    /// Newton's correction from the last residual: on new factors of the matrix at this
+    /// iterate where `refactor`, on the held ones otherwise.
+    ///
+    /// # Errors
+    /// [`SolveError::Singular`] for a singular iteration matrix.
+    fn solve(&mut self, refactor: bool) -> Result<(), SolveError>;
+
+    /// Moves the iterate by the correction; whether the correction was at round-off, where
+    /// Newton cannot improve further.
+    fn update(&mut self) -> bool;
+
+    /// Where the system is solved (a time or a load factor), for a failure's message.
+    fn at(&self) -> String;
+}
+
+/// Newton's method on `system` from its iterate, in place: converged where both relative
+/// residuals are at most `tol` (or a correction is at round-off), failed after `max_iter`
+/// corrections or at a residual that is not finite. With `keep` (modified Newton) an
+/// iteration's factors serve the next ones while the residual falls at least tenfold per
+/// iteration ([`KEPT_CONTRACTION`]).
+///
+/// # Errors
+/// [`SolveError::NewtonFailed`] with where, the iterations and the residual; as the
+/// system's phases.
+pub(crate) fn iterate<S: System>(
+    system: &mut S,
+    tol: f64,
+    max_iter: usize,
+    keep: bool,
+) -> Result<NewtonReport, SolveError> {
+    let (mut iterations, mut fresh, mut previous) = (0, true, f64::INFINITY);
+    loop {
+        let r = system.residual(fresh)?;
+        let residual = r.value();
+        if r.force <= tol && r.constraint <= tol {
+            return Ok(NewtonReport {
+                iterations,
+                residual,
+            });
+        }
+        if iterations == max_iter || !residual.is_finite() {
+            return Err(SolveError::NewtonFailed {
+                at: system.at(),
+                iterations,
+                residual,
+                tolerance: tol,
+            });
+        }
+        // The held factors contract too slowly: new ones at this iterate.
+        fresh |= residual > KEPT_CONTRACTION * previous;
+        previous = residual;
+        system.solve(fresh)?;
+        fresh = !keep;
+        iterations += 1;
+        if system.update() {
+            return Ok(NewtonReport {
+                iterations,
+                residual,
+            });
+        }
     }
 }
 
@@ -292,20 +366,63 @@ impl<'m> Newton<'m> {
             .fold(0.0f64, |m, v| m.max(v.abs()));
         dq_max <= 64.0 * f64::EPSILON * (self.length + q_max)
     }
+}
 
-    fn failure(&self, at: String, iterations: usize, residual: f64) -> SolveError {
-        SolveError::NewtonFailed {
-            at,
-            iterations,
-            residual,
-            tolerance: self.tol,
+/// The planar system at a point: `(q, λ)`, and `(q̇, q̈)` for dynamics, its iterate.
+struct AtPoint<'a, 'm> {
+    newton: &'a mut Newton<'m>,
+    point: Point,
+    q: &'a mut [f64],
+    lambda: &'a mut [f64],
+    rates: Option<(&'a mut [f64], &'a mut [f64])>,
+    /// Whether the matrix was assembled with the last residual.
+    matrix_current: bool,
+}
+
+impl AtPoint<'_, '_> {
+    fn assemble(&mut self, with_matrix: bool) -> Residual {
+        let state = self.rates.as_ref().map(|(v, acc)| (&v[..], &acc[..]));
+        self.matrix_current = with_matrix;
+        (self.newton).assemble(self.q, state, self.lambda, &self.point, with_matrix)
+    }
+}
+
+impl System for AtPoint<'_, '_> {
+    fn residual(&mut self, with_matrix: bool) -> Result<Residual, SolveError> {
+        Ok(self.assemble(with_matrix))
+    }
+
+    fn solve(&mut self, refactor: bool) -> Result<(), SolveError> {
+        if refactor && !self.matrix_current {
+            self.assemble(true);
         }
+        self.newton.solve_increment(self.point.t, refactor)
+    }
+
+    fn update(&mut self) -> bool {
+        let newton = &*self.newton;
+        let (dq, dmu) = newton.rhs.split_at(self.q.len());
+        self.q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
+        (self.lambda.iter_mut())
+            .zip(dmu)
+            .for_each(|(l, d)| *l += newton.scale * d);
+        if let Some((v, acc)) = self.rates.as_mut() {
+            for (i, d) in dq.iter().enumerate() {
+                v[i] += self.point.gamma_prime * d;
+                acc[i] += self.point.mass_coefficient * d;
+            }
+        }
+        newton.stagnated(self.q)
+    }
+
+    fn at(&self) -> String {
+        self.point.at(self.rates.is_some())
     }
 }
 
 /// The larger of `a` and `b`, NaN if either is: a residual with a NaN entry is not
 /// converged (`f64::max` would drop the NaN).
-fn nan_max(a: f64, b: f64) -> f64 {
+pub(crate) fn nan_max(a: f64, b: f64) -> f64 {
     if a.is_nan() || b.is_nan() {
         f64::NAN
     } else {
@@ -350,54 +467,19 @@ impl<'m> Newton<'m> {
         point: Point,
         q: &mut [f64],
         lambda: &mut [f64],
-        mut rates: Option<(&mut [f64], &mut [f64])>,
+        rates: Option<(&mut [f64], &mut [f64])>,
     ) -> Result<NewtonReport, SolveError> {
-        let n_q = q.len();
-        let mut iterations = 0;
         self.scale = self.scaling(point.mass_coefficient, true);
-        let mut fresh = true;
-        let mut previous = f64::INFINITY;
-        loop {
-            let state = rates.as_ref().map(|(v, acc)| (&v[..], &acc[..]));
-            let mut res = self.assemble(q, state, lambda, &point, fresh);
-            let report = NewtonReport {
-                iterations,
-                residual: res.value(),
-            };
-            if res.force <= self.tol && res.constraint <= self.tol {
-                return Ok(report);
-            }
-            if iterations == self.max_iter || !res.value().is_finite() {
-                return Err(self.failure(point.at(rates.is_some()), iterations, res.value()));
-            }
-            if !fresh && res.value() > KEPT_CONTRACTION * previous {
-                // The held factors contract too slowly: a new matrix at this iterate.
-                fresh = true;
-                res = self.assemble(q, state, lambda, &point, true);
-            }
-            previous = res.value();
-            self.solve_increment(point.t, fresh)?;
-            fresh = !self.keep;
-            iterations += 1;
-            let (dq, dmu) = self.rhs.split_at(n_q);
-            q.iter_mut().zip(dq).for_each(|(x, d)| *x += d);
-            lambda
-                .iter_mut()
-                .zip(dmu)
-                .for_each(|(l, d)| *l += self.scale * d);
-            if let Some((v, acc)) = rates.as_mut() {
-                for i in 0..n_q {
-                    v[i] += point.gamma_prime * dq[i];
-                    acc[i] += point.mass_coefficient * dq[i];
-                }
-            }
-            if self.stagnated(q) {
-                return Ok(NewtonReport {
-                    iterations,
-                    residual: report.residual,
-                });
-            }
-        }
+        let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
+        let mut system = AtPoint {
+            newton: self,
+            point,
+            q,
+            lambda,
+            rates,
+            matrix_current: false,
+        };
+        iterate(&mut system, tol, max_iter, keep)
     }
 
     /// One Newton step of a static solve at `point` from `(q, λ)`, updated in place, on a

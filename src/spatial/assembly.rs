@@ -26,6 +26,7 @@ use crate::group::so3::tangent;
 use crate::group::{six, NV};
 use crate::joint::spatial::{Gradient, Stiffness, MAX_ROWS};
 use crate::solver::nearly_symmetric::NearlySymmetric;
+use crate::solver::newton::{nan_max, Residual};
 use crate::spatial::element::Derivatives;
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
@@ -194,6 +195,18 @@ impl<'m> Assembler<'m> {
             force_blocks: vec![Derivatives::zeros(); model.forces.len()],
             element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
             first_row,
+        }
+    }
+
+    /// The relative residuals of `r`, [`Assembler::residual`]'s with its `F_ref`
+    /// `reference`: `‖r_f‖∞ / F_ref` and `‖Φ‖∞ / L`, `L` the model's size; NaN where an entry
+    /// is.
+    pub fn measure(&self, r: &[f64], reference: f64) -> Residual {
+        let n_v = self.model.n_v();
+        let largest = |x: &[f64]| x.iter().fold(0.0f64, |m, x| nan_max(m, x.abs()));
+        Residual {
+            force: largest(&r[..n_v]) / reference.max(f64::MIN_POSITIVE),
+            constraint: largest(&r[n_v..]) / self.model.size(),
         }
     }
 

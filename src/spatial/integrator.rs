@@ -17,7 +17,7 @@
 //! iteration matrix of `assembly.rs` factored ([`NearlySymmetric`]: its symmetric part's
 //! `LDLᵀ`, refinement, `LU` where that stalls) at every iteration or, with the
 //! modified Newton matrix, at a step's first and then only where the held factors contract the
-//! residual less than tenfold ([`KEPT_CONTRACTION`]; 1.7 times faster on the paper's arm). On `ℝ³` (and the
+//! residual less than tenfold ([`crate::solver::newton::KEPT_CONTRACTION`]; 1.7 times faster on the paper's arm). On `ℝ³` (and the
 //! planar engine's additive angle) `T = I` and this is the vector-space step.
 //!
 //! The start is consistent: `M v̇₀ + Bᵀλ₀ = −f(q₀, v₀)`, `B v̇₀ = −b(q₀, v₀)`, and `a₀ = v̇₀`.
@@ -31,7 +31,7 @@ use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{jumps, Kinks};
 use crate::solver::linsolve::FactorError;
 use crate::solver::nearly_symmetric::NearlySymmetric;
-use crate::solver::newton::{NewtonReport, KEPT_CONTRACTION};
+use crate::solver::newton::{self, NewtonReport, Residual, System};
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::model::SpatialModel;
 use crate::TimeGrid;
@@ -250,67 +250,6 @@ impl<'m> SpatialIntegrator<'m> {
         }
     }
 
-    /// Newton on the correction `δ` of `Δ` (module docs).
-    fn newton(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
-        let n_v = self.asm.model.n_v();
-        let scale = bp * self.asm.mean_mass();
-        let length = self.asm.model.size();
-        let mut iterations = 0;
-        let (mut fresh, mut previous) = (true, f64::INFINITY);
-        loop {
-            let force = self
-                .asm
-                .residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut self.rhs)?;
-            let f_res = self.rhs[..n_v].iter().fold(0.0f64, |m, x| m.max(x.abs()))
-                / force.max(f64::MIN_POSITIVE);
-            let c_res = self.rhs[n_v..].iter().fold(0.0f64, |m, x| m.max(x.abs())) / length;
-            let residual = f_res.max(c_res);
-            if f_res <= self.tol && c_res <= self.tol {
-                return Ok(NewtonReport {
-                    iterations,
-                    residual,
-                });
-            }
-            if iterations == self.max_iter || !residual.is_finite() {
-                return Err(SolveError::NewtonFailed {
-                    at: format!("t = {:.6} s", s.t),
-                    iterations,
-                    residual,
-                    tolerance: self.tol,
-                });
-            }
-            // Modified Newton: the held factors while they contract the residual tenfold.
-            fresh |= residual > KEPT_CONTRACTION * previous;
-            previous = residual;
-            if fresh {
-                self.factorize(s, bp, gp, scale)?;
-            }
-            fresh = !self.keep;
-            self.rhs.iter_mut().for_each(|x| *x = -*x);
-            self.rhs[n_v..].iter_mut().for_each(|x| *x *= scale);
-            self.lu
-                .solve_in_place(&mut self.rhs, false)
-                .map_err(Self::singular(s.t))?;
-            iterations += 1;
-            let (delta, dnu) = self.rhs.split_at(n_v);
-            for (i, d) in delta.iter().enumerate() {
-                self.increment[i] += d;
-                s.qdot[i] += gp * d;
-                s.qddot[i] += bp * d;
-            }
-            s.lam.iter_mut().zip(dnu).for_each(|(l, d)| *l += scale * d);
-            self.retract(&mut s.q);
-            let inc_max = self.increment.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            if delta_max <= 64.0 * f64::EPSILON * (length + inc_max) {
-                return Ok(NewtonReport {
-                    iterations,
-                    residual,
-                });
-            }
-        }
-    }
-
     /// The iteration matrix at the state `s`, factored.
     fn factorize(&mut self, s: &State, bp: f64, gp: f64, scale: f64) -> Result<(), SolveError> {
         self.asm.matrix(
@@ -368,11 +307,73 @@ impl Equations for SpatialIntegrator<'_> {
     }
 
     fn correct(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
-        self.newton(s, bp, gp)
+        let scale = bp * self.asm.mean_mass();
+        let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
+        let mut step = Step {
+            it: self,
+            s,
+            bp,
+            gp,
+            scale,
+        };
+        newton::iterate(&mut step, tol, max_iter, keep)
     }
 
     fn check_step(&self, s: &State) -> Result<(), SolveError> {
         self.check_rotations(s.t)
+    }
+}
+
+/// A step's system for Newton: the correction `δ` of the increment `Δ`, `Δ += δ`,
+/// `v += γ'δ`, `v̇ += β'δ`, `λ += s δν` (module docs), `s` the multipliers' scale.
+struct Step<'a, 'm> {
+    it: &'a mut SpatialIntegrator<'m>,
+    s: &'a mut State,
+    bp: f64,
+    gp: f64,
+    scale: f64,
+}
+
+impl System for Step<'_, '_> {
+    fn residual(&mut self, _with_matrix: bool) -> Result<Residual, SolveError> {
+        let (it, s) = (&mut *self.it, &*self.s);
+        let force = (it.asm).residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut it.rhs)?;
+        Ok(it.asm.measure(&it.rhs, force))
+    }
+
+    fn solve(&mut self, refactor: bool) -> Result<(), SolveError> {
+        if refactor {
+            (self.it).factorize(self.s, self.bp, self.gp, self.scale)?;
+        }
+        let n_v = self.it.asm.model.n_v();
+        let rhs = &mut self.it.rhs;
+        rhs.iter_mut().for_each(|x| *x = -*x);
+        rhs[n_v..].iter_mut().for_each(|x| *x *= self.scale);
+        (self.it.lu)
+            .solve_in_place(rhs, false)
+            .map_err(SpatialIntegrator::singular(self.s.t))
+    }
+
+    fn update(&mut self) -> bool {
+        let (it, s) = (&mut *self.it, &mut *self.s);
+        let (delta, dnu) = it.rhs.split_at(it.asm.model.n_v());
+        for (i, d) in delta.iter().enumerate() {
+            it.increment[i] += d;
+            s.qdot[i] += self.gp * d;
+            s.qddot[i] += self.bp * d;
+        }
+        s.lam
+            .iter_mut()
+            .zip(dnu)
+            .for_each(|(l, d)| *l += self.scale * d);
+        it.retract(&mut s.q);
+        let inc_max = it.increment.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        delta_max <= 64.0 * f64::EPSILON * (it.asm.model.size() + inc_max)
+    }
+
+    fn at(&self) -> String {
+        format!("t = {:.6} s", self.s.t)
     }
 }
 

@@ -19,13 +19,16 @@
 //! iteration that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened to
 //! it. A load step that turns a node by more than [`MAX_LOAD_STEP_ROTATION`] is a jump to
 //! another branch and counts as failed.
+//!
+//! With `newton = "modified"` an iteration's factors serve the next ones while they
+//! contract the residual tenfold ([`crate::solver::newton::iterate`], as in a step).
 
-use crate::error::{Error, SettingsError, SolveError};
+use crate::error::{Error, SolveError};
 use crate::group::so3::log;
 use crate::group::{Frame, NV};
 use crate::settings::{NewtonMatrix, StaticSettings};
 use crate::solver::nearly_symmetric::NearlySymmetric;
-use crate::solver::newton::NewtonReport;
+use crate::solver::newton::{self, NewtonReport, Residual, System};
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::force::ForceKind;
@@ -45,8 +48,7 @@ pub const MAX_ITERATION_ROTATION: f64 = 0.25;
 /// The static equilibrium of `model` (module docs), from its initial configuration.
 ///
 /// # Errors
-/// [`SettingsError`] for settings out of range ([`StaticSettings::validate`]) or a
-/// modified Newton matrix (not built for spatial mechanisms);
+/// [`SettingsError`] for settings out of range ([`StaticSettings::validate`]);
 /// [`SolveError::Setup`] if the pattern cannot be analysed; the load stepping's errors
 /// ([`SolveError::LoadStepping`] where no equilibrium is found).
 pub fn solve_static_spatial(
@@ -54,13 +56,6 @@ pub fn solve_static_spatial(
     settings: &StaticSettings,
 ) -> Result<StaticSolution, Error> {
     settings.validate()?;
-    if settings.newton == NewtonMatrix::Modified {
-        return Err(SettingsError::new(
-            "newton",
-            "the modified Newton matrix is not built for spatial mechanisms; use \"full\"",
-        )
-        .into());
-    }
     model.check_nodes()?;
     let (asm, lu) = analysed(model)?;
     let n = asm.pattern.n;
@@ -94,7 +89,18 @@ impl Equilibrium for Spatial<'_> {
         q_prev: &[f64],
     ) -> Result<NewtonReport, SolveError> {
         self.asm.load = load;
-        let report = self.newton(load, q, lambda)?;
+        let model = self.asm.model;
+        let epsilon = REGULARIZATION * stiffness_scale(model) / self.asm.mean_mass();
+        let (tol, max_iter) = (self.settings.tol, self.settings.max_iter);
+        let keep = self.settings.newton == NewtonMatrix::Modified;
+        let mut system = AtLoad {
+            equilibrium: self,
+            load,
+            q,
+            lambda,
+            epsilon,
+        };
+        let report = newton::iterate(&mut system, tol, max_iter, keep)?;
         let model = self.asm.model;
         let t = load * self.settings.time;
         for joint in &model.joints {
@@ -121,92 +127,84 @@ impl Equilibrium for Spatial<'_> {
     }
 }
 
-impl Spatial<'_> {
-    fn newton(
-        &mut self,
-        load: f64,
-        q: &mut [f64],
-        lambda: &mut [f64],
-    ) -> Result<NewtonReport, SolveError> {
-        let model = self.asm.model;
-        let (n_v, t) = (model.n_v(), load * self.settings.time);
-        let length = model.size();
-        // Constraint rows unscaled: there is no β' to balance, and the LU's row pivoting
-        // takes the joints' rows in whatever units the forces come.
-        let scale = 1.0;
-        let epsilon = REGULARIZATION * stiffness_scale(model) / self.asm.mean_mass();
-        let mut iterations = 0;
-        loop {
-            let force = self
-                .asm
-                .residual(q, &self.rest, &self.rest, lambda, t, &mut self.rhs)?;
-            let f_res = self.rhs[..n_v].iter().fold(0.0f64, |m, x| m.max(x.abs()))
-                / force.max(f64::MIN_POSITIVE);
-            let c_res = self.rhs[n_v..].iter().fold(0.0f64, |m, x| m.max(x.abs())) / length;
-            let residual = f_res.max(c_res);
-            if f_res <= self.settings.tol && c_res <= self.settings.tol {
-                return Ok(NewtonReport {
-                    iterations,
-                    residual,
-                });
-            }
-            if iterations == self.settings.max_iter || !residual.is_finite() {
-                return Err(SolveError::NewtonFailed {
-                    at: format!("load factor {load:.6}"),
-                    iterations,
-                    residual,
-                    tolerance: self.settings.tol,
-                });
-            }
-            let c = Coefficients {
-                beta_prime: epsilon,
-                gamma_prime: 0.0,
-                scale,
-                tangent: Some((&self.rest, lambda)),
-            };
-            self.asm.matrix(q, &self.rest, t, c)?;
-            let singular = |e| SolveError::Singular {
-                time: t,
-                detail: format!("{e:?} at load factor {load:.6}"),
-            };
-            self.lu.factorize(&self.asm.values).map_err(singular)?;
-            self.rhs.iter_mut().for_each(|x| *x = -*x);
-            self.rhs[n_v..].iter_mut().for_each(|x| *x *= scale);
-            self.lu
-                .solve_in_place(&mut self.rhs, false)
-                .map_err(singular)?;
-            iterations += 1;
-            // A step that would turn a node by more than MAX_ITERATION_ROTATION is shortened
-            // to it: where nothing holds a rotation yet (no load, multipliers still zero),
-            // εM alone would send it round. The multipliers take their whole step: with them
-            // the joints' stiffness that holds the rotation arrives.
-            let turn = self.rhs[..n_v]
-                .chunks(NV)
-                .map(|d| (d[3] * d[3] + d[4] * d[4] + d[5] * d[5]).sqrt())
-                .fold(0.0f64, f64::max);
-            if turn > MAX_ITERATION_ROTATION {
-                let shorten = MAX_ITERATION_ROTATION / turn;
-                self.rhs[..n_v].iter_mut().for_each(|x| *x *= shorten);
-            }
-            let (delta, dnu) = self.rhs.split_at(n_v);
-            for node in 0..model.nodes.len() {
-                Frame::read(q, node)
-                    .retract(&delta[NV * node..NV * node + NV])
-                    .write(q, node);
-            }
-            lambda
-                .iter_mut()
-                .zip(dnu)
-                .for_each(|(l, d)| *l += scale * d);
-            let q_max = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            if delta_max <= 64.0 * f64::EPSILON * (length + q_max) {
-                return Ok(NewtonReport {
-                    iterations,
-                    residual,
-                });
-            }
+/// An equilibrium's system for Newton at a load factor: the correction `δ`,
+/// `q ← q ∘ exp(δ)` node by node, `λ += δν` (module docs).
+struct AtLoad<'a, 'm> {
+    equilibrium: &'a mut Spatial<'m>,
+    load: f64,
+    q: &'a mut [f64],
+    lambda: &'a mut [f64],
+    /// `ε` of the module docs, per mass.
+    epsilon: f64,
+}
+
+impl AtLoad<'_, '_> {
+    fn time(&self) -> f64 {
+        self.load * self.equilibrium.settings.time
+    }
+}
+
+impl System for AtLoad<'_, '_> {
+    fn residual(&mut self, _with_matrix: bool) -> Result<Residual, SolveError> {
+        let t = self.time();
+        let e = &mut *self.equilibrium;
+        let force = (e.asm).residual(self.q, &e.rest, &e.rest, self.lambda, t, &mut e.rhs)?;
+        Ok(e.asm.measure(&e.rhs, force))
+    }
+
+    /// Constraint rows unscaled: there is no `β'` to balance, and the `LU`'s row pivoting
+    /// takes the joints' rows in whatever units the forces come.
+    fn solve(&mut self, refactor: bool) -> Result<(), SolveError> {
+        let (t, load) = (self.time(), self.load);
+        let e = &mut *self.equilibrium;
+        let c = Coefficients {
+            beta_prime: self.epsilon,
+            gamma_prime: 0.0,
+            scale: 1.0,
+            tangent: Some((&e.rest, self.lambda)),
+        };
+        let singular = |e| SolveError::Singular {
+            time: t,
+            detail: format!("{e:?} at load factor {load:.6}"),
+        };
+        if refactor {
+            e.asm.matrix(self.q, &e.rest, t, c)?;
+            e.lu.factorize(&e.asm.values).map_err(singular)?;
         }
+        e.rhs.iter_mut().for_each(|x| *x = -*x);
+        e.lu.solve_in_place(&mut e.rhs, false).map_err(singular)
+    }
+
+    /// A step that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened
+    /// to it: where nothing holds a rotation yet (no load, multipliers still zero), `εM`
+    /// alone would send it round. The multipliers take their whole step: with them the
+    /// joints' stiffness that holds the rotation arrives.
+    fn update(&mut self) -> bool {
+        let e = &mut *self.equilibrium;
+        let model = e.asm.model;
+        let n_v = model.n_v();
+        let turn = e.rhs[..n_v]
+            .chunks(NV)
+            .map(|d| (d[3] * d[3] + d[4] * d[4] + d[5] * d[5]).sqrt())
+            .fold(0.0f64, f64::max);
+        if turn > MAX_ITERATION_ROTATION {
+            let shorten = MAX_ITERATION_ROTATION / turn;
+            e.rhs[..n_v].iter_mut().for_each(|x| *x *= shorten);
+        }
+        let (delta, dnu) = e.rhs.split_at(n_v);
+        for node in 0..model.nodes.len() {
+            Frame::read(self.q, node)
+                .retract(&delta[NV * node..NV * node + NV])
+                .write(self.q, node);
+        }
+        self.lambda.iter_mut().zip(dnu).for_each(|(l, d)| *l += d);
+        let q_max = self.q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        delta_max <= 64.0 * f64::EPSILON * (model.size() + q_max)
+    }
+
+    fn at(&self) -> String {
+        format!("load factor {:.6}", self.load)
     }
 }
 
