@@ -8,11 +8,13 @@ extrapolation from 1600 and 3200 steps. Printed per design: the scene's grid (h 
 its true error; the grid the tolerance chose, its cost over the scene's run, its estimated
 and true errors (value, and gradient in the 2-norm), the estimate over the true error.
 
-    python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME]
+    python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME] [--refine uniform,bars]
 
 ``--added``: only the three designs added to the first seven (MMA's 40th iterate, uniform 0.2,
-random in [0.05, 1]); ``--design NAME``: only that one. A design whose run on the scene's grid
-fails is still run to the tolerance (the contract's finer grids may carry it).
+random in [0.05, 1]); ``--design NAME`` (repeated for more): only those. ``--refine``: how the runs to the
+tolerance refine the beams, one row per way given (``uniform`` by default; ``bars`` grades them
+by their own frequencies), each against the same reference. A design whose run on the scene's
+grid fails is still run to the tolerance (the contract's finer grids may carry it).
 """
 
 import sys
@@ -68,33 +70,47 @@ def main(rtol: float) -> None:
                "random [0.05, 1]": rng.uniform(0.05, 1.0, sim.n_design)}
     if "--added" in sys.argv:  # the designs added to the first seven
         designs = {k: v for k, v in designs.items() if k in ("MMA iterate 40", "uniform 0.2", "random [0.05, 1]")}
-    if "--design" in sys.argv:
-        designs = {k: v for k, v in designs.items() if k == sys.argv[sys.argv.index("--design") + 1]}
+    if "--design" in sys.argv:  # each given after its own flag
+        wanted = {sys.argv[k + 1] for k, arg in enumerate(sys.argv) if arg == "--design"}
+        designs = {k: v for k, v in designs.items() if k in wanted}
+    ways = sys.argv[sys.argv.index("--refine") + 1].split(",") if "--refine" in sys.argv else ["uniform"]
     print(f"rtol = {rtol:g}, the spatial robot arm ({sim.n_design} bars), {RESPONSE}\n")
-    print("| design | d, scene's grid (m²) | its true error | grid chosen | cost / scene's run | d (m²) | estimated error "
+    print("| design | refine | d, scene's grid (m²) | its true error | grid chosen | cost / scene's run | d (m²) | estimated error "
           "| true error | estimate / true | gradient: estimated | true | estimate / true | reference's Richardson correction |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, x in designs.items():
         # The scene's grid may fail where the contract's finer grids carry the motion.
+        failed = None
         try:
             plain, t_plain = timed(lambda: sim.run_with_sensitivities(x, RESPONSE))
         except flextop.SimulationError as error:
             plain, t_plain, failed = None, None, f"fails: {error}"
-        try:
-            run, t_run = timed(lambda: flextop.SpatialSimulation(scene, rtol=rtol).run_with_sensitivities(x, RESPONSE))
-        except (flextop.ToleranceError, flextop.SimulationError) as error:
-            print(f"| {name} | {failed if plain is None else f'{plain.values[0]:.4e}'} | — | {type(error).__name__}: {error} |")
-            continue
-        ref, correction = reference(sim.spec, x)
-        d_ref, g_ref = ref.values[0], ref.dfdx[0]
-        true = abs(run.values[0] - d_ref) / abs(d_ref)
-        grad = np.linalg.norm(run.dfdx[0] - g_ref) / np.linalg.norm(g_ref)
-        est, gest = run.errors[RESPONSE], run.gradient_errors[RESPONSE]
-        scene_d = f"{failed} | —" if plain is None else f"{plain.values[0]:.4e} | {abs(plain.values[0] - d_ref) / abs(d_ref):.2e}"
-        cost = "—" if t_plain is None else f"{t_run / t_plain:.1f}"
-        print(f"| {name} | {scene_d} | {run.discretization} "
-              f"| {cost} | {run.values[0]:.4e} | {est:.2e} | {true:.2e} | {est / true:.2f} | {gest:.2e} "
-              f"| {grad:.2e} | {gest / grad:.2f} | {correction:.1e} |", flush=True)
+        ref = None
+        for way in ways:
+            ref = row(scene, sim, name, x, way, rtol, plain, t_plain, failed, ref)
+
+
+def row(scene, sim, name, x, way, rtol, plain, t_plain, failed, ref):
+    """One design's run to ``rtol`` refining its beams ``way``, printed against the reference
+    (made here where ``ref`` is ``None``); returns the reference."""
+    try:
+        run, t_run = timed(lambda: flextop.SpatialSimulation(scene, rtol=rtol, refine=way).run_with_sensitivities(x, RESPONSE))
+    except (flextop.ToleranceError, flextop.SimulationError) as error:
+        print(f"| {name} | {way} | {failed if plain is None else f'{plain.values[0]:.4e}'} | — | {type(error).__name__}: {error} |")
+        return ref
+    if ref is None:
+        ref = reference(sim.spec, x)
+    (extrapolated, correction) = ref
+    d_ref, g_ref = extrapolated.values[0], extrapolated.dfdx[0]
+    true = abs(run.values[0] - d_ref) / abs(d_ref)
+    grad = np.linalg.norm(run.dfdx[0] - g_ref) / np.linalg.norm(g_ref)
+    est, gest = run.errors[RESPONSE], run.gradient_errors[RESPONSE]
+    scene_d = f"{failed} | —" if plain is None else f"{plain.values[0]:.4e} | {abs(plain.values[0] - d_ref) / abs(d_ref):.2e}"
+    cost = "—" if t_plain is None else f"{t_run / t_plain:.1f}"
+    print(f"| {name} | {way} | {scene_d} | {run.discretization} "
+          f"| {cost} | {run.values[0]:.4e} | {est:.2e} | {true:.2e} | {est / true:.2f} | {gest:.2e} "
+          f"| {grad:.2e} | {gest / grad:.2f} | {correction:.1e} |", flush=True)
+    return ref
 
 
 if __name__ == "__main__":

@@ -42,6 +42,7 @@ moves with them too).
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
@@ -258,9 +259,13 @@ class SpatialSimulation:
     accuracy, rtol, atol:
         A tolerance for :meth:`run_with_sensitivities` (a preset's name of
         :mod:`flextop.discretization.accuracy`, or ``rtol`` and ``atol``): the elements of
-        every frame beam and the steps chosen so that every response's estimated error is
+        the frame beams and the steps chosen so that every response's estimated error is
         within ``rtol·|f| + atol`` and its gradients' within ``5·rtol``
         (:mod:`flextop.discretization.spatial`); ``None``: the scene's grid.
+    refine:
+        How a run to a tolerance refines the beams: ``"bars"`` (the default: a dynamic
+        scene's beams graded by their own lowest frequencies and masses, as a planar scene's
+        bars; a static scene's alike) or ``"uniform"`` (every frame beam alike).
 
     Raises
     ------
@@ -268,15 +273,23 @@ class SpatialSimulation:
         If the scene cannot be built; the message names the entry.
     SettingsError
         If ``rtol`` is not in [1e-6, 1), ``atol`` is negative, ``accuracy`` is not a preset's
-        name, or both ``accuracy`` and ``rtol`` are given.
+        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is neither
+        ``"uniform"`` nor ``"bars"``.
     """
 
     def __init__(self, scene: SpatialScene | dict | str | os.PathLike, *, accuracy: str | None = None,
-                 rtol: float | None = None, atol: float = 0.0) -> None:
+                 rtol: float | None = None, atol: float = 0.0, refine: str = "bars") -> None:
         self.accuracy, self.rtol, self.atol = accuracy, rtol_of(accuracy, rtol, atol), atol
+        if refine not in spatial_tolerance.REFINE:
+            built = "; a beam's measured share of the error is not built for spatial scenes" if refine == "shares" else ""
+            raise SettingsError(f"refine: {refine!r} is not one of {', '.join(spatial_tolerance.REFINE)}{built}")
+        self.refine = refine
         #: The scene with every frame beam's elements times a factor, by factor, each built on
         #: first use by a run to a tolerance (:mod:`flextop.discretization.spatial`).
         self.refined: dict[int, SpatialSimulation] = {}
+        #: The scene with each frame beam's elements times its own factor, by factors, the
+        #: most recently used kept (``refine="bars"``).
+        self.graded: OrderedDict[tuple[int, ...], SpatialSimulation] = OrderedDict()
         self.spec = _as_spec(scene)
         self.model = _core.SpatialModel.from_dict(self.spec)
         points = [entry["position"] for key in ("rigid_bodies", "nodes") for entry in self.spec.get(key, [])]

@@ -20,7 +20,6 @@
 
 use crate::mechanism::element::Kind;
 use crate::mechanism::model::{Densities, Model};
-use crate::mechanism::section::Section;
 
 /// `λ` of the first clamped–clamped mode: the smallest positive root of `cos λ cosh λ = 1`.
 const LAMBDA: f64 = 4.730_040_744_862_704;
@@ -77,16 +76,37 @@ impl ClampedMode {
         }
     }
 
-    /// The lowest clamped–clamped bending frequency (Hz) of a bar of length `length` (m)
-    /// and section `section` at full density, its stiffness scaled by `stiffness` and its
-    /// mass by `mass`.
-    fn frequency(self, length: f64, section: &Section, stiffness: f64, mass: f64) -> f64 {
+    /// The lowest clamped–clamped frequency (Hz) of a bar of length `length` (m) bending
+    /// in one plane, at full density, its stiffness scaled by `stiffness` and its mass by
+    /// `mass`.
+    fn frequency(self, length: f64, plane: &Bending, stiffness: f64, mass: f64) -> f64 {
         let l2 = length * length;
-        let bending = section.ei * LAMBDA.powi(4) / (section.rho_a * l2 * l2);
-        let corrections = (1.0 + section.rho_i / section.rho_a * self.rotary / l2)
-            * (1.0 + section.ei / section.gak * self.shear / l2);
+        let bending = plane.ei * LAMBDA.powi(4) / (plane.rho_a * l2 * l2);
+        let corrections = (1.0 + plane.rho_i / plane.rho_a * self.rotary / l2)
+            * (1.0 + plane.ei / plane.gak * self.shear / l2);
         (bending / corrections * stiffness / mass).sqrt() / std::f64::consts::TAU
     }
+}
+
+/// What a bar's bending in one plane reads of its section: `EI` (N m²) and `κGA` (N) of that
+/// plane, `ρA` (kg/m) and the rotary inertia `ρI` (kg m) that turns with it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Bending {
+    pub ei: f64,
+    pub gak: f64,
+    pub rho_a: f64,
+    pub rho_i: f64,
+}
+
+/// The lowest clamped–clamped frequency (Hz) of a bar of length `length` (m) over its
+/// bending `planes` (one for a planar bar, two for a spatial one), its stiffness scaled by
+/// `stiffness` and its mass by `mass` (the module's formula).
+pub(crate) fn clamped_frequency(length: f64, planes: &[Bending], stiffness: f64, mass: f64) -> f64 {
+    static MODE: std::sync::OnceLock<ClampedMode> = std::sync::OnceLock::new();
+    let mode = *MODE.get_or_init(ClampedMode::first);
+    (planes.iter())
+        .map(|plane| mode.frequency(length, plane, stiffness, mass))
+        .fold(f64::INFINITY, f64::min)
 }
 
 impl Model {
@@ -95,7 +115,6 @@ impl Model {
     /// truss bar, whose one element has no internal dynamics to resolve (the truss
     /// idealization leaves its bending out).
     pub fn bar_frequencies(&self, densities: &Densities) -> Vec<f64> {
-        let mode = ClampedMode::first();
         self.bars
             .iter()
             .map(|bar| {
@@ -109,8 +128,14 @@ impl Model {
                     .map(|e| self.elements[e].kernel.length())
                     .sum();
                 let section = self.elements[first].kernel.section();
+                let plane = Bending {
+                    ei: section.ei,
+                    gak: section.gak,
+                    rho_a: section.rho_a,
+                    rho_i: section.rho_i,
+                };
                 let (s, m) = (densities.stiffness[first], densities.mass[first]);
-                mode.frequency(length, section, s, m)
+                clamped_frequency(length, &[plane], s, m)
             })
             .collect()
     }
@@ -149,14 +174,26 @@ mod tests {
     /// corrections' size, and `√(s/m)` under a design.
     #[test]
     fn slender_bar_is_euler_bernoulli_and_scales_with_the_design() {
-        let section = Section::new(70e9, 26.5e9, 3.14e-4, 7.85e-9, 0.9, 2700.0);
+        let section =
+            crate::mechanism::section::Section::new(70e9, 26.5e9, 3.14e-4, 7.85e-9, 0.9, 2700.0);
+        let plane = Bending {
+            ei: section.ei,
+            gak: section.gak,
+            rho_a: section.rho_a,
+            rho_i: section.rho_i,
+        };
         let length = 2.0;
         let euler = LAMBDA.powi(2) * (section.ei / section.rho_a).sqrt()
             / (std::f64::consts::TAU * length * length);
-        let mode = ClampedMode::first();
-        let f = mode.frequency(length, &section, 1.0, 1.0);
+        let f = clamped_frequency(length, &[plane], 1.0, 1.0);
         assert!(f < euler && (f / euler - 1.0).abs() < 1e-3, "{f} {euler}");
-        let scaled = mode.frequency(length, &section, 1e-3, 0.1);
+        let scaled = clamped_frequency(length, &[plane], 1e-3, 0.1);
         assert!((scaled / f - 0.1).abs() < 1e-12);
+        // The softer of two planes.
+        let stiff = Bending {
+            ei: 4.0 * section.ei,
+            ..plane
+        };
+        assert_eq!(clamped_frequency(length, &[stiff, plane], 1.0, 1.0), f);
     }
 }

@@ -103,6 +103,22 @@ impl PySpatialModel {
         Ok(self.scene.masses(&x).map_err(Error::from)?)
     }
 
+    /// Each beam's lowest clamped–clamped bending frequency (Hz) at design `x` (full density
+    /// by default), in the order of `beams`; infinite for a truss bar.
+    #[pyo3(signature = (x=None))]
+    fn beam_frequencies(&self, x: Option<Vec<f64>>) -> PyResult<Vec<f64>> {
+        Ok(self
+            .scene
+            .beam_frequencies(x.as_deref())
+            .map_err(Error::from)?)
+    }
+
+    /// Each beam's mass (kg) at design `x` (full density by default), in the order of `beams`.
+    #[pyo3(signature = (x=None))]
+    fn beam_masses(&self, x: Option<Vec<f64>>) -> PyResult<Vec<f64>> {
+        Ok(self.scene.beam_masses(x.as_deref()).map_err(Error::from)?)
+    }
+
     #[getter]
     fn tip(&self) -> Option<String> {
         self.scene.tip.clone()

@@ -170,3 +170,108 @@ def test_an_optimization_held_to_a_tolerance_meets_it_where_it_ends():
     fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 8))
     reference = fine.run_with_sensitivities(result.x, "strain_energy", h=0.005 / 32).values[0]
     assert abs(result.fun * problem.reference - reference) <= 1e-2 * reference
+
+
+def clamped_bar(split: int = 1) -> SpatialScene:
+    """A 1.2 m aluminium bar of a 20 × 8 mm rectangle, welded to the ground at both ends: its
+    lowest mode bends it about its weaker axis."""
+    scene = SpatialScene("clamped bar", gravity=(0.0, 0.0, 0.0))
+    scene.section("flat", E=7e10, rho=2700.0, nu=0.33, shape="rectangle", width=0.02, height=0.008)
+    scene.node("a", (0.0, 0.0, 0.0))
+    scene.node("b", (1.2, 0.0, 0.0))
+    scene.beam("bar", "a", "b", section="flat", split=split)
+    scene.weld("left", "a")
+    scene.weld("right", "b")
+    return scene
+
+
+@pytest.mark.parametrize("x", [1.0, 0.3])
+def test_a_beams_own_frequency_is_its_lowest_mode_clamped_at_both_ends(x):
+    """The indicator that grades beams: a beam's own lowest clamped–clamped frequency, over
+    both bending planes the softer one's, against the lowest mode of the same beam welded at
+    both ends in 32 elements, at full density and at 0.3 (SIMP's stiffness over Du–Olhoff's
+    mass), within 0.1 %; its mass, ρAL times the mass law's factor."""
+    own = SpatialSimulation(clamped_bar(1)).model
+    lowest = SpatialSimulation(clamped_bar(32)).modes([x], at="rest", count=1).frequencies[0]
+    assert own.beam_frequencies([x])[0] == pytest.approx(lowest, rel=1e-3)
+    full_mass = 2700.0 * 0.02 * 0.008 * 1.2
+    assert own.beam_masses()[0] == pytest.approx(full_mass, rel=1e-12)
+    assert own.beam_masses([x])[0] < full_mass if x < 1 else own.beam_masses([x])[0] == pytest.approx(full_mass)
+
+
+def test_the_beams_are_graded_by_their_need():
+    """On the spatial robot arm at refinement 8 (``refine="bars"``, the default): the beams of
+    the largest need ``M/f²`` get 8× their elements, each factor 8 of need below halves that,
+    down to the floor; ``refine="uniform"`` refines every frame beam alike."""
+    from flextop.discretization.spatial import EveryBeam, beam_factors
+
+    sim = SpatialSimulation(spatial_robot_arm())
+    x = np.random.default_rng(0).uniform(0.05, 1.0, sim.n_design)
+    factors = beam_factors(sim, EveryBeam(8, 100, graded=True), list(x))
+    need = np.array(sim.model.beam_masses(list(x))) / np.array(sim.model.beam_frequencies(list(x))) ** 2
+    expected = np.maximum(1, 8 >> np.floor(np.log2(need.max() / need) / 3).astype(int))
+    assert list(factors.values()) == list(expected) and len(set(expected)) > 2
+    floored = beam_factors(sim, EveryBeam(8, 100, floor=4, uniform=2, graded=True), list(x))
+    assert list(floored.values()) == list(2 * np.maximum(4, expected))
+    uniform = SpatialSimulation(spatial_robot_arm(), refine="uniform")
+    assert set(beam_factors(uniform, EveryBeam(8, 100), list(x)).values()) == {8}
+
+
+def test_a_graded_scene_splits_each_beam_and_keeps_its_named_nodes():
+    """The scene's ``splits`` table gives each beam its own elements; a node named inside a
+    beam is renamed by that beam's own factor and stays the same point."""
+    from flextop.discretization.spatial import graded_name, graded_spec
+
+    scene = bent_cantilever().to_dict()
+    assert graded_name("rod[1]", {"rod": 4}) == "rod[4]" and graded_name("box[1,0,0]", {"rod": 4}) == "box[1,0,0]"
+    assert graded_name("other[1]", {"rod": 4}) == "other[1]"
+    refined = graded_spec(scene, {"rod": 2}, {"rod": 4})
+    assert refined["splits"] == {"rod": 8} and refined["loads"][1]["at"] == "rod[4]" and refined["beams"][0]["split"] == 2
+    sim = SpatialSimulation(refined)
+    assert len(dict(sim.model.beams)["rod"]) == 8
+    assert np.allclose(sim.simulate(t_end=1e-3, h=1e-3).position("rod[4]")[0], [0.5, 0.0, 0.0], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("splits, culprit", [
+    ({"nothing": 2}, "splits.nothing: no beam is called so"),
+    ({"rod": 0}, "splits.rod: 0: between 1 and"),
+])
+def test_bad_splits_are_named(splits, culprit):
+    scene = bent_cantilever().to_dict()
+    with pytest.raises(flextop.SceneError, match=culprit):
+        SpatialSimulation({**scene, "splits": splits})
+
+
+def test_a_truss_bar_cannot_be_split():
+    scene = SpatialScene("truss", analysis="static")
+    scene.section("rod", E=2e11, rho=7800.0, nu=0.3, diameter=0.01)
+    scene.node("a", (0.0, 0.0, 0.0))
+    scene.node("b", (1.0, 0.0, 0.0))
+    scene.beam("tie", "a", "b", section="rod", kind="truss")
+    with pytest.raises(flextop.SceneError, match="splits.tie: a truss bar is one element"):
+        SpatialSimulation({**scene.to_dict(), "splits": {"tie": 2}})
+
+
+@pytest.mark.parametrize("refine, culprit", [("shares", "share of the error is not built"), ("every", "'every'")])
+def test_a_refinement_spatial_scenes_lack_is_named(refine, culprit):
+    with pytest.raises(SettingsError, match=f"refine: .*{culprit}"):
+        SpatialSimulation(flexible_pendulum(), refine=refine)
+
+
+def test_a_motion_to_a_tolerance_by_graded_beams_is_within_it():
+    """The flexible pendulum with a light upper beam (x = 0.1: its own frequency a third of
+    the solid one's), its beams graded (the default): the grid accepted splits the upper beam
+    and leaves the lower one; rtol 1e-2 on ∫U dt and the end's position against 8× the
+    elements on 32× the steps, extrapolated."""
+    from flextop.discretization.spatial import beam_factors
+
+    rtol, responses, x = 1e-2, ["strain_energy", "z:end", "x:end"], np.array([0.1, 1.0])
+    sim = SpatialSimulation(flexible_pendulum(), rtol=rtol)
+    run = sim.run_with_sensitivities(x, responses)
+    d = run.discretization
+    assert d.graded and beam_factors(sim, d, list(x)) == {"lower": 1, "upper": 2}
+    fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 8))
+    at = [fine.run_with_sensitivities(x, responses, h=0.005 / k) for k in (32, 16)]
+    reference = replace(at[0], **{key: (4 * getattr(at[0], key) - getattr(at[1], key)) / 3
+                                  for key in ("values", "gradient", "dfdx")})
+    assert_honest(run, reference, rtol)

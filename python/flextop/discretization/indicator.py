@@ -63,9 +63,16 @@ from ..errors import SettingsError
 def bar_factors(model: _core.Model, x: np.ndarray | None, refinement: int, dynamic: bool = True) -> np.ndarray:
     """Each bar's factor on its elements at ``refinement`` (a power of two) for the design
     ``x``: ``refinement`` on the bars of the largest need ``η = M_b / f_b²``, halved for
-    each factor 4 of need below it, at least 1; ``refinement`` on every bar of a static
+    each factor 8 of need below it, at least 1; ``refinement`` on every bar of a static
     scene or one whose bars have no need (no mass, or no finite frequency)."""
-    frequencies, masses = model.bar_frequencies(x), model.bar_masses(x)
+    return graded(model.bar_frequencies(x), model.bar_masses(x), refinement, dynamic)
+
+
+def graded(frequencies: Any, masses: Any, refinement: int, dynamic: bool = True) -> np.ndarray:
+    """Each bar's factor on its elements at ``refinement`` from its own ``frequencies`` (Hz)
+    and ``masses`` (kg): :func:`bar_factors`'s rule, for a planar scene's bars or a spatial
+    scene's beams."""
+    frequencies, masses = np.asarray(frequencies, dtype=float), np.asarray(masses, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         need = np.where(np.isfinite(frequencies) & (frequencies > 0), masses / frequencies**2, 0.0)
     factors = np.full(len(need), refinement, dtype=np.int64)

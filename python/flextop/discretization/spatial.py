@@ -12,9 +12,16 @@ to the parameters asked for, held to ``GRADIENT_FACTOR · rtol`` in the relative
 within its budget. The run that passes is an ordinary run on one grid, so its gradients are
 exact for the scheme that ran.
 
-Every frame beam is refined alike (planar scenes' ``refine="uniform"``): a spatial bar's
-own frequency, which grades a planar scene's bars, and its measured share of the error are
-not built for spatial bars.
+With ``refine="uniform"`` every frame beam is refined alike. With ``refine="bars"`` (the
+default) a dynamic scene's beams are graded as a planar scene's bars (:mod:`.indicator`): each beam's
+own lowest clamped–clamped frequency ``f_b`` over both bending planes and its mass ``M_b``
+(``SpatialModel.beam_frequencies``, ``beam_masses``) give its need ``M_b / f_b²``; the beams
+of the largest need get ``r`` times their elements, each factor 8 of need below halves that,
+down to the candidate's ``floor``, through the scene's ``splits`` table. A beam's measured
+share of the error (a planar scene's ``refine="shares"``) is not built for spatial beams.
+On the spatial robot arm's ten designs (BENCHMARKS.md, "Spatial runs to a tolerance") the
+graded grids were those of uniform refinement where the scene's elements sufficed, and 40 %
+cheaper on the random design down to 0.05, with honest estimates.
 
 A node named inside a beam, ``BEAM[k]`` (the ``k``-th of its ``split − 1`` inner nodes),
 is the same point of the beam in every candidate: ``BEAM[r·k]`` at ``r`` times its elements,
@@ -23,17 +30,19 @@ wherever the scene or a response names it.
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..errors import SceneError, SettingsError, ToleranceError
-from . import tolerance
+from . import indicator, tolerance
 from .accuracy import split_by
+from .refinement import GRADED_KEPT
 from .tolerance import Discretization, ErrorEstimate
 
 INNER = re.compile(r"^(?P<beam>.+)\[(?P<k>\d+)\]$")
@@ -62,6 +71,35 @@ def renamed(name: str, factor: int, beams: set[str]) -> str:
     return f"{beam}[{factor * int(found['k'])}]" if beam in beams or lattice_bar else name
 
 
+def graded_spec(spec: dict, splits: dict[str, int], factors: dict[str, int]) -> dict:
+    """The spatial scene with each frame beam's elements, ``splits`` (its elements as built),
+    times its own ``factors`` entry (those not named keep theirs), through the scene's
+    ``splits`` table, every node it names inside a beam renamed to the same point."""
+    spec = copy.deepcopy(spec)
+    table = spec.setdefault("splits", {})
+    table.update({name: splits[name] * factor for name, factor in factors.items() if factor != 1})
+
+    def walk(value: Any) -> Any:
+        if isinstance(value, str):
+            return graded_name(value, factors)
+        if isinstance(value, list):
+            return [walk(v) for v in value]
+        if isinstance(value, dict):
+            return {k: walk(v) for k, v in value.items()}
+        return value
+
+    return {key: (value if key == "splits" else walk(value)) for key, value in spec.items()}
+
+
+def graded_name(name: str, factors: dict[str, int]) -> str:
+    """``name`` with beam ``BEAM``'s elements times ``factors[BEAM]``: ``BEAM[k]`` →
+    ``BEAM[factor·k]``, anything else unchanged."""
+    found = INNER.match(name)
+    if found is None or found["beam"] not in factors:
+        return name
+    return f"{found['beam']}[{factors[found['beam']] * int(found['k'])}]"
+
+
 def refined_spec(spec: dict, factor: int) -> dict:
     """The spatial scene with ``factor`` times the elements of every frame beam, every node
     it names inside a beam renamed to the same point (:func:`renamed`)."""
@@ -85,15 +123,38 @@ def renamed_response(response: str, factor: int, beams: set[str]) -> str:
     return f"{kind}:{renamed(rest, factor, beams)}" if sep and kind in NAMED_NODE else response
 
 
+REFINE = ("uniform", "bars")
+"""How a spatial scene's runs to a tolerance refine its beams (module docs)."""
+
+
 @dataclass(frozen=True, order=True)
 class EveryBeam(Discretization):
-    """A spatial candidate: ``refinement · uniform`` times the elements of every frame beam
-    and ``steps`` uniform steps (:class:`~.tolerance.Discretization`'s fields; no floor or
-    factors: the beams are not graded)."""
+    """A spatial candidate: ``refinement · uniform`` times the elements of every frame beam,
+    or with ``graded`` the beams graded by their need (module docs: ``refinement`` on those
+    that need most, at least ``floor``, times ``uniform``), and ``steps`` uniform steps
+    (:class:`~.tolerance.Discretization`'s fields; no measured factors)."""
+
+    graded: bool = field(default=False, compare=False)
+    """Whether the beams are graded (the simulation's ``refine="bars"``); the description's."""
 
     def __str__(self) -> str:
+        if self.graded:
+            return super().__str__()
         steps = f" and {self.steps} steps" if self.steps else ""
         return f"{self.refinement * self.uniform}× the scene's elements of every frame beam{steps}"
+
+
+def beam_factors(sim: Any, d: Discretization, design: list[float] | None) -> dict[str, int]:
+    """Each frame beam's factor on its elements at candidate ``d`` for ``design``: graded by
+    need where ``sim.refine == "bars"`` and the scene is dynamic, ``d.refinement`` on every
+    one otherwise; at least ``d.floor``, times ``d.uniform``."""
+    names = [name for name, _ in sim.model.beams]
+    frequencies = np.asarray(sim.model.beam_frequencies(design))
+    frame = np.isfinite(np.asarray(sim.model.beam_frequencies(None)))
+    dynamic = sim.refine == "bars" and sim.analysis == "dynamic"
+    graded = indicator.graded(frequencies, sim.model.beam_masses(design), d.refinement, dynamic)
+    factors = d.uniform * np.maximum(d.floor, graded)
+    return {name: int(f) for name, f, is_frame in zip(names, factors, frame) if is_frame}
 
 
 @dataclass(frozen=True)
@@ -117,15 +178,15 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
     gradient (``wanted = (rtol, atol)``); ``static`` at the equilibrium, else over the motion
     of ``settings``' ``t_end`` (the scene's by default); the candidates from ``start`` (the
     scene's grid by default: its elements, its step). Companion runs stop Newton at
-    :func:`.tolerance.companion_newton_tol` and keep each step's first factorization while
-    it contracts over a motion (``newton = "modified"``: on the robot arm at x = 0.4, 16 %
-    less time in all), unless ``settings`` give ``tol`` or ``newton``.
+    :func:`.tolerance.companion_newton_tol` and keep an iteration's factorization while it
+    contracts (``newton = "modified"``: on the robot arm at x = 0.4, 16 % less time in all
+    over a motion), unless ``settings`` give ``tol`` or ``newton``.
 
     Raises :class:`ToleranceError` where no candidate within the limits of
     :func:`.tolerance.resolve` meets the tolerance, or where a refined scene passes the
     engine's limits on a beam's elements or the nodes."""
     loose = {key: value for key, value in (("tol", tolerance.companion_newton_tol(wanted[0])), ("newton", "modified"))
-             if key not in settings and not (static and key == "newton")}  # no modified Newton in spatial statics
+             if key not in settings}
     made: dict[tuple[Discretization, bool], Any] = {}
 
     def run(d: Discretization, companion: bool) -> Any:
@@ -139,10 +200,21 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
             out = made[(d, companion)] = run(d, companion)
         return [*out.values[:, None], *np.hstack([out.gradient, out.dfdx])]
 
+    graded = sim.refine == "bars" and not static
     if start is None:
-        start = EveryBeam(1, 0) if static else EveryBeam(1, tolerance.start(_scene_steps(sim, settings)).steps)
+        start = EveryBeam(1, 0) if static else EveryBeam(1, tolerance.start(_scene_steps(sim, settings)).steps,
+                                                        graded=graded, unit="frame beam")
     tol = tolerance.tolerance_of(list(responses), *wanted, True)
-    d, est = tolerance.resolve(values, start, tol, lambda d: float(d.refinement * d.uniform))
+    elements = np.array([len(ends) for _, ends in sim.model.beams], dtype=float)
+
+    def cost(d: Discretization) -> float:
+        """The candidate's elements over the scene's."""
+        if not graded:
+            return float(d.refinement * d.uniform)
+        factors = np.array([beam_factors(sim, d, design).get(name, 1) for name, _ in sim.model.beams])
+        return float(elements @ factors / max(1.0, elements.sum()))
+
+    d, est = tolerance.resolve(values, start, tol, cost)
     relative = list(map(float, est.relative))
     accepted = made[(d, False)]
     return Accepted(accepted, d, dict(zip(responses, relative)), dict(zip(responses, relative[len(responses):])))
@@ -153,11 +225,40 @@ def on_grid(sim: Any, d: Discretization, design: list[float] | None, responses: 
     """``responses`` of ``sim`` and their gradients on the grid ``d``: every frame beam's
     elements times ``d.refinement · d.uniform``, ``d.steps`` uniform steps over the run's
     ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run."""
-    factor = d.refinement * d.uniform
     at = {**settings, **({"h": _duration(sim, settings) / d.steps} if d.steps else {})}
+    factors = beam_factors(sim, d, design)
+    if len(set(factors.values())) > 1:
+        level = _graded(sim, factors)
+        names = [_graded_response(r, factors) for r in responses]
+        return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+    factor = next(iter(factors.values()), d.refinement * d.uniform)
     beams = frame_beams(sim.spec)
     names = [renamed_response(r, factor, beams) for r in responses]
     return _level(sim, factor).run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+
+
+def _graded_response(response: str, factors: dict[str, int]) -> str:
+    """A response's name with each beam's elements times its factor: its node renamed."""
+    kind, sep, rest = response.partition(":")
+    return f"{kind}:{graded_name(rest, factors)}" if sep and kind in NAMED_NODE else response
+
+
+def _graded(sim: Any, factors: dict[str, int]) -> Any:
+    """``sim``'s scene with each frame beam's elements times its ``factors`` entry, built once
+    and kept on ``sim`` among the :data:`~.refinement.GRADED_KEPT` most recently used."""
+    key = tuple(factors.values())
+    made = sim.graded
+    if key not in made:
+        splits = {name: len(ends) for name, ends in sim.model.beams}
+        try:
+            made[key] = type(sim)(graded_spec(sim.spec, splits, factors))
+        except SceneError as error:
+            raise ToleranceError(f"the tolerance needs up to {max(key)}× the elements of a beam, past the engine's "
+                                 f"limits: {error}") from None
+        while len(made) > GRADED_KEPT:
+            made.popitem(last=False)
+    made.move_to_end(key)
+    return made[key]
 
 
 def _level(sim: Any, factor: int) -> Any:
@@ -188,4 +289,5 @@ def _scene_steps(sim: Any, settings: dict[str, Any]) -> int:
     return math.ceil(duration / float(h) - 1e-9) if h else 16
 
 
-__all__ = ["Accepted", "ErrorEstimate", "EveryBeam", "frame_beams", "on_grid", "refined_spec", "renamed", "to_tolerance"]
+__all__ = ["REFINE", "Accepted", "ErrorEstimate", "EveryBeam", "beam_factors", "frame_beams", "graded_name", "graded_spec",
+           "on_grid", "refined_spec", "renamed", "to_tolerance"]

@@ -121,7 +121,11 @@ class SpatialProblem(Problem):
         problem.normalization = {str(k): float(v) for k, v in data["normalization"].items()}
         if data.get("rule") is not None:
             problem.rule = Readapt.from_dict(data["rule"])
-        problem.held = None if data.get("held") is None else EveryBeam(*data["held"])
+        if data.get("held") is not None:
+            refinement, steps, uniform, floor, extrapolated, factors = data["held"]
+            graded = sim.refine == "bars" and sim.analysis == "dynamic"
+            problem.held = EveryBeam(refinement, steps, uniform, floor, extrapolated, tuple(factors), graded=graded,
+                                     unit="frame beam")
         return problem
 
     def evaluate(self, x: np.ndarray) -> Evaluation:

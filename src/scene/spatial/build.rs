@@ -78,6 +78,7 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
         }))
         .collect();
     unique("beams", all_beams.iter().map(|(_, b)| b.name.as_str()))?;
+    check_splits(&spec.splits, &all_beams)?;
     let (interpolation, x_min) = design::law(&spec.design)?;
     let mass = design::mass_law(&spec.design, spec.analysis)?;
     let mut variables = Variables::default();
@@ -91,6 +92,14 @@ pub fn build_spatial(spec: &SpatialSceneSpec) -> std::result::Result<SpatialScen
             )
             .into());
         }
+        let resplit;
+        let b = match spec.splits.get(&b.name) {
+            Some(&split) => {
+                resplit = SpatialBeamSpec { split, ..b.clone() };
+                &resplit
+            }
+            None => b,
+        };
         let mut elements = beam(&mut model, &path, b, &sections)?;
         elements.variable = variables.of(&path, &b.name, b.group.as_deref(), b.fixed)?;
         beams.insert(b.name.clone(), elements);
@@ -256,6 +265,34 @@ fn node(model: &SpatialModel, path: &str, name: &str) -> Result<usize> {
     model
         .node_named(name)
         .ok_or_else(|| SceneError::new(path, format!("no node or body called '{name}'")))
+}
+
+/// Every entry of the scene's `splits` names a frame beam, with between 1 and
+/// [`MAX_SPLIT`] elements.
+fn check_splits(
+    splits: &BTreeMap<String, usize>,
+    beams: &[(String, &SpatialBeamSpec)],
+) -> Result<()> {
+    let named: std::collections::HashMap<&str, &SpatialBeamSpec> =
+        beams.iter().map(|(_, b)| (b.name.as_str(), *b)).collect();
+    for (name, &split) in splits {
+        let path = format!("splits.{name}");
+        match named.get(name.as_str()) {
+            None => {
+                let what = "no beam is called so (a ground structure's bars are NAME/barK)";
+                return Err(SceneError::new(path, what));
+            }
+            Some(b) if b.kind == KindSpec::Truss => {
+                return Err(SceneError::new(path, "a truss bar is one element"));
+            }
+            Some(_) if split == 0 || split > MAX_SPLIT => {
+                let what = format!("{split}: between 1 and {MAX_SPLIT} elements");
+                return Err(SceneError::new(path, what));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
 }
 
 /// A beam in `split` elements (a truss bar in one), its inner nodes on the chord with the

@@ -30,6 +30,7 @@ mod design;
 pub mod lattice;
 pub mod names;
 mod orientation;
+mod own_frequency;
 pub mod spec;
 
 use std::collections::BTreeMap;

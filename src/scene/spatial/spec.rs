@@ -63,6 +63,11 @@ pub struct SpatialSceneSpec {
     /// The body or node whose final position is the default response.
     #[serde(default)]
     pub tip: Option<String>,
+    /// Elements of frame beams by name (a ground structure's bars are `NAME/barK`), in place
+    /// of their `split`: how a refinement bar by bar grades them, as a planar scene's
+    /// `splits`.
+    #[serde(default)]
+    pub splits: BTreeMap<String, usize>,
     /// Default run settings, as a planar scene's.
     #[serde(default)]
     pub simulation: RunOptions,
