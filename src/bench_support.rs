@@ -35,19 +35,20 @@ impl Refactoring {
         let asm = Assembler::new(model, model.densities(x)?, MassKind::Consistent)?;
         let p = &asm.pattern;
         let multipliers = Pattern::multiplier_dofs(model);
-        let (cp, ri) = (p.col_ptr.clone(), p.row_idx.clone());
-        let ldlt = Ldlt::analyze_as(storage, p.n, cp, ri, p.n_q, &multipliers).map_err(setup)?;
+        let (cp, ri) = (p.sparsity.col_ptr.clone(), p.sparsity.row_idx.clone());
+        let ldlt =
+            Ldlt::analyze_as(storage, p.sparsity.n, cp, ri, p.n_q, &multipliers).map_err(setup)?;
         let q = vec![0.0; p.n_q];
         let mut values = vec![0.0; p.nnz()];
         let jacobian = Jacobian::at(model, &q);
         asm.start_iteration_matrix(mass_coefficient, mass_coefficient, &jacobian, &mut values);
         asm.internal_forces(&q, &mut vec![0.0; p.n_q], Some(&mut values));
         Ok(Self {
-            unknowns: p.n,
+            unknowns: p.sparsity.n,
             fill: ldlt.fill(),
             ldlt,
             values,
-            rhs: vec![0.0; p.n],
+            rhs: vec![0.0; p.sparsity.n],
         })
     }
 

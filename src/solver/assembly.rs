@@ -36,18 +36,15 @@ use crate::mechanism::element::{Damping, MassKind};
 use crate::mechanism::model::{Analysis, Densities, Model};
 use crate::mechanism::spring::Spring;
 use crate::solver::linsolve::{FactorError, Ldlt};
+use crate::solver::sparsity::Sparsity;
 
 /// CSC pattern of the `(n_q + n_c)²` iteration matrix with slot maps.
 #[derive(Debug, Clone)]
 pub struct Pattern {
     /// Number of nodal DOFs.
     pub n_q: usize,
-    /// Matrix size `n_q + n_c`.
-    pub n: usize,
-    /// CSC column pointers.
-    pub col_ptr: Vec<usize>,
-    /// CSC row indices.
-    pub row_idx: Vec<usize>,
+    /// The `(n_q + n_c)²` structure.
+    pub sparsity: Sparsity,
     /// Slot of element entry `(i, j)` at index `6 j + i`.
     element_slots: Vec<[usize; 36]>,
     /// For each cell, slots of `(dofᵢ, dofⱼ)` of its eight DOFs, column-major.
@@ -104,21 +101,9 @@ impl Pattern {
                 pairs.extend(dofs.iter().map(|&e| (d, e)));
             }
         }
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut col_ptr = vec![0; n + 1];
-        for &(c, _) in &pairs {
-            col_ptr[c + 1] += 1;
-        }
-        for c in 0..n {
-            col_ptr[c + 1] += col_ptr[c];
-        }
-        let row_idx = pairs.iter().map(|&(_, r)| r).collect();
         let mut p = Self {
             n_q,
-            n,
-            col_ptr,
-            row_idx,
+            sparsity: Sparsity::from_entries(n, pairs),
             element_slots: vec![],
             cell_slots: vec![],
             bar_slots: vec![],
@@ -209,21 +194,22 @@ impl Pattern {
 
     /// Position of entry `(row, col)` in the CSC value array (`None` outside the pattern).
     fn slot(&self, row: usize, col: usize) -> Option<usize> {
-        let range = self.col_ptr[col]..self.col_ptr[col + 1];
-        let offset = self.row_idx[range.clone()].binary_search(&row).ok()?;
-        Some(range.start + offset)
+        self.sparsity.slot(row, col)
     }
 
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
-        self.row_idx.len()
+        self.sparsity.nnz()
     }
 
     /// `out += A v` for the nodal block of a matrix with `values` on this pattern.
     fn add_dof_block_times(&self, values: &[f64], v: &[f64], out: &mut [f64]) {
         for (j, &vj) in v.iter().enumerate().take(self.n_q) {
-            let column = self.col_ptr[j]..self.col_ptr[j + 1];
-            for (&i, &a) in self.row_idx[column.clone()].iter().zip(&values[column]) {
+            let column = self.sparsity.column(j);
+            for (&i, &a) in self.sparsity.row_idx[column.clone()]
+                .iter()
+                .zip(&values[column])
+            {
                 if i < self.n_q {
                     out[i] += a * vj;
                 }
@@ -477,9 +463,9 @@ impl<'m> Assembler<'m> {
     pub fn symbolic_ldlt(&self) -> Result<Ldlt, SolveError> {
         let p = &self.pattern;
         Ldlt::analyze(
-            p.n,
-            p.col_ptr.clone(),
-            p.row_idx.clone(),
+            p.sparsity.n,
+            p.sparsity.col_ptr.clone(),
+            p.sparsity.row_idx.clone(),
             p.n_q,
             &Pattern::multiplier_dofs(self.model),
         )
@@ -991,8 +977,11 @@ impl Pattern {
         let shape = (rows.len(), cols.len());
         let (mut data, mut indices, mut indptr) = (Vec::new(), Vec::new(), vec![0]);
         for j in cols {
-            let column = self.col_ptr[j]..self.col_ptr[j + 1];
-            for (&i, &v) in self.row_idx[column.clone()].iter().zip(&values[column]) {
+            let column = self.sparsity.column(j);
+            for (&i, &v) in self.sparsity.row_idx[column.clone()]
+                .iter()
+                .zip(&values[column])
+            {
                 if rows.contains(&i) && v != 0.0 {
                     data.push(v);
                     indices.push(i - rows.start);
@@ -1101,8 +1090,8 @@ mod tests {
             qm[j] -= eps;
             let (rp, rm) = (residual(&qp), residual(&qm));
             let mut column = vec![0.0; n + n_c];
-            for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
-                column[p.row_idx[idx]] = values[idx];
+            for idx in p.sparsity.col_ptr[j]..p.sparsity.col_ptr[j + 1] {
+                column[p.sparsity.row_idx[idx]] = values[idx];
             }
             for k in 0..n_c {
                 let (dofs, g) = (model.row_dofs.of_row(k), jac.row(&model, k));
@@ -1178,9 +1167,9 @@ mod tests {
                 qm[j] -= eps;
                 let (rp, rm) = (residual(&qp), residual(&qm));
                 let mut column = vec![0.0; n];
-                for idx in p.col_ptr[j]..p.col_ptr[j + 1] {
-                    if p.row_idx[idx] < n {
-                        column[p.row_idx[idx]] = values[idx];
+                for idx in p.sparsity.col_ptr[j]..p.sparsity.col_ptr[j + 1] {
+                    if p.sparsity.row_idx[idx] < n {
+                        column[p.sparsity.row_idx[idx]] = values[idx];
                     }
                 }
                 for i in 0..n {

@@ -18,5 +18,6 @@ pub(crate) mod nearly_symmetric;
 pub(crate) mod newton;
 pub(crate) mod prolongation;
 pub(crate) mod simulation;
+pub(crate) mod sparsity;
 pub(crate) mod statics;
 pub(crate) mod step_control;

@@ -185,7 +185,11 @@ impl<'m> Newton<'m> {
         max_iter: usize,
     ) -> Result<Self, SolveError> {
         let asm = Assembler::new(model, densities, mass)?;
-        let (n, n_q, n_c) = (asm.pattern.n, model.n_dofs(), model.n_constraints());
+        let (n, n_q, n_c) = (
+            asm.pattern.sparsity.n,
+            model.n_dofs(),
+            model.n_constraints(),
+        );
         let ldlt = asm.symbolic_ldlt()?;
         let matrix = vec![0.0; asm.pattern.nnz()];
         let reference = vec![0.0; n_q];

@@ -13,10 +13,8 @@
 //! elements' stiffness and the constraint-force stiffness `∂(Bᵀλ)/∂q` (bodies add none), `T(Δ)` the
 //! tangent operator of the step's increment `Δ` node by node and `s` the row scaling. The
 //! initial accelerations use the same pattern with `β' = 1`, `γ' = 0`, no `K_t` and `T = I`.
-//! The pattern is analysed once; values are written through [`Pattern::slot`], so an
+//! The pattern is analysed once; values are written through [`Sparsity::at`], so an
 //! iteration allocates nothing.
-
-use std::collections::BTreeSet;
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector6};
 
@@ -27,43 +25,10 @@ use crate::group::{six, NV};
 use crate::joint::spatial::{Gradient, Stiffness, MAX_ROWS};
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{nan_max, Residual};
+use crate::solver::sparsity::Sparsity;
 use crate::spatial::element::Derivatives;
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
-
-/// A CSC pattern with lookup of an entry's slot.
-pub(crate) struct Pattern {
-    pub n: usize,
-    pub col_ptr: Vec<usize>,
-    pub row_idx: Vec<usize>,
-}
-
-impl Pattern {
-    fn from_entries(n: usize, entries: &BTreeSet<(usize, usize)>) -> Self {
-        // Entries are (column, row), sorted: columns in order, rows sorted within each.
-        let mut col_ptr = vec![0; n + 1];
-        let mut row_idx = Vec::with_capacity(entries.len());
-        for &(c, r) in entries {
-            col_ptr[c + 1] += 1;
-            row_idx.push(r);
-        }
-        (0..n).for_each(|c| col_ptr[c + 1] += col_ptr[c]);
-        Self {
-            n,
-            col_ptr,
-            row_idx,
-        }
-    }
-
-    /// Where entry `(row, col)` is stored (it must be in the pattern).
-    pub fn slot(&self, row: usize, col: usize) -> usize {
-        let (start, end) = (self.col_ptr[col], self.col_ptr[col + 1]);
-        start
-            + self.row_idx[start..end]
-                .binary_search(&row)
-                .expect("an entry outside the analysed pattern")
-    }
-}
 
 /// The assembler of `model` and the solver of its iteration matrix analysed once on its
 /// pattern ([`NearlySymmetric`]).
@@ -86,7 +51,7 @@ pub(crate) struct Assembler<'m> {
     /// The load factor on gravity, motors and loads: 1 in motion, climbing to 1 in a
     /// static solve.
     pub load: f64,
-    pub pattern: Pattern,
+    pub pattern: Sparsity,
     pub values: Vec<f64>,
     /// First row of each joint.
     first_row: Vec<usize>,
@@ -126,12 +91,10 @@ impl<'m> Assembler<'m> {
     pub fn new(model: &'m SpatialModel) -> Self {
         let n_v = model.n_v();
         let n = n_v + model.n_rows();
-        let mut entries = BTreeSet::new();
+        let mut entries = Vec::new();
         let mut block = |r0: usize, c0: usize, rows: usize, cols: usize| {
             for c in c0..c0 + cols {
-                for r in r0..r0 + rows {
-                    entries.insert((c, r));
-                }
+                entries.extend((r0..r0 + rows).map(|r| (c, r)));
             }
         };
         for b in &model.bodies {
@@ -164,7 +127,7 @@ impl<'m> Assembler<'m> {
                 }
             }
         }
-        let pattern = Pattern::from_entries(n, &entries);
+        let pattern = Sparsity::from_entries(n, entries);
         let values = vec![0.0; pattern.row_idx.len()];
         let pair_slots = |pair: &Pair| local_slots(&pattern, pair);
         let body_slots = model
@@ -180,7 +143,7 @@ impl<'m> Assembler<'m> {
         let joint_slots = model.joints.iter().map(|j| pair_slots(&j.pair)).collect();
         let force_slots = model.forces.iter().map(|f| pair_slots(&f.pair)).collect();
         let element_slots = model.elements().map(|e| pair_slots(e.pair())).collect();
-        let absent_slots = absent.iter().map(|&d| pattern.slot(d, d)).collect();
+        let absent_slots = absent.iter().map(|&d| pattern.at(d, d)).collect();
         Self {
             absent_slots,
             body_slots,
@@ -484,7 +447,7 @@ impl<'m> Assembler<'m> {
     ) {
         for c in 0..C {
             for r in 0..rows {
-                let s = self.pattern.slot(r0 + r, c0 + c);
+                let s = self.pattern.at(r0 + r, c0 + c);
                 self.values[s] += block[(r, c)];
             }
         }
@@ -500,7 +463,7 @@ impl<'m> Assembler<'m> {
     ) {
         for c in 0..columns {
             for r in 0..R {
-                let s = self.pattern.slot(r0 + r, c0 + c);
+                let s = self.pattern.at(r0 + r, c0 + c);
                 self.values[s] += block[(r, c)];
             }
         }
@@ -524,12 +487,12 @@ impl<'m> Assembler<'m> {
 
 /// Where each entry of a pair's local `12 × 12` block is stored, column by column
 /// ([`ABSENT`] on the ground's side): the order [`scatter_block`] reads.
-fn local_slots(pattern: &Pattern, pair: &Pair) -> Vec<usize> {
+fn local_slots(pattern: &Sparsity, pair: &Pair) -> Vec<usize> {
     let node = |s: usize| pair.nodes[s];
     (0..LOCAL)
         .flat_map(|c| (0..LOCAL).map(move |r| (r, c)))
         .map(|(r, c)| match (node(r / NV), node(c / NV)) {
-            (Some(a), Some(b)) => pattern.slot(NV * a + r % NV, NV * b + c % NV),
+            (Some(a), Some(b)) => pattern.at(NV * a + r % NV, NV * b + c % NV),
             _ => ABSENT,
         })
         .collect()

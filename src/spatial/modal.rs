@@ -36,7 +36,8 @@ use crate::group::NV;
 use crate::modal::pencil::{MassFactor, Pencil};
 use crate::solver::linsolve::{FactorError, Ldlt};
 use crate::solver::nearly_symmetric::mirror;
-use crate::spatial::assembly::{Assembler, Coefficients, Pattern};
+use crate::solver::sparsity::Sparsity;
+use crate::spatial::assembly::{Assembler, Coefficients};
 use crate::spatial::model::SpatialModel;
 
 /// The most velocity unknowns (six per node) the dense modal analysis (every mode) takes.
@@ -148,7 +149,7 @@ pub fn natural_modes_spatial(
 /// Every mode, densely on the constraints' null space, from the assembled stiffness and
 /// mass (module docs).
 fn every_mode(
-    pattern: &Pattern,
+    pattern: &Sparsity,
     stiffness: &[f64],
     mass: &[f64],
     model: &SpatialModel,
@@ -198,7 +199,7 @@ fn every_mode(
 /// The lowest `count` modes by the planar engine's shift-invert Lanczos on the sparse
 /// pencil of the symmetric part of `K_t` (module docs).
 fn lowest_modes(
-    pattern: &Pattern,
+    pattern: &Sparsity,
     stiffness: &[f64],
     mass: &[f64],
     model: &SpatialModel,
@@ -220,7 +221,7 @@ fn lowest_modes(
         .into());
     }
     let mean_diagonal = |values: &[f64]| {
-        let sum: f64 = held.iter().map(|&d| values[pattern.slot(d, d)].abs()).sum();
+        let sum: f64 = held.iter().map(|&d| values[pattern.at(d, d)].abs()).sum();
         sum / held.len().max(1) as f64
     };
     // Scales: the penalty's and the shift's (`ω²` of the order of the stiffest element's
@@ -233,7 +234,7 @@ fn lowest_modes(
     // Absent rotations: held by a unit of the mean stiffness, no mass (of the mean mass
     // while the mass's inertia is counted).
     for &d in &absent {
-        let slot = pattern.slot(d, d);
+        let slot = pattern.at(d, d);
         (k[slot], m[slot]) = (mean_k, mean_m);
     }
     let mut ldlt = Ldlt::analyze_saddle_point(
@@ -260,7 +261,7 @@ fn lowest_modes(
         .into());
     }
     for &d in &absent {
-        m[pattern.slot(d, d)] = 0.0;
+        m[pattern.at(d, d)] = 0.0;
     }
     let constraints = penalty.iter().map(|g| mean_k * g).collect();
     let scale = mean_k / mean_m;
@@ -281,7 +282,7 @@ fn lowest_modes(
 /// [`SYMMETRY_TOLERANCE`] of its largest entry), `M` and the constraints' penalty
 /// ([`with_gram`]), each as values on the pattern.
 fn split(
-    pattern: &Pattern,
+    pattern: &Sparsity,
     stiffness: &[f64],
     mass: &[f64],
     n_v: usize,
@@ -332,7 +333,7 @@ fn below_every_mode(pencil: &mut Pencil, scale: f64) -> Result<(), Error> {
 /// penalty `[BᵀB, Bᵀ; B, 0]` that conditions the saddle point without changing its inertia
 /// (module docs of [`crate::modal::pencil`]). A row's DOFs are its joint's nodes', whose
 /// blocks the pattern holds.
-fn with_gram(pattern: &Pattern, b: &[f64], n_v: usize) -> Vec<f64> {
+fn with_gram(pattern: &Sparsity, b: &[f64], n_v: usize) -> Vec<f64> {
     let mut out = b.to_vec();
     for row in n_v..pattern.n {
         let entries: Vec<(usize, f64)> = (pattern.col_ptr[row]..pattern.col_ptr[row + 1])
@@ -341,7 +342,7 @@ fn with_gram(pattern: &Pattern, b: &[f64], n_v: usize) -> Vec<f64> {
             .collect();
         for &(i, bi) in &entries {
             for &(j, bj) in &entries {
-                out[pattern.slot(i, j)] += bi * bj;
+                out[pattern.at(i, j)] += bi * bj;
             }
         }
     }
@@ -464,7 +465,7 @@ fn check(
 
 /// The force block (`n_v × n_v`) and the constraint rows (`B`) of values on the pattern,
 /// dense.
-fn dense(p: &Pattern, values: &[f64], n_v: usize) -> (DMatrix<f64>, DMatrix<f64>) {
+fn dense(p: &Sparsity, values: &[f64], n_v: usize) -> (DMatrix<f64>, DMatrix<f64>) {
     let mut force = DMatrix::zeros(n_v, n_v);
     let mut rows = DMatrix::zeros(p.n - n_v, n_v);
     for c in 0..n_v {
