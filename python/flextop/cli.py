@@ -241,7 +241,7 @@ def _spatial_to_tolerance(sim: SpatialSimulation, x: np.ndarray | None, settings
         raise SettingsError("--out: the motion of a spatial run to a tolerance is not written to files yet")
     response = "tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy"
     run = sim.run_with_sensitivities(x, response, **settings)
-    unit = "m²" if response == "tip_deflection" else ("J s" if sim.analysis == "dynamic" else "J")
+    unit = "m²" if response == "tip_deflection" else "J"
     print(f"{response} = {run.values[0]:.6g} {unit} to rtol = {sim.rtol:g} in {time.perf_counter() - start:.1f} s: "
           f"{run.discretization}; estimated relative error {run.errors[response]:.2%}")
     return 0

@@ -17,20 +17,27 @@ from . import _core
 class ResponseKind:
     """One kind of response: ``syntax`` has arguments in capitals and optional parts in
     brackets; ``peak``: a limit on it bounds its peak (Le et al.'s normalization); ``unit``
-    in SI ("1" for a ratio)."""
+    in SI ("1" for a ratio); ``planar``: a planar scene offers it; ``spatial``: how a
+    spatial scene writes it, ``None`` where it does not offer it. A name means the same on
+    both."""
 
     name: str
     syntax: str
     doc: str
     peak: bool
     unit: str
+    planar: bool
+    spatial: str | None
 
 
 KINDS: tuple[ResponseKind, ...] = tuple(ResponseKind(*k) for k in _core.response_kinds())
-"""Every kind, in the engine's order."""
+"""Every kind of either engine, in the engine's order."""
 
-NAMES: tuple[str, ...] = tuple(k.name for k in KINDS)
-"""Every response name (the part before the first ``:``)."""
+NAMES: tuple[str, ...] = tuple(k.name for k in KINDS if k.planar)
+"""Every response name of a planar scene (the part before the first ``:``)."""
+
+SPATIAL_NAMES: tuple[str, ...] = tuple(k.name for k in KINDS if k.spatial is not None)
+"""Every response name of a spatial scene."""
 
 PEAK_LIMITED: tuple[str, ...] = tuple(k.name for k in KINDS if k.peak)
 """Responses that are means of point values reported with their peaks, whose limits bound
@@ -50,6 +57,8 @@ def label(response: str) -> str:
     return f"{response} ({u})" if u and u != "1" else response
 
 
-def describe(indent: str = "") -> str:
-    """The list of responses as reStructuredText bullets, one per kind."""
-    return "\n".join(f"{indent}- ``{k.syntax}``: {k.doc}." for k in KINDS)
+def describe(indent: str = "", spatial: bool = False) -> str:
+    """The list of a planar scene's responses (a spatial scene's with ``spatial``) as
+    reStructuredText bullets, one per kind."""
+    listed = [(k.spatial, k.doc) for k in KINDS if k.spatial] if spatial else [(k.syntax, k.doc) for k in KINDS if k.planar]
+    return "\n".join(f"{indent}- ``{syntax}``: {doc}." for syntax, doc in listed)

@@ -6,12 +6,14 @@ takes a design ``x`` first: the density of each beam (or design group) not ``fix
 ``[x_min, 1]`` (one number for all; full density by default), its stiffness scaled by the
 scene's ``[design]`` interpolation and its mass by its mass law.
 
-Responses by name: ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of mass or a node's
-origin at the end of the run, m), ``strain_energy`` (``∫U dt`` over the motion, J s; ``U`` at
-an equilibrium, J), ``kinetic_energy`` (``∫T dt`` over the motion, J s), ``compliance`` (the mean strain energy
-``(1/t_f) ∫U dt`` over the motion, J, paper Eq. 39; at an equilibrium ``Fᵀu``, the work of the
-dead forces and gravity, J, refused where a follower load, a moment or a motor acts), ``effort:JOINT`` (``∫λ² dt`` of a driven
-joint's drive row), ``reaction:JOINT[:OPTIONS]`` (the force ``|F|`` the joint transmits, N: its
+Responses by name (the engine's registry, :data:`flextop.responses.SPATIAL_NAMES`; a name
+means what it means on a planar scene): ``x:NAME``, ``y:NAME``, ``z:NAME`` (a body's centre of
+mass or a node's origin at the end of the run, m), ``strain_energy`` (its mean
+``(1/t_f) ∫U dt`` over the motion, J; ``U`` at an equilibrium, J), ``kinetic_energy``
+(``∫T dt`` over the motion, J s), ``compliance`` (the mean strain energy over the motion, J,
+paper Eq. 39; at an equilibrium ``Fᵀu``, the work of the dead forces and gravity, J, refused
+where a follower load, a moment or a motor acts), ``torque_squared:JOINT`` (``∫λ² dt`` of a
+driven joint's drive row), ``reaction:JOINT[:OPTIONS]`` (the force ``|F|`` the joint transmits, N: its
 rows that hold its points together, not a locked rotation's moment; at an equilibrium ``|F|``,
 over a motion a p-mean, ``p=8`` by default, or a KS mean, ``ks=RHO,scale=S``, its peak
 reported), ``torque:JOINT[:OPTIONS]`` (a drive's torque, N m, or a slide drive's force, N,

@@ -298,16 +298,39 @@ impl PyModel {
     }
 }
 
-/// Every kind of response the engine computes, as `(name, syntax, doc, peak, unit)`: what
-/// the Python side documents, labels and checks names against (`peak`: a limit on it
-/// bounds its peak).
+/// Every kind of response either engine computes, as `(name, syntax, doc, peak, unit,
+/// planar, spatial)`: what the Python side documents, labels and checks names against
+/// (`peak`: a limit on it bounds its peak; `planar`: a planar scene offers it; `spatial`:
+/// how a spatial scene writes it, where one does).
 #[pyfunction]
-pub fn response_kinds() -> Vec<(&'static str, &'static str, &'static str, bool, &'static str)> {
+pub fn response_kinds() -> Vec<Described> {
     crate::response::Response::kinds()
         .iter()
-        .map(|k| (k.name, k.syntax, k.doc, k.peak, k.unit))
+        .map(|k| {
+            (
+                k.name,
+                k.syntax,
+                k.doc,
+                k.peak,
+                k.unit,
+                k.planar(),
+                k.spatial,
+            )
+        })
         .collect()
 }
+
+/// A response kind for Python: name, planar syntax, documentation, whether a limit bounds
+/// its peak, unit, whether a planar scene offers it, its syntax on a spatial scene.
+type Described = (
+    &'static str,
+    &'static str,
+    &'static str,
+    bool,
+    &'static str,
+    bool,
+    Option<&'static str>,
+);
 
 /// The named limits on a model's size ([`crate::limits`]) by name: what the example
 /// scenes' builders check their counts against before they allocate anything.

@@ -16,8 +16,9 @@ pub(super) const KIND: Kind = Kind {
           Eq. 39); a static scene's Fᵀu (J), global",
     peak: false,
     unit: "J",
+    spatial: Some("compliance"),
     linear: true,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

@@ -11,8 +11,9 @@ pub(super) const KIND: Kind = Kind {
           from its rigid trajectory (m², paper Eq. 40)",
     peak: false,
     unit: "m²",
+    spatial: Some("tip_deflection[:NAME]"),
     linear: false,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

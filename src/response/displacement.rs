@@ -12,8 +12,9 @@ pub(super) const FINAL: Kind = Kind {
           or the static equilibrium (m)",
     peak: false,
     unit: "m",
+    spatial: None,
     linear: true,
-    parse: |model, rest| parse(model, rest, Weighting::Final),
+    parse: Some(|model, rest| parse(model, rest, Weighting::Final)),
 };
 
 pub(super) const INTEGRATED: Kind = Kind {
@@ -23,8 +24,9 @@ pub(super) const INTEGRATED: Kind = Kind {
           normalized (m s)",
     peak: false,
     unit: "m s",
+    spatial: None,
     linear: true,
-    parse: |model, rest| parse(model, rest, Weighting::Integral),
+    parse: Some(|model, rest| parse(model, rest, Weighting::Integral)),
 };
 
 fn parse(

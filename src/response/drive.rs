@@ -16,8 +16,9 @@ pub(super) const TORQUE: Kind = Kind {
           peak",
     peak: true,
     unit: "N m",
+    spatial: Some("torque:JOINT[:OPTIONS]"),
     linear: false,
-    parse: |model, rest| parse_torque(model, rest, false),
+    parse: Some(|model, rest| parse_torque(model, rest, false)),
 };
 
 pub(super) const TORQUE_RMS: Kind = Kind {
@@ -26,8 +27,9 @@ pub(super) const TORQUE_RMS: Kind = Kind {
     doc: "a drive's RMS torque over the motion (N m): torque with p=2",
     peak: false,
     unit: "N m",
+    spatial: None,
     linear: false,
-    parse: |model, rest| parse_torque(model, rest, true),
+    parse: Some(|model, rest| parse_torque(model, rest, true)),
 };
 
 pub(super) const TORQUE_SQUARED: Kind = Kind {
@@ -36,8 +38,9 @@ pub(super) const TORQUE_SQUARED: Kind = Kind {
     doc: "∫ τ² dt of a drive (N² m² s): the copper losses a motor is sized by",
     peak: false,
     unit: "N² m² s",
+    spatial: Some("torque_squared:JOINT"),
     linear: false,
-    parse: |model, rest| parse_row(model, rest, "torque_squared", Drive::TorqueSquared),
+    parse: Some(|model, rest| parse_row(model, rest, "torque_squared", Drive::TorqueSquared)),
 };
 
 pub(super) const WORK: Kind = Kind {
@@ -47,8 +50,9 @@ pub(super) const WORK: Kind = Kind {
           negative where it brakes",
     peak: false,
     unit: "J",
+    spatial: None,
     linear: false,
-    parse: |model, rest| parse_row(model, rest, "drive_work", Drive::Work),
+    parse: Some(|model, rest| parse_row(model, rest, "drive_work", Drive::Work)),
 };
 
 pub(super) const ENERGY_DRAWN: Kind = Kind {
@@ -58,8 +62,9 @@ pub(super) const ENERGY_DRAWN: Kind = Kind {
           its gradient is exact wherever the power does not pass through zero at a step",
     peak: false,
     unit: "J",
+    spatial: None,
     linear: false,
-    parse: |model, rest| parse_row(model, rest, "energy_drawn", Drive::EnergyDrawn),
+    parse: Some(|model, rest| parse_row(model, rest, "energy_drawn", Drive::EnergyDrawn)),
 };
 
 /// A drive's torque, `torque:JOINT[:p=P|ks=RHO,scale=S]` or `torque_rms:JOINT`.

@@ -14,8 +14,9 @@ pub(super) const KIND: Kind = Kind {
           reference (rad), a slider's travel (m)",
     peak: false,
     unit: "rad (m on a slider)",
+    spatial: None,
     linear: false,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

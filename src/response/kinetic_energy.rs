@@ -12,8 +12,9 @@ pub(super) const KIND: Kind = Kind {
     doc: "the time integral ∫ ½ q̇ᵀ M q̇ dt of the kinetic energy over the motion (J s)",
     peak: false,
     unit: "J s",
+    spatial: Some("kinetic_energy"),
     linear: false,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

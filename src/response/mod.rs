@@ -24,6 +24,7 @@ mod drive;
 mod joint_position;
 mod kinetic_energy;
 mod objectives;
+mod position;
 mod reaction;
 mod strain_energy;
 mod strength;
@@ -60,19 +61,23 @@ pub struct Kind {
     pub peak: bool,
     /// Its unit in SI ("1" for a ratio), for labels.
     pub unit: &'static str,
+    /// How it is written on a spatial scene, where the spatial engine offers it
+    /// (`scene/spatial/names.rs` reads it there); `None` where it does not.
+    pub spatial: Option<&'static str>,
     /// Whether it is built for the states of a linear analysis: linear in them, explicit,
     /// or read on the linearized elements ([`Context::linear`]).
     pub linear: bool,
-    /// Builds the response from the model and the text after the name's `:` (if any).
-    parse: Parser,
+    /// Builds the response from a planar model and the text after the name's `:` (if any);
+    /// `None` for a spatial scene's only.
+    parse: Option<Parser>,
 }
 
 /// Builds a response of a kind from the model and the text after its name's `:` (if any),
 /// or says what is wrong with it.
 type Parser = fn(&Model, Option<&str>) -> Result<Box<dyn Family>, String>;
 
-/// Every kind of response, in the order the documentation lists them. Registering a new
-/// family is one line here.
+/// Every kind of response, of either engine, in the order the documentation lists them.
+/// Registering a new family is one line here.
 const KINDS: &[Kind] = &[
     compliance::KIND,
     strain_energy::KIND,
@@ -92,7 +97,17 @@ const KINDS: &[Kind] = &[
     reaction::KIND,
     kinetic_energy::KIND,
     joint_position::KIND,
+    position::X,
+    position::Y,
+    position::Z,
 ];
+
+impl Kind {
+    /// Whether a planar scene offers it.
+    pub fn planar(&self) -> bool {
+        self.parse.is_some()
+    }
+}
 
 /// How a response weights the recorded states.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -261,11 +276,23 @@ impl Response {
         let (name, rest) = text
             .split_once(':')
             .map_or((text, None), |(a, b)| (a, Some(b)));
-        let Some(kind) = KINDS.iter().find(|k| k.name == name) else {
-            let names: Vec<&str> = KINDS.iter().map(|k| k.name).collect();
-            return Err(err(format!("unknown response; use {}", names.join(", "))));
+        let planar = || {
+            let names: Vec<&str> = (KINDS.iter().filter(|k| k.parse.is_some()))
+                .map(|k| k.name)
+                .collect();
+            names.join(", ")
         };
-        let family = (kind.parse)(model, rest).map_err(err)?;
+        let Some(kind) = KINDS.iter().find(|k| k.name == name) else {
+            return Err(err(format!("unknown response; use {}", planar())));
+        };
+        let Some(parse) = kind.parse else {
+            let only = format!(
+                "a spatial scene's response; a planar scene offers {}",
+                planar()
+            );
+            return Err(err(only));
+        };
+        let family = parse(model, rest).map_err(err)?;
         Ok(Self {
             family,
             text: text.to_string(),
@@ -276,6 +303,12 @@ impl Response {
     /// Every kind of response, by name: the table the bindings and the documentation read.
     pub fn kinds() -> &'static [Kind] {
         KINDS
+    }
+
+    /// The kinds a spatial scene offers, and how each is written there (the registry's
+    /// `spatial`).
+    pub fn spatial_kinds() -> impl Iterator<Item = (&'static str, &'static str)> {
+        (KINDS.iter()).filter_map(|k| Some((k.name, k.spatial?)))
     }
 
     /// Weight `wₙ` of state `n` of `grid` (a grid without steps: a static state): the

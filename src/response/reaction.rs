@@ -17,8 +17,9 @@ pub(super) const KIND: Kind = Kind {
           as torque, its peak reported",
     peak: true,
     unit: "N",
+    spatial: Some("reaction:JOINT[:OPTIONS]"),
     linear: false,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

@@ -17,8 +17,9 @@ pub(super) const KIND: Kind = Kind {
           rigid motion storing none; U at a static equilibrium (where compliance is Fᵀu)",
     peak: false,
     unit: "J",
+    spatial: Some("strain_energy"),
     linear: true,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(

@@ -28,8 +28,9 @@ pub(super) const STRESS: Kind = Kind {
           relaxation (0.5 by default, 0 gives the solid material's stress)",
     peak: true,
     unit: "Pa",
+    spatial: Some("stress[:NAME][:OPTIONS]"),
     linear: false,
-    parse: |model, rest| parse(model, rest, Criterion::Stress),
+    parse: Some(|model, rest| parse(model, rest, Criterion::Stress)),
 };
 
 pub(super) const SHEAR: Kind = Kind {
@@ -39,8 +40,9 @@ pub(super) const SHEAR: Kind = Kind {
           options (Pa)",
     peak: true,
     unit: "Pa",
+    spatial: None,
     linear: false,
-    parse: |model, rest| parse(model, rest, Criterion::Shear),
+    parse: Some(|model, rest| parse(model, rest, Criterion::Shear)),
 };
 
 pub(super) const BUCKLING: Kind = Kind {
@@ -50,8 +52,9 @@ pub(super) const BUCKLING: Kind = Kind {
           as stress, with its options (dimensionless)",
     peak: true,
     unit: "1",
+    spatial: Some("buckling[:NAME][:OPTIONS]"),
     linear: false,
-    parse: |model, rest| parse(model, rest, Criterion::Buckling),
+    parse: Some(|model, rest| parse(model, rest, Criterion::Buckling)),
 };
 
 /// The options of an aggregate: `p=P` or `ks=RHO,scale=S` ([`Aggregation::parse`]) and the

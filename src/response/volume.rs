@@ -12,8 +12,9 @@ pub(super) const KIND: Kind = Kind {
     doc: "material volume Σ x_e V_e of the bars and cells of one component or all (m³, paper Eq. 38, 41)",
     peak: false,
     unit: "m³",
+    spatial: None,
     linear: true,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

@@ -21,8 +21,9 @@ pub(super) const KIND: Kind = Kind {
           default) or ks=RHO,scale=S, q=Q the relaxation (0.5 by default)",
     peak: true,
     unit: "Pa",
+    spatial: None,
     linear: false,
-    parse,
+    parse: Some(parse),
 };
 
 fn parse(model: &Model, rest: Option<&str>) -> Result<Box<dyn Family>, String> {

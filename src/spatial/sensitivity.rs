@@ -171,14 +171,15 @@ pub enum Response {
         /// 0, 1, 2 for x, y, z.
         axis: usize,
     },
-    /// `∫ U dt`, the beams' and bars' strain energy integrated over the run (J s;
-    /// trapezoidal rule on the run's grid): a dynamic compliance.
+    /// `(1/t_f) ∫ U dt`, the beams' and bars' strain energy's mean over the run (J;
+    /// trapezoidal rule on the run's grid), as a planar scene's `strain_energy`: a dynamic
+    /// compliance.
     StrainEnergy,
     /// `∫ T dt`, the kinetic energy `½ vᵀ M v` of the bodies, beams and bars integrated over
     /// the run (J s; trapezoidal rule on the run's grid). A motion's only.
     KineticEnergy,
     /// `∫ λ² dt` of one row of a joint (trapezoidal rule on the run's grid): of a drive's
-    /// row, the effort `∫ τ² dt` a motor must deliver.
+    /// row, `∫ τ² dt`, the effort a motor must deliver (`torque_squared:JOINT`).
     Effort {
         /// The joint.
         joint: usize,
@@ -1200,12 +1201,15 @@ impl<'m> Sweep<'m> {
                     .map(|n| self.weight(n) * self.states[n].lam[k].powi(2))
                     .sum()
             }
-            Response::StrainEnergy => self.model().elements().map(|e| self.energy(e)).sum(),
+            Response::StrainEnergy => {
+                let energy: f64 = self.model().elements().map(|e| self.energy(e)).sum();
+                energy / self.duration()
+            }
             Response::Compliance if self.equilibrium => {
                 let s = &self.states[0];
                 self.model().load_work(&s.q, s.t)
             }
-            Response::Compliance => self.value(&Response::StrainEnergy) / self.duration(),
+            Response::Compliance => self.value(&Response::StrainEnergy),
             Response::Reaction { .. } | Response::Torque { .. } => self.mean_of(r).mean,
             Response::KineticEnergy => (0..self.states.len())
                 .map(|n| self.weight(n) * self.model().kinetic_energy(&self.states[n].qdot))
@@ -1284,21 +1288,20 @@ impl<'m> Sweep<'m> {
             }
             (Response::StrainEnergy, Parameter::BeamSize { beam, dimension }) => {
                 let (beam, rate) = self.size_rate(*beam, *dimension);
-                (0..self.states.len())
+                let energy: f64 = (0..self.states.len())
                     .map(|n| self.weight(n) * beam.strain_energy_of(&rate, &self.states[n].q))
-                    .sum()
+                    .sum();
+                energy / self.duration()
             }
             (Response::Stress { .. }, Parameter::BeamSize { beam, dimension }) => {
                 self.fibre_rate(r, *beam, *dimension)
             }
             (Response::StrainEnergy, _) => match self.element_of(p) {
-                Some((element, true)) => self.energy(element),
+                Some((element, true)) => self.energy(element) / self.duration(),
                 _ => 0.0,
             },
             (Response::Compliance, _) if self.equilibrium => self.weight_work_rate(p),
-            (Response::Compliance, _) => {
-                self.explicit(&Response::StrainEnergy, p) / self.duration()
-            }
+            (Response::Compliance, _) => self.explicit(&Response::StrainEnergy, p),
             (Response::KineticEnergy, _) => self.kinetic_rate(p),
             (Response::Deflection { node }, Parameter::Drive { .. }) => self.rigid_share(*node, p),
             _ => 0.0,
@@ -1416,8 +1419,7 @@ impl<'m> Sweep<'m> {
                 self.model().add_load_work_gradient(&s.q, s.t, 1.0, eps);
             }
             Response::StrainEnergy | Response::Compliance => {
-                let mean = *r == Response::Compliance;
-                let w = self.weight(n) / if mean { self.duration() } else { 1.0 };
+                let w = self.weight(n) / self.duration();
                 for e in self.model().elements() {
                     add_element_local(e, &(e.elastic_force(&self.states[n].q) * w), eps);
                 }

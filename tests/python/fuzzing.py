@@ -73,7 +73,7 @@ def _small_rod() -> dict:
 BASES = {"arm": _small_arm, "truss": lambda: flextop.scenes.static_truss().to_dict(), "beam": _small_beam,
          "spatial_crank": _small_crank, "spatial_rod": _small_rod}
 
-SPATIAL_RESPONSES = ["x:slider", "z:end", "strain_energy", "effort:crank", "y:rod[2]", "bogus", "z:nope", ":",
+SPATIAL_RESPONSES = ["x:slider", "z:end", "strain_energy", "torque_squared:crank", "y:rod[2]", "bogus", "z:nope", ":",
                      "compliance", "reaction:crank", "torque:crank:p=4", "buckling:q=0", "reaction:nope:p=1",
                      "torque:", "buckling:ks=5"]
 """Response names for spatial scenes (a planar case's k-th name becomes the k-th of these)."""

@@ -63,15 +63,36 @@ def test_the_engine_lists_every_response_it_parses(arm):
                  "torque_rms": ":shoulder", "torque_squared": ":shoulder", "drive_work": ":shoulder",
                  "energy_drawn": ":shoulder", "joint_position": ":elbow", "reaction": ":elbow"}
     # The arm has no continuum cells: von_mises is checked on a member in test_continuum.
-    names = [k.name + arguments.get(k.name, "") for k in flextop.responses.KINDS if k.name != "von_mises"]
+    names = [k.name + arguments.get(k.name, "") for k in flextop.responses.KINDS if k.planar and k.name != "von_mises"]
     f, g = arm.run_with_sensitivities(np.full(arm.n_design, 0.4), names, h=0.05)
     assert f.shape == (len(names),) and np.all(np.isfinite(f)) and np.all(np.isfinite(g))
     doc = flextop.Simulation.run_with_sensitivities.__doc__
     with pytest.raises(SettingsError) as unknown:
         arm.run_with_sensitivities(np.full(arm.n_design, 0.4), ["stiffness"])
     for kind in flextop.responses.KINDS:
-        assert f"``{kind.syntax}``" in doc and kind.name in str(unknown.value)
+        if kind.planar:
+            assert f"``{kind.syntax}``" in doc and kind.name in str(unknown.value)
     assert set(flextop.responses.PEAK_LIMITED) == {"stress", "shear", "buckling", "von_mises", "torque", "reaction"}
+
+
+def test_one_registry_names_both_engines_responses(arm):
+    """The engine's one table: a spatial scene offers the kinds it lists for spatial scenes,
+    and its unknown name's error lists them; a spatial scene's own kind on a planar scene is
+    refused as such. The shared names mean the same: on the paper's arm built as a spatial
+    frame, the mean strain energy agrees with the planar engine's to the elements' difference
+    (``test_spatial.py``)."""
+    spatial = flextop.SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    with pytest.raises(SettingsError) as unknown:
+        spatial.run_with_sensitivities(None, ["stiffness"])
+    shared = {"compliance", "strain_energy", "tip_deflection", "stress", "buckling", "torque", "torque_squared",
+              "reaction", "kinetic_energy"}
+    assert set(flextop.responses.SPATIAL_NAMES) == shared | {"x", "y", "z"}
+    assert shared <= set(flextop.responses.NAMES) and not {"x", "y", "z"} & set(flextop.responses.NAMES)
+    for name in flextop.responses.SPATIAL_NAMES:
+        assert name in str(unknown.value)
+    with pytest.raises(SettingsError, match="a spatial scene's response; a planar scene offers compliance"):
+        arm.run_with_sensitivities(np.full(arm.n_design, 0.4), ["x:link2[4,2]"])
+    assert "``torque_squared:JOINT``" in flextop.responses.describe(spatial=True)
 
 
 def test_static_scene_has_no_tip_deflection():

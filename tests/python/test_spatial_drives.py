@@ -83,13 +83,13 @@ def test_gradients_to_a_revolute_drives_law_are_exact():
     """The crank's law moves the slider, the rod and the torque the drive gives, also the
     work through the run's end (after the law's end, by its rate at t_a)."""
     spec = crank(acceleration=34.0, speed=6.3)
-    g = assert_exact(spec, "crank", ["x:slider", "z:rod", "effort:crank", "kinetic_energy"], step=3e-5)
+    g = assert_exact(spec, "crank", ["x:slider", "z:rod", "torque_squared:crank", "kinetic_energy"], step=3e-5)
     assert np.all(g[0] != 0) and np.all(g[2] != 0)
 
 
 def test_gradients_to_a_prismatic_drives_law_through_a_flexible_mast_are_exact():
     spec = cart(trapezoidal(0.0, 0.3, acceleration=2.8, speed=0.69))
-    g = assert_exact(spec, "slide", ["x:top", "strain_energy", "effort:slide", "kinetic_energy"], step=3e-5)
+    g = assert_exact(spec, "slide", ["x:top", "strain_energy", "torque_squared:slide", "kinetic_energy"], step=3e-5)
     assert np.all(g[1] != 0)
 
 
@@ -98,7 +98,7 @@ def test_the_tip_deflection_of_the_spatial_arm_moves_with_its_base_drives_law():
     moves both the flexible run and the rigid trajectory it is measured from."""
     spec = spatial_robot_arm(nx=3, t_end=0.72, h=0.012).to_dict()
     x = np.linspace(0.4, 1.0, SpatialSimulation(spec).n_design)
-    g = assert_exact(spec, "turn", ["tip_deflection", "effort:turn"], step=3e-5, x=x)
+    g = assert_exact(spec, "turn", ["tip_deflection", "torque_squared:turn"], step=3e-5, x=x)
     assert np.all(g[0] != 0)
 
 
@@ -133,7 +133,7 @@ def test_where_the_run_restarts_at_the_laws_kinks_direct_equals_adjoint():
     spec = spatial_slider_crank(t_end=0.3).to_dict()
     sim = SpatialSimulation(spec)
     parameters = [f"{kind}:crank" for kind in LAW]
-    responses = ["x:slider", "effort:crank", "kinetic_energy"]
+    responses = ["x:slider", "torque_squared:crank", "kinetic_energy"]
     direct = sim.run_with_sensitivities(None, responses, parameters, method="direct").gradient
     adjoint = sim.run_with_sensitivities(None, responses, parameters, method="adjoint").gradient
     assert np.all(np.abs(adjoint - direct) <= 1e-9 * np.abs(direct)), (direct, adjoint)

@@ -1,13 +1,15 @@
 //! The names a user gives a spatial scene's responses and parameters, and what they are in
 //! the engine ([`crate::spatial::sensitivity`]).
 //!
-//! Responses: `x:NAME`, `y:NAME`, `z:NAME` (a body's centre of mass or a node's origin at
-//! the end of the run, m), `strain_energy` (`∫U dt` over the run, J s; `U` in statics, J),
-//! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only), `compliance` (the mean
-//! strain energy `(1/t_f) ∫U dt`, J, paper Eq. 39; at an equilibrium `Fᵀu`, the dead forces'
-//! and gravity's work, J),
-//! `effort:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or force a
-//! motor must give, integrated), `reaction:JOINT[:OPTIONS]` (the force the joint transmits,
+//! Responses — the registry's kinds a spatial scene offers ([`crate::response`]'s table, read
+//! for the errors' lists), each meaning what it means on a planar scene: `x:NAME`, `y:NAME`,
+//! `z:NAME` (a body's centre of mass or a node's origin at the end of the run, m),
+//! `strain_energy` (its mean over the run `(1/t_f) ∫U dt`, J; `U` in statics),
+//! `kinetic_energy` (`∫T dt` over the run, J s; a motion's only), `compliance` (over a motion
+//! the mean strain energy, J, paper Eq. 39; at an equilibrium `Fᵀu`, the dead forces' and
+//! gravity's work, J),
+//! `torque_squared:JOINT` (`∫λ² dt` of a driven joint's drive row: the squared torque or
+//! force a motor must give, integrated, as a planar scene's), `reaction:JOINT[:OPTIONS]` (the force the joint transmits,
 //! N, `|F|` over its rows that hold its points together, not a locked rotation's moment:
 //! a p-mean (`p=P`, 8 by default) or KS mean (`ks=RHO,scale=S`) over the run, its peak
 //! reported; at an equilibrium `|F|`), `torque:JOINT[:OPTIONS]` (a drive's torque, N m, or
@@ -37,6 +39,7 @@ use super::SpatialScene;
 use crate::error::SettingsError;
 use crate::joint::motion::{LawParameter, Motion};
 use crate::response::aggregation::Aggregation;
+use crate::response::Response as RegisteredResponse;
 use crate::response::{aggregation_and_relaxation, component_and_options};
 use crate::spatial::force::ForceKind;
 use crate::spatial::section::{Dimension, Shape};
@@ -241,13 +244,10 @@ impl SpatialScene {
             _ => {}
         }
         let Some((kind, what)) = name.split_once(':') else {
-            return bad(
-                "responses are x:NAME, y:NAME, z:NAME, strain_energy, compliance, \
-                 kinetic_energy, effort:JOINT, reaction:JOINT[:OPTIONS], \
-                 torque:JOINT[:OPTIONS], tip_deflection[:NAME], stress[:OPTIONS] or \
-                 buckling[:OPTIONS]"
-                    .into(),
-            );
+            let written: Vec<&str> = RegisteredResponse::spatial_kinds()
+                .map(|(_, s)| s)
+                .collect();
+            return bad(format!("responses are {}", written.join(", ")));
         };
         match kind {
             "tip_deflection" => match node_of(what) {
@@ -264,23 +264,28 @@ impl SpatialScene {
                     None => bad(format!("'{what}' is no body or node of the scene")),
                 }
             }
-            "effort" => {
+            "torque_squared" => {
                 let Some(joint) = m.joints.iter().position(|j| j.name == what) else {
                     return bad(format!("'{what}' is no joint of the scene"));
                 };
                 if !m.joints[joint].is_driven() {
                     return bad(format!(
-                        "joint '{what}' is not driven: only a drive's row has an effort"
+                        "joint '{what}' is not driven: only a drive's row has a torque"
                     ));
                 }
                 let row = m.joints[joint].n_rows() - 1;
                 Ok(Response::Effort { joint, row })
             }
             "reaction" | "torque" => self.joint_mean(kind, what).or_else(bad),
-            _ => bad(format!(
-                "'{kind}' is not a response kind (x, y, z, strain_energy, compliance, \
-                 kinetic_energy, effort, reaction, torque, tip_deflection, stress, buckling)"
-            )),
+            _ => {
+                let kinds: Vec<&str> = RegisteredResponse::spatial_kinds()
+                    .map(|(k, _)| k)
+                    .collect();
+                bad(format!(
+                    "'{kind}' is not a spatial scene's response kind ({})",
+                    kinds.join(", ")
+                ))
+            }
         }
     }
 

@@ -337,13 +337,32 @@ fn names_of_responses_and_parameters() {
         vec![(Parameter::MotorTorque { force: 1 }, 1.0)]
     );
     for (name, words) in [
-        ("w:bar", "not a response kind"),
+        ("w:bar", "not a spatial scene's response kind"),
+        ("effort:hinge", "not a spatial scene's response kind"),
         ("x:top", "no body or node"),
-        ("effort:hinge", "not driven"),
-        ("tip", "responses are"),
+        ("torque_squared:hinge", "not driven"),
+        ("tip", "responses are compliance, strain_energy"),
     ] {
         let e = scene.response(name).unwrap_err().to_string();
         assert!(e.contains(words), "{name}: {e}");
+    }
+    // The registry's spatial kinds are the ones the names parse: each, written with this
+    // scene's names, is read as its kind (or refused for what the scene lacks).
+    for (kind, syntax) in crate::response::Response::spatial_kinds() {
+        let text = syntax
+            .split('[')
+            .next()
+            .unwrap()
+            .replace("NAME", "bar")
+            .replace("JOINT", "hinge");
+        match scene.response(&text) {
+            Ok(_) => {}
+            Err(e) => assert!(
+                !e.to_string()
+                    .contains("not a spatial scene's response kind"),
+                "{kind}: {e}"
+            ),
+        }
     }
     for (name, words) in [
         ("k:m", "no spring"),
