@@ -249,22 +249,17 @@ impl Ldlt {
             }
             Numeric::Dense(d) => d.factorize(values),
         };
-        let factors = match &self.numeric {
-            Numeric::Sparse { factors, .. } => factors,
-            Numeric::Dense(d) => &d.a,
-        };
-        let finite = factors.iter().all(|v| v.is_finite());
-        // A subnormal pivot has lost its precision, and its reciprocal overflows: zero.
-        let lost = || {
-            let mut first = None;
-            self.for_each_pivot(|k, d| {
-                if first.is_none() && d.abs() < f64::MIN_POSITIVE {
-                    first = Some(k);
-                }
-            });
-            first
-        };
-        match result.and_then(|()| lost().map_or(Ok(()), Err)) {
+        // A subnormal pivot has lost its precision, and its reciprocal overflows: zero. The
+        // pivots alone say whether the factors are finite: an entry `L_ij` that is not
+        // makes `d_i = a_ii − Σ_j L_ij² d_j` not finite either.
+        let (mut lost, mut finite) = (None, true);
+        self.for_each_pivot(|k, d| {
+            if lost.is_none() && d.abs() < f64::MIN_POSITIVE {
+                lost = Some(k);
+            }
+            finite &= d.is_finite();
+        });
+        match result.and_then(|()| lost.map_or(Ok(()), Err)) {
             Ok(()) if finite => {
                 self.factorized = true;
                 Ok(())

@@ -31,6 +31,11 @@ pub const MAX_CORRECTIONS: usize = 60;
 /// A correction this small, relative to the solution, ends refinement: round-off.
 const ROUND_OFF: f64 = 8.0 * f64::EPSILON;
 
+/// A correction this small, relative to the solution, ends the refinement of a Newton
+/// correction ([`NearlySymmetric::solve_correction`]): its error then takes a share of this
+/// size of the next residual, far below what the quadratic term leaves there.
+pub const NEWTON_ACCURACY: f64 = 1e-13;
+
 /// Refinement that stops contracting with corrections below this share of the solution has
 /// reached the round-off of the matrix's conditioning (an `LU` solve's error is of the same
 /// order); above it, `LU` solves.
@@ -138,7 +143,28 @@ impl NearlySymmetric {
     /// [`FactorError::Singular`] without a successful factorization or for a non-finite
     /// solution.
     pub fn solve_in_place(&mut self, b: &mut [f64], transpose: bool) -> Result<(), FactorError> {
-        if self.ldlt_ok && self.refine(b, transpose)? {
+        self.solve_to(b, transpose, ROUND_OFF)
+    }
+
+    /// Solves `A x = b` in place for a Newton correction: refined to [`NEWTON_ACCURACY`]
+    /// rather than to round-off, as an inexact Newton method (the iterations' own
+    /// convergence test decides where they end).
+    ///
+    /// # Errors
+    /// As [`NearlySymmetric::solve_in_place`].
+    pub fn solve_correction(&mut self, b: &mut [f64]) -> Result<(), FactorError> {
+        self.solve_to(b, false, NEWTON_ACCURACY)
+    }
+
+    /// Solves on `S`'s factors refined until a correction is `accuracy` of the solution, or
+    /// on `LU`'s where refinement stalls above round-off.
+    fn solve_to(
+        &mut self,
+        b: &mut [f64],
+        transpose: bool,
+        accuracy: f64,
+    ) -> Result<(), FactorError> {
+        if self.ldlt_ok && self.refine(b, transpose, accuracy)? {
             b.copy_from_slice(&self.solution);
             return Ok(());
         }
@@ -149,8 +175,9 @@ impl NearlySymmetric {
         self.lu.solve_in_place(b, transpose)
     }
 
-    /// Iterative refinement on `S`'s factors into `solution`: whether it reached round-off.
-    fn refine(&mut self, b: &[f64], transpose: bool) -> Result<bool, FactorError> {
+    /// Iterative refinement on `S`'s factors into `solution`: whether it reached `accuracy`
+    /// (or stalled at round-off).
+    fn refine(&mut self, b: &[f64], transpose: bool, accuracy: f64) -> Result<bool, FactorError> {
         self.solution.copy_from_slice(b);
         self.ldlt.solve_in_place(&mut self.solution)?;
         let mut previous = f64::INFINITY;
@@ -164,7 +191,7 @@ impl NearlySymmetric {
                 .iter_mut()
                 .zip(&self.residual)
                 .for_each(|(x, d)| *x += d);
-            if correction <= ROUND_OFF * size {
+            if correction <= accuracy * size {
                 return Ok(true);
             }
             if correction > CONTRACTION * previous || !correction.is_finite() {

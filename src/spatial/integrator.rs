@@ -350,7 +350,7 @@ impl System for Step<'_, '_> {
         rhs.iter_mut().for_each(|x| *x = -*x);
         rhs[n_v..].iter_mut().for_each(|x| *x *= self.scale);
         (self.it.lu)
-            .solve_in_place(rhs, false)
+            .solve_correction(rhs)
             .map_err(SpatialIntegrator::singular(self.s.t))
     }
 

@@ -172,7 +172,7 @@ impl System for AtLoad<'_, '_> {
             e.lu.factorize(&e.asm.values).map_err(singular)?;
         }
         e.rhs.iter_mut().for_each(|x| *x = -*x);
-        e.lu.solve_in_place(&mut e.rhs, false).map_err(singular)
+        e.lu.solve_correction(&mut e.rhs).map_err(singular)
     }
 
     /// A step that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened
