@@ -22,7 +22,7 @@ use crate::error::SolveError;
 use crate::group::pair::{Pair, LOCAL};
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
-use crate::joint::spatial::{Gradient, Stiffness, MAX_ROWS};
+use crate::joint::spatial::{Gradient, Joint, Stiffness, MAX_ROWS};
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{nan_max, Residual};
 use crate::solver::sparsity::Sparsity;
@@ -68,6 +68,9 @@ pub(crate) struct Assembler<'m> {
     joint_slots: Vec<Vec<usize>>,
     force_slots: Vec<Vec<usize>>,
     element_slots: Vec<Vec<usize>>,
+    /// Where each joint's rows `s B` and columns `s Bᵀ` are stored, node by node of its
+    /// pair ([`row_slots`]), found once.
+    row_slots: Vec<Vec<usize>>,
     /// The diagonal slots of the rotations of nodes that have none (only truss bars meet
     /// there): a unit there keeps them still.
     absent_slots: Vec<usize>,
@@ -141,6 +144,9 @@ impl<'m> Assembler<'m> {
             })
             .collect();
         let joint_slots = model.joints.iter().map(|j| pair_slots(&j.pair)).collect();
+        let row_slots = (model.joints.iter().zip(&first_row))
+            .map(|(j, &row)| row_slots(&pattern, j, row))
+            .collect();
         let force_slots = model.forces.iter().map(|f| pair_slots(&f.pair)).collect();
         let element_slots = model.elements().map(|e| pair_slots(e.pair())).collect();
         let absent_slots = absent.iter().map(|&d| pattern.at(d, d)).collect();
@@ -148,6 +154,7 @@ impl<'m> Assembler<'m> {
             absent_slots,
             body_slots,
             joint_slots,
+            row_slots,
             force_slots,
             element_slots,
             model,
@@ -304,13 +311,13 @@ impl<'m> Assembler<'m> {
             }
             let gt = times_tangent(&g, &j.pair, increment) * c.scale;
             let gs = g.transpose() * c.scale;
-            for (side, node) in j.local_nodes() {
-                let bt: SMatrix<f64, MAX_ROWS, NV> =
-                    gt.fixed_view::<MAX_ROWS, NV>(0, NV * side).into_owned();
-                self.add(row, NV * node, &bt, n);
-                let bs: SMatrix<f64, NV, MAX_ROWS> =
-                    gs.fixed_view::<NV, MAX_ROWS>(NV * side, 0).into_owned();
-                self.add_columns(NV * node, row, &bs, n);
+            let mut slots = self.row_slots[k].iter();
+            for (side, _) in j.local_nodes() {
+                let rows = (0..NV).flat_map(|c| (0..n).map(move |r| gt[(r, NV * side + c)]));
+                let columns = (0..n).flat_map(|c| (0..NV).map(move |r| gs[(NV * side + r, c)]));
+                for (value, &s) in rows.chain(columns).zip(&mut slots) {
+                    self.values[s] += value;
+                }
             }
         }
         if let Some((inc, _)) = c.tangent {
@@ -437,38 +444,6 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// Adds the first `rows` rows of `block` at `(r0, c0)`.
-    fn add<const R: usize, const C: usize>(
-        &mut self,
-        r0: usize,
-        c0: usize,
-        block: &SMatrix<f64, R, C>,
-        rows: usize,
-    ) {
-        for c in 0..C {
-            for r in 0..rows {
-                let s = self.pattern.at(r0 + r, c0 + c);
-                self.values[s] += block[(r, c)];
-            }
-        }
-    }
-
-    /// Adds the first `columns` columns of `block` at `(r0, c0)`.
-    fn add_columns<const R: usize, const C: usize>(
-        &mut self,
-        r0: usize,
-        c0: usize,
-        block: &SMatrix<f64, R, C>,
-        columns: usize,
-    ) {
-        for c in 0..columns {
-            for r in 0..R {
-                let s = self.pattern.at(r0 + r, c0 + c);
-                self.values[s] += block[(r, c)];
-            }
-        }
-    }
-
     /// `mean(diag M)`, the scale of the multipliers' rows at `β' = 1`.
     pub fn mean_mass(&self) -> f64 {
         let model = self.model;
@@ -487,6 +462,27 @@ impl<'m> Assembler<'m> {
 
 /// Where each entry of a pair's local `12 × 12` block is stored, column by column
 /// ([`ABSENT`] on the ground's side): the order [`scatter_block`] reads.
+/// Where joint `j`'s rows (from `row`) and columns of `B` are stored, node by node of its
+/// pair: its rows' block on the node's six columns column by column, then its columns' block
+/// on the node's six rows, as [`Assembler::matrix`] adds them.
+fn row_slots(pattern: &Sparsity, j: &Joint, row: usize) -> Vec<usize> {
+    let n = j.n_rows();
+    let mut slots = Vec::with_capacity(2 * NV * n * 2);
+    for (_, node) in j.local_nodes() {
+        slots.extend(
+            (0..NV)
+                .flat_map(|c| (0..n).map(move |r| (row + r, NV * node + c)))
+                .map(|(r, c)| pattern.at(r, c)),
+        );
+        slots.extend(
+            (0..n)
+                .flat_map(|c| (0..NV).map(move |r| (NV * node + r, row + c)))
+                .map(|(r, c)| pattern.at(r, c)),
+        );
+    }
+    slots
+}
+
 fn local_slots(pattern: &Sparsity, pair: &Pair) -> Vec<usize> {
     let node = |s: usize| pair.nodes[s];
     (0..LOCAL)
