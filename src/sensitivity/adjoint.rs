@@ -32,6 +32,7 @@ use crate::mechanism::parameter::{At, Level, Parameter};
 use crate::response::{Context, Response, Sample};
 use crate::settings::{DynamicSettings, Memory};
 use crate::solver::alpha::{step_ratio, AlphaParameters, State};
+use crate::solver::backward::{self, Transposed};
 use crate::solver::integrator::Integrator;
 use crate::solver::kink::Jump;
 use crate::time_grid::TimeGrid;
@@ -370,31 +371,14 @@ impl Backward<'_> {
         let clock = Instant::now();
         let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
         sweep.weights = weights;
-        let last = grid.len();
-        let t = |n: usize| grid.times()[n];
-        let s = store.get(&mut it, grid, last, true)?;
-        sweep.add_local(&it, &objectives, last, s.sample(t(last)));
-        for n in (0..last).rev() {
-            crate::interrupt::poll()?;
-            let s1 = store.get(&mut it, grid, n + 1, true)?;
-            let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
-            sweep.step(
-                &mut it,
-                s1.at(t(n + 1), Level::Position),
-                grid.step(n),
-                previous,
-            )?;
-            sweep.keep_weights(n + 1);
-            let s = store.get(&mut it, grid, n, false)?;
-            if n > 0 {
-                if let Some(jump) = it.jump_at(s.q, t(n), grid.step(n - 1))? {
-                    sweep.restart(&mut it, &jump)?;
-                }
-            }
-            sweep.add_local(&it, &objectives, n, s.sample(t(n)));
-        }
-        let s0 = store.get(&mut it, grid, 0, false)?;
-        sweep.initial(&mut it, s0.at(0.0, Level::Acceleration))?;
+        let mut reverse = Reverse {
+            it: &mut it,
+            store: &mut store,
+            grid,
+            objectives: &objectives,
+            sweep: &mut sweep,
+        };
+        backward::sweep(&mut reverse, grid.len())?;
         objectives.finish(&mut values, &mut sweep.xb);
         let peaks = objectives.peaks();
         let timings = Timings {
@@ -409,6 +393,55 @@ impl Backward<'_> {
             timings,
             peaks,
         ))
+    }
+}
+
+/// The planar run transposed ([`backward::sweep`]): the states read from `store` (replayed
+/// from a checkpoint where needed) into the [`Sweep`]'s columns.
+struct Reverse<'r, 'a> {
+    it: &'r mut Integrator<'a>,
+    store: &'r mut StateStore,
+    grid: &'r TimeGrid,
+    objectives: &'r Objectives<'a>,
+    sweep: &'r mut Sweep<'a>,
+}
+
+impl Transposed for Reverse<'_, '_> {
+    fn seed(&mut self, n: usize) -> Result<(), Error> {
+        let s = self
+            .store
+            .get(self.it, self.grid, n, n == self.grid.len())?;
+        let at = s.sample(self.grid.times()[n]);
+        self.sweep.add_local(self.it, self.objectives, n, at);
+        Ok(())
+    }
+
+    fn step(&mut self, n: usize) -> Result<(), Error> {
+        let grid = self.grid;
+        let s1 = self.store.get(self.it, grid, n + 1, true)?;
+        let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
+        let at1 = s1.at(grid.times()[n + 1], Level::Position);
+        self.sweep.step(self.it, at1, grid.step(n), previous)?;
+        self.sweep.keep_weights(n + 1);
+        Ok(())
+    }
+
+    fn restart(&mut self, n: usize) -> Result<(), Error> {
+        if n == 0 {
+            return Ok(());
+        }
+        let grid = self.grid;
+        let s = self.store.get(self.it, grid, n, false)?;
+        if let Some(jump) = self.it.jump_at(s.q, grid.times()[n], grid.step(n - 1))? {
+            self.sweep.restart(self.it, &jump)?;
+        }
+        Ok(())
+    }
+
+    fn initial(&mut self) -> Result<(), Error> {
+        let s0 = self.store.get(self.it, self.grid, 0, false)?;
+        let at0 = s0.at(0.0, Level::Acceleration);
+        Ok(self.sweep.initial(self.it, at0)?)
     }
 }
 

@@ -2,13 +2,14 @@
 //! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α (`alpha`,
 //! paper Algorithm 1, the phases of a step on either engine's configuration space; `integrator`,
 //! the planar engine's equations) with its local error control (`step_control`) and its
-//! restart at a drive's kink (`kink`), static equilibrium by load stepping (`statics`) and the linear static analysis
+//! restart at a drive's kink (`kink`), the discrete adjoint's backward sweep (`backward`, Algorithm 1's run transposed), static equilibrium by load stepping (`statics`) and the linear static analysis
 //! (`linear`), the
 //! time loop (`simulation`) and a state carried to twice the elements per bar
 //! (`prolongation`).
 
 pub(crate) mod alpha;
 pub(crate) mod assembly;
+pub(crate) mod backward;
 pub(crate) mod integrator;
 pub(crate) mod kink;
 pub(crate) mod linear;

@@ -19,7 +19,8 @@
 //! ```
 //!
 //! The adjoint runs the transposes of the same operations backwards, with `Sᵀ` on the same
-//! `LU`. The start is differentiated too: `[M, sBᵀ; sB, 0][v̇₀'; ν₀'] = −[∂r/∂p; 0]`.
+//! factors, every response a column of one sweep ([`crate::solver::backward`]): each step's
+//! matrix is factored once for all of them. The start is differentiated too: `[M, sBᵀ; sB, 0][v̇₀'; ν₀'] = −[∂r/∂p; 0]`.
 //! A change of step size, which carries the pseudo-accelerations to the new step, and the
 //! restart at a drive's kink are differentiated as they run.
 
@@ -34,6 +35,7 @@ use crate::joint::spatial::Joint;
 use crate::response::aggregation::Aggregation;
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::alpha::{step_ratio, AlphaParameters, State};
+use crate::solver::backward::{self, Transposed};
 use crate::solver::kink::jumps;
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
@@ -531,10 +533,7 @@ pub fn sensitivities(
         Method::Auto => responses.len() < swept.len(),
     };
     let gradient: Vec<Vec<f64>> = if adjoint {
-        responses
-            .iter()
-            .map(|r| sweep.adjoint(r, &swept))
-            .collect::<Result<_, _>>()?
+        sweep.adjoint(responses, &swept)?
     } else {
         let by_parameter = sweep.direct(&swept, responses)?;
         (0..responses.len())
@@ -684,9 +683,11 @@ struct Mean {
 }
 
 /// The most right-hand sides per factorization solved by refinement on the symmetric part's
-/// factors; more share one `LU` (`cargo bench --bench spatial`: direct sweeps of 20 to 80
-/// parameters).
-const REFINED_SOLVES: usize = 2;
+/// factors; more share one `LU`, whose ordering for `AᵀA`'s pattern fills a beam lattice's
+/// factors far more (`cargo bench --bench spatial`: direct sweeps of 20 to 80 parameters
+/// gain on `LU`, 5 to 8 lose nothing refined; `benches/spatial_design.py --costs`: the
+/// arm's adjoint of four responses 1.7–1.9 runs refined, 1.7–2.4 on `LU`).
+const REFINED_SOLVES: usize = 8;
 
 /// A state's sensitivities to one parameter: `ε, v', v̇', a', λ'`.
 #[derive(Clone)]
@@ -1759,37 +1760,38 @@ impl<'m> Sweep<'m> {
         Ok(())
     }
 
-    /// [`Sweep::restart_tangents`] transposed, for the adjoint sweep: with `d̄ = v̇̄ + ā`
-    /// (the restart adds `Δv̇'` to both) and `y` from `[M, sBᵀ; sB, 0]ᵀ y = [d̄; 0]`,
-    /// `ε̄ −= (∂(Bᵀ s Δν)/∂q)ᵀ y_v + s (∂(B Δv̇)/∂q)ᵀ y_ν` and each parameter's gradient
-    /// `−= y_v · (∂M/∂p) Δv̇`.
+    /// [`Sweep::restart_tangents`] transposed, for the adjoint sweep, on every column: with
+    /// `d̄ = v̇̄ + ā` (the restart adds `Δv̇'` to both) and `y` from
+    /// `[M, sBᵀ; sB, 0]ᵀ y = [d̄; 0]`, `ε̄ −= (∂(Bᵀ s Δν)/∂q)ᵀ y_v + s (∂(B Δv̇)/∂q)ᵀ y_ν`
+    /// and each parameter's gradient `−= y_v · (∂M/∂p) Δv̇`.
     fn restart_adjoint(
         &mut self,
         n: usize,
         parameters: &[Parameter],
-        bars: (&[f64], &[f64], &mut [f64]),
-        gradient: &mut [f64],
+        columns: &mut [Column],
     ) -> Result<(), SolveError> {
         let Some(restart) = self.restart(n)? else {
             return Ok(());
         };
-        let (vdot_bar, a_bar, eps_bar) = bars;
         let n_v = self.n_v;
         let mut y = vec![0.0; n_v + self.n_rows];
-        for ((y, v), a) in y.iter_mut().zip(vdot_bar).zip(a_bar) {
-            *y = v + a;
-        }
-        self.solve(&mut y, true, n)?;
-        restart.subtract_state_terms_transposed(self.model(), &y, eps_bar);
         let mut rate = vec![0.0; n_v];
-        for (g, p) in gradient.iter_mut().zip(parameters) {
-            rate.fill(0.0);
-            self.add_mass_rate(p, &restart.dv, &mut rate);
-            *g -= dot(&rate, &y[..n_v]);
-            if let Some(load) = self.restart_load(p, &restart, n) {
-                let joint = &self.model().joints[load.joint];
-                *g -=
-                    load.force.dot(&gather(joint, &y[..n_v])) + load.constraint * y[n_v + load.row];
+        for c in columns {
+            y.fill(0.0);
+            for ((y, v), a) in y.iter_mut().zip(&c.vdot).zip(&c.a) {
+                *y = v + a;
+            }
+            self.solve(&mut y, true, n)?;
+            restart.subtract_state_terms_transposed(self.model(), &y, &mut c.eps);
+            for (g, p) in c.gradient.iter_mut().zip(parameters) {
+                rate.fill(0.0);
+                self.add_mass_rate(p, &restart.dv, &mut rate);
+                *g -= dot(&rate, &y[..n_v]);
+                if let Some(load) = self.restart_load(p, &restart, n) {
+                    let joint = &self.model().joints[load.joint];
+                    *g -= load.force.dot(&gather(joint, &y[..n_v]))
+                        + load.constraint * y[n_v + load.row];
+                }
             }
         }
         Ok(())
@@ -1973,10 +1975,42 @@ impl<'m> Sweep<'m> {
         Ok(())
     }
 
-    /// The discrete adjoint: one response's derivatives to every parameter (module docs;
-    /// each operation of [`Sweep::direct_step`] transposed, in reverse).
-    fn adjoint(&mut self, r: &Response, parameters: &[Parameter]) -> Result<Vec<f64>, SolveError> {
-        let (n_v, m) = (self.n_v, self.n_rows);
+    /// The discrete adjoint (module docs; each operation of [`Sweep::direct_step`] transposed,
+    /// in reverse, [`backward::sweep`]): every response's gradient to every parameter,
+    /// `[response][parameter]`, one column of adjoint variables per response ([`Column`]),
+    /// each step's matrix factored once for all of them.
+    fn adjoint(
+        &mut self,
+        responses: &[Response],
+        parameters: &[Parameter],
+    ) -> Result<Vec<Vec<f64>>, Error> {
+        self.many_solves = responses.len() > REFINED_SOLVES;
+        let (n_v, m, steps) = (self.n_v, self.n_rows, self.states.len() - 1);
+        let mut reverse = Reverse {
+            columns: (responses.iter())
+                .map(|_| Column::new(n_v, m, parameters.len()))
+                .collect(),
+            sweep: self,
+            responses,
+            parameters,
+            rhs: vec![0.0; n_v + m],
+            seed: (vec![0.0; n_v], vec![0.0; m], vec![0.0; n_v]),
+        };
+        backward::sweep(&mut reverse, steps)?;
+        Ok(reverse.columns.into_iter().map(|c| c.gradient).collect())
+    }
+
+    /// One column's adjoint variables carried back over the step into state `n` (increment
+    /// `increment`), its matrix factored: the step's operations transposed, last first.
+    fn step_transposed(
+        &mut self,
+        n: usize,
+        increment: &[f64],
+        parameters: &[Parameter],
+        c: &mut Column,
+        rhs: &mut [f64],
+    ) -> Result<(), SolveError> {
+        let n_v = self.n_v;
         let AlphaParameters {
             alpha_m,
             alpha_f,
@@ -1984,95 +2018,145 @@ impl<'m> Sweep<'m> {
             gamma,
         } = self.params;
         let w = (1.0 - alpha_f) / (1.0 - alpha_m);
-        let last = self.states.len() - 1;
-        let mut gradient = vec![0.0; parameters.len()];
-        let (mut eps_bar, mut lam_bar) = (vec![0.0; n_v], vec![0.0; m]);
-        self.seed(r, last, &mut eps_bar, &mut lam_bar);
-        let (mut v_bar, mut vdot_bar, mut a_bar) = (vec![0.0; n_v], vec![0.0; n_v], vec![0.0; n_v]);
-        self.velocity_seed(r, last, &mut v_bar);
-        let mut g_v = vec![0.0; n_v];
-        let mut rhs = vec![0.0; n_v + m];
-        let (mut g_eps, mut g_lam) = (vec![0.0; n_v], vec![0.0; m]);
-        for n in (1..=last).rev() {
-            crate::interrupt::poll()?;
-            let h = self.states[n].h;
-            let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
-            let increment = increments(self.model(), &self.states[n - 1].q, &self.states[n].q);
-            let scale = self.scale(n);
-            // Step 7 transposed: δ̄ = Tᵀ ε̄ + γ' v̄ + β' v̇̄ + w β' ā, ν̄ = s λ̄.
-            let t_eps = apply_tangent(&increment, &eps_bar, true);
-            for i in 0..n_v {
-                rhs[i] = t_eps[i] + gp * v_bar[i] + bp * vdot_bar[i] + w * bp * a_bar[i];
-            }
-            rhs[n_v..]
-                .iter_mut()
-                .zip(&lam_bar)
-                .for_each(|(x, l)| *x = scale * l);
-            self.factorize(n)?;
-            self.solve(&mut rhs, true, n)?;
-            // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
-            for (g, p) in gradient.iter_mut().zip(parameters) {
-                *g -= self.parameter_dot(p, n, &rhs[..n_v])
-                    + self.constraint_dot(p, n, Level::Position, scale, &rhs[n_v..]);
-            }
-            let (y_force, y_constraint) = rhs.split_at_mut(n_v);
-            y_force.iter_mut().for_each(|y| *y = -*y);
-            y_constraint.iter_mut().for_each(|y| *y *= -scale);
-            let s = &self.states[n];
-            let mut eps_pred_bar = eps_bar.clone();
-            let mut v_pred_bar = v_bar.clone();
-            self.asm.linear_terms_transpose(
-                &s.qdot,
-                y_force,
-                y_constraint,
-                &mut eps_pred_bar,
-                &mut v_pred_bar,
-            );
-            let mut a_next_bar = a_bar.clone();
-            // Step 4: ε̄ₙ = Adᵀ ε̄_pred, Δ̄_pred = Tᵀ ε̄_pred.
-            eps_bar = transport(&increment, &eps_pred_bar, true);
-            let delta_bar = apply_tangent(&increment, &eps_pred_bar, true);
-            // Steps 3, 2, 1.
-            for i in 0..n_v {
-                v_bar[i] = v_pred_bar[i] + h * delta_bar[i];
-                a_bar[i] = h * (1.0 - gamma) * v_pred_bar[i] + h * h * (0.5 - beta) * delta_bar[i];
-                a_next_bar[i] += h * gamma * v_pred_bar[i] + h * h * beta * delta_bar[i];
-                vdot_bar[i] = alpha_f / (1.0 - alpha_m) * a_next_bar[i];
-                a_bar[i] -= alpha_m / (1.0 - alpha_m) * a_next_bar[i];
-            }
-            if let Some(ratio) = step_ratio(self.states[n - 1].h, h) {
-                for i in 0..n_v {
-                    vdot_bar[i] += (1.0 - ratio) * a_bar[i];
-                    a_bar[i] *= ratio;
-                }
-            }
-            if self.restarted[n] {
-                let bars = (&vdot_bar[..], &a_bar[..], &mut eps_bar[..]);
-                self.restart_adjoint(n - 1, parameters, bars, &mut gradient)?;
-            }
-            self.seed(r, n - 1, &mut g_eps, &mut g_lam);
-            eps_bar.iter_mut().zip(&g_eps).for_each(|(e, g)| *e += g);
-            lam_bar.copy_from_slice(&g_lam);
-            if self.velocity_seed(r, n - 1, &mut g_v) {
-                v_bar.iter_mut().zip(&g_v).for_each(|(v, g)| *v += g);
-            }
-        }
-        // The start: ε₀ and v₀ do not depend on p; v̇₀' = a₀' and λ₀' from its solve.
-        let s0 = self.scale(0);
+        let h = self.states[n].h;
+        let (bp, gp) = (self.params.beta_prime(h), self.params.gamma_prime(h));
+        let scale = self.scale(n);
+        // Step 7 transposed: δ̄ = Tᵀ ε̄ + γ' v̄ + β' v̇̄ + w β' ā, ν̄ = s λ̄.
+        let t_eps = apply_tangent(increment, &c.eps, true);
         for i in 0..n_v {
-            rhs[i] = vdot_bar[i] + a_bar[i];
+            rhs[i] = t_eps[i] + gp * c.v[i] + bp * c.vdot[i] + w * bp * c.a[i];
         }
-        rhs[n_v..]
-            .iter_mut()
-            .zip(&lam_bar)
-            .for_each(|(x, l)| *x = s0 * l);
-        self.factorize(0)?;
-        self.solve(&mut rhs, true, 0)?;
-        for (g, p) in gradient.iter_mut().zip(parameters) {
-            *g -= self.parameter_dot(p, 0, &rhs[..n_v])
-                + self.constraint_dot(p, 0, Level::Acceleration, s0, &rhs[n_v..]);
+        (rhs[n_v..].iter_mut())
+            .zip(&c.lam)
+            .for_each(|(x, l)| *x = scale * l);
+        self.solve(rhs, true, n)?;
+        // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
+        for (g, p) in c.gradient.iter_mut().zip(parameters) {
+            *g -= self.parameter_dot(p, n, &rhs[..n_v])
+                + self.constraint_dot(p, n, Level::Position, scale, &rhs[n_v..]);
         }
-        Ok(gradient)
+        let (y_force, y_constraint) = rhs.split_at_mut(n_v);
+        y_force.iter_mut().for_each(|y| *y = -*y);
+        y_constraint.iter_mut().for_each(|y| *y *= -scale);
+        let s = &self.states[n];
+        let mut eps_pred_bar = c.eps.clone();
+        let mut v_pred_bar = c.v.clone();
+        self.asm.linear_terms_transpose(
+            &s.qdot,
+            y_force,
+            y_constraint,
+            &mut eps_pred_bar,
+            &mut v_pred_bar,
+        );
+        let mut a_next_bar = c.a.clone();
+        // Step 4: ε̄ₙ = Adᵀ ε̄_pred, Δ̄_pred = Tᵀ ε̄_pred.
+        c.eps = transport(increment, &eps_pred_bar, true);
+        let delta_bar = apply_tangent(increment, &eps_pred_bar, true);
+        // Steps 3, 2, 1.
+        for i in 0..n_v {
+            c.v[i] = v_pred_bar[i] + h * delta_bar[i];
+            c.a[i] = h * (1.0 - gamma) * v_pred_bar[i] + h * h * (0.5 - beta) * delta_bar[i];
+            a_next_bar[i] += h * gamma * v_pred_bar[i] + h * h * beta * delta_bar[i];
+            c.vdot[i] = alpha_f / (1.0 - alpha_m) * a_next_bar[i];
+            c.a[i] -= alpha_m / (1.0 - alpha_m) * a_next_bar[i];
+        }
+        if let Some(ratio) = step_ratio(self.states[n - 1].h, h) {
+            for (vdot, a) in c.vdot.iter_mut().zip(c.a.iter_mut()) {
+                *vdot += (1.0 - ratio) * *a;
+                *a *= ratio;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The spatial run transposed ([`backward::sweep`]) on the stored states.
+struct Reverse<'s, 'm> {
+    sweep: &'s mut Sweep<'m>,
+    responses: &'s [Response],
+    parameters: &'s [Parameter],
+    columns: Vec<Column>,
+    rhs: Vec<f64>,
+    /// A response's partial derivatives at a state: to `ε`, `λ` and `v`.
+    seed: (Vec<f64>, Vec<f64>, Vec<f64>),
+}
+
+impl Transposed for Reverse<'_, '_> {
+    fn seed(&mut self, n: usize) -> Result<(), Error> {
+        let (g_eps, g_lam, g_v) = &mut self.seed;
+        for (c, r) in self.columns.iter_mut().zip(self.responses) {
+            self.sweep.seed(r, n, g_eps, g_lam);
+            c.eps.iter_mut().zip(&*g_eps).for_each(|(e, g)| *e += g);
+            c.lam.copy_from_slice(g_lam);
+            if self.sweep.velocity_seed(r, n, g_v) {
+                c.v.iter_mut().zip(&*g_v).for_each(|(v, g)| *v += g);
+            }
+        }
+        Ok(())
+    }
+
+    fn step(&mut self, n: usize) -> Result<(), Error> {
+        let states = self.sweep.states;
+        let increment = increments(self.sweep.model(), &states[n].q, &states[n + 1].q);
+        self.sweep.factorize(n + 1)?;
+        for c in &mut self.columns {
+            (self.sweep).step_transposed(n + 1, &increment, self.parameters, c, &mut self.rhs)?;
+        }
+        Ok(())
+    }
+
+    fn restart(&mut self, n: usize) -> Result<(), Error> {
+        if self.sweep.restarted[n + 1] {
+            (self.sweep).restart_adjoint(n, self.parameters, &mut self.columns)?;
+        }
+        Ok(())
+    }
+
+    /// The start: `ε₀` and `v₀` do not depend on `p`; `v̇₀' = a₀'` and `λ₀'` from its
+    /// solve.
+    fn initial(&mut self) -> Result<(), Error> {
+        let (sweep, rhs) = (&mut *self.sweep, &mut self.rhs);
+        let n_v = sweep.n_v;
+        let s0 = sweep.scale(0);
+        sweep.factorize(0)?;
+        for c in &mut self.columns {
+            for (r, (vdot, a)) in rhs.iter_mut().zip(c.vdot.iter().zip(&c.a)) {
+                *r = vdot + a;
+            }
+            (rhs[n_v..].iter_mut())
+                .zip(&c.lam)
+                .for_each(|(x, l)| *x = s0 * l);
+            sweep.solve(rhs, true, 0)?;
+            for (g, p) in c.gradient.iter_mut().zip(self.parameters) {
+                *g -= sweep.parameter_dot(p, 0, &rhs[..n_v])
+                    + sweep.constraint_dot(p, 0, Level::Acceleration, s0, &rhs[n_v..]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One response's adjoint variables in the backward sweep — `ε̄, λ̄, v̄, v̇̄, ā` of the
+/// state reached — and its gradient so far.
+struct Column {
+    eps: Vec<f64>,
+    lam: Vec<f64>,
+    v: Vec<f64>,
+    vdot: Vec<f64>,
+    a: Vec<f64>,
+    gradient: Vec<f64>,
+}
+
+impl Column {
+    fn new(n_v: usize, n_rows: usize, n_parameters: usize) -> Self {
+        Self {
+            eps: vec![0.0; n_v],
+            lam: vec![0.0; n_rows],
+            v: vec![0.0; n_v],
+            vdot: vec![0.0; n_v],
+            a: vec![0.0; n_v],
+            gradient: vec![0.0; n_parameters],
+        }
     }
 }
 
