@@ -61,6 +61,11 @@ tolerance. Writes benches/results/refinement_tight.md. With ``--scene spun_beam`
 ``--scene slider_crank``: that scene's designs instead, to refinement_tight_SCENE.md; with
 ``--held``, the gradients held too and judged against the reference's (…_held.md).
 
+With ``--adjoint-time``, instead: the time error the adjoint estimates (``Simulation.time_errors``)
+against step doubling's estimate and the true error, design by design, at the first
+candidate's steps and four doublings, on the arm's family or (``--scene``) the spun beam's or
+the slider-crank's designs. Writes benches/results/adjoint_time.md (adjoint_time_SCENE.md).
+
 With ``--adaptive``, instead: on the one-element grid of each design of the family, the
 fewest steps at which d is within rtol of that grid's own limit in the step, uniform and
 with local error control. Writes benches/results/adaptive.md.
@@ -75,6 +80,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import sys
 from pathlib import Path
@@ -84,7 +90,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import flextop  # noqa: E402
 from flextop.discretization.refinement import HELD_NEWTON_TOL  # noqa: E402
-from flextop.discretization.tolerance import Discretization  # noqa: E402
+from flextop.discretization.tolerance import Discretization, estimate, start  # noqa: E402
 from flextop.errors import SimulationError, ToleranceError  # noqa: E402
 from tolerance import arm_designs, beam_designs, reference, timed  # noqa: E402
 
@@ -560,6 +566,92 @@ def tight(scene: str, hold: bool) -> None:
     (ROOT / "benches" / "results" / f"{stem}.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+AGREEMENT = (0.67, 1.5)
+"""Where the adjoint's estimate ``e(h)`` and the half-step run's ``(f(2h) − f(h))/3`` (both
+``e(h)`` in the asymptotic range) agree: the range of their ratio ``--adjoint-time`` counts."""
+
+ADJOINT_LEVELS = 5
+"""Step counts of ``--adjoint-time``: the rule's first candidate (the scene's steps rounded up
+to a multiple of 4) and its doublings."""
+
+
+def adjoint_time(scene: str) -> None:
+    """The time error estimated by the adjoint (``Simulation.time_errors``: the steps' local
+    errors weighted by the run's adjoint) against the step-doubling estimate of a run to a
+    tolerance (runs at 2h and 4h, the observed order, ``tolerance.estimate``) and the true
+    time error, design by design (:func:`tight_designs`), on the scene's elements at its
+    first candidate's steps and their doublings. The truth: d on the same elements, 64 times
+    the first candidate's steps extrapolated from 32 times. Prints a table per design and
+    writes benches/results/adjoint_time.md (the arm), adjoint_time_SCENE.md otherwise."""
+    make = TIGHT_SCENES[scene][0]
+    sim = flextop.Simulation(make())
+    t_end = sim.spec["simulation"]["t_end"]
+    first = start(math.ceil(t_end / sim.spec["simulation"]["h"] - 1e-9)).steps
+    levels = [first * 2**k for k in range(ADJOINT_LEVELS)]
+    flag = "" if scene == "arm" else f" --scene {scene}"
+    lines = [f"# The time error from the adjoint: {scene.replace('_', ' ')}", "",
+             f"`python benches/refinement.py --adjoint-time{flag}` on {platform.processor() or platform.machine()}, "
+             f"{platform.python_version()}: d (`tip_deflection`) on the scene's elements at {', '.join(map(str, levels))} "
+             f"steps; its true time error against {64 * first} steps extrapolated from {32 * first}; the adjoint's "
+             "estimate (signed, `Simulation.time_errors`) and step doubling's (its size, from the runs at 2h and 4h as a "
+             "run to a tolerance makes them). Each cell: true error, then each estimate over it.", "",
+             "| design | " + " | ".join(f"{n} steps: true, adjoint / true, doubling / |true|" for n in levels) + " |",
+             "|---|" + "---|" * len(levels)]
+    ratios: dict[int, list[tuple[float, float, float]]] = {n: [] for n in levels}
+    seconds = {"run": 0.0, "adjoint": 0.0, "doubling": 0.0}
+    for name, x in tight_designs(scene, sim).items():
+        try:
+            fine, coarse = (sim.time_errors(x, "tip_deflection", steps=n)["tip_deflection"][0] for n in (64 * first, 32 * first))
+        except SimulationError as error:
+            lines.append(f"| {name} | the reference failed: {error} |" + " |" * (len(levels) - 1))
+            continue
+        limit = fine + (fine - coarse) / 3
+        cells = []
+        for n in levels:
+            try:
+                took, out = timed(lambda: sim.time_errors(x, "tip_deflection", steps=n))
+                value, adjoint = out["tip_deflection"]
+                took_run, _ = timed(lambda: sim.run(x, h=t_end / n))
+                took_2, half = timed(lambda: sim.run(x, h=t_end / (n // 2)).tip_deflection())
+                took_4, quarter = timed(lambda: sim.run(x, h=t_end / (n // 4)).tip_deflection())
+            except SimulationError as error:
+                cells.append(f"failed: {type(error).__name__}")
+                continue
+            seconds["run"] += took_run
+            seconds["adjoint"] += took - took_run
+            seconds["doubling"] += took_2 + took_4
+            doubling = float(estimate([np.array([value])], [np.array([half])], [np.array([quarter])],
+                                      [np.array([value])]).time[0])
+            true = value - limit
+            # Asymptotic, f(2h) − f(h) = 3 e(h): the half-step run's word on the adjoint's.
+            agreement = adjoint / ((half - value) / 3) if half != value else float("inf")
+            ratios[n].append((true / limit, adjoint / true, doubling / abs(true), agreement))
+            cells.append(f"{true / limit:+.1e}, {adjoint / true:.2f}, {doubling / abs(true):.2f}")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        print(lines[-1], flush=True)
+    low, high = AGREEMENT
+    lines += ["", "| steps | designs | median true error | adjoint / true: median, least, most | adjoint of the wrong sign "
+              "| doubling / |true|: median, least, most | under-estimates by more than 2×, the wrong sign included (adjoint, "
+              f"doubling) | adjoint within [{low:g}, {high:g}] of (f(2h) − f(h))/3: designs, adjoint / true among them: least, most |",
+              "|---|---|---|---|---|---|---|---|"]
+    for n in levels:
+        rows = ratios[n]
+        if not rows:
+            continue
+        true, adj, dbl, agreement = (np.array(column) for column in zip(*rows))
+        agreed = (agreement >= low) & (agreement <= high)
+        lines.append(f"| {n} | {len(rows)} | {np.median(np.abs(true)):.1e} | {np.median(adj):.2f}, {adj.min():.2f}, "
+                     f"{adj.max():.2f} | {int(np.sum(adj < 0))} | {np.median(dbl):.2f}, {dbl.min():.2f}, {dbl.max():.2f} | "
+                     f"{int(np.sum(adj < 0.5))}, {int(np.sum(dbl < 0.5))} | {int(agreed.sum())}"
+                     + (f", {adj[agreed].min():.2f}, {adj[agreed].max():.2f} |" if agreed.any() else " |"))
+    lines += ["", f"Seconds over every design and step count: the runs themselves {seconds['run']:.1f}; beyond them, the "
+              f"adjoint's sweeps {seconds['adjoint']:.1f} (a run with gradients makes it anyway), step doubling's companions "
+              f"at 2h and 4h {seconds['doubling']:.1f}."]
+    stem = "adjoint_time" if scene == "arm" else f"adjoint_time_{scene}"
+    (ROOT / "benches" / "results" / f"{stem}.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines[-(len(levels) + 5):]))
+
+
 def gradient_truth_of(level: flextop.Simulation, x: np.ndarray, t_end: float, steps: int) -> np.ndarray:
     """∇d on ``level``, ``steps`` extrapolated from half of them."""
     fine, coarse = (level.run_with_sensitivities(x, "tip_deflection", h=t_end / n).gradients[0] for n in (steps, steps // 2))
@@ -586,9 +678,14 @@ def main() -> None:
     parser.add_argument("--held-newton", action="store_true", help="Newton's tolerance on the grid held against 1e-10, instead")
     parser.add_argument("--tight", action="store_true", help="the family at rtol 1e-3 against 32x references, instead")
     parser.add_argument("--adaptive", action="store_true", help="local error control against uniform steps, instead")
-    parser.add_argument("--scene", choices=sorted(TIGHT_SCENES), default="arm", help="with --tight: whose designs")
+    parser.add_argument("--adjoint-time", action="store_true",
+                        help="the time error from the adjoint against step doubling and the truth, instead")
+    parser.add_argument("--scene", choices=sorted(TIGHT_SCENES), default="arm",
+                        help="with --tight or --adjoint-time: whose designs")
     parser.add_argument("--held", action="store_true", help="with --tight: the gradients held too, and judged")
     args = parser.parse_args()
+    if args.adjoint_time:
+        return adjoint_time(args.scene)
     if args.tight:
         return tight(args.scene, args.held)
     if args.adaptive:

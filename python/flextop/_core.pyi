@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["Model", "SpatialModel", "simulate", "solve_static", "run_with_sensitivities", "evaluate_responses", "linearize", "natural_modes",
-           "rigid_positions", "prolong", "bar_shares", "section_forces", "cell_fields", "response_kinds", "size_limits", "cancel_running"]
+           "rigid_positions", "prolong", "bar_shares", "time_errors", "section_forces", "cell_fields", "response_kinds", "size_limits", "cancel_running"]
 
 _F = npt.NDArray[np.float64]
 
@@ -115,6 +115,13 @@ class SensitivityData(TypedDict):
     method: str  # the method actually used: "direct" or "adjoint"
     simulation_seconds: float  # wall time of the simulation, s
     gradient_seconds: float  # wall time of the sensitivity analysis, s
+
+@type_check_only
+class TimeErrors(TypedDict):
+    """``time_errors``: the responses' values and their time errors ``f(h) − f`` estimated by the adjoint."""
+
+    values: _F  # response values on the steps given, (n_r,)
+    errors: _F  # each one's time error to leading order in the step, (n_r,)
 
 @type_check_only
 class BarShares(TypedDict):
@@ -300,6 +307,8 @@ def evaluate_responses(model: Model, x: _F | None, q: _F, lam: _F, times: list[f
 def prolong(coarse: Model, fine: Model, q: _F) -> _F: ...
 def bar_shares(coarse: Model, fine: Model, x: _F, responses: list[str], settings: dict[str, Any] | None, steps: list[float],
                q: _F, qdot: _F, qddot: _F, lam: _F) -> BarShares: ...
+def time_errors(model: Model, x: _F, responses: list[str], settings: dict[str, Any] | None,
+                steps: list[float]) -> TimeErrors: ...
 def linearize(model: Model, x: _F | None = None, q: _F | None = None, settings: dict[str, Any] | None = None) -> Linearization: ...
 def natural_modes(model: Model, count: int, x: _F | None = None, q: _F | None = None,
                   settings: dict[str, Any] | None = None) -> NaturalModes: ...

@@ -615,11 +615,36 @@ class Simulation:
         names = [responses] if isinstance(responses, str) else list(responses)
         if self.analysis != "dynamic":
             raise SettingsError("bar shares are measured on a dynamic run; a static scene's refinement is uniform")
-        duration = refinement.t_end(self, settings)
-        step = settings.get("h") or self.spec.get("simulation", {}).get("h") or duration / 16
-        count = max(1, math.ceil(duration / step - 1e-9))
         design = np.ones(self.n_design) if xv is None else xv
-        return indicator.shares(self, design, names, settings, np.full(count, duration / count))
+        return indicator.shares(self, design, names, settings, self._uniform_steps(settings))
+
+    def _uniform_steps(self, settings: dict[str, Any], count: int | None = None) -> np.ndarray:
+        """``count`` uniform steps over the run (as many as the step ``h`` of ``settings``, or
+        else of the scene, makes; a sixteenth of the run without one)."""
+        duration = refinement.t_end(self, settings)
+        if count is None:
+            step = settings.get("h") or self.spec.get("simulation", {}).get("h") or duration / 16
+            count = max(1, math.ceil(duration / step - 1e-9))
+        elif isinstance(count, bool) or not (isinstance(count, (int, np.integer)) and count >= 1):
+            raise SettingsError(f"steps must be a positive whole number, got {count!r}")
+        return np.full(int(count), duration / count)
+
+    def time_errors(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *, steps: int | None = None,
+                    t_end: float | None = None, rho_inf: float | None = None, mass: str | None = None) -> dict[str, tuple[float, float]]:
+        """Each response's value for design ``x`` on ``steps`` uniform steps (the scene's step
+        by default; other settings as in :meth:`run`) and its time error ``f(h) − f`` to
+        leading order in the step, estimated from that run alone: the steps' local errors
+        (generalized-α's truncation, from the accelerations' differences) weighted by the
+        run's adjoint, one backward sweep. The space error is not in it."""
+        xv = self._design(x)
+        settings = self._settings(t_end=t_end, rho_inf=rho_inf, mass=mass)
+        names = [responses] if isinstance(responses, str) else list(responses)
+        if self.analysis != "dynamic":
+            raise SettingsError("a time error is a motion's; this scene is static")
+        design = np.ones(self.n_design) if xv is None else xv
+        grid = [float(h) for h in self._uniform_steps(settings, steps)]
+        out = _core.time_errors(self.model, design, names, settings, grid)
+        return {name: (float(out["values"][k]), float(out["errors"][k])) for k, name in enumerate(names)}
 
     def natural_frequencies(self, n: int = 3, x: Any = None, *, rtol: float | None = 1e-3, mass: str | None = None) -> np.ndarray:
         """The ``n`` lowest natural frequencies (Hz) of the structure at rest with its drives

@@ -38,6 +38,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fields::rigid_positions, m)?)?;
     m.add_function(wrap_pyfunction!(refinement::prolong, m)?)?;
     m.add_function(wrap_pyfunction!(refinement::bar_shares, m)?)?;
+    m.add_function(wrap_pyfunction!(refinement::time_errors, m)?)?;
     m.add_function(wrap_pyfunction!(fields::section_forces, m)?)?;
     m.add_function(wrap_pyfunction!(fields::cell_fields, m)?)?;
     m.add_function(wrap_pyfunction!(model::response_kinds, m)?)?;

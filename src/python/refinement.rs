@@ -1,5 +1,6 @@
 //! What a run to a tolerance asks of a model pair: states carried from a scene to the same
-//! scene with twice the elements per bar, and each bar's share of the change between them.
+//! scene with twice the elements per bar, and each bar's share of the change between them;
+//! of one model, its responses' time errors estimated by the adjoint.
 
 use std::sync::Arc;
 
@@ -12,7 +13,7 @@ use super::model::PyModel;
 use super::runs::{grid, rows};
 use super::signals::detached;
 use crate::error::{Error, SettingsError};
-use crate::sensitivity::adjoint::Path;
+use crate::sensitivity::adjoint::{time_errors as time_errors_of, Path};
 use crate::sensitivity::parse_responses;
 use crate::sensitivity::shares::bar_shares as bar_shares_of;
 use crate::solver::prolongation::Prolongation;
@@ -90,5 +91,34 @@ pub fn bar_shares<'py>(
         "first_order",
         matrix(py, out.first_order, responses.len(), n_b)?,
     )?;
+    Ok(d)
+}
+
+/// The responses' `values` of `model`'s run at design `x` on `steps` and their time
+/// `errors`, `f(h) − f` to leading order in the step, each (n_r,): the steps' local errors
+/// weighted by the run's adjoint ([`crate::sensitivity::adjoint::time_errors`]).
+#[pyfunction]
+#[pyo3(signature = (model, x, responses, settings, steps))]
+pub fn time_errors<'py>(
+    py: Python<'py>,
+    model: &PyModel,
+    x: PyReadonlyArray1<'py, f64>,
+    responses: Vec<String>,
+    settings: Option<&Bound<'py, PyAny>>,
+    steps: Vec<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = Arc::clone(&model.model);
+    let parsed = parse_responses(&m, &responses).map_err(Error::from)?;
+    let settings = run_options(settings)?
+        .dynamic(&m.defaults)
+        .map_err(Error::from)?;
+    let grid = grid(steps)?;
+    let x = x.as_slice()?.to_vec();
+    let (values, errors) = detached(py, move || {
+        time_errors_of(&m, m.densities(Some(&x))?, &settings, &grid, &parsed)
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("values", vector(py, values))?;
+    d.set_item("errors", vector(py, errors))?;
     Ok(d)
 }

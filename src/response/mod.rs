@@ -327,6 +327,18 @@ impl Response {
         }
     }
 
+    /// The factor on the integrand of a response that is a time sum by the trapezoidal rule
+    /// (`1/t_f` for a mean, 1 for an integral) in a dynamic run of `duration`; `None` for a
+    /// final value, an explicit one and any static response.
+    pub fn per_time(&self, analysis: Analysis, duration: f64) -> Option<f64> {
+        match self.family.weighting() {
+            _ if analysis == Analysis::Static => None,
+            Weighting::Mean => Some(1.0 / duration),
+            Weighting::Integral => Some(1.0),
+            Weighting::Final | Weighting::Explicit => None,
+        }
+    }
+
     /// Whether the response depends on the states at all.
     pub fn depends_on_states(&self) -> bool {
         self.family.weighting() != Weighting::Explicit

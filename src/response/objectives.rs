@@ -142,6 +142,15 @@ impl<'a> Objectives<'a> {
         }
     }
 
+    /// `G_k` of response `k` at state `n` as its time sum weighs it (per unit time for a
+    /// mean), with the references of the whole run; `None` for a response that is not a sum
+    /// over the run's states ([`Response::per_time`]).
+    pub(crate) fn integrand(&self, ctx: &Context, k: usize, n: usize, at: Sample) -> Option<f64> {
+        let r = &self.responses[k];
+        let factor = r.per_time(self.analysis, self.grid.duration())?;
+        Some(factor * r.integrand(ctx, at, self.known(k, n)))
+    }
+
     /// The peaks of the aggregates over the states observed.
     pub(crate) fn peaks(&self) -> Vec<Option<f64>> {
         self.responses

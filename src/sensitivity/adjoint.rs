@@ -234,6 +234,13 @@ pub(crate) enum About<'a> {
     Path(Path<'a>),
 }
 
+impl About<'_> {
+    /// The model's own run, checkpointed past [`crate::settings::STORE_BUDGET_BYTES`].
+    const AUTO: Self = About::Run(Memory::Auto {
+        budget_bytes: crate::settings::STORE_BUDGET_BYTES,
+    });
+}
+
 /// The adjoint sweep about `about` on `grid`: the responses and their gradients.
 pub(crate) fn differentiate_backward(
     model: &Model,
@@ -251,7 +258,7 @@ pub(crate) fn differentiate_backward(
         responses,
         parameters,
     };
-    run.sweep_about(densities, about, None)
+    run.sweep_about(densities, about, None, None)
 }
 
 /// A trajectory given at every time of a grid, one row of the model's coordinates (or
@@ -309,22 +316,30 @@ pub(crate) fn dual_weights(
     responses: &[Response],
     about: Option<Path<'_>>,
 ) -> Result<(Vec<f64>, Vec<f64>), Error> {
-    let run = Backward {
-        model,
-        settings,
-        grid,
-        responses,
-        parameters: &[],
-    };
-    let about = about.map_or(
-        About::Run(Memory::Auto {
-            budget_bytes: crate::settings::STORE_BUDGET_BYTES,
-        }),
-        About::Path,
-    );
+    let run = Backward::of_values(model, settings, grid, responses);
+    let about = about.map_or(About::AUTO, About::Path);
     let mut weights = vec![0.0; (grid.len() + 1) * responses.len() * model.n_dofs()];
-    let sensitivities = run.sweep_about(densities, about, Some(&mut weights))?;
+    let sensitivities = run.sweep_about(densities, about, Some(&mut weights), None)?;
     Ok((sensitivities.values, weights))
+}
+
+/// Each response's time error on `grid`, `f(h) − f` to leading order in the step, with
+/// the responses' values: the steps' local errors weighted by the adjoint of the run
+/// ([`LocalErrors`]), one backward sweep and no other run.
+///
+/// # Errors
+/// As [`differentiate_backward`].
+pub(crate) fn time_errors(
+    model: &Model,
+    densities: Densities,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    let run = Backward::of_values(model, settings, grid, responses);
+    let mut errors = vec![0.0; responses.len()];
+    let sensitivities = run.sweep_about(densities, About::AUTO, None, Some(&mut errors))?;
+    Ok((sensitivities.values, errors))
 }
 
 /// What one adjoint analysis reads.
@@ -336,14 +351,32 @@ struct Backward<'a> {
     parameters: &'a [Parameter],
 }
 
-impl Backward<'_> {
+impl<'a> Backward<'a> {
+    /// An analysis of `responses` on `grid` without gradients.
+    fn of_values(
+        model: &'a Model,
+        settings: &'a DynamicSettings,
+        grid: &'a TimeGrid,
+        responses: &'a [Response],
+    ) -> Self {
+        Self {
+            model,
+            settings,
+            grid,
+            responses,
+            parameters: &[],
+        }
+    }
+
     /// The forward run, or the trajectory given (every state stored), as `about` says; then
-    /// the backward sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]).
+    /// the backward sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]);
+    /// with `time_errors`, each response's estimated time error there (see [`time_errors`]).
     fn sweep_about(
         &self,
         densities: Densities,
         about: About<'_>,
         weights: Option<&mut [f64]>,
+        time_errors: Option<&mut [f64]>,
     ) -> Result<Sensitivities, Error> {
         let Self {
             model,
@@ -371,6 +404,10 @@ impl Backward<'_> {
         let clock = Instant::now();
         let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
         sweep.weights = weights;
+        let estimated = time_errors.is_some();
+        if estimated {
+            sweep.local = Some(LocalErrors::new(&it.params, n_q, responses.len()));
+        }
         let mut reverse = Reverse {
             it: &mut it,
             store: &mut store,
@@ -379,6 +416,11 @@ impl Backward<'_> {
             sweep: &mut sweep,
         };
         backward::sweep(&mut reverse, grid.len())?;
+        if let (Some(out), Some(local)) = (time_errors, sweep.local.as_mut()) {
+            local.add_quadrature(grid);
+            objectives.finish(&mut values.clone(), &mut local.errors);
+            out.copy_from_slice(&local.errors);
+        }
         objectives.finish(&mut values, &mut sweep.xb);
         let peaks = objectives.peaks();
         let timings = Timings {
@@ -406,18 +448,59 @@ struct Reverse<'r, 'a> {
     sweep: &'r mut Sweep<'a>,
 }
 
+impl Reverse<'_, '_> {
+    /// The local errors of the step from state `n` ([`LocalErrors`]) from the stored
+    /// accelerations: `q̈ₙ₊₁`, and `q̈ₙ` with the jump of a restart at a kink on it.
+    fn local_errors(&mut self, n: usize) -> Result<(), Error> {
+        let grid = self.grid;
+        let Some(local) = self.sweep.local.as_mut() else {
+            return Ok(());
+        };
+        let s1 = self.store.get(self.it, grid, n + 1, true)?;
+        local.next.copy_from_slice(s1.acc);
+        let s = self.store.get(self.it, grid, n, false)?;
+        local.now.copy_from_slice(s.acc);
+        if n > 0 {
+            if let Some(jump) = self.it.jump_at(s.q, grid.times()[n], grid.step(n - 1))? {
+                local
+                    .now
+                    .iter_mut()
+                    .zip(&jump.dacc)
+                    .for_each(|(a, d)| *a += d);
+            }
+        }
+        let after = (n + 1 < grid.len()).then(|| grid.step(n + 1));
+        local.of_step(grid.step(n), after);
+        Ok(())
+    }
+}
+
 impl Transposed for Reverse<'_, '_> {
     fn seed(&mut self, n: usize) -> Result<(), Error> {
-        let s = self
-            .store
-            .get(self.it, self.grid, n, n == self.grid.len())?;
+        let last = self.grid.len();
+        let s = self.store.get(self.it, self.grid, n, n == last)?;
         let at = s.sample(self.grid.times()[n]);
         self.sweep.add_local(self.it, self.objectives, n, at);
+        if let Some(local) = self.sweep.local.as_mut() {
+            // The trapezoidal rule's own error reads the integrands of the first two and
+            // the last two states.
+            let ends = [Some(last), last.checked_sub(1), Some(1), Some(0)];
+            if let Some(end) = ends.iter().position(|&m| m == Some(n)) {
+                let densities = &self.it.assembler().densities;
+                let ctx = Context::dynamic(self.sweep.model, densities, self.sweep.mass);
+                for (k, g) in local.ends.iter_mut().enumerate() {
+                    g[end] = self.objectives.integrand(&ctx, k, n, at);
+                }
+            }
+        }
         Ok(())
     }
 
     fn step(&mut self, n: usize) -> Result<(), Error> {
         let grid = self.grid;
+        if self.sweep.local.is_some() {
+            self.local_errors(n)?;
+        }
         let s1 = self.store.get(self.it, grid, n + 1, true)?;
         let previous = if n > 0 { grid.step(n - 1) } else { 0.0 };
         let at1 = s1.at(grid.times()[n + 1], Level::Position);
@@ -501,6 +584,93 @@ fn replay(
     values
 }
 
+/// The local errors of generalized-α's steps and their sum in each response, weighted by
+/// the adjoint ([`time_errors`]). With `aₙ ≈ q̈(tₙ + Δ_α h) + κh² q⁗` (`Δ_α = α_m − α_f`,
+/// `κ = (1 − α_f)/2 − (1 − α_m)(½ + Δ_α)`, what makes the recurrence of `a` exact to `O(h³)`),
+/// a step from the exact state makes
+///
+/// ```text
+/// l_q = (β − γ/2 + 1/12) h³ q⃛ ≈ c_q h² (q̈ₙ₊₁ − q̈ₙ)          (the position update's error)
+/// l_v = (κ + γ/2 + γΔ_α − 1/6) h³ q⁗ ≈ c_v h³ Δq⃛ / h̄     (the velocity update's)
+/// ```
+///
+/// (`q̈ₙ` after a restart's jump, `q⃛` of a step `(q̈ₙ₊₁ − q̈ₙ)/h`, its change to the next
+/// step's over their mean size; none on the last step). Its equilibrium then has the
+/// residual `τ = −(β'M + γ'C) l_q + C l_v` on the exact motion, and a response moves by
+/// `q̄ᵀ l_q + q̄̇ᵀ l_v − q̃ᵀ l_q − μᵀτ` (the adjoint variables of the state after the step, `q̃`
+/// its positions' total, `μ` the equilibrium's): summed over the steps, with the
+/// trapezoidal rule's own error on a time sum ([`LocalErrors::add_quadrature`]), `f(h) − f`
+/// to leading order.
+struct LocalErrors {
+    c_q: f64,
+    c_v: f64,
+    /// `q̈ₙ₊₁` and `q̈ₙ` of the step.
+    next: Vec<f64>,
+    now: Vec<f64>,
+    /// `q⃛` of the step and of the step after it.
+    jerk: Vec<f64>,
+    jerk_after: Vec<f64>,
+    /// The step's `l_q` and `l_v`.
+    lq: Vec<f64>,
+    lv: Vec<f64>,
+    /// Each response's estimated time error so far.
+    errors: Vec<f64>,
+    /// Each response's integrand `G` at the states `N`, `N − 1`, `1` and `0` (`None` for a
+    /// response that is not a time sum).
+    ends: Vec<[Option<f64>; 4]>,
+}
+
+impl LocalErrors {
+    fn new(params: &AlphaParameters, n_q: usize, n_r: usize) -> Self {
+        let AlphaParameters {
+            alpha_m,
+            alpha_f,
+            beta,
+            gamma,
+        } = *params;
+        let lag = alpha_m - alpha_f;
+        let kappa = 0.5 * (1.0 - alpha_f) - (1.0 - alpha_m) * (0.5 + lag);
+        Self {
+            c_q: beta - 0.5 * gamma + 1.0 / 12.0,
+            c_v: kappa + 0.5 * gamma + gamma * lag - 1.0 / 6.0,
+            next: vec![0.0; n_q],
+            now: vec![0.0; n_q],
+            jerk: vec![0.0; n_q],
+            jerk_after: vec![0.0; n_q],
+            lq: vec![0.0; n_q],
+            lv: vec![0.0; n_q],
+            errors: vec![0.0; n_r],
+            ends: vec![[None; 4]; n_r],
+        }
+    }
+
+    /// Adds the trapezoidal rule's own error to each time sum's: the rule over `[0, t_f]`
+    /// exceeds the integral by `(h²/12)(G'(t_f) − G'(0))` to leading order (Euler–Maclaurin),
+    /// read off the integrands at the ends, `(1/12)(h_{N−1}(G_N − G_{N−1}) − h₀(G₁ − G₀))`.
+    fn add_quadrature(&mut self, grid: &TimeGrid) {
+        let (first, last) = (grid.step(0), grid.step(grid.len() - 1));
+        for (e, ends) in self.errors.iter_mut().zip(&self.ends) {
+            if let [Some(g_n), Some(g_before), Some(g_1), Some(g_0)] = *ends {
+                *e += (last * (g_n - g_before) - first * (g_1 - g_0)) / 12.0;
+            }
+        }
+    }
+
+    /// `l_q` and `l_v` of a step of size `h` from `now` to `next`, the step after it of
+    /// size `after` (`None` on the last).
+    fn of_step(&mut self, h: f64, after: Option<f64>) {
+        let h3 = h * h * h;
+        for i in 0..self.lq.len() {
+            self.jerk[i] = (self.next[i] - self.now[i]) / h;
+            self.lq[i] = self.c_q * h3 * self.jerk[i];
+            self.lv[i] = after.map_or(0.0, |h1| {
+                self.c_v * h3 * (self.jerk_after[i] - self.jerk[i]) / (0.5 * (h + h1))
+            });
+        }
+        std::mem::swap(&mut self.jerk, &mut self.jerk_after);
+    }
+}
+
 /// The adjoint variables of every response (column-major, one column each) and the
 /// gradients accumulated so far.
 struct Sweep<'a> {
@@ -530,6 +700,8 @@ struct Sweep<'a> {
     work: Vec<f64>,
     /// Where each time's `μ` is kept, if asked ([`dual_weights`]).
     weights: Option<&'a mut [f64]>,
+    /// The steps' local errors and the responses' time errors, if asked ([`time_errors`]).
+    local: Option<LocalErrors>,
 }
 
 impl<'a> Sweep<'a> {
@@ -562,6 +734,7 @@ impl<'a> Sweep<'a> {
             scratch: it.newton.scratch(n_r),
             work: Vec::new(),
             weights: None,
+            local: None,
         }
     }
 
@@ -625,6 +798,21 @@ impl<'a> Sweep<'a> {
         } = it.params;
         let bp = it.params.beta_prime(h);
         let (n_q, n, n_x) = (self.n_q, self.n, self.n_x);
+        if let Some(local) = self.local.as_mut() {
+            // The local errors' share through the state after the step: q̄ᵀ l_q + q̄̇ᵀ l_v,
+            // less the total adjoint q̃ of its positions on l_q, which the equilibrium's
+            // solve gives back below.
+            for k in 0..self.n_r {
+                let r = k * n_q..(k + 1) * n_q;
+                let mut share = 0.0;
+                for (i, j) in r.enumerate() {
+                    let a_total = self.ab[j] + h * gamma * self.vb[j];
+                    let beyond = bp * self.acc_b[j] + a_total / (h * h * beta);
+                    share += self.vb[j] * local.lv[i] - beyond * local.lq[i];
+                }
+                local.errors[k] += share;
+            }
+        }
         for k in 0..self.n_r {
             let r = k * n_q..(k + 1) * n_q;
             let out = &mut self.rhs[k * n..(k + 1) * n];
@@ -664,6 +852,15 @@ impl<'a> Sweep<'a> {
             self.damped.fill(0.0);
             it.newton.add_damping_times(mu, &mut self.damped);
             let gp = it.params.gamma_prime(h);
+            if let Some(local) = self.local.as_mut() {
+                // −μᵀτ, τ = −(β'M + γ'C) l_q + C l_v the step's residual on the exact motion.
+                local.errors[k] += (0..n_q)
+                    .map(|i| {
+                        (bp * self.c[i] + gp * self.damped[i]) * local.lq[i]
+                            - self.damped[i] * local.lv[i]
+                    })
+                    .sum::<f64>();
+            }
             for i in 0..n_q {
                 let j = r.start + i;
                 let cbar = self.acc_b[j] - self.c[i];

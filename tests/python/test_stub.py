@@ -169,6 +169,7 @@ CALLS = {
     "linearize": lambda arm, truss: _core.linearize(arm),
     "natural_modes": lambda arm, truss: _core.natural_modes(truss, 2, np.full(truss.n_design, 0.5)),
     "bar_shares": lambda arm, truss: bar_shares(arm),
+    "time_errors": lambda arm, truss: _core.time_errors(arm, np.full(arm.n_design, 0.5), ["tip_deflection"], {}, [0.05, 0.05]),
     "SpatialModel.simulate": lambda arm, truss: spatial().simulate({"t_end": 0.01}),
     "SpatialModel.solve_static": lambda arm, truss: spatial().solve_static(),
     "SpatialModel.natural_modes": lambda arm, truss: spatial().natural_modes(
