@@ -9,12 +9,21 @@ its true error; the grid the tolerance chose, its cost over the scene's run, its
 and true errors (value, and gradient in the 2-norm), the estimate over the true error.
 
     python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME] [--refine uniform,bars]
+    python benches/spatial_tolerance.py --adjoint-time
 
 ``--added``: only the three designs added to the first seven (MMA's 40th iterate, uniform 0.2,
 random in [0.05, 1]); ``--design NAME`` (repeated for more): only those. ``--refine``: how the runs to the
 tolerance refine the beams, one row per way given (``uniform`` by default; ``bars`` grades them
 by their own frequencies), each against the same reference. A design whose run on the scene's
 grid fails is still run to the tolerance (the contract's finer grids may carry it).
+
+``--adjoint-time``, instead: the time error the adjoint estimates
+(``SpatialSimulation.time_errors``) against the true error of the same grid (the limit in the
+step from 32 and 64 times the scene's steps, extrapolated), and whether it agrees with the
+half-step run's ``(f(2h) − f(h))/3``: the heavy top's final position (with the Magnus term of
+the rotation's increment and without, the second by the difference it makes) and the spatial
+arm's tip deflection, strain energy and kinetic energy at uniform 0.5 and a random design,
+at 1 to 16 times the scene's steps. Writes benches/results/spatial_adjoint_time.md.
 """
 
 import sys
@@ -113,5 +122,39 @@ def row(scene, sim, name, x, way, rtol, plain, t_plain, failed, ref):
     return ref
 
 
+def adjoint_time() -> None:
+    """The ``--adjoint-time`` table (module docs)."""
+    from pathlib import Path
+    lines = ["| scene, design | response | steps | true error (relative) | adjoint / true | adjoint / ((f(2h) − f(h))/3) |",
+             "|---|---|---|---|---|---|"]
+    cases = [("heavy top", flextop.SpatialSimulation(flextop.scenes.heavy_top()), {"": None},
+              ["x:top", "y:top", "z:top", "kinetic_energy"])]
+    arm = flextop.SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    designs = {"uniform 0.5": np.full(arm.n_design, 0.5),
+               "random [0.3, 1]": np.random.default_rng(4).uniform(0.3, 1.0, arm.n_design)}
+    cases.append(("spatial arm", arm, designs, ["tip_deflection", "strain_energy", "kinetic_energy"]))
+    for scene, sim, xs, names in cases:
+        base = round(sim.spec["simulation"]["t_end"] / sim.spec["simulation"]["h"])
+        for label, x in xs.items():
+            fine, coarse = (sim.time_errors(x, names, steps=k * base) for k in (64, 32))
+            limit = {n: (4 * fine[n][0] - coarse[n][0]) / 3 for n in names}
+            runs = {k: sim.time_errors(x, names, steps=k * base) for k in (1, 2, 4, 8, 16)}
+            for n in names:
+                for k in (2, 4, 8, 16):
+                    value, estimate = runs[k][n]
+                    true = value - limit[n]
+                    half = (runs[k // 2][n][0] - value) / 3
+                    lines.append(f"| {scene}{', ' + label if label else ''} | {n} | {k * base} | "
+                                 f"{true / abs(limit[n]):+.2e} | {estimate / true:.2f} | {estimate / half:.2f} |")
+                    print(lines[-1], flush=True)
+    text = ("Produced by `python benches/spatial_tolerance.py --adjoint-time`: the time error estimated by the adjoint "
+            "against the true error of the same grid (its limit in the step from 32 and 64 times the scene's steps), "
+            "and against the half-step run's (f(2h) − f(h))/3.\n\n" + "\n".join(lines) + "\n")
+    (Path(__file__).resolve().parent / "results" / "spatial_adjoint_time.md").write_text(text, encoding="utf-8")
+
+
 if __name__ == "__main__":
+    if "--adjoint-time" in sys.argv:
+        adjoint_time()
+        sys.exit()
     main(float(sys.argv[sys.argv.index("--rtol") + 1]) if "--rtol" in sys.argv else 1e-2)

@@ -470,6 +470,27 @@ class SpatialSimulation:
             values[k], gradient[k, len(ps):] = value, slope
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
 
+    def time_errors(self, x: DesignLike = None, responses: Sequence[str] | str | None = None, *, steps: int | None = None,
+                    **settings: Any) -> dict[str, tuple[float, float]]:
+        """Each response's value for design ``x`` on ``steps`` uniform steps (the scene's step
+        by default; other settings as in :meth:`run`) and its time error ``f(h) − f`` to
+        leading order in the step, estimated from that run alone: generalized-α's local
+        errors on the group (the increment's, with its ``(h³/12) ω × ω̇``, and the
+        velocities'), weighted by the run's adjoint, one backward sweep, with the
+        trapezoidal rule's own error on a time sum. The space error is not in it."""
+        if self.analysis != "dynamic":
+            raise SettingsError("a time error is a motion's; this scene is static")
+        rs = _names(responses if responses is not None else ["strain_energy"], "responses")
+        duration = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
+        if steps is not None:
+            if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer)) and steps >= 1):
+                raise SettingsError(f"steps must be a positive whole number, got {steps!r}")
+            if duration is None:
+                raise SettingsError("t_end: give it in the scene's [simulation] table or to the run")
+            settings = {**settings, "h": float(duration) / int(steps)}
+        out = self.model.time_errors(list(rs), settings, self._design(x))
+        return {name: (float(out["values"][k]), float(out["errors"][k])) for k, name in enumerate(rs)}
+
     def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
         """The tolerance a run is made to, or ``None`` for a run on the scene's grid
         (:func:`~flextop.discretization.accuracy.run_tolerance`)."""

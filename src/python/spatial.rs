@@ -19,7 +19,7 @@ use crate::spatial::integrator::simulate_spatial;
 use crate::spatial::modal::natural_modes_spatial;
 use crate::spatial::modal_rates::omega_squared_rates;
 use crate::spatial::rigid::rigid_trajectories;
-use crate::spatial::sensitivity::{sensitivities, static_sensitivities};
+use crate::spatial::sensitivity::{sensitivities, static_sensitivities, time_errors};
 use crate::spatial::statics::solve_static_spatial;
 
 /// A built and validated spatial scene.
@@ -417,6 +417,34 @@ impl PySpatialModel {
         d.set_item("values", vector(py, values))?;
         d.set_item("gradient", Self::rows(py, gradient, n_p)?)?;
         d.set_item("peaks", peaks)?;
+        Ok(d)
+    }
+
+    /// The responses' `values` of the motion at design `x` and their time `errors`
+    /// `f(h) − f` to leading order in the step, from the run and one adjoint sweep
+    /// ([`crate::spatial::sensitivity::time_errors`]).
+    #[pyo3(signature = (responses, settings=None, x=None))]
+    fn time_errors<'py>(
+        &self,
+        py: Python<'py>,
+        responses: Vec<String>,
+        settings: Option<&Bound<'py, PyAny>>,
+        x: Option<Vec<f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let scene = Arc::clone(&self.scene);
+        let options = run_options(settings)?;
+        let (values, errors) = detached(py, move || {
+            let rs = (responses.iter())
+                .map(|r| scene.response(r))
+                .collect::<Result<Vec<_>, _>>()?;
+            let model = scene.model_at(x.as_deref())?;
+            let settings = options.dynamic(&scene.options)?;
+            settings.validate()?;
+            time_errors(&model, &settings, &settings.grid(), &rs)
+        })?;
+        let d = PyDict::new(py);
+        d.set_item("values", vector(py, values))?;
+        d.set_item("errors", vector(py, errors))?;
         Ok(d)
     }
 }

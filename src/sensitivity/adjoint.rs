@@ -35,6 +35,7 @@ use crate::solver::alpha::{step_ratio, AlphaParameters, State};
 use crate::solver::backward::{self, Transposed};
 use crate::solver::integrator::Integrator;
 use crate::solver::kink::Jump;
+use crate::solver::local_error::LocalErrors;
 use crate::time_grid::TimeGrid;
 
 /// Rows of the states a backward sweep reads: `qₙ`, `q̈ₙ`, `λₙ`, and `q̇ₙ` if a
@@ -325,7 +326,7 @@ pub(crate) fn dual_weights(
 
 /// Each response's time error on `grid`, `f(h) − f` to leading order in the step, with
 /// the responses' values: the steps' local errors weighted by the adjoint of the run
-/// ([`LocalErrors`]), one backward sweep and no other run.
+/// ([`crate::solver::local_error`]), one backward sweep and no other run.
 ///
 /// # Errors
 /// As [`differentiate_backward`].
@@ -417,7 +418,7 @@ impl<'a> Backward<'a> {
         };
         backward::sweep(&mut reverse, grid.len())?;
         if let (Some(out), Some(local)) = (time_errors, sweep.local.as_mut()) {
-            local.add_quadrature(grid);
+            local.add_quadrature(grid.step(0), grid.step(grid.len() - 1));
             objectives.finish(&mut values.clone(), &mut local.errors);
             out.copy_from_slice(&local.errors);
         }
@@ -484,8 +485,7 @@ impl Transposed for Reverse<'_, '_> {
         if let Some(local) = self.sweep.local.as_mut() {
             // The trapezoidal rule's own error reads the integrands of the first two and
             // the last two states.
-            let ends = [Some(last), last.checked_sub(1), Some(1), Some(0)];
-            if let Some(end) = ends.iter().position(|&m| m == Some(n)) {
+            if let Some(end) = LocalErrors::end_of(n, last) {
                 let densities = &self.it.assembler().densities;
                 let ctx = Context::dynamic(self.sweep.model, densities, self.sweep.mass);
                 for (k, g) in local.ends.iter_mut().enumerate() {
@@ -582,93 +582,6 @@ fn replay(
         }
     }
     values
-}
-
-/// The local errors of generalized-α's steps and their sum in each response, weighted by
-/// the adjoint ([`time_errors`]). With `aₙ ≈ q̈(tₙ + Δ_α h) + κh² q⁗` (`Δ_α = α_m − α_f`,
-/// `κ = (1 − α_f)/2 − (1 − α_m)(½ + Δ_α)`, what makes the recurrence of `a` exact to `O(h³)`),
-/// a step from the exact state makes
-///
-/// ```text
-/// l_q = (β − γ/2 + 1/12) h³ q⃛ ≈ c_q h² (q̈ₙ₊₁ − q̈ₙ)          (the position update's error)
-/// l_v = (κ + γ/2 + γΔ_α − 1/6) h³ q⁗ ≈ c_v h³ Δq⃛ / h̄     (the velocity update's)
-/// ```
-///
-/// (`q̈ₙ` after a restart's jump, `q⃛` of a step `(q̈ₙ₊₁ − q̈ₙ)/h`, its change to the next
-/// step's over their mean size; none on the last step). Its equilibrium then has the
-/// residual `τ = −(β'M + γ'C) l_q + C l_v` on the exact motion, and a response moves by
-/// `q̄ᵀ l_q + q̄̇ᵀ l_v − q̃ᵀ l_q − μᵀτ` (the adjoint variables of the state after the step, `q̃`
-/// its positions' total, `μ` the equilibrium's): summed over the steps, with the
-/// trapezoidal rule's own error on a time sum ([`LocalErrors::add_quadrature`]), `f(h) − f`
-/// to leading order.
-struct LocalErrors {
-    c_q: f64,
-    c_v: f64,
-    /// `q̈ₙ₊₁` and `q̈ₙ` of the step.
-    next: Vec<f64>,
-    now: Vec<f64>,
-    /// `q⃛` of the step and of the step after it.
-    jerk: Vec<f64>,
-    jerk_after: Vec<f64>,
-    /// The step's `l_q` and `l_v`.
-    lq: Vec<f64>,
-    lv: Vec<f64>,
-    /// Each response's estimated time error so far.
-    errors: Vec<f64>,
-    /// Each response's integrand `G` at the states `N`, `N − 1`, `1` and `0` (`None` for a
-    /// response that is not a time sum).
-    ends: Vec<[Option<f64>; 4]>,
-}
-
-impl LocalErrors {
-    fn new(params: &AlphaParameters, n_q: usize, n_r: usize) -> Self {
-        let AlphaParameters {
-            alpha_m,
-            alpha_f,
-            beta,
-            gamma,
-        } = *params;
-        let lag = alpha_m - alpha_f;
-        let kappa = 0.5 * (1.0 - alpha_f) - (1.0 - alpha_m) * (0.5 + lag);
-        Self {
-            c_q: beta - 0.5 * gamma + 1.0 / 12.0,
-            c_v: kappa + 0.5 * gamma + gamma * lag - 1.0 / 6.0,
-            next: vec![0.0; n_q],
-            now: vec![0.0; n_q],
-            jerk: vec![0.0; n_q],
-            jerk_after: vec![0.0; n_q],
-            lq: vec![0.0; n_q],
-            lv: vec![0.0; n_q],
-            errors: vec![0.0; n_r],
-            ends: vec![[None; 4]; n_r],
-        }
-    }
-
-    /// Adds the trapezoidal rule's own error to each time sum's: the rule over `[0, t_f]`
-    /// exceeds the integral by `(h²/12)(G'(t_f) − G'(0))` to leading order (Euler–Maclaurin),
-    /// read off the integrands at the ends, `(1/12)(h_{N−1}(G_N − G_{N−1}) − h₀(G₁ − G₀))`.
-    fn add_quadrature(&mut self, grid: &TimeGrid) {
-        let (first, last) = (grid.step(0), grid.step(grid.len() - 1));
-        for (e, ends) in self.errors.iter_mut().zip(&self.ends) {
-            if let [Some(g_n), Some(g_before), Some(g_1), Some(g_0)] = *ends {
-                *e += (last * (g_n - g_before) - first * (g_1 - g_0)) / 12.0;
-            }
-        }
-    }
-
-    /// `l_q` and `l_v` of a step of size `h` from `now` to `next`, the step after it of
-    /// size `after` (`None` on the last).
-    fn of_step(&mut self, h: f64, after: Option<f64>) {
-        let h3 = h * h * h;
-        for i in 0..self.lq.len() {
-            self.jerk[i] = (self.next[i] - self.now[i]) / h;
-            self.lq[i] = self.c_q * h3 * self.jerk[i];
-            self.lv[i] = after.map_or(0.0, |h1| {
-                self.c_v * h3 * (self.jerk_after[i] - self.jerk[i]) / (0.5 * (h + h1))
-            });
-        }
-        std::mem::swap(&mut self.jerk, &mut self.jerk_after);
-    }
 }
 
 /// The adjoint variables of every response (column-major, one column each) and the

@@ -2,7 +2,7 @@
 //! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α (`alpha`,
 //! paper Algorithm 1, the phases of a step on either engine's configuration space; `integrator`,
 //! the planar engine's equations) with its local error control (`step_control`) and its
-//! restart at a drive's kink (`kink`), the discrete adjoint's backward sweep (`backward`, Algorithm 1's run transposed), static equilibrium by load stepping (`statics`) and the linear static analysis
+//! restart at a drive's kink (`kink`), the discrete adjoint's backward sweep (`backward`, Algorithm 1's run transposed) and the time error it estimates from the local errors (`local_error`), static equilibrium by load stepping (`statics`) and the linear static analysis
 //! (`linear`), the
 //! time loop (`simulation`) and a state carried to twice the elements per bar
 //! (`prolongation`).
@@ -14,6 +14,7 @@ pub(crate) mod integrator;
 pub(crate) mod kink;
 pub(crate) mod linear;
 pub(crate) mod linsolve;
+pub(crate) mod local_error;
 pub(crate) mod lu;
 pub(crate) mod nearly_symmetric;
 pub(crate) mod newton;

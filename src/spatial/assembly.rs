@@ -444,6 +444,23 @@ impl<'m> Assembler<'m> {
         }
     }
 
+    /// Adds `M y` to `out`: the bodies' and the elements' mass (constant on the group; a
+    /// body's block read at velocity `v`, which it does not depend on).
+    pub fn add_mass_times(&self, v: &[f64], y: &[f64], out: &mut [f64]) {
+        let model = self.model;
+        for b in &model.bodies {
+            let m = b.iteration_block(&six(v, b.node), 1.0, 0.0);
+            add_six(
+                out,
+                b.node,
+                &(m * Vector6::from_column_slice(&six(y, b.node))),
+            );
+        }
+        for e in model.elements() {
+            scatter(out, e.pair(), &(e.mass_matrix() * gather(e.pair(), y)));
+        }
+    }
+
     /// `mean(diag M)`, the scale of the multipliers' rows at `β' = 1`.
     pub fn mean_mass(&self) -> f64 {
         let model = self.model;

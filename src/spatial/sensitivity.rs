@@ -37,6 +37,7 @@ use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::alpha::{step_ratio, AlphaParameters, State};
 use crate::solver::backward::{self, Transposed};
 use crate::solver::kink::jumps;
+use crate::solver::local_error::LocalErrors;
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::beam::Beam;
@@ -493,6 +494,35 @@ pub fn sensitivities(
     parameters: &[Parameter],
     method: Method,
 ) -> Result<Gradients, Error> {
+    Ok(of_motion(model, settings, grid, responses, parameters, method, false)?.0)
+}
+
+/// The responses of the motion of `model` on `grid` and each one's time error `f(h) − f`
+/// to leading order in the step, from the run and one adjoint sweep: the steps' local
+/// errors weighted by the adjoint ([`crate::solver::local_error`]).
+///
+/// # Errors
+/// As [`sensitivities`].
+pub fn time_errors(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+) -> Result<(Vec<f64>, Vec<f64>), Error> {
+    let (g, errors) = of_motion(model, settings, grid, responses, &[], Method::Adjoint, true)?;
+    Ok((g.values, errors.unwrap_or_default()))
+}
+
+/// [`sensitivities`], and with `estimate` (by the adjoint) the responses' time errors.
+fn of_motion(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    parameters: &[Parameter],
+    method: Method,
+    estimate: bool,
+) -> Result<(Gradients, Option<Vec<f64>>), Error> {
     check(model, responses, parameters)?;
     let (states, restarted) = run(model, settings, grid)?;
     let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
@@ -532,15 +562,19 @@ pub fn sensitivities(
         Method::Adjoint => true,
         Method::Auto => responses.len() < swept.len(),
     };
-    let gradient: Vec<Vec<f64>> = if adjoint {
-        sweep.adjoint(responses, &swept)?
+    let (gradient, errors) = if adjoint || estimate {
+        sweep.adjoint(responses, &swept, estimate)?
     } else {
         let by_parameter = sweep.direct(&swept, responses)?;
-        (0..responses.len())
+        let gradient = (0..responses.len())
             .map(|k| by_parameter.iter().map(|g| g[k]).collect())
-            .collect()
+            .collect();
+        (gradient, None)
     };
-    Ok(sweep.gradients(values, responses, parameters, &gradient))
+    Ok((
+        sweep.gradients(values, responses, parameters, &gradient),
+        errors,
+    ))
 }
 
 /// The parameters a sweep carries: those the mechanism reads.
@@ -1979,12 +2013,15 @@ impl<'m> Sweep<'m> {
     /// in reverse, [`backward::sweep`]): every response's gradient to every parameter,
     /// `[response][parameter]`, one column of adjoint variables per response ([`Column`]),
     /// each step's matrix factored once for all of them.
+    /// With `estimate`, each response's time error too ([`time_errors`]).
     fn adjoint(
         &mut self,
         responses: &[Response],
         parameters: &[Parameter],
-    ) -> Result<Vec<Vec<f64>>, Error> {
+        estimate: bool,
+    ) -> Result<Swept, Error> {
         self.many_solves = responses.len() > REFINED_SOLVES;
+        let params = self.params;
         let (n_v, m, steps) = (self.n_v, self.n_rows, self.states.len() - 1);
         let mut reverse = Reverse {
             columns: (responses.iter())
@@ -1995,13 +2032,47 @@ impl<'m> Sweep<'m> {
             parameters,
             rhs: vec![0.0; n_v + m],
             seed: (vec![0.0; n_v], vec![0.0; m], vec![0.0; n_v]),
+            local: estimate.then(|| LocalErrors::new(&params, n_v, responses.len())),
         };
         backward::sweep(&mut reverse, steps)?;
-        Ok(reverse.columns.into_iter().map(|c| c.gradient).collect())
+        let errors = reverse.local.take().map(|mut local| {
+            let states = reverse.sweep.states;
+            local.add_quadrature(states[1].h, states[steps].h);
+            local.errors
+        });
+        Ok((
+            reverse.columns.into_iter().map(|c| c.gradient).collect(),
+            errors,
+        ))
+    }
+
+    /// `G` of a time sum `r` at state `n`, as the sum weighs it (per unit time for a mean);
+    /// `None` for a final value, an aggregated mean (its terms read the run's peak) and any
+    /// equilibrium's.
+    fn integrand(&self, r: &Response, n: usize) -> Option<f64> {
+        if self.equilibrium {
+            return None;
+        }
+        let s = &self.states[n];
+        match *r {
+            Response::Effort { joint, row } => Some(s.lam[self.row_of(joint, row)].powi(2)),
+            Response::StrainEnergy | Response::Compliance => {
+                let energy: f64 = self.model().elements().map(|e| e.strain_energy(&s.q)).sum();
+                Some(energy / self.duration())
+            }
+            Response::KineticEnergy => Some(self.model().kinetic_energy(&s.qdot)),
+            Response::Deflection { node } => {
+                Some(self.deflection(node, n).norm_squared() / self.duration())
+            }
+            _ => None,
+        }
     }
 
     /// One column's adjoint variables carried back over the step into state `n` (increment
     /// `increment`), its matrix factored: the step's operations transposed, last first.
+    ///
+    /// With the step's local errors `(l_Δ, l_v)` ([`crate::solver::local_error`]), returns
+    /// what they change the column's response by (0 without).
     fn step_transposed(
         &mut self,
         n: usize,
@@ -2009,7 +2080,8 @@ impl<'m> Sweep<'m> {
         parameters: &[Parameter],
         c: &mut Column,
         rhs: &mut [f64],
-    ) -> Result<(), SolveError> {
+        local: Option<(&[f64], &[f64])>,
+    ) -> Result<f64, SolveError> {
         let n_v = self.n_v;
         let AlphaParameters {
             alpha_m,
@@ -2029,7 +2101,32 @@ impl<'m> Sweep<'m> {
         (rhs[n_v..].iter_mut())
             .zip(&c.lam)
             .for_each(|(x, l)| *x = scale * l);
+        // The local errors' share through the state after the step: v̄ᵀ l_v less the part
+        // of δ̄ beyond Tᵀε̄ on l_Δ, which the equilibrium's solve gives back below.
+        let mut error = local.map_or(0.0, |(l_delta, l_v)| {
+            (0..n_v)
+                .map(|i| {
+                    let beyond = gp * c.v[i] + bp * c.vdot[i] + w * bp * c.a[i];
+                    c.v[i] * l_v[i] - beyond * l_delta[i]
+                })
+                .sum()
+        });
         self.solve(rhs, true, n)?;
+        if let Some((l_delta, l_v)) = local {
+            // −yᵀτ, τ = −(β'M + γ'C) l_Δ + C l_v the step's residual on the exact motion.
+            let (mut my, mut cy) = (vec![0.0; n_v], vec![0.0; n_v]);
+            let s = &self.states[n];
+            self.asm.add_mass_times(&s.qdot, &rhs[..n_v], &mut my);
+            let mut unused = vec![0.0; n_v];
+            let y_minus: Vec<f64> = rhs[..n_v].iter().map(|y| -y).collect();
+            let zero = vec![0.0; self.n_rows];
+            self.asm
+                .linear_terms_transpose(&s.qdot, &y_minus, &zero, &mut unused, &mut cy);
+            // `cy` is −Cᵀy.
+            error += (0..n_v)
+                .map(|i| bp * my[i] * l_delta[i] - cy[i] * (gp * l_delta[i] - l_v[i]))
+                .sum::<f64>();
+        }
         // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
         for (g, p) in c.gradient.iter_mut().zip(parameters) {
             *g -= self.parameter_dot(p, n, &rhs[..n_v])
@@ -2066,7 +2163,7 @@ impl<'m> Sweep<'m> {
                 *a *= ratio;
             }
         }
-        Ok(())
+        Ok(error)
     }
 }
 
@@ -2079,10 +2176,54 @@ struct Reverse<'s, 'm> {
     rhs: Vec<f64>,
     /// A response's partial derivatives at a state: to `ε`, `λ` and `v`.
     seed: (Vec<f64>, Vec<f64>, Vec<f64>),
+    /// The steps' local errors and the responses' time errors, if asked.
+    local: Option<LocalErrors>,
+}
+
+impl Reverse<'_, '_> {
+    /// The local errors of the step from state `n` ([`crate::solver::local_error`]) from
+    /// the stored accelerations: `v̇ₙ₊₁`, and `v̇ₙ` with the jump of a restart on it; on the
+    /// rotations the exact increment's `(h³/12) ω × ω̇` besides.
+    fn local_errors(&mut self, n: usize) -> Result<(), Error> {
+        let states = self.sweep.states;
+        let jump = match self.sweep.restarted[n + 1] {
+            true => self.sweep.restart(n)?.map(|r| r.dv),
+            false => None,
+        };
+        let Some(local) = self.local.as_mut() else {
+            return Ok(());
+        };
+        let (s, s1) = (&states[n], &states[n + 1]);
+        local.next.copy_from_slice(&s1.qddot);
+        local.now.copy_from_slice(&s.qddot);
+        if let Some(dv) = jump {
+            local.now.iter_mut().zip(&dv).for_each(|(a, d)| *a += d);
+        }
+        let after = states.get(n + 2).map(|s| s.h);
+        local.of_step(s1.h, after);
+        let h3 = s1.h.powi(3);
+        for node in 0..s.qdot.len() / NV {
+            let mean = |v: &[f64], w: &[f64]| 0.5 * (rotation_of(v, node) + rotation_of(w, node));
+            let (omega, omega_dot) = (mean(&s.qdot, &s1.qdot), mean(&local.now, &local.next));
+            let magnus = omega.cross(&omega_dot) * (h3 / 12.0);
+            for k in 0..3 {
+                local.lq[NV * node + 3 + k] -= magnus[k];
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Transposed for Reverse<'_, '_> {
     fn seed(&mut self, n: usize) -> Result<(), Error> {
+        let last = self.sweep.states.len() - 1;
+        if let Some(local) = self.local.as_mut() {
+            if let Some(end) = LocalErrors::end_of(n, last) {
+                for (g, r) in local.ends.iter_mut().zip(self.responses) {
+                    g[end] = self.sweep.integrand(r, n);
+                }
+            }
+        }
         let (g_eps, g_lam, g_v) = &mut self.seed;
         for (c, r) in self.columns.iter_mut().zip(self.responses) {
             self.sweep.seed(r, n, g_eps, g_lam);
@@ -2098,9 +2239,23 @@ impl Transposed for Reverse<'_, '_> {
     fn step(&mut self, n: usize) -> Result<(), Error> {
         let states = self.sweep.states;
         let increment = increments(self.sweep.model(), &states[n].q, &states[n + 1].q);
+        if self.local.is_some() {
+            self.local_errors(n)?;
+        }
         self.sweep.factorize(n + 1)?;
-        for c in &mut self.columns {
-            (self.sweep).step_transposed(n + 1, &increment, self.parameters, c, &mut self.rhs)?;
+        for (k, c) in self.columns.iter_mut().enumerate() {
+            let local = self.local.as_ref().map(|l| (&l.lq[..], &l.lv[..]));
+            let error = (self.sweep).step_transposed(
+                n + 1,
+                &increment,
+                self.parameters,
+                c,
+                &mut self.rhs,
+                local,
+            )?;
+            if let Some(l) = self.local.as_mut() {
+                l.errors[k] += error;
+            }
         }
         Ok(())
     }
@@ -2135,6 +2290,10 @@ impl Transposed for Reverse<'_, '_> {
         Ok(())
     }
 }
+
+/// What the adjoint sweep gives: each response's gradient (`[response][parameter]`) and,
+/// where asked, each one's time error.
+type Swept = (Vec<Vec<f64>>, Option<Vec<f64>>);
 
 /// One response's adjoint variables in the backward sweep — `ε̄, λ̄, v̄, v̇̄, ā` of the
 /// state reached — and its gradient so far.

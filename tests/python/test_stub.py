@@ -175,6 +175,7 @@ CALLS = {
     "SpatialModel.natural_modes": lambda arm, truss: spatial().natural_modes(
         list(spatial().solve_static()["q"]), list(spatial().solve_static()["lam"])),
     "SpatialModel.sensitivities": lambda arm, truss: spatial().sensitivities(["z:tip"], ["E:rod", "mass:tip"]),
+    "SpatialModel.time_errors": lambda arm, truss: spatial().time_errors(["z:tip", "strain_energy"]),
 }
 """A call on a small scene of every function and method of the stub that returns a dict."""
 
