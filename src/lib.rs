@@ -77,7 +77,7 @@ pub use modal::{natural_modes, Modes};
 pub use response::aggregation::Aggregation;
 pub use response::criterion::Criterion;
 pub use response::{Kind as ResponseKind, Response};
-pub use sensitivity::adjoint::Path;
+pub use sensitivity::adjoint::{time_errors, Path};
 pub use sensitivity::shares::{bar_shares, Shares};
 pub use sensitivity::{
     evaluate, of_equilibrium, of_linear_equilibrium, of_motion, of_motion_about, of_motion_on,

@@ -330,7 +330,7 @@ pub(crate) fn dual_weights(
 ///
 /// # Errors
 /// As [`differentiate_backward`].
-pub(crate) fn time_errors(
+pub fn time_errors(
     model: &Model,
     densities: Densities,
     settings: &DynamicSettings,
