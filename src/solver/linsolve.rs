@@ -10,9 +10,10 @@
 //! partial-pivoting LU (which must order for the pattern of `AᵀA`, nearly dense for a ground
 //! structure), this halves the work and keeps the fill of a symmetric ordering.
 //!
-//! Symbolic analysis happens once per simulation ([`Ldlt::analyze`]); each Newton
-//! iteration refactors numerically into buffers kept from the previous call, so the loop
-//! does not allocate. Factors that would fill at least [`DENSE_FILL`] of the triangle, in a
+//! Symbolic analysis happens once per simulation ([`Ldlt::analyze`]), on the matrix
+//! already in the elimination order; each Newton iteration gathers the values into that
+//! order and refactors numerically into buffers kept from the previous call, so the loop
+//! does not allocate and faer permutes nothing. Factors that would fill at least [`DENSE_FILL`] of the triangle, in a
 //! system of at most [`DENSE_LIMIT`] unknowns (a mechanism of rigid bodies, a small
 //! frame), are stored dense in the same order: there a sparse factorization's bookkeeping
 //! costs more than the zeros it skips. A zero pivot is
@@ -94,11 +95,71 @@ pub struct Ldlt {
 enum Numeric {
     Sparse {
         symbolic: Box<SymbolicCholesky<usize>>,
+        /// The matrix in the elimination order, in the triangle the factors read.
+        permuted: Permuted,
         factors: Vec<f64>,
         factor_scratch: MemBuffer,
         solve_scratch: MemBuffer,
+        /// One permuted right-hand side.
+        work: Vec<f64>,
     },
     Dense(Dense),
+}
+
+/// The matrix `P A Pᵀ` in the elimination order, kept in the triangle (`side`) faer's
+/// numeric phase reads — the upper one for simplicial factors, the lower for supernodal —
+/// and analysed in the identity order: each factorization gathers its values through
+/// `gather` (a slot of `A` for each of its own) rather than permuting the matrix in faer
+/// (its count, scatter and, for the simplicial factors, transpose on every call).
+struct Permuted {
+    pattern: SymbolicSparseColMat<usize>,
+    side: Side,
+    gather: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl Permuted {
+    /// The triangle `side` of `pattern` (read from its lower triangle, as the factors
+    /// read it) with unknown `i` moved to `inv[i]`.
+    fn new(pattern: &SymbolicSparseColMat<usize>, inv: &[usize], side: Side) -> Self {
+        let n = pattern.nrows();
+        let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+        let mut entries: Vec<(usize, usize, usize)> = (0..n)
+            .flat_map(|j| (cp[j]..cp[j + 1]).map(move |slot| (ri[slot], j, slot)))
+            .filter(|&(i, j, _)| i >= j)
+            .map(|(i, j, slot)| {
+                let (low, high) = (inv[i].min(inv[j]), inv[i].max(inv[j]));
+                match side {
+                    Side::Lower => (low, high, slot),
+                    Side::Upper => (high, low, slot),
+                }
+            })
+            .collect();
+        entries.sort_unstable();
+        let mut col_ptr = vec![0; n + 1];
+        for &(col, ..) in &entries {
+            col_ptr[col + 1] += 1;
+        }
+        for j in 0..n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let row_idx = entries.iter().map(|&(_, row, _)| row).collect();
+        let gather: Vec<usize> = entries.iter().map(|&(.., slot)| slot).collect();
+        Self {
+            pattern: SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
+            side,
+            values: vec![0.0; gather.len()],
+            gather,
+        }
+    }
+
+    /// `values` of `A` gathered into the permuted matrix.
+    fn gather(&mut self, values: &[f64]) -> SparseColMatRef<'_, usize, f64> {
+        for (v, &slot) in self.values.iter_mut().zip(&self.gather) {
+            *v = values[slot];
+        }
+        SparseColMatRef::new(self.pattern.as_ref(), &self.values)
+    }
 }
 
 /// A dense `LDLᵀ` in the elimination order: `L` below the diagonal of `a` (column-major,
@@ -211,9 +272,8 @@ impl Ldlt {
     /// Scratch for solving `nrhs` right-hand sides at once from one thread.
     pub fn scratch_for(&self, nrhs: usize) -> MemBuffer {
         MemBuffer::new(match &self.numeric {
-            Numeric::Sparse { symbolic, .. } => {
-                symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq)
-            }
+            Numeric::Sparse { symbolic, .. } => StackReq::new::<f64>(self.pattern.nrows() * nrhs)
+                .and(symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq)),
             Numeric::Dense(d) => StackReq::new::<f64>(d.n),
         })
     }
@@ -224,15 +284,17 @@ impl Ldlt {
         let result = match &mut self.numeric {
             Numeric::Sparse {
                 symbolic,
+                permuted,
                 factors,
                 factor_scratch,
                 ..
             } => {
-                let matrix = SparseColMatRef::new(self.pattern.as_ref(), values);
+                let side = permuted.side;
+                let matrix = permuted.gather(values);
                 let result = symbolic.factorize_numeric_ldlt(
                     factors,
                     matrix,
-                    Side::Lower,
+                    side,
                     LdltRegularization::default(),
                     Par::Seq,
                     MemStack::new(factor_scratch),
@@ -290,15 +352,18 @@ impl Ldlt {
                 symbolic,
                 factors,
                 solve_scratch,
+                work,
                 ..
             } => {
                 let n = b.len();
+                permute(b, &self.order, work);
                 LdltRef::new(symbolic, factors).solve_in_place_with_conj(
                     Conj::No,
-                    MatMut::from_column_major_slice_mut(b, n, 1),
+                    MatMut::from_column_major_slice_mut(work, n, 1),
                     Par::Seq,
                     MemStack::new(solve_scratch),
                 );
+                unpermute(work, &self.order, b);
             }
             Numeric::Dense(d) => {
                 let mut work = std::mem::take(&mut d.work);
@@ -322,12 +387,22 @@ impl Ldlt {
         match &self.numeric {
             Numeric::Sparse {
                 symbolic, factors, ..
-            } => LdltRef::new(symbolic, factors).solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(b, n, nrhs),
-                Par::Seq,
-                MemStack::new(scratch),
-            ),
+            } => {
+                let (mut work, stack) = MemStack::new(scratch).make_with(n * nrhs, |_| 0.0);
+                let work = &mut *work;
+                for (column, out) in b.chunks(n).zip(work.chunks_mut(n)) {
+                    permute(column, &self.order, out);
+                }
+                LdltRef::new(symbolic, factors).solve_in_place_with_conj(
+                    Conj::No,
+                    MatMut::from_column_major_slice_mut(work, n, nrhs),
+                    Par::Seq,
+                    stack,
+                );
+                for (column, out) in work.chunks(n).zip(b.chunks_mut(n)) {
+                    unpermute(column, &self.order, out);
+                }
+            }
             Numeric::Dense(d) => {
                 let (mut work, _) = MemStack::new(scratch).make_with(n, |_| 0.0);
                 d.solve(b, &self.order, &mut work);
@@ -399,25 +474,50 @@ impl Numeric {
         supernodal: SupernodalThreshold,
     ) -> Result<Self, FactorError> {
         let perm = PermRef::new_checked(fwd, inv, fwd.len());
-        let params = CholeskySymbolicParams {
+        let params = || CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: supernodal,
             ..Default::default()
         };
-        let symbolic = factorize_symbolic_cholesky(
+        let analysis = |e| FactorError::Analysis(format!("symbolic Cholesky: {e:?}"));
+        // The analysis in the elimination order tells which factors (simplicial or
+        // supernodal) and so which triangle they read; then the permuted matrix in that
+        // triangle is analysed in the identity order, the same structure.
+        let side = match factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Lower,
             SymmetricOrdering::Custom(perm),
-            params,
+            params(),
         )
-        .map_err(|e| FactorError::Analysis(format!("symbolic Cholesky: {e:?}")))?;
+        .map_err(analysis)?
+        .raw()
+        {
+            SymbolicCholeskyRaw::Simplicial(_) => Side::Upper,
+            SymbolicCholeskyRaw::Supernodal(_) => Side::Lower,
+        };
+        // faer analyses a matrix given in the identity order as its upper triangle,
+        // whatever side it is told.
+        let upper = Permuted::new(pattern, inv, Side::Upper);
+        let symbolic = factorize_symbolic_cholesky(
+            upper.pattern.as_ref(),
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            params(),
+        )
+        .map_err(analysis)?;
+        let permuted = match side {
+            Side::Upper => upper,
+            Side::Lower => Permuted::new(pattern, inv, Side::Lower),
+        };
         let factor_req = symbolic
             .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
         let solve_req = symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
         Ok(Self::Sparse {
             factors: vec![0.0; symbolic.len_val()],
             symbolic: Box::new(symbolic),
+            permuted,
             factor_scratch: MemBuffer::new(factor_req),
             solve_scratch: MemBuffer::new(solve_req),
+            work: vec![0.0; fwd.len()],
         })
     }
 }
@@ -562,6 +662,20 @@ fn finite(x: &[f64]) -> Result<(), FactorError> {
         Ok(())
     } else {
         Err(FactorError::Singular("non-finite solution".into()))
+    }
+}
+
+/// `out[k] = b[order[k]]`: a vector into the elimination order.
+fn permute(b: &[f64], order: &[usize], out: &mut [f64]) {
+    for (o, &i) in out.iter_mut().zip(order) {
+        *o = b[i];
+    }
+}
+
+/// `out[order[k]] = y[k]`: a vector back from the elimination order.
+fn unpermute(y: &[f64], order: &[usize], out: &mut [f64]) {
+    for (&v, &i) in y.iter().zip(order) {
+        out[i] = v;
     }
 }
 
