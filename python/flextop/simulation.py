@@ -627,6 +627,9 @@ class Simulation:
             count = max(1, math.ceil(duration / step - 1e-9))
         elif isinstance(count, bool) or not (isinstance(count, (int, np.integer)) and count >= 1):
             raise SettingsError(f"steps must be a positive whole number, got {count!r}")
+        limit = dict(_core.size_limits())["steps"]
+        if count > limit:
+            raise SettingsError(f"steps: {count} steps; at most {limit:.0e} are allowed")
         return np.full(int(count), duration / count)
 
     def time_errors(self, x: DesignLike, responses: Sequence[str] | str = ("tip_deflection",), *, steps: int | None = None,

@@ -481,6 +481,8 @@ class SpatialSimulation:
         if self.analysis != "dynamic":
             raise SettingsError("a time error is a motion's; this scene is static")
         rs = _names(responses if responses is not None else ["strain_energy"], "responses")
+        if not rs:
+            raise SettingsError("responses: give at least one response")
         duration = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
         if steps is not None:
             if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer)) and steps >= 1):

@@ -342,5 +342,6 @@ pub fn size_limits() -> Vec<(&'static str, usize)> {
         ("split", MAX_SPLIT),
         ("nodes", MAX_NODES),
         ("elements", MAX_ELEMENTS),
+        ("steps", crate::settings::MAX_STEPS),
     ]
 }

@@ -81,3 +81,12 @@ def test_a_spatial_time_error_needs_a_motion_and_whole_steps(top):
         top.time_errors(None, "x:top", steps=2.5)
     with pytest.raises(SettingsError, match="responses"):
         top.time_errors(None, "x:nowhere", steps=100)
+
+
+def test_more_steps_than_a_run_may_take_are_refused_before_anything_is_allocated(arm, top):
+    with pytest.raises(SettingsError, match=r"at most 1e\+?0?8"):
+        arm.time_errors(None, "tip_deflection", steps=10**12)
+    with pytest.raises(SettingsError, match=r"at most 1e\+?0?8"):
+        top.time_errors(None, "x:top", steps=10**12)
+    with pytest.raises(SettingsError, match="at least one response"):
+        top.time_errors(None, [], steps=10)
