@@ -405,8 +405,7 @@ impl<'a> Backward<'a> {
         let clock = Instant::now();
         let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
         sweep.weights = weights;
-        let estimated = time_errors.is_some();
-        if estimated {
+        if time_errors.is_some() {
             sweep.local = Some(LocalErrors::new(&it.params, n_q, responses.len()));
         }
         let mut reverse = Reverse {

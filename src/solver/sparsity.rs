@@ -44,13 +44,6 @@ impl Sparsity {
         Some(column.start + offset)
     }
 
-    /// Where entry `(row, col)` is stored; the structure must hold it (an assembler writes
-    /// only where its own analysis put entries).
-    pub fn at(&self, row: usize, col: usize) -> usize {
-        self.slot(row, col)
-            .expect("an entry outside the analysed pattern")
-    }
-
     /// Column `col`'s slots.
     pub fn column(&self, col: usize) -> Range<usize> {
         self.col_ptr[col]..self.col_ptr[col + 1]
@@ -76,7 +69,7 @@ mod tests {
         assert_eq!(sparsity.row_idx, [0, 1, 1, 0, 2]);
         assert_eq!(sparsity.nnz(), 5);
         for (c, r) in [(0, 0), (0, 1), (1, 1), (2, 0), (2, 2)] {
-            let s = sparsity.at(r, c);
+            let s = sparsity.slot(r, c).unwrap();
             assert!(sparsity.column(c).contains(&s) && sparsity.row_idx[s] == r);
         }
         assert_eq!(sparsity.slot(1, 2), None);

@@ -34,11 +34,12 @@ use crate::spatial::model::SpatialModel;
 /// pattern ([`NearlySymmetric`]).
 ///
 /// # Errors
-/// [`SolveError::Setup`] if the pattern cannot be analysed.
+/// [`SolveError::Setup`] if the pattern cannot be analysed or lacks an entry the assembler
+/// writes (an engine defect).
 pub(crate) fn analysed(
     model: &SpatialModel,
 ) -> Result<(Assembler<'_>, NearlySymmetric), SolveError> {
-    let asm = Assembler::new(model);
+    let asm = Assembler::new(model)?;
     let p = &asm.pattern;
     let lu = NearlySymmetric::analyze(p.n, model.n_v(), p.col_ptr.clone(), p.row_idx.clone())
         .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
@@ -91,7 +92,12 @@ pub(crate) struct Coefficients<'a> {
 }
 
 impl<'m> Assembler<'m> {
-    pub fn new(model: &'m SpatialModel) -> Self {
+    /// The pattern of `model`'s iteration matrix and where each block is stored.
+    ///
+    /// # Errors
+    /// [`SolveError::Setup`] if an entry a block needs is missing from the pattern (an
+    /// engine defect).
+    pub fn new(model: &'m SpatialModel) -> Result<Self, SolveError> {
         let n_v = model.n_v();
         let n = n_v + model.n_rows();
         let mut entries = Vec::new();
@@ -142,21 +148,36 @@ impl<'m> Assembler<'m> {
                     arms: [Vector3::zeros(); 2],
                 })
             })
-            .collect();
-        let joint_slots = model.joints.iter().map(|j| pair_slots(&j.pair)).collect();
+            .collect::<Option<_>>();
+        let joint_slots = model
+            .joints
+            .iter()
+            .map(|j| pair_slots(&j.pair))
+            .collect::<Option<_>>();
         let row_slots = (model.joints.iter().zip(&first_row))
             .map(|(j, &row)| row_slots(&pattern, j, row))
-            .collect();
-        let force_slots = model.forces.iter().map(|f| pair_slots(&f.pair)).collect();
-        let element_slots = model.elements().map(|e| pair_slots(e.pair())).collect();
-        let absent_slots = absent.iter().map(|&d| pattern.at(d, d)).collect();
-        Self {
-            absent_slots,
-            body_slots,
-            joint_slots,
-            row_slots,
-            force_slots,
-            element_slots,
+            .collect::<Option<_>>();
+        let force_slots = model
+            .forces
+            .iter()
+            .map(|f| pair_slots(&f.pair))
+            .collect::<Option<_>>();
+        let element_slots = model
+            .elements()
+            .map(|e| pair_slots(e.pair()))
+            .collect::<Option<_>>();
+        let absent_slots = absent
+            .iter()
+            .map(|&d| pattern.slot(d, d))
+            .collect::<Option<_>>();
+        let missing = || SolveError::Setup("an entry missing from the sparsity pattern".into());
+        Ok(Self {
+            absent_slots: absent_slots.ok_or_else(missing)?,
+            body_slots: body_slots.ok_or_else(missing)?,
+            joint_slots: joint_slots.ok_or_else(missing)?,
+            row_slots: row_slots.ok_or_else(missing)?,
+            force_slots: force_slots.ok_or_else(missing)?,
+            element_slots: element_slots.ok_or_else(missing)?,
             model,
             load: 1.0,
             pattern,
@@ -165,7 +186,7 @@ impl<'m> Assembler<'m> {
             force_blocks: vec![Derivatives::zeros(); model.forces.len()],
             element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
             first_row,
-        }
+        })
     }
 
     /// The relative residuals of `r`, [`Assembler::residual`]'s with its `F_ref`
@@ -444,23 +465,6 @@ impl<'m> Assembler<'m> {
         }
     }
 
-    /// Adds `M y` to `out`: the bodies' and the elements' mass (constant on the group; a
-    /// body's block read at velocity `v`, which it does not depend on).
-    pub fn add_mass_times(&self, v: &[f64], y: &[f64], out: &mut [f64]) {
-        let model = self.model;
-        for b in &model.bodies {
-            let m = b.iteration_block(&six(v, b.node), 1.0, 0.0);
-            add_six(
-                out,
-                b.node,
-                &(m * Vector6::from_column_slice(&six(y, b.node))),
-            );
-        }
-        for e in model.elements() {
-            scatter(out, e.pair(), &(e.mass_matrix() * gather(e.pair(), y)));
-        }
-    }
-
     /// `mean(diag M)`, the scale of the multipliers' rows at `β' = 1`.
     pub fn mean_mass(&self) -> f64 {
         let model = self.model;
@@ -477,36 +481,33 @@ impl<'m> Assembler<'m> {
     }
 }
 
-/// Where each entry of a pair's local `12 × 12` block is stored, column by column
-/// ([`ABSENT`] on the ground's side): the order [`scatter_block`] reads.
 /// Where joint `j`'s rows (from `row`) and columns of `B` are stored, node by node of its
 /// pair: its rows' block on the node's six columns column by column, then its columns' block
-/// on the node's six rows, as [`Assembler::matrix`] adds them.
-fn row_slots(pattern: &Sparsity, j: &Joint, row: usize) -> Vec<usize> {
+/// on the node's six rows, as [`Assembler::matrix`] adds them; `None` where the pattern
+/// lacks one.
+fn row_slots(pattern: &Sparsity, j: &Joint, row: usize) -> Option<Vec<usize>> {
     let n = j.n_rows();
     let mut slots = Vec::with_capacity(2 * NV * n * 2);
     for (_, node) in j.local_nodes() {
-        slots.extend(
-            (0..NV)
-                .flat_map(|c| (0..n).map(move |r| (row + r, NV * node + c)))
-                .map(|(r, c)| pattern.at(r, c)),
-        );
-        slots.extend(
-            (0..n)
-                .flat_map(|c| (0..NV).map(move |r| (NV * node + r, row + c)))
-                .map(|(r, c)| pattern.at(r, c)),
-        );
+        let rows = (0..NV).flat_map(|c| (0..n).map(move |r| (row + r, NV * node + c)));
+        let columns = (0..n).flat_map(|c| (0..NV).map(move |r| (NV * node + r, row + c)));
+        for (r, c) in rows.chain(columns) {
+            slots.push(pattern.slot(r, c)?);
+        }
     }
-    slots
+    Some(slots)
 }
 
-fn local_slots(pattern: &Sparsity, pair: &Pair) -> Vec<usize> {
+/// Where each entry of a pair's local `12 × 12` block is stored, column by column
+/// ([`ABSENT`] on the ground's side): the order [`scatter_block`] reads; `None` where the
+/// pattern lacks one.
+fn local_slots(pattern: &Sparsity, pair: &Pair) -> Option<Vec<usize>> {
     let node = |s: usize| pair.nodes[s];
     (0..LOCAL)
         .flat_map(|c| (0..LOCAL).map(move |r| (r, c)))
         .map(|(r, c)| match (node(r / NV), node(c / NV)) {
-            (Some(a), Some(b)) => pattern.at(NV * a + r % NV, NV * b + c % NV),
-            _ => ABSENT,
+            (Some(a), Some(b)) => pattern.slot(NV * a + r % NV, NV * b + c % NV),
+            _ => Some(ABSENT),
         })
         .collect()
 }
@@ -706,7 +707,7 @@ mod tests {
     #[test]
     fn iteration_matrix_against_differences() {
         let model = chain();
-        let mut asm = Assembler::new(&model);
+        let mut asm = Assembler::new(&model).unwrap();
         let n_v = model.n_v();
         let n = asm.pattern.n;
         let start = model.initial_configuration();
@@ -735,6 +736,7 @@ mod tests {
             }
             let mut r = vec![0.0; n];
             Assembler::new(&model)
+                .unwrap()
                 .residual(&q, &v, &vdot, &lam, 0.3, &mut r)
                 .unwrap();
             r[n_v..].iter_mut().for_each(|x| *x *= scale);

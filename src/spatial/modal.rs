@@ -128,7 +128,7 @@ pub fn natural_modes_spatial(
     check(model, q, lambda, count)?;
     model.check_nodes()?;
     let n_v = model.n_v();
-    let mut asm = Assembler::new(model);
+    let mut asm = Assembler::new(model)?;
     let rest = vec![0.0; n_v];
     equilibrium(&asm, q, lambda, t)?;
     let at = |beta_prime, tangent| Coefficients {
@@ -211,6 +211,15 @@ fn lowest_modes(
     let held: Vec<usize> = (0..n_v)
         .filter(|d| absent.binary_search(d).is_err())
         .collect();
+    let diagonal = |d: usize| pattern.slot(d, d).ok_or_else(missing_entry);
+    let held_slots = held
+        .iter()
+        .map(|&d| diagonal(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let absent_slots = absent
+        .iter()
+        .map(|&d| diagonal(d))
+        .collect::<Result<Vec<_>, _>>()?;
     let factor = spatial_mass_factor(model);
     let available = factor.columns.min(held.len()).saturating_sub(n_rows);
     if count > available {
@@ -221,8 +230,8 @@ fn lowest_modes(
         .into());
     }
     let mean_diagonal = |values: &[f64]| {
-        let sum: f64 = held.iter().map(|&d| values[pattern.at(d, d)].abs()).sum();
-        sum / held.len().max(1) as f64
+        let sum: f64 = held_slots.iter().map(|&s| values[s].abs()).sum();
+        sum / held_slots.len().max(1) as f64
     };
     // Scales: the penalty's and the shift's (`ω²` of the order of the stiffest element's
     // frequency); a mechanism of rigid bodies held by gravity alone may have no stiffness
@@ -233,8 +242,7 @@ fn lowest_modes(
         .unwrap_or(mean_m);
     // Absent rotations: held by a unit of the mean stiffness, no mass (of the mean mass
     // while the mass's inertia is counted).
-    for &d in &absent {
-        let slot = pattern.at(d, d);
+    for &slot in &absent_slots {
         (k[slot], m[slot]) = (mean_k, mean_m);
     }
     let mut ldlt = Ldlt::analyze_saddle_point(
@@ -260,8 +268,8 @@ fn lowest_modes(
         )
         .into());
     }
-    for &d in &absent {
-        m[pattern.at(d, d)] = 0.0;
+    for &slot in &absent_slots {
+        m[slot] = 0.0;
     }
     let constraints = penalty.iter().map(|g| mean_k * g).collect();
     let scale = mean_k / mean_m;
@@ -310,7 +318,7 @@ fn split(
     let symmetric = (k.iter().zip(&mirror))
         .map(|(v, &s)| 0.5 * (v + k[s]))
         .collect();
-    Ok([symmetric, m, with_gram(pattern, &b, n_v)])
+    Ok([symmetric, m, with_gram(pattern, &b, n_v)?])
 }
 
 /// Moves the shift of an unstable state (a negative `ω²` below it, counted) below every
@@ -333,7 +341,7 @@ fn below_every_mode(pencil: &mut Pencil, scale: f64) -> Result<(), Error> {
 /// penalty `[BᵀB, Bᵀ; B, 0]` that conditions the saddle point without changing its inertia
 /// (module docs of [`crate::modal::pencil`]). A row's DOFs are its joint's nodes', whose
 /// blocks the pattern holds.
-fn with_gram(pattern: &Sparsity, b: &[f64], n_v: usize) -> Vec<f64> {
+fn with_gram(pattern: &Sparsity, b: &[f64], n_v: usize) -> Result<Vec<f64>, SolveError> {
     let mut out = b.to_vec();
     for row in n_v..pattern.n {
         let entries: Vec<(usize, f64)> = (pattern.col_ptr[row]..pattern.col_ptr[row + 1])
@@ -342,11 +350,11 @@ fn with_gram(pattern: &Sparsity, b: &[f64], n_v: usize) -> Vec<f64> {
             .collect();
         for &(i, bi) in &entries {
             for &(j, bj) in &entries {
-                out[pattern.at(i, j)] += bi * bj;
+                out[pattern.slot(i, j).ok_or_else(missing_entry)?] += bi * bj;
             }
         }
     }
-    out
+    Ok(out)
 }
 
 /// `M = R Rᵀ` from the bodies' `diag(m I, J)` and the elements' mass matrices: the blocks
@@ -503,4 +511,9 @@ fn null_space(b: &DMatrix<f64>, n_v: usize) -> Result<DMatrix<f64>, Error> {
         .filter(|&i| svd.singular_values[i] <= RANK_TOLERANCE * largest)
         .collect();
     Ok(DMatrix::from_fn(n_v, free.len(), |r, c| v_t[(free[c], r)]))
+}
+
+/// The error of an entry the pattern lacks where the assembler put it (an engine defect).
+fn missing_entry() -> SolveError {
+    SolveError::Setup("an entry missing from the sparsity pattern".into())
 }

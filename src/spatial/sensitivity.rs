@@ -2112,21 +2112,6 @@ impl<'m> Sweep<'m> {
                 .sum()
         });
         self.solve(rhs, true, n)?;
-        if let Some((l_delta, l_v)) = local {
-            // −yᵀτ, τ = −(β'M + γ'C) l_Δ + C l_v the step's residual on the exact motion.
-            let (mut my, mut cy) = (vec![0.0; n_v], vec![0.0; n_v]);
-            let s = &self.states[n];
-            self.asm.add_mass_times(&s.qdot, &rhs[..n_v], &mut my);
-            let mut unused = vec![0.0; n_v];
-            let y_minus: Vec<f64> = rhs[..n_v].iter().map(|y| -y).collect();
-            let zero = vec![0.0; self.n_rows];
-            self.asm
-                .linear_terms_transpose(&s.qdot, &y_minus, &zero, &mut unused, &mut cy);
-            // `cy` is −Cᵀy.
-            error += (0..n_v)
-                .map(|i| bp * my[i] * l_delta[i] - cy[i] * (gp * l_delta[i] - l_v[i]))
-                .sum::<f64>();
-        }
         // Step 5 transposed: the parameters' share and ε̄_pred, v̄_pred.
         for (g, p) in c.gradient.iter_mut().zip(parameters) {
             *g -= self.parameter_dot(p, n, &rhs[..n_v])
@@ -2145,6 +2130,18 @@ impl<'m> Sweep<'m> {
             &mut eps_pred_bar,
             &mut v_pred_bar,
         );
+        if let Some((l_delta, l_v)) = local {
+            // −yᵀτ, τ = −(β'M + γ'C) l_Δ + C l_v the step's residual on the exact motion;
+            // the force rows hold −y now, and v̄_pred − v̄ is −Cᵀy.
+            let mut m_minus_y = vec![0.0; n_v];
+            self.model().add_momenta(y_force, 1.0, &mut m_minus_y);
+            error -= (0..n_v)
+                .map(|i| {
+                    let minus_cty = v_pred_bar[i] - c.v[i];
+                    bp * m_minus_y[i] * l_delta[i] + minus_cty * (gp * l_delta[i] - l_v[i])
+                })
+                .sum::<f64>();
+        }
         let mut a_next_bar = c.a.clone();
         // Step 4: ε̄ₙ = Adᵀ ε̄_pred, Δ̄_pred = Tᵀ ε̄_pred.
         c.eps = transport(increment, &eps_pred_bar, true);
