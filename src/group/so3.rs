@@ -84,9 +84,48 @@ pub fn tangent(theta: &Vector3<f64>) -> Matrix3<f64> {
 
 /// `T⁻¹(θ)` (module docs), for `|θ| < 2π`.
 pub fn tangent_inverse(theta: &Vector3<f64>) -> Matrix3<f64> {
-    let c = inverse_coefficient(theta.norm());
-    let t = hat(theta);
-    Matrix3::identity() + t * 0.5 + t * t * c
+    InverseTangent::new(theta).at(1.0)
+}
+
+/// `T⁻¹(±θ)` and their derivatives at one rotation vector `θ`, `|θ| < 2π`: the
+/// coefficients' trigonometry evaluated once for both signs (a beam reads `T⁻¹(ψ)` and
+/// `T⁻¹(−ψ)`, and their derivatives in its tangent).
+#[derive(Debug, Clone, Copy)]
+pub struct InverseTangent {
+    theta: Vector3<f64>,
+    /// `c(|θ|)`.
+    c: f64,
+    /// `c'(|θ|)/|θ|`.
+    rate: f64,
+}
+
+impl InverseTangent {
+    /// The coefficients at `θ`.
+    pub fn new(theta: &Vector3<f64>) -> Self {
+        let phi = theta.norm();
+        Self {
+            theta: *theta,
+            c: inverse_coefficient(phi),
+            rate: inverse_coefficient_rate(phi),
+        }
+    }
+
+    /// `T⁻¹(sθ)`, `s = ±1`.
+    pub fn at(&self, s: f64) -> Matrix3<f64> {
+        let t = hat(&(self.theta * s));
+        Matrix3::identity() + t * 0.5 + t * t * self.c
+    }
+
+    /// `∂(T⁻¹(θ') w)/∂θ'` at `θ' = sθ`, `s = ±1` ([`tangent_inverse_derivative`]).
+    pub fn derivative(&self, s: f64, w: &Vector3<f64>) -> Matrix3<f64> {
+        let theta = self.theta * s;
+        let t2w = theta.cross(&theta.cross(w));
+        -hat(w) * 0.5
+            + (Matrix3::identity() * theta.dot(w) + theta * w.transpose()
+                - w * theta.transpose() * 2.0)
+                * self.c
+            + t2w * theta.transpose() * self.rate
+    }
 }
 
 /// `c(φ) = (1 − (φ/2) cot(φ/2))/φ²` of `T⁻¹`, by its series below [`SERIES_ANGLE`].
@@ -135,13 +174,7 @@ fn inverse_coefficient_rate(phi: f64) -> f64 {
 ///
 /// with `T⁻¹(θ) = I + ½ θ̃ + c(φ) θ̃²` (module docs).
 pub fn tangent_inverse_derivative(theta: &Vector3<f64>, w: &Vector3<f64>) -> Matrix3<f64> {
-    let phi = theta.norm();
-    let (c, rate) = (inverse_coefficient(phi), inverse_coefficient_rate(phi));
-    let t2w = theta.cross(&theta.cross(w));
-    -hat(w) * 0.5
-        + (Matrix3::identity() * theta.dot(w) + theta * w.transpose() - w * theta.transpose() * 2.0)
-            * c
-        + t2w * theta.transpose() * rate
+    InverseTangent::new(theta).derivative(1.0, w)
 }
 
 #[cfg(test)]

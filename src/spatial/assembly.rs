@@ -63,6 +63,8 @@ pub(crate) struct Assembler<'m> {
     force_blocks: Vec<Derivatives>,
     /// Each structural element's (beams, then truss bars), likewise.
     element_blocks: Vec<Derivatives>,
+    /// Each structural element's mass matrix, constant.
+    element_masses: Vec<Stiffness>,
     /// Where each body's, joint's, force element's and beam's local block is stored
     /// ([`local_slots`]), found once.
     body_slots: Vec<Vec<usize>>,
@@ -185,6 +187,7 @@ impl<'m> Assembler<'m> {
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
             force_blocks: vec![Derivatives::zeros(); model.forces.len()],
             element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
+            element_masses: model.elements().map(|e| e.mass_matrix()).collect(),
             first_row,
         })
     }
@@ -358,8 +361,7 @@ impl<'m> Assembler<'m> {
         }
         let (gravity, c_gamma) = (model.gravity * self.load, c.gamma_prime);
         for (k, element) in model.elements().enumerate() {
-            let mut block = element.mass_matrix();
-            block *= c.beta_prime;
+            let mut block = self.element_masses[k] * c.beta_prime;
             if let Some((inc, _)) = c.tangent {
                 let d = &mut self.element_blocks[k];
                 element.terms(q, v, None, &gravity, Some(d));

@@ -39,7 +39,7 @@ use std::f64::consts::PI;
 use nalgebra::{Matrix3, Rotation3, SMatrix, UnitQuaternion, Vector3, Vector6};
 
 use crate::group::pair::{Pair, Stiffness};
-use crate::group::so3::{hat, log, tangent_inverse, tangent_inverse_derivative};
+use crate::group::so3::{hat, log, InverseTangent};
 use crate::group::{six, split, Frame};
 use crate::spatial::element::{consistent_mass, Derivatives, Element, Terms};
 use crate::spatial::force::Local;
@@ -84,6 +84,8 @@ struct Kinematics {
     /// `p_A, p_B`.
     chord: [Vector3<f64>; 2],
     psi: Vector3<f64>,
+    /// `T⁻¹(±ψ)`'s coefficients.
+    inverse: InverseTangent,
     /// `T⁻¹(ψ)`, `T⁻¹(−ψ)`.
     tinv: [Matrix3<f64>; 2],
 }
@@ -225,13 +227,15 @@ impl Beam {
     fn kinematics_of(&self, a: &Frame, b: &Frame) -> Kinematics {
         let (la, lb) = (a.r * self.offsets[0], b.r * self.offsets[1]);
         let psi = log(&(la.inverse() * lb));
+        let inverse = InverseTangent::new(&psi);
         let frames = [la, lb].map(|r| r.to_rotation_matrix().into_inner());
         let d = b.x - a.x;
         Kinematics {
             frames,
             chord: frames.map(|f| f.transpose() * d),
             psi,
-            tinv: [tangent_inverse(&psi), tangent_inverse(&-psi)],
+            inverse,
+            tinv: [inverse.at(1.0), inverse.at(-1.0)],
         }
     }
 
@@ -322,24 +326,33 @@ impl Beam {
         b
     }
 
-    /// `G(σ)`: the derivative of `L Bᵀ σ` at fixed `σ = [N; M]`, element unknowns.
-    fn geometric(&self, k: &Kinematics, sigma: &Vector6<f64>) -> Stiffness {
+    /// Adds `P G(σ) Pᵀ` to `out`: `G(σ)` the derivative of `L Bᵀ σ` at fixed `σ = [N; M]` on
+    /// the element's unknowns, read on the nodes' (`P = diag(I, E_A, I, E_B)`, each 3 × 3
+    /// block turned as it is put).
+    fn add_geometric(&self, k: &Kinematics, sigma: &Vector6<f64>, out: &mut Stiffness) {
         let (n, m) = (
             sigma.fixed_rows::<3>(0).into_owned(),
             sigma.fixed_rows::<3>(3).into_owned(),
         );
         let nt = hat(&n);
         let [la, lb] = k.frames;
-        // δψ = T⁻¹(ψ) b − T⁻¹(−ψ) a, and the moments' derivatives through it.
-        let (dpos, dneg) = (
-            tangent_inverse_derivative(&k.psi, &m),
-            tangent_inverse_derivative(&-k.psi, &m),
-        );
-        let mut g = Stiffness::zeros();
-        let mut put = |r: usize, c: usize, block: Matrix3<f64>| {
-            let mut v = g.fixed_view_mut::<3, 3>(r, c);
+        let e = &self.axes;
+        // A block's rotation rows and columns (block 1 at A's, 3 at B's) in the nodes'.
+        let mut put = |r: usize, c: usize, mut block: Matrix3<f64>| {
+            if r % 6 == 3 {
+                block = e[r / 6] * block;
+            }
+            if c % 6 == 3 {
+                block *= e[c / 6].transpose();
+            }
+            let mut v = out.fixed_view_mut::<3, 3>(r, c);
             v += block;
         };
+        // δψ = T⁻¹(ψ) b − T⁻¹(−ψ) a, and the moments' derivatives through it.
+        let (dpos, dneg) = (
+            k.inverse.derivative(1.0, &m),
+            k.inverse.derivative(-1.0, &m),
+        );
         // f_x = ∓ ½ (Λ_A + Λ_B) N.
         for (row, sign) in [(0, 0.5), (6, -0.5)] {
             put(row, 3, la * nt * sign);
@@ -350,13 +363,33 @@ impl Beam {
             let across = nt * frame.transpose() * 0.5;
             put(row, 0, -across);
             put(row, 6, across);
-            put(row, row, nt * hat(&chord) * 0.5);
+            let mut diagonal = nt * hat(&chord) * 0.5;
+            if row == 3 {
+                diagonal += dpos * k.tinv[1];
+            } else {
+                diagonal -= dneg * k.tinv[0];
+            }
+            put(row, row, diagonal);
         }
-        put(3, 3, dpos * k.tinv[1]);
         put(3, 9, -dpos * k.tinv[0]);
         put(9, 3, dneg * k.tinv[1]);
-        put(9, 9, -dneg * k.tinv[0]);
-        g
+    }
+
+    /// `L Bᵀ C B` (`B` on the nodes' unknowns, `C = diag(c)`) block by block: the strains'
+    /// rows `Γ` reach every column, `κ`'s only the rotations'.
+    fn material(b: &Strain, c: &Vector6<f64>, l: f64) -> Stiffness {
+        let gamma = b.fixed_rows::<3>(0);
+        let weighted = SMatrix::<f64, 3, 12>::from_fn(|r, col| c[r] * l * gamma[(r, col)]);
+        let mut out = gamma.transpose() * weighted;
+        for i in [3, 9] {
+            let kappa_i = b.fixed_view::<3, 3>(3, i);
+            let weighted = Matrix3::from_fn(|r, col| c[3 + r] * l * kappa_i[(r, col)]);
+            for j in [3, 9] {
+                let mut block = out.fixed_view_mut::<3, 3>(j, i);
+                block += b.fixed_view::<3, 3>(3, j).transpose() * weighted;
+            }
+        }
+        out
     }
 
     /// `R(v)`: the derivative of `B v` at fixed rates `v` (element unknowns).
@@ -381,9 +414,7 @@ impl Beam {
             xb += across;
         }
         // κ̇ = [T⁻¹(ψ) ω_b − T⁻¹(−ψ) ω_a]/L.
-        let d = (tangent_inverse_derivative(&k.psi, &omega[1])
-            + tangent_inverse_derivative(&-k.psi, &omega[0]))
-            / l;
+        let d = (k.inverse.derivative(1.0, &omega[1]) + k.inverse.derivative(-1.0, &omega[0])) / l;
         r.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-d * k.tinv[1]));
         r.fixed_view_mut::<3, 3>(3, 9).copy_from(&(d * k.tinv[0]));
         r
@@ -397,29 +428,6 @@ impl Beam {
             let at = 6 * side + 3;
             let turned = m.fixed_view::<6, 3>(0, at) * e.transpose();
             out.fixed_view_mut::<6, 3>(0, at).copy_from(&turned);
-        }
-        out
-    }
-
-    /// `P G Pᵀ` block by block: a derivative on the element's unknowns in the nodes'.
-    fn in_node_frames(g: &Stiffness, e: &[Matrix3<f64>; 2]) -> Stiffness {
-        let turn = |block: usize| (block % 2 == 1).then(|| e[block / 2]);
-        let mut out = *g;
-        for bi in 0..4 {
-            for bj in 0..4 {
-                let (ti, tj) = (turn(bi), turn(bj));
-                if ti.is_none() && tj.is_none() {
-                    continue;
-                }
-                let mut block = g.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
-                if let Some(t) = ti {
-                    block = t * block;
-                }
-                if let Some(t) = tj {
-                    block *= t.transpose();
-                }
-                out.fixed_view_mut::<3, 3>(3 * bi, 3 * bj).copy_from(&block);
-            }
         }
         out
     }
@@ -489,10 +497,11 @@ impl Beam {
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
         if let Some(out) = tangent {
-            let cb = Strain::from_fn(|r, col| c[r] * b[(r, col)]);
-            let material = b.transpose() * cb * l;
-            out.stiffness = material + Self::in_node_frames(&self.geometric(&k, &sigma), e);
+            let material = Self::material(&b, &c, l);
+            out.stiffness = material;
+            self.add_geometric(&k, &sigma, &mut out.stiffness);
             if beta > 0.0 {
+                let cb = Strain::from_fn(|r, col| c[r] * b[(r, col)]);
                 // Kelvin–Voigt's `B v` moves with the configuration too.
                 let mut element_rates = rates;
                 for (side, e) in e.iter().enumerate() {
