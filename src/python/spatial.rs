@@ -20,6 +20,7 @@ use crate::spatial::modal::natural_modes_spatial;
 use crate::spatial::modal_rates::omega_squared_rates;
 use crate::spatial::rigid::rigid_trajectories;
 use crate::spatial::sensitivity::{sensitivities, static_sensitivities, time_errors};
+use crate::spatial::shares::beam_shares;
 use crate::spatial::statics::solve_static_spatial;
 
 /// A built and validated spatial scene.
@@ -445,6 +446,51 @@ impl PySpatialModel {
         let d = PyDict::new(py);
         d.set_item("values", vector(py, values))?;
         d.set_item("errors", vector(py, errors))?;
+        Ok(d)
+    }
+
+    /// Each scene beam's share of the change of `responses` from this scene's run at design
+    /// `x` to the run of `fine` — this scene with every frame beam's elements split in two,
+    /// `fine_responses` the same responses named there — on the same steps
+    /// ([`crate::spatial::shares`]): `values`, `fine_values`, `shares` and `first_order` (one
+    /// row per response, one column per scene beam in the order of `beams`).
+    #[pyo3(signature = (fine, responses, fine_responses, settings=None, x=None))]
+    fn beam_shares<'py>(
+        &self,
+        py: Python<'py>,
+        fine: &PySpatialModel,
+        responses: Vec<String>,
+        fine_responses: Vec<String>,
+        settings: Option<&Bound<'py, PyAny>>,
+        x: Option<Vec<f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (scene, fine) = (Arc::clone(&self.scene), Arc::clone(&fine.scene));
+        let options = run_options(settings)?;
+        let out = detached(py, move || {
+            let named = |s: &SpatialScene, names: &[String]| {
+                (names.iter())
+                    .map(|r| s.response(r))
+                    .collect::<Result<Vec<_>, _>>()
+            };
+            let (rs, fs) = (named(&scene, &responses)?, named(&fine, &fine_responses)?);
+            let settings = options.dynamic(&scene.options)?;
+            settings.validate()?;
+            beam_shares(
+                &scene,
+                &fine,
+                x.as_deref(),
+                &settings,
+                &settings.grid(),
+                &rs,
+                &fs,
+            )
+        })?;
+        let (n_r, n_b) = (out.values.len(), self.scene.beams.len());
+        let d = PyDict::new(py);
+        d.set_item("values", vector(py, out.values))?;
+        d.set_item("fine_values", vector(py, out.fine_values))?;
+        d.set_item("shares", matrix(py, out.shares, n_r, n_b)?)?;
+        d.set_item("first_order", matrix(py, out.first_order, n_r, n_b)?)?;
         Ok(d)
     }
 }

@@ -33,6 +33,7 @@ pub mod model;
 pub mod rigid;
 pub mod section;
 pub mod sensitivity;
+pub mod shares;
 pub mod statics;
 pub mod truss;
 

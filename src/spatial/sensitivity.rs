@@ -513,6 +513,32 @@ pub fn time_errors(
     Ok((g.values, errors.unwrap_or_default()))
 }
 
+/// The responses' values on `states` — a run of `model` on `grid` (`restarted` its steps
+/// that began with a restart at a drive's kink) or another trajectory on the same grid and
+/// kinks — and, through `weights(n, k, μ)` where given, response `k`'s adjoint variables `μₙ` of the
+/// force rows at every state `n`, linearized about `states`: where the force rows' residual
+/// is held at `δrₙ` at `tₙ` rather than zero, the response changes by `μₙᵀ δrₙ` to first
+/// order (the dual weights of [`crate::spatial::shares`]).
+///
+/// # Errors
+/// As [`sensitivities`].
+pub(crate) fn dual_weights(
+    model: &SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    (states, restarted): (&[State], Vec<bool>),
+    weights: Option<&mut Weights<'_>>,
+) -> Result<Vec<f64>, Error> {
+    check(model, responses, &[])?;
+    let mut sweep = prepared(model, settings, grid, responses, &[], states, restarted)?;
+    let values = responses.iter().map(|r| sweep.value(r)).collect();
+    if weights.is_some() {
+        sweep.adjoint(responses, &[], false, weights)?;
+    }
+    Ok(values)
+}
+
 /// [`sensitivities`], and with `estimate` (by the adjoint) the responses' time errors.
 fn of_motion(
     model: &SpatialModel,
@@ -525,7 +551,45 @@ fn of_motion(
 ) -> Result<(Gradients, Option<Vec<f64>>), Error> {
     check(model, responses, parameters)?;
     let (states, restarted) = run(model, settings, grid)?;
-    let mut sweep = Sweep::new(model, Some(settings.rho_inf), &states)?;
+    let mut sweep = prepared(
+        model, settings, grid, responses, parameters, &states, restarted,
+    )?;
+    let values = responses.iter().map(|r| sweep.value(r)).collect();
+    let swept = swept(parameters);
+    let adjoint = match method {
+        Method::Direct => false,
+        Method::Adjoint => true,
+        Method::Auto => responses.len() < swept.len(),
+    };
+    let (gradient, errors) = if adjoint || estimate {
+        sweep.adjoint(responses, &swept, estimate, None)?
+    } else {
+        let by_parameter = sweep.direct(&swept, responses)?;
+        let gradient = (0..responses.len())
+            .map(|k| by_parameter.iter().map(|g| g[k]).collect())
+            .collect();
+        (gradient, None)
+    };
+    Ok((
+        sweep.gradients(values, responses, parameters, &gradient),
+        errors,
+    ))
+}
+
+/// The sweep of `states` (a run of `model` on `grid`, `restarted` its steps that began with
+/// a restart at a drive's kink, or another trajectory on the same grid) for `responses` and
+/// `parameters`: the rigid trajectories and their rates a tip deflection reads, and the
+/// aggregated responses' means.
+fn prepared<'m>(
+    model: &'m SpatialModel,
+    settings: &DynamicSettings,
+    grid: &TimeGrid,
+    responses: &[Response],
+    parameters: &[Parameter],
+    states: &'m [State],
+    restarted: Vec<bool>,
+) -> Result<Sweep<'m>, Error> {
+    let mut sweep = Sweep::new(model, Some(settings.rho_inf), states)?;
     sweep.restarted = restarted;
     let tips: Vec<usize> = (responses.iter())
         .filter_map(|r| match *r {
@@ -555,26 +619,7 @@ fn of_motion(
         }
     }
     sweep.prepare_means(responses);
-    let values = responses.iter().map(|r| sweep.value(r)).collect();
-    let swept = swept(parameters);
-    let adjoint = match method {
-        Method::Direct => false,
-        Method::Adjoint => true,
-        Method::Auto => responses.len() < swept.len(),
-    };
-    let (gradient, errors) = if adjoint || estimate {
-        sweep.adjoint(responses, &swept, estimate)?
-    } else {
-        let by_parameter = sweep.direct(&swept, responses)?;
-        let gradient = (0..responses.len())
-            .map(|k| by_parameter.iter().map(|g| g[k]).collect())
-            .collect();
-        (gradient, None)
-    };
-    Ok((
-        sweep.gradients(values, responses, parameters, &gradient),
-        errors,
-    ))
+    Ok(sweep)
 }
 
 /// The parameters a sweep carries: those the mechanism reads.
@@ -2019,6 +2064,7 @@ impl<'m> Sweep<'m> {
         responses: &[Response],
         parameters: &[Parameter],
         estimate: bool,
+        weights: Option<&mut Weights<'_>>,
     ) -> Result<Swept, Error> {
         self.many_solves = responses.len() > REFINED_SOLVES;
         let params = self.params;
@@ -2033,6 +2079,7 @@ impl<'m> Sweep<'m> {
             rhs: vec![0.0; n_v + m],
             seed: (vec![0.0; n_v], vec![0.0; m], vec![0.0; n_v]),
             local: estimate.then(|| LocalErrors::new(&params, n_v, responses.len())),
+            weights,
         };
         backward::sweep(&mut reverse, steps)?;
         let errors = reverse.local.take().map(|mut local| {
@@ -2165,7 +2212,7 @@ impl<'m> Sweep<'m> {
 }
 
 /// The spatial run transposed ([`backward::sweep`]) on the stored states.
-struct Reverse<'s, 'm> {
+struct Reverse<'s, 'm, 'w> {
     sweep: &'s mut Sweep<'m>,
     responses: &'s [Response],
     parameters: &'s [Parameter],
@@ -2175,9 +2222,15 @@ struct Reverse<'s, 'm> {
     seed: (Vec<f64>, Vec<f64>, Vec<f64>),
     /// The steps' local errors and the responses' time errors, if asked.
     local: Option<LocalErrors>,
+    /// Where each state's adjoint variables of the force rows go, if asked.
+    weights: Option<&'s mut Weights<'w>>,
 }
 
-impl Reverse<'_, '_> {
+/// Called with `(n, k, μ)`: response `k`'s adjoint variables `μ` of the force rows at state
+/// `n` ([`dual_weights`]).
+pub(crate) type Weights<'a> = dyn FnMut(usize, usize, &[f64]) + 'a;
+
+impl Reverse<'_, '_, '_> {
     /// The local errors of the step from state `n` ([`crate::solver::local_error`]) from
     /// the stored accelerations: `v̇ₙ₊₁`, and `v̇ₙ` with the jump of a restart on it; on the
     /// rotations the exact increment's `(h³/12) ω × ω̇` besides.
@@ -2211,7 +2264,7 @@ impl Reverse<'_, '_> {
     }
 }
 
-impl Transposed for Reverse<'_, '_> {
+impl Transposed for Reverse<'_, '_, '_> {
     fn seed(&mut self, n: usize) -> Result<(), Error> {
         let last = self.sweep.states.len() - 1;
         if let Some(local) = self.local.as_mut() {
@@ -2253,6 +2306,11 @@ impl Transposed for Reverse<'_, '_> {
             if let Some(l) = self.local.as_mut() {
                 l.errors[k] += error;
             }
+            if let Some(weights) = self.weights.as_mut() {
+                // The force rows hold −y after the transposed step; the dual weight is y.
+                let mu: Vec<f64> = self.rhs[..self.sweep.n_v].iter().map(|y| -y).collect();
+                weights(n + 1, k, &mu);
+            }
         }
         Ok(())
     }
@@ -2271,7 +2329,7 @@ impl Transposed for Reverse<'_, '_> {
         let n_v = sweep.n_v;
         let s0 = sweep.scale(0);
         sweep.factorize(0)?;
-        for c in &mut self.columns {
+        for (k, c) in self.columns.iter_mut().enumerate() {
             for (r, (vdot, a)) in rhs.iter_mut().zip(c.vdot.iter().zip(&c.a)) {
                 *r = vdot + a;
             }
@@ -2282,6 +2340,9 @@ impl Transposed for Reverse<'_, '_> {
             for (g, p) in c.gradient.iter_mut().zip(self.parameters) {
                 *g -= sweep.parameter_dot(p, 0, &rhs[..n_v])
                     + sweep.constraint_dot(p, 0, Level::Acceleration, s0, &rhs[n_v..]);
+            }
+            if let Some(weights) = self.weights.as_mut() {
+                weights(0, k, &rhs[..n_v]);
             }
         }
         Ok(())

@@ -88,4 +88,4 @@ pub fn parse_spatial_toml(text: &str) -> Result<SpatialSceneSpec, SceneError> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -34,7 +34,7 @@ t_end = 1.0
 h = 0.001
 "#;
 
-fn built(text: &str) -> Result<SpatialScene, Error> {
+pub(crate) fn built(text: &str) -> Result<SpatialScene, Error> {
     build_spatial(&parse_spatial_toml(text)?)
 }
 
@@ -378,7 +378,7 @@ fn names_of_responses_and_parameters() {
 
 /// A flexible pendulum in space: two beams of two elements, on a tilted hinge, a point mass
 /// at the end, a truss bar from a point of the hinge's axis bracing the elbow.
-const PENDULUM: &str = r#"
+pub(crate) const PENDULUM: &str = r#"
 dimension = 3
 gravity = [0.0, 0.0, -9.81]
 [sections.alu]
