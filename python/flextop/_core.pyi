@@ -117,6 +117,15 @@ class SensitivityData(TypedDict):
     gradient_seconds: float  # wall time of the sensitivity analysis, s
 
 @type_check_only
+class BeamShareData(TypedDict):
+    """``SpatialModel.beam_shares``: each scene beam's share of the change of splitting every frame beam."""
+
+    values: _F  # the responses on this scene, (n_r,)
+    fine_values: _F  # the same on the split scene, (n_r,)
+    shares: _F  # each response's share per scene beam, (n_r, n_beams)
+    first_order: _F  # the same with the coarse run's adjoint alone, (n_r, n_beams)
+
+@type_check_only
 class TimeErrors(TypedDict):
     """``time_errors``: the responses' values and their time errors ``f(h) − f`` estimated by the adjoint."""
 
@@ -295,6 +304,8 @@ class SpatialModel:
                       equilibrium: bool = False, x: list[float] | None = None) -> SpatialSensitivityData: ...
     def time_errors(self, responses: list[str], settings: dict[str, Any] | None = None,
                     x: list[float] | None = None) -> TimeErrors: ...
+    def beam_shares(self, fine: SpatialModel, responses: list[str], fine_responses: list[str],
+                    settings: dict[str, Any] | None = None, x: list[float] | None = None) -> BeamShareData: ...
 
 def simulate(model: Model, x: _F | None = None, settings: dict[str, Any] | None = None, local_tol: float | None = None,
              steps: list[float] | None = None, guide: _F | None = None,

@@ -56,6 +56,7 @@ from .checks import whole
 from .quaternion import rotations
 from .discretization import spatial as spatial_tolerance
 from .discretization.accuracy import rtol_of, run_tolerance
+from .discretization.indicator import Shares
 from .discretization.tolerance import Discretization
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
@@ -267,7 +268,9 @@ class SpatialSimulation:
     refine:
         How a run to a tolerance refines the beams: ``"bars"`` (the default: a dynamic
         scene's beams graded by their own lowest frequencies and masses, as a planar scene's
-        bars; a static scene's alike) or ``"uniform"`` (every frame beam alike).
+        bars; a static scene's alike), ``"shares"`` (graded so, then where a value's space
+        error is over, the beams whose measured shares of it carry 80 % refined:
+        :meth:`beam_shares`) or ``"uniform"`` (every frame beam alike).
 
     Raises
     ------
@@ -275,16 +278,15 @@ class SpatialSimulation:
         If the scene cannot be built; the message names the entry.
     SettingsError
         If ``rtol`` is not in [1e-6, 1), ``atol`` is negative, ``accuracy`` is not a preset's
-        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is neither
-        ``"uniform"`` nor ``"bars"``.
+        name, both ``accuracy`` and ``rtol`` are given, or ``refine`` is not one of
+        ``"bars"``, ``"shares"`` and ``"uniform"``.
     """
 
     def __init__(self, scene: SpatialScene | dict | str | os.PathLike, *, accuracy: str | None = None,
                  rtol: float | None = None, atol: float = 0.0, refine: str = "bars") -> None:
         self.accuracy, self.rtol, self.atol = accuracy, rtol_of(accuracy, rtol, atol), atol
         if refine not in spatial_tolerance.REFINE:
-            built = "; a beam's measured share of the error is not built for spatial scenes" if refine == "shares" else ""
-            raise SettingsError(f"refine: {refine!r} is not one of {', '.join(spatial_tolerance.REFINE)}{built}")
+            raise SettingsError(f"refine: {refine!r} is not one of {', '.join(spatial_tolerance.REFINE)}")
         self.refine = refine
         #: The scene with every frame beam's elements times a factor, by factor, each built on
         #: first use by a run to a tolerance (:mod:`flextop.discretization.spatial`).
@@ -492,6 +494,28 @@ class SpatialSimulation:
             settings = {**settings, "h": float(duration) / int(steps)}
         out = self.model.time_errors(list(rs), settings, self._design(x))
         return {name: (float(out["values"][k]), float(out["errors"][k])) for k, name in enumerate(rs)}
+
+    def beam_shares(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
+                    **settings: Any) -> Shares:
+        """Each scene beam's share of the change of ``responses`` (the tip's deflection by
+        default) at design ``x`` when the elements of every frame beam are split in two:
+        where refinement pays, measured by dual-weighted residuals on the rotation group
+        (``src/spatial/shares.rs``). One run of this scene and of the split one, and two
+        adjoint sweeps of this one, with ``settings`` as in :meth:`run`.
+        ``shares.shares[name]`` follows ``self.model.beams`` (a truss bar's is zero);
+        ``shares.change`` is the change measured, ``unattributed`` what the shares leave of
+        it (a response's own reading of split beams: a strain or kinetic energy's, a
+        stress's)."""
+        if self.analysis != "dynamic":
+            raise SettingsError("beam shares are measured on a dynamic run; a static scene's refinement is uniform")
+        rs = _names(responses if responses is not None else ["tip_deflection"], "responses")
+        if not rs:
+            raise SettingsError("responses: give at least one response")
+        measured = [r for r in rs if r.split(":")[0] in MEASURES]
+        if measured:
+            raise SettingsError(f"responses: {measured[0]!r} is explicit in the design: splitting a beam does not change it")
+        fine = spatial_tolerance.refined_level(self, 2)
+        return spatial_tolerance.beam_shares(self, self._design(x), rs, settings, fine)
 
     def _tolerance(self, rtol: float | None, atol: float | None, h: float | None) -> tuple[float, float] | None:
         """The tolerance a run is made to, or ``None`` for a run on the scene's grid

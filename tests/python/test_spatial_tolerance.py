@@ -4,6 +4,7 @@ gradients within ``5·rtol``, the estimates never below the true error by more t
 a motion and at an equilibrium. A node inside a beam is the same point on every grid. Bad
 tolerances named; a tolerance past the limits a ToleranceError."""
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -252,10 +253,9 @@ def test_a_truss_bar_cannot_be_split():
         SpatialSimulation({**scene.to_dict(), "splits": {"tie": 2}})
 
 
-@pytest.mark.parametrize("refine, culprit", [("shares", "share of the error is not built"), ("every", "'every'")])
-def test_a_refinement_spatial_scenes_lack_is_named(refine, culprit):
-    with pytest.raises(SettingsError, match=f"refine: .*{culprit}"):
-        SpatialSimulation(flexible_pendulum(), refine=refine)
+def test_a_refinement_spatial_scenes_lack_is_named():
+    with pytest.raises(SettingsError, match="refine: 'every' is not one of uniform, bars, shares"):
+        SpatialSimulation(flexible_pendulum(), refine="every")
 
 
 def test_a_motion_to_a_tolerance_by_graded_beams_is_within_it():
@@ -265,13 +265,65 @@ def test_a_motion_to_a_tolerance_by_graded_beams_is_within_it():
     elements on 32× the steps, extrapolated."""
     from flextop.discretization.spatial import beam_factors
 
-    rtol, responses, x = 1e-2, ["strain_energy", "z:end", "x:end"], np.array([0.1, 1.0])
-    sim = SpatialSimulation(flexible_pendulum(), rtol=rtol)
-    run = sim.run_with_sensitivities(x, responses)
+    sim = SpatialSimulation(flexible_pendulum(), rtol=1e-2)
+    run = sim.run_with_sensitivities(LIGHT_UPPER, PENDULUM_RESPONSES)
     d = run.discretization
-    assert d.graded and beam_factors(sim, d, list(x)) == {"lower": 1, "upper": 2}
+    assert d.graded and not d.factors and beam_factors(sim, d, list(LIGHT_UPPER)) == {"lower": 1, "upper": 2}
+    assert_honest(run, light_upper_reference(), 1e-2)
+
+
+def test_a_motion_to_a_tolerance_by_measured_shares_is_within_it():
+    """The same pendulum with ``refine="shares"``: the strain energy's space error is over
+    half its budget on the scene's grid, the measured shares put it on the light upper beam,
+    which alone doubles its elements; within rtol 1e-2 of the same reference."""
+    from flextop.discretization.spatial import beam_factors
+
+    sim = SpatialSimulation(flexible_pendulum(), rtol=1e-2, refine="shares")
+    run = sim.run_with_sensitivities(LIGHT_UPPER, PENDULUM_RESPONSES)
+    d = run.discretization
+    assert d.factors == (1, 2) and beam_factors(sim, d, list(LIGHT_UPPER)) == {"lower": 1, "upper": 2}
+    assert "the 1 of 2 beams that measured shares of the error refined" in str(d)
+    assert_honest(run, light_upper_reference(), 1e-2)
+
+
+LIGHT_UPPER = np.array([0.1, 1.0])
+"""The flexible pendulum with a light upper beam."""
+
+PENDULUM_RESPONSES = ["strain_energy", "z:end", "x:end"]
+
+
+@functools.cache
+def light_upper_reference():
+    """The pendulum at :data:`LIGHT_UPPER` on 8× the elements on 32× the steps, extrapolated
+    from 16×."""
     fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 8))
-    at = [fine.run_with_sensitivities(x, responses, h=0.005 / k) for k in (32, 16)]
-    reference = replace(at[0], **{key: (4 * getattr(at[0], key) - getattr(at[1], key)) / 3
-                                  for key in ("values", "gradient", "dfdx")})
-    assert_honest(run, reference, rtol)
+    at = [fine.run_with_sensitivities(LIGHT_UPPER, PENDULUM_RESPONSES, h=0.005 / k) for k in (32, 16)]
+    return replace(at[0], **{key: (4 * getattr(at[0], key) - getattr(at[1], key)) / 3
+                             for key in ("values", "gradient", "dfdx")})
+
+
+def test_beam_shares_add_up_to_the_change_of_splitting():
+    """On the light-upper pendulum: the node positions' shares add up to the change that
+    splitting both beams makes within 1e-3 of it (the strain energy's leave its own reading
+    of the split beams out, within a quarter), and the light upper beam carries over 99 % of
+    each."""
+    sim = SpatialSimulation(flexible_pendulum())
+    shares = sim.beam_shares(LIGHT_UPPER, PENDULUM_RESPONSES)
+    assert shares.bars == ("lower", "upper")
+    for name in PENDULUM_RESPONSES:
+        share = shares.shares[name]
+        allowed = 0.25 if name == "strain_energy" else 1e-3
+        assert abs(shares.unattributed[name]) <= allowed * abs(shares.change[name]), (name, shares.change, share)
+        assert abs(share[1]) >= 0.99 * np.abs(share).sum(), (name, share)
+
+
+@pytest.mark.parametrize("scene, responses, culprit", [
+    ("pendulum", ["volume"], "'volume' is explicit in the design"),
+    ("pendulum", [], "give at least one response"),
+    ("pendulum", ["z:nowhere"], "nowhere"),
+    ("static", ["y:end"], "measured on a dynamic run"),
+])
+def test_bad_beam_shares_are_named(scene, responses, culprit):
+    sim = SpatialSimulation(flexible_pendulum() if scene == "pendulum" else bent_cantilever())
+    with pytest.raises(SettingsError, match=culprit):
+        sim.beam_shares(None, responses)

@@ -142,13 +142,13 @@ def bar_shares(arm: _core.Model):
     return _core.bar_shares(arm, fine, x, ["tip_deflection"], {}, steps, run["q"], run["qdot"], run["qddot"], run["lam"])
 
 
-def spatial() -> _core.SpatialModel:
-    """A cantilever of two elements with a point mass at its tip, under gravity."""
+def spatial(split: int = 2) -> _core.SpatialModel:
+    """A cantilever of two elements (or ``split``) with a point mass at its tip, under gravity."""
     scene = flextop.SpatialScene("rod", gravity=(0.0, 0.0, -9.81))
     scene.section("steel", E=2e11, rho=7800.0, nu=0.3, diameter=0.01)
     scene.node("root", (0.0, 0.0, 0.0))
     scene.node("end", (1.0, 0.0, 0.0))
-    scene.beam("rod", "root", "end", section="steel", split=2)
+    scene.beam("rod", "root", "end", section="steel", split=split)
     scene.point_mass("tip", "end", 0.1)
     scene.weld("clamp", "root")
     scene.simulation(t_end=0.01, h=0.005)
@@ -176,6 +176,7 @@ CALLS = {
         list(spatial().solve_static()["q"]), list(spatial().solve_static()["lam"])),
     "SpatialModel.sensitivities": lambda arm, truss: spatial().sensitivities(["z:tip"], ["E:rod", "mass:tip"]),
     "SpatialModel.time_errors": lambda arm, truss: spatial().time_errors(["z:tip", "strain_energy"]),
+    "SpatialModel.beam_shares": lambda arm, truss: spatial().beam_shares(spatial(4), ["z:end"], ["z:end"]),
 }
 """A call on a small scene of every function and method of the stub that returns a dict."""
 

@@ -17,11 +17,17 @@ default) a dynamic scene's beams are graded as a planar scene's bars (:mod:`.ind
 own lowest clamped–clamped frequency ``f_b`` over both bending planes and its mass ``M_b``
 (``SpatialModel.beam_frequencies``, ``beam_masses``) give its need ``M_b / f_b²``; the beams
 of the largest need get ``r`` times their elements, each factor 8 of need below halves that,
-down to the candidate's ``floor``, through the scene's ``splits`` table. A beam's measured
-share of the error (a planar scene's ``refine="shares"``) is not built for spatial beams.
+down to the candidate's ``floor``, through the scene's ``splits`` table.
 On the spatial robot arm's ten designs (BENCHMARKS.md, "Spatial runs to a tolerance") the
 graded grids were those of uniform refinement where the scene's elements sufficed, and 40 %
 cheaper on the random design down to 0.05, with honest estimates.
+
+With ``refine="shares"`` a candidate starts graded as with ``"bars"``; where a value's space
+error takes more than half its budget, the beams whose measured shares of the change that
+splitting every beam makes carry 80 % of it (:func:`beam_shares`, the dual-weighted
+residuals of ``src/spatial/shares.rs``, on the candidate's half steps) double their
+elements, as a planar scene's bars do (:func:`.refinement.marks`): a gradient's error
+alone follows the a-priori grading, and where a marking missed every beam doubles.
 
 A node named inside a beam, ``BEAM[k]`` (the ``k``-th of its ``split − 1`` inner nodes),
 is the same point of the beam in every candidate: ``BEAM[r·k]`` at ``r`` times its elements,
@@ -34,7 +40,7 @@ import copy
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -123,7 +129,7 @@ def renamed_response(response: str, factor: int, beams: set[str]) -> str:
     return f"{kind}:{renamed(rest, factor, beams)}" if sep and kind in NAMED_NODE else response
 
 
-REFINE = ("uniform", "bars")
+REFINE = ("uniform", "bars", "shares")
 """How a spatial scene's runs to a tolerance refine its beams (module docs)."""
 
 
@@ -138,6 +144,12 @@ class EveryBeam(Discretization):
     """Whether the beams are graded (the simulation's ``refine="bars"``); the description's."""
 
     def __str__(self) -> str:
+        if self.factors:
+            refined = sum(f > 1 for f in self.factors)
+            every = f", times {self.uniform} on every frame beam" if self.uniform != 1 else ""
+            steps = f" and {self.steps} steps" if self.steps else ""
+            return (f"up to {max(self.factors)}× the scene's elements on the {refined} of {len(self.factors)} beams that "
+                    f"measured shares of the error refined{every}{steps}")
         if self.graded:
             return super().__str__()
         steps = f" and {self.steps} steps" if self.steps else ""
@@ -145,15 +157,19 @@ class EveryBeam(Discretization):
 
 
 def beam_factors(sim: Any, d: Discretization, design: list[float] | None) -> dict[str, int]:
-    """Each frame beam's factor on its elements at candidate ``d`` for ``design``: graded by
-    need where ``sim.refine == "bars"`` and the scene is dynamic, ``d.refinement`` on every
-    one otherwise; at least ``d.floor``, times ``d.uniform``."""
+    """Each frame beam's factor on its elements at candidate ``d`` for ``design``: those
+    measured shares set (``d.factors``), or graded by need where ``sim.refine`` is
+    ``"bars"`` or ``"shares"`` and the scene is dynamic, ``d.refinement`` on every one
+    otherwise, at least ``d.floor``; times ``d.uniform``."""
     names = [name for name, _ in sim.model.beams]
-    frequencies = np.asarray(sim.model.beam_frequencies(design))
     frame = np.isfinite(np.asarray(sim.model.beam_frequencies(None)))
-    dynamic = sim.refine == "bars" and sim.analysis == "dynamic"
-    graded = indicator.graded(frequencies, sim.model.beam_masses(design), d.refinement, dynamic)
-    factors = d.uniform * np.maximum(d.floor, graded)
+    if d.factors:
+        factors = d.uniform * np.asarray(d.factors, dtype=np.int64)
+    else:
+        frequencies = np.asarray(sim.model.beam_frequencies(design))
+        dynamic = sim.refine in ("bars", "shares") and sim.analysis == "dynamic"
+        graded = indicator.graded(frequencies, sim.model.beam_masses(design), d.refinement, dynamic)
+        factors = d.uniform * np.maximum(d.floor, graded)
     return {name: int(f) for name, f, is_frame in zip(names, factors, frame) if is_frame}
 
 
@@ -200,7 +216,7 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
             out = made[(d, companion)] = run(d, companion)
         return [*out.values[:, None], *np.hstack([out.gradient, out.dfdx])]
 
-    graded = sim.refine == "bars" and not static
+    graded = sim.refine in ("bars", "shares") and not static
     if start is None:
         start = EveryBeam(1, 0) if static else EveryBeam(1, tolerance.start(_scene_steps(sim, settings)).steps,
                                                         graded=graded, unit="frame beam")
@@ -214,27 +230,90 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
         factors = np.array([beam_factors(sim, d, design).get(name, 1) for name, _ in sim.model.beams])
         return float(elements @ factors / max(1.0, elements.sum()))
 
-    d, est = tolerance.resolve(values, start, tol, cost)
+    measured = sim.refine == "shares" and not static
+    d, est = tolerance.resolve(values, start, tol, cost,
+                               mark=(lambda d, missed, ratios: marks(sim, d, missed, ratios, design, responses, settings))
+                               if measured else None)
     relative = list(map(float, est.relative))
     accepted = made[(d, False)]
     return Accepted(accepted, d, dict(zip(responses, relative)), dict(zip(responses, relative[len(responses):])))
 
 
+def marks(sim: Any, d: Discretization, missed: bool, ratios: np.ndarray, design: list[float] | None,
+          responses: Sequence[str], settings: dict[str, Any]) -> Discretization | None:
+    """The refinement after candidate ``d`` (``refine="shares"``), given each quantity's space
+    error over its budget (``ratios``: the responses' values first), as a planar scene's
+    :func:`.refinement.marks`: where a value's is over half of it, the beams whose shares
+    (:func:`beam_shares` on ``d``'s half steps, relative to each value and summed over them)
+    carry 80 % of it (:func:`.tolerance.dorfler`) double their elements, once or twice as
+    the error asks (:func:`.tolerance.doublings`); where a gradient's is over, the a-priori
+    grading's refinement doubles too and no beam has fewer elements than it gives; where the
+    last marking ``missed``, every beam doubles. ``None`` for a scene with no frame beam, and
+    where no value's error has marked a beam yet nor is over now."""
+    n = len(responses)
+    names = [name for name, _ in sim.model.beams]
+    if not frame_beams(sim.spec) or (not d.factors and ratios[:n].max(initial=0.0) <= 0.5):
+        return None
+    current = beam_factors(sim, d.grid, design)
+    factors = np.array([current.get(name, 1) for name in names], dtype=np.int64)
+    k = 2 ** tolerance.doublings(float(ratios.max()))
+    if missed:
+        return replace(d.grid, refinement=2 * d.refinement, factors=tuple(int(f) for f in 2 * factors))
+    refinement, refined = d.refinement, factors
+    values = [r for r in responses if r.split(":")[0] not in MEASURED]
+    if ratios[:n].max(initial=0.0) > 0.5 and values:
+        duration, steps = _duration(sim, settings), d.half_steps.steps
+        level, renamed = _scene_at(sim, d.half_steps, design, values)
+        at = {"newton": "modified", **settings, "h": duration / steps, "t_end": duration}
+        shares = beam_shares(level, design, renamed, at, refined_level(level, 2))
+        relative = sum(np.abs(shares.shares[r]) / max(abs(shares.coarse[r]), 1e-300) for r in renamed)
+        refined = np.where(tolerance.dorfler(np.asarray(relative)), k * factors, factors)
+    if ratios[n:].max(initial=0.0) > 0.5:
+        refinement *= k
+        graded = beam_factors(sim, Discretization(refinement, d.steps, floor=d.floor), design)
+        refined = np.maximum(refined, [graded.get(name, 1) for name in names])
+    return replace(d.grid, refinement=refinement, factors=tuple(int(f) for f in refined))
+
+
+MEASURED = ("volume", "mass")
+"""Responses explicit in the design: no space error, no share."""
+
+
+def beam_shares(sim: Any, design: list[float] | None, responses: Sequence[str], settings: dict[str, Any],
+                fine: Any) -> indicator.Shares:
+    """Each scene beam's share of the change of ``responses`` of ``sim`` (a
+    :class:`~flextop.spatial.SpatialSimulation`) at ``design`` when every frame beam's
+    elements are split in two, ``fine`` that scene (``src/spatial/shares.rs``): one run of
+    each and two adjoint sweeps of ``sim``'s, with ``settings``. ``shares.shares[name]``
+    follows ``sim.model.beams`` (a truss bar's is zero)."""
+    beams = frame_beams(sim.spec)
+    fine_names = [renamed_response(r, 2, beams) for r in responses]
+    out = sim.model.beam_shares(fine.model, list(responses), fine_names, settings, design)
+    return indicator.Shares(bars=tuple(name for name, _ in sim.model.beams),
+                            shares={r: np.asarray(out["shares"][k]) for k, r in enumerate(responses)},
+                            coarse={r: float(out["values"][k]) for k, r in enumerate(responses)},
+                            fine={r: float(out["fine_values"][k]) for k, r in enumerate(responses)})
+
+
 def on_grid(sim: Any, d: Discretization, design: list[float] | None, responses: Sequence[str],
             parameters: Sequence[str], static: bool, settings: dict[str, Any]) -> Any:
     """``responses`` of ``sim`` and their gradients on the grid ``d``: every frame beam's
-    elements times ``d.refinement · d.uniform``, ``d.steps`` uniform steps over the run's
-    ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run."""
+    elements times its factor (:func:`beam_factors`), ``d.steps`` uniform steps over the
+    run's ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run."""
     at = {**settings, **({"h": _duration(sim, settings) / d.steps} if d.steps else {})}
+    level, names = _scene_at(sim, d, design, responses)
+    return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+
+
+def _scene_at(sim: Any, d: Discretization, design: list[float] | None, responses: Sequence[str]) -> tuple[Any, list[str]]:
+    """``sim``'s scene with each frame beam's elements as ``d`` says, and ``responses``
+    named there."""
     factors = beam_factors(sim, d, design)
     if len(set(factors.values())) > 1:
-        level = _graded(sim, factors)
-        names = [_graded_response(r, factors) for r in responses]
-        return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+        return _graded(sim, factors), [_graded_response(r, factors) for r in responses]
     factor = next(iter(factors.values()), d.refinement * d.uniform)
     beams = frame_beams(sim.spec)
-    names = [renamed_response(r, factor, beams) for r in responses]
-    return _level(sim, factor).run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+    return refined_level(sim, factor), [renamed_response(r, factor, beams) for r in responses]
 
 
 def _graded_response(response: str, factors: dict[str, int]) -> str:
@@ -261,7 +340,7 @@ def _graded(sim: Any, factors: dict[str, int]) -> Any:
     return made[key]
 
 
-def _level(sim: Any, factor: int) -> Any:
+def refined_level(sim: Any, factor: int) -> Any:
     """``sim``'s scene with ``factor`` times the elements of every frame beam, built once and
     kept on ``sim``; without a tolerance of its own, so that it runs its own grid."""
     if factor == 1 and sim.rtol is None:
@@ -289,5 +368,5 @@ def _scene_steps(sim: Any, settings: dict[str, Any]) -> int:
     return math.ceil(duration / float(h) - 1e-9) if h else 16
 
 
-__all__ = ["REFINE", "Accepted", "ErrorEstimate", "EveryBeam", "beam_factors", "frame_beams", "graded_name", "graded_spec",
-           "on_grid", "refined_spec", "renamed", "to_tolerance"]
+__all__ = ["REFINE", "Accepted", "ErrorEstimate", "EveryBeam", "beam_factors", "beam_shares", "frame_beams", "graded_name",
+           "graded_spec", "marks", "on_grid", "refined_level", "refined_spec", "renamed", "to_tolerance"]

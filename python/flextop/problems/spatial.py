@@ -123,7 +123,7 @@ class SpatialProblem(Problem):
             problem.rule = Readapt.from_dict(data["rule"])
         if data.get("held") is not None:
             refinement, steps, uniform, floor, extrapolated, factors = data["held"]
-            graded = sim.refine == "bars" and sim.analysis == "dynamic"
+            graded = sim.refine in ("bars", "shares") and sim.analysis == "dynamic"
             problem.held = EveryBeam(refinement, steps, uniform, floor, extrapolated, tuple(factors), graded=graded,
                                      unit="frame beam")
         return problem
