@@ -8,13 +8,14 @@ extrapolation from 1600 and 3200 steps. Printed per design: the scene's grid (h 
 its true error; the grid the tolerance chose, its cost over the scene's run, its estimated
 and true errors (value, and gradient in the 2-norm), the estimate over the true error.
 
-    python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME] [--refine uniform,bars]
+    python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME] [--refine uniform,bars,shares]
     python benches/spatial_tolerance.py --adjoint-time
 
 ``--added``: only the three designs added to the first seven (MMA's 40th iterate, uniform 0.2,
 random in [0.05, 1]); ``--design NAME`` (repeated for more): only those. ``--refine``: how the runs to the
 tolerance refine the beams, one row per way given (``uniform`` by default; ``bars`` grades them
-by their own frequencies), each against the same reference. A design whose run on the scene's
+by their own frequencies; ``shares`` then refines those whose measured shares carry a value's
+space error), each against the same reference. A design whose run on the scene's
 grid fails is still run to the tolerance (the contract's finer grids may carry it).
 
 ``--adjoint-time``, instead: the time error the adjoint estimates

@@ -100,6 +100,8 @@ pub(crate) enum ForceParameter {
     Stiffness,
     /// A spring's `c`.
     Damping,
+    /// A spring's rest length `l₀` (a torsion spring's rest angle `φ₀`).
+    Rest,
     /// A motor's torque.
     Torque,
 }
@@ -249,28 +251,36 @@ impl Force {
         let sides = self.pair.sides(q, Some(v));
         match (&self.kind, p) {
             (
-                ForceKind::Spring { rest, .. },
-                ForceParameter::Stiffness | ForceParameter::Damping,
+                ForceKind::Spring {
+                    stiffness, rest, ..
+                },
+                ForceParameter::Stiffness | ForceParameter::Damping | ForceParameter::Rest,
             ) => {
                 let d = self.pair.evaluate(&Measure::Gap, &sides);
                 let l = d.value.norm();
                 let n = d.value / l;
-                let factor = if p == ForceParameter::Stiffness {
-                    l - rest
-                } else {
-                    n.dot(&d.rate)
+                // ∂(tension)/∂p of `k (l − l₀) + c l̇`.
+                let factor = match p {
+                    ForceParameter::Stiffness => l - rest,
+                    ForceParameter::Damping => n.dot(&d.rate),
+                    _ => -stiffness,
                 };
                 d.jacobian.transpose() * n * factor
             }
             (
-                ForceKind::Torsion { rest, axes, .. },
-                ForceParameter::Stiffness | ForceParameter::Damping,
+                ForceKind::Torsion {
+                    stiffness,
+                    rest,
+                    axes,
+                    ..
+                },
+                ForceParameter::Stiffness | ForceParameter::Damping | ForceParameter::Rest,
             ) => {
                 let angle = Angle::new(&self.pair, &sides, axes);
-                let factor = if p == ForceParameter::Stiffness {
-                    angle.value - rest
-                } else {
-                    angle.rate
+                let factor = match p {
+                    ForceParameter::Stiffness => angle.value - rest,
+                    ForceParameter::Damping => angle.rate,
+                    _ => -stiffness,
                 };
                 angle.gradient * factor
             }

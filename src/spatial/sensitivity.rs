@@ -78,6 +78,11 @@ pub enum Parameter {
         /// The force element.
         force: usize,
     },
+    /// A spring's rest length `l₀` (m; a torsion spring's rest angle `φ₀`, rad).
+    SpringRest {
+        /// The force element.
+        force: usize,
+    },
     /// A motor's torque (N m).
     MotorTorque {
         /// The force element.
@@ -381,7 +386,9 @@ fn check(
     for (k, p) in parameters.iter().enumerate() {
         match *p {
             Parameter::Mass { body: b } => body(b, format!("parameters[{k}]"))?,
-            Parameter::SpringStiffness { force } | Parameter::SpringDamping { force } => {
+            Parameter::SpringStiffness { force }
+            | Parameter::SpringDamping { force }
+            | Parameter::SpringRest { force } => {
                 if !matches!(
                     model.forces.get(force).map(|f| &f.kind),
                     Some(ForceKind::Spring { .. } | ForceKind::Torsion { .. })
@@ -1543,10 +1550,12 @@ impl<'m> Sweep<'m> {
             }
             Parameter::SpringStiffness { force }
             | Parameter::SpringDamping { force }
+            | Parameter::SpringRest { force }
             | Parameter::MotorTorque { force } => {
                 let which = match p {
                     Parameter::SpringStiffness { .. } => ForceParameter::Stiffness,
                     Parameter::SpringDamping { .. } => ForceParameter::Damping,
+                    Parameter::SpringRest { .. } => ForceParameter::Rest,
                     _ => ForceParameter::Torque,
                 };
                 let element = &model.forces[force];

@@ -296,7 +296,7 @@ impl SpatialScene {
     pub fn parameter(&self, name: &str) -> Result<Named> {
         let bad = |m: String| Err(SettingsError::new("parameters", format!("'{name}': {m}")));
         let Some((kind, what)) = name.split_once(':') else {
-            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)".into());
+            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, length, rest, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)".into());
         };
         let m = &self.model;
         let body = || m.bodies.iter().position(|b| b.name == what);
@@ -314,6 +314,21 @@ impl SpatialScene {
                         _ => Parameter::SpringDamping { force },
                     })
                 }
+                _ => bad(format!("'{what}' is no spring of the scene")),
+            },
+            "length" | "rest" => match force().map(|f| (f, &m.forces[f].kind)) {
+                Some((force, ForceKind::Spring { .. })) if kind == "length" => {
+                    one(Parameter::SpringRest { force })
+                }
+                Some((force, ForceKind::Torsion { .. })) if kind == "rest" => {
+                    one(Parameter::SpringRest { force })
+                }
+                Some((_, ForceKind::Spring { .. })) => bad(format!(
+                    "'{what}' is a spring between points: its rest is a length, length:{what}"
+                )),
+                Some((_, ForceKind::Torsion { .. })) => bad(format!(
+                    "'{what}' is a torsion spring: its rest is an angle, rest:{what}"
+                )),
                 _ => bad(format!("'{what}' is no spring of the scene")),
             },
             "torque" => match force().map(|f| (f, &m.forces[f].kind)) {

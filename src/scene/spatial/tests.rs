@@ -333,6 +333,10 @@ fn names_of_responses_and_parameters() {
         vec![(Parameter::SpringStiffness { force: 0 }, 1.0)]
     );
     assert_eq!(
+        scene.parameter("length:s").unwrap(),
+        vec![(Parameter::SpringRest { force: 0 }, 1.0)]
+    );
+    assert_eq!(
         scene.parameter("torque:m").unwrap(),
         vec![(Parameter::MotorTorque { force: 1 }, 1.0)]
     );
@@ -366,6 +370,8 @@ fn names_of_responses_and_parameters() {
     }
     for (name, words) in [
         ("k:m", "no spring"),
+        ("length:m", "no spring"),
+        ("rest:s", "its rest is a length, length:s"),
         ("torque:s", "no motor"),
         ("E:bar", "no beam"),
         ("Iww:bar", "not a parameter kind"),

@@ -28,7 +28,12 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         }
         Parameter::SpringStiffness { force }
         | Parameter::SpringDamping { force }
+        | Parameter::SpringRest { force }
         | Parameter::MotorTorque { force } => match (&mut m.forces[force].kind, p) {
+            (
+                ForceKind::Spring { rest, .. } | ForceKind::Torsion { rest, .. },
+                Parameter::SpringRest { .. },
+            ) => *rest += e,
             (
                 ForceKind::Spring { stiffness, .. } | ForceKind::Torsion { stiffness, .. },
                 Parameter::SpringStiffness { .. },
@@ -66,13 +71,15 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
     m
 }
 
-/// The differences' step: 1e-3 of a mass, a spring's constant or a torque, 1e-2 of the
+/// The differences' step: 1e-3 of a mass, a spring's constant or a torque, 1e-4 m or rad
+/// of a rest length or angle, 1e-2 of the
 /// body's mean principal moment for an inertia entry (an entry may be zero), where the fourth-order truncation stays below
 /// 1e-8 and Newton's tolerance moves the values by less than 1e-12 of the step.
 fn step(model: &SpatialModel, p: &Parameter) -> f64 {
     match *p {
         Parameter::Mass { body } => 1e-3 * model.bodies[body].mass,
         Parameter::Inertia { body, .. } => 2e-3 * model.bodies[body].inertia.trace() / 3.0,
+        Parameter::SpringRest { .. } => 1e-4,
         Parameter::SpringStiffness { force }
         | Parameter::SpringDamping { force }
         | Parameter::MotorTorque { force } => match model.forces[force].kind {
@@ -201,7 +208,8 @@ fn heavy_top_gradients_are_exact() {
 /// bracket welded to its slider and a sleeve on a cylindrical joint along the bracket, a
 /// spring-damper, a motor and a load: its
 /// slider's and sleeve's places, the drive's effort `∫τ² dt` and the pin's `∫F_x² dt`, to
-/// three bodies' masses, two inertias, the spring's constants and the motor's torque.
+/// three bodies' masses, two inertias, the springs' constants and rest lengths or angles and
+/// the motor's torque.
 #[test]
 fn every_joint_kind_has_exact_gradients() {
     let (r, l) = (0.15, 0.3);
@@ -369,6 +377,8 @@ fn every_joint_kind_has_exact_gradients() {
         Parameter::MotorTorque { force: 1 },
         Parameter::SpringStiffness { force: 3 },
         Parameter::SpringDamping { force: 3 },
+        Parameter::SpringRest { force: 0 },
+        Parameter::SpringRest { force: 3 },
     ];
     check(
         &m,
