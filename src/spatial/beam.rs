@@ -482,10 +482,13 @@ impl Beam {
         let e = &self.axes;
         let rates = self.local(v);
         let accelerations = vdot.map_or_else(Local::zeros, |a| self.local(a));
-        let b = Self::on_nodes(self.strain_matrix(&k), e);
         let c = Self::elasticity(section);
         let (l, beta, alpha) = (self.length, section.beta, section.alpha);
-        let sigma = c.component_mul(&(self.strains(&k) + b * rates * beta));
+        // `B` itself only where the tangent or Kelvin–Voigt's `B v` reads it.
+        let b =
+            (tangent.is_some() || beta != 0.0).then(|| Self::on_nodes(self.strain_matrix(&k), e));
+        let strain_rates = b.as_ref().map_or_else(Vector6::zeros, |b| b * rates * beta);
+        let sigma = c.component_mul(&(self.strains(&k) + strain_rates));
         let mass = section.rho_a * l;
         let j = self.rotary_inertia(section);
         let mut inertia = Self::mass_times(mass, &j, &(accelerations + rates * alpha));
@@ -496,7 +499,7 @@ impl Beam {
             let mut moment = inertia.fixed_rows_mut::<3>(6 * side + 3);
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
-        if let Some(out) = tangent {
+        if let (Some(out), Some(b)) = (tangent, b) {
             let material = Self::material(&b, &c, l);
             out.stiffness = material;
             self.add_geometric(&k, &sigma, &mut out.stiffness);
@@ -524,9 +527,31 @@ impl Beam {
             }
         }
         Terms {
-            internal: b.transpose() * sigma * l,
+            internal: self.b_transpose_times(&k, &sigma) * l,
             inertia,
         }
+    }
+
+    /// `Bᵀ σ` on the nodes' unknowns block by block, `σ = [N; M]` (module docs): `∓(Λ_A +
+    /// Λ_B) N/(2L)` on the ends' translations, `E_A (N × p_A/(2L) − T⁻¹(−ψ)ᵀ M/L)` and
+    /// `E_B (N × p_B/(2L) + T⁻¹(ψ)ᵀ M/L)` on their rotations.
+    fn b_transpose_times(&self, k: &Kinematics, sigma: &Vector6<f64>) -> Local {
+        let l2 = 2.0 * self.length;
+        let (n, m) = (
+            sigma.fixed_rows::<3>(0).into_owned(),
+            sigma.fixed_rows::<3>(3).into_owned(),
+        );
+        let along = (k.frames[0] + k.frames[1]) * n / l2;
+        let turn = [
+            self.axes[0] * (n.cross(&k.chord[0]) / l2 - k.tinv[1].tr_mul(&m) / self.length),
+            self.axes[1] * (n.cross(&k.chord[1]) / l2 + k.tinv[0].tr_mul(&m) / self.length),
+        ];
+        let mut out = Local::zeros();
+        out.fixed_rows_mut::<3>(0).copy_from(&-along);
+        out.fixed_rows_mut::<3>(3).copy_from(&turn[0]);
+        out.fixed_rows_mut::<3>(6).copy_from(&along);
+        out.fixed_rows_mut::<3>(9).copy_from(&turn[1]);
+        out
     }
 }
 
@@ -563,8 +588,7 @@ impl Element for Beam {
     fn elastic_force(&self, q: &[f64]) -> Local {
         let k = self.kinematics(q);
         let sigma = Self::elasticity(&self.section).component_mul(&self.strains(&k));
-        let b = Self::on_nodes(self.strain_matrix(&k), &self.axes);
-        b.transpose() * sigma * self.length
+        self.b_transpose_times(&k, &sigma) * self.length
     }
 
     /// Strain energy `L/2 εᵀ C ε` at `q` (J).
