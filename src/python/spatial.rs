@@ -475,15 +475,10 @@ impl PySpatialModel {
             let (rs, fs) = (named(&scene, &responses)?, named(&fine, &fine_responses)?);
             let settings = options.dynamic(&scene.options)?;
             settings.validate()?;
-            beam_shares(
-                &scene,
-                &fine,
-                x.as_deref(),
-                &settings,
-                &settings.grid(),
-                &rs,
-                &fs,
-            )
+            let beams = scene.split_beams(&fine)?;
+            let models = (scene.model_at(x.as_deref())?, fine.model_at(x.as_deref())?);
+            let grid = settings.grid();
+            beam_shares((&models.0, &models.1), &beams, &settings, &grid, &rs, &fs)
         })?;
         let (n_r, n_b) = (out.values.len(), self.scene.beams.len());
         let d = PyDict::new(py);

@@ -32,7 +32,6 @@ use std::collections::HashMap;
 
 use crate::error::{Error, SettingsError};
 use crate::group::{NQ, NV};
-use crate::scene::spatial::SpatialScene;
 use crate::settings::DynamicSettings;
 use crate::solver::alpha::State;
 use crate::spatial::element::Element;
@@ -56,17 +55,29 @@ pub struct BeamShares {
     pub first_order: Vec<f64>,
 }
 
-/// Each scene beam's share of the change of `responses` (read on `coarse`; `fine_responses`
-/// the same on `fine`) from the run of `coarse` on `grid` at design `x` to the run of `fine`,
-/// `coarse` with every frame beam's elements split in two, on the same steps (module docs).
+/// A scene beam in both scenes: its elements in the coarse model's `beams` and in the fine
+/// model's (twice as many, in the same order from end to end); none for a truss bar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SplitBeam {
+    /// Its name in the scene.
+    pub name: String,
+    /// Its elements in the coarse model.
+    pub coarse: Vec<usize>,
+    /// Its elements in the fine model.
+    pub fine: Vec<usize>,
+}
+
+/// Each scene beam's share (`beams`, in the scene's order) of the change of `responses`
+/// (read on `coarse`; `fine_responses` the same on `fine`) from the run of `coarse` on `grid`
+/// to the run of `fine`, `coarse` with every frame beam's elements split in two, on the same
+/// steps, both at the same design (module docs).
 ///
 /// # Errors
-/// A [`SettingsError`] when `fine` is not `coarse` split in two; design and solve errors of
-/// the two runs and the sweeps.
+/// A [`SettingsError`] when `fine` is not `coarse` split in two; solve errors of the two runs
+/// and the sweeps.
 pub fn beam_shares(
-    coarse: &SpatialScene,
-    fine: &SpatialScene,
-    x: Option<&[f64]>,
+    (coarse_model, fine_model): (&SpatialModel, &SpatialModel),
+    beams: &[SplitBeam],
     settings: &DynamicSettings,
     grid: &TimeGrid,
     responses: &[Response],
@@ -76,12 +87,11 @@ pub fn beam_shares(
         let msg = "must name the coarse scene's responses, one for one";
         return Err(SettingsError::new("fine responses", msg).into());
     }
-    let map = Split::new(coarse, fine)?;
-    let (coarse_model, fine_model) = (coarse.model_at(x)?, fine.model_at(x)?);
-    let (states, restarted) = run(&coarse_model, settings, grid)?;
-    let (fine_states, _) = run(&fine_model, settings, grid)?;
+    let map = Split::new(coarse_model, fine_model, beams)?;
+    let (states, restarted) = run(coarse_model, settings, grid)?;
+    let (fine_states, _) = run(fine_model, settings, grid)?;
     let fine_values = dual_weights(
-        &fine_model,
+        fine_model,
         settings,
         grid,
         fine_responses,
@@ -91,8 +101,8 @@ pub fn beam_shares(
     let restricted: Vec<State> = fine_states.iter().map(|s| map.restrict(s)).collect();
     let residuals = Residuals {
         map: &map,
-        coarse: &coarse_model,
-        fine: &fine_model,
+        coarse: coarse_model,
+        fine: fine_model,
         restricted: &restricted,
         fine_states: &fine_states,
     };
@@ -100,7 +110,7 @@ pub fn beam_shares(
     let mut own = vec![0.0; n_r * n_b];
     let mut about = vec![0.0; n_r * n_b];
     let values = dual_weights(
-        &coarse_model,
+        coarse_model,
         settings,
         grid,
         responses,
@@ -108,7 +118,7 @@ pub fn beam_shares(
         Some(&mut residuals.weighing(&mut own)),
     )?;
     dual_weights(
-        &coarse_model,
+        coarse_model,
         settings,
         grid,
         responses,
@@ -133,20 +143,23 @@ struct Split {
 }
 
 impl Split {
-    fn new(coarse: &SpatialScene, fine: &SpatialScene) -> Result<Self, SettingsError> {
+    fn new(
+        cm: &SpatialModel,
+        fm: &SpatialModel,
+        split: &[SplitBeam],
+    ) -> Result<Self, SettingsError> {
         let not_split = |what: String| {
             SettingsError::new(
                 "fine scene",
                 format!("is not the coarse scene with every frame beam split in two: {what}"),
             )
         };
-        let (cm, fm) = (&coarse.model, &fine.model);
-        if fm.n_rows() != cm.n_rows() || fine.beams.len() != coarse.beams.len() {
-            return Err(not_split("its joints or beams differ".into()));
+        if fm.n_rows() != cm.n_rows() {
+            return Err(not_split("its joints differ".into()));
         }
-        let frame: Vec<&str> = (coarse.beams.iter())
-            .filter(|(_, b)| !b.truss)
-            .map(|(name, _)| name.as_str())
+        let frame: Vec<&str> = (split.iter())
+            .filter(|b| !b.coarse.is_empty())
+            .map(|b| b.name.as_str())
             .collect();
         let by_name: HashMap<&str, usize> = (fm.nodes.iter().enumerate())
             .map(|(k, n)| (n.name.as_str(), k))
@@ -160,23 +173,21 @@ impl Split {
                     .ok_or_else(|| not_split(format!("it has no node {name}")))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let mut beams = Vec::with_capacity(coarse.beams.len());
-        for ((name, c), f) in coarse.beams.iter().zip(fine.beams.values()) {
-            if c.truss {
-                beams.push(Vec::new());
-                continue;
-            }
-            if f.truss || f.elements.len() != 2 * c.elements.len() {
+        let mut beams = Vec::with_capacity(split.len());
+        for b in split {
+            if b.fine.len() != 2 * b.coarse.len() {
+                let name = &b.name;
                 return Err(not_split(format!(
                     "beam {name} is not in twice its elements"
                 )));
             }
-            let halves: Vec<(usize, [usize; 2])> = (c.elements.iter().enumerate())
-                .map(|(j, &e)| (e, [f.elements[2 * j], f.elements[2 * j + 1]]))
+            let halves: Vec<(usize, [usize; 2])> = (b.coarse.iter().enumerate())
+                .map(|(j, &e)| (e, [b.fine[2 * j], b.fine[2 * j + 1]]))
                 .collect();
             for &(e, [h0, h1]) in &halves {
-                let [a, b] = cm.beams[e].nodes().map(|n| fine_node[n]);
-                if fm.beams[h0].nodes()[0] != a || fm.beams[h1].nodes()[1] != b {
+                let [a, z] = cm.beams[e].nodes().map(|n| fine_node[n]);
+                if fm.beams[h0].nodes()[0] != a || fm.beams[h1].nodes()[1] != z {
+                    let name = &b.name;
                     return Err(not_split(format!(
                         "beam {name}'s halves do not meet its ends"
                     )));
@@ -257,76 +268,5 @@ impl Residuals<'_> {
                 }
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::spatial::tests::{built, PENDULUM};
-    use crate::settings::RunOptions;
-
-    fn shares_of(
-        coarse: &SpatialScene,
-        fine: &SpatialScene,
-        names: [&[&str]; 2],
-    ) -> Result<BeamShares, Error> {
-        let named = |s: &SpatialScene, names: &[&str]| {
-            names
-                .iter()
-                .map(|r| s.response(r).unwrap())
-                .collect::<Vec<_>>()
-        };
-        let settings = RunOptions::default().dynamic(&coarse.options).unwrap();
-        let x = [0.6, 0.3, 0.5];
-        let (rs, fs) = (named(coarse, names[0]), named(fine, names[1]));
-        let grid = settings.grid();
-        beam_shares(coarse, fine, Some(&x), &settings, &grid, &rs, &fs)
-    }
-
-    /// The shares of the flexible pendulum's node positions (its end's, an inner node's)
-    /// add up to the change that splitting every beam makes, within 1 %; the truss bar has
-    /// none.
-    #[test]
-    fn shares_add_up_to_the_change_of_splitting() {
-        let coarse = built(PENDULUM).unwrap();
-        let fine = built(&PENDULUM.replace("split = 2", "split = 4")).unwrap();
-        let responses = ["x:c", "z:c", "y:lower[1]"];
-        let out = shares_of(&coarse, &fine, [&responses, &["x:c", "z:c", "y:lower[2]"]]).unwrap();
-        let n_b = coarse.beams.len();
-        let truss = coarse.beams.keys().position(|b| b == "brace").unwrap();
-        for (k, name) in responses.iter().enumerate() {
-            let change = out.fine_values[k] - out.values[k];
-            let row = &out.shares[k * n_b..(k + 1) * n_b];
-            let sum: f64 = row.iter().sum();
-            assert!(
-                change.abs() > 1e-9,
-                "{name}: no change to measure ({change:e})"
-            );
-            assert!(
-                (sum - change).abs() <= 1e-2 * change.abs(),
-                "{name}: shares {sum:e} against the change {change:e}"
-            );
-            assert_eq!(row[truss], 0.0);
-        }
-    }
-
-    /// A fine scene that is not the coarse one split in two is named.
-    #[test]
-    fn a_scene_not_split_in_two_is_named() {
-        let coarse = built(PENDULUM).unwrap();
-        for (fine, words) in [
-            (PENDULUM.to_string(), "it has no node upper[2]"),
-            (
-                PENDULUM.replace("split = 2", "split = 3"),
-                "beam lower is not in twice its elements",
-            ),
-        ] {
-            let fine = built(&fine).unwrap();
-            let e = shares_of(&coarse, &fine, [&["x:c"], &["x:c"]]).unwrap_err();
-            assert!(e.to_string().contains(words), "{e}");
-        }
-        let e = shares_of(&coarse, &coarse, [&["x:c"], &[]]).unwrap_err();
-        assert!(e.to_string().contains("one for one"), "{e}");
     }
 }

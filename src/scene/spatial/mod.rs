@@ -32,6 +32,7 @@ pub mod names;
 mod orientation;
 mod own_frequency;
 pub mod spec;
+mod split;
 
 use std::collections::BTreeMap;
 

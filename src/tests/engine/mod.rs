@@ -12,6 +12,7 @@ mod spatial_forces;
 mod spatial_joints;
 mod spatial_modes;
 mod spatial_sensitivity;
+mod spatial_shares;
 mod spatial_statics;
 mod spatial_trusses;
 mod statics;
