@@ -26,7 +26,7 @@ use crate::joint::spatial::{Gradient, Joint, Stiffness, MAX_ROWS};
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{nan_max, Residual};
 use crate::solver::sparsity::Sparsity;
-use crate::spatial::element::Derivatives;
+use crate::spatial::element::{Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
 
@@ -219,6 +219,27 @@ impl<'m> Assembler<'m> {
         t: f64,
         r: &mut [f64],
     ) -> Result<f64, SolveError> {
+        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r)?;
+        let model = self.model;
+        let gravity = model.gravity * self.load;
+        for element in model.elements() {
+            let terms = element.terms(q, v, Some(vdot), &gravity, None);
+            reference = add_element_forces(r, element, &terms, &gravity, reference);
+        }
+        Ok(reference)
+    }
+
+    /// The residual's terms of the bodies, joints and force elements (every one but the
+    /// structural elements') into `r`, and their `F_ref`.
+    fn residual_without_elements(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        vdot: &[f64],
+        lambda: &[f64],
+        t: f64,
+        r: &mut [f64],
+    ) -> Result<f64, SolveError> {
         let model = self.model;
         let n_v = model.n_v();
         r.fill(0.0);
@@ -249,17 +270,36 @@ impl<'m> Assembler<'m> {
             reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
             scatter(r, &force.pair, &f);
         }
+        Ok(reference)
+    }
+
+    /// [`Assembler::residual`] and [`Assembler::matrix`] with the coefficients `c` at the
+    /// same state in one pass over the elements: each element's forces and derivatives
+    /// from one evaluation of its kinematics (a Newton iterate that will factor its matrix).
+    ///
+    /// # Errors
+    /// As both.
+    pub fn residual_and_matrix(
+        &mut self,
+        (q, v, vdot): (&[f64], &[f64], &[f64]),
+        lambda: &[f64],
+        t: f64,
+        r: &mut [f64],
+        c: Coefficients<'_>,
+    ) -> Result<f64, SolveError> {
+        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r)?;
+        self.matrix_without_elements(q, v, t, c)?;
+        let model = self.model;
         let gravity = model.gravity * self.load;
-        for element in model.elements() {
-            let terms = element.terms(q, v, Some(vdot), &gravity, None);
-            let weight = 0.5 * element.mass() * gravity.norm();
-            reference = terms
-                .internal
-                .iter()
-                .chain(terms.inertia.iter())
-                .fold(reference.max(weight), |m, x| m.max(x.abs()));
-            scatter(r, element.pair(), &(terms.internal + terms.inertia));
+        let increment = c.tangent.map(|(inc, _)| inc);
+        for (k, element) in model.elements().enumerate() {
+            let d = &mut self.element_blocks[k];
+            let terms = element.terms(q, v, Some(vdot), &gravity, increment.map(|_| &mut *d));
+            reference = add_element_forces(r, element, &terms, &gravity, reference);
+            let block = element_block(&self.element_masses[k], d, element, c);
+            scatter_block(&mut self.values, &self.element_slots[k], &block);
         }
+        self.hold_absent();
         Ok(reference)
     }
 
@@ -314,6 +354,30 @@ impl<'m> Assembler<'m> {
         time: f64,
         c: Coefficients<'_>,
     ) -> Result<(), SolveError> {
+        self.matrix_without_elements(q, v, time, c)?;
+        let model = self.model;
+        let gravity = model.gravity * self.load;
+        for (k, element) in model.elements().enumerate() {
+            let d = &mut self.element_blocks[k];
+            if c.tangent.is_some() {
+                element.terms(q, v, None, &gravity, Some(d));
+            }
+            let block = element_block(&self.element_masses[k], d, element, c);
+            scatter_block(&mut self.values, &self.element_slots[k], &block);
+        }
+        self.hold_absent();
+        Ok(())
+    }
+
+    /// The iteration matrix's entries of the bodies, joints and force elements (the
+    /// structural elements' left out), the rest zero.
+    fn matrix_without_elements(
+        &mut self,
+        q: &[f64],
+        v: &[f64],
+        time: f64,
+        c: Coefficients<'_>,
+    ) -> Result<(), SolveError> {
         self.values.fill(0.0);
         let model = self.model;
         let n_v = model.n_v();
@@ -359,21 +423,14 @@ impl<'m> Assembler<'m> {
                 };
             }
         }
-        let (gravity, c_gamma) = (model.gravity * self.load, c.gamma_prime);
-        for (k, element) in model.elements().enumerate() {
-            let mut block = self.element_masses[k] * c.beta_prime;
-            if let Some((inc, _)) = c.tangent {
-                let d = &mut self.element_blocks[k];
-                element.terms(q, v, None, &gravity, Some(d));
-                add_times_tangent(&mut block, &d.stiffness, element.pair(), Some(inc));
-                block.zip_apply(&d.damping, |b, c| *b += c * c_gamma);
-            }
-            scatter_block(&mut self.values, &self.element_slots[k], &block);
-        }
+        Ok(())
+    }
+
+    /// A unit on the diagonal of every absent rotation: it keeps them still.
+    fn hold_absent(&mut self) {
         for &slot in &self.absent_slots {
             self.values[slot] = 1.0;
         }
-        Ok(())
     }
 
     /// Adds `K ε + C v'` to `force` and `B ε` to `constraint`: the residual's change with
@@ -512,6 +569,39 @@ fn local_slots(pattern: &Sparsity, pair: &Pair) -> Option<Vec<usize>> {
             _ => Some(ABSENT),
         })
         .collect()
+}
+
+/// Adds a structural element's forces `terms` to `r`; returns `reference` raised to their
+/// largest magnitude and the element's weight.
+fn add_element_forces(
+    r: &mut [f64],
+    element: &dyn Element,
+    terms: &Terms,
+    gravity: &Vector3<f64>,
+    reference: f64,
+) -> f64 {
+    let weight = 0.5 * element.mass() * gravity.norm();
+    scatter(r, element.pair(), &(terms.internal + terms.inertia));
+    (terms.internal.iter())
+        .chain(terms.inertia.iter())
+        .fold(reference.max(weight), |m, x| m.max(x.abs()))
+}
+
+/// A structural element's block `β'M + γ'C + K T(Δ)` of the iteration matrix, from its
+/// mass matrix `mass` and its derivatives `d` (their part left out where `c` asks for no
+/// tangent).
+fn element_block(
+    mass: &Stiffness,
+    d: &Derivatives,
+    element: &dyn Element,
+    c: Coefficients<'_>,
+) -> Stiffness {
+    let mut block = mass * c.beta_prime;
+    if let Some((inc, _)) = c.tangent {
+        add_times_tangent(&mut block, &d.stiffness, element.pair(), Some(inc));
+        block.zip_apply(&d.damping, |b, x| *b += x * c.gamma_prime);
+    }
+    block
 }
 
 /// A slot of a local block on the ground: not stored.

@@ -121,6 +121,25 @@ pub struct SpatialIntegrator<'m> {
     jump: [Vec<f64>; 2],
     /// How many steps began with a restart at a kink.
     restarts: usize,
+    /// Whether the last residual's pass assembled the iteration matrix at its iterate.
+    assembled: bool,
+}
+
+/// What a step's iteration matrix is made of ([`Coefficients`]): `β'`, `γ'`, the row
+/// scaling and `K_t T(Δ)` at the increment `Δ` and multipliers `λ`.
+fn coefficients<'a>(
+    bp: f64,
+    gp: f64,
+    scale: f64,
+    increment: &'a [f64],
+    lambda: &'a [f64],
+) -> Coefficients<'a> {
+    Coefficients {
+        beta_prime: bp,
+        gamma_prime: gp,
+        scale,
+        tangent: Some((increment, lambda)),
+    }
 }
 
 impl<'m> SpatialIntegrator<'m> {
@@ -156,6 +175,7 @@ impl<'m> SpatialIntegrator<'m> {
             kinks: kinks(model),
             jump: [vec![0.0; model.n_rows()], vec![0.0; model.n_rows()]],
             restarts: 0,
+            assembled: false,
         })
     }
 
@@ -250,19 +270,13 @@ impl<'m> SpatialIntegrator<'m> {
         }
     }
 
-    /// The iteration matrix at the state `s`, factored.
+    /// The iteration matrix at the state `s`, factored; assembled here unless the
+    /// residual's pass assembled it at `s` already (`assembled`).
     fn factorize(&mut self, s: &State, bp: f64, gp: f64, scale: f64) -> Result<(), SolveError> {
-        self.asm.matrix(
-            &s.q,
-            &s.qdot,
-            s.t,
-            Coefficients {
-                beta_prime: bp,
-                gamma_prime: gp,
-                scale,
-                tangent: Some((&self.increment, &s.lam)),
-            },
-        )?;
+        if !std::mem::take(&mut self.assembled) {
+            let c = coefficients(bp, gp, scale, &self.increment, &s.lam);
+            self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
+        }
         self.lu
             .factorize(&self.asm.values)
             .map_err(Self::singular(s.t))
@@ -335,9 +349,19 @@ struct Step<'a, 'm> {
 }
 
 impl System for Step<'_, '_> {
-    fn residual(&mut self, _with_matrix: bool) -> Result<Residual, SolveError> {
+    /// The residual at the iterate; with the matrix too (one pass over the elements) where
+    /// Newton will factor one here.
+    fn residual(&mut self, with_matrix: bool) -> Result<Residual, SolveError> {
         let (it, s) = (&mut *self.it, &*self.s);
-        let force = (it.asm).residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut it.rhs)?;
+        let force = if with_matrix {
+            let c = coefficients(self.bp, self.gp, self.scale, &it.increment, &s.lam);
+            let states = (&s.q[..], &s.qdot[..], &s.qddot[..]);
+            it.assembled = true;
+            (it.asm).residual_and_matrix(states, &s.lam, s.t, &mut it.rhs, c)?
+        } else {
+            it.assembled = false;
+            (it.asm).residual(&s.q, &s.qdot, &s.qddot, &s.lam, s.t, &mut it.rhs)?
+        };
         Ok(it.asm.measure(&it.rhs, force))
     }
 
