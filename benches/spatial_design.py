@@ -10,7 +10,8 @@ stress over the motion (the uniform design's), against the same optimization wit
 With ``--sizing``: the arm's tubes sized instead (their outer and inner diameters at the
 start's mass, ``SizingProblem``). With ``--tolerance``: the arm's tip deflection at 40 % of
 its volume by MMA held to rtol 1e-2 (``SpatialProblem(..., rtol=1e-2)``), against the same
-optimization on the scene's grid, both optimized designs measured to rtol 1e-2 and 1e-3.
+optimization on the scene's grid, both optimized designs measured to rtol 1e-2 and 1e-3; each
+iteration's progress on stderr.
 With ``--hundred``: 100 iterations of the arm's tip deflection by MMA with its safeguard and by
 plain MMA, the design issue's floor. With ``--costs``: the cost table alone, which also times
 the adjoint of four responses at once (``FOUR``).
@@ -148,7 +149,14 @@ def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2) -> None:
         measure = problem._run
         problem._run = lambda x, m: (measured.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
         start = time.perf_counter()
-        result = flextop.optimize(problem, x0, method="mma", max_iter=iterations, kkt_tol=1e-4)
+
+        def progress(record, name=("scene's grid" if tol is None else f"rtol {tol:g}")) -> None:
+            """Each iteration on stderr, so that a run stopped before its end says how far it got."""
+            print(f"{name}: iteration {record.iteration}, {record.evaluations} evaluations in it, f0 {record.f0:.4f}, "
+                  f"KKT {record.kkt:.2e}, {len(measured)} measured, {time.perf_counter() - start:.0f} s",
+                  file=sys.stderr, flush=True)
+
+        result = flextop.optimize(problem, x0, method="mma", max_iter=iterations, kkt_tol=1e-4, callback=progress)
         elapsed = time.perf_counter() - start
         name = "on the scene's grid" if tol is None else f"held to rtol {tol:g}"
         designs[name] = result.x
