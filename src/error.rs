@@ -225,6 +225,22 @@ pub enum SolveError {
         /// Its displacement over the model's size.
         ratio: f64,
     },
+    /// A spatial run's Newton failed in a step that began with a bar at or near its Euler
+    /// load ([`crate::spatial::integrator::BUCKLING_HINT`]): a buckling bar.
+    #[error(
+        "{failure}; bar '{bar}' was at {ratio:.3} times its Euler load when the step began: \
+         it buckles, which its elements may be too few to follow (give its bars more \
+         elements: the scene's split, or a run to a tolerance), or the design is too light \
+         to carry the motion"
+    )]
+    Buckled {
+        /// Newton's failure.
+        failure: Box<SolveError>,
+        /// The element nearest its Euler load, by name.
+        bar: String,
+        /// Its compression over its Euler load.
+        ratio: f64,
+    },
     /// The sparse pattern or the symbolic factorization could not be set up: a defect of
     /// the engine, not of the input, reported instead of a panic.
     #[error("internal error setting up the linear solver ({0}); please report it with the scene")]

@@ -33,12 +33,20 @@ use crate::solver::linsolve::FactorError;
 use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{self, NewtonReport, Residual, System};
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
+use crate::spatial::element::Element;
 use crate::spatial::model::SpatialModel;
 use crate::TimeGrid;
 
 /// The largest rotation one step may give a node (rad): beyond it the step is too large for
 /// the motion (the tangent operator is singular at 2π).
 pub const MAX_STEP_ROTATION: f64 = std::f64::consts::PI;
+
+/// A bar at this share of its Euler load or more (compression over the pin-ended Euler
+/// load of its bar, [`Element::buckling`]) when a step whose Newton fails began is named
+/// in the failure ([`SolveError::Buckled`]): on the spatial robot arm at uniform 0.2 its
+/// one-element bars pass 1.0 at t ≈ 0.125 s and Newton diverges from 0.135 s on, at
+/// every step size.
+pub const BUCKLING_HINT: f64 = 0.9;
 
 /// The kinks of `model`'s drives.
 pub(crate) fn kinks(model: &SpatialModel) -> Kinks {
@@ -260,7 +268,32 @@ impl<'m> SpatialIntegrator<'m> {
     /// when a node turns by more than [`MAX_STEP_ROTATION`] in the step;
     /// [`SolveError::Singular`] for a singular iteration matrix; [`SolveError::Interrupted`].
     pub fn alpha_step(&mut self, s: &mut State, h: f64) -> Result<NewtonReport, SolveError> {
-        alpha::step(self, s, h)
+        alpha::step(self, s, h).map_err(|e| self.explained(e))
+    }
+
+    /// Newton's failure `e` with the bar nearest its Euler load named, where one was at
+    /// [`BUCKLING_HINT`] of it or more when the step began (its `qₙ`).
+    fn explained(&self, e: SolveError) -> SolveError {
+        if !matches!(e, SolveError::NewtonFailed { .. }) {
+            return e;
+        }
+        let model = self.asm.model;
+        let beams = model
+            .beams
+            .iter()
+            .map(|b| (&b.name, b.buckling(&self.start).0));
+        let bars = model
+            .trusses
+            .iter()
+            .map(|t| (&t.name, t.buckling(&self.start).0));
+        match beams.chain(bars).max_by(|a, b| a.1.total_cmp(&b.1)) {
+            Some((bar, ratio)) if ratio >= BUCKLING_HINT => SolveError::Buckled {
+                failure: Box::new(e),
+                bar: bar.clone(),
+                ratio,
+            },
+            _ => e,
+        }
     }
 
     /// The configuration space of the model's nodes.

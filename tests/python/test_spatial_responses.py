@@ -6,6 +6,7 @@ bad options named. The kinetic energy's time integral against the run's energies
 gradients; refused at an equilibrium. A lattice of least volume under a peak stress limit."""
 
 import math
+import re
 import subprocess
 import sys
 
@@ -320,3 +321,19 @@ def test_the_lattice_of_least_compliance_is_a_kkt_point():
     c, u = sim.run_with_sensitivities(result.x, ["compliance", "strain_energy"]).values
     assert c == pytest.approx(2.0 * u, rel=1e-3)
     assert sim.volume(result.x) == pytest.approx(0.3 * sim.volume(1.0), rel=1e-6)
+
+
+def test_a_bar_past_its_euler_load_is_named_where_newton_fails():
+    """The spatial arm at uniform 0.2: its one-element bars pass their Euler loads in the
+    first 0.13 s of the motion and Newton diverges soon after, at every step size; the
+    failure names the bar nearest its Euler load, and how far past it."""
+    sim = SpatialSimulation(spatial_robot_arm())
+    x = np.full(sim.n_design, 0.2)
+    with pytest.raises(flextop.SimulationError) as failure:
+        sim.simulate(x, t_end=0.2)
+    found = re.search(r"Newton did not converge .*; bar '(link\d/bar\d+)' was at ([0-9.]+) times its Euler load",
+                      str(failure.value))
+    assert found is not None, str(failure.value)
+    assert float(found[2]) > 1.0
+    ratio = sim.run_with_sensitivities(x, "buckling:" + found[1].split("/")[0], t_end=0.13, h=0.0025).peaks
+    assert max(ratio.values()) > 1.0, ratio
