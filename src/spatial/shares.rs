@@ -185,8 +185,14 @@ impl Split {
                 .map(|(j, &e)| (e, [b.fine[2 * j], b.fine[2 * j + 1]]))
                 .collect();
             for &(e, [h0, h1]) in &halves {
-                let [a, z] = cm.beams[e].nodes().map(|n| fine_node[n]);
-                if fm.beams[h0].nodes()[0] != a || fm.beams[h1].nodes()[1] != z {
+                let ends = |m: &SpatialModel, e: usize| m.beams.get(e).map(|b| b.nodes());
+                let meet = match (ends(cm, e), ends(fm, h0), ends(fm, h1)) {
+                    (Some([a, z]), Some([a0, _]), Some([_, z1])) => {
+                        a0 == fine_node[a] && z1 == fine_node[z]
+                    }
+                    _ => false,
+                };
+                if !meet {
                     let name = &b.name;
                     return Err(not_split(format!(
                         "beam {name}'s halves do not meet its ends"
