@@ -17,6 +17,7 @@ mod refinement;
 mod runs;
 mod signals;
 mod spatial;
+mod spatial_runs;
 
 use pyo3::prelude::*;
 
