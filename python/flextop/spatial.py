@@ -504,8 +504,8 @@ class SpatialSimulation:
         adjoint sweeps of this one, with ``settings`` as in :meth:`run`.
         ``shares.shares[name]`` follows ``self.model.beams`` (a truss bar's is zero);
         ``shares.change`` is the change measured, ``unattributed`` what the shares leave of
-        it (a response's own reading of split beams: a strain or kinetic energy's, a
-        stress's)."""
+        it (a stress's own reading of the split beams; a strain or kinetic energy's is in
+        the shares)."""
         if self.analysis != "dynamic":
             raise SettingsError("beam shares are measured on a dynamic run; a static scene's refinement is uniform")
         rs = _names(responses if responses is not None else ["tip_deflection"], "responses")

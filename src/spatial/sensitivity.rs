@@ -629,6 +629,13 @@ fn prepared<'m>(
     Ok(sweep)
 }
 
+/// State `n`'s weight in the trapezoidal rule over the run `states` (s).
+pub(crate) fn trapezoid_weight(states: &[State], n: usize) -> f64 {
+    let before = if n > 0 { states[n].h } else { 0.0 };
+    let after = states.get(n + 1).map_or(0.0, |s| s.h);
+    0.5 * (before + after)
+}
+
 /// The parameters a sweep carries: those the mechanism reads.
 fn swept(parameters: &[Parameter]) -> Vec<Parameter> {
     (parameters.iter())
@@ -1470,12 +1477,10 @@ impl<'m> Sweep<'m> {
 
     /// The trapezoidal weight of state `n` (1 for an equilibrium).
     fn weight(&self, n: usize) -> f64 {
-        if self.equilibrium {
-            return 1.0;
+        match self.equilibrium {
+            true => 1.0,
+            false => trapezoid_weight(self.states, n),
         }
-        let before = if n > 0 { self.states[n].h } else { 0.0 };
-        let after = self.states.get(n + 1).map_or(0.0, |s| s.h);
-        0.5 * (before + after)
     }
 
     /// A response's partial derivatives at state `n`: to `ε` and to `λ`.

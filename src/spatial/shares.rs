@@ -24,9 +24,14 @@
 //!
 //! with `μₙ` the adjoint variables of the coarse force rows
 //! ([`crate::spatial::sensitivity::dual_weights`]), the mean of those linearized about `u` and
-//! about `R u_f` (the trapezoidal rule; `first_order` is `u`'s alone). Left out, as on planar
-//! scenes: a response's own reading of a split beam (a strain energy, a stress) and the jump
-//! of a restart at a drive's kink.
+//! about `R u_f` (the trapezoidal rule; `first_order` is `u`'s alone). That is the change of
+//! `f_c(R u_f) − f_c(u)`; a response that reads the elements themselves changes by
+//! `f_f(u_f) − f_c(R u_f)` besides, its own reading of the split beams on the same motion,
+//! which for the strain energy's mean and the kinetic energy's integral (and the mean
+//! compliance, the strain energy's in motion) is a sum over beams too, `Σₙ wₙ (E_b^f(u_f,ₙ) −
+//! E_b(R u_f,ₙ))` of each beam's energy `E_b`: added to both. Left out: a stress's own
+//! reading (a mean over the elements' points, not a sum over beams) and the jump of a
+//! restart at a drive's kink.
 
 use std::collections::HashMap;
 
@@ -38,7 +43,7 @@ use crate::spatial::element::Element;
 use crate::spatial::force::Local;
 use crate::spatial::integrator::run;
 use crate::spatial::model::SpatialModel;
-use crate::spatial::sensitivity::{dual_weights, Response};
+use crate::spatial::sensitivity::{dual_weights, trapezoid_weight, Response};
 use crate::TimeGrid;
 
 /// The responses on both scenes and each scene beam's share of their change.
@@ -125,10 +130,20 @@ pub fn beam_shares(
         (&restricted, restarted),
         Some(&mut residuals.weighing(&mut about)),
     )?;
+    let mut shares: Vec<f64> = own.iter().zip(&about).map(|(a, b)| 0.5 * (a + b)).collect();
+    for (k, r) in responses.iter().enumerate() {
+        let Some(reading) = residuals.own_reading(r) else {
+            continue;
+        };
+        for (b, change) in reading.iter().enumerate() {
+            shares[k * n_b + b] += change;
+            own[k * n_b + b] += change;
+        }
+    }
     Ok(BeamShares {
         values,
         fine_values,
-        shares: own.iter().zip(&about).map(|(a, b)| 0.5 * (a + b)).collect(),
+        shares,
         first_order: own,
     })
 }
@@ -234,6 +249,9 @@ fn doubled(name: &str, frame: &[&str]) -> String {
     }
 }
 
+/// An element's energy at a state (J).
+type Energy = fn(&dyn Element, &State) -> f64;
+
 /// The beams' terms of the residual in both scenes at the design.
 struct Residuals<'a> {
     map: &'a Split,
@@ -244,6 +262,40 @@ struct Residuals<'a> {
 }
 
 impl Residuals<'_> {
+    /// Each beam's share of `f_f(u_f) − f_c(R u_f)`, the response's own reading of the split
+    /// beams on the same motion, where it is a sum over beams (module docs); `None` for the
+    /// others.
+    fn own_reading(&self, r: &Response) -> Option<Vec<f64>> {
+        let (energy, mean): (Energy, bool) = match r {
+            Response::StrainEnergy | Response::Compliance => (|e, s| e.strain_energy(&s.q), true),
+            Response::KineticEnergy => (|e, s| e.kinetic_energy(&s.qdot), false),
+            _ => return None,
+        };
+        let states = self.fine_states;
+        let duration = match states {
+            [first, .., last] if mean => last.t - first.t,
+            _ => 1.0,
+        };
+        let reading = (self.map.beams.iter())
+            .map(|halves| {
+                (0..states.len())
+                    .map(|n| {
+                        let w = trapezoid_weight(states, n) / duration;
+                        let change: f64 = (halves.iter())
+                            .map(|&(e, [h0, h1])| {
+                                let fine = energy(&self.fine.beams[h0], &states[n])
+                                    + energy(&self.fine.beams[h1], &states[n]);
+                                fine - energy(&self.coarse.beams[e], &self.restricted[n])
+                            })
+                            .sum();
+                        w * change
+                    })
+                    .sum()
+            })
+            .collect();
+        Some(reading)
+    }
+
     /// Adds `μₙ,ₖᵀ Δg_b,ₙ` to `out[k · beams + b]` as a sweep gives each `(n, k, μ)`.
     fn weighing<'a>(&'a self, out: &'a mut [f64]) -> impl FnMut(usize, usize, &[f64]) + 'a {
         let n_b = self.map.beams.len();

@@ -28,15 +28,25 @@ fn shares_of(
     beam_shares((&models.0, &models.1), &beams, &settings, &grid, &rs, &fs)
 }
 
-/// The shares of the flexible pendulum's node positions (its end's, an inner node's)
-/// add up to the change that splitting every beam makes, within 1 %; the truss bar has
-/// none.
+/// The shares of the flexible pendulum's node positions (its end's, an inner node's), its
+/// strain energy's mean and its kinetic energy's integral (these with their own reading of
+/// the split beams) add up to the change that splitting every beam makes, within 1 %; the
+/// truss bar has none.
 #[test]
 fn shares_add_up_to_the_change_of_splitting() {
     let coarse = built(PENDULUM).unwrap();
     let fine = built(&PENDULUM.replace("split = 2", "split = 4")).unwrap();
-    let responses = ["x:c", "z:c", "y:lower[1]"];
-    let out = shares_of(&coarse, &fine, [&responses, &["x:c", "z:c", "y:lower[2]"]]).unwrap();
+    let energies = ["strain_energy", "kinetic_energy"];
+    let responses = ["x:c", "z:c", "y:lower[1]", energies[0], energies[1]];
+    let out = shares_of(
+        &coarse,
+        &fine,
+        [
+            &responses,
+            &["x:c", "z:c", "y:lower[2]", energies[0], energies[1]],
+        ],
+    )
+    .unwrap();
     let n_b = coarse.beams.len();
     let truss = coarse.beams.keys().position(|b| b == "brace").unwrap();
     for (k, name) in responses.iter().enumerate() {
