@@ -19,7 +19,7 @@ use crate::spatial::element::Element;
 /// A built and validated spatial scene.
 #[pyclass(name = "SpatialModel", module = "flextop._core", frozen)]
 pub struct PySpatialModel {
-    pub(super) scene: Arc<SpatialScene>,
+    scene: Arc<SpatialScene>,
 }
 
 impl PySpatialModel {
@@ -309,7 +309,7 @@ impl PySpatialModel {
         spatial_runs::beam_shares(
             py,
             &self.scene,
-            fine,
+            &fine.scene,
             responses,
             fine_responses,
             settings,

@@ -1,5 +1,5 @@
-//! A spatial scene's runs as Python sees them ([`super::spatial::PySpatialModel`]'s run
-//! methods): its motion, rigid trajectory, static equilibrium, natural modes, exact
+//! A spatial scene's runs as Python sees them (the run methods of `flextop._core.SpatialModel`,
+//! `super::spatial`): its motion, rigid trajectory, static equilibrium, natural modes, exact
 //! gradients, time errors and beams' shares, each with the GIL released and Ctrl-C heard,
 //! returned as numpy arrays in a dict.
 
@@ -10,7 +10,6 @@ use pyo3::types::PyDict;
 
 use super::convert::{matrix, run_options, vector};
 use super::signals::{detached, reporting};
-use super::spatial::PySpatialModel;
 use crate::error::{Error, SettingsError};
 use crate::scene::spatial::names::Named;
 use crate::scene::spatial::SpatialScene;
@@ -22,7 +21,7 @@ use crate::spatial::sensitivity::{self, static_sensitivities};
 use crate::spatial::shares;
 use crate::spatial::statics::solve_static_spatial;
 
-/// `SpatialModel.simulate` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.simulate` (documented on the class) of the scene `shared`.
 pub(super) fn simulate<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -64,7 +63,7 @@ pub(super) fn simulate<'py>(
     Ok(d)
 }
 
-/// `SpatialModel.rigid_trajectory` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.rigid_trajectory` (documented on the class) of the scene `shared`.
 pub(super) fn rigid_trajectory<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -96,7 +95,7 @@ pub(super) fn rigid_trajectory<'py>(
     )
 }
 
-/// `SpatialModel.solve_static` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.solve_static` (documented on the class) of the scene `shared`.
 pub(super) fn solve_static<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -122,7 +121,7 @@ pub(super) fn solve_static<'py>(
     Ok(d)
 }
 
-/// `SpatialModel.natural_modes` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.natural_modes` (documented on the class) of the scene `shared`.
 pub(super) fn natural_modes<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -173,7 +172,7 @@ pub(super) fn natural_modes<'py>(
     Ok(d)
 }
 
-/// `SpatialModel.sensitivities` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.sensitivities` (documented on the class) of the scene `shared`.
 pub(super) fn sensitivities<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -211,7 +210,7 @@ pub(super) fn sensitivities<'py>(
     Ok(d)
 }
 
-/// `SpatialModel.time_errors` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.time_errors` (documented on the class) of the scene `shared`.
 pub(super) fn time_errors<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
@@ -236,17 +235,17 @@ pub(super) fn time_errors<'py>(
     Ok(d)
 }
 
-/// `SpatialModel.beam_shares` (documented on [`PySpatialModel`]) of the scene `shared`.
+/// `SpatialModel.beam_shares` (documented on the class) of the scene `shared`.
 pub(super) fn beam_shares<'py>(
     py: Python<'py>,
     shared: &Arc<SpatialScene>,
-    fine: &PySpatialModel,
+    fine: &Arc<SpatialScene>,
     responses: Vec<String>,
     fine_responses: Vec<String>,
     settings: Option<&Bound<'py, PyAny>>,
     x: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (scene, fine) = (Arc::clone(shared), Arc::clone(&fine.scene));
+    let (scene, fine) = (Arc::clone(shared), Arc::clone(fine));
     let options = run_options(settings)?;
     let out = detached(py, move || {
         let named = |s: &SpatialScene, names: &[String]| {
