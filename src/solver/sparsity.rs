@@ -44,6 +44,15 @@ impl Sparsity {
         Some(column.start + offset)
     }
 
+    /// Each slot's mirror, the slot of `(col, row)` for that of `(row, col)`; `None` for
+    /// a structure that is not structurally symmetric.
+    pub fn mirror(&self) -> Option<Vec<usize>> {
+        (0..self.n)
+            .flat_map(|c| self.column(c).map(move |k| (k, c)))
+            .map(|(k, c)| self.slot(c, self.row_idx[k]))
+            .collect()
+    }
+
     /// Column `col`'s slots.
     pub fn column(&self, col: usize) -> Range<usize> {
         self.col_ptr[col]..self.col_ptr[col + 1]

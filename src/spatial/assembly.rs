@@ -23,25 +23,24 @@ use crate::group::pair::{Pair, LOCAL};
 use crate::group::so3::tangent;
 use crate::group::{six, NV};
 use crate::joint::spatial::{Gradient, Joint, Stiffness, MAX_ROWS};
-use crate::solver::nearly_symmetric::NearlySymmetric;
+use crate::solver::block_lu::Blocks;
 use crate::solver::newton::{nan_max, Residual};
 use crate::solver::sparsity::Sparsity;
+use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::element::{Derivatives, Element, Terms};
 use crate::spatial::force::Local;
 use crate::spatial::model::SpatialModel;
 
 /// The assembler of `model` and the solver of its iteration matrix analysed once on its
-/// pattern ([`NearlySymmetric`]).
+/// pattern ([`Unsymmetric`]).
 ///
 /// # Errors
 /// [`SolveError::Setup`] if the pattern cannot be analysed or lacks an entry the assembler
 /// writes (an engine defect).
-pub(crate) fn analysed(
-    model: &SpatialModel,
-) -> Result<(Assembler<'_>, NearlySymmetric), SolveError> {
+pub(crate) fn analysed(model: &SpatialModel) -> Result<(Assembler<'_>, Unsymmetric), SolveError> {
     let asm = Assembler::new(model)?;
     let p = &asm.pattern;
-    let lu = NearlySymmetric::analyze(p.n, model.n_v(), p.col_ptr.clone(), p.row_idx.clone())
+    let lu = Unsymmetric::analyze(p.n, p.col_ptr.clone(), p.row_idx.clone(), &asm.blocks())
         .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
     Ok((asm, lu))
 }
@@ -94,6 +93,22 @@ pub(crate) struct Coefficients<'a> {
 }
 
 impl<'m> Assembler<'m> {
+    /// The blocks of the iteration matrix's unknowns: each node's six, each joint's rows.
+    pub fn blocks(&self) -> Blocks {
+        let mut sizes = vec![NV; self.model.nodes.len()];
+        sizes.extend(
+            self.model
+                .joints
+                .iter()
+                .map(|j| j.n_rows())
+                .filter(|&r| r > 0),
+        );
+        Blocks {
+            sizes,
+            dofs: self.model.nodes.len(),
+        }
+    }
+
     /// The pattern of `model`'s iteration matrix and where each block is stored.
     ///
     /// # Errors

@@ -14,8 +14,8 @@
 //!
 //! Newton solves `f_inertia(v, v̇) + f_forces(q, v, t) + Bᵀλ = 0`, `Φ(qₙ₊₁) = 0` for the correction `δ` of `Δₙ`:
 //! `Δ += δ`, `v += γ' δ`, `v̇ += β' δ` (`β'`, `γ'` as in the vector-space scheme), with the
-//! iteration matrix of `assembly.rs` factored ([`NearlySymmetric`]: its symmetric part's
-//! `LDLᵀ`, refinement, `LU` where that stalls) at every iteration or, with the
+//! iteration matrix of `assembly.rs` factored ([`Unsymmetric`]: `LU` by the nodes' and
+//! joints' blocks) at every iteration or, with the
 //! modified Newton matrix, at a step's first and then only where the held factors contract the
 //! residual less than tenfold ([`crate::solver::newton::KEPT_CONTRACTION`]; 1.7 times faster on the paper's arm). On `ℝ³` (and the
 //! planar engine's additive angle) `T = I` and this is the vector-space step.
@@ -30,8 +30,8 @@ use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
 use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{jumps, Kinks};
 use crate::solver::linsolve::FactorError;
-use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{self, NewtonReport, Residual, System};
+use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
 use crate::spatial::model::SpatialModel;
@@ -61,7 +61,7 @@ pub(crate) fn kinks(model: &SpatialModel) -> Kinks {
 /// [`SolveError::Singular`] if the mass matrix is singular on the constraint manifold.
 pub(crate) fn kink_jump(
     asm: &mut Assembler<'_>,
-    solver: &mut NearlySymmetric,
+    solver: &mut Unsymmetric,
     s: &State,
     kink: f64,
     jump: &mut [Vec<f64>; 2],
@@ -110,7 +110,7 @@ pub(crate) fn kink_jump(
 /// The Lie-group generalized-α integrator of a spatial mechanism.
 pub struct SpatialIntegrator<'m> {
     asm: Assembler<'m>,
-    lu: NearlySymmetric,
+    lu: Unsymmetric,
     /// Algorithmic parameters.
     pub params: AlphaParameters,
     tol: f64,
@@ -407,7 +407,7 @@ impl System for Step<'_, '_> {
         rhs.iter_mut().for_each(|x| *x = -*x);
         rhs[n_v..].iter_mut().for_each(|x| *x *= self.scale);
         (self.it.lu)
-            .solve_correction(rhs)
+            .solve_in_place(rhs, false)
             .map_err(SpatialIntegrator::singular(self.s.t))
     }
 

@@ -19,7 +19,7 @@
 //! (`modal/pencil.rs`), any size. `K_t` is symmetric to round-off at an equilibrium
 //! under conservative loads (checked entry by entry on the pattern, [`SYMMETRY_TOLERANCE`]),
 //! so its symmetric part is factorized, `[K_s − σM + c BᵀB, c Bᵀ; c B, 0]` with the planar
-//! `LDLᵀ` (as `solver/nearly_symmetric.rs` factorizes the motion's), the symbolic
+//! `LDLᵀ`, the symbolic
 //! analysis kept for the Sturm count at the bound; `M = R Rᵀ` from the bodies' and the
 //! elements' mass matrices. The count of negative pivots less the constraint rows proves
 //! that no mode below the bound was skipped ([`SturmCount`]); that of `[M + c BᵀB, c Bᵀ;
@@ -35,7 +35,6 @@ use crate::error::{Error, SettingsError, SolveError};
 use crate::group::NV;
 use crate::modal::pencil::{MassFactor, Pencil};
 use crate::solver::linsolve::{FactorError, Ldlt};
-use crate::solver::nearly_symmetric::mirror;
 use crate::solver::sparsity::Sparsity;
 use crate::spatial::assembly::{Assembler, Coefficients};
 use crate::spatial::model::SpatialModel;
@@ -295,7 +294,11 @@ fn split(
     mass: &[f64],
     n_v: usize,
 ) -> Result<[Vec<f64>; 3], Error> {
-    let mirror = mirror(&pattern.col_ptr, &pattern.row_idx).map_err(factor_error)?;
+    let mirror = pattern.mirror().ok_or_else(|| {
+        factor_error(FactorError::Analysis(
+            "a pattern not structurally symmetric".into(),
+        ))
+    })?;
     let (mut k, mut m, mut b) = (
         vec![0.0; mirror.len()],
         mass.to_vec(),

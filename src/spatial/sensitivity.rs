@@ -38,7 +38,7 @@ use crate::solver::alpha::{step_ratio, AlphaParameters, State};
 use crate::solver::backward::{self, Transposed};
 use crate::solver::kink::jumps;
 use crate::solver::local_error::LocalErrors;
-use crate::solver::nearly_symmetric::NearlySymmetric;
+use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::beam::Beam;
 use crate::spatial::element::Element;
@@ -743,16 +743,13 @@ pub fn static_sensitivities(
 /// The stored run and the linear algebra its sweeps share.
 struct Sweep<'m> {
     asm: Assembler<'m>,
-    lu: NearlySymmetric,
+    lu: Unsymmetric,
     params: AlphaParameters,
     states: &'m [State],
     n_v: usize,
     n_rows: usize,
     /// Whether the one state is a static equilibrium: time integrals are their values.
     equilibrium: bool,
-    /// Whether each factorization serves more than [`REFINED_SOLVES`] right-hand sides:
-    /// then `LU` factors, else the symmetric part's with refinement.
-    many_solves: bool,
     /// Whether the step into state `n` began with a restart at a drive's kink.
     restarted: Vec<bool>,
     /// The rigid trajectory of each node a [`Response::Deflection`] names, a position per
@@ -774,13 +771,6 @@ struct Mean {
     peak: f64,
     slope: f64,
 }
-
-/// The most right-hand sides per factorization solved by refinement on the symmetric part's
-/// factors; more share one `LU`, whose ordering for `AᵀA`'s pattern fills a beam lattice's
-/// factors far more (`cargo bench --bench spatial`: direct sweeps of 20 to 80 parameters
-/// gain on `LU`, 5 to 8 lose nothing refined; `benches/spatial_design.py --costs`: the
-/// arm's adjoint of four responses 1.7–1.9 runs refined, 1.7–2.4 on `LU`).
-const REFINED_SOLVES: usize = 8;
 
 /// A state's sensitivities to one parameter: `ε, v', v̇', a', λ'`.
 #[derive(Clone)]
@@ -919,7 +909,6 @@ impl<'m> Sweep<'m> {
             n_v: model.n_v(),
             n_rows: model.n_rows(),
             equilibrium: rho_inf.is_none(),
-            many_solves: false,
             restarted: vec![false; states.len()],
             rigid: Vec::new(),
             rigid_rates: Vec::new(),
@@ -1713,12 +1702,7 @@ impl<'m> Sweep<'m> {
         };
         self.asm.matrix(&s.q, &s.qdot, s.t, c)?;
         let values = &self.asm.values;
-        if self.many_solves {
-            self.lu.factorize_lu(values)
-        } else {
-            self.lu.factorize(values)
-        }
-        .map_err(|e| SolveError::Singular {
+        self.lu.factorize(values).map_err(|e| SolveError::Singular {
             time: s.t,
             detail: format!("{e:?}"),
         })
@@ -1746,10 +1730,11 @@ impl<'m> Sweep<'m> {
             })
     }
 
+    /// `A x = rhs` (or `Aᵀ x = rhs`) refined once ([`Unsymmetric::solve_refined`]), in place.
     fn solve(&mut self, rhs: &mut [f64], transpose: bool, n: usize) -> Result<(), SolveError> {
         let time = self.states[n].t;
         self.lu
-            .solve_in_place(rhs, transpose)
+            .solve_refined(rhs, transpose)
             .map_err(|e| SolveError::Singular {
                 time,
                 detail: format!("{e:?}"),
@@ -1763,7 +1748,6 @@ impl<'m> Sweep<'m> {
         parameters: &[Parameter],
         responses: &[Response],
     ) -> Result<Vec<Vec<f64>>, SolveError> {
-        self.many_solves = parameters.len() > REFINED_SOLVES;
         let (n_v, m) = (self.n_v, self.n_rows);
         let mut rhs = vec![0.0; n_v + m];
         // The start: ε₀ = v₀' = 0.
@@ -2080,7 +2064,6 @@ impl<'m> Sweep<'m> {
         estimate: bool,
         weights: Option<&mut Weights<'_>>,
     ) -> Result<Swept, Error> {
-        self.many_solves = responses.len() > REFINED_SOLVES;
         let params = self.params;
         let (n_v, m, steps) = (self.n_v, self.n_rows, self.states.len() - 1);
         let mut reverse = Reverse {

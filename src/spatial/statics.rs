@@ -27,9 +27,9 @@ use crate::error::{Error, SolveError};
 use crate::group::so3::log;
 use crate::group::{Frame, NV};
 use crate::settings::{NewtonMatrix, StaticSettings};
-use crate::solver::nearly_symmetric::NearlySymmetric;
 use crate::solver::newton::{self, NewtonReport, Residual, System};
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
+use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::force::ForceKind;
 use crate::spatial::model::SpatialModel;
@@ -73,7 +73,7 @@ pub fn solve_static_spatial(
 /// Newton's machinery of a spatial equilibrium.
 struct Spatial<'m> {
     asm: Assembler<'m>,
-    lu: NearlySymmetric,
+    lu: Unsymmetric,
     settings: StaticSettings,
     /// Zero velocities, accelerations and increment.
     rest: Vec<f64>,
@@ -172,7 +172,7 @@ impl System for AtLoad<'_, '_> {
             e.lu.factorize(&e.asm.values).map_err(singular)?;
         }
         e.rhs.iter_mut().for_each(|x| *x = -*x);
-        e.lu.solve_correction(&mut e.rhs).map_err(singular)
+        e.lu.solve_in_place(&mut e.rhs, false).map_err(singular)
     }
 
     /// A step that would turn a node by more than [`MAX_ITERATION_ROTATION`] is shortened

@@ -84,7 +84,9 @@ def test_gradients_to_a_revolute_drives_law_are_exact():
     work through the run's end (after the law's end, by its rate at t_a)."""
     spec = crank(acceleration=34.0, speed=6.3)
     g = assert_exact(spec, "crank", ["x:slider", "z:rod", "torque_squared:crank", "kinetic_energy"], step=3e-5)
-    assert np.all(g[0] != 0) and np.all(g[2] != 0)
+    # The law is done before the run ends: the slider ends where the law's end puts it, the
+    # other parameters' derivatives round-off (1e-20); the torque feels every parameter.
+    assert abs(g[0, 0]) > 1e-3 and np.all(np.abs(g[2]) > 1e-3)
 
 
 def test_gradients_to_a_prismatic_drives_law_through_a_flexible_mast_are_exact():

@@ -1,0 +1,669 @@
+//! Block `LU` of a sparse matrix whose unknowns come in small blocks — the six of a spatial
+//! node, the rows of a joint — without pivoting between blocks and with partial pivoting
+//! inside each diagonal block:
+//!
+//! ```text
+//! A = (I + L) D (I + D⁻¹ W),   L_ap = A_ap D_p⁻¹,   W_pa = A_pa   (block a after block p)
+//! ```
+//!
+//! the entries `A_ap`, `A_pa` and `D_p` being those of the Schur complement left when block
+//! `p` is eliminated. The order is the saddle-point order of [`crate::solver::linsolve`] by
+//! blocks: an approximate minimum degree order of the DOF blocks' graph, each multiplier block
+//! right after the last of its DOF blocks, so that each DOF pivot block is a Schur complement
+//! of the mass- or stiffness-dominated DOF block and each multiplier pivot block
+//! `−B S⁻¹ Bᵀ`. Dense `6 × 6` products replace the scalar factorization's indirection on a
+//! matrix whose every entry couples whole blocks, and the factors are `A`'s own, so a
+//! non-symmetric `A` needs no refinement. A pivot block that is singular (to
+//! [`SINGULAR_PIVOT`] of its largest entry) is reported, for the caller to factor otherwise.
+//!
+//! [`BlockLu::analyze`] finds the order, the blocks' fill and where each entry of `A` goes,
+//! once; [`BlockLu::factorize`] and the solves then work in buffers kept from that analysis.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::amd;
+use faer::sparse::SymbolicSparseColMat;
+
+use crate::solver::linsolve::FactorError;
+
+/// A pivot this small against its block's largest entry makes the block singular.
+pub const SINGULAR_PIVOT: f64 = 1e-13;
+
+/// The block sizes and the count of DOF blocks of a matrix's unknowns (module docs).
+pub struct Blocks {
+    /// Each block's count of unknowns, in the unknowns' order (a block's unknowns are
+    /// consecutive).
+    pub sizes: Vec<usize>,
+    /// Blocks `0..dofs` hold DOFs; the others multipliers.
+    pub dofs: usize,
+}
+
+/// Block `LU` factors on an analysed pattern (module docs). Indices named `p`, `a`, `b` are
+/// positions in the elimination order.
+pub struct BlockLu {
+    /// The first unknown and the size of the block at each position.
+    at: Vec<usize>,
+    size: Vec<usize>,
+    /// The positions after `p` its column reaches, sorted: `rows[first[p]..first[p + 1]]`.
+    first: Vec<usize>,
+    rows: Vec<usize>,
+    /// Where `D_p` (`D_p⁻¹` once factored) starts in `values`.
+    diag: Vec<usize>,
+    /// Where `L_ap` and `W_pa` start, for each entry of `rows`.
+    lower: Vec<usize>,
+    upper: Vec<usize>,
+    /// Where each block column's storage ends.
+    end: Vec<usize>,
+    /// All blocks, column-major each.
+    values: Vec<f64>,
+    /// Where each entry of `A`'s CSC values goes in `values`.
+    scatter: Vec<usize>,
+    /// Room for a block's inverse and products, and a solve's block.
+    work: Vec<f64>,
+    pivots: Vec<usize>,
+}
+
+impl BlockLu {
+    /// Symbolic analysis of the `n × n` CSC pattern `(col_ptr, row_idx)` (structurally
+    /// symmetric) with unknowns in `blocks`.
+    ///
+    /// # Errors
+    /// [`FactorError::Analysis`] if the blocks do not cover the unknowns, a multiplier block
+    /// acts on no DOF block, or the ordering fails.
+    pub fn analyze(
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        blocks: &Blocks,
+    ) -> Result<Self, FactorError> {
+        let n = col_ptr.len() - 1;
+        let (start, block_of) = block_map(&blocks.sizes, n)?;
+        let graph = block_graph(col_ptr, row_idx, &block_of);
+        let order = saddle_point_order(&graph, blocks.dofs)?;
+        let mut position = vec![0; order.len()];
+        order.iter().enumerate().for_each(|(p, &k)| position[k] = p);
+        let (first, rows) = fill(&graph, &order, &position);
+        let size: Vec<usize> = order.iter().map(|&k| blocks.sizes[k]).collect();
+        let at: Vec<usize> = order.iter().map(|&k| start[k]).collect();
+        let mut lu = Self {
+            at,
+            first,
+            rows,
+            diag: Vec::with_capacity(order.len()),
+            lower: Vec::new(),
+            upper: Vec::new(),
+            end: Vec::with_capacity(order.len()),
+            values: Vec::new(),
+            scatter: Vec::with_capacity(row_idx.len()),
+            work: Vec::new(),
+            pivots: Vec::new(),
+            size,
+        };
+        lu.lay_out();
+        for c in 0..n {
+            for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+                let (pr, pc) = (position[block_of[r]], position[block_of[c]]);
+                let slot = lu.slot(pr, pc)?;
+                let (i, j) = (r - lu.at[pr], c - lu.at[pc]);
+                lu.scatter.push(slot + i + j * lu.size[pr]);
+            }
+        }
+        Ok(lu)
+    }
+
+    /// Places every block in `values` and sizes the work space.
+    fn lay_out(&mut self) {
+        let mut offset = 0;
+        for p in 0..self.size.len() {
+            let s = self.size[p];
+            self.diag.push(offset);
+            offset += s * s;
+            for &a in &self.rows[self.first[p]..self.first[p + 1]] {
+                self.lower.push(offset);
+                self.upper.push(offset + s * self.size[a]);
+                offset += 2 * s * self.size[a];
+            }
+            self.end.push(offset);
+        }
+        self.values = vec![0.0; offset];
+        let largest = self.size.iter().copied().max().unwrap_or(0);
+        self.work = vec![0.0; 3 * largest * largest];
+        self.pivots = vec![0; largest];
+    }
+
+    /// Where the block of positions `(pr, pc)` starts: `D`, `L` below, `W` above.
+    fn slot(&self, pr: usize, pc: usize) -> Result<usize, FactorError> {
+        let (column, row) = (pr.min(pc), pr.max(pc));
+        if column == row {
+            return Ok(self.diag[column]);
+        }
+        let entries = self.first[column]..self.first[column + 1];
+        let k = self.rows[entries.clone()]
+            .binary_search(&row)
+            .map_err(|_| FactorError::Analysis("a block outside the fill".into()))?;
+        Ok(if pr > pc { &self.lower } else { &self.upper }[entries.start + k])
+    }
+
+    /// Numeric factorization of the matrix with CSC `values` on the analysed pattern.
+    ///
+    /// # Errors
+    /// [`FactorError::ZeroPivot`] at the first unknown of a singular pivot block.
+    pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
+        self.values.fill(0.0);
+        for (&slot, &v) in self.scatter.iter().zip(values) {
+            self.values[slot] = v;
+        }
+        for p in 0..self.size.len() {
+            self.eliminate(p)?;
+        }
+        Ok(())
+    }
+
+    /// Inverts `D_p`, turns `A_ap` into `L_ap` and subtracts `L_ap W_pb` from every later
+    /// block `(a, b)` of column `p`'s reach.
+    fn eliminate(&mut self, p: usize) -> Result<(), FactorError> {
+        let s = self.size[p];
+        let (done, later) = self.values.split_at_mut(self.end[p]);
+        let d = &mut done[self.diag[p]..self.diag[p] + s * s];
+        invert(d, s, &mut self.work, &mut self.pivots).map_err(|()| FactorError::ZeroPivot {
+            unknown: self.at[p],
+        })?;
+        let entries = self.first[p]..self.first[p + 1];
+        for e in entries.clone() {
+            let m = self.size[self.rows[e]];
+            let (head, tail) = done.split_at_mut(self.lower[e]);
+            let product = &mut self.work[..m * s];
+            product.fill(0.0);
+            add_product(
+                product,
+                &tail[..m * s],
+                &head[self.diag[p]..],
+                (m, s, s),
+                1.0,
+            );
+            tail[..m * s].copy_from_slice(product);
+        }
+        let base = self.end[p];
+        for (ia, ea) in entries.clone().enumerate() {
+            let a = self.rows[ea];
+            let sa = self.size[a];
+            let (l_a, w_a) = (&done[self.lower[ea]..], &done[self.upper[ea]..]);
+            let target = &mut later[self.diag[a] - base..];
+            add_product(target, l_a, w_a, (sa, s, sa), -1.0);
+            let mut k = self.first[a];
+            for eb in entries.clone().skip(ia + 1) {
+                let b = self.rows[eb];
+                while self.rows[k] != b {
+                    k += 1;
+                }
+                let sb = self.size[b];
+                let (l_b, w_b) = (&done[self.lower[eb]..], &done[self.upper[eb]..]);
+                let below = &mut later[self.lower[k] - base..];
+                add_product(below, l_b, w_a, (sb, s, sa), -1.0);
+                let above = &mut later[self.upper[k] - base..];
+                add_product(above, l_a, w_b, (sa, s, sb), -1.0);
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves `A x = b` (or `Aᵀ x = b` with `transpose`) in place on the factors.
+    ///
+    /// # Errors
+    /// [`FactorError::Singular`] for a non-finite solution.
+    pub fn solve_in_place(&mut self, b: &mut [f64], transpose: bool) -> Result<(), FactorError> {
+        if transpose {
+            self.solve_transposed(b);
+        } else {
+            self.solve(b);
+        }
+        if b.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(FactorError::Singular("non-finite solution".into()))
+        }
+    }
+
+    /// `(I + L) y = b`, then `x_p = D_p⁻¹ (y_p − Σ_a W_pa x_a)` backwards.
+    fn solve(&mut self, b: &mut [f64]) {
+        for p in 0..self.size.len() {
+            let (s, at) = (self.size[p], self.at[p]);
+            let bp = &mut self.work[..s];
+            bp.copy_from_slice(&b[at..at + s]);
+            for e in self.first[p]..self.first[p + 1] {
+                let a = self.rows[e];
+                let target = &mut b[self.at[a]..self.at[a] + self.size[a]];
+                add_product(
+                    target,
+                    &self.values[self.lower[e]..],
+                    bp,
+                    (self.size[a], s, 1),
+                    -1.0,
+                );
+            }
+        }
+        for p in (0..self.size.len()).rev() {
+            let (s, at) = (self.size[p], self.at[p]);
+            let (t, x) = self.work.split_at_mut(s);
+            t.copy_from_slice(&b[at..at + s]);
+            for e in self.first[p]..self.first[p + 1] {
+                let a = self.rows[e];
+                let xa = &b[self.at[a]..self.at[a] + self.size[a]];
+                add_product(
+                    t,
+                    &self.values[self.upper[e]..],
+                    xa,
+                    (s, self.size[a], 1),
+                    -1.0,
+                );
+            }
+            let x = &mut x[..s];
+            x.fill(0.0);
+            add_product(x, &self.values[self.diag[p]..], t, (s, s, 1), 1.0);
+            b[at..at + s].copy_from_slice(x);
+        }
+    }
+
+    /// `Aᵀ = (I + D⁻¹W)ᵀ Dᵀ (I + L)ᵀ`: `y_p = D_p⁻ᵀ z_p` forwards with `z_a −= W_paᵀ y_p`,
+    /// then `x_p = y_p − Σ_a L_apᵀ x_a` backwards.
+    fn solve_transposed(&mut self, b: &mut [f64]) {
+        for p in 0..self.size.len() {
+            let (s, at) = (self.size[p], self.at[p]);
+            let (z, y) = self.work.split_at_mut(s);
+            z.copy_from_slice(&b[at..at + s]);
+            let y = &mut y[..s];
+            y.fill(0.0);
+            add_transposed_product(y, &self.values[self.diag[p]..], z, (s, s), 1.0);
+            b[at..at + s].copy_from_slice(y);
+            for e in self.first[p]..self.first[p + 1] {
+                let a = self.rows[e];
+                let target = &mut b[self.at[a]..self.at[a] + self.size[a]];
+                add_transposed_product(
+                    target,
+                    &self.values[self.upper[e]..],
+                    y,
+                    (s, self.size[a]),
+                    -1.0,
+                );
+            }
+        }
+        for p in (0..self.size.len()).rev() {
+            let (s, at) = (self.size[p], self.at[p]);
+            let x = &mut self.work[..s];
+            x.copy_from_slice(&b[at..at + s]);
+            for e in self.first[p]..self.first[p + 1] {
+                let a = self.rows[e];
+                let xa = &b[self.at[a]..self.at[a] + self.size[a]];
+                add_transposed_product(
+                    x,
+                    &self.values[self.lower[e]..],
+                    xa,
+                    (self.size[a], s),
+                    -1.0,
+                );
+            }
+            b[at..at + s].copy_from_slice(x);
+        }
+    }
+}
+
+/// Each block's first unknown (and `n` after the last), and each unknown's block.
+fn block_map(sizes: &[usize], n: usize) -> Result<(Vec<usize>, Vec<usize>), FactorError> {
+    let mut start = Vec::with_capacity(sizes.len() + 1);
+    let mut block_of = Vec::with_capacity(n);
+    for (k, &s) in sizes.iter().enumerate() {
+        start.push(block_of.len());
+        block_of.extend(std::iter::repeat_n(k, s));
+    }
+    start.push(block_of.len());
+    if block_of.len() != n || sizes.contains(&0) {
+        return Err(FactorError::Analysis(format!(
+            "blocks of {} unknowns (an empty one among them: {}) for a matrix of {n}",
+            block_of.len(),
+            sizes.contains(&0)
+        )));
+    }
+    Ok((start, block_of))
+}
+
+/// Each block's neighbours (the blocks its columns reach, itself left out), sorted.
+fn block_graph(col_ptr: &[usize], row_idx: &[usize], block_of: &[usize]) -> Vec<Vec<usize>> {
+    let blocks = block_of.last().map_or(0, |&k| k + 1);
+    let mut graph = vec![Vec::new(); blocks];
+    for c in 0..col_ptr.len() - 1 {
+        let bc = block_of[c];
+        for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+            if block_of[r] != bc {
+                graph[bc].push(block_of[r]);
+            }
+        }
+    }
+    for neighbours in &mut graph {
+        neighbours.sort_unstable();
+        neighbours.dedup();
+    }
+    graph
+}
+
+/// AMD order of the DOF blocks `0..dofs`, each multiplier block right after the last of its
+/// DOF blocks: the block at each position.
+fn saddle_point_order(graph: &[Vec<usize>], dofs: usize) -> Result<Vec<usize>, FactorError> {
+    let (mut col_ptr, mut row_idx) = (vec![0], Vec::new());
+    for (k, neighbours) in graph[..dofs].iter().enumerate() {
+        let mut column: Vec<usize> = neighbours.iter().copied().filter(|&b| b < dofs).collect();
+        let at = column.partition_point(|&b| b < k);
+        column.insert(at, k);
+        row_idx.extend(column);
+        col_ptr.push(row_idx.len());
+    }
+    let nnz = row_idx.len();
+    let pattern = SymbolicSparseColMat::new_checked(dofs, dofs, col_ptr, None, row_idx);
+    let (mut fwd, mut inv) = (vec![0usize; dofs], vec![0usize; dofs]);
+    let mut mem = MemBuffer::new(amd::order_scratch::<usize>(dofs, nnz));
+    amd::order(
+        &mut fwd,
+        &mut inv,
+        pattern.as_ref(),
+        amd::Control::default(),
+        MemStack::new(&mut mem),
+    )
+    .map_err(|e| FactorError::Analysis(format!("AMD ordering of the blocks: {e:?}")))?;
+    let mut after: Vec<Vec<usize>> = vec![Vec::new(); dofs];
+    for (k, neighbours) in graph.iter().enumerate().skip(dofs) {
+        let last = (neighbours.iter().copied().filter(|&b| b < dofs))
+            .max_by_key(|&b| inv[b])
+            .ok_or_else(|| FactorError::Analysis(format!("multiplier block {k} acts on no DOF")))?;
+        after[last].push(k);
+    }
+    Ok(fwd
+        .iter()
+        .flat_map(|&b| std::iter::once(b).chain(after[b].iter().copied()))
+        .collect())
+}
+
+/// The positions after each position `p` that its block column of the factors reaches: its
+/// later neighbours and, through the elimination tree, its children's reach.
+fn fill(graph: &[Vec<usize>], order: &[usize], position: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    let count = order.len();
+    let (mut first, mut rows) = (vec![0], Vec::new());
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); count];
+    let mut mark = vec![usize::MAX; count];
+    for p in 0..count {
+        let begin = rows.len();
+        let later = graph[order[p]].iter().map(|&b| position[b]);
+        let inherited = children[p]
+            .iter()
+            .flat_map(|&c| first[c]..first[c + 1])
+            .map(|e| rows[e])
+            .collect::<Vec<usize>>();
+        for a in later.chain(inherited) {
+            if a > p && mark[a] != p {
+                mark[a] = p;
+                rows.push(a);
+            }
+        }
+        rows[begin..].sort_unstable();
+        if let Some(&parent) = rows.get(begin) {
+            children[parent].push(p);
+        }
+        first.push(rows.len());
+    }
+    (first, rows)
+}
+
+/// `d⁻¹` of the column-major `s × s` block `d` in place, by `LU` with partial pivoting;
+/// `Err` for a pivot below [`SINGULAR_PIVOT`] of its largest entry.
+fn invert(d: &mut [f64], s: usize, work: &mut [f64], pivots: &mut [usize]) -> Result<(), ()> {
+    match s {
+        6 => invert_fixed::<6, 36>(d),
+        _ => invert_any(d, s, work, pivots),
+    }
+}
+
+/// [`invert`] for a size known when compiled (the nodes' 6), on the stack.
+fn invert_fixed<const S: usize, const SS: usize>(d: &mut [f64]) -> Result<(), ()> {
+    let mut a = [0.0; SS];
+    a.copy_from_slice(&d[..SS]);
+    let mut pivots = [0; S];
+    lu_in_place(&mut a, S, &mut pivots)?;
+    let mut inverse = [0.0; SS];
+    inverse_from_lu(&a, S, &pivots, &mut inverse);
+    d[..SS].copy_from_slice(&inverse);
+    Ok(())
+}
+
+fn invert_any(d: &mut [f64], s: usize, work: &mut [f64], pivots: &mut [usize]) -> Result<(), ()> {
+    let (a, inverse) = work.split_at_mut(s * s);
+    let (a, inverse) = (&mut a[..s * s], &mut inverse[..s * s]);
+    a.copy_from_slice(&d[..s * s]);
+    lu_in_place(a, s, &mut pivots[..s])?;
+    inverse_from_lu(a, s, pivots, inverse);
+    d[..s * s].copy_from_slice(inverse);
+    Ok(())
+}
+
+/// `P a = L U` in place (`L` unit lower below the diagonal, `U` on and above), the row
+/// swaps in `pivots`.
+#[inline(always)]
+fn lu_in_place(a: &mut [f64], s: usize, pivots: &mut [usize]) -> Result<(), ()> {
+    let largest = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for k in 0..s {
+        let mut pivot_row = k;
+        for i in k + 1..s {
+            if a[i + k * s].abs() > a[pivot_row + k * s].abs() {
+                pivot_row = i;
+            }
+        }
+        let pivot = a[pivot_row + k * s].abs();
+        if pivot <= SINGULAR_PIVOT * largest || pivot.is_nan() {
+            return Err(());
+        }
+        pivots[k] = pivot_row;
+        if pivot_row != k {
+            (0..s).for_each(|j| a.swap(k + j * s, pivot_row + j * s));
+        }
+        let inv = 1.0 / a[k + k * s];
+        for i in k + 1..s {
+            a[i + k * s] *= inv;
+        }
+        for j in k + 1..s {
+            let akj = a[k + j * s];
+            for i in k + 1..s {
+                a[i + j * s] -= a[i + k * s] * akj;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `a⁻¹ = U⁻¹ L⁻¹ P` into `inverse` from [`lu_in_place`]'s factors, column by column.
+#[inline(always)]
+fn inverse_from_lu(lu: &[f64], s: usize, pivots: &[usize], inverse: &mut [f64]) {
+    inverse.fill(0.0);
+    for j in 0..s {
+        let column = &mut inverse[j * s..(j + 1) * s];
+        column[j] = 1.0;
+        for (k, &p) in pivots[..s].iter().enumerate() {
+            column.swap(k, p);
+        }
+        for k in 0..s {
+            let ck = column[k];
+            for i in k + 1..s {
+                column[i] -= lu[i + k * s] * ck;
+            }
+        }
+        for k in (0..s).rev() {
+            column[k] /= lu[k + k * s];
+            let ck = column[k];
+            for i in 0..k {
+                column[i] -= lu[i + k * s] * ck;
+            }
+        }
+    }
+}
+
+/// `c += w a b` for column-major `a` (`m × k`), `b` (`k × n`) and `c` (`m × n`), each read
+/// from the start of its slice.
+fn add_product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, usize), w: f64) {
+    if (m, k, n) == (6, 6, 6) {
+        return add_product_fixed::<6, 6, 6>(c, a, b, w);
+    }
+    if (m, k, n) == (6, 6, 1) {
+        return add_product_fixed::<6, 6, 1>(c, a, b, w);
+    }
+    for j in 0..n {
+        for l in 0..k {
+            let blj = w * b[l + j * k];
+            for (ci, ai) in c[j * m..(j + 1) * m].iter_mut().zip(&a[l * m..(l + 1) * m]) {
+                *ci += ai * blj;
+            }
+        }
+    }
+}
+
+/// [`add_product`] for sizes known when compiled (the nodes' `6 × 6`).
+fn add_product_fixed<const M: usize, const K: usize, const N: usize>(
+    c: &mut [f64],
+    a: &[f64],
+    b: &[f64],
+    w: f64,
+) {
+    let (c, a, b) = (&mut c[..M * N], &a[..M * K], &b[..K * N]);
+    for j in 0..N {
+        for l in 0..K {
+            let blj = w * b[l + j * K];
+            for i in 0..M {
+                c[i + j * M] += a[i + l * M] * blj;
+            }
+        }
+    }
+}
+
+/// `y += w aᵀ x` for column-major `a` (`m × n`), `x` of `m` and `y` of `n`.
+fn add_transposed_product(y: &mut [f64], a: &[f64], x: &[f64], (m, n): (usize, usize), w: f64) {
+    for (j, yj) in y[..n].iter_mut().enumerate() {
+        let column = &a[j * m..(j + 1) * m];
+        *yj += w * column.iter().zip(&x[..m]).map(|(a, x)| a * x).sum::<f64>();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A chain of `nodes` blocks of 6 (each coupled to the next), a 3-row joint on nodes 0
+    /// and 1 and a 2-row one on the last node, non-symmetric and mass-dominated: its CSC
+    /// pattern, values and dense form.
+    type Chain = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<Vec<f64>>, Blocks);
+
+    fn chain(nodes: usize, skew: f64) -> Chain {
+        let n = 6 * nodes + 5;
+        let mut dense = vec![vec![0.0; n]; n];
+        let mut seed = 7u64;
+        let mut random = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut couple = |dense: &mut Vec<Vec<f64>>, a: usize, b: usize| {
+            for i in 0..6 {
+                for j in 0..6 {
+                    let x = random();
+                    dense[6 * a + i][6 * b + j] += x;
+                    dense[6 * b + j][6 * a + i] += x + skew * random();
+                }
+            }
+        };
+        for k in 0..nodes {
+            couple(&mut dense, k, k);
+            (0..6).for_each(|i| dense[6 * k + i][6 * k + i] += 20.0);
+            if k + 1 < nodes {
+                couple(&mut dense, k, k + 1);
+            }
+        }
+        let last = [nodes - 1];
+        let joints = [(6 * nodes, 3, &[0, 1][..]), (6 * nodes + 3, 2, &last[..])];
+        for (row, rows, on) in joints {
+            let columns = || on.iter().flat_map(|&node| 6 * node..6 * node + 6);
+            for (r, j) in (row..row + rows).flat_map(|r| columns().map(move |j| (r, j))) {
+                let x = random() + 1.0;
+                dense[r][j] = x;
+                dense[j][r] = x * (1.0 + skew * random());
+            }
+        }
+        let (mut col_ptr, mut row_idx, mut values) = (vec![0], vec![], vec![]);
+        for c in 0..n {
+            for (r, row) in dense.iter().enumerate() {
+                let structural = row[c] != 0.0 || dense[c][r] != 0.0 || r == c;
+                if structural {
+                    row_idx.push(r);
+                    values.push(row[c]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let mut sizes = vec![6; nodes];
+        sizes.extend([3, 2]);
+        (
+            col_ptr,
+            row_idx,
+            values,
+            dense,
+            Blocks { sizes, dofs: nodes },
+        )
+    }
+
+    /// `A x = b` and `Aᵀ x = b` on the block factors of a non-symmetric saddle point,
+    /// against the matrix itself to round-off.
+    #[test]
+    fn solves_a_saddle_point_and_its_transpose() {
+        for skew in [0.0, 0.3] {
+            let (col_ptr, row_idx, values, dense, blocks) = chain(7, skew);
+            let n = dense.len();
+            let mut lu = BlockLu::analyze(&col_ptr, &row_idx, &blocks).unwrap();
+            lu.factorize(&values).unwrap();
+            for transpose in [false, true] {
+                let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+                let mut x = b.clone();
+                lu.solve_in_place(&mut x, transpose).unwrap();
+                for (i, bi) in b.iter().enumerate() {
+                    let ax: f64 = (0..n)
+                        .map(|j| if transpose { dense[j][i] } else { dense[i][j] } * x[j])
+                        .sum();
+                    assert!(
+                        (ax - bi).abs() < 1e-12,
+                        "skew {skew}, transpose {transpose}: row {i}: {ax} ≠ {bi}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A node block with nothing on its diagonal (and no neighbour eliminated before it)
+    /// is named at its first unknown; blocks that miss unknowns are refused.
+    #[test]
+    fn reports_a_singular_block_and_a_bad_partition() {
+        let (col_ptr, row_idx, mut values, _, blocks) = chain(3, 0.0);
+        let mut lu = BlockLu::analyze(&col_ptr, &row_idx, &blocks).unwrap();
+        let first = lu.at[0];
+        let on_block = |r: usize| (first..first + 6).contains(&r);
+        for c in first..first + 6 {
+            for k in col_ptr[c]..col_ptr[c + 1] {
+                if on_block(row_idx[k]) {
+                    values[k] = 0.0;
+                }
+            }
+        }
+        assert_eq!(
+            lu.factorize(&values),
+            Err(FactorError::ZeroPivot { unknown: first })
+        );
+        let short = Blocks {
+            sizes: vec![6, 6, 6, 3],
+            dofs: 3,
+        };
+        assert!(matches!(
+            BlockLu::analyze(&col_ptr, &row_idx, &short),
+            Err(FactorError::Analysis(_))
+        ));
+    }
+}
