@@ -440,8 +440,8 @@ fn invert_any(d: &mut [f64], s: usize, work: &mut [f64], pivots: &mut [usize]) -
     Ok(())
 }
 
-/// `P a = L U` in place (`L` unit lower below the diagonal, `U` on and above), the row
-/// swaps in `pivots`.
+/// `P a = L U` in place (`L` unit lower below the diagonal, `U` above it and its diagonal's
+/// reciprocals on it), the row swaps in `pivots`.
 #[inline(always)]
 fn lu_in_place(a: &mut [f64], s: usize, pivots: &mut [usize]) -> Result<(), ()> {
     let largest = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -461,6 +461,7 @@ fn lu_in_place(a: &mut [f64], s: usize, pivots: &mut [usize]) -> Result<(), ()> 
             (0..s).for_each(|j| a.swap(k + j * s, pivot_row + j * s));
         }
         let inv = 1.0 / a[k + k * s];
+        a[k + k * s] = inv;
         for i in k + 1..s {
             a[i + k * s] *= inv;
         }
@@ -491,7 +492,7 @@ fn inverse_from_lu(lu: &[f64], s: usize, pivots: &[usize], inverse: &mut [f64]) 
             }
         }
         for k in (0..s).rev() {
-            column[k] /= lu[k + k * s];
+            column[k] *= lu[k + k * s];
             let ck = column[k];
             for i in 0..k {
                 column[i] -= lu[i + k * s] * ck;

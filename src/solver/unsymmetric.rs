@@ -27,8 +27,7 @@ pub struct Unsymmetric {
     block_ok: bool,
     /// The pattern, for `LU`'s analysis where a block is singular and for `A`'s products.
     pattern: (usize, Vec<usize>, Vec<usize>),
-    /// `A`'s values, a refinement's residual and its correction.
-    values: Vec<f64>,
+    /// A refinement's residual and its correction.
     residual: Vec<f64>,
     correction: Vec<f64>,
     lu: Option<Lu>,
@@ -50,7 +49,6 @@ impl Unsymmetric {
         Ok(Self {
             block: BlockLu::analyze(&col_ptr, &row_idx, blocks)?,
             block_ok: false,
-            values: vec![0.0; row_idx.len()],
             residual: vec![0.0; n],
             correction: vec![0.0; n],
             pattern: (n, col_ptr, row_idx),
@@ -65,7 +63,6 @@ impl Unsymmetric {
     /// [`FactorError::Singular`] (or [`FactorError::Analysis`] of `LU`'s) where neither
     /// factorization succeeds.
     pub fn factorize(&mut self, values: &[f64]) -> Result<(), FactorError> {
-        self.values.copy_from_slice(values);
         self.block_ok = self.block.factorize(values).is_ok();
         if self.block_ok {
             return Ok(());
@@ -87,14 +84,19 @@ impl Unsymmetric {
         self.fallbacks
     }
 
-    /// [`Unsymmetric::solve_in_place`] refined once.
+    /// [`Unsymmetric::solve_in_place`] refined once, `values` those factored last.
     ///
     /// # Errors
     /// As [`Unsymmetric::solve_in_place`].
-    pub fn solve_refined(&mut self, b: &mut [f64], transpose: bool) -> Result<(), FactorError> {
+    pub fn solve_refined(
+        &mut self,
+        values: &[f64],
+        b: &mut [f64],
+        transpose: bool,
+    ) -> Result<(), FactorError> {
         self.residual.copy_from_slice(b);
         self.solve_in_place(b, transpose)?;
-        self.subtract_product(b, transpose);
+        self.subtract_product(values, b, transpose);
         let mut correction = std::mem::take(&mut self.correction);
         correction.copy_from_slice(&self.residual);
         let solved = self.solve_in_place(&mut correction, transpose);
@@ -116,12 +118,12 @@ impl Unsymmetric {
         }
     }
 
-    /// `residual −= A x` (or `Aᵀ x`).
-    fn subtract_product(&mut self, x: &[f64], transpose: bool) {
+    /// `residual −= A x` (or `Aᵀ x`), `A` of CSC `values`.
+    fn subtract_product(&mut self, values: &[f64], x: &[f64], transpose: bool) {
         let (_, col_ptr, row_idx) = &self.pattern;
         for c in 0..col_ptr.len() - 1 {
             let range = col_ptr[c]..col_ptr[c + 1];
-            let entries = row_idx[range.clone()].iter().zip(&self.values[range]);
+            let entries = row_idx[range.clone()].iter().zip(&values[range]);
             if transpose {
                 self.residual[c] -= entries.map(|(&r, v)| v * x[r]).sum::<f64>();
             } else {

@@ -311,8 +311,15 @@ impl<'m> Assembler<'m> {
             let d = &mut self.element_blocks[k];
             let terms = element.terms(q, v, Some(vdot), &gravity, increment.map(|_| &mut *d));
             reference = add_element_forces(r, element, &terms, &gravity, reference);
-            let block = element_block(&self.element_masses[k], d, element, c);
-            scatter_block(&mut self.values, &self.element_slots[k], &block);
+            let slots = &self.element_slots[k];
+            scatter_element(
+                &mut self.values,
+                slots,
+                &self.element_masses[k],
+                d,
+                element,
+                c,
+            );
         }
         self.hold_absent();
         Ok(reference)
@@ -377,8 +384,15 @@ impl<'m> Assembler<'m> {
             if c.tangent.is_some() {
                 element.terms(q, v, None, &gravity, Some(d));
             }
-            let block = element_block(&self.element_masses[k], d, element, c);
-            scatter_block(&mut self.values, &self.element_slots[k], &block);
+            let slots = &self.element_slots[k];
+            scatter_element(
+                &mut self.values,
+                slots,
+                &self.element_masses[k],
+                d,
+                element,
+                c,
+            );
         }
         self.hold_absent();
         Ok(())
@@ -602,21 +616,48 @@ fn add_element_forces(
         .fold(reference.max(weight), |m, x| m.max(x.abs()))
 }
 
-/// A structural element's block `β'M + γ'C + K T(Δ)` of the iteration matrix, from its
-/// mass matrix `mass` and its derivatives `d` (their part left out where `c` asks for no
-/// tangent).
-fn element_block(
+/// Adds a structural element's block `β'M + γ'C + K T(Δ)` of the iteration matrix at its
+/// [`local_slots`], from its mass matrix `mass` and its derivatives `d` (their part left
+/// out where `c` asks for no tangent), entry by entry: `T(Δ)` turns only the rotations'
+/// columns.
+fn scatter_element(
+    values: &mut [f64],
+    slots: &[usize],
     mass: &Stiffness,
     d: &Derivatives,
     element: &dyn Element,
     c: Coefficients<'_>,
-) -> Stiffness {
-    let mut block = mass * c.beta_prime;
-    if let Some((inc, _)) = c.tangent {
-        add_times_tangent(&mut block, &d.stiffness, element.pair(), Some(inc));
-        block.zip_apply(&d.damping, |b, x| *b += x * c.gamma_prime);
+) {
+    let Some((inc, _)) = c.tangent else {
+        for (&slot, &m) in slots.iter().zip(mass.as_slice()) {
+            if slot != ABSENT {
+                values[slot] += c.beta_prime * m;
+            }
+        }
+        return;
+    };
+    let mut turn = [Matrix3::identity(); 2];
+    for (side, node) in element.pair().local_nodes() {
+        let d = six(inc, node);
+        turn[side] = tangent(&Vector3::new(d[3], d[4], d[5]));
     }
-    block
+    let (k, damping) = (&d.stiffness, &d.damping);
+    for j in 0..12 {
+        let (side, local) = (j / NV, j % NV);
+        let column = |i: usize| match local {
+            0..3 => k[(i, j)],
+            _ => (0..3)
+                .map(|m| k[(i, NV * side + 3 + m)] * turn[side][(m, local - 3)])
+                .sum(),
+        };
+        for i in 0..12 {
+            let slot = slots[i + 12 * j];
+            if slot != ABSENT {
+                values[slot] +=
+                    c.beta_prime * mass[(i, j)] + c.gamma_prime * damping[(i, j)] + column(i);
+            }
+        }
+    }
 }
 
 /// A slot of a local block on the ground: not stored.

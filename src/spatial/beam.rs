@@ -375,12 +375,12 @@ impl Beam {
         put(9, 3, dneg * k.tinv[1]);
     }
 
-    /// `L Bᵀ C B` (`B` on the nodes' unknowns, `C = diag(c)`) block by block: the strains'
-    /// rows `Γ` reach every column, `κ`'s only the rotations'.
-    fn material(b: &Strain, c: &Vector6<f64>, l: f64) -> Stiffness {
+    /// `L Bᵀ C B` (`B` on the nodes' unknowns, `C = diag(c)`) into `out`, block by block: the
+    /// strains' rows `Γ` reach every column, `κ`'s only the rotations'.
+    fn material(b: &Strain, c: &Vector6<f64>, l: f64, out: &mut Stiffness) {
         let gamma = b.fixed_rows::<3>(0);
         let weighted = SMatrix::<f64, 3, 12>::from_fn(|r, col| c[r] * l * gamma[(r, col)]);
-        let mut out = gamma.transpose() * weighted;
+        out.gemm(1.0, &gamma.transpose(), &weighted, 0.0);
         for i in [3, 9] {
             let kappa_i = b.fixed_view::<3, 3>(3, i);
             let weighted = Matrix3::from_fn(|r, col| c[3 + r] * l * kappa_i[(r, col)]);
@@ -389,7 +389,6 @@ impl Beam {
                 block += b.fixed_view::<3, 3>(3, j).transpose() * weighted;
             }
         }
-        out
     }
 
     /// `R(v)`: the derivative of `B v` at fixed rates `v` (element unknowns).
@@ -500,8 +499,8 @@ impl Beam {
             moment += spins[side].cross(&(j[side] * spins[side]));
         }
         if let (Some(out), Some(b)) = (tangent, b) {
-            let material = Self::material(&b, &c, l);
-            out.stiffness = material;
+            Self::material(&b, &c, l, &mut out.stiffness);
+            (out.damping).zip_apply(&out.stiffness, |d, m| *d = m * beta);
             self.add_geometric(&k, &sigma, &mut out.stiffness);
             if beta > 0.0 {
                 let cb = Strain::from_fn(|r, col| c[r] * b[(r, col)]);
@@ -516,7 +515,6 @@ impl Beam {
                 let r = Self::on_nodes(self.rate_derivative(&k, &element_rates), e);
                 out.stiffness += cb.transpose() * r * (l * beta);
             }
-            out.damping = material * beta;
             if alpha != 0.0 {
                 out.damping += self.mass_matrix_of(section) * alpha;
             }

@@ -7,7 +7,7 @@
 //! [`crate::joint`]), the mechanism built
 //! entry by entry and checked ([`model`]), its residual and non-symmetric iteration matrix on
 //! a fixed pattern (`assembly`), and generalized-α on the group ([`integrator`]), solved on
-//! the `LDLᵀ` of its symmetric part with refinement, sparse `LU` where that stalls.
+//! its `LU` by the nodes' and joints' blocks (`solver/block_lu.rs`).
 //!
 //! Built so far: rigid bodies, beams, truss bars, the joints (spherical, revolute, universal,
 //! cylindrical, prismatic, weld), drives, force elements (springs, motors, loads,

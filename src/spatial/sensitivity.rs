@@ -1734,7 +1734,7 @@ impl<'m> Sweep<'m> {
     fn solve(&mut self, rhs: &mut [f64], transpose: bool, n: usize) -> Result<(), SolveError> {
         let time = self.states[n].t;
         self.lu
-            .solve_refined(rhs, transpose)
+            .solve_refined(&self.asm.values, rhs, transpose)
             .map_err(|e| SolveError::Singular {
                 time,
                 detail: format!("{e:?}"),

@@ -152,7 +152,11 @@ def test_sizing_problem_gradients_against_differences():
     itself, each size's summed over its section's beams, the mass's from ``A'/A``."""
     from flextop.problems import SizingProblem
 
-    problem = SizingProblem(arm(), "tip_deflection", [("mass", 1.0), ("stress", 5e7)], sizes=BOUNDS)
+    # Newton to 1e-12: at its default 1e-10 the differences' noise (the values' round-off over
+    # steps of 3e-6 m) reaches 3e-6 of the smallest derivative.
+    spec = arm()
+    spec["simulation"]["tol"] = 1e-12
+    problem = SizingProblem(spec, "tip_deflection", [("mass", 1.0), ("stress", 5e7)], sizes=BOUNDS)
     z = problem.z0
     e = problem.evaluate(z)
     sim = SpatialSimulation(problem.spec_at(z))
