@@ -413,20 +413,47 @@ fn fill(graph: &[Vec<usize>], order: &[usize], position: &[usize]) -> (Vec<usize
 /// `Err` for a pivot below [`SINGULAR_PIVOT`] of its largest entry.
 fn invert(d: &mut [f64], s: usize, work: &mut [f64], pivots: &mut [usize]) -> Result<(), ()> {
     match s {
-        6 => invert_fixed::<6, 36>(d),
+        6 => invert_fixed::<6>(d),
         _ => invert_any(d, s, work, pivots),
     }
 }
 
-/// [`invert`] for a size known when compiled (the nodes' 6), on the stack.
-fn invert_fixed<const S: usize, const SS: usize>(d: &mut [f64]) -> Result<(), ()> {
-    let mut a = [0.0; SS];
-    a.copy_from_slice(&d[..SS]);
-    let mut pivots = [0; S];
-    lu_in_place(&mut a, S, &mut pivots)?;
-    let mut inverse = [0.0; SS];
-    inverse_from_lu(&a, S, &pivots, &mut inverse);
-    d[..SS].copy_from_slice(&inverse);
+/// [`invert`] for a size known when compiled (the nodes' 6), on the stack: Gauss–Jordan
+/// elimination on the rows of `Dᵀ` (the column-major `d` read by rows), with partial
+/// pivoting, gives `D⁻ᵀ` by rows, which is `D⁻¹` by columns.
+fn invert_fixed<const S: usize>(d: &mut [f64]) -> Result<(), ()> {
+    let (mut a, mut inverse) = ([[0.0; S]; S], [[0.0; S]; S]);
+    for (r, row) in a.iter_mut().enumerate() {
+        row.copy_from_slice(&d[S * r..S * r + S]);
+        inverse[r][r] = 1.0;
+    }
+    let largest = d[..S * S].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for k in 0..S {
+        let pivot_row =
+            (k + 1..S).fold(k, |p, i| if a[i][k].abs() > a[p][k].abs() { i } else { p });
+        let pivot = a[pivot_row][k].abs();
+        if pivot <= SINGULAR_PIVOT * largest || pivot.is_nan() {
+            return Err(());
+        }
+        a.swap(k, pivot_row);
+        inverse.swap(k, pivot_row);
+        let reciprocal = 1.0 / a[k][k];
+        let (row, inverse_row) = (
+            a[k].map(|x| x * reciprocal),
+            inverse[k].map(|x| x * reciprocal),
+        );
+        (a[k], inverse[k]) = (row, inverse_row);
+        for i in (0..S).filter(|&i| i != k) {
+            let f = a[i][k];
+            for j in 0..S {
+                a[i][j] -= f * row[j];
+                inverse[i][j] -= f * inverse_row[j];
+            }
+        }
+    }
+    for (r, row) in inverse.iter().enumerate() {
+        d[S * r..S * r + S].copy_from_slice(row);
+    }
     Ok(())
 }
 
