@@ -577,12 +577,12 @@ fn add_transposed_product(y: &mut [f64], a: &[f64], x: &[f64], (m, n): (usize, u
 mod tests {
     use super::*;
 
-    /// A chain of `nodes` blocks of 6 (each coupled to the next), a 3-row joint on nodes 0
-    /// and 1 and a 2-row one on the last node, non-symmetric and mass-dominated: its CSC
-    /// pattern, values and dense form.
-    type Chain = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<Vec<f64>>, Blocks);
+    /// Blocks of 6 on `nodes` coupled along `edges`, a 3-row joint on nodes 0 and 1 and a
+    /// 2-row one on the last node, non-symmetric and mass-dominated: its CSC pattern, values
+    /// and dense form.
+    type Saddle = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<Vec<f64>>, Blocks);
 
-    fn chain(nodes: usize, skew: f64) -> Chain {
+    fn saddle(nodes: usize, edges: &[(usize, usize)], skew: f64) -> Saddle {
         let n = 6 * nodes + 5;
         let mut dense = vec![vec![0.0; n]; n];
         let mut seed = 7u64;
@@ -604,10 +604,8 @@ mod tests {
         for k in 0..nodes {
             couple(&mut dense, k, k);
             (0..6).for_each(|i| dense[6 * k + i][6 * k + i] += 20.0);
-            if k + 1 < nodes {
-                couple(&mut dense, k, k + 1);
-            }
         }
+        edges.iter().for_each(|&(a, b)| couple(&mut dense, a, b));
         let last = [nodes - 1];
         let joints = [(6 * nodes, 3, &[0, 1][..]), (6 * nodes + 3, 2, &last[..])];
         for (row, rows, on) in joints {
@@ -640,12 +638,43 @@ mod tests {
         )
     }
 
-    /// `A x = b` and `Aᵀ x = b` on the block factors of a non-symmetric saddle point,
-    /// against the matrix itself to round-off.
+    /// A chain of `nodes` (each coupled to the next).
+    fn chain(nodes: usize, skew: f64) -> Saddle {
+        let edges: Vec<(usize, usize)> = (1..nodes).map(|k| (k - 1, k)).collect();
+        saddle(nodes, &edges, skew)
+    }
+
+    /// A 4 × 4 lattice of nodes coupled to their neighbours and across each square's
+    /// diagonals: the elimination tree branches, and fill joins its branches.
+    fn lattice(skew: f64) -> Saddle {
+        let at = |i: usize, j: usize| 4 * i + j;
+        let mut edges = Vec::new();
+        for (i, j) in (0..4).flat_map(|i| (0..4).map(move |j| (i, j))) {
+            if i + 1 < 4 {
+                edges.push((at(i, j), at(i + 1, j)));
+            }
+            if j + 1 < 4 {
+                edges.push((at(i, j), at(i, j + 1)));
+            }
+            if i + 1 < 4 && j + 1 < 4 {
+                edges.extend([(at(i, j), at(i + 1, j + 1)), (at(i + 1, j), at(i, j + 1))]);
+            }
+        }
+        saddle(16, &edges, skew)
+    }
+
+    /// `A x = b` and `Aᵀ x = b` on the block factors of non-symmetric saddle points (a chain,
+    /// a lattice), against the matrix itself to round-off.
     #[test]
     fn solves_a_saddle_point_and_its_transpose() {
-        for skew in [0.0, 0.3] {
-            let (col_ptr, row_idx, values, dense, blocks) = chain(7, skew);
+        for (skew, shape) in [0.0, 0.3]
+            .into_iter()
+            .flat_map(|s| [(s, "chain"), (s, "lattice")])
+        {
+            let (col_ptr, row_idx, values, dense, blocks) = match shape {
+                "chain" => chain(7, skew),
+                _ => lattice(skew),
+            };
             let n = dense.len();
             let mut lu = BlockLu::analyze(&col_ptr, &row_idx, &blocks).unwrap();
             lu.factorize(&values).unwrap();
@@ -659,7 +688,7 @@ mod tests {
                         .sum();
                     assert!(
                         (ax - bi).abs() < 1e-12,
-                        "skew {skew}, transpose {transpose}: row {i}: {ax} ≠ {bi}"
+                        "{shape}, skew {skew}, transpose {transpose}: row {i}: {ax} ≠ {bi}"
                     );
                 }
             }
