@@ -311,15 +311,7 @@ impl<'m> Assembler<'m> {
             let d = &mut self.element_blocks[k];
             let terms = element.terms(q, v, Some(vdot), &gravity, increment.map(|_| &mut *d));
             reference = add_element_forces(r, element, &terms, &gravity, reference);
-            let slots = &self.element_slots[k];
-            scatter_element(
-                &mut self.values,
-                slots,
-                &self.element_masses[k],
-                d,
-                element,
-                c,
-            );
+            self.put_element(k, element, c);
         }
         self.hold_absent();
         Ok(reference)
@@ -384,18 +376,24 @@ impl<'m> Assembler<'m> {
             if c.tangent.is_some() {
                 element.terms(q, v, None, &gravity, Some(d));
             }
-            let slots = &self.element_slots[k];
-            scatter_element(
-                &mut self.values,
-                slots,
-                &self.element_masses[k],
-                d,
-                element,
-                c,
-            );
+            self.put_element(k, element, c);
         }
         self.hold_absent();
         Ok(())
+    }
+
+    /// Adds structural element `k`'s block of the iteration matrix ([`scatter_element`]),
+    /// from the derivatives its last [`Element::terms`] wrote.
+    fn put_element(&mut self, k: usize, element: &dyn Element, c: Coefficients<'_>) {
+        let (mass, d) = (&self.element_masses[k], &self.element_blocks[k]);
+        scatter_element(
+            &mut self.values,
+            &self.element_slots[k],
+            mass,
+            d,
+            element,
+            c,
+        );
     }
 
     /// The iteration matrix's entries of the bodies, joints and force elements (the
