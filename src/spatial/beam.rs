@@ -328,7 +328,7 @@ impl Beam {
 
     /// Adds `P G(σ) Pᵀ` to `out`: `G(σ)` the derivative of `L Bᵀ σ` at fixed `σ = [N; M]` on
     /// the element's unknowns, read on the nodes' (`P = diag(I, E_A, I, E_B)`, each 3 × 3
-    /// block turned as it is put).
+    /// block turned as it is added).
     fn add_geometric(&self, k: &Kinematics, sigma: &Vector6<f64>, out: &mut Stiffness) {
         let (n, m) = (
             sigma.fixed_rows::<3>(0).into_owned(),
@@ -337,14 +337,7 @@ impl Beam {
         let nt = hat(&n);
         let [la, lb] = k.frames;
         let e = &self.axes;
-        // A block's rotation rows and columns (block 1 at A's, 3 at B's) in the nodes'.
-        let mut put = |r: usize, c: usize, mut block: Matrix3<f64>| {
-            if r % 6 == 3 {
-                block = e[r / 6] * block;
-            }
-            if c % 6 == 3 {
-                block *= e[c / 6].transpose();
-            }
+        let mut add = |r: usize, c: usize, block: Matrix3<f64>| {
             let mut v = out.fixed_view_mut::<3, 3>(r, c);
             v += block;
         };
@@ -353,34 +346,52 @@ impl Beam {
             k.inverse.derivative(1.0, &m),
             k.inverse.derivative(-1.0, &m),
         );
+        // Each 3 × 3 block's rotation rows and columns (block 1 at A's, 3 at B's) are read in
+        // the nodes' frames, `E_A`, `E_B` on either side; a block put with both signs is
+        // turned once.
         // f_x = ∓ ½ (Λ_A + Λ_B) N.
-        for (row, sign) in [(0, 0.5), (6, -0.5)] {
-            put(row, 3, la * nt * sign);
-            put(row, 9, lb * nt * sign);
+        let (xa, xb) = (
+            la * nt * (0.5 * e[0].transpose()),
+            lb * nt * (0.5 * e[1].transpose()),
+        );
+        for (row, sign) in [(0, 1.0), (6, -1.0)] {
+            add(row, 3, xa * sign);
+            add(row, 9, xb * sign);
         }
         // f_a = ½ N × p_A − T⁻¹(ψ) M, f_b = ½ N × p_B + T⁻¹(−ψ) M.
         for (row, frame, chord) in [(3, la, k.chord[0]), (9, lb, k.chord[1])] {
-            let across = nt * frame.transpose() * 0.5;
-            put(row, 0, -across);
-            put(row, 6, across);
+            let e = e[row / 6];
+            let across = e * nt * (0.5 * frame.transpose());
+            add(row, 0, -across);
+            add(row, 6, across);
             let mut diagonal = nt * hat(&chord) * 0.5;
             if row == 3 {
                 diagonal += dpos * k.tinv[1];
             } else {
                 diagonal -= dneg * k.tinv[0];
             }
-            put(row, row, diagonal);
+            add(row, row, e * diagonal * e.transpose());
         }
-        put(3, 9, -dpos * k.tinv[0]);
-        put(9, 3, dneg * k.tinv[1]);
+        add(3, 9, e[0] * (-dpos * k.tinv[0]) * e[1].transpose());
+        add(9, 3, e[1] * (dneg * k.tinv[1]) * e[0].transpose());
     }
 
     /// `L Bᵀ C B` (`B` on the nodes' unknowns, `C = diag(c)`) into `out`, block by block: the
     /// strains' rows `Γ` reach every column, `κ`'s only the rotations'.
     fn material(b: &Strain, c: &Vector6<f64>, l: f64, out: &mut Stiffness) {
-        let gamma = b.fixed_rows::<3>(0);
-        let weighted = SMatrix::<f64, 3, 12>::from_fn(|r, col| c[r] * l * gamma[(r, col)]);
-        out.gemm(1.0, &gamma.transpose(), &weighted, 0.0);
+        // `Γ`'s rows on each node's translations and rotations: `γᵢᵀ C γⱼ` block by block,
+        // the blocks below the diagonal the transposes of those above.
+        let gamma: [Matrix3<f64>; 4] =
+            std::array::from_fn(|k| b.fixed_view::<3, 3>(0, 3 * k).into());
+        let weighted = gamma.map(|g| Matrix3::from_fn(|r, col| c[r] * l * g[(r, col)]));
+        for (i, g) in gamma.iter().enumerate() {
+            for (j, w) in weighted.iter().enumerate().skip(i) {
+                let block = g.tr_mul(w);
+                out.fixed_view_mut::<3, 3>(3 * i, 3 * j).copy_from(&block);
+                out.fixed_view_mut::<3, 3>(3 * j, 3 * i)
+                    .copy_from(&block.transpose());
+            }
+        }
         for i in [3, 9] {
             let kappa_i = b.fixed_view::<3, 3>(3, i);
             let weighted = Matrix3::from_fn(|r, col| c[3 + r] * l * kappa_i[(r, col)]);
