@@ -16,17 +16,30 @@
 //! non-symmetric `A` needs no refinement. A pivot block that is singular (to
 //! [`SINGULAR_PIVOT`] of its largest entry) is reported, for the caller to factor otherwise.
 //!
-//! [`BlockLu::analyze`] finds the order, the blocks' fill and where each entry of `A` goes,
-//! once; [`BlockLu::factorize`] and the solves then work in buffers kept from that analysis.
+//! Where a pivot's column reaches [`FRONT_BLOCKS`] blocks or more (a lattice's wide fronts),
+//! its update is one dense product of the stacked blocks (faer's, on the machine's widest
+//! vectors). [`BlockLu::analyze`] finds the order, the blocks' fill and where each entry of
+//! `A` goes, once; [`BlockLu::factorize`] and the solves then work in buffers kept from that
+//! analysis.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::amd;
 use faer::sparse::SymbolicSparseColMat;
+use faer::{Accum, MatMut, MatRef, Par};
 
 use crate::solver::linsolve::FactorError;
 
 /// A pivot this small against its block's largest entry makes the block singular.
 pub const SINGULAR_PIVOT: f64 = 1e-13;
+
+/// The fewest blocks a pivot's column reaches for its update `L_p W_p` to be made as one
+/// dense product of the stacked blocks (faer's, on the machine's widest vectors) rather than a
+/// `6 × 6` product per pair: a lattice's wide fronts.
+pub const FRONT_BLOCKS: usize = 4;
+
+/// The most rows a front stacked for one product may have (its product's scratch is their
+/// square): wider fronts are updated pair by pair.
+pub const MAX_FRONT_ROWS: usize = 768;
 
 /// The block sizes and the count of DOF blocks of a matrix's unknowns (module docs).
 pub struct Blocks {
@@ -60,6 +73,10 @@ pub struct BlockLu {
     /// Room for a block's inverse and products, and a solve's block.
     work: Vec<f64>,
     pivots: Vec<usize>,
+    /// Room for a front's stacked `L_p`, `W_p` and their product, and where each block's
+    /// rows start in it.
+    front: Vec<f64>,
+    front_at: Vec<usize>,
 }
 
 impl BlockLu {
@@ -95,6 +112,8 @@ impl BlockLu {
             scatter: Vec::with_capacity(row_idx.len()),
             work: Vec::new(),
             pivots: Vec::new(),
+            front: Vec::new(),
+            front_at: Vec::new(),
             size,
         };
         lu.lay_out();
@@ -124,6 +143,17 @@ impl BlockLu {
             self.end.push(offset);
         }
         self.values = vec![0.0; offset];
+        let (mut rows, mut reach) = (0, 0);
+        for p in 0..self.size.len() {
+            let entries = &self.rows[self.first[p]..self.first[p + 1]];
+            let r: usize = entries.iter().map(|&a| self.size[a]).sum();
+            if entries.len() >= FRONT_BLOCKS && r <= MAX_FRONT_ROWS {
+                rows = rows.max(r + 2 * self.size[p]);
+                reach = reach.max(entries.len());
+            }
+        }
+        self.front = vec![0.0; rows * rows];
+        self.front_at = vec![0; reach];
         let largest = self.size.iter().copied().max().unwrap_or(0);
         self.work = vec![0.0; 3 * largest * largest];
         self.pivots = vec![0; largest];
@@ -181,6 +211,16 @@ impl BlockLu {
             );
             tail[..m * s].copy_from_slice(product);
         }
+        if self.front_at.len() >= entries.len() && entries.len() >= FRONT_BLOCKS {
+            let rows: usize = self.rows[entries.clone()]
+                .iter()
+                .map(|&a| self.size[a])
+                .sum();
+            if rows <= MAX_FRONT_ROWS {
+                self.update_front(p, rows);
+                return Ok(());
+            }
+        }
         let base = self.end[p];
         for (ia, ea) in entries.clone().enumerate() {
             let a = self.rows[ea];
@@ -203,6 +243,62 @@ impl BlockLu {
             }
         }
         Ok(())
+    }
+
+    /// The update of [`BlockLu::eliminate`] for a wide front of `rows` rows: `L_p` and `W_p`
+    /// stacked, their product made at once, each block of it subtracted where it belongs.
+    fn update_front(&mut self, p: usize, rows: usize) {
+        let s = self.size[p];
+        let entries = self.first[p]..self.first[p + 1];
+        let (lower, rest) = self.front.split_at_mut(rows * s);
+        let (upper, product) = rest.split_at_mut(s * rows);
+        let product = &mut product[..rows * rows];
+        let mut at = 0;
+        for (i, e) in entries.clone().enumerate() {
+            let m = self.size[self.rows[e]];
+            self.front_at[i] = at;
+            let block = &self.values[self.lower[e]..self.lower[e] + m * s];
+            for (j, column) in block.chunks_exact(m).enumerate() {
+                lower[at + j * rows..at + j * rows + m].copy_from_slice(column);
+            }
+            upper[at * s..(at + m) * s]
+                .copy_from_slice(&self.values[self.upper[e]..self.upper[e] + s * m]);
+            at += m;
+        }
+        faer::linalg::matmul::matmul(
+            MatMut::from_column_major_slice_mut(product, rows, rows),
+            Accum::Replace,
+            MatRef::from_column_major_slice(lower, rows, s),
+            MatRef::from_column_major_slice(upper, s, rows),
+            1.0,
+            Par::Seq,
+        );
+        // Block (a, b) of the product, subtracted from the `sa × sb` block at `target`.
+        let subtract = |values: &mut [f64],
+                        target: usize,
+                        (ra, sa): (usize, usize),
+                        (cb, sb): (usize, usize)| {
+            for j in 0..sb {
+                let from = &product[ra + (cb + j) * rows..ra + (cb + j) * rows + sa];
+                let to = &mut values[target + j * sa..target + (j + 1) * sa];
+                to.iter_mut().zip(from).for_each(|(t, f)| *t -= f);
+            }
+        };
+        for (ia, ea) in entries.clone().enumerate() {
+            let a = self.rows[ea];
+            let ra = (self.front_at[ia], self.size[a]);
+            subtract(&mut self.values, self.diag[a], ra, ra);
+            let mut k = self.first[a];
+            for (ib, eb) in entries.clone().enumerate().skip(ia + 1) {
+                let b = self.rows[eb];
+                while self.rows[k] != b {
+                    k += 1;
+                }
+                let rb = (self.front_at[ib], self.size[b]);
+                subtract(&mut self.values, self.lower[k], rb, ra);
+                subtract(&mut self.values, self.upper[k], ra, rb);
+            }
+        }
     }
 
     /// Solves `A x = b` (or `Aᵀ x = b` with `transpose`) in place on the factors.
