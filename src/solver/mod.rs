@@ -1,5 +1,7 @@
 //! The solver: the residual and iteration matrix on a fixed sparse pattern (`assembly`),
-//! their `LDLᵀ` factors (`linsolve`), Newton's method (`newton`), generalized-α (`alpha`,
+//! their `LDLᵀ` factors (`linsolve`; the spatial engine's non-symmetric matrix by its blocks'
+//! `LU`, `block_lu`, behind `unsymmetric`, faer's `LU` where a pivot block is singular, `lu`),
+//! Newton's method (`newton`), generalized-α (`alpha`,
 //! paper Algorithm 1, the phases of a step on either engine's configuration space; `integrator`,
 //! the planar engine's equations) with its local error control (`step_control`) and its
 //! restart at a drive's kink (`kink`), the discrete adjoint's backward sweep (`backward`, Algorithm 1's run transposed) and the time error it estimates from the local errors (`local_error`), static equilibrium by load stepping (`statics`) and the linear static analysis
