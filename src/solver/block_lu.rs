@@ -77,6 +77,9 @@ pub struct BlockLu {
     /// rows start in it.
     front: Vec<f64>,
     front_at: Vec<usize>,
+    /// The rows of each position's front where it is updated as one product, 0 where pair
+    /// by pair.
+    front_rows: Vec<usize>,
 }
 
 impl BlockLu {
@@ -114,6 +117,7 @@ impl BlockLu {
             pivots: Vec::new(),
             front: Vec::new(),
             front_at: Vec::new(),
+            front_rows: Vec::new(),
             size,
         };
         lu.lay_out();
@@ -147,7 +151,9 @@ impl BlockLu {
         for p in 0..self.size.len() {
             let entries = &self.rows[self.first[p]..self.first[p + 1]];
             let r: usize = entries.iter().map(|&a| self.size[a]).sum();
-            if entries.len() >= FRONT_BLOCKS && r <= MAX_FRONT_ROWS {
+            let wide = entries.len() >= FRONT_BLOCKS && r <= MAX_FRONT_ROWS;
+            self.front_rows.push(if wide { r } else { 0 });
+            if wide {
                 rows = rows.max(r + 2 * self.size[p]);
                 reach = reach.max(entries.len());
             }
@@ -211,15 +217,9 @@ impl BlockLu {
             );
             tail[..m * s].copy_from_slice(product);
         }
-        if self.front_at.len() >= entries.len() && entries.len() >= FRONT_BLOCKS {
-            let rows: usize = self.rows[entries.clone()]
-                .iter()
-                .map(|&a| self.size[a])
-                .sum();
-            if rows <= MAX_FRONT_ROWS {
-                self.update_front(p, rows);
-                return Ok(());
-            }
+        if self.front_rows[p] > 0 {
+            self.update_front(p, self.front_rows[p]);
+            return Ok(());
         }
         let base = self.end[p];
         for (ia, ea) in entries.clone().enumerate() {
