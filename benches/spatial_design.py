@@ -11,12 +11,13 @@ With ``--sizing``: the arm's tubes sized instead (their outer and inner diameter
 start's mass, ``SizingProblem``). With ``--tolerance``: the arm's tip deflection at 40 % of
 its volume by MMA held to rtol 1e-2 (``SpatialProblem(..., rtol=1e-2)``), against the same
 optimization on the scene's grid, both optimized designs measured to rtol 1e-2 and 1e-3; each
-iteration's progress on stderr.
+iteration's progress on stderr; with ``--plain`` too, by plain MMA (one evaluation per
+iteration) instead of MMA with its safeguard.
 With ``--hundred``: 100 iterations of the arm's tip deflection by MMA with its safeguard and by
 plain MMA, the design issue's floor. With ``--costs``: the cost table alone, which also times
 the adjoint of four responses at once (``FOUR``).
 
-    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance | --hundred]
+    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance [--plain] | --hundred]
 """
 
 import sys
@@ -131,11 +132,11 @@ def sizing(iterations: int = 60) -> None:
         print(f"| {h} | {d[0]:.4e} | {d[1]:.4e} | {d[1] / d[0]:.4f} |")
 
 
-def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2) -> None:
+def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = False) -> None:
     """The arm's tip deflection at 40 % of its volume by MMA from the uniform design, on the
     scene's grid (10 ms) and held to ``rtol`` (the grid measured where an accepted design
     moved by more than 0.1, held between, the returned design measured); each optimized design
-    and the start measured to ``rtol`` and to rtol 1e-3."""
+    and the start measured to ``rtol`` and to rtol 1e-3. ``plain``: by ``MMA(safeguard=False)``."""
     scene = flextop.scenes.spatial_robot_arm()
     sim = flextop.SpatialSimulation(scene)
     x0 = np.full(sim.n_design, 0.4)
@@ -156,7 +157,8 @@ def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2) -> None:
                   f"KKT {record.kkt:.2e}, {len(measured)} measured, {time.perf_counter() - start:.0f} s",
                   file=sys.stderr, flush=True)
 
-        result = flextop.optimize(problem, x0, method="mma", max_iter=iterations, kkt_tol=1e-4, callback=progress)
+        method = MMA(safeguard=False) if plain else "mma"
+        result = flextop.optimize(problem, x0, method=method, max_iter=iterations, kkt_tol=1e-4, callback=progress)
         elapsed = time.perf_counter() - start
         name = "on the scene's grid" if tol is None else f"held to rtol {tol:g}"
         designs[name] = result.x
@@ -195,7 +197,7 @@ if __name__ == "__main__":
         hundred_iterations()
         sys.exit()
     if "--tolerance" in sys.argv[1:]:
-        held_to_tolerance()
+        held_to_tolerance(plain="--plain" in sys.argv[1:])
         sys.exit()
     if "--stress" in sys.argv[1:]:
         stress_limited()
