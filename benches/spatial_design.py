@@ -12,12 +12,12 @@ start's mass, ``SizingProblem``). With ``--tolerance``: the arm's tip deflection
 its volume by MMA held to rtol 1e-2 (``SpatialProblem(..., rtol=1e-2)``), against the same
 optimization on the scene's grid, both optimized designs measured to rtol 1e-2 and 1e-3; each
 iteration's progress on stderr; with ``--plain`` too, by plain MMA (one evaluation per
-iteration) instead of MMA with its safeguard.
+iteration) instead of MMA with its safeguard; ``--iterations N``: N of them (100).
 With ``--hundred``: 100 iterations of the arm's tip deflection by MMA with its safeguard and by
 plain MMA, the design issue's floor. With ``--costs``: the cost table alone, which also times
 the adjoint of four responses at once (``FOUR``).
 
-    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance [--plain] | --hundred]
+    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance [--plain] [--iterations N] | --hundred]
 """
 
 import sys
@@ -197,7 +197,8 @@ if __name__ == "__main__":
         hundred_iterations()
         sys.exit()
     if "--tolerance" in sys.argv[1:]:
-        held_to_tolerance(plain="--plain" in sys.argv[1:])
+        count = sys.argv.index("--iterations") + 1 if "--iterations" in sys.argv else None
+        held_to_tolerance(int(sys.argv[count]) if count else 100, plain="--plain" in sys.argv[1:])
         sys.exit()
     if "--stress" in sys.argv[1:]:
         stress_limited()

@@ -16,7 +16,10 @@
 //! does not allocate and faer permutes nothing. Factors that would fill at least [`DENSE_FILL`] of the triangle, in a
 //! system of at most [`DENSE_LIMIT`] unknowns (a mechanism of rigid bodies, a small
 //! frame), are stored dense in the same order: there a sparse factorization's bookkeeping
-//! costs more than the zeros it skips. A zero pivot is
+//! costs more than the zeros it skips. An unknown whose column holds only its diagonal (a
+//! continuum member node's rotation, which no cell reads: a third of a member's unknowns) is
+//! its own `1 × 1` block: it is kept out of the factors and solved by a division
+//! ([`Decoupled`]). A zero pivot is
 //! reported with its unknown ([`FactorError::ZeroPivot`]), non-finite factors or solutions
 //! as [`FactorError::Singular`].
 
@@ -84,11 +87,82 @@ pub enum Storage {
 
 /// `LDLᵀ` factorization of a symmetric saddle-point matrix with a fixed pattern.
 pub struct Ldlt {
-    pattern: SymbolicSparseColMat<usize>,
-    /// `order[k]`: the unknown eliminated `k`-th.
+    /// `order[k]`: the unknown (of the matrix as given) eliminated `k`-th, of those the
+    /// factors hold.
     order: Vec<usize>,
+    /// The unknowns outside the factors.
+    decoupled: Decoupled,
     numeric: Numeric,
     factorized: bool,
+}
+
+/// The unknowns whose row and column hold only the diagonal, each its own `1 × 1` block of
+/// the matrix: outside the factors, `x_i = b_i / a_ii`.
+struct Decoupled {
+    unknowns: Vec<usize>,
+    /// Each one's diagonal among the values of the matrix as given.
+    slots: Vec<usize>,
+    /// Their pivots `a_ii` at the last factorization.
+    pivots: Vec<f64>,
+}
+
+impl Decoupled {
+    /// Those of the first `n_q` unknowns (the DOFs) of the symmetric `pattern` whose column
+    /// holds only the diagonal — none where every unknown would be — and the pattern of the
+    /// others, each stored value's slot in `pattern`, each unknown's index in it.
+    fn split(pattern: &SymbolicSparseColMat<usize>, n_q: usize) -> (Self, Kept) {
+        let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+        let n = pattern.nrows();
+        let alone = |j: usize| j < n_q && cp[j + 1] - cp[j] == 1 && ri[cp[j]] == j;
+        let mut unknowns: Vec<usize> = (0..n).filter(|&j| alone(j)).collect();
+        if unknowns.len() == n {
+            unknowns.clear();
+        }
+        let mut index = vec![usize::MAX; n];
+        let mut kept = Vec::with_capacity(n - unknowns.len());
+        for j in (0..n).filter(|j| unknowns.binary_search(j).is_err()) {
+            index[j] = kept.len();
+            kept.push(j);
+        }
+        let (mut col_ptr, mut row_idx, mut slots) = (vec![0], Vec::new(), Vec::new());
+        for &j in &kept {
+            for slot in cp[j]..cp[j + 1] {
+                row_idx.push(index[ri[slot]]);
+                slots.push(slot);
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let m = kept.len();
+        let decoupled = Self {
+            slots: unknowns.iter().map(|&j| cp[j]).collect(),
+            pivots: vec![0.0; unknowns.len()],
+            unknowns,
+        };
+        let kept = Kept {
+            pattern: SymbolicSparseColMat::new_checked(m, m, col_ptr, None, row_idx),
+            slots,
+            unknowns: kept,
+            index,
+        };
+        (decoupled, kept)
+    }
+
+    /// `b_i /= a_ii` for each decoupled unknown of the column `b`.
+    fn solve(&self, b: &mut [f64]) {
+        for (&i, &d) in self.unknowns.iter().zip(&self.pivots) {
+            b[i] /= d;
+        }
+    }
+}
+
+/// The unknowns the factors hold: their pattern, the slot among the values of the matrix as
+/// given of each of its stored values, each one's unknown of the matrix as given, and each
+/// unknown's index among them (`usize::MAX` for a decoupled one).
+struct Kept {
+    pattern: SymbolicSparseColMat<usize>,
+    slots: Vec<usize>,
+    unknowns: Vec<usize>,
+    index: Vec<usize>,
 }
 
 /// The numeric phase: sparse factors on a symbolic analysis, or dense ones.
@@ -120,8 +194,10 @@ struct Permuted {
 
 impl Permuted {
     /// The triangle `side` of `pattern` (read from its lower triangle, as the factors
-    /// read it) with unknown `i` moved to `inv[i]`.
-    fn new(pattern: &SymbolicSparseColMat<usize>, inv: &[usize], side: Side) -> Self {
+    /// read it) with unknown `i` moved to `inv[i]`, each stored value gathered from its
+    /// slot `slots[k]` of the matrix as given.
+    fn new(kept: &Kept, inv: &[usize], side: Side) -> Self {
+        let pattern = &kept.pattern;
         let n = pattern.nrows();
         let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
         let mut entries: Vec<(usize, usize, usize)> = (0..n)
@@ -144,7 +220,7 @@ impl Permuted {
             col_ptr[j + 1] += col_ptr[j];
         }
         let row_idx = entries.iter().map(|&(_, row, _)| row).collect();
-        let gather: Vec<usize> = entries.iter().map(|&(.., slot)| slot).collect();
+        let gather: Vec<usize> = entries.iter().map(|&(.., k)| kept.slots[k]).collect();
         Self {
             pattern: SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
             side,
@@ -166,8 +242,8 @@ impl Permuted {
 /// unit diagonal implied), `D` on it, `Lᵀ` above it.
 struct Dense {
     n: usize,
-    /// Where each stored value of the pattern goes in `a` (`None` for the given upper
-    /// triangle).
+    /// Where each value of the matrix as given goes in `a` (`None` for the given upper
+    /// triangle and the decoupled unknowns' diagonals).
     slot: Vec<Option<usize>>,
     a: Vec<f64>,
     /// One permuted right-hand side.
@@ -238,41 +314,55 @@ impl Ldlt {
         n_q: usize,
         multiplier_dofs: &[Vec<usize>],
     ) -> Result<Self, FactorError> {
-        let pattern = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let (fwd, inv) = saddle_point_ordering(&pattern, n_q, multiplier_dofs)?;
-        let sparse = |ratio| Numeric::sparse(&pattern, &fwd, &inv, SupernodalThreshold(ratio));
+        let given = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        let (decoupled, kept) = Decoupled::split(&given, n_q);
+        let n_kept = kept.pattern.nrows();
+        let multiplier_dofs: Vec<Vec<usize>> = multiplier_dofs
+            .iter()
+            .map(|dofs| dofs.iter().map(|&d| kept.index[d]).collect())
+            .collect();
+        let n_q = n_q - decoupled.unknowns.len();
+        let (fwd, inv) = saddle_point_ordering(&kept.pattern, n_q, &multiplier_dofs)?;
+        let sparse = |ratio| Numeric::sparse(&kept, &fwd, &inv, SupernodalThreshold(ratio));
+        let dense = || Numeric::Dense(Dense::new(&kept, &inv, given.compute_nnz()));
         let numeric = match storage {
             None => match sparse(SUPERNODAL_RATIO)? {
                 s if s
-                    .fill(n)
-                    .is_some_and(|f| n <= DENSE_LIMIT && f >= DENSE_FILL) =>
+                    .fill(n_kept)
+                    .is_some_and(|f| n_kept <= DENSE_LIMIT && f >= DENSE_FILL) =>
                 {
-                    Numeric::Dense(Dense::new(&pattern, &inv))
+                    dense()
                 }
                 s => s,
             },
-            Some(Storage::Dense) => Numeric::Dense(Dense::new(&pattern, &inv)),
+            Some(Storage::Dense) => dense(),
             Some(Storage::Sparse) => sparse(SUPERNODAL_RATIO)?,
             Some(Storage::Simplicial) => sparse(f64::INFINITY)?,
             Some(Storage::Supernodal) => sparse(0.0)?,
         };
         Ok(Self {
-            order: fwd,
-            pattern,
+            order: fwd.iter().map(|&k| kept.unknowns[k]).collect(),
+            decoupled,
             numeric,
             factorized: false,
         })
     }
 
-    /// The share of the lower triangle the sparse factors fill (`None` for dense ones).
+    /// The number of unknowns of the matrix as given.
+    fn n(&self) -> usize {
+        self.order.len() + self.decoupled.unknowns.len()
+    }
+
+    /// The share of the lower triangle the sparse factors fill (`None` for dense ones), of
+    /// the unknowns they hold.
     pub fn fill(&self) -> Option<f64> {
-        self.numeric.fill(self.pattern.nrows())
+        self.numeric.fill(self.order.len())
     }
 
     /// Scratch for solving `nrhs` right-hand sides at once from one thread.
     pub fn scratch_for(&self, nrhs: usize) -> MemBuffer {
         MemBuffer::new(match &self.numeric {
-            Numeric::Sparse { symbolic, .. } => StackReq::new::<f64>(self.pattern.nrows() * nrhs)
+            Numeric::Sparse { symbolic, .. } => StackReq::new::<f64>(self.order.len() * nrhs)
                 .and(symbolic.solve_in_place_scratch::<f64>(nrhs, Par::Seq)),
             Numeric::Dense(d) => StackReq::new::<f64>(d.n),
         })
@@ -311,6 +401,10 @@ impl Ldlt {
             }
             Numeric::Dense(d) => d.factorize(values),
         };
+        let decoupled = &mut self.decoupled;
+        for (d, &slot) in decoupled.pivots.iter_mut().zip(&decoupled.slots) {
+            *d = values[slot];
+        }
         // A subnormal pivot has lost its precision, and its reciprocal overflows: zero. The
         // pivots alone say whether the factors are finite: an entry `L_ij` that is not
         // makes `d_i = a_ii − Σ_j L_ij² d_j` not finite either.
@@ -328,7 +422,13 @@ impl Ldlt {
             }
             Ok(()) => Err(FactorError::Singular("non-finite factors".into())),
             Err(position) => Err(FactorError::ZeroPivot {
-                unknown: self.order[position],
+                unknown: self
+                    .order
+                    .iter()
+                    .chain(&self.decoupled.unknowns)
+                    .nth(position)
+                    .copied()
+                    .unwrap_or(position),
             }),
         }
     }
@@ -355,7 +455,7 @@ impl Ldlt {
                 work,
                 ..
             } => {
-                let n = b.len();
+                let n = work.len();
                 permute(b, &self.order, work);
                 LdltRef::new(symbolic, factors).solve_in_place_with_conj(
                     Conj::No,
@@ -367,10 +467,11 @@ impl Ldlt {
             }
             Numeric::Dense(d) => {
                 let mut work = std::mem::take(&mut d.work);
-                d.solve(b, &self.order, &mut work);
+                d.solve(b, b.len(), &self.order, &mut work);
                 d.work = work;
             }
         }
+        self.decoupled.solve(b);
         finite(b)
     }
 
@@ -383,31 +484,33 @@ impl Ldlt {
         scratch: &mut MemBuffer,
     ) -> Result<(), FactorError> {
         self.check()?;
-        let n = self.pattern.nrows();
+        let (n, kept) = (self.n(), self.order.len());
         match &self.numeric {
             Numeric::Sparse {
                 symbolic, factors, ..
             } => {
-                let (mut work, stack) = MemStack::new(scratch).make_with(n * nrhs, |_| 0.0);
+                let (mut work, stack) = MemStack::new(scratch).make_with(kept * nrhs, |_| 0.0);
                 let work = &mut *work;
-                for (column, out) in b.chunks(n).zip(work.chunks_mut(n)) {
+                for (column, out) in b.chunks(n).zip(work.chunks_mut(kept)) {
                     permute(column, &self.order, out);
                 }
                 LdltRef::new(symbolic, factors).solve_in_place_with_conj(
                     Conj::No,
-                    MatMut::from_column_major_slice_mut(work, n, nrhs),
+                    MatMut::from_column_major_slice_mut(work, kept, nrhs),
                     Par::Seq,
                     stack,
                 );
-                for (column, out) in work.chunks(n).zip(b.chunks_mut(n)) {
+                for (column, out) in work.chunks(kept).zip(b.chunks_mut(n)) {
                     unpermute(column, &self.order, out);
                 }
             }
             Numeric::Dense(d) => {
-                let (mut work, _) = MemStack::new(scratch).make_with(n, |_| 0.0);
-                d.solve(b, &self.order, &mut work);
+                let (mut work, _) = MemStack::new(scratch).make_with(kept, |_| 0.0);
+                d.solve(b, n, &self.order, &mut work);
             }
         }
+        b.chunks_mut(n)
+            .for_each(|column| self.decoupled.solve(column));
         finite(b)
     }
 
@@ -421,8 +524,13 @@ impl Ldlt {
         Ok(negative)
     }
 
-    /// Calls `f(k, D_kk)` for each pivot, `k` its position in the elimination order.
+    /// Calls `f(k, D_kk)` for each pivot, `k` its position in the elimination order (the
+    /// decoupled unknowns' after the factors').
     fn for_each_pivot(&self, mut f: impl FnMut(usize, f64)) {
+        let kept = self.order.len();
+        for (k, &d) in self.decoupled.pivots.iter().enumerate() {
+            f(kept + k, d);
+        }
         match &self.numeric {
             Numeric::Dense(d) => (0..d.n).for_each(|k| f(k, d.a[k * d.n + k])),
             Numeric::Sparse {
@@ -468,11 +576,12 @@ impl Numeric {
     /// The symbolic analysis of `pattern` in the order `(fwd, inv)` and its buffers,
     /// supernodal above the flop ratio `supernodal`.
     fn sparse(
-        pattern: &SymbolicSparseColMat<usize>,
+        kept: &Kept,
         fwd: &[usize],
         inv: &[usize],
         supernodal: SupernodalThreshold,
     ) -> Result<Self, FactorError> {
+        let pattern = &kept.pattern;
         let perm = PermRef::new_checked(fwd, inv, fwd.len());
         let params = || CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: supernodal,
@@ -496,7 +605,7 @@ impl Numeric {
         };
         // faer analyses a matrix given in the identity order as its upper triangle,
         // whatever side it is told.
-        let upper = Permuted::new(pattern, inv, Side::Upper);
+        let upper = Permuted::new(kept, inv, Side::Upper);
         let symbolic = factorize_symbolic_cholesky(
             upper.pattern.as_ref(),
             Side::Upper,
@@ -506,7 +615,7 @@ impl Numeric {
         .map_err(analysis)?;
         let permuted = match side {
             Side::Upper => upper,
-            Side::Lower => Permuted::new(pattern, inv, Side::Lower),
+            Side::Lower => Permuted::new(kept, inv, Side::Lower),
         };
         let factor_req = symbolic
             .factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Spec::<LdltParams, f64>::default());
@@ -523,19 +632,22 @@ impl Numeric {
 }
 
 impl Dense {
-    /// Room for the factors of `pattern` eliminated in the order whose inverse is `inv`.
-    fn new(pattern: &SymbolicSparseColMat<usize>, inv: &[usize]) -> Self {
+    /// Room for the factors of the `kept` unknowns eliminated in the order whose inverse is
+    /// `inv`, of a matrix of `values` stored values.
+    fn new(kept: &Kept, inv: &[usize], values: usize) -> Self {
+        let pattern = &kept.pattern;
         let n = pattern.nrows();
         let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
         // The lower triangle as given (as the sparse factors read it), placed below the
         // diagonal in the elimination order.
-        let slot = (0..n)
-            .flat_map(|j| ri[cp[j]..cp[j + 1]].iter().map(move |&i| (i, j)))
-            .map(|(i, j)| {
+        let mut slot = vec![None; values];
+        for j in 0..n {
+            for k in cp[j]..cp[j + 1] {
+                let i = ri[k];
                 let (r, c) = (inv[i].max(inv[j]), inv[i].min(inv[j]));
-                (i >= j).then_some(c * n + r)
-            })
-            .collect();
+                slot[kept.slots[k]] = (i >= j).then_some(c * n + r);
+            }
+        }
         Self {
             n,
             slot,
@@ -585,11 +697,11 @@ impl Dense {
         Ok(())
     }
 
-    /// Solves for the columns of `b` (column-major, `n` rows), each permuted by `order` into
-    /// `w` (`n` long) and back: `L y = b`, `D z = y`, `Lᵀ x = z`.
-    fn solve(&self, b: &mut [f64], order: &[usize], w: &mut [f64]) {
+    /// Solves for the columns of `b` (column-major, `rows` rows), each permuted by `order`
+    /// into `w` (`n` long) and back: `L y = b`, `D z = y`, `Lᵀ x = z`.
+    fn solve(&self, b: &mut [f64], rows: usize, order: &[usize], w: &mut [f64]) {
         let n = self.n;
-        for col in b.chunks_exact_mut(n) {
+        for col in b.chunks_exact_mut(rows) {
             w.iter_mut().zip(order).for_each(|(w, &i)| *w = col[i]);
             for k in 0..n {
                 let (x, below) = (w[k], &self.a[k * n + k + 1..(k + 1) * n]);
@@ -723,6 +835,69 @@ mod tests {
             (block[0] - 1.0).abs() < 1e-14 && (block[5] - 0.5).abs() < 1e-14,
             "{block:?}"
         );
+    }
+
+    /// A chain of twelve DOFs whose 5th and 9th stand alone (a diagonal only, one of them
+    /// negative), two rows tying DOFs 0–1 and 2–3: every storage keeps those two out of
+    /// its factors, solves one right-hand side and a block to round-off, counts the
+    /// negative alone pivot in the inertia and names a zero one.
+    #[test]
+    fn decoupled_unknowns_are_solved_outside_the_factors() {
+        let (n_q, alone) = (12, [5, 9]);
+        let n = n_q + 2;
+        let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+        let mut put = |i: usize, j: usize, v: f64| {
+            columns[j].push((i, v));
+            if i != j {
+                columns[i].push((j, v));
+            }
+        };
+        for i in 0..n_q {
+            put(i, i, if i == 9 { -2.0 } else { 3.0 + (i % 4) as f64 });
+            if i + 1 < n_q && !alone.contains(&i) && !alone.contains(&(i + 1)) {
+                put(i + 1, i, -1.0);
+            }
+        }
+        let dofs = [vec![0, 1], vec![2, 3]];
+        for (k, d) in dofs.iter().enumerate() {
+            put(n_q + k, d[0], 1.0);
+            put(n_q + k, d[1], -0.5);
+        }
+        let (mut cp, mut ri, mut v) = (vec![0], Vec::new(), Vec::new());
+        for column in &mut columns {
+            column.sort_by_key(|e| e.0);
+            ri.extend(column.iter().map(|e| e.0));
+            v.extend(column.iter().map(|e| e.1));
+            cp.push(ri.len());
+        }
+        let times = |x: &[f64]| -> Vec<f64> {
+            let mut y = vec![0.0; n];
+            for (j, column) in columns.iter().enumerate() {
+                column.iter().for_each(|&(i, a)| y[i] += a * x[j]);
+            }
+            y
+        };
+        let want: Vec<f64> = (0..2 * n).map(|i| ((i * 5) % 7) as f64 - 3.0).collect();
+        for storage in ALL {
+            let mut ldlt =
+                Ldlt::analyze_as(storage, n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
+            assert_eq!(ldlt.decoupled.unknowns, alone);
+            assert!(!ldlt.order.iter().any(|i| alone.contains(i)));
+            ldlt.factorize(&v).unwrap();
+            let mut one = times(&want[..n]);
+            ldlt.solve_in_place(&mut one).unwrap();
+            let mut block = [times(&want[..n]), times(&want[n..])].concat();
+            ldlt.solve_block(&mut block, 2, &mut ldlt.scratch_for(2))
+                .unwrap();
+            for (x, w) in one.iter().chain(&block).zip(want[..n].iter().chain(&want)) {
+                assert!((x - w).abs() < 1e-13, "{storage:?}: {x} vs {w}");
+            }
+            assert_eq!(ldlt.negative_pivots(), Ok(3), "{storage:?}");
+            let mut zero = v.clone();
+            zero[cp[9]] = 0.0;
+            let failed = ldlt.factorize(&zero);
+            assert_eq!(failed, Err(FactorError::ZeroPivot { unknown: 9 }));
+        }
     }
 
     #[test]

@@ -283,18 +283,25 @@ impl Quad {
         }
     }
 
-    /// The kinematics at `u`, with `A = ∂α/∂u` if `rate` (and the cell is enhanced).
-    fn kinematics(&self, u: &Vector8, rate: bool) -> Kinematics {
+    /// The deformation gradients `F` and the strains (enhanced where the cell is) at the
+    /// Gauss points at `u`.
+    fn deformation(&self, u: &Vector8) -> ([Matrix2<f64>; 4], [Vector3<f64>; 4]) {
         let h = self.points.map(|p| Self::displacement_gradient(&p, u));
-        let deformation = h.map(|h| h + Matrix2::identity());
-        let operator =
-            std::array::from_fn(|p| Self::strain_operator(&self.points[p], &deformation[p]));
         let mut strain = h.map(|h| Self::strain(&h));
-        let mut condensed = None;
         if let Some(enhancement) = &self.enhancement {
             enhancement.enhance(&mut strain);
-            condensed = rate.then(|| enhancement.rate(&enhancement.coupling(&operator)));
         }
+        (h.map(|h| h + Matrix2::identity()), strain)
+    }
+
+    /// The kinematics at `u`, with `A = ∂α/∂u` if `rate` (and the cell is enhanced).
+    fn kinematics(&self, u: &Vector8, rate: bool) -> Kinematics {
+        let (deformation, strain) = self.deformation(u);
+        let operator =
+            std::array::from_fn(|p| Self::strain_operator(&self.points[p], &deformation[p]));
+        let condensed = (self.enhancement.as_ref())
+            .filter(|_| rate)
+            .map(|e| e.rate(&e.coupling(&operator)));
         Kinematics {
             operator,
             strain,
@@ -313,29 +320,35 @@ impl Quad {
     /// Green–Lagrange strains `[E₁₁, E₂₂, 2E₁₂]` at the four Gauss points (enhanced where
     /// the cell is).
     pub fn strains(&self, u: &Vector8) -> [Vector3<f64>; 4] {
-        self.kinematics(u, false).strain
+        self.deformation(u).1
     }
 
     /// Strain energy `U(u)` (J), zero in any rigid motion.
     pub fn strain_energy(&self, u: &Vector8) -> f64 {
-        let k = self.kinematics(u, false);
+        let strain = self.strains(u);
         (0..4)
             .map(|p| {
-                let e = k.strain[p];
+                let e = strain[p];
                 0.5 * self.points[p].volume * e.dot(&(self.elasticity * e))
             })
             .sum()
     }
 
-    /// Internal force `f(u) = ∂U/∂u` (N).
+    /// Internal force `f(u) = ∂U/∂u` (N): `Bᵀ S V` summed over the Gauss points, node
+    /// `a`'s `V F S g_a` (an enhanced cell's `α` is at its condensed value, where
+    /// `∂U/∂α = 0`).
     pub fn internal_force(&self, u: &Vector8) -> Vector8 {
-        let k = self.kinematics(u, false);
-        (0..4)
-            .map(|p| {
-                let stress = self.elasticity * k.strain[p] * self.points[p].volume;
-                k.operator[p].transpose() * stress
-            })
-            .sum()
+        let (deformation, strain) = self.deformation(u);
+        let mut force = Vector8::zeros();
+        for (p, point) in self.points.iter().enumerate() {
+            let s = self.elasticity * strain[p] * point.volume;
+            let fs = deformation[p] * Matrix2::new(s[0], s[2], s[2], s[1]);
+            for (a, g) in point.gradient.iter().enumerate() {
+                let mut node = force.fixed_rows_mut::<2>(2 * a);
+                node += fs * g;
+            }
+        }
+        force
     }
 
     /// Internal force and its exact tangent `K = ∂f/∂u` (material and geometric parts;
@@ -433,9 +446,9 @@ impl Quad {
     /// with each point's share of the element's volume.
     pub fn von_mises(&self, u: &Vector8) -> [(f64, f64); 4] {
         let volume = self.volume();
-        let k = self.kinematics(u, false);
+        let strain = self.strains(u);
         std::array::from_fn(|p| {
-            let stress = self.elasticity * k.strain[p];
+            let stress = self.elasticity * strain[p];
             (von_mises(&stress), self.points[p].volume / volume)
         })
     }
