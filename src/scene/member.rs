@@ -7,7 +7,9 @@
 //! design variables, unless the member is `fixed` or the cell `solid`), and it forms the
 //! component `NAME`. Cells in `holes` are left out, with the nodes only they touched. Cells
 //! in `solid`, and by default those touching a node a joint or a beam attaches to (a ring
-//! around the joint that an optimizer cannot take away), are passive solid.
+//! around the joint that an optimizer cannot take away) or, with `solid_radius`, whose
+//! centre lies within that distance of one (the same region on every mesh), are passive
+//! solid.
 //!
 //! With `split = s`, each cell is meshed by `s × s` elements sharing its density: the
 //! nodes between the cells' corners are named by their fractional place, `NAME[7/2,2]`
@@ -25,6 +27,7 @@ use crate::limits::{MAX_ELEMENTS, MAX_SPLIT};
 use crate::mechanism::element::quad::{PlaneMaterial, Quad};
 use crate::mechanism::element::void::EnergyInterpolation;
 use crate::mechanism::model::{Cell, Member};
+use nalgebra::Vector2;
 
 /// Adds the scene's continuum members to `mesh`; `attached`: the names of the nodes that
 /// joints and beams attach to.
@@ -75,11 +78,29 @@ fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) ->
             node[j * columns + i] = mesh.add_node(path, &name, p.x, p.y)?;
         }
     }
+    let held = |(i, j): (usize, usize)| {
+        let k = node[j * columns + i];
+        k != usize::MAX && attached.contains(mesh.nodes[k].name.as_str())
+    };
     let mut at_joint = vec![false; m.nx * m.ny];
     if m.solid_at_joints {
         for e in grid.elements().filter(|&e| kept[grid.cell(e)]) {
-            let names = corners(e).map(|(a, b)| mesh.nodes[node[b * columns + a]].name.as_str());
-            at_joint[grid.cell(e)] |= names.iter().any(|n| attached.contains(n));
+            at_joint[grid.cell(e)] |= corners(e).into_iter().any(held);
+        }
+    }
+    if let Some(radius) = m.solid_radius {
+        let at = format!("{path}.solid_radius");
+        let radius = positive(&at, radius)?;
+        if !m.solid_at_joints {
+            return Err(SceneError::new(at, "needs solid_at_joints = true"));
+        }
+        let local = |(i, j)| Vector2::from(local_coordinates(i, j, columns, rows, length, height));
+        let nodes = (0..rows).flat_map(|j| (0..columns).map(move |i| (i, j)));
+        let held: Vec<Vector2<f64>> = nodes.filter(|&n| held(n)).map(local).collect();
+        for (c, solid) in at_joint.iter_mut().enumerate() {
+            let (i, j) = ((c % m.nx) * grid.split, (c / m.nx) * grid.split);
+            let centre = (local((i, j)) + local((i + grid.split, j + grid.split))) / 2.0;
+            *solid |= kept[c] && held.iter().any(|p| (p - centre).norm() <= radius);
         }
     }
     let component = mesh.component(&m.name);

@@ -386,6 +386,11 @@ pub struct MemberSpec {
     /// (default), so that an optimizer cannot detach the joint.
     #[serde(default = "yes")]
     pub solid_at_joints: bool,
+    /// With `solid_at_joints`, the cells whose centre lies within this distance (m) of such
+    /// a node are passive solid too: a region in metres, the same on every mesh, where the
+    /// cells touching the node are a region of one cell's size.
+    #[serde(default)]
+    pub solid_radius: Option<f64>,
 }
 
 /// How a member's void cells store energy.

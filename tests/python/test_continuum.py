@@ -89,6 +89,36 @@ def test_the_solid_continuum_arm_agrees_across_meshes_with_enhanced_cells():
     assert values["plain", 10] < values["plain", 20] < values["plain", 40] < fine, values
 
 
+def test_the_rings_solid_region_is_the_same_in_metres_on_every_mesh():
+    """With ``solid_radius = 0.05`` the continuum arm's three rings hold 50 mm of each link's
+    0.1 m height solid at 20 × 6, 40 × 12 and 60 × 20 cells per link (0.015 m² in all),
+    where the cells touching a ring are one column of the mesh's width; a radius that is not
+    positive, or one without ``solid_at_joints``, is named. The one design every mesh then
+    represents reads one tip deflection at x = 0.5: 20 × 6 and 40 × 12 within 0.5 % of each other
+    (measured 0.18 %; 0.3 % to 120 × 40, BENCHMARKS.md "Continuum cells"), where the column of
+    cells touching a ring, wider on the coarser mesh, makes them differ by 9 %."""
+    d = {}
+    for nx, ny in [(20, 6), (40, 12)]:
+        for radius in (None, 0.05):
+            sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=nx, ny=ny, solid_radius=radius))
+            d[nx, radius] = sim.run(np.full(sim.n_design, 0.5)).response("tip_deflection")
+    assert abs(d[20, 0.05] / d[40, 0.05] - 1) < 0.005, d
+    assert abs(d[20, None] / d[40, None] - 1) > 0.05, d
+    for nx, ny in [(20, 6), (40, 12), (60, 20)]:
+        cell = (1.0 / nx) * (0.1 / ny)
+        for radius, solid in [(None, 3 * 0.1 / nx), (0.05, 0.015)]:
+            sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=nx, ny=ny, solid_radius=radius))
+            assert (2 * nx * ny - sim.n_design) * cell == pytest.approx(solid, rel=1e-12), (nx, radius)
+    for radius, words in [(-0.01, "positive"), (float("nan"), "positive")]:
+        with pytest.raises(SceneError, match=r"solid_radius.*" + words):
+            flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=20, ny=6, solid_radius=radius))
+    s = Scene("plate")
+    s.member("plate", nx=4, ny=2, length=1.0, height=0.1, thickness=0.01, **STEEL, solid_at_joints=False,
+             solid_radius=0.1)
+    with pytest.raises(SceneError, match="solid_radius.*needs solid_at_joints"):
+        flextop.Simulation(s)
+
+
 def test_a_small_load_gives_the_linear_compliance_and_its_gradient():
     """A 12 × 4 cantilever of plain unit-square cells (E = 1, t = 1, ν = 0.3) with random densities
     under SIMP p = 3: as the load falls, compliance and its gradient tend to the linear

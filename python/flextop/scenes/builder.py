@@ -273,7 +273,8 @@ class Scene(SceneDict):
     def member(self, name: str, *, nx: int, ny: int, length: float, height: float, thickness: float, E: float,
                nu: float, rho: float, origin: Sequence[float] | str = (0.0, 0.0), angle: float = 0.0,
                fixed: bool = False, holes: Sequence[Sequence[int]] = (), solid: Sequence[Sequence[int]] = (),
-               solid_at_joints: bool = True, rayleigh: Sequence[float] | None = None,
+               solid_at_joints: bool = True, solid_radius: float | None = None,
+               rayleigh: Sequence[float] | None = None,
                cell: str = "enhanced", void: str = "linear_energy",
                void_threshold: float | None = None, split: int = 1) -> Member:
         """A plane-stress continuum member: the ``length × height`` rectangle (m) in a frame
@@ -286,7 +287,9 @@ class Scene(SceneDict):
         ``j0 ≤ j < j1`` from the bottom left (``(0, 0, 1, 1)`` is the corner cell alone), left
         out — with the nodes only they touch — or kept at full density and not designed. Its
         nodes have no rotation: joints on them pin. With ``solid_at_joints`` (default) the cells touching a node that a joint or a
-        beam attaches to are kept solid too, so that an optimizer cannot detach the joint.
+        beam attaches to are kept solid too, so that an optimizer cannot detach the joint, and
+        with ``solid_radius`` (m) those whose centre lies within that distance of such a node:
+        the same region on every mesh, where the cells touching it are one cell wide.
         ``rayleigh = (α, β)`` (1/s, s) damps the cells by ``C = αM + βK``, the stiffness part
         as a Kelvin–Voigt material on the Green–Lagrange strain rate (no damping of a rigid
         motion). ``cell = "enhanced"`` (default) enhances each cell's strain by four
@@ -310,6 +313,8 @@ class Scene(SceneDict):
                 entry[key] = listed
         if not solid_at_joints:
             entry["solid_at_joints"] = False
+        if solid_radius is not None:
+            entry["solid_radius"] = solid_radius
         if rayleigh is not None:
             entry["rayleigh"] = _listed(rayleigh)
         if cell != "enhanced":

@@ -149,7 +149,7 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                         rho: float = ALUMINIUM["rho"], p: float = 3.0, x_min: float = 0.01, t_end: float = 1.3,
                         h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid", cell: str = "enhanced",
-                        void: str = "linear_energy") -> Scene:
+                        void: str = "linear_energy", solid_radius: float | None = None) -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
     height`` member of ``nx × ny`` cells of kind ``cell`` (:meth:`Scene.member`) and
     ``thickness`` (m), a density per cell. The
@@ -157,7 +157,10 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     ``"averaging"``) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
     payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
-    hold are passive solid (a member's ``solid_at_joints``). ``void`` is the members' void
+    hold are passive solid (a member's ``solid_at_joints``): one column, its width the mesh's,
+    or, with ``solid_radius`` (m), every cell whose centre lies within that distance of a
+    ring's node — ``solid_radius=0.05`` is the same 50 mm at 20 × 6 … 120 × 40 cells, the one
+    design every mesh of it represents. ``void`` is the members' void
     cells' energy (:meth:`Scene.member`). ``ny`` must be even, for a row of nodes on each
     link's axis."""
     if ny % 2:
@@ -167,7 +170,8 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     origin = (0.0, 0.0)
     for k, angle in enumerate((theta_start, 2 * theta_start)):
         links.append(scene.member(f"link{k + 1}", nx=nx, ny=ny, length=length, height=height, thickness=thickness, E=E,
-                                  nu=nu, rho=rho, origin=origin, angle=angle, cell=cell, void=void))
+                                  nu=nu, rho=rho, origin=origin, angle=angle, cell=cell, void=void,
+                                  solid_radius=solid_radius))
         origin = (origin[0] + length * math.cos(angle), origin[1] + length * math.sin(angle))
     link1, link2 = links
     motion = trapezoidal(theta_start, theta_end, acceleration=acceleration, speed=speed)
