@@ -6,15 +6,15 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
 
 1. one forward run, and one run with the adjoint gradients of the tip deflection (Eq. 40)
    and the strain energy, at 20 × 6 to 120 × 40 cells per link: seconds, microseconds per
-   cell-step, Newton iterations per step, unknowns (three per node: a member's nodes keep
-   a rotation row, zero and scaled, in the iteration matrix);
-2. at 60 × 20 (the issue's floor: forward with the adjoint gradient in at most 5 s), full
+   cell-step, Newton iterations per step, unknowns (three per node: a member node's rotation
+   row, which no cell reads, is solved outside the factors);
+2. at 60 × 20, full
    and modified Newton side by side, on four designs (uniform 0.5 and 1, random in
    [0.01, 1], and a random mix of void 0.01 and solid cells), a failed run reported as such;
 3. with ``--optimize NX NY [--plain] [--radius R]``: the tip deflection (Eq. 40) minimized
    under a volume of 0.5 per link, the density filter at R m (default 0.025), by MMA (with its safeguard, or plain) for
    200 iterations from the uniform 0.5 at NX × NY cells per link (the issue's floor: 60 × 20
-   in at most 20 minutes); the objective before and after, the time, the design
+   in at most 5 minutes); the objective before and after, the time, the design
    (``docs/continuum_arm_NXxNY[_plain].png``), and the optimized design's objective on
    meshes refined 2 × 2 and 4 × 4 with the step halved and quartered (the filter radius is
    fixed in metres, so the design is a field that the finer meshes resolve).
@@ -27,16 +27,25 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
    iterations, the continuum rod's density filter at 7.5 mm (1.5 cells), its design then
    evaluated with the cells split 2 × 2 and the step halved; the frame arm's tip deflection
    under V ≤ 0.4 per link from x = 0.4, 40 iterations on the scene's grid; and the
-   continuum arm's row as ``--optimize 60 20 --plain`` wrote it.
+   continuum arm's row as ``--optimize 60 20 --plain`` wrote it;
+5. with ``--floor [--against PYTHON]``: the issue's floor, two 60 × 20 links run with the
+   adjoint gradient of the tip deflection in at most 1.5 s: the scene's runs (modified
+   Newton) on the uniform 0.5, a random design in [0.01, 1] and the uniform 1, the best of
+   three each, five rounds in fresh processes, alternating with the interpreter ``PYTHON``
+   of another build (e.g. a virtual environment with the previous commit installed) where
+   given: side by side on the same machine at the same time.
 
     python benches/continuum.py                   # → benches/results/continuum.md (about 4 min)
     python benches/continuum.py --optimize 20 6   # → benches/results/continuum_optimization_20x6.md
     python benches/continuum.py --optimize 60 20 --plain
     python benches/continuum.py --beside          # → benches/results/continuum_beside_frames.md (about 5 min)
+    python benches/continuum.py --floor --against /path/to/other/venv/bin/python   # about 3 min
 """
 
 from __future__ import annotations
 
+import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -203,7 +212,50 @@ def designs() -> list[str]:
     return lines
 
 
+FLOOR_DESIGNS = ["uniform 0.5", "random", "uniform 1"]
+"""The designs of the floor's table, in order."""
+
+FLOOR_RUN = """
+import json, time
+import numpy as np
+import flextop
+sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=60, ny=20))
+designs = [np.full(sim.n_design, 0.5), np.random.default_rng(0).uniform(0.01, 1.0, sim.n_design), np.ones(sim.n_design)]
+best = []
+for x in designs:
+    times = []
+    for _ in range(3):
+        clock = time.perf_counter()
+        sim.run_with_sensitivities(x, "tip_deflection")
+        times.append(time.perf_counter() - clock)
+    best.append(min(times))
+print(json.dumps(best))
+"""
+"""One round of the floor in a fresh process: the best of three runs with the adjoint per design."""
+
+
+def floor(against: str | None, rounds: int = 5) -> None:
+    """The floor's table: each design's run with its adjoint, the median over ``rounds`` of
+    the best of three, this build and (``against``) another, rounds alternating."""
+    builds = {"this build": sys.executable} | ({"other build": against} if against else {})
+    times: dict[str, list[list[float]]] = {name: [] for name in builds}
+    for _ in range(rounds):
+        for name, python in builds.items():
+            out = subprocess.run([python, "-c", FLOOR_RUN], capture_output=True, text=True, check=True).stdout
+            times[name].append(json.loads(out.splitlines()[-1]))
+    medians = {name: np.median(np.array(t), axis=0) for name, t in times.items()}
+    header = " | ".join(f"{name} (s)" for name in builds) + (" | this / other |" if against else " |")
+    print(f"| design (60 × 20) | {header}\n|---|{'---|' * (len(builds) + bool(against))}")
+    for k, design in enumerate(FLOOR_DESIGNS):
+        cells = " | ".join(f"{medians[name][k]:.2f}" for name in builds)
+        ratio = f" | {medians['this build'][k] / medians['other build'][k]:.2f}" if against else ""
+        print(f"| {design} | {cells}{ratio} |")
+
+
 def main() -> None:
+    if "--floor" in sys.argv:
+        floor(sys.argv[sys.argv.index("--against") + 1] if "--against" in sys.argv else None)
+        return
     if "--beside" in sys.argv:
         beside_frames()
         return
