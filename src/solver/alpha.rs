@@ -124,6 +124,19 @@ pub struct State {
     pub h: f64,
 }
 
+impl State {
+    /// Takes `other`'s values, into this state's own storage (the same lengths): no
+    /// allocation.
+    pub(crate) fn assign(&mut self, other: &State) {
+        (self.t, self.h) = (other.t, other.h);
+        self.q.copy_from_slice(&other.q);
+        self.qdot.copy_from_slice(&other.qdot);
+        self.qddot.copy_from_slice(&other.qddot);
+        self.a.copy_from_slice(&other.a);
+        self.lam.copy_from_slice(&other.lam);
+    }
+}
+
 /// What the predictor fills and reads: the step's increment `Δ` (one per velocity
 /// coordinate), and which coordinates' accelerations start Newton at `q̈ₙ` — the others at
 /// zero; `None`: every one at `q̈ₙ`.
