@@ -837,6 +837,70 @@ mod tests {
         );
     }
 
+    /// A symmetric saddle-point system in CSC (both triangles): a chain of `n_q` DOFs with
+    /// `diagonal(i)` on the diagonal and `−1` between neighbours `i`, `i + 1` where
+    /// `linked(i)`, and a row `x_a − ½ x_b` per pair `[a, b]` of `dofs`.
+    struct Chain {
+        columns: Vec<Vec<(usize, f64)>>,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        values: Vec<f64>,
+    }
+
+    impl Chain {
+        fn new(
+            n_q: usize,
+            dofs: &[Vec<usize>],
+            diagonal: impl Fn(usize) -> f64,
+            linked: impl Fn(usize) -> bool,
+        ) -> Self {
+            let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n_q + dofs.len()];
+            let mut put = |i: usize, j: usize, v: f64| {
+                columns[j].push((i, v));
+                if i != j {
+                    columns[i].push((j, v));
+                }
+            };
+            for i in 0..n_q {
+                put(i, i, diagonal(i));
+                if i + 1 < n_q && linked(i) {
+                    put(i + 1, i, -1.0);
+                }
+            }
+            for (k, d) in dofs.iter().enumerate() {
+                put(n_q + k, d[0], 1.0);
+                put(n_q + k, d[1], -0.5);
+            }
+            let (mut col_ptr, mut row_idx, mut values) = (vec![0], Vec::new(), Vec::new());
+            for column in &mut columns {
+                column.sort_by_key(|e| e.0);
+                row_idx.extend(column.iter().map(|e| e.0));
+                values.extend(column.iter().map(|e| e.1));
+                col_ptr.push(row_idx.len());
+            }
+            Self {
+                columns,
+                col_ptr,
+                row_idx,
+                values,
+            }
+        }
+
+        /// `A x`.
+        fn times(&self, x: &[f64]) -> Vec<f64> {
+            let mut y = vec![0.0; self.columns.len()];
+            for (j, column) in self.columns.iter().enumerate() {
+                column.iter().for_each(|&(i, a)| y[i] += a * x[j]);
+            }
+            y
+        }
+
+        fn analyze(&self, storage: Storage, n_q: usize, dofs: &[Vec<usize>]) -> Ldlt {
+            let (cp, ri) = (self.col_ptr.clone(), self.row_idx.clone());
+            Ldlt::analyze_as(storage, self.columns.len(), cp, ri, n_q, dofs).unwrap()
+        }
+    }
+
     /// A chain of twelve DOFs whose 5th and 9th stand alone (a diagonal only, one of them
     /// negative), two rows tying DOFs 0–1 and 2–3: every storage keeps those two out of
     /// its factors, solves one right-hand side and a block to round-off, counts the
@@ -845,45 +909,17 @@ mod tests {
     fn decoupled_unknowns_are_solved_outside_the_factors() {
         let (n_q, alone) = (12, [5, 9]);
         let n = n_q + 2;
-        let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
-        let mut put = |i: usize, j: usize, v: f64| {
-            columns[j].push((i, v));
-            if i != j {
-                columns[i].push((j, v));
-            }
-        };
-        for i in 0..n_q {
-            put(i, i, if i == 9 { -2.0 } else { 3.0 + (i % 4) as f64 });
-            if i + 1 < n_q && !alone.contains(&i) && !alone.contains(&(i + 1)) {
-                put(i + 1, i, -1.0);
-            }
-        }
         let dofs = [vec![0, 1], vec![2, 3]];
-        for (k, d) in dofs.iter().enumerate() {
-            put(n_q + k, d[0], 1.0);
-            put(n_q + k, d[1], -0.5);
-        }
-        let (mut cp, mut ri, mut v) = (vec![0], Vec::new(), Vec::new());
-        for column in &mut columns {
-            column.sort_by_key(|e| e.0);
-            ri.extend(column.iter().map(|e| e.0));
-            v.extend(column.iter().map(|e| e.1));
-            cp.push(ri.len());
-        }
-        let times = |x: &[f64]| -> Vec<f64> {
-            let mut y = vec![0.0; n];
-            for (j, column) in columns.iter().enumerate() {
-                column.iter().for_each(|&(i, a)| y[i] += a * x[j]);
-            }
-            y
-        };
+        let diagonal = |i: usize| if i == 9 { -2.0 } else { 3.0 + (i % 4) as f64 };
+        let linked = |i: usize| !alone.contains(&i) && !alone.contains(&(i + 1));
+        let system = Chain::new(n_q, &dofs, diagonal, linked);
+        let (cp, v, times) = (&system.col_ptr, &system.values, |x: &[f64]| system.times(x));
         let want: Vec<f64> = (0..2 * n).map(|i| ((i * 5) % 7) as f64 - 3.0).collect();
         for storage in ALL {
-            let mut ldlt =
-                Ldlt::analyze_as(storage, n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
+            let mut ldlt = system.analyze(storage, n_q, &dofs);
             assert_eq!(ldlt.decoupled.unknowns, alone);
             assert!(!ldlt.order.iter().any(|i| alone.contains(i)));
-            ldlt.factorize(&v).unwrap();
+            ldlt.factorize(v).unwrap();
             let mut one = times(&want[..n]);
             ldlt.solve_in_place(&mut one).unwrap();
             let mut block = [times(&want[..n]), times(&want[n..])].concat();
@@ -934,38 +970,10 @@ mod tests {
     fn dense_and_sparse_factors_agree_on_a_larger_system() {
         let (n_q, n_c) = (40, 12);
         let n = n_q + n_c;
-        let mut columns: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
-        let mut put = |i: usize, j: usize, v: f64| {
-            columns[j].push((i, v));
-            if i != j {
-                columns[i].push((j, v));
-            }
-        };
-        for i in 0..n_q {
-            put(i, i, 3.0 + (i % 5) as f64);
-            if i + 1 < n_q {
-                put(i + 1, i, -1.0);
-            }
-        }
         let dofs: Vec<Vec<usize>> = (0..n_c).map(|k| vec![2 * k, 2 * k + 1]).collect();
-        for (k, d) in dofs.iter().enumerate() {
-            put(n_q + k, d[0], 1.0);
-            put(n_q + k, d[1], -0.5);
-        }
-        let (mut cp, mut ri, mut v) = (vec![0], Vec::new(), Vec::new());
-        for column in &mut columns {
-            column.sort_by_key(|e| e.0);
-            ri.extend(column.iter().map(|e| e.0));
-            v.extend(column.iter().map(|e| e.1));
-            cp.push(ri.len());
-        }
-        let times = |x: &[f64]| -> Vec<f64> {
-            let mut y = vec![0.0; n];
-            for (j, column) in columns.iter().enumerate() {
-                column.iter().for_each(|&(i, a)| y[i] += a * x[j]);
-            }
-            y
-        };
+        let system = Chain::new(n_q, &dofs, |i| 3.0 + (i % 5) as f64, |_| true);
+        let times = |x: &[f64]| system.times(x);
+        let (cp, ri, v) = (&system.col_ptr, &system.row_idx, &system.values);
         let want: Vec<Vec<f64>> = (0..2)
             .map(|c| {
                 (0..n)
@@ -975,9 +983,8 @@ mod tests {
             .collect();
         let mut got = Vec::new();
         for storage in ALL {
-            let mut ldlt =
-                Ldlt::analyze_as(storage, n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
-            ldlt.factorize(&v).unwrap();
+            let mut ldlt = system.analyze(storage, n_q, &dofs);
+            ldlt.factorize(v).unwrap();
             let mut one = times(&want[0]);
             ldlt.solve_in_place(&mut one).unwrap();
             let mut block = [times(&want[0]), times(&want[1])].concat();
@@ -995,7 +1002,7 @@ mod tests {
         assert_eq!(got, [n_c; 4]);
         // A chain fills little of the triangle: the engine keeps it sparse; the small
         // saddle above it stores dense.
-        let chain = Ldlt::analyze(n, cp, ri, n_q, &dofs).unwrap();
+        let chain = Ldlt::analyze(n, cp.clone(), ri.clone(), n_q, &dofs).unwrap();
         assert!(
             chain.fill().is_some_and(|f| f < DENSE_FILL),
             "{:?}",
