@@ -13,7 +13,8 @@ pub use crate::solver::linsolve::{Storage, DENSE_FILL, DENSE_LIMIT, SUPERNODAL_R
 pub struct Refactoring {
     /// Number of unknowns (DOFs and multipliers).
     pub unknowns: usize,
-    /// The share of the lower triangle sparse factors fill (`None` when stored dense).
+    /// The share of the lower triangle sparse factors fill, over the unknowns they hold
+    /// (`None` when stored dense).
     pub fill: Option<f64>,
     ldlt: Ldlt,
     values: Vec<f64>,

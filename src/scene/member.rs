@@ -44,7 +44,8 @@ pub(super) fn add_all(
 
 /// The member `m` at `path`: its grid nodes, then its elements row by row from the bottom,
 /// `m.split × m.split` to a cell, passive solid where `m.solid` says or, with
-/// `m.solid_at_joints`, where one of the cell's elements touches a node in `attached`.
+/// `m.solid_at_joints`, where one of the cell's elements touches a node in `attached` or,
+/// with `m.solid_radius`, where the cell's centre lies within that distance of one.
 fn add(mesh: &mut Mesh, path: &str, m: &MemberSpec, attached: &HashSet<&str>) -> Result<()> {
     let material = material(path, m)?;
     let grid = Grid::of(path, m, mesh.cells.len())?;

@@ -16,10 +16,11 @@
 //! of 2.4 per step on the rigid four-bar of BENCHMARKS.md, "Mechanisms"). A beam node's
 //! accelerations carry the mesh's high frequencies: extrapolated over a large step they sent
 //! the robot arm to another branch, so they start from zero. A continuum member's nodes
-//! start from `q̈ₙ` too (4.8–5.2 iterations per step instead of 5.6–6.9 on the continuum
-//! arm's uniform, random and solid designs, BENCHMARKS.md "Continuum links"); a step whose
-//! Newton fails so is taken again with them from zero, as before (a void and solid mix
-//! stalled at 1.5 times the tolerance with them extrapolated).
+//! (those no beam reaches) start from `q̈ₙ` too (4.8–5.2 iterations per step instead of
+//! 5.6–6.9 on the continuum arm's uniform, random and solid designs, BENCHMARKS.md
+//! "Continuum links"); a step that fails so — Newton, or the step's plausibility — is taken
+//! again with them from zero, as before (a void and solid mix stalled at 1.5 times the
+//! tolerance with them extrapolated), its report counting both attempts' iterations.
 
 use crate::error::SolveError;
 use crate::group::{Additive, ConfigurationSpace};
@@ -46,7 +47,8 @@ pub struct Integrator<'m> {
     smooth: Vec<bool>,
     /// The rigid bodies' alone: a failed step's second start.
     rigid: Vec<bool>,
-    /// The state a step starts from, kept for its second start.
+    /// The state a step starts from, kept for its second start (none without members'
+    /// nodes to start two ways).
     before: Option<State>,
     /// How the static equilibrium of an [`Initial::Equilibrium`] start is solved.
     statics: Option<StaticSettings>,
@@ -187,13 +189,24 @@ impl<'m> Integrator<'m> {
         h: f64,
         guess: Option<&[f64]>,
     ) -> Result<NewtonReport, SolveError> {
+        if self.smooth == self.rigid {
+            return alpha::step(&mut Guided::new(self, guess, false), s, h);
+        }
         let mut before = self.before.take().unwrap_or_else(|| s.clone());
         before.assign(s);
         let first = alpha::step(&mut Guided::new(self, guess, false), s, h);
         let result = match first {
-            Err(SolveError::NewtonFailed { .. }) if self.smooth != self.rigid => {
+            Err(e) if again(&e) => {
                 s.assign(&before);
-                alpha::step(&mut Guided::new(self, guess, true), s, h)
+                let spent = match e {
+                    SolveError::NewtonFailed { iterations, .. } => iterations,
+                    _ => 0,
+                };
+                let second = alpha::step(&mut Guided::new(self, guess, true), s, h);
+                second.map(|r| NewtonReport {
+                    iterations: r.iterations + spent,
+                    ..r
+                })
             }
             first => first,
         };
@@ -277,11 +290,29 @@ impl Equations for Guided<'_, '_> {
     }
 }
 
-/// Which DOFs belong to a rigid body or to a continuum member's node.
+/// Whether a step that failed with `e` is taken again with the members' nodes' accelerations
+/// from zero: where Newton failed or its solution was not plausible.
+fn again(e: &SolveError) -> bool {
+    matches!(
+        e,
+        SolveError::NewtonFailed { .. }
+            | SolveError::Diverged { .. }
+            | SolveError::SpringCollapsed { .. }
+            | SolveError::CellInverted { .. }
+    )
+}
+
+/// Which DOFs belong to a rigid body or to a continuum member's node that no beam reaches.
 fn smooth_dofs(model: &Model) -> Vec<bool> {
     let mut smooth = rigid_dofs(model);
     for d in model.cells.iter().flat_map(|c| c.dofs()) {
         smooth[d] = true;
+    }
+    for d in model.elements.iter().flat_map(|e| e.dofs()) {
+        smooth[d] = false;
+    }
+    for b in &model.bodies {
+        smooth[3 * b.node..3 * b.node + 3].fill(true);
     }
     smooth
 }

@@ -89,7 +89,8 @@ def _check_argument(builder: str, name: str, value: Any, annotation: str, span: 
     pair = annotation.startswith("tuple")
     if pair and (not isinstance(value, (tuple, list, np.ndarray)) or len(value) != annotation.count("float")):
         raise SceneError(f"{where} must be {annotation.count('float')} numbers, got {value!r}")
-    numbers = list(value) if pair else [value] if annotation == "float" else []
+    optional = annotation == "float | None"
+    numbers = list(value) if pair else [value] if annotation == "float" or (optional and value is not None) else []
     for v in numbers:
         if real(v) is None:
             raise SceneError(f"{where} must be a finite number, got {value!r}")

@@ -139,7 +139,7 @@ pub enum QuadDefect {
 
 /// A cell's kinematics at displacements `u`, per Gauss point: the compatible strain's
 /// derivative `B`, and the strain `E` (enhanced where the
-/// cell is), with `A = ∂α/∂u` where asked for.
+/// cell is), with `A = ∂α/∂u` where it is enhanced.
 struct Kinematics {
     operator: [SMatrix<f64, 3, 8>; 4],
     strain: [Vector3<f64>; 4],
@@ -294,14 +294,12 @@ impl Quad {
         (h.map(|h| h + Matrix2::identity()), strain)
     }
 
-    /// The kinematics at `u`, with `A = ∂α/∂u` if `rate` (and the cell is enhanced).
-    fn kinematics(&self, u: &Vector8, rate: bool) -> Kinematics {
+    /// The kinematics at `u`, with `A = ∂α/∂u` where the cell is enhanced.
+    fn kinematics(&self, u: &Vector8) -> Kinematics {
         let (deformation, strain) = self.deformation(u);
         let operator =
             std::array::from_fn(|p| Self::strain_operator(&self.points[p], &deformation[p]));
-        let condensed = (self.enhancement.as_ref())
-            .filter(|_| rate)
-            .map(|e| e.rate(&e.coupling(&operator)));
+        let condensed = (self.enhancement.as_ref()).map(|e| e.rate(&e.coupling(&operator)));
         Kinematics {
             operator,
             strain,
@@ -354,7 +352,7 @@ impl Quad {
     /// Internal force and its exact tangent `K = ∂f/∂u` (material and geometric parts;
     /// an enhanced cell's condensed, `K_uu − K_uα K_αα⁻¹ K_αu`).
     pub fn internal_force_and_tangent(&self, u: &Vector8) -> (Vector8, Matrix8) {
-        let k = self.kinematics(u, true);
+        let k = self.kinematics(u);
         let (mut force, mut tangent) = (Vector8::zeros(), Matrix8::zeros());
         for (p, point) in self.points.iter().enumerate() {
             let stress = self.elasticity * k.strain[p] * point.volume;
@@ -371,7 +369,7 @@ impl Quad {
     /// where the cell is (`α̇ = A v`), from the dissipation `½ Σ V Ėᵀ β C Ė`.
     pub fn damping(&self, u: &Vector8, v: &Vector8) -> Damping<8> {
         let beta = self.material.beta;
-        let k = self.kinematics(u, true);
+        let k = self.kinematics(u);
         let h_v = self.points.map(|p| Self::displacement_gradient(&p, v));
         // D_p = B(H(v)): δ(B v) = D_p δu, since B is linear in F.
         let d_op: [SMatrix<f64, 3, 8>; 4] =
@@ -457,7 +455,7 @@ impl Quad {
     /// stress is) and the point's share of the element's volume.
     pub fn von_mises_and_gradient(&self, u: &Vector8) -> [(f64, Vector8, f64); 4] {
         let volume = self.volume();
-        let k = self.kinematics(u, true);
+        let k = self.kinematics(u);
         std::array::from_fn(|p| {
             let stress = self.elasticity * k.strain[p];
             let sigma = von_mises(&stress);
