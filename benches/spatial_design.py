@@ -12,16 +12,19 @@ start's mass, ``SizingProblem``). With ``--tolerance``: the arm's tip deflection
 its volume by MMA held to rtol 1e-2 (``SpatialProblem(..., rtol=1e-2)``), against the same
 optimization on the scene's grid, both optimized designs measured to rtol 1e-2 and 1e-3; each
 iteration's progress on stderr; with ``--plain`` too, by plain MMA (one evaluation per
-iteration) instead of MMA with its safeguard; ``--iterations N``: N of them (100).
+iteration) instead of MMA with its safeguard; ``--iterations N``: N of them (100); ``--save DIR``:
+each optimized design written to ``DIR`` as ``.npy`` as soon as its optimization ends, before
+the long measurements of the last table.
 With ``--hundred``: 100 iterations of the arm's tip deflection by MMA with its safeguard and by
 plain MMA, the design issue's floor. With ``--costs``: the cost table alone, which also times
 the adjoint of four responses at once (``FOUR``).
 
-    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance [--plain] [--iterations N] | --hundred]
+    python benches/spatial_design.py [--costs | --stress | --sizing | --tolerance [--plain] [--iterations N] [--save DIR] | --hundred]
 """
 
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -132,11 +135,12 @@ def sizing(iterations: int = 60) -> None:
         print(f"| {h} | {d[0]:.4e} | {d[1]:.4e} | {d[1] / d[0]:.4f} |")
 
 
-def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = False) -> None:
+def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = False, save: str | None = None) -> None:
     """The arm's tip deflection at 40 % of its volume by MMA from the uniform design, on the
     scene's grid (10 ms) and held to ``rtol`` (the grid measured where an accepted design
     moved by more than 0.1, held between, the returned design measured); each optimized design
-    and the start measured to ``rtol`` and to rtol 1e-3. ``plain``: by ``MMA(safeguard=False)``."""
+    and the start measured to ``rtol`` and to rtol 1e-3. ``plain``: by ``MMA(safeguard=False)``;
+    ``save``: a directory each optimized design is written to."""
     scene = flextop.scenes.spatial_robot_arm()
     sim = flextop.SpatialSimulation(scene)
     x0 = np.full(sim.n_design, 0.4)
@@ -162,6 +166,9 @@ def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = F
         elapsed = time.perf_counter() - start
         name = "on the scene's grid" if tol is None else f"held to rtol {tol:g}"
         designs[name] = result.x
+        if save is not None:
+            file = name.replace(" ", "_").replace("'", "")
+            np.save(Path(save) / f"{file}.npy", result.x)
         grid = problem.held or "the scene's"
         print(f"| {name} | {result.nit} | {result.nfev} | {len(measured)} | {grid} | {result.fun:.4f} "
               f"| {result.kkt:.2e} | {sim.volume(result.x) / (0.4 * sim.volume(1.0)):.4f} | {result.status.name} | {elapsed:.1f} |",
@@ -197,8 +204,9 @@ if __name__ == "__main__":
         hundred_iterations()
         sys.exit()
     if "--tolerance" in sys.argv[1:]:
-        count = sys.argv.index("--iterations") + 1 if "--iterations" in sys.argv else None
-        held_to_tolerance(int(sys.argv[count]) if count else 100, plain="--plain" in sys.argv[1:])
+        def option(flag: str) -> str | None:
+            return sys.argv[sys.argv.index(flag) + 1] if flag in sys.argv[:-1] else None
+        held_to_tolerance(int(option("--iterations") or 100), plain="--plain" in sys.argv[1:], save=option("--save"))
         sys.exit()
     if "--stress" in sys.argv[1:]:
         stress_limited()
