@@ -66,6 +66,11 @@ pub struct BlockLu {
     upper: Vec<usize>,
     /// Where each block column's storage ends.
     end: Vec<usize>,
+    /// For each position `p` and each pair `a < b` its column reaches, in order, the entry
+    /// of `rows` where `b` lies in `a`'s column (the fill puts it there): what `L_bp W_pa`
+    /// and `L_ap W_pb` update, found once; position `p`'s from `pair_first[p]` on.
+    pairs: Vec<usize>,
+    pair_first: Vec<usize>,
     /// All blocks, column-major each.
     values: Vec<f64>,
     /// Where each entry of `A`'s CSC values goes in `values`.
@@ -110,6 +115,8 @@ impl BlockLu {
             diag: Vec::with_capacity(order.len()),
             lower: Vec::new(),
             upper: Vec::new(),
+            pairs: Vec::new(),
+            pair_first: Vec::new(),
             end: Vec::with_capacity(order.len()),
             values: Vec::new(),
             scatter: Vec::with_capacity(row_idx.len()),
@@ -147,6 +154,19 @@ impl BlockLu {
             self.end.push(offset);
         }
         self.values = vec![0.0; offset];
+        for p in 0..self.size.len() {
+            self.pair_first.push(self.pairs.len());
+            let entries = &self.rows[self.first[p]..self.first[p + 1]];
+            for (ia, &a) in entries.iter().enumerate() {
+                let mut k = self.first[a];
+                for &b in &entries[ia + 1..] {
+                    while self.rows[k] != b {
+                        k += 1;
+                    }
+                    self.pairs.push(k);
+                }
+            }
+        }
         let (mut rows, mut reach) = (0, 0);
         for p in 0..self.size.len() {
             let entries = &self.rows[self.first[p]..self.first[p + 1]];
@@ -217,23 +237,23 @@ impl BlockLu {
             );
             tail[..m * s].copy_from_slice(product);
         }
+        let pairs = self.pair_first[p];
         if self.front_rows[p] > 0 {
-            self.update_front(p, self.front_rows[p]);
+            self.update_front(p, self.front_rows[p], pairs);
             return Ok(());
         }
         let base = self.end[p];
+        let mut pair = pairs;
         for (ia, ea) in entries.clone().enumerate() {
             let a = self.rows[ea];
             let sa = self.size[a];
             let (l_a, w_a) = (&done[self.lower[ea]..], &done[self.upper[ea]..]);
             let target = &mut later[self.diag[a] - base..];
             add_product(target, l_a, w_a, (sa, s, sa), -1.0);
-            let mut k = self.first[a];
             for eb in entries.clone().skip(ia + 1) {
                 let b = self.rows[eb];
-                while self.rows[k] != b {
-                    k += 1;
-                }
+                let k = self.pairs[pair];
+                pair += 1;
                 let sb = self.size[b];
                 let (l_b, w_b) = (&done[self.lower[eb]..], &done[self.upper[eb]..]);
                 let below = &mut later[self.lower[k] - base..];
@@ -246,8 +266,9 @@ impl BlockLu {
     }
 
     /// The update of [`BlockLu::eliminate`] for a wide front of `rows` rows: `L_p` and `W_p`
-    /// stacked, their product made at once, each block of it subtracted where it belongs.
-    fn update_front(&mut self, p: usize, rows: usize) {
+    /// stacked, their product made at once, each block of it subtracted where it belongs
+    /// (`pair`: the first of `p`'s entries in `pairs`).
+    fn update_front(&mut self, p: usize, rows: usize, mut pair: usize) {
         let s = self.size[p];
         let entries = self.first[p]..self.first[p + 1];
         let (lower, rest) = self.front.split_at_mut(rows * s);
@@ -288,12 +309,10 @@ impl BlockLu {
             let a = self.rows[ea];
             let ra = (self.front_at[ia], self.size[a]);
             subtract(&mut self.values, self.diag[a], ra, ra);
-            let mut k = self.first[a];
             for (ib, eb) in entries.clone().enumerate().skip(ia + 1) {
                 let b = self.rows[eb];
-                while self.rows[k] != b {
-                    k += 1;
-                }
+                let k = self.pairs[pair];
+                pair += 1;
                 let rb = (self.front_at[ib], self.size[b]);
                 subtract(&mut self.values, self.lower[k], rb, ra);
                 subtract(&mut self.values, self.upper[k], ra, rb);

@@ -47,6 +47,8 @@ pub struct Integrator<'m> {
     smooth: Vec<bool>,
     /// The rigid bodies' alone: a failed step's second start.
     rigid: Vec<bool>,
+    /// Whether a step can start two ways: the model has members' nodes in `smooth`.
+    two_starts: bool,
     /// The state a step starts from, kept for its second start (none without members'
     /// nodes to start two ways).
     before: Option<State>,
@@ -93,6 +95,7 @@ impl<'m> Integrator<'m> {
             params,
             start: vec![0.0; model.n_dofs()],
             increment: vec![0.0; model.n_dofs()],
+            two_starts: smooth_dofs(model) != rigid_dofs(model),
             smooth: smooth_dofs(model),
             rigid: rigid_dofs(model),
             before: None,
@@ -189,7 +192,7 @@ impl<'m> Integrator<'m> {
         h: f64,
         guess: Option<&[f64]>,
     ) -> Result<NewtonReport, SolveError> {
-        if self.smooth == self.rigid {
+        if !self.two_starts {
             return alpha::step(&mut Guided::new(self, guess, false), s, h);
         }
         let mut before = self.before.take().unwrap_or_else(|| s.clone());
@@ -304,7 +307,7 @@ fn again(e: &SolveError) -> bool {
 
 /// Which DOFs belong to a rigid body or to a continuum member's node that no beam reaches.
 fn smooth_dofs(model: &Model) -> Vec<bool> {
-    let mut smooth = rigid_dofs(model);
+    let mut smooth = vec![false; model.n_dofs()];
     for d in model.cells.iter().flat_map(|c| c.dofs()) {
         smooth[d] = true;
     }

@@ -317,10 +317,22 @@ impl Ldlt {
         let given = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         let (decoupled, kept) = Decoupled::split(&given, n_q);
         let n_kept = kept.pattern.nrows();
-        let multiplier_dofs: Vec<Vec<usize>> = multiplier_dofs
+        // A multiplier's DOFs are in its column, so none is decoupled; a caller whose list
+        // disagrees with its pattern is named, not indexed past.
+        let multiplier_dofs = multiplier_dofs
             .iter()
-            .map(|dofs| dofs.iter().map(|&d| kept.index[d]).collect())
-            .collect();
+            .enumerate()
+            .map(|(k, dofs)| {
+                dofs.iter()
+                    .map(|&d| match kept.index.get(d) {
+                        Some(&i) if i != usize::MAX => Ok(i),
+                        _ => Err(FactorError::Analysis(format!(
+                            "constraint row {k} acts on DOF {d}, which its column does not hold"
+                        ))),
+                    })
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let n_q = n_q - decoupled.unknowns.len();
         let (fwd, inv) = saddle_point_ordering(&kept.pattern, n_q, &multiplier_dofs)?;
         let sparse = |ratio| Numeric::sparse(&kept, &fwd, &inv, SupernodalThreshold(ratio));
@@ -933,6 +945,18 @@ mod tests {
             zero[cp[9]] = 0.0;
             let failed = ldlt.factorize(&zero);
             assert_eq!(failed, Err(FactorError::ZeroPivot { unknown: 9 }));
+        }
+        // A row said to act on a DOF its column does not hold (one alone, or none at all)
+        // is an analysis error, not an index past the end.
+        for wrong in [5, 99] {
+            let (cp, ri) = (system.col_ptr.clone(), system.row_idx.clone());
+            let said = [vec![0, 1], vec![2, wrong]];
+            let res = Ldlt::analyze(n, cp, ri, n_q, &said);
+            assert!(
+                matches!(&res, Err(FactorError::Analysis(d)) if d.contains("row 1 acts on DOF")),
+                "{:?}",
+                res.err()
+            );
         }
     }
 
