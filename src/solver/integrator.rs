@@ -90,14 +90,15 @@ impl<'m> Integrator<'m> {
             newton: settings.newton,
             max_cuts: MAX_CUTS,
         });
+        let (smooth, rigid) = (smooth_dofs(model), rigid_dofs(model));
         Ok(Self {
             newton,
             params,
             start: vec![0.0; model.n_dofs()],
             increment: vec![0.0; model.n_dofs()],
-            two_starts: smooth_dofs(model) != rigid_dofs(model),
-            smooth: smooth_dofs(model),
-            rigid: rigid_dofs(model),
+            two_starts: smooth != rigid,
+            smooth,
+            rigid,
             before: None,
             statics,
             equilibrium: None,
