@@ -72,6 +72,10 @@ pub(crate) trait System {
     /// Newton cannot improve further.
     fn update(&mut self) -> bool;
 
+    /// Whether the last solve's correction, not yet taken, is at round-off
+    /// ([`at_round_off`]).
+    fn correction_at_round_off(&self) -> bool;
+
     /// Where the system is solved (a time or a load factor), for a failure's message.
     fn at(&self) -> String;
 }
@@ -80,7 +84,10 @@ pub(crate) trait System {
 /// residuals are at most `tol` (or a correction is at round-off), failed after `max_iter`
 /// corrections or at a residual that is not finite. With `keep` (modified Newton) an
 /// iteration's factors serve the next ones while the residual falls at least tenfold per
-/// iteration ([`KEPT_CONTRACTION`]).
+/// iteration ([`KEPT_CONTRACTION`]). Where it falls slower, the held factors' correction is
+/// tried first: at round-off it ends the solve (the residual is at the floor that its
+/// evaluation reaches, which no factors lower), otherwise new factors are made at the
+/// iterate.
 ///
 /// # Errors
 /// [`SolveError::NewtonFailed`] with where, the iterations and the residual; as the
@@ -109,9 +116,22 @@ pub(crate) fn iterate<S: System>(
                 tolerance: tol,
             });
         }
-        // The held factors contract too slowly: new ones at this iterate.
-        fresh |= residual > KEPT_CONTRACTION * previous;
+        let slow = !fresh && residual > KEPT_CONTRACTION * previous;
         previous = residual;
+        if slow {
+            system.solve(false)?;
+            if system.correction_at_round_off() {
+                system.update();
+                return Ok(NewtonReport {
+                    iterations: iterations + 1,
+                    residual,
+                });
+            }
+            // The held factors contract too slowly: new ones at this iterate, and the
+            // residual again as their right-hand side.
+            system.residual(true)?;
+            fresh = true;
+        }
         system.solve(fresh)?;
         fresh = !keep;
         iterations += 1;
@@ -362,13 +382,9 @@ impl<'m> Newton<'m> {
             .map_err(self.singular())
     }
 
-    /// Whether an increment is at round-off level: Newton cannot improve further.
+    /// Whether the increment `Δq` in `rhs` is at round-off at `q` ([`at_round_off`]).
     fn stagnated(&self, q: &[f64]) -> bool {
-        let q_max = q.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let dq_max = self.rhs[..q.len()]
-            .iter()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        dq_max <= 64.0 * f64::EPSILON * (self.length + q_max)
+        at_round_off(&self.rhs[..q.len()], q, self.length)
     }
 }
 
@@ -419,9 +435,21 @@ impl System for AtPoint<'_, '_> {
         newton.stagnated(self.q)
     }
 
+    fn correction_at_round_off(&self) -> bool {
+        self.newton.stagnated(self.q)
+    }
+
     fn at(&self) -> String {
         self.point.at(self.rates.is_some())
     }
+}
+
+/// Whether a correction is at round-off level: its largest entry within 64 ulps of the
+/// model's size `length` plus the largest entry of `state` (positions, or a step's
+/// increment), where Newton cannot improve the iterate further.
+pub(crate) fn at_round_off(correction: &[f64], state: &[f64], length: f64) -> bool {
+    let largest = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    largest(correction) <= 64.0 * f64::EPSILON * (length + largest(state))
 }
 
 /// The larger of `a` and `b`, NaN if either is: a residual with a NaN entry is not
@@ -774,5 +802,83 @@ impl<'m> Newton<'m> {
             self.rhs[..n_q].to_vec(),
             self.rhs[n_q..].iter().map(|m| m * scale).collect(),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A system whose iterates give scripted residuals: `round_off[k]` says whether the
+    /// correction from iterate `k` is at round-off. It counts factorizations.
+    struct Scripted {
+        residuals: Vec<f64>,
+        round_off: Vec<bool>,
+        k: usize,
+        factorizations: usize,
+    }
+
+    impl Scripted {
+        fn new(residuals: &[f64], round_off: &[bool]) -> Self {
+            let (residuals, round_off) = (residuals.to_vec(), round_off.to_vec());
+            Self {
+                residuals,
+                round_off,
+                k: 0,
+                factorizations: 0,
+            }
+        }
+    }
+
+    impl System for Scripted {
+        fn residual(&mut self, _with_matrix: bool) -> Result<Residual, SolveError> {
+            let force = self.residuals[self.k];
+            Ok(Residual {
+                force,
+                constraint: 0.0,
+            })
+        }
+
+        fn solve(&mut self, refactor: bool) -> Result<(), SolveError> {
+            self.factorizations += usize::from(refactor);
+            Ok(())
+        }
+
+        fn update(&mut self) -> bool {
+            self.k += 1;
+            self.round_off[self.k - 1]
+        }
+
+        fn correction_at_round_off(&self) -> bool {
+            self.round_off[self.k]
+        }
+
+        fn at(&self) -> String {
+            "the script".into()
+        }
+    }
+
+    #[test]
+    fn a_residual_at_its_floor_ends_modified_newton_without_new_factors() {
+        // The residual stalls at 2e-11, above the tolerance: the held factors' correction
+        // there is at round-off, and new factors would not lower it.
+        let residuals = [1.0, 1e-4, 1e-8, 2e-11, 2.1e-11];
+        let round_off = [false, false, false, false, true];
+        let mut system = Scripted::new(&residuals, &round_off);
+        let report = iterate(&mut system, 1e-12, 20, true).unwrap();
+        assert_eq!((report.iterations, report.residual), (5, 2.1e-11));
+        assert_eq!(system.factorizations, 1);
+    }
+
+    #[test]
+    fn a_slow_contraction_away_from_round_off_refactors_at_the_iterate() {
+        let residuals = [1.0, 0.5, 1e-3, 1e-13];
+        let mut system = Scripted::new(&residuals, &[false; 4]);
+        let report = iterate(&mut system, 1e-12, 20, true).unwrap();
+        assert_eq!((report.iterations, system.factorizations), (3, 2));
+        // Full Newton factors at every iterate.
+        let mut system = Scripted::new(&residuals, &[false; 4]);
+        iterate(&mut system, 1e-12, 20, false).unwrap();
+        assert_eq!(system.factorizations, 3);
     }
 }

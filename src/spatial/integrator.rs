@@ -30,7 +30,7 @@ use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
 use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{jumps, Kinks};
 use crate::solver::linsolve::FactorError;
-use crate::solver::newton::{self, NewtonReport, Residual, System};
+use crate::solver::newton::{self, at_round_off, NewtonReport, Residual, System};
 use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
@@ -424,9 +424,13 @@ impl System for Step<'_, '_> {
             .zip(dnu)
             .for_each(|(l, d)| *l += self.scale * d);
         it.retract(&mut s.q);
-        let inc_max = it.increment.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        delta_max <= 64.0 * f64::EPSILON * (it.asm.model.size() + inc_max)
+        at_round_off(delta, &it.increment, it.asm.model.size())
+    }
+
+    fn correction_at_round_off(&self) -> bool {
+        let it = &*self.it;
+        let delta = &it.rhs[..it.asm.model.n_v()];
+        at_round_off(delta, &it.increment, it.asm.model.size())
     }
 
     fn at(&self) -> String {

@@ -27,7 +27,7 @@ use crate::error::{Error, SolveError};
 use crate::group::so3::log;
 use crate::group::{Frame, NV};
 use crate::settings::{NewtonMatrix, StaticSettings};
-use crate::solver::newton::{self, NewtonReport, Residual, System};
+use crate::solver::newton::{self, at_round_off, NewtonReport, Residual, System};
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
 use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
@@ -198,9 +198,12 @@ impl System for AtLoad<'_, '_> {
                 .write(self.q, node);
         }
         self.lambda.iter_mut().zip(dnu).for_each(|(l, d)| *l += d);
-        let q_max = self.q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let delta_max = delta.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        delta_max <= 64.0 * f64::EPSILON * (model.size() + q_max)
+        at_round_off(delta, self.q, model.size())
+    }
+
+    fn correction_at_round_off(&self) -> bool {
+        let e = &*self.equilibrium;
+        at_round_off(&e.rhs[..e.asm.model.n_v()], self.q, e.asm.model.size())
     }
 
     fn at(&self) -> String {
