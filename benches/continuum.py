@@ -35,11 +35,18 @@ its 1.3 s motion in 100 steps, every cell at density 0.5:
    of another build (e.g. a virtual environment with the previous commit installed) where
    given: side by side on the same machine at the same time.
 
+6. with ``--round-off``: designs whose Newton residual stalls at its round-off floor
+   above the tolerance (each link solid below its middle and void, x = 0.01, above) at
+   40 × 12 (h/2), 60 × 20 (h) and 80 × 24 (h/4) cells per link, under modified and full
+   Newton: the outcome, the iterations per step and d; run it with another build's
+   interpreter to compare (``ROUND_OFF_ULPS`` in ``src/solver/newton.rs``).
+
     python benches/continuum.py                   # → benches/results/continuum.md (about 4 min)
     python benches/continuum.py --optimize 20 6   # → benches/results/continuum_optimization_20x6.md
     python benches/continuum.py --optimize 60 20 --plain
     python benches/continuum.py --beside          # → benches/results/continuum_beside_frames.md (about 5 min)
     python benches/continuum.py --floor --against /path/to/other/venv/bin/python   # about 3 min
+    python benches/continuum.py --round-off       # about 1 min
 """
 
 from __future__ import annotations
@@ -259,7 +266,26 @@ def floor(against: str | None, rounds: int = 5) -> None:
         print(f"| {design} | {cells}{ratio} |")
 
 
+def round_off() -> None:
+    """Modified and full Newton on designs whose residual stalls at its round-off floor:
+    each link solid below its middle and void above, at three meshes and steps."""
+    print("| cells per link | h (s) | Newton | outcome | iterations per step | d (m²) |\n|---|---|---|---|---|---|")
+    for nx, ny, f in ((40, 12, 2), (60, 20, 1), (80, 24, 4)):
+        sim = flextop.Simulation(continuum_robot_arm(nx=nx, ny=ny, h=0.013 / f))
+        upper = np.array([int(name.split(",")[1].rstrip("]")) >= ny // 2 for name in sim.variable_names])
+        for newton in ("modified", "full"):
+            try:
+                run = sim.run(np.where(upper, 0.01, 1.0), newton=newton)
+                cells = f"runs | {run.newton['mean']:.2f} | {run.response('tip_deflection'):.10e}"
+            except flextop.SimulationError as error:
+                cells = f"{str(error).split(':')[0]}: {str(error).split(':')[1].split('(')[0].strip()} | — | —"
+            print(f"| {nx} × {ny} | {0.013 / f:.5f} | {newton} | {cells} |", flush=True)
+
+
 def main() -> None:
+    if "--round-off" in sys.argv:
+        round_off()
+        return
     if "--floor" in sys.argv:
         floor(sys.argv[sys.argv.index("--against") + 1] if "--against" in sys.argv else None)
         return
