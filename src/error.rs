@@ -148,16 +148,17 @@ pub enum SolveError {
     /// A converged step turned a continuum cell inside out: its deformed area passed
     /// through zero at a Gauss point.
     #[error(
-        "at {at} cell '{cell}' has turned inside out (area ratio {ratio:.3e} at a Gauss \
-         point): a cell far softer than its neighbours cannot keep its shape against them, \
-         as void cells joining solid regions; filter the design (regions joined through \
-         material), or raise x_min or e_min"
+        "at {at} cell '{cell}' (density {density:.3}) has turned inside out (area ratio \
+         {ratio:.3e} at a Gauss point): {advice}",
+        advice = inverted_cell_advice(*.density)
     )]
     CellInverted {
         /// Where the step ends: `t = … s` or `load factor …`.
         at: String,
         /// The cell, `NAME/cell[i,j]`.
         cell: String,
+        /// Its density.
+        density: f64,
         /// The smallest `det F` over its Gauss points.
         ratio: f64,
     },
@@ -276,4 +277,21 @@ pub enum Error {
     /// See [`SolveError`].
     #[error(transparent)]
     Solve(#[from] SolveError),
+}
+
+/// What turns a cell of `density` inside out, and what to do, for [`SolveError::CellInverted`]:
+/// a light cell is squeezed by stiffer neighbours or a load; a solid one is crushed, its
+/// St. Venant–Kirchhoff material softening in strong compression, where it carries a mass
+/// or a load with little material around it.
+fn inverted_cell_advice(density: f64) -> &'static str {
+    if density < 0.5 {
+        "a cell this light cannot keep its shape against stiffer neighbours or a load, as \
+         void cells joining solid regions; filter the design (regions joined through \
+         material), or raise x_min or e_min"
+    } else {
+        "a solid cell crushed, as one that carries a mass or a load with little material \
+         around it (its material softens in strong compression); give the region around it \
+         material (a member's solid_radius, passive cells), filter the design, or lessen the \
+         load"
+    }
 }

@@ -354,15 +354,22 @@ impl Model {
                 });
             }
         }
-        let blends = &densities.blend[self.elements.len()..];
-        let inverted = self.cells.iter().zip(blends).find_map(|(cell, &blend)| {
-            let ratio = (cell.kernel.blended(blend)).smallest_area_ratio(&cell.gather(after));
-            (ratio.is_nan() || ratio <= 0.0).then_some((cell, ratio))
-        });
-        if let Some((cell, ratio)) = inverted {
+        let first = self.elements.len();
+        let blends = &densities.blend[first..];
+        let inverted = self
+            .cells
+            .iter()
+            .zip(blends)
+            .enumerate()
+            .find_map(|(k, (cell, &blend))| {
+                let ratio = (cell.kernel.blended(blend)).smallest_area_ratio(&cell.gather(after));
+                (ratio.is_nan() || ratio <= 0.0).then_some((k, cell, ratio))
+            });
+        if let Some((k, cell, ratio)) = inverted {
             return Err(SolveError::CellInverted {
                 at: at(),
                 cell: self.cell_name(cell),
+                density: densities.density[first + k],
                 ratio,
             });
         }

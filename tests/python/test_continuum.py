@@ -792,7 +792,8 @@ def test_a_cell_turned_inside_out_stops_the_run_by_name():
     column = [sim.variable_names.index(f"link1/cell[10,{j}]") for j in range(6)]
     x = np.ones(sim.n_design)
     x[column] = 0.01
-    with pytest.raises(flextop.SimulationError, match=r"at t = .* s cell 'link1/cell\[10,\d\]' has turned inside out"):
+    with pytest.raises(flextop.SimulationError, match=r"at t = .* s cell 'link1/cell\[10,\d\]' \(density 0\.010\) has "
+                                                      r"turned inside out .*: a cell this light"):
         sim.run(x)
     x[column] = 0.05
     assert sim.run(x).response("tip_deflection") > 0.0
@@ -1203,6 +1204,23 @@ def test_void_cells_of_linear_energy_run_a_void_and_solid_mix_through_the_motion
     assert run.time[-1] == pytest.approx(1.3) and np.isfinite(run.response("tip_deflection"))
     solid = np.ones(blended.n_design)
     assert blended.run(solid).response("tip_deflection") == nonlinear.run(solid).response("tip_deflection")
+
+
+@pytest.mark.parametrize("x, advice", [(1.0, "a solid cell crushed"), (0.2, "a cell this light")])
+def test_a_cell_turned_inside_out_is_named_with_its_density_and_what_crushed_it(x, advice):
+    """A steel block of 2 × 1 cells pinned at one end and pushed at the other by 10⁸ N,
+    far past its St. Venant–Kirchhoff limit load: a cell turns inside out within
+    microseconds. The error names the cell and its density, and its advice fits it: a
+    solid cell crushed by what it carries, or a light one squeezed."""
+    s = Scene("crush")
+    m = s.member("block", nx=2, ny=1, length=0.1, height=0.05, thickness=0.01, **STEEL, solid_at_joints=False)
+    for j in range(2):
+        s.pin(f"wall{j}", m.node(0, j))
+        s.load(m.node(2, j), force=(-5e7, 0.0))
+    s.simulation(t_end=2e-4, h=2e-6)
+    sim = simulation(s)
+    with pytest.raises(flextop.SimulationError, match=rf"cell 'block/cell\[\d,0\]' \(density {x:.3f}\) has turned inside out .*: {advice}"):
+        sim.run(np.full(sim.n_design, x))
 
 
 def test_newton_ends_at_the_round_off_floor_of_a_fine_member():
