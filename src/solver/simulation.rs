@@ -158,13 +158,15 @@ fn run_on(
 
 /// Runs `model` for design `x` with step sizes chosen by local error control
 /// ([`crate::solver::step_control`]): steps rejected and retried where the local error on the
-/// positions exceeds `control.tol`, cut to a quarter where Newton fails, ending exactly at
+/// positions exceeds `control.tol`, cut to a quarter where Newton fails or its solution is
+/// implausible (a cell turned inside out, a spring collapsed: often a step long enough to
+/// reach another solution branch), ending exactly at
 /// the kinks of the motion laws and at `settings.t_end`. The recorded
 /// [`Trajectory::grid`] replays the run (for its gradients, [`crate::of_motion_on`]).
 ///
 /// # Errors
 /// As [`simulate`]; [`SolveError::StepTooSmall`] when the step falls below
-/// `control.h_min`; a [`SettingsError`] when the trajectory outgrows
+/// `control.h_min` (the implausible state's own error where that was the last failure); a [`SettingsError`] when the trajectory outgrows
 /// [`MAX_TRAJECTORY_BYTES`].
 pub fn simulate_adaptive(
     model: &Model,
@@ -189,7 +191,8 @@ pub fn simulate_adaptive(
             let h = controller.step(run.state.t, stop);
             before.clone_from(&run.state);
             run.energy.start_step(&run.state, h);
-            match run.integrator.alpha_step(&mut run.state, h) {
+            // The step's failure, where it was a state no material takes.
+            let implausible = match run.integrator.alpha_step(&mut run.state, h) {
                 Ok(report) => {
                     let error = step_control::local_error(
                         c,
@@ -205,19 +208,32 @@ pub fn simulate_adaptive(
                         run.record(report.iterations);
                         check_size(model, run.traj.time.len())?;
                     }
+                    None
                 }
-                Err(SolveError::NewtonFailed { .. } | SolveError::Diverged { .. }) => {
+                Err(
+                    e @ (SolveError::NewtonFailed { .. }
+                    | SolveError::Diverged { .. }
+                    | SolveError::CellInverted { .. }
+                    | SolveError::SpringCollapsed { .. }),
+                ) => {
                     run.state.clone_from(&before);
                     controller.newton_failed(h);
+                    matches!(
+                        e,
+                        SolveError::CellInverted { .. } | SolveError::SpringCollapsed { .. }
+                    )
+                    .then_some(e)
                 }
                 Err(other) => return Err(other.into()),
-            }
+            };
             if controller.too_small() {
-                return Err(SolveError::StepTooSmall {
-                    time: run.state.t,
-                    h_min: control.h_min,
-                }
-                .into());
+                // A state no material takes, at every step down to the smallest: its error.
+                return Err(implausible
+                    .unwrap_or(SolveError::StepTooSmall {
+                        time: run.state.t,
+                        h_min: control.h_min,
+                    })
+                    .into());
             }
         }
     }
