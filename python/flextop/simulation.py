@@ -336,7 +336,9 @@ class Simulation:
         With ``local_tol`` instead, the steps vary: local error control of generalized-α
         (the position error of each step against ``local_tol`` times the model's size, and
         ``local_tol`` rad), starting from ``h``, ending exactly at every kink of the motion
-        laws and at ``t_end``; ``results.steps`` holds them. On the reference scenes it
+        laws and at ``t_end``; ``results.steps`` holds them. A step where Newton fails or whose
+        solution turns a cell inside out (or collapses a spring) is cut to a quarter, down to
+        the smallest step, where that failure's error ends the run. On the reference scenes it
         needs as many steps as uniform steps for the same error of d, or more (x = 0.4 arm;
         BENCHMARKS.md); it is meant for motions whose difficulty varies in time.
 
