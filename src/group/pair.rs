@@ -194,7 +194,22 @@ impl Pair {
     /// The dot product `α · β` of two measures: its value, gradient `J_αᵀβ + J_βᵀα`, rate
     /// and `b = (α̈ − J_α v̇)·β + 2 α̇·β̇ + α·(β̈ − J_β v̇)`.
     pub fn product(&self, alpha: &Measure, beta: &Measure, sides: &[Side; 2]) -> Product {
+        self.product_and_hessian(alpha, beta, sides, None)
+    }
+
+    /// [`Pair::product`], and with `hessian = Some((scale, k))` its Hessian times `scale`
+    /// added into `k` ([`Pair::add_product_hessian`]), from one evaluation of the measures.
+    pub fn product_and_hessian(
+        &self,
+        alpha: &Measure,
+        beta: &Measure,
+        sides: &[Side; 2],
+        hessian: Option<(f64, &mut Stiffness)>,
+    ) -> Product {
         let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
+        if let Some((scale, k)) = hessian {
+            self.add_evaluated_hessian((alpha, &a), (beta, &b), sides, scale, k);
+        }
         Product {
             value: a.value.dot(&b.value),
             gradient: a.jacobian.transpose() * b.value + b.jacobian.transpose() * a.value,
@@ -213,9 +228,25 @@ impl Pair {
         k: &mut Stiffness,
     ) {
         let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
+        self.add_evaluated_hessian((alpha, &a), (beta, &b), sides, scale, k);
+    }
+
+    /// [`Pair::add_product_hessian`] of the measures `alpha` and `beta` evaluated as `a` and `b`.
+    fn add_evaluated_hessian(
+        &self,
+        (alpha, a): (&Measure, &Evaluated),
+        (beta, b): (&Measure, &Evaluated),
+        sides: &[Side; 2],
+        scale: f64,
+        k: &mut Stiffness,
+    ) {
         self.add_hessian(alpha, sides, &b.value, scale, k);
         self.add_hessian(beta, sides, &a.value, scale, k);
-        *k += (a.jacobian.transpose() * b.jacobian + b.jacobian.transpose() * a.jacobian) * scale;
+        // A constant's Jacobian is zero, and `J_βᵀJ_α` is `J_αᵀJ_β`'s transpose.
+        if !matches!(alpha, Measure::Constant(_)) && !matches!(beta, Measure::Constant(_)) {
+            let product = a.jacobian.tr_mul(&b.jacobian) * scale;
+            *k += product + product.transpose();
+        }
     }
 }
 

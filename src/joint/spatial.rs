@@ -409,7 +409,7 @@ impl Joint {
             [psi, state.velocity, state.acceleration],
             Some([rate.angle - rate0.angle, rate.velocity, rate.acceleration]),
         );
-        let row = self.drive_value(&products, g, &self.pair.sides(q, v));
+        let row = self.drive_value(&products, g, &self.pair.sides(q, v), None);
         Some((
             self.rows.len(),
             DriveRate {
@@ -420,8 +420,15 @@ impl Joint {
         ))
     }
 
-    /// The drive's row from its terms and `(g, ġ, g̈)` at the nodes' `sides`.
-    fn drive_value(&self, products: &Vec2<Term>, g: [f64; 3], sides: &[Side; 2]) -> RowValue {
+    /// The drive's row from its terms and `(g, ġ, g̈)` at the nodes' `sides`; with
+    /// `hessian = Some((λ, k))` its Hessian times `λ` added into `k`.
+    fn drive_value(
+        &self,
+        products: &Vec2<Term>,
+        g: [f64; 3],
+        sides: &[Side; 2],
+        mut hessian: Option<(f64, &mut Stiffness)>,
+    ) -> RowValue {
         let [g, gd, gdd] = g;
         let mut row = RowValue {
             value: -g,
@@ -435,7 +442,8 @@ impl Joint {
             beta,
         } in products.iter().flatten()
         {
-            let p = self.pair.product(alpha, beta, sides);
+            let h = hessian.as_mut().map(|(l, k)| (c * *l, &mut **k));
+            let p = self.pair.product_and_hessian(alpha, beta, sides, h);
             row.value += c * p.value;
             row.gradient += p.gradient * *c;
             row.time_rate += cd * p.value;
@@ -445,17 +453,25 @@ impl Joint {
     }
 
     /// Every row at `(q, v, t)`: its value, gradient, `∂Φ/∂t` and `b` of
-    /// `Φ̈ = B v̇ + b` (with `v = None`, rates and `b` at rest), handed to `f` in order.
+    /// `Φ̈ = B v̇ + b` (with `v = None`, rates and `b` at rest), handed to `f` in order;
+    /// with `hessian = Some((λ, k))` also `∂(Bᵀλ)/∂q` added into `k`, from the same
+    /// evaluation of each row.
     fn for_each_row(
         &self,
         q: &[f64],
         v: Option<&[f64]>,
         t: f64,
+        mut hessian: Option<(&[f64], &mut Stiffness)>,
         mut f: impl FnMut(usize, RowValue),
     ) {
         let sides = self.pair.sides(q, v);
         for (k, row) in self.rows.iter().enumerate() {
-            let p = self.pair.product(&row.alpha, &row.beta, &sides);
+            let h = hessian
+                .as_mut()
+                .map(|(l, stiffness)| (l[k], &mut **stiffness));
+            let p = self
+                .pair
+                .product_and_hessian(&row.alpha, &row.beta, &sides, h);
             f(
                 k,
                 RowValue {
@@ -468,14 +484,15 @@ impl Joint {
         }
         if let Some(drive) = &self.drive {
             let (products, g) = self.drive_row(drive, t);
-            let row = self.drive_value(&products, g, &sides);
+            let h = hessian.map(|(l, stiffness)| (l[self.rows.len()], stiffness));
+            let row = self.drive_value(&products, g, &sides, h);
             f(self.rows.len(), row);
         }
     }
 
     /// `Φ(q, t)` into `out` (its first [`Joint::n_rows`] entries).
     pub fn values(&self, q: &[f64], t: f64, out: &mut [f64]) {
-        self.for_each_row(q, None, t, |k, r| out[k] = r.value);
+        self.for_each_row(q, None, t, None, |k, r| out[k] = r.value);
     }
 
     /// The first row that the initial configuration `q` breaks by more than `tolerance`
@@ -499,9 +516,38 @@ impl Joint {
 
     /// `B` on the local unknowns at `(q, t)`.
     pub(crate) fn gradient(&self, q: &[f64], t: f64) -> Gradient {
-        let mut g = Gradient::zeros();
-        self.for_each_row(q, None, t, |k, r| g.set_row(k, &r.gradient.transpose()));
-        g
+        self.values_and_gradient(q, t).1
+    }
+
+    /// `Φ` (its first [`Joint::n_rows`] entries) and `B` at `(q, t)`, from one evaluation of
+    /// each row.
+    pub(crate) fn values_and_gradient(
+        &self,
+        q: &[f64],
+        t: f64,
+    ) -> (SVector<f64, MAX_ROWS>, Gradient) {
+        let (mut values, mut g) = (SVector::zeros(), Gradient::zeros());
+        self.rows_into(q, t, None, (&mut values, &mut g));
+        (values, g)
+    }
+
+    /// `Φ` and `B` at `(q, t)` into `rows`, and with `stiffness = Some((λ, k))`
+    /// [`Joint::stiffness`] into `k`, from one evaluation of each row.
+    pub(crate) fn rows_into(
+        &self,
+        q: &[f64],
+        t: f64,
+        stiffness: Option<(&[f64], &mut Stiffness)>,
+        (values, g): (&mut SVector<f64, MAX_ROWS>, &mut Gradient),
+    ) {
+        let stiffness = stiffness.map(|(lambda, k)| {
+            k.fill(0.0);
+            (lambda, k)
+        });
+        self.for_each_row(q, None, t, stiffness, |k, r| {
+            values[k] = r.value;
+            g.set_row(k, &r.gradient.transpose());
+        });
     }
 
     /// `∂(Bᵀλ)/∂q` on the local unknowns at `(q, t)`: `Σ λₖ ∂²Φₖ/∂q²`.
@@ -529,7 +575,7 @@ impl Joint {
 
     /// `b` of `Φ̈ = B v̇ + b` at `(q, v, t)` into `out`.
     pub fn acceleration_terms(&self, q: &[f64], v: &[f64], t: f64, out: &mut [f64]) {
-        self.for_each_row(q, Some(v), t, |k, r| out[k] = r.term);
+        self.for_each_row(q, Some(v), t, None, |k, r| out[k] = r.term);
     }
 
     /// `Φ̇ = B v + ∂Φ/∂t` at `(q, v, t)`: the rows' rates.
@@ -539,7 +585,7 @@ impl Joint {
             local.fixed_rows_mut::<6>(6 * s).copy_from_slice(&six(v, n));
         }
         let mut rates = SVector::zeros();
-        self.for_each_row(q, None, t, |k, r| {
+        self.for_each_row(q, None, t, None, |k, r| {
             rates[k] = r.gradient.dot(&local) + r.time_rate
         });
         rates

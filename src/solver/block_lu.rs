@@ -652,11 +652,53 @@ fn add_product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, us
     if (m, k, n) == (6, 6, 1) {
         return add_product_fixed::<6, 6, 1>(c, a, b, w);
     }
+    add_product_other(c, a, b, (m, k, n), w);
+}
+
+/// [`add_product`] of the other sizes (a joint's rows, a front): the count of rows, the
+/// innermost loop's, known when compiled up to a node's six.
+#[inline(never)]
+fn add_product_other(
+    c: &mut [f64],
+    a: &[f64],
+    b: &[f64],
+    (m, k, n): (usize, usize, usize),
+    w: f64,
+) {
+    match m {
+        1 => add_product_rows::<1>(c, a, b, (k, n), w),
+        2 => add_product_rows::<2>(c, a, b, (k, n), w),
+        3 => add_product_rows::<3>(c, a, b, (k, n), w),
+        4 => add_product_rows::<4>(c, a, b, (k, n), w),
+        5 => add_product_rows::<5>(c, a, b, (k, n), w),
+        6 => add_product_rows::<6>(c, a, b, (k, n), w),
+        _ => {
+            for j in 0..n {
+                for l in 0..k {
+                    let blj = w * b[l + j * k];
+                    for (ci, ai) in c[j * m..(j + 1) * m].iter_mut().zip(&a[l * m..(l + 1) * m]) {
+                        *ci += ai * blj;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// [`add_product`] of `M` rows.
+fn add_product_rows<const M: usize>(
+    c: &mut [f64],
+    a: &[f64],
+    b: &[f64],
+    (k, n): (usize, usize),
+    w: f64,
+) {
+    let (c, a, b) = (&mut c[..M * n], &a[..M * k], &b[..k * n]);
     for j in 0..n {
         for l in 0..k {
             let blj = w * b[l + j * k];
-            for (ci, ai) in c[j * m..(j + 1) * m].iter_mut().zip(&a[l * m..(l + 1) * m]) {
-                *ci += ai * blj;
+            for i in 0..M {
+                c[i + j * M] += a[i + l * M] * blj;
             }
         }
     }

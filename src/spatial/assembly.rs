@@ -58,14 +58,17 @@ pub(crate) struct Assembler<'m> {
     /// Each joint's `∂(Bᵀλ)/∂q` and `B` at the last [`Assembler::matrix`] with a tangent,
     /// for the sensitivities' [`Assembler::linear_terms`] at the same state.
     joint_blocks: Vec<(Stiffness, Gradient)>,
+    /// Each joint's `Φ` and `B` at the last [`Assembler::matrix`], for a residual at the same
+    /// state.
+    joint_rows: Vec<JointRows>,
     /// Each force element's `K` and `C` at the last [`Assembler::matrix`], likewise.
     force_blocks: Vec<Derivatives>,
     /// Each structural element's (beams, then truss bars), likewise.
     element_blocks: Vec<Derivatives>,
     /// Each structural element's mass matrix, constant.
     element_masses: Vec<Stiffness>,
-    /// Where each body's, joint's, force element's and beam's local block is stored
-    /// ([`local_slots`]), found once.
+    /// Where each body's `6 × 6` block and each joint's, force element's and beam's local
+    /// block is stored ([`local_slots`]), found once.
     body_slots: Vec<Vec<usize>>,
     joint_slots: Vec<Vec<usize>>,
     force_slots: Vec<Vec<usize>>,
@@ -77,6 +80,9 @@ pub(crate) struct Assembler<'m> {
     /// there): a unit there keeps them still.
     absent_slots: Vec<usize>,
 }
+
+/// A joint's `Φ` (its first [`Joint::n_rows`] entries) and `B`.
+type JointRows = (SVector<f64, MAX_ROWS>, Gradient);
 
 /// What the iteration matrix is made of at one iterate.
 #[derive(Debug, Clone, Copy)]
@@ -160,10 +166,17 @@ impl<'m> Assembler<'m> {
             .bodies
             .iter()
             .map(|b| {
-                pair_slots(&Pair {
+                let local = pair_slots(&Pair {
                     nodes: [Some(b.node), None],
                     arms: [Vector3::zeros(); 2],
-                })
+                })?;
+                // The node's own `6 × 6` block, column by column.
+                let local = &local;
+                Some(
+                    (0..NV)
+                        .flat_map(|j| (0..NV).map(move |i| local[i + LOCAL * j]))
+                        .collect(),
+                )
             })
             .collect::<Option<_>>();
         let joint_slots = model
@@ -200,6 +213,7 @@ impl<'m> Assembler<'m> {
             pattern,
             values,
             joint_blocks: vec![(Stiffness::zeros(), Gradient::zeros()); model.joints.len()],
+            joint_rows: vec![(SVector::zeros(), Gradient::zeros()); model.joints.len()],
             force_blocks: vec![Derivatives::zeros(); model.forces.len()],
             element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
             element_masses: model.elements().map(|e| e.mass_matrix()).collect(),
@@ -234,7 +248,7 @@ impl<'m> Assembler<'m> {
         t: f64,
         r: &mut [f64],
     ) -> Result<f64, SolveError> {
-        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r)?;
+        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r, None)?;
         let model = self.model;
         let gravity = model.gravity * self.load;
         for element in model.elements() {
@@ -245,7 +259,10 @@ impl<'m> Assembler<'m> {
     }
 
     /// The residual's terms of the bodies, joints and force elements (every one but the
-    /// structural elements') into `r`, and their `F_ref`.
+    /// structural elements') into `r`, and their `F_ref`; the joints' `Φ` and `B` from
+    /// `joints` where given (the last [`Assembler::matrix_without_elements`]'s, at the same
+    /// state).
+    #[allow(clippy::too_many_arguments)]
     fn residual_without_elements(
         &self,
         q: &[f64],
@@ -254,6 +271,7 @@ impl<'m> Assembler<'m> {
         lambda: &[f64],
         t: f64,
         r: &mut [f64],
+        joints: Option<&[JointRows]>,
     ) -> Result<f64, SolveError> {
         let model = self.model;
         let n_v = model.n_v();
@@ -266,10 +284,18 @@ impl<'m> Assembler<'m> {
             let weight = b.mass * gravity.norm();
             reference = f.iter().fold(reference.max(weight), |m, x| m.max(x.abs()));
         }
-        for (j, &row) in model.joints.iter().zip(&self.first_row) {
+        for (k, (j, &row)) in model.joints.iter().zip(&self.first_row).enumerate() {
             let n = j.n_rows();
             let l = multipliers(&lambda[row - n_v..row - n_v + n]);
-            let forces = j.gradient(q, t).transpose() * l;
+            let computed;
+            let (values, g) = match joints {
+                Some(rows) => (&rows[k].0, &rows[k].1),
+                None => {
+                    computed = j.values_and_gradient(q, t);
+                    (&computed.0, &computed.1)
+                }
+            };
+            let forces = g.tr_mul(&l);
             for (side, node) in j.local_nodes() {
                 let f = forces.fixed_rows::<NV>(NV * side);
                 reference = f.iter().fold(reference, |m, x| m.max(x.abs()));
@@ -278,7 +304,7 @@ impl<'m> Assembler<'m> {
                     .zip(f.iter())
                     .for_each(|(ri, fi)| *ri += fi);
             }
-            j.values(q, t, &mut r[row..row + n]);
+            r[row..row + n].copy_from_slice(&values.as_slice()[..n]);
         }
         for force in &model.forces {
             let f = force.terms(q, v, t, self.load)?.force;
@@ -302,8 +328,9 @@ impl<'m> Assembler<'m> {
         r: &mut [f64],
         c: Coefficients<'_>,
     ) -> Result<f64, SolveError> {
-        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r)?;
         self.matrix_without_elements(q, v, t, c)?;
+        let joints = Some(self.joint_rows.as_slice());
+        let mut reference = self.residual_without_elements(q, v, vdot, lambda, t, r, joints)?;
         let model = self.model;
         let gravity = model.gravity * self.load;
         let increment = c.tangent.map(|(inc, _)| inc);
@@ -410,21 +437,26 @@ impl<'m> Assembler<'m> {
         let n_v = model.n_v();
         for (b, slots) in model.bodies.iter().zip(&self.body_slots) {
             let block = b.iteration_block(&six(v, b.node), c.beta_prime, c.gamma_prime);
-            let mut local = Stiffness::zeros();
-            local.fixed_view_mut::<NV, NV>(0, 0).copy_from(&block);
-            scatter_block(&mut self.values, slots, &local);
+            for (&slot, &x) in slots.iter().zip(block.as_slice()) {
+                self.values[slot] += x;
+            }
         }
         for (k, j) in model.joints.iter().enumerate() {
             let (row, n) = (self.first_row[k], j.n_rows());
             let increment = c.tangent.map(|(inc, _)| inc);
-            let g = j.gradient(q, time);
-            if let Some((_, lambda)) = c.tangent {
-                let stiffness = j.stiffness(q, time, &lambda[row - n_v..row - n_v + n]);
-                self.joint_blocks[k] = (stiffness, g);
-                let kt = times_tangent(&stiffness, &j.pair, increment);
+            let (values, g) = &mut self.joint_rows[k];
+            let (stiffness, gradient) = &mut self.joint_blocks[k];
+            let lambda = c
+                .tangent
+                .map(|(_, lambda)| &lambda[row - n_v..row - n_v + n]);
+            j.rows_into(q, time, lambda.map(|l| (l, &mut *stiffness)), (values, g));
+            if c.tangent.is_some() {
+                gradient.copy_from(g);
+                let kt = times_tangent(stiffness, &j.pair, increment);
                 scatter_block(&mut self.values, &self.joint_slots[k], &kt);
             }
-            let gt = times_tangent(&g, &j.pair, increment) * c.scale;
+            let g = &self.joint_rows[k].1;
+            let gt = times_tangent(g, &j.pair, increment) * c.scale;
             let gs = g.transpose() * c.scale;
             let mut slots = self.row_slots[k].iter();
             for (side, _) in j.local_nodes() {
