@@ -9,15 +9,23 @@ it out before it is placed and turned.
 
 How it is drawn, member by member:
 
-1. Each mesh node takes the mean density of the member's cells around it (holes left out).
+1. Each mesh node takes the mean density of the member's cells around it (holes left out,
+   the cells at the rings' nodes taken as solid).
 2. That nodal field is interpolated by a cubic spline (linear along a direction of one or
    two cells) onto a grid :data:`SMOOTHING` times finer than the mesh, and the region where
-   it reaches ``threshold`` is traced by contourpy's filled contours: a smooth outline,
-   closed, its holes as interior rings, whatever is solid along the member's edges kept
-   on the edges.
+   it reaches a level is traced by contourpy's filled contours: a smooth outline, closed,
+   its holes as interior rings, whatever is solid along the member's edges kept on the
+   edges.
 3. shapely makes the polygons valid and joins them; the member's own holes are cut out and
    the cells at every interface ring's nodes (the rings joints attach to) added as solid,
    so the part always carries its joints; collinear points within 1 % of a cell are dropped.
+4. The level is the one whose outline holds the thresholded design's area — the cells whose
+   density reaches ``threshold`` and the rings' cells, holes left out — to
+   :data:`AREA_TOLERANCE` of a cell (bisection, from ``threshold`` itself): the smoothing
+   moves a level set where the field curves (the nodes' mean shifts it by about ``h²/8``
+   of the field's curvature, and the spline rounds its corners), so the outline at
+   ``threshold`` itself can hold several cells more or less material than the design; at
+   the level found it holds the same.
 
 Files: ``NAME.dxf`` (ezdxf: one closed polyline per ring of the outline, the outer ones on
 layer ``OUTLINE``, the holes on ``HOLES``, drawing units set), ``NAME.svg`` (the DXF drawn
@@ -34,7 +42,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any, cast
@@ -47,6 +55,14 @@ from ..errors import DesignError, SceneError, SettingsError
 SMOOTHING = 4
 """Points of the interpolated density field per cell and direction on which the outline is
 traced."""
+
+AREA_TOLERANCE = 1e-3
+"""How far, in cells, the outline's area may be from the thresholded design's (step 4 of the
+module's)."""
+
+_BISECTIONS = 60
+"""The most levels tried to meet :data:`AREA_TOLERANCE`: the level interval halved as many
+times, far below any density's round-off."""
 
 UNITS = {"mm": 1e3, "m": 1.0}
 """The length units the files may be written in, and their number per metre."""
@@ -178,44 +194,74 @@ def outline(sim: Any, densities: Any, member: str | None = None, *, threshold: f
 
 
 def shape_of(field: MemberField, threshold: float) -> Any:
-    """:func:`outline` of a member's densities ``field`` at ``threshold``."""
-    import shapely
-
-    traced = _traced(field, threshold)
-    holes = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(np.isnan(field.density))]
-    rings = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(field.ring_cells & np.isfinite(field.density))]
-    shape = shapely.union_all([shapely.difference(traced, shapely.union_all(holes)), *rings])
-    shape = shapely.make_valid(shape.simplify(0.01 * min(field.cell), preserve_topology=True))
-    polygons = [g for g in getattr(shape, "geoms", [shape]) if isinstance(g, shapely.Polygon) and g.area > 0]
-    if not polygons:
+    """:func:`outline` of a member's densities ``field`` at ``threshold``: traced at the level
+    whose shape holds the thresholded design's area (the module's step 4)."""
+    present = np.isfinite(field.density)
+    reached = present & (field.density >= threshold)
+    if not reached.any():
         top = np.nanmax(field.density)
         raise DesignError(f"member '{field.name}': no part of it reaches density {threshold:g} (its densest cell "
                           f"is {top:.3g}); the outline at that threshold is empty: give a lower threshold")
-    return shapely.union_all(polygons)
+    cell = field.cell[0] * field.cell[1]
+    target = cell * np.count_nonzero(reached | (field.ring_cells & present))
+    tracer = _Tracer(field)
+    shape = tracer.shape(threshold)
+    # The area falls as the level rises: bracket the target between the field's extremes.
+    low, high = (threshold, tracer.top) if shape.area > target else (tracer.bottom, threshold)
+    for _ in range(_BISECTIONS):
+        if abs(shape.area - target) <= AREA_TOLERANCE * cell:
+            break
+        level = 0.5 * (low + high)
+        shape = tracer.shape(level)
+        low, high = (level, high) if shape.area > target else (low, level)
+    return shape
 
 
-def _traced(field: MemberField, threshold: float) -> Any:
-    """The region where the smoothed nodal field reaches ``threshold``, as shapely
-    polygons (contourpy's filled contours on the interpolated field)."""
-    import contourpy
-    import shapely
-    from scipy.interpolate import RectBivariateSpline
+class _Tracer:
+    """A member's smoothed nodal field on the fine grid (the module's steps 1–2), and its
+    shape at a level (step 3)."""
 
-    nx, ny = field.density.shape
-    nodal = nodal_field(field)
-    x = np.linspace(0.0, field.length, nx + 1)
-    y = np.linspace(-field.height / 2, field.height / 2, ny + 1)
-    spline = RectBivariateSpline(x, y, nodal, kx=min(3, nx), ky=min(3, ny))
-    fine_x = np.linspace(0.0, field.length, SMOOTHING * nx + 1)
-    fine_y = np.linspace(-field.height / 2, field.height / 2, SMOOTHING * ny + 1)
-    z = spline(fine_x, fine_y).T  # rows along y, as contourpy reads z[y, x]
-    generator = contourpy.contour_generator(fine_x, fine_y, z, fill_type=contourpy.FillType.OuterOffset)
-    points, offsets = cast(Any, generator.filled(threshold, max(float(z.max()), threshold) + 1.0))
-    polygons = []
-    for xy, starts in zip(points, offsets):
-        rings = [xy[a:b] for a, b in pairwise(starts)]
-        polygons.append(shapely.make_valid(shapely.Polygon(rings[0], rings[1:])))
-    return shapely.union_all(polygons)
+    def __init__(self, field: MemberField) -> None:
+        import contourpy
+        import shapely
+        from scipy.interpolate import RectBivariateSpline
+
+        nx, ny = field.density.shape
+        x = np.linspace(0.0, field.length, nx + 1)
+        y = np.linspace(-field.height / 2, field.height / 2, ny + 1)
+        # The rings' cells are solid in the shape: traced so, they join what holds them.
+        solid = replace(field, density=np.where(field.ring_cells & np.isfinite(field.density), 1.0, field.density))
+        spline = RectBivariateSpline(x, y, nodal_field(solid), kx=min(3, nx), ky=min(3, ny))
+        fine_x = np.linspace(0.0, field.length, SMOOTHING * nx + 1)
+        fine_y = np.linspace(-field.height / 2, field.height / 2, SMOOTHING * ny + 1)
+        z = spline(fine_x, fine_y).T  # rows along y, as contourpy reads z[y, x]
+        self.bottom, self.top = float(z.min()), float(z.max())
+        self.field = field
+        self.generator = contourpy.contour_generator(fine_x, fine_y, z, fill_type=contourpy.FillType.OuterOffset)
+        holes = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(np.isnan(field.density))]
+        self.holes = shapely.union_all(holes)
+        self.rings = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(field.ring_cells & np.isfinite(field.density))]
+
+    def traced(self, level: float) -> Any:
+        """The region where the smoothed field reaches ``level``, as shapely polygons."""
+        import shapely
+
+        points, offsets = cast(Any, self.generator.filled(level, max(self.top, level) + 1.0))
+        polygons = []
+        for xy, starts in zip(points, offsets):
+            rings = [xy[a:b] for a, b in pairwise(starts)]
+            polygons.append(shapely.make_valid(shapely.Polygon(rings[0], rings[1:])))
+        return shapely.union_all(polygons)
+
+    def shape(self, level: float) -> Any:
+        """The traced region at ``level``, holes cut out, rings' cells added, valid and
+        simplified."""
+        import shapely
+
+        shape = shapely.union_all([shapely.difference(self.traced(level), self.holes), *self.rings])
+        shape = shapely.make_valid(shape.simplify(0.01 * min(self.field.cell), preserve_topology=True))
+        polygons = [g for g in getattr(shape, "geoms", [shape]) if isinstance(g, shapely.Polygon) and g.area > 0]
+        return shapely.union_all(polygons)
 
 
 def write(sim: Any, densities: Any, folder: str | os.PathLike, *, threshold: float = 0.5, unit: str = "mm",
