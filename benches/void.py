@@ -21,7 +21,12 @@ s(x_min) = 1e-6 of the solid's stiffness (the `void.rs` tests); co-rotated, not 
 ``--projection``: on 20 × 6 cells per link, the random void/solid mix of the design (0.02 or
 0.98, rng seed 3) through a density filter of 1.5 and 2.5 cells and a projection at β = 32
 (η = ½), at the scene's step and at a half and a quarter of it: the physical cells' void
-(below 0.05) and solid (above 0.95) shares, and whether the run ends.
+(below 0.05) and solid (above 0.95) shares, and whether the run ends. Then the same two
+designs under local error control (``local_tol`` 1e-2 and 1e-3, from the scene's step):
+whether the run ends, its steps, d, the plausibility warnings it gave, and whether the
+steps it took carry the same design again (its gradients are computed on them: ``+0``)
+and the design with its most influential cell's density (of those inside the bounds) moved
+by ±1e-6 (the gradient's differences need them to).
 
 ``--local``: the 60 × 20 void/solid mix (void cells of linear energy) under local error
 control (``local_tol = 1e-3``): whether the run ends, its steps, d and the seconds.
@@ -106,9 +111,50 @@ def projection() -> None:
             step = "the scene's (0.013)" if h is None else f"{h:g}"
             lines.append(f"| {radius} | {step} | {np.mean(physical < 0.05):.2f} | {np.mean(physical > 0.95):.2f} | {outcome} |")
     text = ("Produced by `python benches/void.py --projection`: the continuum arm, 20 × 6 cells per link, a random "
-            "void/solid mix filtered and projected at β = 32.\n\n" + "\n".join(lines) + "\n")
+            "void/solid mix filtered and projected at β = 32.\n\n" + "\n".join(lines) + "\n\n"
+            "Under local error control (module docs):\n\n" + "\n".join(projection_local()) + "\n")
     (ROOT / "benches" / "results" / "void_projection.md").write_text(text)
     print(text)
+
+
+def projection_local() -> list[str]:
+    """The ``--projection`` rows under local error control (module docs)."""
+    import warnings
+
+    lines = ["| filter radius (cells) | local_tol | outcome | steps | d (m²) | warnings | on the same steps: the design, one cell ±1e-6 |",
+             "|---|---|---|---|---|---|---|"]
+    sim = flextop.Simulation(continuum_robot_arm(nx=20, ny=6))
+    gradient = np.zeros(sim.n_design)
+    x = np.where(np.random.default_rng(3).random(sim.n_design) < 0.5, 0.02, 0.98)
+    for radius in (1.5, 2.5):
+        physical = DensityFilter(sim, radius_cells=radius, beta=32.0, eta=0.5).physical(x)
+        for tol in (1e-2, 1e-3):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    run = sim.run(physical, local_tol=tol)
+                except flextop.SimulationError as error:
+                    lines.append(f"| {radius} | {tol:g} | stops: {error} | — | — | — | — |")
+                    continue
+            said = "; ".join(str(w.message).split(";")[0] for w in caught) or "none"
+            steps = run.steps
+            moved = []
+            for j, dx in ((None, 0.0), (0, 1e-6), (0, -1e-6)):
+                y = physical.copy()
+                if j is not None:
+                    inside = (physical > sim.x_min + 1e-5) & (physical < 1.0 - 1e-5)
+                    y[int(np.argmax(np.where(inside, np.abs(gradient), -1.0)))] += dx
+                try:
+                    result = sim.sensitivities_fixed(y, ["tip_deflection"], {"method": "adjoint"}, steps)
+                    moved.append(f"{dx:+g}: runs")
+                    gradient = result.gradients[0] if j is None else gradient
+                except flextop.SimulationError as error:
+                    moved.append(f"{dx:+g}: stops at t = {str(error).split('t = ')[1].split(' ')[0]} s")
+                    if j is None:
+                        break
+            lines.append(f"| {radius} | {tol:g} | runs to t = {run.time[-1]:.2f} s | {len(steps)} | "
+                         f"{run.response('tip_deflection'):.4e} | {said} | {'; '.join(moved)} |")
+    return lines
 
 
 def local() -> None:
