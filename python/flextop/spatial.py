@@ -38,7 +38,11 @@ a beam's section ``diameter:BEAM``, ``outer:BEAM``, ``inner:BEAM``, ``width:BEAM
 ``height:BEAM`` (m: its stiffnesses, inertias and stress points move with it), ``end:JOINT``,
 ``acceleration:JOINT`` and ``speed:JOINT`` (a trapezoidal drive's law: rad, rad/s², rad/s on
 a revolute joint, m, m/s², m/s on a prismatic one; ``tip_deflection``'s rigid trajectory
-moves with them too).
+moves with them too), ``position_x:JOINT``, ``position_y:JOINT`` and ``position_z:JOINT``
+(the joint's place along an axis of space where the scene builds it, m: both its anchors'
+points move with it in their bodies' frames, the ground's in space, so that the scene
+starts as built; a ``tip_deflection``'s rigid trajectory would move too, and is refused
+with them).
 """
 
 from __future__ import annotations

@@ -152,6 +152,72 @@ impl Pair {
         }
     }
 
+    /// A measure's derivative to a move of the anchors' points at the rates `arms` (each in
+    /// its side's frame, the ground's inertial) at fixed `q` and `v`: the gap's is the gap
+    /// of the points `R a'` with nothing of the nodes' places, `R a'` in value, `[0, −R ã']`
+    /// in Jacobian, `R (Ω × a')` in rate and `R Ω̃Ω̃ a'` in `p̈ − J v̇`; the other measures do
+    /// not move.
+    pub fn evaluate_rate(
+        &self,
+        m: &Measure,
+        sides: &[Side; 2],
+        arms: &[Vector3<f64>; 2],
+    ) -> Evaluated {
+        let mut out = Evaluated {
+            value: Vector3::zeros(),
+            jacobian: Jacobian::zeros(),
+            rate: Vector3::zeros(),
+            term: Vector3::zeros(),
+        };
+        if *m != Measure::Gap {
+            return out;
+        }
+        for (s, sign) in [(0, -1.0), (1, 1.0)] {
+            let (side, a) = (&sides[s], &arms[s]);
+            out.value += side.r * a * sign;
+            out.rate += side.r * side.omega.cross(a) * sign;
+            out.term += side.r * side.omega.cross(&side.omega.cross(a)) * sign;
+            if self.nodes[s].is_some() {
+                out.jacobian
+                    .fixed_view_mut::<3, 3>(0, 6 * s + 3)
+                    .copy_from(&(-side.r * hat(a) * sign));
+            }
+        }
+        out
+    }
+
+    /// The derivative of [`Pair::product`] of `alpha` and `beta` to a move of the anchors'
+    /// points at the rates `arms` ([`Pair::evaluate_rate`]) at fixed `q` and `v`.
+    pub fn product_rate(
+        &self,
+        alpha: &Measure,
+        beta: &Measure,
+        sides: &[Side; 2],
+        arms: &[Vector3<f64>; 2],
+    ) -> Product {
+        let (a, b) = (self.evaluate(alpha, sides), self.evaluate(beta, sides));
+        let (da, db) = (
+            self.evaluate_rate(alpha, sides, arms),
+            self.evaluate_rate(beta, sides, arms),
+        );
+        Product {
+            value: da.value.dot(&b.value) + a.value.dot(&db.value),
+            gradient: da.jacobian.transpose() * b.value
+                + a.jacobian.transpose() * db.value
+                + db.jacobian.transpose() * a.value
+                + b.jacobian.transpose() * da.value,
+            rate: da.rate.dot(&b.value)
+                + a.rate.dot(&db.value)
+                + da.value.dot(&b.rate)
+                + a.value.dot(&db.rate),
+            term: da.term.dot(&b.value)
+                + a.term.dot(&db.value)
+                + 2.0 * (da.rate.dot(&b.rate) + a.rate.dot(&db.rate))
+                + da.value.dot(&b.term)
+                + a.value.dot(&db.term),
+        }
+    }
+
     /// `∂(J v)/∂q` of the gap at fixed `v`: `±[0, −R (Ω × a)~]` on each anchor's node.
     pub fn gap_rate_jacobian(&self, sides: &[Side; 2]) -> Jacobian {
         let mut d = Jacobian::zeros();

@@ -490,6 +490,57 @@ impl Joint {
         }
     }
 
+    /// The anchors' points' rates in their sides' frames when the joint's place moves by a
+    /// unit along `e` (inertial, in the initial configuration): `R₀ᵀ e` on a node, `e` on
+    /// the ground. Both points move together, so the initial configuration still meets.
+    pub(crate) fn arm_rates(&self, e: &Vector3<f64>) -> [Vector3<f64>; 2] {
+        [0, 1].map(|s| match self.pair.nodes[s] {
+            Some(_) => self.initial[s].transpose() * e,
+            None => *e,
+        })
+    }
+
+    /// Every row's derivative to the joint's place along `e` ([`Joint::arm_rates`]) at
+    /// `(q, v, t)` (with `v = None`, `b`'s at rest): `∂Φ/∂p`, `∂B/∂p` and `∂b/∂p`, row by
+    /// row, the drive's last.
+    pub(crate) fn position_rate(
+        &self,
+        q: &[f64],
+        v: Option<&[f64]>,
+        t: f64,
+        e: &Vector3<f64>,
+    ) -> RowsRate {
+        let (sides, arms) = (self.pair.sides(q, v), self.arm_rates(e));
+        let mut out = RowsRate {
+            value: SVector::zeros(),
+            gradient: Gradient::zeros(),
+            term: SVector::zeros(),
+        };
+        let mut put = |k: usize, value: f64, gradient: &SVector<f64, LOCAL>, term: f64| {
+            out.value[k] += value;
+            let mut row = out.gradient.row_mut(k);
+            row += gradient.transpose();
+            out.term[k] += term;
+        };
+        for (k, row) in self.rows.iter().enumerate() {
+            let p = self.pair.product_rate(&row.alpha, &row.beta, &sides, &arms);
+            put(k, p.value, &p.gradient, p.term);
+        }
+        if let Some(drive) = &self.drive {
+            for Term {
+                c: [c, cd, cdd],
+                alpha,
+                beta,
+            } in self.drive_row(drive, t).0.iter().flatten()
+            {
+                let p = self.pair.product_rate(alpha, beta, &sides, &arms);
+                let term = c * p.term + 2.0 * cd * p.rate + cdd * p.value;
+                put(self.rows.len(), c * p.value, &(p.gradient * *c), term);
+            }
+        }
+        out
+    }
+
     /// `Φ(q, t)` into `out` (its first [`Joint::n_rows`] entries).
     pub fn values(&self, q: &[f64], t: f64, out: &mut [f64]) {
         self.for_each_row(q, None, t, None, |k, r| out[k] = r.value);
@@ -654,6 +705,17 @@ struct Term {
     c: [f64; 3],
     alpha: Measure,
     beta: Measure,
+}
+
+/// The rows' derivatives to a parameter at one state ([`Joint::position_rate`]), row by
+/// row in the joint's order.
+pub(crate) struct RowsRate {
+    /// `∂Φ/∂p`.
+    pub value: SVector<f64, MAX_ROWS>,
+    /// `∂B/∂p` on the joint's local unknowns.
+    pub gradient: Gradient,
+    /// `∂b/∂p` of `Φ̈ = B v̇ + b`.
+    pub term: SVector<f64, MAX_ROWS>,
 }
 
 /// A row's value and derivatives at one state.
@@ -943,6 +1005,60 @@ mod tests {
                     (second - expected).abs() < 1e-5 * expected.abs().max(1.0),
                     "{name:?}, row {r}: {second} against {expected}"
                 );
+            }
+        }
+    }
+
+    /// The rows' value, gradient and `b` against central differences of the same joint with
+    /// both anchors moved along each axis, grounded or not, driven or not.
+    #[test]
+    fn position_rates_against_differences() {
+        let v = [
+            0.3, -0.1, 0.2, 1.5, -0.7, 2.0, -0.2, 0.4, 0.1, -1.0, 0.5, 0.3,
+        ];
+        for ground_b in [false, true] {
+            for (joint, q) in joints(ground_b) {
+                let name = (joint.kind.name(), joint.drive.is_some(), ground_b);
+                let n = joint.n_rows();
+                for axis in 0..3 {
+                    let e = Vector3::ith(axis, 1.0);
+                    let rate = joint.position_rate(&q, Some(&v), T, &e);
+                    let moved = |d: f64| {
+                        let mut j = joint.clone();
+                        let arms = joint.arm_rates(&e);
+                        (0..2).for_each(|s| j.pair.arms[s] += arms[s] * d);
+                        let (mut value, mut b) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
+                        j.values(&q, T, &mut value);
+                        j.acceleration_terms(&q, &v, T, &mut b);
+                        (value, j.gradient(&q, T), b)
+                    };
+                    let h = 1e-6;
+                    let ((vp, gp, bp), (vm, gm, bm)) = (moved(h), moved(-h));
+                    for r in 0..n {
+                        let close =
+                            |fd: f64, exact: f64| (fd - exact).abs() < 1e-7 * exact.abs().max(1.0);
+                        let fd = (vp[r] - vm[r]) / (2.0 * h);
+                        assert!(
+                            close(fd, rate.value[r]),
+                            "{name:?} {axis} row {r}: {fd} against {}",
+                            rate.value[r]
+                        );
+                        let fd = (bp[r] - bm[r]) / (2.0 * h);
+                        assert!(
+                            close(fd, rate.term[r]),
+                            "{name:?} {axis} row {r}: b' {fd} against {}",
+                            rate.term[r]
+                        );
+                        for c in 0..LOCAL {
+                            let fd = (gp[(r, c)] - gm[(r, c)]) / (2.0 * h);
+                            let exact = rate.gradient[(r, c)];
+                            assert!(
+                                close(fd, exact),
+                                "{name:?} {axis} row {r} column {c}: {fd} against {exact}"
+                            );
+                        }
+                    }
+                }
             }
         }
     }

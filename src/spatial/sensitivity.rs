@@ -24,14 +24,14 @@
 //! A change of step size, which carries the pseudo-accelerations to the new step, and the
 //! restart at a drive's kink are differentiated as they run.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SVector, Vector3};
 
 use crate::error::{Error, SettingsError, SolveError};
 use crate::group::pair::Stiffness;
 use crate::group::so3::{exp, log, tangent};
 use crate::group::{six, split, Frame, NV};
 use crate::joint::motion::{LawParameter, Motion};
-use crate::joint::spatial::Joint;
+use crate::joint::spatial::{Joint, MAX_ROWS};
 use crate::response::aggregation::Aggregation;
 use crate::settings::{DynamicSettings, Method, StaticSettings};
 use crate::solver::alpha::{step_ratio, AlphaParameters, State};
@@ -148,6 +148,16 @@ pub enum Parameter {
         joint: usize,
         /// Which.
         law: LawParameter,
+    },
+    /// A joint's place along the inertial axis `axis` (0, 1, 2 for x, y, z) in the initial
+    /// configuration (m): both its anchors' points move with it, each in its body's or
+    /// node's frame (the ground's in space), so that the initial configuration still meets
+    /// and only the joint's rows move (`Joint::position_rate`).
+    JointPosition {
+        /// The joint.
+        joint: usize,
+        /// 0, 1, 2 for x, y, z.
+        axis: usize,
     },
 }
 
@@ -466,6 +476,29 @@ fn check(
                         format!(
                             "joint {joint}'s drive is held (it starts where it ends): its law \
                              has no rate to a parameter"
+                        ),
+                    ));
+                }
+            }
+            Parameter::JointPosition { joint, axis } => {
+                if joint >= model.joints.len() || axis > 2 {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "joint {joint}, axis {axis}: the mechanism has {} joints, and an axis is 0, 1 or 2",
+                            model.joints.len()
+                        ),
+                    ));
+                }
+                if let Some(r) = responses
+                    .iter()
+                    .position(|r| matches!(r, Response::Deflection { .. }))
+                {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "a joint's place moves responses[{r}]'s rigid trajectory, whose rate to it is not built: \
+                             differentiate another response, or the deflection by differences"
                         ),
                     ));
                 }
@@ -808,16 +841,51 @@ struct Restart {
     joints: Vec<RestartJoint>,
 }
 
-/// A drive parameter's share in a restart's right-hand side ([`Sweep::restart_load`]).
+/// A parameter's share in a restart's right-hand side ([`Sweep::restart_load`]).
 struct RestartLoad {
-    /// The driven joint.
+    /// The joint it moves.
     joint: usize,
     /// On its local unknowns' force rows.
     force: Local,
-    /// Its driven row among the multipliers.
-    row: usize,
-    /// On that row.
-    constraint: f64,
+    /// On its rows among the multipliers.
+    constraint: RowsLoad,
+}
+
+/// A parameter's share in consecutive constraint rows: `values[k]` on row `first + k`,
+/// `k < count`.
+struct RowsLoad {
+    first: usize,
+    count: usize,
+    values: SVector<f64, MAX_ROWS>,
+}
+
+impl RowsLoad {
+    /// `value` on row `row` alone.
+    fn one(row: usize, value: f64) -> Self {
+        let mut values = SVector::zeros();
+        values[0] = value;
+        Self {
+            first: row,
+            count: 1,
+            values,
+        }
+    }
+
+    /// Adds `scale` times the load to the rows `out`.
+    fn add_to(&self, scale: f64, out: &mut [f64]) {
+        let rows = &mut out[self.first..self.first + self.count];
+        rows.iter_mut()
+            .zip(self.values.iter())
+            .for_each(|(o, v)| *o += scale * v);
+    }
+
+    /// The load dotted with the rows `y`.
+    fn dot(&self, y: &[f64]) -> f64 {
+        (y[self.first..self.first + self.count].iter())
+            .zip(self.values.iter())
+            .map(|(y, v)| y * v)
+            .sum()
+    }
 }
 
 /// A joint's share in the restart's derivative, on its local unknowns.
@@ -1579,27 +1647,59 @@ impl<'m> Sweep<'m> {
                     None => ([None, None], local),
                 }
             }
+            Parameter::JointPosition { joint, axis } => {
+                let j = &model.joints[joint];
+                let rate = j.position_rate(&s.q, None, s.t, &Vector3::ith(axis, 1.0));
+                (
+                    j.pair.nodes,
+                    rate.gradient.tr_mul(&self.joint_multipliers(joint, &s.lam)),
+                )
+            }
             Parameter::BeamDensity { .. }
             | Parameter::TrussDensity { .. }
             | Parameter::TrussBuckling { .. } => ([None, None], local),
         }
     }
 
-    /// A drive parameter's `∂Φ/∂p` (`level` position: at a step, an equilibrium) or `∂b/∂p`
-    /// (acceleration: the start) at state `n`, on the driven row: the row among the
-    /// multipliers and its value; `None` for the other parameters.
-    fn constraint_load(&self, p: &Parameter, n: usize, level: Level) -> Option<(usize, f64)> {
-        let Parameter::Drive { joint, law } = *p else {
-            return None;
-        };
+    /// Joint `joint`'s rows of the multipliers `lam`, padded to [`MAX_ROWS`].
+    fn joint_multipliers(&self, joint: usize, lam: &[f64]) -> SVector<f64, MAX_ROWS> {
+        let (first, n) = (self.row_of(joint, 0), self.model().joints[joint].n_rows());
+        let mut out = SVector::<f64, MAX_ROWS>::zeros();
+        out.rows_mut(0, n).copy_from_slice(&lam[first..first + n]);
+        out
+    }
+
+    /// A parameter's share in the constraint rows at state `n` (`level` position: `∂Φ/∂p`,
+    /// at a step or an equilibrium; acceleration: `∂B/∂p v̇ + ∂b/∂p`, at the start): a
+    /// drive parameter's on its driven row, a joint's place's on its rows; `None` for the
+    /// other parameters.
+    fn constraint_load(&self, p: &Parameter, n: usize, level: Level) -> Option<RowsLoad> {
         let s = &self.states[n];
         let v = (level == Level::Acceleration).then_some(&s.qdot[..]);
-        let (row, rate) = self.model().joints[joint].drive_rate(&s.q, v, s.t, law)?;
-        let value = match level {
-            Level::Position => rate.value,
-            Level::Acceleration => rate.term,
-        };
-        Some((self.row_of(joint, row), value))
+        match *p {
+            Parameter::Drive { joint, law } => {
+                let (row, rate) = self.model().joints[joint].drive_rate(&s.q, v, s.t, law)?;
+                let value = match level {
+                    Level::Position => rate.value,
+                    Level::Acceleration => rate.term,
+                };
+                Some(RowsLoad::one(self.row_of(joint, row), value))
+            }
+            Parameter::JointPosition { joint, axis } => {
+                let j = &self.model().joints[joint];
+                let rate = j.position_rate(&s.q, v, s.t, &Vector3::ith(axis, 1.0));
+                let values = match level {
+                    Level::Position => rate.value,
+                    Level::Acceleration => rate.term + rate.gradient * gather(j, &s.qddot),
+                };
+                Some(RowsLoad {
+                    first: self.row_of(joint, 0),
+                    count: j.n_rows(),
+                    values,
+                })
+            }
+            _ => None,
+        }
     }
 
     /// Adds `scale` times [`Sweep::constraint_load`] to the constraint rows `out`.
@@ -1611,15 +1711,15 @@ impl<'m> Sweep<'m> {
         scale: f64,
         out: &mut [f64],
     ) {
-        if let Some((row, value)) = self.constraint_load(p, n, level) {
-            out[row] += scale * value;
+        if let Some(load) = self.constraint_load(p, n, level) {
+            load.add_to(scale, out);
         }
     }
 
     /// `scale` times [`Sweep::constraint_load`] dotted with the constraint rows `y`.
     fn constraint_dot(&self, p: &Parameter, n: usize, level: Level, scale: f64, y: &[f64]) -> f64 {
         self.constraint_load(p, n, level)
-            .map_or(0.0, |(row, value)| scale * value * y[row])
+            .map_or(0.0, |load| scale * load.dot(y))
     }
 
     /// `∂r/∂p` at state `n` of a factor on an element's stiffness or its mass: its elastic
@@ -1825,7 +1925,7 @@ impl<'m> Sweep<'m> {
             if let Some(load) = self.restart_load(p, &restart, n) {
                 let (force, constraint) = rhs.split_at_mut(n_v);
                 scatter(&self.model().joints[load.joint], &load.force, force);
-                constraint[load.row] += load.constraint;
+                load.constraint.add_to(1.0, constraint);
             }
             rhs.iter_mut().for_each(|r| *r = -*r);
             self.solve(&mut rhs, false, n)?;
@@ -1866,8 +1966,8 @@ impl<'m> Sweep<'m> {
                 *g -= dot(&rate, &y[..n_v]);
                 if let Some(load) = self.restart_load(p, &restart, n) {
                     let joint = &self.model().joints[load.joint];
-                    *g -= load.force.dot(&gather(joint, &y[..n_v]))
-                        + load.constraint * y[n_v + load.row];
+                    *g -=
+                        load.force.dot(&gather(joint, &y[..n_v])) + load.constraint.dot(&y[n_v..]);
                 }
             }
         }
@@ -1936,10 +2036,30 @@ impl<'m> Sweep<'m> {
         }))
     }
 
-    /// A drive parameter's share in the right-hand side of the restart on state `n`:
-    /// `Δλ ∂B/∂p` on the force rows, `s (∂B/∂p Δv̇ + ∂Δb/∂p)` on the driven row (`Δb'`
-    /// where its `b` jumped); `None` for the other parameters.
+    /// A drive parameter's or a joint's place's share in the right-hand side of the restart
+    /// on state `n`: `Δλ ∂B/∂p` on the force rows, `s (∂B/∂p Δv̇ + ∂Δb/∂p)` on its rows
+    /// (`Δb'` where a driven row's `b` jumped; a place's `b'` does not jump: the drives'
+    /// rows that move with it, a slide's, have constant coefficients); `None` for the other
+    /// parameters.
     fn restart_load(&self, p: &Parameter, restart: &Restart, n: usize) -> Option<RestartLoad> {
+        if let Parameter::JointPosition { joint, axis } = *p {
+            let s = &self.states[n];
+            let j = &self.model().joints[joint];
+            let rate = j.position_rate(&s.q, Some(&s.qdot), s.t, &Vector3::ith(axis, 1.0));
+            let first = self.row_of(joint, 0);
+            let mut mu = SVector::<f64, MAX_ROWS>::zeros();
+            mu.rows_mut(0, j.n_rows())
+                .copy_from_slice(&restart.mu[first..first + j.n_rows()]);
+            return Some(RestartLoad {
+                joint,
+                force: rate.gradient.tr_mul(&mu),
+                constraint: RowsLoad {
+                    first,
+                    count: j.n_rows(),
+                    values: rate.gradient * gather(j, &restart.dv) * restart.scale,
+                },
+            });
+        }
         let Parameter::Drive { joint, law } = *p else {
             return None;
         };
@@ -1958,8 +2078,7 @@ impl<'m> Sweep<'m> {
         Some(RestartLoad {
             joint,
             force: rate.gradient * restart.mu[row],
-            row,
-            constraint: restart.scale * constraint,
+            constraint: RowsLoad::one(row, restart.scale * constraint),
         })
     }
 

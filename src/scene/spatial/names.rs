@@ -33,7 +33,10 @@
 //! stiffnesses, inertias and stress points move with it), `end:JOINT`,
 //! `acceleration:JOINT`, `speed:JOINT` (of a joint's trapezoidal drive: rad, rad/s², rad/s
 //! on a revolute joint, m, m/s², m/s on a prismatic one; a deflection's rigid trajectory
-//! moves with them too).
+//! moves with them too), `position_x:JOINT`, `position_y:JOINT`, `position_z:JOINT` (the
+//! joint's place along an axis of space in the initial configuration, m: both its anchors'
+//! points move with it in their bodies, the initial configuration unchanged; not with a
+//! deflection, whose rigid trajectory would move too).
 
 use super::SpatialScene;
 use crate::error::SettingsError;
@@ -296,7 +299,7 @@ impl SpatialScene {
     pub fn parameter(&self, name: &str) -> Result<Named> {
         let bad = |m: String| Err(SettingsError::new("parameters", format!("'{name}': {m}")));
         let Some((kind, what)) = name.split_once(':') else {
-            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, length, rest, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)".into());
+            return bad("parameters are KIND:NAME (mass, Ixx … Iyz, k, c, length, rest, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed, position_x, position_y, position_z)".into());
         };
         let m = &self.model;
         let body = || m.bodies.iter().position(|b| b.name == what);
@@ -357,6 +360,15 @@ impl SpatialScene {
                     None => bad(format!("'{what}' has no drive")),
                 }
             }
+            "position_x" | "position_y" | "position_z" => {
+                match m.joints.iter().position(|j| j.name == what) {
+                    Some(joint) => one(Parameter::JointPosition {
+                        joint,
+                        axis: usize::from(kind.as_bytes()[9] - b'x'),
+                    }),
+                    None => bad(format!("'{what}' is no joint of the scene")),
+                }
+            }
             "E" | "rho" => {
                 let Some(beam) = self.beams.get(what) else {
                     return bad(format!("'{what}' is no beam of the scene"));
@@ -384,7 +396,7 @@ impl SpatialScene {
                     _ => bad(format!("'{what}' is no rigid body of the scene")),
                 },
                 None => bad(format!(
-                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed)"
+                    "'{kind}' is not a parameter kind (mass, Ixx … Iyz, k, c, torque, E, rho, diameter, outer, inner, width, height, end, acceleration, speed, position_x, position_y, position_z)"
                 )),
             },
         }

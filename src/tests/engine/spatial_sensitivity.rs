@@ -63,6 +63,11 @@ pub fn moved(model: &SpatialModel, p: &Parameter, e: f64) -> SpatialModel {
         Parameter::TrussDensity { truss } => m.trusses[truss].density += e,
         // A factor on its buckling ratio `−ε/ε_E`.
         Parameter::TrussBuckling { truss } => m.trusses[truss].euler_strain /= 1.0 + e,
+        Parameter::JointPosition { joint, axis } => {
+            let j = &mut m.joints[joint];
+            let arms = j.arm_rates(&Vector3::ith(axis, 1.0));
+            (0..2).for_each(|s| j.pair.arms[s] += arms[s] * e);
+        }
         Parameter::Drive { .. } | Parameter::BeamSize { .. } => unreachable!(
             "a drive's law and a section's size are moved by rebuilding their scene \
              (tests/python/test_spatial_drives.py, test_spatial_sizes.py)"
@@ -79,7 +84,7 @@ fn step(model: &SpatialModel, p: &Parameter) -> f64 {
     match *p {
         Parameter::Mass { body } => 1e-3 * model.bodies[body].mass,
         Parameter::Inertia { body, .. } => 2e-3 * model.bodies[body].inertia.trace() / 3.0,
-        Parameter::SpringRest { .. } => 1e-4,
+        Parameter::SpringRest { .. } | Parameter::JointPosition { .. } => 1e-4,
         Parameter::SpringStiffness { force }
         | Parameter::SpringDamping { force }
         | Parameter::MotorTorque { force } => match model.forces[force].kind {
@@ -209,7 +214,7 @@ fn heavy_top_gradients_are_exact() {
 /// spring-damper, a motor and a load: its
 /// slider's and sleeve's places, the drive's effort `∫τ² dt` and the pin's `∫F_x² dt`, to
 /// three bodies' masses, two inertias, the springs' constants and rest lengths or angles and
-/// the motor's torque.
+/// the motor's torque, and to every joint's place.
 #[test]
 fn every_joint_kind_has_exact_gradients() {
     let (r, l) = (0.15, 0.3);
@@ -379,6 +384,15 @@ fn every_joint_kind_has_exact_gradients() {
         Parameter::SpringDamping { force: 3 },
         Parameter::SpringRest { force: 0 },
         Parameter::SpringRest { force: 3 },
+        // Every joint's place: the driven crank's pivot on the ground, the pin, the wrist,
+        // the slide, the weld and the sleeve, each along one axis or two.
+        Parameter::JointPosition { joint: 0, axis: 0 },
+        Parameter::JointPosition { joint: 1, axis: 0 },
+        Parameter::JointPosition { joint: 1, axis: 1 },
+        Parameter::JointPosition { joint: 2, axis: 2 },
+        Parameter::JointPosition { joint: 3, axis: 1 },
+        Parameter::JointPosition { joint: 4, axis: 0 },
+        Parameter::JointPosition { joint: 5, axis: 2 },
     ];
     check(
         &m,

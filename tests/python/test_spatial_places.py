@@ -1,0 +1,118 @@
+"""Gradients of spatial mechanisms to their joints' places (``position_x:JOINT`` …): the
+joint moved along an axis of space where the scene builds it, both its anchors' points with
+it. Against fourth-order differences of scenes rebuilt with the points moved, and direct
+against adjoint: over the spatial slider-crank's motion, its trapezoidal drive's kinks on
+the grid (the run restarts there), and at a hinged bar's equilibrium. Names the scene lacks,
+and the deflection whose rigid trajectory would move, are refused."""
+
+import copy
+
+import numpy as np
+import pytest
+
+from flextop import SettingsError, SpatialScene, SpatialSimulation
+from flextop.scenes import spatial_slider_crank
+
+
+def moved(spec: dict, joint: str, axis: int, d: float) -> dict:
+    """``spec`` with ``joint`` moved by ``d`` (m) along ``axis``: each anchor's point in its
+    body (the bodies here start unturned, so a body's axes are space's), a ground point in
+    space, a body's centre given a point there; ``"ground"`` follows the other anchor."""
+    out = copy.deepcopy(spec)
+    entry = next(j for j in out["joints"] if j["name"] == joint)
+    bodies = {b["name"]: b for b in out["rigid_bodies"]}
+    for side in ("a", "b"):
+        anchor = entry.get(side, "ground")
+        if anchor == "ground":
+            continue
+        if not isinstance(anchor, str):
+            anchor[axis] += d
+            continue
+        body, _, point = anchor.partition(".")
+        assert "orientation" not in bodies[body], "the bodies start unturned"
+        points = bodies[body].setdefault("points", {})
+        point = point or f"{joint}_{side}"
+        points.setdefault(point, [0.0, 0.0, 0.0])[axis] += d
+        entry[side] = f"{body}.{point}"
+    return out
+
+
+def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]], *, step: float = 1e-4,
+                 **options) -> np.ndarray:
+    """Direct = adjoint to 1e-9 and fourth-order differences (steps of ``step`` m) to 1e-6,
+    beside the differences' noise (values reproducible to 1e-10, Newton's tolerance, over the
+    step)."""
+    names = [f"position_{'xyz'[axis]}:{joint}" for joint, axis in places]
+    sim = SpatialSimulation(spec)
+    direct = sim.run_with_sensitivities(None, responses, names, method="direct", **options)
+    adjoint = sim.run_with_sensitivities(None, responses, names, method="adjoint", **options)
+    g, values = direct.gradient, np.abs(direct.values)
+    noise = 1e-10 * values / step
+    for j, (joint, axis) in enumerate(places):
+        assert np.all(np.abs(adjoint.gradient[:, j] - g[:, j]) <= 1e-9 * np.abs(g[:, j]) + 1e-6 * noise), names[j]
+
+        def value(k: float, joint=joint, axis=axis) -> np.ndarray:
+            return SpatialSimulation(moved(spec, joint, axis, k * step)).run_with_sensitivities(
+                None, responses, [], **options).values
+
+        fd = (value(-2) - 8 * value(-1) + 8 * value(1) - value(2)) / (12 * step)
+        assert np.all(np.abs(g[:, j] - fd) <= 1e-6 * np.abs(fd) + noise), (names[j], g[:, j], fd, noise)
+    return g
+
+
+def test_gradients_to_every_joint_s_place_in_the_slider_crank_s_motion_are_exact():
+    """The crank's pivot (on the ground), the pin (crank to rod), the wrist (rod to the
+    slider's centre) and the slide (a point of the ground to the slider), each along one
+    axis: the slider's travel, the rod's height, the drive's effort, the pin's force and the
+    kinetic energy. The drive's law reaches its speed at 0.1 s and its end at 0.2 s, steps
+    25 and 50 of 4 ms: the run restarts at both, and the gradients go through the restarts."""
+    spec = spatial_slider_crank(turn=2.0, t_end=0.3, h=0.004).to_dict()
+    law = spec["joints"][0]["drive"]
+    assert (law["end"], law["acceleration"], law["speed"]) == (2.0, 200.0, 20.0)  # kinks at 0.1 and 0.2 s
+    responses = ["x:slider", "z:rod", "torque_squared:crank", "reaction:pin", "kinetic_energy"]
+    places = [("crank", 2), ("pin", 0), ("pin", 1), ("wrist", 2), ("slide", 1)]
+    g = assert_exact(spec, responses, places)
+    # The slide's place moves nothing: the slider slides without turning, so its point and
+    # the ground's moving together relabel the same motion. Every other place moves the
+    # effort and the pin's force.
+    assert np.abs(g[:, 4]).max() < 1e-15 * np.abs(g).max()
+    assert np.all(np.abs(g[2:4, :4]) > 1e-3)
+
+
+def bar() -> dict:
+    """A 1 kg bar of 0.6 m, its centre at the origin, hinged about y at a point 0.2 m from its
+    centre, held near level by a torsion spring of 30 N m/rad under gravity."""
+    scene = SpatialScene("hinged bar", analysis="static", gravity=(0.0, 0.0, -9.81))
+    scene.rigid_body("bar", mass=1.0, inertia=(1e-4, 0.03, 0.03), position=(0.0, 0.0, 0.0),
+                     points={"pivot": (-0.2, 0.0, 0.0)})
+    scene.revolute("hinge", "bar.pivot", axis=(0.0, 1.0, 0.0))
+    scene.torsion("spring", "hinge", k=30.0)
+    return scene.to_dict()
+
+
+def test_gradients_to_a_hinge_s_place_at_an_equilibrium_are_exact_and_as_the_closed_form_says():
+    """Moving the hinge along the bar moves its lever: the bar's weight turns it by
+    θ = m g l cos θ / k about the hinge, l the centre's distance from it, so that
+    dθ/dl = m g cos θ / (k + m g l sin θ); the centre's height z = −l sin θ then moves by
+    −sin θ − l cos θ dθ/dl per metre of the hinge along x (the pivot's point, and the ground's
+    with it, moved by dl = −dx: the centre ends further from the hinge as the hinge moves
+    towards −x, l = 0.2 − x)."""
+    spec = bar()
+    g = assert_exact(spec, ["z:bar", "x:bar"], [("hinge", 0), ("hinge", 2)])
+    out = SpatialSimulation(spec).run_with_sensitivities(None, ["z:bar"], [])
+    z = float(out.values[0])
+    mg, k, lever = 9.81, 30.0, 0.2
+    theta = np.arcsin(-z / lever)
+    # The hinge moved by x: l = 0.2 − x and the centre at hinge + l (cos θ, −sin θ).
+    dtheta = mg * np.cos(theta) / (k + mg * lever * np.sin(theta))
+    assert g[0, 0] == pytest.approx(np.sin(theta) + lever * np.cos(theta) * dtheta, rel=1e-8)
+
+
+def test_places_that_are_not_in_the_scene_or_move_a_rigid_trajectory_are_refused():
+    sim = SpatialSimulation(spatial_slider_crank(turn=2.0, t_end=0.3, h=0.004))
+    with pytest.raises(SettingsError, match="'position_x:elbow': 'elbow' is no joint of the scene"):
+        sim.run_with_sensitivities(None, ["x:slider"], ["position_x:elbow"])
+    with pytest.raises(SettingsError, match="'position_w:pin': 'position_w' is not a parameter kind"):
+        sim.run_with_sensitivities(None, ["x:slider"], ["position_w:pin"])
+    with pytest.raises(SettingsError, match="a joint's place moves responses\\[0\\]'s rigid trajectory"):
+        sim.run_with_sensitivities(None, ["tip_deflection"], ["position_x:pin"])
