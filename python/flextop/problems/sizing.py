@@ -1,18 +1,22 @@
-"""Sizing problems on a spatial scene: the dimensions of its sections as the design,
+"""Sizing problems on a spatial scene: the dimensions of its sections and the places of its
+joints as the design,
 
     minimize f(z)   s.t.   r_j(z) ≤ b_j,   z_lo ≤ z ≤ z_hi,
 
 each ``z_k`` a dimension of a named section (``"tube.outer"``, ``"blade.height"``; m) that
-every beam and bar made of the section follows; the beams' densities ``x`` are held. The
-optimizers see ``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at
-the first design evaluated unless given.
+every beam and bar made of the section follows, or a coordinate of a joint's place in
+space where the scene builds it (``"pin.x"``; m), both its anchors' points moving with it in
+their bodies; the beams' densities ``x`` are held. The optimizers see ``f0 = f / f_ref``
+and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at the first design evaluated unless
+given.
 
 Responses are those of :meth:`SpatialSimulation.run_with_sensitivities` by name, their
 gradients the engine's exact ones to each beam's section sizes (``outer:BEAM`` …) summed
-over the section's beams; and ``mass``, ``Σ m(x_b) ρ A L`` of the beams and bars (kg, as
-:meth:`SpatialSimulation.mass`), whose rate is ``(A'/A) Σ m(x_b) ρ A L`` over the section's
-beams. Each evaluation builds the scene at ``z``: a design the scene refuses (a tube's
-inner diameter reaching its outer) or whose motion fails is an
+over the section's beams and to the joints' places (``position_x:JOINT`` …); and ``mass``,
+``Σ m(x_b) ρ A L`` of the beams and bars (kg, as :meth:`SpatialSimulation.mass`), whose
+rate is ``(A'/A) Σ m(x_b) ρ A L`` over a section's beams and nothing to a place. Each
+evaluation builds the scene at ``z``: a design the scene refuses (a tube's inner diameter
+reaching its outer) or whose motion fails is an
 :class:`~flextop.optimizers.EvaluationError`, which the optimizer steps back from.
 """
 
@@ -28,6 +32,7 @@ import numpy as np
 from ..errors import SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..scenes.spatial import SpatialScene
+from ..quaternion import rotations
 from ..spatial import NQ, SpatialSimulation, _as_spec
 
 #: The dimensions of each section shape, by the names a scene gives them.
@@ -57,45 +62,55 @@ def area_rate(section: Mapping[str, Any], dimension: str) -> float:
 
 class SizingProblem(Problem):
     """Minimize the response ``objective`` of the spatial ``scene`` over the section sizes
-    ``sizes`` (``{"SECTION.DIMENSION": (lower, upper)}``, m) subject to ``constraints``, each
-    a ``(response, upper bound)`` (``mass`` among them, kg), at the held densities ``x``
-    (full density by default). The start :attr:`z0` is the scene's own sizes. ``settings``
-    go to every run.
+    ``sizes`` (``{"SECTION.DIMENSION": (lower, upper)}``, m) and the joints' places
+    ``places`` (``{"JOINT.x": (lower, upper)}``, the joint's coordinate in space, m; ``y``,
+    ``z`` likewise) subject to ``constraints``, each a ``(response, upper bound)`` (``mass``
+    among them, kg), at the held densities ``x`` (full density by default). The start
+    :attr:`z0` is the scene's own sizes, then its joints' places. ``settings`` go to every
+    run.
 
     Raises
     ------
     SettingsError
         For a size the scene's sections do not have, bounds that are not ``0 < lower <
-        upper`` and finite or leave out the scene's own size, a section no beam is made of,
-        a bound that is not positive and finite, or a reference that is not.
+        upper`` and finite or leave out the scene's own size, a section no beam is made of;
+        a joint the scene does not have, an axis that is not x, y or z, a joint that holds a
+        node (a scene gives a node's anchor no point to move), bounds that are not finite
+        with lower < upper or leave out the joint's place; a bound that is not positive and
+        finite, or a reference that is not.
     """
 
     def __init__(self, scene: SpatialScene | dict | str, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
-                 sizes: Mapping[str, tuple[float, float]], x: Any = None, reference: float | None = None,
-                 **settings: Any) -> None:
+                 sizes: Mapping[str, tuple[float, float]] | None = None,
+                 places: Mapping[str, tuple[float, float]] | None = None, x: Any = None,
+                 reference: float | None = None, **settings: Any) -> None:
         self.spec = copy.deepcopy(_as_spec(scene))
         sections = self.spec.get("sections") or {}
-        self.sizes = [self._size(sections, name, bounds) for name, bounds in sizes.items()]
-        if not self.sizes:
-            raise SettingsError("sizes: name at least one SECTION.DIMENSION with its bounds")
+        self.sizes = [self._size(sections, name, bounds) for name, bounds in (sizes or {}).items()]
+        sim = SpatialSimulation(self.spec)
+        self._start = {name: (q[:3], rotations(q[3:7][None])[0]) for name, q in self._frames(sim).items()}
+        self.places = [self._place(name, bounds) for name, bounds in (places or {}).items()]
+        if not self.sizes and not self.places:
+            raise SettingsError("sizes or places: name at least one SECTION.DIMENSION or JOINT.AXIS with its bounds")
         for name, bound in constraints:
             if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
                 raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
         if reference is not None and not (np.isfinite(reference) and reference > 0.0):
             raise SettingsError(f"reference: {reference!r} must be positive and finite")
-        super().__init__([lo for _, _, (lo, _) in self.sizes], [hi for _, _, (_, hi) in self.sizes],
+        bounds = [b for _, _, b in self.sizes] + [b for _, _, _, b in self.places]
+        super().__init__([lo for lo, _ in bounds], [hi for _, hi in bounds],
                          len(constraints), [f"{name} ≤ {bound:.4g}" for name, bound in constraints])
-        self.z0 = np.array([sections[s][d] for s, d, _ in self.sizes], dtype=float)
+        self.z0 = np.array([sections[s][d] for s, d, _ in self.sizes] + [at for _, _, at, _ in self.places], dtype=float)
         self.objective, self.settings, self.reference = objective, settings, reference
         self.responses = [objective, *(name for name, _ in constraints)]
         self.bounds = np.array([bound for _, bound in constraints], dtype=float)
-        sim = SpatialSimulation(self.spec)
         self.x = sim.design(x)
         self.beams = self._beams_of(sim)
         for section, dimension, _ in self.sizes:
             if not self.beams[section]:
                 raise SettingsError(f"sizes: no beam is made of section {section!r}")
         self.parameters = [f"{d}:{beam}" for s, d, _ in self.sizes for beam in self.beams[s]]
+        self.parameters += [f"position_{'xyz'[axis]}:{joint}" for joint, axis, _, _ in self.places]
         q = np.asarray(sim.model.initial_q)
         #: Each beam's length (m) and design variable (``None``: fixed), which no size moves.
         self.lengths = {name: (sum(float(np.linalg.norm(q[NQ * b:NQ * b + 3] - q[NQ * a:NQ * a + 3])) for a, b in ends), v)
@@ -120,6 +135,70 @@ class SizingProblem(Problem):
                                 f"({lo:g}, {hi:g})")
         return section, dimension, (lo, hi)
 
+    @staticmethod
+    def _frames(sim: SpatialSimulation) -> dict[str, np.ndarray]:
+        """Each body's and node's initial configuration (position, unit quaternion) by name."""
+        q = np.asarray(sim.model.initial_q)
+        return {name: q[NQ * k:NQ * k + NQ] for k, name in enumerate(sim.model.node_names)}
+
+    def _place(self, name: str, bounds: tuple[float, float]) -> tuple[str, int, float, tuple[float, float]]:
+        """A place's joint, axis, coordinate at the start (m) and bounds, checked."""
+        joint, _, axis = str(name).rpartition(".")
+        entries = {j["name"]: j for j in self.spec.get("joints", [])}
+        if joint not in entries:
+            raise SettingsError(f"places: {name!r}: no joint called {joint!r} (JOINT.x, JOINT.y or JOINT.z)")
+        if axis not in ("x", "y", "z"):
+            raise SettingsError(f"places: {name!r}: the axis is x, y or z")
+        bodies = {b["name"] for b in self.spec.get("rigid_bodies", [])}
+        entry, k = entries[joint], "xyz".index(axis)
+        anchors = [entry.get(side, "ground") for side in ("a", "b")]
+        for anchor in anchors:
+            if isinstance(anchor, str) and anchor != "ground" and anchor.partition(".")[0] not in bodies:
+                raise SettingsError(f"places: {name!r}: joint {joint!r} holds node {anchor!r}, whose anchor has no "
+                                    "point a scene can move: hold it by a body's point")
+        at = next(float(self._point(anchor)[k]) for anchor in anchors if anchor != "ground")
+        try:
+            lo, hi = (float(b) for b in bounds)
+        except (TypeError, ValueError):
+            raise SettingsError(f"places: {name!r}: bounds as (lower, upper) in m, got {bounds!r}") from None
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise SettingsError(f"places: {name!r}: bounds ({lo:g}, {hi:g}) must be finite with lower < upper")
+        if not lo <= at <= hi:
+            raise SettingsError(f"places: {name!r}: the joint's {at:g} m lies outside ({lo:g}, {hi:g})")
+        return joint, k, at, (lo, hi)
+
+    def _point(self, anchor: Any) -> np.ndarray:
+        """Where an anchor other than ``"ground"`` is at the start (m)."""
+        if not isinstance(anchor, str):
+            return np.asarray(anchor, dtype=float)
+        body, _, point = anchor.partition(".")
+        x, r = self._start[body]
+        if not point:
+            return np.array(x, dtype=float)
+        points = next(b for b in self.spec["rigid_bodies"] if b["name"] == body).get("points", {})
+        return x + r @ np.asarray(points[point], dtype=float)
+
+    def _move(self, spec: dict, joint: str, axis: int, by: float) -> None:
+        """Moves ``joint`` in ``spec`` by ``by`` (m) along ``axis``: each anchor's point in its
+        body (a point of its own, so that what else the point holds stays), a ground point in
+        space."""
+        entry = next(j for j in spec["joints"] if j["name"] == joint)
+        bodies = {b["name"]: b for b in spec["rigid_bodies"]}
+        for side in ("a", "b"):
+            anchor = entry.get(side, "ground")
+            if anchor == "ground":
+                continue
+            if not isinstance(anchor, str):
+                entry[side] = [float(c) + (by if i == axis else 0.0) for i, c in enumerate(anchor)]
+                continue
+            body, _, point = anchor.partition(".")
+            x, r = self._start[body]
+            points = bodies[body].setdefault("points", {})
+            own = point if point.startswith(f"place:{joint}:") else f"place:{joint}:{side}"
+            start = np.asarray(points.get(point, [0.0, 0.0, 0.0]) if point else [0.0, 0.0, 0.0], dtype=float)
+            points[own] = [float(c) for c in start + r[axis] * by]
+            entry[side] = f"{body}.{own}"
+
     def _beams_of(self, sim: SpatialSimulation) -> dict[str, list[str]]:
         """The scene's beams (a ground structure's bars among them) by section."""
         section_of = {b["name"]: b["section"] for b in self.spec.get("beams", [])}
@@ -132,10 +211,12 @@ class SizingProblem(Problem):
         return out
 
     def spec_at(self, z: np.ndarray) -> dict:
-        """The scene with the sizes ``z``."""
+        """The scene with the sizes and places ``z``."""
         spec = copy.deepcopy(self.spec)
         for (section, dimension, _), value in zip(self.sizes, z):
             spec["sections"][section][dimension] = float(value)
+        for (joint, axis, at, _), value in zip(self.places, z[len(self.sizes):]):
+            self._move(spec, joint, axis, float(value) - at)
         return spec
 
     def mass(self, sim: SpatialSimulation) -> tuple[float, np.ndarray]:
@@ -143,7 +224,7 @@ class SizingProblem(Problem):
         masses, _, _ = sim.model.masses(None if self.x is None else list(self.x))
         full, _, _ = sim.model.masses(None)
         factor = [m / f if f > 0 else 1.0 for m, f in zip(masses, full)]
-        sections = sim.spec["sections"]
+        sections = sim.spec.get("sections") or {}
         rate = np.zeros(self.n)
         for k, (section, dimension, _) in enumerate(self.sizes):
             s = sections[section]
@@ -176,7 +257,7 @@ class SizingProblem(Problem):
         if not responses:
             return {}, {}
         run = sim.run_with_sensitivities(self.x, responses, self.parameters, method="adjoint", **self.settings)
-        columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes])
+        columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes] + [1] * len(self.places))
         summed = np.add.reduceat(run.gradient, columns[:-1], axis=1)
         return dict(zip(responses, run.values)), dict(zip(responses, summed))
 
