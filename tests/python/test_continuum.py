@@ -14,7 +14,7 @@ from top88 import ke88
 
 import flextop
 from flextop import Scene, SceneError, trapezoidal
-from flextop.errors import MechanismWarning, PlausibilityWarning
+from flextop.errors import MechanismWarning, PlausibilityWarning, SettingsWarning
 from flextop.discretization import split_by
 from flextop.optimizers import Status
 from flextop.problems import DensityFilter, SensitivityFilter, TopologyProblem, volume_constraints
@@ -1349,3 +1349,32 @@ def test_a_void_and_solid_mix_projected_at_beta_32_runs_with_exact_gradients():
             y[j] += dx
             return problems[1].evaluate(y).f0
         assert fourth_order(value, 2e-4) == pytest.approx(direct.df0[j], rel=1e-6), j
+
+
+def test_supports_along_an_edge_that_keep_its_cells_solid_are_warned():
+    """Issue 53's 30 × 10 half-MBB with rollers along its symmetry line: solid_at_joints keeps
+    that edge's column passive (289 of 300 cells designed), and a problem that designs it
+    says so, naming the count; with solid_at_joints=False every cell is designed and nothing
+    is said (nor where the scene only runs)."""
+    def mbb(solid_at_joints: bool) -> Scene:
+        s = Scene("mbb", analysis="static")
+        m = s.member("beam", nx=30, ny=10, length=3.0, height=1.0, thickness=0.01, **STEEL,
+                     solid_at_joints=solid_at_joints)
+        for j in range(11):
+            s.roller(f"sym{j}", m.node(0, j), axis=(0.0, 1.0))
+        s.roller("support", m.node(30, 0), axis=(1.0, 0.0))
+        s.load(m.node(0, 10), force=(0.0, -1.0))
+        return s
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        held = flextop.Simulation(mbb(True))
+        assert held.n_design == 289
+    with pytest.warns(SettingsWarning, match=r"member 'beam': joints hold 12 of its nodes.*\(11 of its cells "
+                                             r"not designed\).*solid_at_joints=False"):
+        TopologyProblem(held, "compliance", volume_constraints(held, 0.5, per_component=False))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        free = flextop.Simulation(mbb(False))
+        assert free.n_design == 300
+        TopologyProblem(free, "compliance", volume_constraints(free, 0.5, per_component=False))

@@ -32,6 +32,7 @@ optimizer recovers from.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import astuple
 from typing import Any
@@ -40,7 +41,7 @@ import numpy as np
 
 from .. import scenes
 from ..modal import ks_lowest
-from ..errors import DesignError, SettingsError, SimulationError
+from ..errors import DesignError, SettingsError, SettingsWarning, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem, Trial
 from ..responses import PEAK_LIMITED
 from ..simulation import Simulation
@@ -117,6 +118,31 @@ def is_aggregate(name: str) -> bool:
 def relation(name: str) -> str:
     """How a constraint of that name bounds its response: ``>=`` for the frequency floor."""
     return ">=" if name == MIN_FREQUENCY else "<="
+
+
+SUPPORTED_NODES = 3
+"""How many of a member's nodes held by joints of their own (pins, rollers: not through a
+ring) make a line of supports, whose cells ``solid_at_joints`` takes out of the design."""
+
+
+def warn_if_supports_hold_cells(spec: dict[str, Any], cells: dict[str, Any]) -> None:
+    """A :class:`SettingsWarning` naming each member whose cells at :data:`SUPPORTED_NODES`
+    or more supported nodes ``solid_at_joints`` keeps passive solid (rollers along a
+    symmetry line make that edge's column solid: a design the user did not ask for), said
+    where a design is optimized."""
+    held = [value for joint in spec.get("joints", []) for key in ("node", "a", "b")
+            if isinstance(value := joint.get(key), str)]
+    for k, member in enumerate(spec.get("members", [])):
+        if not member.get("solid_at_joints", True) or member.get("fixed", False):
+            continue
+        nodes = {name for name in held if name.startswith(f"{member['name']}[")}
+        passive = int(np.count_nonzero((np.asarray(cells["member"]) == k) & (np.asarray(cells["variable"]) < 0)))
+        if len(nodes) >= SUPPORTED_NODES and passive:
+            warnings.warn(f"member '{member['name']}': joints hold {len(nodes)} of its nodes, and solid_at_joints keeps "
+                          f"the cells around them passive solid ({passive} of its cells not designed); supports along "
+                          "an edge take its column out of the design: give solid_at_joints=False to design those cells",
+                          SettingsWarning, stacklevel=3)
+
 
 
 class TopologyProblem(Problem):
@@ -208,6 +234,7 @@ class TopologyProblem(Problem):
         self._ratios: dict[bytes, dict[str, float]] = {}
         n = simulation.n_design
         super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
+        warn_if_supports_hold_cells(simulation.spec, simulation.model.cells())
 
     @property
     def responses(self) -> list[str]:
