@@ -64,6 +64,8 @@ from flextop.optimizers.mma import MMA
 from flextop.problems import DensityFilter, TopologyProblem, volume_constraints
 from flextop.scenes import continuum_robot_arm, continuum_slider_crank, robot_arm, slider_crank
 
+import bench_args
+
 ROOT = Path(__file__).resolve().parents[1]
 RESPONSES = ["tip_deflection", "strain_energy"]
 
@@ -287,15 +289,15 @@ def main() -> None:
         round_off()
         return
     if "--floor" in sys.argv:
-        floor(sys.argv[sys.argv.index("--against") + 1] if "--against" in sys.argv else None)
+        floor(bench_args.value("--against", None, str))
         return
     if "--beside" in sys.argv:
         beside_frames()
         return
     if "--optimize" in sys.argv:
-        at = sys.argv.index("--optimize")
-        radius = float(sys.argv[sys.argv.index("--radius") + 1]) if "--radius" in sys.argv else 0.025
-        optimization(*(int(v) for v in sys.argv[at + 1:at + 3]), plain="--plain" in sys.argv, radius=radius)
+        nx, ny = bench_args.values("--optimize", 2, int) or (0, 0)
+        radius = bench_args.value("--radius", 0.025, float)
+        optimization(nx, ny, plain="--plain" in sys.argv, radius=radius)
         return
     lines = ["| cells per link | cells | unknowns | Newton | run (s) | run + adjoint (s) | µs per cell-step | "
              "iterations per step | d (m²) |", "|---|---|---|---|---|---|---|---|---|"]

@@ -31,6 +31,8 @@ import numpy as np
 import flextop
 from flextop.optimizers import MMA
 from flextop.problems import SizingProblem, SpatialProblem
+
+import bench_args
 from spatial_arm import seconds  # medians of three, as that bench times its runs
 
 
@@ -213,9 +215,8 @@ if __name__ == "__main__":
         hundred_iterations()
         sys.exit()
     if "--tolerance" in sys.argv[1:]:
-        def option(flag: str) -> str | None:
-            return sys.argv[sys.argv.index(flag) + 1] if flag in sys.argv[:-1] else None
-        held_to_tolerance(int(option("--iterations") or 100), plain="--plain" in sys.argv[1:], save=option("--save"))
+        held_to_tolerance(bench_args.value("--iterations", 100, int), plain="--plain" in sys.argv[1:],
+                          save=bench_args.value("--save", None, str))
         sys.exit()
     if "--stress" in sys.argv[1:]:
         stress_limited()

@@ -37,6 +37,8 @@ import flextop
 from flextop.discretization.spatial import refined_spec
 from flextop.problems import SpatialProblem
 
+import bench_args
+
 RESPONSE = "tip_deflection"
 
 
@@ -83,7 +85,7 @@ def main(rtol: float) -> None:
     if "--design" in sys.argv:  # each given after its own flag
         wanted = {sys.argv[k + 1] for k, arg in enumerate(sys.argv) if arg == "--design"}
         designs = {k: v for k, v in designs.items() if k in wanted}
-    ways = sys.argv[sys.argv.index("--refine") + 1].split(",") if "--refine" in sys.argv else ["uniform"]
+    ways = bench_args.value("--refine", "uniform", str).split(",")
     print(f"rtol = {rtol:g}, the spatial robot arm ({sim.n_design} bars), {RESPONSE}\n")
     print("| design | refine | d, scene's grid (m²) | its true error | grid chosen | cost / scene's run | d (m²) | estimated error "
           "| true error | estimate / true | gradient: estimated | true | estimate / true | reference's Richardson correction |")
@@ -158,4 +160,4 @@ if __name__ == "__main__":
     if "--adjoint-time" in sys.argv:
         adjoint_time()
         sys.exit()
-    main(float(sys.argv[sys.argv.index("--rtol") + 1]) if "--rtol" in sys.argv else 1e-2)
+    main(bench_args.value("--rtol", 1e-2, float))
