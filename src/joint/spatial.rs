@@ -26,7 +26,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 pub(crate) use crate::group::pair::Stiffness;
-use crate::group::pair::{Measure, Pair, Side, LOCAL};
+use crate::group::pair::{Measure, Pair, Product, Side, LOCAL};
 
 use crate::group::six;
 use crate::joint::motion::{LawParameter, Motion};
@@ -514,28 +514,24 @@ impl Joint {
         let mut out = RowsRate {
             value: SVector::zeros(),
             gradient: Gradient::zeros(),
+            rate: SVector::zeros(),
             term: SVector::zeros(),
         };
-        let mut put = |k: usize, value: f64, gradient: &SVector<f64, LOCAL>, term: f64| {
-            out.value[k] += value;
+        let mut put = |k: usize, p: &Product, [c, cd, cdd]: [f64; 3]| {
+            out.value[k] += c * p.value;
             let mut row = out.gradient.row_mut(k);
-            row += gradient.transpose();
-            out.term[k] += term;
+            row += p.gradient.transpose() * c;
+            out.rate[k] += c * p.rate + cd * p.value;
+            out.term[k] += c * p.term + 2.0 * cd * p.rate + cdd * p.value;
         };
         for (k, row) in self.rows.iter().enumerate() {
             let p = self.pair.product_rate(&row.alpha, &row.beta, &sides, &arms);
-            put(k, p.value, &p.gradient, p.term);
+            put(k, &p, [1.0, 0.0, 0.0]);
         }
         if let Some(drive) = &self.drive {
-            for Term {
-                c: [c, cd, cdd],
-                alpha,
-                beta,
-            } in self.drive_row(drive, t).0.iter().flatten()
-            {
+            for Term { c, alpha, beta } in self.drive_row(drive, t).0.iter().flatten() {
                 let p = self.pair.product_rate(alpha, beta, &sides, &arms);
-                let term = c * p.term + 2.0 * cd * p.rate + cdd * p.value;
-                put(self.rows.len(), c * p.value, &(p.gradient * *c), term);
+                put(self.rows.len(), &p, *c);
             }
         }
         out
@@ -714,6 +710,8 @@ pub(crate) struct RowsRate {
     pub value: SVector<f64, MAX_ROWS>,
     /// `∂B/∂p` on the joint's local unknowns.
     pub gradient: Gradient,
+    /// `∂Φ̇/∂p` at the state's velocities.
+    pub rate: SVector<f64, MAX_ROWS>,
     /// `∂b/∂p` of `Φ̈ = B v̇ + b`.
     pub term: SVector<f64, MAX_ROWS>,
 }
@@ -1009,7 +1007,7 @@ mod tests {
         }
     }
 
-    /// The rows' value, gradient and `b` against central differences of the same joint with
+    /// The rows' value, gradient, rate and `b` against central differences of the same joint with
     /// both anchors moved along each axis, grounded or not, driven or not.
     #[test]
     fn position_rates_against_differences() {
@@ -1030,10 +1028,10 @@ mod tests {
                         let (mut value, mut b) = ([0.0; MAX_ROWS], [0.0; MAX_ROWS]);
                         j.values(&q, T, &mut value);
                         j.acceleration_terms(&q, &v, T, &mut b);
-                        (value, j.gradient(&q, T), b)
+                        (value, j.gradient(&q, T), b, j.rates(&q, &v, T))
                     };
                     let h = 1e-6;
-                    let ((vp, gp, bp), (vm, gm, bm)) = (moved(h), moved(-h));
+                    let ((vp, gp, bp, rp), (vm, gm, bm, rm)) = (moved(h), moved(-h));
                     for r in 0..n {
                         let close =
                             |fd: f64, exact: f64| (fd - exact).abs() < 1e-7 * exact.abs().max(1.0);
@@ -1048,6 +1046,12 @@ mod tests {
                             close(fd, rate.term[r]),
                             "{name:?} {axis} row {r}: b' {fd} against {}",
                             rate.term[r]
+                        );
+                        let fd = (rp[r] - rm[r]) / (2.0 * h);
+                        assert!(
+                            close(fd, rate.rate[r]),
+                            "{name:?} {axis} row {r}: rate' {fd} against {}",
+                            rate.rate[r]
                         );
                         for c in 0..LOCAL {
                             let fd = (gp[(r, c)] - gm[(r, c)]) / (2.0 * h);

@@ -808,13 +808,7 @@ impl SpatialModel {
     /// A [`SceneError`] naming the first joint the rates break.
     pub fn check_rates(&self) -> Result<(), SceneError> {
         let (q, v) = (self.initial_configuration(), self.initial_velocity());
-        let speed = self.size()
-            * v.chunks(NV)
-                .map(|c| split(&six(c, 0)).1.norm())
-                .fold(0.0, f64::max)
-            + v.chunks(NV)
-                .map(|c| split(&six(c, 0)).0.norm())
-                .fold(0.0, f64::max);
+        let speed = self.speed(&v);
         for j in &self.joints {
             let rate = j.rates(&q, &v, 0.0).rows(0, j.n_rows()).amax();
             if rate > MEET_TOLERANCE * speed.max(f64::MIN_POSITIVE) {
@@ -828,6 +822,17 @@ impl SpatialModel {
             }
         }
         Ok(())
+    }
+
+    /// The scale of the velocities `v` (m/s): the model's size times its largest angular
+    /// speed plus its largest linear one, what a joint's rates are measured against.
+    pub(crate) fn speed(&self, v: &[f64]) -> f64 {
+        let (mut linear, mut angular) = (0.0f64, 0.0f64);
+        for c in v.chunks(NV) {
+            let (u, omega) = split(&six(c, 0));
+            (linear, angular) = (linear.max(u.norm()), angular.max(omega.norm()));
+        }
+        self.size() * angular + linear
     }
 
     /// Kinetic energy at velocity `v` (J).

@@ -44,7 +44,7 @@ use crate::spatial::beam::Beam;
 use crate::spatial::element::Element;
 use crate::spatial::force::{ForceKind, ForceParameter, Local};
 use crate::spatial::integrator::{kink_jump, kinks, run};
-use crate::spatial::model::SpatialModel;
+use crate::spatial::model::{SpatialModel, MEET_TOLERANCE};
 use crate::spatial::rigid::{rigid_trajectories, rigid_trajectory_rates};
 use crate::spatial::section::{Dimension, Section, MAX_FIBRES};
 use crate::spatial::statics::solve_static_spatial;
@@ -487,6 +487,21 @@ fn check(
                         format!(
                             "joint {joint}, axis {axis}: the mechanism has {} joints, and an axis is 0, 1 or 2",
                             model.joints.len()
+                        ),
+                    ));
+                }
+                let (q, v) = (model.initial_configuration(), model.initial_velocity());
+                let j = &model.joints[joint];
+                let moved = j.position_rate(&q, Some(&v), 0.0, &Vector3::ith(axis, 1.0));
+                let rate = moved.rate.rows(0, j.n_rows()).amax() * model.size();
+                if rate > MEET_TOLERANCE * model.speed(&v).max(f64::MIN_POSITIVE) {
+                    return Err(SettingsError::new(
+                        format!("parameters[{k}]"),
+                        format!(
+                            "joint '{}': its bodies turn relative to each other at the start, so that moving its place \
+                             would break their initial rates (the velocities' rate to it is not built): start them \
+                             without that turn, or differentiate another parameter",
+                            j.name
                         ),
                     ));
                 }

@@ -1370,11 +1370,25 @@ def test_supports_along_an_edge_that_keep_its_cells_solid_are_warned():
         warnings.simplefilter("error")
         held = flextop.Simulation(mbb(True))
         assert held.n_design == 289
-    with pytest.warns(SettingsWarning, match=r"member 'beam': joints hold 12 of its nodes.*\(11 of its cells "
-                                             r"not designed\).*solid_at_joints=False"):
+    with pytest.warns(SettingsWarning, match=r"member 'beam': joints hold 12 of its nodes, and solid_at_joints keeps "
+                                             r"the 11 cells touching them passive solid.*solid_at_joints=False"):
         TopologyProblem(held, "compliance", volume_constraints(held, 0.5, per_component=False))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         free = flextop.Simulation(mbb(False))
         assert free.n_design == 300
         TopologyProblem(free, "compliance", volume_constraints(free, 0.5, per_component=False))
+    # Hinges name their nodes in pairs: the left edge hinged to a clamped steel post is held alike.
+    s = Scene("hinged", analysis="static")
+    m = s.member("beam", nx=30, ny=10, length=3.0, height=1.0, thickness=0.01, **STEEL)
+    s.section("post", E=2e11, rho=7800.0, nu=0.3, diameter=0.05)
+    for j in range(11):
+        s.node(f"post{j}", 0.0, -0.5 + 0.1 * j)
+        s.hinge(f"to_post{j}", f"post{j}", m.node(0, j))
+        if j:
+            s.beam(f"post{j - 1}", f"post{j}", section="post")
+    s.clamp("ground", "post0")
+    s.load(m.node(30, 5), force=(0.0, -1.0))
+    hinged = flextop.Simulation(s)
+    with pytest.warns(SettingsWarning, match=r"joints hold 11 of its nodes, and solid_at_joints keeps the 10 cells"):
+        TopologyProblem(hinged, "compliance", volume_constraints(hinged, 0.5, per_component=False))

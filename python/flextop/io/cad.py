@@ -25,7 +25,8 @@ How it is drawn, member by member:
    moves a level set where the field curves (the nodes' mean shifts it by about ``h²/8``
    of the field's curvature, and the spline rounds its corners), so the outline at
    ``threshold`` itself can hold several cells more or less material than the design; at
-   the level found it holds the same.
+   the level found it holds the same (where no level does, the closest is drawn and a
+   :class:`~flextop.errors.PlausibilityWarning` says by how much).
 
 Files: ``NAME.dxf`` (ezdxf: one closed polyline per ring of the outline, the outer ones on
 layer ``OUTLINE``, the holes on ``HOLES``, drawing units set), ``NAME.svg`` (the DXF drawn
@@ -42,6 +43,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import warnings
 from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
@@ -50,7 +52,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..checks import number
-from ..errors import DesignError, SceneError, SettingsError
+from ..errors import DesignError, PlausibilityWarning, SceneError, SettingsError
 
 SMOOTHING = 4
 """Points of the interpolated density field per cell and direction on which the outline is
@@ -205,16 +207,21 @@ def shape_of(field: MemberField, threshold: float) -> Any:
     cell = field.cell[0] * field.cell[1]
     target = cell * np.count_nonzero(reached | (field.ring_cells & present))
     tracer = _Tracer(field)
-    shape = tracer.shape(threshold)
+    shape = best = tracer.shape(threshold)
     # The area falls as the level rises: bracket the target between the field's extremes.
     low, high = (threshold, tracer.top) if shape.area > target else (tracer.bottom, threshold)
     for _ in range(_BISECTIONS):
-        if abs(shape.area - target) <= AREA_TOLERANCE * cell:
-            break
+        if abs(best.area - target) <= AREA_TOLERANCE * cell:
+            return best
         level = 0.5 * (low + high)
         shape = tracer.shape(level)
         low, high = (level, high) if shape.area > target else (low, level)
-    return shape
+        best = min(best, shape, key=lambda s: abs(s.area - target))
+    warnings.warn(PlausibilityWarning(
+        f"member '{field.name}': the outline holds {(best.area - target) / cell:+.3g} cells' area against the "
+        f"{target / cell:.0f} cells at density {threshold:g} or more (the smoothed field jumps across the level "
+        "that would hold them)"), stacklevel=3)
+    return best
 
 
 class _Tracer:

@@ -163,9 +163,11 @@ class SizingProblem(Problem):
             raise SettingsError(f"places: {name!r}: bounds as (lower, upper) in m, got {bounds!r}") from None
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise SettingsError(f"places: {name!r}: bounds ({lo:g}, {hi:g}) must be finite with lower < upper")
-        if not lo <= at <= hi:
+        # The place is read through the bodies' rotations: round-off off a bound it is on.
+        slack = 1e-12 * max(1.0, abs(lo), abs(hi))
+        if not lo - slack <= at <= hi + slack:
             raise SettingsError(f"places: {name!r}: the joint's {at:g} m lies outside ({lo:g}, {hi:g})")
-        return joint, k, at, (lo, hi)
+        return joint, k, min(max(at, lo), hi), (lo, hi)
 
     def _point(self, anchor: Any) -> np.ndarray:
         """Where an anchor other than ``"ground"`` is at the start (m)."""

@@ -125,24 +125,28 @@ SUPPORTED_NODES = 3
 ring) make a line of supports, whose cells ``solid_at_joints`` takes out of the design."""
 
 
-def warn_if_supports_hold_cells(spec: dict[str, Any], cells: dict[str, Any]) -> None:
+def warn_if_supports_hold_cells(simulation: Simulation) -> None:
     """A :class:`SettingsWarning` naming each member whose cells at :data:`SUPPORTED_NODES`
-    or more supported nodes ``solid_at_joints`` keeps passive solid (rollers along a
+    or more nodes held by joints ``solid_at_joints`` keeps passive solid (rollers along a
     symmetry line make that edge's column solid: a design the user did not ask for), said
     where a design is optimized."""
-    held = [value for joint in spec.get("joints", []) for key in ("node", "a", "b")
-            if isinstance(value := joint.get(key), str)]
+    spec, cells = simulation.spec, simulation.model.cells()
+    held = [name for joint in spec.get("joints", [])
+            for name in [*(joint.get(key) for key in ("node", "a", "b")), *joint.get("nodes", [])]
+            if isinstance(name, str)]
+    index = {name: k for k, name in enumerate(simulation.node_names)}
+    member_of, variable = np.asarray(cells["member"]), np.asarray(cells["variable"])
     for k, member in enumerate(spec.get("members", [])):
         if not member.get("solid_at_joints", True) or member.get("fixed", False):
             continue
-        nodes = {name for name in held if name.startswith(f"{member['name']}[")}
-        passive = int(np.count_nonzero((np.asarray(cells["member"]) == k) & (np.asarray(cells["variable"]) < 0)))
-        if len(nodes) >= SUPPORTED_NODES and passive:
+        nodes = {index[name] for name in held if name.startswith(f"{member['name']}[") and name in index}
+        touching = np.array([bool(nodes.intersection(corners)) for corners in cells["nodes"]], dtype=bool)
+        kept = int(np.count_nonzero((member_of == k) & (variable < 0) & touching))
+        if len(nodes) >= SUPPORTED_NODES and kept:
             warnings.warn(f"member '{member['name']}': joints hold {len(nodes)} of its nodes, and solid_at_joints keeps "
-                          f"the cells around them passive solid ({passive} of its cells not designed); supports along "
-                          "an edge take its column out of the design: give solid_at_joints=False to design those cells",
+                          f"the {kept} cells touching them passive solid, out of the design (rollers along a symmetry "
+                          "line take that edge's column out): give solid_at_joints=False to design those cells",
                           SettingsWarning, stacklevel=3)
-
 
 
 class TopologyProblem(Problem):
@@ -234,7 +238,7 @@ class TopologyProblem(Problem):
         self._ratios: dict[bytes, dict[str, float]] = {}
         n = simulation.n_design
         super().__init__(np.full(n, simulation.x_min), np.ones(n), len(self.constraints), [c[0] for c in self.constraints])
-        warn_if_supports_hold_cells(simulation.spec, simulation.model.cells())
+        warn_if_supports_hold_cells(simulation)
 
     @property
     def responses(self) -> list[str]:
