@@ -130,12 +130,18 @@ def sizing(iterations: int = 60) -> None:
           f"| {result.nit} | {result.nfev} | {result.fun / problem.reference:.4f} | {result.kkt:.2e} | {mass:.6f} | {result.status.name} "
           f"| {elapsed:.1f} |")
     print(f"\nsized: outer {result.x[0]:.6g} m, inner {result.x[1]:.6g} m\n")
-    print("| h (s) | d start (m²) | d sized (m²) | ratio |")
+    on_finer_steps(problem, result.x, "tip_deflection", (0.01, 0.005, 0.0025), "| h (s) | d start (m²) | d sized (m²) | ratio |")
+
+
+def on_finer_steps(problem: SizingProblem, design: np.ndarray, response: str, steps: tuple[float, ...], header: str) -> None:
+    """A table of ``response`` at the start and at ``design`` on each of ``steps``, and their
+    ratio."""
+    print(header)
     print("|---|---|---|---|")
-    for h in (0.01, 0.005, 0.0025):
-        d = [flextop.SpatialSimulation(problem.spec_at(z)).run_with_sensitivities(None, "tip_deflection", h=h).values[0]
-             for z in (problem.z0, result.x)]
-        print(f"| {h} | {d[0]:.4e} | {d[1]:.4e} | {d[1] / d[0]:.4f} |")
+    for h in steps:
+        f = [flextop.SpatialSimulation(problem.spec_at(z)).run_with_sensitivities(None, response, h=h).values[0]
+             for z in (problem.z0, design)]
+        print(f"| {h} | {f[0]:.5e} | {f[1]:.5e} | {f[1] / f[0]:.4f} |")
 
 
 def places(iterations: int = 100) -> None:
@@ -155,12 +161,9 @@ def places(iterations: int = 100) -> None:
     moved = ", ".join(f"{name} {a:.3f} → {b:.4f}" for name, a, b in zip(bounds, problem.z0, result.x))
     print(f"| {moved} | {result.nit} | {result.nfev} | {result.fun / problem.reference:.4f} | {result.kkt:.2e} "
           f"| {result.status.name} | {elapsed:.1f} |")
-    print("\n| h (s) | effort, start (N² m² s) | effort, placed | ratio |")
-    print("|---|---|---|---|")
-    for h in (0.004, 0.002, 0.001):
-        e = [flextop.SpatialSimulation(problem.spec_at(z)).run_with_sensitivities(None, "torque_squared:crank", h=h).values[0]
-             for z in (problem.z0, result.x)]
-        print(f"| {h} | {e[0]:.5e} | {e[1]:.5e} | {e[1] / e[0]:.4f} |")
+    print()
+    on_finer_steps(problem, result.x, "torque_squared:crank", (0.004, 0.002, 0.001),
+                   "| h (s) | effort, start (N² m² s) | effort, placed | ratio |")
     sim = flextop.SpatialSimulation(scene)
     names = [f"position_{name[-1]}:{name.split('.')[0]}" for name in bounds]
     plain = seconds(lambda: sim.run(None))

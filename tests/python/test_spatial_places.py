@@ -5,8 +5,6 @@ against adjoint: over the spatial slider-crank's motion, its trapezoidal drive's
 the grid (the run restarts there), and at a hinged bar's equilibrium. Names the scene lacks,
 and the deflection whose rigid trajectory would move, are refused."""
 
-import copy
-
 import numpy as np
 import pytest
 
@@ -15,35 +13,16 @@ from flextop.scenes import spatial_slider_crank
 from flextop.scenes.spatial import axis_angle
 
 
-def moved(spec: dict, joint: str, axis: int, d: float) -> dict:
-    """``spec`` with ``joint`` moved by ``d`` (m) along ``axis``: each anchor's point in its
-    body (the bodies here start unturned, so a body's axes are space's), a ground point in
-    space, a body's centre given a point there; ``"ground"`` follows the other anchor."""
-    out = copy.deepcopy(spec)
-    entry = next(j for j in out["joints"] if j["name"] == joint)
-    bodies = {b["name"]: b for b in out["rigid_bodies"]}
-    for side in ("a", "b"):
-        anchor = entry.get(side, "ground")
-        if anchor == "ground":
-            continue
-        if not isinstance(anchor, str):
-            anchor[axis] += d
-            continue
-        body, _, point = anchor.partition(".")
-        assert "orientation" not in bodies[body], "the bodies start unturned"
-        points = bodies[body].setdefault("points", {})
-        point = point or f"{joint}_{side}"
-        points.setdefault(point, [0.0, 0.0, 0.0])[axis] += d
-        entry[side] = f"{body}.{point}"
-    return out
-
-
 def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]], *, step: float = 1e-4,
                  **options) -> np.ndarray:
     """Direct = adjoint to 1e-9 and fourth-order differences (steps of ``step`` m) to 1e-6,
     beside the differences' noise (values reproducible to 1e-10, Newton's tolerance, over the
-    step)."""
+    step); the differences run scenes rebuilt with the joints' points moved
+    (:meth:`SizingProblem.spec_at`, apart from the engine's parameters)."""
+    from flextop.problems import SizingProblem
+
     names = [f"position_{'xyz'[axis]}:{joint}" for joint, axis in places]
+    layout = SizingProblem(spec, responses[0], places={f"{joint}.{'xyz'[axis]}": (-10.0, 10.0) for joint, axis in places})
     sim = SpatialSimulation(spec)
     direct = sim.run_with_sensitivities(None, responses, names, method="direct", **options)
     adjoint = sim.run_with_sensitivities(None, responses, names, method="adjoint", **options)
@@ -52,9 +31,10 @@ def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]]
     for j, (joint, axis) in enumerate(places):
         assert np.all(np.abs(adjoint.gradient[:, j] - g[:, j]) <= 1e-9 * np.abs(g[:, j]) + 1e-6 * noise), names[j]
 
-        def value(k: float, joint=joint, axis=axis) -> np.ndarray:
-            return SpatialSimulation(moved(spec, joint, axis, k * step)).run_with_sensitivities(
-                None, responses, [], **options).values
+        def value(k: float, j=j) -> np.ndarray:
+            z = layout.z0.copy()
+            z[j] += k * step
+            return SpatialSimulation(layout.spec_at(z)).run_with_sensitivities(None, responses, [], **options).values
 
         fd = (value(-2) - 8 * value(-1) + 8 * value(1) - value(2)) / (12 * step)
         assert np.all(np.abs(g[:, j] - fd) <= 1e-6 * np.abs(fd) + noise), (names[j], g[:, j], fd, noise)
