@@ -14,7 +14,7 @@ from flextop.scenes.spatial import axis_angle
 
 
 def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]], *, step: float = 1e-4,
-                 **options) -> np.ndarray:
+                 x: np.ndarray | None = None, **options) -> np.ndarray:
     """Direct = adjoint to 1e-9 and fourth-order differences (steps of ``step`` m) to 1e-6,
     beside the differences' noise (values reproducible to 1e-10, Newton's tolerance, over the
     step); the differences run scenes rebuilt with the joints' points moved
@@ -24,8 +24,8 @@ def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]]
     names = [f"position_{'xyz'[axis]}:{joint}" for joint, axis in places]
     layout = SizingProblem(spec, responses[0], places={f"{joint}.{'xyz'[axis]}": (-10.0, 10.0) for joint, axis in places})
     sim = SpatialSimulation(spec)
-    direct = sim.run_with_sensitivities(None, responses, names, method="direct", **options)
-    adjoint = sim.run_with_sensitivities(None, responses, names, method="adjoint", **options)
+    direct = sim.run_with_sensitivities(x, responses, names, method="direct", **options)
+    adjoint = sim.run_with_sensitivities(x, responses, names, method="adjoint", **options)
     g, values = direct.gradient, np.abs(direct.values)
     noise = 1e-10 * values / step
     for j, (joint, axis) in enumerate(places):
@@ -34,7 +34,7 @@ def assert_exact(spec: dict, responses: list[str], places: list[tuple[str, int]]
         def value(k: float, j=j) -> np.ndarray:
             z = layout.z0.copy()
             z[j] += k * step
-            return SpatialSimulation(layout.spec_at(z)).run_with_sensitivities(None, responses, [], **options).values
+            return SpatialSimulation(layout.spec_at(z)).run_with_sensitivities(x, responses, [], **options).values
 
         fd = (value(-2) - 8 * value(-1) + 8 * value(1) - value(2)) / (12 * step)
         assert np.all(np.abs(g[:, j] - fd) <= 1e-6 * np.abs(fd) + noise), (names[j], g[:, j], fd, noise)
@@ -58,6 +58,19 @@ def test_gradients_to_every_joint_s_place_in_the_slider_crank_s_motion_are_exact
     # effort and the pin's force.
     assert np.abs(g[:, 4]).max() < 1e-15 * np.abs(g).max()
     assert np.all(np.abs(g[2:4, :4]) > 1e-3)
+
+
+def test_gradients_to_the_spatial_arm_s_hinges_places_through_its_flexible_links_are_exact():
+    """The spatial robot arm (lattice links of 3 × 2 × 2 nodes, a graded design): the
+    shoulder's lift hinge along z, the elbow's fold along x and the base's turn along y,
+    their places moving how the links' beams are loaded: the strain energy's mean and the
+    lift's effort, direct = adjoint and against differences of rebuilt scenes."""
+    from flextop.scenes import spatial_robot_arm
+
+    spec = spatial_robot_arm(nx=3, t_end=0.36, h=0.012).to_dict()
+    x = np.linspace(0.4, 1.0, SpatialSimulation(spec).n_design)
+    g = assert_exact(spec, ["strain_energy", "torque_squared:lift"], [("lift", 2), ("fold", 0), ("turn", 1)], x=x)
+    assert np.all(np.abs(g) > 1e-3 * np.abs(g).max(axis=1, keepdims=True))
 
 
 def bar() -> dict:
