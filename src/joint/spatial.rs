@@ -599,24 +599,8 @@ impl Joint {
 
     /// `∂(Bᵀλ)/∂q` on the local unknowns at `(q, t)`: `Σ λₖ ∂²Φₖ/∂q²`.
     pub(crate) fn stiffness(&self, q: &[f64], t: f64, lambda: &[f64]) -> Stiffness {
-        let sides = self.pair.sides(q, None);
         let mut k = Stiffness::zeros();
-        for (row, &l) in self.rows.iter().zip(lambda) {
-            self.pair
-                .add_product_hessian(&row.alpha, &row.beta, &sides, l, &mut k);
-        }
-        if let Some(drive) = &self.drive {
-            let l = lambda[self.rows.len()];
-            for term in self.drive_row(drive, t).0.iter().flatten() {
-                self.pair.add_product_hessian(
-                    &term.alpha,
-                    &term.beta,
-                    &sides,
-                    term.c[0] * l,
-                    &mut k,
-                );
-            }
-        }
+        self.for_each_row(q, None, t, Some((lambda, &mut k)), |_, _| {});
         k
     }
 

@@ -644,19 +644,18 @@ fn inverse_from_lu(lu: &[f64], s: usize, pivots: &[usize], inverse: &mut [f64]) 
 }
 
 /// `c += w a b` for column-major `a` (`m × k`), `b` (`k × n`) and `c` (`m × n`), each read
-/// from the start of its slice.
+/// from the start of its slice: a node's `6 × 6` products with every size known when
+/// compiled, the others with their rows known up to six ([`product`] inlined with its sizes
+/// constant).
 fn add_product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, usize), w: f64) {
-    if (m, k, n) == (6, 6, 6) {
-        return add_product_fixed::<6, 6, 6>(c, a, b, w);
+    match (m, k, n) {
+        (6, 6, 6) => product(c, a, b, (6, 6, 6), w),
+        (6, 6, 1) => product(c, a, b, (6, 6, 1), w),
+        _ => add_product_other(c, a, b, (m, k, n), w),
     }
-    if (m, k, n) == (6, 6, 1) {
-        return add_product_fixed::<6, 6, 1>(c, a, b, w);
-    }
-    add_product_other(c, a, b, (m, k, n), w);
 }
 
-/// [`add_product`] of the other sizes (a joint's rows, a front): the count of rows, the
-/// innermost loop's, known when compiled up to a node's six.
+/// [`add_product`] of the other sizes (a joint's rows, a front).
 #[inline(never)]
 fn add_product_other(
     c: &mut [f64],
@@ -666,57 +665,26 @@ fn add_product_other(
     w: f64,
 ) {
     match m {
-        1 => add_product_rows::<1>(c, a, b, (k, n), w),
-        2 => add_product_rows::<2>(c, a, b, (k, n), w),
-        3 => add_product_rows::<3>(c, a, b, (k, n), w),
-        4 => add_product_rows::<4>(c, a, b, (k, n), w),
-        5 => add_product_rows::<5>(c, a, b, (k, n), w),
-        6 => add_product_rows::<6>(c, a, b, (k, n), w),
-        _ => {
-            for j in 0..n {
-                for l in 0..k {
-                    let blj = w * b[l + j * k];
-                    for (ci, ai) in c[j * m..(j + 1) * m].iter_mut().zip(&a[l * m..(l + 1) * m]) {
-                        *ci += ai * blj;
-                    }
-                }
-            }
-        }
+        1 => product(c, a, b, (1, k, n), w),
+        2 => product(c, a, b, (2, k, n), w),
+        3 => product(c, a, b, (3, k, n), w),
+        4 => product(c, a, b, (4, k, n), w),
+        5 => product(c, a, b, (5, k, n), w),
+        6 => product(c, a, b, (6, k, n), w),
+        _ => product(c, a, b, (m, k, n), w),
     }
 }
 
-/// [`add_product`] of `M` rows.
-fn add_product_rows<const M: usize>(
-    c: &mut [f64],
-    a: &[f64],
-    b: &[f64],
-    (k, n): (usize, usize),
-    w: f64,
-) {
-    let (c, a, b) = (&mut c[..M * n], &a[..M * k], &b[..k * n]);
+/// The loops of [`add_product`], column by column; inlined where it is called, so that the
+/// sizes given there as constants bound its loops when compiled.
+#[inline(always)]
+fn product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, usize), w: f64) {
+    let (c, a, b) = (&mut c[..m * n], &a[..m * k], &b[..k * n]);
     for j in 0..n {
         for l in 0..k {
             let blj = w * b[l + j * k];
-            for i in 0..M {
-                c[i + j * M] += a[i + l * M] * blj;
-            }
-        }
-    }
-}
-
-/// [`add_product`] for sizes known when compiled (the nodes' `6 × 6`).
-fn add_product_fixed<const M: usize, const K: usize, const N: usize>(
-    c: &mut [f64],
-    a: &[f64],
-    b: &[f64],
-    w: f64,
-) {
-    let (c, a, b) = (&mut c[..M * N], &a[..M * K], &b[..K * N]);
-    for j in 0..N {
-        for l in 0..K {
-            let blj = w * b[l + j * K];
-            for i in 0..M {
-                c[i + j * M] += a[i + l * M] * blj;
+            for i in 0..m {
+                c[i + j * m] += a[i + l * m] * blj;
             }
         }
     }

@@ -160,14 +160,14 @@ fn run_on(
 /// ([`crate::solver::step_control`]): steps rejected and retried where the local error on the
 /// positions exceeds `control.tol`, cut to a quarter where Newton fails or its solution is
 /// implausible (a cell turned inside out, a spring collapsed: often a step long enough to
-/// reach another solution branch), ending exactly at
-/// the kinks of the motion laws and at `settings.t_end`. The recorded
-/// [`Trajectory::grid`] replays the run (for its gradients, [`crate::of_motion_on`]).
+/// reach another solution branch), ending exactly at the kinks of the motion laws and at
+/// `settings.t_end`. The recorded [`Trajectory::grid`] replays the run (for its gradients,
+/// [`crate::of_motion_on`]).
 ///
 /// # Errors
-/// As [`simulate`]; [`SolveError::StepTooSmall`] when the step falls below
-/// `control.h_min` (the implausible state's own error where that was the last failure); a [`SettingsError`] when the trajectory outgrows
-/// [`MAX_TRAJECTORY_BYTES`].
+/// As [`simulate`]; [`SolveError::StepTooSmall`] when the step falls below `control.h_min`
+/// (the implausible state's own error where that was the last failure); a
+/// [`SettingsError`] when the trajectory outgrows [`MAX_TRAJECTORY_BYTES`].
 pub fn simulate_adaptive(
     model: &Model,
     x: Option<&[f64]>,

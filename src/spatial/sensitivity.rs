@@ -1684,6 +1684,15 @@ impl<'m> Sweep<'m> {
         out
     }
 
+    /// `values` on joint `joint`'s rows among the multipliers.
+    fn joint_load(&self, joint: usize, values: SVector<f64, MAX_ROWS>) -> RowsLoad {
+        RowsLoad {
+            first: self.row_of(joint, 0),
+            count: self.model().joints[joint].n_rows(),
+            values,
+        }
+    }
+
     /// A parameter's share in the constraint rows at state `n` (`level` position: `∂Φ/∂p`,
     /// at a step or an equilibrium; acceleration: `∂B/∂p v̇ + ∂b/∂p`, at the start): a
     /// drive parameter's on its driven row, a joint's place's on its rows; `None` for the
@@ -1707,11 +1716,7 @@ impl<'m> Sweep<'m> {
                     Level::Position => rate.value,
                     Level::Acceleration => rate.term + rate.gradient * gather(j, &s.qddot),
                 };
-                Some(RowsLoad {
-                    first: self.row_of(joint, 0),
-                    count: j.n_rows(),
-                    values,
-                })
+                Some(self.joint_load(joint, values))
             }
             _ => None,
         }
@@ -2061,18 +2066,14 @@ impl<'m> Sweep<'m> {
             let s = &self.states[n];
             let j = &self.model().joints[joint];
             let rate = j.position_rate(&s.q, Some(&s.qdot), s.t, &Vector3::ith(axis, 1.0));
-            let first = self.row_of(joint, 0);
-            let mut mu = SVector::<f64, MAX_ROWS>::zeros();
-            mu.rows_mut(0, j.n_rows())
-                .copy_from_slice(&restart.mu[first..first + j.n_rows()]);
+            let mu = self.joint_multipliers(joint, &restart.mu);
             return Some(RestartLoad {
                 joint,
                 force: rate.gradient.tr_mul(&mu),
-                constraint: RowsLoad {
-                    first,
-                    count: j.n_rows(),
-                    values: rate.gradient * gather(j, &restart.dv) * restart.scale,
-                },
+                constraint: self.joint_load(
+                    joint,
+                    rate.gradient * gather(j, &restart.dv) * restart.scale,
+                ),
             });
         }
         let Parameter::Drive { joint, law } = *p else {

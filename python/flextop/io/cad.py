@@ -100,6 +100,11 @@ class MemberField:
     ring_cells: np.ndarray
 
     @property
+    def kept_solid(self) -> np.ndarray:
+        """The cells at the rings' nodes that the member has (not holes): solid in the shape."""
+        return self.ring_cells & np.isfinite(self.density)
+
+    @property
     def cell(self) -> tuple[float, float]:
         """A cell's length and height (m)."""
         nx, ny = self.density.shape
@@ -205,7 +210,7 @@ def shape_of(field: MemberField, threshold: float) -> Any:
         raise DesignError(f"member '{field.name}': no part of it reaches density {threshold:g} (its densest cell "
                           f"is {top:.3g}); the outline at that threshold is empty: give a lower threshold")
     cell = field.cell[0] * field.cell[1]
-    target = cell * np.count_nonzero(reached | (field.ring_cells & present))
+    target = cell * np.count_nonzero(reached | field.kept_solid)
     tracer = _Tracer(field)
     shape = best = tracer.shape(threshold)
     # The area falls as the level rises: bracket the target between the field's extremes.
@@ -237,7 +242,7 @@ class _Tracer:
         x = np.linspace(0.0, field.length, nx + 1)
         y = np.linspace(-field.height / 2, field.height / 2, ny + 1)
         # The rings' cells are solid in the shape: traced so, they join what holds them.
-        solid = replace(field, density=np.where(field.ring_cells & np.isfinite(field.density), 1.0, field.density))
+        solid = replace(field, density=np.where(field.kept_solid, 1.0, field.density))
         spline = RectBivariateSpline(x, y, nodal_field(solid), kx=min(3, nx), ky=min(3, ny))
         fine_x = np.linspace(0.0, field.length, SMOOTHING * nx + 1)
         fine_y = np.linspace(-field.height / 2, field.height / 2, SMOOTHING * ny + 1)
@@ -247,7 +252,7 @@ class _Tracer:
         self.generator = contourpy.contour_generator(fine_x, fine_y, z, fill_type=contourpy.FillType.OuterOffset)
         holes = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(np.isnan(field.density))]
         self.holes = shapely.union_all(holes)
-        self.rings = [field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(field.ring_cells & np.isfinite(field.density))]
+        self.rings = shapely.union_all([field.box(i, j, i + 1, j + 1) for i, j in np.argwhere(field.kept_solid)])
 
     def traced(self, level: float) -> Any:
         """The region where the smoothed field reaches ``level``, as shapely polygons."""
@@ -265,7 +270,7 @@ class _Tracer:
         simplified."""
         import shapely
 
-        shape = shapely.union_all([shapely.difference(self.traced(level), self.holes), *self.rings])
+        shape = shapely.union_all([shapely.difference(self.traced(level), self.holes), self.rings])
         shape = shapely.make_valid(shape.simplify(0.01 * min(self.field.cell), preserve_topology=True))
         polygons = [g for g in getattr(shape, "geoms", [shape]) if isinstance(g, shapely.Polygon) and g.area > 0]
         return shapely.union_all(polygons)

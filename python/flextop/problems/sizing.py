@@ -88,7 +88,11 @@ class SizingProblem(Problem):
         sections = self.spec.get("sections") or {}
         self.sizes = [self._size(sections, name, bounds) for name, bounds in (sizes or {}).items()]
         sim = SpatialSimulation(self.spec)
-        self._start = {name: (q[:3], rotations(q[3:7][None])[0]) for name, q in self._frames(sim).items()}
+        q = np.asarray(sim.model.initial_q)
+        nodes = {name: k for k, name in enumerate(sim.model.node_names)}
+        #: Each rigid body's centre (m) and axes in space at the start, what a place is read by.
+        self._start = {b["name"]: (q[NQ * k:NQ * k + 3], rotations(q[NQ * k + 3:NQ * k + NQ][None])[0])
+                       for b in self.spec.get("rigid_bodies", []) for k in [nodes[b["name"]]]}
         self.places = [self._place(name, bounds) for name, bounds in (places or {}).items()]
         if not self.sizes and not self.places:
             raise SettingsError("sizes or places: name at least one SECTION.DIMENSION or JOINT.AXIS with its bounds")
@@ -135,12 +139,6 @@ class SizingProblem(Problem):
                                 f"({lo:g}, {hi:g})")
         return section, dimension, (lo, hi)
 
-    @staticmethod
-    def _frames(sim: SpatialSimulation) -> dict[str, np.ndarray]:
-        """Each body's and node's initial configuration (position, unit quaternion) by name."""
-        q = np.asarray(sim.model.initial_q)
-        return {name: q[NQ * k:NQ * k + NQ] for k, name in enumerate(sim.model.node_names)}
-
     def _place(self, name: str, bounds: tuple[float, float]) -> tuple[str, int, float, tuple[float, float]]:
         """A place's joint, axis, coordinate at the start (m) and bounds, checked."""
         joint, _, axis = str(name).rpartition(".")
@@ -149,11 +147,10 @@ class SizingProblem(Problem):
             raise SettingsError(f"places: {name!r}: no joint called {joint!r} (JOINT.x, JOINT.y or JOINT.z)")
         if axis not in ("x", "y", "z"):
             raise SettingsError(f"places: {name!r}: the axis is x, y or z")
-        bodies = {b["name"] for b in self.spec.get("rigid_bodies", [])}
         entry, k = entries[joint], "xyz".index(axis)
         anchors = [entry.get(side, "ground") for side in ("a", "b")]
         for anchor in anchors:
-            if isinstance(anchor, str) and anchor != "ground" and anchor.partition(".")[0] not in bodies:
+            if isinstance(anchor, str) and anchor != "ground" and anchor.partition(".")[0] not in self._start:
                 raise SettingsError(f"places: {name!r}: joint {joint!r} holds node {anchor!r}, whose anchor has no "
                                     "point a scene can move: hold it by a body's point")
         at = next(float(self._point(anchor)[k]) for anchor in anchors if anchor != "ground")
@@ -194,11 +191,10 @@ class SizingProblem(Problem):
                 entry[side] = [float(c) + (by if i == axis else 0.0) for i, c in enumerate(anchor)]
                 continue
             body, _, point = anchor.partition(".")
-            x, r = self._start[body]
             points = bodies[body].setdefault("points", {})
             own = point if point.startswith(f"place:{joint}:") else f"place:{joint}:{side}"
-            start = np.asarray(points.get(point, [0.0, 0.0, 0.0]) if point else [0.0, 0.0, 0.0], dtype=float)
-            points[own] = [float(c) for c in start + r[axis] * by]
+            start = np.asarray(points.get(point, [0.0, 0.0, 0.0]), dtype=float)  # the centre: no point
+            points[own] = [float(c) for c in start + self._start[body][1][axis] * by]
             entry[side] = f"{body}.{own}"
 
     def _beams_of(self, sim: SpatialSimulation) -> dict[str, list[str]]:

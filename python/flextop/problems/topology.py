@@ -140,9 +140,11 @@ def warn_if_supports_hold_cells(simulation: Simulation) -> None:
         if not member.get("solid_at_joints", True) or member.get("fixed", False):
             continue
         nodes = {index[name] for name in held if name.startswith(f"{member['name']}[") and name in index}
+        if len(nodes) < SUPPORTED_NODES:
+            continue
         touching = np.array([bool(nodes.intersection(corners)) for corners in cells["nodes"]], dtype=bool)
         kept = int(np.count_nonzero((member_of == k) & (variable < 0) & touching))
-        if len(nodes) >= SUPPORTED_NODES and kept:
+        if kept:
             warnings.warn(f"member '{member['name']}': joints hold {len(nodes)} of its nodes, and solid_at_joints keeps "
                           f"the {kept} cells touching them passive solid, out of the design (rollers along a symmetry "
                           "line take that edge's column out): give solid_at_joints=False to design those cells",
