@@ -91,7 +91,7 @@ def test_the_solid_continuum_arm_agrees_across_meshes_with_enhanced_cells():
 
 
 def test_the_rings_solid_region_is_the_same_in_metres_on_every_mesh():
-    """With ``solid_radius = 0.05`` the continuum arm's three rings hold 50 mm of each link's
+    """With ``solid_radius = 0.05`` (the scene's default) the continuum arm's three rings hold 50 mm of each link's
     0.1 m height solid at 20 × 6, 40 × 12 and 60 × 20 cells per link (0.015 m² in all),
     where the cells touching a ring are one column of the mesh's width; a radius that is not
     positive, or one without ``solid_at_joints``, is named. The one design every mesh then
@@ -116,6 +116,8 @@ def test_the_rings_solid_region_is_the_same_in_metres_on_every_mesh():
         for radius, solid in [(None, 3 * 0.1 / nx), (0.05, 0.015)]:
             sim = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=nx, ny=ny, solid_radius=radius))
             assert (2 * nx * ny - sim.n_design) * cell == pytest.approx(solid, rel=1e-12), (nx, radius)
+        default = flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=nx, ny=ny))
+        assert (2 * nx * ny - default.n_design) * cell == pytest.approx(0.015, rel=1e-12), nx
     for radius, words in [(-0.01, "positive"), (float("nan"), "finite number"), (True, "finite number")]:
         with pytest.raises(SceneError, match=r"solid_radius.*" + words):
             flextop.Simulation(flextop.scenes.continuum_robot_arm(nx=20, ny=6, solid_radius=radius))

@@ -150,18 +150,19 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
                         acceleration: float = 2.0, speed: float = 0.5, E: float = ALUMINIUM["E"], nu: float = ALUMINIUM["nu"],
                         rho: float = ALUMINIUM["rho"], p: float = 3.0, x_min: float = 0.01, t_end: float = 1.3,
                         h: float = 0.013, rho_inf: float = 0.8, rings: str = "rigid", cell: str = "enhanced",
-                        void: str = "linear_energy", solid_radius: float | None = None) -> Scene:
+                        void: str = "linear_energy", solid_radius: float | None = 0.05) -> Scene:
     """The robot arm of :func:`robot_arm` with continuum links: each link a ``length ×
     height`` member of ``nx × ny`` cells of kind ``cell`` (:meth:`Scene.member`) and
     ``thickness`` (m), a density per cell. The
     shoulder drives a ring (:meth:`Scene.ring`, of kind ``rings``: ``"rigid"`` or
     ``"averaging"``) on link 1's root edge; the elbow drives
     the relative rotation of a ring on link 1's end edge and one on link 2's root edge; the
-    payload sits on link 2's end-edge middle node, the ``tip``. The columns of cells the rings
-    hold are passive solid (a member's ``solid_at_joints``): one column, its width the mesh's,
-    or, with ``solid_radius`` (m), every cell whose centre lies within that distance of a
-    ring's node — ``solid_radius=0.05`` is the same 50 mm at 20 × 6 … 120 × 40 cells, the one
-    design every mesh of it represents. ``void`` is the members' void
+    payload sits on link 2's end-edge middle node, the ``tip``. The cells the rings hold are
+    passive solid (a member's ``solid_at_joints``): those touching a ring and every cell whose
+    centre lies within ``solid_radius`` (m) of a ring's node — the default 50 mm is the same
+    solid at 20 × 6 … 120 × 40 cells, so that every mesh represents one design (with
+    ``solid_radius=None``, only the column touching a ring, as wide as the mesh's cells: a
+    different design on each mesh). ``void`` is the members' void
     cells' energy (:meth:`Scene.member`). ``ny`` must be even, for a row of nodes on each
     link's axis."""
     if ny % 2:
