@@ -89,6 +89,13 @@ pub(crate) trait System {
     fn at(&self) -> String;
 }
 
+/// Where the last solve ended: the iteration whose residual was its last, within the
+/// tolerance or at the floor its evaluation reaches (its correction at round-off). Steps
+/// of one motion end alike, so the next solve evaluates its residual at that iteration
+/// without the matrix and tries the held factors first ([`iterate`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Forecast(Option<usize>);
+
 /// Newton's method on `system` from its iterate, in place: converged where both relative
 /// residuals are at most `tol` (or a correction is at round-off), failed after `max_iter`
 /// corrections or at a residual that is not finite. With `keep` (modified Newton) an
@@ -96,7 +103,9 @@ pub(crate) trait System {
 /// iteration ([`KEPT_CONTRACTION`]). Where it falls slower, the held factors' correction is
 /// tried first: at round-off it ends the solve (the residual is at the floor that its
 /// evaluation reaches, which no factors lower), otherwise new factors are made at the
-/// iterate.
+/// iterate. The same is done at the iteration where the `forecast` says the last solve
+/// ended (and is written for the next): a residual there within the tolerance needs no
+/// matrix, and one at its floor no new factors, where full Newton made both.
 ///
 /// # Errors
 /// [`SolveError::NewtonFailed`] with where, the iterations and the residual; as the
@@ -106,16 +115,21 @@ pub(crate) fn iterate<S: System>(
     tol: f64,
     max_iter: usize,
     keep: bool,
+    forecast: &mut Forecast,
 ) -> Result<NewtonReport, SolveError> {
     let (mut iterations, mut fresh, mut previous) = (0, true, f64::INFINITY);
+    let last = forecast.0.take();
+    let report = |iterations, residual| NewtonReport {
+        iterations,
+        residual,
+    };
     loop {
-        let r = system.residual(fresh)?;
+        let foreseen = fresh && iterations > 0 && last == Some(iterations);
+        let r = system.residual(fresh && !foreseen)?;
         let residual = r.value();
         if r.force <= tol && r.constraint <= tol {
-            return Ok(NewtonReport {
-                iterations,
-                residual,
-            });
+            forecast.0 = Some(iterations);
+            return Ok(report(iterations, residual));
         }
         if iterations == max_iter || !residual.is_finite() {
             return Err(SolveError::NewtonFailed {
@@ -125,16 +139,14 @@ pub(crate) fn iterate<S: System>(
                 tolerance: tol,
             });
         }
-        let slow = !fresh && residual > KEPT_CONTRACTION * previous;
+        let slow = foreseen || (!fresh && residual > KEPT_CONTRACTION * previous);
         previous = residual;
         if slow {
             system.solve(false)?;
             if system.correction_at_round_off() {
                 system.update();
-                return Ok(NewtonReport {
-                    iterations: iterations + 1,
-                    residual,
-                });
+                forecast.0 = Some(iterations);
+                return Ok(report(iterations + 1, residual));
             }
             // The held factors contract too slowly: new ones at this iterate, and the
             // residual again as their right-hand side.
@@ -145,10 +157,8 @@ pub(crate) fn iterate<S: System>(
         fresh = !keep;
         iterations += 1;
         if system.update() {
-            return Ok(NewtonReport {
-                iterations,
-                residual,
-            });
+            forecast.0 = Some(iterations - 1);
+            return Ok(report(iterations, residual));
         }
     }
 }
@@ -179,6 +189,8 @@ pub struct Newton<'m> {
     /// Whether iterations may solve with the step's first factorization
     /// ([`Newton::keep_matrix`]).
     keep: bool,
+    /// Where the last solve ended ([`iterate`]).
+    forecast: Forecast,
     /// Relative tolerance.
     tol: f64,
     /// Iteration limit.
@@ -241,6 +253,7 @@ impl<'m> Newton<'m> {
             mean_stiffness,
             factored_at: 0.0,
             keep: false,
+            forecast: Forecast::default(),
             tol,
             max_iter,
             length: model.size(),
@@ -512,6 +525,7 @@ impl<'m> Newton<'m> {
     ) -> Result<NewtonReport, SolveError> {
         self.scale = self.scaling(point.mass_coefficient, true);
         let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
+        let mut forecast = self.forecast;
         let mut system = AtPoint {
             newton: self,
             point,
@@ -520,7 +534,9 @@ impl<'m> Newton<'m> {
             rates,
             matrix_current: false,
         };
-        iterate(&mut system, tol, max_iter, keep)
+        let report = iterate(&mut system, tol, max_iter, keep, &mut forecast);
+        self.forecast = forecast;
+        report
     }
 
     /// One Newton step of a static solve at `point` from `(q, λ)`, updated in place, on a
@@ -874,7 +890,7 @@ mod tests {
         let residuals = [1.0, 1e-4, 1e-8, 2e-11, 2.1e-11];
         let round_off = [false, false, false, false, true];
         let mut system = Scripted::new(&residuals, &round_off);
-        let report = iterate(&mut system, 1e-12, 20, true).unwrap();
+        let report = iterate(&mut system, 1e-12, 20, true, &mut Forecast::default()).unwrap();
         assert_eq!((report.iterations, report.residual), (5, 2.1e-11));
         assert_eq!(system.factorizations, 1);
     }
@@ -883,11 +899,11 @@ mod tests {
     fn a_slow_contraction_away_from_round_off_refactors_at_the_iterate() {
         let residuals = [1.0, 0.5, 1e-3, 1e-13];
         let mut system = Scripted::new(&residuals, &[false; 4]);
-        let report = iterate(&mut system, 1e-12, 20, true).unwrap();
+        let report = iterate(&mut system, 1e-12, 20, true, &mut Forecast::default()).unwrap();
         assert_eq!((report.iterations, system.factorizations), (3, 2));
         // Full Newton factors at every iterate.
         let mut system = Scripted::new(&residuals, &[false; 4]);
-        iterate(&mut system, 1e-12, 20, false).unwrap();
+        iterate(&mut system, 1e-12, 20, false, &mut Forecast::default()).unwrap();
         assert_eq!(system.factorizations, 3);
     }
 }

@@ -30,7 +30,7 @@ use crate::settings::{DynamicSettings, NewtonMatrix, RunOptions};
 use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{jumps, Kinks};
 use crate::solver::linsolve::FactorError;
-use crate::solver::newton::{self, at_round_off, NewtonReport, Residual, System};
+use crate::solver::newton::{self, at_round_off, Forecast, NewtonReport, Residual, System};
 use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::element::Element;
@@ -117,6 +117,8 @@ pub struct SpatialIntegrator<'m> {
     max_iter: usize,
     /// Whether a step's first factorization is kept while it contracts (modified Newton).
     keep: bool,
+    /// Where the last step's Newton ended ([`newton::iterate`]).
+    forecast: Forecast,
     /// `qₙ` of the step under way.
     start: Vec<f64>,
     /// The step's increment `Δ`.
@@ -176,6 +178,7 @@ impl<'m> SpatialIntegrator<'m> {
             params: AlphaParameters::chung_hulbert(settings.rho_inf),
             tol: settings.tol,
             keep: settings.newton == NewtonMatrix::Modified,
+            forecast: Forecast::default(),
             max_iter: settings.max_iter,
             start: vec![0.0; model.n_q()],
             increment: vec![0.0; model.n_v()],
@@ -356,6 +359,7 @@ impl Equations for SpatialIntegrator<'_> {
     fn correct(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
         let scale = bp * self.asm.mean_mass();
         let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
+        let mut forecast = self.forecast;
         let mut step = Step {
             it: self,
             s,
@@ -363,7 +367,9 @@ impl Equations for SpatialIntegrator<'_> {
             gp,
             scale,
         };
-        newton::iterate(&mut step, tol, max_iter, keep)
+        let report = newton::iterate(&mut step, tol, max_iter, keep, &mut forecast);
+        self.forecast = forecast;
+        report
     }
 
     fn check_step(&self, s: &State) -> Result<(), SolveError> {

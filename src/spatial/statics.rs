@@ -27,7 +27,7 @@ use crate::error::{Error, SolveError};
 use crate::group::so3::log;
 use crate::group::{Frame, NV};
 use crate::settings::{NewtonMatrix, StaticSettings};
-use crate::solver::newton::{self, at_round_off, NewtonReport, Residual, System};
+use crate::solver::newton::{self, at_round_off, Forecast, NewtonReport, Residual, System};
 use crate::solver::statics::{step_loads, Equilibrium, StaticSolution};
 use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
@@ -100,7 +100,7 @@ impl Equilibrium for Spatial<'_> {
             lambda,
             epsilon,
         };
-        let report = newton::iterate(&mut system, tol, max_iter, keep)?;
+        let report = newton::iterate(&mut system, tol, max_iter, keep, &mut Forecast::default())?;
         let model = self.asm.model;
         let t = load * self.settings.time;
         for joint in &model.joints {
