@@ -835,11 +835,12 @@ mod tests {
     use super::*;
 
     /// A system whose iterates give scripted residuals: `round_off[k]` says whether the
-    /// correction from iterate `k` is at round-off. It counts factorizations.
+    /// correction from iterate `k` is at round-off. It counts matrices and factorizations.
     struct Scripted {
         residuals: Vec<f64>,
         round_off: Vec<bool>,
         k: usize,
+        matrices: usize,
         factorizations: usize,
     }
 
@@ -850,13 +851,15 @@ mod tests {
                 residuals,
                 round_off,
                 k: 0,
+                matrices: 0,
                 factorizations: 0,
             }
         }
     }
 
     impl System for Scripted {
-        fn residual(&mut self, _with_matrix: bool) -> Result<Residual, SolveError> {
+        fn residual(&mut self, with_matrix: bool) -> Result<Residual, SolveError> {
+            self.matrices += usize::from(with_matrix);
             let force = self.residuals[self.k];
             Ok(Residual {
                 force,
@@ -866,6 +869,10 @@ mod tests {
 
         fn solve(&mut self, refactor: bool) -> Result<(), SolveError> {
             self.factorizations += usize::from(refactor);
+            assert!(
+                self.matrices >= self.factorizations,
+                "factors without a matrix"
+            );
             Ok(())
         }
 
@@ -905,5 +912,40 @@ mod tests {
         let mut system = Scripted::new(&residuals, &[false; 4]);
         iterate(&mut system, 1e-12, 20, false, &mut Forecast::default()).unwrap();
         assert_eq!(system.factorizations, 3);
+    }
+
+    /// Full Newton's steps, each solved from the `forecast` the one before left.
+    fn steps(
+        residuals: &[f64],
+        round_off: &[bool],
+        forecast: &mut Forecast,
+    ) -> (usize, usize, usize) {
+        let mut system = Scripted::new(residuals, round_off);
+        let report = iterate(&mut system, 1e-12, 20, false, forecast).unwrap();
+        (report.iterations, system.matrices, system.factorizations)
+    }
+
+    #[test]
+    fn full_newton_ends_where_the_step_before_ended_without_new_factors() {
+        // A residual at its floor at the third iterate, whose correction is round-off.
+        let (residuals, round_off) = ([1.0, 1e-4, 1e-8], [false, false, true]);
+        let mut forecast = Forecast::default();
+        assert_eq!(steps(&residuals, &round_off, &mut forecast), (3, 3, 3));
+        assert_eq!(forecast.0, Some(2));
+        // Foreseen: its residual without the matrix, the held factors' correction.
+        assert_eq!(steps(&residuals, &round_off, &mut forecast), (3, 2, 2));
+        // A step ending within the tolerance needs no matrix at its last iterate.
+        let converged = [1.0, 1e-4, 1e-13];
+        assert_eq!(steps(&converged, &[false; 3], &mut forecast), (2, 2, 2));
+        assert_eq!(forecast.0, Some(2));
+        // Foreseen wrongly (the residual at iterate 2 is not at its floor): the matrix and
+        // new factors there after all, the same iterations, matrices and factors as
+        // without the forecast (a residual and a held solve more).
+        let slower = [1.0, 1e-2, 1e-6, 1e-13];
+        assert_eq!(steps(&slower, &[false; 4], &mut forecast), (3, 4, 3));
+        assert_eq!(
+            steps(&slower, &[false; 4], &mut Forecast::default()),
+            (3, 4, 3)
+        );
     }
 }
