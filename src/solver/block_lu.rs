@@ -655,7 +655,9 @@ fn add_product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, us
     }
 }
 
-/// [`add_product`] of the other sizes (a joint's rows, a front).
+/// [`add_product`] of the other sizes: a joint's `r` rows against a node's six, `(r, 6, 6)`,
+/// `(r, 6, r)`, `(6, 6, r)`, `(6, r, r)`, `(6, r, 6)` and the solves' `(r, 6, 1)`,
+/// `(6, r, 1)`, each with its sizes known when compiled; any other (a front) with its rows.
 #[inline(never)]
 fn add_product_other(
     c: &mut [f64],
@@ -664,6 +666,24 @@ fn add_product_other(
     (m, k, n): (usize, usize, usize),
     w: f64,
 ) {
+    /// The shapes with `r` rows of a joint.
+    macro_rules! joint {
+        ($($r:literal),*) => {
+            match (m, k, n) {
+                $(
+                    ($r, 6, 6) => return product(c, a, b, ($r, 6, 6), w),
+                    ($r, 6, $r) => return product(c, a, b, ($r, 6, $r), w),
+                    ($r, 6, 1) => return product(c, a, b, ($r, 6, 1), w),
+                    (6, 6, $r) => return product(c, a, b, (6, 6, $r), w),
+                    (6, $r, $r) => return product(c, a, b, (6, $r, $r), w),
+                    (6, $r, 6) => return product(c, a, b, (6, $r, 6), w),
+                    (6, $r, 1) => return product(c, a, b, (6, $r, 1), w),
+                )*
+                _ => {}
+            }
+        };
+    }
+    joint!(2, 3, 4, 5);
     match m {
         1 => product(c, a, b, (1, k, n), w),
         2 => product(c, a, b, (2, k, n), w),
