@@ -216,6 +216,13 @@ def test_a_lattices_lowest_modes_by_count_are_the_dense_ones(kind):
     every, lowest = sim.modes(at=eq), sim.modes(at=eq, count=8)
     assert lowest.frequencies == pytest.approx(every.frequencies[:8], rel=1e-10)
     assert lowest.below >= 8 and every.omega_squared[lowest.below - 1] < lowest.bound < every.omega_squared[lowest.below]
+    # Its square section bends alike in y and z: equal pairs (the first, the fifth and
+    # sixth, the eighth and ninth), each counted twice by the Sturm count, the eighth's twin
+    # among the lowest eight's below the bound.
+    f = np.asarray(every.frequencies)
+    for a in (0, 4, 7):
+        assert f[a + 1] == pytest.approx(f[a], rel=1e-8) and f[a + 2] > 1.001 * f[a + 1], (a, f[:10])
+    assert lowest.below == 9
 
 
 @pytest.mark.parametrize("offset", [0.0, 0.1])

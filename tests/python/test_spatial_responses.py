@@ -1,5 +1,6 @@
 """Responses of spatial scenes. Stresses of beams and bars (``stress[:OPTIONS]``): a rectangular
-cantilever's bending and a tube's torsion against their closed forms, the mean below its peak
+cantilever's bending, a tube's torsion, both at once, and a rectangle's biaxial bending against
+their closed forms, the mean below its peak
 and growing to it, exact gradients through a motion and an equilibrium (beams and truss bars,
 the relaxation ``x^q`` included) against fourth-order differences and direct against adjoint,
 bad options named. The kinetic energy's time integral against the run's energies, with exact
@@ -62,6 +63,33 @@ def test_a_twisted_tube_has_the_torsion_shear_everywhere_on_its_edge():
         assert sim.run_with_sensitivities(None, name).values[0] == pytest.approx(sigma, rel=1e-7), name
     ks = sim.run_with_sensitivities(None, "stress:ks=50,scale=1e5").values[0]
     assert ks == pytest.approx(1e5 / 50 * math.log(math.cosh(50 * sigma / 1e5)), rel=1e-7)
+
+
+def test_combined_bending_and_torsion_and_biaxial_bending_against_their_closed_forms():
+    """A tube bent by a tip force P along z and twisted by a torque T: at a fibre of its edge
+    at angle θ, σ = M (D/2) sin θ / I and τ = T (D/2)/J (J = 2I), σ_vM = √(σ² + 3τ²), M at the
+    element's middle; the peak is at the root element's fibres in the bending plane, and
+    every p-mean is that of the eight fibres of the four elements. A rectangle (width b
+    along z, height h along y) bent by tip forces along y and z at once: at the corner where
+    both add, σ = M_y (h/2)/I_z + M_z (b/2)/I_y, the peak."""
+    outer, inner, P, T = 0.012, 0.010, 1e-3, 2e-3
+    sim = cantilever({"shape": "tube", "outer": outer, "inner": inner}, force=(0.0, 0.0, P), moment=(T, 0.0, 0.0))
+    second = math.pi * (outer**4 - inner**4) / 64
+    middles = (np.arange(4) + 0.5) / 4
+    angles = np.arange(8) * np.pi / 4
+    sigma = P * (1.0 - middles)[:, None] * (outer / 2) * np.sin(angles)[None, :] / second
+    tau = T * (outer / 2) / (2 * second)
+    von_mises = np.sqrt(sigma**2 + 3 * tau**2)
+    names = ["stress:p=2,q=0", "stress:p=8,q=0"]
+    run = sim.run_with_sensitivities(None, names)
+    for name, value, p in zip(names, run.values, (2, 8)):
+        assert value == pytest.approx(np.mean(von_mises**p) ** (1 / p), rel=1e-9), name
+        assert run.peaks[name] == pytest.approx(von_mises.max(), rel=1e-9), name
+    b, h, forces = 0.01, 0.02, (2e-3, 1e-3)
+    sim = cantilever({"shape": "rectangle", "width": b, "height": h}, force=(0.0, *forces))
+    root = 1.0 - middles[0]
+    corner = root * (forces[0] * (h / 2) / (b * h**3 / 12) + forces[1] * (b / 2) / (h * b**3 / 12))
+    assert sim.run_with_sensitivities(None, "stress:p=2,q=0").peaks["stress:p=2,q=0"] == pytest.approx(corner, rel=1e-9)
 
 
 def test_the_mean_stays_below_its_peak_and_grows_towards_it():
