@@ -17,10 +17,11 @@ iteration) instead of MMA with its safeguard; ``--iterations N``: N of them (100
 each optimized design written to ``DIR`` as ``.npy`` as soon as its optimization ends, before
 the long measurements of the last table.
 With ``--hundred``: 100 iterations of the arm's tip deflection by MMA with its safeguard and by
-plain MMA, the design issue's floor. With ``--costs``: the cost table alone, which also times
+plain MMA, the design issue's floor (``--nx 6 --full``: on the arm of 472 bars, links of 6 × 2 × 2
+nodes with every bar; ``--built``: the start and both designs then run to rtol 1e-2, as built). With ``--costs``: the cost table alone, which also times
 the adjoint of four responses at once (``FOUR``).
 
-    python benches/spatial_design.py [--costs | --stress | --sizing | --places | --tolerance [--plain] [--iterations N] [--save DIR] | --hundred]
+    python benches/spatial_design.py [--costs | --stress | --sizing | --places | --tolerance [--plain] [--iterations N] [--save DIR] | --hundred [--nx 6 --full] [--built]]
 """
 
 import sys
@@ -229,25 +230,34 @@ def measured(sim: flextop.SpatialSimulation, x: np.ndarray, rtol: float) -> str:
     return f"{r.values[0]:.4e} | {r.errors['tip_deflection']:.1e} | {r.discretization}"
 
 
-def hundred_iterations() -> None:
+def hundred_iterations(nx: int = 5, connectivity: str = "diagonals", built: bool = False) -> None:
     """The floor of the design issue: 100 MMA iterations of the arm's tip deflection at 40 %
     of its volume from the uniform design, on the scene's grid, by MMA with its safeguard
-    (the default) and by plain MMA (``MMA(safeguard=False)``)."""
-    print("| method | iterations | evaluations | d / uniform | KKT residual | status | time (s) |")
-    print("|---|---|---|---|---|---|---|")
+    (the default) and by plain MMA (``MMA(safeguard=False)``); the arm's links of ``nx × 2 ×
+    2`` nodes joined by ``connectivity`` (the scene's 188 bars, or ``--nx 6 --full``: 472). With
+    ``built``, the uniform start and both designs then run to rtol 1e-2 (as built)."""
+    designs = {}
+    print("| bars | method | iterations | evaluations | d / uniform | KKT residual | status | time (s) |")
+    print("|---|---|---|---|---|---|---|---|")
     for name, method in (("MMA with its safeguard", "mma"), ("plain MMA", MMA(safeguard=False))):
-        sim = flextop.SpatialSimulation(flextop.scenes.spatial_robot_arm())
+        sim = flextop.SpatialSimulation(flextop.scenes.spatial_robot_arm(nx=nx, connectivity=connectivity))
         problem = SpatialProblem(sim, "tip_deflection", volume=0.4)
         start = time.perf_counter()
         result = flextop.optimize(problem, np.full(sim.n_design, 0.4), method=method, max_iter=100, kkt_tol=1e-4)
         elapsed = time.perf_counter() - start
-        print(f"| {name} | {result.nit} | {result.nfev} | {result.fun:.4f} | {result.kkt:.2e} | {result.status.name} "
-              f"| {elapsed:.1f} |")
+        print(f"| {sim.n_design} | {name} | {result.nit} | {result.nfev} | {result.fun:.4f} | {result.kkt:.2e} "
+              f"| {result.status.name} | {elapsed:.1f} |", flush=True)
+        designs[name] = result.x
+    if built:
+        print("\n| design | d, scene's grid (m²) | d to rtol 1e-2 (m²) | estimated error | grid |\n|---|---|---|---|---|")
+        for name, x in {"uniform 0.4": np.full(sim.n_design, 0.4), **designs}.items():
+            print(f"| {name} | {sim.run(x).response('tip_deflection'):.4e} | {measured(sim, x, 1e-2)} |", flush=True)
 
 
 if __name__ == "__main__":
     if "--hundred" in sys.argv[1:]:
-        hundred_iterations()
+        hundred_iterations(bench_args.value("--nx", 5, int), "full" if "--full" in sys.argv[1:] else "diagonals",
+                           built="--built" in sys.argv[1:])
         sys.exit()
     if "--tolerance" in sys.argv[1:]:
         held_to_tolerance(bench_args.value("--iterations", 100, int), plain="--plain" in sys.argv[1:],

@@ -264,6 +264,21 @@ def test_a_drive_holding_an_arm_out_bears_its_weight_and_its_moment():
     assert run.gradient[:, 0] == pytest.approx([G, G * 0.3], rel=1e-9)
 
 
+def test_every_response_over_the_arms_motion_has_exact_gradients():
+    """The spatial robot arm (links of 3 × 2 × 2 nodes, 100 bars) over 0.2 s of its motion at
+    a random design: its tip deflection (Eq. 40), strain and kinetic energies, a relaxed
+    p-mean of its stresses, a KS mean of its bars' buckling ratios, its payload's final
+    height, its lift drive's torque squared, a link's mass and volume: direct = adjoint to
+    1e-9, fourth-order differences to 1e-6 at three bars (its reactions, torques and
+    compliance below; its frequencies' rates in ``test_spatial_mode_rates.py``)."""
+    sim = SpatialSimulation(spatial_robot_arm(nx=3, t_end=0.2, h=0.01))
+    rng = np.random.default_rng(6)
+    x = rng.uniform(0.3, 1.0, sim.n_design)
+    responses = ["tip_deflection", "strain_energy", "kinetic_energy", "stress:p=8,q=0.5",
+                 "buckling:ks=30,scale=0.01,q=0", "z:payload", "torque_squared:lift", "mass:link1", "volume:link2"]
+    assert_gradients(sim, x, responses, rng.choice(sim.n_design, 3, replace=False), 1e-4)
+
+
 def test_reaction_and_torque_gradients_over_a_motion_are_exact():
     """The spatial robot arm's shoulder and elbow reactions and its drives' torques (p-means
     and a KS mean) to its bars' densities, direct against adjoint and against differences."""
