@@ -7,7 +7,7 @@ other engine's problem; then both optima measured to rtol 1e-2 in each engine. W
 ``--tolerance``: both optimizations held to rtol 1e-2 (the
 planar problem's and the spatial problem's rule: measured where an accepted design moved,
 the grid held between). With ``--converged``: both optima measured to rtol 1e-3 in each engine
-too (about 20 minutes, the spatial engine's runs the most of it).
+too (about 10 minutes, the spatial engine's runs the most of it).
 
     python benches/spatial_planar_optimum.py [--tolerance] [--converged]
 """

@@ -23,7 +23,7 @@
 //! `SpatialIntegrator` implement.
 
 use crate::error::SolveError;
-use crate::solver::newton::NewtonReport;
+use crate::solver::newton::{Forecast, NewtonReport};
 
 /// Algorithmic parameters `α_m, α_f, β, γ`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -122,13 +122,17 @@ pub struct State {
     pub lam: Vec<f64>,
     /// Size of the step that reached this state (0 at `t = 0`).
     pub h: f64,
+    /// Where the Newton iterations of the step that reached this state ended (nowhere at
+    /// the start): the next step's forecast, carried with the state so that a run replayed
+    /// from any stored state, or a step taken again, iterates as it did.
+    pub(crate) forecast: Forecast,
 }
 
 impl State {
     /// Takes `other`'s values, into this state's own storage (the same lengths): no
     /// allocation.
     pub(crate) fn assign(&mut self, other: &State) {
-        (self.t, self.h) = (other.t, other.h);
+        (self.t, self.h, self.forecast) = (other.t, other.h, other.forecast);
         self.q.copy_from_slice(&other.q);
         self.qdot.copy_from_slice(&other.qdot);
         self.qddot.copy_from_slice(&other.qddot);

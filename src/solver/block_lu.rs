@@ -657,7 +657,8 @@ fn add_product(c: &mut [f64], a: &[f64], b: &[f64], (m, k, n): (usize, usize, us
 
 /// [`add_product`] of the other sizes: a joint's `r` rows against a node's six, `(r, 6, 6)`,
 /// `(r, 6, r)`, `(6, 6, r)`, `(6, r, r)`, `(6, r, 6)` and the solves' `(r, 6, 1)`,
-/// `(6, r, 1)`, each with its sizes known when compiled; any other (a front) with its rows.
+/// `(6, r, 1)`, each with its sizes known when compiled; any other (a front, a joint's pivot
+/// block's own solve, two joints' rows) with its rows known.
 #[inline(never)]
 fn add_product_other(
     c: &mut [f64],

@@ -28,7 +28,7 @@ use crate::mechanism::model::{Densities, Initial, Model};
 use crate::settings::{DynamicSettings, NewtonMatrix, StaticSettings, MAX_CUTS};
 use crate::solver::alpha::{self, AlphaParameters, Equations, Predictor, State};
 use crate::solver::kink::{Jump, Kinks};
-use crate::solver::newton::{Newton, NewtonReport, Point};
+use crate::solver::newton::{Forecast, Newton, NewtonReport, Point};
 use crate::solver::statics::{solve_static, StaticSolution};
 
 /// The generalized-α integrator of one design. The step size is an argument of each step,
@@ -164,6 +164,7 @@ impl<'m> Integrator<'m> {
             qddot,
             lam,
             h: 0.0,
+            forecast: Forecast::default(),
         })
     }
 
@@ -282,9 +283,7 @@ impl Equations for Guided<'_, '_> {
             gamma_prime: gp,
         };
         let velocities = Some((&mut s.qdot[..], &mut s.qddot[..]));
-        self.it
-            .newton
-            .solve(point, &mut s.q, &mut s.lam, velocities)
+        (self.it.newton).solve(point, &mut s.q, &mut s.lam, velocities, &mut s.forecast)
     }
 
     fn check_step(&self, s: &State) -> Result<(), SolveError> {

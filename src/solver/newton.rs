@@ -92,8 +92,11 @@ pub(crate) trait System {
 /// Where the last solve ended: the iteration whose residual was its last, within the
 /// tolerance or at the floor its evaluation reaches (its correction at round-off). Steps
 /// of one motion end alike, so the next solve evaluates its residual at that iteration
-/// without the matrix and tries the held factors first ([`iterate`]).
-#[derive(Debug, Clone, Copy, Default)]
+/// without the matrix and tries the held factors first ([`iterate`]). A dynamic state
+/// carries the one of the step that reached it ([`crate::solver::alpha::State`]), so that a
+/// run replayed from a stored state, or a step taken again, iterates as it did; a static
+/// solve starts without one.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct Forecast(Option<usize>);
 
 /// Newton's method on `system` from its iterate, in place: converged where both relative
@@ -189,8 +192,6 @@ pub struct Newton<'m> {
     /// Whether iterations may solve with the step's first factorization
     /// ([`Newton::keep_matrix`]).
     keep: bool,
-    /// Where the last solve ended ([`iterate`]).
-    forecast: Forecast,
     /// Relative tolerance.
     tol: f64,
     /// Iteration limit.
@@ -253,7 +254,6 @@ impl<'m> Newton<'m> {
             mean_stiffness,
             factored_at: 0.0,
             keep: false,
-            forecast: Forecast::default(),
             tol,
             max_iter,
             length: model.size(),
@@ -511,21 +511,22 @@ impl Point {
 
 impl<'m> Newton<'m> {
     /// Newton iterations at `point` from the given iterate, updated in place: `(q, λ)`, and
-    /// `(q̇, q̈)` for dynamics.
+    /// `(q̇, q̈)` for dynamics; from the `forecast` of the solve before, written for the next
+    /// ([`iterate`]).
     ///
     /// # Errors
     /// [`SolveError::NewtonFailed`] after `max_iter` iterations or on a non-finite residual;
     /// [`SolveError::Singular`] for a singular iteration matrix.
-    pub fn solve(
+    pub(crate) fn solve(
         &mut self,
         point: Point,
         q: &mut [f64],
         lambda: &mut [f64],
         rates: Option<(&mut [f64], &mut [f64])>,
+        forecast: &mut Forecast,
     ) -> Result<NewtonReport, SolveError> {
         self.scale = self.scaling(point.mass_coefficient, true);
         let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
-        let mut forecast = self.forecast;
         let mut system = AtPoint {
             newton: self,
             point,
@@ -534,9 +535,7 @@ impl<'m> Newton<'m> {
             rates,
             matrix_current: false,
         };
-        let report = iterate(&mut system, tol, max_iter, keep, &mut forecast);
-        self.forecast = forecast;
-        report
+        iterate(&mut system, tol, max_iter, keep, forecast)
     }
 
     /// One Newton step of a static solve at `point` from `(q, λ)`, updated in place, on a
@@ -873,6 +872,7 @@ mod tests {
                 self.matrices >= self.factorizations,
                 "factors without a matrix"
             );
+            assert!(self.factorizations > 0, "held factors that do not exist");
             Ok(())
         }
 
@@ -947,5 +947,14 @@ mod tests {
             steps(&slower, &[false; 4], &mut Forecast::default()),
             (3, 4, 3)
         );
+        // A failed solve leaves no forecast.
+        let mut system = Scripted::new(&[1.0, 0.5, 0.4], &[false; 3]);
+        assert!(iterate(&mut system, 1e-12, 2, false, &mut forecast).is_err());
+        assert_eq!(forecast, Forecast::default());
+        // Modified Newton reads none: its later iterates are held already.
+        let mut forecast = Forecast(Some(1));
+        let mut system = Scripted::new(&[1.0, 1e-4, 1e-13], &[false; 3]);
+        iterate(&mut system, 1e-12, 20, true, &mut forecast).unwrap();
+        assert_eq!((system.matrices, system.factorizations), (1, 1));
     }
 }

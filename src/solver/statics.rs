@@ -12,7 +12,7 @@ use crate::mechanism::element::MassKind;
 use crate::mechanism::model::{Densities, Model};
 use crate::settings::{NewtonMatrix, StaticSettings};
 use crate::solver::linear::{explain, linear_step};
-use crate::solver::newton::{Newton, NewtonReport, Point};
+use crate::solver::newton::{Forecast, Newton, NewtonReport, Point};
 
 /// Smallest load-factor increment tried before the solve gives up.
 pub const MIN_LOAD_INCREMENT: f64 = 1e-6;
@@ -130,7 +130,9 @@ impl Equilibrium for Planar<'_, '_> {
             mass_coefficient: 0.0,
             gamma_prime: 0.0,
         };
-        let report = self.newton.solve(point, q, lambda, None)?;
+        let report = self
+            .newton
+            .solve(point, q, lambda, None, &mut Forecast::default())?;
         let asm = self.newton.assembler();
         let at = || format!("load factor {load:.6}");
         (asm.model).plausible_step(&asm.densities, q_prev, q, at)?;

@@ -117,8 +117,6 @@ pub struct SpatialIntegrator<'m> {
     max_iter: usize,
     /// Whether a step's first factorization is kept while it contracts (modified Newton).
     keep: bool,
-    /// Where the last step's Newton ended ([`newton::iterate`]).
-    forecast: Forecast,
     /// `qₙ` of the step under way.
     start: Vec<f64>,
     /// The step's increment `Δ`.
@@ -178,7 +176,6 @@ impl<'m> SpatialIntegrator<'m> {
             params: AlphaParameters::chung_hulbert(settings.rho_inf),
             tol: settings.tol,
             keep: settings.newton == NewtonMatrix::Modified,
-            forecast: Forecast::default(),
             max_iter: settings.max_iter,
             start: vec![0.0; model.n_q()],
             increment: vec![0.0; model.n_v()],
@@ -261,6 +258,7 @@ impl<'m> SpatialIntegrator<'m> {
             qddot: vdot,
             lam,
             h: 0.0,
+            forecast: Forecast::default(),
         })
     }
 
@@ -359,7 +357,7 @@ impl Equations for SpatialIntegrator<'_> {
     fn correct(&mut self, s: &mut State, bp: f64, gp: f64) -> Result<NewtonReport, SolveError> {
         let scale = bp * self.asm.mean_mass();
         let (tol, max_iter, keep) = (self.tol, self.max_iter, self.keep);
-        let mut forecast = self.forecast;
+        let mut forecast = s.forecast;
         let mut step = Step {
             it: self,
             s,
@@ -368,7 +366,7 @@ impl Equations for SpatialIntegrator<'_> {
             scale,
         };
         let report = newton::iterate(&mut step, tol, max_iter, keep, &mut forecast);
-        self.forecast = forecast;
+        s.forecast = forecast;
         report
     }
 

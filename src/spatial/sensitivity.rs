@@ -38,6 +38,7 @@ use crate::solver::alpha::{step_ratio, AlphaParameters, State};
 use crate::solver::backward::{self, Transposed};
 use crate::solver::kink::jumps;
 use crate::solver::local_error::LocalErrors;
+use crate::solver::newton::Forecast;
 use crate::solver::unsymmetric::Unsymmetric;
 use crate::spatial::assembly::{analysed, Assembler, Coefficients};
 use crate::spatial::beam::Beam;
@@ -746,6 +747,7 @@ pub fn static_sensitivities(
         a: vec![0.0; n_v],
         lam: eq.lambda,
         h: 0.0,
+        forecast: Forecast::default(),
     }];
     let mut sweep = Sweep::new(model, None, &states)?;
     sweep.prepare_means(responses);

@@ -216,8 +216,8 @@ def test_a_lattices_lowest_modes_by_count_are_the_dense_ones(kind):
     every, lowest = sim.modes(at=eq), sim.modes(at=eq, count=8)
     assert lowest.frequencies == pytest.approx(every.frequencies[:8], rel=1e-10)
     assert lowest.below >= 8 and every.omega_squared[lowest.below - 1] < lowest.bound < every.omega_squared[lowest.below]
-    # Its square section bends alike in y and z: equal pairs (the first, the fifth and
-    # sixth, the eighth and ninth), each counted twice by the Sturm count, the eighth's twin
+    # Its square section bends alike in y and z: equal pairs (the first and second, the
+    # fifth and sixth, the eighth and ninth), each counted twice by the Sturm count, the eighth's twin
     # among the lowest eight's below the bound.
     f = np.asarray(every.frequencies)
     for a in (0, 4, 7):

@@ -160,7 +160,8 @@ def continuum_robot_arm(*, nx: int = 60, ny: int = 20, length: float = 1.0, heig
     payload sits on link 2's end-edge middle node, the ``tip``. The cells the rings hold are
     passive solid (a member's ``solid_at_joints``): those touching a ring and every cell whose
     centre lies within ``solid_radius`` (m) of a ring's node — the default 50 mm is the same
-    solid at 20 × 6 … 120 × 40 cells, so that every mesh represents one design (with
+    solid on every mesh where it is a whole number of columns (``nx`` a multiple of 20: 20 × 6
+    … 120 × 40 cells), so that those meshes represent one design (with
     ``solid_radius=None``, only the column touching a ring, as wide as the mesh's cells: a
     different design on each mesh). ``void`` is the members' void
     cells' energy (:meth:`Scene.member`). ``ny`` must be even, for a row of nodes on each
