@@ -30,13 +30,14 @@ DEEP = [(30, 2, 2), (30, 3, 3), (30, 4, 4), (30, 5, 5)]
 
 # Symbol fragments → phase, first match wins (perf's demangled Rust names).
 PHASES = [
-    ("sensitivity sweep", ("spatial::sensitivity",)),
+    ("sensitivity sweep", ("spatial::sensitivity", "solver::backward")),
     ("solves", ("BlockLu::solve", "triangular_solve", "solve_in_place", "solve_with_conj")),
     ("factorization", ("block_lu::", "Unsymmetric::factorize", "Ldlt::factorize", "cholesky", "permute_self_adjoint", "lu::", "ereach",
                        "sparse::utils::transpose", "pulp::", "gemm")),
     ("element kernels", ("spatial::beam", "spatial::truss", "group::so3", "group::pair", "nalgebra", "spatial::element",
                          "joint::spatial", "body::spatial", "spatial::force", "sin", "cos", "atan2")),
-    ("the build (scene to model, pattern)", ("scene::spatial", "SpatialModel::add_", "Assembler::new", "memcmp")),
+    ("the build (scene to model, pattern)", ("scene::spatial", "SpatialModel::add_", "Assembler::new", "memcmp",
+                                             "sort::", "Sparsity::from_entries", "BlockLu::analyze")),
     ("assembly", ("spatial::assembly", "spatial::model", "memmove", "memset", "memcpy")),
     ("integrator", ("spatial::integrator", "group::Frame")),
 ]

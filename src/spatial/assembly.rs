@@ -67,6 +67,8 @@ pub(crate) struct Assembler<'m> {
     element_blocks: Vec<Derivatives>,
     /// Each structural element's mass matrix, constant.
     element_masses: Vec<Stiffness>,
+    /// `mean(diag M)` ([`Assembler::mean_mass`]), constant.
+    mean_mass: f64,
     /// Where each body's `6 × 6` block and each joint's, force element's and beam's local
     /// block is stored ([`local_slots`]), found once.
     body_slots: Vec<Vec<usize>>,
@@ -201,6 +203,7 @@ impl<'m> Assembler<'m> {
             .map(|&d| pattern.slot(d, d))
             .collect::<Option<_>>();
         let missing = || SolveError::Setup("an entry missing from the sparsity pattern".into());
+        let element_masses: Vec<Stiffness> = model.elements().map(|e| e.mass_matrix()).collect();
         Ok(Self {
             absent_slots: absent_slots.ok_or_else(missing)?,
             body_slots: body_slots.ok_or_else(missing)?,
@@ -216,7 +219,8 @@ impl<'m> Assembler<'m> {
             joint_rows: vec![(SVector::zeros(), Gradient::zeros()); model.joints.len()],
             force_blocks: vec![Derivatives::zeros(); model.forces.len()],
             element_blocks: vec![Derivatives::zeros(); model.beams.len() + model.trusses.len()],
-            element_masses: model.elements().map(|e| e.mass_matrix()).collect(),
+            mean_mass: mean_mass(model, &element_masses),
+            element_masses,
             first_row,
         })
     }
@@ -585,18 +589,23 @@ impl<'m> Assembler<'m> {
 
     /// `mean(diag M)`, the scale of the multipliers' rows at `β' = 1`.
     pub fn mean_mass(&self) -> f64 {
-        let model = self.model;
-        if model.nodes.is_empty() {
-            return 1.0;
-        }
-        let bodies: f64 = model
-            .bodies
-            .iter()
-            .map(|b| 3.0 * b.mass + b.inertia.trace())
-            .sum();
-        let elements: f64 = model.elements().map(|e| e.mass_matrix().trace()).sum();
-        (bodies + elements) / model.n_v() as f64
+        self.mean_mass
     }
+}
+
+/// `mean(diag M)` of `model`, whose elements' mass matrices are `masses`: its bodies' and
+/// elements' diagonals over its unknowns (1 without nodes).
+fn mean_mass(model: &SpatialModel, masses: &[Stiffness]) -> f64 {
+    if model.nodes.is_empty() {
+        return 1.0;
+    }
+    let bodies: f64 = model
+        .bodies
+        .iter()
+        .map(|b| 3.0 * b.mass + b.inertia.trace())
+        .sum();
+    let elements: f64 = masses.iter().map(|m| m.trace()).sum();
+    (bodies + elements) / model.n_v() as f64
 }
 
 /// Where joint `j`'s rows (from `row`) and columns of `B` are stored, node by node of its
