@@ -313,7 +313,9 @@ class Simulation:
         ``results.raw["h"]`` is the step used — and spectral radius ``rho_inf`` (defaults from the scene's ``[simulation]``
         table, ``rho_inf`` 0.8);
         ``tol`` is the relative Newton tolerance (1e-10), ``max_iter`` the iterations per
-        step (20), ``newton`` ``"full"`` (a new iteration matrix every iteration) or
+        step (20), ``newton`` ``"full"`` (a new iteration matrix every iteration, but at the
+        one where the step before ended, whose held factors' correction ends the step at
+        round-off) or
         ``"modified"`` (the step's first kept while the residual falls tenfold per
         iteration: the same solution to ``tol``, 12–26 % faster on the arm's designs
         measured, BENCHMARKS.md), ``mass`` ``"consistent"`` (linear interpolation),
