@@ -318,7 +318,8 @@ class Simulation:
         round-off) or
         ``"modified"`` (the step's first kept while the residual falls tenfold per
         iteration: the same solution to ``tol``, 12–26 % faster on the arm's designs
-        measured, BENCHMARKS.md), ``mass`` ``"consistent"`` (linear interpolation),
+        measured, BENCHMARKS.md; 5–12 % on three of them since full Newton ends a step on
+        its held factors, a scratch timing of a run), ``mass`` ``"consistent"`` (linear interpolation),
         ``"lumped"`` or ``"bar_lumped"`` (a bar's mass lumped on its nodes and its end
         nodes coupled so that its rigid motion carries its exact inertia: consistent on a
         bar of one element, and on a split bar its own bending modes converge at fourth
