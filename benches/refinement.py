@@ -36,9 +36,14 @@ bar (with the trapezoidal weights and with the coarse run's adjoint alone), each
 against the change of splitting it alone, whether the bars of the largest shares are those
 of the largest changes, and what the shares cost. Writes benches/results/shares.md.
 
-With ``--measured``: the same family, only the default rule against ``refine="shares"`` (the
-bars refined where their measured shares of the space error carry 80 % of it), with
-extrapolation in the step; writes benches/results/refinement_shares.md.
+With ``--measured``: the same family, only ``refine="bars"`` against ``refine="shares"`` (the
+default: the bars refined where their measured shares of the space error carry 80 % of it),
+with extrapolation in the step; writes benches/results/refinement_shares.md.
+
+With ``--time-estimate``: the same family, gradients held, the default rule (a candidate's
+time errors from its own adjoint sweep where they agree with its half steps) against step
+doubling alone (``time_estimate="doubling"``); writes
+benches/results/refinement_time_estimate.md.
 
 With ``--richardson``, instead: whether Richardson's extrapolation in the step pays — on three
 designs an optimizer produces, the error of d on the grid ``rtol = 1e-2`` chose in space,
@@ -96,11 +101,20 @@ from tolerance import arm_designs, beam_designs, reference, timed  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RTOL = 1e-2
-MODES = {"bars, extrapolated": ("bars", True), "bars": ("bars", False), "uniform": ("uniform", False)}
-"""The runs compared: refinement bar by bar with Richardson's extrapolation in the step (the
-default), bar by bar on the grid's own values, and every bar alike (the rule before both)."""
-MEASURED = {"bars, extrapolated": ("bars", True), "shares, extrapolated": ("shares", True)}
-"""With ``--measured``: the default against refinement by measured shares (``refine="shares"``)."""
+MODES = {"bars, extrapolated": ("bars", {}), "bars": ("bars", {"extrapolate": False}), "uniform": ("uniform", {"extrapolate": False})}
+"""The runs compared (``refine`` and the options of the run): refinement bar by bar with
+Richardson's extrapolation in the step, bar by bar on the grid's own values, and every bar
+alike (the rule before both)."""
+MEASURED = {"bars, extrapolated": ("bars", {}), "shares, extrapolated": ("shares", {})}
+"""With ``--measured``: refinement bar by bar against by measured shares (``refine="shares"``,
+the default)."""
+TIME_ESTIMATES = {"time by step doubling": ("shares", {"time_estimate": "doubling"}),
+                  "time by the adjoint where it agrees": ("shares", {"time_estimate": "adjoint"})}
+"""With ``--time-estimate``: the default rule (the adjoint's time errors where they agree with
+the half steps) against step doubling alone, the gradients held (the adjoint is a held
+run's)."""
+KINDS = ["held", "free"]
+"""Whether the gradients are held to 5·rtol (``hold_gradients``), in the order run."""
 
 
 def iterates(sim: flextop.Simulation, quick: bool) -> dict[str, np.ndarray]:
@@ -129,7 +143,7 @@ def judged(sims: dict[str, flextop.Simulation], x: np.ndarray, ref: tuple[float,
     for mode, sim in sims.items():
         try:
             seconds, run = timed(lambda: sim.run_with_sensitivities(x, "tip_deflection", rtol=RTOL, hold_gradients=hold,
-                                                                    extrapolate=MODES[mode][1]))
+                                                                    **MODES[mode][1]))
         except ToleranceError as error:
             out[mode] = {"failed": str(error)}
             continue
@@ -149,9 +163,9 @@ def study(name: str, scene: flextop.Scene | dict, ref: Discretization, designs: 
     for label, x in designs.items():
         unit = min(timed(lambda: base.run_with_sensitivities(x, "tip_deflection", h=h))[0] for _ in range(3))
         r = reference(base, x, ref)
-        row = {"design": label, "unit": unit, "held": judged(sims, x, r, True), "free": judged(sims, x, r, False)}
+        row = {"design": label, "unit": unit} | {kind: judged(sims, x, r, kind == "held") for kind in KINDS}
         rows.append(row)
-        print(name, label, {k: {m: v.get("seconds", "failed") for m, v in row[k].items()} for k in ("held", "free")}, flush=True)
+        print(name, label, {k: {m: v.get("seconds", "failed") for m, v in row[k].items()} for k in KINDS}, flush=True)
     return table(name, rows)
 
 
@@ -163,7 +177,7 @@ def cell(run: dict, unit: float) -> str:
 
 
 def table(name: str, rows: list[dict]) -> list[str]:
-    columns = [(kind, mode) for kind in ("held", "free") for mode in MODES]
+    columns = [(kind, mode) for kind in KINDS for mode in MODES]
     out = [f"### {name}", "", "Per run: error of d / error of ∇d against the reference (the estimate) · unknowns of the grid "
            "accepted over the scene's · seconds = multiple of the fixed run with gradients on the scene's grid.", "",
            "| design | fixed run (s) | " + " | ".join(f"{mode}, gradients {'held' if kind == 'held' else 'not held'}"
@@ -669,7 +683,9 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer designs (a smoke run)")
     parser.add_argument("--richardson", action="store_true", help="Richardson's extrapolation in the step instead")
     parser.add_argument("--shares", action="store_true", help="each bar's share of the space error instead")
-    parser.add_argument("--measured", action="store_true", help="the default rule against refine='shares' only")
+    parser.add_argument("--measured", action="store_true", help="refine='bars' against refine='shares' only")
+    parser.add_argument("--time-estimate", action="store_true",
+                        help="the adjoint's time errors where they agree against step doubling alone, gradients held")
     parser.add_argument("--dual", action="store_true", help="the a-posteriori shares against bars split alone, instead")
     parser.add_argument("--frame", action="store_true", help="the stayed frame: one soft bar among solid ones, instead")
     parser.add_argument("--oracle", action="store_true", help="the cheapest grid that meets rtol on each design, instead")
@@ -702,15 +718,18 @@ def main() -> None:
         return shares()
     if args.oracle:
         return oracle()
-    if args.measured:
+    if args.measured or args.time_estimate:
         MODES.clear()
-        MODES.update(MEASURED)
+        MODES.update(TIME_ESTIMATES if args.time_estimate else MEASURED)
+    if args.time_estimate:
+        KINDS.remove("free")
     arm = flextop.Simulation(flextop.scenes.robot_arm())
     designs = arm_designs(arm, args.quick)
     designs |= {f"uniform {x:g}": np.full(arm.n_design, x) for x in ((0.08, 0.12) if not args.quick else ())}
     designs |= iterates(arm, args.quick)
     arm_scene, beam_scene = (with_mass(scene, args.mass) for scene in (flextop.scenes.robot_arm(), flextop.scenes.spun_beam()))
     options = (" --quick" if args.quick else "") + (" --measured" if args.measured else "") + \
+        (" --time-estimate" if args.time_estimate else "") + \
         ("" if args.mass == "consistent" else f" --mass {args.mass}")
     lines = ["# Refinement bar by bar", "", f"`python benches/refinement.py{options}` on "
              f"{platform.processor() or platform.machine()}, {platform.python_version()}: rtol = {RTOL:g} on the tip "
@@ -719,7 +738,7 @@ def main() -> None:
              f"mass `{args.mass}`.", ""]
     lines += study("robot arm", arm_scene, Discretization(8, 66 * 32), designs)
     lines += study("spun beam", beam_scene, Discretization(32, 120 * 8), beam_designs(flextop.Simulation(beam_scene), args.quick))
-    stem = "refinement_shares" if args.measured else "refinement"
+    stem = "refinement_time_estimate" if args.time_estimate else "refinement_shares" if args.measured else "refinement"
     path = ROOT / "benches" / "results" / (f"{stem}.md" if args.mass == "consistent" else f"{stem}_{args.mass}.md")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))

@@ -112,6 +112,7 @@ class SensitivityData(TypedDict):
     gradients: _F  # ∂f_k/∂x_j, (n_r, n_x), response units per unit density
     parameter_gradients: _F  # ∂f_k/∂p_i of the scene parameters named, (n_r, n_p)
     peaks: list[float | None]  # per response, an aggregate's largest point value (stress: Pa), None for others
+    time_errors: _F | None  # (n_r,): each f(h) − f to leading order in h, by the adjoint sweep of a motion; None otherwise
     method: str  # the method actually used: "direct" or "adjoint"
     simulation_seconds: float  # wall time of the simulation, s
     gradient_seconds: float  # wall time of the sensitivity analysis, s
@@ -256,6 +257,7 @@ class SpatialSensitivityData(TypedDict):
     values: _F  # (n_r,)
     gradient: _F  # (n_r, n_p)
     peaks: list[float | None]  # (n_r,): a stress mean's peak
+    time_errors: _F | None  # (n_r,): each f(h) − f to leading order in h, by the adjoint sweep of a motion; None otherwise
 
 @final
 class SpatialModel:

@@ -90,6 +90,10 @@ class Sensitivities:
     parameters: tuple[str, ...] = ()
     parameter_gradients: np.ndarray | None = None
     peak_errors: dict[str, float] = field(default_factory=dict)
+    time_errors: np.ndarray | None = field(default=None, repr=False)
+    """Per response, ``f(h) − f`` to leading order in the step, estimated by the adjoint
+    sweep that made the gradients (as :meth:`Simulation.time_errors`); ``None`` where no
+    adjoint sweep of a motion made them, or the values are extrapolated."""
 
     def parameter_gradient(self, response: str, parameter: str) -> float:
         """``∂f/∂p`` of one response with respect to one scene parameter."""

@@ -28,7 +28,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 
 from . import _core, execution, modal, plausibility, responses
-from .discretization import Levels, Refined, indicator, refinement
+from .discretization import Levels, Refined, indicator, refinement, tolerance
 from .discretization.accuracy import rtol_of, run_tolerance
 from .errors import DesignError, MechanismWarning, PlausibilityWarning, SceneError, SettingsError, SettingsWarning
 from .io import saved
@@ -416,7 +416,7 @@ class Simulation:
                                method: str = "auto", memory: str = "auto", rtol: float | None = None, atol: float | None = None,
                                start: Discretization | None = None, hold_gradients: bool = True, extrapolate: bool = True,
                                local_tol: float | None = None, parameters: Sequence[str] = (), made: Sequence[Results] = (),
-                               **settings: Any) -> Sensitivities:
+                               time_estimate: str = "adjoint", **settings: Any) -> Sensitivities:
         """Responses ``f`` (shape ``(n_r,)``) and their exact gradients ``df/dx``
         (``(n_r, n_design)``) for design ``x``, as a :class:`Sensitivities` that unpacks as
         ``f, dfdx``.
@@ -462,6 +462,10 @@ class Simulation:
         gradients (each the exact derivative of its value), its error estimated from the
         runs at 4h and 8h; where that estimate is the smaller, the extrapolated values are
         returned and ``discretization.extrapolated`` says so (the peaks extrapolated alike).
+        ``time_estimate``: ``"adjoint"`` (the default; gradients held and made by the adjoint
+        method) judges a candidate on the time errors its own adjoint sweep estimates wherever
+        they agree with its half-steps run (``tolerance.agreed_time``: no runs at 4h and 8h);
+        ``"doubling"``, on step doubling alone.
         The peaks of peak-limited responses (a drive's torque, a stress) are held to
         ``rtol`` too, their estimated errors in ``peak_errors``. ``made``: runs of ``x`` on
         this scene's refined copies already made (an optimization's trial on the grid
@@ -485,8 +489,11 @@ class Simulation:
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is None:
             return self.sensitivities_fixed(xv, names, self._settings(**gradients, **settings))
+        if time_estimate not in tolerance.TIME_ESTIMATES:
+            raise SettingsError(f"time_estimate must be one of {', '.join(map(repr, tolerance.TIME_ESTIMATES))}, "
+                                f"got {time_estimate!r}")
         return refinement.to_tolerance(self, xv, names, wanted, self._settings(**settings), gradients, start, hold_gradients,
-                                       extrapolate, made)
+                                       extrapolate, made, adjoint=time_estimate == "adjoint")
 
     def map(self, designs: Iterable[DesignLike], responses: Sequence[str] | str | None = None, *, gradients: bool = True,
             executor: Executor | None = None, chunksize: int = 1, **options: Any) -> list[Sensitivities]:
@@ -521,7 +528,8 @@ class Simulation:
         timings = {"simulation": out["simulation_seconds"], "gradients": out["gradient_seconds"]}
         peaks = {n: p for n, p in zip(names, out["peaks"]) if p is not None}
         return Sensitivities(tuple(names), out["values"], out["gradients"], out["method"], timings, steps=steps, peaks=peaks,
-                             parameters=tuple(parameters), parameter_gradients=out["parameter_gradients"])
+                             parameters=tuple(parameters), parameter_gradients=out["parameter_gradients"],
+                             time_errors=out["time_errors"])
 
     def _states_of(self, run: Results, xv: np.ndarray | None, settings: dict[str, Any]) -> tuple[np.ndarray, ...]:
         """The states of ``run``, checked to be this scene's run of ``xv`` with ``settings``
@@ -756,7 +764,7 @@ def load(path: str | os.PathLike) -> Results | StaticResults | Sensitivities:
         return Sensitivities(tuple(meta["names"]), raw["values"], raw.get("gradients"), meta["method"], meta["timings"],
                              None if d is None else Discretization(*d), meta["errors"], meta["gradient_errors"],
                              raw.get("steps"), meta["peaks"], tuple(meta["parameters"]), raw.get("parameter_gradients"),
-                             meta.get("peak_errors", {}))
+                             meta.get("peak_errors", {}), raw.get("time_errors"))
     sim = Simulation(meta["scene"], **meta["simulation"])
     kind = Results if meta["kind"] == "dynamic" else StaticResults
     return kind(sim, raw, x, meta["settings"], None if d is None else Discretization(*d), meta["errors"])

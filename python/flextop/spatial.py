@@ -61,7 +61,7 @@ from .quaternion import rotations
 from .discretization import spatial as spatial_tolerance
 from .discretization.accuracy import rtol_of, run_tolerance
 from .discretization.indicator import Shares
-from .discretization.tolerance import Discretization
+from .discretization.tolerance import TIME_ESTIMATES, Discretization
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
@@ -221,6 +221,11 @@ class SpatialSensitivities:
     #: parameters and densities), by name, where a tolerance chose the grid.
     errors: dict[str, float] = field(default_factory=dict)
     gradient_errors: dict[str, float] = field(default_factory=dict)
+    #: Each value's time error ``f(h) − f`` to leading order in the step, estimated by the
+    #: adjoint sweep of a motion that made the gradients (as :meth:`SpatialSimulation.time_errors`;
+    #: none for a volume or a mass, explicit in the design); ``None`` where no such sweep
+    #: made them (the direct method, an equilibrium).
+    time_errors: np.ndarray | None = field(default=None, repr=False)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.dfdx))
@@ -430,7 +435,7 @@ class SpatialSimulation:
 
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
-                               rtol: float | None = None, atol: float | None = None,
+                               rtol: float | None = None, atol: float | None = None, time_estimate: str = "adjoint",
                                **settings: Any) -> SpatialSensitivities:
         """The ``responses`` at design ``x`` (full density by default; the tip's x, y, z by
         default) and their exact gradients to the densities (``dfdx``, one column per design
@@ -443,7 +448,10 @@ class SpatialSimulation:
         frame beam and the steps are chosen to meet it (:mod:`flextop.discretization.spatial`;
         an explicit ``h`` runs the scene's grid instead, and cannot be given with ``rtol``):
         the gradients are exact for the grid that ran, and the result carries its
-        ``discretization`` and the estimated relative ``errors`` and ``gradient_errors``."""
+        ``discretization`` and the estimated relative ``errors`` and ``gradient_errors``.
+        ``time_estimate``: as :meth:`flextop.Simulation.run_with_sensitivities`' — a
+        candidate's time errors by its own adjoint sweep where they agree with its half steps
+        (``"adjoint"``), or by step doubling alone (``"doubling"``)."""
         if responses is None:
             if self.tip is None:
                 raise SettingsError("no responses given, and the scene names no tip")
@@ -452,7 +460,11 @@ class SpatialSimulation:
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is not None:
-            accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings)
+            if time_estimate not in TIME_ESTIMATES:
+                raise SettingsError(f"time_estimate must be one of {', '.join(map(repr, TIME_ESTIMATES))}, "
+                                    f"got {time_estimate!r}")
+            accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings,
+                                                      time_estimate=time_estimate)
             return replace(accepted.sensitivities, responses=rs, discretization=accepted.discretization,
                            errors=accepted.errors, gradient_errors=accepted.gradient_errors)
         design = self._design(x)
@@ -470,11 +482,17 @@ class SpatialSimulation:
             values[rows] = np.asarray(r["values"])
             gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
         peaks: dict[str, float] = {}
+        time_errors: np.ndarray | None = np.zeros(len(rs))  # a measured response is explicit in the design
         if engine or not rs:
             peaks = {name: peak for name, peak in zip(engine, r["peaks"]) if peak is not None}
+            if r["time_errors"] is None:
+                time_errors = None
+            else:
+                time_errors[rows] = np.asarray(r["time_errors"])
         for k, (value, slope) in measured.items():
             values[k], gradient[k, len(ps):] = value, slope
-        return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks)
+        return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks,
+                                    time_errors=time_errors)
 
     def time_errors(self, x: DesignLike = None, responses: Sequence[str] | str | None = None, *, steps: int | None = None,
                     **settings: Any) -> dict[str, tuple[float, float]]:

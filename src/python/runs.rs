@@ -148,8 +148,10 @@ pub fn solve_static<'py>(
 
 /// Responses and their gradients: `values` (n_r,), `gradients` (n_r, n_x),
 /// `parameter_gradients` (n_r, n_p) of the scene `parameters` named, `peaks` (the
-/// largest point value of each aggregate, `None` for other responses), the `method` used,
-/// `simulation_seconds` and `gradient_seconds`. `settings` may also hold `method`
+/// largest point value of each aggregate, `None` for other responses), `time_errors` (each
+/// response's `f(h) − f` estimated by the adjoint sweep of a motion, `None` for the direct
+/// method and an equilibrium), the `method` used, `simulation_seconds` and
+/// `gradient_seconds`. `settings` may also hold `method`
 /// and `memory`; `steps`, the step sizes of a dynamic run (default: uniform steps `h`).
 /// With `path`, the states `(q, qdot, qddot, lam)` that [`simulate`] returned for this
 /// design and these settings, the adjoint sweeps about them and the run is not made again
@@ -234,6 +236,7 @@ pub fn run_with_sensitivities<'py>(
         )?,
     )?;
     d.set_item("peaks", result.peaks)?;
+    d.set_item("time_errors", result.time_errors.map(|e| vector(py, e)))?;
     d.set_item("method", result.method.name())?;
     d.set_item("simulation_seconds", result.timings.simulation)?;
     d.set_item("gradient_seconds", result.timings.gradients)?;

@@ -199,14 +199,16 @@ pub(super) fn sensitivities<'py>(
             settings.validate()?;
             sensitivity::sensitivities(&model, &settings, &settings.grid(), &rs, &ps, method)?
         };
-        Ok::<_, Error>((g.values, combined(&named, &g.gradient), g.peaks))
+        let gradient = combined(&named, &g.gradient);
+        Ok::<_, Error>((g.values, gradient, g.peaks, g.time_errors))
     })?;
-    let (values, gradient, peaks) = found;
+    let (values, gradient, peaks, time_errors) = found;
     let d = PyDict::new(py);
     let n_p = gradient.first().map_or(0, Vec::len);
     d.set_item("values", vector(py, values))?;
     d.set_item("gradient", rows(py, gradient, n_p)?)?;
     d.set_item("peaks", peaks)?;
+    d.set_item("time_errors", time_errors.map(|e| vector(py, e)))?;
     Ok(d)
 }
 

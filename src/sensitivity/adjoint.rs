@@ -259,7 +259,7 @@ pub(crate) fn differentiate_backward(
         responses,
         parameters,
     };
-    run.sweep_about(densities, about, None, None)
+    run.sweep_about(densities, about, None)
 }
 
 /// A trajectory given at every time of a grid, one row of the model's coordinates (or
@@ -320,7 +320,7 @@ pub(crate) fn dual_weights(
     let run = Backward::of_values(model, settings, grid, responses);
     let about = about.map_or(About::AUTO, About::Path);
     let mut weights = vec![0.0; (grid.len() + 1) * responses.len() * model.n_dofs()];
-    let sensitivities = run.sweep_about(densities, about, Some(&mut weights), None)?;
+    let sensitivities = run.sweep_about(densities, about, Some(&mut weights))?;
     Ok((sensitivities.values, weights))
 }
 
@@ -338,8 +338,8 @@ pub fn time_errors(
     responses: &[Response],
 ) -> Result<(Vec<f64>, Vec<f64>), Error> {
     let run = Backward::of_values(model, settings, grid, responses);
-    let mut errors = vec![0.0; responses.len()];
-    let sensitivities = run.sweep_about(densities, About::AUTO, None, Some(&mut errors))?;
+    let sensitivities = run.sweep_about(densities, About::AUTO, None)?;
+    let errors = sensitivities.time_errors.unwrap_or_default();
     Ok((sensitivities.values, errors))
 }
 
@@ -371,13 +371,13 @@ impl<'a> Backward<'a> {
 
     /// The forward run, or the trajectory given (every state stored), as `about` says; then
     /// the backward sweep; with `weights`, each time's `μ` kept there (see [`dual_weights`]);
-    /// with `time_errors`, each response's estimated time error there (see [`time_errors`]).
+    /// without, each response's estimated time error too (see [`time_errors`]: its local
+    /// errors cost no measurable time beside the sweep's).
     fn sweep_about(
         &self,
         densities: Densities,
         about: About<'_>,
         weights: Option<&mut [f64]>,
-        time_errors: Option<&mut [f64]>,
     ) -> Result<Sensitivities, Error> {
         let Self {
             model,
@@ -404,10 +404,10 @@ impl<'a> Backward<'a> {
         let simulation = clock.elapsed().as_secs_f64();
         let clock = Instant::now();
         let mut sweep = Sweep::new(model, &it, settings, pseudo, responses.len());
-        sweep.weights = weights;
-        if time_errors.is_some() {
+        if weights.is_none() {
             sweep.local = Some(LocalErrors::new(&it.params, n_q, responses.len()));
         }
+        sweep.weights = weights;
         let mut reverse = Reverse {
             it: &mut it,
             store: &mut store,
@@ -416,25 +416,21 @@ impl<'a> Backward<'a> {
             sweep: &mut sweep,
         };
         backward::sweep(&mut reverse, grid.len())?;
-        if let (Some(out), Some(local)) = (time_errors, sweep.local.as_mut()) {
+        let time_errors = sweep.local.as_mut().map(|local| {
             local.add_quadrature(grid.step(0), grid.step(grid.len() - 1));
             objectives.finish(&mut values.clone(), &mut local.errors);
-            out.copy_from_slice(&local.errors);
-        }
+            std::mem::take(&mut local.errors)
+        });
         objectives.finish(&mut values, &mut sweep.xb);
         let peaks = objectives.peaks();
         let timings = Timings {
             simulation,
             gradients: clock.elapsed().as_secs_f64(),
         };
-        Ok(Sensitivities::new(
-            model,
-            values,
-            &sweep.xb,
-            Method::Adjoint,
-            timings,
-            peaks,
-        ))
+        Ok(Sensitivities {
+            time_errors,
+            ..Sensitivities::new(model, values, &sweep.xb, Method::Adjoint, timings, peaks)
+        })
     }
 }
 

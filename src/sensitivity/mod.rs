@@ -55,6 +55,10 @@ pub struct Sensitivities {
     /// Per response: the largest point value of an aggregate (a stress response's peak,
     /// Pa) over the states, `None` for the others.
     pub peaks: Vec<Option<f64>>,
+    /// Per response: its time error `f(h) − f` to leading order in the step, estimated by
+    /// the adjoint sweep that made the gradients ([`adjoint::time_errors`]); `None` where no
+    /// adjoint sweep of a motion made them (the direct method, an equilibrium).
+    pub time_errors: Option<Vec<f64>>,
 }
 
 impl Sensitivities {
@@ -82,6 +86,7 @@ impl Sensitivities {
             method,
             timings,
             peaks,
+            time_errors: None,
         }
     }
 }

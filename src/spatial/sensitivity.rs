@@ -298,6 +298,10 @@ pub struct Gradients {
     /// [`Response::Stress`]'s mean (`None` for the others): what a limit on the peak
     /// normalizes the mean by (Le et al. 2010).
     pub peaks: Vec<Option<f64>>,
+    /// Each response's time error `f(h) − f` to leading order in the step, estimated by the
+    /// adjoint sweep of a motion that made the gradients ([`time_errors`]); `None` where no
+    /// such sweep made them (the direct method, an equilibrium).
+    pub time_errors: Option<Vec<f64>>,
 }
 
 /// Checks that node `node` of response `k` exists.
@@ -550,7 +554,7 @@ pub fn sensitivities(
     parameters: &[Parameter],
     method: Method,
 ) -> Result<Gradients, Error> {
-    Ok(of_motion(model, settings, grid, responses, parameters, method, false)?.0)
+    of_motion(model, settings, grid, responses, parameters, method)
 }
 
 /// The responses of the motion of `model` on `grid` and each one's time error `f(h) − f`
@@ -565,8 +569,8 @@ pub fn time_errors(
     grid: &TimeGrid,
     responses: &[Response],
 ) -> Result<(Vec<f64>, Vec<f64>), Error> {
-    let (g, errors) = of_motion(model, settings, grid, responses, &[], Method::Adjoint, true)?;
-    Ok((g.values, errors.unwrap_or_default()))
+    let g = of_motion(model, settings, grid, responses, &[], Method::Adjoint)?;
+    Ok((g.values, g.time_errors.unwrap_or_default()))
 }
 
 /// The responses' values on `states` — a run of `model` on `grid` (`restarted` its steps
@@ -595,7 +599,8 @@ pub(crate) fn dual_weights(
     Ok(values)
 }
 
-/// [`sensitivities`], and with `estimate` (by the adjoint) the responses' time errors.
+/// [`sensitivities`], by the adjoint with the responses' time errors ([`time_errors`]: its
+/// local errors cost no measurable time beside the sweep's).
 fn of_motion(
     model: &SpatialModel,
     settings: &DynamicSettings,
@@ -603,8 +608,7 @@ fn of_motion(
     responses: &[Response],
     parameters: &[Parameter],
     method: Method,
-    estimate: bool,
-) -> Result<(Gradients, Option<Vec<f64>>), Error> {
+) -> Result<Gradients, Error> {
     check(model, responses, parameters)?;
     let (states, restarted) = run(model, settings, grid)?;
     let mut sweep = prepared(
@@ -617,8 +621,8 @@ fn of_motion(
         Method::Adjoint => true,
         Method::Auto => responses.len() < swept.len(),
     };
-    let (gradient, errors) = if adjoint || estimate {
-        sweep.adjoint(responses, &swept, estimate, None)?
+    let (gradient, errors) = if adjoint {
+        sweep.adjoint(responses, &swept, true, None)?
     } else {
         let by_parameter = sweep.direct(&swept, responses)?;
         let gradient = (0..responses.len())
@@ -626,10 +630,10 @@ fn of_motion(
             .collect();
         (gradient, None)
     };
-    Ok((
-        sweep.gradients(values, responses, parameters, &gradient),
-        errors,
-    ))
+    Ok(Gradients {
+        time_errors: errors,
+        ..sweep.gradients(values, responses, parameters, &gradient)
+    })
 }
 
 /// The sweep of `states` (a run of `model` on `grid`, `restarted` its steps that began with
@@ -1325,6 +1329,7 @@ impl<'m> Sweep<'m> {
             values,
             gradient: self.with_explicit(responses, parameters, swept),
             peaks: self.peaks(responses),
+            time_errors: None,
         }
     }
 

@@ -146,13 +146,15 @@ def test_a_simulation_held_to_a_tolerance_runs_its_refined_grids_without_it():
 
 
 def test_an_optimization_held_to_a_tolerance_meets_it_where_it_ends():
-    """The flexible pendulum's ∫U dt under a volume bound of 0.8 by MMA at rtol 1e-2: accepted
+    """The flexible pendulum's ∫U dt under a volume bound of 0.8 by MMA at rtol 5e-3: accepted
     designs that moved by more than ``readapt`` are measured, the others run on the grid held,
     the grid only grows, and the design returned is measured as the run ends, its value
     within rtol of 8× its elements on 32× its steps. (Its status may be UNCONFIRMED: a KKT
-    point of the grid held that the finer grid measured at the end moves.)"""
+    point of the grid held that the finer grid measured at the end moves.) At rtol 1e-2 the
+    scene's own grid passes where the adjoint's time error agrees with the half steps
+    (estimated 0.81 %, 0.60 % off): the contract has nothing to refine."""
     sim = SpatialSimulation(flexible_pendulum())
-    problem = SpatialProblem(sim, "strain_energy", volume=0.8, rtol=1e-2, readapt=0.5)
+    problem = SpatialProblem(sim, "strain_energy", volume=0.8, rtol=5e-3, readapt=0.5)
     grids, on_held, measure = [], [], problem._run
 
     def counted(x, measured):
@@ -167,10 +169,10 @@ def test_an_optimization_held_to_a_tolerance_meets_it_where_it_ends():
     assert all(b.refinement >= a.refinement and b.steps >= a.steps for a, b in zip(held, held[1:]))
     assert held[-1].refinement > 1  # the contract refined the scene's grid
     restored = SpatialProblem.from_dict(sim, problem.to_dict())  # a checkpoint keeps the grid held and the rule
-    assert restored.held == problem.held and np.array_equal(restored.rule.at, problem.rule.at) and restored.rtol == 1e-2
+    assert restored.held == problem.held and np.array_equal(restored.rule.at, problem.rule.at) and restored.rtol == 5e-3
     fine = SpatialSimulation(refined_spec(flexible_pendulum().to_dict(), 8))
     reference = fine.run_with_sensitivities(result.x, "strain_energy", h=0.005 / 32).values[0]
-    assert abs(result.fun * problem.reference - reference) <= 1e-2 * reference
+    assert abs(result.fun * problem.reference - reference) <= 5e-3 * reference
 
 
 def clamped_bar(split: int = 1) -> SpatialScene:

@@ -90,3 +90,15 @@ def test_more_steps_than_a_run_may_take_are_refused_before_anything_is_allocated
         top.time_errors(None, "x:top", steps=10**12)
     with pytest.raises(SettingsError, match="at least one response"):
         top.time_errors(None, [], steps=10)
+
+
+def test_a_spatial_run_with_adjoint_gradients_carries_its_time_errors(top):
+    """The adjoint sweep of a spatial run's gradients estimates its time errors too, the same
+    numbers as ``time_errors``; the direct method and an equilibrium make none."""
+    names = ["x:top", "z:top"]
+    t_end = 0.5
+    out = top.run_with_sensitivities(None, names, ["mass:top"], h=t_end / 500, t_end=t_end, method="adjoint")
+    alone = top.time_errors(None, names, steps=500, t_end=t_end)
+    assert out.time_errors == pytest.approx([alone[n][1] for n in names], rel=1e-12)
+    direct = top.run_with_sensitivities(None, names, ["mass:top"], h=t_end / 500, t_end=t_end, method="direct")
+    assert direct.time_errors is None

@@ -362,3 +362,78 @@ def test_a_failed_companion_is_named_as_the_companion(monkeypatch):
     with pytest.raises(SimulationError, match=r"the error cannot be estimated: the run succeeded, but its companion on "
                                               r"its steps merged in pairs failed \(Newton did not converge"):
         res.error_estimate("tip_deflection")
+
+
+def test_the_adjoint_time_errors_are_read_only_where_they_agree_with_the_half_steps():
+    """``agreed_time``: within 2/3–3/2 of ``(f(2h) − f(h))/3`` the values' errors are the larger
+    of the two readings, a gradient's ``a/2``, a first-order quantity's (a peak's) ``2a``;
+    outside the band, or of the other sign, none."""
+    fine = [np.array([1.0]), np.array([3.0, 4.0]), np.array([5.0])]
+    half = [np.array([1.3]), np.array([3.0, 4.5]), np.array([5.2])]  # a = 0.3, 0.5, 0.2
+    orders = np.array([2.0, 2.0, 1.0])
+    time = tolerance.agreed_time(fine, half, np.array([0.12]), orders)
+    assert time == pytest.approx([0.12, 0.25, 0.4])
+    assert tolerance.agreed_time(fine, half, np.array([0.08]), orders)[0] == pytest.approx(0.1), "a/3 where the larger"
+    for disagreeing in (0.06, 0.16, -0.1, np.nan):
+        assert tolerance.agreed_time(fine, half, np.array([disagreeing]), orders) is None, disagreeing
+
+
+def test_agreeing_adjoint_errors_judge_a_candidate_without_the_quarter_and_eighth_runs():
+    """Where the adjoint's errors agree with the half steps, a candidate is judged raw on them:
+    the same candidate accepted as by step doubling, its error within rtol, and neither the
+    runs at 4h and 8h nor an extrapolation made; where they disagree (the wrong sign, as
+    before the asymptotic range), the rule is step doubling's."""
+    tol = Tolerance(["f"], np.array([1e-3]), np.array([0.0]))
+    values, _ = model_values(c_time=0.3, c_space=0.0)
+    seen = []
+
+    def recorded(d, companion=False):
+        seen.append((d, companion))
+        return values(d, companion)
+
+    first = Discretization(1, 16)
+    plain, _ = resolve(recorded, first, tol, extrapolate=True)
+    assert (first.quarter_steps, True) in seen, "step doubling reads the quarter steps"
+    seen.clear()
+    exact = lambda d: np.array([0.3 * (1.0 / d.steps) ** 2])  # noqa: E731
+    d, est = resolve(recorded, first, tol, extrapolate=True, adjoint=exact)
+    assert d == plain and not d.extrapolated and abs(values(d)[0][0] - 2.0) <= 1e-3 * 2.0
+    assert est.time[0] == pytest.approx(exact(d)[0], rel=1e-6)
+    assert {c for c, _ in seen} == {d, d.half_steps, d.split, d.split_twice}, \
+        "the candidate, its half steps and its space companions (confirmed below rtol 1e-2)"
+    seen.clear()
+    wrong, _ = resolve(recorded, first, tol, extrapolate=True, adjoint=lambda d: -exact(d))
+    assert wrong == plain and (first.quarter_steps, True) in seen
+
+
+def test_a_space_error_over_budget_on_settled_steps_skips_the_candidates_own_runs():
+    """After a candidate whose time error was within half the budget, one refined in space only
+    on the same steps whose space companion alone is over budget cannot pass: it is refined
+    again without its own run (nor its quarter and eighth steps); the run accepted meets
+    rtol."""
+    tol = Tolerance(["f"], np.array([1e-3]), np.array([0.0]))
+    seen = []
+    values, _ = model_values(c_time=1e-4, c_space=0.01)
+
+    def recorded(d, companion=False):
+        seen.append((d, companion))
+        return values(d, companion)
+
+    d, est = resolve(recorded, Discretization(1, 8), tol)
+    assert abs(values(d)[0][0] - 2.0) <= 1e-3 * 2.0
+    candidates = {replace(c, steps=2 * c.steps, uniform=1) for c, _ in seen if c.uniform == 2}  # whose space companion ran
+    skipped = [c for c in candidates if (c, False) not in seen]
+    assert skipped and all(c.refinement < d.refinement and c.steps == d.steps for c in skipped)
+
+
+def test_a_run_with_adjoint_gradients_carries_its_time_errors(arm):
+    """The adjoint sweep that makes a run's gradients estimates its time errors too, the same
+    numbers as ``time_errors``; the direct method makes none."""
+    x = np.random.default_rng(3).uniform(0.1, 1.0, arm.n_design)
+    names = ["tip_deflection", "strain_energy"]
+    out = arm.run_with_sensitivities(x, names, h=T_ARM / 136, method="adjoint")
+    alone = arm.time_errors(x, names, steps=136)
+    assert out.time_errors == pytest.approx([alone[n][1] for n in names], rel=1e-12)
+    assert arm.run_with_sensitivities(x, names, h=T_ARM / 136, method="direct").time_errors is None
+    with pytest.raises(SettingsError, match="time_estimate"):
+        arm.run_with_sensitivities(x, names, rtol=1e-2, time_estimate="richardson")

@@ -240,7 +240,8 @@ def extrapolated(fine: Any, half: Any) -> Any:
     timings = {key: fine.timings.get(key, 0.0) + half.timings.get(key, 0.0) for key in {*fine.timings, *half.timings}}
     peaks = {name: float(tolerance.richardson([np.array(p)], [np.array(half.peaks[name])])[0]) for name, p in fine.peaks.items()}
     return replace(fine, values=combined("values"), gradients=combined("gradients"),
-                   parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None, peaks=peaks)
+                   parameter_gradients=combined("parameter_gradients"), timings=timings, steps=None, peaks=peaks,
+                   time_errors=None)
 
 
 HELD_NEWTON_TOL = 1e-8
@@ -372,7 +373,8 @@ def marks(simulation: Simulation, d: Discretization, missed: bool, ratios: np.nd
 
 def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str], wanted: tuple[float, float],
                  settings: dict[str, Any], gradients: dict[str, str] | None, start: Discretization | None = None,
-                 hold_gradients: bool = True, extrapolate: bool = False, made: Sequence[_Run] = ()) -> Any:
+                 hold_gradients: bool = True, extrapolate: bool = False, made: Sequence[_Run] = (),
+                 adjoint: bool = False) -> Any:
     """Runs until :func:`tolerance.resolve` accepts a candidate; returns the candidate's
     results (or sensitivities) with its estimate and companions attached. With
     ``gradients`` but not ``hold_gradients``, candidates are judged on forward runs and the
@@ -384,7 +386,9 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     (unless a candidate made it), so that the values are those of two ordinary runs, side
     by side (:func:`~flextop.execution.side_by_side`). Companion runs stop Newton at
     :func:`tolerance.companion_newton_tol` (unless the run's ``tol`` is given), and reuse
-    any run made at their discretization; a candidate reuses only a candidate's run. Judged on
+    any run made at their discretization; a candidate reuses only a candidate's run. With
+    ``adjoint`` and the gradients held, a candidate's time errors are the adjoint's where they
+    agree with its half steps (:func:`tolerance.agreed_time`). Judged on
     the values alone, a grid and steps one of the runs ``made`` already ran (of ``xv``: an
     optimization's trial on the grid held) are read from it, not run again."""
     duration = None if simulation.analysis == "static" else t_end(simulation, settings)
@@ -392,7 +396,7 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         raise SettingsError("made: every run given must be of the design being run")
     levels = simulation.levels
     runs: dict[tuple[Discretization, bool], Any] = {}
-    splits: dict[Discretization, Any] = {}  # the last two space companions' runs, whose states the shares read
+    kept: dict[Discretization, Any] = {}  # the last companions' forward runs: the guides of space companions, the shares' states
     judged = gradients if hold_gradients else None
     loose = {"tol": tolerance.companion_newton_tol(wanted[0]), "newton": "modified"}
     loose = {k: v for k, v in loose.items() if k not in settings}
@@ -401,8 +405,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         level = levels.at(d, xv)
         at = {**settings, **({"h": duration / d.steps, "t_end": duration} if d.steps else {}),
               **(loose if is_companion else {})}
-        if gradients and is_companion and is_split(d) and gradients.get("method") != "direct":
-            states = forward(d, level, at)  # kept for the shares; the gradients about them
+        if gradients and is_companion and d.steps and gradients.get("method") != "direct":
+            states = forward(d, level, at)  # kept for a guide or the shares; the gradients about them
             return level.sensitivities_fixed(xv, names, {**states.settings, **gradients}, about=states)
         if gradients:
             return level.sensitivities_fixed(xv, names, {**at, **gradients})
@@ -413,14 +417,14 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
 
     def forward(d: Discretization, level: Simulation, at: dict[str, Any]) -> Any:
         """A companion's forward run, a space companion's guided by the run with half its
-        elements where its states were kept, and kept for the shares."""
-        coarse = found(replace(d, uniform=d.uniform // 2)) if is_split(d) and not judged else None
+        elements (its half-steps companion, or the space companion it confirms), kept for
+        the companion it may guide and for the shares: the last four."""
+        coarser = replace(d, uniform=d.uniform // 2)
+        coarse = (kept.get(coarser) or (None if judged else found(coarser))) if is_split(d) else None
         plain = {k: v for k, v in at.items() if k != "newton" or "newton" in settings}
-        out = companion(level, xv, at, plain, coarse)
-        if is_split(d):
-            splits[d] = out
-            while len(splits) > 2:  # a candidate's split and the split twice that confirms it
-                splits.pop(next(iter(splits)))
+        out = kept[d] = companion(level, xv, at, plain, coarse)
+        while len(kept) > 4:
+            kept.pop(next(iter(kept)))
         return out
 
     def found(d: Discretization, is_companion: bool = True) -> Any:
@@ -451,8 +455,10 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
     d, est = tolerance.resolve(values, start or first(simulation, settings), tol, lambda d: levels.elements(d, xv),
                                extrapolate=extrapolate and gradients is not None,
                                mark=(lambda d, missed, ratios: marks(simulation, d, missed, ratios, xv, names, settings,
-                                                                     splits.get(d.split)))
-                               if measured else None)
+                                                                     kept.get(d.split)))
+                               if measured else None,
+                               adjoint=(lambda d: getattr(runs.get((d, False)), "time_errors", None))
+                               if judged and adjoint else None)
     relative = list(map(float, est.relative))
     errors = dict(zip(names, relative))
     peak_errors = dict(zip(peaked, relative[len(relative) - len(peaked):]))

@@ -187,7 +187,7 @@ class Accepted:
 
 def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str], parameters: Sequence[str],
                  static: bool, wanted: tuple[float, float], settings: dict[str, Any],
-                 start: Discretization | None = None) -> Accepted:
+                 start: Discretization | None = None, time_estimate: str = "adjoint") -> Accepted:
     """``responses`` of ``sim`` (a :class:`~flextop.spatial.SpatialSimulation`) at ``design``
     with their gradients to the densities and ``parameters``, on the first candidate whose
     estimate meets ``rtol·|f| + atol`` for every value and ``GRADIENT_FACTOR · rtol`` for every
@@ -196,7 +196,10 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
     scene's grid by default: its elements, its step). Companion runs stop Newton at
     :func:`.tolerance.companion_newton_tol` and keep an iteration's factorization while it
     contracts (``newton = "modified"``: on the robot arm at x = 0.4, 16 % less time in all
-    over a motion), unless ``settings`` give ``tol`` or ``newton``.
+    over a motion), unless ``settings`` give ``tol`` or ``newton``. ``time_estimate``: a
+    candidate's time errors by its own adjoint where they agree with its half steps
+    (``"adjoint"``, :func:`.tolerance.agreed_time`) or by step doubling alone
+    (``"doubling"``).
 
     Raises :class:`ToleranceError` where no candidate within the limits of
     :func:`.tolerance.resolve` meets the tolerance, or where a refined scene passes the
@@ -233,7 +236,8 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
     measured = sim.refine == "shares" and not static
     d, est = tolerance.resolve(values, start, tol, cost,
                                mark=(lambda d, missed, ratios: marks(sim, d, missed, ratios, design, responses, settings))
-                               if measured else None)
+                               if measured else None,
+                               adjoint=(lambda d: made[(d, False)].time_errors) if time_estimate == "adjoint" else None)
     relative = list(map(float, est.relative))
     accepted = made[(d, False)]
     return Accepted(accepted, d, dict(zip(responses, relative)), dict(zip(responses, relative[len(responses):])))

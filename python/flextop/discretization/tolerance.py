@@ -68,8 +68,19 @@ is 20–600× more accurate than f(h) from 544 steps on (benches/results/richard
 its asymptotic range the contraction of R is outside ``TRUSTED_EXTRAPOLATION`` and f(h) is
 judged alone.
 
-Step doubling is preferred here to a local error estimator of generalized-α because it
-measures what the user asks for, the error of a response, including the spatial part and
+Where the gradients are held and made by the adjoint method, the candidate's own backward
+sweep also estimates each value's time error, ``f(h) − f`` to leading order: the steps'
+local errors weighted by the adjoint variables (``Simulation.time_errors``, at no measurable
+cost beside the sweep). Alone it is not honest before the asymptotic range (on optimized
+arm designs at the scene's 68 steps it had the wrong sign); where it agrees with the
+half-steps run's ``(f(2h) − f(h))/3`` within :data:`AGREEMENT`, the candidate is judged raw
+on it (:func:`agreed_time`) and needs no run at 4h (``time_estimate="doubling"`` keeps step
+doubling alone). A candidate refined in space only on steps whose time error took at most
+half the budget is first judged on its space companion alone (:func:`_space_over`): if that
+is over budget no estimate of the candidate can pass, and its own run is not made.
+
+Step doubling is preferred here to a local error estimator of generalized-α alone because
+it measures what the user asks for, the error of a response, including the spatial part and
 the effect of ρ∞'s numerical damping. Its cost over the run itself: half a run in the time
 companion (the quarter-steps run only when the slowest contraction, 1.5, would fail the
 budget), and half a run at twice the elements per bar in space (skipped while the time
@@ -119,6 +130,25 @@ SLOWEST = 1.5
 """The contraction assumed when the observed one is slower, or faster than 1.5× the
 second-order rate (the quarter-steps run is then outside the asymptotic range: on an
 optimized design, 17 steps gave twice the d of 34 and 68, a contraction of 24)."""
+
+TIME_ESTIMATES = ("adjoint", "doubling")
+"""How a run to a tolerance estimates a candidate's time error: by its adjoint where that
+agrees with its half steps (:func:`agreed_time`), or by step doubling alone."""
+
+AGREEMENT = (2.0 / 3.0, 1.5)
+"""Ratios of a value's time error estimated by the adjoint of the candidate's run (the
+steps' local errors weighted by its adjoint variables: the sweep that makes the gradients
+makes it too) to step doubling's second-order reading ``(f(2h) − f(h))/3`` within which the
+run is taken to be in its asymptotic range in time. On the arm's 33 designs at 68 to 1088
+steps (BENCHMARKS.md, "The time error from the adjoint"), wherever the two agreed so the
+adjoint's estimate was 0.78–2.7 of the true error; before the asymptotic range (the scene's
+68 steps on an optimized design) it was of the wrong sign on 7 designs and under by more
+than 2× on 9, and the two then disagree."""
+
+AGREED_CONTRACTION = 3.0
+"""The contraction from 2h to h assumed for a gradient's (and any value's) time error where
+the values' estimates agree (:data:`AGREEMENT`): generalized-α's 4 read at the band's
+edge, ``4 / (4/3)``, so that ``e = a/2`` — a gradient has no adjoint estimate of its own."""
 
 MIN_RTOL = 1e-6
 """Smallest ``rtol`` accepted: step doubling cannot resolve differences near Newton's
@@ -327,6 +357,26 @@ def extrapolated_estimate(fine: Quantities, half: Quantities, quarter: Quantitie
     return ErrorEstimate(_sizes(now), time, space)
 
 
+def agreed_time(fine: Quantities, half: Quantities, adjoint: np.ndarray, orders: np.ndarray) -> np.ndarray | None:
+    """The time errors of ``fine`` where the adjoint's estimates ``adjoint`` of its first
+    ``len(adjoint)`` quantities (the responses' values) each lie within :data:`AGREEMENT` of
+    ``(f(2h) − f(h))/3`` from ``half``; ``None`` where one does not. Then each value's error
+    is the larger of its adjoint's and that reading, a gradient's ``a/2`` at
+    :data:`AGREED_CONTRACTION` (``a`` the 2-norm of its change from 2h), a first-order
+    quantity's (a peak) ``2a`` at the :data:`SLOWEST` contraction: no run at 4h is needed."""
+    n = len(adjoint)
+    doubled = np.array([(h - f).item() for f, h in zip(fine[:n], half[:n])]) / 3.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(doubled == 0.0, np.where(adjoint == 0.0, 1.0, np.inf), adjoint / doubled)
+    low, high = AGREEMENT
+    if not (np.all(np.isfinite(adjoint)) and np.all((ratio >= low) & (ratio <= high))):
+        return None
+    a = _distances(fine, half)
+    time = a / (np.where(orders >= TIME_ORDER, AGREED_CONTRACTION, SLOWEST) - 1.0)
+    time[:n] = np.maximum(np.abs(adjoint), a[:n] / (2.0**TIME_ORDER - 1.0))
+    return time
+
+
 def _distances(p: Quantities, q: Quantities) -> np.ndarray:
     """``|p − q|`` per quantity (the 2-norm of a gradient's difference)."""
     return np.array([np.linalg.norm(x - y) for x, y in zip(p, q)])
@@ -339,6 +389,11 @@ def _sizes(quantities: Quantities) -> np.ndarray:
 Values = Callable[[Discretization, bool], Quantities]
 """``values(d, companion)``: the quantities of the run at ``d``, a companion run (whose
 Newton iterations may stop at :func:`companion_newton_tol`) or a candidate."""
+
+Adjoint = Callable[[Discretization], "np.ndarray | None"]
+"""``adjoint(d)``: the time errors of the responses' values of the candidate ``d`` (made
+already) as the adjoint sweep of its run estimated them, ``None`` where no sweep made them
+(:func:`agreed_time`)."""
 
 
 def companion_newton_tol(rtol: float) -> float:
@@ -378,11 +433,19 @@ refined, or only a gradient's or a peak's error is over and no bar was marked ye
 
 def resolve(values: Values, first: Discretization, tol: Tolerance,
             elements: Callable[[Discretization], float] = lambda d: d.refinement,
-            extrapolate: bool = False, mark: Marks | None = None) -> tuple[Discretization, ErrorEstimate]:
+            extrapolate: bool = False, mark: Marks | None = None,
+            adjoint: Adjoint | None = None) -> tuple[Discretization, ErrorEstimate]:
     """The first candidate from ``first`` on whose estimate meets ``rtol·|q| + atol`` for
     every quantity, and that estimate. A :class:`SimulationError` in a run counts as an
     infinite error of that run. A candidate whose time error alone is clearly over budget
     is refined without running its space companion.
+
+    With ``adjoint``, a dynamic candidate whose values' adjoint time errors agree with its
+    half-steps run (:func:`agreed_time`) and are within budget is judged raw on them, with
+    no run at 4h or 8h; where that fails and the candidate could be extrapolated, it is
+    judged as follows too. After a candidate whose time error took at most half the budget,
+    one refined in space only on the same steps is first judged on its space companion
+    alone (:func:`_space_over`).
 
     With ``extrapolate``, a dynamic candidate whose steps divide by 8 is judged on its
     Richardson extrapolation too (:func:`extrapolated_estimate`, from its time companions
@@ -407,9 +470,10 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
             failures.append(error)
             raise
 
-    d, failed, before = first.grid, 0, None
+    d, failed, before, settled = first.grid, 0, None, None
     for _ in range(MAX_CANDIDATES):
-        verdict = _judge(recorded, d, tol, extrapolate)
+        space_first = settled is not None and d.steps == settled.steps and d != settled
+        verdict = (space_first and _space_over(recorded, d, tol)) or _judge(recorded, d, tol, extrapolate, adjoint)
         if verdict.passed:
             return replace(d, extrapolated=verdict.extrapolated), verdict.estimate
         failed = failed + 1 if verdict.failed else 0
@@ -433,6 +497,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
         else:
             refined = _refine(d, verdict, everywhere=not back and (stalled or d.floor > 1))
         before = (d, verdict.worst_space)
+        settled = d if verdict.estimate is not None and verdict.worst_time <= 0.5 and refined.steps == d.steps else None
         if max((refined.refinement, *refined.factors)) > MAX_REFINEMENT or refined.steps > MAX_STEPS \
                 or elements(refined) > MAX_ELEMENTS_FACTOR:
             raise _beyond_limits(d, verdict.estimate, tol)
@@ -470,17 +535,27 @@ class Verdict:
         return EXTRAPOLATED_ORDER if self.extrapolated or (self.extrapolable and self.worst_space <= 0.5) else TIME_ORDER
 
 
-def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool = False) -> Verdict:
-    """Runs ``d`` and its half-steps companion (with ``extrapolate`` and steps that divide
-    by 8, the quarter- and eighth-steps companions too); then, unless the time error alone
-    is clearly over budget, the space companion; then the quarter-steps companion if the
-    estimate without it fails. The extrapolated values are judged where their estimate is
-    the smaller."""
+def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool = False,
+           adjoint: Adjoint | None = None) -> Verdict:
+    """Runs ``d`` and its half-steps companion. Where the adjoint's time errors of ``d``
+    agree with it (:func:`agreed_time`) and are within budget, judges ``d`` raw on them
+    (:func:`_judge_agreed`), and that verdict stands unless it fails where the values could
+    be extrapolated. Otherwise (with ``extrapolate`` and steps that divide by 8, the
+    quarter- and eighth-steps companions too), unless the time error alone is clearly over
+    budget, the space companion; then the quarter-steps companion if the estimate without
+    it fails. The extrapolated values are judged where their estimate is the smaller."""
     dynamic = d.steps > 0
     fine = _try(values, d)
     half = _try(values, d.half_steps, companion=True) if dynamic else None
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
         return Verdict(None, np.inf, 0.0, failed=fine is None) if dynamic else Verdict(None, 0.0, np.inf, failed=True)
+    estimated = None if adjoint is None or half is None else adjoint(d)
+    agreed = None if estimated is None else agreed_time(fine, half, np.asarray(estimated, float), tol.orders)
+    if agreed is not None and half is not None \
+            and _ratio(agreed, tol.budget(ErrorEstimate(_sizes(fine), agreed, agreed))) <= 1.0:
+        verdict = _judge_agreed(values, d, tol, fine, half, agreed)
+        if verdict.passed or not (extrapolate and d.steps % 8 == 0):
+            return verdict  # else the extrapolated values may pass: judged below, the runs made kept
     quarter = eighth = None
     if dynamic and extrapolate and d.steps % 8 == 0:
         quarter, eighth = _try(values, d.quarter_steps, companion=True), _try(values, d.eighth_steps, companion=True)
@@ -509,6 +584,43 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     verdict = Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget),
                       extrapolated=extrapolated, extrapolable=extrapolate and dynamic)
     if verdict.passed and dynamic and tol.rtol.min() < CONFIRMED_BELOW:
+        return _confirmed(values, d, verdict, tol, half, split)
+    return verdict
+
+
+def _space_over(values: Values, d: Discretization, tol: Tolerance) -> Verdict | None:
+    """The verdict on ``d`` from its space companion alone where its space error is over
+    budget, else ``None``: ``d``'s half-steps run and the space companion, which its full
+    judgement reads too, without the run at ``d`` itself and the time companions below it.
+    Every estimate of ``d`` (raw, agreed, extrapolated) carries that space error, so ``d``
+    cannot pass. For a candidate refined in space only after one whose time error was
+    within half the budget on the same steps: it is refined again at once, the steps kept."""
+    half = _try(values, d.half_steps, companion=True)
+    split = None if half is None else _try(values, d.split, companion=True)
+    if half is None or split is None:
+        return None
+    sizes = _sizes(half)
+    est = ErrorEstimate(sizes, np.zeros(len(sizes)), _distances(split, half) / (1.0 - 2.0**-SPACE_ORDER))
+    worst = _ratio(est.space, tol.budget(est))
+    return Verdict(est, 0.0, worst) if worst > 1.0 else None
+
+
+def _judge_agreed(values: Values, d: Discretization, tol: Tolerance, fine: Quantities, half: Quantities,
+                  time: np.ndarray) -> Verdict:
+    """``d`` judged raw on the time errors ``time`` (:func:`agreed_time`) and, unless they are
+    clearly over budget, the space companion's estimate (confirmed below
+    :data:`CONFIRMED_BELOW`, as :func:`_judge` does). More steps are foreseen at the raw
+    second order."""
+    sizes = _sizes(fine)
+    budget = tol.budget(ErrorEstimate(sizes, time, np.zeros_like(time)))
+    if _ratio(time, budget) > 2.0:
+        return Verdict(ErrorEstimate(sizes, time, np.zeros_like(time)), _ratio(time, budget), 0.0)
+    split = _try(values, d.split, companion=True)
+    if split is None:  # the finer model failed where this one ran: more steps first
+        return Verdict(None, np.inf, 0.0)
+    est = ErrorEstimate(sizes, time, _distances(split, half) / (1.0 - 2.0**-SPACE_ORDER))
+    verdict = Verdict(est, _ratio(est.time, budget), _ratio(est.space, budget), _ratio(est.total, budget))
+    if verdict.passed and tol.rtol.min() < CONFIRMED_BELOW:
         return _confirmed(values, d, verdict, tol, half, split)
     return verdict
 

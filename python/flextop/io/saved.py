@@ -88,14 +88,15 @@ def write(results: Any, path: str | os.PathLike) -> Path:
 
 def write_sensitivities(sens: Any, path: str | os.PathLike) -> Path:
     """Writes :class:`~flextop.Sensitivities` to ``path`` (``.npz``): its arrays (``values``,
-    ``gradients``, ``parameter_gradients``, ``steps`` where present) and, in ``meta``, the
+    ``gradients``, ``parameter_gradients``, ``steps``, ``time_errors`` where present) and, in ``meta``, the
     rest (names, method, timings, discretization, estimated errors, peaks, parameters)."""
     path = Path(path)
     if path.suffix != ".npz":
         raise SettingsError(f"{path}: sensitivities are saved as .npz; give a path ending in .npz")
     arrays = {name: np.asarray(value) for name, value in (("values", sens.values), ("gradients", sens.gradients),
                                                           ("parameter_gradients", sens.parameter_gradients),
-                                                          ("steps", sens.steps)) if value is not None}
+                                                          ("steps", sens.steps), ("time_errors", sens.time_errors))
+              if value is not None}
     meta = {"version": VERSION, "kind": "sensitivities", "names": list(sens.names), "method": sens.method,
             "timings": sens.timings, "errors": sens.errors, "gradient_errors": sens.gradient_errors, "peaks": sens.peaks,
             "peak_errors": sens.peak_errors,
