@@ -75,8 +75,9 @@ velocity (velocity in space, angular velocity in the node's axes)."""
 @dataclass(frozen=True)
 class _Layout:
     """Where a name's numbers are — nodes (bodies on theirs) and joints' rows — and the
-    structure's cells: each beam element's or bar's end nodes, its beam's index and its
-    design variable's (−1 where fixed), each body's node."""
+    structure's cells: each beam element's or bar's end nodes, its beam's index, its design
+    variable's (−1 where fixed) and its section's reach from the axis (m), each body's node,
+    each joint's first anchor: its node (−1: the ground) and point in that node's frame."""
 
     nodes: dict[str, int]
     joints: dict[str, range]
@@ -85,6 +86,17 @@ class _Layout:
     line_beam: tuple[int, ...]
     bodies: tuple[int, ...]
     line_variable: tuple[int, ...] = ()
+    line_radius: tuple[float, ...] = ()
+    joint_anchors: tuple[tuple[int, tuple[float, ...]], ...] = ()
+
+    def joint_points(self, q: np.ndarray) -> np.ndarray:
+        """Each joint's first anchor in space at the configuration ``q`` (seven numbers per
+        node), shape ``(n_joints, 3)`` (m)."""
+        points = np.zeros((len(self.joint_anchors), 3))
+        nodes = q.reshape(-1, NQ)
+        for k, (node, arm) in enumerate(self.joint_anchors):
+            points[k] = arm if node < 0 else nodes[node, :3] + rotations(nodes[node, 3:][None])[0] @ np.asarray(arm)
+        return points
 
     def line_densities(self, x: np.ndarray | None) -> np.ndarray:
         """Each line's density at design ``x`` (1 where fixed or at full density)."""
@@ -309,12 +321,15 @@ class SpatialSimulation:
         plausibility.check(self.spec, float(np.linalg.norm(np.ptp(points, axis=0))) if points else 0.0)
         nodes = {name: k for k, name in enumerate(self.model.node_names)}
         nodes.update(dict(self.model.body_nodes))
-        beams, variables = self.model.beams, self.model.beam_variables
+        beams, variables, radii = self.model.beams, self.model.beam_variables, self.model.beam_radii
+        anchors = tuple((-1 if nodes_[0] is None else int(nodes_[0]), tuple(map(float, arms[0])))
+                        for _, _, nodes_, arms in self.model.joint_anchors)
         self.layout = _Layout(nodes, {name: range(a, b) for name, a, b in self.model.joint_rows}, tuple(self.model.node_names),
                               tuple((int(a), int(b)) for _, ends in beams for a, b in ends),
                               tuple(k for k, (_, ends) in enumerate(beams) for _ in ends),
                               tuple(node for _, node in self.model.body_nodes),
-                              tuple(-1 if v is None else v for (_, ends), v in zip(beams, variables) for _ in ends))
+                              tuple(-1 if v is None else v for (_, ends), v in zip(beams, variables) for _ in ends),
+                              tuple(r for (_, ends), r in zip(beams, radii) for _ in ends), anchors)
 
     @property
     def analysis(self) -> str:

@@ -161,6 +161,34 @@ impl PySpatialModel {
             .collect()
     }
 
+    /// Each scene beam's reach from its axis, for drawing it (in the order of `beams`, m):
+    /// a frame beam's section's ([`crate::spatial::section::Section::outer_radius`]), a truss
+    /// bar's the radius of the circle of its area.
+    #[getter]
+    fn beam_radii(&self) -> Vec<f64> {
+        let m = &self.scene.model;
+        let radius = |b: &crate::scene::spatial::BeamElements| match b.elements.first() {
+            Some(&e) if b.truss => (m.trusses[e].area / std::f64::consts::PI).sqrt(),
+            Some(&e) => m.beams[e].section.outer_radius(),
+            None => 0.0,
+        };
+        self.scene.beams.values().map(radius).collect()
+    }
+
+    /// Each joint's name, kind and anchors: per side (A, B) its node (`None`: the ground)
+    /// and its point, in the node's frame from its origin (the ground's in space, m).
+    #[getter]
+    #[allow(clippy::type_complexity)] // the tuple Python receives
+    fn joint_anchors(&self) -> Vec<(String, &'static str, [Option<usize>; 2], [[f64; 3]; 2])> {
+        let point = |v: &nalgebra::Vector3<f64>| [v.x, v.y, v.z];
+        (self.scene.model.joints.iter())
+            .map(|j| {
+                let arms = [point(&j.pair.arms[0]), point(&j.pair.arms[1])];
+                (j.name.clone(), j.kind.name(), j.pair.nodes, arms)
+            })
+            .collect()
+    }
+
     /// The initial configuration: seven numbers per node (position, unit quaternion `w, x, y, z`).
     #[getter]
     fn initial_q(&self) -> Vec<f64> {

@@ -411,6 +411,18 @@ impl Section {
         Some((shape.geometry(nu)?, shape.rate(nu, dimension)?))
     }
 
+    /// How far the section reaches from the beam's axis, for drawing it (m): a circle's or
+    /// a tube's outer radius, half a rectangle's larger side; without a shape, the radius
+    /// of the circle of its area.
+    pub fn outer_radius(&self) -> f64 {
+        match self.shape {
+            Some(Shape::SolidCircle { d }) => 0.5 * d,
+            Some(Shape::HollowCircle { outer, .. }) => 0.5 * outer,
+            Some(Shape::Rectangle { b, h }) => 0.5 * b.max(h),
+            None => (self.area / std::f64::consts::PI).sqrt(),
+        }
+    }
+
     /// The section made of `shape` (its size parameters move it).
     pub fn with_shape(self, shape: Shape) -> Self {
         Self {

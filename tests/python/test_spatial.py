@@ -12,6 +12,7 @@ from scipy.special import ellipk
 import flextop
 from conftest import EXAMPLES, lattice_cantilever, trapezoid
 from flextop import SceneError, SettingsError, SimulationError, SpatialScene, SpatialSimulation, axis_angle
+from flextop.quaternion import rotations
 
 G = 9.81
 
@@ -570,8 +571,9 @@ def test_implausible_units_are_warned_about():
 
 
 def test_a_spatial_motion_for_paraview_reads_back_with_meshio(tmp_path):
-    """The rod's frames: points where the nodes are at each frame's time, one line per beam
-    element, the body's vertex, the nodes' axes orthonormal and turning with them."""
+    """The rod's frames: points where the nodes are at each frame's time, then its weld's
+    place, one line per beam element, the body's vertex and the weld's, the nodes' axes
+    orthonormal and turning with them."""
     import xml.etree.ElementTree as ET
 
     import meshio
@@ -588,15 +590,40 @@ def test_a_spatial_motion_for_paraview_reads_back_with_meshio(tmp_path):
     assert times == pytest.approx(list(run.time[::5]))
     for k, dataset in zip(range(0, len(run.time), 5), frames):
         mesh = meshio.read(tmp_path / dataset.get("file"))
-        assert np.allclose(mesh.points, run.q[k].reshape(-1, 7)[:, :3], atol=1e-12)
+        nodes = run.q[k].reshape(-1, 7)[:, :3]
+        assert np.allclose(mesh.points[:len(nodes)], nodes, atol=1e-12)
+        assert np.allclose(mesh.points[len(nodes):], [[0.0, 0.0, 0.0]], atol=1e-12)  # the weld at the root
         lines = mesh.cells_dict["line"]
-        assert len(lines) == 4 and mesh.cells_dict["vertex"].ravel().tolist() == [1]
-        axes = np.stack([mesh.point_data[f"axis_{i}"] for i in (1, 2, 3)], axis=2)
+        assert len(lines) == 4 and mesh.cells_dict["vertex"].ravel().tolist() == [1, len(nodes)]
+        axes = np.stack([mesh.point_data[f"axis_{i}"] for i in (1, 2, 3)], axis=2)[:len(nodes)]
         assert np.allclose(axes @ axes.transpose(0, 2, 1), np.eye(3), atol=1e-12)
     assert np.abs(mesh.point_data["axis_1"][1, 2]) > 1e-6  # the tip has turned by the end
+    assert np.all(np.isnan(mesh.point_data["velocity"][len(nodes):]))  # a joint's place carries no node's motion
     assert np.all(mesh.cell_data["density"][0] == 1.0)  # at full density
     with pytest.raises(SettingsError, match=r"\.pvd"):
         run.to_vtk(tmp_path / "motion.vtu")
+
+
+def test_a_spatial_motions_joints_and_bars_reach_paraview_where_and_as_thick_as_they_are(tmp_path):
+    """The spatial robot arm in motion: each joint a vertex at its first anchor, where its
+    second anchor is too (the revolute hinges and the welds hold their points together, to
+    Newton's tolerance), with its index; each line's ``radius`` its tube's outer radius."""
+    import meshio
+
+    sim = SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    run = sim.simulate(0.5, t_end=0.05)
+    index = run.to_vtk(tmp_path / "arm.pvd", every=2)
+    mesh = meshio.read(index.parent / f"arm_{len(run.time) - 1:05d}.vtu")
+    n, anchors = len(sim.layout.nodes_in_order), sim.model.joint_anchors
+    nodes = run.q[-1].reshape(-1, 7)
+    second = np.array([nodes[b, :3] + rotations(nodes[b, 3:][None])[0] @ np.asarray(arm)
+                       for _, _, (_, b), (_, arm) in anchors])
+    assert np.allclose(mesh.points[n:], second, atol=1e-9)
+    joint, vertex = (np.concatenate(mesh.cell_data[k]) for k in ("joint", "vertex"))
+    assert np.array_equal(joint[vertex == 1], np.arange(len(anchors))) and np.all(joint[vertex != 1] == -1)
+    radius = mesh.cell_data["radius"][0]
+    assert len(radius) == len(sim.layout.lines) and np.all(radius == 0.006)  # the tubes' 12 mm
+    assert np.all(np.isnan(np.concatenate(mesh.cell_data["radius"][1:])))
 
 
 def test_a_spatial_design_is_seen_in_paraview_and_in_a_3d_figure(tmp_path):

@@ -2,17 +2,23 @@
 (:meth:`flextop.spatial.SpatialResults.to_vtk`).
 
 Each frame's points are the nodes where they are at that time (the series plays as it is
-opened). Cells: every beam element and truss bar as a line, every body's centre of mass as a
-vertex. Point data: ``velocity`` (m/s) and ``angular_velocity`` (rad/s), both in space, and
-the node's axes ``axis_1``, ``axis_2``, ``axis_3`` (unit vectors in space: glyphs show how
-each node turns). Cell data: ``beam`` (the index of the scene's beam a line belongs to, −1
-for a vertex), ``vertex`` (3 for a body's centre, 0 for a line), as the planar files', and
-``density`` (each line's at the design the motion ran at, 1 where fixed; 1 for a body):
-threshold on it to see a design."""
+opened), then the joints' places (each joint's first anchor). Cells: every beam element and
+truss bar as a line, every body's centre of mass and every joint as a vertex. Point data:
+``velocity`` (m/s) and ``angular_velocity`` (rad/s), both in space, and the node's axes
+``axis_1``, ``axis_2``, ``axis_3`` (unit vectors in space: glyphs show how each node turns);
+NaN at a joint's point. Cell data: ``beam`` (the index of the scene's beam a line belongs
+to, −1 for a vertex), ``vertex`` (1 for a joint, 3 for a body's centre, 0 for a line), as
+the planar files', ``joint`` (the joint's index in the scene's joints, −1 for the others),
+``density`` (each line's at the design the motion ran at, 1 where fixed; 1 for a vertex):
+threshold on it to see a design; ``radius`` (m, each line's section's reach from its axis: a
+circle's or a tube's outer radius, half a rectangle's larger side, a truss bar's the circle
+of its area; NaN for a vertex): the Tube filter's radius by it draws the bars as built, and
+``radius × density`` as designed."""
 
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +27,7 @@ import numpy as np
 
 from ..errors import SettingsError
 from ..quaternion import rotations
-from .export import BODY, frame_indices, write_index
+from .export import BODY, JOINT, frame_indices, write_index
 
 
 def write_spatial_motion(results: Any, path: str | os.PathLike, *, every: int | None = None) -> Path:
@@ -32,27 +38,47 @@ def write_spatial_motion(results: Any, path: str | os.PathLike, *, every: int | 
         raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
     path.parent.mkdir(parents=True, exist_ok=True)
     layout = results.layout
+    n, n_joints = len(layout.nodes_in_order), len(layout.joint_anchors)
     lines = np.array([ends for ends in layout.lines], dtype=int).reshape(-1, 2)
     bodies = np.array(layout.bodies, dtype=int).reshape(-1, 1)
-    density = layout.line_densities(results.x)
-    blocks = [("line", lines, np.asarray(layout.line_beam, dtype=float), 0.0, density),
-              ("vertex", bodies, -1.0, float(BODY), 1.0)]
-    kept = [block for block in blocks if len(block[1])]  # meshio refuses empty blocks
+    joints = (n + np.arange(n_joints)).reshape(-1, 1)
+    line, body, joint = (np.asarray(a, dtype=float) for a in (layout.line_beam, layout.line_densities(results.x),
+                                                               layout.line_radius))
+    blocks = [_Block("line", lines, line, 0.0, body, joint),  # the lines' beams, densities and radii
+              _Block("vertex", bodies, -1.0, float(BODY), 1.0, np.nan),
+              _Block("vertex", joints, -1.0, float(JOINT), 1.0, np.nan, np.arange(n_joints, dtype=float))]
+    kept = [block for block in blocks if len(block.cells)]  # meshio refuses empty blocks
     if not kept:
-        raise SettingsError("the scene has no beams, bars or bodies to draw")
-    cells = [(kind, c) for kind, c, *_ in kept]
-    cell_data = {"beam": [np.broadcast_to(beam, len(c)).astype(float) for _, c, beam, _, _ in kept],
-                 "vertex": [np.full(len(c), vertex) for _, c, _, vertex, _ in kept],
-                 "density": [np.broadcast_to(rho, len(c)).astype(float) for _, c, _, _, rho in kept]}
-    n = len(layout.nodes_in_order)
+        raise SettingsError("the scene has no beams, bars, bodies or joints to draw")
+    cells = [(block.kind, block.cells) for block in kept]
+    cell_data = {field: [block.field(field) for block in kept] for field in ("beam", "vertex", "joint", "density", "radius")}
     frames = []
     for k in frame_indices(len(results.time), every):
         q, v = results.q[k].reshape(n, 7), results.v[k].reshape(n, 6)
         axes = rotations(q[:, 3:])
         point_data = {"velocity": v[:, :3], "angular_velocity": np.einsum("nij,nj->ni", axes, v[:, 3:]),
                       **{f"axis_{i + 1}": axes[:, :, i] for i in range(3)}}
+        point_data = {key: np.vstack([value, np.full((n_joints, 3), np.nan)]) for key, value in point_data.items()}
+        points = np.vstack([q[:, :3], layout.joint_points(results.q[k])])
         name = f"{path.stem}_{k:05d}.vtu"
-        meshio.Mesh(q[:, :3], cells, point_data=point_data, cell_data=cell_data).write(path.parent / name, binary=True)
+        meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data).write(path.parent / name, binary=True)
         frames.append((float(results.time[k]), name))
     return write_index(path, frames)
+
+
+@dataclass(frozen=True)
+class _Block:
+    """A block of cells of one ``kind`` and the cell data they share or carry one each:
+    their beam's index, the ``vertex`` code, density, radius (m) and joint's index."""
+
+    kind: str
+    cells: np.ndarray
+    beam: np.ndarray | float
+    vertex: float
+    density: np.ndarray | float
+    radius: np.ndarray | float
+    joint: np.ndarray | float = -1.0
+
+    def field(self, name: str) -> np.ndarray:
+        return np.broadcast_to(np.asarray(getattr(self, name), dtype=float), len(self.cells)).astype(float)
 
