@@ -31,6 +31,7 @@ from . import __version__, responses, scenes
 from .errors import CheckpointError, DesignError, ExecutionError, FlextopError, SceneFileError, SettingsError, SimulationError
 from .discretization.accuracy import preset
 from .discretization.refinement import t_end
+from .discretization.spatial import grid_of as spatial_grid
 from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
@@ -212,7 +213,8 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
         if sim.tip is not None:
             print(f"'{sim.tip}' at {np.array2string(eq.position(sim.tip), precision=6)} m")
         if out is not None:
-            raise SettingsError("--out: a spatial equilibrium is not written to files yet")
+            print(f"wrote {eq.to_vtk(out / 'state.vtu')} (open it in ParaView; Warp By Vector on displacement)")
+            _spatial_design_figure(sim, x, out)
         return 0
     with _progress_bar(float(settings.get("t_end", sim.model.options().get("t_end", 0.0)))) as report:
         res = sim.simulate(x, progress=report, **settings)
@@ -223,12 +225,17 @@ def _simulate_spatial(spec: dict, args: argparse.Namespace) -> int:
         print(f"'{sim.tip}' at {np.array2string(res.position(sim.tip)[-1], precision=6)} m at the end")
     if out is not None:
         print(f"wrote {res.to_vtk(out / 'motion.pvd')} (open it in ParaView)")
-        if sim.n_design:
-            from .plots import plot_spatial_design
-
-            plot_spatial_design(sim, x, title=f"{sim.model.name}: design", path=out / "design.png")
-            print(f"wrote {out / 'design.png'}")
+        _spatial_design_figure(sim, x, out)
     return 0
+
+
+def _spatial_design_figure(sim: SpatialSimulation, x: np.ndarray | None, out: Path) -> None:
+    """A designed spatial scene's design in 3D, as ``design.png`` in ``out``."""
+    if sim.n_design:
+        from .plots import plot_spatial_design
+
+        plot_spatial_design(sim, x, title=f"{sim.model.name}: design", path=out / "design.png")
+        print(f"wrote {out / 'design.png'}")
 
 
 def _spatial_to_tolerance(sim: SpatialSimulation, x: np.ndarray | None, settings: dict, out: Path | None,
@@ -237,13 +244,17 @@ def _spatial_to_tolerance(sim: SpatialSimulation, x: np.ndarray | None, settings
     simulation's tolerance: its value, the grid chosen and the estimated error."""
     if "h" in settings:
         raise SettingsError("give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both")
-    if out is not None:
-        raise SettingsError("--out: the motion of a spatial run to a tolerance is not written to files yet")
     response = "tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy"
     run = sim.run_with_sensitivities(x, response, **settings)
     unit = "m²" if response == "tip_deflection" else "J"
     print(f"{response} = {run.values[0]:.6g} {unit} to rtol = {sim.rtol:g} in {time.perf_counter() - start:.1f} s: "
           f"{run.discretization}; estimated relative error {run.errors[response]:.2%}")
+    if out is not None:
+        grid, at = spatial_grid(sim, run.discretization, x, settings)
+        state = grid.simulate(x, **at) if sim.analysis == "dynamic" else grid.equilibrium(x, **at)
+        written = state.to_vtk(out / ("motion.pvd" if sim.analysis == "dynamic" else "state.vtu"))
+        print(f"wrote {written} (on the grid accepted; open it in ParaView)")
+        _spatial_design_figure(sim, x, out)
     return 0
 
 

@@ -169,11 +169,22 @@ class SpatialEquilibrium:
     load_steps: int
     layout: _Layout
     time: float = 0.0
+    #: The design it stands at (``None``: full density).
+    x: np.ndarray | None = None
+    #: The configuration the scene gives, where it started from (seven numbers per node).
+    reference: np.ndarray | None = field(default=None, repr=False)
 
     def position(self, name: str) -> np.ndarray:
         """A body's centre of mass or a node's origin (m)."""
         k = self.layout.node(name)
         return self.q[NQ * k:NQ * k + 3]
+
+    def to_vtk(self, path: str | os.PathLike) -> Path:
+        """The equilibrium for ParaView: one ``.vtu`` file, the structure where the scene
+        puts it with ``displacement`` to the equilibrium (:mod:`flextop.io.spatial_export`)."""
+        from .io.spatial_export import write_spatial_state
+
+        return write_spatial_state(self, self.q if self.reference is None else self.reference, path)
 
     def rotation(self, name: str) -> np.ndarray:
         """A body's or node's axes in space."""
@@ -395,8 +406,10 @@ class SpatialSimulation:
         they carry far from its start is reached step by step."""
         r = self.model.solve_static(settings, self._design(x))
         time = float(settings.get("t_end", self.model.options().get("t_end", 0.0)))
+        design = self._design(x)
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
-                                  int(r["load_steps"]), self.layout, time)
+                                  int(r["load_steps"]), self.layout, time, None if design is None else np.asarray(design),
+                                  np.asarray(self.model.initial_q))
 
     def modes(self, x: DesignLike = None, at: SpatialEquilibrium | str | None = None, count: int | None = None,
               parameters: Sequence[str] | str | None = None, **settings: Any) -> SpatialModes:

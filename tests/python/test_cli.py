@@ -440,6 +440,31 @@ def test_simulate_runs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_pat
     assert both.stderr.strip() == "flextop: error: give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both"
 
 
+def test_simulate_writes_a_spatial_equilibrium_and_a_run_to_a_tolerance_for_paraview(tmp_path):
+    """A static spatial scene's ``--out``: its state (points where the scene puts them, the
+    displacement to the equilibrium: the loaded end's what the equilibrium gives) and its
+    design; a run to a tolerance's: the motion on the grid it accepted (its steps' frames)."""
+    import meshio
+
+    scene = lattice_cantilever()
+    (tmp_path / "lattice.toml").write_text(scene.to_toml())
+    out = flextop_cli("simulate", tmp_path / "lattice.toml", "--x", "0.5", "--out", tmp_path / "static")
+    assert "state.vtu" in out.stdout and (tmp_path / "static" / "design.png").stat().st_size > 10_000
+    mesh = meshio.read(tmp_path / "static" / "state.vtu")
+    sim = flextop.SpatialSimulation(scene)
+    eq = sim.equilibrium(0.5)
+    k = sim.layout.node("box[3,0,0]")
+    assert np.allclose(mesh.points[k], np.asarray(sim.model.initial_q).reshape(-1, 7)[k, :3], atol=1e-12)
+    assert np.allclose(mesh.point_data["displacement"][k], eq.position("box[3,0,0]") - mesh.points[k], atol=1e-12)
+    assert mesh.point_data["displacement"][k][1] < -1e-5  # pushed down
+    arm = str(EXAMPLES / "spatial_robot_arm.toml")
+    tol = flextop_cli("simulate", arm, "--t-end", "0.2", "--rtol", "0.1", "--out", tmp_path / "tol")
+    steps = int(re.search(r"and (\d+) steps", tol.stdout).group(1))
+    assert "on the grid accepted" in tol.stdout
+    frames = len(flextop.io.export.frame_indices(steps + 1))
+    assert len(list((tmp_path / "tol").glob("motion_*.vtu"))) == frames
+
+
 def test_optimize_designs_a_spatial_scene_and_refuses_what_it_does_not_take(tmp_path):
     """A spatial lattice cantilever's strain energy at 30 % of its volume: the command
     converges to the KKT point the Python problem reaches (18 iterations, residual below

@@ -602,6 +602,8 @@ def test_a_spatial_motion_for_paraview_reads_back_with_meshio(tmp_path):
     assert np.all(mesh.cell_data["density"][0] == 1.0)  # at full density
     with pytest.raises(SettingsError, match=r"\.pvd"):
         run.to_vtk(tmp_path / "motion.vtu")
+    with pytest.raises(SettingsError, match=r"\.vtu"):
+        SpatialSimulation(cantilever()).equilibrium().to_vtk(tmp_path / "state.pvd")
 
 
 def test_a_spatial_motions_joints_and_bars_reach_paraview_where_and_as_thick_as_they_are(tmp_path):

@@ -304,9 +304,22 @@ def on_grid(sim: Any, d: Discretization, design: list[float] | None, responses: 
     """``responses`` of ``sim`` and their gradients on the grid ``d``: every frame beam's
     elements times its factor (:func:`beam_factors`), ``d.steps`` uniform steps over the
     run's ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run."""
-    at = {**settings, **({"h": _duration(sim, settings) / d.steps} if d.steps else {})}
     level, names = _scene_at(sim, d, design, responses)
-    return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **at)
+    return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **_steps_of(sim, d, settings))
+
+
+def grid_of(sim: Any, d: Discretization, design: Any, settings: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    """The scene of ``sim`` refined as ``d`` says for ``design`` (each frame beam's elements
+    times its factor) and the settings of a run on its steps: where a run to a tolerance
+    accepted ``d``, what ran there."""
+    level, _ = _scene_at(sim, d, None if design is None else list(map(float, design)), [])
+    return level, _steps_of(sim, d, settings)
+
+
+def _steps_of(sim: Any, d: Discretization, settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` with the step of ``d``'s uniform steps over the run (none for a static
+    scene)."""
+    return {**settings, **({"h": _duration(sim, settings) / d.steps} if d.steps else {})}
 
 
 def _scene_at(sim: Any, d: Discretization, design: list[float] | None, responses: Sequence[str]) -> tuple[Any, list[str]]:

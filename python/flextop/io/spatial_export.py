@@ -1,8 +1,12 @@
-"""ParaView output of a spatial motion: a VTU time series with a PVD index
-(:meth:`flextop.spatial.SpatialResults.to_vtk`).
+"""ParaView output of a spatial motion, a VTU time series with a PVD index
+(:meth:`flextop.spatial.SpatialResults.to_vtk`), and of an equilibrium, one VTU file
+(:meth:`flextop.spatial.SpatialEquilibrium.to_vtk`), in the planar files' two conventions
+(:mod:`flextop.io.export`).
 
-Each frame's points are the nodes where they are at that time (the series plays as it is
-opened), then the joints' places (each joint's first anchor). Cells: every beam element and
+A motion's frames hold the nodes where they are at that time (the series plays as it is
+opened), then the joints' places (each joint's first anchor). An equilibrium's points are
+the nodes and joints where the scene puts them, with ``displacement`` (m) to where they are
+(Warp By Vector adds it) and the axes where they have turned to. Cells: every beam element and
 truss bar as a line, every body's centre of mass and every joint as a vertex. Point data:
 ``velocity`` (m/s) and ``angular_velocity`` (rad/s), both in space, and the node's axes
 ``axis_1``, ``axis_2``, ``axis_3`` (unit vectors in space: glyphs show how each node turns);
@@ -38,32 +42,70 @@ def write_spatial_motion(results: Any, path: str | os.PathLike, *, every: int | 
         raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
     path.parent.mkdir(parents=True, exist_ok=True)
     layout = results.layout
+    cells, cell_data = _cells(layout, results.x)
+    n_joints = len(layout.joint_anchors)
+    frames = []
+    for k in frame_indices(len(results.time), every):
+        q, v = results.q[k].reshape(-1, 7), results.v[k].reshape(-1, 6)
+        axes = rotations(q[:, 3:])
+        point_data = {"velocity": v[:, :3], "angular_velocity": np.einsum("nij,nj->ni", axes, v[:, 3:]),
+                      **_axes(axes)}
+        point_data = {key: _at_joints(value, n_joints) for key, value in point_data.items()}
+        name = f"{path.stem}_{k:05d}.vtu"
+        meshio.Mesh(_points(layout, results.q[k]), cells, point_data=point_data, cell_data=cell_data).write(
+            path.parent / name, binary=True)
+        frames.append((float(results.time[k]), name))
+    return write_index(path, frames)
+
+
+def write_spatial_state(state: Any, reference: np.ndarray, path: str | os.PathLike) -> Path:
+    """A spatial equilibrium ``state`` as one ``.vtu`` file at ``path``: its points where
+    the scene puts them (``reference``, the initial configuration), ``displacement`` to the
+    equilibrium and the axes there (NaN axes at a joint's place)."""
+    path = Path(path)
+    if path.suffix != ".vtu":
+        raise SettingsError(f"{path}: an equilibrium is written as one .vtu file; give a path ending in .vtu")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    layout = state.layout
+    cells, cell_data = _cells(layout, state.x)
+    at, start = _points(layout, state.q), _points(layout, reference)
+    point_data = {"displacement": at - start,
+                  **{k: _at_joints(v, len(layout.joint_anchors)) for k, v in _axes(rotations(state.q.reshape(-1, 7)[:, 3:])).items()}}
+    meshio.Mesh(start, cells, point_data=point_data, cell_data=cell_data).write(path, binary=True)
+    return path
+
+
+def _points(layout: Any, q: np.ndarray) -> np.ndarray:
+    """The nodes' origins at the configuration ``q``, then the joints' places."""
+    return np.vstack([q.reshape(-1, 7)[:, :3], layout.joint_points(q)])
+
+
+def _axes(axes: np.ndarray) -> dict[str, np.ndarray]:
+    return {f"axis_{i + 1}": axes[:, :, i] for i in range(3)}
+
+
+def _at_joints(nodal: np.ndarray, n_joints: int) -> np.ndarray:
+    """A field on the nodes, NaN at the joints' places after them."""
+    return np.vstack([nodal, np.full((n_joints, 3), np.nan)])
+
+
+def _cells(layout: Any, x: np.ndarray | None) -> tuple[list[tuple[str, np.ndarray]], dict[str, list[np.ndarray]]]:
+    """The structure's cells — lines, bodies' and joints' vertices — and their data at the
+    design ``x``."""
     n, n_joints = len(layout.nodes_in_order), len(layout.joint_anchors)
     lines = np.array([ends for ends in layout.lines], dtype=int).reshape(-1, 2)
     bodies = np.array(layout.bodies, dtype=int).reshape(-1, 1)
     joints = (n + np.arange(n_joints)).reshape(-1, 1)
-    line, body, joint = (np.asarray(a, dtype=float) for a in (layout.line_beam, layout.line_densities(results.x),
-                                                               layout.line_radius))
-    blocks = [_Block("line", lines, line, 0.0, body, joint),  # the lines' beams, densities and radii
+    beam, density, radius = (np.asarray(a, dtype=float) for a in (layout.line_beam, layout.line_densities(x),
+                                                                   layout.line_radius))
+    blocks = [_Block("line", lines, beam, 0.0, density, radius),
               _Block("vertex", bodies, -1.0, float(BODY), 1.0, np.nan),
               _Block("vertex", joints, -1.0, float(JOINT), 1.0, np.nan, np.arange(n_joints, dtype=float))]
     kept = [block for block in blocks if len(block.cells)]  # meshio refuses empty blocks
     if not kept:
         raise SettingsError("the scene has no beams, bars, bodies or joints to draw")
-    cells = [(block.kind, block.cells) for block in kept]
-    cell_data = {field: [block.field(field) for block in kept] for field in ("beam", "vertex", "joint", "density", "radius")}
-    frames = []
-    for k in frame_indices(len(results.time), every):
-        q, v = results.q[k].reshape(n, 7), results.v[k].reshape(n, 6)
-        axes = rotations(q[:, 3:])
-        point_data = {"velocity": v[:, :3], "angular_velocity": np.einsum("nij,nj->ni", axes, v[:, 3:]),
-                      **{f"axis_{i + 1}": axes[:, :, i] for i in range(3)}}
-        point_data = {key: np.vstack([value, np.full((n_joints, 3), np.nan)]) for key, value in point_data.items()}
-        points = np.vstack([q[:, :3], layout.joint_points(results.q[k])])
-        name = f"{path.stem}_{k:05d}.vtu"
-        meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data).write(path.parent / name, binary=True)
-        frames.append((float(results.time[k]), name))
-    return write_index(path, frames)
+    fields = ("beam", "vertex", "joint", "density", "radius")
+    return [(block.kind, block.cells) for block in kept], {f: [block.field(f) for block in kept] for f in fields}
 
 
 @dataclass(frozen=True)
@@ -81,4 +123,3 @@ class _Block:
 
     def field(self, name: str) -> np.ndarray:
         return np.broadcast_to(np.asarray(getattr(self, name), dtype=float), len(self.cells)).astype(float)
-
