@@ -9,14 +9,18 @@ its true error; the grid the tolerance chose, its cost over the scene's run, its
 and true errors (value, and gradient in the 2-norm), the estimate over the true error.
 
     python benches/spatial_tolerance.py [--rtol R] [--added | --design NAME] [--refine uniform,bars,shares]
+                                        [--time-estimate doubling,adjoint]
     python benches/spatial_tolerance.py --adjoint-time
 
 ``--added``: only the three designs added to the first seven (MMA's 40th iterate, uniform 0.2,
 random in [0.05, 1]); ``--design NAME`` (repeated for more): only those. ``--refine``: how the runs to the
 tolerance refine the beams, one row per way given (``uniform`` by default; ``bars`` grades them
 by their own frequencies; ``shares`` then refines those whose measured shares carry a value's
-space error), each against the same reference. A design whose run on the scene's
-grid fails is still run to the tolerance (the contract's finer grids may carry it).
+space error), each against the same reference. ``--time-estimate``: how a candidate's time
+error is estimated, one row per way given for each refinement (``adjoint``, the default: by
+its own adjoint sweep where that agrees with its half steps; ``doubling``: step doubling
+alone). A design whose run on the scene's grid fails is still run to the tolerance (the
+contract's finer grids may carry it).
 
 ``--adjoint-time``, instead: the time error the adjoint estimates
 (``SpatialSimulation.time_errors``) against the true error of the same grid (the limit in the
@@ -85,9 +89,10 @@ def main(rtol: float) -> None:
     if "--design" in sys.argv:  # each given after its own flag
         wanted = {sys.argv[k + 1] for k, arg in enumerate(sys.argv) if arg == "--design"}
         designs = {k: v for k, v in designs.items() if k in wanted}
-    ways = bench_args.value("--refine", "uniform", str).split(",")
+    ways = [(refine, estimate) for refine in bench_args.value("--refine", "uniform", str).split(",")
+            for estimate in bench_args.value("--time-estimate", "adjoint", str).split(",")]
     print(f"rtol = {rtol:g}, the spatial robot arm ({sim.n_design} bars), {RESPONSE}\n")
-    print("| design | refine | d, scene's grid (m²) | its true error | grid chosen | cost / scene's run | d (m²) | estimated error "
+    print("| design | refine, time estimate | d, scene's grid (m²) | its true error | grid chosen | cost / scene's run | d (m²) | estimated error "
           "| true error | estimate / true | gradient: estimated | true | estimate / true | reference's Richardson correction |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, x in designs.items():
@@ -103,10 +108,14 @@ def main(rtol: float) -> None:
 
 
 def row(scene, sim, name, x, way, rtol, plain, t_plain, failed, ref):
-    """One design's run to ``rtol`` refining its beams ``way``, printed against the reference
-    (made here where ``ref`` is ``None``); returns the reference."""
+    """One design's run to ``rtol`` refining its beams and estimating its time error as ``way``
+    says (``refine``, ``time_estimate``), printed against the reference (made here where
+    ``ref`` is ``None``); returns the reference."""
+    refine, estimate = way
+    way = f"{refine}, {estimate}"
     try:
-        run, t_run = timed(lambda: flextop.SpatialSimulation(scene, rtol=rtol, refine=way).run_with_sensitivities(x, RESPONSE))
+        run, t_run = timed(lambda: flextop.SpatialSimulation(scene, rtol=rtol, refine=refine).run_with_sensitivities(
+            x, RESPONSE, time_estimate=estimate))
     except (flextop.ToleranceError, flextop.SimulationError) as error:
         print(f"| {name} | {way} | {failed if plain is None else f'{plain.values[0]:.4e}'} | — | {type(error).__name__}: {error} |")
         return ref
