@@ -254,7 +254,8 @@ def optimization(fresh: bool) -> None:
             "rtol 1e-3, the default, Newton as the row above": ({"rtol": 1e-3}, 1, True),
             "rtol 1e-2, the default, a candidate refined in space on settled steps judged on its space companion first":
                 ({"rtol": 1e-2}, 1, True),
-            "rtol 1e-3, the default, as the row above": ({"rtol": 1e-3}, 1, True)}
+            "rtol 1e-3, the default, a candidate refined in space on settled steps judged on its space companion first":
+                ({"rtol": 1e-3}, 1, True)}
     done = {} if fresh or not OPTIMIZATION_ROWS.exists() else json.loads(OPTIMIZATION_ROWS.read_text())
     for row in done.values():  # designs judged on the 4× reference before: judged again
         if "x" in row and row.get("judged") != TRUE_ELEMENTS:
