@@ -464,7 +464,7 @@ class SpatialSimulation:
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
                                rtol: float | None = None, atol: float | None = None, time_estimate: str = "adjoint",
-                               **settings: Any) -> SpatialSensitivities:
+                               extrapolate: bool = True, **settings: Any) -> SpatialSensitivities:
         """The ``responses`` at design ``x`` (full density by default; the tip's x, y, z by
         default) and their exact gradients to the densities (``dfdx``, one column per design
         variable) and to the ``parameters`` (module docs), over the motion or, with
@@ -479,7 +479,10 @@ class SpatialSimulation:
         ``discretization`` and the estimated relative ``errors`` and ``gradient_errors``.
         ``time_estimate``: as :meth:`flextop.Simulation.run_with_sensitivities`' — a
         candidate's time errors by its own adjoint sweep where they agree with its half steps
-        (``"adjoint"``), or by step doubling alone (``"doubling"``)."""
+        (``"adjoint"``), or by step doubling alone (``"doubling"``). With ``extrapolate`` (the
+        default), a motion's candidate is also judged on Richardson's extrapolation in the
+        step from its half steps, and where that is the more accurate the values, gradients
+        and peaks are the extrapolation of the two runs (``discretization.extrapolated``)."""
         if responses is None:
             if self.tip is None:
                 raise SettingsError("no responses given, and the scene names no tip")
@@ -492,7 +495,7 @@ class SpatialSimulation:
                 raise SettingsError(f"time_estimate must be one of {', '.join(map(repr, TIME_ESTIMATES))}, "
                                     f"got {time_estimate!r}")
             accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings,
-                                                      time_estimate=time_estimate)
+                                                      time_estimate=time_estimate, extrapolate=extrapolate)
             return replace(accepted.sensitivities, responses=rs, discretization=accepted.discretization,
                            errors=accepted.errors, gradient_errors=accepted.gradient_errors)
         design = self._design(x)

@@ -83,6 +83,27 @@ def test_a_motion_to_a_tolerance_is_within_it(x):
     assert_honest(run, reference, rtol)
 
 
+def test_a_motion_to_a_tolerance_extrapolates_in_the_step_where_that_is_the_more_accurate():
+    """The heavy top's final position at rtol 1e-3 over half a second: its time error alone
+    counts, and Richardson's extrapolation from half the steps passes where the grid's own
+    values would need more steps; the values and the gradient to its mass are the
+    extrapolation of the two runs on that grid, within rtol of 32× the steps (extrapolated),
+    and without ``extrapolate`` the grid passes only with more steps."""
+    top = SpatialSimulation(flextop.scenes.heavy_top())
+    names, mass = ["x:top", "z:top"], ["mass:top"]
+    out = top.run_with_sensitivities(None, names, mass, rtol=1e-3, t_end=0.5)
+    d = out.discretization
+    assert d.extrapolated and "extrapolated from half the steps" in str(d)
+    fine, half = (top.run_with_sensitivities(None, names, mass, h=0.5 / n, t_end=0.5) for n in (d.steps, d.steps // 2))
+    assert np.allclose(out.values, (4 * fine.values - half.values) / 3, rtol=1e-12, atol=0)
+    assert np.allclose(out.gradient, (4 * fine.gradient - half.gradient) / 3, rtol=1e-12, atol=0)
+    limit = [top.run_with_sensitivities(None, names, h=0.5 / n, t_end=0.5).values for n in (32 * d.steps, 16 * d.steps)]
+    truth = (4 * limit[0] - limit[1]) / 3
+    assert np.all(np.abs(out.values - truth) <= 1e-3 * np.abs(truth))
+    plain = top.run_with_sensitivities(None, names, mass, rtol=1e-3, t_end=0.5, extrapolate=False).discretization
+    assert not plain.extrapolated and plain.steps > d.steps
+
+
 def test_the_scenes_grid_is_kept_where_no_tolerance_is_asked_for_or_h_is_given():
     sim = SpatialSimulation(flexible_pendulum(), rtol=1e-2)
     plain = SpatialSimulation(flexible_pendulum())

@@ -9,8 +9,10 @@ is estimated by step doubling in time and in space as on planar scenes
 beam on 2h (and four times, below rtol 1e-2); a candidate whose estimate is over budget
 gets more steps or elements, until every response and its gradient (to the densities and
 to the parameters asked for, held to ``GRADIENT_FACTOR · rtol`` in the relative 2-norm) is
-within its budget. The run that passes is an ordinary run on one grid, so its gradients are
-exact for the scheme that ran.
+within its budget; in time, by the candidate's own adjoint sweep where it agrees with its
+half steps, and a motion's candidate is judged on Richardson's extrapolation from its half
+steps too, as on planar scenes. The run that passes is an ordinary run on one grid (or two,
+at h and 2h, extrapolated), so its gradients are exact for the scheme that ran.
 
 With ``refine="uniform"`` every frame beam is refined alike. With ``refine="bars"`` (the
 default) a dynamic scene's beams are graded as a planar scene's bars (:mod:`.indicator`): each beam's
@@ -46,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError, SettingsError, ToleranceError
+from ..execution import side_by_side
 from . import indicator, tolerance
 from .accuracy import split_by
 from .refinement import GRADED_KEPT
@@ -148,12 +151,14 @@ class EveryBeam(Discretization):
             refined = sum(f > 1 for f in self.factors)
             every = f", times {self.uniform} on every frame beam" if self.uniform != 1 else ""
             steps = f" and {self.steps} steps" if self.steps else ""
+            extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
             return (f"up to {max(self.factors)}× the scene's elements on the {refined} of {len(self.factors)} beams that "
-                    f"measured shares of the error refined{every}{steps}")
+                    f"measured shares of the error refined{every}{steps}{extrapolated}")
         if self.graded:
             return super().__str__()
         steps = f" and {self.steps} steps" if self.steps else ""
-        return f"{self.refinement * self.uniform}× the scene's elements of every frame beam{steps}"
+        extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
+        return f"{self.refinement * self.uniform}× the scene's elements of every frame beam{steps}{extrapolated}"
 
 
 def beam_factors(sim: Any, d: Discretization, design: list[float] | None) -> dict[str, int]:
@@ -187,7 +192,7 @@ class Accepted:
 
 def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str], parameters: Sequence[str],
                  static: bool, wanted: tuple[float, float], settings: dict[str, Any],
-                 start: Discretization | None = None, time_estimate: str = "adjoint") -> Accepted:
+                 start: Discretization | None = None, time_estimate: str = "adjoint", extrapolate: bool = True) -> Accepted:
     """``responses`` of ``sim`` (a :class:`~flextop.spatial.SpatialSimulation`) at ``design``
     with their gradients to the densities and ``parameters``, on the first candidate whose
     estimate meets ``rtol·|f| + atol`` for every value and ``GRADIENT_FACTOR · rtol`` for every
@@ -199,7 +204,12 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
     over a motion), unless ``settings`` give ``tol`` or ``newton``. ``time_estimate``: a
     candidate's time errors by its own adjoint where they agree with its half steps
     (``"adjoint"``, :func:`.tolerance.agreed_time`) or by step doubling alone
-    (``"doubling"``).
+    (``"doubling"``). With ``extrapolate`` (a motion), a candidate is also judged on
+    Richardson's extrapolation in the step from its half steps, as a planar scene's
+    (:func:`.tolerance.extrapolated_estimate`): where that is the more accurate, the
+    values, gradients and peaks returned are the extrapolation of the grid's run and its
+    half steps' (both at the run's Newton tolerance), each gradient the exact derivative of
+    its value, and the discretization says so.
 
     Raises :class:`ToleranceError` where no candidate within the limits of
     :func:`.tolerance.resolve` meets the tolerance, or where a refined scene passes the
@@ -237,10 +247,26 @@ def to_tolerance(sim: Any, design: list[float] | None, responses: Sequence[str],
     d, est = tolerance.resolve(values, start, tol, cost,
                                mark=(lambda d, missed, ratios: marks(sim, d, missed, ratios, design, responses, settings))
                                if measured else None,
+                               extrapolate=extrapolate and not static,
                                adjoint=(lambda d: made[(d, False)].time_errors) if time_estimate == "adjoint" else None)
     relative = list(map(float, est.relative))
-    accepted = made[(d, False)]
+    accepted = made[(d.grid, False)]
+    if d.extrapolated:  # the half steps again at the run's own Newton tolerance, unless a candidate made them
+        half = made.get((d.half_steps, False)) or run(d.half_steps, False)
+        accepted = extrapolated(accepted, half)
     return Accepted(accepted, d, dict(zip(responses, relative)), dict(zip(responses, relative[len(responses):])))
+
+
+def extrapolated(fine: Any, half: Any) -> Any:
+    """Spatial sensitivities at h and 2h on one grid combined by Richardson's extrapolation
+    (:func:`.tolerance.richardson`): values, gradients to the parameters and densities, each
+    the exact derivative of its extrapolated value, and peaks; no time error of its own."""
+    def combined(at_h: np.ndarray, at_2h: np.ndarray) -> np.ndarray:
+        return tolerance.richardson([np.asarray(at_h)], [np.asarray(at_2h)])[0]
+
+    peaks = {name: float(combined(np.array(p), np.array(half.peaks[name]))) for name, p in fine.peaks.items()}
+    return replace(fine, values=combined(fine.values, half.values), gradient=combined(fine.gradient, half.gradient),
+                   dfdx=combined(fine.dfdx, half.dfdx), peaks=peaks, time_errors=None)
 
 
 def marks(sim: Any, d: Discretization, missed: bool, ratios: np.ndarray, design: list[float] | None,
@@ -303,9 +329,15 @@ def on_grid(sim: Any, d: Discretization, design: list[float] | None, responses: 
             parameters: Sequence[str], static: bool, settings: dict[str, Any]) -> Any:
     """``responses`` of ``sim`` and their gradients on the grid ``d``: every frame beam's
     elements times its factor (:func:`beam_factors`), ``d.steps`` uniform steps over the
-    run's ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run."""
+    run's ``t_end`` (an equilibrium where ``static``), ``settings`` those of the run; where
+    ``d`` is extrapolated, the runs at its steps and its half steps, side by side
+    (:func:`~flextop.execution.side_by_side`), combined (:func:`extrapolated`)."""
     level, names = _scene_at(sim, d, design, responses)
-    return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **_steps_of(sim, d, settings))
+    if not d.extrapolated:
+        return level.run_with_sensitivities(design, names, list(parameters), equilibrium=static, **_steps_of(sim, d, settings))
+    made = [lambda at=at: level.run_with_sensitivities(design, names, list(parameters), equilibrium=static,
+                                                       **_steps_of(sim, at, settings)) for at in (d.grid, d.half_steps)]
+    return extrapolated(*side_by_side(*made))
 
 
 def grid_of(sim: Any, d: Discretization, design: Any, settings: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
