@@ -188,15 +188,15 @@ def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = F
     designs = {"uniform 0.4": x0}
     for tol in (None, rtol):
         problem = SpatialProblem(sim, "tip_deflection", volume=0.4, rtol=tol)
-        measured = []
+        measurements = []
         measure = problem._run
-        problem._run = lambda x, m: (measured.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
+        problem._run = lambda x, m: (measurements.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
         start = time.perf_counter()
 
         def progress(record, name=("scene's grid" if tol is None else f"rtol {tol:g}")) -> None:
             """Each iteration on stderr, so that a run stopped before its end says how far it got."""
             print(f"{name}: iteration {record.iteration}, {record.evaluations} evaluations in it, f0 {record.f0:.4f}, "
-                  f"KKT {record.kkt:.2e}, {len(measured)} measured, {time.perf_counter() - start:.0f} s",
+                  f"KKT {record.kkt:.2e}, {len(measurements)} measured, {time.perf_counter() - start:.0f} s",
                   file=sys.stderr, flush=True)
 
         method = MMA(safeguard=False) if plain else "mma"
@@ -208,7 +208,7 @@ def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = F
             file = name.replace(" ", "_").replace("'", "")
             np.save(Path(save) / f"{file}.npy", result.x)
         grid = problem.held or "the scene's"
-        print(f"| {name} | {result.nit} | {result.nfev} | {len(measured)} | {grid} | {result.fun:.4f} "
+        print(f"| {name} | {result.nit} | {result.nfev} | {len(measurements)} | {grid} | {result.fun:.4f} "
               f"| {result.kkt:.2e} | {sim.volume(result.x) / (0.4 * sim.volume(1.0)):.4f} | {result.status.name} | {elapsed:.1f} |",
               flush=True)
     print()

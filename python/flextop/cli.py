@@ -253,7 +253,8 @@ def _spatial_to_tolerance(sim: SpatialSimulation, x: np.ndarray | None, settings
         grid, at = spatial_grid(sim, run.discretization, x, settings)
         state = grid.simulate(x, **at) if sim.analysis == "dynamic" else grid.equilibrium(x, **at)
         written = state.to_vtk(out / ("motion.pvd" if sim.analysis == "dynamic" else "state.vtu"))
-        print(f"wrote {written} (on the grid accepted; open it in ParaView)")
+        own = ", its own steps: the value above is extrapolated from half of them" if run.discretization.extrapolated else ""
+        print(f"wrote {written} (on the grid accepted{own}; open it in ParaView)")
         _spatial_design_figure(sim, x, out)
     return 0
 

@@ -513,7 +513,8 @@ class SpatialSimulation:
             values[rows] = np.asarray(r["values"])
             gradient[rows] = np.asarray(r["gradient"]).reshape(len(engine), len(ps) + self.n_design)
         peaks: dict[str, float] = {}
-        time_errors: np.ndarray | None = np.zeros(len(rs))  # a measured response is explicit in the design
+        by_adjoint = not static and settings.get("method", "auto") != "direct"
+        time_errors: np.ndarray | None = np.zeros(len(rs)) if by_adjoint else None  # a measured response: none in time
         if engine or not rs:
             peaks = {name: peak for name, peak in zip(engine, r["peaks"]) if peak is not None}
             if r["time_errors"] is None:

@@ -406,6 +406,23 @@ def test_agreeing_adjoint_errors_judge_a_candidate_without_the_quarter_and_eight
     assert wrong == plain and (first.quarter_steps, True) in seen
 
 
+def test_step_doubling_never_believes_a_time_error_below_the_adjoints_that_agreed():
+    """f = 1 + C/n² + 1e-4/r² judged at 64 steps to rtol 1.2e-3 with adjoint estimates 1.1 and
+    1.3 times the true time error, both agreeing with the half steps: the first fails raw
+    (time and space over budget) and so must the second, whose larger reading sent it to
+    step doubling's estimate — which read less (a/3 at the quarter steps' contraction) and,
+    believed, would have passed it."""
+    c = 1e-3 * 64**2
+
+    def values(d, companion=False):
+        return [np.array([1.0 + c / d.steps**2 + 1e-4 / (d.refinement * d.uniform) ** 2])]
+
+    tol = tolerance.tolerance_of(["f"], 1.2e-3, 0.0, gradients=False)
+    for k in (1.1, 1.3):
+        verdict = tolerance._judge(values, Discretization(1, 64), tol, False, lambda d: np.array([k * c / d.steps**2]))
+        assert not verdict.passed and verdict.estimate.time[0] >= k * c / 64**2 * (1 - 1e-12), k
+
+
 def test_a_space_error_over_budget_on_settled_steps_skips_the_candidates_own_runs():
     """After a candidate whose time error was within half the budget, one refined in space only
     on the same steps whose space companion alone is over budget cannot pass: it is refined
@@ -424,6 +441,21 @@ def test_a_space_error_over_budget_on_settled_steps_skips_the_candidates_own_run
     candidates = {replace(c, steps=2 * c.steps, uniform=1) for c, _ in seen if c.uniform == 2}  # whose space companion ran
     skipped = [c for c in candidates if (c, False) not in seen]
     assert skipped and all(c.refinement < d.refinement and c.steps == d.steps for c in skipped)
+
+
+def test_a_static_scenes_candidates_run_once_each():
+    """No steps, so no time error to settle: each candidate of an equilibrium runs once, at
+    the run's own tolerance, and its space companion once (the space-first judgement is a
+    motion's)."""
+    seen = []
+
+    def values(d, companion=False):
+        seen.append((d, companion))
+        return [np.array([1.0 + 0.05 / (d.refinement * d.uniform) ** 2])]
+
+    d, _ = resolve(values, Discretization(1, 0), Tolerance(["f"], np.array([1e-3]), np.array([0.0])))
+    assert d.refinement > 2 and len(seen) == len(set(seen))
+    assert not any(companion and c.uniform == 1 for c, companion in seen), "no candidate made again as a companion"
 
 
 def test_a_run_with_adjoint_gradients_carries_its_time_errors(arm):

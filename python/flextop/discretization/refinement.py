@@ -405,7 +405,8 @@ def to_tolerance(simulation: Simulation, xv: np.ndarray | None, names: list[str]
         level = levels.at(d, xv)
         at = {**settings, **({"h": duration / d.steps, "t_end": duration} if d.steps else {}),
               **(loose if is_companion else {})}
-        if gradients and is_companion and d.steps and gradients.get("method") != "direct":
+        kept_states = is_split(d) or gradients is not None and gradients.get("memory") != "checkpoints"
+        if gradients and is_companion and d.steps and gradients.get("method") != "direct" and kept_states:
             states = forward(d, level, at)  # kept for a guide or the shares; the gradients about them
             return level.sensitivities_fixed(xv, names, {**states.settings, **gradients}, about=states)
         if gradients:

@@ -472,7 +472,7 @@ def resolve(values: Values, first: Discretization, tol: Tolerance,
 
     d, failed, before, settled = first.grid, 0, None, None
     for _ in range(MAX_CANDIDATES):
-        space_first = settled is not None and d.steps == settled.steps and d != settled
+        space_first = settled is not None and d.steps > 0 and d.steps == settled.steps and d != settled
         verdict = (space_first and _space_over(recorded, d, tol)) or _judge(recorded, d, tol, extrapolate, adjoint)
         if verdict.passed:
             return replace(d, extrapolated=verdict.extrapolated), verdict.estimate
@@ -543,14 +543,17 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     be extrapolated. Otherwise (with ``extrapolate`` and steps that divide by 8, the
     quarter- and eighth-steps companions too), unless the time error alone is clearly over
     budget, the space companion; then the quarter-steps companion if the estimate without
-    it fails. The extrapolated values are judged where their estimate is the smaller."""
+    it fails. The extrapolated values are judged where their estimate is the smaller; the
+    grid's own values are never accepted on a time error below the adjoint's where it agreed
+    (:func:`_floored`; the steps foreseen read step doubling's)."""
     dynamic = d.steps > 0
     fine = _try(values, d)
     half = _try(values, d.half_steps, companion=True) if dynamic else None
     if fine is None or (dynamic and half is None):  # more steps if there are steps, else more elements
         return Verdict(None, np.inf, 0.0, failed=fine is None) if dynamic else Verdict(None, 0.0, np.inf, failed=True)
-    estimated = None if adjoint is None or half is None else adjoint(d)
-    agreed = None if estimated is None else agreed_time(fine, half, np.asarray(estimated, float), tol.orders)
+    read = None if adjoint is None or half is None else adjoint(d)
+    estimated = None if read is None else np.atleast_1d(np.asarray(read, float))
+    agreed = None if estimated is None else agreed_time(fine, half, estimated, tol.orders)
     if agreed is not None and half is not None \
             and _ratio(agreed, tol.budget(ErrorEstimate(_sizes(fine), agreed, agreed))) <= 1.0:
         verdict = _judge_agreed(values, d, tol, fine, half, agreed)
@@ -571,10 +574,11 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     split = _try(values, d.split, companion=True)
     if split is None:  # the finer model failed where this one ran: more steps first
         return Verdict(None, np.inf, 0.0) if dynamic else Verdict(None, 0.0, np.inf)
-    est = estimate(fine, half, quarter, split, tol.orders)  # without a quarter run the slowest contraction is assumed
+    values_agreed = None if agreed is None or estimated is None else agreed[:len(estimated)]
+    est = _floored(estimate(fine, half, quarter, split, tol.orders), values_agreed)  # no quarter: the slowest contraction
     if dynamic and quarter is None and _ratio(est.total, tol.budget(est)) > 1.0:
         quarter = _try(values, d.quarter_steps, companion=True)
-        est = est if quarter is None else estimate(fine, half, quarter, split, tol.orders)
+        est = est if quarter is None else _floored(estimate(fine, half, quarter, split, tol.orders), values_agreed)
     extrapolated = False
     if extrapolation is not None:
         other = extrapolation(est.space)
@@ -586,6 +590,19 @@ def _judge(values: Values, d: Discretization, tol: Tolerance, extrapolate: bool 
     if verdict.passed and dynamic and tol.rtol.min() < CONFIRMED_BELOW:
         return _confirmed(values, d, verdict, tol, half, split)
     return verdict
+
+
+def _floored(est: ErrorEstimate, agreed: np.ndarray | None) -> ErrorEstimate:
+    """``est`` of the grid's own values, each value's time error at least the adjoint's
+    estimate that ``agreed`` with the half steps (:func:`agreed_time`, its first entries):
+    step doubling's reading from more runs may be the smaller, but not the one believed. A
+    gradient's or a peak's has no estimate of its own there, and step doubling's measured
+    contraction stands."""
+    if agreed is None:
+        return est
+    time = est.time.copy()
+    time[:len(agreed)] = np.maximum(time[:len(agreed)], agreed)
+    return replace(est, time=time)
 
 
 def _space_over(values: Values, d: Discretization, tol: Tolerance) -> Verdict | None:
