@@ -62,11 +62,8 @@ def write_motion(results: Any, path: str | os.PathLike, *, every: int | None = N
     """The motion of ``results`` as ``STEM_00000.vtu``… beside the PVD index ``path``
     (``.pvd``), every ``every``-th step (default: about :data:`FRAMES` frames) and the
     last. Returns the index's path."""
-    path = Path(path)
-    if path.suffix != ".pvd":
-        raise SettingsError(f"{path}: a motion is written as a .pvd index with its .vtu files; give a path ending in .pvd")
+    path = checked_path(path, ".pvd", "a motion is written as a .pvd index with its .vtu files")
     steps = frame_indices(len(results.time), every)
-    path.parent.mkdir(parents=True, exist_ok=True)
     forces, fields = results.section_forces, results.cell_fields
     speeds = results.qdot.reshape(len(results.time), -1, 3)
     structure = _Structure.of(results.simulation, results.x)
@@ -107,9 +104,15 @@ def write_design(sim: Any, x: Any, path: str | os.PathLike) -> Path:
 
 
 def _vtu(path: str | os.PathLike) -> Path:
+    return checked_path(path, ".vtu")
+
+
+def checked_path(path: str | os.PathLike, suffix: str, what: str = "") -> Path:
+    """``path`` if it ends in ``suffix`` (its folder made), else a :class:`SettingsError`
+    saying ``what`` is written so."""
     path = Path(path)
-    if path.suffix != ".vtu":
-        raise SettingsError(f"{path}: give a path ending in .vtu")
+    if path.suffix != suffix:
+        raise SettingsError(f"{path}: {what + '; ' if what else ''}give a path ending in {suffix}")
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
 

@@ -31,13 +31,13 @@ import numpy as np
 
 from ..errors import SettingsError
 from ..quaternion import rotations
-from .export import BODY, JOINT, frame_indices, write_index
+from .export import BODY, JOINT, checked_path, frame_indices, write_index
 
 
 def write_spatial_motion(results: Any, path: str | os.PathLike, *, every: int | None = None) -> Path:
     """The motion of spatial ``results`` as ``STEM_00000.vtu``… beside the PVD index ``path``
     (``.pvd``), every ``every``-th step (default: about 100 frames) and the last."""
-    path = _checked(path, ".pvd", "a motion is written as a .pvd index with its .vtu files")
+    path = checked_path(path, ".pvd", "a motion is written as a .pvd index with its .vtu files")
     layout = results.layout
     cells, cell_data = _cells(layout, results.x)
     n_joints = len(layout.joint_anchors)
@@ -59,23 +59,13 @@ def write_spatial_state(state: Any, reference: np.ndarray, path: str | os.PathLi
     """A spatial equilibrium ``state`` as one ``.vtu`` file at ``path``: its points where
     the scene puts them (``reference``, the initial configuration), ``displacement`` to the
     equilibrium and the axes there (NaN axes at a joint's place)."""
-    path = _checked(path, ".vtu", "an equilibrium is written as one .vtu file")
+    path = checked_path(path, ".vtu", "an equilibrium is written as one .vtu file")
     layout = state.layout
     cells, cell_data = _cells(layout, state.x)
     at, start = _points(layout, state.q), _points(layout, reference)
     point_data = {"displacement": at - start,
                   **{k: _at_joints(v, len(layout.joint_anchors)) for k, v in _axes(rotations(state.q.reshape(-1, 7)[:, 3:])).items()}}
     meshio.Mesh(start, cells, point_data=point_data, cell_data=cell_data).write(path, binary=True)
-    return path
-
-
-def _checked(path: str | os.PathLike, suffix: str, what: str) -> Path:
-    """``path`` if it ends in ``suffix`` (its folder made), else a :class:`SettingsError`
-    saying ``what``."""
-    path = Path(path)
-    if path.suffix != suffix:
-        raise SettingsError(f"{path}: {what}; give a path ending in {suffix}")
-    path.parent.mkdir(parents=True, exist_ok=True)
     return path
 
 
