@@ -460,8 +460,9 @@ impl<'m> Assembler<'m> {
                 scatter_block(&mut self.values, &self.joint_slots[k], &kt);
             }
             let g = &self.joint_rows[k].1;
-            let gt = times_tangent(g, &j.pair, increment) * c.scale;
-            let gs = g.transpose() * c.scale;
+            // Borrowed by the closures below: each `move` copies a reference, not the blocks.
+            let gt = &(times_tangent(g, &j.pair, increment) * c.scale);
+            let gs = &(g.transpose() * c.scale);
             let mut slots = self.row_slots[k].iter();
             for (side, _) in j.local_nodes() {
                 let rows = (0..NV).flat_map(|c| (0..n).map(move |r| gt[(r, NV * side + c)]));
