@@ -144,6 +144,18 @@ def design_vector(x: Any, n_design: int) -> np.ndarray | None:
     return np.ascontiguousarray(xv)
 
 
+def design_vectors(designs: Iterable[Any], n_design: int) -> list[np.ndarray | None]:
+    """Each of ``designs`` as :func:`design_vector` makes it; a bad one is named by its
+    index."""
+    out = []
+    for k, x in enumerate(designs):
+        try:
+            out.append(design_vector(x, n_design))
+        except DesignError as error:
+            raise DesignError(f"design {k}: {error}") from None
+    return out
+
+
 class Simulation:
     """A validated scene, ready to run for any design.
 
@@ -577,13 +589,7 @@ class Simulation:
 
     def _designs(self, designs: Iterable[DesignLike]) -> list[np.ndarray | None]:
         """Each of ``designs`` as :meth:`_design` makes it; a bad one is named by its index."""
-        out = []
-        for k, x in enumerate(designs):
-            try:
-                out.append(self._design(x))
-            except DesignError as error:
-                raise DesignError(f"design {k}: {error}") from None
-        return out
+        return design_vectors(designs, self.n_design)
 
     def checked_design(self, x: DesignLike) -> np.ndarray:
         """``x`` as a run reads it: one number for every variable or a vector of
@@ -687,7 +693,7 @@ CACHED_SCENES = 64
 """Scenes whose :class:`Simulation` a process keeps for its tasks, the least recently used
 dropped first."""
 
-_simulations: OrderedDict[str, Simulation] = OrderedDict()
+_simulations: OrderedDict[str, Any] = OrderedDict()
 _simulations_lock = threading.Lock()
 
 
@@ -713,7 +719,7 @@ class Task:
 
 def perform(task: Task) -> Sensitivities:
     """Runs ``task`` on this process's :class:`Simulation` of its scene, built on first use."""
-    sim = _cached(task.scene, task.simulation)
+    sim = cached(task.scene, task.simulation)
     if task.held is not None:
         return refinement.on_grid(sim, task.x, task.responses, *task.held, task.options)
     if task.gradients:
@@ -732,16 +738,18 @@ def _key(scene: dict, options: dict[str, Any]) -> str:
     return json.dumps([scene, options], sort_keys=True, default=float)
 
 
-def _cached(scene: dict, options: dict[str, Any], sim: Simulation | None = None) -> Simulation:
-    """This process's Simulation of ``scene`` and ``options`` (``sim`` itself if given),
-    kept for the next task; safe from several threads."""
+def cached(scene: dict, options: dict[str, Any], sim: Any = None, make: Callable[..., Any] = Simulation) -> Any:
+    """This process's simulation of ``scene`` and ``options`` (``sim`` itself if given, else
+    ``make(scene, **options)``: a :class:`Simulation`, or a spatial scene's
+    :class:`~flextop.spatial.SpatialSimulation`), kept for the next task; safe from several
+    threads."""
     key = _key(scene, options)
     with _simulations_lock:
         if sim is not None:
             _simulations[key] = sim
         found = _simulations.get(key)
     if found is None:
-        found = Simulation(scene, **options)
+        found = make(scene, **options)
     with _simulations_lock:
         found = _simulations.setdefault(key, found)
         _simulations.move_to_end(key)
@@ -750,9 +758,10 @@ def _cached(scene: dict, options: dict[str, Any], sim: Simulation | None = None)
     return found
 
 
-def remember(sim: Simulation) -> None:
-    """Lets this process's tasks on ``sim``'s scene and options run on ``sim`` itself."""
-    _cached(sim.spec, sim.options, sim)
+def remember(sim: Any) -> None:
+    """Lets this process's tasks on ``sim``'s scene and options run on ``sim`` itself (a
+    :class:`Simulation` or a :class:`~flextop.spatial.SpatialSimulation`)."""
+    cached(sim.spec, sim.options, sim)
 
 
 def load(path: str | os.PathLike) -> Results | StaticResults | Sensitivities:

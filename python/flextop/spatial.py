@@ -48,6 +48,7 @@ with them).
 from __future__ import annotations
 
 import os
+import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -65,7 +66,7 @@ from .discretization.tolerance import TIME_ESTIMATES, Discretization
 from .errors import DesignError, SceneError, SettingsError, SimulationError
 from .scenes.builder import read_toml
 from .scenes.spatial import SpatialScene, axis_angle
-from .simulation import DesignLike, design_vector
+from .simulation import DesignLike, Task, cached, design_vector
 
 NQ, NV = 7, 6
 """Numbers per node: in a configuration (position, unit quaternion w, x, y, z), in a
@@ -249,9 +250,23 @@ class SpatialSensitivities:
     #: none for a volume or a mass, explicit in the design); ``None`` where no such sweep
     #: made them (the direct method, an equilibrium).
     time_errors: np.ndarray | None = field(default=None, repr=False)
+    #: Seconds spent, where a task's run was timed (:func:`perform`): ``"runs"``, the
+    #: runs with their adjoint sweeps, one engine call each.
+    timings: dict[str, float] = field(default_factory=dict)
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.values, self.dfdx))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The responses' names, as :class:`~flextop.Sensitivities` calls them."""
+        return self.responses
+
+    @property
+    def gradients(self) -> np.ndarray:
+        """The gradients to the densities (:attr:`dfdx`), as :class:`~flextop.Sensitivities`
+        calls them."""
+        return self.dfdx
 
     def __getitem__(self, response: str) -> float:
         return float(self.values[self._row(response)])
@@ -341,6 +356,18 @@ class SpatialSimulation:
                               tuple(node for _, node in self.model.body_nodes),
                               tuple(-1 if v is None else v for (_, ends), v in zip(beams, variables) for _ in ends),
                               tuple(r for (_, ends), r in zip(beams, radii) for _ in ends), anchors)
+
+    def __reduce__(self) -> tuple[Any, tuple[dict, dict[str, Any]]]:
+        """Pickled as its scene and :attr:`options`, built again where it is unpickled (as a
+        :class:`~flextop.Simulation` is): it can be sent to another process or a cluster."""
+        return rebuilt, (self.spec, self.options)
+
+    @property
+    def options(self) -> dict[str, Any]:
+        """The keyword arguments that rebuild this simulation from its scene: ``accuracy``,
+        or ``rtol`` and ``atol``, and ``refine``."""
+        return {"accuracy": self.accuracy, "rtol": None if self.accuracy else self.rtol, "atol": self.atol,
+                "refine": self.refine}
 
     @property
     def analysis(self) -> str:
@@ -464,7 +491,8 @@ class SpatialSimulation:
     def run_with_sensitivities(self, x: DesignLike = None, responses: Sequence[str] | str | None = None,
                                parameters: Sequence[str] | str = (), *, equilibrium: bool | None = None,
                                rtol: float | None = None, atol: float | None = None, time_estimate: str = "adjoint",
-                               extrapolate: bool = True, **settings: Any) -> SpatialSensitivities:
+                               extrapolate: bool = True, start: Discretization | None = None,
+                               **settings: Any) -> SpatialSensitivities:
         """The ``responses`` at design ``x`` (full density by default; the tip's x, y, z by
         default) and their exact gradients to the densities (``dfdx``, one column per design
         variable) and to the ``parameters`` (module docs), over the motion or, with
@@ -482,7 +510,9 @@ class SpatialSimulation:
         (``"adjoint"``), or by step doubling alone (``"doubling"``). With ``extrapolate`` (the
         default), a motion's candidate is also judged on Richardson's extrapolation in the
         step from its half steps, and where that is the more accurate the values, gradients
-        and peaks are the extrapolation of the two runs (``discretization.extrapolated``)."""
+        and peaks are the extrapolation of the two runs (``discretization.extrapolated``).
+        ``start``: the grid the candidates start from (a ``discretization`` a run to a
+        tolerance returned, near this design; the scene's by default)."""
         if responses is None:
             if self.tip is None:
                 raise SettingsError("no responses given, and the scene names no tip")
@@ -494,7 +524,7 @@ class SpatialSimulation:
             if time_estimate not in TIME_ESTIMATES:
                 raise SettingsError(f"time_estimate must be one of {', '.join(map(repr, TIME_ESTIMATES))}, "
                                     f"got {time_estimate!r}")
-            accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings,
+            accepted = spatial_tolerance.to_tolerance(self, self._design(x), rs, ps, static, wanted, settings, start=start,
                                                       time_estimate=time_estimate, extrapolate=extrapolate)
             return replace(accepted.sensitivities, responses=rs, discretization=accepted.discretization,
                            errors=accepted.errors, gradient_errors=accepted.gradient_errors)
@@ -611,6 +641,30 @@ class SpatialSimulation:
 
 MEASURES = ("volume", "mass")
 """Responses explicit in the design, measured here rather than by a run."""
+
+
+def rebuilt(scene: dict, options: dict[str, Any]) -> SpatialSimulation:
+    """The :class:`SpatialSimulation` of ``scene`` with ``options``: what an unpickled one is."""
+    return SpatialSimulation(scene, **options)
+
+
+def perform(task: Task) -> SpatialSensitivities:
+    """Runs ``task`` (a :class:`~flextop.simulation.Task` on a spatial scene) on this
+    process's :class:`SpatialSimulation` of its scene, built on first use: its responses
+    with their gradients to the densities — on the grid ``task.held`` holds, or to the
+    tolerance its options give (``rtol``, ``atol``, ``start``; the gradients held to it too),
+    or on the scene's grid. A spatial scene's responses come from its adjoint sweep, so they
+    come with their gradients even where the task asks for none. Timed as ``"runs"``."""
+    sim = cached(task.scene, task.simulation, make=SpatialSimulation)
+    options = {k: v for k, v in task.options.items() if k != "hold_gradients"}
+    began = time.perf_counter()
+    if task.held is None:
+        run = sim.run_with_sensitivities(task.x, task.responses, **options)
+    else:
+        design, static = sim._design(task.x), sim.analysis == "static"
+        run = replace(spatial_tolerance.on_grid(sim, task.held[0], design, task.responses, [], static, options),
+                      responses=task.responses, discretization=task.held[0])
+    return replace(run, timings={"runs": time.perf_counter() - began})
 
 _PLANAR_JOINTS = {"clamp": "weld", "pin": "revolute", "hinge": "revolute", "weld": "weld"}
 """A planar joint's spatial kind (its axis z)."""

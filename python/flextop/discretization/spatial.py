@@ -42,7 +42,7 @@ import copy
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import astuple, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -159,6 +159,19 @@ class EveryBeam(Discretization):
         steps = f" and {self.steps} steps" if self.steps else ""
         extrapolated = ", extrapolated from half the steps" if self.extrapolated else ""
         return f"{self.refinement * self.uniform}× the scene's elements of every frame beam{steps}{extrapolated}"
+
+
+def saved(d: EveryBeam) -> list:
+    """``d`` as a checkpoint holds it (:func:`restored` reads it back)."""
+    return [*astuple(d)[:5], list(d.factors)]
+
+
+def restored(sim: Any, data: Sequence) -> EveryBeam:
+    """The candidate :func:`saved` wrote, on ``sim`` (a
+    :class:`~flextop.spatial.SpatialSimulation`), graded as its runs grade."""
+    refinement, steps, uniform, floor, extrapolated, factors = data
+    graded = sim.refine in ("bars", "shares") and sim.analysis == "dynamic"
+    return EveryBeam(refinement, steps, uniform, floor, extrapolated, tuple(factors), graded=graded, unit="frame beam")
 
 
 def beam_factors(sim: Any, d: Discretization, design: list[float] | None) -> dict[str, int]:

@@ -47,12 +47,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import execution, scenes
+from .. import execution, scenes, spatial
 from ..errors import DesignError, SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..results import Sensitivities
 from ..scenes import Scene
-from ..simulation import Simulation, Task, perform, remember
+from ..scenes.spatial import is_spatial
+from ..simulation import Simulation, Task, design_vectors, perform, remember
+from ..spatial import SpatialSensitivities, SpatialSimulation
+from ..discretization import spatial as spatial_tolerance
+from ..discretization.spatial import EveryBeam
 from ..discretization.tolerance import Discretization
 from .held import READAPT, Readapt
 from .topology import is_aggregate
@@ -92,26 +96,43 @@ class Scenario:
         return Scene.from_toml(self.scene).to_dict()
 
 
-def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list[Simulation]:
-    """Each scenario's :class:`Simulation` in this process, checked to share the design."""
+def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list[Simulation | SpatialSimulation]:
+    """Each scenario's :class:`Simulation` (or, a spatial scene's,
+    :class:`~flextop.spatial.SpatialSimulation`) in this process, checked to share the
+    design and the dimension."""
     if not scenarios:
         raise SceneError("scenarios: give at least one")
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise SceneError(f"scenarios: names must differ, got {names}")
-    sims = []
+    sims: list[Simulation | SpatialSimulation] = []
     for s in scenarios:
         if isinstance(s.weight, bool) or not (isinstance(s.weight, numbers.Real) and math.isfinite(s.weight) and s.weight > 0):
             raise SceneError(f"scenario {s.name!r}: the weight must be a positive number, got {s.weight!r}")
+        spec = s.spec()
+        if sims and is_spatial(spec) != isinstance(sims[0], SpatialSimulation):
+            raise SceneError(f"scenario {s.name!r}: its scene is {'spatial' if is_spatial(spec) else 'planar'}, "
+                             f"that of {scenarios[0].name!r} is not; scenarios share one design")
         try:
-            sims.append(Simulation(s.spec(), **options))
+            sims.append(SpatialSimulation(spec, **options) if is_spatial(spec) else Simulation(spec, **options))
         except SceneError as error:
             raise type(error)(f"scenario {s.name!r}: {error}") from None
-        if sims[-1].variable_names != sims[0].variable_names or sims[-1].x_min != sims[0].x_min:
+        if _variables(sims[-1]) != _variables(sims[0]) or sims[-1].x_min != sims[0].x_min:
             raise SceneError(f"scenario {s.name!r}: its design variables (or their x_min) differ from those of "
                              f"{scenarios[0].name!r}; scenarios share one design")
         remember(sims[-1])
     return sims
+
+
+def _variables(sim: Simulation | SpatialSimulation) -> tuple[str, ...]:
+    """A simulation's design variables' names."""
+    return tuple(sim.variables if isinstance(sim, SpatialSimulation) else sim.variable_names)
+
+
+def _perform(task: Task) -> Sensitivities | SpatialSensitivities:
+    """A scenario's run, on its planar or spatial scene (:func:`flextop.simulation.perform`,
+    :func:`flextop.spatial.perform`)."""
+    return spatial.perform(task) if is_spatial(task.scene) else perform(task)
 
 
 class ScenarioProblem(Problem):
@@ -208,6 +229,7 @@ class ScenarioProblem(Problem):
         x = self.simulations[0]._design(x)
         if x is None:
             raise DesignError("start needs a design of the scenes")
+        x = np.asarray(x, dtype=float)
         return np.append(x, 0.0) if self.aggregate is Aggregate.WORST else x
 
     def unscaled(self, f0: float, g: np.ndarray | None = None) -> float:
@@ -303,7 +325,7 @@ class ScenarioProblem(Problem):
         return Evaluation(beta, np.concatenate([np.log(f / scale) - beta, g_arr]), df0,
                           np.vstack([column(df / f[:, None], -1.0), column(dg_arr, 0.0)]))
 
-    def _run(self, x: np.ndarray, measure: bool) -> list[Sensitivities]:
+    def _run(self, x: np.ndarray, measure: bool) -> list[Sensitivities | SpatialSensitivities]:
         options: dict[str, Any] = {"method": self.method, **self.settings}
         tolerance = self._to_tolerance()
         held = tolerance and not measure
@@ -311,7 +333,7 @@ class ScenarioProblem(Problem):
             options |= {"rtol": self.rtol, "atol": self.atol, "hold_gradients": False}
         self.evaluations += 1
 
-        def task(s: Scenario, k: int, sim: Simulation) -> Task:
+        def task(s: Scenario, k: int, sim: Simulation | SpatialSimulation) -> Task:
             if held:
                 return Task(sim.spec, x, tuple(self.responses(k)), True, options, sim.options,
                             held=(self.discretizations[s.name], self.rule.at))
@@ -320,7 +342,7 @@ class ScenarioProblem(Problem):
 
         tasks = [(f"scenario {s.name!r}", task(s, k, sim)) for k, (s, sim) in enumerate(zip(self.scenarios, self.simulations))]
         try:
-            runs = execution.run_all(perform, tasks, self.executor, chunksize=self.chunksize)
+            runs = execution.run_all(_perform, tasks, self.executor, chunksize=self.chunksize)
         except SimulationError as error:
             raise EvaluationError(str(error), x) from error
         if tolerance and measure:
@@ -330,7 +352,7 @@ class ScenarioProblem(Problem):
             if run.discretization is not None:
                 self.discretizations[s.name] = run.discretization
             for key, seconds in run.timings.items():
-                self.timings[key] += seconds
+                self.timings[key] = self.timings.get(key, 0.0) + seconds
         return runs
 
     def to_dict(self) -> dict:
@@ -340,7 +362,8 @@ class ScenarioProblem(Problem):
                 "constraints": [list(c) for c in self.given],
                 "settings": self.settings, "method": self.method, "objective_scale": self.objective_scale, "rtol": self.rtol,
                 "atol": self.atol, "accuracy": self.accuracy, **self.rule.to_dict(),
-                "discretizations": {name: list(astuple(d)) for name, d in self.discretizations.items()}}
+                "discretizations": {name: spatial_tolerance.saved(d) if isinstance(d, EveryBeam) else list(astuple(d))
+                                    for name, d in self.discretizations.items()}}
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled without its executor (a pool or a client belongs to the process that made
@@ -353,7 +376,9 @@ class ScenarioProblem(Problem):
                       [tuple(c) for c in data["constraints"]], aggregate=data["aggregate"], executor=executor, chunksize=chunksize,
                       settings=data["settings"], method=data["method"], objective_scale=data["objective_scale"],
                       rtol=data.get("rtol"), atol=data.get("atol"), accuracy=data.get("accuracy"))
-        problem.discretizations = {name: Discretization(*d) for name, d in data.get("discretizations", {}).items()}
+        sims = {s.name: sim for s, sim in zip(problem.scenarios, problem.simulations)}
+        problem.discretizations = {name: spatial_tolerance.restored(sims[name], d) if isinstance(sims[name], SpatialSimulation)
+                                   else Discretization(*d) for name, d in data.get("discretizations", {}).items()}
         problem.rule = Readapt.from_dict(data)
         return problem
 
@@ -366,10 +391,10 @@ def evaluate(scenarios: Sequence[Scenario], designs: Iterable[Any], responses: S
     :meth:`Simulation.map`. The runs go to ``executor``, ``chunksize`` to a task."""
     sims = _simulations(scenarios, {})
     names = (responses,) if isinstance(responses, str) else tuple(responses)
-    vectors = sims[0]._designs(designs)
+    vectors = design_vectors(designs, sims[0].n_design)
     tasks = [(f"scenario {s.name!r}, design {i}", Task(sim.spec, x, names, gradients, options, sim.options))
              for i, x in enumerate(vectors) for s, sim in zip(scenarios, sims)]
-    flat = execution.run_all(perform, tasks, executor, chunksize=chunksize)
+    flat = execution.run_all(_perform, tasks, executor, chunksize=chunksize)
     n = len(scenarios)
     return [{s.name: flat[i * n + k] for k, s in enumerate(scenarios)} for i in range(len(vectors))]
 

@@ -31,14 +31,12 @@ towards the ratio at the accepted design (damped by
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import astuple
 from typing import Any
 
 import numpy as np
 
 from ..discretization import spatial as spatial_tolerance
 from ..discretization import tolerance
-from ..discretization.spatial import EveryBeam
 from ..discretization.tolerance import Discretization
 from ..errors import SettingsError, SimulationError
 from ..modal import ks_lowest_of
@@ -108,7 +106,7 @@ class SpatialProblem(Problem):
         """What rebuilds this problem on the same scene (for checkpoints): its responses,
         every bound (a volume fraction's as its volume), the reference and each stress
         bound's factor as they stand."""
-        held = None if self.held is None else [*astuple(self.held)[:5], list(self.held.factors)]
+        held = None if self.held is None else spatial_tolerance.saved(self.held)
         return {"objective": self.objective, "constraints": [[name, bound] for name, bound in self.constraints],
                 "reference": self.reference, "settings": dict(self.settings), "normalization": dict(self.normalization),
                 "rtol": self.rtol, "atol": self.atol, "rule": self.rule.to_dict(), "held": held}
@@ -122,10 +120,7 @@ class SpatialProblem(Problem):
         if data.get("rule") is not None:
             problem.rule = Readapt.from_dict(data["rule"])
         if data.get("held") is not None:
-            refinement, steps, uniform, floor, extrapolated, factors = data["held"]
-            graded = sim.refine in ("bars", "shares") and sim.analysis == "dynamic"
-            problem.held = EveryBeam(refinement, steps, uniform, floor, extrapolated, tuple(factors), graded=graded,
-                                     unit="frame beam")
+            problem.held = spatial_tolerance.restored(sim, data["held"])
         return problem
 
     def evaluate(self, x: np.ndarray) -> Evaluation:

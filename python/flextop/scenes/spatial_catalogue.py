@@ -72,13 +72,13 @@ def spatial_slider_crank(*, crank: float = 0.15, rod: float = 0.3, tilt_deg: flo
     return scene
 
 
-def spatial_robot_arm(*, nx: int = 5, ny: int = 2, nz: int = 2, connectivity: str = "diagonals",
+def spatial_robot_arm(*, nx: int = 5, ny: int = 2, nz: int = 2, connectivity: str = "diagonals", payload: float = 2.0,
                       t_end: float = 1.0, h: float = 0.01) -> SpatialScene:
     """A robot arm in space: a base turning about the vertical z, a shoulder and an elbow
     pitching about horizontal axes, each driven by a trapezoidal law, two aluminium lattice
     links (``nx × ny × nz`` nodes of tubes joined by ``connectivity``; 0.6 m and 0.5 m long,
-    0.1 m high, 0.08 m wide), each welded face by face to the joints' hubs, and a 2 kg
-    payload welded to the second link's end. The base turns 1 rad while the shoulder lifts
+    0.1 m high, 0.08 m wide), each welded face by face to the joints' hubs, and a
+    ``payload`` (kg, on a hub of its own, 2 kg by default) welded to the second link's end. The base turns 1 rad while the shoulder lifts
     0.4 rad and the elbow folds 0.8 rad: the payload moves out of every plane. Each bar's
     density is a design variable."""
     scene = SpatialScene("spatial_robot_arm", gravity=(0.0, 0.0, -9.81))
@@ -116,7 +116,9 @@ def spatial_robot_arm(*, nx: int = 5, ny: int = 2, nz: int = 2, connectivity: st
     hub("elbow_b", elbow, 0.2, [("link2", 0)])
     scene.revolute("fold", "elbow_a", "elbow_b", axis=(0.0, 1.0, 0.0),
                    drive=trapezoidal(0.0, 0.8, acceleration=10.0, speed=1.5))
-    hub("payload", tip, 2.0, [("link2", nx - 1)])
+    if not (isinstance(payload, (int, float)) and math.isfinite(payload) and payload > 0.0):
+        raise SceneError(f"spatial_robot_arm: the payload {payload!r} must be a positive mass in kg")
+    hub("payload", tip, payload, [("link2", nx - 1)])
     scene.tip = "payload"
     scene.simulation(t_end=t_end, h=h, rho_inf=0.8)
     return scene

@@ -1,0 +1,139 @@
+"""Scenario problems and batches of spatial scenes: sums exact to round-off, the worst case
+against finite differences, the same bits on every executor, held to a tolerance as a
+single spatial problem is, checkpoints, failures named."""
+
+import pickle
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from multiprocessing import get_context
+
+import numpy as np
+import pytest
+
+import flextop
+from flextop.discretization import spatial as spatial_tolerance
+from flextop.problems import Scenario, ScenarioProblem, evaluate
+from flextop.scenes.spatial_catalogue import spatial_robot_arm
+from flextop.spatial import SpatialSimulation
+
+
+def arm(**changes):
+    """The spatial robot arm, short (three nodes along each link, 0.3 s): its physics, quickly."""
+    return spatial_robot_arm(nx=3, t_end=0.3, **changes).to_dict()
+
+
+def two_payloads():
+    return [Scenario("light", arm(payload=0.5)), Scenario("heavy", arm(payload=3.0), 0.5)]
+
+
+def design(n, seed=0):
+    return np.random.default_rng(seed).uniform(0.3, 1.0, n)
+
+
+def test_a_weighted_sum_of_spatial_scenarios_is_the_sum_of_their_runs():
+    cases = two_payloads()
+    sim = SpatialSimulation(cases[0].scene)
+    volume = 0.5 * sim.volume(1.0)
+    problem = ScenarioProblem(cases, "tip_deflection", [("volume", volume), ("strain_energy", 0.02)])
+    x = design(problem.n)
+    e = problem.evaluate(x)
+    alone = [SpatialSimulation(c.scene).run_with_sensitivities(x, ["tip_deflection", "strain_energy"]) for c in cases]
+    f = sum(c.weight * a.values[0] for c, a in zip(cases, alone))
+    df = sum(c.weight * a.dfdx[0] for c, a in zip(cases, alone))
+    assert alone[1].values[0] > 2.0 * alone[0].values[0]  # the payloads make two different motions
+    assert abs(e.f0 * problem.objective_scale - f) <= 1e-14 * abs(f)
+    assert np.max(np.abs(e.df0 * problem.objective_scale - df)) <= 1e-14 * np.max(np.abs(df))
+    # the volume once, the strain energy once per scenario, named after it
+    assert problem.names == ["volume", "light: strain_energy", "heavy: strain_energy"]
+    assert (e.g[0] + 1.0) * volume == pytest.approx(sim.volume(x), rel=1e-14)
+    for k, a in enumerate(alone):
+        assert abs((e.g[1 + k] + 1.0) * 0.02 - a.values[1]) <= 1e-14 * a.values[1]
+        assert np.max(np.abs(e.dg[1 + k] * 0.02 - a.dfdx[1])) <= 1e-14 * np.max(np.abs(a.dfdx[1]))
+    assert problem.timings["runs"] > 0.0
+
+
+def test_the_worst_case_of_spatial_scenarios_passes_finite_differences():
+    problem = ScenarioProblem(two_payloads(), "tip_deflection", aggregate="worst")
+    x = problem.start(design(problem.n - 1, seed=3))
+    base = problem.evaluate(x)
+    assert base.f0 == 0.0 and base.g.shape == (2,) and np.max(base.g) == pytest.approx(0.0, abs=1e-15)
+    rng = np.random.default_rng(7)
+    for _ in range(2):
+        v = rng.standard_normal(problem.n)
+        v[:-1] *= 0.05
+        eps = 1e-6
+        plus, minus = problem.evaluate(x + eps * v), problem.evaluate(x - eps * v)
+        fd = (plus.g - minus.g) / (2 * eps)
+        exact = base.dg @ v
+        assert np.allclose(fd, exact, rtol=1e-5, atol=1e-8 * np.max(np.abs(exact))), (fd, exact)
+
+
+def test_spatial_scenarios_share_one_design_and_one_dimension():
+    with pytest.raises(flextop.SceneError, match=r"scenario 'b': its scene is planar, that of 'a' is not"):
+        ScenarioProblem([Scenario("a", arm()), Scenario("b", flextop.scenes.robot_arm().to_dict())], "tip_deflection")
+    with pytest.raises(flextop.SceneError, match=r"scenario 'b': its scene is spatial"):
+        ScenarioProblem([Scenario("a", flextop.scenes.robot_arm().to_dict()), Scenario("b", arm())], "tip_deflection")
+    with pytest.raises(flextop.SceneError, match=r"'b': its design variables \(or their x_min\) differ"):
+        ScenarioProblem([Scenario("a", arm()), Scenario("b", spatial_robot_arm(nx=4, t_end=0.3).to_dict())],
+                        "tip_deflection")
+    with pytest.raises(flextop.SceneError, match="payload -1 must be a positive mass"):
+        spatial_robot_arm(payload=-1)
+
+
+def _same(a, b):
+    return all(np.array_equal(p.values, q.values) and np.array_equal(p.dfdx, q.dfdx) for p, q in zip(a, b))
+
+
+def test_spatial_scenarios_give_the_same_bits_on_every_executor_and_pickle_by_their_scenes():
+    cases = two_payloads()
+    sim = SpatialSimulation(cases[0].scene)
+    designs = [design(sim.n_design, seed=s) for s in range(3)]
+    names = ["tip_deflection", "reaction:lift"]
+    serial = evaluate(cases, designs, names)
+    flat = lambda runs: [r[c.name] for r in runs for c in cases]  # noqa: E731
+    assert [type(r) for r in flat(serial)] == [flextop.spatial.SpatialSensitivities] * 6
+    assert serial[2]["heavy"].values[0] == SpatialSimulation(cases[1].scene).run_with_sensitivities(designs[2], names).values[0]
+    with ThreadPoolExecutor(2) as pool:
+        assert _same(flat(serial), flat(evaluate(cases, designs, names, executor=pool)))
+    with ProcessPoolExecutor(2, mp_context=get_context("spawn")) as pool:
+        assert _same(flat(serial), flat(evaluate(cases, designs, names, executor=pool)))
+    again = pickle.loads(pickle.dumps(sim))
+    assert again.options == sim.options and again.spec == sim.spec
+    assert np.array_equal(again.run_with_sensitivities(designs[0], names).values, flat(serial)[0].values)
+
+
+def test_a_spatial_scenario_that_fails_is_named():
+    cases = [Scenario("light", arm(payload=0.5)), Scenario("two tonnes", arm(payload=2000.0))]
+    problem = ScenarioProblem(cases, "tip_deflection")
+    with pytest.raises(flextop.optimizers.EvaluationError, match="scenario 'two tonnes': Newton did not converge"):
+        problem.evaluate(np.full(problem.n, 0.5))
+    assert ScenarioProblem(cases[:1], "tip_deflection").evaluate(np.full(problem.n, 0.5)).f0 == 1.0
+
+
+def test_spatial_scenarios_held_to_a_tolerance_are_measured_only_where_an_accepted_design_moved():
+    cases = two_payloads()
+    problem = ScenarioProblem(cases, "tip_deflection", rtol=1e-2)
+    x = design(problem.n_design)
+    problem.accept(x, problem.evaluate(x))
+    held = dict(problem.discretizations)
+    assert problem.measured == [1] and all(isinstance(d, spatial_tolerance.EveryBeam) for d in held.values())
+    far = np.clip(x - 0.2, problem.lower, problem.upper)
+    trial = problem.evaluate(far)
+    assert problem.measured == [1] and problem.discretizations == held
+
+    def weighted(runs):
+        return sum(s.weight * run.values[0] for s, run in zip(cases, runs))
+
+    sims = [SpatialSimulation(s.scene) for s in cases]
+    on_grids = [spatial_tolerance.on_grid(sim, held[s.name], list(far), ["tip_deflection"], [], False, {"method": "auto"})
+                for s, sim in zip(cases, sims)]
+    assert trial.f0 * problem.objective_scale == pytest.approx(weighted(on_grids), rel=1e-14)
+    accepted = problem.accept(far, trial)
+    assert problem.measured == [1, 3]
+    measured = [sim.run_with_sensitivities(far, "tip_deflection", rtol=1e-2, start=held[s.name])
+                for s, sim in zip(cases, sims)]
+    assert accepted.f0 * problem.objective_scale == pytest.approx(weighted(measured), rel=1e-14)
+    assert all(m.errors["tip_deflection"] <= 1e-2 for m in measured)
+    again = ScenarioProblem.from_dict(problem.to_dict())
+    assert again.discretizations == problem.discretizations
+    assert [str(d) for d in again.discretizations.values()] == [str(d) for d in problem.discretizations.values()]
+    assert again.evaluate(far).f0 == problem.evaluate(far).f0
