@@ -313,10 +313,20 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
         if value is not None:
             raise SettingsError(f"{flag} applies to one scene, not to --scenarios")
     cases, aggregate = _scenario_file(args.scenarios)
-    first = Simulation(cases[0].spec(), accuracy=args.accuracy)
-    constraints = volume_constraints(first, args.volume_fraction or 0.4, per_component=not args.global_volume)
-    problem = ScenarioProblem(cases, args.objective or first._default_response(), constraints, aggregate=args.aggregate or aggregate,
-                              executor=workers.executor, chunksize=workers.chunksize(len(cases)), settings=_settings(args),
+    if is_spatial(cases[0].spec()):
+        if args.analysis is not None:
+            raise SettingsError("--analysis: not built for spatial scenes yet")
+        first: Simulation | SpatialSimulation = SpatialSimulation(cases[0].spec())
+        objective = args.objective or _spatial_objective(first)
+        constraints = _spatial_volumes(first, args.volume_fraction or 0.4, args.global_volume)
+        settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
+    else:
+        first = Simulation(cases[0].spec(), accuracy=args.accuracy)
+        objective = args.objective or first._default_response()
+        constraints = volume_constraints(first, args.volume_fraction or 0.4, per_component=not args.global_volume)
+        settings = _settings(args)
+    problem = ScenarioProblem(cases, objective, constraints, aggregate=args.aggregate or aggregate,
+                              executor=workers.executor, chunksize=workers.chunksize(len(cases)), settings=settings,
                               rtol=args.rtol, accuracy=args.accuracy)
     return problem.simulations[0], problem
 
@@ -408,15 +418,15 @@ def optimize_command(args: argparse.Namespace) -> int:
 
 def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     out = Path(args.out)
-    if args.scene is not None and args.scenarios is None and not args.resume:
-        spec = _scene(args.scene).to_dict()
-        if is_spatial(spec):
-            return _optimize_spatial(spec, args, out)
     if args.scenarios is None and not args.resume:
         alone = [flag for flag, value in (("--aggregate", args.aggregate), ("--workers", args.workers), ("--scheduler", args.scheduler))
                  if value is not None]
         if alone:
             raise SettingsError(f"{', '.join(alone)}: for several scenarios; give --scenarios")
+    if args.scene is not None and args.scenarios is None and not args.resume:
+        spec = _scene(args.scene).to_dict()
+        if is_spatial(spec):
+            return _optimize_spatial(spec, args, out)
     if args.resume:
         sim, problem, options, x0, state, animate = _resume(args, out, workers)
         if isinstance(problem, SpatialProblem):
@@ -474,9 +484,11 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.objective_scale}))
-    if not args.no_plots and result.history:
+    if isinstance(sim, SpatialSimulation):
+        _spatial_scenario_output(sim, problem, result, out, plots=not args.no_plots, vtk=args.vtk)
+    elif not args.no_plots and result.history:
         _pictures(sim, problem, result, x0, out, animate=animate, every=args.every, fps=args.fps)
-    if args.vtk and result.history:
+    if args.vtk and result.history and not isinstance(sim, SpatialSimulation):
         x = problem.densities(result.x[: sim.n_design])
         tolerance = {"rtol": problem.rtol} if problem.rtol else {}
         written = [export.write_design(sim, x, out / "design.vtu"), _vtk(sim.run(x, **tolerance, **problem.settings), out)]
@@ -489,7 +501,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     return 0
 
 
-SPATIAL_REFUSED = ("scenarios", "cells", "aggregate", "workers", "scheduler", "filter", "filter_cells", "projection",
+SPATIAL_REFUSED = ("cells", "filter", "filter_cells", "projection",
                    "max_von_mises", "start", "analysis", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
 
@@ -586,7 +598,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     if sim.n_design == 0:
         raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
-    objective = args.objective or ("tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy")
+    objective = args.objective or _spatial_objective(sim)
     fraction = args.volume_fraction or 0.4
     per_structure = not args.global_volume and any("/" in v for v in sim.variables)
     limits = [(name, value) for name, value in (("stress", args.max_stress), ("buckling", args.max_buckling))
@@ -607,8 +619,25 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
     return sim, problem, options, x0
 
 
-def _designs_cells(sim: Simulation) -> bool:
-    """Whether the scene designs cells of a continuum member."""
+def _spatial_objective(sim: SpatialSimulation) -> str:
+    """A spatial scene's default objective: its tip's deflection from the rigid trajectory
+    where it names a tip and moves, else its strain energy."""
+    return "tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy"
+
+
+def _spatial_volumes(sim: SpatialSimulation, fraction: float, whole: bool) -> list[tuple[str, float]]:
+    """``fraction`` of each ground structure's volume as its bound (paper Eq. 41), or of the
+    whole with ``whole`` or where the scene has no ground structure with designed bars."""
+    structures = dict.fromkeys(v.split("/")[0] for v in sim.variables if "/" in v)
+    if whole or not structures:
+        return [("volume", fraction * sim.volume(1.0))]
+    return [(f"volume:{name}", fraction * sim.volume(1.0, name)) for name in structures]
+
+
+def _designs_cells(sim: Simulation | SpatialSimulation) -> bool:
+    """Whether the scene designs cells of a continuum member (a spatial scene has none)."""
+    if isinstance(sim, SpatialSimulation):
+        return False
     return bool(np.asarray(sim.model.cells()["variable"]).max(initial=-1) >= 0)
 
 
@@ -698,12 +727,38 @@ def _report(problem: TopologyProblem | ScenarioProblem, result, elapsed: float, 
         print(f"to rtol = {problem.rtol or problem.simulation.rtol:g}: discretizations {at}")
     solve = sum(r.solve_time for r in result.history[-session:]) if session else 0.0
     if isinstance(problem, ScenarioProblem):  # the runs' seconds add up over the workers
-        print(f"time: {elapsed:.2f} s — the scenarios' runs took {problem.timings['simulation']:.2f} s of simulation and "
-              f"{problem.timings['gradients']:.2f} s of gradients in all, the subproblems {solve:.2f} s")
+        runs = (f"{problem.timings['runs']:.2f} s (motions with their adjoint sweeps)" if "runs" in problem.timings else
+                f"{problem.timings['simulation']:.2f} s of simulation and {problem.timings['gradients']:.2f} s of gradients")
+        print(f"time: {elapsed:.2f} s — the scenarios' runs took {runs} in all, the subproblems {solve:.2f} s")
         return
     shares = {"simulation": problem.timings["simulation"], "gradients": problem.timings["gradients"], "subproblem": solve}
     other = max(elapsed - sum(shares.values()), 0.0)
     print(f"time: {elapsed:.2f} s — " + ", ".join(f"{k} {100 * v / elapsed:.1f} %" for k, v in {**shares, "other": other}.items()))
+
+
+def _spatial_scenario_output(sim: SpatialSimulation, problem: ScenarioProblem, result, out: Path, *, plots: bool,
+                             vtk: bool) -> None:
+    """The figures of a finished run on spatial scenarios — the design in 3D, the history —
+    and, with ``vtk``, the first scenario's motion at the design for ParaView."""
+    if not result.history:
+        return
+    x = problem.densities(result.x)
+    written = []
+    if plots:
+        from .plots import plot_history, plot_spatial_design
+
+        worst = problem.aggregate is scenarios.Aggregate.WORST
+        plot_spatial_design(sim, x, title=f"{sim.model.name}: {problem.description}, optimized", path=out / "design.png")
+        plot_history(result.history, path=out / "history.png",
+                     objective_label="β = ln(worst / start)" if worst else problem.objective,
+                     objective_scale=None if worst else problem.objective_scale, constraint_labels=list(problem.names or []))
+        written += [out / "design.png", out / "history.png"]
+    if vtk and sim.analysis == "dynamic":
+        settings = {k: v for k, v in problem.settings.items() if k in SPATIAL_OPTIONS}
+        written.append(sim.simulate(x, **settings).to_vtk(out / "motion.pvd"))
+    if written:
+        print(f"wrote {', '.join(map(str, written))}" + (f" (the motion of {problem.scenarios[0].name!r}; open it in ParaView)"
+                                                         if vtk and sim.analysis == "dynamic" else ""))
 
 
 def _pictures(sim: Simulation, problem: TopologyProblem | ScenarioProblem, result, x0: np.ndarray, out: Path, *, animate: bool,
@@ -760,7 +815,7 @@ def parser() -> argparse.ArgumentParser:
     s.set_defaults(run=simulate)
     o = sub.add_parser("optimize", help="topology optimization of a scene (checkpointed, resumable)")
     o.add_argument("scene", nargs="?", help="TOML scene file or a built-in scene: " + ", ".join(scenes.BUILT_IN) + " (default robot_arm)")
-    o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight) "
+    o.add_argument("--scenarios", help="optimize for several scenarios: a TOML file of [[scenario]] tables (name, scene, weight; the scenes planar or all spatial) "
                    "and aggregate = \"sum\" | \"worst\", or the built-in robust_robot_arm (3 motions x 3 payloads, worst case)")
     o.add_argument("--cells", type=_cells, metavar="NXxNY", help=CELLS_HELP)
     o.add_argument("--aggregate", choices=["sum", "worst"], help="with --scenarios: weighted sum or worst case of the objective")

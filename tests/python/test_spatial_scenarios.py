@@ -3,6 +3,8 @@ against finite differences, the same bits on every executor, held to a tolerance
 single spatial problem is, checkpoints, failures named."""
 
 import pickle
+import subprocess
+import sys
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from multiprocessing import get_context
 
@@ -137,3 +139,29 @@ def test_spatial_scenarios_held_to_a_tolerance_are_measured_only_where_an_accept
     assert again.discretizations == problem.discretizations
     assert [str(d) for d in again.discretizations.values()] == [str(d) for d in problem.discretizations.values()]
     assert again.evaluate(far).f0 == problem.evaluate(far).f0
+
+
+def test_the_command_line_optimizes_spatial_scenarios_on_workers_and_resumes(tmp_path):
+    for name, payload in [("light", 0.5), ("heavy", 3.0)]:
+        (tmp_path / f"{name}.toml").write_text(spatial_robot_arm(nx=3, t_end=0.3, payload=payload).to_toml())
+    (tmp_path / "cases.toml").write_text('aggregate = "worst"\n[[scenario]]\nname = "light"\nscene = "light.toml"\n'
+                                         '[[scenario]]\nname = "heavy"\nscene = "heavy.toml"\n')
+    cli = lambda *args: subprocess.run([sys.executable, "-m", "flextop.cli", "optimize", *map(str, args)],  # noqa: E731
+                                       capture_output=True, text=True, timeout=600)
+    straight = cli("--scenarios", tmp_path / "cases.toml", "--max-iter", 3, "--workers", 2, "--out", tmp_path / "a", "--vtk")
+    assert straight.returncode == 3, straight.stderr  # stopped at --max-iter: not converged
+    assert "2 scenarios of spatial_robot_arm" in straight.stdout and "heavy: tip_deflection = " in straight.stdout
+    assert "volume:link1 <=" in straight.stdout and "motions with their adjoint sweeps" in straight.stdout
+    for written in ("design.png", "history.png", "motion.pvd", "design.npy", "checkpoint.json"):
+        assert (tmp_path / "a" / written).exists(), written
+    half = cli("--scenarios", tmp_path / "cases.toml", "--max-iter", 2, "--out", tmp_path / "b", "--no-plots")
+    assert half.returncode == 3, half.stderr
+    rest = cli("--resume", "--max-iter", 3, "--workers", 2, "--out", tmp_path / "b", "--no-plots")
+    assert rest.returncode == 3, rest.stderr
+    assert np.array_equal(np.load(tmp_path / "a" / "design.npy"), np.load(tmp_path / "b" / "design.npy"))
+    mixed = tmp_path / "mixed.toml"
+    mixed.write_text('[[scenario]]\nname = "light"\nscene = "light.toml"\n[[scenario]]\nname = "planar"\nscene = "robot_arm"\n')
+    refused = cli("--scenarios", mixed, "--out", tmp_path / "c")
+    assert refused.returncode == 2 and "its scene is planar" in refused.stderr and refused.stderr.count("\n") == 1
+    alone = cli(tmp_path / "light.toml", "--workers", 2, "--out", tmp_path / "d")
+    assert alone.returncode == 2 and "--workers: for several scenarios" in alone.stderr

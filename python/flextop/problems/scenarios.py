@@ -29,6 +29,11 @@ iterations, from the weighted-sum optimum at 1.75e-5 m², 28 % below the weighte
 worst case and 2.5 times below that of the paper's single-scenario optimum
 (BENCHMARKS.md, "Scenarios and batches").
 
+The scenes are planar or spatial (:class:`~flextop.spatial.SpatialSimulation`), all of one
+dimension: a spatial scenario's run is its responses with their adjoint gradients to the
+densities (:func:`flextop.spatial.perform`), held to a tolerance, gradients included, as a
+:class:`~flextop.problems.SpatialProblem` is.
+
 Each evaluation runs one simulation with sensitivities per scenario on an executor
 (:mod:`flextop.execution`): the scene and the design cross to the worker, the values and
 gradients come back, and their sum is taken here, in the scenarios' order, so the result
