@@ -165,3 +165,14 @@ def test_the_command_line_optimizes_spatial_scenarios_on_workers_and_resumes(tmp
     assert refused.returncode == 2 and "its scene is planar" in refused.stderr and refused.stderr.count("\n") == 1
     alone = cli(tmp_path / "light.toml", "--workers", 2, "--out", tmp_path / "d")
     assert alone.returncode == 2 and "--workers: for several scenarios" in alone.stderr
+
+
+def test_a_scenario_takes_a_spatial_scene_its_dict_or_its_file(tmp_path):
+    scene = spatial_robot_arm(nx=3, t_end=0.3)
+    (tmp_path / "arm.toml").write_text(scene.to_toml())
+    specs = [Scenario(name, given).spec() for name, given in (("a", scene), ("b", scene.to_dict()), ("c", tmp_path / "arm.toml"))]
+    assert specs[0] == specs[1]
+    x = design(SpatialSimulation(specs[0]).n_design)
+    assert len({SpatialSimulation(s).run_with_sensitivities(x, "tip_deflection").values[0] for s in specs}) == 1
+    with pytest.raises(flextop.SceneError, match="scenario 'd': its scene is a int"):
+        Scenario("d", 3).spec()

@@ -8,6 +8,7 @@ against Timoshenko's closed form's derivative. Sizes a section does not have are
 
 import copy
 import math
+import json
 
 import numpy as np
 import pytest
@@ -208,3 +209,44 @@ def test_sizing_problem_refuses_sizes_the_scene_lacks(sizes, culprit):
 
     with pytest.raises(SettingsError, match=culprit):
         SizingProblem(arm(), "tip_deflection", sizes=sizes)
+
+
+def test_a_sizing_problem_held_to_a_tolerance_measures_where_an_accepted_design_moved_and_checkpoints():
+    """Held to rtol 1e-2, the first evaluation measures (the scene at its sizes run to the
+    tolerance, gradients too); a trial moved by less than ``readapt`` of a range runs on
+    the grid held, the same numbers as that grid's run; an accepted design that moved by
+    more is measured from the grid held; the returned design is measured as a run ends.
+    ``to_dict``/``from_dict`` rebuild it: the same evaluation, bit for bit."""
+    from flextop.discretization import spatial as spatial_tolerance
+    from flextop.problems import SizingProblem
+
+    bounds = {"tube.outer": (0.012, 0.04), "blade.height": (0.004, 0.03)}
+    problem = SizingProblem(arm(), "tip_deflection", [("mass", 2.0)], sizes=bounds, rtol=1e-2)
+    z = problem.z0
+    first = problem.accept(z, problem.evaluate(z))
+    held = problem.held
+    sim = SpatialSimulation(problem.spec_at(z))
+    measured = sim.run_with_sensitivities(None, ["tip_deflection"], problem.parameters, rtol=1e-2, method="adjoint")
+    assert measured.discretization == held and measured.errors["tip_deflection"] <= 1e-2
+    assert first.f0 == 1.0 and problem.reference == measured.values[0]
+    near = z + 0.05 * (problem.upper - problem.lower)
+    trial = problem.evaluate(near)
+    assert problem.held == held
+    moved = SpatialSimulation(problem.spec_at(near))
+    on_grid = spatial_tolerance.on_grid(moved, held, None, ["tip_deflection"], problem.parameters, False, {"method": "adjoint"})
+    assert trial.f0 * problem.reference == on_grid.values[0]
+    far = z + 0.3 * (problem.upper - problem.lower)
+    accepted = problem.accept(far, problem.evaluate(far))
+    again = SpatialSimulation(problem.spec_at(far)).run_with_sensitivities(
+        None, ["tip_deflection"], problem.parameters, rtol=1e-2, start=held, method="adjoint")
+    assert accepted.f0 * problem.reference == pytest.approx(again.values[0], rel=1e-14)
+    np.testing.assert_array_equal(problem.rule.at, problem.scaled(far))
+    rebuilt = SizingProblem.from_dict(json.loads(json.dumps(problem.to_dict())))
+    assert rebuilt.held == problem.held and rebuilt.reference == problem.reference
+    assert rebuilt.evaluate(near).f0 == problem.evaluate(near).f0
+    assert problem.conclude(far, accepted) is accepted
+    concluded = problem.conclude(near, problem.evaluate(near))
+    np.testing.assert_array_equal(problem.rule.at, problem.scaled(near))
+    assert concluded.f0 != trial.f0  # measured from the grid held: its own grid
+    with pytest.raises(SettingsError, match="give h .* or rtol"):
+        SizingProblem(arm(), "tip_deflection", sizes=bounds, rtol=1e-2, h=1e-3)

@@ -45,6 +45,7 @@ from __future__ import annotations
 import enum
 import math
 import numbers
+import os
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import astuple, dataclass
@@ -57,6 +58,7 @@ from ..errors import DesignError, SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..results import Sensitivities
 from ..scenes import Scene
+from ..scenes.builder import SceneDict, read_toml
 from ..scenes.spatial import is_spatial
 from ..simulation import Simulation, Task, design_vectors, perform, remember
 from ..spatial import SpatialSensitivities, SpatialSimulation
@@ -85,20 +87,25 @@ class Aggregate(enum.Enum):
 
 @dataclass(frozen=True)
 class Scenario:
-    """One variant of the machine: its ``name``, its scene (a :class:`Scene`, a scene dict
-    or a TOML path) and its ``weight`` in the objective."""
+    """One variant of the machine: its ``name``, its scene (a :class:`Scene` or
+    :class:`~flextop.scenes.spatial.SpatialScene`, a scene dict or a TOML path) and its
+    ``weight`` in the objective."""
 
     name: str
-    scene: Scene | dict | str
+    scene: SceneDict | dict | str | os.PathLike
     weight: float = 1.0
 
     def spec(self) -> dict:
         """The scene as a dict."""
-        if isinstance(self.scene, Scene):
+        if isinstance(self.scene, SceneDict):
             return self.scene.to_dict()
         if isinstance(self.scene, dict):
             return self.scene
-        return Scene.from_toml(self.scene).to_dict()
+        if not isinstance(self.scene, (str, os.PathLike)):
+            raise SceneError(f"scenario {self.name!r}: its scene is a {type(self.scene).__name__}; give a Scene, a "
+                             "SpatialScene, a scene dict or a TOML file's path")
+        spec = read_toml(self.scene)
+        return spec if is_spatial(spec) else Scene.from_dict(spec).to_dict()
 
 
 def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list[Simulation | SpatialSimulation]:

@@ -10,6 +10,14 @@ their bodies; the beams' densities ``x`` are held. The optimizers see ``f0 = f /
 and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at the first design evaluated unless
 given.
 
+Held to a tolerance (``rtol``), the problem follows the planar and spatial problems' rule
+(:mod:`.held`) on the design scaled to its bounds, ``(z − lower)/(upper − lower)``: an accepted
+design that moved by more than ``readapt`` of a range is measured — the scene built at it
+run to the tolerance (:func:`flextop.discretization.spatial.to_tolerance`, values and
+gradients), from the grid measured last — and every other evaluation runs on that grid
+(:func:`~flextop.discretization.spatial.on_grid`, each beam graded for the sizes at hand);
+the design a run returns is measured as it ends.
+
 Responses are those of :meth:`SpatialSimulation.run_with_sensitivities` by name, their
 gradients the engine's exact ones to each beam's section sizes (``outer:BEAM`` …) summed
 over the section's beams and to the joints' places (``position_x:JOINT`` …); and ``mass``,
@@ -29,11 +37,15 @@ from typing import Any
 
 import numpy as np
 
+from ..discretization import spatial as spatial_tolerance
+from ..discretization import tolerance
+from ..discretization.tolerance import Discretization
 from ..errors import SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..scenes.spatial import SpatialScene
 from ..quaternion import rotations
-from ..spatial import NQ, SpatialSimulation, _as_spec
+from ..spatial import NQ, SpatialSensitivities, SpatialSimulation, _as_spec
+from .held import READAPT, Readapt
 
 #: The dimensions of each section shape, by the names a scene gives them.
 DIMENSIONS = {"circle": ("diameter",), "tube": ("outer", "inner"), "rectangle": ("width", "height")}
@@ -67,7 +79,8 @@ class SizingProblem(Problem):
     ``z`` likewise) subject to ``constraints``, each a ``(response, upper bound)`` (``mass``
     among them, kg), at the held densities ``x`` (full density by default). The start
     :attr:`z0` is the scene's own sizes, then its joints' places. ``settings`` go to every
-    run.
+    run. ``rtol``, ``atol`` and ``readapt``: the tolerance every value and its gradient are
+    held to and the rule that holds it (module docs; ``None``: the scene's grid).
 
     Raises
     ------
@@ -77,13 +90,24 @@ class SizingProblem(Problem):
         a joint the scene does not have, an axis that is not x, y or z, a joint that holds a
         node (a scene gives a node's anchor no point to move), bounds that are not finite
         with lower < upper or leave out the joint's place; a bound that is not positive and
-        finite, or a reference that is not.
+        finite, or a reference that is not; a tolerance out of range, or ``h`` with one.
     """
 
     def __init__(self, scene: SpatialScene | dict | str, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
                  sizes: Mapping[str, tuple[float, float]] | None = None,
                  places: Mapping[str, tuple[float, float]] | None = None, x: Any = None,
-                 reference: float | None = None, **settings: Any) -> None:
+                 reference: float | None = None, rtol: float | None = None, atol: float = 0.0,
+                 readapt: float = READAPT, **settings: Any) -> None:
+        if rtol is not None:
+            tolerance.check_tolerance(rtol, atol)
+            if "h" in settings:
+                raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+        #: The tolerance every value and its gradient are held to (``None``: the scene's grid).
+        self.tolerance = None if rtol is None else (float(rtol), float(atol))
+        #: Where the error is measured (on the design scaled to its bounds), and the grid held since.
+        self.rule, self.held = Readapt(readapt), None  # type: Readapt, Discretization | None
+        self.given = {"sizes": {k: list(v) for k, v in (sizes or {}).items()},
+                      "places": {k: list(v) for k, v in (places or {}).items()}}
         self.spec = copy.deepcopy(_as_spec(scene))
         sections = self.spec.get("sections") or {}
         self.sizes = [self._size(sections, name, bounds) for name, bounds in (sizes or {}).items()]
@@ -106,6 +130,7 @@ class SizingProblem(Problem):
                          len(constraints), [f"{name} ≤ {bound:.4g}" for name, bound in constraints])
         self.z0 = np.array([sections[s][d] for s, d, _ in self.sizes] + [at for _, _, at, _ in self.places], dtype=float)
         self.objective, self.settings, self.reference = objective, settings, reference
+        self.constraints = [(name, float(bound)) for name, bound in constraints]
         self.responses = [objective, *(name for name, _ in constraints)]
         self.bounds = np.array([bound for _, bound in constraints], dtype=float)
         self.x = sim.design(x)
@@ -231,11 +256,36 @@ class SizingProblem(Problem):
             rate[k] = area_rate(s, dimension) * s["rho"] * area(s) * made
         return sim.mass(self.x), rate
 
+    def scaled(self, z: np.ndarray) -> np.ndarray:
+        """``z`` on its bounds' ranges, ``(z − lower)/(upper − lower)``: what the tolerance rule
+        measures a design's move on."""
+        return (np.asarray(z, dtype=float) - self.lower) / (self.upper - self.lower)
+
     def evaluate(self, z: np.ndarray) -> Evaluation:
+        """The responses at ``z``: on the scene's grid, or held to the tolerance — measured
+        where no grid is held yet (or the caller never accepts and ``z`` moved), else on the
+        grid held."""
+        return self._evaluated(z, self.tolerance is not None and self.rule.in_evaluate(self.scaled(z), self.held is not None))
+
+    def accept(self, z: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Held to a tolerance, the accepted design is measured where it moved by more than
+        ``readapt`` of a range (its evaluation replaced)."""
+        if self.tolerance is not None and self.rule.in_accept(self.scaled(z)):
+            return self._evaluated(z, True)
+        return evaluation
+
+    def conclude(self, z: np.ndarray, evaluation: Evaluation) -> Evaluation:
+        """Held to a tolerance, the design a run returns is measured unless it was the last
+        measured."""
+        if self.tolerance is not None and self.rule.in_conclude(self.scaled(z)):
+            return self._evaluated(z, True)
+        return evaluation
+
+    def _evaluated(self, z: np.ndarray, measure: bool) -> Evaluation:
         engine = [r for r in self.responses if r != "mass"]
         try:
             sim = SpatialSimulation(self.spec_at(z))
-            values, gradients = self._engine(sim, engine)
+            values, gradients = self._engine(sim, engine, z, measure)
         except (SceneError, SimulationError) as error:
             raise EvaluationError(str(error), np.asarray(z)) from error
         if "mass" in self.responses:
@@ -249,15 +299,51 @@ class SizingProblem(Problem):
         dr = np.array([gradients[name] for name in self.responses[1:]]).reshape(self.m, self.n)
         return Evaluation(f / self.reference, r / self.bounds - 1.0, df / self.reference, dr / self.bounds[:, None])
 
-    def _engine(self, sim: SpatialSimulation, responses: list[str]) -> tuple[dict, dict]:
-        """The engine's ``responses`` of ``sim`` and their gradients to the sizes, each its
-        section's beams' columns summed."""
+    def _engine(self, sim: SpatialSimulation, responses: list[str], z: np.ndarray, measure: bool) -> tuple[dict, dict]:
+        """The engine's ``responses`` of ``sim`` (the scene at ``z``) and their gradients to
+        the sizes, each its section's beams' columns summed: measured to the tolerance (the
+        grid held from then on), on the grid held, or on the scene's grid."""
         if not responses:
             return {}, {}
-        run = sim.run_with_sensitivities(self.x, responses, self.parameters, method="adjoint", **self.settings)
+        run = self._run(sim, responses, z, measure)
         columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes] + [1] * len(self.places))
         summed = np.add.reduceat(run.gradient, columns[:-1], axis=1)
         return dict(zip(responses, run.values)), dict(zip(responses, summed))
+
+    def _run(self, sim: SpatialSimulation, responses: list[str], z: np.ndarray, measure: bool) -> SpatialSensitivities:
+        settings = {**self.settings, "method": "adjoint"}
+        design, static = None if self.x is None else list(self.x), sim.analysis == "static"
+        if measure and self.tolerance is not None:
+            accepted = spatial_tolerance.to_tolerance(sim, design, responses, self.parameters, static, self.tolerance,
+                                                      settings, start=self.held)
+            self.held = accepted.discretization
+            self.rule.measured(self.scaled(z))
+            return accepted.sensitivities
+        if self.held is not None:
+            return spatial_tolerance.on_grid(sim, self.held, design, responses, self.parameters, static, settings)
+        return sim.run_with_sensitivities(self.x, responses, self.parameters, **settings)
+
+    def to_dict(self) -> dict:
+        """What rebuilds this problem (for checkpoints): the scene as given, the responses and
+        bounds, the sizes' and places' bounds, the densities held, the reference, the
+        settings, the tolerance with its rule and the grid held."""
+        return {"scene": self.spec, "objective": self.objective, "constraints": [list(c) for c in self.constraints],
+                **self.given, "x": None if self.x is None else self.x.tolist(), "reference": self.reference,
+                "settings": dict(self.settings), "tolerance": None if self.tolerance is None else list(self.tolerance),
+                "rule": self.rule.to_dict(), "held": None if self.held is None else spatial_tolerance.saved(self.held)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SizingProblem:
+        """The problem :meth:`to_dict` describes."""
+        rtol, atol = data["tolerance"] if data.get("tolerance") is not None else (None, 0.0)
+        problem = cls(data["scene"], data["objective"], [(name, bound) for name, bound in data["constraints"]],
+                      sizes={k: tuple(v) for k, v in data["sizes"].items()},
+                      places={k: tuple(v) for k, v in data["places"].items()}, x=data["x"], reference=data["reference"],
+                      rtol=rtol, atol=atol, readapt=data["rule"]["readapt"], **data["settings"])
+        problem.rule = Readapt.from_dict(data["rule"])
+        if data.get("held") is not None:
+            problem.held = spatial_tolerance.restored(SpatialSimulation(problem.spec), data["held"])
+        return problem
 
     def physical(self, evaluation: Evaluation) -> tuple[float, np.ndarray, np.ndarray]:
         """The objective, the constrained responses and the objective's gradient in their
