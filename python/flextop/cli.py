@@ -36,13 +36,13 @@ from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
 from .io import cad, checkpoint, export
-from .problems import (MIN_FREQUENCY, DensityFilter, ScenarioProblem, SpatialProblem, TopologyProblem, relation, scenarios,
-                       volume_constraints)
+from .problems import (MIN_FREQUENCY, DensityFilter, ScenarioProblem, SizingProblem, SpatialProblem, TopologyProblem, relation,
+                       scenarios, volume_constraints)
 from .scenes import Scene, read_toml
 from .results import Results
 from .simulation import Simulation
 from .spatial import SpatialSimulation
-from .scenes.spatial import is_spatial
+from .scenes.spatial import SpatialScene, is_spatial
 
 
 NOT_CONVERGED = 3
@@ -427,9 +427,14 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         spec = _scene(args.scene).to_dict()
         if is_spatial(spec):
             return _optimize_spatial(spec, args, out)
+    sizing = [flag for flag, value in (("--size", args.size), ("--place", args.place), ("--max-mass", args.max_mass))
+              if value is not None]
+    if sizing and not args.resume:
+        raise SettingsError(f"{', '.join(sizing)}: for a spatial scene (dimension = 3), not "
+                            + ("scenarios" if args.scenarios is not None else "a planar one"))
     if args.resume:
         sim, problem, options, x0, state, animate = _resume(args, out, workers)
-        if isinstance(problem, SpatialProblem):
+        if isinstance(problem, (SpatialProblem, SizingProblem)):
             return _optimize_spatial(sim.spec, args, out, resumed=(sim, problem, options, x0, state))
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     else:
@@ -515,19 +520,21 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
     iteration; writes design.npy, history.json, the design's figure and, with ``--vtk``, its
     motion."""
     if resumed is None:
-        sim, problem, options, x0 = _spatial_problem(spec, args)
-        start, state = np.full(sim.n_design, x0), None
+        sim, problem, options, start = _spatial_problem(spec, args)
+        state = None
         _keep_earlier_run(out, args.force)
         _folder(out)
     else:
         sim, problem, options, start, state = resumed
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     objective, settings, method = problem.objective, problem.settings, options["method"]
-    print(f"{sim.model.name}: minimize {objective} over {sim.n_design} densities subject to "
-          f"{', '.join(problem.names or [])} ({method})")
+    sizing = isinstance(problem, SizingProblem)
+    over = f"{problem.n} sizes and places ({', '.join(_sized_names(problem))})" if sizing else f"{sim.n_design} densities"
+    print(f"{sim.model.name}: minimize {objective} over {over} subject to "
+          f"{', '.join(problem.names or []) or 'bounds only'} ({method})")
 
     def save(state_dict: dict, finished: str | None = None) -> None:
-        checkpoint.save(out / "checkpoint.json", {"spatial": True, "scene": sim.spec, "accuracy": None,
+        checkpoint.save(out / "checkpoint.json", {"spatial": True, "sizing": sizing, "scene": sim.spec, "accuracy": None,
                                                   "problem": problem.to_dict(),
                                                   "optimizer": options, "x0": start.tolist(), "state": state_dict,
                                                   "finished": finished})
@@ -558,42 +565,65 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
         save(result.state.to_dict() if result.state is not None else latest["state"], finished=result.status.name)
     elapsed = time.perf_counter() - begun
     print(f"\nstatus: {result.status.name} — {result.message}")
+    if sizing:
+        sim = SpatialSimulation(problem.spec_at(result.x))
     if result.history:
+        held = (f"mass {sim.mass(problem.x):.4g} kg" if sizing else
+                f"volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full")
         print(f"{objective}: {problem.reference:.6g} at the start → {result.fun * problem.reference:.6g} "
               f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
-              f"KKT residual {result.kkt:.2e}; volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full; {elapsed:.1f} s")
-    if problem.rtol is not None and problem.held is not None:
-        measured = problem.rule.at is not None and np.array_equal(problem.rule.at, result.x)
-        print(f"to rtol = {problem.rtol:g}: the design returned measured on {problem.held}" if measured else
-              f"to rtol = {problem.rtol:g}: the design returned could not be measured; its values are those of "
+              f"KKT residual {result.kkt:.2e}; {held}; {elapsed:.1f} s")
+    if sizing:
+        for name, value, lo, hi in zip(_sized_names(problem), result.x, problem.lower, problem.upper):
+            print(f"{name}: {value:.6g} m (bounds {lo:g} to {hi:g})")
+    if problem.tolerance is not None and problem.held is not None:
+        rtol = problem.tolerance[0]
+        at = problem.scaled(result.x) if sizing else result.x
+        measured = problem.rule.at is not None and np.array_equal(problem.rule.at, at)
+        print(f"to rtol = {rtol:g}: the design returned measured on {problem.held}" if measured else
+              f"to rtol = {rtol:g}: the design returned could not be measured; its values are those of "
               f"{problem.held}, held")
     np.save(out / "design.npy", result.x)
+    if sizing:
+        (out / "sized.toml").write_text(SpatialScene.from_dict(sim.spec).to_toml(
+            header=f"{sim.model.name} sized by flextop optimize: {objective} minimized"))
+        print(f"wrote {out / 'sized.toml'} (the scene at the sizes and places returned)")
     checkpoint.write_atomically(out / "history.json", json.dumps({
         "history": [r.to_dict() for r in result.history], "status": result.status.name, "message": result.message,
         "objective_scale": problem.reference}))
     if not args.no_plots and result.history:
         from .plots import plot_history, plot_spatial_design
 
-        plot_spatial_design(sim, result.x, title=f"{sim.model.name}: {objective}, optimized", path=out / "design.png")
+        x = problem.x if sizing else result.x
+        plot_spatial_design(sim, x, title=f"{sim.model.name}: {objective}, optimized", path=out / "design.png")
         plot_history(result.history, path=out / "history.png", objective_label=f"{objective} / start")
     if args.vtk and result.history and sim.analysis == "dynamic":
-        print(f"wrote {sim.simulate(result.x, **settings).to_vtk(out / 'motion.pvd')} (open it in ParaView)")
+        x = problem.x if sizing else result.x
+        print(f"wrote {sim.simulate(x, **settings).to_vtk(out / 'motion.pvd')} (open it in ParaView)")
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
         return NOT_CONVERGED
     return 0
 
 
-def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimulation, SpatialProblem, dict, float]:
-    """The spatial scene's simulation, problem, optimizer options and uniform start from
-    the command line's options, those it does not take named."""
+def _spatial_problem(spec: dict, args: argparse.Namespace
+                     ) -> tuple[SpatialSimulation, SpatialProblem | SizingProblem, dict, np.ndarray]:
+    """The spatial scene's simulation, problem, optimizer options and start from the
+    command line's options, those it does not take named: its densities
+    (:class:`~flextop.problems.SpatialProblem`), or with ``--size`` or ``--place`` its
+    sections' sizes and its joints' places (:class:`~flextop.problems.SizingProblem`)."""
     given = [k for k in SPATIAL_REFUSED if getattr(args, k) not in (None, False)]
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --max-buckling, --min-frequency, --x0, --accuracy, --rtol, "
-                            "--method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, --rho-inf, --out, --force, "
-                            "--resume, --no-plots, --vtk)")
+                            "--global-volume, --max-stress, --max-buckling, --min-frequency, --max-mass, --size, --place, "
+                            "--x0, --accuracy, --rtol, --method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, "
+                            "--rho-inf, --out, --force, --resume, --no-plots, --vtk)")
+    options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
+               "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
+    if args.size or args.place:
+        sim, sizing = _sizing_problem(spec, args)
+        return sim, sizing, options, sizing.z0
     sim = SpatialSimulation(spec)
     if sim.n_design == 0:
         raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
@@ -605,18 +635,61 @@ def _spatial_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimul
               if value is not None]
     if args.min_frequency is not None:
         limits.append((MIN_FREQUENCY, args.min_frequency))
+    if args.max_mass is not None:
+        limits.append(("mass", args.max_mass))
+    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure,
+                             rtol=_spatial_rtol(args, settings), **settings)
+    x0 = 0.4 if args.x0 is None else args.x0
+    if not sim.x_min <= x0 <= 1.0:
+        raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
+    return sim, problem, options, np.full(sim.n_design, x0)
+
+
+def _spatial_rtol(args: argparse.Namespace, settings: dict) -> float | None:
+    """The tolerance of ``--accuracy`` or ``--rtol`` (``None``: the scene's grid)."""
     if args.accuracy is not None and args.rtol is not None:
         raise SettingsError("give --accuracy (a named tolerance) or --rtol, not both")
     rtol = preset(args.accuracy) if args.accuracy is not None else args.rtol
     if rtol is not None and "h" in settings:
         raise SettingsError("give --h (a fixed step) or --rtol/--accuracy (steps chosen to meet it), not both")
-    problem = SpatialProblem(sim, objective, limits, volume=fraction, per_structure=per_structure, rtol=rtol, **settings)
-    x0 = 0.4 if args.x0 is None else args.x0
-    if not sim.x_min <= x0 <= 1.0:
-        raise DesignError(f"--x0 {x0:g} is outside [{sim.x_min:g}, 1]")
-    options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
-               "kkt_tol": args.kkt_tol or 1e-6, "xtol": args.xtol}
-    return sim, problem, options, x0
+    return rtol
+
+
+def _sizing_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimulation, SizingProblem]:
+    """The sizing problem of ``--size`` and ``--place``: ``--objective`` (the tip's
+    deflection or the strain energy by default) under ``--max-mass``, the densities held at
+    ``--x0`` (full density by default)."""
+    refused = [flag for flag, value in (("--volume-fraction", args.volume_fraction), ("--global-volume", args.global_volume),
+                                        ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling),
+                                        ("--min-frequency", args.min_frequency)) if value not in (None, False)]
+    if refused:
+        raise SettingsError(f"{', '.join(refused)}: not built for sizing (--size, --place) yet; it takes --max-mass")
+    sim = SpatialSimulation(spec)
+    settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
+    limits = [] if args.max_mass is None else [("mass", args.max_mass)]
+    problem = SizingProblem(spec, args.objective or _spatial_objective(sim), limits, sizes=_bounded(args.size, "--size"),
+                            places=_bounded(args.place, "--place"), x=args.x0, rtol=_spatial_rtol(args, settings),
+                            **settings)
+    return sim, problem
+
+
+def _bounded(entries: list[str] | None, flag: str) -> dict[str, tuple[float, float]]:
+    """``NAME=LOWER:UPPER`` entries of ``flag`` as ``{NAME: (lower, upper)}`` (m)."""
+    out: dict[str, tuple[float, float]] = {}
+    for entry in entries or []:
+        name, _, bounds = entry.partition("=")
+        lower, _, upper = bounds.partition(":")
+        try:
+            out[name.strip()] = (float(lower), float(upper))
+        except ValueError:
+            raise SettingsError(f"{flag} {entry}: give NAME=LOWER:UPPER, the bounds in m") from None
+    return out
+
+
+def _sized_names(problem: SizingProblem) -> list[str]:
+    """The sizing problem's variables by name, in order: ``SECTION.DIMENSION``, then
+    ``JOINT.AXIS``."""
+    return [f"{s}.{d}" for s, d, _ in problem.sizes] + [f"{j}.{'xyz'[axis]}" for j, axis, _, _ in problem.places]
 
 
 def _spatial_objective(sim: SpatialSimulation) -> str:
@@ -663,13 +736,17 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
              "--start": args.start, "--analysis": args.analysis, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
+             "--size": args.size, "--place": args.place, "--max-mass": args.max_mass,
              "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter,
              "--filter-cells": args.filter_cells, "--projection": args.projection, "--cells": args.cells}
     given = [flag for flag, value in fixed.items() if value is not None]
     if given:
         raise SettingsError(f"{', '.join(given)}: the checkpoint fixes the problem; start a new run in another --out to change it")
     try:
-        if saved.get("spatial"):
+        if saved.get("sizing"):
+            problem = SizingProblem.from_dict(saved["problem"])
+            sim = SpatialSimulation(problem.spec)
+        elif saved.get("spatial"):
             sim = SpatialSimulation(saved["scene"])
             problem = SpatialProblem.from_dict(sim, saved["problem"])
         elif "scenarios" in saved["problem"]:
@@ -843,7 +920,16 @@ def parser() -> argparse.ArgumentParser:
                    "x^0.5 σ (p-mean normalized to the peak)")
     o.add_argument("--max-buckling", type=_positive(float), metavar="RATIO",
                    help="a limit on the peak compression over the Euler load of the bars, relaxed as x^0.5 P/P_cr (1 = a solid bar buckles)")
-    o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4)")
+    o.add_argument("--size", action="append", metavar="SECTION.DIMENSION=LOWER:UPPER",
+                   help="a spatial scene: size this section's dimension (m) between the bounds, the densities held "
+                   "(SizingProblem; repeat for several)")
+    o.add_argument("--place", action="append", metavar="JOINT.AXIS=LOWER:UPPER",
+                   help="a spatial scene: place this joint along x, y or z (m) between the bounds, the densities held "
+                   "(SizingProblem; repeat for several)")
+    o.add_argument("--max-mass", type=_positive(float), metavar="KG",
+                   help="a spatial scene: a limit on the beams' and bars' mass (kg)")
+    o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4); with --size or --place, the "
+                   "density every bar is held at (default 1)")
     o.add_argument("--start", type=Path, help="start from this design (.npy or text), e.g. the design.npy of an earlier run")
     o.add_argument("--max-iter", type=_positive(int), help="iterations in all, resumed ones included (default 30)")
     o.add_argument("--move", type=_fraction, help="move limit as a fraction of the bounds (default 0.2)")

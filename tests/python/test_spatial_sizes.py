@@ -250,3 +250,39 @@ def test_a_sizing_problem_held_to_a_tolerance_measures_where_an_accepted_design_
     assert concluded.f0 != trial.f0  # measured from the grid held: its own grid
     with pytest.raises(SettingsError, match="give h .* or rtol"):
         SizingProblem(arm(), "tip_deflection", sizes=bounds, rtol=1e-2, h=1e-3)
+
+
+def test_the_command_line_sizes_a_spatial_scene_and_resumes(tmp_path):
+    """``flextop optimize SCENE --size … --max-mass …``: sized by MMA, the sizes printed and
+    written as the scene at them (``sized.toml``, which builds with them); stopped and
+    resumed, the same design as in one go; sizing's refusals in one line each."""
+    import subprocess
+    import sys
+
+    (tmp_path / "arm.toml").write_text(SpatialScene.from_dict(arm()).to_toml())
+    mass = SpatialSimulation(arm()).mass()
+    cli = lambda *args: subprocess.run([sys.executable, "-m", "flextop.cli", "optimize", *map(str, args)],  # noqa: E731
+                                       capture_output=True, text=True, timeout=600)
+    sizing = ("--size", "tube.inner=0.004:0.018", "--size", "blade.height=0.004:0.03", "--max-mass", mass)
+    straight = cli(tmp_path / "arm.toml", *sizing, "--max-iter", 4, "--out", tmp_path / "a", "--no-plots")
+    assert straight.returncode == 3, straight.stderr  # stopped at --max-iter
+    assert "over 2 sizes and places (tube.inner, blade.height)" in straight.stdout and "blade.height: " in straight.stdout
+    z = np.load(tmp_path / "a" / "design.npy")
+    sized = SpatialSimulation(tmp_path / "a" / "sized.toml")
+    assert sized.spec["sections"]["tube"]["inner"] == z[0] and sized.spec["sections"]["blade"]["height"] == z[1]
+    assert sized.mass() <= mass * (1 + 1e-6)
+    half = cli(tmp_path / "arm.toml", *sizing, "--max-iter", 2, "--out", tmp_path / "b", "--no-plots")
+    assert half.returncode == 3, half.stderr
+    rest = cli("--resume", "--max-iter", 4, "--out", tmp_path / "b", "--no-plots")
+    assert rest.returncode == 3, rest.stderr
+    assert np.array_equal(z, np.load(tmp_path / "b" / "design.npy"))
+    for args, message in [((tmp_path / "arm.toml", "--size", "tube.outer=0.02", "--out", tmp_path / "c"),
+                           "--size tube.outer=0.02: give NAME=LOWER:UPPER"),
+                          ((tmp_path / "arm.toml", "--size", "tube.outer=0.012:0.04", "--volume-fraction", 0.3,
+                            "--out", tmp_path / "c"), "--volume-fraction: not built for sizing"),
+                          (("robot_arm", "--size", "tube.outer=0.012:0.04", "--out", tmp_path / "c"),
+                           "--size: for a spatial scene (dimension = 3), not a planar one"),
+                          ((tmp_path / "arm.toml", "--size", "pipe.outer=0.012:0.04", "--out", tmp_path / "c"),
+                           "no section called 'pipe'")]:
+        refused = cli(*args)
+        assert refused.returncode == 2 and message in refused.stderr and refused.stderr.count("\n") == 1, refused.stderr
