@@ -427,8 +427,8 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
         spec = _scene(args.scene).to_dict()
         if is_spatial(spec):
             return _optimize_spatial(spec, args, out)
-    sizing = [flag for flag, value in (("--size", args.size), ("--place", args.place), ("--max-mass", args.max_mass))
-              if value is not None]
+    sizing = [flag for flag, value in (("--size", args.size), ("--place", args.place), ("--max-mass", args.max_mass),
+                                       ("--densities", args.densities or None)) if value is not None]
     if sizing and not args.resume:
         raise SettingsError(f"{', '.join(sizing)}: for a spatial scene (dimension = 3), not "
                             + ("scenarios" if args.scenarios is not None else "a planar one"))
@@ -529,7 +529,10 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
         print(f"resuming {out / 'checkpoint.json'} at iteration {state.iteration}")
     objective, settings, method = problem.objective, problem.settings, options["method"]
     sizing = isinstance(problem, SizingProblem)
-    over = f"{problem.n} sizes and places ({', '.join(_sized_names(problem))})" if sizing else f"{sim.n_design} densities"
+    over = f"{sim.n_design} densities"
+    if sizing:
+        over = f"{problem.k} sizes and places ({', '.join(_sized_names(problem))})" + (
+            f" and {sim.n_design} densities" if problem.densities else "")
     print(f"{sim.model.name}: minimize {objective} over {over} subject to "
           f"{', '.join(problem.names or []) or 'bounds only'} ({method})")
 
@@ -568,7 +571,7 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
     if sizing:
         sim = SpatialSimulation(problem.spec_at(result.x))
     if result.history:
-        held = (f"mass {sim.mass(problem.x):.4g} kg" if sizing else
+        held = (f"mass {sim.mass(problem.densities_at(result.x)):.4g} kg" if sizing else
                 f"volume {sim.volume(result.x) / sim.volume(1.0):.4f} of the full")
         print(f"{objective}: {problem.reference:.6g} at the start → {result.fun * problem.reference:.6g} "
               f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
@@ -585,6 +588,8 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
               f"{problem.held}, held")
     np.save(out / "design.npy", result.x)
     if sizing:
+        if problem.densities:
+            np.save(out / "densities.npy", problem.densities_at(result.x))
         (out / "sized.toml").write_text(SpatialScene.from_dict(sim.spec).to_toml(
             header=f"{sim.model.name} sized by flextop optimize: {objective} minimized"))
         print(f"wrote {out / 'sized.toml'} (the scene at the sizes and places returned)")
@@ -594,11 +599,11 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
     if not args.no_plots and result.history:
         from .plots import plot_history, plot_spatial_design
 
-        x = problem.x if sizing else result.x
+        x = problem.densities_at(result.x) if sizing else result.x
         plot_spatial_design(sim, x, title=f"{sim.model.name}: {objective}, optimized", path=out / "design.png")
         plot_history(result.history, path=out / "history.png", objective_label=f"{objective} / start")
     if args.vtk and result.history and sim.analysis == "dynamic":
-        x = problem.x if sizing else result.x
+        x = problem.densities_at(result.x) if sizing else result.x
         print(f"wrote {sim.simulate(x, **settings).to_vtk(out / 'motion.pvd')} (open it in ParaView)")
     if not result.success:
         print(f"flextop: the optimizer did not converge: {' '.join(result.message.split())}", file=sys.stderr)
@@ -624,6 +629,9 @@ def _spatial_problem(spec: dict, args: argparse.Namespace
     if args.size or args.place:
         sim, sizing = _sizing_problem(spec, args)
         return sim, sizing, options, sizing.z0
+    if args.densities:
+        raise SettingsError("--densities designs the densities beside --size or --place; without them the densities "
+                            "are the design already")
     sim = SpatialSimulation(spec)
     if sim.n_design == 0:
         raise SettingsError(f"{spec.get('name', 'the scene')}: every beam is fixed: nothing to design")
@@ -658,18 +666,26 @@ def _spatial_rtol(args: argparse.Namespace, settings: dict) -> float | None:
 def _sizing_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimulation, SizingProblem]:
     """The sizing problem of ``--size`` and ``--place``: ``--objective`` (the tip's
     deflection or the strain energy by default) under ``--max-mass``, the densities held at
-    ``--x0`` (full density by default)."""
-    refused = [flag for flag, value in (("--volume-fraction", args.volume_fraction), ("--global-volume", args.global_volume),
-                                        ("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling),
+    ``--x0`` (full density by default) or, with ``--densities``, designed too from it (0.4
+    by default) under ``--volume-fraction`` of each ground structure's volume at the scene's
+    sizes (of the whole with ``--global-volume``)."""
+    refused = [flag for flag, value in (("--max-stress", args.max_stress), ("--max-buckling", args.max_buckling),
                                         ("--min-frequency", args.min_frequency)) if value not in (None, False)]
+    if not args.densities:
+        refused += [flag for flag, value in (("--volume-fraction", args.volume_fraction),
+                                             ("--global-volume", args.global_volume)) if value not in (None, False)]
     if refused:
-        raise SettingsError(f"{', '.join(refused)}: not built for sizing (--size, --place) yet; it takes --max-mass")
+        raise SettingsError(f"{', '.join(refused)}: not built for sizing (--size, --place) yet; it takes --max-mass"
+                            + ("" if args.densities else ", and with --densities --volume-fraction"))
     sim = SpatialSimulation(spec)
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     limits = [] if args.max_mass is None else [("mass", args.max_mass)]
+    if args.densities and args.volume_fraction is not None:
+        limits += _spatial_volumes(sim, args.volume_fraction, args.global_volume)
+    x = (0.4 if args.x0 is None else args.x0) if args.densities else args.x0
     problem = SizingProblem(spec, args.objective or _spatial_objective(sim), limits, sizes=_bounded(args.size, "--size"),
-                            places=_bounded(args.place, "--place"), x=args.x0, rtol=_spatial_rtol(args, settings),
-                            **settings)
+                            places=_bounded(args.place, "--place"), x=x, densities=args.densities,
+                            rtol=_spatial_rtol(args, settings), **settings)
     return sim, problem
 
 
@@ -736,7 +752,7 @@ def _resume(args: argparse.Namespace, out: Path, workers: Workers):
              "--start": args.start, "--analysis": args.analysis, "--h": args.h, "--rho-inf": args.rho_inf, "--t-end": args.t_end, "--accuracy": args.accuracy,
              "--rtol": args.rtol, "--aggregate": args.aggregate, "--move": args.move, "--kkt-tol": args.kkt_tol,
              "--xtol": args.xtol, "--min-frequency": args.min_frequency, "--max-stress": args.max_stress,
-             "--size": args.size, "--place": args.place, "--max-mass": args.max_mass,
+             "--size": args.size, "--place": args.place, "--max-mass": args.max_mass, "--densities": args.densities or None,
              "--max-von-mises": args.max_von_mises, "--max-buckling": args.max_buckling, "--filter": args.filter,
              "--filter-cells": args.filter_cells, "--projection": args.projection, "--cells": args.cells}
     given = [flag for flag, value in fixed.items() if value is not None]
@@ -926,6 +942,9 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--place", action="append", metavar="JOINT.AXIS=LOWER:UPPER",
                    help="a spatial scene: place this joint along x, y or z (m) between the bounds, the densities held "
                    "(SizingProblem; repeat for several)")
+    o.add_argument("--densities", action="store_true",
+                   help="with --size or --place: design the bars' densities too, from --x0 (default 0.4), under "
+                   "--volume-fraction if given")
     o.add_argument("--max-mass", type=_positive(float), metavar="KG",
                    help="a spatial scene: a limit on the beams' and bars' mass (kg)")
     o.add_argument("--x0", type=float, help="initial density of every bar (default 0.4); with --size or --place, the "

@@ -531,10 +531,15 @@ class SpatialSimulation:
         design = self._design(x)
         measured = {k: self._measure(name, design) for k, name in enumerate(rs) if name.split(":")[0] in MEASURES}
         densities = [p for p in ps if p.startswith("rho:")]
+        sizes = [p for p in ps if p.split(":")[0] in SIZE_PARAMETERS]
         masses = [rs[k] for k in measured if rs[k].split(":")[0] == "mass"]
-        if densities and masses:  # the only parameters a measured response reads
+        if densities and masses:  # with the sections' sizes, the only parameters a measured response reads
             raise SettingsError(f"{masses[0]!r} to {densities[0]!r}: a mass's derivative to a material density is not "
                                 "built; ask for them in two calls")
+        if sizes and measured:
+            raise SettingsError(f"{rs[next(iter(measured))]!r} to {sizes[0]!r}: a volume's or mass's derivative to a "
+                                "section's size is not built here (SizingProblem gives them by section); ask for them in "
+                                "two calls")
         engine = [name for k, name in enumerate(rs) if k not in measured]
         values, gradient = np.zeros(len(rs)), np.zeros((len(rs), len(ps) + self.n_design))
         if engine or not rs:
@@ -641,6 +646,10 @@ class SpatialSimulation:
 
 MEASURES = ("volume", "mass")
 """Responses explicit in the design, measured here rather than by a run."""
+
+SIZE_PARAMETERS = ("diameter", "outer", "inner", "width", "height")
+"""Parameters of a beam's section size by kind (``outer:BEAM`` …): what a measured response's
+volume and mass change with besides the densities."""
 
 
 def rebuilt(scene: dict, options: dict[str, Any]) -> SpatialSimulation:

@@ -283,6 +283,48 @@ def test_the_command_line_sizes_a_spatial_scene_and_resumes(tmp_path):
                           (("robot_arm", "--size", "tube.outer=0.012:0.04", "--out", tmp_path / "c"),
                            "--size: for a spatial scene (dimension = 3), not a planar one"),
                           ((tmp_path / "arm.toml", "--size", "pipe.outer=0.012:0.04", "--out", tmp_path / "c"),
-                           "no section called 'pipe'")]:
+                           "no section called 'pipe'"),
+                          ((tmp_path / "arm.toml", "--densities", "--out", tmp_path / "c"),
+                           "--densities designs the densities beside --size or --place")]:
         refused = cli(*args)
         assert refused.returncode == 2 and message in refused.stderr and refused.stderr.count("\n") == 1, refused.stderr
+    # the densities designed beside a size, under half the whole volume at the scene's sizes
+    both = cli(tmp_path / "arm.toml", "--size", "tube.outer=0.012:0.04", "--densities", "--volume-fraction", 0.5,
+               "--global-volume", "--max-iter", 40, "--out", tmp_path / "d", "--no-plots")
+    assert both.returncode == 0 and "status: KKT" in both.stdout, both.stdout + both.stderr
+    assert "over 1 sizes and places (tube.outer) and 4 densities" in both.stdout
+    x = np.load(tmp_path / "d" / "densities.npy")
+    assert SpatialSimulation(tmp_path / "d" / "sized.toml").volume(x) <= 0.5 * SpatialSimulation(arm()).volume(1.0) * (1 + 1e-6)
+
+
+def test_sizes_and_densities_designed_together_have_exact_gradients():
+    """``densities=True``: the beams' densities follow the sizes in the design. The tip's
+    deflection, the mass and the volume (the two explicit, their size rates by ``A'/A`` over
+    the section's beams, each at its density) against fourth-order differences of the
+    problem in every entry; a volume or mass with the sizes' own parameters is refused where
+    nothing gives its rate."""
+    from flextop.problems import SizingProblem
+
+    spec = arm()
+    spec["simulation"]["tol"] = 1e-12
+    sizes = {"tube.outer": (0.012, 0.04), "blade.height": (0.004, 0.03)}
+    problem = SizingProblem(spec, "tip_deflection", [("mass", 1.0), ("volume", 1e-4)], sizes=sizes, x=0.6, densities=True)
+    assert problem.n == 2 + 4 and problem.z0[2:].tolist() == [0.6] * 4 and problem.lower[2] == 0.01
+    z = problem.z0 * np.array([1.0, 1.0, 1.0, 0.8, 1.2, 0.9])
+    e = problem.evaluate(z)
+    sim = SpatialSimulation(problem.spec_at(z))
+    assert (e.g[1] + 1.0) * 1e-4 == pytest.approx(sim.volume(z[2:]), rel=1e-12)
+    for k in range(problem.n):
+        delta = 1e-3 * z[k]
+
+        def at(by: float, k=k, delta=delta) -> np.ndarray:
+            moved = z.copy()
+            moved[k] += by * delta
+            ev = problem.evaluate(moved)
+            return np.concatenate([[ev.f0], ev.g])
+
+        fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * delta)
+        exact = np.concatenate([[e.df0[k]], e.dg[:, k]])
+        assert np.allclose(exact, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max()), (k, exact, fd)
+    with pytest.raises(SettingsError, match="'volume' to 'outer:upper': a volume's or mass's derivative to a section's"):
+        sim.run_with_sensitivities(None, ["volume"], ["outer:upper"])

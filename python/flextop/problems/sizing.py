@@ -10,6 +10,12 @@ their bodies; the beams' densities ``x`` are held. The optimizers see ``f0 = f /
 and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at the first design evaluated unless
 given.
 
+With ``densities``, the beams' densities join the design after the sizes and places (each
+in ``[x_min, 1]``, from ``x``): the sections' sizes, the joints' places and the topology in
+one problem, every gradient from one run's adjoint sweep, ``volume`` (``Σ x_b A L``, m³) and
+``volume:NAME`` besides ``mass`` and ``mass:NAME`` among the responses explicit in the
+design, their rates to a size ``A'/A`` over the section's beams at their densities.
+
 Held to a tolerance (``rtol``), the problem follows the planar and spatial problems' rule
 (:mod:`.held`) on the design scaled to its bounds, ``(z − lower)/(upper − lower)``: an accepted
 design that moved by more than ``readapt`` of a range is measured — the scene built at it
@@ -44,7 +50,7 @@ from ..errors import SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..scenes.spatial import SpatialScene
 from ..quaternion import rotations
-from ..spatial import NQ, SpatialSensitivities, SpatialSimulation, _as_spec
+from ..spatial import MEASURES, NQ, SpatialSensitivities, SpatialSimulation, _as_spec
 from .held import READAPT, Readapt
 
 #: The dimensions of each section shape, by the names a scene gives them.
@@ -77,8 +83,9 @@ class SizingProblem(Problem):
     ``sizes`` (``{"SECTION.DIMENSION": (lower, upper)}``, m) and the joints' places
     ``places`` (``{"JOINT.x": (lower, upper)}``, the joint's coordinate in space, m; ``y``,
     ``z`` likewise) subject to ``constraints``, each a ``(response, upper bound)`` (``mass``
-    among them, kg), at the held densities ``x`` (full density by default). The start
-    :attr:`z0` is the scene's own sizes, then its joints' places. ``settings`` go to every
+    among them, kg), at the held densities ``x`` (full density by default), or with
+    ``densities`` the densities designed too, from ``x``. The start :attr:`z0` is the scene's
+    own sizes, then its joints' places, then (``densities``) ``x``. ``settings`` go to every
     run. ``rtol``, ``atol`` and ``readapt``: the tolerance every value and its gradient are
     held to and the rule that holds it (module docs; ``None``: the scene's grid).
 
@@ -95,7 +102,7 @@ class SizingProblem(Problem):
 
     def __init__(self, scene: SpatialScene | dict | str, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
                  sizes: Mapping[str, tuple[float, float]] | None = None,
-                 places: Mapping[str, tuple[float, float]] | None = None, x: Any = None,
+                 places: Mapping[str, tuple[float, float]] | None = None, x: Any = None, densities: bool = False,
                  reference: float | None = None, rtol: float | None = None, atol: float = 0.0,
                  readapt: float = READAPT, **settings: Any) -> None:
         if rtol is not None:
@@ -126,14 +133,23 @@ class SizingProblem(Problem):
         if reference is not None and not (np.isfinite(reference) and reference > 0.0):
             raise SettingsError(f"reference: {reference!r} must be positive and finite")
         bounds = [b for _, _, b in self.sizes] + [b for _, _, _, b in self.places]
+        #: How many of the design's entries are sizes and places (the densities follow, where designed).
+        self.k = len(bounds)
+        self.x = sim.design(x)
+        self.densities = bool(densities)
+        if self.densities:
+            if sim.n_design == 0:
+                raise SettingsError("densities: every beam of the scene is fixed: no density to design")
+            bounds += [(sim.x_min, 1.0)] * sim.n_design
         super().__init__([lo for lo, _ in bounds], [hi for _, hi in bounds],
                          len(constraints), [f"{name} ≤ {bound:.4g}" for name, bound in constraints])
         self.z0 = np.array([sections[s][d] for s, d, _ in self.sizes] + [at for _, _, at, _ in self.places], dtype=float)
+        if self.densities:
+            self.z0 = np.concatenate([self.z0, np.ones(sim.n_design) if self.x is None else self.x])
         self.objective, self.settings, self.reference = objective, settings, reference
         self.constraints = [(name, float(bound)) for name, bound in constraints]
         self.responses = [objective, *(name for name, _ in constraints)]
         self.bounds = np.array([bound for _, bound in constraints], dtype=float)
-        self.x = sim.design(x)
         self.beams = self._beams_of(sim)
         for section, dimension, _ in self.sizes:
             if not self.beams[section]:
@@ -242,19 +258,35 @@ class SizingProblem(Problem):
             self._move(spec, joint, axis, float(value) - at)
         return spec
 
-    def mass(self, sim: SpatialSimulation) -> tuple[float, np.ndarray]:
-        """``Σ m(x_b) ρ A L`` of ``sim``'s beams and bars (kg) and its rate to each size."""
-        masses, _, _ = sim.model.masses(None if self.x is None else list(self.x))
+    def densities_at(self, z: np.ndarray) -> np.ndarray | None:
+        """The beams' densities at design ``z``: its own last entries where the densities are
+        designed, else those held (``None``: full density)."""
+        return np.asarray(z[self.k:], dtype=float) if self.densities else self.x
+
+    def measured(self, sim: SpatialSimulation, response: str, x: np.ndarray | None) -> tuple[float, np.ndarray]:
+        """A response explicit in the design — ``mass`` (``Σ m(x_b) ρ A L`` of the beams and
+        bars, kg), ``volume`` (``Σ x_b A L``, m³), or ``mass:NAME``, ``volume:NAME`` (a ground
+        structure's designed bars) — of ``sim`` at densities ``x``, and its rate to each
+        entry of the design: ``A'/A`` times a section's share to its sizes, nothing to a
+        place, the engine's to the densities."""
+        kind, _, structure = response.partition(":")
+        value, slopes = sim._measure(response, None if x is None else list(x))
+        masses, _, _ = sim.model.masses(None if x is None else list(x))
         full, _, _ = sim.model.masses(None)
-        factor = [m / f if f > 0 else 1.0 for m, f in zip(masses, full)]
+        if kind == "mass":
+            share = [m / f if f > 0 else 1.0 for m, f in zip(masses, full)]  # m(x_b) of a variable's bars
+        else:
+            share = list(np.ones(sim.n_design) if x is None else x)
         sections = sim.spec.get("sections") or {}
         rate = np.zeros(self.n)
         for k, (section, dimension, _) in enumerate(self.sizes):
             s = sections[section]
-            made = sum(length * (1.0 if v is None else factor[v])
-                       for length, v in (self.lengths[b] for b in self.beams[section]))
-            rate[k] = area_rate(s, dimension) * s["rho"] * area(s) * made
-        return sim.mass(self.x), rate
+            made = sum(length * (1.0 if v is None else share[v]) for b in self.beams[section]
+                       for length, v in [self.lengths[b]] if not structure or (v is not None and b.startswith(f"{structure}/")))
+            rate[k] = area_rate(s, dimension) * (s["rho"] if kind == "mass" else 1.0) * area(s) * made
+        if self.densities:
+            rate[self.k:] = slopes
+        return value, rate
 
     def scaled(self, z: np.ndarray) -> np.ndarray:
         """``z`` on its bounds' ranges, ``(z − lower)/(upper − lower)``: what the tolerance rule
@@ -282,14 +314,16 @@ class SizingProblem(Problem):
         return evaluation
 
     def _evaluated(self, z: np.ndarray, measure: bool) -> Evaluation:
-        engine = [r for r in self.responses if r != "mass"]
+        explicit = [r for r in self.responses if r.split(":")[0] in MEASURES]
+        engine = [r for r in self.responses if r not in explicit]
+        x = self.densities_at(z)
         try:
             sim = SpatialSimulation(self.spec_at(z))
             values, gradients = self._engine(sim, engine, z, measure)
+            for name in explicit:
+                values[name], gradients[name] = self.measured(sim, name, x)
         except (SceneError, SimulationError) as error:
             raise EvaluationError(str(error), np.asarray(z)) from error
-        if "mass" in self.responses:
-            values["mass"], gradients["mass"] = self.mass(sim)
         f, df = values[self.objective], gradients[self.objective]
         if self.reference is None:
             if not f > 0.0:
@@ -307,12 +341,15 @@ class SizingProblem(Problem):
             return {}, {}
         run = self._run(sim, responses, z, measure)
         columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes] + [1] * len(self.places))
-        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1)
+        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1) if self.k else np.zeros((len(responses), 0))
+        if self.densities:
+            summed = np.hstack([summed, run.dfdx])
         return dict(zip(responses, run.values)), dict(zip(responses, summed))
 
     def _run(self, sim: SpatialSimulation, responses: list[str], z: np.ndarray, measure: bool) -> SpatialSensitivities:
         settings = {**self.settings, "method": "adjoint"}
-        design, static = None if self.x is None else list(self.x), sim.analysis == "static"
+        x = self.densities_at(z)
+        design, static = None if x is None else list(x), sim.analysis == "static"
         if measure and self.tolerance is not None:
             accepted = spatial_tolerance.to_tolerance(sim, design, responses, self.parameters, static, self.tolerance,
                                                       settings, start=self.held)
@@ -321,14 +358,15 @@ class SizingProblem(Problem):
             return accepted.sensitivities
         if self.held is not None:
             return spatial_tolerance.on_grid(sim, self.held, design, responses, self.parameters, static, settings)
-        return sim.run_with_sensitivities(self.x, responses, self.parameters, **settings)
+        return sim.run_with_sensitivities(x, responses, self.parameters, **settings)
 
     def to_dict(self) -> dict:
         """What rebuilds this problem (for checkpoints): the scene as given, the responses and
         bounds, the sizes' and places' bounds, the densities held, the reference, the
         settings, the tolerance with its rule and the grid held."""
         return {"scene": self.spec, "objective": self.objective, "constraints": [list(c) for c in self.constraints],
-                **self.given, "x": None if self.x is None else self.x.tolist(), "reference": self.reference,
+                **self.given, "x": None if self.x is None else self.x.tolist(), "densities": self.densities,
+                "reference": self.reference,
                 "settings": dict(self.settings), "tolerance": None if self.tolerance is None else list(self.tolerance),
                 "rule": self.rule.to_dict(), "held": None if self.held is None else spatial_tolerance.saved(self.held)}
 
@@ -338,7 +376,8 @@ class SizingProblem(Problem):
         rtol, atol = data["tolerance"] if data.get("tolerance") is not None else (None, 0.0)
         problem = cls(data["scene"], data["objective"], [(name, bound) for name, bound in data["constraints"]],
                       sizes={k: tuple(v) for k, v in data["sizes"].items()},
-                      places={k: tuple(v) for k, v in data["places"].items()}, x=data["x"], reference=data["reference"],
+                      places={k: tuple(v) for k, v in data["places"].items()}, x=data["x"],
+                      densities=data.get("densities", False), reference=data["reference"],
                       rtol=rtol, atol=atol, readapt=data["rule"]["readapt"], **data["settings"])
         problem.rule = Readapt.from_dict(data["rule"])
         if data.get("held") is not None:
