@@ -28,6 +28,7 @@ the adjoint of four responses at once (``FOUR``).
 
 import sys
 import time
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -177,44 +178,62 @@ def places(iterations: int = 100) -> None:
           f"({adjoint / plain:.2f} runs).")
 
 
+def arm_table(reference: str) -> tuple[flextop.SpatialSimulation, np.ndarray]:
+    """The spatial robot arm and its uniform design x = 0.4, the optimizations' table's header
+    printed (``d / REFERENCE's``)."""
+    sim = flextop.SpatialSimulation(flextop.scenes.spatial_robot_arm())
+    print(f"| optimized | iterations | evaluations | measured | grid at the end | d / {reference} (as the optimizer saw it) "
+          "| KKT residual | volume / budget | status | time (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    return sim, np.full(sim.n_design, 0.4)
+
+
+def arm_row(sim: flextop.SpatialSimulation, problem: SpatialProblem, name: str, result: flextop.OptimizeResult,
+            measurements: int, elapsed: float) -> None:
+    """The optimizations' table's row of ``result``."""
+    print(f"| {name} | {result.nit} | {result.nfev} | {measurements} | {problem.held or 'the scene’s'} "
+          f"| {result.fun:.4f} | {result.kkt:.2e} | {sim.volume(result.x) / (0.4 * sim.volume(1.0)):.4f} "
+          f"| {result.status.name} | {elapsed:.1f} |", flush=True)
+
+
+def counted(problem: SpatialProblem, x0: np.ndarray, method: Any, iterations: int,
+            name: str) -> tuple[flextop.OptimizeResult, list[bool], float]:
+    """``problem`` optimized from ``x0`` (``kkt_tol`` 1e-4), each iteration on stderr (so that a
+    run stopped before its end says how far it got): the result, the measurements it made
+    and its seconds."""
+    measurements: list[bool] = []
+    measure = problem._run
+    problem._run = lambda x, m: (measurements.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
+    start = time.perf_counter()
+
+    def progress(record) -> None:
+        print(f"{name}: iteration {record.iteration}, {record.evaluations} evaluations in it, f0 {record.f0:.4f}, "
+              f"KKT {record.kkt:.2e}, {len(measurements)} measured, {time.perf_counter() - start:.0f} s",
+              file=sys.stderr, flush=True)
+
+    result = flextop.optimize(problem, x0, method=method, max_iter=iterations, kkt_tol=1e-4, callback=progress)
+    return result, measurements, time.perf_counter() - start
+
+
 def held_to_tolerance(iterations: int = 100, rtol: float = 1e-2, plain: bool = False, save: str | None = None) -> None:
     """The arm's tip deflection at 40 % of its volume by MMA from the uniform design, on the
     scene's grid (10 ms) and held to ``rtol`` (the grid measured where an accepted design
     moved by more than 0.1, held between, the returned design measured); each optimized design
     and the start measured to ``rtol`` and to rtol 1e-3. ``plain``: by ``MMA(safeguard=False)``;
     ``save``: a directory each optimized design is written to."""
-    scene = flextop.scenes.spatial_robot_arm()
-    sim = flextop.SpatialSimulation(scene)
-    x0 = np.full(sim.n_design, 0.4)
-    print("| optimized | iterations | evaluations | measured | grid at the end | d / uniform (as the optimizer saw it) "
-          "| KKT residual | volume / budget | status | time (s) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    sim, x0 = arm_table("uniform")
     designs = {"uniform 0.4": x0}
     for tol in (None, rtol):
         problem = SpatialProblem(sim, "tip_deflection", volume=0.4, rtol=tol)
-        measurements = []
-        measure = problem._run
-        problem._run = lambda x, m: (measurements.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
-        start = time.perf_counter()
-
-        def progress(record, name=("scene's grid" if tol is None else f"rtol {tol:g}")) -> None:
-            """Each iteration on stderr, so that a run stopped before its end says how far it got."""
-            print(f"{name}: iteration {record.iteration}, {record.evaluations} evaluations in it, f0 {record.f0:.4f}, "
-                  f"KKT {record.kkt:.2e}, {len(measurements)} measured, {time.perf_counter() - start:.0f} s",
-                  file=sys.stderr, flush=True)
-
         method = MMA(safeguard=False) if plain else "mma"
-        result = flextop.optimize(problem, x0, method=method, max_iter=iterations, kkt_tol=1e-4, callback=progress)
-        elapsed = time.perf_counter() - start
+        result, measurements, elapsed = counted(problem, x0, method, iterations,
+                                                "scene's grid" if tol is None else f"rtol {tol:g}")
         name = "on the scene's grid" if tol is None else f"held to rtol {tol:g}"
         designs[name] = result.x
         if save is not None:
             file = name.replace(" ", "_").replace("'", "")
             np.save(Path(save) / f"{file}.npy", result.x)
-        grid = problem.held or "the scene's"
-        print(f"| {name} | {result.nit} | {result.nfev} | {len(measurements)} | {grid} | {result.fun:.4f} "
-              f"| {result.kkt:.2e} | {sim.volume(result.x) / (0.4 * sim.volume(1.0)):.4f} | {result.status.name} | {elapsed:.1f} |",
-              flush=True)
+        arm_row(sim, problem, name, result, len(measurements), elapsed)
     print()
     print("| design | d, scene's grid (m²) | d to rtol 1e-2 (m²) | estimated error | grid | d to rtol 1e-3 (m²) | estimated error | grid |")
     print("|---|---|---|---|---|---|---|---|")
@@ -229,32 +248,15 @@ def polished(iterations: int = 100, rtol: float = 1e-2, held_iterations: int = 6
     scene's grid, then from that design held to ``rtol`` (continuation: the cheap grid finds
     the layout, the tolerance corrects what that grid got wrong); both designs and the start
     measured to ``rtol``. Progress on stderr."""
-    scene = flextop.scenes.spatial_robot_arm()
-    sim = flextop.SpatialSimulation(scene)
-    x0 = np.full(sim.n_design, 0.4)
-    print("| optimized | iterations | evaluations | measured | grid at the end | d / start's (as the optimizer saw it) "
-          "| KKT residual | volume / budget | status | time (s) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    sim, x0 = arm_table("start's")
     designs = {"uniform 0.4": x0}
     start_design = x0
     for tol, name, most in ((None, "on the scene's grid, from x = 0.4", iterations),
                             (rtol, f"held to rtol {rtol:g}, from the scene's grid's", held_iterations)):
         problem = SpatialProblem(sim, "tip_deflection", volume=0.4, rtol=tol)
-        measurements = []
-        measure = problem._run
-        problem._run = lambda x, m: (measurements.append(m) if m else None, measure(x, m))[1]  # type: ignore[method-assign]
-        begun = time.perf_counter()
-
-        def progress(record, name=name) -> None:
-            print(f"{name}: iteration {record.iteration}, f0 {record.f0:.4f}, KKT {record.kkt:.2e}, "
-                  f"{len(measurements)} measured, {time.perf_counter() - begun:.0f} s", file=sys.stderr, flush=True)
-
-        result = flextop.optimize(problem, start_design, method="mma", max_iter=most, kkt_tol=1e-4, callback=progress)
-        elapsed = time.perf_counter() - begun
+        result, measurements, elapsed = counted(problem, start_design, "mma", most, name)
         designs[name] = start_design = result.x
-        print(f"| {name} | {result.nit} | {result.nfev} | {len(measurements)} | {problem.held or 'the scene’s'} "
-              f"| {result.fun:.4f} | {result.kkt:.2e} | {sim.volume(result.x) / (0.4 * sim.volume(1.0)):.4f} "
-              f"| {result.status.name} | {elapsed:.1f} |", flush=True)
+        arm_row(sim, problem, name, result, len(measurements), elapsed)
     print()
     print(f"| design | d, scene's grid (m²) | d to rtol {rtol:g} (m²) | estimated error | grid |")
     print("|---|---|---|---|---|")

@@ -457,7 +457,7 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
                                                   "optimizer": options, "x0": x0.tolist(), "state": state_dict,
                                                   "animate": animate, "finished": finished})
 
-    bar = tqdm(total=options["max_iter"], initial=0 if state is None else state.iteration, unit="it", desc="optimize", file=sys.stderr)
+    bar = _Progress(options["max_iter"], 0 if state is None else state.iteration)
 
     latest: dict[str, dict] = {}
 
@@ -506,6 +506,29 @@ def _optimize(args: argparse.Namespace, workers: Workers) -> int:
     return 0
 
 
+class _Progress:
+    """An optimization's progress bar on stderr, drawn from its first iteration's end: an error
+    in the first evaluation (a response the scene does not have) is the one line printed."""
+
+    def __init__(self, total: int, initial: int) -> None:
+        self.total, self.initial, self.bar = total, initial, None  # type: int, int, Any
+
+    def _drawn(self) -> Any:
+        if self.bar is None:
+            self.bar = tqdm(total=self.total, initial=self.initial, unit="it", desc="optimize", file=sys.stderr)
+        return self.bar
+
+    def update(self, n: int) -> None:
+        self._drawn().update(n)
+
+    def set_postfix(self, **values: Any) -> None:
+        self._drawn().set_postfix(**values)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
 SPATIAL_REFUSED = ("cells", "filter", "filter_cells", "projection",
                    "max_von_mises", "start", "analysis", "animate", "every")
 """The options of ``optimize`` a spatial scene does not take yet."""
@@ -542,8 +565,7 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
                                                   "optimizer": options, "x0": start.tolist(), "state": state_dict,
                                                   "finished": finished})
 
-    bar = tqdm(total=options["max_iter"], initial=0 if state is None else state.iteration, unit="it", desc="optimize",
-               file=sys.stderr)
+    bar = _Progress(options["max_iter"], 0 if state is None else state.iteration)
     latest: dict[str, dict] = {}
 
     def on_iteration(record) -> None:
@@ -678,6 +700,9 @@ def _sizing_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimula
         raise SettingsError(f"{', '.join(refused)}: not built for sizing (--size, --place) yet; it takes --max-mass"
                             + ("" if args.densities else ", and with --densities --volume-fraction"))
     sim = SpatialSimulation(spec)
+    if args.place and args.objective is None and _spatial_objective(sim) == "tip_deflection":
+        raise SettingsError("--place: give --objective: the tip's deflection from its rigid trajectory, the default, "
+                            "moves with a joint's place, and that rate is not built")
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     limits = [] if args.max_mass is None else [("mass", args.max_mass)]
     if args.densities and args.volume_fraction is not None:

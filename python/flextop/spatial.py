@@ -47,6 +47,7 @@ with them).
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections import OrderedDict
@@ -57,7 +58,7 @@ from typing import Any, Callable, Iterator, Sequence
 import numpy as np
 
 from . import _core, plausibility
-from .checks import whole
+from .checks import number, whole
 from .quaternion import rotations
 from .discretization import spatial as spatial_tolerance
 from .discretization.accuracy import rtol_of, run_tolerance
@@ -292,10 +293,31 @@ def _as_spec(scene: SpatialScene | dict | str | os.PathLike) -> dict:
 
 
 def _names(value: Sequence[str] | str, what: str) -> tuple[str, ...]:
-    names = (value,) if isinstance(value, str) else tuple(value)
+    try:
+        names = (value,) if isinstance(value, str) else tuple(value)
+    except TypeError:  # not a sequence of names at all
+        names = (value,)  # type: ignore[assignment]
     if not all(isinstance(n, str) for n in names):
         raise SettingsError(f"{what}: names as text, got {value!r}")
     return names
+
+
+def _checked(settings: dict[str, Any]) -> dict[str, Any]:
+    """A run's ``settings`` with the unset (``None``) left out and its span and step checked
+    (finite and positive) before a grid is made of them; the engine checks the rest."""
+    out = {k: v for k, v in settings.items() if v is not None}
+    for key in ("t_end", "h"):
+        if key in out:
+            number(key, out[key], 0.0, math.inf, "()")
+    return out
+
+
+def _finite(what: str, *arrays: np.ndarray) -> None:
+    """A :class:`SimulationError` where a run's results left finite numbers: a drive, a load
+    or a start beyond the scene's scale ran the motion away."""
+    if not all(np.all(np.isfinite(a)) for a in arrays):
+        raise SimulationError(f"{what} are not finite numbers: a drive, a load, a rate or a place far beyond the "
+                              "scene's scale ran the mechanism away; check the scene's magnitudes")
 
 
 class SpatialSimulation:
@@ -380,7 +402,7 @@ class SpatialSimulation:
         return self.model.tip
 
     def _design(self, x: DesignLike) -> list[float] | None:
-        xv = design_vector(x, self.n_design)
+        xv = self.design(x)
         return None if xv is None else xv.tolist()
 
     def design(self, x: DesignLike) -> np.ndarray | None:
@@ -421,7 +443,8 @@ class SpatialSimulation:
         ``[simulation]`` defaults overridden by ``settings``: ``t_end``, ``h``, ``rho_inf``,
         ``tol``, ``max_iter``); ``progress`` is called with the time reached (s)."""
         design = self._design(x)
-        r = self.model.simulate(settings, progress, design)
+        r = self.model.simulate(_checked(settings), progress, design)
+        _finite("the motion's states or energies", *(np.asarray(r[k]) for k in ("q", "v", "kinetic", "potential", "strain")))
         return SpatialResults(np.asarray(r["time"]), np.asarray(r["q"]), np.asarray(r["v"]), np.asarray(r["lam"]),
                               np.asarray(r["kinetic"]), np.asarray(r["potential"]), np.asarray(r["strain"]), self.layout,
                               None if design is None else np.asarray(design))
@@ -431,7 +454,9 @@ class SpatialSimulation:
         ``t_end`` (the scene's ``[simulation]`` one by default, else 0), by Newton on the
         group with ``load_steps``: the drives move with the load factor, so that a mechanism
         they carry far from its start is reached step by step."""
+        settings = _checked(settings)
         r = self.model.solve_static(settings, self._design(x))
+        _finite("the equilibrium's state or its strain energy", np.asarray(r["q"]), np.asarray(r["strain"]))
         time = float(settings.get("t_end", self.model.options().get("t_end", 0.0)))
         design = self._design(x)
         return SpatialEquilibrium(np.asarray(r["q"]), np.asarray(r["lam"]), float(r["strain"]), int(r["iterations"]),
@@ -458,6 +483,8 @@ class SpatialSimulation:
         these)."""
         wanted = None if count is None else whole("count", count)
         names = None if parameters is None else _names(parameters, "parameters")
+        if not (at is None or isinstance(at, (str, SpatialEquilibrium))):
+            raise SettingsError(f"at: give an equilibrium (SpatialEquilibrium), \"rest\" or nothing, got {at!r}")
         wanted_names = None if names is None else list(names)
         if isinstance(at, str):
             if at != "rest":
@@ -518,6 +545,9 @@ class SpatialSimulation:
                 raise SettingsError("no responses given, and the scene names no tip")
             responses = [f"{axis}:{self.tip}" for axis in "xyz"]
         rs, ps = _names(responses, "responses"), _names(parameters, "parameters")
+        settings = _checked(settings)
+        if not (start is None or isinstance(start, Discretization)):
+            raise SettingsError(f"start: give a discretization a run to a tolerance returned, got {start!r}")
         static = self.analysis == "static" if equilibrium is None else bool(equilibrium)
         wanted = self._tolerance(rtol, atol, settings.get("h"))
         if wanted is not None:
@@ -558,6 +588,7 @@ class SpatialSimulation:
                 time_errors[rows] = np.asarray(r["time_errors"])
         for k, (value, slope) in measured.items():
             values[k], gradient[k, len(ps):] = value, slope
+        _finite("the responses or their gradients", values, gradient)
         return SpatialSensitivities(rs, ps, values, gradient[:, :len(ps)], self.variables, gradient[:, len(ps):], peaks,
                                     time_errors=time_errors)
 
@@ -574,6 +605,7 @@ class SpatialSimulation:
         rs = _names(responses if responses is not None else ["strain_energy"], "responses")
         if not rs:
             raise SettingsError("responses: give at least one response")
+        settings = _checked(settings)
         duration = settings.get("t_end") or self.spec.get("simulation", {}).get("t_end")
         if steps is not None:
             if isinstance(steps, bool) or not (isinstance(steps, (int, np.integer)) and steps >= 1):

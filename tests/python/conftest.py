@@ -112,6 +112,22 @@ def assert_tip_gradient_is_exact(sim, x, direct, variables, tol: float = 1e-6) -
         assert fourth_order(value, 1e-3) == pytest.approx(direct[0, j], rel=tol, abs=tol * np.abs(direct).max())
 
 
+def assert_worst_case_differences(problem, x, base, directions: int) -> None:
+    """A worst-case scenario problem's constraint gradients at ``x`` (evaluation ``base``)
+    against central differences along random directions (the densities' entries scaled by
+    0.05, β's not), to 1e-5."""
+    rng = np.random.default_rng(7)
+    for _ in range(directions):
+        v = rng.standard_normal(problem.n)
+        v[:-1] *= 0.05
+        eps = 1e-6
+        plus, minus = problem.evaluate(x + eps * v), problem.evaluate(x - eps * v)
+        fd = (plus.g - minus.g) / (2 * eps)
+        exact = base.dg @ v
+        assert np.allclose(fd, exact, rtol=1e-5, atol=1e-8 * np.max(np.abs(exact))), (fd, exact)
+        assert (plus.f0 - minus.f0) / (2 * eps) == pytest.approx(base.df0 @ v, rel=1e-9)
+
+
 def slider_crank_with_force_elements() -> dict:
     """The flexible slider-crank with a torsion spring-damper at the crank pin, a damper on
     the slider's travel, a spring from a wall to the slider, a ramped force on the slider

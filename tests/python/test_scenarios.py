@@ -17,7 +17,7 @@ from flextop import execution, scenes
 from flextop.discretization.refinement import HELD_NEWTON_TOL
 from flextop.errors import ExecutionError, FlextopError, SimulationError
 from flextop.optimizers import EvaluationError
-from conftest import on_accepted_grid
+from conftest import assert_worst_case_differences, on_accepted_grid
 from flextop.problems import Scenario, ScenarioProblem, evaluate, robust_robot_arm
 
 ARM_T_END = 0.4  # a shorter motion keeps the tests quick; the physics is the arm's
@@ -64,16 +64,7 @@ def test_the_worst_case_gradient_passes_finite_differences():
     x = problem.start(design(problem.n - 1, seed=3))
     base = problem.evaluate(x)
     assert base.f0 == 0.0 and base.g.shape == (4,) and np.max(base.g[:2]) == pytest.approx(0.0, abs=1e-15)
-    rng = np.random.default_rng(7)
-    for _ in range(3):
-        v = rng.standard_normal(problem.n)
-        v[:-1] *= 0.05
-        eps = 1e-6
-        plus, minus = problem.evaluate(x + eps * v), problem.evaluate(x - eps * v)
-        fd = (plus.g - minus.g) / (2 * eps)
-        exact = base.dg @ v
-        assert np.allclose(fd, exact, rtol=1e-5, atol=1e-8 * np.max(np.abs(exact))), (fd, exact)
-        assert (plus.f0 - minus.f0) / (2 * eps) == pytest.approx(base.df0 @ v, rel=1e-9)
+    assert_worst_case_differences(problem, x, base, 3)
 
 
 def test_scenarios_must_share_the_design_and_have_distinct_names():

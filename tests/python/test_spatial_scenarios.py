@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import flextop
+from conftest import assert_worst_case_differences
 from flextop.discretization import spatial as spatial_tolerance
 from flextop.problems import Scenario, ScenarioProblem, evaluate
 from flextop.scenes.spatial_catalogue import spatial_robot_arm
@@ -58,15 +59,7 @@ def test_the_worst_case_of_spatial_scenarios_passes_finite_differences():
     x = problem.start(design(problem.n - 1, seed=3))
     base = problem.evaluate(x)
     assert base.f0 == 0.0 and base.g.shape == (2,) and np.max(base.g) == pytest.approx(0.0, abs=1e-15)
-    rng = np.random.default_rng(7)
-    for _ in range(2):
-        v = rng.standard_normal(problem.n)
-        v[:-1] *= 0.05
-        eps = 1e-6
-        plus, minus = problem.evaluate(x + eps * v), problem.evaluate(x - eps * v)
-        fd = (plus.g - minus.g) / (2 * eps)
-        exact = base.dg @ v
-        assert np.allclose(fd, exact, rtol=1e-5, atol=1e-8 * np.max(np.abs(exact))), (fd, exact)
+    assert_worst_case_differences(problem, x, base, 2)
 
 
 def test_spatial_scenarios_share_one_design_and_one_dimension():
@@ -176,3 +169,46 @@ def test_a_scenario_takes_a_spatial_scene_its_dict_or_its_file(tmp_path):
     assert len({SpatialSimulation(s).run_with_sensitivities(x, "tip_deflection").values[0] for s in specs}) == 1
     with pytest.raises(flextop.SceneError, match="scenario 'd': its scene is a int"):
         Scenario("d", 3).spec()
+
+
+def test_bad_input_to_spatial_runs_scenarios_and_sizing_is_named():
+    """What a fuzz campaign found leaking: each refused by a FlextopError naming it."""
+    from flextop.problems import SizingProblem
+    from flextop.scenes.spatial_catalogue import heavy_top
+
+    sim = SpatialSimulation(arm())
+    away = flextop.SpatialScene("slide", gravity=(0.0, 0.0, -9.81))  # a drive's table ending at 1e300 m/s
+    away.rigid_body("b", mass=0.5, inertia=(1e-3, 1e-3, 1e-3), position=(1.0, 0.0, 0.0))
+    away.prismatic("pr", (1.0, 0.0, 0.0), "b", axis=(1.0, 0.0, 0.0),
+                   drive={"kind": "table", "t": [0.0, 0.02, 0.04], "theta": [0.0, 0.01, 0.0], "end_velocity": 1e300})
+    away.simulation(t_end=0.04, h=2e-3)
+    for call, error, message in [
+        (lambda: SpatialSimulation(away).simulate(), flextop.SimulationError, "states or energies are not finite"),
+        (lambda: sim.volume(float("nan")), flextop.DesignError, r"x\[0\] \(link1/bar0\) = nan is outside"),
+        (lambda: sim.run_with_sensitivities(5.0, ["volume"]), flextop.DesignError, "= 5.0 is outside"),
+        (lambda: sim.run_with_sensitivities(None, 5), flextop.SettingsError, "responses: names as text, got 5"),
+        (lambda: sim.run_with_sensitivities(rtol=0.3, t_end=float("nan")), flextop.SettingsError, "t_end must be a finite"),
+        (lambda: sim.run_with_sensitivities(rtol=0.3, start=5), flextop.SettingsError, "start: give a discretization"),
+        (lambda: sim.run_with_sensitivities(atol=float("nan")), flextop.SettingsError, "atol must be a finite number"),
+        (lambda: SpatialSimulation(heavy_top(), atol=-1), flextop.SettingsError, "atol must be ≥ 0"),
+        (lambda: SpatialSimulation(heavy_top(t_end=0.05)).modes(count=2, at=5), flextop.SettingsError, "at: give an equilibrium"),
+        (lambda: SizingProblem(arm(), "tip_deflection", sizes={"alu.outer": 0.012}), flextop.SettingsError,
+         "'alu.outer': bounds as \\(lower, upper\\)"),
+        (lambda: SizingProblem(arm(), "tip_deflection", [("mass",)], sizes={"alu.outer": (0.01, 0.02)}),
+         flextop.SettingsError, r"constraint \('mass',\): give \(response, bound\)"),
+        (lambda: SizingProblem(arm(), 5, sizes={"alu.outer": (0.01, 0.02)}), flextop.SettingsError, "objective: a response's"),
+        (lambda: SizingProblem(arm(), "tip_deflection", sizes={"alu.outer": (0.01, 0.02)}, reference="a"),
+         flextop.SettingsError, "reference must be a finite number"),
+        (lambda: SizingProblem(arm(), "mass", sizes={"alu.outer": (0.01, 0.02)}).evaluate([[0.012]]), flextop.DesignError,
+         r"the design has shape \(1, 1\)"),
+        (lambda: ScenarioProblem([5], "tip_deflection"), flextop.SceneError, "scenarios: give Scenario"),
+        (lambda: ScenarioProblem(5, "tip_deflection"), flextop.SceneError, "scenarios: give a list, got 5"),
+        (lambda: ScenarioProblem(two_payloads(), "tip_deflection", [5]), flextop.SettingsError, "constraint 5: give"),
+        (lambda: ScenarioProblem(two_payloads(), "tip_deflection", objective_scale=0.0), flextop.SettingsError,
+         "objective_scale must be > 0"),
+        (lambda: ScenarioProblem(two_payloads(), "tip_deflection", settings=5), flextop.SettingsError, "settings: give"),
+        (lambda: evaluate(two_payloads(), 5, "tip_deflection"), flextop.DesignError, "designs: give a list, got 5"),
+        (lambda: evaluate(two_payloads(), [0.5], 5), flextop.SettingsError, "responses: give a list, got 5"),
+    ]:
+        with pytest.raises(error, match=message):
+            call()

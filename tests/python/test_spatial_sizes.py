@@ -7,14 +7,17 @@ rebuilt with the size changed and direct against adjoint; a cantilever's tip def
 against Timoshenko's closed form's derivative. Sizes a section does not have are refused."""
 
 import copy
-import math
 import json
+import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from flextop import SettingsError, SpatialScene, SpatialSimulation
 from flextop.scenes import trapezoidal
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 # Each beam's section, by the beam: (section name, its dimensions).
 SIZES = {
@@ -147,6 +150,24 @@ BOUNDS = {"tube.outer": (0.012, 0.04), "tube.inner": (0.004, 0.018), "blade.widt
           "blade.height": (0.004, 0.03), "rod.diameter": (0.003, 0.02), "wire.diameter": (0.001, 0.01)}
 
 
+def assert_differences(problem, z: np.ndarray, e) -> None:
+    """The evaluation ``e`` of ``problem`` at ``z``: its objective's and constraints' gradients
+    against fourth-order differences of the problem itself in every entry (steps of 1e-3 of
+    the entry), to 1e-6."""
+    for k in range(problem.n):
+        delta = 1e-3 * z[k]
+
+        def at(by: float, k=k, delta=delta) -> np.ndarray:
+            moved = z.copy()
+            moved[k] += by * delta
+            ev = problem.evaluate(moved)
+            return np.concatenate([[ev.f0], ev.g])
+
+        fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * delta)
+        exact = np.concatenate([[e.df0[k]], e.dg[:, k]])
+        assert np.allclose(exact, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max()), (k, exact, fd)
+
+
 def test_sizing_problem_gradients_against_differences():
     """The problem's objective and constraints (the tip's deflection, the mass and the
     peak-free stress mean) have the gradients of fourth-order differences of the problem
@@ -162,18 +183,7 @@ def test_sizing_problem_gradients_against_differences():
     e = problem.evaluate(z)
     sim = SpatialSimulation(problem.spec_at(z))
     assert (e.g[0] + 1.0) * 1.0 == pytest.approx(sim.mass(), rel=1e-12)
-    for k in range(problem.n):
-        delta = 1e-3 * z[k]
-
-        def at(by: float, k=k, delta=delta) -> np.ndarray:
-            moved = z.copy()
-            moved[k] += by * delta
-            ev = problem.evaluate(moved)
-            return np.concatenate([[ev.f0], ev.g])
-
-        fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * delta)
-        exact = np.concatenate([[e.df0[k]], e.dg[:, k]])
-        assert np.allclose(exact, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max()), (k, exact, fd)
+    assert_differences(problem, z, e)
     lightest = SizingProblem(arm(), "mass", sizes=BOUNDS)  # the mass alone: no run of the engine
     alone = lightest.evaluate(z)
     assert alone.f0 == 1.0 and np.allclose(alone.df0 * lightest.reference, e.dg[0], rtol=1e-12)
@@ -285,7 +295,11 @@ def test_the_command_line_sizes_a_spatial_scene_and_resumes(tmp_path):
                           ((tmp_path / "arm.toml", "--size", "pipe.outer=0.012:0.04", "--out", tmp_path / "c"),
                            "no section called 'pipe'"),
                           ((tmp_path / "arm.toml", "--densities", "--out", tmp_path / "c"),
-                           "--densities designs the densities beside --size or --place")]:
+                           "--densities designs the densities beside --size or --place"),
+                          ((EXAMPLES / "spatial_slider_crank.toml", "--place", "crank.x=-0.1:0.1", "--out", tmp_path / "c"),
+                           "--place: give --objective"),
+                          ((tmp_path / "arm.toml", "--size", "tube.outer=0.012:0.04", "--objective", "nope",
+                            "--out", tmp_path / "c"), "nope")]:
         refused = cli(*args)
         assert refused.returncode == 2 and message in refused.stderr and refused.stderr.count("\n") == 1, refused.stderr
     # the densities designed beside a size, under half the whole volume at the scene's sizes
@@ -314,17 +328,6 @@ def test_sizes_and_densities_designed_together_have_exact_gradients():
     e = problem.evaluate(z)
     sim = SpatialSimulation(problem.spec_at(z))
     assert (e.g[1] + 1.0) * 1e-4 == pytest.approx(sim.volume(z[2:]), rel=1e-12)
-    for k in range(problem.n):
-        delta = 1e-3 * z[k]
-
-        def at(by: float, k=k, delta=delta) -> np.ndarray:
-            moved = z.copy()
-            moved[k] += by * delta
-            ev = problem.evaluate(moved)
-            return np.concatenate([[ev.f0], ev.g])
-
-        fd = (at(-2) - 8 * at(-1) + 8 * at(1) - at(2)) / (12 * delta)
-        exact = np.concatenate([[e.df0[k]], e.dg[:, k]])
-        assert np.allclose(exact, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max()), (k, exact, fd)
+    assert_differences(problem, z, e)
     with pytest.raises(SettingsError, match="'volume' to 'outer:upper': a volume's or mass's derivative to a section's"):
         sim.run_with_sensitivities(None, ["volume"], ["outer:upper"])

@@ -10,7 +10,9 @@ BENCHMARKS.md ("Tolerances across designs", ``python benches/tolerance.py``).
 from __future__ import annotations
 
 import copy
+import math
 
+from ..checks import number
 from ..errors import SettingsError
 from .members import split_members
 from .tolerance import check_tolerance
@@ -30,6 +32,7 @@ def preset(name: str) -> float:
 def rtol_of(accuracy: str | None, rtol: float | None, atol: float) -> float | None:
     """The ``rtol`` a simulation holds: a preset's by name, ``rtol`` as given (checked with
     ``atol``), or ``None``; a :class:`SettingsError` where both are given."""
+    number("atol", atol, 0.0, math.inf, "[)")  # checked where no rtol reads it too
     if accuracy is not None:
         if rtol is not None:
             raise SettingsError("give accuracy (a named tolerance) or rtol, not both")
@@ -46,6 +49,8 @@ def run_tolerance(own: tuple[float | None, float], rtol: float | None, atol: flo
     tolerance, and cannot be given with a run's own."""
     if h is not None and rtol is not None:
         raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
+    if atol is not None:
+        number("atol", atol, 0.0, math.inf, "[)")
     wanted = own[0] if rtol is None else rtol
     if h is not None or wanted is None:
         return None

@@ -54,7 +54,8 @@ from typing import Any
 import numpy as np
 
 from .. import execution, scenes, spatial
-from ..errors import DesignError, SceneError, SettingsError, SimulationError
+from ..checks import number
+from ..errors import DesignError, FlextopError, SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..results import Sensitivities
 from ..scenes import Scene
@@ -114,6 +115,9 @@ def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list
     design and the dimension."""
     if not scenarios:
         raise SceneError("scenarios: give at least one")
+    strange = next((s for s in scenarios if not isinstance(s, Scenario)), None)
+    if strange is not None:
+        raise SceneError(f"scenarios: give Scenario(name, scene, weight) entries, got {strange!r}")
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise SceneError(f"scenarios: names must differ, got {names}")
@@ -134,6 +138,14 @@ def _simulations(scenarios: Sequence[Scenario], options: dict[str, Any]) -> list
                              f"{scenarios[0].name!r}; scenarios share one design")
         remember(sims[-1])
     return sims
+
+
+def _listed(what: str, given: Any, error: type[FlextopError]) -> list:
+    """``given`` as a list, or ``error`` naming ``what`` where it is no sequence."""
+    try:
+        return list(given)
+    except TypeError:
+        raise error(f"{what}: give a list, got {given!r}") from None
 
 
 def _variables(sim: Simulation | SpatialSimulation) -> tuple[str, ...]:
@@ -172,8 +184,14 @@ class ScenarioProblem(Problem):
                  executor: Executor | None = None, chunksize: int = 1, settings: Mapping[str, Any] | None = None,
                  method: str = "auto", objective_scale: float | None = None, rtol: float | None = None,
                  atol: float | None = None, accuracy: str | None = None, readapt: float = READAPT) -> None:
-        self.scenarios = list(scenarios)
+        self.scenarios = _listed("scenarios", scenarios, SceneError)
         self.simulations = _simulations(self.scenarios, {"accuracy": accuracy})
+        if not isinstance(objective, str):
+            raise SettingsError(f"objective: a response's name, got {objective!r}")
+        if objective_scale is not None:
+            number("objective_scale", objective_scale, 0.0, math.inf, "()")
+        if not (settings is None or isinstance(settings, Mapping)):
+            raise SettingsError(f"settings: give a run's settings by name, got {settings!r}")
         self.objective = objective
         try:
             self.aggregate = Aggregate(aggregate)
@@ -188,7 +206,7 @@ class ScenarioProblem(Problem):
         self.measured: list[int] = []
         self.evaluations = 0
         self.timings = {"simulation": 0.0, "gradients": 0.0}
-        self.given = [tuple(c) for c in constraints]
+        self.given = [tuple(c) if isinstance(c, (tuple, list)) else c for c in _listed("constraints", constraints, SettingsError)]
         self.constraints = self._constraints(self.given)
         self.n_design = self.simulations[0].n_design
         worst = self.aggregate is Aggregate.WORST
@@ -401,9 +419,11 @@ def evaluate(scenarios: Sequence[Scenario], designs: Iterable[Any], responses: S
     parameter studies over motions, multi-starts), as one dict per design from scenario
     name to its result, in the designs' order; ``gradients`` and ``options`` as in
     :meth:`Simulation.map`. The runs go to ``executor``, ``chunksize`` to a task."""
-    sims = _simulations(scenarios, {})
-    names = (responses,) if isinstance(responses, str) else tuple(responses)
-    vectors = design_vectors(designs, sims[0].n_design)
+    sims = _simulations(_listed("scenarios", scenarios, SceneError), {})
+    names = (responses,) if isinstance(responses, str) else tuple(_listed("responses", responses, SettingsError))
+    if not all(isinstance(name, str) for name in names):
+        raise SettingsError(f"responses: names as text, got {responses!r}")
+    vectors = design_vectors(_listed("designs", designs, DesignError), sims[0].n_design)
     tasks = [(f"scenario {s.name!r}, design {i}", Task(sim.spec, x, names, gradients, options, sim.options))
              for i, x in enumerate(vectors) for s, sim in zip(scenarios, sims)]
     flat = execution.run_all(_perform, tasks, executor, chunksize=chunksize)

@@ -43,10 +43,11 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import number
 from ..discretization import spatial as spatial_tolerance
 from ..discretization import tolerance
 from ..discretization.tolerance import Discretization
-from ..errors import SceneError, SettingsError, SimulationError
+from ..errors import DesignError, SceneError, SettingsError, SimulationError
 from ..optimizers import Evaluation, EvaluationError, Problem
 from ..scenes.spatial import SpatialScene
 from ..quaternion import rotations
@@ -55,6 +56,28 @@ from .held import READAPT, Readapt
 
 #: The dimensions of each section shape, by the names a scene gives them.
 DIMENSIONS = {"circle": ("diameter",), "tube": ("outer", "inner"), "rectangle": ("width", "height")}
+
+
+def _pairs(constraints: Any) -> list[tuple[str, float]]:
+    """``constraints`` as ``(response, bound)`` pairs, or a :class:`SettingsError` naming the
+    entry that is not one (its bound is checked apart)."""
+    try:
+        entries = list(constraints)
+    except TypeError:
+        raise SettingsError(f"constraints: give (response, bound) pairs, got {constraints!r}") from None
+    for entry in entries:
+        if not (isinstance(entry, (tuple, list)) and len(entry) == 2 and isinstance(entry[0], str)):
+            raise SettingsError(f"constraint {entry!r}: give (response, bound)")
+    return [(name, bound) for name, bound in entries]
+
+
+def _mapping(what: str, given: Any) -> Mapping[str, Any]:
+    """``sizes`` or ``places`` as given (``None``: none), or a :class:`SettingsError`."""
+    if given is None:
+        return {}
+    if not isinstance(given, Mapping):
+        raise SettingsError(f"{what}: give {{NAME: (lower, upper)}}, got {given!r}")
+    return given
 
 
 def area(section: Mapping[str, Any]) -> float:
@@ -113,25 +136,30 @@ class SizingProblem(Problem):
         self.tolerance = None if rtol is None else (float(rtol), float(atol))
         #: Where the error is measured (on the design scaled to its bounds), and the grid held since.
         self.rule, self.held = Readapt(readapt), None  # type: Readapt, Discretization | None
-        self.given = {"sizes": {k: list(v) for k, v in (sizes or {}).items()},
-                      "places": {k: list(v) for k, v in (places or {}).items()}}
+        if not isinstance(objective, str):
+            raise SettingsError(f"objective: a response's name, got {objective!r}")
+        constraints = _pairs(constraints)
+        sizes, places = _mapping("sizes", sizes), _mapping("places", places)
         self.spec = copy.deepcopy(_as_spec(scene))
         sections = self.spec.get("sections") or {}
-        self.sizes = [self._size(sections, name, bounds) for name, bounds in (sizes or {}).items()]
+        self.sizes = [self._size(sections, name, bounds) for name, bounds in sizes.items()]
         sim = SpatialSimulation(self.spec)
         q = np.asarray(sim.model.initial_q)
         nodes = {name: k for k, name in enumerate(sim.model.node_names)}
         #: Each rigid body's centre (m) and axes in space at the start, what a place is read by.
         self._start = {b["name"]: (q[NQ * k:NQ * k + 3], rotations(q[NQ * k + 3:NQ * k + NQ][None])[0])
                        for b in self.spec.get("rigid_bodies", []) for k in [nodes[b["name"]]]}
-        self.places = [self._place(name, bounds) for name, bounds in (places or {}).items()]
+        self.places = [self._place(name, bounds) for name, bounds in places.items()]
+        #: The sizes' and places' bounds as given, by name (what a checkpoint rebuilds them from).
+        self.given = {"sizes": {name: [*b] for name, (_, _, b) in zip(sizes, self.sizes)},
+                      "places": {name: [*b] for name, (_, _, _, b) in zip(places, self.places)}}
         if not self.sizes and not self.places:
             raise SettingsError("sizes or places: name at least one SECTION.DIMENSION or JOINT.AXIS with its bounds")
         for name, bound in constraints:
             if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
                 raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
-        if reference is not None and not (np.isfinite(reference) and reference > 0.0):
-            raise SettingsError(f"reference: {reference!r} must be positive and finite")
+        if reference is not None:
+            number("reference", reference, 0.0, math.inf, "()")
         bounds = [b for _, _, b in self.sizes] + [b for _, _, _, b in self.places]
         #: How many of the design's entries are sizes and places (the densities follow, where designed).
         self.k = len(bounds)
@@ -297,7 +325,18 @@ class SizingProblem(Problem):
         """The responses at ``z``: on the scene's grid, or held to the tolerance — measured
         where no grid is held yet (or the caller never accepts and ``z`` moved), else on the
         grid held."""
+        z = self._checked(z)
         return self._evaluated(z, self.tolerance is not None and self.rule.in_evaluate(self.scaled(z), self.held is not None))
+
+    def _checked(self, z: Any) -> np.ndarray:
+        """``z`` as a vector of this problem's :attr:`n` real numbers, or a :class:`DesignError`."""
+        try:
+            zv = np.asarray(z, dtype=float)
+        except (TypeError, ValueError):
+            raise DesignError(f"the design must be {self.n} real numbers, got {z!r}") from None
+        if zv.shape != (self.n,):
+            raise DesignError(f"the design has shape {zv.shape}; this problem has {self.n} variables")
+        return zv
 
     def accept(self, z: np.ndarray, evaluation: Evaluation) -> Evaluation:
         """Held to a tolerance, the accepted design is measured where it moved by more than
