@@ -643,7 +643,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace
     if given:
         names = ", ".join(f"--{k.replace('_', '-')}" for k in sorted(given))
         raise SettingsError(f"{names}: not built for spatial scenes yet (they take --objective, --volume-fraction, "
-                            "--global-volume, --max-stress, --max-buckling, --min-frequency, --max-mass, --size, --place, "
+                            "--global-volume, --max-stress, --max-buckling, --min-frequency, --max-mass, --size, --place, --densities, "
                             "--x0, --accuracy, --rtol, --method, --max-iter, --move, --kkt-tol, --xtol, --t-end, --h, "
                             "--rho-inf, --out, --force, --resume, --no-plots, --vtk)")
     options = {"method": args.method or "mma", "max_iter": args.max_iter or 30, "move": args.move or 0.2,
@@ -963,10 +963,10 @@ def parser() -> argparse.ArgumentParser:
                    help="a limit on the peak compression over the Euler load of the bars, relaxed as x^0.5 P/P_cr (1 = a solid bar buckles)")
     o.add_argument("--size", action="append", metavar="SECTION.DIMENSION=LOWER:UPPER",
                    help="a spatial scene: size this section's dimension (m) between the bounds, the densities held "
-                   "(SizingProblem; repeat for several)")
+                   "unless --densities (SizingProblem; repeat for several)")
     o.add_argument("--place", action="append", metavar="JOINT.AXIS=LOWER:UPPER",
                    help="a spatial scene: place this joint along x, y or z (m) between the bounds, the densities held "
-                   "(SizingProblem; repeat for several)")
+                   "unless --densities (SizingProblem; repeat for several)")
     o.add_argument("--densities", action="store_true",
                    help="with --size or --place: design the bars' densities too, from --x0 (default 0.4), under "
                    "--volume-fraction if given")

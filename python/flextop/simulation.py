@@ -702,8 +702,8 @@ class Task:
     """One run in plain data, for :func:`perform` in any process: ``responses`` of
     ``scene`` (a scene dict) at design ``x``, with gradients (``options`` of
     :meth:`Simulation.run_with_sensitivities`) or without (``options`` of
-    :meth:`Simulation.run`); ``simulation`` holds the Simulation's own ``accuracy``,
-    ``rtol`` and ``atol``."""
+    :meth:`Simulation.run`); ``simulation`` holds the simulation's own options (a
+    :class:`Simulation`'s or a :class:`~flextop.spatial.SpatialSimulation`'s ``options``)."""
 
     scene: dict
     x: np.ndarray | None
@@ -714,7 +714,9 @@ class Task:
     held: tuple[Discretization, np.ndarray | None] | None = None
     """A discretization held and the design its bars were graded for: the run is made on
     that grid (:func:`~flextop.discretization.refinement.on_grid`, ``options`` its
-    settings), an optimization's between its measurements."""
+    settings), an optimization's between its measurements. A spatial scene grades its beams
+    at the design it runs (as :class:`~flextop.problems.SpatialProblem` does), not at the
+    one given here."""
 
 
 def perform(task: Task) -> Sensitivities:

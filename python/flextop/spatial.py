@@ -676,7 +676,7 @@ class SpatialSimulation:
         return float(values[mine].sum()), np.where(mine, slopes, 0.0)
 
 
-MEASURES = ("volume", "mass")
+MEASURES = spatial_tolerance.MEASURED
 """Responses explicit in the design, measured here rather than by a run."""
 
 SIZE_PARAMETERS = ("diameter", "outer", "inner", "width", "height")

@@ -36,7 +36,7 @@ def test_a_weighted_sum_of_spatial_scenarios_is_the_sum_of_their_runs():
     cases = two_payloads()
     sim = SpatialSimulation(cases[0].scene)
     volume = 0.5 * sim.volume(1.0)
-    problem = ScenarioProblem(cases, "tip_deflection", [("volume", volume), ("strain_energy", 0.02)])
+    problem = ScenarioProblem(cases, "tip_deflection", [("volume", volume), ("strain_energy", 0.02), ("mass", 100.0)])
     x = design(problem.n)
     e = problem.evaluate(x)
     alone = [SpatialSimulation(c.scene).run_with_sensitivities(x, ["tip_deflection", "strain_energy"]) for c in cases]
@@ -45,8 +45,9 @@ def test_a_weighted_sum_of_spatial_scenarios_is_the_sum_of_their_runs():
     assert alone[1].values[0] > 2.0 * alone[0].values[0]  # the payloads make two different motions
     assert abs(e.f0 * problem.objective_scale - f) <= 1e-14 * abs(f)
     assert np.max(np.abs(e.df0 * problem.objective_scale - df)) <= 1e-14 * np.max(np.abs(df))
-    # the volume once, the strain energy once per scenario, named after it
-    assert problem.names == ["volume", "light: strain_energy", "heavy: strain_energy"]
+    # the volume and the mass once, the strain energy once per scenario, named after it
+    assert problem.names == ["volume", "light: strain_energy", "heavy: strain_energy", "mass"]
+    assert (e.g[3] + 1.0) * 100.0 == pytest.approx(sim.mass(x), rel=1e-14)
     assert (e.g[0] + 1.0) * volume == pytest.approx(sim.volume(x), rel=1e-14)
     for k, a in enumerate(alone):
         assert abs((e.g[1 + k] + 1.0) * 0.02 - a.values[1]) <= 1e-14 * a.values[1]
@@ -172,8 +173,9 @@ def test_a_scenario_takes_a_spatial_scene_its_dict_or_its_file(tmp_path):
 
 
 def test_bad_input_to_spatial_runs_scenarios_and_sizing_is_named():
-    """What a fuzz campaign found leaking: each refused by a FlextopError naming it."""
-    from flextop.problems import SizingProblem
+    """What a fuzz campaign and a review found leaking: each refused by a FlextopError
+    naming it."""
+    from flextop.problems import SizingProblem, SpatialProblem
     from flextop.scenes.spatial_catalogue import heavy_top
 
     sim = SpatialSimulation(arm())
@@ -201,6 +203,11 @@ def test_bad_input_to_spatial_runs_scenarios_and_sizing_is_named():
          flextop.SettingsError, "reference must be a finite number"),
         (lambda: SizingProblem(arm(), "mass", sizes={"alu.outer": (0.01, 0.02)}).evaluate([[0.012]]), flextop.DesignError,
          r"the design has shape \(1, 1\)"),
+        (lambda: SizingProblem(arm(), "mass", sizes={"alu.outer": (0.01, 0.02)}, atol=-5), flextop.SettingsError,
+         "atol must be ≥ 0"),
+        (lambda: SpatialProblem(sim, "tip_deflection", atol=float("nan")), flextop.SettingsError, "atol must be a finite"),
+        (lambda: SizingProblem(arm(), "mass", [("volume", True)], sizes={"alu.outer": (0.01, 0.02)}), flextop.SettingsError,
+         "constraint 'volume': the bound must be a finite number, got True"),
         (lambda: ScenarioProblem([5], "tip_deflection"), flextop.SceneError, "scenarios: give Scenario"),
         (lambda: ScenarioProblem(5, "tip_deflection"), flextop.SceneError, "scenarios: give a list, got 5"),
         (lambda: ScenarioProblem(two_payloads(), "tip_deflection", [5]), flextop.SettingsError, "constraint 5: give"),

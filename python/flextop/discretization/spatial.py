@@ -41,6 +41,7 @@ from __future__ import annotations
 import copy
 import math
 import re
+import threading
 from collections.abc import Sequence
 from dataclasses import astuple, dataclass, field, replace
 from typing import Any
@@ -384,22 +385,32 @@ def _graded_response(response: str, factors: dict[str, int]) -> str:
     return f"{kind}:{graded_name(rest, factors)}" if sep and kind in NAMED_NODE else response
 
 
+_KEPT = threading.Lock()
+"""Guards the refined scenes kept on a simulation, which the threads of a pool share (a
+scenario's simulation is this process's, :func:`flextop.simulation.cached`)."""
+
+
 def _graded(sim: Any, factors: dict[str, int]) -> Any:
     """``sim``'s scene with each frame beam's elements times its ``factors`` entry, built once
-    and kept on ``sim`` among the :data:`~.refinement.GRADED_KEPT` most recently used."""
+    (outside the lock) and kept on ``sim`` among the :data:`~.refinement.GRADED_KEPT` most
+    recently used."""
     key = tuple(factors.values())
-    made = sim.graded
-    if key not in made:
+    with _KEPT:
+        found = sim.graded.get(key)
+    if found is None:
         splits = {name: len(ends) for name, ends in sim.model.beams}
         try:
-            made[key] = type(sim)(graded_spec(sim.spec, splits, factors))
+            found = type(sim)(graded_spec(sim.spec, splits, factors))
         except SceneError as error:
             raise ToleranceError(f"the tolerance needs up to {max(key)}× the elements of a beam, past the engine's "
                                  f"limits: {error}") from None
+    with _KEPT:
+        made = sim.graded
+        found = made.setdefault(key, found)
+        made.move_to_end(key)
         while len(made) > GRADED_KEPT:
             made.popitem(last=False)
-    made.move_to_end(key)
-    return made[key]
+    return found
 
 
 def refined_level(sim: Any, factor: int) -> Any:
@@ -407,14 +418,16 @@ def refined_level(sim: Any, factor: int) -> Any:
     kept on ``sim``; without a tolerance of its own, so that it runs its own grid."""
     if factor == 1 and sim.rtol is None:
         return sim
-    refined = sim.refined
-    if factor not in refined:
+    with _KEPT:
+        found = sim.refined.get(factor)
+    if found is None:
         try:
-            refined[factor] = type(sim)(refined_spec(sim.spec, factor))
+            found = type(sim)(refined_spec(sim.spec, factor))
         except SceneError as error:
             raise ToleranceError(f"the tolerance needs {factor}× the elements of every beam, past the engine's limits: "
                                  f"{error}") from None
-    return refined[factor]
+    with _KEPT:
+        return sim.refined.setdefault(factor, found)
 
 
 def _duration(sim: Any, settings: dict[str, Any]) -> float:

@@ -16,8 +16,9 @@ that the values reported meet the tolerance there, not only near it (``optimize`
 (the scipy and OpenMDAO adapters) has an evaluation measured where it moved by more than
 ``readapt``; one that never calls ``conclude`` either (``scipy.optimize.minimize`` given
 :func:`~flextop.interop.scipy.arguments`, OpenMDAO) may end on a design within
-``readapt`` of the one measured last. :class:`~flextop.TopologyProblem` and :class:`~flextop.ScenarioProblem` both
-follow it.
+``readapt`` of the one measured last. :class:`~flextop.TopologyProblem`, :class:`~flextop.ScenarioProblem`,
+:class:`~flextop.problems.SpatialProblem` and :class:`~flextop.problems.SizingProblem` (on its design scaled to
+its bounds) follow it.
 """
 
 from __future__ import annotations

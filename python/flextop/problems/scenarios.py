@@ -73,8 +73,9 @@ WORST_CASE_RANGE = (-20.0, 1.0)
 """Bounds of the worst-case variable ``β = ln(max wₛfₛ / f_ref)``: from a factor e⁻²⁰ (2e-9)
 below the worst case at the start design (where ``β = 0``) to e (2.7) above it."""
 
-DESIGN_ONLY = ("volume",)
-"""Responses that depend on the design alone: constrained once, not per scenario."""
+DESIGN_ONLY = ("volume", "mass")
+"""Responses that depend on the design alone: constrained once, not per scenario (``mass``,
+a spatial scene's beams' and bars', as :meth:`~flextop.spatial.SpatialSimulation.mass`)."""
 
 
 class Aggregate(enum.Enum):
@@ -418,7 +419,9 @@ def evaluate(scenarios: Sequence[Scenario], designs: Iterable[Any], responses: S
     """``responses`` of every scenario at each of ``designs`` (Monte Carlo over payloads,
     parameter studies over motions, multi-starts), as one dict per design from scenario
     name to its result, in the designs' order; ``gradients`` and ``options`` as in
-    :meth:`Simulation.map`. The runs go to ``executor``, ``chunksize`` to a task."""
+    :meth:`Simulation.map` — a spatial scene's responses come with their gradients always
+    (:func:`flextop.spatial.perform`), as :class:`~flextop.spatial.SpatialSensitivities`. The
+    runs go to ``executor``, ``chunksize`` to a task."""
     sims = _simulations(_listed("scenarios", scenarios, SceneError), {})
     names = (responses,) if isinstance(responses, str) else tuple(_listed("responses", responses, SettingsError))
     if not all(isinstance(name, str) for name in names):

@@ -6,15 +6,15 @@ joints as the design,
 each ``z_k`` a dimension of a named section (``"tube.outer"``, ``"blade.height"``; m) that
 every beam and bar made of the section follows, or a coordinate of a joint's place in
 space where the scene builds it (``"pin.x"``; m), both its anchors' points moving with it in
-their bodies; the beams' densities ``x`` are held. The optimizers see ``f0 = f / f_ref``
-and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at the first design evaluated unless
-given.
+their bodies; the beams' densities ``x`` are held, or designed too. The optimizers see
+``f0 = f / f_ref`` and ``g_j = r_j / b_j − 1``, ``f_ref`` the objective at the first design
+evaluated unless given. ``mass`` (``Σ m(x_b) ρ A L``, kg) and ``volume`` (``Σ x_b A L``, m³),
+and ``mass:NAME`` and ``volume:NAME`` of a ground structure's designed bars, are explicit in
+the design, their rates to a size ``A'/A`` over the section's beams at their densities.
 
 With ``densities``, the beams' densities join the design after the sizes and places (each
 in ``[x_min, 1]``, from ``x``): the sections' sizes, the joints' places and the topology in
-one problem, every gradient from one run's adjoint sweep, ``volume`` (``Σ x_b A L``, m³) and
-``volume:NAME`` besides ``mass`` and ``mass:NAME`` among the responses explicit in the
-design, their rates to a size ``A'/A`` over the section's beams at their densities.
+one problem, every gradient from one run's adjoint sweep.
 
 Held to a tolerance (``rtol``), the problem follows the planar and spatial problems' rule
 (:mod:`.held`) on the design scaled to its bounds, ``(z − lower)/(upper − lower)``: an accepted
@@ -26,9 +26,9 @@ the design a run returns is measured as it ends.
 
 Responses are those of :meth:`SpatialSimulation.run_with_sensitivities` by name, their
 gradients the engine's exact ones to each beam's section sizes (``outer:BEAM`` …) summed
-over the section's beams and to the joints' places (``position_x:JOINT`` …); and ``mass``,
-``Σ m(x_b) ρ A L`` of the beams and bars (kg, as :meth:`SpatialSimulation.mass`), whose
-rate is ``(A'/A) Σ m(x_b) ρ A L`` over a section's beams and nothing to a place. Each
+over the section's beams and to the joints' places (``position_x:JOINT`` …); the explicit
+ones' above (as :meth:`SpatialSimulation.mass` and :meth:`~SpatialSimulation.volume`),
+nothing to a place. Each
 evaluation builds the scene at ``z``: a design the scene refuses (a tube's inner diameter
 reaching its outer) or whose motion fails is an
 :class:`~flextop.optimizers.EvaluationError`, which the optimizer steps back from.
@@ -120,7 +120,10 @@ class SizingProblem(Problem):
         a joint the scene does not have, an axis that is not x, y or z, a joint that holds a
         node (a scene gives a node's anchor no point to move), bounds that are not finite
         with lower < upper or leave out the joint's place; a bound that is not positive and
-        finite, or a reference that is not; a tolerance out of range, or ``h`` with one.
+        finite, or a reference that is not; a tolerance out of range, or ``h`` with one;
+        ``densities`` on a scene whose every beam is fixed.
+    DesignError
+        For densities ``x`` that are not the scene's design.
     """
 
     def __init__(self, scene: SpatialScene | dict | str, objective: str, constraints: Sequence[tuple[str, float]] = (), *,
@@ -128,9 +131,10 @@ class SizingProblem(Problem):
                  places: Mapping[str, tuple[float, float]] | None = None, x: Any = None, densities: bool = False,
                  reference: float | None = None, rtol: float | None = None, atol: float = 0.0,
                  readapt: float = READAPT, **settings: Any) -> None:
+        number("atol", atol, 0.0, math.inf, "[)")  # checked where no rtol reads it too
         if rtol is not None:
             tolerance.check_tolerance(rtol, atol)
-            if "h" in settings:
+            if settings.get("h") is not None:
                 raise SettingsError("give h (a fixed step) or rtol (steps chosen to meet it), not both")
         #: The tolerance every value and its gradient are held to (``None``: the scene's grid).
         self.tolerance = None if rtol is None else (float(rtol), float(atol))
@@ -156,8 +160,7 @@ class SizingProblem(Problem):
         if not self.sizes and not self.places:
             raise SettingsError("sizes or places: name at least one SECTION.DIMENSION or JOINT.AXIS with its bounds")
         for name, bound in constraints:
-            if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
-                raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
+            number(f"constraint {name!r}: the bound", bound, 0.0, math.inf, "()")
         if reference is not None:
             number("reference", reference, 0.0, math.inf, "()")
         bounds = [b for _, _, b in self.sizes] + [b for _, _, _, b in self.places]
@@ -299,9 +302,9 @@ class SizingProblem(Problem):
         place, the engine's to the densities."""
         kind, _, structure = response.partition(":")
         value, slopes = sim._measure(response, None if x is None else list(x))
-        masses, _, _ = sim.model.masses(None if x is None else list(x))
-        full, _, _ = sim.model.masses(None)
         if kind == "mass":
+            masses, _, _ = sim.model.masses(None if x is None else list(x))
+            full, _, _ = sim.model.masses(None)
             share = [m / f if f > 0 else 1.0 for m, f in zip(masses, full)]  # m(x_b) of a variable's bars
         else:
             share = list(np.ones(sim.n_design) if x is None else x)
@@ -374,13 +377,14 @@ class SizingProblem(Problem):
 
     def _engine(self, sim: SpatialSimulation, responses: list[str], z: np.ndarray, measure: bool) -> tuple[dict, dict]:
         """The engine's ``responses`` of ``sim`` (the scene at ``z``) and their gradients to
-        the sizes, each its section's beams' columns summed: measured to the tolerance (the
-        grid held from then on), on the grid held, or on the scene's grid."""
+        the design — each size's its section's beams' columns summed, each place's, and
+        the densities' where designed —: measured to the tolerance (the grid held from then
+        on), on the grid held, or on the scene's grid."""
         if not responses:
             return {}, {}
         run = self._run(sim, responses, z, measure)
         columns = np.cumsum([0] + [len(self.beams[s]) for s, _, _ in self.sizes] + [1] * len(self.places))
-        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1) if self.k else np.zeros((len(responses), 0))
+        summed = np.add.reduceat(run.gradient, columns[:-1], axis=1)
         if self.densities:
             summed = np.hstack([summed, run.dfdx])
         return dict(zip(responses, run.values)), dict(zip(responses, summed))

@@ -30,11 +30,13 @@ towards the ratio at the accepted design (damped by
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from ..checks import number
 from ..discretization import spatial as spatial_tolerance
 from ..discretization import tolerance
 from ..discretization.tolerance import Discretization
@@ -93,6 +95,7 @@ class SpatialProblem(Problem):
         self._ratios: dict[bytes, dict[str, float]] = {}
         rtol = sim.rtol if rtol is None else rtol
         atol = sim.atol if atol is None else atol
+        number("atol", atol, 0.0, math.inf, "[)")  # checked where no rtol reads it too
         if rtol is not None:
             tolerance.check_tolerance(rtol, atol)
             if "h" in settings:
