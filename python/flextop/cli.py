@@ -36,6 +36,7 @@ from .execution import Workers, local_executor
 from .optimizers import OptimizerState, optimize
 from .optimizers.driver import CONVERGED
 from .io import cad, checkpoint, export
+from .problems.spatial import structures_of, volume_bounds
 from .problems import (MIN_FREQUENCY, DensityFilter, ScenarioProblem, SizingProblem, SpatialProblem, TopologyProblem, relation,
                        scenarios, volume_constraints)
 from .scenes import Scene, read_toml
@@ -318,7 +319,7 @@ def _problem(args: argparse.Namespace, workers: Workers) -> tuple[Simulation, To
             raise SettingsError("--analysis: not built for spatial scenes yet")
         first: Simulation | SpatialSimulation = SpatialSimulation(cases[0].spec())
         objective = args.objective or _spatial_objective(first)
-        constraints = _spatial_volumes(first, args.volume_fraction or 0.4, args.global_volume)
+        constraints = volume_bounds(first, args.volume_fraction or 0.4, not args.global_volume)
         settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     else:
         first = Simulation(cases[0].spec(), accuracy=args.accuracy)
@@ -554,7 +555,7 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
     sizing = isinstance(problem, SizingProblem)
     over = f"{sim.n_design} densities"
     if sizing:
-        over = f"{problem.k} sizes and places ({', '.join(_sized_names(problem))})" + (
+        over = f"{problem.k} sizes and places ({', '.join(problem.variables)})" + (
             f" and {sim.n_design} densities" if problem.densities else "")
     print(f"{sim.model.name}: minimize {objective} over {over} subject to "
           f"{', '.join(problem.names or []) or 'bounds only'} ({method})")
@@ -599,7 +600,7 @@ def _optimize_spatial(spec: dict, args: argparse.Namespace, out: Path, resumed: 
               f"({100 * (result.fun - 1):+.1f} %) after {result.nit} iterations, {result.nfev} evaluations, "
               f"KKT residual {result.kkt:.2e}; {held}; {elapsed:.1f} s")
     if sizing:
-        for name, value, lo, hi in zip(_sized_names(problem), result.x, problem.lower, problem.upper):
+        for name, value, lo, hi in zip(problem.variables, result.x, problem.lower, problem.upper):
             print(f"{name}: {value:.6g} m (bounds {lo:g} to {hi:g})")
     if problem.tolerance is not None and problem.held is not None:
         rtol = problem.tolerance[0]
@@ -660,7 +661,7 @@ def _spatial_problem(spec: dict, args: argparse.Namespace
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     objective = args.objective or _spatial_objective(sim)
     fraction = args.volume_fraction or 0.4
-    per_structure = not args.global_volume and any("/" in v for v in sim.variables)
+    per_structure = not args.global_volume and bool(structures_of(sim))
     limits = [(name, value) for name, value in (("stress", args.max_stress), ("buckling", args.max_buckling))
               if value is not None]
     if args.min_frequency is not None:
@@ -706,7 +707,7 @@ def _sizing_problem(spec: dict, args: argparse.Namespace) -> tuple[SpatialSimula
     settings = {k: getattr(args, k) for k in SPATIAL_OPTIONS if getattr(args, k) is not None}
     limits = [] if args.max_mass is None else [("mass", args.max_mass)]
     if args.densities and args.volume_fraction is not None:
-        limits += _spatial_volumes(sim, args.volume_fraction, args.global_volume)
+        limits += volume_bounds(sim, args.volume_fraction, not args.global_volume)
     x = (0.4 if args.x0 is None else args.x0) if args.densities else args.x0
     problem = SizingProblem(spec, args.objective or _spatial_objective(sim), limits, sizes=_bounded(args.size, "--size"),
                             places=_bounded(args.place, "--place"), x=x, densities=args.densities,
@@ -727,25 +728,10 @@ def _bounded(entries: list[str] | None, flag: str) -> dict[str, tuple[float, flo
     return out
 
 
-def _sized_names(problem: SizingProblem) -> list[str]:
-    """The sizing problem's variables by name, in order: ``SECTION.DIMENSION``, then
-    ``JOINT.AXIS``."""
-    return [f"{s}.{d}" for s, d, _ in problem.sizes] + [f"{j}.{'xyz'[axis]}" for j, axis, _, _ in problem.places]
-
-
 def _spatial_objective(sim: SpatialSimulation) -> str:
     """A spatial scene's default objective: its tip's deflection from the rigid trajectory
     where it names a tip and moves, else its strain energy."""
     return "tip_deflection" if sim.tip is not None and sim.analysis == "dynamic" else "strain_energy"
-
-
-def _spatial_volumes(sim: SpatialSimulation, fraction: float, whole: bool) -> list[tuple[str, float]]:
-    """``fraction`` of each ground structure's volume as its bound (paper Eq. 41), or of the
-    whole with ``whole`` or where the scene has no ground structure with designed bars."""
-    structures = dict.fromkeys(v.split("/")[0] for v in sim.variables if "/" in v)
-    if whole or not structures:
-        return [("volume", fraction * sim.volume(1.0))]
-    return [(f"volume:{name}", fraction * sim.volume(1.0, name)) for name in structures]
 
 
 def _designs_cells(sim: Simulation | SpatialSimulation) -> bool:

@@ -289,6 +289,12 @@ class SizingProblem(Problem):
             self._move(spec, joint, axis, float(value) - at)
         return spec
 
+    @property
+    def variables(self) -> list[str]:
+        """The sizes' and places' names, in the design's order: ``SECTION.DIMENSION``, then
+        ``JOINT.AXIS`` (the densities, where designed, follow them)."""
+        return [f"{s}.{d}" for s, d, _ in self.sizes] + [f"{j}.{'xyz'[axis]}" for j, axis, _, _ in self.places]
+
     def densities_at(self, z: np.ndarray) -> np.ndarray | None:
         """The beams' densities at design ``z``: its own last entries where the densities are
         designed, else those held (``None``: full density)."""

@@ -48,6 +48,20 @@ from .held import READAPT, Readapt
 from .topology import FLOOR_MODES, FLOOR_RHO, MIN_FREQUENCY, normalized, relation, renormalized
 
 
+def structures_of(sim: SpatialSimulation) -> list[str]:
+    """The ground structures of ``sim`` with designed bars, in order."""
+    return list(dict.fromkeys(v.split("/")[0] for v in sim.variables if "/" in v))
+
+
+def volume_bounds(sim: SpatialSimulation, fraction: float, per_structure: bool) -> list[tuple[str, float]]:
+    """``fraction`` of each ground structure's full volume as its bound (paper Eq. 41) with
+    ``per_structure`` where the scene has such structures, else of the whole."""
+    structures = structures_of(sim) if per_structure else []
+    if not structures:
+        return [("volume", fraction * sim.volume(1.0))]
+    return [(f"volume:{name}", fraction * sim.volume(1.0, name)) for name in structures]
+
+
 class SpatialProblem(Problem):
     """Minimize the response ``objective`` of ``sim`` subject to ``constraints``, each a
     ``(response, upper bound)`` or ``("min_frequency", f_min)``, a floor (Hz) on the lowest
@@ -73,11 +87,9 @@ class SpatialProblem(Problem):
         if volume is not None:
             if not (isinstance(volume, (int, float)) and 0.0 < volume <= 1.0):
                 raise SettingsError(f"volume: {volume!r} is not a fraction in (0, 1] of the full volume")
-            structures = dict.fromkeys(v.split("/")[0] for v in sim.variables if "/" in v) if per_structure else {}
-            if per_structure and not structures:
+            if per_structure and not structures_of(sim):
                 raise SettingsError("per_structure: the scene has no ground structure with designed bars")
-            bounds += ([(f"volume:{name}", volume * sim.volume(1.0, name)) for name in structures] if per_structure
-                       else [("volume", volume * sim.volume(1.0))])
+            bounds += volume_bounds(sim, volume, per_structure)
         for name, bound in bounds:
             if not (isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 0.0):
                 raise SettingsError(f"constraint {name!r}: the bound {bound!r} must be positive and finite")
